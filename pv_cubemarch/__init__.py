@@ -1,0 +1,42 @@
+"""pv_cubemarch: ray-marching techniques for PyVista/VTK through GLSL injection.
+
+Importing the package selects an offscreen OpenGL window when there is no display
+(OSMesa by default, EGL with ``PV_CUBEMARCH_GL=egl``).
+"""
+
+from __future__ import annotations
+
+from .offscreen import configure_offscreen
+
+configure_offscreen()
+
+from . import plugin  # noqa: E402  (registers plotter.cubemarch for explicit imports too)
+from .camera import Camera  # noqa: E402
+from .emission_absorption import add_volume  # noqa: E402
+from .errors import (  # noqa: E402
+    CubemarchError,
+    OffscreenUnavailableError,
+    SceneLoadError,
+    ShaderCompileError,
+    VolumeDataError,
+)
+from .gl_resources import RenderToTexturePass, ShaderBindings, Texture  # noqa: E402
+from .offscreen import gl_info  # noqa: E402
+from .reference import render_emission_absorption  # noqa: E402
+from .rendering import offscreen_plotter, render_frame, render_image  # noqa: E402
+from .scene import Scene, SceneLight, SceneMesh, SkippedPrim  # noqa: E402
+from .scene_io import load_scene  # noqa: E402
+from .shaders import Replacement, ShaderRecipe  # noqa: E402
+from .transfer import TransferFunction  # noqa: E402
+from .volume import VolumeModel, make_volume  # noqa: E402
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Camera", "CubemarchError", "OffscreenUnavailableError", "RenderToTexturePass",
+    "Replacement", "Scene", "SceneLight", "SceneLoadError", "SceneMesh", "ShaderBindings",
+    "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "Texture", "TransferFunction",
+    "VolumeDataError", "VolumeModel", "add_volume", "configure_offscreen", "gl_info",
+    "load_scene", "make_volume", "offscreen_plotter", "plugin", "render_emission_absorption",
+    "render_frame", "render_image",
+]

@@ -1,0 +1,28 @@
+"""Exception types raised by pv_cubemarch, so callers can catch what they can act on."""
+
+from __future__ import annotations
+
+
+class CubemarchError(Exception):
+    """Base class of every error pv_cubemarch raises on purpose."""
+
+
+class OffscreenUnavailableError(CubemarchError, RuntimeError):
+    """No offscreen OpenGL path (OSMesa or EGL) could be opened."""
+
+
+class ShaderCompileError(CubemarchError, RuntimeError):
+    """A GLSL compile or link error, with the driver's log and the snippets involved."""
+
+    def __init__(self, message: str, log: str = "", snippets: tuple[str, ...] = ()):
+        super().__init__(message)
+        self.log = log
+        self.snippets = snippets
+
+
+class SceneLoadError(CubemarchError, ValueError):
+    """A scene file is missing, corrupt or uses something we cannot read."""
+
+
+class VolumeDataError(CubemarchError, ValueError):
+    """Volume data that cannot be rendered as given (bad dtype, NaN, non-uniform grid...)."""

@@ -1,0 +1,354 @@
+"""GL resources, written once: textures from numpy, per-draw binding, render-to-texture passes.
+
+Everything here creates GL objects lazily, inside a draw, when VTK has made the context
+current; a technique describes *what* to bind and never writes binding code itself.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import vtk
+from vtkmodules.util.misc import calldata_type
+from vtkmodules.vtkRenderingOpenGL2 import (
+    vtkOpenGLFramebufferObject,
+    vtkOpenGLQuadHelper,
+    vtkOpenGLRenderUtilities,
+    vtkOpenGLVertexBufferObject,
+    vtkTextureObject,
+)
+
+from .shaders import ShaderRecipe, watch_shader_errors
+
+_VTK_TYPES = {np.dtype(np.float32): vtk.VTK_FLOAT, np.dtype(np.uint8): vtk.VTK_UNSIGNED_CHAR}
+
+
+class Texture:
+    """A numpy array that becomes a ``vtkTextureObject`` the first time it is drawn.
+
+    Parameters
+    ----------
+    array : numpy.ndarray
+        ``kind='2d'``: ``(height, width[, components])``; ``kind='3d'``: ``(nx, ny, nz[, c])``
+        indexed x, y, z; ``kind='buffer'``: a flat float array read with ``texelFetch``.
+        float32 and uint8 are uploaded as they are; other dtypes are converted to float32.
+    kind : str
+        ``'2d'``, ``'3d'`` or ``'buffer'``.
+    interpolate : bool
+        Linear filtering (``True``) or nearest (``False``); ignored for buffers.
+    """
+
+    def __init__(self, array: np.ndarray, kind: str = "2d", interpolate: bool = True):
+        if kind not in ("2d", "3d", "buffer"):
+            raise ValueError(f"kind must be '2d', '3d' or 'buffer', got {kind!r}.")
+        self.kind = kind
+        self.interpolate = interpolate
+        self.gl_object: vtkTextureObject | None = None
+        self._buffer: vtkOpenGLVertexBufferObject | None = None
+        self._window = None
+        self.upload_count = 0
+        self.set_data(array)
+
+    def set_data(self, array: np.ndarray) -> None:
+        """Replace the data; it is uploaded again at the next draw."""
+        array = np.asarray(array)
+        if array.dtype not in _VTK_TYPES or self.kind == "buffer":
+            array = array.astype(np.float32)
+        expected = {"2d": (2, 3), "3d": (3, 4), "buffer": (1,)}[self.kind]
+        if array.ndim not in expected:
+            raise ValueError(f"A {self.kind} texture needs an array with {expected} axes, "
+                             f"got shape {array.shape}.")
+        self.array = array
+        self._dirty = True
+
+    @property
+    def components(self) -> int:
+        """Components per texel."""
+        spatial = {"2d": 2, "3d": 3, "buffer": 1}[self.kind]
+        return 1 if self.array.ndim == spatial else int(self.array.shape[-1])
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes the texture occupies on the GPU (uncompressed)."""
+        return int(self.array.nbytes)
+
+    def ensure(self, window) -> vtkTextureObject:
+        """Create or refresh the GL texture for ``window``; needs the context current."""
+        if self.gl_object is not None and self._window is window and not self._dirty:
+            return self.gl_object
+        if self.gl_object is not None and self._window is not window:
+            self.release()
+        vtk_type = _VTK_TYPES[self.array.dtype]
+        texture = self.gl_object or vtkTextureObject()
+        texture.SetContext(window)
+        shape, ncomp = self.array.shape, self.components
+        if self.kind == "2d":
+            data = np.ascontiguousarray(self.array)
+            ok = texture.Create2DFromRaw(shape[1], shape[0], ncomp, vtk_type, data)
+        elif self.kind == "3d":
+            # VTK wants (z, y, x) C order, i.e. x fastest: Fortran order of (x, y, z).
+            data = np.ascontiguousarray(np.moveaxis(self.array, (0, 1, 2), (2, 1, 0)))
+            ok = texture.Create3DFromRaw(shape[0], shape[1], shape[2], ncomp, vtk_type, data)
+        else:
+            from vtkmodules.util.numpy_support import numpy_to_vtk
+
+            buffer = self._buffer or vtkOpenGLVertexBufferObject()
+            buffer.SetDataType(vtk.VTK_FLOAT)
+            self._vtk_array = numpy_to_vtk(np.ascontiguousarray(self.array), deep=True)
+            buffer.UploadDataArray(self._vtk_array)
+            self._buffer = buffer
+            ok = texture.CreateTextureBuffer(self.array.size, 1, vtk.VTK_FLOAT, buffer)
+        if not ok:
+            raise RuntimeError(f"Uploading a {self.kind} texture of shape {shape} failed.")
+        if self.kind != "buffer":
+            mode = vtkTextureObject.Linear if self.interpolate else vtkTextureObject.Nearest
+            texture.SetMinificationFilter(mode)
+            texture.SetMagnificationFilter(mode)
+            for setter in ("SetWrapS", "SetWrapT", "SetWrapR"):
+                getattr(texture, setter)(vtkTextureObject.ClampToEdge)
+        self.gl_object, self._window, self._dirty = texture, window, False
+        self.upload_count += 1
+        return texture
+
+    def release(self) -> None:
+        """Free the GL objects (safe to call twice, or with no context left)."""
+        if self.gl_object is not None and self._window is not None:
+            self.gl_object.ReleaseGraphicsResources(self._window)
+            if self._buffer is not None:
+                self._buffer.ReleaseGraphicsResources()
+        self.gl_object, self._buffer, self._window = None, None, None
+        self._dirty = True
+
+
+UniformValue = float | int | tuple | list | np.ndarray
+UniformSource = UniformValue | Callable[[], UniformValue]
+
+
+def set_uniform(program, name: str, value: Any) -> None:
+    """Set a float/vec/mat4 (or int) uniform on a ``vtkShaderProgram`` by its value's shape."""
+    if isinstance(value, (bool, int, np.integer)):
+        program.SetUniformi(name, int(value))
+        return
+    array = np.asarray(value, dtype=np.float64)
+    if array.shape == ():
+        program.SetUniformf(name, float(array))
+    elif array.shape in ((2,), (3,), (4,)):
+        getattr(program, f"SetUniform{array.size}f")(name, [float(v) for v in array])
+    elif array.shape == (4, 4):
+        matrix = vtk.vtkMatrix4x4()
+        matrix.DeepCopy(array.ravel().tolist())
+        # VTK uploads its matrices transposed for its row-vector shaders; GLSL
+        # then reads them as M * v with the usual column-vector meaning.
+        program.SetUniformMatrix(name, matrix)
+    elif array.shape == (3, 3):
+        matrix = vtk.vtkMatrix3x3()
+        matrix.DeepCopy(array.ravel().tolist())
+        program.SetUniformMatrix(name, matrix)
+    else:
+        raise ValueError(f"Uniform {name!r}: unsupported value shape {array.shape}.")
+
+
+class ShaderBindings:
+    """Textures and uniforms given to one mapper's shader program at every draw.
+
+    Observes the mapper's ``UpdateShaderEvent`` (fired with the program bound) and the
+    renderer's ``EndEvent`` (to free the texture units). Values may be callables,
+    evaluated at draw time (e.g. a matrix that follows the camera).
+    """
+
+    def __init__(self, mapper, renderer, recipe: ShaderRecipe | None = None):
+        self.mapper = mapper
+        self.renderer = renderer
+        self.recipe = recipe
+        self.textures: dict[str, Texture] = {}
+        self.uniforms: dict[str, UniformSource] = {}
+        self.frames_started = 0
+        self.frames_bound = 0
+        self._bound_this_frame = False
+        self._missed = False
+        self._active: list[vtkTextureObject] = []
+        on_update = calldata_type(vtk.VTK_OBJECT)(
+            lambda caller, event, program: self._on_update(program))
+        self._observers = [
+            (mapper, mapper.AddObserver(vtk.vtkCommand.UpdateShaderEvent, on_update)),
+            (renderer, renderer.AddObserver(vtk.vtkCommand.StartEvent, self._on_start)),
+            (renderer, renderer.AddObserver(vtk.vtkCommand.EndEvent, self._on_end)),
+            (mapper, mapper.AddObserver(vtk.vtkCommand.VolumeMapperRenderEndEvent,
+                                        self._on_volume_drawn)),
+        ]
+
+    def add_texture(self, sampler: str, texture: Texture) -> Texture:
+        """Bind ``texture`` to the GLSL sampler ``sampler`` at every draw."""
+        self.textures[sampler] = texture
+        return texture
+
+    def set_uniform(self, name: str, value: UniformSource) -> None:
+        """Give the GLSL uniform ``name`` this value (or callable) at every draw."""
+        self.uniforms[name] = value
+
+    @property
+    def missed_last_frame(self) -> bool:
+        """Whether the last frame drew the prop without our bindings.
+
+        VTK's volume mapper skips ``UpdateShaderEvent`` on a frame where it rebuilds its
+        shader; such a frame must be drawn again (see :func:`pv_cubemarch.render_frame`).
+        """
+        return self._missed
+
+    def _on_volume_drawn(self, *_):
+        if not self._bound_this_frame:
+            self._missed = True
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes held by the textures."""
+        return sum(t.nbytes for t in self.textures.values())
+
+    def _on_start(self, *_):
+        self.frames_started += 1
+        self._bound_this_frame = False
+        self._missed = False
+
+    def _on_update(self, program):
+        if program is None:
+            return
+        window = self.renderer.GetRenderWindow()
+        for sampler, texture in self.textures.items():
+            gl_object = texture.ensure(window)
+            gl_object.Activate()
+            self._active.append(gl_object)
+            program.SetUniformi(sampler, gl_object.GetTextureUnit())
+        for name, value in self.uniforms.items():
+            set_uniform(program, name, value() if callable(value) else value)
+        self._bound_this_frame = True
+        self.frames_bound += 1
+
+    def _on_end(self, *_):
+        for gl_object in self._active:
+            gl_object.Deactivate()
+        self._active.clear()
+
+    def release(self) -> None:
+        """Free the textures and stop observing."""
+        self._on_end()
+        for texture in self.textures.values():
+            texture.release()
+        for subject, tag in self._observers:
+            subject.RemoveObserver(tag)
+        self._observers.clear()
+
+
+class RenderToTexturePass:
+    """A full-screen fragment pass into float textures, run inside a frame before props draw.
+
+    The pass runs from the renderer's ``StartEvent`` (context current, nothing drawn yet), so
+    actors of the same frame can sample :attr:`outputs`. It runs when :meth:`invalidate` was
+    called (or every frame with ``every_frame=True``): a pass runs only when something needs it.
+
+    Parameters
+    ----------
+    renderer : vtkRenderer
+        Renderer whose frames host the pass.
+    recipe : ShaderRecipe
+        Its fragment snippet must write ``gl_FragData[i]`` for each target.
+    size : tuple of int
+        ``(width, height)`` of every target.
+    targets : int
+        Number of RGBA float32 render targets (e.g. 6 for the faces of a cube map).
+    """
+
+    def __init__(self, renderer, recipe: ShaderRecipe, size: tuple[int, int], targets: int = 1,
+                 every_frame: bool = False):
+        self.renderer = renderer
+        self.recipe = recipe
+        self.size = (int(size[0]), int(size[1]))
+        self.n_targets = int(targets)
+        self.every_frame = every_frame
+        self.textures: dict[str, Texture] = {}
+        self.uniforms: dict[str, UniformSource] = {}
+        self.outputs: list[vtkTextureObject] = []
+        self.runs = 0
+        self._needed = True
+        self._fbo = self._quad = None
+        self._fragment = recipe.fragment_source()
+        self._vertex = vtkOpenGLRenderUtilities.GetFullScreenQuadVertexShader()
+        self._tag = renderer.AddObserver(vtk.vtkCommand.StartEvent, self._on_start)
+
+    def invalidate(self) -> None:
+        """Ask for the pass to run at the next frame."""
+        self._needed = True
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of the render targets."""
+        return self.size[0] * self.size[1] * 4 * 4 * self.n_targets
+
+    def _create(self, window) -> None:
+        for _ in range(self.n_targets):
+            target = vtkTextureObject()
+            target.SetContext(window)
+            target.Allocate2D(self.size[0], self.size[1], 4, vtk.VTK_FLOAT)
+            target.SetMinificationFilter(vtkTextureObject.Linear)
+            target.SetMagnificationFilter(vtkTextureObject.Linear)
+            self.outputs.append(target)
+        self._fbo = vtkOpenGLFramebufferObject()
+        self._fbo.SetContext(window)
+        with watch_shader_errors(self.recipe.snippet_names):
+            self._quad = vtkOpenGLQuadHelper(window, self._vertex, self._fragment, "")
+
+    def _on_start(self, *_):
+        if not (self._needed or self.every_frame):
+            return
+        window = self.renderer.GetRenderWindow()
+        if self._fbo is None:
+            self._create(window)
+        state = window.GetState()
+        state.PushFramebufferBindings()
+        active = []
+        try:
+            self._fbo.Bind()
+            for index, target in enumerate(self.outputs):
+                self._fbo.AddColorAttachment(index, target)
+            self._fbo.ActivateDrawBuffers(self.n_targets)
+            self._fbo.Start(*self.size)
+            program = window.GetShaderCache().ReadyShaderProgram(self._vertex, self._fragment, "")
+            if program is None:
+                return
+            for sampler, texture in self.textures.items():
+                gl_object = texture.ensure(window)
+                gl_object.Activate()
+                active.append(gl_object)
+                program.SetUniformi(sampler, gl_object.GetTextureUnit())
+            for name, value in self.uniforms.items():
+                set_uniform(program, name, value() if callable(value) else value)
+            self._quad.Render()
+        finally:
+            for gl_object in active:
+                gl_object.Deactivate()
+            state.PopFramebufferBindings()
+        self._needed = False
+        self.runs += 1
+
+    def read(self, target: int = 0) -> np.ndarray:
+        """Download target ``target`` as ``(height, width, 4)`` float32 (context must be live)."""
+        width, height = self.size
+        out = np.zeros((height, width, 4), dtype=np.float32)
+        pixels = self.outputs[target].Download()
+        if pixels is None or not pixels.Download2D(vtk.VTK_FLOAT, out, [width, height], 4, [0, 0]):
+            raise RuntimeError("Reading the render target back failed.")
+        return out
+
+    def release(self) -> None:
+        """Free the targets and stop running."""
+        window = self.renderer.GetRenderWindow()
+        for target in self.outputs:
+            target.ReleaseGraphicsResources(window)
+        for texture in self.textures.values():
+            texture.release()
+        if self._fbo is not None:
+            self._fbo.ReleaseGraphicsResources(window)
+        self.outputs.clear()
+        self._fbo = self._quad = None
+        self.renderer.RemoveObserver(self._tag)
