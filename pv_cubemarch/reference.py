@@ -132,3 +132,36 @@ def render_emission_absorption(
         active, t = active[keep], t[keep]
     image = color + trans[:, None] * backdrop
     return image.reshape(height, width, 3)
+
+
+def mesh_depth(mesh, camera: Camera, size: Sequence[int], chunk: int = 4096) -> np.ndarray:
+    """Distance along each pixel's ray to the nearest triangle of ``mesh`` (``inf`` on a miss).
+
+    Exact Moller-Trumbore ray/triangle intersection, vectorised over rays and triangles,
+    for references of scenes with opaque meshes.
+    """
+    tri = mesh.triangulate()
+    faces = np.asarray(tri.faces).reshape(-1, 4)[:, 1:]
+    points = np.asarray(tri.points, dtype=np.float64)
+    v0, e1, e2 = points[faces[:, 0]], points[faces[:, 1]] - points[faces[:, 0]], \
+        points[faces[:, 2]] - points[faces[:, 0]]
+    width, height = (int(v) for v in size)
+    origins, directions = camera.rays((width, height))
+    origins, directions = origins.reshape(-1, 3), directions.reshape(-1, 3)
+    depth = np.full(origins.shape[0], np.inf)
+    for start in range(0, origins.shape[0], max(1, chunk * 256 // max(len(faces), 1))):
+        o = origins[start:start + chunk, None, :]
+        d = directions[start:start + chunk, None, :]
+        p = np.cross(d, e2[None])
+        det = np.einsum("rtk,tk->rt", p, e1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            s_vec = o - v0[None]
+            u = np.einsum("rtk,rtk->rt", s_vec, p) * inv
+            q = np.cross(s_vec, e1[None])
+            v = np.einsum("rtk,rk->rt", q, d[:, 0, :]) * inv
+            t = np.einsum("rtk,tk->rt", q, e2) * inv
+        hit = (np.abs(det) > 1e-14) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+        t = np.where(hit, t, np.inf)
+        depth[start:start + chunk] = t.min(axis=1)
+    return depth.reshape(height, width)

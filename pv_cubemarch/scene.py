@@ -134,7 +134,7 @@ class Scene:
         actors = {}
         plotter.set_background(self.background)
         for m in self.meshes:
-            kwargs = dict(color=m.color, opacity=m.opacity, smooth_shading=True,
+            kwargs = dict(color=m.color, opacity=m.opacity, smooth_shading=True, split_sharp_edges=True,
                           specular=0.3 * (1.0 - m.roughness), name=m.name)
             if m.vertex_colors:
                 kwargs.update(scalars=m.vertex_colors, rgb=True)

@@ -1,0 +1,64 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import pv_cubemarch as cm
+
+ROOT = Path(__file__).resolve().parents[1]
+BASELINES = Path(__file__).resolve().parent / "baselines"
+SCENE = ROOT / "datasets" / "smoke_scene.usda"
+BACKGROUND = (0.1, 0.1, 0.12)
+
+
+def pytest_addoption(parser):
+    parser.addoption("--update-baselines", action="store_true",
+                     help="rewrite tests/baselines/*.png from the current rendering")
+
+
+@pytest.fixture
+def update_baselines(request):
+    return request.config.getoption("--update-baselines")
+
+
+def blob_grid(n=24, shape=None, spacing=None, origin=(-1.0, -1.0, -1.0)):
+    shape = shape or (n, n, n)
+    spacing = spacing or tuple(2.0 / (s - 1) if s > 1 else 1.0 for s in shape)
+    axes = [origin[i] + spacing[i] * np.arange(shape[i]) for i in range(3)]
+    x, y, z = np.meshgrid(*axes, indexing="ij")
+    d = np.exp(-3 * (x**2 + y**2 + z**2)) + 0.4 * np.exp(-25 * ((x - 0.4) ** 2 + (y + 0.3) ** 2 + z**2))
+    grid = pv.ImageData(dimensions=shape, spacing=spacing, origin=origin)
+    grid.point_data["density"] = d.ravel(order="F").astype(np.float32)
+    return grid
+
+
+@pytest.fixture
+def blob():
+    return blob_grid()
+
+
+@pytest.fixture
+def plotter_factory():
+    made = []
+
+    def make(size=(96, 96)):
+        pl = cm.offscreen_plotter(size)
+        pl.set_background(BACKGROUND)
+        made.append(pl)
+        return pl
+
+    yield make
+    for pl in made:
+        pl.close()
+
+
+def set_camera(pl, position, focal=(0, 0, 0), up=(0, 1, 0), angle=30.0):
+    pl.camera.position = position
+    pl.camera.focal_point = focal
+    pl.camera.up = up
+    pl.camera.view_angle = angle
+    pl.renderer.ResetCameraClippingRange()
+    return cm.Camera.from_pyvista(pl.camera)
