@@ -24,7 +24,7 @@ def vtk_mapper_recipe(table_size: int) -> ShaderRecipe:
     """The shader replacements of the VTK-mapper path."""
     return ShaderRecipe(
         replacements=[
-            Replacement("//VTK::Base::Dec", "ea_declarations", keep_tag=True),
+            Replacement("//VTK::Base::Dec", "ea_declarations", keep_tag="after"),
             Replacement("//VTK::Shading::Init", "ea_vtk_ray_init"),
             Replacement("//VTK::Shading::Impl", "ea_vtk_shading"),
         ],
@@ -128,6 +128,11 @@ class VolumeBinding:
         self.recipe = recipe
         self.step_scale = step_scale
         self.stop_opacity = stop_opacity
+
+    @property
+    def name(self) -> str:
+        """The volume's name."""
+        return self.model.name
 
     @property
     def nbytes(self) -> int:

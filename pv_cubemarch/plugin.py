@@ -62,7 +62,7 @@ class CubemarchComponent:
     @property
     def memory(self) -> dict[str, int]:
         """GPU bytes our techniques added, by actor name."""
-        return {item.model.name: item.nbytes for item in self._tracked}
+        return {item.name: item.nbytes for item in self._tracked}
 
     def track(self, item) -> None:
         """Keep ``item`` (with ``bindings`` and ``release()``) until the plotter closes."""

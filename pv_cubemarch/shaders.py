@@ -56,14 +56,15 @@ def define_lines(defines: dict[str, object]) -> str:
 class Replacement:
     """Replace the VTK ``tag`` of ``stage`` ('fragment' or 'vertex') by ``snippet``.
 
-    ``keep_tag`` puts the original tag back after the snippet, for snippets that only add
-    declarations before what VTK writes there.
+    ``keep_tag`` puts the original tag back, so VTK still fills it: ``"after"`` the snippet
+    (for declarations that VTK's code may use) or ``"before"`` it (to post-process what VTK
+    computed there); ``False`` drops VTK's code for that tag.
     """
 
     tag: str
     snippet: str
     stage: str = "fragment"
-    keep_tag: bool = False
+    keep_tag: str | bool = False
 
 
 @dataclass
@@ -86,11 +87,15 @@ class ShaderRecipe:
 
     def code_for(self, replacement: Replacement, first: bool) -> str:
         """The text that replaces ``replacement.tag``."""
-        parts = [f"{MARKER}{replacement.snippet}"]
+        if replacement.keep_tag not in (False, "before", "after"):
+            raise ValueError(f"keep_tag must be False, 'before' or 'after', got "
+                             f"{replacement.keep_tag!r}.")
+        parts = [replacement.tag] if replacement.keep_tag == "before" else []
+        parts.append(f"{MARKER}{replacement.snippet}")
         if first and self.defines:
             parts.append(define_lines(self.defines))
         parts.append(snippet_source(replacement.snippet))
-        if replacement.keep_tag:
+        if replacement.keep_tag == "after":
             parts.append(replacement.tag)
         return "\n".join(parts) + "\n"
 

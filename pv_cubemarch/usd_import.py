@@ -130,6 +130,7 @@ class _StageReader:
                 normals = _average_per_point(normals, indices, len(points))
             if len(normals) == len(points):
                 mesh.point_data["Normals"] = normals
+                mesh.point_data.active_normals_name = "Normals"
         scene_mesh = SceneMesh(name=name, mesh=mesh)
         self._material(prim, scene_mesh, counts, indices)
         scene_mesh.mesh = _transformed(scene_mesh.mesh, self.world_matrix(prim))
@@ -366,4 +367,10 @@ def _average_per_point(values: np.ndarray, indices: np.ndarray, n_points: int) -
 def _transformed(mesh: pyvista.PolyData, matrix: np.ndarray) -> pyvista.PolyData:
     if np.allclose(matrix, np.eye(4)):
         return mesh
-    return mesh.transform(matrix, inplace=False, transform_all_input_vectors=True)
+    # Only points and the active normals move; colours and other 3-vectors must not.
+    out = mesh.transform(matrix, inplace=False, transform_all_input_vectors=False)
+    if "Normals" in out.point_data:
+        normals = np.asarray(out.point_data["Normals"], dtype=np.float64)
+        lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+        out.point_data["Normals"] = normals / np.where(lengths > 0, lengths, 1.0)
+    return out
