@@ -23,7 +23,7 @@ def value_noise(shape, cells, rng):
     axes = [np.linspace(0, cells, n, endpoint=False) for n in shape]
     grid = np.meshgrid(*axes, indexing="ij")
     base = [np.floor(g).astype(int) for g in grid]
-    frac = [g - b for g, b in zip(grid, base)]
+    frac = [g - b for g, b in zip(grid, base, strict=True)]
     w = [f * f * (3 - 2 * f) for f in frac]
     out = np.zeros(shape)
     for dx in (0, 1):

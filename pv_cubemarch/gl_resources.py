@@ -252,7 +252,7 @@ class RenderToTexturePass:
     renderer : vtkRenderer
         Renderer whose frames host the pass.
     recipe : ShaderRecipe
-        Its fragment snippet must write ``gl_FragData[i]`` for each target.
+        Its standalone fragment snippet must write every render target.
     size : tuple of int
         ``(width, height)`` of every target.
     targets : int

@@ -59,7 +59,7 @@ def _apply_visual(geometry, item: SceneMesh) -> None:
     base = getattr(material, "baseColorFactor", None) if material is not None else None
     if base is None and material is not None:
         base = getattr(material, "main_color", None)
-    if base is not None and kind is None or (kind == "texture" and base is not None):
+    if base is not None and kind in (None, "texture"):
         rgba = np.asarray(base, dtype=np.float64)
         rgba = rgba / 255.0 if rgba.max() > 1.0 else rgba
         item.color = tuple(rgba[:3])

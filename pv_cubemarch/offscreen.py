@@ -11,7 +11,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import os
-from functools import lru_cache
+from functools import cache
 
 from .errors import OffscreenUnavailableError
 
@@ -33,7 +33,7 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
-@lru_cache(maxsize=None)
+@cache
 def library_available(backend: str) -> bool:
     """Whether the shared library behind ``backend`` ('osmesa' or 'egl') can be loaded."""
     for name in _LIBRARIES[backend]:
@@ -53,7 +53,8 @@ def requested_backend() -> str:
     value = os.environ.get(BACKEND_ENV, "osmesa").strip().lower() or "osmesa"
     if value not in ("osmesa", "egl", "auto"):
         raise OffscreenUnavailableError(
-            f"{BACKEND_ENV}={value!r} is not a known offscreen backend; use 'osmesa', 'egl' or 'auto'."
+            f"{BACKEND_ENV}={value!r} is not a known offscreen backend; "
+            "use 'osmesa', 'egl' or 'auto'."
         )
     return value
 
@@ -61,7 +62,8 @@ def requested_backend() -> str:
 def choose_backend() -> str:
     """Resolve the requested backend to one whose library loads, or raise with install advice."""
     wanted = requested_backend()
-    order = {"osmesa": ["osmesa", "egl"], "egl": ["egl", "osmesa"], "auto": ["osmesa", "egl"]}[wanted]
+    order = {"osmesa": ["osmesa", "egl"], "egl": ["egl", "osmesa"],
+             "auto": ["osmesa", "egl"]}[wanted]
     for backend in order:
         if library_available(backend):
             return backend

@@ -1,4 +1,4 @@
-"""Progress bars for long steps: shown on a terminal, silent in logs, tests and notebooks' stderr."""
+"""Progress bars for long steps: shown on a terminal, silent in logs and tests."""
 
 from __future__ import annotations
 

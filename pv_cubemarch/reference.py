@@ -50,7 +50,8 @@ def trilinear(values: np.ndarray, points: np.ndarray) -> np.ndarray:
     c00 = flat[index] * (1 - fx) + flat[index + step[0]] * fx
     c10 = flat[index + step[1]] * (1 - fx) + flat[index + step[1] + step[0]] * fx
     c01 = flat[index + step[2]] * (1 - fx) + flat[index + step[2] + step[0]] * fx
-    c11 = flat[index + step[2] + step[1]] * (1 - fx) + flat[index + step[2] + step[1] + step[0]] * fx
+    i11 = index + step[2] + step[1]
+    c11 = flat[i11] * (1 - fx) + flat[i11 + step[0]] * fx
     c0 = c00 * (1 - fy) + c10 * fy
     c1 = c01 * (1 - fy) + c11 * fy
     return c0 * (1 - fz) + c1 * fz

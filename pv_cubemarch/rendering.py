@@ -29,8 +29,8 @@ def render_frame(plotter: pyvista.Plotter) -> None:
     VTK's volume mapper does not announce a frame on which it (re)builds its shader, so
     our textures are missing on that one frame; we then draw it once more.
     """
-    from vtkmodules.util.misc import calldata_type
     import vtk
+    from vtkmodules.util.misc import calldata_type
 
     messages: list[str] = []
 

@@ -98,7 +98,8 @@ class Scene:
         lines = [f"scene: {self.source}", f"up axis: {self.up_axis}, "
                  f"meters per unit: {self.meters_per_unit:g}",
                  f"meshes: {len(self.meshes)}"]
-        lines += [f"  {m.name}: {m.mesh.n_points} points, {m.mesh.n_cells} faces" for m in self.meshes]
+        lines += [f"  {m.name}: {m.mesh.n_points} points, {m.mesh.n_cells} faces"
+                  for m in self.meshes]
         lines.append(f"volumes: {len(self.volumes)}")
         lines += [f"  {v.name}: {'x'.join(map(str, v.dimensions))} points" for v in self.volumes]
         lines.append(f"cameras: {len(self.cameras)}")
@@ -134,7 +135,8 @@ class Scene:
         actors = {}
         plotter.set_background(self.background)
         for m in self.meshes:
-            kwargs = dict(color=m.color, opacity=m.opacity, smooth_shading=True, split_sharp_edges=True,
+            kwargs = dict(color=m.color, opacity=m.opacity, smooth_shading=True,
+                          split_sharp_edges=True,
                           specular=0.3 * (1.0 - m.roughness), name=m.name)
             if m.vertex_colors:
                 kwargs.update(scalars=m.vertex_colors, rgb=True)

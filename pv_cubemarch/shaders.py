@@ -11,7 +11,7 @@ from __future__ import annotations
 import contextlib
 import re
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 
 import vtk
@@ -22,7 +22,7 @@ SNIPPET_PACKAGE = "pv_cubemarch.glsl_replacements"
 MARKER = "// pv_cubemarch snippet: "
 
 
-@lru_cache(maxsize=None)
+@cache
 def snippet_source(name: str) -> str:
     """The text of ``glsl_replacements/<name>.glsl``."""
     root = resources.files(SNIPPET_PACKAGE)

@@ -91,7 +91,7 @@ class TransferFunction:
         return int(self.table.shape[0])
 
     def lookup(self, scalars: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return ``(rgb, sigma)`` for ``scalars``, interpolating rows as GL linear filtering does."""
+        """Return ``(rgb, sigma)`` for ``scalars``, interpolating rows as GL filtering does."""
         lo, hi = self.clim
         u = np.clip((np.asarray(scalars, dtype=np.float64) - lo) / (hi - lo), 0.0, 1.0)
         x = u * (self.n_colors - 1)

@@ -29,7 +29,8 @@ def blob_grid(n=24, shape=None, spacing=None, origin=(-1.0, -1.0, -1.0)):
     spacing = spacing or tuple(2.0 / (s - 1) if s > 1 else 1.0 for s in shape)
     axes = [origin[i] + spacing[i] * np.arange(shape[i]) for i in range(3)]
     x, y, z = np.meshgrid(*axes, indexing="ij")
-    d = np.exp(-3 * (x**2 + y**2 + z**2)) + 0.4 * np.exp(-25 * ((x - 0.4) ** 2 + (y + 0.3) ** 2 + z**2))
+    d = np.exp(-3 * (x**2 + y**2 + z**2))
+    d += 0.4 * np.exp(-25 * ((x - 0.4) ** 2 + (y + 0.3) ** 2 + z**2))
     grid = pv.ImageData(dimensions=shape, spacing=spacing, origin=origin)
     grid.point_data["density"] = d.ravel(order="F").astype(np.float32)
     return grid

@@ -1,0 +1,74 @@
+"""Bad volume input: a clear exception, and the plotter left as it was."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import pv_cubemarch as cm
+
+
+def non_uniform_grid():
+    grid = pv.RectilinearGrid(np.array([0, 1, 3, 7.0]), np.arange(4.0), np.arange(4.0))
+    grid.point_data["v"] = np.zeros(grid.n_points)
+    return grid
+
+
+def uniform_rectilinear():
+    grid = pv.RectilinearGrid(np.arange(4.0) * 0.5, np.arange(3.0), np.arange(5.0))
+    grid.point_data["v"] = np.arange(grid.n_points, dtype=float)
+    return grid
+
+
+def image_with(values):
+    grid = pv.ImageData(dimensions=(3, 3, 3))
+    grid.point_data["v"] = values
+    return grid
+
+
+@pytest.mark.parametrize("make, message", [
+    (non_uniform_grid, "non-uniform"),
+    (lambda: image_with(np.where(np.arange(27) == 5, np.nan, 1.0)), "NaN"),
+    (lambda: image_with(np.full(27, np.inf)), "NaN or infinite"),
+    (lambda: image_with(np.ones(27) + 1j), "dtype"),
+    (lambda: np.ones((4, 4)), "3D"),
+    (lambda: pv.Sphere(), "Cannot render a PolyData"),
+    (lambda: pv.ImageData(dimensions=(3, 3, 3)), "no scalar arrays"),
+])
+def test_bad_volume_input(plotter_factory, make, message):
+    pl = plotter_factory((32, 32))
+    pl.add_mesh(pv.Sphere())
+    before = dict(pl.renderer.actors)
+    image_before = cm.render_image(pl)
+    with pytest.raises(cm.VolumeDataError, match=message):
+        cm.add_volume(pl, make())
+    assert dict(pl.renderer.actors) == before
+    assert np.array_equal(cm.render_image(pl), image_before)
+
+
+def test_wrong_scalars_name_lists_arrays(plotter_factory):
+    with pytest.raises(cm.VolumeDataError, match="'v'"):
+        cm.add_volume(plotter_factory(), image_with(np.ones(27)), scalars="density")
+
+
+def test_nan_policy_zero_draws(plotter_factory):
+    values = np.ones(27)
+    values[4] = np.nan
+    actor = cm.add_volume(plotter_factory((16, 16)), image_with(values), nan_policy="zero")
+    assert actor.cubemarch.model.values.ravel(order="F")[4] == 0
+
+
+def test_uniform_rectilinear_and_cell_data_are_accepted():
+    model = cm.make_volume(uniform_rectilinear())
+    assert model.dimensions == (4, 3, 5)
+    assert np.allclose(model.grid.spacing, (0.5, 1, 1))
+    cells = pv.ImageData(dimensions=(4, 4, 4))
+    cells.cell_data["c"] = np.arange(cells.n_cells, dtype=float)
+    assert cm.make_volume(cells).dimensions == (4, 4, 4)
+
+
+def test_integer_and_bool_data_become_float():
+    model = cm.make_volume(np.arange(27, dtype=np.int16).reshape(3, 3, 3))
+    assert model.values.dtype == np.float32
+    assert cm.make_volume(np.ones((2, 2, 2), bool)).values.dtype == np.float32

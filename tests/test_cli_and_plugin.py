@@ -1,0 +1,74 @@
+"""The command line and PyVista's entry points."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import SCENE
+from PIL import Image
+
+from pv_cubemarch.cli import main
+
+
+def test_render_command_writes_png(tmp_path, capsys):
+    out = tmp_path / "out.png"
+    assert main(["render", str(SCENE), "--out", str(out), "--size", "64x48", "--no-progress"]) == 0
+    image = np.asarray(Image.open(out))
+    assert image.shape[:2] == (48, 64)
+    assert image.std() > 5
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_render_with_step_scale_and_camera(tmp_path):
+    out = tmp_path / "o.png"
+    assert main(["render", str(SCENE), "-o", str(out), "--size", "32x24", "--step-scale", "1.0",
+                 "--camera", "/World/Camera", "--no-progress"]) == 0
+    assert out.exists()
+
+
+def test_info_lists_skipped_prims(capsys):
+    assert main(["info", str(SCENE)]) == 0
+    out = capsys.readouterr().out
+    assert "/World/BoundsGuide: purpose is guide" in out and "/World/Smoke" in out
+
+
+def test_info_gl_json(capsys):
+    assert main(["info", "--gl", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["gl"]["window_class"].endswith("RenderWindow")
+
+
+def test_errors_exit_2_with_message(tmp_path, capsys):
+    assert main(["render", str(tmp_path / "missing.usda"), "--out", str(tmp_path / "x.png")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main(["render", str(SCENE), "--out", str(tmp_path / "x.png"), "--camera", "/Nope",
+                 "--no-progress"]) == 2
+    assert "/Nope" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["render", str(SCENE), "--out", "x.png", "--size", "big"])
+    assert main(["info"]) == 2
+
+
+def test_plotter_component_via_entry_point_in_fresh_process():
+    code = ("import pyvista as pv; import numpy as np; pl = pv.Plotter(off_screen=True); "
+            "a = pl.cubemarch.add_volume(np.random.rand(8, 8, 8)); "
+            "print(type(pl.cubemarch).__name__, pl.cubemarch.screenshot().shape)")
+    env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
+    env.pop("DISPLAY", None)
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            env=env, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split()[0] == "CubemarchComponent"
+
+
+def test_pyvista_read_usd_in_fresh_process():
+    code = f"import pyvista as pv; print(sorted(pv.read({str(SCENE)!r}).keys()))"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert "/World/Torus" in result.stdout

@@ -1,0 +1,43 @@
+"""The GLSL travels inside the wheel: install it elsewhere and render from another directory."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+from conftest import ROOT, SCENE
+
+
+def test_wheel_carries_glsl_and_renders_from_elsewhere(tmp_path):
+    dist = tmp_path / "dist"
+    build = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", str(ROOT), "--no-deps", "--no-build-isolation",
+         "-q", "-w", str(dist)], capture_output=True, text=True, timeout=300)
+    assert build.returncode == 0, build.stderr
+    wheel = next(dist.glob("pv_cubemarch-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    glsl = {Path(n).name for n in names if n.endswith(".glsl")}
+    shipped = {p.name for p in (ROOT / "glsl_replacements").glob("*.glsl")}
+    assert glsl == shipped
+    folder = "pv_cubemarch/glsl_replacements/"
+    assert all(n.startswith(folder) for n in names if n.endswith(".glsl"))
+
+    site = tmp_path / "site"
+    install = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(site),
+         str(wheel)], capture_output=True, text=True, timeout=300)
+    assert install.returncode == 0, install.stderr
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    code = ("import pv_cubemarch, sys; print(pv_cubemarch.__file__); "
+            f"pv_cubemarch.load_scene({str(SCENE)!r}).render('out.png', size=(48, 32), "
+            "progress_bar=False)")
+    env = dict(os.environ, PYTHONPATH=str(site))
+    run = subprocess.run([sys.executable, "-c", code], cwd=elsewhere, capture_output=True,
+                         text=True, env=env, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().startswith(str(site))
+    assert (elsewhere / "out.png").stat().st_size > 0
