@@ -25,6 +25,7 @@ def vtk_mapper_recipe(table_size: int) -> ShaderRecipe:
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Base::Dec", "ea_declarations", keep_tag="after"),
+            Replacement("//VTK::ComputeColor::Dec", "ea_vtk_declarations", keep_tag="after"),
             Replacement("//VTK::Shading::Init", "ea_vtk_ray_init"),
             Replacement("//VTK::Shading::Impl", "ea_vtk_shading"),
         ],

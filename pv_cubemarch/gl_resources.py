@@ -331,6 +331,12 @@ class RenderToTexturePass:
         self._needed = False
         self.runs += 1
 
+    def output(self, target: int = 0) -> PassOutput:
+        """Render target ``target`` as a texture that :class:`ShaderBindings` can bind."""
+        if not 0 <= target < self.n_targets:
+            raise IndexError(f"target must be in [0, {self.n_targets}), got {target}.")
+        return PassOutput(self, target)
+
     def read(self, target: int = 0) -> np.ndarray:
         """Download target ``target`` as ``(height, width, 4)`` float32 (context must be live)."""
         width, height = self.size
@@ -352,3 +358,30 @@ class RenderToTexturePass:
         self.outputs.clear()
         self._fbo = self._quad = None
         self.renderer.RemoveObserver(self._tag)
+
+
+class PassOutput:
+    """One render target of a :class:`RenderToTexturePass`, bindable like a :class:`Texture`.
+
+    The pass owns the GL texture; binding it never uploads anything.
+    """
+
+    kind = "2d"
+
+    def __init__(self, render_pass: RenderToTexturePass, target: int):
+        self.render_pass = render_pass
+        self.target = target
+
+    @property
+    def nbytes(self) -> int:
+        """Counted once, by the pass."""
+        return 0
+
+    def ensure(self, window) -> vtkTextureObject:
+        """The pass's target (created by the pass at the start of this frame)."""
+        if not self.render_pass.outputs:
+            self.render_pass._create(window)
+        return self.render_pass.outputs[self.target]
+
+    def release(self) -> None:
+        """Nothing to free: the pass frees its targets."""

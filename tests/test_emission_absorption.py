@@ -11,9 +11,9 @@ import pv_cubemarch as cm
 from pv_cubemarch.testing import compare_images, to_uint8
 
 # Accuracy contract of the VTK-mapper path at its default step (0.5 voxel) against the
-# reference at 0.1 voxel: PSNR >= 38 dB and no channel off by more than 6 levels of 255.
-MIN_PSNR = 38.0
-MAX_LEVELS = 6
+# reference at 0.1 voxel: PSNR >= 45 dB and no channel off by more than 4 levels of 255.
+MIN_PSNR = 45.0
+MAX_LEVELS = 4
 
 
 def gpu_and_reference(pl, model, size, camera, step_scale=0.5, **ref):
@@ -58,7 +58,7 @@ def test_transformed_volume(plotter_factory, blob):
     camera = set_camera(pl, (3.0, 2.5, 4.5), focal=(0.3, -0.2, 0.1))
     image, reference = gpu_and_reference(pl, model, (80, 80), camera)
     errors = compare_images(image, reference)
-    assert errors.psnr >= MIN_PSNR - 2, errors
+    assert errors.psnr >= MIN_PSNR - 5, errors
 
 
 def test_mesh_occludes_volume(plotter_factory, blob):
@@ -123,3 +123,27 @@ def test_numpy_volume_and_component(plotter_factory):
     assert image.shape == (48, 48, 3)
     assert image.std() > 3
     assert pl.cubemarch.memory["volume"] == 256 * 4 * 4
+
+
+@pytest.mark.parametrize("data_range", [(0.0, 1.0), (0.0, 3.0), (-2.0, 0.7), (100.0, 101.0)])
+@pytest.mark.parametrize("axis", [0, 2])
+def test_data_range_differs_from_clim(plotter_factory, data_range, axis):
+    """The transfer function reads data values, whatever range VTK normalises by."""
+    n = 16
+    grid = pv.ImageData(dimensions=(n, n, n), spacing=(1.5 / (n - 1),) * 3, origin=(-0.75,) * 3)
+    ramp = (np.asarray(grid.points)[:, axis] + 0.75) / 1.5
+    lo, hi = data_range
+    grid.point_data["v"] = (lo + ramp * (hi - lo)).astype(np.float32)
+    clim = (0.0, 1.0) if hi < 50 else (100.2, 100.8)
+    model = cm.make_volume(grid, cmap="inferno", opacity="linear", clim=clim,
+                           opacity_unit_distance=2.0)
+    pl = plotter_factory((32, 32))
+    camera = set_camera(pl, (0.1, 0.05, 4.0), focal=(0.1, 0.05, 0.0))
+    image, reference = gpu_and_reference(pl, model, (32, 32), camera)
+    # Interior pixels (rays with more than one voxel inside the box) match to 3 levels; on
+    # grazing silhouette rays VTK's proxy box, about 0.2 % smaller than the data bounds,
+    # shortens sub-voxel paths.
+    interior = cm.reference.chord_lengths(model, camera, (32, 32)) > 0.1
+    diff = np.abs(image.astype(int) - to_uint8(reference).astype(int)).max(axis=-1)
+    assert diff[interior].max() <= 3, diff.max()
+    assert interior.mean() > 0.5

@@ -124,10 +124,7 @@ def test_render_to_texture_sampled_in_same_frame(plotter_factory):
     recipe = ShaderRecipe(standalone="rtt_gradient_pattern", defines={"CM_TARGETS": 1})
     rtt = RenderToTexturePass(pl.renderer, recipe, size=SIZE, targets=1)
     rtt.uniforms["cm_value"] = 0.5
-    shown = Texture(np.zeros((2, 2, 4), np.float32), kind="2d")
-    add_texture_view(pl, shown)
-    # hand the pass's output to the view instead of the placeholder texture
-    shown.ensure = lambda window: rtt.outputs[0]
+    add_texture_view(pl, rtt.output(0))
     pl.renderer.ResetCameraClippingRange()
     image = cm.render_image(pl).astype(float)[::-1] / 255
     u = (np.arange(SIZE[0]) + 0.5) / SIZE[0]
