@@ -45,7 +45,9 @@ def add_texture_view(plotter: pyvista.Plotter, texture: Texture, *, slice_positi
     if texture.kind == "buffer":
         bindings.set_uniform("cm_bufferLength", int(texture.array.size))
     plotter.add_actor(actor, reset_camera=False)
-    plotter.cubemarch.track(_Tracked("texture view", bindings, recipe))
+    tracked = _Tracked("texture view", bindings, recipe)
+    tracked.actor = actor
+    plotter.cubemarch.track(tracked)
     return actor
 
 
@@ -54,6 +56,7 @@ class _Tracked:
 
     def __init__(self, name: str, bindings: ShaderBindings, recipe: ShaderRecipe):
         self.name, self.bindings, self.recipe = name, bindings, recipe
+        self.actor = None
 
     @property
     def nbytes(self) -> int:

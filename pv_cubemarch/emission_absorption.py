@@ -113,6 +113,7 @@ def add_volume(
     component = plotter.cubemarch  # created now so its close hook frees our GPU resources
     actor = _build_actor(plotter, model, float(step_scale), float(stop_opacity))
     plotter.add_actor(actor, name=name or model.name, reset_camera=False)
+    actor.cubemarch.actor = actor
     component.track(actor.cubemarch)
     if not plotter.camera_set:
         plotter.reset_camera()
@@ -129,6 +130,7 @@ class VolumeBinding:
         self.recipe = recipe
         self.step_scale = step_scale
         self.stop_opacity = stop_opacity
+        self.actor = None
 
     @property
     def name(self) -> str:

@@ -64,6 +64,15 @@ class CubemarchComponent:
         """GPU bytes our techniques added, by actor name."""
         return {item.name: item.nbytes for item in self._tracked}
 
+    def remove(self, actor) -> bool:
+        """Remove an actor added by pv_cubemarch and free its GPU resources now."""
+        for item in list(self._tracked):
+            if getattr(item, "actor", None) is actor:
+                item.release()
+                self._tracked.remove(item)
+                return bool(self._plotter.remove_actor(actor))
+        return bool(self._plotter.remove_actor(actor))
+
     def track(self, item) -> None:
         """Keep ``item`` (with ``bindings`` and ``release()``) until the plotter closes."""
         self._tracked.append(item)

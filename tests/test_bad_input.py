@@ -72,3 +72,33 @@ def test_integer_and_bool_data_become_float():
     model = cm.make_volume(np.arange(27, dtype=np.int16).reshape(3, 3, 3))
     assert model.values.dtype == np.float32
     assert cm.make_volume(np.ones((2, 2, 2), bool)).values.dtype == np.float32
+
+
+@pytest.mark.parametrize("bad", ["missing.usda", "corrupt.usda", "missing_field.usda"])
+def test_bad_scene_leaves_plotter_as_it_was(plotter_factory, tmp_path, bad):
+    from pxr import Sdf, Usd, UsdVol
+
+    (tmp_path / "corrupt.usda").write_text("#usda 1.0\ndef Xform \"A\" {\n  nonsense\n")
+    stage = Usd.Stage.CreateNew(str(tmp_path / "missing_field.usda"))
+    volume = UsdVol.Volume.Define(stage, "/V")
+    field = stage.DefinePrim("/V/density")
+    field.CreateAttribute("filePath", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath("./no.vti"))
+    volume.CreateFieldRelationship("density", field.GetPath())
+    stage.GetRootLayer().Save()
+    pl = plotter_factory((24, 24))
+    pl.add_mesh(pv.Sphere())
+    before = dict(pl.renderer.actors)
+    with pytest.raises(cm.SceneLoadError):
+        pl.cubemarch.add_scene(tmp_path / bad)
+    assert dict(pl.renderer.actors) == before
+
+
+def test_remove_frees_gpu_resources(plotter_factory):
+    pl = plotter_factory((24, 24))
+    actor = cm.add_volume(pl, image_with(np.linspace(0, 1, 27)))
+    cm.render_frame(pl)
+    texture = actor.cubemarch.bindings.textures["cm_transferTable"]
+    assert texture.gl_object is not None
+    assert pl.cubemarch.remove(actor)
+    assert texture.gl_object is None and pl.cubemarch.memory == {}
+    assert actor not in pl.renderer.actors.values()
