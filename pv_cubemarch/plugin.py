@@ -26,7 +26,29 @@ class CubemarchComponent:
     def __init__(self, plotter):
         self._plotter = weakref.proxy(plotter)
         self._tracked: list = []
+        self._redrawing = False
+        self._window = plotter.ren_win
+        self._window_tag = None
+        if self._window is not None:
+            import vtk
+
+            self._window_tag = self._window.AddObserver(vtk.vtkCommand.EndEvent,
+                                                        self._redraw_if_missed)
         plotter.__dict__["_cubemarch_component"] = self
+
+    def _redraw_if_missed(self, window, _event) -> None:
+        """Draw again, once, a frame on which VTK rebuilt a shader without our bindings.
+
+        VTK's volume mapper skips ``UpdateShaderEvent`` on such a frame, so every path that
+        renders (``show``, ``screenshot``, our own) gets a second, complete frame.
+        """
+        if self._redrawing or not any(b.missed_last_frame for b in self.bindings()):
+            return
+        self._redrawing = True
+        try:
+            window.Render()
+        finally:
+            self._redrawing = False
 
     def add_volume(self, volume, scalars=None, **kwargs):
         """Same as :func:`pv_cubemarch.add_volume` on this plotter."""
@@ -85,6 +107,9 @@ class CubemarchComponent:
         for item in self._tracked:
             item.release()
         self._tracked.clear()
+        if self._window is not None and self._window_tag is not None:
+            self._window.RemoveObserver(self._window_tag)
+        self._window = None
 
 
 def read_usd(path: str, **kwargs) -> pyvista.MultiBlock:
