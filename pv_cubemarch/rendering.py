@@ -6,7 +6,7 @@ import numpy as np
 import pyvista
 
 from .offscreen import configure_offscreen
-from .shaders import raise_for_shader_errors
+from .shaders import watch_shader_errors
 
 
 def offscreen_plotter(size: tuple[int, int] = (800, 600), **kwargs) -> pyvista.Plotter:
@@ -24,30 +24,14 @@ def _bindings_of(plotter) -> list:
 
 
 def render_frame(plotter: pyvista.Plotter) -> None:
-    """Draw one frame, again if VTK rebuilt a shader without our bindings, and check errors.
+    """Draw one frame and raise :class:`ShaderCompileError` if a GLSL snippet failed.
 
-    VTK's volume mapper does not announce a frame on which it (re)builds its shader, so
-    our textures are missing on that one frame; we then draw it once more.
+    A frame that VTK drew without our bindings (its volume mapper rebuilds its shader
+    silently) is drawn again by the ``plotter.cubemarch`` component.
     """
-    import vtk
-    from vtkmodules.util.misc import calldata_type
-
-    messages: list[str] = []
-
-    @calldata_type(vtk.VTK_STRING)
-    def collect(_caller, _event, text):
-        messages.append(str(text))
-
-    output = vtk.vtkOutputWindow.GetInstance()
-    tag = output.AddObserver(vtk.vtkCommand.ErrorEvent, collect)
-    try:
-        plotter.ren_win.Render()
-        if any(b.missed_last_frame for b in _bindings_of(plotter)):
-            plotter.ren_win.Render()
-    finally:
-        output.RemoveObserver(tag)
     snippets = tuple(s for b in _bindings_of(plotter) for s in b.recipe.snippet_names)
-    raise_for_shader_errors(messages, snippets)
+    with watch_shader_errors(snippets):
+        plotter.ren_win.Render()
 
 
 def render_image(plotter: pyvista.Plotter) -> np.ndarray:
