@@ -35,6 +35,19 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("scene", nargs="?", help="scene file to describe")
     info.add_argument("--gl", action="store_true", help="report the window class and GL strings")
     info.add_argument("--json", action="store_true", help="print JSON instead of text")
+    bench = commands.add_parser("bench", help="speed/accuracy measurements")
+    bench_commands = bench.add_subparsers(dest="bench_command", required=True)
+    tradeoff = bench_commands.add_parser(
+        "tradeoff", help="sweep a technique's quality settings: frame time against error")
+    tradeoff.add_argument("technique", help="technique to sweep (vtk, pyvista)")
+    tradeoff.add_argument("--scene", default=None,
+                          help="scene file (default: the shipped datasets/smoke_scene.usda)")
+    tradeoff.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
+    tradeoff.add_argument("--frames", type=int, default=3, help="timed frames per setting (>= 3)")
+    tradeoff.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    tradeoff.add_argument("--plot", help="write the error-against-time plot (PNG) here")
+    tradeoff.add_argument("--no-stock", action="store_true",
+                          help="leave out PyVista's stock add_volume rows")
     return parser
 
 
@@ -44,6 +57,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "render":
             return _render(args)
+        if args.command == "bench":
+            return _bench(args)
         return _info(args)
     except (CubemarchError, FileNotFoundError, KeyError, ValueError) as exc:
         print(f"pv-cubemarch: error: {exc}", file=sys.stderr)
@@ -60,6 +75,35 @@ def _render(args) -> int:
             scene.volume_options.setdefault(volume.name, {})["step_scale"] = args.step_scale
     scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
+    return 0
+
+
+def _bench(args) -> int:
+    from pathlib import Path
+
+    from . import bench
+    from .offscreen import gl_info
+    from .scene_io import load_scene
+
+    scene_path = args.scene or str(Path(__file__).resolve().parents[1] / "datasets"
+                                   / "smoke_scene.usda")
+    if not Path(scene_path).exists():
+        raise FileNotFoundError(f"Scene {scene_path!r} not found; pass --scene.")
+    scene = load_scene(scene_path, progress_bar=False)
+    results = bench.run_tradeoff(args.technique, scene, size=args.size, frames=args.frames,
+                                 include_stock=not args.no_stock)
+    print(f"scene {scene_path}, {args.size[0]}x{args.size[1]}, median of {args.frames} frames; "
+          "error against the CPU reference (0.1 voxel steps)")
+    print(bench.format_table(results))
+    if args.json_path:
+        info = gl_info()
+        bench.write_json(results, args.json_path, {
+            "scene": scene_path, "size": list(args.size), "frames": args.frames,
+            "technique": args.technique, "gl_renderer": info["renderer"]})
+        print(f"wrote {args.json_path}")
+    if args.plot:
+        bench.plot_pareto(results, args.plot, title=f"{args.technique} on {Path(scene_path).name}")
+        print(f"wrote {args.plot}")
     return 0
 
 

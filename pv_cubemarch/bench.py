@@ -1,0 +1,276 @@
+"""The speed/accuracy instrument: frame time against error versus the CPU reference.
+
+:func:`run_tradeoff` renders a scene once per quality setting of a technique (plus PyVista's
+stock ``add_volume`` on the same data, camera and transfer function), times real frames
+(drawn and read back), and compares each image with the CPU reference composited over the
+same opaque meshes. A technique adds its sweep with :func:`register_sweep`.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pyvista
+
+from .camera import Camera
+from .reference import render_emission_absorption
+from .rendering import offscreen_plotter, read_pixels, render_frame
+from .scene import Scene
+from .testing import compare_images
+from .volume import VolumeModel
+
+Builder = Callable[[pyvista.Plotter, VolumeModel, dict], object]
+
+
+@dataclass
+class Sweep:
+    """A technique's quality settings and how to add a volume with one of them."""
+
+    technique: str
+    settings: list[dict]
+    build: Builder
+    describe: Callable[[dict], str] = lambda s: ", ".join(f"{k}={v}" for k, v in s.items())
+
+
+@dataclass
+class TradeoffResult:
+    """One row: a technique at one setting, its frame times and its error."""
+
+    technique: str
+    setting: str
+    parameters: dict
+    frame_ms: list[float]
+    errors: dict
+    pareto: bool = False
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def median_ms(self) -> float:
+        """Median frame time in milliseconds."""
+        return float(np.median(self.frame_ms))
+
+
+SWEEPS: dict[str, Sweep] = {}
+
+
+def register_sweep(sweep: Sweep) -> None:
+    """Make ``sweep`` available to :func:`run_tradeoff` and ``pv-cubemarch bench tradeoff``."""
+    SWEEPS[sweep.technique] = sweep
+
+
+def _build_vtk(plotter, volume, setting):
+    from .emission_absorption import add_volume
+
+    return add_volume(plotter, volume, **setting)
+
+
+def _build_stock(plotter, volume: VolumeModel, setting):
+    """PyVista's own ``add_volume`` given the same colours, opacities and sample distance."""
+    transfer = volume.transfer
+    unit = 1.0
+    opacity = -np.expm1(-transfer.table[:, 3].astype(np.float64) * unit)
+    # A ready lookup table: pyvista 0.49's add_volume scales a float opacity *array* to
+    # almost nothing, so colours and opacities go in as the table VTK will use.
+    lut = pyvista.LookupTable()
+    lut.values = np.column_stack([transfer.table[:, :3] * 255.0, opacity * 255.0]).round()
+    lut.scalar_range = transfer.clim
+    grid = volume.grid.copy()
+    grid.point_data["values"] = volume.values.ravel(order="F")
+    actor = plotter.add_volume(grid, scalars="values", cmap=lut, clim=transfer.clim,
+                               opacity_unit_distance=unit, mapper="gpu", shade=False,
+                               show_scalar_bar=False)
+    mapper = actor.mapper
+    mapper.SetAutoAdjustSampleDistances(False)
+    mapper.SetLockSampleDistanceToInputSpacing(False)
+    mapper.SetSampleDistance(setting["step_scale"] * float(np.min(volume.grid.spacing)))
+    actor.user_matrix = np.asarray(volume.transform)
+    return actor
+
+
+STEP_SCALES = (2.0, 1.0, 0.5, 0.25, 0.125)
+register_sweep(Sweep("vtk", [{"step_scale": s} for s in STEP_SCALES], _build_vtk))
+register_sweep(Sweep("pyvista", [{"step_scale": s} for s in (1.0, 0.5)], _build_stock))
+
+
+def opaque_layer(scene: Scene, camera: Camera, size) -> tuple[np.ndarray, np.ndarray]:
+    """The scene's meshes alone: colour in [0, 1] and distance along each pixel's ray.
+
+    The reference composites the volume over this layer, so mesh shading (which the CPU
+    reference does not model) is the same in every image and only the volume is measured.
+    """
+    import vtk
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    meshes_only = Scene(meshes=scene.meshes, lights=scene.lights, up_axis=scene.up_axis,
+                        background=scene.background)
+    plotter = offscreen_plotter(size)
+    try:
+        meshes_only.add_to(plotter, camera=camera)
+        render_frame(plotter)
+        color = read_pixels(plotter).astype(np.float64) / 255.0
+        grab = vtk.vtkWindowToImageFilter()
+        grab.SetInput(plotter.ren_win)
+        grab.SetInputBufferTypeToZBuffer()
+        grab.ReadFrontBufferOff()
+        grab.ShouldRerenderOff()
+        grab.Update()
+        width, height = size
+        zbuffer = vtk_to_numpy(grab.GetOutput().GetPointData().GetScalars()).reshape(height,
+                                                                                      width)
+        near, far = plotter.camera.clipping_range
+        used = Camera.from_pyvista(plotter.camera)
+    finally:
+        plotter.close()
+    zbuffer = zbuffer[::-1].astype(np.float64)
+    ndc = 2.0 * zbuffer - 1.0
+    if used.parallel_projection:
+        depth = near + zbuffer * (far - near)
+    else:
+        depth = 2.0 * near * far / ((far + near) - ndc * (far - near))
+    _, directions = used.rays(size)
+    _, _, forward = used.basis()
+    distance = depth / np.maximum(directions @ forward, 1e-12)
+    distance = np.where(zbuffer >= 1.0, np.inf, distance)
+    return color, distance
+
+
+def time_frames(plotter, frames: int = 3, warmup: int = 2) -> list[float]:
+    """Milliseconds of ``frames`` full frames (drawn and read back) after ``warmup`` frames."""
+    for _ in range(warmup):
+        render_frame(plotter)
+        read_pixels(plotter)
+    times = []
+    for _ in range(frames):
+        start = time.perf_counter()
+        plotter.ren_win.Render()
+        read_pixels(plotter)
+        times.append((time.perf_counter() - start) * 1e3)
+    return times
+
+
+def run_tradeoff(technique: str, scene: Scene, size: Sequence[int] = (640, 480),
+                 frames: int = 3, include_stock: bool = True, reference_step: float = 0.1,
+                 progress_bar: bool | None = None) -> list[TradeoffResult]:
+    """Sweep ``technique``'s settings on ``scene``'s first volume; return one row per setting.
+
+    Parameters
+    ----------
+    technique : str
+        A registered sweep (``'vtk'``; see :data:`SWEEPS`).
+    scene : Scene
+        Meshes, lights, camera and the volume to measure.
+    size : sequence of int
+        ``(width, height)`` of every frame.
+    frames : int
+        Timed frames per setting (median reported), after two warm-up frames.
+    include_stock : bool
+        Add PyVista's stock ``add_volume`` rows to the same run.
+    reference_step : float
+        Step of the CPU reference, in voxels.
+    progress_bar : bool, optional
+        Show progress over the settings; by default only on a terminal.
+    """
+    from .progress import progress
+
+    if technique not in SWEEPS:
+        raise ValueError(f"Unknown technique {technique!r}; choose from {sorted(SWEEPS)}.")
+    if not scene.volumes:
+        raise ValueError("The scene has no volume to measure.")
+    if frames < 3:
+        raise ValueError(f"frames must be at least 3 for a median, got {frames}.")
+    size = (int(size[0]), int(size[1]))
+    volume = scene.volumes[0]
+    camera = scene.camera or scene.default_camera(size[0] / size[1])
+    color, distance = opaque_layer(scene, camera, size)
+    reference = render_emission_absorption(volume, camera, size, step_voxels=reference_step,
+                                           opaque_depth=distance, opaque_color=color,
+                                           near=camera.clipping_range[0]
+                                           if camera.clipping_range else None)
+    runs = [(SWEEPS[technique], s) for s in SWEEPS[technique].settings]
+    if include_stock and technique != "pyvista":
+        runs += [(SWEEPS["pyvista"], s) for s in SWEEPS["pyvista"].settings]
+    results = []
+    for sweep, setting in progress(runs, desc=f"tradeoff {technique}", enabled=progress_bar):
+        meshes_only = Scene(meshes=scene.meshes, lights=scene.lights, up_axis=scene.up_axis,
+                            background=scene.background)
+        plotter = offscreen_plotter(size)
+        try:
+            meshes_only.add_to(plotter, camera=camera)
+            sweep.build(plotter, volume, dict(setting))
+            camera.apply_to(plotter.camera)
+            frame_ms = time_frames(plotter, frames)
+            image = read_pixels(plotter)
+        finally:
+            plotter.close()
+        errors = compare_images(image, reference).as_dict()
+        results.append(TradeoffResult(sweep.technique, sweep.describe(setting), dict(setting),
+                                      frame_ms, errors))
+    mark_pareto(results)
+    return results
+
+
+def mark_pareto(results: list[TradeoffResult]) -> None:
+    """Flag rows that no other row beats on both time and error (RMSE via PSNR)."""
+    for row in results:
+        row.pareto = not any(
+            other.median_ms <= row.median_ms and other.errors["psnr"] >= row.errors["psnr"]
+            and (other.median_ms < row.median_ms or other.errors["psnr"] > row.errors["psnr"])
+            for other in results)
+
+
+def format_table(results: list[TradeoffResult]) -> str:
+    """A plain-text table, times also as ratios to the fastest row of the same run."""
+    fastest = min(r.median_ms for r in results)
+    header = (f"{'technique':<10} {'setting':<18} {'median ms':>10} {'x fastest':>9} "
+              f"{'PSNR dB':>8} {'SSIM':>7} {'max err':>8} {'pareto':>6}")
+    lines = [header, "-" * len(header)]
+    for r in results:
+        e = r.errors
+        lines.append(f"{r.technique:<10} {r.setting:<18} {r.median_ms:>10.1f} "
+                     f"{r.median_ms / fastest:>9.2f} {e['psnr']:>8.2f} {e['ssim']:>7.4f} "
+                     f"{e['max_abs']:>8.0f} {'*' if r.pareto else '':>6}")
+    return "\n".join(lines)
+
+
+def write_json(results: list[TradeoffResult], path, meta: dict) -> None:
+    """Write rows and run metadata (size, scene, GL renderer) as JSON."""
+    payload = {"meta": meta, "results": [
+        {"technique": r.technique, "setting": r.setting, "parameters": r.parameters,
+         "frame_ms": r.frame_ms, "median_ms": r.median_ms, "errors": r.errors,
+         "pareto": r.pareto} for r in results]}
+    Path(path).write_text(json.dumps(payload, indent=2))
+
+
+def plot_pareto(results: list[TradeoffResult], path, title: str = "") -> None:
+    """Error (RMSE in 8-bit levels, from PSNR) against frame time, the Pareto front joined."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    def rmse(row):
+        return 255.0 * 10 ** (-row.errors["psnr"] / 20.0)
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
+    for technique in dict.fromkeys(r.technique for r in results):
+        rows = [r for r in results if r.technique == technique]
+        ax.scatter([r.median_ms for r in rows], [rmse(r) for r in rows], label=technique)
+        for r in rows:
+            ax.annotate(r.setting, (r.median_ms, rmse(r)), fontsize=7, xytext=(3, 3),
+                        textcoords="offset points")
+    front = sorted((r for r in results if r.pareto), key=lambda r: r.median_ms)
+    ax.plot([r.median_ms for r in front], [rmse(r) for r in front], "k--", lw=1,
+            label="Pareto front")
+    ax.set_xlabel("median frame time (ms)")
+    ax.set_ylabel("RMSE vs CPU reference (8-bit levels)")
+    ax.set_yscale("log")
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(str(path))
+    plt.close(fig)
