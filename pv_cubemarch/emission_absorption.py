@@ -14,23 +14,68 @@ import vtk
 
 from .gl_resources import ShaderBindings, Texture
 from .shaders import Replacement, ShaderRecipe
+from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
 from .volume import VolumeModel, make_volume
 
 #: Default early-termination opacity (VTK's own loop also stops above 1 - 1/255).
 DEFAULT_STOP_OPACITY = 0.99
 
 
-def vtk_mapper_recipe(table_size: int) -> ShaderRecipe:
+#: Loop bound of the marcher: thousands of steps per ray are allowed, never an endless loop.
+MAX_STEPS = 16384
+TECHNIQUES = ("vtk", "direct")
+
+
+def march_defines(model: VolumeModel, skip_empty: bool) -> dict:
+    """The feature switches every marching shader of ``model`` needs."""
+    return {"CM_TABLE_SIZE": model.transfer.n_colors, "CM_MAX_STEPS": MAX_STEPS,
+            "CM_SKIP_EMPTY": bool(skip_empty)}
+
+
+def vtk_mapper_recipe(model: VolumeModel, skip_empty: bool) -> ShaderRecipe:
     """The shader replacements of the VTK-mapper path."""
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Base::Dec", "ea_declarations", keep_tag="after"),
-            Replacement("//VTK::ComputeColor::Dec", "ea_vtk_declarations", keep_tag="after"),
+            Replacement("//VTK::ComputeColor::Dec", ("ea_vtk_declarations", "ea_march"),
+                        keep_tag="after"),
             Replacement("//VTK::Shading::Init", "ea_vtk_ray_init"),
-            Replacement("//VTK::Shading::Impl", "ea_vtk_shading"),
         ],
-        defines={"CM_TABLE_SIZE": int(table_size)},
+        defines=march_defines(model, skip_empty),
     )
+
+
+def world_from_texture(model: VolumeModel) -> np.ndarray:
+    """4x4 from texture coordinates (texel centres on the grid points) to world."""
+    dims = np.array(model.dimensions, dtype=np.float64)
+    index_from_texture = np.eye(4)
+    index_from_texture[:3, :3] = np.diag(dims)
+    index_from_texture[:3, 3] = -0.5
+    return model.world_from_index() @ index_from_texture
+
+
+def bind_march(bindings: ShaderBindings, model: VolumeModel, step_scale: float,
+               stop_opacity: float, skip_empty: bool) -> bool:
+    """Give ``bindings`` what the shared marcher reads; return whether skipping is on.
+
+    Skipping is switched off (and its texture never made) when no brick is empty.
+    """
+    table = model.transfer.table.reshape(1, -1, 4)
+    bindings.add_texture("cm_transferTable", Texture(table, kind="2d", interpolate=True))
+    bindings.set_uniform("cm_clim", model.transfer.clim)
+    bindings.set_uniform("cm_stopOpacity", stop_opacity)
+    bindings.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
+    bindings.set_uniform("cm_stepScale", step_scale)
+    bindings.set_uniform("cm_worldFromTexture", world_from_texture(model))
+    if not skip_empty:
+        return False
+    bricks = brick_extinction(model.values, model.transfer, DEFAULT_BRICK_SIZE)
+    if not (bricks <= 0).any():
+        return False
+    bindings.add_texture("cm_brickExtinction", Texture(bricks, kind="3d", interpolate=False))
+    bindings.set_uniform("cm_brickCount", tuple(float(n) for n in bricks.shape))
+    bindings.set_uniform("cm_brickSize", float(DEFAULT_BRICK_SIZE))
+    return True
 
 
 def world_voxel_size(volume: VolumeModel) -> float:
@@ -48,8 +93,10 @@ def add_volume(
     opacity="linear",
     clim=None,
     opacity_unit_distance: float | None = None,
+    technique: str = "vtk",
     step_scale: float = 0.5,
     stop_opacity: float = DEFAULT_STOP_OPACITY,
+    skip_empty: bool = True,
     transform=None,
     nan_policy: str = "raise",
     name: str | None = None,
@@ -74,11 +121,18 @@ def add_volume(
         Scalar range of the transfer function; the data range by default.
     opacity_unit_distance : float, optional
         World length that ``opacity`` refers to; the mean grid spacing by default.
+    technique : str
+        ``'vtk'``: marched inside VTK's GPU volume mapper (it sets up the ray). ``'direct'``:
+        the direct screen-space marcher on a box actor, the baseline of the cube-map
+        technique. Both run the same marching GLSL.
     step_scale : float
-        Ray step as a fraction of the smallest voxel edge. Smaller is more accurate and
-        slower (cost grows as ``1 / step_scale``).
+        Step length in texels along the ray's dominant texture axis (texel-spaced sampling).
+        Smaller is more accurate and slower (cost grows as ``1 / step_scale``).
     stop_opacity : float
         Early ray termination: stop once the accumulated opacity exceeds this (in (0, 1]).
+    skip_empty : bool
+        Step over 8^3 bricks whose values map to zero extinction. Exact (it skips only what
+        adds nothing); costs one small texture, and is left out when no brick is empty.
     transform : array_like, optional
         4x4 matrix placing the grid in the world.
     nan_policy : str
@@ -104,6 +158,8 @@ def add_volume(
         raise ValueError(f"step_scale must be a positive number, got {step_scale}.")
     if not 0 < float(stop_opacity) <= 1:
         raise ValueError(f"stop_opacity must be in (0, 1], got {stop_opacity}.")
+    if technique not in TECHNIQUES:
+        raise ValueError(f"technique must be one of {TECHNIQUES}, got {technique!r}.")
     if isinstance(volume, VolumeModel):
         model = volume
     else:
@@ -111,7 +167,11 @@ def add_volume(
                             opacity_unit_distance=opacity_unit_distance, transform=transform,
                             nan_policy=nan_policy, name=name or "volume")
     component = plotter.cubemarch  # created now so its close hook frees our GPU resources
-    actor = _build_actor(plotter, model, float(step_scale), float(stop_opacity))
+    if technique == "direct":
+        from .direct_march import build_direct_actor as build
+    else:
+        build = _build_actor
+    actor = build(plotter, model, float(step_scale), float(stop_opacity), bool(skip_empty))
     plotter.add_actor(actor, name=name or model.name, reset_camera=False)
     actor.cubemarch.actor = actor
     component.track(actor.cubemarch)
@@ -147,7 +207,8 @@ class VolumeBinding:
         self.bindings.release()
 
 
-def _build_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: float):
+def _build_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: float,
+                 skip_empty: bool):
     grid = pyvista.ImageData(dimensions=model.dimensions, spacing=model.grid.spacing,
                              origin=model.grid.origin)
     grid.direction_matrix = model.grid.direction_matrix
@@ -168,13 +229,11 @@ def _build_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: f
     matrix = vtk.vtkMatrix4x4()
     matrix.DeepCopy(np.asarray(model.transform, dtype=np.float64).ravel().tolist())
     actor.SetUserMatrix(matrix)
-    recipe = vtk_mapper_recipe(model.transfer.n_colors)
+    bindings = ShaderBindings(mapper, plotter.renderer)
+    skipping = bind_march(bindings, model, step_scale, stop_opacity, skip_empty)
+    recipe = vtk_mapper_recipe(model, skipping)
+    bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
-    bindings = ShaderBindings(mapper, plotter.renderer, recipe)
-    table = model.transfer.table.reshape(1, -1, 4)
-    bindings.add_texture("cm_transferTable", Texture(table, kind="2d", interpolate=True))
-    bindings.set_uniform("cm_clim", model.transfer.clim)
-    bindings.set_uniform("cm_stopOpacity", stop_opacity)
     pyvista.set_new_attribute(
         actor, "cubemarch", VolumeBinding(model, bindings, recipe, step_scale, stop_opacity))
     return actor

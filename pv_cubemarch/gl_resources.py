@@ -136,15 +136,11 @@ def set_uniform(program, name: str, value: Any) -> None:
         program.SetUniformf(name, float(array))
     elif array.shape in ((2,), (3,), (4,)):
         getattr(program, f"SetUniform{array.size}f")(name, [float(v) for v in array])
-    elif array.shape == (4, 4):
-        matrix = vtk.vtkMatrix4x4()
-        matrix.DeepCopy(array.ravel().tolist())
-        # VTK uploads its matrices transposed for its row-vector shaders; GLSL
-        # then reads them as M * v with the usual column-vector meaning.
-        program.SetUniformMatrix(name, matrix)
-    elif array.shape == (3, 3):
-        matrix = vtk.vtkMatrix3x3()
-        matrix.DeepCopy(array.ravel().tolist())
+    elif array.shape in ((4, 4), (3, 3)):
+        # vtkShaderProgram uploads a vtkMatrix row by row where GL expects columns, so the
+        # transpose goes in and GLSL reads M * v with the usual column-vector meaning.
+        matrix = vtk.vtkMatrix4x4() if array.shape == (4, 4) else vtk.vtkMatrix3x3()
+        matrix.DeepCopy(array.T.ravel().tolist())
         program.SetUniformMatrix(name, matrix)
     else:
         raise ValueError(f"Uniform {name!r}: unsupported value shape {array.shape}.")

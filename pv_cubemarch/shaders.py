@@ -56,13 +56,14 @@ def define_lines(defines: dict[str, object]) -> str:
 class Replacement:
     """Replace the VTK ``tag`` of ``stage`` ('fragment' or 'vertex') by ``snippet``.
 
-    ``keep_tag`` puts the original tag back, so VTK still fills it: ``"after"`` the snippet
+    ``snippet`` may be several names, concatenated in order (VTK keeps one replacement per
+    tag). ``keep_tag`` puts the original tag back, so VTK still fills it: ``"after"`` the snippet
     (for declarations that VTK's code may use) or ``"before"`` it (to post-process what VTK
     computed there); ``False`` drops VTK's code for that tag.
     """
 
     tag: str
-    snippet: str
+    snippet: str | tuple[str, ...]
     stage: str = "fragment"
     keep_tag: str | bool = False
 
@@ -82,7 +83,7 @@ class ShaderRecipe:
     @property
     def snippet_names(self) -> tuple[str, ...]:
         """Names of every snippet the shader is built from."""
-        names = [r.snippet for r in self.replacements]
+        names = [name for r in self.replacements for name in _names(r.snippet)]
         return tuple(names + ([self.standalone] if self.standalone else []))
 
     def code_for(self, replacement: Replacement, first: bool) -> str:
@@ -91,10 +92,11 @@ class ShaderRecipe:
             raise ValueError(f"keep_tag must be False, 'before' or 'after', got "
                              f"{replacement.keep_tag!r}.")
         parts = [replacement.tag] if replacement.keep_tag == "before" else []
-        parts.append(f"{MARKER}{replacement.snippet}")
         if first and self.defines:
             parts.append(define_lines(self.defines))
-        parts.append(snippet_source(replacement.snippet))
+        for name in _names(replacement.snippet):
+            parts.append(f"{MARKER}{name}")
+            parts.append(snippet_source(name))
         if replacement.keep_tag == "after":
             parts.append(replacement.tag)
         return "\n".join(parts) + "\n"
@@ -121,6 +123,10 @@ class ShaderRecipe:
             raise ValueError(f"Snippet {self.standalone!r} must start with //VTK::System::Dec.")
         defines = define_lines(self.defines)
         return "\n".join([header, f"{MARKER}{self.standalone}", defines, rest])
+
+
+def _names(snippet: str | tuple[str, ...]) -> tuple[str, ...]:
+    return (snippet,) if isinstance(snippet, str) else tuple(snippet)
 
 
 def _snippet_at_error(log: str, snippets: tuple[str, ...]) -> tuple[str, ...]:

@@ -15,7 +15,7 @@ def test_every_shipped_snippet_loads():
 
     names = [p.name[:-5] for p in resources.files(shaders.SNIPPET_PACKAGE).iterdir()
              if p.name.endswith(".glsl")]
-    assert {"ea_declarations", "ea_vtk_ray_init", "ea_vtk_shading"} <= set(names)
+    assert {"ea_declarations", "ea_march", "ea_vtk_ray_init", "ea_vtk_declarations"} <= set(names)
     for name in names:
         assert snippet_source(name).strip()
 
@@ -59,7 +59,7 @@ def test_compile_error_raises_with_snippet_name(monkeypatch, plotter_factory, bl
     original = shaders.snippet_source
 
     def broken(name):
-        if name == "ea_vtk_shading":
+        if name == "ea_vtk_ray_init":
             return "float cm_broken = ;"
         return original(name)
 
@@ -68,9 +68,9 @@ def test_compile_error_raises_with_snippet_name(monkeypatch, plotter_factory, bl
     cm.add_volume(pl, blob)
     with pytest.raises(cm.ShaderCompileError) as info:
         cm.render_frame(pl)
-    assert info.value.snippets == ("ea_vtk_shading",)
+    assert info.value.snippets == ("ea_vtk_ray_init",)
     assert "error" in info.value.log.lower()
-    assert "ea_vtk_shading" in str(info.value)
+    assert "ea_vtk_ray_init" in str(info.value)
 
 
 def test_working_shader_raises_nothing(plotter_factory, blob):
