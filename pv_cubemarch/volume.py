@@ -92,7 +92,28 @@ def as_image_data(data, scalars: str | None = None, nan_policy: str = "raise"):
         )
     values = _checked_values(array, scalars, nan_policy)
     values = values.reshape(tuple(grid.dimensions), order="F")
+    grid, values = _thicken_flat_axes(grid, values)
     return grid, np.ascontiguousarray(values, dtype=np.float32), scalars
+
+
+def _thicken_flat_axes(grid: pyvista.ImageData, values: np.ndarray):
+    """Give an axis with a single point the thickness of one voxel, centred on the point.
+
+    A 1-point axis spans no length as point data; drawn as a slab one spacing thick with
+    the values constant across it, a 1xNxM grid is a visible sheet and a 1x1x1 grid a cube.
+    """
+    flat = [axis for axis in range(3) if values.shape[axis] == 1]
+    if not flat:
+        return grid, values
+    spacing = np.array(grid.spacing, dtype=np.float64)
+    origin = np.array(grid.origin, dtype=np.float64)
+    direction = np.asarray(grid.direction_matrix, dtype=np.float64)
+    for axis in flat:
+        values = np.repeat(values, 2, axis=axis)
+        origin = origin - direction[:, axis] * spacing[axis] / 2.0
+    thick = pyvista.ImageData(dimensions=values.shape, spacing=spacing, origin=origin)
+    thick.direction_matrix = direction
+    return thick, values
 
 
 def _as_uniform_grid(data) -> pyvista.ImageData:
