@@ -30,6 +30,12 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--camera", help="name (prim path) of the scene camera to use")
     render.add_argument("--step-scale", type=float,
                         help="ray step as a fraction of a voxel, for every volume")
+    render.add_argument("--technique", choices=("vtk", "direct"),
+                        help="emission/absorption path for every volume")
+    render.add_argument("--stop-opacity", type=float,
+                        help="early ray termination threshold for every volume")
+    render.add_argument("--no-skip-empty", action="store_true",
+                        help="march empty bricks too (for comparisons)")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
     info.add_argument("scene", nargs="?", help="scene file to describe")
@@ -39,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench_commands = bench.add_subparsers(dest="bench_command", required=True)
     tradeoff = bench_commands.add_parser(
         "tradeoff", help="sweep a technique's quality settings: frame time against error")
-    tradeoff.add_argument("technique", help="technique to sweep (vtk, pyvista)")
+    tradeoff.add_argument("technique", help="technique to sweep (vtk, direct, pyvista)")
     tradeoff.add_argument("--scene", default=None,
                           help="scene file (default: the shipped datasets/smoke_scene.usda)")
     tradeoff.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
@@ -70,9 +76,12 @@ def _render(args) -> int:
 
     progress_bar = False if args.no_progress else None
     scene = load_scene(args.scene, progress_bar=progress_bar)
-    if args.step_scale is not None:
-        for volume in scene.volumes:
-            scene.volume_options.setdefault(volume.name, {})["step_scale"] = args.step_scale
+    chosen = {"step_scale": args.step_scale, "technique": args.technique,
+              "stop_opacity": args.stop_opacity,
+              "skip_empty": False if args.no_skip_empty else None}
+    for volume in scene.volumes:
+        options = scene.volume_options.setdefault(volume.name, {})
+        options.update({k: v for k, v in chosen.items() if v is not None})
     scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
     return 0

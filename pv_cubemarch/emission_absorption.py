@@ -191,6 +191,8 @@ class VolumeBinding:
         self.step_scale = step_scale
         self.stop_opacity = stop_opacity
         self.actor = None
+        self.vtk_input: pyvista.ImageData | None = None
+        self.brick_builds = 1 if "cm_brickExtinction" in bindings.textures else 0
 
     @property
     def name(self) -> str:
@@ -205,6 +207,29 @@ class VolumeBinding:
     def release(self) -> None:
         """Free our GPU resources and observers."""
         self.bindings.release()
+
+    def set_values(self, values) -> None:
+        """Replace the volume's data (same shape); its GPU copy and skip bricks follow.
+
+        The empty-space bricks are rebuilt here, once per change of the data, never per frame.
+        """
+        from .volume import _checked_values
+
+        values = _checked_values(np.asarray(values), self.model.name, "raise")
+        if values.shape != self.model.values.shape:
+            raise ValueError(f"values must keep the volume's shape {self.model.values.shape}, "
+                             f"got {values.shape}.")
+        self.model.values = np.ascontiguousarray(values, dtype=np.float32)
+        if "cm_volume" in self.bindings.textures:
+            self.bindings.textures["cm_volume"].set_data(self.model.values)
+        if self.vtk_input is not None:
+            self.vtk_input.point_data["scalars"] = self.model.values.ravel(order="F")
+            self.vtk_input.Modified()
+        bricks = self.bindings.textures.get("cm_brickExtinction")
+        if bricks is not None:
+            bricks.set_data(brick_extinction(self.model.values, self.model.transfer,
+                                             DEFAULT_BRICK_SIZE))
+            self.brick_builds += 1
 
 
 def _build_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: float,
@@ -234,6 +259,7 @@ def _build_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: f
     recipe = vtk_mapper_recipe(model, skipping)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
-    pyvista.set_new_attribute(
-        actor, "cubemarch", VolumeBinding(model, bindings, recipe, step_scale, stop_opacity))
+    binding = VolumeBinding(model, bindings, recipe, step_scale, stop_opacity)
+    binding.vtk_input = grid
+    pyvista.set_new_attribute(actor, "cubemarch", binding)
     return actor

@@ -3,10 +3,11 @@
 USD composes references, payloads and instancing for us; we walk the composed stage
 (instance proxies included), load what is drawable and record what we skip and why.
 Transfer functions are not part of USD: a ``Volume`` prim may carry ``cubemarch:cmap``,
-``cubemarch:opacity``, ``cubemarch:clim``, ``cubemarch:opacityUnitDistance`` and
-``cubemarch:stepScale``; the field prim a ``field:*`` relationship targets has an asset
-``filePath`` (.vti/.vtk/.npy/.npz) and, for numpy files, optional ``cubemarch:origin`` and
-``cubemarch:spacing``.
+``cubemarch:opacity``, ``cubemarch:clim`` and ``cubemarch:opacityUnitDistance``, and the
+options of :func:`pv_cubemarch.add_volume` as ``cubemarch:stepScale``,
+``cubemarch:technique``, ``cubemarch:stopOpacity`` and ``cubemarch:skipEmpty``. The field
+prim a ``field:*`` relationship targets has an asset ``filePath`` (.vti/.vtk/.npy/.npz)
+and, for numpy files, optional ``cubemarch:origin`` and ``cubemarch:spacing``.
 """
 
 from __future__ import annotations
@@ -257,10 +258,15 @@ class _StageReader:
                                  f"{fields[field_name]}.")
         grid = _read_field(field_prim)
         attrs = {key: _attr(prim, f"cubemarch:{key}") for key in
-                 ("cmap", "opacity", "clim", "opacityUnitDistance", "stepScale")}
+                 ("cmap", "opacity", "clim", "opacityUnitDistance", "stepScale", "technique",
+                  "stopOpacity", "skipEmpty")}
         options = {}
-        if attrs["stepScale"] is not None:
-            options["step_scale"] = float(attrs["stepScale"])
+        for key, option, kind in (("stepScale", "step_scale", float),
+                                  ("technique", "technique", str),
+                                  ("stopOpacity", "stop_opacity", float),
+                                  ("skipEmpty", "skip_empty", bool)):
+            if attrs[key] is not None:
+                options[option] = kind(attrs[key])
         opacity = attrs["opacity"]
         if opacity is not None and not isinstance(opacity, str):
             opacity = [float(v) for v in opacity]

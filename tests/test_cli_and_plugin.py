@@ -72,3 +72,39 @@ def test_pyvista_read_usd_in_fresh_process():
                             timeout=120)
     assert result.returncode == 0, result.stderr
     assert "/World/Torus" in result.stdout
+
+
+def test_render_options_reach_every_volume(tmp_path, monkeypatch):
+    import pv_cubemarch.emission_absorption as ea
+
+    seen = []
+    real = ea.add_volume
+
+    def spy(plotter, volume, scalars=None, **kwargs):
+        seen.append(kwargs)
+        return real(plotter, volume, scalars, **kwargs)
+
+    monkeypatch.setattr(ea, "add_volume", spy)
+    out = tmp_path / "d.png"
+    assert main(["render", str(SCENE), "-o", str(out), "--size", "40x30", "--technique",
+                 "direct", "--stop-opacity", "0.95", "--no-skip-empty", "--no-progress"]) == 0
+    assert seen == [{"technique": "direct", "stop_opacity": 0.95, "skip_empty": False}]
+
+
+def test_usd_volume_options(tmp_path):
+    from pxr import Sdf, Usd
+
+    import pv_cubemarch as cm
+
+    stage = Usd.Stage.Open(str(SCENE))
+    prim = stage.GetPrimAtPath("/World/Smoke")
+    prim.CreateAttribute("cubemarch:technique", Sdf.ValueTypeNames.String).Set("direct")
+    prim.CreateAttribute("cubemarch:stepScale", Sdf.ValueTypeNames.Float).Set(0.25)
+    prim.CreateAttribute("cubemarch:skipEmpty", Sdf.ValueTypeNames.Bool).Set(False)
+    path = tmp_path / "scene.usda"
+    stage.GetRootLayer().Export(str(path))
+    (tmp_path / "smoke_density.vti").write_bytes((SCENE.parent / "smoke_density.vti").read_bytes())
+    scene = cm.load_scene(path)
+    assert scene.volume_options["/World/Smoke"] == {"technique": "direct", "step_scale": 0.25,
+                                                    "skip_empty": False}
+    assert scene.render(size=(40, 30)).std() > 3

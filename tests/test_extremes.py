@@ -170,3 +170,24 @@ def test_one_by_n_by_m_sheet(plotter_factory, technique):
                                            technique)
     worst, covered = interior_error(model, camera, image, reference, 0.05)
     assert covered > 0.1 and worst <= 4
+
+
+@pytest.mark.parametrize("technique", TECHNIQUES)
+def test_set_values_updates_image_and_rebuilds_bricks_once(plotter_factory, technique):
+    grid = blob_grid(24)
+    values = grid.point_data["density"].reshape((24, 24, 24), order="F")
+    sparse = np.where(values > 0.5, values, 0.0)
+    model = cm.make_volume(sparse, clim=(0, 1), opacity=[0, 0, 1, 1], opacity_unit_distance=3)
+    pl = plotter_factory(SIZE)
+    actor = cm.add_volume(pl, model, technique=technique)
+    set_camera(pl, (60.0, 40.0, 80.0), focal=(11.5, 11.5, 11.5))
+    before = cm.render_image(pl)
+    assert actor.cubemarch.brick_builds == 1
+    cm.render_image(pl)
+    assert actor.cubemarch.brick_builds == 1  # frames do not rebuild it
+    actor.cubemarch.set_values(np.roll(sparse, 6, axis=0))
+    after = cm.render_image(pl)
+    assert actor.cubemarch.brick_builds == 2
+    assert np.abs(after.astype(int) - before.astype(int)).max() > 20
+    with pytest.raises(ValueError, match="shape"):
+        actor.cubemarch.set_values(np.zeros((3, 3, 3)))
