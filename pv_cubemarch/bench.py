@@ -110,7 +110,7 @@ def opaque_layer(scene: Scene, camera: Camera, size) -> tuple[np.ndarray, np.nda
 
     meshes_only = Scene(meshes=scene.meshes, lights=scene.lights, up_axis=scene.up_axis,
                         background=scene.background)
-    plotter = offscreen_plotter(size)
+    plotter = _bench_plotter(size)
     try:
         meshes_only.add_to(plotter, camera=camera)
         render_frame(plotter)
@@ -141,6 +141,17 @@ def opaque_layer(scene: Scene, camera: Camera, size) -> tuple[np.ndarray, np.nda
     return color, distance
 
 
+def _bench_plotter(size):
+    """A plotter without multisampling, the same for every row and the opaque layer.
+
+    Mesh edges then match the reference's opaque layer in every row (the direct marcher
+    turns multisampling off anyway).
+    """
+    plotter = offscreen_plotter(size)
+    plotter.ren_win.SetMultiSamples(0)
+    return plotter
+
+
 def time_frames(plotter, frames: int = 3, warmup: int = 2) -> list[float]:
     """Milliseconds of ``frames`` full frames (drawn and read back) after ``warmup`` frames."""
     for _ in range(warmup):
@@ -155,15 +166,16 @@ def time_frames(plotter, frames: int = 3, warmup: int = 2) -> list[float]:
     return times
 
 
-def run_tradeoff(technique: str, scene: Scene, size: Sequence[int] = (640, 480),
+def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[int] = (640, 480),
                  frames: int = 3, include_stock: bool = True, reference_step: float = 0.1,
                  progress_bar: bool | None = None) -> list[TradeoffResult]:
     """Sweep ``technique``'s settings on ``scene``'s first volume; return one row per setting.
 
     Parameters
     ----------
-    technique : str
-        A registered sweep (``'vtk'``; see :data:`SWEEPS`).
+    technique : str or sequence of str
+        One or more registered sweeps (``'vtk'``, ``'direct'``, ``'pyvista'``; see
+        :data:`SWEEPS`), measured side by side in the same run.
     scene : Scene
         Meshes, lights, camera and the volume to measure.
     size : sequence of int
@@ -179,8 +191,11 @@ def run_tradeoff(technique: str, scene: Scene, size: Sequence[int] = (640, 480),
     """
     from .progress import progress
 
-    if technique not in SWEEPS:
-        raise ValueError(f"Unknown technique {technique!r}; choose from {sorted(SWEEPS)}.")
+    techniques = [technique] if isinstance(technique, str) else list(technique)
+    unknown = [t for t in techniques if t not in SWEEPS]
+    if unknown or not techniques:
+        raise ValueError(f"Unknown technique {unknown or technique!r}; choose from "
+                         f"{sorted(SWEEPS)}.")
     if not scene.volumes:
         raise ValueError("The scene has no volume to measure.")
     if frames < 3:
@@ -193,14 +208,14 @@ def run_tradeoff(technique: str, scene: Scene, size: Sequence[int] = (640, 480),
                                            opaque_depth=distance, opaque_color=color,
                                            near=camera.clipping_range[0]
                                            if camera.clipping_range else None)
-    runs = [(SWEEPS[technique], s) for s in SWEEPS[technique].settings]
-    if include_stock and technique != "pyvista":
+    runs = [(SWEEPS[name], s) for name in techniques for s in SWEEPS[name].settings]
+    if include_stock and "pyvista" not in techniques:
         runs += [(SWEEPS["pyvista"], s) for s in SWEEPS["pyvista"].settings]
     results = []
-    for sweep, setting in progress(runs, desc=f"tradeoff {technique}", enabled=progress_bar):
+    for sweep, setting in progress(runs, desc="tradeoff", enabled=progress_bar):
         meshes_only = Scene(meshes=scene.meshes, lights=scene.lights, up_axis=scene.up_axis,
                             background=scene.background)
-        plotter = offscreen_plotter(size)
+        plotter = _bench_plotter(size)
         try:
             meshes_only.add_to(plotter, camera=camera)
             sweep.build(plotter, volume, dict(setting))

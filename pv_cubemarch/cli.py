@@ -45,7 +45,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench_commands = bench.add_subparsers(dest="bench_command", required=True)
     tradeoff = bench_commands.add_parser(
         "tradeoff", help="sweep a technique's quality settings: frame time against error")
-    tradeoff.add_argument("technique", help="technique to sweep (vtk, direct, pyvista)")
+    tradeoff.add_argument("technique", nargs="+",
+                          help="technique(s) to sweep side by side: vtk, direct, pyvista")
     tradeoff.add_argument("--scene", default=None,
                           help="scene file (default: the shipped datasets/smoke_scene.usda)")
     tradeoff.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
@@ -111,7 +112,8 @@ def _bench(args) -> int:
             "technique": args.technique, "gl_renderer": info["renderer"]})
         print(f"wrote {args.json_path}")
     if args.plot:
-        bench.plot_pareto(results, args.plot, title=f"{args.technique} on {Path(scene_path).name}")
+        bench.plot_pareto(results, args.plot,
+                          title=f"{', '.join(args.technique)} on {Path(scene_path).name}")
         print(f"wrote {args.plot}")
     return 0
 

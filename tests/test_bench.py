@@ -68,7 +68,7 @@ def test_bench_cli(tmp_path, capsys):
     assert main(["bench", "tradeoff", "pyvista", "--size", "48x36", "--json", str(out),
                  "--plot", str(tmp_path / "p.png")]) == 0
     assert "median ms" in capsys.readouterr().out
-    assert json.loads(out.read_text())["meta"]["technique"] == "pyvista"
+    assert json.loads(out.read_text())["meta"]["technique"] == ["pyvista"]
 
 
 def test_bad_bench_arguments():
