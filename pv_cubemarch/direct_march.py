@@ -60,7 +60,8 @@ def direct_recipe(defines: dict) -> ShaderRecipe:
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Color::Dec",
-                        ("ea_declarations", "ea_direct_declarations", "ea_march"),
+                        ("ea_declarations", "ea_direct_declarations", "ea_march",
+                         "ea_screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_direct_fragment", keep_tag="before"),
         ],
