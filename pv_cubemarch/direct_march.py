@@ -48,11 +48,32 @@ class SceneDepth:
         self.gl_object.CopyFromFrameBuffer(x0, y0, 0, 0, width, height)
         return self.gl_object
 
+    def shared(self) -> _CopiedDepth:
+        """The same texture for another binding in the frame, without copying again."""
+        return _CopiedDepth(self)
+
     def release(self) -> None:
         """Free the texture."""
         if self.gl_object is not None and self._window is not None:
             self.gl_object.ReleaseGraphicsResources(self._window)
         self.gl_object = self._window = None
+
+
+class _CopiedDepth:
+    """A second binding of a :class:`SceneDepth` already copied in this frame."""
+
+    kind = "2d"
+    nbytes = 0
+
+    def __init__(self, depth: SceneDepth):
+        self.depth = depth
+
+    def ensure(self, window) -> vtkTextureObject:
+        return self.depth.gl_object if self.depth.gl_object is not None else \
+            self.depth.ensure(window)
+
+    def release(self) -> None:
+        """Nothing: the :class:`SceneDepth` owns the texture."""
 
 
 def direct_recipe(defines: dict) -> ShaderRecipe:
@@ -64,6 +85,8 @@ def direct_recipe(defines: dict) -> ShaderRecipe:
                          "ea_screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_direct_fragment", keep_tag="before"),
+            Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
+                        keep_tag="before"),
         ],
         defines=defines,
     )
@@ -82,12 +105,8 @@ def _numpy(matrix) -> np.ndarray:
     return np.array([[matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
 
 
-def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: float,
-                       skip_empty: bool):
-    """A box actor that marches ``model`` with the shared GLSL; returns the actor."""
-    from .emission_absorption import VolumeBinding, bind_march, march_defines, world_from_texture
-
-    renderer = plotter.renderer
+def _box_actor(model: VolumeModel) -> pyvista.Actor:
+    """The volume's box in its world placement, back faces only, drawn as translucent."""
     upper = np.array(model.dimensions, dtype=np.float64) - 1.0
     box = pyvista.Box(bounds=(0, upper[0], 0, upper[1], 0, upper[2])).triangulate()
     mapper = vtk.vtkOpenGLPolyDataMapper()
@@ -99,31 +118,123 @@ def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opac
     matrix = vtk.vtkMatrix4x4()
     matrix.DeepCopy(model.world_from_index().ravel().tolist())
     actor.SetUserMatrix(matrix)
+    return actor
 
-    bindings = ShaderBindings(mapper, renderer)
-    skipping = bind_march(bindings, model, step_scale, stop_opacity, skip_empty)
-    bindings.add_texture("cm_volume", Texture(model.values, kind="3d", interpolate=True))
-    bindings.add_texture("cm_sceneDepth", SceneDepth(renderer))
+
+def _bind_camera(target, renderer, model: VolumeModel) -> None:
+    """Per-frame camera uniforms of the screen-ray code, for a binding or a pass."""
+    from .emission_absorption import world_from_texture
+
     to_texture = np.linalg.inv(world_from_texture(model))
+    target.set_uniform("cm_textureFromView",
+                       lambda: to_texture @ np.linalg.inv(_camera_matrices(renderer)[0]))
+    target.set_uniform("cm_inverseProjection",
+                       lambda: np.linalg.inv(_camera_matrices(renderer)[1]))
+    target.set_uniform("cm_projection", lambda: _camera_matrices(renderer)[1])
+    target.set_uniform("cm_viewport", lambda: (*renderer.GetOrigin(), *renderer.GetSize()))
 
-    def texture_from_view():
-        view, _ = _camera_matrices(renderer)
-        return to_texture @ np.linalg.inv(view)
 
-    bindings.set_uniform("cm_textureFromView", texture_from_view)
-    bindings.set_uniform("cm_inverseProjection",
-                         lambda: np.linalg.inv(_camera_matrices(renderer)[1]))
-    bindings.set_uniform("cm_projection", lambda: _camera_matrices(renderer)[1])
-    bindings.set_uniform("cm_viewport",
-                         lambda: (*renderer.GetOrigin(), *renderer.GetSize()))
-    recipe = direct_recipe(march_defines(model, skipping))
-    bindings.recipe = recipe
-    recipe.apply(actor.GetShaderProperty())
-    # Weighted order-independent translucency would reweight our single layer; plain
-    # blending composites it exactly.
-    renderer.SetUseOIT(False)
+def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: float,
+                       skip_empty: bool, downsample: int = 1):
+    """A box actor that marches ``model`` with the shared GLSL; returns the actor.
+
+    With ``downsample`` > 1 the rays are marched by a full-screen pass at 1/downsample of
+    the viewport, and the box only upsamples the result with a depth-aware filter.
+    """
+    from .emission_absorption import VolumeBinding, bind_march, march_defines
+
+    renderer = plotter.renderer
+    actor = _box_actor(model)
+    volume_texture = Texture(model.values, kind="3d", interpolate=True)
+    depth = SceneDepth(renderer)
+    bindings = ShaderBindings(actor.GetMapper(), renderer)
     # The opaque depth is copied each frame, which a multisampled framebuffer refuses.
     plotter.ren_win.SetMultiSamples(0)
-    pyvista.set_new_attribute(actor, "cubemarch", VolumeBinding(
-        model, bindings, recipe, step_scale, stop_opacity))
+    # Weighted order-independent translucency would reweight our single layer.
+    renderer.SetUseOIT(False)
+    extra = []
+    if downsample == 1:
+        skipping = bind_march(bindings, model, step_scale, stop_opacity, skip_empty)
+        bindings.add_texture("cm_volume", volume_texture)
+        bindings.add_texture("cm_sceneDepth", depth)
+        recipe = direct_recipe(march_defines(model, skipping))
+    else:
+        overlay, low_pass = _reduced_resolution(plotter, model, step_scale, stop_opacity,
+                                                skip_empty, downsample, volume_texture, depth)
+        bindings = ShaderBindings(actor.GetMapper(), overlay)
+        bindings.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
+        bindings.add_texture("cm_lowColor", low_pass.output(0))
+        bindings.add_texture("cm_lowDepth", low_pass.output(1))
+        bindings.add_texture("cm_sceneDepth", depth.shared())
+        bindings.set_uniform("cm_lowSize", lambda: tuple(float(v) for v in low_pass.size))
+        bindings.set_uniform("cm_depthSharpness", DEPTH_SHARPNESS)
+        recipe = upsample_recipe(march_defines(model, False))
+        renderer = overlay
+        extra = [low_pass.release, lambda: plotter.ren_win.RemoveRenderer(overlay)]
+    _bind_camera(bindings, plotter.renderer, model)
+    bindings.recipe = recipe
+    recipe.apply(actor.GetShaderProperty())
+    binding = VolumeBinding(model, bindings, recipe, step_scale, stop_opacity)
+    binding.extra_release = extra
+    binding.renderer = renderer
+    binding.targets = [bindings] + ([low_pass] if downsample > 1 else [])
+    binding.downsample = downsample
+    pyvista.set_new_attribute(actor, "cubemarch", binding)
     return actor
+
+
+#: Depth-aware upsampling: a low-resolution sample stops counting once its depth differs
+#: from the pixel's by 1/DEPTH_SHARPNESS of the pixel's depth (5 %).
+DEPTH_SHARPNESS = 20.0
+
+
+def upsample_recipe(defines: dict) -> ShaderRecipe:
+    """The box actor's replacements when it upsamples a reduced-resolution pass."""
+    return ShaderRecipe(
+        replacements=[
+            Replacement("//VTK::Color::Dec",
+                        ("ea_declarations", "ea_direct_declarations", "ea_march",
+                         "ea_screen_ray", "ea_upsample_declarations"),
+                        keep_tag="after"),
+            Replacement("//VTK::Light::Impl", "ea_upsample_fragment", keep_tag="before"),
+            Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
+                        keep_tag="before"),
+        ],
+        defines=defines,
+    )
+
+
+def _reduced_resolution(plotter, model, step_scale, stop_opacity, skip_empty, downsample,
+                        volume_texture, depth):
+    """An overlay renderer (drawn after the scene, depth kept) and its low-resolution pass."""
+    from .emission_absorption import bind_march, march_defines
+    from .gl_resources import RenderToTexturePass
+
+    main = plotter.renderer
+    window = plotter.ren_win
+    overlay = vtk.vtkOpenGLRenderer()
+    window.SetNumberOfLayers(max(window.GetNumberOfLayers(), main.GetLayer() + 2))
+    overlay.SetLayer(main.GetLayer() + 1)
+    overlay.SetViewport(main.GetViewport())
+    overlay.SetActiveCamera(main.GetActiveCamera())
+    overlay.SetPreserveColorBuffer(True)
+    overlay.SetPreserveDepthBuffer(True)
+    overlay.InteractiveOff()
+    overlay.SetUseOIT(False)
+    window.AddRenderer(overlay)
+
+    def low_size():
+        width, height = main.GetSize()
+        return (-(-width // downsample), -(-height // downsample))
+
+    recipe = ShaderRecipe(standalone=("ea_reduced_head", "ea_declarations",
+                                      "ea_direct_declarations", "ea_march", "ea_screen_ray",
+                                      "ea_reduced_main"))
+    low_pass = RenderToTexturePass(overlay, recipe, size=low_size, targets=2, every_frame=True)
+    pass_skipping = bind_march(low_pass, model, step_scale, stop_opacity, skip_empty)
+    low_pass.add_texture("cm_volume", volume_texture)
+    low_pass.add_texture("cm_sceneDepth", depth)
+    _bind_camera(low_pass, main, model)
+    low_pass.set_recipe(ShaderRecipe(standalone=recipe.standalone,
+                                     defines=march_defines(model, pass_skipping)))
+    return overlay, low_pass

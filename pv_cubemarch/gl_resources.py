@@ -255,11 +255,13 @@ class RenderToTexturePass:
         Number of RGBA float32 render targets (e.g. 6 for the faces of a cube map).
     """
 
-    def __init__(self, renderer, recipe: ShaderRecipe, size: tuple[int, int], targets: int = 1,
+    def __init__(self, renderer, recipe: ShaderRecipe,
+                 size: tuple[int, int] | Callable[[], tuple[int, int]], targets: int = 1,
                  every_frame: bool = False):
         self.renderer = renderer
         self.recipe = recipe
-        self.size = (int(size[0]), int(size[1]))
+        self._size_source = size if callable(size) else None
+        self.size = tuple(int(v) for v in (size() if callable(size) else size))
         self.n_targets = int(targets)
         self.every_frame = every_frame
         self.textures: dict[str, Texture] = {}
@@ -275,6 +277,21 @@ class RenderToTexturePass:
     def invalidate(self) -> None:
         """Ask for the pass to run at the next frame."""
         self._needed = True
+
+    def set_recipe(self, recipe: ShaderRecipe) -> None:
+        """Use another fragment recipe (e.g. once its feature switches are known)."""
+        self.recipe = recipe
+        self._fragment = recipe.fragment_source()
+        self._quad = None
+        self._needed = True
+
+    def add_texture(self, sampler: str, texture) -> None:
+        """Bind ``texture`` to the sampler ``sampler`` whenever the pass runs."""
+        self.textures[sampler] = texture
+
+    def set_uniform(self, name: str, value: UniformSource) -> None:
+        """Give the uniform ``name`` this value (or callable) whenever the pass runs."""
+        self.uniforms[name] = value
 
     @property
     def nbytes(self) -> int:
@@ -298,8 +315,16 @@ class RenderToTexturePass:
         if not (self._needed or self.every_frame):
             return
         window = self.renderer.GetRenderWindow()
+        if self._size_source is not None:
+            wanted = tuple(max(1, int(v)) for v in self._size_source())
+            if wanted != self.size and self._fbo is not None:
+                self._release_targets(window)
+            self.size = wanted
         if self._fbo is None:
             self._create(window)
+        elif self._quad is None:
+            with watch_shader_errors(self.recipe.snippet_names):
+                self._quad = vtkOpenGLQuadHelper(window, self._vertex, self._fragment, "")
         state = window.GetState()
         state.PushFramebufferBindings()
         active = []
@@ -342,17 +367,19 @@ class RenderToTexturePass:
             raise RuntimeError("Reading the render target back failed.")
         return out
 
-    def release(self) -> None:
-        """Free the targets and stop running."""
-        window = self.renderer.GetRenderWindow()
+    def _release_targets(self, window) -> None:
         for target in self.outputs:
             target.ReleaseGraphicsResources(window)
-        for texture in self.textures.values():
-            texture.release()
         if self._fbo is not None:
             self._fbo.ReleaseGraphicsResources(window)
         self.outputs.clear()
         self._fbo = self._quad = None
+
+    def release(self) -> None:
+        """Free the targets and stop running."""
+        self._release_targets(self.renderer.GetRenderWindow())
+        for texture in self.textures.values():
+            texture.release()
         self.renderer.RemoveObserver(self._tag)
 
 

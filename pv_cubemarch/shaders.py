@@ -78,13 +78,13 @@ class ShaderRecipe:
 
     replacements: list[Replacement] = field(default_factory=list)
     defines: dict[str, object] = field(default_factory=dict)
-    standalone: str | None = None
+    standalone: str | tuple[str, ...] | None = None
 
     @property
     def snippet_names(self) -> tuple[str, ...]:
         """Names of every snippet the shader is built from."""
         names = [name for r in self.replacements for name in _names(r.snippet)]
-        return tuple(names + ([self.standalone] if self.standalone else []))
+        return tuple(names + (list(_names(self.standalone)) if self.standalone else []))
 
     def code_for(self, replacement: Replacement, first: bool) -> str:
         """The text that replaces ``replacement.tag``."""
@@ -114,15 +114,21 @@ class ShaderRecipe:
                 raise ValueError(f"Unknown shader stage {item.stage!r}.")
 
     def fragment_source(self) -> str:
-        """A complete fragment shader for a full-screen pass (``standalone`` snippet)."""
+        """A complete fragment shader for a full-screen pass from the ``standalone`` snippets.
+
+        The first snippet starts with the system tag; the defines follow it, then every
+        snippet in order (libraries first, the one with ``main`` last).
+        """
         if not self.standalone:
             raise ValueError("This recipe has no standalone fragment snippet.")
-        body = snippet_source(self.standalone)
-        header, _, rest = body.partition("\n")
+        names = _names(self.standalone)
+        header, _, rest = snippet_source(names[0]).partition("\n")
         if header.strip() != "//VTK::System::Dec":
-            raise ValueError(f"Snippet {self.standalone!r} must start with //VTK::System::Dec.")
-        defines = define_lines(self.defines)
-        return "\n".join([header, f"{MARKER}{self.standalone}", defines, rest])
+            raise ValueError(f"Snippet {names[0]!r} must start with //VTK::System::Dec.")
+        parts = [header, define_lines(self.defines), f"{MARKER}{names[0]}", rest]
+        for name in names[1:]:
+            parts += [f"{MARKER}{name}", snippet_source(name)]
+        return "\n".join(parts)
 
 
 def _names(snippet: str | tuple[str, ...]) -> tuple[str, ...]:
