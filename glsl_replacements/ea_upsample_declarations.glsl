@@ -3,6 +3,7 @@ uniform sampler2D cm_lowColor;        // premultiplied rgba at 1/k resolution
 uniform sampler2D cm_lowDepth;        // view z where each low-resolution ray stopped
 uniform vec2 cm_lowSize;              // texels of the low-resolution targets
 uniform float cm_depthSharpness;      // weight 0 once depths differ by 1/sharpness (relative)
+uniform sampler2D cm_sceneColor;      // the scene drawn so far, over the viewport
 
 // Joint bilateral 2x2 filter: bilinear weights times depth similarity to this pixel; where
 // no neighbour shares its depth (a thin edge), the one with the closest depth.

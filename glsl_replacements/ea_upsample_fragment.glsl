@@ -14,7 +14,10 @@
   {
     discard;
   }
-  fragOutput0 = vec4(cm_rgba.rgb / cm_rgba.a, cm_rgba.a);
-  vec4 cm_clip = cm_projection * vec4(cm_entryView, 1.0);
-  gl_FragDepth = clamp(cm_clip.z / cm_clip.w * 0.5 + 0.5, 0.0, 1.0);
+  // Composite over a copy of the scene and write an opaque result: right whatever blending
+  // the overlay's pass uses. The rays already stopped at the scene's depth, so nothing may
+  // hide this fragment.
+  vec3 cm_under = texture(cm_sceneColor, cm_pixel).rgb;
+  fragOutput0 = vec4(cm_rgba.rgb + (1.0 - cm_rgba.a) * cm_under, 1.0);
+  gl_FragDepth = 0.0;
 }

@@ -94,8 +94,13 @@ def _build_stock(plotter, volume: VolumeModel, setting):
 
 STEP_SCALES = (2.0, 1.0, 0.5, 0.25, 0.125)
 register_sweep(Sweep("vtk", [{"step_scale": s} for s in STEP_SCALES], _build_vtk))
-register_sweep(Sweep("direct", [{"step_scale": s, "technique": "direct"} for s in STEP_SCALES],
-                     _build_vtk, describe=lambda s: f"step_scale={s['step_scale']}"))
+register_sweep(Sweep(
+    "direct",
+    [{"step_scale": s, "technique": "direct"} for s in STEP_SCALES]
+    + [{"step_scale": 0.5, "technique": "direct", "downsample": k} for k in (2, 4)],
+    _build_vtk,
+    describe=lambda s: f"step_scale={s['step_scale']}"
+    + (f", down={s['downsample']}" if s.get("downsample", 1) > 1 else "")))
 register_sweep(Sweep("pyvista", [{"step_scale": s} for s in (1.0, 0.5)], _build_stock))
 
 

@@ -16,9 +16,11 @@ from .gl_resources import ShaderBindings, Texture
 from .shaders import Replacement, ShaderRecipe
 from .volume import VolumeModel
 
+_GL_READ_FRAMEBUFFER = 0x8CA8
+
 
 class SceneDepth:
-    """The renderer's opaque depth of this frame, copied into a texture at each draw.
+    """The renderer's depth (or colour) of this frame, copied into a texture at each draw.
 
     The copy needs a single-sampled framebuffer: :func:`build_direct_actor` turns the
     window's multisampling off (PyVista asks for 4 samples by default).
@@ -27,25 +29,37 @@ class SceneDepth:
     kind = "2d"
     nbytes = 0
 
-    def __init__(self, renderer):
+    def __init__(self, renderer, color: bool = False):
         self.renderer = renderer
+        self.color = color
         self.gl_object: vtkTextureObject | None = None
         self._size = None
         self._window = None
 
     def ensure(self, window) -> vtkTextureObject:
-        """Copy the current depth buffer into the texture (context current, in the draw)."""
+        """Copy the current depth (or colour) buffer into the texture (in the draw)."""
         width, height = self.renderer.GetSize()
         x0, y0 = self.renderer.GetOrigin()
         if self.gl_object is None or self._size != (width, height) or self._window is not window:
             self.release()
             self.gl_object = vtkTextureObject()
             self.gl_object.SetContext(window)
-            self.gl_object.AllocateDepth(width, height, vtkTextureObject.Float32)
+            if self.color:
+                self.gl_object.Allocate2D(width, height, 4, vtk.VTK_UNSIGNED_CHAR)
+            else:
+                self.gl_object.AllocateDepth(width, height, vtkTextureObject.Float32)
             self.gl_object.SetMinificationFilter(vtkTextureObject.Nearest)
             self.gl_object.SetMagnificationFilter(vtkTextureObject.Nearest)
             self._size, self._window = (width, height), window
-        self.gl_object.CopyFromFrameBuffer(x0, y0, 0, 0, width, height)
+        # Read from the framebuffer VTK draws this frame into (another may be bound for
+        # reading between renderers).
+        state = window.GetState()
+        state.PushReadFramebufferBinding()
+        try:
+            window.GetRenderFramebuffer().Bind(_GL_READ_FRAMEBUFFER)
+            self.gl_object.CopyFromFrameBuffer(x0, y0, 0, 0, width, height)
+        finally:
+            state.PopReadFramebufferBinding()
         return self.gl_object
 
     def shared(self) -> _CopiedDepth:
@@ -168,6 +182,7 @@ def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opac
         bindings.add_texture("cm_sceneDepth", depth.shared())
         bindings.set_uniform("cm_lowSize", lambda: tuple(float(v) for v in low_pass.size))
         bindings.set_uniform("cm_depthSharpness", DEPTH_SHARPNESS)
+        bindings.add_texture("cm_sceneColor", SceneDepth(overlay, color=True))
         recipe = upsample_recipe(march_defines(model, False))
         renderer = overlay
         extra = [low_pass.release, lambda: plotter.ren_win.RemoveRenderer(overlay)]
