@@ -248,12 +248,12 @@ def mark_pareto(results: list[TradeoffResult]) -> None:
 def format_table(results: list[TradeoffResult]) -> str:
     """A plain-text table, times also as ratios to the fastest row of the same run."""
     fastest = min(r.median_ms for r in results)
-    header = (f"{'technique':<10} {'setting':<18} {'median ms':>10} {'x fastest':>9} "
+    header = (f"{'technique':<10} {'setting':<24} {'median ms':>10} {'x fastest':>9} "
               f"{'PSNR dB':>8} {'SSIM':>7} {'max err':>8} {'pareto':>6}")
     lines = [header, "-" * len(header)]
     for r in results:
         e = r.errors
-        lines.append(f"{r.technique:<10} {r.setting:<18} {r.median_ms:>10.1f} "
+        lines.append(f"{r.technique:<10} {r.setting:<24} {r.median_ms:>10.1f} "
                      f"{r.median_ms / fastest:>9.2f} {e['psnr']:>8.2f} {e['ssim']:>7.4f} "
                      f"{e['max_abs']:>8.0f} {'*' if r.pareto else '':>6}")
     return "\n".join(lines)

@@ -34,6 +34,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="emission/absorption path for every volume")
     render.add_argument("--stop-opacity", type=float,
                         help="early ray termination threshold for every volume")
+    render.add_argument("--downsample", type=int,
+                        help="with --technique direct: march at 1/N resolution, depth-aware "
+                             "upsampling")
     render.add_argument("--no-skip-empty", action="store_true",
                         help="march empty bricks too (for comparisons)")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
@@ -78,7 +81,7 @@ def _render(args) -> int:
     progress_bar = False if args.no_progress else None
     scene = load_scene(args.scene, progress_bar=progress_bar)
     chosen = {"step_scale": args.step_scale, "technique": args.technique,
-              "stop_opacity": args.stop_opacity,
+              "stop_opacity": args.stop_opacity, "downsample": args.downsample,
               "skip_empty": False if args.no_skip_empty else None}
     for volume in scene.volumes:
         options = scene.volume_options.setdefault(volume.name, {})

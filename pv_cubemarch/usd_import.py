@@ -5,7 +5,8 @@ USD composes references, payloads and instancing for us; we walk the composed st
 Transfer functions are not part of USD: a ``Volume`` prim may carry ``cubemarch:cmap``,
 ``cubemarch:opacity``, ``cubemarch:clim`` and ``cubemarch:opacityUnitDistance``, and the
 options of :func:`pv_cubemarch.add_volume` as ``cubemarch:stepScale``,
-``cubemarch:technique``, ``cubemarch:stopOpacity`` and ``cubemarch:skipEmpty``. The field
+``cubemarch:technique``, ``cubemarch:stopOpacity``, ``cubemarch:skipEmpty`` and
+``cubemarch:downsample``. The field
 prim a ``field:*`` relationship targets has an asset ``filePath`` (.vti/.vtk/.npy/.npz)
 and, for numpy files, optional ``cubemarch:origin`` and ``cubemarch:spacing``.
 """
@@ -259,12 +260,13 @@ class _StageReader:
         grid = _read_field(field_prim)
         attrs = {key: _attr(prim, f"cubemarch:{key}") for key in
                  ("cmap", "opacity", "clim", "opacityUnitDistance", "stepScale", "technique",
-                  "stopOpacity", "skipEmpty")}
+                  "stopOpacity", "skipEmpty", "downsample")}
         options = {}
         for key, option, kind in (("stepScale", "step_scale", float),
                                   ("technique", "technique", str),
                                   ("stopOpacity", "stop_opacity", float),
-                                  ("skipEmpty", "skip_empty", bool)):
+                                  ("skipEmpty", "skip_empty", bool),
+                                  ("downsample", "downsample", int)):
             if attrs[key] is not None:
                 options[option] = kind(attrs[key])
         opacity = attrs["opacity"]

@@ -87,8 +87,10 @@ def test_render_options_reach_every_volume(tmp_path, monkeypatch):
     monkeypatch.setattr(ea, "add_volume", spy)
     out = tmp_path / "d.png"
     assert main(["render", str(SCENE), "-o", str(out), "--size", "40x30", "--technique",
-                 "direct", "--stop-opacity", "0.95", "--no-skip-empty", "--no-progress"]) == 0
-    assert seen == [{"technique": "direct", "stop_opacity": 0.95, "skip_empty": False}]
+                 "direct", "--stop-opacity", "0.95", "--no-skip-empty", "--downsample", "2",
+                 "--no-progress"]) == 0
+    assert seen == [{"technique": "direct", "stop_opacity": 0.95, "skip_empty": False,
+                     "downsample": 2}]
 
 
 def test_usd_volume_options(tmp_path):
@@ -101,10 +103,11 @@ def test_usd_volume_options(tmp_path):
     prim.CreateAttribute("cubemarch:technique", Sdf.ValueTypeNames.String).Set("direct")
     prim.CreateAttribute("cubemarch:stepScale", Sdf.ValueTypeNames.Float).Set(0.25)
     prim.CreateAttribute("cubemarch:skipEmpty", Sdf.ValueTypeNames.Bool).Set(False)
+    prim.CreateAttribute("cubemarch:downsample", Sdf.ValueTypeNames.Int).Set(2)
     path = tmp_path / "scene.usda"
     stage.GetRootLayer().Export(str(path))
     (tmp_path / "smoke_density.vti").write_bytes((SCENE.parent / "smoke_density.vti").read_bytes())
     scene = cm.load_scene(path)
     assert scene.volume_options["/World/Smoke"] == {"technique": "direct", "step_scale": 0.25,
-                                                    "skip_empty": False}
+                                                    "skip_empty": False, "downsample": 2}
     assert scene.render(size=(40, 30)).std() > 3
