@@ -19,7 +19,7 @@ import pyvista
 
 from .camera import Camera
 from .reference import render_emission_absorption
-from .rendering import offscreen_plotter, read_pixels, render_frame
+from .rendering import offscreen_plotter, read_depth, read_pixels, render_frame
 from .scene import Scene
 from .testing import compare_images
 from .volume import VolumeModel
@@ -110,30 +110,16 @@ def opaque_layer(scene: Scene, camera: Camera, size) -> tuple[np.ndarray, np.nda
     The reference composites the volume over this layer, so mesh shading (which the CPU
     reference does not model) is the same in every image and only the volume is measured.
     """
-    import vtk
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-
-    meshes_only = Scene(meshes=scene.meshes, lights=scene.lights, up_axis=scene.up_axis,
-                        background=scene.background)
     plotter = _bench_plotter(size)
     try:
-        meshes_only.add_to(plotter, camera=camera)
+        _meshes_only(scene).add_to(plotter, camera=camera)
         render_frame(plotter)
         color = read_pixels(plotter).astype(np.float64) / 255.0
-        grab = vtk.vtkWindowToImageFilter()
-        grab.SetInput(plotter.ren_win)
-        grab.SetInputBufferTypeToZBuffer()
-        grab.ReadFrontBufferOff()
-        grab.ShouldRerenderOff()
-        grab.Update()
-        width, height = size
-        zbuffer = vtk_to_numpy(grab.GetOutput().GetPointData().GetScalars()).reshape(height,
-                                                                                      width)
+        zbuffer = read_depth(plotter).astype(np.float64)
         near, far = plotter.camera.clipping_range
         used = Camera.from_pyvista(plotter.camera)
     finally:
         plotter.close()
-    zbuffer = zbuffer[::-1].astype(np.float64)
     ndc = 2.0 * zbuffer - 1.0
     if used.parallel_projection:
         depth = near + zbuffer * (far - near)
@@ -144,6 +130,12 @@ def opaque_layer(scene: Scene, camera: Camera, size) -> tuple[np.ndarray, np.nda
     distance = depth / np.maximum(directions @ forward, 1e-12)
     distance = np.where(zbuffer >= 1.0, np.inf, distance)
     return color, distance
+
+
+def _meshes_only(scene: Scene) -> Scene:
+    """The scene without its volumes (lights, meshes and background kept)."""
+    return Scene(meshes=scene.meshes, lights=scene.lights, up_axis=scene.up_axis,
+                 background=scene.background)
 
 
 def _bench_plotter(size):
@@ -218,11 +210,9 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
         runs += [(SWEEPS["pyvista"], s) for s in SWEEPS["pyvista"].settings]
     results = []
     for sweep, setting in progress(runs, desc="tradeoff", enabled=progress_bar):
-        meshes_only = Scene(meshes=scene.meshes, lights=scene.lights, up_axis=scene.up_axis,
-                            background=scene.background)
         plotter = _bench_plotter(size)
         try:
-            meshes_only.add_to(plotter, camera=camera)
+            _meshes_only(scene).add_to(plotter, camera=camera)
             sweep.build(plotter, volume, dict(setting))
             camera.apply_to(plotter.camera)
             frame_ms = time_frames(plotter, frames)

@@ -40,18 +40,30 @@ def render_image(plotter: pyvista.Plotter) -> np.ndarray:
     return read_pixels(plotter)
 
 
-def read_pixels(plotter: pyvista.Plotter) -> np.ndarray:
-    """The last drawn frame as ``(height, width, 3)`` uint8, rows top to bottom, no redraw."""
+def _grab(plotter: pyvista.Plotter, depth: bool) -> np.ndarray:
     import vtk
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
     grab = vtk.vtkWindowToImageFilter()
     grab.SetInput(plotter.ren_win)
-    grab.SetInputBufferTypeToRGB()
+    if depth:
+        grab.SetInputBufferTypeToZBuffer()
+    else:
+        grab.SetInputBufferTypeToRGB()
     grab.ReadFrontBufferOff()
     grab.ShouldRerenderOff()
     grab.Update()
     image = grab.GetOutput()
     width, height, _ = image.GetDimensions()
-    pixels = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(height, width, -1)
-    return np.ascontiguousarray(pixels[::-1, :, :3])
+    values = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(height, width, -1)
+    return np.ascontiguousarray(values[::-1])
+
+
+def read_pixels(plotter: pyvista.Plotter) -> np.ndarray:
+    """The last drawn frame as ``(height, width, 3)`` uint8, rows top to bottom, no redraw."""
+    return _grab(plotter, depth=False)[..., :3]
+
+
+def read_depth(plotter: pyvista.Plotter) -> np.ndarray:
+    """The last frame's depth buffer, ``(height, width)`` in [0, 1], rows top to bottom."""
+    return _grab(plotter, depth=True)[..., 0]
