@@ -2,7 +2,11 @@
 // The box's back faces are drawn; each fragment reconstructs its eye ray from the window
 // position, so the camera inside the box and a near plane cutting it need no special case.
 uniform sampler3D cm_volume;          // data values, texel centres on the grid points
+#ifdef CM_DEPTH_MULTISAMPLED
+uniform sampler2DMS cm_sceneDepth;    // the frame's own multisampled depth (not written now)
+#else
 uniform sampler2D cm_sceneDepth;      // opaque depth of this frame, over the viewport
+#endif
 uniform vec4 cm_viewport;             // origin and size of the renderer, in pixels
 uniform mat4 cm_inverseProjection;    // normalised device coordinates to view
 uniform mat4 cm_projection;           // view to clip
@@ -11,6 +15,17 @@ uniform mat4 cm_textureFromView;      // view to volume texture coordinates
 float cm_sampleScalar(vec3 texturePosition)
 {
   return texture(cm_volume, texturePosition).r;
+}
+
+// Opaque depth under a window position (pixel is in [0, 1] over the viewport).
+float cm_sceneDepthAt(vec2 pixel)
+{
+#ifdef CM_DEPTH_MULTISAMPLED
+  ivec2 texel = ivec2(cm_viewport.xy + pixel * cm_viewport.zw);
+  return texelFetch(cm_sceneDepth, texel, 0).r;
+#else
+  return texture(cm_sceneDepth, pixel).r;
+#endif
 }
 
 vec3 cm_viewPoint(vec2 ndc, float windowDepth)

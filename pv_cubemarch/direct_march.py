@@ -73,6 +73,24 @@ class SceneDepth:
         self.gl_object = self._window = None
 
 
+class FramebufferDepth:
+    """The depth attachment VTK draws into, bound as is (a multisampled texture).
+
+    Read with ``texelFetch`` while the box is drawn in the translucent pass, which writes
+    no depth, so nothing reads what it writes; no copy is made and multisampling stays on.
+    """
+
+    kind = "2d"
+    nbytes = 0
+
+    def ensure(self, window) -> vtkTextureObject:
+        """The current render framebuffer's depth texture."""
+        return window.GetRenderFramebuffer().GetDepthAttachmentAsTextureObject()
+
+    def release(self) -> None:
+        """Nothing: VTK owns it."""
+
+
 class _CopiedDepth:
     """A second binding of a :class:`SceneDepth` already copied in this frame."""
 
@@ -162,17 +180,20 @@ def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opac
     volume_texture = Texture(model.values, kind="3d", interpolate=True)
     depth = SceneDepth(renderer)
     bindings = ShaderBindings(actor.GetMapper(), renderer)
-    # The opaque depth is copied each frame, which a multisampled framebuffer refuses.
-    plotter.ren_win.SetMultiSamples(0)
     # Weighted order-independent translucency would reweight our single layer.
     renderer.SetUseOIT(False)
     extra = []
     if downsample == 1:
         skipping = bind_march(bindings, model, step_scale, stop_opacity, skip_empty)
         bindings.add_texture("cm_volume", volume_texture)
-        bindings.add_texture("cm_sceneDepth", depth)
-        recipe = direct_recipe(march_defines(model, skipping))
+        multisampled = plotter.ren_win.GetMultiSamples() > 1
+        bindings.add_texture("cm_sceneDepth", FramebufferDepth() if multisampled else depth)
+        defines = march_defines(model, skipping)
+        defines["CM_DEPTH_MULTISAMPLED"] = multisampled
+        recipe = direct_recipe(defines)
     else:
+        # The pass copies the opaque depth, which a multisampled framebuffer refuses.
+        plotter.ren_win.SetMultiSamples(0)
         overlay, low_pass = _reduced_resolution(plotter, model, step_scale, stop_opacity,
                                                 skip_empty, downsample, volume_texture, depth)
         bindings = ShaderBindings(actor.GetMapper(), overlay)

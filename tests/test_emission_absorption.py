@@ -184,3 +184,29 @@ def test_camera_inside_and_on_the_box(plotter_factory, blob, technique, position
     errors = compare_images(image, reference)
     assert errors.psnr >= 35, errors
     assert image.std() > 5
+
+
+def test_direct_keeps_multisampling_and_reads_multisampled_depth(plotter_factory, blob):
+    model = cm.make_volume(blob, clim=(0, 1), opacity_unit_distance=0.1)
+    size = (96, 96)
+    pl = plotter_factory(size)
+    assert pl.ren_win.GetMultiSamples() > 1  # PyVista's default
+    sphere = pv.Sphere(radius=0.45, center=(0.25, 0.1, 0.3))
+    pl.add_mesh(sphere, color=(0.2, 0.8, 0.3), lighting=False)
+    camera = set_camera(pl, (3.0, 2.0, 4.0))
+    actor = cm.add_volume(pl, model, technique="direct")
+    assert actor.cubemarch.recipe.defines["CM_DEPTH_MULTISAMPLED"] is True
+    image = cm.render_image(pl)
+    assert pl.ren_win.GetMultiSamples() > 1  # still anti-aliased (the driver may cap it)
+    depth = cm.reference.mesh_depth(sphere, camera, size)
+    backdrop = np.where(np.isfinite(depth)[..., None], (0.2, 0.8, 0.3), BACKGROUND)
+    reference = cm.render_emission_absorption(model, camera, size, background=BACKGROUND,
+                                              opaque_depth=depth, opaque_color=backdrop)
+    # away from the sphere's (anti-aliased) outline the image is the reference's
+    hit = np.isfinite(depth)
+    edge = np.zeros_like(hit)
+    for axis in (0, 1):
+        for shift in (-1, 1):
+            edge |= hit ^ np.roll(hit, shift, axis)
+    diff = np.abs(image.astype(int) - to_uint8(reference).astype(int)).max(axis=-1)
+    assert diff[~edge].max() <= 4
