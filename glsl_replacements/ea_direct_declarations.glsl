@@ -4,6 +4,7 @@
 uniform sampler3D cm_volume;          // data values, texel centres on the grid points
 #ifdef CM_DEPTH_MULTISAMPLED
 uniform sampler2DMS cm_sceneDepth;    // the frame's own multisampled depth (not written now)
+uniform int cm_depthSamples;
 #else
 uniform sampler2D cm_sceneDepth;      // opaque depth of this frame, over the viewport
 #endif
@@ -21,8 +22,16 @@ float cm_sampleScalar(vec3 texturePosition)
 float cm_sceneDepthAt(vec2 pixel)
 {
 #ifdef CM_DEPTH_MULTISAMPLED
+  // The samples sit around the pixel centre: their mean is the centre's depth on a surface
+  // (one sample alone is off by a fraction of a pixel, much on grazing surfaces), and a
+  // blend of surface and background at an outline, as the resolved colour is.
   ivec2 texel = ivec2(cm_viewport.xy + pixel * cm_viewport.zw);
-  return texelFetch(cm_sceneDepth, texel, 0).r;
+  float sum = 0.0;
+  for (int i = 0; i < cm_depthSamples; ++i)
+  {
+    sum += texelFetch(cm_sceneDepth, texel, i).r;
+  }
+  return sum / float(max(cm_depthSamples, 1));
 #else
   return texture(cm_sceneDepth, pixel).r;
 #endif

@@ -188,6 +188,11 @@ def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opac
         bindings.add_texture("cm_volume", volume_texture)
         multisampled = plotter.ren_win.GetMultiSamples() > 1
         bindings.add_texture("cm_sceneDepth", FramebufferDepth() if multisampled else depth)
+        if multisampled:
+            window = plotter.ren_win
+            bindings.set_uniform("cm_depthSamples", lambda: max(1, int(
+                window.GetRenderFramebuffer().GetDepthAttachmentAsTextureObject()
+                .GetSamples())))
         defines = march_defines(model, skipping)
         defines["CM_DEPTH_MULTISAMPLED"] = multisampled
         recipe = direct_recipe(defines)
