@@ -1,8 +1,11 @@
 """The direct screen-space ray marcher (DSSRM): the shared marching GLSL on a box actor.
 
 The box's back faces are drawn in the translucent pass, after every opaque prop, so the
-opaque depth of the frame is complete: it is copied to a texture just before the box is
-drawn and bounds each ray. This is the baseline the cube-map technique is measured against.
+opaque depth of the frame is complete when the box is drawn and bounds each ray: read in
+place from a multisampled framebuffer, or copied to a texture from a single-sampled one.
+With ``downsample`` > 1 a low-resolution pass marches in an overlay renderer drawn after
+the scene, and the box upsamples its result. This is the baseline the cube-map technique
+is measured against.
 """
 
 from __future__ import annotations
@@ -22,8 +25,9 @@ _GL_READ_FRAMEBUFFER = 0x8CA8
 class SceneDepth:
     """The renderer's depth (or colour) of this frame, copied into a texture at each draw.
 
-    The copy needs a single-sampled framebuffer: :func:`build_direct_actor` turns the
-    window's multisampling off (PyVista asks for 4 samples by default).
+    The copy needs a single-sampled framebuffer (a multisampled one gives zeros), which the
+    reduced-resolution path asks for; the full-resolution path reads a multisampled depth in
+    place instead (:class:`FramebufferDepth`).
     """
 
     kind = "2d"
@@ -179,11 +183,11 @@ def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opac
     actor = _box_actor(model)
     volume_texture = Texture(model.values, kind="3d", interpolate=True)
     depth = SceneDepth(renderer)
-    bindings = ShaderBindings(actor.GetMapper(), renderer)
     # Weighted order-independent translucency would reweight our single layer.
     renderer.SetUseOIT(False)
     extra = []
     if downsample == 1:
+        bindings = ShaderBindings(actor.GetMapper(), renderer)
         skipping = bind_march(bindings, model, step_scale, stop_opacity, skip_empty)
         bindings.add_texture("cm_volume", volume_texture)
         multisampled = plotter.ren_win.GetMultiSamples() > 1
