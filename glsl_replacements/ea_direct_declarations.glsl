@@ -1,7 +1,6 @@
 // Direct screen-space marcher on a box actor: declarations (after the colour declarations).
 // The box's back faces are drawn; each fragment reconstructs its eye ray from the window
 // position, so the camera inside the box and a near plane cutting it need no special case.
-uniform sampler3D cm_volume;          // data values, texel centres on the grid points
 #ifdef CM_DEPTH_MULTISAMPLED
 uniform sampler2DMS cm_sceneDepth;    // the frame's own multisampled depth (not written now)
 uniform int cm_depthSamples;
@@ -12,11 +11,6 @@ uniform vec4 cm_viewport;             // origin and size of the renderer, in pix
 uniform mat4 cm_inverseProjection;    // normalised device coordinates to view
 uniform mat4 cm_projection;           // view to clip
 uniform mat4 cm_textureFromView;      // view to volume texture coordinates
-
-float cm_sampleScalar(vec3 texturePosition)
-{
-  return texture(cm_volume, texturePosition).r;
-}
 
 // Opaque depth under a window position (pixel is in [0, 1] over the viewport).
 float cm_sceneDepthAt(vec2 pixel)

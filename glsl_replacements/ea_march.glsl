@@ -1,6 +1,8 @@
 // Emission/absorption marching, shared by every path that draws a volume this way.
 // The caller provides   float cm_sampleScalar(vec3 texturePosition)   (a data value) and the
-// declarations of ea_declarations (cm_transfer, cm_composite, cm_stopOpacity).
+// declarations of ea_declarations (cm_transfer, cm_composite, cm_stopOpacity); with
+// CM_LIGHTS, also   vec3 cm_lighting(vec3 texturePosition)   (light_sample), which scales
+// the emitted colour by the light reaching the sample.
 //
 // Texel-spaced ("half-adaptive") sampling: one step spans cm_stepScale texels along the
 // ray's dominant texture axis; steps are constant along a ray, each sample is read at the
@@ -11,6 +13,20 @@
 uniform vec3 cm_dims;          // texels (points) along x, y, z
 uniform float cm_stepScale;    // step length in texels along the dominant axis
 uniform mat4 cm_worldFromTexture;  // texture coordinates (texel centres at points) to world
+
+#ifdef CM_LIGHTS
+vec3 cm_lighting(vec3 texturePosition);   // defined by light_sample
+#endif
+
+// Emitted colour and extinction of the medium at a texture position, lit when lights exist.
+vec4 cm_emission(vec3 texturePosition)
+{
+  vec4 emission = cm_transfer(cm_sampleScalar(texturePosition));
+#ifdef CM_LIGHTS
+  emission.rgb *= cm_lighting(texturePosition);
+#endif
+  return emission;
+}
 
 #ifdef CM_SKIP_EMPTY
 uniform sampler3D cm_brickExtinction;  // per brick: largest extinction its data can reach
@@ -72,7 +88,7 @@ vec4 cm_march(vec3 entry, vec3 exit, float worldLength)
 #endif
     float fraction = min(1.0, steps - t);
     vec3 middle = entry + stepVector * (t + 0.5 * fraction);
-    cm_composite(rgba, cm_transfer(cm_sampleScalar(middle)), worldStep * fraction);
+    cm_composite(rgba, cm_emission(middle), worldStep * fraction);
     if (rgba.a > cm_stopOpacity)
     {
       break;

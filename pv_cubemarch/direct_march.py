@@ -112,13 +112,13 @@ class _CopiedDepth:
         """Nothing: the :class:`SceneDepth` owns the texture."""
 
 
-def direct_recipe(defines: dict) -> ShaderRecipe:
+def direct_recipe(defines: dict, lit: bool = False) -> ShaderRecipe:
     """The polydata-shader replacements of the direct marcher."""
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Color::Dec",
-                        ("ea_declarations", "ea_direct_declarations", "ea_march",
-                         "ea_screen_ray"),
+                        ("ea_declarations", "volume_sample", "ea_direct_declarations",
+                         "ea_march", *(("light_sample",) if lit else ()), "ea_screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_direct_fragment", keep_tag="before"),
             Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
@@ -171,7 +171,8 @@ def _bind_camera(target, renderer, model: VolumeModel) -> None:
 
 
 def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: float,
-                       skip_empty: bool, downsample: int = 1):
+                       skip_empty: bool, downsample: int = 1, light_map=None,
+                       volume_texture: Texture | None = None):
     """A box actor that marches ``model`` with the shared GLSL; returns the actor.
 
     With ``downsample`` > 1 the rays are marched by a full-screen pass at 1/downsample of
@@ -181,8 +182,7 @@ def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opac
 
     renderer = plotter.renderer
     actor = _box_actor(model)
-    volume_texture = Texture(model.values, kind="3d", interpolate=True)
-    depth = SceneDepth(renderer)
+    volume_texture = volume_texture or Texture(model.values, kind="3d", interpolate=True)
     # Weighted order-independent translucency would reweight our single layer.
     renderer.SetUseOIT(False)
     extra = []
@@ -191,31 +191,36 @@ def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opac
         skipping = bind_march(bindings, model, step_scale, stop_opacity, skip_empty)
         bindings.add_texture("cm_volume", volume_texture)
         multisampled = plotter.ren_win.GetMultiSamples() > 1
-        bindings.add_texture("cm_sceneDepth", FramebufferDepth() if multisampled else depth)
+        bindings.add_texture("cm_sceneDepth",
+                             FramebufferDepth() if multisampled else SceneDepth(renderer))
         if multisampled:
             window = plotter.ren_win
             bindings.set_uniform("cm_depthSamples", lambda: max(1, int(
                 window.GetRenderFramebuffer().GetDepthAttachmentAsTextureObject()
                 .GetSamples())))
-        defines = march_defines(model, skipping)
+        defines = march_defines(model, skipping, light_map)
         defines["CM_DEPTH_MULTISAMPLED"] = multisampled
-        recipe = direct_recipe(defines)
+        recipe = direct_recipe(defines, lit=light_map is not None)
+        if light_map is not None:
+            light_map.bind(bindings)
     else:
         # The pass copies the opaque depth, which a multisampled framebuffer refuses.
         plotter.ren_win.SetMultiSamples(0)
         overlay, low_pass = _reduced_resolution(plotter, model, step_scale, stop_opacity,
-                                                skip_empty, downsample, volume_texture, depth)
-        bindings = ShaderBindings(actor.GetMapper(), overlay)
+                                                skip_empty, downsample, volume_texture,
+                                                light_map)
+        bindings = ShaderBindings(actor.GetMapper(), overlay.renderer)
         bindings.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
         bindings.add_texture("cm_lowColor", low_pass.output(0))
         bindings.add_texture("cm_lowDepth", low_pass.output(1))
-        bindings.add_texture("cm_sceneDepth", depth.shared())
+        bindings.add_texture("cm_sceneDepth", overlay.depth.shared())
         bindings.set_uniform("cm_lowSize", lambda: tuple(float(v) for v in low_pass.size))
         bindings.set_uniform("cm_depthSharpness", DEPTH_SHARPNESS)
-        bindings.add_texture("cm_sceneColor", SceneDepth(overlay, color=True))
+        bindings.add_texture("cm_sceneColor", SceneDepth(overlay.renderer, color=True))
         recipe = upsample_recipe(march_defines(model, False))
-        renderer = overlay
-        extra = [low_pass.release, lambda: plotter.ren_win.RemoveRenderer(overlay)]
+        renderer = overlay.renderer
+        overlay.add_user(actor)
+        extra = [low_pass.release, lambda: overlay.release_user(actor)]
     _bind_camera(bindings, plotter.renderer, model)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
@@ -238,8 +243,8 @@ def upsample_recipe(defines: dict) -> ShaderRecipe:
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Color::Dec",
-                        ("ea_declarations", "ea_direct_declarations", "ea_march",
-                         "ea_screen_ray", "ea_upsample_declarations"),
+                        ("ea_declarations", "volume_sample", "ea_direct_declarations",
+                         "ea_march", "ea_screen_ray", "ea_upsample_declarations"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_upsample_fragment", keep_tag="before"),
             Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
@@ -250,36 +255,31 @@ def upsample_recipe(defines: dict) -> ShaderRecipe:
 
 
 def _reduced_resolution(plotter, model, step_scale, stop_opacity, skip_empty, downsample,
-                        volume_texture, depth):
-    """An overlay renderer (drawn after the scene, depth kept) and its low-resolution pass."""
+                        volume_texture, light_map=None):
+    """The plotter's overlay and a low-resolution pass run at its start."""
     from .emission_absorption import bind_march, march_defines
     from .gl_resources import RenderToTexturePass
+    from .overlay import scene_overlay
 
     main = plotter.renderer
-    window = plotter.ren_win
-    overlay = vtk.vtkOpenGLRenderer()
-    window.SetNumberOfLayers(max(window.GetNumberOfLayers(), main.GetLayer() + 2))
-    overlay.SetLayer(main.GetLayer() + 1)
-    overlay.SetViewport(main.GetViewport())
-    overlay.SetActiveCamera(main.GetActiveCamera())
-    overlay.SetPreserveColorBuffer(True)
-    overlay.SetPreserveDepthBuffer(True)
-    overlay.InteractiveOff()
-    overlay.SetUseOIT(False)
-    window.AddRenderer(overlay)
+    overlay = scene_overlay(plotter)
 
     def low_size():
         width, height = main.GetSize()
         return (-(-width // downsample), -(-height // downsample))
 
-    recipe = ShaderRecipe(standalone=("ea_reduced_head", "ea_declarations",
-                                      "ea_direct_declarations", "ea_march", "ea_screen_ray",
-                                      "ea_reduced_main"))
-    low_pass = RenderToTexturePass(overlay, recipe, size=low_size, targets=2, every_frame=True)
+    lit = ("light_sample",) if light_map is not None else ()
+    recipe = ShaderRecipe(standalone=("pass_head", "ea_declarations", "volume_sample",
+                                      "ea_direct_declarations", "ea_march", *lit,
+                                      "ea_screen_ray", "ea_reduced_main"))
+    low_pass = RenderToTexturePass(overlay.renderer, recipe, size=low_size, targets=2,
+                                   every_frame=True)
     pass_skipping = bind_march(low_pass, model, step_scale, stop_opacity, skip_empty)
     low_pass.add_texture("cm_volume", volume_texture)
-    low_pass.add_texture("cm_sceneDepth", depth)
+    low_pass.add_texture("cm_sceneDepth", overlay.depth.shared())
     _bind_camera(low_pass, main, model)
+    if light_map is not None:
+        light_map.bind(low_pass)
     low_pass.set_recipe(ShaderRecipe(standalone=recipe.standalone,
-                                     defines=march_defines(model, pass_skipping)))
+                                     defines=march_defines(model, pass_skipping, light_map)))
     return overlay, low_pass

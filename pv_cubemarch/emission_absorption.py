@@ -23,25 +23,29 @@ DEFAULT_STOP_OPACITY = 0.99
 
 #: Loop bound of the marcher: thousands of steps per ray are allowed, never an endless loop.
 MAX_STEPS = 16384
-TECHNIQUES = ("vtk", "direct")
+TECHNIQUES = ("vtk", "direct", "cubemap")
 
 
-def march_defines(model: VolumeModel, skip_empty: bool) -> dict:
+def march_defines(model: VolumeModel, skip_empty: bool, light_map=None) -> dict:
     """The feature switches every marching shader of ``model`` needs."""
-    return {"CM_TABLE_SIZE": model.transfer.n_colors, "CM_MAX_STEPS": MAX_STEPS,
-            "CM_SKIP_EMPTY": bool(skip_empty)}
+    defines = {"CM_TABLE_SIZE": model.transfer.n_colors, "CM_MAX_STEPS": MAX_STEPS,
+               "CM_SKIP_EMPTY": bool(skip_empty)}
+    if light_map is not None:
+        defines.update(light_map.defines)
+    return defines
 
 
-def vtk_mapper_recipe(model: VolumeModel, skip_empty: bool) -> ShaderRecipe:
+def vtk_mapper_recipe(model: VolumeModel, skip_empty: bool, light_map=None) -> ShaderRecipe:
     """The shader replacements of the VTK-mapper path."""
+    lit = ("light_sample",) if light_map is not None else ()
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Base::Dec", "ea_declarations", keep_tag="after"),
-            Replacement("//VTK::ComputeColor::Dec", ("ea_vtk_declarations", "ea_march"),
+            Replacement("//VTK::ComputeColor::Dec", ("ea_vtk_declarations", "ea_march", *lit),
                         keep_tag="after"),
             Replacement("//VTK::Shading::Init", "ea_vtk_ray_init"),
         ],
-        defines=march_defines(model, skip_empty),
+        defines=march_defines(model, skip_empty, light_map),
     )
 
 
@@ -98,6 +102,14 @@ def add_volume(
     stop_opacity: float = DEFAULT_STOP_OPACITY,
     skip_empty: bool = True,
     downsample: int = 1,
+    face_size: int = 256,
+    max_samples: int | None = None,
+    upscale: float = 1.0,
+    sample_factor: float = 1.0,
+    occlusion_sharpness: float = 0.5,
+    lights=None,
+    light_map_size: int = 32,
+    ambient: float = 0.2,
     transform=None,
     nan_policy: str = "raise",
     name: str | None = None,
@@ -124,11 +136,14 @@ def add_volume(
         World length that ``opacity`` refers to; the mean grid spacing by default.
     technique : str
         ``'vtk'``: marched inside VTK's GPU volume mapper (it sets up the ray). ``'direct'``:
-        the direct screen-space marcher on a box actor, the baseline of the cube-map
-        technique. Both run the same marching GLSL.
+        the direct screen-space marcher on a box actor, one ray per pixel. ``'cubemap'``:
+        one ray per texel of a cube map on the box's interior faces, resampled on screen,
+        so the cost stops growing with the viewport's resolution (000). All run the same
+        marching GLSL.
     step_scale : float
-        Step length in texels along the ray's dominant texture axis (texel-spaced sampling).
-        Smaller is more accurate and slower (cost grows as ``1 / step_scale``).
+        ``'vtk'`` and ``'direct'``: step length in texels along the ray's dominant texture
+        axis (texel-spaced sampling). Smaller is more accurate and slower (cost grows as
+        ``1 / step_scale``). ``'cubemap'`` sets its step from ``max_samples`` instead.
     stop_opacity : float
         Early ray termination: stop once the accumulated opacity exceeds this (in (0, 1]).
     skip_empty : bool
@@ -138,6 +153,36 @@ def add_volume(
         ``technique='direct'`` only: march at 1/downsample of the viewport resolution in each
         direction (1, 2, 4 ...) and upsample with a depth-aware filter, so edges against
         meshes stay sharp. Cost falls about as ``1 / downsample**2``.
+    face_size : int
+        ``'cubemap'``: the largest cube-map face, in texels per edge (a power of two, the
+        size at MIP level 0). Caps the marching cost at ``6 * face_size**2`` rays; a
+        volume far away uses a smaller level. Larger is sharper when the volume fills a
+        big viewport.
+    max_samples : int, optional
+        ``'cubemap'``: most samples along a ray crossing the whole box diagonally; shorter
+        rays take proportionally fewer. Cost grows linearly with it. By default two per
+        texel of the grid's longest axis (the ``step_scale=0.5`` of the other techniques).
+    upscale : float
+        ``'cubemap'``: screen pixels per cube-map texel the LOD aims at (``k_u``): 2 marches
+        a quarter of the texels for a softer image.
+    sample_factor : float
+        ``'cubemap'``: samples per projected pixel along the diagonal the LOD aims at
+        (``k_c``), before the ``max_samples`` cap: a small volume on screen takes fewer.
+    occlusion_sharpness : float
+        ``'cubemap'``: ``k_z`` of the bilateral depth filter against opaque meshes: a cube
+        texel stops counting for a pixel once their ray ends differ by ``1/k_z`` cube-map
+        texels. 0 is plain bilinear filtering (halos at mesh edges).
+    lights : None, 'scene', pyvista.Light or list of them
+        Light the medium: each sample's colour is scaled by ``ambient + (1 - ambient) *
+        sum(colour * intensity * transmittance toward the light)``, the transmittances kept
+        in a light map recomputed only when a light, the placement or the data change.
+        ``'scene'`` takes the plotter's switched-on lights; at most 4. ``None``: unlit
+        (the light-map pass does not exist).
+    light_map_size : int
+        Light-map points per axis (2 to 128): finer shadows for ``light_map_size**3 * 16``
+        bytes and a longer light pass.
+    ambient : float
+        Share of the emission no light modulates, in [0, 1] (with ``lights``).
     transform : array_like, optional
         4x4 matrix placing the grid in the world.
     nan_policy : str
@@ -169,7 +214,14 @@ def add_volume(
         raise ValueError(f"downsample must be a whole number >= 1, got {downsample}.")
     if downsample > 1 and technique != "direct":
         raise ValueError("downsample > 1 needs technique='direct' (VTK's mapper marches at "
-                         "full resolution).")
+                         "full resolution; the cube map sets its own resolution).")
+    from .cubemap import CubeMapOptions
+    from .lighting import LightMap, check_light_options, light_source
+
+    options = CubeMapOptions(face_size, max_samples, upscale, sample_factor,
+                             occlusion_sharpness)
+    options.check()
+    check_light_options(light_map_size, ambient)
     if isinstance(volume, VolumeModel):
         model = volume
     else:
@@ -177,14 +229,24 @@ def add_volume(
                             opacity_unit_distance=opacity_unit_distance, transform=transform,
                             nan_policy=nan_policy, name=name or "volume")
     component = plotter.cubemarch  # created now so its close hook frees our GPU resources
+    source = light_source(lights, plotter.renderer)
+    volume_texture = Texture(model.values, kind="3d", interpolate=True)
+    light_map = None if source is None else LightMap(
+        plotter.renderer, model, source, volume_texture, int(light_map_size), float(ambient))
     if technique == "direct":
         from .direct_march import build_direct_actor
 
         actor = build_direct_actor(plotter, model, float(step_scale), float(stop_opacity),
-                                   bool(skip_empty), int(downsample))
+                                   bool(skip_empty), int(downsample), light_map, volume_texture)
+    elif technique == "cubemap":
+        from .cubemap import build_cubemap_actor
+
+        actor = build_cubemap_actor(plotter, model, options, float(stop_opacity),
+                                    bool(skip_empty), light_map, volume_texture)
     else:
         actor = _build_actor(plotter, model, float(step_scale), float(stop_opacity),
-                             bool(skip_empty))
+                             bool(skip_empty), light_map)
+    actor.cubemarch.light_map = light_map
     target = getattr(actor.cubemarch, "renderer", None)
     if target is not None and target is not plotter.renderer:
         target.AddActor(actor)  # drawn by the overlay renderer, after the scene
@@ -214,6 +276,7 @@ class VolumeBinding:
         self.extra_release: list = []
         self.targets: list = [bindings]
         self.downsample = 1
+        self.light_map = None
         self.brick_builds = 1 if "cm_brickExtinction" in bindings.textures else 0
 
     @property
@@ -223,8 +286,8 @@ class VolumeBinding:
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes we added (the transfer table; VTK owns the volume texture)."""
-        return self.bindings.nbytes
+        """GPU bytes we added (VTK owns the volume texture of its mapper path)."""
+        return self.bindings.nbytes + (self.light_map.nbytes if self.light_map else 0)
 
     def release(self) -> None:
         """Free our GPU resources and observers (and any pass or overlay renderer)."""
@@ -232,6 +295,8 @@ class VolumeBinding:
         for release in self.extra_release:
             release()
         self.extra_release = []
+        if self.light_map is not None:
+            self.light_map.release()
 
     def _textures(self, name: str) -> list:
         return [t.textures[name] for t in self.targets if name in t.textures]
@@ -260,10 +325,12 @@ class VolumeBinding:
             for texture in bricks:
                 texture.set_data(rebuilt)
             self.brick_builds += 1
+        if self.light_map is not None:
+            self.light_map.invalidate()
 
 
 def _build_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: float,
-                 skip_empty: bool):
+                 skip_empty: bool, light_map=None):
     grid = pyvista.ImageData(dimensions=model.dimensions, spacing=model.grid.spacing,
                              origin=model.grid.origin)
     grid.direction_matrix = model.grid.direction_matrix
@@ -286,7 +353,9 @@ def _build_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: f
     actor.SetUserMatrix(matrix)
     bindings = ShaderBindings(mapper, plotter.renderer)
     skipping = bind_march(bindings, model, step_scale, stop_opacity, skip_empty)
-    recipe = vtk_mapper_recipe(model, skipping)
+    recipe = vtk_mapper_recipe(model, skipping, light_map)
+    if light_map is not None:
+        light_map.bind(bindings)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
     binding = VolumeBinding(model, bindings, recipe, step_scale, stop_opacity)

@@ -253,17 +253,22 @@ class RenderToTexturePass:
         ``(width, height)`` of every target.
     targets : int
         Number of RGBA float32 render targets (e.g. 6 for the faces of a cube map).
+    every_frame : bool
+        Run at every frame (for results that follow the camera).
+    run_when : callable, optional
+        Asked at each frame; the pass runs when it returns ``True`` (e.g. a light moved).
     """
 
     def __init__(self, renderer, recipe: ShaderRecipe,
                  size: tuple[int, int] | Callable[[], tuple[int, int]], targets: int = 1,
-                 every_frame: bool = False):
+                 every_frame: bool = False, run_when: Callable[[], bool] | None = None):
         self.renderer = renderer
         self.recipe = recipe
         self._size_source = size if callable(size) else None
         self.size = tuple(int(v) for v in (size() if callable(size) else size))
         self.n_targets = int(targets)
         self.every_frame = every_frame
+        self.run_when = run_when
         self.textures: dict[str, Texture] = {}
         self.uniforms: dict[str, UniformSource] = {}
         self.outputs: list[vtkTextureObject] = []
@@ -312,7 +317,8 @@ class RenderToTexturePass:
             self._quad = vtkOpenGLQuadHelper(window, self._vertex, self._fragment, "")
 
     def _on_start(self, *_):
-        if not (self._needed or self.every_frame):
+        asked = self.run_when() if self.run_when is not None else False
+        if not (self._needed or self.every_frame or asked):
             return
         window = self.renderer.GetRenderWindow()
         if self._size_source is not None:
@@ -326,6 +332,7 @@ class RenderToTexturePass:
             with watch_shader_errors(self.recipe.snippet_names):
                 self._quad = vtkOpenGLQuadHelper(window, self._vertex, self._fragment, "")
         state = window.GetState()
+        state.Push()  # viewport, scissor, blending: the renderer's draw continues after us
         state.PushFramebufferBindings()
         active = []
         try:
@@ -349,6 +356,7 @@ class RenderToTexturePass:
             for gl_object in active:
                 gl_object.Deactivate()
             state.PopFramebufferBindings()
+            state.Pop()
         self._needed = False
         self.runs += 1
 

@@ -83,6 +83,9 @@ def render_emission_absorption(
     opaque_color: np.ndarray | None = None,
     near: float | None = None,
     min_transmittance: float = 1e-6,
+    lights: Sequence | None = None,
+    ambient: float = 0.2,
+    crop: Sequence[int] | None = None,
 ) -> np.ndarray:
     """Render ``volume`` as an emission/absorption medium, returning ``(h, w, 3)`` floats.
 
@@ -105,9 +108,29 @@ def render_emission_absorption(
         Distance along the view axis of the near clipping plane; rays start there.
     min_transmittance : float
         Rays stop once their transmittance falls below this (an error below this bound).
+    lights : sequence of VolumeLight, optional
+        Light the samples: emission times ``ambient + (1 - ambient) * sum colour * T``,
+        ``T`` the transmittance toward each light, from a grid half a voxel fine
+        (:func:`pv_cubemarch.lighting.light_grid`).
+    ambient : float
+        Share of the emission no light modulates (with ``lights``).
+    crop : sequence of int, optional
+        ``(x, y, width, height)`` of a pixel window (from the top-left) of the ``size``
+        image: only those rays are traced, e.g. to check a 4K frame on a few crops.
     """
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
+    if crop is not None:
+        x, y, width, height = (int(v) for v in crop)
+        origins = origins[y:y + height, x:x + width]
+        directions = directions[y:y + height, x:x + width]
+        if origins.shape[:2] != (height, width):
+            raise ValueError(f"crop {tuple(crop)} does not fit in an image of size {size}.")
+    grids = None
+    if lights:
+        from .lighting import light_grid
+
+        grids = light_grid(volume, lights)
     origins = origins.reshape(-1, 3)
     directions = directions.reshape(-1, 3)
     n_rays = origins.shape[0]
@@ -141,6 +164,10 @@ def render_emission_absorption(
         mid = 0.5 * (t + seg_end)
         pts = o_idx[active] + d_idx[active] * mid[:, None]
         rgb, sigma = volume.transfer.lookup(trilinear(volume.values, pts))
+        if grids is not None:
+            from .lighting import lit_emission
+
+            rgb = lit_emission(volume, rgb, pts, lights, grids, ambient)
         alpha = -np.expm1(-sigma * length)
         color[active] += (trans[active] * alpha)[:, None] * rgb
         trans[active] *= 1.0 - alpha

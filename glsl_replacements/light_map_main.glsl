@@ -1,0 +1,59 @@
+// Light-map pass (000 pass 1): for each point of an L^3 grid over the volume, the
+// transmittance toward each light, marched through the same transfer function (rgba =
+// lights 0..3). Output: L slices of L x L stacked along y. Runs only when a light, the
+// volume's placement or its data change.
+uniform float cm_lightMapSize;   // L
+uniform mat4 cm_lightVectors;    // column i: light i in texture coordinates; w = 0: direction
+                                 // toward the light, w = 1: the light's position
+uniform float cm_lightStepScale; // step in texels along the dominant axis
+
+float cm_transmittanceToward(vec3 start, vec4 light)
+{
+  vec3 span = light.w > 0.5 ? light.xyz - start : light.xyz;
+  vec3 lo = 0.5 / cm_dims;
+  vec3 hi = 1.0 - lo;
+  vec3 moving = step(vec3(1e-30), abs(span));
+  vec3 safe = mix(vec3(1.0), span, moving);
+  vec3 leave = mix(vec3(1e30), max((lo - start) / safe, (hi - start) / safe), moving);
+  float stop = max(0.0, min(leave.x, min(leave.y, leave.z)));
+  if (light.w > 0.5)
+  {
+    stop = min(stop, 1.0);   // a point light inside the volume: march up to it
+  }
+  vec3 path = span * stop;
+  vec3 texels = abs(path) * cm_dims;
+  float dominant = max(texels.x, max(texels.y, texels.z));
+  float worldLength = length(mat3(cm_worldFromTexture) * path);
+  if (!(dominant > 0.0) || !(worldLength > 0.0))
+  {
+    return 1.0;
+  }
+  float steps = max(dominant / cm_lightStepScale, 1e-6);
+  float opticalDepth = 0.0;
+  for (int i = 0; i < CM_MAX_STEPS; ++i)
+  {
+    float t = float(i);
+    if (t >= steps || opticalDepth > 30.0)
+    {
+      break;
+    }
+    float fraction = min(1.0, steps - t);
+    vec3 middle = start + path * ((t + 0.5 * fraction) / steps);
+    opticalDepth += cm_transfer(cm_sampleScalar(middle)).a * worldLength / steps * fraction;
+  }
+  return exp(-opticalDepth);
+}
+
+void main()
+{
+  float size = cm_lightMapSize;
+  vec2 texel = floor(texCoord * vec2(size, size * size));
+  vec3 grid = vec3(texel.x, mod(texel.y, size), floor(texel.y / size));
+  vec3 start = (grid / (size - 1.0) * (cm_dims - 1.0) + 0.5) / cm_dims;
+  vec4 result = vec4(1.0);
+  for (int i = 0; i < CM_LIGHT_COUNT; ++i)
+  {
+    result[i] = cm_transmittanceToward(start, cm_lightVectors[i]);
+  }
+  gl_FragData[0] = result;
+}

@@ -1,0 +1,271 @@
+"""Cube-map imposter marching (000): ray marching once per texel of the box's interior faces.
+
+Three passes per volume and frame, each in its own GLSL file:
+
+1. light map (:mod:`pv_cubemarch.lighting`, ``light_map_main.glsl``): only with lights, and
+   only when a light, the placement or the data change;
+2. cube ray marching (``cube_march_main.glsl``): a full-screen pass over a 3 x 2 atlas of
+   the six interior faces at this frame's level size ``S``, run at the start of the scene
+   overlay, after every opaque prop was drawn, so each texel's ray stops at the opaque depth
+   under its projection; faces the eye cannot see (equation 1) are not marched, and a volume
+   outside the view frustum is not marched at all;
+3. cube resampling (``cube_resample_*.glsl``): the box's back faces, drawn by the overlay,
+   fetch their pixel's result by cube mapping through the 2x2 bilateral depth filter.
+
+The marching cost depends on ``S`` and the sample count, which the adaptive LOD (section
+3.3, :mod:`pv_cubemarch.cubemap_lod`) derives from the volume's projected size under the
+user's caps, not on the viewport's resolution.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pyvista
+
+from .cubemap_lod import LodChoice, choose_lod, project_corners, visible_face_mask
+from .direct_march import SceneDepth, _bind_camera, _box_actor, _camera_matrices
+from .gl_resources import RenderToTexturePass, ShaderBindings, Texture
+from .shaders import Replacement, ShaderRecipe
+from .volume import VolumeModel
+
+#: Default finest face size ``S_0`` (texels per face edge at MIP level 0).
+DEFAULT_FACE_SIZE = 256
+#: Default ``k_z`` of the bilateral depth filter (000 uses 0.5), per cube-map texel of depth.
+DEFAULT_OCCLUSION_SHARPNESS = 0.5
+
+
+@dataclass(frozen=True)
+class CubeMapOptions:
+    """The user's controls of the technique (see :func:`pv_cubemarch.add_volume`)."""
+
+    face_size: int = DEFAULT_FACE_SIZE
+    max_samples: int | None = None
+    upscale: float = 1.0
+    sample_factor: float = 1.0
+    occlusion_sharpness: float = DEFAULT_OCCLUSION_SHARPNESS
+
+    def check(self) -> None:
+        """Raise a clear error for a bad option."""
+        size = self.face_size
+        if int(size) != size or size < 1 or int(size) & (int(size) - 1) or size > 4096:
+            raise ValueError(f"face_size must be a power of two from 1 to 4096, got {size}.")
+        if self.max_samples is not None and (int(self.max_samples) != self.max_samples
+                                             or self.max_samples < 1):
+            raise ValueError(f"max_samples must be a whole number >= 1 (or None), got "
+                             f"{self.max_samples}.")
+        for name in ("upscale", "sample_factor"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value}.")
+        if not (np.isfinite(self.occlusion_sharpness) and self.occlusion_sharpness >= 0):
+            raise ValueError(f"occlusion_sharpness must be >= 0, got "
+                             f"{self.occlusion_sharpness}.")
+
+
+def world_from_local(model: VolumeModel) -> np.ndarray:
+    """4x4 from the cube's local [-1, 1]^3 (the box of grid points) to world."""
+    upper = np.array(model.dimensions, dtype=np.float64) - 1.0
+    index_from_local = np.eye(4)
+    index_from_local[:3, :3] = np.diag(upper / 2.0)
+    index_from_local[:3, 3] = upper / 2.0
+    return model.world_from_index() @ index_from_local
+
+
+def default_max_samples(model: VolumeModel) -> int:
+    """Two samples per texel along the cube's diagonal (the direct marcher's default step)."""
+    return max(1, 2 * (max(model.dimensions) - 1))
+
+
+class CubeFrame:
+    """What the technique chooses for one volume at each frame: culling, face mask, LOD.
+
+    :meth:`update` runs at the start of the pass; the chosen values stay readable for
+    inspection (``actor.cubemarch.lod``, ``.face_mask``, ``.culled``).
+    """
+
+    def __init__(self, renderer, model: VolumeModel, options: CubeMapOptions):
+        self.renderer = renderer
+        self.model = model
+        self.options = options
+        self.max_samples = int(options.max_samples or default_max_samples(model))
+        self.world_from_local = world_from_local(model)
+        self.local_from_world = np.linalg.inv(self.world_from_local)
+        self.edge_world = float(2.0 * np.linalg.norm(self.world_from_local[:3, :3], axis=0).max())
+        self.face_mask = 0
+        self.culled = False
+        self.frames = 0
+        size = int(options.face_size)
+        self.lod = LodChoice(float(size), float(self.max_samples), self.max_samples,
+                             float(size), 0, size)
+
+    def update(self) -> bool:
+        """Choose this frame's face mask and LOD; ``False`` when the volume is out of view."""
+        view, projection = _camera_matrices(self.renderer)
+        camera = self.renderer.GetActiveCamera()
+        eye = np.array(camera.GetPosition(), dtype=np.float64)
+        if camera.GetParallelProjection():
+            forward = np.array(camera.GetDirectionOfProjection())
+            eye = eye - forward * 1e6 * max(self.edge_world, 1e-30)
+        eye_local = self.local_from_world @ np.append(eye, 1.0)
+        self.face_mask = visible_face_mask(eye_local[:3] / eye_local[3])
+        clip_from_world = projection @ view
+        self.culled = _outside_frustum(clip_from_world @ self.world_from_local)
+        if self.culled:
+            return False
+        corners = project_corners(self.world_from_local, clip_from_world,
+                                  self.renderer.GetSize())
+        size = int(self.options.face_size)
+        if corners is None:  # a corner behind the eye: unbounded projected size
+            self.lod = LodChoice(float("inf"), float("inf"), self.max_samples, float(size), 0,
+                                 size)
+        else:
+            self.lod = choose_lod(corners, self.max_samples, size, self.options.upscale,
+                                  self.options.sample_factor)
+        self.frames += 1
+        return True
+
+    def atlas_size(self) -> tuple[int, int]:
+        """Texels of the face atlas at this frame's level (3 x 2 faces)."""
+        return (3 * self.lod.level_size, 2 * self.lod.level_size)
+
+    @property
+    def step_scale(self) -> float:
+        """Step in texels along the dominant axis giving ``N`` samples on the diagonal."""
+        return max(max(self.model.dimensions) - 1, 1) / float(self.lod.samples)
+
+    @property
+    def texel_world(self) -> float:
+        """World length of one face texel at this level (the bilateral filter's depth unit)."""
+        return self.edge_world / float(self.lod.level_size)
+
+
+def _outside_frustum(clip_from_local: np.ndarray) -> bool:
+    """Whether all 8 corners lie outside one clipping plane (the box cannot be seen)."""
+    from .cubemap_lod import cube_corners
+
+    clip = np.column_stack([cube_corners(), np.ones(8)]) @ clip_from_local.T
+    w = clip[:, 3]
+    for axis in range(3):
+        if (clip[:, axis] > w).all() or (clip[:, axis] < -w).all():
+            return True
+    return False
+
+
+def _pass_snippets(lit: bool) -> tuple[str, ...]:
+    return ("pass_head", "ea_declarations", "volume_sample", "ea_direct_declarations",
+            "ea_march", *(("light_sample",) if lit else ()), "ea_screen_ray", "cube_faces",
+            "cube_march_main")
+
+
+def resample_recipe() -> ShaderRecipe:
+    """The box actor's replacements: cube resampling on the interior faces."""
+    return ShaderRecipe(replacements=[
+        Replacement("//VTK::Color::Dec",
+                    ("ea_direct_declarations", "cube_resample_declarations", "ea_screen_ray",
+                     "cube_faces", "cube_resample_filter"), keep_tag="after"),
+        Replacement("//VTK::Light::Impl", "cube_resample_fragment", keep_tag="before"),
+        Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
+                    keep_tag="before"),
+    ])
+
+
+def build_cubemap_actor(plotter, model: VolumeModel, options: CubeMapOptions,
+                        stop_opacity: float, skip_empty: bool, light_map=None,
+                        volume_texture: Texture | None = None):
+    """The box actor of a cube-map volume, with its passes; returns the actor."""
+    from .emission_absorption import bind_march, march_defines
+    from .overlay import scene_overlay
+
+    main = plotter.renderer
+    # The passes copy the opaque depth and colour, which a multisampled framebuffer refuses.
+    plotter.ren_win.SetMultiSamples(0)
+    overlay = scene_overlay(plotter)
+    volume_texture = volume_texture or Texture(model.values, kind="3d", interpolate=True)
+    frame = CubeFrame(main, model, options)
+    lit = light_map is not None
+    cube_pass = RenderToTexturePass(overlay.renderer, ShaderRecipe(standalone=_pass_snippets(lit)),
+                                    size=frame.atlas_size, targets=2, run_when=frame.update)
+    skipping = bind_march(cube_pass, model, 1.0, stop_opacity, skip_empty)
+    cube_pass.set_uniform("cm_stepScale", lambda: frame.step_scale)
+    cube_pass.add_texture("cm_volume", volume_texture)
+    cube_pass.add_texture("cm_sceneDepth", overlay.depth.shared())
+    cube_pass.set_uniform("cm_faceSize", lambda: float(frame.lod.level_size))
+    cube_pass.set_uniform("cm_faceMask", lambda: int(frame.face_mask))
+    _bind_camera(cube_pass, main, model)
+    defines = march_defines(model, skipping)
+    if lit:
+        light_map.bind(cube_pass)
+        defines.update(light_map.defines)
+    cube_pass.set_recipe(ShaderRecipe(standalone=_pass_snippets(lit), defines=defines))
+
+    actor = _box_actor(model)
+    bindings = ShaderBindings(actor.GetMapper(), overlay.renderer)
+    bindings.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
+    bindings.add_texture("cm_cubeColor", cube_pass.output(0))
+    bindings.add_texture("cm_cubeDepth", cube_pass.output(1))
+    bindings.add_texture("cm_sceneDepth", overlay.depth.shared())
+    bindings.add_texture("cm_sceneColor", SceneDepth(overlay.renderer, color=True))
+    bindings.set_uniform("cm_faceSize", lambda: float(frame.lod.level_size))
+    bindings.set_uniform("cm_occlusionSharpness", float(options.occlusion_sharpness))
+    bindings.set_uniform("cm_texelWorld", lambda: frame.texel_world)
+    _bind_camera(bindings, main, model)
+    recipe = resample_recipe()
+    bindings.recipe = recipe
+    recipe.apply(actor.GetShaderProperty())
+    binding = CubeMapBinding(model, bindings, recipe, frame, cube_pass, light_map, stop_opacity)
+    binding.renderer = overlay.renderer
+    overlay.add_user(actor)
+    binding.extra_release = [cube_pass.release, lambda: overlay.release_user(actor)]
+    pyvista.set_new_attribute(actor, "cubemarch", binding)
+    return actor
+
+
+def _binding_base():
+    from .emission_absorption import VolumeBinding
+
+    return VolumeBinding
+
+
+class CubeMapBinding(_binding_base()):
+    """Per-volume state of a cube-map volume: its passes and this frame's choices."""
+
+    technique = "cubemap"
+
+    def __init__(self, model, bindings, recipe, frame: CubeFrame, cube_pass, light_map,
+                 stop_opacity):
+        super().__init__(model, bindings, recipe, float("nan"), stop_opacity)
+        self.frame = frame
+        self.cube_pass = cube_pass
+        self.light_map = light_map
+        self.renderer = None
+        self.targets = [bindings, cube_pass]
+
+    @property
+    def lod(self) -> LodChoice:
+        """The last frame's LOD choice (``S_ideal``, ``N``, ``S``, level, level size)."""
+        return self.frame.lod
+
+    @property
+    def face_mask(self) -> int:
+        """The last frame's visible-face mask (bit i: face i of +x, -x, +y, -y, +z, -z)."""
+        return self.frame.face_mask
+
+    @property
+    def culled(self) -> bool:
+        """Whether the last frame skipped the volume as outside the view frustum."""
+        return self.frame.culled
+
+    @property
+    def memory(self) -> dict[str, int]:
+        """GPU bytes by resource: cube map, cube depth map, light map, data and tables."""
+        per_target = self.cube_pass.nbytes // 2 if self.cube_pass.outputs else 0
+        data = sum(t.nbytes for t in self.cube_pass.textures.values())
+        return {"cube_map": per_target, "cube_depth_map": per_target,
+                "light_map": self.light_map.nbytes if self.light_map else 0, "data": data}
+
+    @property
+    def nbytes(self) -> int:
+        """All GPU bytes the volume holds."""
+        return sum(self.memory.values())

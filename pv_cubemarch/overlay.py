@@ -1,0 +1,80 @@
+"""The scene overlay: a renderer drawn after the plotter's, over its colour and depth.
+
+Passes that need the frame's finished opaque depth (the reduced-resolution pass, the cube
+ray-marching pass) run at the overlay's start, after every opaque prop of the scene was
+drawn; the volumes that composite their result over the scene are drawn by the overlay,
+farthest first. One overlay serves every such volume of a plotter, and the opaque depth is
+copied once per frame for all of them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import vtk
+
+from .direct_march import SceneDepth
+
+
+class SceneOverlay:
+    """The overlay renderer of one plotter and the opaque depth copied at its start."""
+
+    def __init__(self, plotter):
+        self.main = plotter.renderer
+        self.window = plotter.ren_win
+        renderer = vtk.vtkOpenGLRenderer()
+        self.window.SetNumberOfLayers(max(self.window.GetNumberOfLayers(),
+                                          self.main.GetLayer() + 2))
+        renderer.SetLayer(self.main.GetLayer() + 1)
+        renderer.SetViewport(self.main.GetViewport())
+        renderer.SetActiveCamera(self.main.GetActiveCamera())
+        renderer.SetPreserveColorBuffer(True)
+        renderer.SetPreserveDepthBuffer(True)
+        renderer.InteractiveOff()
+        renderer.SetUseOIT(False)
+        self.window.AddRenderer(renderer)
+        self.renderer = renderer
+        self.depth = SceneDepth(self.main)
+        self.users: list = []
+        # Priority above the passes' observers: the depth is copied before any pass reads it.
+        self._tag = renderer.AddObserver(vtk.vtkCommand.StartEvent, self._on_start, 1.0)
+
+    def _on_start(self, *_):
+        self.depth.ensure(self.window)
+        self._sort_far_to_near()
+
+    def _sort_far_to_near(self) -> None:
+        """Draw the overlay's volumes farthest first, so nearer ones composite over them."""
+        actors = list(self.renderer.GetActors())
+        if len(actors) < 2:
+            return
+        eye = np.array(self.main.GetActiveCamera().GetPosition())
+        ordered = sorted(actors, key=lambda a: -np.linalg.norm(np.array(a.GetCenter()) - eye))
+        if ordered != actors:
+            for actor in actors:
+                self.renderer.RemoveActor(actor)
+            for actor in ordered:
+                self.renderer.AddActor(actor)
+
+    def add_user(self, user) -> None:
+        """Keep the overlay while ``user`` needs it."""
+        self.users.append(user)
+
+    def release_user(self, user) -> None:
+        """``user`` is done; the overlay leaves the window with its last user."""
+        if user in self.users:
+            self.users.remove(user)
+        if not self.users and self.renderer is not None:
+            self.renderer.RemoveObserver(self._tag)
+            self.depth.release()
+            self.window.RemoveRenderer(self.renderer)
+            self.renderer = None
+
+
+def scene_overlay(plotter) -> SceneOverlay:
+    """The plotter's overlay, made on first use (and again after its last user left)."""
+    component = plotter.cubemarch
+    overlay = getattr(component, "_overlay", None)
+    if overlay is None or overlay.renderer is None:
+        overlay = SceneOverlay(plotter)
+        component._overlay = overlay
+    return overlay
