@@ -1,23 +1,28 @@
 // Cube ray-marching pass (000 pass 2): one ray per texel of the visible interior faces,
 // from the eye (or the near plane) through the texel's point on the face, cut by the opaque
 // depth found where that point projects on the screen (nearest sample). Target 0:
-// premultiplied rgba; target 1: view distance where the ray stopped (the cube depth map of
-// the bilateral filter). Texels of faces outside the mask are left empty.
-uniform int cm_faceMask;   // bit i: interior face i faces the eye (equation 1)
+// premultiplied rgba; target 1: the cube depth map of the bilateral filter, the distance
+// along the view axis where the ray stops (the nearer of the opaque depth and the face),
+// defined as the resampling pass defines it for a pixel. Faces outside the mask stay empty.
+uniform int cm_faceMask;           // bit i: interior face i faces the eye (equation 1)
+uniform mat4 cm_viewFromTexture;   // volume texture coordinates to view
 
 void main()
 {
   gl_FragData[0] = vec4(0.0);
   gl_FragData[1] = vec4(0.0);
-  vec2 atlas = texCoord * vec2(3.0, 2.0);
-  vec2 tile = min(floor(atlas), vec2(2.0, 1.0));
+  vec2 atlasTexel = floor(texCoord * cm_atlasSize());
+  vec2 tile = min(floor(atlasTexel / cm_tileSize()), vec2(2.0, 1.0));
   int face = int(tile.x) + 3 * int(tile.y);
   if (((cm_faceMask >> face) & 1) == 0)
   {
     return;
   }
-  vec3 point = cm_facePoint(face, atlas - tile);
-  vec4 clip = cm_projection * (inverse(cm_textureFromView) * vec4(point, 1.0));
+  // Border texels repeat the nearest edge texel of the face.
+  vec2 faceTexel = clamp(atlasTexel - cm_tileOrigin(face) - 1.0, 0.0, cm_faceSize - 1.0);
+  vec3 point = cm_facePoint(face, (faceTexel + 0.5) / cm_faceSize);
+  vec4 pointView = cm_viewFromTexture * vec4(point, 1.0);
+  vec4 clip = cm_projection * pointView;
   if (!(clip.w > 0.0))
   {
     return;   // behind the eye: no pixel shows this texel
@@ -38,5 +43,6 @@ void main()
     rgba = cm_march(entry, exit, length(mat3(cm_worldFromTexture) * (exit - entry)));
   }
   gl_FragData[0] = rgba;
-  gl_FragData[1] = vec4(-exitView.z, 0.0, 0.0, 1.0);
+  float sceneDistance = -cm_viewPoint(ndc.xy, sceneDepth).z;
+  gl_FragData[1] = vec4(min(sceneDistance, -pointView.z), 0.0, 0.0, 1.0);
 }

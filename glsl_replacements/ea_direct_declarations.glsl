@@ -26,6 +26,10 @@ float cm_sceneDepthAt(vec2 pixel)
     sum += texelFetch(cm_sceneDepth, texel, i).r;
   }
   return sum / float(max(cm_depthSamples, 1));
+#elif defined(CM_DEPTH_FRAMEBUFFER)
+  // The window's own depth texture (not a copy): the nearest texel of the viewport.
+  vec2 texel = clamp(floor(pixel * cm_viewport.zw), vec2(0.0), cm_viewport.zw - 1.0);
+  return texelFetch(cm_sceneDepth, ivec2(cm_viewport.xy + texel), 0).r;
 #else
   return texture(cm_sceneDepth, pixel).r;
 #endif

@@ -25,7 +25,7 @@ import numpy as np
 import pyvista
 
 from .cubemap_lod import LodChoice, choose_lod, project_corners, visible_face_mask
-from .direct_march import SceneDepth, _bind_camera, _box_actor, _camera_matrices
+from .direct_march import FramebufferDepth, _bind_camera, _box_actor, _camera_matrices
 from .gl_resources import RenderToTexturePass, ShaderBindings, Texture
 from .shaders import Replacement, ShaderRecipe
 from .volume import VolumeModel
@@ -127,8 +127,9 @@ class CubeFrame:
         return True
 
     def atlas_size(self) -> tuple[int, int]:
-        """Texels of the face atlas at this frame's level (3 x 2 faces)."""
-        return (3 * self.lod.level_size, 2 * self.lod.level_size)
+        """Texels of the face atlas at this frame's level: 3 x 2 faces, each with a border."""
+        tile = self.lod.level_size + 2
+        return (3 * tile, 2 * tile)
 
     @property
     def step_scale(self) -> float:
@@ -163,19 +164,21 @@ def resample_recipe() -> ShaderRecipe:
     """The box actor's replacements: cube resampling on the interior faces."""
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
-                    ("ea_direct_declarations", "cube_resample_declarations", "ea_screen_ray",
-                     "cube_faces", "cube_resample_filter"), keep_tag="after"),
+                    ("ea_direct_declarations", "cube_resample_declarations", "cube_faces",
+                     "cube_resample_filter"), keep_tag="after"),
         Replacement("//VTK::Light::Impl", "cube_resample_fragment", keep_tag="before"),
-        Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
-                    keep_tag="before"),
-    ])
+        Replacement("//VTK::PositionVC::Dec", "cube_resample_vertex_declarations",
+                    stage="vertex", keep_tag="after"),
+        Replacement("//VTK::PositionVC::Impl", ("cube_resample_vertex", "ea_box_vertex"),
+                    stage="vertex", keep_tag="before"),
+    ], defines={"CM_DEPTH_FRAMEBUFFER": True})
 
 
 def build_cubemap_actor(plotter, model: VolumeModel, options: CubeMapOptions,
                         stop_opacity: float, skip_empty: bool, light_map=None,
                         volume_texture: Texture | None = None):
     """The box actor of a cube-map volume, with its passes; returns the actor."""
-    from .emission_absorption import bind_march, march_defines
+    from .emission_absorption import bind_march, march_defines, world_from_texture
     from .overlay import scene_overlay
 
     main = plotter.renderer
@@ -184,29 +187,32 @@ def build_cubemap_actor(plotter, model: VolumeModel, options: CubeMapOptions,
     overlay = scene_overlay(plotter)
     volume_texture = volume_texture or Texture(model.values, kind="3d", interpolate=True)
     frame = CubeFrame(main, model, options)
+    texture_from_world = np.linalg.inv(world_from_texture(model))
     lit = light_map is not None
     cube_pass = RenderToTexturePass(overlay.renderer, ShaderRecipe(standalone=_pass_snippets(lit)),
                                     size=frame.atlas_size, targets=2, run_when=frame.update)
     skipping = bind_march(cube_pass, model, 1.0, stop_opacity, skip_empty)
     cube_pass.set_uniform("cm_stepScale", lambda: frame.step_scale)
     cube_pass.add_texture("cm_volume", volume_texture)
-    cube_pass.add_texture("cm_sceneDepth", overlay.depth.shared())
+    cube_pass.add_texture("cm_sceneDepth", FramebufferDepth())
+    cube_pass.set_uniform("cm_viewFromTexture", lambda: np.linalg.inv(
+        texture_from_world @ np.linalg.inv(_camera_matrices(main)[0])))
     cube_pass.set_uniform("cm_faceSize", lambda: float(frame.lod.level_size))
     cube_pass.set_uniform("cm_faceMask", lambda: int(frame.face_mask))
     _bind_camera(cube_pass, main, model)
-    defines = march_defines(model, skipping)
+    defines = dict(march_defines(model, skipping), CM_DEPTH_FRAMEBUFFER=True)
     if lit:
         light_map.bind(cube_pass)
         defines.update(light_map.defines)
     cube_pass.set_recipe(ShaderRecipe(standalone=_pass_snippets(lit), defines=defines))
 
     actor = _box_actor(model)
+    actor.GetProperty().LightingOff()  # VTK's lighting code would run for nothing
     bindings = ShaderBindings(actor.GetMapper(), overlay.renderer)
     bindings.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
     bindings.add_texture("cm_cubeColor", cube_pass.output(0))
     bindings.add_texture("cm_cubeDepth", cube_pass.output(1))
-    bindings.add_texture("cm_sceneDepth", overlay.depth.shared())
-    bindings.add_texture("cm_sceneColor", SceneDepth(overlay.renderer, color=True))
+    bindings.add_texture("cm_sceneDepth", FramebufferDepth())
     bindings.set_uniform("cm_faceSize", lambda: float(frame.lod.level_size))
     bindings.set_uniform("cm_occlusionSharpness", float(options.occlusion_sharpness))
     bindings.set_uniform("cm_texelWorld", lambda: frame.texel_world)

@@ -263,6 +263,7 @@ def _reduced_resolution(plotter, model, step_scale, stop_opacity, skip_empty, do
 
     main = plotter.renderer
     overlay = scene_overlay(plotter)
+    overlay.copy_depth = True
 
     def low_size():
         width, height = main.GetSize()

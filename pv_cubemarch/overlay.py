@@ -3,8 +3,8 @@
 Passes that need the frame's finished opaque depth (the reduced-resolution pass, the cube
 ray-marching pass) run at the overlay's start, after every opaque prop of the scene was
 drawn; the volumes that composite their result over the scene are drawn by the overlay,
-farthest first. One overlay serves every such volume of a plotter, and the opaque depth is
-copied once per frame for all of them.
+farthest first. One overlay serves every such volume of a plotter; the opaque depth is
+copied once per frame for all users that ask for a copy.
 """
 
 from __future__ import annotations
@@ -34,12 +34,14 @@ class SceneOverlay:
         self.window.AddRenderer(renderer)
         self.renderer = renderer
         self.depth = SceneDepth(self.main)
+        self.copy_depth = False  # set by a user that binds ``depth``
         self.users: list = []
         # Priority above the passes' observers: the depth is copied before any pass reads it.
         self._tag = renderer.AddObserver(vtk.vtkCommand.StartEvent, self._on_start, 1.0)
 
     def _on_start(self, *_):
-        self.depth.ensure(self.window)
+        if self.copy_depth:
+            self.depth.ensure(self.window)
         self._sort_far_to_near()
 
     def _sort_far_to_near(self) -> None:
