@@ -19,6 +19,10 @@ def _size(text: str) -> tuple[int, int]:
     return width, height
 
 
+def _sizes(text: str) -> list[tuple[int, int]]:
+    return [_size(part) for part in text.split(",") if part.strip()]
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for tests and documentation)."""
     parser = argparse.ArgumentParser(prog="pv-cubemarch", description=__doc__)
@@ -58,6 +62,19 @@ def build_parser() -> argparse.ArgumentParser:
     tradeoff.add_argument("--plot", help="write the error-against-time plot (PNG) here")
     tradeoff.add_argument("--no-stock", action="store_true",
                           help="leave out PyVista's stock add_volume rows")
+    resolution = bench_commands.add_parser(
+        "resolution", help="Table 1 of 000: frame time of cube map, direct and stock PyVista "
+                           "at 1080p, 1440p and 4K, with errors on crops")
+    resolution.add_argument("--scene", default=None,
+                            help="scene file (default: the shipped datasets/smoke_scene.usda)")
+    resolution.add_argument("--sizes", type=_sizes, default=None,
+                            help="comma-separated WxH list (default 1920x1080,2560x1440,"
+                                 "3840x2160)")
+    resolution.add_argument("--frames", type=int, default=3,
+                            help="timed frames per row (>= 3)")
+    resolution.add_argument("--crop", type=int, default=128,
+                            help="side of the 3 crops compared with the CPU reference")
+    resolution.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     return parser
 
 
@@ -103,6 +120,8 @@ def _bench(args) -> int:
     if not Path(scene_path).exists():
         raise FileNotFoundError(f"Scene {scene_path!r} not found; pass --scene.")
     scene = load_scene(scene_path, progress_bar=False)
+    if args.bench_command == "resolution":
+        return _bench_resolution(args, scene, scene_path)
     results = bench.run_tradeoff(args.technique, scene, size=args.size, frames=args.frames,
                                  include_stock=not args.no_stock)
     print(f"scene {scene_path}, {args.size[0]}x{args.size[1]}, median of {args.frames} frames; "
@@ -118,6 +137,24 @@ def _bench(args) -> int:
         bench.plot_pareto(results, args.plot,
                           title=f"{', '.join(args.technique)} on {Path(scene_path).name}")
         print(f"wrote {args.plot}")
+    return 0
+
+
+def _bench_resolution(args, scene, scene_path) -> int:
+    from . import bench_resolution
+    from .offscreen import gl_info
+
+    sizes = args.sizes or bench_resolution.SIZES
+    rows = bench_resolution.run_resolution(scene, sizes=sizes, frames=args.frames,
+                                           crop=args.crop)
+    print(f"scene {scene_path}; median of {args.frames} frames drawn to completion; error "
+          f"(PSNR) on three {args.crop}px crops against the CPU reference (0.1 voxel steps)")
+    print(bench_resolution.format_resolution_table(rows))
+    if args.json_path:
+        bench_resolution.write_resolution_json(rows, args.json_path, {
+            "scene": scene_path, "sizes": [list(s) for s in sizes], "frames": args.frames,
+            "crop": args.crop, "gl_renderer": gl_info()["renderer"]})
+        print(f"wrote {args.json_path}")
     return 0
 
 

@@ -96,12 +96,15 @@ class CubeFrame:
         self.face_mask = 0
         self.culled = False
         self.frames = 0
+        self.on_update = None  # called first at each frame (e.g. to follow the scene)
         size = int(options.face_size)
         self.lod = LodChoice(float(size), float(self.max_samples), self.max_samples,
                              float(size), 0, size)
 
     def update(self) -> bool:
         """Choose this frame's face mask and LOD; ``False`` when the volume is out of view."""
+        if self.on_update is not None:
+            self.on_update()
         view, projection = _camera_matrices(self.renderer)
         camera = self.renderer.GetActiveCamera()
         eye = np.array(camera.GetPosition(), dtype=np.float64)
@@ -154,14 +157,32 @@ def _outside_frustum(clip_from_local: np.ndarray) -> bool:
     return False
 
 
+def has_opaque_props(renderer) -> bool:
+    """Whether ``renderer`` draws an opaque prop that could stop a volume's rays.
+
+    Without one, the resampling pass skips the depth-aware filter (plain bilinear).
+    """
+    from .overlay import PROXY_NAME
+
+    for actor in renderer.GetActors():
+        if actor.GetObjectName() == PROXY_NAME:
+            continue  # an overlay volume's bounds proxy draws nothing
+        if actor.GetVisibility() and not actor.HasTranslucentPolygonalGeometry():
+            return True
+    return False
+
+
 def _pass_snippets(lit: bool) -> tuple[str, ...]:
     return ("pass_head", "ea_declarations", "volume_sample", "ea_direct_declarations",
             "ea_march", *(("light_sample",) if lit else ()), "ea_screen_ray", "cube_faces",
             "cube_march_main")
 
 
-def resample_recipe() -> ShaderRecipe:
-    """The box actor's replacements: cube resampling on the interior faces."""
+def resample_recipe(occlusion: bool) -> ShaderRecipe:
+    """The box actor's replacements: cube resampling on the interior faces.
+
+    ``occlusion`` compiles the bilateral depth filter in (the scene has opaque props).
+    """
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
                     ("ea_direct_declarations", "cube_resample_declarations", "cube_faces",
@@ -171,7 +192,7 @@ def resample_recipe() -> ShaderRecipe:
                     stage="vertex", keep_tag="after"),
         Replacement("//VTK::PositionVC::Impl", ("cube_resample_vertex", "ea_box_vertex"),
                     stage="vertex", keep_tag="before"),
-    ], defines={"CM_DEPTH_FRAMEBUFFER": True})
+    ], defines={"CM_DEPTH_FRAMEBUFFER": True, "CM_OCCLUSION": bool(occlusion)})
 
 
 def build_cubemap_actor(plotter, model: VolumeModel, options: CubeMapOptions,
@@ -217,10 +238,11 @@ def build_cubemap_actor(plotter, model: VolumeModel, options: CubeMapOptions,
     bindings.set_uniform("cm_occlusionSharpness", float(options.occlusion_sharpness))
     bindings.set_uniform("cm_texelWorld", lambda: frame.texel_world)
     _bind_camera(bindings, main, model)
-    recipe = resample_recipe()
+    recipe = resample_recipe(has_opaque_props(main))
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
     binding = CubeMapBinding(model, bindings, recipe, frame, cube_pass, light_map, stop_opacity)
+    frame.on_update = binding.follow_occluders
     binding.renderer = overlay.renderer
     overlay.add_user(actor)
     binding.extra_release = [cube_pass.release, lambda: overlay.release_user(actor)]
@@ -247,6 +269,15 @@ class CubeMapBinding(_binding_base()):
         self.light_map = light_map
         self.renderer = None
         self.targets = [bindings, cube_pass]
+
+    def follow_occluders(self) -> None:
+        """Compile the depth filter in or out when opaque props appear or leave the scene."""
+        wanted = has_opaque_props(self.frame.renderer)
+        if bool(self.recipe.defines.get("CM_OCCLUSION")) != wanted:
+            self.recipe = resample_recipe(wanted)
+            self.bindings.recipe = self.recipe
+            if self.actor is not None:
+                self.recipe.apply(self.actor.GetShaderProperty())
 
     @property
     def lod(self) -> LodChoice:

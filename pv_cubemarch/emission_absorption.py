@@ -250,6 +250,12 @@ def add_volume(
     target = getattr(actor.cubemarch, "renderer", None)
     if target is not None and target is not plotter.renderer:
         target.AddActor(actor)  # drawn by the overlay renderer, after the scene
+        from .overlay import bounds_proxy
+
+        # The plotter's renderer frames the camera and its clipping range from its own props.
+        proxy = bounds_proxy(model)
+        plotter.renderer.AddActor(proxy)
+        actor.cubemarch.extra_release.append(lambda: plotter.renderer.RemoveActor(proxy))
     else:
         plotter.add_actor(actor, name=name or model.name, reset_camera=False)
     actor.cubemarch.actor = actor
@@ -277,7 +283,17 @@ class VolumeBinding:
         self.targets: list = [bindings]
         self.downsample = 1
         self.light_map = None
-        self.brick_builds = 1 if "cm_brickExtinction" in bindings.textures else 0
+        self._brick_rebuilds = 0
+
+    @property
+    def skips_empty(self) -> bool:
+        """Whether the marching shaders step over empty bricks (a brick texture is bound)."""
+        return bool(self._textures("cm_brickExtinction"))
+
+    @property
+    def brick_builds(self) -> int:
+        """How many times the empty-space bricks were built (once at add, once per data change)."""
+        return int(self.skips_empty) + self._brick_rebuilds
 
     @property
     def name(self) -> str:
@@ -324,7 +340,7 @@ class VolumeBinding:
                                        DEFAULT_BRICK_SIZE)
             for texture in bricks:
                 texture.set_data(rebuilt)
-            self.brick_builds += 1
+            self._brick_rebuilds += 1
         if self.light_map is not None:
             self.light_map.invalidate()
 

@@ -49,10 +49,20 @@ class VolumeLight:
             raise ValueError("A directional light needs a non-zero direction.")
 
     @classmethod
-    def from_pyvista(cls, light) -> VolumeLight:
-        """The light a ``pyvista.Light`` (or ``vtkLight``) casts now, camera lights included."""
-        position = np.array(light.GetTransformedPosition(), dtype=np.float64)
-        focal = np.array(light.GetTransformedFocalPoint(), dtype=np.float64)
+    def from_pyvista(cls, light, camera=None) -> VolumeLight:
+        """The light a ``pyvista.Light`` (or ``vtkLight``) casts now.
+
+        Headlights and camera lights follow ``camera`` (a ``vtkCamera``), as VTK places them.
+        """
+        position = np.array(light.GetPosition(), dtype=np.float64)
+        focal = np.array(light.GetFocalPoint(), dtype=np.float64)
+        if camera is not None and light.LightTypeIsHeadlight():
+            position = np.array(camera.GetPosition(), dtype=np.float64)
+            focal = np.array(camera.GetFocalPoint(), dtype=np.float64)
+        elif camera is not None and light.LightTypeIsCameraLight():
+            matrix = camera.GetCameraLightTransformMatrix()
+            position = np.array(matrix.MultiplyPoint((*position, 1.0))[:3])
+            focal = np.array(matrix.MultiplyPoint((*focal, 1.0))[:3])
         color = tuple(float(c) for c in light.GetDiffuseColor())
         if light.GetPositional():
             return cls("point", position=tuple(position), color=color,
@@ -100,7 +110,8 @@ def light_source(lights, renderer) -> LightSource | None:
                              f"got {lights!r}.")
 
         def scene_lights():
-            return [VolumeLight.from_pyvista(li) for li in renderer.GetLights()
+            camera = renderer.GetActiveCamera()
+            return [VolumeLight.from_pyvista(li, camera) for li in renderer.GetLights()
                     if li.GetSwitch()]
 
         found = scene_lights()
@@ -116,7 +127,8 @@ def light_source(lights, renderer) -> LightSource | None:
         if not isinstance(item, VolumeLight) and not hasattr(item, "GetTransformedPosition"):
             raise TypeError(f"lights must hold pyvista.Light or VolumeLight objects, got "
                             f"{type(item).__name__}.")
-    return lambda: [item if isinstance(item, VolumeLight) else VolumeLight.from_pyvista(item)
+    return lambda: [item if isinstance(item, VolumeLight)
+                    else VolumeLight.from_pyvista(item, renderer.GetActiveCamera())
                     for item in items]
 
 

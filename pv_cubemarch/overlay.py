@@ -80,3 +80,39 @@ def scene_overlay(plotter) -> SceneOverlay:
         overlay = SceneOverlay(plotter)
         component._overlay = overlay
     return overlay
+
+
+#: ``GetObjectName()`` of a bounds proxy.
+PROXY_NAME = "pv_cubemarch bounds proxy"
+
+
+def bounds_proxy(model) -> vtk.vtkActor:
+    """An invisible prop spanning ``model``'s world box, for the plotter's own renderer.
+
+    A volume drawn by the overlay is not among the plotter renderer's props, which
+    ``reset_camera`` and the automatic clipping range look at; this prop stands in for it:
+    the two corners of the box's world bounds as points whose fragments are discarded (an
+    opaque prop, so it starts no translucency pass).
+    """
+    from .shaders import Replacement, ShaderRecipe
+
+    bounds = model.world_bounds()
+    points = vtk.vtkPoints()
+    points.InsertNextPoint(bounds[0], bounds[2], bounds[4])
+    points.InsertNextPoint(bounds[1], bounds[3], bounds[5])
+    cells = vtk.vtkCellArray()
+    for index in range(2):
+        cells.InsertNextCell(1)
+        cells.InsertCellPoint(index)
+    corners = vtk.vtkPolyData()
+    corners.SetPoints(points)
+    corners.SetVerts(cells)
+    mapper = vtk.vtkOpenGLPolyDataMapper()
+    mapper.SetInputData(corners)
+    proxy = vtk.vtkActor()
+    proxy.SetMapper(mapper)
+    proxy.PickableOff()
+    proxy.SetObjectName(PROXY_NAME)
+    ShaderRecipe([Replacement("//VTK::Light::Impl", "discard_fragment", keep_tag="before")]
+                 ).apply(proxy.GetShaderProperty())
+    return proxy

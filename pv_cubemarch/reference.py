@@ -74,7 +74,7 @@ def trilinear(values: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def render_emission_absorption(
-    volume: VolumeModel,
+    volume: VolumeModel | Sequence[VolumeModel],
     camera: Camera,
     size: Sequence[int] = (256, 256),
     background: Sequence[float] = (0.0, 0.0, 0.0),
@@ -91,8 +91,10 @@ def render_emission_absorption(
 
     Parameters
     ----------
-    volume : VolumeModel
-        The volume, its placement and its transfer function.
+    volume : VolumeModel or sequence of VolumeModel
+        The volume, its placement and its transfer function; several volumes are marched
+        together (where they overlap their extinctions add, the emitted colour is the
+        extinction-weighted mean), so interpenetrating media are right.
     camera : Camera
         The view; rays run through pixel centres, rows top to bottom.
     size : sequence of int
@@ -126,11 +128,14 @@ def render_emission_absorption(
         directions = directions[y:y + height, x:x + width]
         if origins.shape[:2] != (height, width):
             raise ValueError(f"crop {tuple(crop)} does not fit in an image of size {size}.")
+    volumes = [volume] if isinstance(volume, VolumeModel) else list(volume)
+    if not volumes:
+        raise ValueError("Give at least one volume to render.")
     grids = None
     if lights:
         from .lighting import light_grid
 
-        grids = light_grid(volume, lights)
+        grids = [light_grid(v, lights) for v in volumes]
     origins = origins.reshape(-1, 3)
     directions = directions.reshape(-1, 3)
     n_rays = origins.shape[0]
@@ -141,19 +146,17 @@ def render_emission_absorption(
     t_stop = np.full(n_rays, np.inf) if opaque_depth is None else np.asarray(
         opaque_depth, dtype=np.float64).reshape(n_rays)
 
-    index_from_world = np.linalg.inv(volume.world_from_index())
-    o_idx = origins @ index_from_world[:3, :3].T + index_from_world[:3, 3]
-    d_idx = directions @ index_from_world[:3, :3].T
-    upper = np.array(volume.dimensions, dtype=np.float64) - 1.0
-    t0, t1 = ray_box_interval(o_idx, d_idx, np.zeros(3), upper)
+    rays = [_index_rays(v, origins, directions) for v in volumes]
+    t0 = np.min([r[2] for r in rays], axis=0)
+    t1 = np.max([r[3] for r in rays], axis=0)
     t0 = np.maximum(t0, 0.0)
     if near is not None:
         _, _, forward = camera.basis()
         t0 = np.maximum(t0, near / np.maximum(directions @ forward, 1e-12))
     t1 = np.minimum(t1, t_stop)
 
-    voxel = np.linalg.norm(volume.world_from_index()[:3, :3], axis=0)
-    step = float(step_voxels) * float(voxel.min())
+    step = float(step_voxels) * min(float(np.linalg.norm(v.world_from_index()[:3, :3],
+                                                          axis=0).min()) for v in volumes)
     color = np.zeros((n_rays, 3))
     trans = np.ones(n_rays)
     active = np.nonzero(t1 > t0)[0]
@@ -162,12 +165,24 @@ def render_emission_absorption(
         seg_end = np.minimum(t + step, t1[active])
         length = seg_end - t
         mid = 0.5 * (t + seg_end)
-        pts = o_idx[active] + d_idx[active] * mid[:, None]
-        rgb, sigma = volume.transfer.lookup(trilinear(volume.values, pts))
-        if grids is not None:
-            from .lighting import lit_emission
+        sigma = np.zeros(active.size)
+        emitted = np.zeros((active.size, 3))
+        # Overlapping media add their extinctions; the emitted colour is their
+        # extinction-weighted mean (one medium alone: its own colour and extinction).
+        for index, (v, (o_idx, d_idx, v0, v1)) in enumerate(zip(volumes, rays, strict=True)):
+            inside = (mid >= v0[active]) & (mid <= v1[active])
+            if not inside.any():
+                continue
+            pts = o_idx[active][inside] + d_idx[active][inside] * mid[inside, None]
+            rgb, sig = v.transfer.lookup(trilinear(v.values, pts))
+            if grids is not None:
+                from .lighting import lit_emission
 
-            rgb = lit_emission(volume, rgb, pts, lights, grids, ambient)
+                rgb = lit_emission(v, rgb, pts, lights, grids[index], ambient)
+            sigma[inside] += sig
+            emitted[inside] += sig[:, None] * rgb
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rgb = np.where(sigma[:, None] > 0, emitted / sigma[:, None], 0.0)
         alpha = -np.expm1(-sigma * length)
         color[active] += (trans[active] * alpha)[:, None] * rgb
         trans[active] *= 1.0 - alpha
@@ -176,6 +191,16 @@ def render_emission_absorption(
         active, t = active[keep], t[keep]
     image = color + trans[:, None] * backdrop
     return image.reshape(height, width, 3)
+
+
+def _index_rays(volume: VolumeModel, origins, directions):
+    """Rays in ``volume``'s index space and their interval inside its box (world ``t``)."""
+    index_from_world = np.linalg.inv(volume.world_from_index())
+    o_idx = origins @ index_from_world[:3, :3].T + index_from_world[:3, 3]
+    d_idx = directions @ index_from_world[:3, :3].T
+    upper = np.array(volume.dimensions, dtype=np.float64) - 1.0
+    t0, t1 = ray_box_interval(o_idx, d_idx, np.zeros(3), upper)
+    return o_idx, d_idx, t0, t1
 
 
 def mesh_depth(mesh, camera: Camera, size: Sequence[int], chunk: int = 4096) -> np.ndarray:

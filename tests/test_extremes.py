@@ -1,4 +1,10 @@
-"""Numerical extremes, for both emission/absorption paths, against the CPU reference."""
+"""Numerical extremes, for every emission/absorption technique, against the CPU reference.
+
+The cube map takes its samples from ``max_samples`` and its LOD (``sample_factor``), not
+from ``step_scale``: :func:`technique_options` asks it for the same samples per ray as the
+other techniques' ``step_scale`` gives, at a ``sample_factor`` high enough that the LOD of
+these 48-pixel images does not coarsen them.
+"""
 
 from __future__ import annotations
 
@@ -10,14 +16,25 @@ from conftest import BACKGROUND, blob_grid, set_camera
 import pv_cubemarch as cm
 from pv_cubemarch.testing import compare_images, to_uint8
 
-TECHNIQUES = ["vtk", "direct"]
+TECHNIQUES = ["vtk", "direct", "cubemap"]
 SIZE = (48, 48)
+
+
+def technique_options(model, technique, step_scale=0.5):
+    """add_volume options giving ``step_scale``'s samples per ray with any technique."""
+    if technique != "cubemap":
+        return {"technique": technique, "step_scale": step_scale}
+    samples = max(1, round((max(model.dimensions) - 1) / step_scale))
+    # k_c for which the LOD's N_ideal reaches max_samples at a ~40-pixel projected edge, so
+    # the face size stays near the projected size (S = sqrt(3) N / k_c).
+    return {"technique": technique, "max_samples": samples,
+            "sample_factor": np.sqrt(3.0) * samples / 40.0}
 
 
 def render_pair(plotter_factory, model, position, focal, technique, up=(0, 1, 0),
                 step_scale=0.5, angle=30.0):
     pl = plotter_factory(SIZE)
-    cm.add_volume(pl, model, technique=technique, step_scale=step_scale)
+    cm.add_volume(pl, model, **technique_options(model, technique, step_scale))
     camera = set_camera(pl, position, focal=focal, up=up, angle=angle)  # clips to the volume
     image = cm.render_image(pl)
     reference = cm.render_emission_absorption(model, camera, SIZE, background=BACKGROUND,
@@ -139,8 +156,7 @@ def test_empty_space_skipping_is_exact(plotter_factory, technique):
         set_camera(pl, (3.0, 2.0, 4.0))
         actor = cm.add_volume(pl, model, technique=technique, skip_empty=skip)
         images.append(cm.render_image(pl))
-        defines = actor.cubemarch.recipe.defines
-        assert bool(defines["CM_SKIP_EMPTY"]) is skip
+        assert actor.cubemarch.skips_empty is skip
     assert np.abs(images[0].astype(int) - images[1].astype(int)).max() <= 1
 
 

@@ -1,0 +1,240 @@
+"""Cube-map imposter marching (000) against the CPU reference, and its per-frame choices."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyvista as pv
+from conftest import BACKGROUND, blob_grid, set_camera
+
+import pv_cubemarch as cm
+from pv_cubemarch.cubemap_lod import visible_face_mask
+from pv_cubemarch.lighting import VolumeLight
+from pv_cubemarch.testing import compare_images, to_uint8
+
+SIZE = (96, 96)
+GREEN = (0.2, 0.8, 0.3)
+
+
+@pytest.fixture
+def model(blob):
+    return cm.make_volume(blob, clim=(0, 1), opacity_unit_distance=0.1)
+
+
+def render(plotter_factory, model, position, focal=(0, 0, 0), angle=30.0, size=SIZE,
+           mesh=None, **options):
+    pl = plotter_factory(size)
+    if mesh is not None:
+        pl.add_mesh(mesh, color=GREEN, lighting=False)
+    actor = cm.add_volume(pl, model, technique="cubemap", **options)
+    camera = set_camera(pl, position, focal=focal, angle=angle)
+    image = cm.render_image(pl)
+    return pl, actor, camera, image
+
+
+def reference_for(model, camera, pl, size=SIZE, mesh=None, **kwargs):
+    depth = color = None
+    if mesh is not None:
+        depth = cm.reference.mesh_depth(mesh, camera, size)
+        color = np.where(np.isfinite(depth)[..., None], GREEN, BACKGROUND)
+    return cm.render_emission_absorption(model, camera, size, background=BACKGROUND,
+                                         near=pl.camera.clipping_range[0], opaque_depth=depth,
+                                         opaque_color=color, **kwargs), depth
+
+
+def test_volume_alone_matches_reference(plotter_factory, model):
+    pl, actor, camera, image = render(plotter_factory, model, (3.0, 2.0, 4.0))
+    reference, _ = reference_for(model, camera, pl)
+    errors = compare_images(image, reference)
+    assert errors.psnr >= 45, errors
+    assert errors.max_abs <= 4, errors
+
+
+def test_face_mask_and_empty_hidden_faces(plotter_factory, model):
+    pl, actor, camera, _ = render(plotter_factory, model, (3.0, 2.0, 4.0))
+    binding = actor.cubemarch
+    eye = np.linalg.inv(cm.cubemap.world_from_local(model)) @ np.append(camera.position, 1)
+    assert binding.face_mask == visible_face_mask(eye[:3]) == 0b101010  # -x, -y, -z faces
+    atlas = binding.cube_pass.read(0)
+    tile = binding.lod.level_size + 2
+    for face in range(6):
+        x, y = face % 3 * tile, face // 3 * tile
+        alpha = atlas[y:y + tile, x:x + tile, 3]
+        if binding.face_mask >> face & 1:
+            assert alpha.max() > 0.1, face
+        else:
+            assert not alpha.any(), face  # hidden faces are not marched
+
+
+def test_lod_follows_the_projected_size_and_reports_memory(plotter_factory, model):
+    pl, actor, camera, _ = render(plotter_factory, model, (3.0, 2.0, 4.0), size=(160, 160))
+    near = actor.cubemarch.lod
+    set_camera(pl, (30.0, 20.0, 40.0))
+    cm.render_image(pl)
+    far = actor.cubemarch.lod
+    assert far.ideal_size < near.ideal_size / 5
+    assert far.level > near.level and far.samples < near.samples
+    assert actor.cubemarch.cube_pass.size == (3 * (far.level_size + 2), 2 * (far.level_size + 2))
+    memory = actor.cubemarch.memory
+    assert memory["cube_map"] == memory["cube_depth_map"] == 6 * (far.level_size + 2) ** 2 * 16
+    assert memory["light_map"] == 0 and actor.cubemarch.light_map is None
+
+
+def test_volume_outside_the_view_is_not_marched(plotter_factory, model):
+    pl, actor, camera, _ = render(plotter_factory, model, (3.0, 2.0, 4.0))
+    runs = actor.cubemarch.cube_pass.runs
+    set_camera(pl, (3.0, 2.0, 4.0), focal=(6.0, 4.0, 8.0))  # looking away
+    image = cm.render_image(pl)
+    assert actor.cubemarch.culled
+    assert actor.cubemarch.cube_pass.runs == runs
+    assert np.abs(image.astype(int) - to_uint8(np.array(BACKGROUND)).astype(int)).max() <= 1
+
+
+def test_mesh_occlusion_edge_has_no_halo(plotter_factory, model):
+    # A coarse cube map (4 pixels per texel) makes plain bilinear resampling bleed across the
+    # sphere's outline; the bilateral depth filter must keep that edge clean.
+    sphere = pv.Sphere(radius=0.45, center=(0.25, 0.1, 0.3), theta_resolution=32,
+                       phi_resolution=32)
+    images = {}
+    for sharpness in (0.5, 0.0):
+        pl, actor, camera, images[sharpness] = render(
+            plotter_factory, model, (3.0, 2.0, 4.0), mesh=sphere, upscale=4.0,
+            occlusion_sharpness=sharpness)
+        assert actor.cubemarch.lod.level_size <= 32
+    reference, depth = reference_for(model, camera, pl, mesh=sphere)
+    hit = np.isfinite(depth)
+    edge = np.zeros_like(hit)
+    for axis in (0, 1):
+        for shift in (1, -1):
+            edge |= hit ^ np.roll(hit, shift, axis)
+    near_edge = edge.copy()
+    for axis in (0, 1):
+        for shift in (1, -1):
+            near_edge |= np.roll(edge, shift, axis)
+    ref8 = to_uint8(reference).astype(int)
+
+    def halo(image):
+        return np.abs(image.astype(int) - ref8).max(axis=-1)[near_edge].mean()
+
+    assert halo(images[0.5]) < 0.5 * halo(images[0.0]), (halo(images[0.5]), halo(images[0.0]))
+    assert halo(images[0.5]) < 10.0
+    assert compare_images(images[0.5], reference).bad_pixel_fraction < 0.04
+
+
+@pytest.mark.parametrize("position, focal", [
+    ((0.2, 0.1, 0.3), (-0.3, -0.2, 0.0)),      # inside
+    ((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)),        # on the corner
+    ((1.15, 1.1, 1.12), (0.0, 0.0, 0.0)),      # just outside the corner (figure 2)
+    ((0.0, 0.0, 1.0), (0.0, 0.0, 0.0)),        # on a face
+], ids=["inside", "corner", "near-corner", "on-face"])
+def test_camera_inside_on_and_near_the_box(plotter_factory, model, position, focal):
+    pl, actor, camera, image = render(plotter_factory, model, position, focal=focal, angle=60)
+    reference, _ = reference_for(model, camera, pl)
+    errors = compare_images(image, reference)
+    # Interior faces keep texels at least as dense as pixels near the eye: no texel blocks.
+    assert errors.psnr >= 40, errors
+    assert errors.max_abs <= 12, errors
+
+
+def test_lit_volume_matches_lit_reference_and_light_map_runs_once(plotter_factory, model):
+    lights = [VolumeLight("directional", direction=(-1.0, -0.5, -0.3), color=(1.0, 0.9, 0.8)),
+              VolumeLight("point", position=(0.5, 1.5, 1.5), intensity=0.7)]
+    pl, actor, camera, image = render(plotter_factory, model, (3.0, 2.0, 4.0), lights=lights,
+                                      light_map_size=32)
+    reference, _ = reference_for(model, camera, pl, lights=lights)
+    unlit, _ = reference_for(model, camera, pl)
+    assert compare_images(unlit, reference).psnr < 35  # the lights matter
+    errors = compare_images(image, reference)
+    assert errors.psnr >= 45, errors
+    light_map = actor.cubemarch.light_map
+    runs = light_map.render_pass.runs
+    set_camera(pl, (3.0, 2.5, 4.0))
+    cm.render_image(pl)
+    assert light_map.render_pass.runs == runs == 1  # the camera moved, the lights did not
+    assert actor.cubemarch.memory["light_map"] == 32 * 32 * 32 * 16
+
+
+def test_camera_light_follows_the_camera(plotter_factory, model):
+    headlight = pv.Light(light_type="headlight")
+    pl, actor, camera, first = render(plotter_factory, model, (3.0, 2.0, 4.0),
+                                      lights=[headlight])
+    light_map = actor.cubemarch.light_map
+    assert light_map.render_pass.runs == 1
+    set_camera(pl, (-3.0, 2.0, 4.0))
+    cm.render_image(pl)
+    assert light_map.render_pass.runs == 2
+    light = light_map.lights[0]
+    assert np.allclose(-np.asarray(light.direction) / np.linalg.norm(light.direction),
+                       np.array([-3.0, 2.0, 4.0]) / np.linalg.norm([-3.0, 2.0, 4.0]), atol=1e-6)
+
+
+def test_scene_lights_and_no_lights(plotter_factory, model):
+    pl = plotter_factory()
+    pl.remove_all_lights()
+    actor = cm.add_volume(pl, model, technique="cubemap", lights="scene")
+    assert actor.cubemarch.light_map is None  # no light in the scene: no light pass
+    pl.add_light(pv.Light(position=(1, 1, 1), focal_point=(0, 0, 0), light_type="scene light"))
+    lit = cm.add_volume(pl, model, technique="cubemap", lights="scene", name="lit")
+    assert lit.cubemarch.light_map.count == 1
+    five = plotter_factory()  # pyvista's default light kit has 5 lights
+    with pytest.raises(ValueError, match="at most 4"):
+        cm.add_volume(five, model, technique="cubemap", lights="scene")
+
+
+def test_set_values_redraws_and_relights(plotter_factory, model):
+    lights = [VolumeLight("directional", direction=(0.0, -1.0, 0.0))]
+    pl, actor, camera, before = render(plotter_factory, model, (3.0, 2.0, 4.0), lights=lights)
+    actor.cubemarch.set_values(np.roll(model.values, 8, axis=0))
+    after = cm.render_image(pl)
+    assert actor.cubemarch.light_map.render_pass.runs == 2
+    assert np.abs(after.astype(int) - before.astype(int)).max() > 20
+
+
+def test_two_volumes_side_by_side_composite_in_order(plotter_factory, model):
+    import dataclasses
+
+    shifted = np.eye(4)
+    shifted[:3, 3] = (0.9, 0.3, -2.6)
+    behind = dataclasses.replace(model, transform=shifted, name="behind")
+    pl = plotter_factory(SIZE)
+    for item in (model, behind):  # added near first: the overlay must reorder them
+        cm.add_volume(pl, item, technique="cubemap", name=item.name)
+    camera = set_camera(pl, (2.0, 1.5, 5.0), focal=(0.4, 0.1, -1.2))
+    image = cm.render_image(pl)
+    reference, _ = reference_for([model, behind], camera, pl)
+    errors = compare_images(image, reference)
+    assert errors.psnr >= 42, errors
+
+
+def test_light_grid_of_the_reference_matches_exact_transmittance(model):
+    lights = [VolumeLight("directional", direction=(-1.0, -0.5, -0.3)),
+              VolumeLight("point", position=(0.2, 0.4, 0.1))]  # inside the volume
+    grids = cm.lighting.light_grid(model, lights)
+    rng = np.random.default_rng(3)
+    points = rng.uniform(0, np.array(model.dimensions) - 1.0, size=(400, 3))
+    for light, grid in zip(lights, grids, strict=True):
+        exact = cm.lighting.transmittance_toward(model, points, light, step_voxels=0.05)
+        scale = (np.array(grid.shape) - 1.0) / (np.array(model.dimensions) - 1.0)
+        interpolated = cm.reference.trilinear(grid, points * scale)
+        assert np.abs(interpolated - exact).max() < 0.01
+        assert exact.min() < 0.5  # the medium does shadow
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"face_size": 100}, "face_size"), ({"max_samples": 0}, "max_samples"),
+    ({"upscale": 0}, "upscale"), ({"sample_factor": -1}, "sample_factor"),
+    ({"occlusion_sharpness": -0.1}, "occlusion_sharpness"),
+    ({"light_map_size": 1}, "light_map_size"), ({"ambient": 2}, "ambient"),
+    ({"lights": "sun"}, "lights"), ({"downsample": 2}, "technique='direct'"),
+])
+def test_bad_cubemap_parameters_name_the_argument(plotter_factory, model, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        cm.add_volume(plotter_factory(), model, technique="cubemap", **kwargs)
+
+
+def test_non_cubic_grid_and_anisotropic_spacing(plotter_factory):
+    grid = blob_grid(shape=(17, 40, 64), spacing=(0.125, 0.05, 2.0 / 63))
+    model = cm.make_volume(grid, clim=(0, 1), opacity_unit_distance=0.1)
+    pl, actor, camera, image = render(plotter_factory, model, (3.0, 2.0, 4.0))
+    reference, _ = reference_for(model, camera, pl)
+    assert compare_images(image, reference).psnr >= 42
