@@ -104,6 +104,23 @@ register_sweep(Sweep(
 register_sweep(Sweep("pyvista", [{"step_scale": s} for s in (1.0, 0.5)], _build_stock))
 
 
+def _describe_cubemap(setting: dict) -> str:
+    parts = [f"S0={setting.get('face_size', 256)}"]
+    for key, label in (("max_samples", "N_max"), ("upscale", "k_u"), ("sample_factor", "k_c")):
+        if key in setting:
+            parts.append(f"{label}={setting[key]:g}")
+    return ", ".join(parts)
+
+
+register_sweep(Sweep(
+    "cubemap",
+    [{"technique": "cubemap", "face_size": s} for s in (64, 128, 256, 512)]
+    + [{"technique": "cubemap", "max_samples": n} for n in (32, 64, 256)]
+    + [{"technique": "cubemap", "upscale": k} for k in (2.0, 4.0)]
+    + [{"technique": "cubemap", "sample_factor": k} for k in (0.5, 2.0)],
+    _build_vtk, describe=_describe_cubemap))
+
+
 def opaque_layer(scene: Scene, camera: Camera, size) -> tuple[np.ndarray, np.ndarray]:
     """The scene's meshes alone: colour in [0, 1] and distance along each pixel's ray.
 
@@ -171,8 +188,8 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
     Parameters
     ----------
     technique : str or sequence of str
-        One or more registered sweeps (``'vtk'``, ``'direct'``, ``'pyvista'``; see
-        :data:`SWEEPS`), measured side by side in the same run.
+        One or more registered sweeps (``'vtk'``, ``'direct'``, ``'cubemap'``, ``'pyvista'``;
+        see :data:`SWEEPS`), measured side by side in the same run.
     scene : Scene
         Meshes, lights, camera and the volume to measure.
     size : sequence of int

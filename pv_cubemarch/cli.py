@@ -8,6 +8,8 @@ import sys
 
 from .errors import CubemarchError
 
+TECHNIQUE_CHOICES = ("vtk", "direct", "cubemap")
+
 
 def _size(text: str) -> tuple[int, int]:
     try:
@@ -34,8 +36,10 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--camera", help="name (prim path) of the scene camera to use")
     render.add_argument("--step-scale", type=float,
                         help="ray step as a fraction of a voxel, for every volume")
-    render.add_argument("--technique", choices=("vtk", "direct"),
-                        help="emission/absorption path for every volume")
+    render.add_argument("--technique", choices=TECHNIQUE_CHOICES,
+                        help="how every volume is drawn: vtk (VTK's mapper), direct (one ray "
+                             "per pixel), cubemap (one ray per cube-map texel, 000), auto "
+                             "(cubemap or direct per volume and frame)")
     render.add_argument("--stop-opacity", type=float,
                         help="early ray termination threshold for every volume")
     render.add_argument("--downsample", type=int,
@@ -43,6 +47,20 @@ def build_parser() -> argparse.ArgumentParser:
                              "upsampling")
     render.add_argument("--no-skip-empty", action="store_true",
                         help="march empty bricks too (for comparisons)")
+    cube = render.add_argument_group("cube map (--technique cubemap or auto)")
+    cube.add_argument("--face-size", type=int, help="largest cube-map face, texels per edge "
+                      "(a power of two; default 256)")
+    cube.add_argument("--max-samples", type=int, help="most samples along the box diagonal")
+    cube.add_argument("--upscale", type=float, help="screen pixels per cube-map texel (k_u)")
+    cube.add_argument("--sample-factor", type=float,
+                      help="samples per projected pixel along the diagonal (k_c)")
+    cube.add_argument("--occlusion-sharpness", type=float,
+                      help="k_z of the bilateral depth filter against meshes (default 0.5)")
+    lit = render.add_argument_group("lighting (every technique)")
+    lit.add_argument("--lights", choices=("scene", "none"),
+                     help="light the volumes with the scene's lights (at most 4), or not")
+    lit.add_argument("--light-map-size", type=int, help="light-map points per axis (2-128)")
+    lit.add_argument("--ambient", type=float, help="share of the emission no light modulates")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
     info.add_argument("scene", nargs="?", help="scene file to describe")
@@ -53,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
     tradeoff = bench_commands.add_parser(
         "tradeoff", help="sweep a technique's quality settings: frame time against error")
     tradeoff.add_argument("technique", nargs="+",
-                          help="technique(s) to sweep side by side: vtk, direct, pyvista")
+                          help="technique(s) to sweep side by side: vtk, direct, cubemap, pyvista")
     tradeoff.add_argument("--scene", default=None,
                           help="scene file (default: the shipped datasets/smoke_scene.usda)")
     tradeoff.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
@@ -99,10 +117,16 @@ def _render(args) -> int:
     scene = load_scene(args.scene, progress_bar=progress_bar)
     chosen = {"step_scale": args.step_scale, "technique": args.technique,
               "stop_opacity": args.stop_opacity, "downsample": args.downsample,
-              "skip_empty": False if args.no_skip_empty else None}
+              "skip_empty": False if args.no_skip_empty else None,
+              "face_size": args.face_size, "max_samples": args.max_samples,
+              "upscale": args.upscale, "sample_factor": args.sample_factor,
+              "occlusion_sharpness": args.occlusion_sharpness, "lights": args.lights,
+              "light_map_size": args.light_map_size, "ambient": args.ambient}
     for volume in scene.volumes:
         options = scene.volume_options.setdefault(volume.name, {})
         options.update({k: v for k, v in chosen.items() if v is not None})
+        if options.get("lights") == "none":
+            options["lights"] = None
     scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
     return 0

@@ -4,9 +4,11 @@ USD composes references, payloads and instancing for us; we walk the composed st
 (instance proxies included), load what is drawable and record what we skip and why.
 Transfer functions are not part of USD: a ``Volume`` prim may carry ``cubemarch:cmap``,
 ``cubemarch:opacity``, ``cubemarch:clim`` and ``cubemarch:opacityUnitDistance``, and the
-options of :func:`pv_cubemarch.add_volume` as ``cubemarch:stepScale``,
-``cubemarch:technique``, ``cubemarch:stopOpacity``, ``cubemarch:skipEmpty`` and
-``cubemarch:downsample``. The field
+options of :func:`pv_cubemarch.add_volume` in camel case (:data:`VOLUME_OPTIONS`):
+``cubemarch:technique``, ``stepScale``, ``stopOpacity``, ``skipEmpty``, ``downsample``,
+``faceSize``, ``maxSamples``, ``upscale``, ``sampleFactor``, ``occlusionSharpness``,
+``lights`` (``"scene"``: lit by the stage's lights, or ``"none"``), ``lightMapSize`` and
+``ambient``. The field
 prim a ``field:*`` relationship targets has an asset ``filePath`` (.vti/.vtk/.npy/.npz)
 and, for numpy files, optional ``cubemarch:origin`` and ``cubemarch:spacing``.
 """
@@ -259,16 +261,14 @@ class _StageReader:
                                  f"{fields[field_name]}.")
         grid = _read_field(field_prim)
         attrs = {key: _attr(prim, f"cubemarch:{key}") for key in
-                 ("cmap", "opacity", "clim", "opacityUnitDistance", "stepScale", "technique",
-                  "stopOpacity", "skipEmpty", "downsample")}
+                 ("cmap", "opacity", "clim", "opacityUnitDistance",
+                  *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))}
         options = {}
-        for key, option, kind in (("stepScale", "step_scale", float),
-                                  ("technique", "technique", str),
-                                  ("stopOpacity", "stop_opacity", float),
-                                  ("skipEmpty", "skip_empty", bool),
-                                  ("downsample", "downsample", int)):
+        for key, option, kind in VOLUME_OPTIONS:
             if attrs[key] is not None:
                 options[option] = kind(attrs[key])
+        if options.get("lights") == "none":
+            options["lights"] = None
         opacity = attrs["opacity"]
         if opacity is not None and not isinstance(opacity, str):
             opacity = [float(v) for v in opacity]
@@ -283,6 +283,18 @@ class _StageReader:
         self.scene.volumes.append(volume)
         if options:
             self.scene.volume_options[name] = options
+
+
+#: ``cubemarch:*`` attributes of a Volume prim and the ``add_volume`` options they set.
+VOLUME_OPTIONS = (
+    ("stepScale", "step_scale", float), ("technique", "technique", str),
+    ("stopOpacity", "stop_opacity", float), ("skipEmpty", "skip_empty", bool),
+    ("downsample", "downsample", int), ("faceSize", "face_size", int),
+    ("maxSamples", "max_samples", int), ("upscale", "upscale", float),
+    ("sampleFactor", "sample_factor", float),
+    ("occlusionSharpness", "occlusion_sharpness", float), ("lights", "lights", str),
+    ("lightMapSize", "light_map_size", int), ("ambient", "ambient", float),
+)
 
 
 def _is_field(prim) -> bool:

@@ -77,3 +77,47 @@ def test_bad_bench_arguments():
         bench.run_tradeoff("nope", scene)
     with pytest.raises(ValueError, match="frames"):
         bench.run_tradeoff("vtk", scene, frames=1)
+
+
+def test_resolution_bench_rows_and_table(tmp_path):
+    from pv_cubemarch import bench_resolution
+
+    scene = cm.load_scene(SCENE, progress_bar=False)
+    rows = bench_resolution.run_resolution(scene, sizes=[(96, 54), (160, 90)], frames=3,
+                                           crop=32)
+    assert len(rows) == 3 * 2 * len(bench_resolution.TECHNIQUES)
+    for row in rows:
+        assert len(row.frame_ms) == 3 and row.median_ms > 0
+        if row.technique == "scene only":
+            assert row.errors is None
+        elif row.technique in ("cubemap", "direct"):
+            assert row.errors["psnr"] > 30, row  # tiny frames: the LOD is coarse
+    cube = [r for r in rows if r.technique == "cubemap"]
+    assert all(r.memory["cube_map"] > 0 for r in cube)
+    table = bench_resolution.format_resolution_table(rows)
+    assert "faster than direct" in table and "4 volumes" in table
+    bench_resolution.write_resolution_json(rows, tmp_path / "r.json", {})
+    assert len(json.loads((tmp_path / "r.json").read_text())["rows"]) == len(rows)
+
+
+def test_resolution_bench_cli(tmp_path, capsys):
+    out = tmp_path / "res.json"
+    assert main(["bench", "resolution", "--sizes", "64x36,96x54", "--crop", "16",
+                 "--json", str(out)]) == 0
+    assert "growth" in capsys.readouterr().out
+    assert json.loads(out.read_text())["meta"]["sizes"] == [[64, 36], [96, 54]]
+
+
+def test_crop_windows_cover_the_volume():
+    from pv_cubemarch import bench_resolution
+
+    scene = cm.load_scene(SCENE, progress_bar=False)
+    camera = scene.camera
+    windows = bench_resolution.crop_windows(scene, camera, (400, 300), 64)
+    assert len(windows) == 3
+    for x, y, w, h in windows:
+        assert 0 <= x <= 400 - 64 and 0 <= y <= 300 - 64 and w == h == 64
+    centre = scene.volumes[0].world_bounds().reshape(3, 2).mean(axis=1)
+    px = bench_resolution.project(camera, centre[None], (400, 300))[0]
+    x, y, _, _ = windows[0]
+    assert x <= px[0] <= x + 64 and y <= px[1] <= y + 64

@@ -111,3 +111,58 @@ def test_usd_volume_options(tmp_path):
     assert scene.volume_options["/World/Smoke"] == {"technique": "direct", "step_scale": 0.25,
                                                     "skip_empty": False, "downsample": 2}
     assert scene.render(size=(40, 30)).std() > 3
+
+
+def test_cubemap_options_from_the_command_line(tmp_path, monkeypatch):
+    import pv_cubemarch.emission_absorption as ea
+
+    seen = []
+    real = ea.add_volume
+
+    def spy(plotter, volume, scalars=None, **kwargs):
+        seen.append(kwargs)
+        return real(plotter, volume, scalars, **kwargs)
+
+    monkeypatch.setattr(ea, "add_volume", spy)
+    out = tmp_path / "c.png"
+    assert main(["render", str(SCENE), "-o", str(out), "--size", "40x30", "--technique",
+                 "cubemap", "--face-size", "64", "--max-samples", "50", "--upscale", "2",
+                 "--sample-factor", "1.5", "--occlusion-sharpness", "0.25", "--lights",
+                 "scene", "--light-map-size", "16", "--ambient", "0.3", "--no-progress"]) == 0
+    assert seen == [{"technique": "cubemap", "face_size": 64, "max_samples": 50,
+                     "upscale": 2.0, "sample_factor": 1.5, "occlusion_sharpness": 0.25,
+                     "lights": "scene", "light_map_size": 16, "ambient": 0.3}]
+    assert out.stat().st_size > 500
+
+
+def test_usd_cubemap_options(tmp_path):
+    from pxr import Sdf, Usd
+
+    import pv_cubemarch as cm
+
+    stage = Usd.Stage.Open(str(SCENE))
+    prim = stage.GetPrimAtPath("/World/Smoke")
+    values = {"technique": ("String", "cubemap"), "faceSize": ("Int", 128),
+              "maxSamples": ("Int", 60), "upscale": ("Float", 2.0),
+              "sampleFactor": ("Float", 1.5), "occlusionSharpness": ("Float", 0.25),
+              "lights": ("String", "scene"), "lightMapSize": ("Int", 16),
+              "ambient": ("Float", 0.5)}
+    for key, (kind, value) in values.items():
+        prim.CreateAttribute(f"cubemarch:{key}", getattr(Sdf.ValueTypeNames, kind)).Set(value)
+    path = tmp_path / "scene.usda"
+    stage.GetRootLayer().Export(str(path))
+    (tmp_path / "smoke_density.vti").write_bytes((SCENE.parent / "smoke_density.vti").read_bytes())
+    scene = cm.load_scene(path)
+    assert scene.volume_options["/World/Smoke"] == {
+        "technique": "cubemap", "face_size": 128, "max_samples": 60, "upscale": 2.0,
+        "sample_factor": 1.5, "occlusion_sharpness": 0.25, "lights": "scene",
+        "light_map_size": 16, "ambient": 0.5}
+    pl = cm.offscreen_plotter((64, 48))
+    try:
+        actor = scene.add_to(pl)["/World/Smoke"]
+        image = cm.render_image(pl)
+        assert actor.cubemarch.light_map is not None  # lit by the stage's lights
+        assert actor.cubemarch.lod.level_size <= 128
+        assert image.std() > 3
+    finally:
+        pl.close()
