@@ -18,7 +18,9 @@ uniform mat4 cm_worldFromTexture;  // texture coordinates (texel centres at poin
 vec3 cm_lighting(vec3 texturePosition);   // defined by light_sample
 #endif
 
+#ifndef CM_JOINT
 // Emitted colour and extinction of the medium at a texture position, lit when lights exist.
+// (With CM_JOINT, joint_sample defines it for several overlapping volumes.)
 vec4 cm_emission(vec3 texturePosition)
 {
   vec4 emission = cm_transfer(cm_sampleScalar(texturePosition));
@@ -27,6 +29,7 @@ vec4 cm_emission(vec3 texturePosition)
 #endif
   return emission;
 }
+#endif
 
 #ifdef CM_SKIP_EMPTY
 uniform sampler3D cm_brickExtinction;  // per brick: largest extinction its data can reach

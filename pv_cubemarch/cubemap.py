@@ -172,8 +172,8 @@ def has_opaque_props(renderer) -> bool:
     return False
 
 
-def _pass_snippets(lit: bool) -> tuple[str, ...]:
-    return ("pass_head", "ea_declarations", "volume_sample", "ea_direct_declarations",
+def _pass_snippets(lit: bool, sampling: str) -> tuple[str, ...]:
+    return ("pass_head", "ea_declarations", sampling, "ea_direct_declarations",
             "ea_march", *(("light_sample",) if lit else ()), "ea_screen_ray", "cube_faces",
             "cube_march_main")
 
@@ -199,33 +199,36 @@ def build_cubemap_actor(plotter, model: VolumeModel, options: CubeMapOptions,
                         stop_opacity: float, skip_empty: bool, light_map=None,
                         volume_texture: Texture | None = None):
     """The box actor of a cube-map volume, with its passes; returns the actor."""
-    from .emission_absorption import bind_march, march_defines, world_from_texture
+    from .emission_absorption import bind_sampling, world_from_texture
+    from .multi_volume import VolumeGroup
     from .overlay import scene_overlay
 
     main = plotter.renderer
     # The passes copy the opaque depth and colour, which a multisampled framebuffer refuses.
     plotter.ren_win.SetMultiSamples(0)
     overlay = scene_overlay(plotter)
-    volume_texture = volume_texture or Texture(model.values, kind="3d", interpolate=True)
+    if volume_texture is None and not isinstance(model, VolumeGroup):
+        volume_texture = Texture(model.values, kind="3d", interpolate=True)
     frame = CubeFrame(main, model, options)
     texture_from_world = np.linalg.inv(world_from_texture(model))
     lit = light_map is not None
-    cube_pass = RenderToTexturePass(overlay.renderer, ShaderRecipe(standalone=_pass_snippets(lit)),
-                                    size=frame.atlas_size, targets=2, run_when=frame.update)
-    skipping = bind_march(cube_pass, model, 1.0, stop_opacity, skip_empty)
+    cube_pass = RenderToTexturePass(overlay.renderer, None, size=frame.atlas_size, targets=2,
+                                    run_when=frame.update)
+    sampling, defines = bind_sampling(cube_pass, model, volume_texture, 1.0, stop_opacity,
+                                      skip_empty)
     cube_pass.set_uniform("cm_stepScale", lambda: frame.step_scale)
-    cube_pass.add_texture("cm_volume", volume_texture)
     cube_pass.add_texture("cm_sceneDepth", FramebufferDepth())
     cube_pass.set_uniform("cm_viewFromTexture", lambda: np.linalg.inv(
         texture_from_world @ np.linalg.inv(_camera_matrices(main)[0])))
     cube_pass.set_uniform("cm_faceSize", lambda: float(frame.lod.level_size))
     cube_pass.set_uniform("cm_faceMask", lambda: int(frame.face_mask))
     _bind_camera(cube_pass, main, model)
-    defines = dict(march_defines(model, skipping), CM_DEPTH_FRAMEBUFFER=True)
+    defines["CM_DEPTH_FRAMEBUFFER"] = True
     if lit:
         light_map.bind(cube_pass)
         defines.update(light_map.defines)
-    cube_pass.set_recipe(ShaderRecipe(standalone=_pass_snippets(lit), defines=defines))
+    cube_pass.set_recipe(ShaderRecipe(standalone=_pass_snippets(lit, sampling),
+                                      defines=defines))
 
     actor = _box_actor(model)
     actor.GetProperty().LightingOff()  # VTK's lighting code would run for nothing
@@ -245,7 +248,8 @@ def build_cubemap_actor(plotter, model: VolumeModel, options: CubeMapOptions,
     frame.on_update = binding.follow_occluders
     binding.renderer = overlay.renderer
     overlay.add_user(actor)
-    binding.extra_release = [cube_pass.release, lambda: overlay.release_user(actor)]
+    binding.extra_release = [cube_pass.release, lambda: overlay.remove_actor(actor),
+                             lambda: overlay.release_user(actor)]
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return actor
 

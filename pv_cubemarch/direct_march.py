@@ -112,12 +112,13 @@ class _CopiedDepth:
         """Nothing: the :class:`SceneDepth` owns the texture."""
 
 
-def direct_recipe(defines: dict, lit: bool = False) -> ShaderRecipe:
+def direct_recipe(defines: dict, lit: bool = False,
+                  sampling: str = "volume_sample") -> ShaderRecipe:
     """The polydata-shader replacements of the direct marcher."""
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Color::Dec",
-                        ("ea_declarations", "volume_sample", "ea_direct_declarations",
+                        ("ea_declarations", sampling, "ea_direct_declarations",
                          "ea_march", *(("light_sample",) if lit else ()), "ea_screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_direct_fragment", keep_tag="before"),
@@ -178,18 +179,20 @@ def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opac
     With ``downsample`` > 1 the rays are marched by a full-screen pass at 1/downsample of
     the viewport, and the box only upsamples the result with a depth-aware filter.
     """
-    from .emission_absorption import VolumeBinding, bind_march, march_defines
+    from .emission_absorption import VolumeBinding, bind_sampling, march_defines
+    from .multi_volume import VolumeGroup
 
     renderer = plotter.renderer
     actor = _box_actor(model)
-    volume_texture = volume_texture or Texture(model.values, kind="3d", interpolate=True)
+    if volume_texture is None and not isinstance(model, VolumeGroup):
+        volume_texture = Texture(model.values, kind="3d", interpolate=True)
     # Weighted order-independent translucency would reweight our single layer.
     renderer.SetUseOIT(False)
     extra = []
     if downsample == 1:
         bindings = ShaderBindings(actor.GetMapper(), renderer)
-        skipping = bind_march(bindings, model, step_scale, stop_opacity, skip_empty)
-        bindings.add_texture("cm_volume", volume_texture)
+        sampling, defines = bind_sampling(bindings, model, volume_texture, step_scale,
+                                          stop_opacity, skip_empty)
         multisampled = plotter.ren_win.GetMultiSamples() > 1
         bindings.add_texture("cm_sceneDepth",
                              FramebufferDepth() if multisampled else SceneDepth(renderer))
@@ -198,11 +201,11 @@ def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opac
             bindings.set_uniform("cm_depthSamples", lambda: max(1, int(
                 window.GetRenderFramebuffer().GetDepthAttachmentAsTextureObject()
                 .GetSamples())))
-        defines = march_defines(model, skipping, light_map)
         defines["CM_DEPTH_MULTISAMPLED"] = multisampled
-        recipe = direct_recipe(defines, lit=light_map is not None)
         if light_map is not None:
             light_map.bind(bindings)
+            defines.update(light_map.defines)
+        recipe = direct_recipe(defines, lit=light_map is not None, sampling=sampling)
     else:
         # The pass copies the opaque depth, which a multisampled framebuffer refuses.
         plotter.ren_win.SetMultiSamples(0)
@@ -220,7 +223,8 @@ def build_direct_actor(plotter, model: VolumeModel, step_scale: float, stop_opac
         recipe = upsample_recipe(march_defines(model, False))
         renderer = overlay.renderer
         overlay.add_user(actor)
-        extra = [low_pass.release, lambda: overlay.release_user(actor)]
+        extra = [low_pass.release, lambda: overlay.remove_actor(actor),
+                 lambda: overlay.release_user(actor)]
     _bind_camera(bindings, plotter.renderer, model)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
@@ -257,7 +261,7 @@ def upsample_recipe(defines: dict) -> ShaderRecipe:
 def _reduced_resolution(plotter, model, step_scale, stop_opacity, skip_empty, downsample,
                         volume_texture, light_map=None):
     """The plotter's overlay and a low-resolution pass run at its start."""
-    from .emission_absorption import bind_march, march_defines
+    from .emission_absorption import bind_sampling
     from .gl_resources import RenderToTexturePass
     from .overlay import scene_overlay
 
@@ -269,18 +273,18 @@ def _reduced_resolution(plotter, model, step_scale, stop_opacity, skip_empty, do
         width, height = main.GetSize()
         return (-(-width // downsample), -(-height // downsample))
 
-    lit = ("light_sample",) if light_map is not None else ()
-    recipe = ShaderRecipe(standalone=("pass_head", "ea_declarations", "volume_sample",
-                                      "ea_direct_declarations", "ea_march", *lit,
-                                      "ea_screen_ray", "ea_reduced_main"))
-    low_pass = RenderToTexturePass(overlay.renderer, recipe, size=low_size, targets=2,
+    low_pass = RenderToTexturePass(overlay.renderer, None, size=low_size, targets=2,
                                    every_frame=True)
-    pass_skipping = bind_march(low_pass, model, step_scale, stop_opacity, skip_empty)
-    low_pass.add_texture("cm_volume", volume_texture)
+    sampling, defines = bind_sampling(low_pass, model, volume_texture, step_scale,
+                                      stop_opacity, skip_empty)
     low_pass.add_texture("cm_sceneDepth", overlay.depth.shared())
     _bind_camera(low_pass, main, model)
+    lit = ()
     if light_map is not None:
         light_map.bind(low_pass)
-    low_pass.set_recipe(ShaderRecipe(standalone=recipe.standalone,
-                                     defines=march_defines(model, pass_skipping, light_map)))
+        defines.update(light_map.defines)
+        lit = ("light_sample",)
+    low_pass.set_recipe(ShaderRecipe(
+        standalone=("pass_head", "ea_declarations", sampling, "ea_direct_declarations",
+                    "ea_march", *lit, "ea_screen_ray", "ea_reduced_main"), defines=defines))
     return overlay, low_pass

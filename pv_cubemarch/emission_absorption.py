@@ -23,7 +23,7 @@ DEFAULT_STOP_OPACITY = 0.99
 
 #: Loop bound of the marcher: thousands of steps per ray are allowed, never an endless loop.
 MAX_STEPS = 16384
-TECHNIQUES = ("vtk", "direct", "cubemap")
+TECHNIQUES = ("vtk", "direct", "cubemap", "auto")
 
 
 def march_defines(model: VolumeModel, skip_empty: bool, light_map=None) -> dict:
@@ -71,7 +71,7 @@ def bind_march(bindings: ShaderBindings, model: VolumeModel, step_scale: float,
     bindings.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
     bindings.set_uniform("cm_stepScale", step_scale)
     bindings.set_uniform("cm_worldFromTexture", world_from_texture(model))
-    if not skip_empty:
+    if not skip_empty or getattr(model, "values", None) is None:
         return False
     bricks = brick_extinction(model.values, model.transfer, DEFAULT_BRICK_SIZE)
     if not (bricks <= 0).any():
@@ -80,6 +80,24 @@ def bind_march(bindings: ShaderBindings, model: VolumeModel, step_scale: float,
     bindings.set_uniform("cm_brickCount", tuple(float(n) for n in bricks.shape))
     bindings.set_uniform("cm_brickSize", float(DEFAULT_BRICK_SIZE))
     return True
+
+
+def bind_sampling(target, model, volume_texture, step_scale: float, stop_opacity: float,
+                  skip_empty: bool) -> tuple[str, dict]:
+    """Bind what a marching shader samples: one volume, or the members of a joint group.
+
+    Returns the GLSL snippet that provides the sampling (``volume_sample`` or
+    ``joint_sample``) and the feature switches it needs.
+    """
+    from .multi_volume import VolumeGroup
+
+    if isinstance(model, VolumeGroup):
+        bind_march(target, model, step_scale, stop_opacity, skip_empty=False)
+        model.bind(target)
+        return "joint_sample", dict(march_defines(model, False), **model.defines)
+    skipping = bind_march(target, model, step_scale, stop_opacity, skip_empty)
+    target.add_texture("cm_volume", volume_texture)
+    return "volume_sample", march_defines(model, skipping)
 
 
 def world_voxel_size(volume: VolumeModel) -> float:
@@ -222,7 +240,9 @@ def add_volume(
                              occlusion_sharpness)
     options.check()
     check_light_options(light_map_size, ambient)
-    if isinstance(volume, VolumeModel):
+    from .multi_volume import VolumeGroup
+
+    if isinstance(volume, (VolumeModel, VolumeGroup)):
         model = volume
     else:
         model = make_volume(volume, scalars, cmap=cmap, opacity=opacity, clim=clim,
@@ -230,7 +250,14 @@ def add_volume(
                             nan_policy=nan_policy, name=name or "volume")
     component = plotter.cubemarch  # created now so its close hook frees our GPU resources
     source = light_source(lights, plotter.renderer)
-    volume_texture = Texture(model.values, kind="3d", interpolate=True)
+    group = isinstance(model, VolumeGroup)
+    if group and technique == "vtk":
+        raise ValueError("technique='vtk' cannot march overlapping volumes jointly; use "
+                         "'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
+    if group and source is not None:
+        raise ValueError("Lighting overlapping volumes marched jointly is not supported; "
+                         "pass lights=None, or move the volumes apart.")
+    volume_texture = None if group else Texture(model.values, kind="3d", interpolate=True)
     light_map = None if source is None else LightMap(
         plotter.renderer, model, source, volume_texture, int(light_map_size), float(ambient))
     if technique == "direct":
@@ -243,12 +270,25 @@ def add_volume(
 
         actor = build_cubemap_actor(plotter, model, options, float(stop_opacity),
                                     bool(skip_empty), light_map, volume_texture)
+    elif technique == "auto":
+        from .multi_volume import build_auto_actor
+
+        actor = build_auto_actor(plotter, model, options, float(step_scale),
+                                 float(stop_opacity), bool(skip_empty), light_map,
+                                 volume_texture)
     else:
         actor = _build_actor(plotter, model, float(step_scale), float(stop_opacity),
                              bool(skip_empty), light_map)
     actor.cubemarch.light_map = light_map
     target = getattr(actor.cubemarch, "renderer", None)
-    if target is not None and target is not plotter.renderer:
+    if technique == "auto":
+        from .overlay import bounds_proxy
+
+        plotter.add_actor(actor, name=name or model.name, reset_camera=False)
+        proxy = bounds_proxy(model)  # the direct box is hidden on cube-map frames
+        plotter.renderer.AddActor(proxy)
+        actor.cubemarch.extra_release.append(lambda: plotter.renderer.RemoveActor(proxy))
+    elif target is not None and target is not plotter.renderer:
         target.AddActor(actor)  # drawn by the overlay renderer, after the scene
         from .overlay import bounds_proxy
 

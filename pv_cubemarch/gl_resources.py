@@ -247,8 +247,9 @@ class RenderToTexturePass:
     ----------
     renderer : vtkRenderer
         Renderer whose frames host the pass.
-    recipe : ShaderRecipe
-        Its standalone fragment snippet must write every render target.
+    recipe : ShaderRecipe or None
+        Its standalone fragment snippet must write every render target; ``None`` until
+        :meth:`set_recipe` gives it (e.g. once the bindings decided the feature switches).
     size : tuple of int
         ``(width, height)`` of every target.
     targets : int
@@ -259,7 +260,7 @@ class RenderToTexturePass:
         Asked at each frame; the pass runs when it returns ``True`` (e.g. a light moved).
     """
 
-    def __init__(self, renderer, recipe: ShaderRecipe,
+    def __init__(self, renderer, recipe: ShaderRecipe | None,
                  size: tuple[int, int] | Callable[[], tuple[int, int]], targets: int = 1,
                  every_frame: bool = False, run_when: Callable[[], bool] | None = None):
         self.renderer = renderer
@@ -275,7 +276,7 @@ class RenderToTexturePass:
         self.runs = 0
         self._needed = True
         self._fbo = self._quad = None
-        self._fragment = recipe.fragment_source()
+        self._fragment = recipe.fragment_source() if recipe is not None else None
         self._vertex = vtkOpenGLRenderUtilities.GetFullScreenQuadVertexShader()
         self._tag = renderer.AddObserver(vtk.vtkCommand.StartEvent, self._on_start)
 

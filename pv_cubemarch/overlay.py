@@ -57,6 +57,11 @@ class SceneOverlay:
             for actor in ordered:
                 self.renderer.AddActor(actor)
 
+    def remove_actor(self, actor) -> None:
+        """Stop drawing ``actor`` (if the overlay still exists)."""
+        if self.renderer is not None:
+            self.renderer.RemoveActor(actor)
+
     def add_user(self, user) -> None:
         """Keep the overlay while ``user`` needs it."""
         self.users.append(user)

@@ -129,7 +129,7 @@ class Scene:
         ``camera`` picks a scene camera by name, or gives one; by default the scene's first
         camera, else a view of the whole scene.
         """
-        from .emission_absorption import add_volume
+        from .multi_volume import add_volumes, overlap_groups
         from .progress import progress
 
         actors = {}
@@ -143,9 +143,14 @@ class Scene:
                 kwargs.pop("color")
             actors[m.name] = plotter.add_mesh(m.mesh, **kwargs)
         self._add_lights(plotter)
-        for v in progress(self.volumes, desc="uploading volumes", enabled=progress_bar):
-            options = self.volume_options.get(v.name, {})
-            actors[v.name] = add_volume(plotter, v, **options)
+        # Volumes whose boxes overlap are marched jointly, with the first one's options.
+        groups = overlap_groups(self.volumes)
+        for group in progress(groups, desc="uploading volumes", enabled=progress_bar):
+            options = self.volume_options.get(group[0].name, {})
+            added = add_volumes(plotter, group, **options)
+            for v in group:
+                actors[v.name] = added[0] if len(added) == 1 else \
+                    next(a for a in added if v.name in a.cubemarch.name.split("+"))
         chosen = self.cameras.get(camera) if isinstance(camera, str) else camera
         if isinstance(camera, str) and chosen is None:
             raise KeyError(f"No camera named {camera!r}; the scene has {list(self.cameras)}.")

@@ -1,0 +1,139 @@
+"""Many volumes (000 section 3.4): per-volume choice, order, and overlapping volumes."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from conftest import BACKGROUND, blob_grid, set_camera
+
+import pv_cubemarch as cm
+from pv_cubemarch.multi_volume import (
+    VolumeGroup,
+    add_volumes,
+    classify,
+    overlap_groups,
+    projected_pixels,
+)
+from pv_cubemarch.testing import compare_images
+
+SIZE = (96, 96)
+
+
+@pytest.fixture
+def pair():
+    """Two volumes that interpenetrate: a blob and a rotated, shifted, coarser one."""
+    a = cm.make_volume(blob_grid(24), clim=(0, 1), opacity_unit_distance=0.1, name="a")
+    rotation = np.eye(4)
+    c, s = np.cos(0.6), np.sin(0.6)
+    rotation[:3, :3] = [[c, 0, s], [0, 1, 0], [-s, 0, c]]
+    rotation[:3, 3] = (0.7, 0.3, 0.2)
+    b = cm.make_volume(blob_grid(20), cmap="viridis", clim=(0, 1), opacity_unit_distance=0.15,
+                       transform=rotation, name="b")
+    return a, b
+
+
+@pytest.mark.parametrize("technique", ["direct", "cubemap"])
+def test_interpenetrating_volumes_marched_jointly_match_reference(plotter_factory, pair,
+                                                                  technique):
+    pl = plotter_factory(SIZE)
+    actors = add_volumes(pl, list(pair), technique=technique)
+    assert len(actors) == 1 and isinstance(actors[0].cubemarch.model, VolumeGroup)
+    camera = set_camera(pl, (3.0, 2.0, 4.5), focal=(0.3, 0.1, 0.1))
+    image = cm.render_image(pl)
+    reference = cm.render_emission_absorption(list(pair), camera, SIZE, background=BACKGROUND,
+                                              near=pl.camera.clipping_range[0])
+    errors = compare_images(image, reference)
+    assert errors.psnr >= 45, errors
+    # Compositing the two one after the other is visibly wrong where they overlap.
+    separate = plotter_factory(SIZE)
+    for volume in pair:
+        cm.add_volume(separate, volume, technique=technique, name=volume.name)
+    set_camera(separate, (3.0, 2.0, 4.5), focal=(0.3, 0.1, 0.1))
+    assert compare_images(cm.render_image(separate), reference).psnr < errors.psnr - 6
+
+
+def test_overlap_groups_and_group_limits(pair):
+    a, b = pair
+    far = dataclasses.replace(a, transform=np.diag([1.0, 1.0, 1.0, 1.0]) + np.eye(4, k=3) * 0,
+                              name="far")
+    far.transform = np.eye(4)
+    far.transform[0, 3] = 10.0
+    groups = overlap_groups([a, far, b])
+    assert [[v.name for v in g] for g in groups] == [["a", "b"], ["far"]]
+    group = VolumeGroup([a, b])
+    assert np.all(group.world_bounds()[0::2] <= np.minimum(a.world_bounds()[0::2],
+                                                            b.world_bounds()[0::2]) + 1e-9)
+    with pytest.raises(ValueError, match="2 to 4"):
+        VolumeGroup([a])
+
+
+def test_joint_group_refuses_vtk_and_lights(plotter_factory, pair):
+    group = VolumeGroup(list(pair))
+    with pytest.raises(ValueError, match="jointly"):
+        cm.add_volume(plotter_factory(), group, technique="vtk")
+    with pytest.raises(ValueError, match="Lighting"):
+        cm.add_volume(plotter_factory(), group, technique="cubemap",
+                      lights=[cm.lighting.VolumeLight("directional", direction=(0, -1, 0))])
+
+
+def test_projected_pixels_and_classification():
+    # A cube of side 2 seen face-on by an orthographic camera covering [-2, 2]^2 on a
+    # 100x100 viewport: the face spans half the width and height, 2500 pixels.
+    clip_from_local = np.diag([0.5, 0.5, -0.1, 1.0])
+    assert projected_pixels(clip_from_local, (100, 100)) == pytest.approx(2500.0)
+    # Half of it pushed off screen: clipped to the viewport.
+    shifted = clip_from_local.copy()
+    shifted[0, 3] = 1.0  # the face now spans NDC x in [0.5, 1.5]: half is on screen
+    assert projected_pixels(shifted, (100, 100)) == pytest.approx(1250.0)
+    assert classify(3, 32, 2500.0) == "direct"    # 3072 texels > 2500 pixels
+    assert classify(3, 16, 2500.0) == "cubemap"   # 768 texels
+
+
+def test_auto_picks_per_frame_and_can_be_forced(plotter_factory, blob):
+    model = cm.make_volume(blob, clim=(0, 1), opacity_unit_distance=0.1)
+    pl = plotter_factory((320, 320))
+    actor = cm.add_volume(pl, model, technique="auto")
+    binding = actor.cubemarch
+    camera = set_camera(pl, (2.0, 1.5, 3.0))           # big on screen: fewer texels
+    near_image = cm.render_image(pl)
+    assert binding.choice == "cubemap"
+    reference = cm.render_emission_absorption(model, camera, (320, 320), background=BACKGROUND,
+                                              near=pl.camera.clipping_range[0])
+    assert compare_images(near_image, reference).psnr >= 42
+    set_camera(pl, (30.0, 22.0, 45.0))                 # tiny on screen: fewer pixels
+    cm.render_image(pl)
+    assert binding.choice == "direct"
+    binding.force = "cubemap"
+    cm.render_image(pl)
+    assert binding.choice == "cubemap"
+    assert binding.choices["cubemap"] >= 2 and binding.choices["direct"] >= 1
+    assert binding.memory["cube_map"] > 0
+
+
+def test_scene_marches_its_overlapping_volumes_jointly(plotter_factory, pair):
+    scene = cm.Scene(volumes=list(pair), volume_options={"a": {"technique": "cubemap"}})
+    pl = plotter_factory(SIZE)
+    actors = scene.add_to(pl)
+    assert actors["a"] is actors["b"]
+    assert isinstance(actors["a"].cubemarch.model, VolumeGroup)
+
+
+def test_removing_an_overlay_volume_keeps_the_others(plotter_factory, blob):
+    model = cm.make_volume(blob, clim=(0, 1), opacity_unit_distance=0.1)
+    pl = plotter_factory(SIZE)
+    first = cm.add_volume(pl, model, technique="cubemap", name="first")
+    shifted = dataclasses.replace(model, name="second")
+    shifted.transform = np.eye(4)
+    shifted.transform[0, 3] = 3.0
+    cm.add_volume(pl, shifted, technique="cubemap", name="second")
+    set_camera(pl, (1.5, 2.0, 9.0), focal=(1.5, 0.0, 0.0))
+    both = cm.render_image(pl)
+    pl.cubemarch.remove(first)
+    one = cm.render_image(pl)
+    overlay = pl.cubemarch._overlay.renderer
+    assert overlay.GetActors().GetNumberOfItems() == 1
+    left, right = one[:, :48].astype(int), one[:, 48:].astype(int)
+    assert np.abs(left - both[:, :48].astype(int)).max() > 20   # the first one is gone
+    assert np.abs(right - both[:, 48:].astype(int)).max() <= 2  # the second one stays
