@@ -63,3 +63,18 @@ def set_camera(pl, position, focal=(0, 0, 0), up=(0, 1, 0), angle=30.0):
     pl.camera.view_angle = angle
     pl.renderer.ResetCameraClippingRange()
     return cm.Camera.from_pyvista(pl.camera)
+
+
+def technique_options(model, technique, step_scale=0.5, pixels=40.0):
+    """add_volume options giving ``step_scale``'s samples per ray with any technique.
+
+    The cube map takes its samples from ``max_samples`` and its LOD, not ``step_scale``:
+    it gets the same samples along the diagonal, and the ``sample_factor`` (k_c) for which
+    the LOD's N_ideal reaches them at a projected edge of about ``pixels``, so the face
+    size stays near the projected size (S = sqrt(3) N / k_c) in these small test images.
+    """
+    if technique != "cubemap":
+        return {"technique": technique, "step_scale": step_scale}
+    samples = max(1, round((max(model.dimensions) - 1) / step_scale))
+    return {"technique": technique, "max_samples": samples,
+            "sample_factor": np.sqrt(3.0) * samples / pixels}

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import BACKGROUND, blob_grid, set_camera
+from conftest import BACKGROUND, blob_grid, set_camera, technique_options
 
 import pv_cubemarch as cm
 from pv_cubemarch.testing import compare_images, to_uint8
@@ -16,11 +16,12 @@ MIN_PSNR = 45.0
 MAX_LEVELS = 4
 
 
-TECHNIQUES = ["vtk", "direct"]
+TECHNIQUES = ["vtk", "direct", "cubemap"]
 
 
 def gpu_and_reference(pl, model, size, camera, step_scale=0.5, technique="vtk", **ref):
-    cm.add_volume(pl, model, step_scale=step_scale, technique=technique)
+    cm.add_volume(pl, model, **technique_options(model, technique, step_scale,
+                                                 pixels=0.6 * min(size)))
     image = cm.render_image(pl)
     reference = cm.render_emission_absorption(model, camera, size, background=BACKGROUND,
                                               step_voxels=0.1,
@@ -154,8 +155,15 @@ def test_data_range_differs_from_clim(plotter_factory, data_range, axis, techniq
     # shortens sub-voxel paths.
     interior = cm.reference.chord_lengths(model, camera, (32, 32)) > 0.1
     diff = np.abs(image.astype(int) - to_uint8(reference).astype(int)).max(axis=-1)
-    assert diff[interior].max() <= 3, diff.max()
     assert interior.mean() > 0.5
+    if technique == "cubemap":
+        # The cube map resamples texels of about a pixel here: where the image changes
+        # within a pixel (the box's outline, the transfer function's saturation edge),
+        # bilinear filtering misses by a few pixels' worth; a wrong data range would be off
+        # everywhere (15 % before the fix), which the bulk of the pixels rules out.
+        assert np.percentile(diff[interior], 95) <= 4 and diff[interior].mean() <= 2.5
+        return
+    assert diff[interior].max() <= 3, diff.max()
 
 
 def test_pyvista_screenshot_gets_the_complete_first_frame(plotter_factory, blob):

@@ -11,24 +11,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import BACKGROUND, blob_grid, set_camera
+from conftest import BACKGROUND, blob_grid, set_camera, technique_options
 
 import pv_cubemarch as cm
 from pv_cubemarch.testing import compare_images, to_uint8
 
 TECHNIQUES = ["vtk", "direct", "cubemap"]
 SIZE = (48, 48)
-
-
-def technique_options(model, technique, step_scale=0.5):
-    """add_volume options giving ``step_scale``'s samples per ray with any technique."""
-    if technique != "cubemap":
-        return {"technique": technique, "step_scale": step_scale}
-    samples = max(1, round((max(model.dimensions) - 1) / step_scale))
-    # k_c for which the LOD's N_ideal reaches max_samples at a ~40-pixel projected edge, so
-    # the face size stays near the projected size (S = sqrt(3) N / k_c).
-    return {"technique": technique, "max_samples": samples,
-            "sample_factor": np.sqrt(3.0) * samples / 40.0}
 
 
 def render_pair(plotter_factory, model, position, focal, technique, up=(0, 1, 0),
