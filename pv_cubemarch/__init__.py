@@ -21,6 +21,8 @@ from .errors import (  # noqa: E402
     VolumeDataError,
 )
 from .gl_resources import RenderToTexturePass, ShaderBindings, Texture  # noqa: E402
+from .lighting import VolumeLight  # noqa: E402
+from .multi_volume import VolumeGroup, add_volumes  # noqa: E402
 from .offscreen import gl_info  # noqa: E402
 from .reference import render_emission_absorption  # noqa: E402
 from .rendering import offscreen_plotter, render_frame, render_image  # noqa: E402
@@ -36,7 +38,8 @@ __all__ = [
     "Camera", "CubemarchError", "OffscreenUnavailableError", "RenderToTexturePass",
     "Replacement", "Scene", "SceneLight", "SceneLoadError", "SceneMesh", "ShaderBindings",
     "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "Texture", "TransferFunction",
-    "VolumeDataError", "VolumeModel", "add_volume", "configure_offscreen", "gl_info",
+    "VolumeDataError", "VolumeGroup", "VolumeLight", "VolumeModel", "add_volume",
+    "add_volumes", "configure_offscreen", "gl_info",
     "load_scene", "make_volume", "offscreen_plotter", "plugin", "render_emission_absorption",
     "render_frame", "render_image",
 ]
