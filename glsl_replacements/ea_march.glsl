@@ -19,17 +19,23 @@ vec3 cm_lighting(vec3 texturePosition);   // defined by light_sample
 #endif
 
 #ifndef CM_JOINT
-// Emitted colour and extinction of the medium at a texture position, lit when lights exist.
+// Emitted colour and extinction of the medium at a texture position, before lighting.
 // (With CM_JOINT, joint_sample defines it for several overlapping volumes.)
+vec4 cm_unlitEmission(vec3 texturePosition)
+{
+  return cm_transfer(cm_sampleScalar(texturePosition));
+}
+#endif
+
+// The same, lit when lights exist.
 vec4 cm_emission(vec3 texturePosition)
 {
-  vec4 emission = cm_transfer(cm_sampleScalar(texturePosition));
+  vec4 emission = cm_unlitEmission(texturePosition);
 #ifdef CM_LIGHTS
   emission.rgb *= cm_lighting(texturePosition);
 #endif
   return emission;
 }
-#endif
 
 #ifdef CM_SKIP_EMPTY
 uniform sampler3D cm_brickExtinction;  // per brick: largest extinction its data can reach

@@ -45,7 +45,7 @@ void cm_addMember(inout vec4 sum, sampler3D volume, sampler2D table, vec2 clim,
   sum.a += emission.a;
 }
 
-vec4 cm_emission(vec3 texturePosition)
+vec4 cm_unlitEmission(vec3 texturePosition)
 {
   vec4 sum = vec4(0.0);
   cm_addMember(sum, cm_member0, cm_memberTable0, cm_memberClim0, cm_memberFromGroup0,

@@ -1,7 +1,8 @@
 // Light-map pass (000 pass 1): for each point of an L^3 grid over the volume, the
 // transmittance toward each light, marched through the same transfer function (rgba =
-// lights 0..3). Output: L slices of L x L stacked along y. Runs only when a light, the
-// volume's placement or its data change.
+// lights 0..3), through one volume or a joint group (whose members shade each other).
+// Output: L slices of L x L stacked along y. Runs only when a light, the volume's placement
+// or its data change.
 uniform float cm_lightMapSize;   // L
 uniform mat4 cm_lightVectors;    // column i: light i in texture coordinates; w = 0: direction
                                  // toward the light, w = 1: the light's position
@@ -39,7 +40,7 @@ float cm_transmittanceToward(vec3 start, vec4 light)
     }
     float fraction = min(1.0, steps - t);
     vec3 middle = start + path * ((t + 0.5 * fraction) / steps);
-    opticalDepth += cm_transfer(cm_sampleScalar(middle)).a * worldLength / steps * fraction;
+    opticalDepth += cm_unlitEmission(middle).a * worldLength / steps * fraction;
   }
   return exp(-opticalDepth);
 }

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,10 +21,10 @@ from pathlib import Path
 import numpy as np
 import vtk
 
-from .bench import _bench_plotter, _build_stock, _meshes_only, opaque_layer
+from .bench import _bench_plotter, _build_stock, _meshes_only, opaque_layer, time_frames
 from .camera import Camera
 from .reference import render_emission_absorption
-from .rendering import read_pixels, render_frame
+from .rendering import read_pixels
 from .scene import Scene
 from .testing import compare_images
 
@@ -76,24 +75,10 @@ def scenarios(scene: Scene, copies: int = 4) -> dict[str, Scene]:
     return {"smoke": alone, "mesh inside": with_meshes, f"{copies} volumes": several}
 
 
-def _finish(plotter) -> None:
+def finish_frame(plotter) -> None:
     """Wait for the frame to be drawn: reading one pixel back forces completion."""
     pixel = vtk.vtkUnsignedCharArray()
     plotter.ren_win.GetPixelData(0, 0, 0, 0, 0, pixel, 0)
-
-
-def time_frames_drawn(plotter, frames: int = 3, warmup: int = 2) -> list[float]:
-    """Milliseconds of ``frames`` frames, each drawn to completion (no full read-back)."""
-    for _ in range(warmup):
-        render_frame(plotter)
-        _finish(plotter)
-    times = []
-    for _ in range(frames):
-        start = time.perf_counter()
-        plotter.ren_win.Render()
-        _finish(plotter)
-        times.append((time.perf_counter() - start) * 1e3)
-    return times
 
 
 def crop_windows(scene: Scene, camera: Camera, size, crop: int) -> list[tuple[int, int, int, int]]:
@@ -206,7 +191,7 @@ def run_resolution(scene: Scene, sizes: Sequence[Sequence[int]] = SIZES, frames:
             camera.apply_to(plotter.camera)
             if camera.clipping_range is None:
                 plotter.renderer.ResetCameraClippingRange()
-            frame_ms = time_frames_drawn(plotter, frames)
+            frame_ms = time_frames(plotter, frames, finish=finish_frame)
             image = read_pixels(plotter)
             memory = _memory(bindings)
         finally:
@@ -261,11 +246,14 @@ def format_resolution_table(rows: list[ResolutionRow]) -> str:
             if technique != "scene only" and all(floor):
                 own = (times[-1] - floor[-1].median_ms) / max(times[0] - floor[0].median_ms,
                                                               1e-9)
-            psnr = [c.errors["psnr"] if c and c.errors else float("nan") for c in cells]
+            # The resample-only rows draw a 1-texel cube map: their images are not compared.
+            psnr = [c.errors["psnr"] if c and c.errors and "only" not in technique
+                    else float("nan") for c in cells]
             lines.append(f"{scenario:<12} {technique:<24} "
                          + " ".join(f"{t:>8.0f}ms" for t in times)
-                         + f" {growth:>6.2f}x {own:>5.2f}x "
-                         + " ".join(f"{p:>8.1f}" for p in psnr))
+                         + f" {_ratio(growth):>7} {_ratio(own):>6} "
+                         + " ".join(f"{p:>8.1f}" if np.isfinite(p) else f"{'-':>8}"
+                                    for p in psnr))
         cube = by_key.get((scenario, "cubemap", sizes[-1]))
         direct = by_key.get((scenario, "direct", sizes[-1]))
         if cube and direct:
@@ -274,10 +262,14 @@ def format_resolution_table(rows: list[ResolutionRow]) -> str:
             lines.append(f"{'':<12} at {label[-1]} the cube map is "
                          f"{direct.median_ms / cube.median_ms:.2f}x faster than direct "
                          f"({cube.errors['psnr']:.1f} vs {direct.errors['psnr']:.1f} dB); "
-                         f"extra memory {memory / 2**20:.2f} MiB")
+                         f"extra memory {memory:,} bytes ({memory / 2**20:.2f} MiB)")
     lines.append("growth: last size / first size; own: the same after subtracting the "
                  "'scene only' frame")
     return "\n".join(lines)
+
+
+def _ratio(value: float) -> str:
+    return f"{value:.2f}x" if np.isfinite(value) else "-"
 
 
 def write_resolution_json(rows: list[ResolutionRow], path, meta: dict) -> None:

@@ -8,7 +8,7 @@ import sys
 
 from .errors import CubemarchError
 
-TECHNIQUE_CHOICES = ("vtk", "direct", "cubemap")
+TECHNIQUE_CHOICES = ("vtk", "direct", "cubemap", "auto")
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -53,7 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
     cube.add_argument("--max-samples", type=int, help="most samples along the box diagonal")
     cube.add_argument("--upscale", type=float, help="screen pixels per cube-map texel (k_u)")
     cube.add_argument("--sample-factor", type=float,
-                      help="samples per projected pixel along the diagonal (k_c)")
+                      help="samples per cube-map texel along the diagonal (k_c)")
     cube.add_argument("--occlusion-sharpness", type=float,
                       help="k_z of the bilateral depth filter against meshes (default 0.5)")
     lit = render.add_argument_group("lighting (every technique)")

@@ -32,6 +32,7 @@ from .volume import VolumeModel
 
 #: Default finest face size ``S_0`` (texels per face edge at MIP level 0).
 DEFAULT_FACE_SIZE = 256
+CUBE_TARGETS = ("rgba16f", "r32f")  # colour (premultiplied), the view distance of each ray
 #: Default ``k_z`` of the bilateral depth filter (000 uses 0.5), per cube-map texel of depth.
 DEFAULT_OCCLUSION_SHARPNESS = 0.5
 
@@ -212,8 +213,9 @@ def build_cubemap_actor(plotter, model: VolumeModel, options: CubeMapOptions,
     frame = CubeFrame(main, model, options)
     texture_from_world = np.linalg.inv(world_from_texture(model))
     lit = light_map is not None
-    cube_pass = RenderToTexturePass(overlay.renderer, None, size=frame.atlas_size, targets=2,
-                                    run_when=frame.update)
+    # Half-float colour is ample for 8-bit output; the depth needs float32 but one channel.
+    cube_pass = RenderToTexturePass(overlay.renderer, None, size=frame.atlas_size,
+                                    targets=CUBE_TARGETS, run_when=frame.update)
     sampling, defines = bind_sampling(cube_pass, model, volume_texture, 1.0, stop_opacity,
                                       skip_empty)
     cube_pass.set_uniform("cm_stepScale", lambda: frame.step_scale)
@@ -301,9 +303,11 @@ class CubeMapBinding(_binding_base()):
     @property
     def memory(self) -> dict[str, int]:
         """GPU bytes by resource: cube map, cube depth map, light map, data and tables."""
-        per_target = self.cube_pass.nbytes // 2 if self.cube_pass.outputs else 0
+        texels = self.cube_pass.size[0] * self.cube_pass.size[1] if self.cube_pass.outputs \
+            else 0
         data = sum(t.nbytes for t in self.cube_pass.textures.values())
-        return {"cube_map": per_target, "cube_depth_map": per_target,
+        return {"cube_map": texels * self.cube_pass.target_nbytes(0),
+                "cube_depth_map": texels * self.cube_pass.target_nbytes(1),
                 "light_map": self.light_map.nbytes if self.light_map else 0, "data": data}
 
     @property

@@ -273,8 +273,8 @@ def _reduced_resolution(plotter, model, step_scale, stop_opacity, skip_empty, do
         width, height = main.GetSize()
         return (-(-width // downsample), -(-height // downsample))
 
-    low_pass = RenderToTexturePass(overlay.renderer, None, size=low_size, targets=2,
-                                   every_frame=True)
+    low_pass = RenderToTexturePass(overlay.renderer, None, size=low_size,
+                                   targets=("rgba16f", "r32f"), every_frame=True)
     sampling, defines = bind_sampling(low_pass, model, volume_texture, step_scale,
                                       stop_opacity, skip_empty)
     low_pass.add_texture("cm_sceneDepth", overlay.depth.shared())

@@ -138,9 +138,10 @@ def add_volume(
     ----------
     plotter : pyvista.Plotter
         The plotter to draw in.
-    volume : pyvista.ImageData, numpy.ndarray or VolumeModel
-        Scalars on a uniform grid (a numpy array is indexed x, y, z with unit spacing), or a
-        :class:`VolumeModel` that already carries its transfer function and placement.
+    volume : pyvista.ImageData, numpy.ndarray, VolumeModel or VolumeGroup
+        Scalars on a uniform grid (a numpy array is indexed x, y, z with unit spacing), a
+        :class:`VolumeModel` that already carries its transfer function and placement, or a
+        :class:`VolumeGroup` of overlapping volumes marched jointly (see :func:`add_volumes`).
     scalars : str, optional
         Name of the point (or cell) array to draw; the active scalars by default.
     cmap : str or sequence
@@ -156,8 +157,11 @@ def add_volume(
         ``'vtk'``: marched inside VTK's GPU volume mapper (it sets up the ray). ``'direct'``:
         the direct screen-space marcher on a box actor, one ray per pixel. ``'cubemap'``:
         one ray per texel of a cube map on the box's interior faces, resampled on screen,
-        so the cost stops growing with the viewport's resolution (000). All run the same
-        marching GLSL.
+        so the cost stops growing with the viewport's resolution (000). ``'auto'``: each
+        frame, the cube map when its visible texels are fewer than the volume's projected
+        pixels, else the direct marcher (000 section 3.4; ``actor.cubemarch.force`` pins
+        one, ``actor.cubemarch.choice`` tells which was drawn). All run the same marching
+        GLSL.
     step_scale : float
         ``'vtk'`` and ``'direct'``: step length in texels along the ray's dominant texture
         axis (texel-spaced sampling). Smaller is more accurate and slower (cost grows as
@@ -184,8 +188,10 @@ def add_volume(
         ``'cubemap'``: screen pixels per cube-map texel the LOD aims at (``k_u``): 2 marches
         a quarter of the texels for a softer image.
     sample_factor : float
-        ``'cubemap'``: samples per projected pixel along the diagonal the LOD aims at
-        (``k_c``), before the ``max_samples`` cap: a small volume on screen takes fewer.
+        ``'cubemap'``: samples per cube-map texel along the box diagonal (``k_c``). The
+        LOD asks for ``k_c`` times the face's texels, capped by ``max_samples``, then sizes
+        the face from the samples it got (``S = sqrt(3) N / k_c``, 000 section 3.3): above
+        1, fewer texels and finer steps; below 1, more texels and coarser steps.
     occlusion_sharpness : float
         ``'cubemap'``: ``k_z`` of the bilateral depth filter against opaque meshes: a cube
         texel stops counting for a pixel once their ray ends differ by ``1/k_z`` cube-map
@@ -254,9 +260,6 @@ def add_volume(
     if group and technique == "vtk":
         raise ValueError("technique='vtk' cannot march overlapping volumes jointly; use "
                          "'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
-    if group and source is not None:
-        raise ValueError("Lighting overlapping volumes marched jointly is not supported; "
-                         "pass lights=None, or move the volumes apart.")
     volume_texture = None if group else Texture(model.values, kind="3d", interpolate=True)
     light_map = None if source is None else LightMap(
         plotter.renderer, model, source, volume_texture, int(light_map_size), float(ambient))
@@ -357,13 +360,23 @@ class VolumeBinding:
     def _textures(self, name: str) -> list:
         return [t.textures[name] for t in self.targets if name in t.textures]
 
-    def set_values(self, values) -> None:
+    def set_values(self, values, member: str | None = None) -> None:
         """Replace the volume's data (same shape); its GPU copy and skip bricks follow.
 
         The empty-space bricks are rebuilt here, once per change of the data, never per frame.
+        For volumes marched jointly (a :class:`~pv_cubemarch.VolumeGroup`), ``member`` names
+        the one whose data changes.
         """
         from .volume import _checked_values
 
+        if hasattr(self.model, "members"):
+            self.model.set_member_values(member, values)
+            if self.light_map is not None:
+                self.light_map.invalidate()
+            return
+        if member is not None:
+            raise ValueError(f"member is for volumes marched jointly; {self.model.name!r} is "
+                             "a single volume.")
         values = _checked_values(np.asarray(values), self.model.name, "raise")
         if values.shape != self.model.values.shape:
             raise ValueError(f"values must keep the volume's shape {self.model.values.shape}, "

@@ -6,7 +6,7 @@ current; a technique describes *what* to bind and never writes binding code itse
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -236,6 +236,14 @@ class ShaderBindings:
         self._observers.clear()
 
 
+# Render-target formats: components, GL internal format, bytes per texel.
+TARGET_FORMATS = {
+    "rgba32f": (4, 0x8814, 16),
+    "rgba16f": (4, 0x881A, 8),
+    "r32f": (1, 0x822E, 4),
+}
+
+
 class RenderToTexturePass:
     """A full-screen fragment pass into float textures, run inside a frame before props draw.
 
@@ -252,8 +260,10 @@ class RenderToTexturePass:
         :meth:`set_recipe` gives it (e.g. once the bindings decided the feature switches).
     size : tuple of int
         ``(width, height)`` of every target.
-    targets : int
-        Number of RGBA float32 render targets (e.g. 6 for the faces of a cube map).
+    targets : int or sequence of str
+        Number of RGBA float32 render targets, or the format of each, from
+        :data:`TARGET_FORMATS` (e.g. ``("rgba16f", "r32f")``: half-float colour and one
+        float32 channel of depth), so a target costs only the bytes its contents need.
     every_frame : bool
         Run at every frame (for results that follow the camera).
     run_when : callable, optional
@@ -261,13 +271,20 @@ class RenderToTexturePass:
     """
 
     def __init__(self, renderer, recipe: ShaderRecipe | None,
-                 size: tuple[int, int] | Callable[[], tuple[int, int]], targets: int = 1,
+                 size: tuple[int, int] | Callable[[], tuple[int, int]],
+                 targets: int | Sequence[str] = 1,
                  every_frame: bool = False, run_when: Callable[[], bool] | None = None):
         self.renderer = renderer
         self.recipe = recipe
         self._size_source = size if callable(size) else None
         self.size = tuple(int(v) for v in (size() if callable(size) else size))
-        self.n_targets = int(targets)
+        self.formats = (("rgba32f",) * int(targets) if isinstance(targets, (int, np.integer))
+                        else tuple(targets))
+        unknown = [f for f in self.formats if f not in TARGET_FORMATS]
+        if unknown or not self.formats:
+            raise ValueError(f"Render target formats must be some of {list(TARGET_FORMATS)}, "
+                             f"got {targets!r}.")
+        self.n_targets = len(self.formats)
         self.every_frame = every_frame
         self.run_when = run_when
         self.textures: dict[str, Texture] = {}
@@ -302,13 +319,20 @@ class RenderToTexturePass:
     @property
     def nbytes(self) -> int:
         """GPU bytes of the render targets."""
-        return self.size[0] * self.size[1] * 4 * 4 * self.n_targets
+        return self.size[0] * self.size[1] * sum(self.target_nbytes(i)
+                                                 for i in range(self.n_targets))
+
+    def target_nbytes(self, target: int) -> int:
+        """GPU bytes per texel of render target ``target``."""
+        return TARGET_FORMATS[self.formats[target]][2]
 
     def _create(self, window) -> None:
-        for _ in range(self.n_targets):
+        for name in self.formats:
+            components, internal_format, _ = TARGET_FORMATS[name]
             target = vtkTextureObject()
             target.SetContext(window)
-            target.Allocate2D(self.size[0], self.size[1], 4, vtk.VTK_FLOAT)
+            target.SetInternalFormat(internal_format)
+            target.Allocate2D(self.size[0], self.size[1], components, vtk.VTK_FLOAT)
             target.SetMinificationFilter(vtkTextureObject.Linear)
             target.SetMagnificationFilter(vtkTextureObject.Linear)
             self.outputs.append(target)
@@ -368,11 +392,16 @@ class RenderToTexturePass:
         return PassOutput(self, target)
 
     def read(self, target: int = 0) -> np.ndarray:
-        """Download target ``target`` as ``(height, width, 4)`` float32 (context must be live)."""
+        """Download target ``target`` as ``(height, width, components)`` float32.
+
+        The context must be live (e.g. in a render observer or after a frame).
+        """
         width, height = self.size
-        out = np.zeros((height, width, 4), dtype=np.float32)
+        components = TARGET_FORMATS[self.formats[target]][0]
+        out = np.zeros((height, width, components), dtype=np.float32)
         pixels = self.outputs[target].Download()
-        if pixels is None or not pixels.Download2D(vtk.VTK_FLOAT, out, [width, height], 4, [0, 0]):
+        if pixels is None or not pixels.Download2D(vtk.VTK_FLOAT, out, [width, height],
+                                                   components, [0, 0]):
             raise RuntimeError("Reading the render target back failed.")
         return out
 

@@ -150,8 +150,9 @@ class LightMap:
         The lit volume.
     source : callable
         This frame's lights (see :func:`light_source`); their number must stay the same.
-    volume_texture : Texture
-        The volume's data texture (shared with the marching shaders).
+    volume_texture : Texture or None
+        The volume's data texture (shared with the marching shaders); ``None`` for a
+        :class:`~pv_cubemarch.VolumeGroup`, whose members' textures it keeps.
     size : int
         Light-map points per axis, ``L`` (2 to 128).
     ambient : float
@@ -161,7 +162,7 @@ class LightMap:
     def __init__(self, renderer, model: VolumeModel, source: LightSource, volume_texture,
                  size: int = DEFAULT_LIGHT_MAP_SIZE, ambient: float = DEFAULT_AMBIENT,
                  step_scale: float = 1.0):
-        from .emission_absorption import bind_march, march_defines, world_from_texture
+        from .emission_absorption import bind_sampling, world_from_texture
 
         self.model = model
         self.source = source
@@ -172,13 +173,13 @@ class LightMap:
         self._key = None
         self._lights: list[VolumeLight] = []
         self.runs_requested = 0
-        defines = dict(march_defines(model, False), CM_LIGHT_COUNT=self.count)
-        recipe = ShaderRecipe(standalone=("pass_head", "ea_declarations", "volume_sample",
-                                          "ea_march", "light_map_main"), defines=defines)
-        self.render_pass = RenderToTexturePass(renderer, recipe, size=(self.size,
+        self.render_pass = RenderToTexturePass(renderer, None, size=(self.size,
                                                self.size * self.size), run_when=self._changed)
-        bind_march(self.render_pass, model, 1.0, 1.0, skip_empty=False)
-        self.render_pass.add_texture("cm_volume", volume_texture)
+        sampling, defines = bind_sampling(self.render_pass, model, volume_texture, 1.0, 1.0,
+                                          skip_empty=False)
+        self.render_pass.set_recipe(ShaderRecipe(
+            standalone=("pass_head", "ea_declarations", sampling, "ea_march", "light_map_main"),
+            defines=dict(defines, CM_LIGHT_COUNT=self.count)))
         self.render_pass.set_uniform("cm_lightMapSize", float(self.size))
         self.render_pass.set_uniform("cm_lightStepScale", float(step_scale))
         self.render_pass.set_uniform("cm_lightVectors", lambda: self._matrix("vectors"))
@@ -250,14 +251,15 @@ def check_light_options(light_map_size, ambient) -> None:
 # CPU counterpart
 
 
-def transmittance_toward(volume: VolumeModel, points_index: np.ndarray, light: VolumeLight,
+def transmittance_toward(medium, points_index: np.ndarray, light: VolumeLight,
                          step_voxels: float = 0.25) -> np.ndarray:
-    """Transmittance from each point (grid index coordinates) toward ``light``.
+    """Transmittance from each point (``medium``'s grid index coordinates) toward ``light``.
 
-    Marched through the volume with midpoint steps of ``step_voxels`` of the smallest voxel,
-    up to the box or to a point light inside it.
+    ``medium`` is a :class:`VolumeModel`, or a :class:`~pv_cubemarch.VolumeGroup` whose
+    members' extinctions add (index coordinates of its virtual grid). Marched with midpoint
+    steps of ``step_voxels`` of the smallest voxel, up to the box or to a point light inside.
     """
-    world_from_index = volume.world_from_index()
+    world_from_index = medium.world_from_index()
     index_from_world = np.linalg.inv(world_from_index)
     points = np.asarray(points_index, dtype=np.float64).reshape(-1, 3)
     world = points @ world_from_index[:3, :3].T + world_from_index[:3, 3]
@@ -270,7 +272,7 @@ def transmittance_toward(volume: VolumeModel, points_index: np.ndarray, light: V
         toward = np.broadcast_to(direction / np.linalg.norm(direction), world.shape)
         distance = np.full(len(world), np.inf)
     toward_index = toward @ index_from_world[:3, :3].T
-    upper = np.array(volume.dimensions, dtype=np.float64) - 1.0
+    upper = np.array(medium.dimensions, dtype=np.float64) - 1.0
     _, t_exit = ray_box_interval(points, toward_index, np.zeros(3), upper)
     t_end = np.clip(np.minimum(t_exit, distance), 0.0, None)
     voxel = np.linalg.norm(world_from_index[:3, :3], axis=0)
@@ -282,17 +284,34 @@ def transmittance_toward(volume: VolumeModel, points_index: np.ndarray, light: V
         end = np.minimum(t[active] + step, t_end[active])
         middle = 0.5 * (t[active] + end)
         sample = points[active] + toward_index[active] * middle[:, None]
-        _, sigma = volume.transfer.lookup(trilinear(volume.values, sample))
-        depth[active] += sigma * (end - t[active])
+        depth[active] += extinction_at(medium, sample) * (end - t[active])
         t[active] = end
         keep = (end < t_end[active]) & (depth[active] < 30.0)
         active = active[keep]
     return np.exp(-depth)
 
 
-def light_grid(volume: VolumeModel, lights: Sequence[VolumeLight], spacing_voxels: float = 0.5,
+def extinction_at(medium, points_index: np.ndarray) -> np.ndarray:
+    """Extinction of ``medium`` (a volume, or a group: its members' sum) at index points."""
+    members = getattr(medium, "members", None)
+    if members is None:
+        return medium.transfer.lookup(trilinear(medium.values, points_index))[1]
+    world_from_group = medium.world_from_index()
+    sigma = np.zeros(len(points_index))
+    for member in members:
+        member_from_group = np.linalg.inv(member.world_from_index()) @ world_from_group
+        local = points_index @ member_from_group[:3, :3].T + member_from_group[:3, 3]
+        upper = np.array(member.dimensions, dtype=np.float64) - 1.0
+        inside = np.all((local >= 0.0) & (local <= upper), axis=1)
+        if inside.any():
+            sigma[inside] += member.transfer.lookup(trilinear(member.values,
+                                                              local[inside]))[1]
+    return sigma
+
+
+def light_grid(volume, lights: Sequence[VolumeLight], spacing_voxels: float = 0.5,
                max_points: int = 96, step_voxels: float = 0.25) -> np.ndarray:
-    """Transmittance toward each light on a fine grid over the volume's box.
+    """Transmittance toward each light on a fine grid over the volume's (or group's) box.
 
     Returns ``(n_lights, gx, gy, gz)``; grid points span index 0 to ``dims - 1`` per axis,
     ``spacing_voxels`` apart (at most ``max_points`` per axis). The reference interpolates
@@ -307,7 +326,7 @@ def light_grid(volume: VolumeModel, lights: Sequence[VolumeLight], spacing_voxel
                      for li in lights])
 
 
-def lit_emission(volume: VolumeModel, rgb: np.ndarray, points_index: np.ndarray,
+def lit_emission(volume, rgb: np.ndarray, points_index: np.ndarray,
                  lights: Sequence[VolumeLight], grids: np.ndarray, ambient: float) -> np.ndarray:
     """``rgb`` of samples at ``points_index`` scaled by the light reaching them."""
     dims = np.array(volume.dimensions, dtype=np.float64)

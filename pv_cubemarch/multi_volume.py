@@ -56,6 +56,7 @@ class VolumeGroup:
         self.shape = tuple(int(math.ceil(e / spacing - 1e-9)) + 1 for e in extent)
         self.spacing = extent / (np.array(self.shape) - 1.0)
         self.transfer = members[0].transfer  # the table size, shared by every member
+        self._textures: dict = {}  # one upload per member, shared by every pass that binds
 
     @property
     def dimensions(self) -> tuple[int, int, int]:
@@ -80,23 +81,41 @@ class VolumeGroup:
 
         group_to_world = world_from_texture(self)
         for index, member in enumerate(self.members):
-            target.add_texture(f"cm_member{index}", _member_texture(member))
-            table = member.transfer.table.reshape(1, -1, 4)
-            target.add_texture(f"cm_memberTable{index}", Texture(table, kind="2d"))
+            if index not in self._textures:
+                table = member.transfer.table.reshape(1, -1, 4)
+                self._textures[index] = (Texture(member.values, kind="3d", interpolate=True),
+                                         Texture(table, kind="2d"))
+            data, table = self._textures[index]
+            target.add_texture(f"cm_member{index}", data)
+            target.add_texture(f"cm_memberTable{index}", table)
             target.set_uniform(f"cm_memberClim{index}", member.transfer.clim)
             target.set_uniform(f"cm_memberFromGroup{index}",
                                np.linalg.inv(world_from_texture(member)) @ group_to_world)
             target.set_uniform(f"cm_memberDims{index}",
                                tuple(float(n) for n in member.dimensions))
 
+    def set_member_values(self, member: str | None, values) -> None:
+        """Replace the data of the member named ``member`` (same shape) and its GPU copy."""
+        from .volume import _checked_values
+
+        names = [m.name for m in self.members]
+        if member not in names:
+            raise ValueError(f"member must name one of the volumes marched jointly, {names}; "
+                             f"got {member!r}.")
+        index = names.index(member)
+        target = self.members[index]
+        values = _checked_values(np.asarray(values), target.name, "raise")
+        if values.shape != target.values.shape:
+            raise ValueError(f"values must keep {target.name!r}'s shape {target.values.shape}, "
+                             f"got {values.shape}.")
+        target.values = np.ascontiguousarray(values, dtype=np.float32)
+        if index in self._textures:
+            self._textures[index][0].set_data(target.values)
+
     @property
     def defines(self) -> dict:
         """Feature switches of a joint shader."""
         return {"CM_JOINT": True, "CM_VOLUME_COUNT": len(self.members)}
-
-
-def _member_texture(member: VolumeModel) -> Texture:
-    return Texture(member.values, kind="3d", interpolate=True)
 
 
 def boxes_overlap(a: np.ndarray, b: np.ndarray) -> bool:
@@ -318,10 +337,10 @@ class AutoBinding:
         """All GPU bytes of the volume."""
         return sum(self.memory.values())
 
-    def set_values(self, values) -> None:
-        """Replace the data of both paths (same shape)."""
-        self.direct.set_values(values)
-        self.cubemap.set_values(values)
+    def set_values(self, values, member: str | None = None) -> None:
+        """Replace the data of both paths (same shape; ``member`` names one of a group)."""
+        self.direct.set_values(values, member)
+        self.cubemap.set_values(values, member)
 
     def release(self) -> None:
         """Free both paths."""

@@ -91,10 +91,12 @@ def render_emission_absorption(
 
     Parameters
     ----------
-    volume : VolumeModel or sequence of VolumeModel
+    volume : VolumeModel, VolumeGroup or sequence of them
         The volume, its placement and its transfer function; several volumes are marched
         together (where they overlap their extinctions add, the emitted colour is the
-        extinction-weighted mean), so interpenetrating media are right.
+        extinction-weighted mean), so interpenetrating media are right. With ``lights``,
+        a volume is lit through itself and the members of a :class:`VolumeGroup` through
+        the whole group, as the GPU lights them.
     camera : Camera
         The view; rays run through pixel centres, rows top to bottom.
     size : sequence of int
@@ -128,14 +130,22 @@ def render_emission_absorption(
         directions = directions[y:y + height, x:x + width]
         if origins.shape[:2] != (height, width):
             raise ValueError(f"crop {tuple(crop)} does not fit in an image of size {size}.")
-    volumes = [volume] if isinstance(volume, VolumeModel) else list(volume)
-    if not volumes:
+    items = [volume] if isinstance(volume, VolumeModel) or hasattr(volume, "members") \
+        else list(volume)
+    if not items:
         raise ValueError("Give at least one volume to render.")
+    # A group's members are lit through the whole group (they shade each other), as the GPU
+    # lights a group it marches jointly; separate volumes are lit each through itself.
+    volumes, lit_through = [], []
+    for item in items:
+        for member in getattr(item, "members", [item]):
+            volumes.append(member)
+            lit_through.append(item)
     grids = None
     if lights:
         from .lighting import light_grid
 
-        grids = [light_grid(v, lights) for v in volumes]
+        grids = {id(item): light_grid(item, lights) for item in items}
     origins = origins.reshape(-1, 3)
     directions = directions.reshape(-1, 3)
     n_rays = origins.shape[0]
@@ -178,7 +188,12 @@ def render_emission_absorption(
             if grids is not None:
                 from .lighting import lit_emission
 
-                rgb = lit_emission(v, rgb, pts, lights, grids[index], ambient)
+                medium = lit_through[index]
+                if medium is not v:  # the member's index points in the group's grid
+                    group_from_member = np.linalg.inv(medium.world_from_index()) \
+                        @ v.world_from_index()
+                    pts = pts @ group_from_member[:3, :3].T + group_from_member[:3, 3]
+                rgb = lit_emission(medium, rgb, pts, lights, grids[id(medium)], ambient)
             sigma[inside] += sig
             emitted[inside] += sig[:, None] * rgb
         with np.errstate(invalid="ignore", divide="ignore"):

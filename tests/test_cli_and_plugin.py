@@ -74,7 +74,19 @@ def test_pyvista_read_usd_in_fresh_process():
     assert "/World/Torus" in result.stdout
 
 
-def test_render_options_reach_every_volume(tmp_path, monkeypatch):
+@pytest.mark.parametrize("arguments, expected", [
+    (["--technique", "direct", "--stop-opacity", "0.95", "--no-skip-empty", "--downsample",
+      "2"],
+     {"technique": "direct", "stop_opacity": 0.95, "skip_empty": False, "downsample": 2}),
+    (["--technique", "cubemap", "--face-size", "64", "--max-samples", "50", "--upscale", "2",
+      "--sample-factor", "1.5", "--occlusion-sharpness", "0.25", "--lights", "scene",
+      "--light-map-size", "16", "--ambient", "0.3"],
+     {"technique": "cubemap", "face_size": 64, "max_samples": 50, "upscale": 2.0,
+      "sample_factor": 1.5, "occlusion_sharpness": 0.25, "lights": "scene",
+      "light_map_size": 16, "ambient": 0.3}),
+    (["--technique", "auto", "--lights", "none"], {"technique": "auto", "lights": None}),
+], ids=["direct", "cubemap", "auto"])
+def test_render_options_reach_every_volume(tmp_path, monkeypatch, arguments, expected):
     import pv_cubemarch.emission_absorption as ea
 
     seen = []
@@ -86,11 +98,10 @@ def test_render_options_reach_every_volume(tmp_path, monkeypatch):
 
     monkeypatch.setattr(ea, "add_volume", spy)
     out = tmp_path / "d.png"
-    assert main(["render", str(SCENE), "-o", str(out), "--size", "40x30", "--technique",
-                 "direct", "--stop-opacity", "0.95", "--no-skip-empty", "--downsample", "2",
+    assert main(["render", str(SCENE), "-o", str(out), "--size", "40x30", *arguments,
                  "--no-progress"]) == 0
-    assert seen == [{"technique": "direct", "stop_opacity": 0.95, "skip_empty": False,
-                     "downsample": 2}]
+    assert seen == [expected]
+    assert out.stat().st_size > 500
 
 
 def test_usd_volume_options(tmp_path):
@@ -111,28 +122,6 @@ def test_usd_volume_options(tmp_path):
     assert scene.volume_options["/World/Smoke"] == {"technique": "direct", "step_scale": 0.25,
                                                     "skip_empty": False, "downsample": 2}
     assert scene.render(size=(40, 30)).std() > 3
-
-
-def test_cubemap_options_from_the_command_line(tmp_path, monkeypatch):
-    import pv_cubemarch.emission_absorption as ea
-
-    seen = []
-    real = ea.add_volume
-
-    def spy(plotter, volume, scalars=None, **kwargs):
-        seen.append(kwargs)
-        return real(plotter, volume, scalars, **kwargs)
-
-    monkeypatch.setattr(ea, "add_volume", spy)
-    out = tmp_path / "c.png"
-    assert main(["render", str(SCENE), "-o", str(out), "--size", "40x30", "--technique",
-                 "cubemap", "--face-size", "64", "--max-samples", "50", "--upscale", "2",
-                 "--sample-factor", "1.5", "--occlusion-sharpness", "0.25", "--lights",
-                 "scene", "--light-map-size", "16", "--ambient", "0.3", "--no-progress"]) == 0
-    assert seen == [{"technique": "cubemap", "face_size": 64, "max_samples": 50,
-                     "upscale": 2.0, "sample_factor": 1.5, "occlusion_sharpness": 0.25,
-                     "lights": "scene", "light_map_size": 16, "ambient": 0.3}]
-    assert out.stat().st_size > 500
 
 
 def test_usd_cubemap_options(tmp_path):

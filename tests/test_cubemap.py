@@ -76,7 +76,9 @@ def test_lod_follows_the_projected_size_and_reports_memory(plotter_factory, mode
     assert far.level > near.level and far.samples < near.samples
     assert actor.cubemarch.cube_pass.size == (3 * (far.level_size + 2), 2 * (far.level_size + 2))
     memory = actor.cubemarch.memory
-    assert memory["cube_map"] == memory["cube_depth_map"] == 6 * (far.level_size + 2) ** 2 * 16
+    texels = 6 * (far.level_size + 2) ** 2
+    assert memory["cube_map"] == texels * 8  # half-float rgba
+    assert memory["cube_depth_map"] == texels * 4  # one float32 distance
     assert memory["light_map"] == 0 and actor.cubemarch.light_map is None
 
 

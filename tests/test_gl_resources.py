@@ -115,6 +115,25 @@ def test_render_to_texture_pass_writes_texels(plotter_factory, targets):
     rtt.release()
 
 
+def test_render_target_formats_hold_what_they_promise(plotter_factory):
+    """Half-float colour keeps ~3 decimal digits, a one-channel float32 target keeps 7."""
+    pl = plotter_factory(SIZE)
+    recipe = ShaderRecipe(standalone="rtt_gradient_pattern", defines={"CM_TARGETS": 2})
+    rtt = RenderToTexturePass(pl.renderer, recipe, size=(16, 8), targets=("rgba16f", "r32f"))
+    rtt.uniforms["cm_value"] = 0.1234567
+    pl.ren_win.Render()
+    pl.ren_win.MakeCurrent()
+    half, single = rtt.read(0), rtt.read(1)
+    assert half.shape == (8, 16, 4) and single.shape == (8, 16, 1)
+    assert np.allclose(half[..., 2], 0.1234567, atol=1e-4)
+    assert not np.allclose(half[..., 2], 0.1234567, atol=1e-6)  # it is half precision
+    assert np.allclose(single[..., 0], ((np.arange(16) + 0.5) / 16)[None, :], atol=1e-7)
+    assert rtt.nbytes == 16 * 8 * (8 + 4)
+    rtt.release()
+    with pytest.raises(ValueError, match="rgba16f"):
+        RenderToTexturePass(pl.renderer, recipe, size=(4, 4), targets=("rgb8",))
+
+
 def test_render_to_texture_sampled_in_same_frame(plotter_factory):
     """An actor samples what a pass wrote earlier in the same frame."""
     pl = plotter_factory(SIZE)

@@ -69,13 +69,44 @@ def test_overlap_groups_and_group_limits(pair):
         VolumeGroup([a])
 
 
-def test_joint_group_refuses_vtk_and_lights(plotter_factory, pair):
+def test_joint_group_refuses_vtk(plotter_factory, pair):
     group = VolumeGroup(list(pair))
     with pytest.raises(ValueError, match="jointly"):
         cm.add_volume(plotter_factory(), group, technique="vtk")
-    with pytest.raises(ValueError, match="Lighting"):
-        cm.add_volume(plotter_factory(), group, technique="cubemap",
-                      lights=[cm.lighting.VolumeLight("directional", direction=(0, -1, 0))])
+
+
+@pytest.mark.parametrize("technique", ["direct", "cubemap"])
+def test_lit_joint_group_members_shade_each_other(plotter_factory, pair, technique):
+    # The light comes from +x: the rotated blob b (at x ~ 0.7) shades blob a behind it.
+    lights = [cm.VolumeLight("directional", direction=(-1.0, -0.3, -0.2))]
+    pl = plotter_factory(SIZE)
+    (actor,) = add_volumes(pl, list(pair), technique=technique, lights=lights,
+                           light_map_size=48)
+    camera = set_camera(pl, (3.0, 2.0, 4.5), focal=(0.3, 0.1, 0.1))
+    image = cm.render_image(pl)
+    group = actor.cubemarch.model
+    near = pl.camera.clipping_range[0]
+    reference = cm.render_emission_absorption([group], camera, SIZE, background=BACKGROUND,
+                                              near=near, lights=lights)
+    each_alone = cm.render_emission_absorption(list(pair), camera, SIZE, near=near,
+                                               background=BACKGROUND, lights=lights)
+    errors = compare_images(image, reference)
+    assert errors.psnr >= 45, errors
+    # Lighting each member through itself alone misses their shadows on each other (~39 dB
+    # against the joint reference, with this light): the GPU image is the joint one.
+    assert compare_images(image, each_alone).psnr < errors.psnr - 10
+    assert actor.cubemarch.light_map.render_pass.runs == 1
+    # New data for one member: redrawn and relit, and a bad member name says what to pass.
+    a, b = pair
+    actor.cubemarch.set_values(np.zeros_like(a.values), member="a")  # a: gone, no shadow
+    assert not a.values.any()  # the member model holds the new data
+    relit = cm.render_emission_absorption([VolumeGroup([a, b])], camera, SIZE, near=near,
+                                          background=BACKGROUND, lights=lights)
+    assert compare_images(cm.render_image(pl), relit).psnr >= 45
+    assert compare_images(relit, reference).psnr < 40  # the change is visible
+    assert actor.cubemarch.light_map.render_pass.runs == 2
+    with pytest.raises(ValueError, match="member must name"):
+        actor.cubemarch.set_values(a.values, member="nope")
 
 
 def test_projected_pixels_and_classification():
