@@ -30,6 +30,9 @@ from .testing import compare_images
 
 SIZES = ((1920, 1080), (2560, 1440), (3840, 2160))
 TECHNIQUES = ("scene only", "cubemap", "cubemap (resample only)", "direct", "pyvista")
+COMPARABLE_FACE_SIZES = (128, 64)
+FACE_SIZE_ROW = "cubemap face_size="  # rows of smaller cube maps, at the largest size only
+COMPARABLE_DB = 0.5  # "comparable error": at most this much below the direct marcher's PSNR
 
 
 @dataclass
@@ -127,6 +130,8 @@ def _add(plotter, scene: Scene, technique: str, camera: Camera) -> list:
     options = {"technique": "direct"} if technique == "direct" else {"technique": "cubemap"}
     if technique == "cubemap (resample only)":
         options["face_size"] = 1
+    elif technique.startswith(FACE_SIZE_ROW):
+        options["face_size"] = int(technique[len(FACE_SIZE_ROW):])
     drawn = Scene(meshes=scene.meshes, volumes=scene.volumes, lights=scene.lights,
                   up_axis=scene.up_axis, background=scene.background,
                   volume_options={v.name: dict(options) for v in scene.volumes})
@@ -146,6 +151,7 @@ def _memory(bindings: list) -> dict[str, int]:
 def run_resolution(scene: Scene, sizes: Sequence[Sequence[int]] = SIZES, frames: int = 3,
                    crop: int = 128, reference_step: float = 0.1,
                    techniques: Sequence[str] = TECHNIQUES,
+                   comparable_face_sizes: Sequence[int] = COMPARABLE_FACE_SIZES,
                    progress_bar: bool | None = None) -> list[ResolutionRow]:
     """Time every scenario x technique x size in one run and measure errors on crops.
 
@@ -164,6 +170,10 @@ def run_resolution(scene: Scene, sizes: Sequence[Sequence[int]] = SIZES, frames:
         Step of the CPU reference, in voxels.
     techniques : sequence of str
         Rows to measure, from :data:`TECHNIQUES`.
+    comparable_face_sizes : sequence of int
+        Smaller cube maps measured at the largest size only, so the cube map can also be
+        compared with the direct marcher at comparable error, not only at default settings
+        (which may be more accurate than direct). Empty to leave them out.
     progress_bar : bool, optional
         Show progress over the rows; by default only on a terminal.
     """
@@ -174,9 +184,11 @@ def run_resolution(scene: Scene, sizes: Sequence[Sequence[int]] = SIZES, frames:
     unknown = [t for t in techniques if t not in TECHNIQUES]
     if unknown:
         raise ValueError(f"Unknown technique(s) {unknown}; choose from {list(TECHNIQUES)}.")
+    largest = tuple(int(v) for v in sizes[-1])
+    extra = [f"{FACE_SIZE_ROW}{int(s)}" for s in comparable_face_sizes]
     jobs = [(name, sub, tuple(int(v) for v in size), technique)
             for name, sub in scenarios(scene).items() for size in sizes
-            for technique in techniques]
+            for technique in [*techniques, *(extra if tuple(size) == largest else [])]]
     references: dict = {}
     rows = []
     for name, sub, size, technique in progress(jobs, desc="resolution", enabled=progress_bar):
@@ -250,7 +262,8 @@ def format_resolution_table(rows: list[ResolutionRow]) -> str:
             psnr = [c.errors["psnr"] if c and c.errors and "only" not in technique
                     else float("nan") for c in cells]
             lines.append(f"{scenario:<12} {technique:<24} "
-                         + " ".join(f"{t:>8.0f}ms" for t in times)
+                         + " ".join(f"{t:>8.0f}ms" if np.isfinite(t) else f"{'-':>10}"
+                                    for t in times)
                          + f" {_ratio(growth):>7} {_ratio(own):>6} "
                          + " ".join(f"{p:>8.1f}" if np.isfinite(p) else f"{'-':>8}"
                                     for p in psnr))
@@ -263,9 +276,31 @@ def format_resolution_table(rows: list[ResolutionRow]) -> str:
                          f"{direct.median_ms / cube.median_ms:.2f}x faster than direct "
                          f"({cube.errors['psnr']:.1f} vs {direct.errors['psnr']:.1f} dB); "
                          f"extra memory {memory:,} bytes ({memory / 2**20:.2f} MiB)")
+            matched = comparable_cubemap(rows, scenario, sizes[-1])
+            if matched is not None and matched is not cube:
+                lines.append(f"{'':<12} at comparable error ({matched.technique[8:]}: "
+                             f"{matched.errors['psnr']:.1f} vs {direct.errors['psnr']:.1f} dB) "
+                             f"{direct.median_ms / matched.median_ms:.2f}x faster")
     lines.append("growth: last size / first size; own: the same after subtracting the "
                  "'scene only' frame")
     return "\n".join(lines)
+
+
+def comparable_cubemap(rows: list[ResolutionRow], scenario: str, size) -> ResolutionRow | None:
+    """The fastest cube-map row of ``scenario`` at ``size`` at comparable error.
+
+    That is at most :data:`COMPARABLE_DB` below the direct marcher's PSNR (``None`` without
+    a direct row, or when no cube-map row is that accurate).
+    """
+    here = [r for r in rows if r.scenario == scenario and tuple(r.size) == tuple(size)
+            and r.errors]
+    direct = next((r for r in here if r.technique == "direct"), None)
+    if direct is None:
+        return None
+    cubes = [r for r in here
+             if r.technique == "cubemap" or r.technique.startswith(FACE_SIZE_ROW)]
+    good = [r for r in cubes if r.errors["psnr"] >= direct.errors["psnr"] - COMPARABLE_DB]
+    return min(good, key=lambda r: r.median_ms) if good else None
 
 
 def _ratio(value: float) -> str:

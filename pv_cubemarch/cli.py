@@ -25,6 +25,16 @@ def _sizes(text: str) -> list[tuple[int, int]]:
     return [_size(part) for part in text.split(",") if part.strip()]
 
 
+def _face_sizes(text: str) -> list[int]:
+    if text.strip().lower() == "none":
+        return []
+    try:
+        return [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"face sizes must look like 128,64 (or 'none'), got {text!r}") from None
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for tests and documentation)."""
     parser = argparse.ArgumentParser(prog="pv-cubemarch", description=__doc__)
@@ -92,6 +102,9 @@ def build_parser() -> argparse.ArgumentParser:
                             help="timed frames per row (>= 3)")
     resolution.add_argument("--crop", type=int, default=128,
                             help="side of the 3 crops compared with the CPU reference")
+    resolution.add_argument("--comparable-face-sizes", type=_face_sizes, default=None,
+                            help="smaller cube maps timed at the largest size, to compare "
+                                 "with direct at comparable error (default 128,64; 'none')")
     resolution.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     return parser
 
@@ -169,8 +182,11 @@ def _bench_resolution(args, scene, scene_path) -> int:
     from .offscreen import gl_info
 
     sizes = args.sizes or bench_resolution.SIZES
+    face_sizes = args.comparable_face_sizes
+    if face_sizes is None:
+        face_sizes = bench_resolution.COMPARABLE_FACE_SIZES
     rows = bench_resolution.run_resolution(scene, sizes=sizes, frames=args.frames,
-                                           crop=args.crop)
+                                           crop=args.crop, comparable_face_sizes=face_sizes)
     print(f"scene {scene_path}; median of {args.frames} frames drawn to completion; error "
           f"(PSNR) on three {args.crop}px crops against the CPU reference (0.1 voxel steps)")
     print(bench_resolution.format_resolution_table(rows))

@@ -85,7 +85,10 @@ def test_resolution_bench_rows_and_table(tmp_path):
     scene = cm.load_scene(SCENE, progress_bar=False)
     rows = bench_resolution.run_resolution(scene, sizes=[(96, 54), (160, 90)], frames=3,
                                            crop=32)
-    assert len(rows) == 3 * 2 * len(bench_resolution.TECHNIQUES)
+    extra = [r for r in rows if r.technique.startswith(bench_resolution.FACE_SIZE_ROW)]
+    assert len(rows) - len(extra) == 3 * 2 * len(bench_resolution.TECHNIQUES)
+    assert len(extra) == 3 * len(bench_resolution.COMPARABLE_FACE_SIZES)
+    assert {r.size for r in extra} == {(160, 90)}  # the smaller cube maps: largest size only
     for row in rows:
         assert len(row.frame_ms) == 3 and row.median_ms > 0
         if row.technique == "scene only":
@@ -103,9 +106,27 @@ def test_resolution_bench_rows_and_table(tmp_path):
 def test_resolution_bench_cli(tmp_path, capsys):
     out = tmp_path / "res.json"
     assert main(["bench", "resolution", "--sizes", "64x36,96x54", "--crop", "16",
-                 "--json", str(out)]) == 0
+                 "--comparable-face-sizes", "none", "--json", str(out)]) == 0
     assert "growth" in capsys.readouterr().out
-    assert json.loads(out.read_text())["meta"]["sizes"] == [[64, 36], [96, 54]]
+    payload = json.loads(out.read_text())
+    assert payload["meta"]["sizes"] == [[64, 36], [96, 54]]
+    assert not any("face_size" in r["technique"] for r in payload["rows"])
+    with pytest.raises(SystemExit):
+        main(["bench", "resolution", "--comparable-face-sizes", "big"])
+
+
+def test_comparable_cubemap_is_the_fastest_within_half_a_decibel():
+    from pv_cubemarch.bench_resolution import ResolutionRow, comparable_cubemap
+
+    def row(technique, ms, psnr):
+        return ResolutionRow("s", technique, (4, 4), [ms] * 3, {"psnr": psnr})
+
+    rows = [row("direct", 100.0, 50.0), row("cubemap", 40.0, 54.0),
+            row("cubemap face_size=128", 20.0, 49.6), row("cubemap face_size=64", 10.0, 49.0)]
+    assert comparable_cubemap(rows, "s", (4, 4)).technique == "cubemap face_size=128"
+    assert comparable_cubemap(rows[:2], "s", (4, 4)).technique == "cubemap"
+    assert comparable_cubemap([rows[0], rows[3]], "s", (4, 4)) is None
+    assert comparable_cubemap(rows[1:], "s", (4, 4)) is None  # no direct row
 
 
 def test_crop_windows_cover_the_volume():
