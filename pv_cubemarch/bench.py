@@ -172,15 +172,27 @@ def time_frames(plotter, frames: int = 3, warmup: int = 2, finish=read_pixels) -
     Each frame is drawn, then ``finish(plotter)`` waits for it: by default the whole image
     is read back, as a user saving frames would.
     """
-    for _ in range(warmup):
-        render_frame(plotter)
-        finish(plotter)
-    times = []
+    return time_frames_side_by_side({"": plotter}, frames, warmup, finish)[""]
+
+
+def time_frames_side_by_side(plotters: dict, frames: int = 3, warmup: int = 2,
+                             finish=read_pixels) -> dict[str, list[float]]:
+    """Milliseconds of ``frames`` frames of each plotter, drawn in turn.
+
+    Frame ``i`` of every plotter is drawn before frame ``i + 1`` of any, so a slow spell of
+    a shared machine falls on every row alike and the ratios between rows hold.
+    """
+    for plotter in plotters.values():
+        for _ in range(warmup):
+            render_frame(plotter)
+            finish(plotter)
+    times: dict[str, list[float]] = {name: [] for name in plotters}
     for _ in range(frames):
-        start = time.perf_counter()
-        plotter.ren_win.Render()
-        finish(plotter)
-        times.append((time.perf_counter() - start) * 1e3)
+        for name, plotter in plotters.items():
+            start = time.perf_counter()
+            plotter.ren_win.Render()
+            finish(plotter)
+            times[name].append((time.perf_counter() - start) * 1e3)
     return times
 
 

@@ -21,7 +21,13 @@ from pathlib import Path
 import numpy as np
 import vtk
 
-from .bench import _bench_plotter, _build_stock, _meshes_only, opaque_layer, time_frames
+from .bench import (
+    _bench_plotter,
+    _build_stock,
+    _meshes_only,
+    opaque_layer,
+    time_frames_side_by_side,
+)
 from .camera import Camera
 from .reference import render_emission_absorption
 from .rendering import read_pixels
@@ -164,6 +170,8 @@ def run_resolution(scene: Scene, sizes: Sequence[Sequence[int]] = SIZES, frames:
     frames : int
         Timed frames per row (median reported), after two warm-up frames; each frame is
         drawn to completion (one pixel read back), the full image is read once afterwards.
+        The rows of one scenario and size are drawn in turn, frame by frame, so a slow
+        spell of the machine weighs on all of them alike.
     crop : int
         Side of the three square crops compared with the CPU reference.
     reference_step : float
@@ -186,32 +194,30 @@ def run_resolution(scene: Scene, sizes: Sequence[Sequence[int]] = SIZES, frames:
         raise ValueError(f"Unknown technique(s) {unknown}; choose from {list(TECHNIQUES)}.")
     largest = tuple(int(v) for v in sizes[-1])
     extra = [f"{FACE_SIZE_ROW}{int(s)}" for s in comparable_face_sizes]
-    jobs = [(name, sub, tuple(int(v) for v in size), technique)
-            for name, sub in scenarios(scene).items() for size in sizes
-            for technique in [*techniques, *(extra if tuple(size) == largest else [])]]
-    references: dict = {}
+    jobs = [(name, sub, tuple(int(v) for v in size))
+            for name, sub in scenarios(scene).items() for size in sizes]
     rows = []
-    for name, sub, size, technique in progress(jobs, desc="resolution", enabled=progress_bar):
+    for name, sub, size in progress(jobs, desc="resolution", enabled=progress_bar):
         camera = sub.camera or sub.default_camera(size[0] / size[1])
-        key = (name, size)
-        if key not in references:
-            references[key] = _reference(sub, camera, size, crop, reference_step)
-        windows, reference = references[key]
-        plotter = _bench_plotter(size)
+        windows, reference = _reference(sub, camera, size, crop, reference_step)
+        plotters, bindings = {}, {}
         try:
-            bindings = _add(plotter, sub, technique, camera)
-            camera.apply_to(plotter.camera)
-            if camera.clipping_range is None:
-                plotter.renderer.ResetCameraClippingRange()
-            frame_ms = time_frames(plotter, frames, finish=finish_frame)
-            image = read_pixels(plotter)
-            memory = _memory(bindings)
+            for technique in [*techniques, *(extra if size == largest else [])]:
+                plotters[technique] = plotter = _bench_plotter(size)
+                bindings[technique] = _add(plotter, sub, technique, camera)
+                camera.apply_to(plotter.camera)
+                if camera.clipping_range is None:
+                    plotter.renderer.ResetCameraClippingRange()
+            times = time_frames_side_by_side(plotters, frames, finish=finish_frame)
+            for technique, plotter in plotters.items():
+                image = read_pixels(plotter)
+                errors = None if technique == "scene only" else compare_images(
+                    _crops(image, windows), reference).as_dict()
+                rows.append(ResolutionRow(name, technique, size, times[technique], errors,
+                                          _memory(bindings[technique])))
         finally:
-            plotter.close()
-        errors = None
-        if technique != "scene only":
-            errors = compare_images(_crops(image, windows), reference).as_dict()
-        rows.append(ResolutionRow(name, technique, size, frame_ms, errors, memory))
+            for plotter in plotters.values():
+                plotter.close()
     return rows
 
 

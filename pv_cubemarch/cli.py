@@ -187,8 +187,9 @@ def _bench_resolution(args, scene, scene_path) -> int:
         face_sizes = bench_resolution.COMPARABLE_FACE_SIZES
     rows = bench_resolution.run_resolution(scene, sizes=sizes, frames=args.frames,
                                            crop=args.crop, comparable_face_sizes=face_sizes)
-    print(f"scene {scene_path}; median of {args.frames} frames drawn to completion; error "
-          f"(PSNR) on three {args.crop}px crops against the CPU reference (0.1 voxel steps)")
+    print(f"scene {scene_path}; median of {args.frames} frames drawn to completion, the rows "
+          f"drawn in turn; error (PSNR) on three {args.crop}px crops against the CPU reference "
+          "(0.1 voxel steps)")
     print(bench_resolution.format_resolution_table(rows))
     if args.json_path:
         bench_resolution.write_resolution_json(rows, args.json_path, {
