@@ -166,15 +166,6 @@ def _bench_plotter(size):
     return plotter
 
 
-def time_frames(plotter, frames: int = 3, warmup: int = 2, finish=read_pixels) -> list[float]:
-    """Milliseconds of ``frames`` frames after ``warmup`` frames.
-
-    Each frame is drawn, then ``finish(plotter)`` waits for it: by default the whole image
-    is read back, as a user saving frames would.
-    """
-    return time_frames_side_by_side({"": plotter}, frames, warmup, finish)[""]
-
-
 def time_frames_side_by_side(plotters: dict, frames: int = 3, warmup: int = 2,
                              finish=read_pixels) -> dict[str, list[float]]:
     """Milliseconds of ``frames`` frames of each plotter, drawn in turn.
@@ -211,13 +202,14 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
     size : sequence of int
         ``(width, height)`` of every frame.
     frames : int
-        Timed frames per setting (median reported), after two warm-up frames.
+        Timed frames per setting (median reported), after two warm-up frames; the settings
+        are drawn in turn, frame by frame, so a slow spell of the machine weighs on all.
     include_stock : bool
         Add PyVista's stock ``add_volume`` rows to the same run.
     reference_step : float
         Step of the CPU reference, in voxels.
     progress_bar : bool, optional
-        Show progress over the settings; by default only on a terminal.
+        Show progress over the settings being set up; by default only on a terminal.
     """
     from .progress import progress
 
@@ -241,20 +233,23 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
     runs = [(SWEEPS[name], s) for name in techniques for s in SWEEPS[name].settings]
     if include_stock and "pyvista" not in techniques:
         runs += [(SWEEPS["pyvista"], s) for s in SWEEPS["pyvista"].settings]
+    plotters = {}
     results = []
-    for sweep, setting in progress(runs, desc="tradeoff", enabled=progress_bar):
-        plotter = _bench_plotter(size)
-        try:
+    try:
+        for index, (sweep, setting) in enumerate(progress(runs, desc="tradeoff",
+                                                          enabled=progress_bar)):
+            plotters[index] = plotter = _bench_plotter(size)
             _meshes_only(scene).add_to(plotter, camera=camera)
             sweep.build(plotter, volume, dict(setting))
             camera.apply_to(plotter.camera)
-            frame_ms = time_frames(plotter, frames)
-            image = read_pixels(plotter)
-        finally:
+        times = time_frames_side_by_side(plotters, frames)
+        for index, (sweep, setting) in enumerate(runs):
+            errors = compare_images(read_pixels(plotters[index]), reference).as_dict()
+            results.append(TradeoffResult(sweep.technique, sweep.describe(setting),
+                                          dict(setting), times[index], errors))
+    finally:
+        for plotter in plotters.values():
             plotter.close()
-        errors = compare_images(image, reference).as_dict()
-        results.append(TradeoffResult(sweep.technique, sweep.describe(setting), dict(setting),
-                                      frame_ms, errors))
     mark_pareto(results)
     return results
 
