@@ -1,4 +1,4 @@
-"""Cube-map imposter marching (000): two interpenetrating volumes and a lit one.
+"""Cube-map imposter marching (000): two interpenetrating volumes, unlit and lit.
 
 The overlapping pair is marched jointly and checked against the CPU reference.
 
@@ -43,12 +43,13 @@ reference = pv_cubemarch.render_emission_absorption([first, second], camera, siz
                                                     near=pl.camera.clipping_range[0])
 print("cube map vs CPU reference:", compare_images(image, reference).as_dict())
 
-# One volume lit by a directional light: the light map runs once, not per frame.
+# The same pair lit by a directional light: one light map is marched through the joint
+# medium, so each volume shades the other; it runs once, not per frame.
 lit = pv_cubemarch.offscreen_plotter(size)
 lit.set_background("black")
 sun = pv_cubemarch.VolumeLight("directional", direction=(-1.0, -1.0, -0.5))
-lit_actor = pv_cubemarch.add_volume(lit, first, technique="cubemap", lights=[sun],
-                                    light_map_size=32, ambient=0.25)
+(lit_actor,) = pv_cubemarch.add_volumes(lit, [first, second], technique="cubemap",
+                                        lights=[sun], light_map_size=32, ambient=0.25)
 lit.camera_position = pl.camera_position
 lit.renderer.ResetCameraClippingRange()
 lit_image = pv_cubemarch.render_image(lit)
