@@ -91,9 +91,7 @@ class CubeFrame:
         self.model = model
         self.options = options
         self.max_samples = int(options.max_samples or default_max_samples(model))
-        self.world_from_local = world_from_local(model)
-        self.local_from_world = np.linalg.inv(self.world_from_local)
-        self.edge_world = float(2.0 * np.linalg.norm(self.world_from_local[:3, :3], axis=0).max())
+        self._place()
         self.face_mask = 0
         self.culled = False
         self.frames = 0
@@ -102,10 +100,16 @@ class CubeFrame:
         self.lod = LodChoice(float(size), float(self.max_samples), self.max_samples,
                              float(size), 0, size)
 
+    def _place(self) -> None:
+        self.world_from_local = world_from_local(self.model)
+        self.local_from_world = np.linalg.inv(self.world_from_local)
+        self.edge_world = float(2.0 * np.linalg.norm(self.world_from_local[:3, :3], axis=0).max())
+
     def update(self) -> bool:
         """Choose this frame's face mask and LOD; ``False`` when the volume is out of view."""
         if self.on_update is not None:
             self.on_update()
+        self._place()  # the volume may have moved (``set_transform``)
         view, projection = _camera_matrices(self.renderer)
         camera = self.renderer.GetActiveCamera()
         eye = np.array(camera.GetPosition(), dtype=np.float64)
@@ -211,7 +215,6 @@ def build_cubemap_actor(plotter, model: VolumeModel, options: CubeMapOptions,
     if volume_texture is None and not isinstance(model, VolumeGroup):
         volume_texture = Texture(model.values, kind="3d", interpolate=True)
     frame = CubeFrame(main, model, options)
-    texture_from_world = np.linalg.inv(world_from_texture(model))
     lit = light_map is not None
     # Half-float colour is ample for 8-bit output; the depth needs float32 but one channel.
     cube_pass = RenderToTexturePass(overlay.renderer, None, size=frame.atlas_size,
@@ -220,8 +223,8 @@ def build_cubemap_actor(plotter, model: VolumeModel, options: CubeMapOptions,
                                       skip_empty)
     cube_pass.set_uniform("cm_stepScale", lambda: frame.step_scale)
     cube_pass.add_texture("cm_sceneDepth", FramebufferDepth())
-    cube_pass.set_uniform("cm_viewFromTexture", lambda: np.linalg.inv(
-        texture_from_world @ np.linalg.inv(_camera_matrices(main)[0])))
+    cube_pass.set_uniform("cm_viewFromTexture",
+                          lambda: _camera_matrices(main)[0] @ world_from_texture(model))
     cube_pass.set_uniform("cm_faceSize", lambda: float(frame.lod.level_size))
     cube_pass.set_uniform("cm_faceMask", lambda: int(frame.face_mask))
     _bind_camera(cube_pass, main, model)

@@ -162,9 +162,8 @@ def _bind_camera(target, renderer, model: VolumeModel) -> None:
     """Per-frame camera uniforms of the screen-ray code, for a binding or a pass."""
     from .emission_absorption import world_from_texture
 
-    to_texture = np.linalg.inv(world_from_texture(model))
-    target.set_uniform("cm_textureFromView",
-                       lambda: to_texture @ np.linalg.inv(_camera_matrices(renderer)[0]))
+    target.set_uniform("cm_textureFromView", lambda: np.linalg.inv(
+        _camera_matrices(renderer)[0] @ world_from_texture(model)))
     target.set_uniform("cm_inverseProjection",
                        lambda: np.linalg.inv(_camera_matrices(renderer)[1]))
     target.set_uniform("cm_projection", lambda: _camera_matrices(renderer)[1])

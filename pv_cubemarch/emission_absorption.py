@@ -70,7 +70,7 @@ def bind_march(bindings: ShaderBindings, model: VolumeModel, step_scale: float,
     bindings.set_uniform("cm_stopOpacity", stop_opacity)
     bindings.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
     bindings.set_uniform("cm_stepScale", step_scale)
-    bindings.set_uniform("cm_worldFromTexture", world_from_texture(model))
+    bindings.set_uniform("cm_worldFromTexture", lambda: world_from_texture(model))
     if not skip_empty or getattr(model, "values", None) is None:
         return False
     bricks = brick_extinction(model.values, model.transfer, DEFAULT_BRICK_SIZE)
@@ -290,6 +290,7 @@ def add_volume(
         plotter.add_actor(actor, name=name or model.name, reset_camera=False)
         proxy = bounds_proxy(model)  # the direct box is hidden on cube-map frames
         plotter.renderer.AddActor(proxy)
+        actor.cubemarch.bounds_proxy = proxy
         actor.cubemarch.extra_release.append(lambda: plotter.renderer.RemoveActor(proxy))
     elif target is not None and target is not plotter.renderer:
         target.AddActor(actor)  # drawn by the overlay renderer, after the scene
@@ -298,10 +299,12 @@ def add_volume(
         # The plotter's renderer frames the camera and its clipping range from its own props.
         proxy = bounds_proxy(model)
         plotter.renderer.AddActor(proxy)
+        actor.cubemarch.bounds_proxy = proxy
         actor.cubemarch.extra_release.append(lambda: plotter.renderer.RemoveActor(proxy))
     else:
         plotter.add_actor(actor, name=name or model.name, reset_camera=False)
     actor.cubemarch.actor = actor
+    actor.cubemarch.main_renderer = plotter.renderer
     component.track(actor.cubemarch)
     if not plotter.camera_set:
         plotter.reset_camera()
@@ -356,6 +359,31 @@ class VolumeBinding:
         self.extra_release = []
         if self.light_map is not None:
             self.light_map.release()
+
+    def set_transform(self, transform) -> None:
+        """Move the volume: ``transform`` is its new 4x4 placement in the world.
+
+        The actor follows at once and the light map is marched again at the next frame;
+        nothing is uploaded again. Volumes marched jointly cannot move one by one.
+        """
+        from .overlay import place_bounds_proxy
+        from .volume import checked_transform
+
+        if hasattr(self.model, "members"):
+            raise ValueError("Volumes marched jointly cannot move one by one; add them again "
+                             "with their new transforms (pv_cubemarch.add_volumes).")
+        self.model.transform = checked_transform(transform)
+        if self.actor is not None:
+            # VTK's mapper places its grid (origin, spacing) itself; a box spans index space.
+            placement = self.model.transform if self.vtk_input is not None \
+                else self.model.world_from_index()
+            matrix = vtk.vtkMatrix4x4()
+            matrix.DeepCopy(np.ascontiguousarray(placement).ravel().tolist())
+            self.actor.SetUserMatrix(matrix)
+        if getattr(self, "bounds_proxy", None) is not None:
+            place_bounds_proxy(self.bounds_proxy, self.model)
+        if getattr(self, "main_renderer", None) is not None:
+            self.main_renderer.ResetCameraClippingRange()
 
     def _textures(self, name: str) -> list:
         return [t.textures[name] for t in self.targets if name in t.textures]

@@ -162,14 +162,13 @@ class LightMap:
     def __init__(self, renderer, model: VolumeModel, source: LightSource, volume_texture,
                  size: int = DEFAULT_LIGHT_MAP_SIZE, ambient: float = DEFAULT_AMBIENT,
                  step_scale: float = 1.0):
-        from .emission_absorption import bind_sampling, world_from_texture
+        from .emission_absorption import bind_sampling
 
         self.model = model
         self.source = source
         self.size = int(size)
         self.ambient = float(ambient)
         self.count = len(source())
-        self._texture_from_world = np.linalg.inv(world_from_texture(model))
         self._key = None
         self._lights: list[VolumeLight] = []
         self.runs_requested = 0
@@ -190,12 +189,13 @@ class LightMap:
         return list(self._lights)
 
     def _changed(self) -> bool:
+        """Whether a light or the volume's placement changed since the last run."""
         lights = self.source()
         if len(lights) != self.count:
             raise RuntimeError(f"The volume was set up for {self.count} light(s) and the scene "
                                f"now has {len(lights)}; add the volume again.")
         key = tuple((li.kind, tuple(np.round(li.direction, 12)), tuple(np.round(li.position, 12)))
-                    for li in lights)
+                    for li in lights) + (self.model.world_from_index().tobytes(),)
         self._lights = lights
         if key == self._key:
             return False
@@ -204,10 +204,13 @@ class LightMap:
         return True
 
     def _matrix(self, what: str) -> np.ndarray:
+        from .emission_absorption import world_from_texture
+
         matrix = np.zeros((4, 4))
+        texture_from_world = np.linalg.inv(world_from_texture(self.model))
         for index, light in enumerate(self._lights or self.source()):
             if what == "vectors":
-                matrix[:, index] = light.toward_light(self._texture_from_world)
+                matrix[:, index] = light.toward_light(texture_from_world)
             else:
                 matrix[:3, index] = light.radiance
         return matrix

@@ -101,10 +101,8 @@ def bounds_proxy(model) -> vtk.vtkActor:
     """
     from .shaders import Replacement, ShaderRecipe
 
-    bounds = model.world_bounds()
     points = vtk.vtkPoints()
-    points.InsertNextPoint(bounds[0], bounds[2], bounds[4])
-    points.InsertNextPoint(bounds[1], bounds[3], bounds[5])
+    points.SetNumberOfPoints(2)
     cells = vtk.vtkCellArray()
     for index in range(2):
         cells.InsertNextCell(1)
@@ -120,4 +118,15 @@ def bounds_proxy(model) -> vtk.vtkActor:
     proxy.SetObjectName(PROXY_NAME)
     ShaderRecipe([Replacement("//VTK::Light::Impl", "discard_fragment", keep_tag="before")]
                  ).apply(proxy.GetShaderProperty())
+    place_bounds_proxy(proxy, model)
     return proxy
+
+
+def place_bounds_proxy(proxy, model) -> None:
+    """Put the proxy's two points on the corners of ``model``'s world bounds."""
+    bounds = model.world_bounds()
+    corners = proxy.GetMapper().GetInput()
+    corners.GetPoints().SetPoint(0, bounds[0], bounds[2], bounds[4])
+    corners.GetPoints().SetPoint(1, bounds[1], bounds[3], bounds[5])
+    corners.GetPoints().Modified()
+    corners.Modified()

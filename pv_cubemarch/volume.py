@@ -178,7 +178,15 @@ def make_volume(data, scalars: str | None = None, *, cmap="magma", opacity="line
         if opacity_unit_distance is None:
             opacity_unit_distance = float(np.mean(grid.spacing))
         transfer = TransferFunction.from_colormap(cmap, opacity, clim, opacity_unit_distance)
-    matrix = np.eye(4) if transform is None else np.asarray(transform, dtype=np.float64)
-    if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
-        raise VolumeDataError("transform must be a finite 4x4 matrix.")
+    matrix = np.eye(4) if transform is None else checked_transform(transform)
     return VolumeModel(grid=grid, values=values, transfer=transfer, transform=matrix, name=name)
+
+
+def checked_transform(transform) -> np.ndarray:
+    """``transform`` as a float64 4x4 placement, or a clear error."""
+    matrix = np.asarray(transform, dtype=np.float64)
+    if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
+        raise VolumeDataError(f"transform must be a finite 4x4 matrix, got shape {matrix.shape}.")
+    if abs(np.linalg.det(matrix[:3, :3])) < 1e-300:
+        raise VolumeDataError("transform must be invertible (its 3x3 part has determinant 0).")
+    return matrix

@@ -68,6 +68,37 @@ def test_transformed_volume(plotter_factory, blob, technique):
     assert errors.psnr >= MIN_PSNR - 5, errors
 
 
+@pytest.mark.parametrize("technique", [*TECHNIQUES, "auto"])
+def test_moving_a_lit_volume(plotter_factory, blob, technique):
+    """set_transform moves the drawn volume and relights it once; a camera move does not."""
+    model = cm.make_volume(blob, clim=(0, 1), opacity_unit_distance=0.1)
+    light = cm.VolumeLight("directional", direction=(-1.0, -0.6, -0.2))
+    pl = plotter_factory((80, 80))
+    options = technique_options(model, "cubemap" if technique == "auto" else technique,
+                                pixels=48.0)
+    actor = cm.add_volume(pl, model, **dict(options, technique=technique), lights=[light])
+    camera = set_camera(pl, (3.5, 2.5, 5.0), focal=(0.3, 0.0, 0.0))
+    cm.render_image(pl)
+    light_pass = actor.cubemarch.light_map.render_pass
+    matrix = np.eye(4)
+    matrix[:3, :3] = [[np.cos(0.7), -np.sin(0.7), 0], [np.sin(0.7), np.cos(0.7), 0], [0, 0, 1]]
+    matrix[:3, 3] = (0.6, -0.1, 0.2)
+    actor.cubemarch.set_transform(matrix)
+    image = cm.render_image(pl)
+    assert light_pass.runs == 2
+    moved = cm.make_volume(blob, clim=(0, 1), opacity_unit_distance=0.1, transform=matrix)
+    reference = cm.render_emission_absorption(moved, camera, (80, 80), background=BACKGROUND,
+                                              near=pl.camera.clipping_range[0],
+                                              lights=[light])
+    errors = compare_images(image, reference)
+    assert errors.psnr >= MIN_PSNR - 5, errors
+    set_camera(pl, (3.0, 3.0, 5.0), focal=(0.3, 0.0, 0.0))
+    cm.render_image(pl)
+    assert light_pass.runs == 2
+    with pytest.raises(cm.VolumeDataError, match="4x4"):
+        actor.cubemarch.set_transform(np.eye(3))
+
+
 @pytest.mark.parametrize("technique", TECHNIQUES)
 def test_mesh_occludes_volume(plotter_factory, blob, technique):
     model = cm.make_volume(blob, clim=(0, 1), opacity_unit_distance=0.1)
