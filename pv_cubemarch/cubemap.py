@@ -91,7 +91,7 @@ class CubeFrame:
         self.model = model
         self.options = options
         self.max_samples = int(options.max_samples or default_max_samples(model))
-        self._place()
+        self.place()
         self.face_mask = 0
         self.culled = False
         self.frames = 0
@@ -100,7 +100,8 @@ class CubeFrame:
         self.lod = LodChoice(float(size), float(self.max_samples), self.max_samples,
                              float(size), 0, size)
 
-    def _place(self) -> None:
+    def place(self) -> None:
+        """Take the volume's placement (at creation and after ``set_transform``)."""
         self.world_from_local = world_from_local(self.model)
         self.local_from_world = np.linalg.inv(self.world_from_local)
         self.edge_world = float(2.0 * np.linalg.norm(self.world_from_local[:3, :3], axis=0).max())
@@ -109,7 +110,6 @@ class CubeFrame:
         """Choose this frame's face mask and LOD; ``False`` when the volume is out of view."""
         if self.on_update is not None:
             self.on_update()
-        self._place()  # the volume may have moved (``set_transform``)
         view, projection = _camera_matrices(self.renderer)
         camera = self.renderer.GetActiveCamera()
         eye = np.array(camera.GetPosition(), dtype=np.float64)
@@ -278,6 +278,11 @@ class CubeMapBinding(_binding_base()):
         self.light_map = light_map
         self.renderer = None
         self.targets = [bindings, cube_pass]
+
+    def set_transform(self, transform) -> None:
+        """Move the volume (see ``VolumeBinding.set_transform``); culling and LOD follow."""
+        super().set_transform(transform)
+        self.frame.place()
 
     def follow_occluders(self) -> None:
         """Compile the depth filter in or out when opaque props appear or leave the scene."""

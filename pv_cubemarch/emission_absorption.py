@@ -366,7 +366,6 @@ class VolumeBinding:
         The actor follows at once and the light map is marched again at the next frame;
         nothing is uploaded again. Volumes marched jointly cannot move one by one.
         """
-        from .overlay import place_bounds_proxy
         from .volume import checked_transform
 
         if hasattr(self.model, "members"):
@@ -380,10 +379,7 @@ class VolumeBinding:
             matrix = vtk.vtkMatrix4x4()
             matrix.DeepCopy(np.ascontiguousarray(placement).ravel().tolist())
             self.actor.SetUserMatrix(matrix)
-        if getattr(self, "bounds_proxy", None) is not None:
-            place_bounds_proxy(self.bounds_proxy, self.model)
-        if getattr(self, "main_renderer", None) is not None:
-            self.main_renderer.ResetCameraClippingRange()
+        follow_placement(self)
 
     def _textures(self, name: str) -> list:
         return [t.textures[name] for t in self.targets if name in t.textures]
@@ -424,6 +420,16 @@ class VolumeBinding:
             self._brick_rebuilds += 1
         if self.light_map is not None:
             self.light_map.invalidate()
+
+
+def follow_placement(binding) -> None:
+    """After a volume moved: its bounds proxy and the plotter's clipping range follow."""
+    from .overlay import place_bounds_proxy
+
+    if getattr(binding, "bounds_proxy", None) is not None:
+        place_bounds_proxy(binding.bounds_proxy, binding.model)
+    if getattr(binding, "main_renderer", None) is not None:
+        binding.main_renderer.ResetCameraClippingRange()
 
 
 def _build_actor(plotter, model: VolumeModel, step_scale: float, stop_opacity: float,

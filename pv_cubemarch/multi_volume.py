@@ -339,14 +339,11 @@ class AutoBinding:
 
     def set_transform(self, transform) -> None:
         """Move the volume (both paths follow; see ``VolumeBinding.set_transform``)."""
-        from .overlay import place_bounds_proxy
+        from .emission_absorption import follow_placement
 
         self.direct.set_transform(transform)
         self.cubemap.set_transform(transform)
-        if getattr(self, "bounds_proxy", None) is not None:
-            place_bounds_proxy(self.bounds_proxy, self.model)
-        if getattr(self, "main_renderer", None) is not None:
-            self.main_renderer.ResetCameraClippingRange()
+        follow_placement(self)
 
     def set_values(self, values, member: str | None = None) -> None:
         """Replace the data of both paths (same shape; ``member`` names one of a group)."""
