@@ -6,31 +6,33 @@ Importing the package selects an offscreen OpenGL window when there is no displa
 
 from __future__ import annotations
 
-from .offscreen import configure_offscreen
+from .core.offscreen import configure_offscreen
 
 configure_offscreen()
 
 from . import plugin  # noqa: E402  (registers plotter.cubemarch for explicit imports too)
-from .camera import Camera  # noqa: E402
-from .emission_absorption import add_volume  # noqa: E402
-from .errors import (  # noqa: E402
+from .api import add_volume, add_volumes  # noqa: E402
+from .core.camera import Camera  # noqa: E402
+from .core.errors import (  # noqa: E402
     CubemarchError,
     OffscreenUnavailableError,
     SceneLoadError,
     ShaderCompileError,
     VolumeDataError,
 )
-from .gl_resources import RenderToTexturePass, ShaderBindings, Texture  # noqa: E402
-from .lighting import VolumeLight  # noqa: E402
-from .multi_volume import VolumeGroup, add_volumes  # noqa: E402
-from .offscreen import gl_info  # noqa: E402
+from .core.offscreen import gl_info  # noqa: E402
+from .core.rendering import offscreen_plotter, render_frame, render_image  # noqa: E402
+from .gl.bindings import ShaderBindings  # noqa: E402
+from .gl.passes import RenderToTexturePass  # noqa: E402
+from .gl.shaders import Replacement, ShaderRecipe  # noqa: E402
+from .gl.textures import Texture  # noqa: E402
+from .models.group import VolumeGroup  # noqa: E402
+from .models.lights import VolumeLight  # noqa: E402
+from .models.transfer import TransferFunction  # noqa: E402
+from .models.volume import VolumeModel, make_volume  # noqa: E402
 from .reference import render_emission_absorption  # noqa: E402
-from .rendering import offscreen_plotter, render_frame, render_image  # noqa: E402
-from .scene import Scene, SceneLight, SceneMesh, SkippedPrim  # noqa: E402
-from .scene_io import load_scene  # noqa: E402
-from .shaders import Replacement, ShaderRecipe  # noqa: E402
-from .transfer import TransferFunction  # noqa: E402
-from .volume import VolumeModel, make_volume  # noqa: E402
+from .scene.io import load_scene  # noqa: E402
+from .scene.model import Scene, SceneLight, SceneMesh, SkippedPrim  # noqa: E402
 
 __version__ = "0.1.0"
 

@@ -5,10 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
-from .errors import CubemarchError
-
-TECHNIQUE_CHOICES = ("vtk", "direct", "cubemap", "auto")
+from .bench import resolution as bench_resolution
+from .core.errors import CubemarchError
+from .core.offscreen import gl_info
+from .core.registry import get_technique, techniques
+from .scene.io import load_scene
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -46,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--camera", help="name (prim path) of the scene camera to use")
     render.add_argument("--step-scale", type=float,
                         help="ray step as a fraction of a voxel, for every volume")
-    render.add_argument("--technique", choices=TECHNIQUE_CHOICES,
+    render.add_argument("--technique", choices=[t.name for t in techniques("volume")],
                         help="how every volume is drawn: vtk (VTK's mapper), direct (one ray "
                              "per pixel), cubemap (one ray per cube-map texel, 000), auto "
                              "(cubemap or direct per volume and frame)")
@@ -124,8 +127,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _render(args) -> int:
-    from .scene_io import load_scene
-
     progress_bar = False if args.no_progress else None
     scene = load_scene(args.scene, progress_bar=progress_bar)
     chosen = {"step_scale": args.step_scale, "technique": args.technique,
@@ -135,8 +136,15 @@ def _render(args) -> int:
               "upscale": args.upscale, "sample_factor": args.sample_factor,
               "occlusion_sharpness": args.occlusion_sharpness, "lights": args.lights,
               "light_map_size": args.light_map_size, "ambient": args.ambient}
+    # A technique chosen here drops the scene's options of other techniques; options given
+    # here that the technique does not read are errors (add_volume says so).
+    specific = {name for t in techniques("volume") for name in t.option_names}
+    kept = get_technique("volume", args.technique).option_names if args.technique else None
     for volume in scene.volumes:
         options = scene.volume_options.setdefault(volume.name, {})
+        if kept is not None:
+            for name in specific - set(kept):
+                options.pop(name, None)
         options.update({k: v for k, v in chosen.items() if v is not None})
         if options.get("lights") == "none":
             options["lights"] = None
@@ -146,12 +154,9 @@ def _render(args) -> int:
 
 
 def _bench(args) -> int:
-    from pathlib import Path
 
     from . import bench
     from .offscreen import gl_info
-    from .scene_io import load_scene
-
     scene_path = args.scene or str(Path(__file__).resolve().parents[1] / "datasets"
                                    / "smoke_scene.usda")
     if not Path(scene_path).exists():
@@ -178,9 +183,6 @@ def _bench(args) -> int:
 
 
 def _bench_resolution(args, scene, scene_path) -> int:
-    from . import bench_resolution
-    from .offscreen import gl_info
-
     sizes = args.sizes or bench_resolution.SIZES
     face_sizes = args.comparable_face_sizes
     if face_sizes is None:
@@ -205,12 +207,8 @@ def _info(args) -> int:
         return 2
     report = {}
     if args.gl:
-        from .offscreen import gl_info
-
         report["gl"] = gl_info()
     if args.scene:
-        from .scene_io import load_scene
-
         scene = load_scene(args.scene, progress_bar=False)
         report["scene"] = scene
     if args.json:

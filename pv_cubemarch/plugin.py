@@ -9,11 +9,24 @@ from __future__ import annotations
 import weakref
 
 import pyvista
+import vtk
+from PIL import Image
+
+from .api import add_volume
+from .core.rendering import render_frame, render_image
+from .gl.frame_inputs import MultisamplePolicy
+from .scene.io import load_scene
+from .scene.usd import load_usd
 
 
 @pyvista.register_plotter_component("cubemarch")
 class CubemarchComponent:
     """``plotter.cubemarch``: pv_cubemarch's techniques on any ``pyvista.Plotter``.
+
+    At the start of every frame it follows the scene: a volume whose actor left the
+    plotter (``remove_actor``, ``clear``, another actor under its name) is released, the
+    drawn actors follow the returned actor's visibility, and the window's multisampling
+    and translucency settings are decided from what the frame draws.
 
     Examples
     --------
@@ -28,12 +41,17 @@ class CubemarchComponent:
         self._tracked: list = []
         self._redrawing = False
         self._window = plotter.ren_win
-        self._window_tag = None
+        self._observers: list = []
+        self._multisampling = None
+        self._user_oit: dict = {}
         if self._window is not None:
-            import vtk
-
-            self._window_tag = self._window.AddObserver(vtk.vtkCommand.EndEvent,
-                                                        self._redraw_if_missed)
+            self._multisampling = MultisamplePolicy(self._window)
+            self._observers = [
+                (self._window, self._window.AddObserver(vtk.vtkCommand.StartEvent,
+                                                        self._follow_scene)),
+                (self._window, self._window.AddObserver(vtk.vtkCommand.EndEvent,
+                                                        self._redraw_if_missed)),
+            ]
         plotter.__dict__["_cubemarch_component"] = self
 
     def _redraw_if_missed(self, window, _event) -> None:
@@ -50,34 +68,55 @@ class CubemarchComponent:
         finally:
             self._redrawing = False
 
+    def _follow_scene(self, *_) -> None:
+        """Before a frame: drop removed volumes, follow visibility, decide window settings."""
+        self.release_removed()
+        single_sample = False
+        translucent: dict = {}
+        for item in self._tracked:
+            item.follow_anchor()
+            shown = bool(item.actor.GetVisibility())
+            single_sample |= shown and item.needs_single_sample
+            if item.blends_in_main_renderer:
+                translucent[item.main_renderer] = True
+        if not self._redrawing:
+            self._multisampling.decide(single_sample)
+        # Weighted order-independent translucency would reweight a box's single layer.
+        for renderer, user in list(self._user_oit.items()):
+            if renderer not in translucent:
+                renderer.SetUseOIT(user)
+                del self._user_oit[renderer]
+        for renderer in translucent:
+            self._user_oit.setdefault(renderer, bool(renderer.GetUseOIT()))
+            renderer.SetUseOIT(False)
+
+    def release_removed(self) -> list:
+        """Release every volume whose actor is no longer in its renderer; return them."""
+        gone = [item for item in self._tracked
+                if item.actor is None or not item.main_renderer.HasViewProp(item.actor)]
+        for item in gone:
+            item.release()
+            self._tracked.remove(item)
+        return gone
+
     def add_volume(self, volume, scalars=None, **kwargs):
         """Same as :func:`pv_cubemarch.add_volume` on this plotter."""
-        from .emission_absorption import add_volume
-
         return add_volume(self._plotter, volume, scalars, **kwargs)
 
     def add_scene(self, scene, camera=None):
         """Add a :class:`~pv_cubemarch.Scene` (or a path to one) to this plotter."""
-        from .scene_io import load_scene
-
         if not hasattr(scene, "add_to"):
             scene = load_scene(scene)
         return scene.add_to(self._plotter, camera=camera)
 
     def render(self) -> None:
         """Draw a frame, raising :class:`~pv_cubemarch.ShaderCompileError` on GLSL errors."""
-        from .rendering import render_frame
-
         render_frame(self._plotter)
 
     def screenshot(self, filename=None):
         """Render and return the image as uint8 RGB (and save it when ``filename`` is given)."""
-        from .rendering import render_image
-
         image = render_image(self._plotter)
         if filename is not None:
-            from PIL import Image
-
             Image.fromarray(image).save(str(filename))
         return image
 
@@ -88,16 +127,19 @@ class CubemarchComponent:
 
     def remove(self, actor) -> bool:
         """Remove an actor added by pv_cubemarch and free its GPU resources now."""
-        for item in list(self._tracked):
-            if getattr(item, "actor", None) is actor:
-                item.release()
-                self._tracked.remove(item)
-                return bool(self._plotter.remove_actor(actor))
-        return bool(self._plotter.remove_actor(actor))
+        removed = bool(self._plotter.remove_actor(actor))
+        self.release_removed()
+        return removed
 
     def track(self, item) -> None:
-        """Keep ``item`` (with ``bindings`` and ``release()``) until the plotter closes."""
+        """Keep ``item`` (with ``bindings`` and ``release()``) until its actor leaves."""
+        self.release_removed()  # an actor of the same name may just have been replaced
         self._tracked.append(item)
+
+    @property
+    def tracked(self) -> list:
+        """The volumes this plotter draws with our techniques."""
+        return list(self._tracked)
 
     def bindings(self) -> list:
         """The shader bindings of every tracked technique."""
@@ -107,13 +149,14 @@ class CubemarchComponent:
         for item in self._tracked:
             item.release()
         self._tracked.clear()
-        if self._window is not None and self._window_tag is not None:
-            self._window.RemoveObserver(self._window_tag)
+        if self._multisampling is not None:
+            self._multisampling.restore()
+        for subject, tag in self._observers:
+            subject.RemoveObserver(tag)
+        self._observers = []
         self._window = None
 
 
 def read_usd(path: str, **kwargs) -> pyvista.MultiBlock:
     """``pyvista.read`` handler for .usd/.usda/.usdc/.usdz: the scene's meshes and volumes."""
-    from .usd_import import load_usd
-
     return load_usd(path, progress_bar=kwargs.get("progress_bar")).to_multiblock()

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
 #: Regression tolerances (8-bit levels / fractions); see the module docstring.
 MAX_MEAN_ERROR = 0.6
@@ -42,8 +43,6 @@ def to_uint8(image: np.ndarray) -> np.ndarray:
 
 def compare_images(image: np.ndarray, reference: np.ndarray) -> ImageErrors:
     """Mean/max absolute error, bad-pixel fraction, PSNR and SSIM of RGB ``image``."""
-    from skimage.metrics import peak_signal_noise_ratio, structural_similarity
-
     a, b = to_uint8(image), to_uint8(reference)
     if a.shape != b.shape:
         raise ValueError(f"Image shapes differ: {a.shape} vs reference {b.shape}.")

@@ -1,0 +1,27 @@
+// A screen pixel's ray through the volume box, shared by the direct marcher and the
+// reduced-resolution pass. The ray runs from the near plane (f = 0) to a given window depth
+// (f = 1: the box's back face, or the far plane); view z is linear in f for perspective
+// and parallel projections alike. Needs cm_viewPoint, cm_textureFromView, cm_dims and cm_slab.
+bool cm_screenRay(vec2 ndc, float backDepth, float sceneDepth,
+                  out vec3 entry, out vec3 exit, out vec3 entryView, out vec3 exitView)
+{
+  vec3 nearView = cm_viewPoint(ndc, 0.0);
+  vec3 backView = cm_viewPoint(ndc, backDepth);
+  vec3 sceneView = cm_viewPoint(ndc, sceneDepth);
+  vec3 a = (cm_textureFromView * vec4(nearView, 1.0)).xyz;
+  vec3 b = (cm_textureFromView * vec4(backView, 1.0)).xyz;
+  // The box of texel centres (cm_slab, slab.glsl).
+  vec2 inBox = cm_slab(a, b - a, 0.5 / cm_dims, 1.0 - 0.5 / cm_dims);
+  float f0 = max(0.0, inBox.x);
+  float f1 = min(1.0, inBox.y);
+  float dz = backView.z - nearView.z;
+  if (abs(dz) > 0.0)
+  {
+    f1 = min(f1, (sceneView.z - nearView.z) / dz);
+  }
+  entry = mix(a, b, f0);
+  exit = mix(a, b, max(f0, f1));
+  entryView = mix(nearView, backView, f0);
+  exitView = mix(nearView, backView, max(f0, f1));
+  return f1 > f0;
+}

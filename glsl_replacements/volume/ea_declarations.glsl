@@ -1,0 +1,29 @@
+// Emission/absorption: declarations shared by every shader that composites a volume.
+// cm_transferTable is a (CM_TABLE_SIZE x 1) RGBA float texture: rgb emission colour and
+// extinction sigma per world unit in alpha; the CPU reference reads the same table.
+uniform sampler2D cm_transferTable;
+uniform vec2 cm_clim;              // scalar values of the first and last table rows
+uniform float cm_stopOpacity;      // early ray termination once opacity exceeds this
+
+// The one transfer lookup: rgb and extinction of a scalar in a table over clim.
+vec4 cm_transferLookup(sampler2D table, vec2 clim, float scalar)
+{
+  float u = clamp((scalar - clim.x) / (clim.y - clim.x), 0.0, 1.0);
+  // Row centres: u = 0 reads row 0 and u = 1 the last row, as numpy.interp does.
+  float x = (0.5 + u * float(CM_TABLE_SIZE - 1)) / float(CM_TABLE_SIZE);
+  return texture(table, vec2(x, 0.5));
+}
+
+vec4 cm_transfer(float scalar)
+{
+  return cm_transferLookup(cm_transferTable, cm_clim, scalar);
+}
+
+// Composite one segment of length dt (world units) front to back into premultiplied rgba.
+void cm_composite(inout vec4 rgba, vec4 emission_extinction, float dt)
+{
+  float alpha = 1.0 - exp(-emission_extinction.a * dt);
+  float weight = (1.0 - rgba.a) * alpha;
+  rgba.rgb += weight * emission_extinction.rgb;
+  rgba.a += weight;
+}

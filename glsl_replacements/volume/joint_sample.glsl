@@ -1,0 +1,64 @@
+// Several overlapping volumes marched as one medium (CM_JOINT, up to 4 members): a sample
+// of the group's box adds the extinction of every member whose box of texel centres holds
+// it, and emits their extinction-weighted mean colour, the model of the CPU reference.
+// GLSL 1.50 cannot index sampler arrays, so each member has its own uniforms.
+uniform sampler3D cm_member0;        // data values of member 0
+uniform sampler2D cm_memberTable0;   // its transfer table (rgb, extinction)
+uniform vec2 cm_memberClim0;         // its table's scalar range
+uniform mat4 cm_memberFromGroup0;    // group texture coordinates to its own
+uniform vec3 cm_memberDims0;         // its points along x, y, z
+#if CM_VOLUME_COUNT > 1
+uniform sampler3D cm_member1;        // data values of member 1
+uniform sampler2D cm_memberTable1;   // its transfer table (rgb, extinction)
+uniform vec2 cm_memberClim1;         // its table's scalar range
+uniform mat4 cm_memberFromGroup1;    // group texture coordinates to its own
+uniform vec3 cm_memberDims1;         // its points along x, y, z
+#endif
+#if CM_VOLUME_COUNT > 2
+uniform sampler3D cm_member2;        // data values of member 2
+uniform sampler2D cm_memberTable2;   // its transfer table (rgb, extinction)
+uniform vec2 cm_memberClim2;         // its table's scalar range
+uniform mat4 cm_memberFromGroup2;    // group texture coordinates to its own
+uniform vec3 cm_memberDims2;         // its points along x, y, z
+#endif
+#if CM_VOLUME_COUNT > 3
+uniform sampler3D cm_member3;        // data values of member 3
+uniform sampler2D cm_memberTable3;   // its transfer table (rgb, extinction)
+uniform vec2 cm_memberClim3;         // its table's scalar range
+uniform mat4 cm_memberFromGroup3;    // group texture coordinates to its own
+uniform vec3 cm_memberDims3;         // its points along x, y, z
+#endif
+
+void cm_addMember(inout vec4 sum, sampler3D volume, sampler2D table, vec2 clim,
+                  mat4 fromGroup, vec3 dims, vec3 groupPosition)
+{
+  vec3 position = (fromGroup * vec4(groupPosition, 1.0)).xyz;
+  vec3 lo = 0.5 / dims;
+  if (any(lessThan(position, lo)) || any(greaterThan(position, 1.0 - lo)))
+  {
+    return;
+  }
+  vec4 emission = cm_transferLookup(table, clim, texture(volume, position).r);
+  sum.rgb += emission.a * emission.rgb;
+  sum.a += emission.a;
+}
+
+vec4 cm_unlitEmission(vec3 texturePosition)
+{
+  vec4 sum = vec4(0.0);
+  cm_addMember(sum, cm_member0, cm_memberTable0, cm_memberClim0, cm_memberFromGroup0,
+               cm_memberDims0, texturePosition);
+#if CM_VOLUME_COUNT > 1
+  cm_addMember(sum, cm_member1, cm_memberTable1, cm_memberClim1, cm_memberFromGroup1,
+               cm_memberDims1, texturePosition);
+#endif
+#if CM_VOLUME_COUNT > 2
+  cm_addMember(sum, cm_member2, cm_memberTable2, cm_memberClim2, cm_memberFromGroup2,
+               cm_memberDims2, texturePosition);
+#endif
+#if CM_VOLUME_COUNT > 3
+  cm_addMember(sum, cm_member3, cm_memberTable3, cm_memberClim3, cm_memberFromGroup3,
+               cm_memberDims3, texturePosition);
+#endif
+  return vec4(sum.a > 0.0 ? sum.rgb / sum.a : vec3(0.0), sum.a);
+}

@@ -1,0 +1,259 @@
+"""The public functions that add what pv_cubemarch draws to a plotter.
+
+Each dispatches through the technique registry (:mod:`pv_cubemarch.core.registry`): the
+chosen technique's options are validated, its builder makes the actor(s), and the result
+is placed in the plotter the same way for every technique.
+"""
+
+from __future__ import annotations
+
+import pyvista
+
+from .core.registry import get_technique
+from .gl.overlay import bounds_proxy
+from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
+from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
+from .models.volume import VolumeModel, make_volume
+from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
+from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
+from .volume.light_map import LightMap
+from .volume.march import VolumeData
+from .volume.options import DEFAULT_STOP_OPACITY, Shading
+
+
+def add_volume(
+    plotter: pyvista.Plotter,
+    volume,
+    scalars: str | None = None,
+    *,
+    cmap="magma",
+    opacity="linear",
+    clim=None,
+    opacity_unit_distance: float | None = None,
+    technique: str = "vtk",
+    step_scale: float | None = None,
+    stop_opacity: float = DEFAULT_STOP_OPACITY,
+    skip_empty: bool = True,
+    downsample: int | None = None,
+    face_size: int | None = None,
+    max_samples: int | None = None,
+    upscale: float | None = None,
+    sample_factor: float | None = None,
+    occlusion_sharpness: float | None = None,
+    lights=None,
+    light_map_size: int = DEFAULT_LIGHT_MAP_SIZE,
+    ambient: float = DEFAULT_AMBIENT,
+    transform=None,
+    nan_policy: str = "raise",
+    name: str | None = None,
+) -> pyvista.Prop3D:
+    """Add a volume rendered with emission/absorption compositing; return its actor.
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter
+        The plotter to draw in.
+    volume : pyvista.ImageData, numpy.ndarray, VolumeModel or VolumeGroup
+        Scalars on a uniform grid (a numpy array is indexed x, y, z with unit spacing), a
+        :class:`VolumeModel` that already carries its transfer function and placement, or a
+        :class:`VolumeGroup` of overlapping volumes marched jointly (see :func:`add_volumes`).
+    scalars : str, optional
+        Name of the point (or cell) array to draw; the active scalars by default.
+    cmap : str or sequence
+        Matplotlib colormap for the emitted colour.
+    opacity : str, float or sequence of float
+        PyVista opacity preset or values over ``clim``: the fraction absorbed over
+        ``opacity_unit_distance``.
+    clim : sequence of float, optional
+        Scalar range of the transfer function; the data range by default.
+    opacity_unit_distance : float, optional
+        World length that ``opacity`` refers to; the mean grid spacing by default.
+    technique : str
+        ``'vtk'``: marched inside VTK's GPU volume mapper (it sets up the ray). ``'direct'``:
+        the direct screen-space marcher on a box actor, one ray per pixel. ``'cubemap'``:
+        one ray per texel of a cube map on the box's interior faces, resampled on screen,
+        so the cost stops growing with the viewport's resolution (000). ``'auto'``: each
+        frame, the cube map when its visible texels are fewer than the volume's projected
+        pixels, else the direct marcher (000 section 3.4; ``actor.cubemarch.force`` pins
+        one, ``actor.cubemarch.choice`` tells which was drawn). All run the same marching
+        GLSL.
+    step_scale : float, optional
+        ``'vtk'``, ``'direct'`` and ``'auto'``: step length in texels along the ray's
+        dominant texture axis (texel-spaced sampling, 0.5 by default). Smaller is more
+        accurate and slower (cost grows as ``1 / step_scale``); any number of steps is
+        marched. ``'cubemap'`` sets its step from ``max_samples`` instead (passing
+        ``step_scale`` with it is an error).
+    stop_opacity : float
+        Early ray termination: stop once the accumulated opacity exceeds this (in (0, 1]).
+    skip_empty : bool
+        Step over 8^3 bricks whose values map to zero extinction. Exact (it skips only what
+        adds nothing); costs one small texture, and is left out when no brick is empty.
+    downsample : int, optional
+        ``technique='direct'`` only (1 by default): march at 1/downsample of the viewport
+        resolution in each direction (1, 2, 4 ...) and upsample with a depth-aware filter,
+        so edges against meshes stay sharp. Cost falls about as ``1 / downsample**2``.
+    face_size : int, optional
+        ``'cubemap'`` and ``'auto'`` (256 by default): the largest cube-map face, in texels
+        per edge (a power of two, the size at MIP level 0). Caps the marching cost at ``6 *
+        face_size**2`` rays; a volume far away uses a smaller level. Larger is sharper when
+        the volume fills a big viewport.
+    max_samples : int, optional
+        ``'cubemap'`` and ``'auto'``: most samples along a ray crossing the whole box
+        diagonally; shorter rays take proportionally fewer. Cost grows linearly with it. By
+        default two per texel of the grid's longest axis (the ``step_scale=0.5`` of the
+        other techniques).
+    upscale : float, optional
+        ``'cubemap'`` and ``'auto'`` (1 by default): screen pixels per cube-map texel the
+        LOD aims at (``k_u``): 2 marches a quarter of the texels for a softer image.
+    sample_factor : float, optional
+        ``'cubemap'`` and ``'auto'`` (1 by default): samples per cube-map texel along the
+        box diagonal (``k_c``). The LOD asks for ``k_c`` times the face's texels, capped by
+        ``max_samples``, then sizes the face from the samples it got (``S = sqrt(3) N /
+        k_c``, 000 section 3.3): above 1, fewer texels and finer steps; below 1, more texels
+        and coarser steps.
+    occlusion_sharpness : float, optional
+        ``'cubemap'`` and ``'auto'`` (0.5 by default): ``k_z`` of the bilateral depth filter
+        against opaque meshes: a cube texel stops counting for a pixel once their ray ends
+        differ by ``1/k_z`` cube-map texels. 0 is plain bilinear filtering (halos at mesh
+        edges).
+    lights : None, 'scene', pyvista.Light or list of them
+        Light the medium: each sample's colour is scaled by ``ambient + (1 - ambient) *
+        sum(colour * intensity * transmittance toward the light)``, the transmittances kept
+        in a light map recomputed only when a light, the placement or the data change.
+        ``'scene'`` takes the plotter's switched-on lights; at most 4. ``None``: unlit
+        (the light-map pass does not exist).
+    light_map_size : int
+        Light-map points per axis (2 to 128): finer shadows for ``light_map_size**3 * 16``
+        bytes and a longer light pass.
+    ambient : float
+        Share of the emission no light modulates, in [0, 1] (with ``lights``).
+    transform : array_like, optional
+        4x4 matrix placing the grid in the world.
+    nan_policy : str
+        ``'raise'`` (default) for NaN/Inf in the data, or ``'zero'`` to draw them as 0.
+    name : str, optional
+        Actor name in the plotter (replaces an actor of the same name).
+
+    Options of another technique than the chosen one raise a ``ValueError`` that names
+    the techniques using them.
+
+    Returns
+    -------
+    pyvista.Prop3D
+        The actor the plotter knows (by ``name``): VTK's volume for ``'vtk'``, the box for
+        ``'direct'``, otherwise an invisible prop spanning the volume's bounds that stands
+        for it (the volume is drawn after the scene). ``actor.cubemarch`` holds the model,
+        the bindings and ``set_values`` / ``set_transform``; ``plotter.remove_actor(actor)``
+        (or adding another actor under the same name) removes the volume and frees it.
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv, pv_cubemarch
+    >>> x, y, z = np.mgrid[-1:1:32j, -1:1:32j, -1:1:32j]
+    >>> density = np.exp(-4 * (x**2 + y**2 + z**2))
+    >>> pl = pv.Plotter(off_screen=True)
+    >>> actor = pv_cubemarch.add_volume(pl, density, cmap="inferno", step_scale=0.5)
+    >>> image = pv_cubemarch.render_image(pl)  # doctest: +SKIP
+    """
+    chosen = get_technique("volume", technique)
+    given = {key: value for key, value in dict(
+        step_scale=step_scale, downsample=downsample, face_size=face_size,
+        max_samples=max_samples, upscale=upscale, sample_factor=sample_factor,
+        occlusion_sharpness=occlusion_sharpness).items() if value is not None}
+    options = chosen.make_options(given)
+    shading = Shading(stop_opacity, bool(skip_empty), light_map_size, ambient)
+    shading.check()
+    if isinstance(volume, (VolumeModel, VolumeGroup)):
+        model = volume
+    else:
+        model = make_volume(volume, scalars, cmap=cmap, opacity=opacity, clim=clim,
+                            opacity_unit_distance=opacity_unit_distance, transform=transform,
+                            nan_policy=nan_policy, name=name or "volume")
+    if isinstance(model, VolumeGroup) and not chosen.groups:
+        raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
+                         "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
+    component = plotter.cubemarch  # created now: it follows frames and frees on close
+    source = light_source(lights, plotter.renderer)
+    data = VolumeData(model)
+    light_map = None if source is None else LightMap(
+        plotter.renderer, data, source, int(light_map_size), float(ambient))
+    binding = chosen.build(plotter, data, options, shading, light_map)
+    binding.light_map = light_map
+    actor = _place(plotter, binding, name or model.name)
+    component.track(binding)
+    if not plotter.camera_set:
+        plotter.reset_camera()
+    else:
+        plotter.renderer.ResetCameraClippingRange()  # the near/far planes take the box in
+    return actor
+
+
+def _place(plotter: pyvista.Plotter, binding, name: str):
+    """Give the plotter the actor that stands for the volume, under ``name``.
+
+    A technique that draws one actor in the plotter's renderer returns that actor; one that
+    draws elsewhere (the overlay renderer) or draws several returns a bounds proxy, which
+    keeps ``reset_camera`` and the clipping range aware of the volume.
+    """
+    main = plotter.renderer
+    binding.main_renderer = main
+    drawn = binding.drawn
+    if len(drawn) == 1 and binding.renderer is main:
+        actor = drawn[0]
+    else:
+        for item in drawn:
+            if binding.renderer is not main and not binding.renderer.HasViewProp(item):
+                binding.renderer.AddActor(item)
+        actor = bounds_proxy(binding.model)
+        binding.bounds_proxy = actor
+    plotter.add_actor(actor, name=name, reset_camera=False)
+    binding.actor = actor
+    if getattr(actor, "cubemarch", None) is not binding:
+        pyvista.set_new_attribute(actor, "cubemarch", binding)
+    return actor
+
+
+def add_volumes(plotter: pyvista.Plotter, volumes, **options) -> list:
+    """Add several volumes; those whose boxes overlap are marched jointly as one medium.
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter
+        The plotter to draw in.
+    volumes : sequence of VolumeModel
+        Volumes with their transfer functions and placements (see
+        :func:`pv_cubemarch.make_volume`).
+    **options
+        Options of :func:`pv_cubemarch.add_volume` for every volume (or group).
+        ``technique='vtk'`` cannot march a group; groups take ``'direct'`` then.
+
+    Returns
+    -------
+    list
+        One actor per group, in the order of the groups' first volumes.
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv, pv_cubemarch as cm
+    >>> shift = np.eye(4)
+    >>> shift[0, 3] = 8.0  # half a box along x: the two boxes overlap
+    >>> a = cm.make_volume(np.random.rand(16, 16, 16), name="a")
+    >>> b = cm.make_volume(np.random.rand(16, 16, 16), name="b", transform=shift)
+    >>> pl = pv.Plotter(off_screen=True)
+    >>> actors = cm.add_volumes(pl, [a, b], technique="cubemap")  # doctest: +SKIP
+    """
+    actors = []
+    for group in overlap_groups(list(volumes)):
+        if len(group) == 1:
+            actors.append(add_volume(plotter, group[0], **options))
+            continue
+        joint = dict(options)
+        if joint.get("technique", "vtk") == "vtk":
+            joint["technique"] = "direct"
+        for start in range(0, len(group), MAX_GROUP_MEMBERS):
+            chunk = group[start:start + MAX_GROUP_MEMBERS]
+            item = VolumeGroup(chunk) if len(chunk) > 1 else chunk[0]
+            actors.append(add_volume(plotter, item, **joint))
+    return actors
+
+

@@ -1,0 +1,294 @@
+"""The speed/accuracy instrument: frame time against error versus the CPU reference.
+
+:func:`run_tradeoff` renders a scene once per quality setting of a technique (plus PyVista's
+stock ``add_volume`` on the same data, camera and transfer function), times real frames
+(drawn and read back), and compares each image with the CPU reference composited over the
+same opaque meshes. A technique's sweep comes from its registration
+(:func:`pv_cubemarch.core.registry.register_technique`).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pyvista
+
+from ..api import add_volume
+from ..core.camera import Camera
+from ..core.progress import progress
+from ..core.registry import describe_setting, techniques
+from ..core.rendering import offscreen_plotter, read_depth, read_pixels, render_frame
+from ..models.volume import VolumeModel
+from ..reference.emission_absorption import render_emission_absorption
+from ..scene.model import Scene
+from ..testing import compare_images
+
+Builder = Callable[[pyvista.Plotter, VolumeModel, dict], object]
+
+
+@dataclass
+class BenchSweep:
+    """The rows of one technique in a run: its settings and how to add a volume with one."""
+
+    technique: str
+    settings: list[dict]
+    build: Builder
+    describe: Callable[[dict], str]
+    reference: Callable
+
+
+@dataclass
+class TradeoffResult:
+    """One row: a technique at one setting, its frame times and its error."""
+
+    technique: str
+    setting: str
+    parameters: dict
+    frame_ms: list[float]
+    errors: dict
+    pareto: bool = False
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def median_ms(self) -> float:
+        """Median frame time in milliseconds."""
+        return float(np.median(self.frame_ms))
+
+
+def _add_with(technique: str) -> Builder:
+    def build(plotter, volume, setting):
+        return add_volume(plotter, volume, technique=technique, **setting)
+    return build
+
+
+def _build_stock(plotter, volume: VolumeModel, setting):
+    """PyVista's own ``add_volume`` given the same colours, opacities and sample distance."""
+    transfer = volume.transfer
+    unit = 1.0
+    opacity = -np.expm1(-transfer.table[:, 3].astype(np.float64) * unit)
+    # A ready lookup table: pyvista 0.49's add_volume scales a float opacity *array* to
+    # almost nothing, so colours and opacities go in as the table VTK will use.
+    lut = pyvista.LookupTable()
+    lut.values = np.column_stack([transfer.table[:, :3] * 255.0, opacity * 255.0]).round()
+    lut.scalar_range = transfer.clim
+    grid = volume.grid.copy()
+    grid.point_data["values"] = volume.values.ravel(order="F")
+    actor = plotter.add_volume(grid, scalars="values", cmap=lut, clim=transfer.clim,
+                               opacity_unit_distance=unit, mapper="gpu", shade=False,
+                               show_scalar_bar=False)
+    mapper = actor.mapper
+    mapper.SetAutoAdjustSampleDistances(False)
+    mapper.SetLockSampleDistanceToInputSpacing(False)
+    mapper.SetSampleDistance(setting["step_scale"] * float(np.min(volume.grid.spacing)))
+    actor.user_matrix = np.asarray(volume.transform)
+    return actor
+
+
+def sweeps() -> dict[str, BenchSweep]:
+    """Every technique's registered sweep, and PyVista's stock ``add_volume`` as a row."""
+    found = {t.name: BenchSweep(t.name, list(t.sweep.settings), _add_with(t.name),
+                                t.sweep.describe, t.reference)
+             for t in techniques("volume") if t.sweep is not None}
+    found["pyvista"] = BenchSweep("pyvista", [{"step_scale": s} for s in (1.0, 0.5)],
+                                  _build_stock, describe_setting, render_emission_absorption)
+    return found
+
+
+def opaque_layer(scene: Scene, camera: Camera, size) -> tuple[np.ndarray, np.ndarray]:
+    """The scene's meshes alone: colour in [0, 1] and distance along each pixel's ray.
+
+    The reference composites the volume over this layer, so mesh shading (which the CPU
+    reference does not model) is the same in every image and only the volume is measured.
+    """
+    plotter = _bench_plotter(size)
+    try:
+        _meshes_only(scene).add_to(plotter, camera=camera)
+        render_frame(plotter)
+        color = read_pixels(plotter).astype(np.float64) / 255.0
+        zbuffer = read_depth(plotter).astype(np.float64)
+        near, far = plotter.camera.clipping_range
+        used = Camera.from_pyvista(plotter.camera)
+    finally:
+        plotter.close()
+    ndc = 2.0 * zbuffer - 1.0
+    if used.parallel_projection:
+        depth = near + zbuffer * (far - near)
+    else:
+        depth = 2.0 * near * far / ((far + near) - ndc * (far - near))
+    _, directions = used.rays(size)
+    _, _, forward = used.basis()
+    distance = depth / np.maximum(directions @ forward, 1e-12)
+    distance = np.where(zbuffer >= 1.0, np.inf, distance)
+    return color, distance
+
+
+def _meshes_only(scene: Scene) -> Scene:
+    """The scene without its volumes (lights, meshes and background kept)."""
+    return Scene(meshes=scene.meshes, lights=scene.lights, up_axis=scene.up_axis,
+                 background=scene.background)
+
+
+def _bench_plotter(size):
+    """A plotter without multisampling, the same for every row and the opaque layer.
+
+    Mesh edges then match the reference's opaque layer in every row (the direct marcher
+    turns multisampling off anyway).
+    """
+    plotter = offscreen_plotter(size)
+    plotter.ren_win.SetMultiSamples(0)
+    return plotter
+
+
+def time_frames_side_by_side(plotters: dict, frames: int = 3, warmup: int = 2,
+                             finish=read_pixels) -> dict[str, list[float]]:
+    """Milliseconds of ``frames`` frames of each plotter, drawn in turn.
+
+    Frame ``i`` of every plotter is drawn before frame ``i + 1`` of any, so a slow spell of
+    a shared machine falls on every row alike and the ratios between rows hold.
+    """
+    for plotter in plotters.values():
+        for _ in range(warmup):
+            render_frame(plotter)
+            finish(plotter)
+    times: dict[str, list[float]] = {name: [] for name in plotters}
+    for _ in range(frames):
+        for name, plotter in plotters.items():
+            start = time.perf_counter()
+            plotter.ren_win.Render()
+            finish(plotter)
+            times[name].append((time.perf_counter() - start) * 1e3)
+    return times
+
+
+def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[int] = (640, 480),
+                 frames: int = 3, include_stock: bool = True, reference_step: float = 0.1,
+                 progress_bar: bool | None = None) -> list[TradeoffResult]:
+    """Sweep ``technique``'s settings on ``scene``'s first volume; return one row per setting.
+
+    Parameters
+    ----------
+    technique : str or sequence of str
+        One or more techniques with a registered sweep (``'vtk'``, ``'direct'``,
+        ``'cubemap'``, and ``'pyvista'`` for the stock mapper; see :func:`sweeps`),
+        measured side by side in the same run.
+    scene : Scene
+        Meshes, lights, camera and the volume to measure.
+    size : sequence of int
+        ``(width, height)`` of every frame.
+    frames : int
+        Timed frames per setting (median reported), after two warm-up frames; the settings
+        are drawn in turn, frame by frame, so a slow spell of the machine weighs on all.
+    include_stock : bool
+        Add PyVista's stock ``add_volume`` rows to the same run.
+    reference_step : float
+        Step of the CPU reference, in voxels.
+    progress_bar : bool, optional
+        Show progress over the settings being set up; by default only on a terminal.
+    """
+    available = sweeps()
+    chosen = [technique] if isinstance(technique, str) else list(technique)
+    unknown = [t for t in chosen if t not in available]
+    if unknown or not chosen:
+        raise ValueError(f"Unknown technique {unknown or technique!r}; choose from "
+                         f"{sorted(available)}.")
+    if not scene.volumes:
+        raise ValueError("The scene has no volume to measure.")
+    if frames < 3:
+        raise ValueError(f"frames must be at least 3 for a median, got {frames}.")
+    size = (int(size[0]), int(size[1]))
+    volume = scene.volumes[0]
+    camera = scene.camera or scene.default_camera(size[0] / size[1])
+    color, distance = opaque_layer(scene, camera, size)
+    # One reference for the run: every volume technique draws the same right image.
+    reference = available[chosen[0]].reference(
+        volume, camera, size, step_voxels=reference_step, opaque_depth=distance,
+        opaque_color=color, near=camera.clipping_range[0] if camera.clipping_range else None)
+    runs = [(available[name], s) for name in chosen for s in available[name].settings]
+    if include_stock and "pyvista" not in chosen:
+        runs += [(available["pyvista"], s) for s in available["pyvista"].settings]
+    plotters = {}
+    results = []
+    try:
+        for index, (sweep, setting) in enumerate(progress(runs, desc="tradeoff",
+                                                          enabled=progress_bar)):
+            plotters[index] = plotter = _bench_plotter(size)
+            _meshes_only(scene).add_to(plotter, camera=camera)
+            sweep.build(plotter, volume, dict(setting))
+            camera.apply_to(plotter.camera)
+        times = time_frames_side_by_side(plotters, frames)
+        for index, (sweep, setting) in enumerate(runs):
+            errors = compare_images(read_pixels(plotters[index]), reference).as_dict()
+            results.append(TradeoffResult(sweep.technique, sweep.describe(setting),
+                                          dict(setting), times[index], errors))
+    finally:
+        for plotter in plotters.values():
+            plotter.close()
+    mark_pareto(results)
+    return results
+
+
+def mark_pareto(results: list[TradeoffResult]) -> None:
+    """Flag rows that no other row beats on both time and error (RMSE via PSNR)."""
+    for row in results:
+        row.pareto = not any(
+            other.median_ms <= row.median_ms and other.errors["psnr"] >= row.errors["psnr"]
+            and (other.median_ms < row.median_ms or other.errors["psnr"] > row.errors["psnr"])
+            for other in results)
+
+
+def format_table(results: list[TradeoffResult]) -> str:
+    """A plain-text table, times also as ratios to the fastest row of the same run."""
+    fastest = min(r.median_ms for r in results)
+    header = (f"{'technique':<10} {'setting':<24} {'median ms':>10} {'x fastest':>9} "
+              f"{'PSNR dB':>8} {'SSIM':>7} {'max err':>8} {'pareto':>6}")
+    lines = [header, "-" * len(header)]
+    for r in results:
+        e = r.errors
+        lines.append(f"{r.technique:<10} {r.setting:<24} {r.median_ms:>10.1f} "
+                     f"{r.median_ms / fastest:>9.2f} {e['psnr']:>8.2f} {e['ssim']:>7.4f} "
+                     f"{e['max_abs']:>8.0f} {'*' if r.pareto else '':>6}")
+    return "\n".join(lines)
+
+
+def write_json(results: list[TradeoffResult], path, meta: dict) -> None:
+    """Write rows and run metadata (size, scene, GL renderer) as JSON."""
+    payload = {"meta": meta, "results": [
+        {"technique": r.technique, "setting": r.setting, "parameters": r.parameters,
+         "frame_ms": r.frame_ms, "median_ms": r.median_ms, "errors": r.errors,
+         "pareto": r.pareto} for r in results]}
+    Path(path).write_text(json.dumps(payload, indent=2))
+
+
+def plot_pareto(results: list[TradeoffResult], path, title: str = "") -> None:
+    """Error (RMSE in 8-bit levels, from PSNR) against frame time, the Pareto front joined."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    def rmse(row):
+        return 255.0 * 10 ** (-row.errors["psnr"] / 20.0)
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
+    for technique in dict.fromkeys(r.technique for r in results):
+        rows = [r for r in results if r.technique == technique]
+        ax.scatter([r.median_ms for r in rows], [rmse(r) for r in rows], label=technique)
+        for r in rows:
+            ax.annotate(r.setting, (r.median_ms, rmse(r)), fontsize=7, xytext=(3, 3),
+                        textcoords="offset points")
+    front = sorted((r for r in results if r.pareto), key=lambda r: r.median_ms)
+    ax.plot([r.median_ms for r in front], [rmse(r) for r in front], "k--", lw=1,
+            label="Pareto front")
+    ax.set_xlabel("median frame time (ms)")
+    ax.set_ylabel("RMSE vs CPU reference (8-bit levels)")
+    ax.set_yscale("log")
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(str(path))
+    plt.close(fig)

@@ -1,0 +1,69 @@
+"""GLSL compile and link errors reported by VTK, turned into :class:`ShaderCompileError`.
+
+VTK prints shader errors through its output window and goes on; these helpers watch that
+window while a shader is built or a frame drawn, and name the snippets the errors point at.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import re
+
+import vtk
+from vtkmodules.util.misc import calldata_type
+
+from .errors import ShaderCompileError
+
+#: The comment line that opens each snippet in an assembled shader.
+MARKER = "// pv_cubemarch snippet: "
+
+
+def _snippet_at_error(log: str, snippets: tuple[str, ...]) -> tuple[str, ...]:
+    """Snippets whose lines the driver's errors point at, found through our markers."""
+    source_lines = {}
+    for match in re.finditer(r"^\s*(\d+):\s?(.*)$", log, re.MULTILINE):
+        source_lines[int(match.group(1))] = match.group(2)
+    hits = []
+    for match in re.finditer(r"\d+:(\d+)\(\d+\): error", log):
+        line = int(match.group(1))
+        for number in range(line, 0, -1):
+            text = source_lines.get(number, "")
+            if MARKER in text:
+                hits.append(text.split(MARKER, 1)[1].strip())
+                break
+    found = tuple(dict.fromkeys(hits))
+    return found or snippets
+
+
+@contextlib.contextmanager
+def watch_shader_errors(snippets: tuple[str, ...] = ()):
+    """Turn GLSL compile/link errors reported by VTK inside the block into an exception."""
+    window = vtk.vtkOutputWindow.GetInstance()
+    messages: list[str] = []
+
+    @calldata_type(vtk.VTK_STRING)
+    def collect(_caller, _event, text):
+        messages.append(str(text))
+
+    tag = window.AddObserver(vtk.vtkCommand.ErrorEvent, collect)
+    try:
+        yield messages
+    finally:
+        window.RemoveObserver(tag)
+    raise_for_shader_errors(messages, snippets)
+
+
+def raise_for_shader_errors(messages: list[str], snippets: tuple[str, ...]) -> None:
+    """Raise :class:`ShaderCompileError` if ``messages`` hold a shader compile or link error."""
+    shader_lines = [m for m in messages if re.search(
+        r"shader|link|compile", m, re.IGNORECASE)]
+    if not shader_lines:
+        return
+    log = "\n".join(shader_lines)
+    culprits = _snippet_at_error(log, snippets)
+    driver = re.search(r"\d+:\d+\(\d+\): error:.*", log)
+    first_error = driver.group(0) if driver else next(
+        (line for line in log.splitlines() if "error" in line.lower()), "")
+    raise ShaderCompileError(
+        f"GLSL compile/link failed in snippet(s) {', '.join(culprits) or '(unknown)'}: "
+        f"{first_error.strip()[:300]}", log=log, snippets=culprits)

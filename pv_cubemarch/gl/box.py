@@ -1,0 +1,66 @@
+"""Box actors that draw a technique's rays, and the camera uniforms of screen-space rays.
+
+A box actor is a grid's bounding box placed in the world by a user matrix, drawing only
+its back faces (interior faces, seen from inside or outside), in the translucent pass so
+the frame's opaque depth is complete when it draws. A mirroring placement (negative
+determinant) reverses the winding on screen, so the culled side follows the determinant.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pyvista
+import vtk
+
+
+def numpy_matrix(matrix) -> np.ndarray:
+    """A ``vtkMatrix4x4`` as a numpy array."""
+    return np.array([[matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
+
+
+def camera_matrices(renderer) -> tuple[np.ndarray, np.ndarray]:
+    """The renderer's view and projection matrices (world to view, view to clip)."""
+    camera = renderer.GetActiveCamera()
+    width, height = renderer.GetSize()
+    aspect = width / max(height, 1)
+    view = numpy_matrix(camera.GetModelViewTransformMatrix())
+    projection = numpy_matrix(camera.GetProjectionTransformMatrix(aspect, -1.0, 1.0))
+    return view, projection
+
+
+def box_actor(upper, world_from_index: np.ndarray) -> pyvista.Actor:
+    """The box ``[0, upper]`` (index space) placed by ``world_from_index``, back faces only."""
+    upper = np.asarray(upper, dtype=np.float64)
+    box = pyvista.Box(bounds=(0, upper[0], 0, upper[1], 0, upper[2])).triangulate()
+    mapper = vtk.vtkOpenGLPolyDataMapper()
+    mapper.SetInputData(box)
+    actor = pyvista.Actor()
+    actor.SetMapper(mapper)
+    actor.ForceTranslucentOn()
+    place_box(actor, world_from_index)
+    return actor
+
+
+def place_box(actor, world_from_index: np.ndarray) -> None:
+    """Place a box actor; the culled side follows the placement's handedness."""
+    matrix = vtk.vtkMatrix4x4()
+    matrix.DeepCopy(np.ascontiguousarray(world_from_index, dtype=np.float64).ravel().tolist())
+    actor.SetUserMatrix(matrix)
+    mirrored = bool(np.linalg.det(np.asarray(world_from_index)[:3, :3]) < 0)
+    actor.GetProperty().SetFrontfaceCulling(not mirrored)
+    actor.GetProperty().SetBackfaceCulling(mirrored)
+
+
+def bind_camera(target, renderer, world_from_texture: Callable[[], np.ndarray]) -> None:
+    """Per-frame camera uniforms of the screen-ray code, for a binding or a pass.
+
+    ``world_from_texture`` gives the technique's texture-to-world matrix at draw time.
+    """
+    target.set_uniform("cm_textureFromView", lambda: np.linalg.inv(
+        camera_matrices(renderer)[0] @ world_from_texture()))
+    target.set_uniform("cm_inverseProjection",
+                       lambda: np.linalg.inv(camera_matrices(renderer)[1]))
+    target.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
+    target.set_uniform("cm_viewport", lambda: (*renderer.GetOrigin(), *renderer.GetSize()))

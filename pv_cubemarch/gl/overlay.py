@@ -1,0 +1,128 @@
+"""The scene overlay: a renderer drawn after the plotter's, over its colour and depth.
+
+Passes that need the frame's finished opaque depth (the reduced-resolution pass, the cube
+ray-marching pass) run at the overlay's start, after every opaque prop of the scene was
+drawn; the volumes that composite their result over the scene are drawn by the overlay,
+farthest first. One overlay serves every such volume of a plotter; the opaque depth is
+the main renderer's shared copy (:func:`~pv_cubemarch.gl.frame_inputs.frame_inputs`), made
+at most once per frame for every user.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyvista
+import vtk
+
+from .frame_inputs import PROXY_NAME, frame_inputs
+from .shaders import Replacement, ShaderRecipe
+
+
+class SceneOverlay:
+    """The overlay renderer of one plotter and the opaque depth copied at its start."""
+
+    def __init__(self, plotter):
+        self.main = plotter.renderer
+        self.window = plotter.ren_win
+        renderer = vtk.vtkOpenGLRenderer()
+        self.window.SetNumberOfLayers(max(self.window.GetNumberOfLayers(),
+                                          self.main.GetLayer() + 2))
+        renderer.SetLayer(self.main.GetLayer() + 1)
+        renderer.SetViewport(self.main.GetViewport())
+        renderer.SetActiveCamera(self.main.GetActiveCamera())
+        renderer.SetPreserveColorBuffer(True)
+        renderer.SetPreserveDepthBuffer(True)
+        renderer.InteractiveOff()
+        renderer.SetUseOIT(False)
+        self.window.AddRenderer(renderer)
+        self.renderer = renderer
+        self.depth = frame_inputs(self.main).depth
+        self.users: dict = {}  # user -> whether it reads the depth copy
+        # Priority above the passes' observers: the depth is copied before any pass reads it.
+        self._tag = renderer.AddObserver(vtk.vtkCommand.StartEvent, self._on_start, 1.0)
+
+    def _on_start(self, *_):
+        if any(self.users.values()):
+            self.depth.ensure(self.window)
+        self._sort_far_to_near()
+
+    def _sort_far_to_near(self) -> None:
+        """Draw the overlay's volumes farthest first, so nearer ones composite over them."""
+        actors = list(self.renderer.GetActors())
+        if len(actors) < 2:
+            return
+        eye = np.array(self.main.GetActiveCamera().GetPosition())
+        ordered = sorted(actors, key=lambda a: -np.linalg.norm(np.array(a.GetCenter()) - eye))
+        if ordered != actors:
+            for actor in actors:
+                self.renderer.RemoveActor(actor)
+            for actor in ordered:
+                self.renderer.AddActor(actor)
+
+    def remove_actor(self, actor) -> None:
+        """Stop drawing ``actor`` (if the overlay still exists)."""
+        if self.renderer is not None:
+            self.renderer.RemoveActor(actor)
+
+    def add_user(self, user, reads_depth: bool = False) -> None:
+        """Keep the overlay while ``user`` needs it (and copy the depth if it reads it)."""
+        self.users[user] = reads_depth
+
+    def release_user(self, user) -> None:
+        """``user`` is done; the overlay leaves the window with its last user."""
+        self.users.pop(user, None)
+        if not self.users and self.renderer is not None:
+            self.renderer.RemoveObserver(self._tag)
+            self.window.RemoveRenderer(self.renderer)
+            self.renderer = None
+
+
+def scene_overlay(plotter) -> SceneOverlay:
+    """The overlay of the plotter's renderer, made on first use (again after its last user left)."""
+    main = plotter.renderer
+    overlay = main.__dict__.get("_cubemarch_overlay")
+    if overlay is None or overlay.renderer is None:
+        overlay = SceneOverlay(plotter)
+        main.__dict__["_cubemarch_overlay"] = overlay
+    return overlay
+
+
+def bounds_proxy(model) -> pyvista.Actor:
+    """An invisible prop spanning ``model``'s world box, for the plotter's own renderer.
+
+    A volume drawn by the overlay is not among the plotter renderer's props, which
+    ``reset_camera`` and the automatic clipping range look at; this prop stands in for it:
+    the two corners of the box's world bounds as points whose fragments are discarded (an
+    opaque prop, so it starts no translucency pass). A volume drawn by the overlay returns
+    its proxy from ``add_volume``: the plotter knows it by name, and removing it removes
+    the volume.
+    """
+    points = vtk.vtkPoints()
+    points.SetNumberOfPoints(2)
+    cells = vtk.vtkCellArray()
+    for index in range(2):
+        cells.InsertNextCell(1)
+        cells.InsertCellPoint(index)
+    corners = vtk.vtkPolyData()
+    corners.SetPoints(points)
+    corners.SetVerts(cells)
+    mapper = vtk.vtkOpenGLPolyDataMapper()
+    mapper.SetInputData(corners)
+    proxy = pyvista.Actor()
+    proxy.SetMapper(mapper)
+    proxy.PickableOff()
+    proxy.SetObjectName(PROXY_NAME)
+    ShaderRecipe([Replacement("//VTK::Light::Impl", "discard_fragment", keep_tag="before")]
+                 ).apply(proxy.GetShaderProperty())
+    place_bounds_proxy(proxy, model)
+    return proxy
+
+
+def place_bounds_proxy(proxy, model) -> None:
+    """Put the proxy's two points on the corners of ``model``'s world bounds."""
+    bounds = model.world_bounds()
+    corners = proxy.GetMapper().GetInput()
+    corners.GetPoints().SetPoint(0, bounds[0], bounds[2], bounds[4])
+    corners.GetPoints().SetPoint(1, bounds[1], bounds[3], bounds[5])
+    corners.GetPoints().Modified()
+    corners.Modified()

@@ -1,0 +1,107 @@
+"""Textures from numpy: uploaded lazily, inside a draw, when VTK has made the context current."""
+
+from __future__ import annotations
+
+import numpy as np
+import vtk
+from vtkmodules.util.numpy_support import numpy_to_vtk
+from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLVertexBufferObject, vtkTextureObject
+
+_VTK_TYPES = {np.dtype(np.float32): vtk.VTK_FLOAT, np.dtype(np.uint8): vtk.VTK_UNSIGNED_CHAR}
+
+
+class Texture:
+    """A numpy array that becomes a ``vtkTextureObject`` the first time it is drawn.
+
+    Parameters
+    ----------
+    array : numpy.ndarray
+        ``kind='2d'``: ``(height, width[, components])``; ``kind='3d'``: ``(nx, ny, nz[, c])``
+        indexed x, y, z; ``kind='buffer'``: a flat float array read with ``texelFetch``.
+        float32 and uint8 are uploaded as they are; other dtypes are converted to float32.
+    kind : str
+        ``'2d'``, ``'3d'`` or ``'buffer'``.
+    interpolate : bool
+        Linear filtering (``True``) or nearest (``False``); ignored for buffers.
+    """
+
+    def __init__(self, array: np.ndarray, kind: str = "2d", interpolate: bool = True):
+        if kind not in ("2d", "3d", "buffer"):
+            raise ValueError(f"kind must be '2d', '3d' or 'buffer', got {kind!r}.")
+        self.kind = kind
+        self.interpolate = interpolate
+        self.gl_object: vtkTextureObject | None = None
+        self._buffer: vtkOpenGLVertexBufferObject | None = None
+        self._window = None
+        self.upload_count = 0
+        self.set_data(array)
+
+    def set_data(self, array: np.ndarray) -> None:
+        """Replace the data; it is uploaded again at the next draw."""
+        array = np.asarray(array)
+        if array.dtype not in _VTK_TYPES or self.kind == "buffer":
+            array = array.astype(np.float32)
+        expected = {"2d": (2, 3), "3d": (3, 4), "buffer": (1,)}[self.kind]
+        if array.ndim not in expected:
+            raise ValueError(f"A {self.kind} texture needs an array with {expected} axes, "
+                             f"got shape {array.shape}.")
+        self.array = array
+        self._dirty = True
+
+    @property
+    def components(self) -> int:
+        """Components per texel."""
+        spatial = {"2d": 2, "3d": 3, "buffer": 1}[self.kind]
+        return 1 if self.array.ndim == spatial else int(self.array.shape[-1])
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes the texture occupies on the GPU (uncompressed)."""
+        return int(self.array.nbytes)
+
+    def ensure(self, window) -> vtkTextureObject:
+        """Create or refresh the GL texture for ``window``; needs the context current."""
+        if self.gl_object is not None and self._window is window and not self._dirty:
+            return self.gl_object
+        if self.gl_object is not None and self._window is not window:
+            self.release()
+        vtk_type = _VTK_TYPES[self.array.dtype]
+        texture = self.gl_object or vtkTextureObject()
+        texture.SetContext(window)
+        shape, ncomp = self.array.shape, self.components
+        if self.kind == "2d":
+            data = np.ascontiguousarray(self.array)
+            ok = texture.Create2DFromRaw(shape[1], shape[0], ncomp, vtk_type, data)
+        elif self.kind == "3d":
+            # VTK wants (z, y, x) C order, i.e. x fastest: Fortran order of (x, y, z).
+            data = np.ascontiguousarray(np.moveaxis(self.array, (0, 1, 2), (2, 1, 0)))
+            ok = texture.Create3DFromRaw(shape[0], shape[1], shape[2], ncomp, vtk_type, data)
+        else:
+            buffer = self._buffer or vtkOpenGLVertexBufferObject()
+            buffer.SetDataType(vtk.VTK_FLOAT)
+            self._vtk_array = numpy_to_vtk(np.ascontiguousarray(self.array), deep=True)
+            buffer.UploadDataArray(self._vtk_array)
+            self._buffer = buffer
+            ok = texture.CreateTextureBuffer(self.array.size, 1, vtk.VTK_FLOAT, buffer)
+        if not ok:
+            raise RuntimeError(f"Uploading a {self.kind} texture of shape {shape} failed.")
+        if self.kind != "buffer":
+            mode = vtkTextureObject.Linear if self.interpolate else vtkTextureObject.Nearest
+            texture.SetMinificationFilter(mode)
+            texture.SetMagnificationFilter(mode)
+            for setter in ("SetWrapS", "SetWrapT", "SetWrapR"):
+                getattr(texture, setter)(vtkTextureObject.ClampToEdge)
+        self.gl_object, self._window, self._dirty = texture, window, False
+        self.upload_count += 1
+        return texture
+
+    def release(self) -> None:
+        """Free the GL objects (safe to call twice, or with no context left)."""
+        if self.gl_object is not None and self._window is not None:
+            self.gl_object.ReleaseGraphicsResources(self._window)
+            if self._buffer is not None:
+                self._buffer.ReleaseGraphicsResources()
+        self.gl_object, self._buffer, self._window = None, None, None
+        self._dirty = True
+
+

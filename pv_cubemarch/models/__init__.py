@@ -1,0 +1,5 @@
+"""What the techniques draw, as data (numpy only, no GL).
+
+Volumes and their transfer functions, groups of overlapping volumes, lights. The CPU
+references and the GPU techniques both read these.
+"""

@@ -1,0 +1,112 @@
+"""Overlapping volumes marched as one medium: the group, and how volumes fall into groups.
+
+Where members overlap their extinctions add and the emission is their extinction-weighted
+mean, on the GPU (``joint_sample.glsl``) as in the CPU reference. Numpy only.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .volume import VolumeModel, checked_values
+
+#: Most members one joint group marches (GLSL 1.50 needs one set of uniforms per member).
+MAX_GROUP_MEMBERS = 4
+
+
+class VolumeGroup:
+    """Overlapping volumes drawn as one: the union of their world boxes on a virtual grid.
+
+    The grid is axis-aligned in the world, as fine as the finest member's voxels; it holds
+    no data, only the placement the marchers step through. Each member keeps its own data,
+    transfer function and placement.
+    """
+
+    def __init__(self, members: list[VolumeModel], name: str | None = None):
+        if not 2 <= len(members) <= MAX_GROUP_MEMBERS:
+            raise ValueError(f"A joint group holds 2 to {MAX_GROUP_MEMBERS} volumes, got "
+                             f"{len(members)}; split the scene or keep fewer volumes "
+                             "overlapping.")
+        sizes = {m.transfer.n_colors for m in members}
+        if len(sizes) != 1:
+            raise ValueError("Overlapping volumes need transfer tables of the same size "
+                             f"(n_colors), got {sorted(sizes)}.")
+        self.members = list(members)
+        self.name = name or "+".join(m.name for m in members)
+        bounds = np.array([m.world_bounds() for m in members])
+        self.lower = bounds[:, 0::2].min(axis=0)
+        upper = bounds[:, 1::2].max(axis=0)
+        spacing = min(float(np.linalg.norm(m.world_from_index()[:3, :3], axis=0).min())
+                      for m in members)
+        extent = np.maximum(upper - self.lower, spacing)
+        self.shape = tuple(int(math.ceil(e / spacing - 1e-9)) + 1 for e in extent)
+        self.spacing = extent / (np.array(self.shape) - 1.0)
+        self.transfer = members[0].transfer  # the table size, shared by every member
+
+    @property
+    def dimensions(self) -> tuple[int, int, int]:
+        """Points of the virtual grid along x, y, z."""
+        return self.shape
+
+    def world_from_index(self) -> np.ndarray:
+        """4x4 from the virtual grid's point indices to world."""
+        matrix = np.eye(4)
+        matrix[:3, :3] = np.diag(self.spacing)
+        matrix[:3, 3] = self.lower
+        return matrix
+
+    def world_bounds(self) -> np.ndarray:
+        """``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the union box."""
+        upper = self.lower + self.spacing * (np.array(self.shape) - 1.0)
+        return np.column_stack([self.lower, upper]).ravel()
+
+    def set_member_values(self, member: str | None, values) -> int:
+        """Replace the data of the member named ``member`` (same shape); return its index."""
+        names = [m.name for m in self.members]
+        if member not in names:
+            raise ValueError(f"member must name one of the volumes marched jointly, {names}; "
+                             f"got {member!r}.")
+        index = names.index(member)
+        target = self.members[index]
+        values = checked_values(np.asarray(values), target.name, "raise")
+        if values.shape != target.values.shape:
+            raise ValueError(f"values must keep {target.name!r}'s shape {target.values.shape}, "
+                             f"got {values.shape}.")
+        target.values = np.ascontiguousarray(values, dtype=np.float32)
+        return index
+
+    @property
+    def defines(self) -> dict:
+        """Feature switches of a joint shader."""
+        return {"CM_JOINT": True, "CM_VOLUME_COUNT": len(self.members)}
+
+
+def boxes_overlap(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two world bounds ``(xmin, xmax, ...)`` share a volume (touching is not)."""
+    return bool(all(a[2 * i] < b[2 * i + 1] and b[2 * i] < a[2 * i + 1] for i in range(3)))
+
+
+def overlap_groups(volumes: list[VolumeModel]) -> list[list[VolumeModel]]:
+    """Volumes partitioned into groups of overlapping boxes (directly or through others).
+
+    A volume alone is a group of one; the order of first appearance is kept.
+    """
+    bounds = [v.world_bounds() for v in volumes]
+    parent = list(range(len(volumes)))
+
+    def root(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i in range(len(volumes)):
+        for j in range(i + 1, len(volumes)):
+            if boxes_overlap(bounds[i], bounds[j]):
+                parent[root(j)] = root(i)
+    groups: dict[int, list[VolumeModel]] = {}
+    for i, volume in enumerate(volumes):
+        groups.setdefault(root(i), []).append(volume)
+    return list(groups.values())

@@ -1,0 +1,216 @@
+"""Scenes: what a file holds that we draw (meshes, volumes, cameras, lights) and what we skipped."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pyvista
+from PIL import Image
+
+from ..api import add_volumes
+from ..core.camera import Camera
+from ..core.progress import progress
+from ..core.rendering import offscreen_plotter, render_image
+from ..models.group import overlap_groups
+from ..models.volume import VolumeModel
+
+DEFAULT_BACKGROUND = (0.1, 0.1, 0.12)
+
+
+@dataclass
+class SceneMesh:
+    """An opaque or translucent surface in world coordinates with its material."""
+
+    name: str
+    mesh: pyvista.PolyData
+    color: tuple[float, float, float] = (0.8, 0.8, 0.8)
+    opacity: float = 1.0
+    roughness: float = 0.5
+    vertex_colors: str | None = None
+
+
+@dataclass
+class SceneLight:
+    """A light as the file describes it; ``intensity`` is the file's, before normalisation."""
+
+    name: str
+    kind: str  # 'distant', 'sphere' or 'dome'
+    color: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    intensity: float = 1.0
+    position: tuple[float, float, float] | None = None
+    direction: tuple[float, float, float] | None = None
+
+
+@dataclass
+class SkippedPrim:
+    """A prim that was not loaded, and why."""
+
+    path: str
+    reason: str
+
+
+@dataclass
+class Scene:
+    """Everything a scene file asks us to draw, in world coordinates.
+
+    Build one with :func:`pv_cubemarch.load_scene`; draw it with :meth:`add_to` or
+    :meth:`render`.
+    """
+
+    meshes: list[SceneMesh] = field(default_factory=list)
+    volumes: list[VolumeModel] = field(default_factory=list)
+    cameras: dict[str, Camera] = field(default_factory=dict)
+    lights: list[SceneLight] = field(default_factory=list)
+    skipped: list[SkippedPrim] = field(default_factory=list)
+    up_axis: str = "Y"
+    meters_per_unit: float = 1.0
+    source: str = ""
+    background: tuple[float, float, float] = DEFAULT_BACKGROUND
+    volume_options: dict[str, dict] = field(default_factory=dict)
+
+    @property
+    def camera(self) -> Camera | None:
+        """The scene's first camera, or ``None``."""
+        return next(iter(self.cameras.values()), None)
+
+    def bounds(self) -> np.ndarray:
+        """World bounds of all meshes and volume boxes (a unit box for an empty scene)."""
+        boxes = [np.asarray(m.mesh.bounds) for m in self.meshes if m.mesh.n_points]
+        boxes += [v.world_bounds() for v in self.volumes]
+        if not boxes:
+            return np.array([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0])
+        stack = np.array(boxes)
+        return np.array([stack[:, 0].min(), stack[:, 1].max(), stack[:, 2].min(),
+                         stack[:, 3].max(), stack[:, 4].min(), stack[:, 5].max()])
+
+    def default_camera(self, aspect: float = 1.0) -> Camera:
+        """A camera looking at the whole scene from the front, ``up_axis`` up."""
+        b = self.bounds()
+        center = np.array([b[0] + b[1], b[2] + b[3], b[4] + b[5]]) / 2.0
+        radius = max(np.linalg.norm([b[1] - b[0], b[3] - b[2], b[5] - b[4]]) / 2.0, 1e-12)
+        up = {"Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}[self.up_axis]
+        back = np.array((0.35, 0.3, 1.0) if self.up_axis == "Y" else (0.35, -1.0, 0.3))
+        back /= np.linalg.norm(back)
+        distance = radius / np.sin(np.radians(30.0) / 2.0) * 1.05
+        return Camera(position=tuple(center + back * distance), focal_point=tuple(center),
+                      view_up=up, view_angle=30.0)
+
+    def summary(self) -> str:
+        """A human-readable account of what was loaded and what was skipped."""
+        lines = [f"scene: {self.source}", f"up axis: {self.up_axis}, "
+                 f"meters per unit: {self.meters_per_unit:g}",
+                 f"meshes: {len(self.meshes)}"]
+        lines += [f"  {m.name}: {m.mesh.n_points} points, {m.mesh.n_cells} faces"
+                  for m in self.meshes]
+        lines.append(f"volumes: {len(self.volumes)}")
+        lines += [f"  {v.name}: {'x'.join(map(str, v.dimensions))} points" for v in self.volumes]
+        lines.append(f"cameras: {len(self.cameras)}")
+        lines += [f"  {name}" for name in self.cameras]
+        lines.append(f"lights: {len(self.lights)}")
+        lines += [f"  {li.name}: {li.kind}, intensity {li.intensity:g}" for li in self.lights]
+        lines.append(f"skipped: {len(self.skipped)}")
+        lines += [f"  {s.path}: {s.reason}" for s in self.skipped]
+        return "\n".join(lines)
+
+    def to_multiblock(self) -> pyvista.MultiBlock:
+        """The scene's meshes and volumes as a ``pyvista.MultiBlock`` (what ``pv.read`` returns)."""
+        blocks = pyvista.MultiBlock()
+        for m in self.meshes:
+            blocks[m.name] = m.mesh
+        for v in self.volumes:
+            grid = v.grid.copy()
+            if not np.allclose(v.transform, np.eye(4)):
+                grid = grid.transform(v.transform, inplace=False)
+            blocks[v.name] = grid
+        return blocks
+
+    def add_to(self, plotter: pyvista.Plotter, camera: str | Camera | None = None,
+               progress_bar: bool | None = None) -> dict:
+        """Add meshes, lights, volumes and the camera to ``plotter``; return the actors by name.
+
+        ``camera`` picks a scene camera by name, or gives one; by default the scene's first
+        camera, else a view of the whole scene.
+        """
+        actors = {}
+        plotter.set_background(self.background)
+        for m in self.meshes:
+            kwargs = dict(color=m.color, opacity=m.opacity, smooth_shading=True,
+                          split_sharp_edges=True,
+                          specular=0.3 * (1.0 - m.roughness), name=m.name)
+            if m.vertex_colors:
+                kwargs.update(scalars=m.vertex_colors, rgb=True)
+                kwargs.pop("color")
+            actors[m.name] = plotter.add_mesh(m.mesh, **kwargs)
+        self._add_lights(plotter)
+        # Volumes whose boxes overlap are marched jointly, with the first one's options.
+        groups = overlap_groups(self.volumes)
+        for group in progress(groups, desc="uploading volumes", enabled=progress_bar):
+            options = self.volume_options.get(group[0].name, {})
+            added = add_volumes(plotter, group, **options)
+            for v in group:
+                actors[v.name] = added[0] if len(added) == 1 else \
+                    next(a for a in added if v.name in a.cubemarch.name.split("+"))
+        chosen = self.cameras.get(camera) if isinstance(camera, str) else camera
+        if isinstance(camera, str) and chosen is None:
+            raise KeyError(f"No camera named {camera!r}; the scene has {list(self.cameras)}.")
+        chosen = chosen or self.camera
+        if chosen is None:
+            width, height = plotter.window_size
+            chosen = self.default_camera(width / height)
+        chosen.apply_to(plotter.camera)
+        if chosen.clipping_range is None:
+            plotter.renderer.ResetCameraClippingRange()
+        return actors
+
+    def _add_lights(self, plotter: pyvista.Plotter) -> None:
+        if not self.lights:
+            return
+        plotter.remove_all_lights()
+        strongest = max((li.intensity for li in self.lights), default=1.0)
+        scale = 1.0 / max(strongest, 1.0)
+        ambient = [li for li in self.lights if li.kind == "dome"]
+        for li in self.lights:
+            if li.kind == "dome":
+                continue
+            light = pyvista.Light(color=li.color, intensity=li.intensity * scale,
+                                  light_type="scene light")
+            if li.kind == "distant":
+                light.positional = False
+                light.position = tuple(-np.asarray(li.direction))
+                light.focal_point = (0.0, 0.0, 0.0)
+            else:
+                light.positional = True
+                light.cone_angle = 180.0
+                light.position = li.position
+                light.focal_point = tuple(np.asarray(li.position) + (0.0, -1.0, 0.0))
+            plotter.add_light(light)
+        if ambient:
+            level = min(1.0, sum(li.intensity for li in ambient) * scale)
+            for actor in plotter.renderer.actors.values():
+                prop = getattr(actor, "prop", None)
+                if prop is not None and hasattr(prop, "ambient"):
+                    prop.ambient = 0.35 * level
+
+    def render(self, path: str | os.PathLike | None = None, size: tuple[int, int] = (800, 600),
+               camera: str | Camera | None = None, progress_bar: bool | None = None) -> np.ndarray:
+        """Render offscreen to an RGB array, and to ``path`` (PNG) when given.
+
+        Examples
+        --------
+        >>> import pv_cubemarch
+        >>> scene = pv_cubemarch.load_scene("datasets/smoke_scene.usda")  # doctest: +SKIP
+        >>> image = scene.render("smoke.png", size=(640, 480))  # doctest: +SKIP
+        """
+        plotter = offscreen_plotter(size)
+        try:
+            self.add_to(plotter, camera=camera, progress_bar=progress_bar)
+            image = render_image(plotter)
+        finally:
+            plotter.close()
+        if path is not None:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            Image.fromarray(image).save(str(path))
+        return image

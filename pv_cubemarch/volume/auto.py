@@ -1,0 +1,214 @@
+"""``technique='auto'``: per volume and frame, the cube map or direct marching (000 §3.4).
+
+:func:`classify` makes the paper's choice: the cube map when its visible texels are fewer
+than the pixels the volume covers, else every pixel marched directly. Both paths are built
+once and share the volume's data; the one not chosen is hidden for the frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import vtk
+
+from ..core.registry import Technique, register_technique
+from ..gl.box import camera_matrices
+from ..reference.emission_absorption import render_emission_absorption
+from .cubemap.lod import cube_corners
+from .cubemap.technique import build_cubemap_actor
+from .direct import build_direct_actor
+from .march import VolumeData, follow_placement
+from .options import AutoOptions
+
+
+def projected_pixels(clip_from_local: np.ndarray, size) -> float:
+    """Pixels the box covers on screen (its projected hull clipped to the viewport)."""
+    width, height = size
+    clip = np.column_stack([cube_corners(), np.ones(8)]) @ clip_from_local.T
+    if (clip[:, 3] <= 0).any():
+        return float(width * height)  # the eye is close or inside: the box fills the view
+    points = (clip[:, :2] / clip[:, 3:4] + 1.0) * 0.5 * np.array([width, height])
+    hull = _clip_polygon(_convex_hull(points), width, height)
+    if len(hull) < 3:
+        return 0.0
+    x, y = hull[:, 0], hull[:, 1]
+    return float(0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+def _convex_hull(points: np.ndarray) -> np.ndarray:
+    pts = sorted(map(tuple, points))
+
+    def turn(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    def half(seq):
+        chain = []
+        for p in seq:
+            while len(chain) >= 2 and turn(chain[-2], chain[-1], p) <= 0:
+                chain.pop()
+            chain.append(p)
+        return chain
+
+    lower, upper = half(pts), half(reversed(pts))
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _clip_polygon(polygon: np.ndarray, width: float, height: float) -> np.ndarray:
+    """Sutherland-Hodgman clipping of a convex polygon to [0, width] x [0, height]."""
+    for axis, bound, keep_below in ((0, 0.0, False), (0, width, True), (1, 0.0, False),
+                                    (1, height, True)):
+        if len(polygon) == 0:
+            break
+        out = []
+        for a, b in zip(polygon, np.roll(polygon, -1, axis=0), strict=True):
+            a_in = a[axis] <= bound if keep_below else a[axis] >= bound
+            b_in = b[axis] <= bound if keep_below else b[axis] >= bound
+            if a_in:
+                out.append(a)
+            if a_in != b_in:
+                t = (bound - a[axis]) / (b[axis] - a[axis])
+                out.append(a + t * (b - a))
+        polygon = np.array(out)
+    return polygon
+
+
+def classify(visible_faces: int, face_size: int, pixels: float) -> str:
+    """The paper's choice of technique for one volume in one frame.
+
+    March the cube map when its visible texels are fewer than the pixels the volume covers,
+    else march every pixel directly.
+    """
+    texels = visible_faces * face_size * face_size
+    return "cubemap" if texels < pixels else "direct"
+
+
+class AutoBinding:
+    """A volume drawn by the cube map or directly, chosen per frame (``technique='auto'``).
+
+    ``force`` (``None``, ``'cubemap'`` or ``'direct'``) overrides the choice; ``choice``
+    and ``choices`` (a count per technique) say what was drawn.
+    """
+
+    technique = "auto"
+    needs_single_sample = True   # its cube map reads the depth single-sampled
+    blends_in_main_renderer = True   # its direct box draws in the translucent pass
+
+    def __init__(self, plotter, data: VolumeData, direct, cube):
+        self.renderer = plotter.renderer
+        self.main_renderer = plotter.renderer
+        self.data = data
+        self.direct = direct
+        self.cubemap = cube
+        self.direct_actor = direct_actor = direct.drawn[0]
+        self.cube_actor = cube_actor = cube.drawn[0]
+        self.drawn = [direct_actor, cube_actor]
+        self.model = self.direct.model
+        self.light_map = None
+        self.bounds_proxy = None
+        self.force: str | None = None
+        self.choice = "direct"
+        self.choices = {"cubemap": 0, "direct": 0}
+        self.actor = None
+        self.extra_release: list = []
+        self._visible = False
+        self._released = False
+        # The cube pass uses this frame's choice and culling, decided once in _choose.
+        self.cubemap.cube_pass.run_when = lambda: self.choice == "cubemap" and self._visible
+        # Before anything draws: the direct box is drawn by this renderer's translucent pass.
+        self._tag = self.renderer.AddObserver(vtk.vtkCommand.StartEvent, self._choose, 2.0)
+
+    def _choose(self, *_):
+        frame = self.cubemap.frame
+        self._visible = frame.update()
+        if self.force in ("cubemap", "direct"):
+            choice = self.force
+        else:
+            view, projection = camera_matrices(self.renderer)
+            pixels = projected_pixels(projection @ view @ frame.world_from_local,
+                                      self.renderer.GetSize())
+            choice = classify(bin(frame.face_mask).count("1"), frame.lod.level_size, pixels)
+        self.choice = choice
+        self.choices[choice] += 1
+        shown = self.actor is None or bool(self.actor.GetVisibility())
+        self.direct_actor.SetVisibility(shown and choice == "direct")
+        self.cube_actor.SetVisibility(shown and choice == "cubemap")
+
+    def follow_anchor(self) -> None:
+        """Visibility follows the returned actor at each frame (in :meth:`_choose`)."""
+
+    @property
+    def name(self) -> str:
+        """The volume's name."""
+        return self.model.name
+
+    @property
+    def bindings(self):
+        """The direct box's bindings (the one drawn by the plotter's renderer)."""
+        return self.direct.bindings
+
+    @property
+    def recipe(self):
+        """The direct box's recipe."""
+        return self.direct.recipe
+
+    @property
+    def lod(self):
+        """The cube map's last LOD choice."""
+        return self.cubemap.lod
+
+    @property
+    def memory(self) -> dict[str, int]:
+        """GPU bytes of both paths (the cube map's targets exist once it was chosen)."""
+        memory = dict(self.cubemap.memory)
+        memory["direct"] = 0   # the direct path shares the data counted by the cube map
+        if self.light_map is not None:
+            memory["light_map"] = self.light_map.nbytes
+        return memory
+
+    @property
+    def nbytes(self) -> int:
+        """All GPU bytes of the volume."""
+        return sum(self.memory.values())
+
+    def set_transform(self, transform) -> None:
+        """Move the volume (both paths follow; see ``VolumeBinding.set_transform``)."""
+        self.direct.set_transform(transform)
+        self.cubemap.frame.place()
+        for actor in (self.cube_actor,):
+            actor.SetUserMatrix(self.direct_actor.GetUserMatrix())
+        follow_placement(self)
+
+    def set_values(self, values, member: str | None = None) -> None:
+        """Replace the data of both paths (same shape; ``member`` names one of a group)."""
+        self.data.set_values(values, member)
+        if self.light_map is not None:
+            self.light_map.invalidate()
+
+    def release(self) -> None:
+        """Free both paths (once)."""
+        if self._released:
+            return
+        self._released = True
+        self.renderer.RemoveObserver(self._tag)
+        self.direct.release()
+        self.cubemap.release()
+        for release in self.extra_release:
+            release()
+        self.extra_release = []
+        if self.light_map is not None:
+            self.light_map.release()
+
+
+def build_auto_actor(plotter, data: VolumeData, options: AutoOptions, shading,
+                     light_map=None):
+    """Both paths of a ``technique='auto'`` volume, sharing its data; returns the binding."""
+    cube = build_cubemap_actor(plotter, data, options.cubemap, shading, light_map)
+    direct = build_direct_actor(plotter, data, options.direct, shading, light_map)
+    cube.renderer.AddActor(cube.drawn[0])
+    plotter.renderer.AddActor(direct.drawn[0])
+    return AutoBinding(plotter, data, direct, cube)
+
+
+register_technique(Technique(
+    name="auto", kind="volume", options=AutoOptions, build=build_auto_actor,
+    reference=render_emission_absorption,
+    summary="per frame, the cube map or the direct marcher, whichever marches fewer rays"))

@@ -1,0 +1,217 @@
+"""The direct screen-space ray marcher (``technique='direct'``): the shared marcher on a box.
+
+The box's back faces are drawn in the translucent pass, after every opaque prop, so the
+opaque depth of the frame is complete when the box is drawn and bounds each ray: read in
+place from a multisampled framebuffer, or from the renderer's shared copy of a
+single-sampled one; which of the two is decided at every frame. With ``downsample`` > 1 a
+low-resolution pass marches in the overlay renderer drawn after the scene, and the box
+upsamples its result. This is the baseline the cube-map technique is measured against.
+"""
+
+from __future__ import annotations
+
+import pyvista
+import vtk
+
+from ..core.registry import Sweep, Technique, register_technique
+from ..gl.bindings import ShaderBindings
+from ..gl.box import bind_camera, box_actor
+from ..gl.frame_inputs import FramebufferDepth, SceneDepth, frame_inputs
+from ..gl.overlay import scene_overlay
+from ..gl.passes import RenderToTexturePass
+from ..gl.shaders import Replacement, ShaderRecipe
+from ..reference.emission_absorption import render_emission_absorption
+from .march import MARCH_SNIPPETS, VolumeBinding, VolumeData, bind_sampling, world_from_texture
+from .options import STEP_SCALES, DirectOptions
+
+#: Depth-aware upsampling: a low-resolution sample stops counting once its depth differs
+#: from the pixel's by 1/DEPTH_SHARPNESS of the pixel's depth (5 %).
+DEPTH_SHARPNESS = 20.0
+
+
+def direct_recipe(defines: dict, lit: bool = False,
+                  sampling: str = "volume_sample") -> ShaderRecipe:
+    """The polydata-shader replacements of the direct marcher."""
+    return ShaderRecipe(
+        replacements=[
+            Replacement("//VTK::Color::Dec",
+                        ("ea_declarations", sampling, "ea_direct_declarations",
+                         *MARCH_SNIPPETS, *(("light_sample",) if lit else ()),
+                         "ea_screen_ray"),
+                        keep_tag="after"),
+            Replacement("//VTK::Light::Impl", "ea_direct_fragment", keep_tag="before"),
+            Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
+                        keep_tag="before"),
+        ],
+        defines=defines,
+    )
+
+
+def upsample_recipe(defines: dict) -> ShaderRecipe:
+    """The box actor's replacements when it upsamples a reduced-resolution pass."""
+    return ShaderRecipe(
+        replacements=[
+            Replacement("//VTK::Color::Dec",
+                        ("ea_declarations", "volume_sample", "ea_direct_declarations",
+                         *MARCH_SNIPPETS, "ea_screen_ray", "ea_upsample_declarations"),
+                        keep_tag="after"),
+            Replacement("//VTK::Light::Impl", "ea_upsample_fragment", keep_tag="before"),
+            Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
+                        keep_tag="before"),
+        ],
+        defines=defines,
+    )
+
+
+class DirectBinding(VolumeBinding):
+    """A directly marched volume; at full resolution it follows the frame's multisampling."""
+
+    technique = "direct"
+
+    def __init__(self, *args, window=None, lit: bool = False, sampling: str = "",
+                 defines: dict | None = None):
+        super().__init__(*args)
+        self.window = window
+        self._lit, self._sampling, self._defines = lit, sampling, dict(defines or {})
+        self.multisampled: bool | None = None
+        self._tag = None
+
+    @property
+    def blends_in_main_renderer(self) -> bool:
+        """At full resolution the box draws in the plotter's translucent pass."""
+        return self.downsample == 1
+
+    @property
+    def needs_single_sample(self) -> bool:
+        """The reduced-resolution pass copies the depth, which needs a single sample."""
+        return self.downsample > 1
+
+    def follow_multisampling(self, *_) -> None:
+        """At each frame: read the depth in place if multisampled, else the shared copy.
+
+        The shader is rebuilt only when the framebuffer's kind changes.
+        """
+        multisampled = self.window.GetMultiSamples() > 1
+        if multisampled == self.multisampled:
+            return
+        self.multisampled = multisampled
+        depth = FramebufferDepth() if multisampled else frame_inputs(self.bindings.renderer).depth
+        self.bindings.add_texture("cm_sceneDepth", depth)
+        window = self.window
+        if multisampled:
+            self.bindings.set_uniform("cm_depthSamples", lambda: max(1, int(
+                window.GetRenderFramebuffer().GetDepthAttachmentAsTextureObject()
+                .GetSamples())))
+        else:
+            self.bindings.uniforms.pop("cm_depthSamples", None)
+        self.recipe = direct_recipe(dict(self._defines, CM_DEPTH_MULTISAMPLED=multisampled),
+                                    lit=self._lit, sampling=self._sampling)
+        self.bindings.recipe = self.recipe
+        for actor in self.drawn:
+            self.recipe.apply(actor.GetShaderProperty())
+
+    def release(self) -> None:
+        """Stop following the frame, then free (see ``VolumeBinding.release``)."""
+        if self._tag is not None:
+            self.bindings.renderer.RemoveObserver(self._tag)
+            self._tag = None
+        super().release()
+
+
+def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=None):
+    """A box actor that marches the volume with the shared GLSL; returns the actor.
+
+    With ``options.downsample`` > 1 the rays are marched by a full-screen pass at
+    1/downsample of the viewport, and the box only upsamples the result with a
+    depth-aware filter.
+    """
+    model = data.model
+    renderer = plotter.renderer
+    actor = box_actor([n - 1.0 for n in model.dimensions], model.world_from_index())
+    step_scale, downsample = float(options.step_scale), int(options.downsample)
+    if downsample == 1:
+        bindings = ShaderBindings(actor.GetMapper(), renderer)
+        sampling, defines = bind_sampling(bindings, data, step_scale, shading.stop_opacity,
+                                          shading.skip_empty)
+        if light_map is not None:
+            light_map.bind(bindings)
+            defines.update(light_map.defines)
+        bind_camera(bindings, renderer, lambda: world_from_texture(model))
+        binding = DirectBinding(model, data, bindings, None, step_scale, shading.stop_opacity,
+                                window=plotter.ren_win, lit=light_map is not None,
+                                sampling=sampling, defines=defines)
+        binding.drawn = [actor]
+        binding.renderer = renderer
+        binding.follow_multisampling()
+        # After the window decided this frame's multisampling, before any prop draws.
+        binding._tag = renderer.AddObserver(vtk.vtkCommand.StartEvent,
+                                            binding.follow_multisampling, 5.0)
+    else:
+        overlay, low_pass = _reduced_resolution(plotter, data, step_scale, shading,
+                                                downsample, light_map)
+        bindings = ShaderBindings(actor.GetMapper(), overlay.renderer)
+        bindings.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
+        bindings.add_texture("cm_lowColor", low_pass.output(0))
+        bindings.add_texture("cm_lowDepth", low_pass.output(1))
+        bindings.add_texture("cm_sceneDepth", overlay.depth)
+        bindings.set_uniform("cm_lowSize", lambda: tuple(float(v) for v in low_pass.size))
+        bindings.set_uniform("cm_depthSharpness", DEPTH_SHARPNESS)
+        bindings.add_texture("cm_sceneColor",
+                             SceneDepth(overlay.renderer, color=True, each_use=True))
+        bind_camera(bindings, renderer, lambda: world_from_texture(model))
+        recipe = upsample_recipe({"CM_TABLE_SIZE": model.transfer.n_colors})
+        bindings.recipe = recipe
+        recipe.apply(actor.GetShaderProperty())
+        binding = DirectBinding(model, data, bindings, recipe, step_scale,
+                                shading.stop_opacity)
+        binding.drawn = [actor]
+        binding.renderer = overlay.renderer
+        overlay.add_user(actor, reads_depth=True)
+        binding.extra_release = [low_pass.release, lambda: overlay.remove_actor(actor),
+                                 lambda: overlay.release_user(actor)]
+        binding.targets = [bindings, low_pass]
+    binding.downsample = downsample
+    pyvista.set_new_attribute(actor, "cubemarch", binding)
+    return binding
+
+
+def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
+                        downsample: int, light_map=None):
+    """The plotter's overlay and a low-resolution pass run at its start."""
+    model = data.model
+    main = plotter.renderer
+    overlay = scene_overlay(plotter)
+
+    def low_size():
+        width, height = main.GetSize()
+        return (-(-width // downsample), -(-height // downsample))
+
+    low_pass = RenderToTexturePass(overlay.renderer, None, size=low_size,
+                                   targets=("rgba16f", "r32f"), every_frame=True)
+    sampling, defines = bind_sampling(low_pass, data, step_scale, shading.stop_opacity,
+                                      shading.skip_empty)
+    low_pass.add_texture("cm_sceneDepth", overlay.depth)
+    bind_camera(low_pass, main, lambda: world_from_texture(model))
+    lit = ()
+    if light_map is not None:
+        light_map.bind(low_pass)
+        defines.update(light_map.defines)
+        lit = ("light_sample",)
+    low_pass.set_recipe(ShaderRecipe(
+        standalone=("pass_head", "ea_declarations", sampling, "ea_direct_declarations",
+                    *MARCH_SNIPPETS, *lit, "ea_screen_ray", "ea_reduced_main"),
+        defines=defines))
+    return overlay, low_pass
+
+
+def _describe(setting: dict) -> str:
+    down = setting.get("downsample", 1)
+    return f"step_scale={setting['step_scale']}" + (f", down={down}" if down > 1 else "")
+
+
+register_technique(Technique(
+    name="direct", kind="volume", options=DirectOptions, build=build_direct_actor,
+    reference=render_emission_absorption,
+    sweep=Sweep([{"step_scale": s} for s in STEP_SCALES]
+                + [{"step_scale": 0.5, "downsample": k} for k in (2, 4)], _describe),
+    summary="the direct screen-space marcher on a box actor, one ray per pixel"))

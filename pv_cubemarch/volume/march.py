@@ -1,0 +1,270 @@
+"""What every emission/absorption technique shares.
+
+The GPU copy of the data, the marcher's bindings and feature switches, and the per-volume
+state behind ``actor.cubemarch``.
+
+A technique builds its actor and passes; this module gives each of them the same uniforms
+and textures (one upload per volume, however many passes read it), so the four techniques
+differ only in how a ray is set up and where its result goes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import vtk
+
+from ..gl.bindings import ShaderBindings
+from ..gl.overlay import place_bounds_proxy
+from ..gl.shaders import ShaderRecipe
+from ..gl.textures import Texture
+from ..models.group import VolumeGroup
+from ..models.volume import VolumeModel, checked_transform, checked_values
+from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
+
+#: Steps of one inner marching loop; an outer loop repeats it, so rays are never cut.
+STEPS_PER_LOOP = 4096
+#: The snippets every marching shader includes, in order (the slab test, then the marcher).
+MARCH_SNIPPETS = ("slab", "ea_march")
+
+
+def world_from_texture(model: VolumeModel | VolumeGroup) -> np.ndarray:
+    """4x4 from texture coordinates (texel centres on the grid points) to world."""
+    dims = np.array(model.dimensions, dtype=np.float64)
+    index_from_texture = np.eye(4)
+    index_from_texture[:3, :3] = np.diag(dims)
+    index_from_texture[:3, 3] = -0.5
+    return model.world_from_index() @ index_from_texture
+
+
+class VolumeData:
+    """The GPU copies of a volume's data (or of each member of a group), uploaded once.
+
+    Every pass and actor of the volume binds these same textures; :meth:`set_values`
+    replaces the data and the empty-space bricks in one place.
+    """
+
+    def __init__(self, model: VolumeModel | VolumeGroup):
+        self.model = model
+        self.members = model.members if isinstance(model, VolumeGroup) else [model]
+        self.values = [Texture(m.values, kind="3d", interpolate=True) for m in self.members]
+        self.tables = [Texture(m.transfer.table.reshape(1, -1, 4), kind="2d")
+                       for m in self.members]
+        self._bricks: Texture | None = None
+        self.brick_builds = 0
+
+    def bricks(self) -> Texture | None:
+        """Per-brick largest extinction, built on first use; ``None`` when no brick is empty.
+
+        Groups are not skipped (their members' bricks do not share a grid).
+        """
+        if isinstance(self.model, VolumeGroup):
+            return None
+        if self._bricks is None:
+            bricks = brick_extinction(self.model.values, self.model.transfer, DEFAULT_BRICK_SIZE)
+            self.brick_builds += 1
+            if not (bricks <= 0).any():
+                return None
+            self._bricks = Texture(bricks, kind="3d", interpolate=False)
+        return self._bricks
+
+    def set_values(self, values, member: str | None = None) -> None:
+        """Replace the data of the volume (or of the group's ``member``), same shape."""
+        if isinstance(self.model, VolumeGroup):
+            index = self.model.set_member_values(member, values)
+            self.values[index].set_data(self.members[index].values)
+            return
+        if member is not None:
+            raise ValueError(f"member is for volumes marched jointly; {self.model.name!r} is "
+                             "a single volume.")
+        values = checked_values(np.asarray(values), self.model.name, "raise")
+        if values.shape != self.model.values.shape:
+            raise ValueError(f"values must keep the volume's shape {self.model.values.shape}, "
+                             f"got {values.shape}.")
+        self.model.values = np.ascontiguousarray(values, dtype=np.float32)
+        self.values[0].set_data(self.model.values)
+        if self._bricks is not None:
+            rebuilt = brick_extinction(self.model.values, self.model.transfer,
+                                       DEFAULT_BRICK_SIZE)
+            self.brick_builds += 1
+            self._bricks.set_data(rebuilt)
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of the data, tables and bricks."""
+        textures = self.values + self.tables + ([self._bricks] if self._bricks else [])
+        return sum(t.nbytes for t in textures)
+
+    def release(self) -> None:
+        """Free every texture."""
+        for texture in self.values + self.tables + ([self._bricks] if self._bricks else []):
+            texture.release()
+
+
+def march_defines(model, skipping: bool) -> dict:
+    """The feature switches every marching shader of ``model`` needs."""
+    defines = {"CM_TABLE_SIZE": model.transfer.n_colors, "CM_STEPS_PER_LOOP": STEPS_PER_LOOP,
+               "CM_SKIP_EMPTY": bool(skipping)}
+    if isinstance(model, VolumeGroup):
+        defines.update(CM_JOINT=True, CM_VOLUME_COUNT=len(model.members))
+    return defines
+
+
+def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: float,
+                  skip_empty: bool, sample_data: bool = True) -> tuple[str, dict]:
+    """Give ``target`` (bindings or a pass) what the shared marcher reads.
+
+    Returns the GLSL snippet that samples the medium (``volume_sample`` for one volume,
+    ``joint_sample`` for a group) and the feature switches. Skipping is compiled in only
+    when asked for and some brick is empty. ``sample_data=False`` leaves the data texture
+    out (VTK's mapper samples its own copy).
+    """
+    model = data.model
+    target.set_uniform("cm_stopOpacity", stop_opacity)
+    target.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
+    target.set_uniform("cm_stepScale", step_scale)
+    target.set_uniform("cm_worldFromTexture", lambda: world_from_texture(model))
+    if isinstance(model, VolumeGroup):
+        # the table size of the group; each member's own table is bound below
+        target.add_texture("cm_transferTable", data.tables[0])
+        target.set_uniform("cm_clim", model.transfer.clim)
+        group_to_world = lambda: world_from_texture(model)  # noqa: E731
+        for index, member in enumerate(model.members):
+            target.add_texture(f"cm_member{index}", data.values[index])
+            target.add_texture(f"cm_memberTable{index}", data.tables[index])
+            target.set_uniform(f"cm_memberClim{index}", member.transfer.clim)
+            target.set_uniform(f"cm_memberFromGroup{index}", lambda m=member: np.linalg.inv(
+                world_from_texture(m)) @ group_to_world())
+            target.set_uniform(f"cm_memberDims{index}",
+                               tuple(float(n) for n in member.dimensions))
+        return "joint_sample", march_defines(model, False)
+    target.add_texture("cm_transferTable", data.tables[0])
+    target.set_uniform("cm_clim", model.transfer.clim)
+    if sample_data:
+        target.add_texture("cm_volume", data.values[0])
+    bricks = data.bricks() if skip_empty else None
+    if bricks is not None:
+        target.add_texture("cm_brickExtinction", bricks)
+        target.set_uniform("cm_brickCount", tuple(float(n) for n in bricks.array.shape))
+        target.set_uniform("cm_brickSize", float(DEFAULT_BRICK_SIZE))
+    return "volume_sample", march_defines(model, bricks is not None)
+
+
+class VolumeBinding:
+    """What ``actor.cubemarch`` holds for a volume: model, data, bindings, settings.
+
+    The technique's builder fills it; :meth:`set_values`, :meth:`set_transform` and
+    :meth:`release` are the same for every technique.
+    """
+
+    technique = "volume"
+    #: Whether the technique reads the frame's depth as a single-sampled texture (the
+    #: window's multisampling is turned off on frames that draw such a volume).
+    needs_single_sample = False
+    #: Whether a box draws in the plotter's renderer's translucent pass (its weighted
+    #: order-independent translucency is then turned off for the frame).
+    blends_in_main_renderer = False
+
+    def __init__(self, model, data: VolumeData, bindings: ShaderBindings,
+                 recipe: ShaderRecipe, step_scale: float, stop_opacity: float):
+        self.model = model
+        self.data = data
+        self.bindings = bindings
+        self.recipe = recipe
+        self.step_scale = step_scale
+        self.stop_opacity = stop_opacity
+        self.actor = None          # the actor add_volume returned (the plotter knows it)
+        self.drawn: list = []      # actors that draw the volume (the actor, or overlay boxes)
+        self.vtk_input = None      # VTK's mapper path: the ImageData it reads
+        self.extra_release: list = []
+        self.targets: list = [bindings]
+        self.downsample = 1
+        self.light_map = None
+        self.bounds_proxy = None
+        self.main_renderer = None
+        self.renderer = None
+        self._released = False
+
+    @property
+    def skips_empty(self) -> bool:
+        """Whether the marching shaders step over empty bricks (a brick texture is bound)."""
+        return any("cm_brickExtinction" in t.textures for t in self.targets)
+
+    @property
+    def brick_builds(self) -> int:
+        """How many times the empty-space bricks were built (once at add, once per data change)."""
+        return self.data.brick_builds
+
+    @property
+    def name(self) -> str:
+        """The volume's name."""
+        return self.model.name
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes we added (VTK owns the volume texture of its mapper path)."""
+        data = self.data.nbytes if self.vtk_input is None else \
+            sum(t.nbytes for t in self.bindings.textures.values())
+        return data + (self.light_map.nbytes if self.light_map else 0)
+
+    def follow_anchor(self) -> None:
+        """At each frame: the drawn actors follow the visibility of the returned actor."""
+        if self.actor is None:
+            return
+        shown = bool(self.actor.GetVisibility())
+        for actor in self.drawn:
+            if actor is not self.actor:
+                actor.SetVisibility(shown)
+
+    def release(self) -> None:
+        """Free our GPU resources and observers (and any pass or overlay renderer); once."""
+        if self._released:
+            return
+        self._released = True
+        self.bindings.release()
+        for release in self.extra_release:
+            release()
+        self.extra_release = []
+        if self.light_map is not None:
+            self.light_map.release()
+        self.data.release()
+
+    def set_transform(self, transform) -> None:
+        """Move the volume: ``transform`` is its new 4x4 placement in the world.
+
+        The actor follows at once and the light map is marched again at the next frame;
+        nothing is uploaded again. Volumes marched jointly cannot move one by one.
+        """
+        if isinstance(self.model, VolumeGroup):
+            raise ValueError("Volumes marched jointly cannot move one by one; add them again "
+                             "with their new transforms (pv_cubemarch.add_volumes).")
+        self.model.transform = checked_transform(transform)
+        for actor in self.drawn:
+            # VTK's mapper places its grid (origin, spacing) itself; a box spans index space.
+            placement = self.model.transform if self.vtk_input is not None \
+                else self.model.world_from_index()
+            matrix = vtk.vtkMatrix4x4()
+            matrix.DeepCopy(np.ascontiguousarray(placement).ravel().tolist())
+            actor.SetUserMatrix(matrix)
+        follow_placement(self)
+
+    def set_values(self, values, member: str | None = None) -> None:
+        """Replace the volume's data (same shape); its GPU copy and skip bricks follow.
+
+        The empty-space bricks are rebuilt here, once per change of the data, never per frame.
+        For volumes marched jointly (a :class:`~pv_cubemarch.VolumeGroup`), ``member`` names
+        the one whose data changes.
+        """
+        self.data.set_values(values, member)
+        if self.vtk_input is not None:
+            self.vtk_input.point_data["scalars"] = self.model.values.ravel(order="F")
+            self.vtk_input.Modified()
+        if self.light_map is not None:
+            self.light_map.invalidate()
+
+
+def follow_placement(binding) -> None:
+    """After a volume moved: its bounds proxy and the plotter's clipping range follow."""
+    if binding.bounds_proxy is not None:
+        place_bounds_proxy(binding.bounds_proxy, binding.model)
+    if binding.main_renderer is not None:
+        binding.main_renderer.ResetCameraClippingRange()

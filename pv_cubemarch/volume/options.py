@@ -1,0 +1,138 @@
+"""The user's options of each volume technique, validated in one place.
+
+Each technique's options are a frozen dataclass whose fields are exactly the ``add_volume``
+parameters that technique reads; :func:`pv_cubemarch.add_volume` builds the chosen one from
+what the user gave, so an option the technique ignores is an error, not a silent no-op.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
+
+#: Smallest ``step_scale``: a ray across a 1000-texel grid then takes 10 million steps.
+MIN_STEP_SCALE = 1e-4
+#: Default finest face size ``S_0`` of the cube map (texels per face edge at MIP level 0).
+DEFAULT_FACE_SIZE = 256
+#: Default ``k_z`` of the bilateral depth filter (000 uses 0.5), per cube-map texel of depth.
+DEFAULT_OCCLUSION_SHARPNESS = 0.5
+#: ``step_scale`` values of the speed/accuracy sweeps of the marching techniques.
+STEP_SCALES = (2.0, 1.0, 0.5, 0.25, 0.125)
+#: Default early-termination opacity (VTK's own loop also stops above 1 - 1/255).
+DEFAULT_STOP_OPACITY = 0.99
+
+
+def positive_number(name: str, value, low: float = 0.0, high: float = np.inf,
+                    closed_low: bool = False) -> float:
+    """``value`` as a float in (low, high] (or [low, high]), or a ValueError naming ``name``."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}.") from None
+    above = number >= low if closed_low else number > low
+    if not (np.isfinite(number) and above and number <= high):
+        bracket = "[" if closed_low else "("
+        raise ValueError(f"{name} must be in {bracket}{low:g}, {high:g}], got {value!r}.")
+    return number
+
+
+def whole_number(name: str, value, low: int, high: int | None = None) -> int:
+    """``value`` as an int in [low, high], or a ValueError naming ``name``."""
+    try:
+        ok = float(value) == int(value)
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok or int(value) < low or (high is not None and int(value) > high):
+        span = f"from {low} to {high}" if high is not None else f">= {low}"
+        raise ValueError(f"{name} must be a whole number {span}, got {value!r}.")
+    return int(value)
+
+
+@dataclass(frozen=True)
+class Shading:
+    """Options every volume technique reads: termination, skipping, lights."""
+
+    stop_opacity: float = DEFAULT_STOP_OPACITY
+    skip_empty: bool = True
+    light_map_size: int = DEFAULT_LIGHT_MAP_SIZE
+    ambient: float = DEFAULT_AMBIENT
+
+    def check(self) -> None:
+        """Raise a clear error for a bad option."""
+        positive_number("stop_opacity", self.stop_opacity, 0.0, 1.0)
+        whole_number("light_map_size", self.light_map_size, 2, 128)
+        positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)
+
+
+@dataclass(frozen=True)
+class MarchOptions:
+    """``technique='vtk'``: the step along the ray."""
+
+    step_scale: float = 0.5
+
+    def check(self) -> None:
+        """Raise a clear error for a bad option."""
+        positive_number("step_scale", self.step_scale, 0.0, 1e3)
+        if float(self.step_scale) < MIN_STEP_SCALE:
+            raise ValueError(f"step_scale={self.step_scale} would take over 10 million steps "
+                             f"across a 1000-texel grid; use at least {MIN_STEP_SCALE}.")
+
+
+@dataclass(frozen=True)
+class DirectOptions(MarchOptions):
+    """``technique='direct'``: the step, and the resolution the rays are marched at."""
+
+    downsample: int = 1
+
+    def check(self) -> None:
+        """Raise a clear error for a bad option."""
+        super().check()
+        whole_number("downsample", self.downsample, 1, 64)
+
+
+@dataclass(frozen=True)
+class CubeMapOptions:
+    """``technique='cubemap'``: the cube map's size, samples, LOD and depth filter."""
+
+    face_size: int = DEFAULT_FACE_SIZE
+    max_samples: int | None = None
+    upscale: float = 1.0
+    sample_factor: float = 1.0
+    occlusion_sharpness: float = DEFAULT_OCCLUSION_SHARPNESS
+
+    def check(self) -> None:
+        """Raise a clear error for a bad option."""
+        size = whole_number("face_size", self.face_size, 1, 4096)
+        if size & (size - 1):
+            raise ValueError(f"face_size must be a power of two from 1 to 4096, got {size}.")
+        if self.max_samples is not None:
+            whole_number("max_samples", self.max_samples, 1)
+        positive_number("upscale", self.upscale)
+        positive_number("sample_factor", self.sample_factor)
+        positive_number("occlusion_sharpness", self.occlusion_sharpness, closed_low=True)
+
+
+@dataclass(frozen=True)
+class AutoOptions(CubeMapOptions):
+    """``technique='auto'``: the cube map's options and the direct marcher's step."""
+
+    step_scale: float = 0.5
+
+    def check(self) -> None:
+        """Raise a clear error for a bad option."""
+        super().check()
+        self.direct.check()
+
+    @property
+    def direct(self) -> DirectOptions:
+        """The direct marcher's part."""
+        return DirectOptions(step_scale=self.step_scale)
+
+    @property
+    def cubemap(self) -> CubeMapOptions:
+        """The cube map's part."""
+        return CubeMapOptions(self.face_size, self.max_samples, self.upscale,
+                              self.sample_factor, self.occlusion_sharpness)
