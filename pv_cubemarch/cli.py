@@ -7,6 +7,7 @@ import json
 import sys
 from pathlib import Path
 
+from .bench import harness as bench
 from .bench import resolution as bench_resolution
 from .core.errors import CubemarchError
 from .core.offscreen import gl_info
@@ -155,8 +156,6 @@ def _render(args) -> int:
 
 def _bench(args) -> int:
 
-    from . import bench
-    from .offscreen import gl_info
     scene_path = args.scene or str(Path(__file__).resolve().parents[1] / "datasets"
                                    / "smoke_scene.usda")
     if not Path(scene_path).exists():

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -9,7 +10,8 @@ import pytest
 from conftest import SCENE
 
 import pv_cubemarch as cm
-from pv_cubemarch import bench
+from pv_cubemarch.bench import harness as bench
+from pv_cubemarch.bench import resolution as bench_resolution
 from pv_cubemarch.cli import main
 
 
@@ -41,14 +43,13 @@ def test_opaque_layer_depth_matches_exact_mesh_depth():
 
 
 
-def test_run_tradeoff_rows(tmp_path):
+def test_run_tradeoff_rows(tmp_path, monkeypatch):
     scene = cm.load_scene(SCENE, progress_bar=False)
-    bench.register_sweep(bench.Sweep("tiny", [{"step_scale": 1.0}, {"step_scale": 0.5}],
-                                     bench.SWEEPS["vtk"].build))
-    try:
-        results = bench.run_tradeoff("tiny", scene, size=(64, 48), frames=3)
-    finally:
-        bench.SWEEPS.pop("tiny")
+    registered = bench.sweeps()
+    tiny = dataclasses.replace(registered["vtk"], technique="tiny",
+                               settings=[{"step_scale": 1.0}, {"step_scale": 0.5}])
+    monkeypatch.setattr(bench, "sweeps", lambda: dict(registered, tiny=tiny))
+    results = bench.run_tradeoff("tiny", scene, size=(64, 48), frames=3)
     assert [r.technique for r in results] == ["tiny", "tiny", "pyvista", "pyvista"]
     for r in results:
         assert len(r.frame_ms) == 3 and r.median_ms > 0
@@ -80,8 +81,6 @@ def test_bad_bench_arguments():
 
 
 def test_resolution_bench_rows_and_table(tmp_path):
-    from pv_cubemarch import bench_resolution
-
     scene = cm.load_scene(SCENE, progress_bar=False)
     rows = bench_resolution.run_resolution(scene, sizes=[(96, 54), (160, 90)], frames=3,
                                            crop=32)
@@ -116,10 +115,10 @@ def test_resolution_bench_cli(tmp_path, capsys):
 
 
 def test_comparable_cubemap_is_the_fastest_within_half_a_decibel():
-    from pv_cubemarch.bench_resolution import ResolutionRow, comparable_cubemap
+    comparable_cubemap = bench_resolution.comparable_cubemap
 
     def row(technique, ms, psnr):
-        return ResolutionRow("s", technique, (4, 4), [ms] * 3, {"psnr": psnr})
+        return bench_resolution.ResolutionRow("s", technique, (4, 4), [ms] * 3, {"psnr": psnr})
 
     rows = [row("direct", 100.0, 50.0), row("cubemap", 40.0, 54.0),
             row("cubemap face_size=128", 20.0, 49.6), row("cubemap face_size=64", 10.0, 49.0)]
@@ -130,8 +129,6 @@ def test_comparable_cubemap_is_the_fastest_within_half_a_decibel():
 
 
 def test_crop_windows_cover_the_volume():
-    from pv_cubemarch import bench_resolution
-
     scene = cm.load_scene(SCENE, progress_bar=False)
     camera = scene.camera
     windows = bench_resolution.crop_windows(scene, camera, (400, 300), 64)

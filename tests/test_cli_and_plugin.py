@@ -87,7 +87,7 @@ def test_pyvista_read_usd_in_fresh_process():
     (["--technique", "auto", "--lights", "none"], {"technique": "auto", "lights": None}),
 ], ids=["direct", "cubemap", "auto"])
 def test_render_options_reach_every_volume(tmp_path, monkeypatch, arguments, expected):
-    import pv_cubemarch.emission_absorption as ea
+    import pv_cubemarch.api as ea
 
     seen = []
     real = ea.add_volume

@@ -8,9 +8,11 @@ import pyvista as pv
 from conftest import BACKGROUND, blob_grid, set_camera
 
 import pv_cubemarch as cm
-from pv_cubemarch.cubemap_lod import visible_face_mask
-from pv_cubemarch.lighting import VolumeLight
+from pv_cubemarch.models.lights import VolumeLight
+from pv_cubemarch.reference import lighting as reference_lighting
 from pv_cubemarch.testing import compare_images, to_uint8
+from pv_cubemarch.volume.cubemap.lod import visible_face_mask
+from pv_cubemarch.volume.cubemap.technique import world_from_local
 
 SIZE = (96, 96)
 GREEN = (0.2, 0.8, 0.3)
@@ -53,7 +55,7 @@ def test_volume_alone_matches_reference(plotter_factory, model):
 def test_face_mask_and_empty_hidden_faces(plotter_factory, model):
     pl, actor, camera, _ = render(plotter_factory, model, (3.0, 2.0, 4.0))
     binding = actor.cubemarch
-    eye = np.linalg.inv(cm.cubemap.world_from_local(model)) @ np.append(camera.position, 1)
+    eye = np.linalg.inv(world_from_local(model)) @ np.append(camera.position, 1)
     assert binding.face_mask == visible_face_mask(eye[:3]) == 0b101010  # -x, -y, -z faces
     atlas = binding.cube_pass.read(0)
     tile = binding.lod.level_size + 2
@@ -69,14 +71,19 @@ def test_face_mask_and_empty_hidden_faces(plotter_factory, model):
 def test_lod_follows_the_projected_size_and_reports_memory(plotter_factory, model):
     pl, actor, camera, _ = render(plotter_factory, model, (3.0, 2.0, 4.0), size=(160, 160))
     near = actor.cubemarch.lod
+    near_atlas = actor.cubemarch.cube_pass.size
     set_camera(pl, (30.0, 20.0, 40.0))
     cm.render_image(pl)
     far = actor.cubemarch.lod
     assert far.ideal_size < near.ideal_size / 5
     assert far.level > near.level and far.samples < near.samples
     assert actor.cubemarch.cube_pass.size == (3 * (far.level_size + 2), 2 * (far.level_size + 2))
+    # The targets keep their largest size: the LOD change reallocated nothing (catches the
+    # targets being made again at every level change), and the memory says what is held.
+    assert actor.cubemarch.cube_pass.allocated == near_atlas
+    assert actor.cubemarch.cube_pass.allocations == 1
     memory = actor.cubemarch.memory
-    texels = 6 * (far.level_size + 2) ** 2
+    texels = 6 * (near.level_size + 2) ** 2
     assert memory["cube_map"] == texels * 8  # half-float rgba
     assert memory["cube_depth_map"] == texels * 4  # one float32 distance
     assert memory["light_map"] == 0 and actor.cubemarch.light_map is None
@@ -211,11 +218,11 @@ def test_two_volumes_side_by_side_composite_in_order(plotter_factory, model):
 def test_light_grid_of_the_reference_matches_exact_transmittance(model):
     lights = [VolumeLight("directional", direction=(-1.0, -0.5, -0.3)),
               VolumeLight("point", position=(0.2, 0.4, 0.1))]  # inside the volume
-    grids = cm.lighting.light_grid(model, lights)
+    grids = reference_lighting.light_grid(model, lights)
     rng = np.random.default_rng(3)
     points = rng.uniform(0, np.array(model.dimensions) - 1.0, size=(400, 3))
     for light, grid in zip(lights, grids, strict=True):
-        exact = cm.lighting.transmittance_toward(model, points, light, step_voxels=0.05)
+        exact = reference_lighting.transmittance_toward(model, points, light, step_voxels=0.05)
         scale = (np.array(grid.shape) - 1.0) / (np.array(model.dimensions) - 1.0)
         interpolated = cm.reference.trilinear(grid, points * scale)
         assert np.abs(interpolated - exact).max() < 0.01

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pv_cubemarch.cubemap_lod import (
+from pv_cubemarch.volume.cubemap.lod import (
     EDGES,
     choose_lod,
     cube_corners,

@@ -133,7 +133,7 @@ def test_early_termination_threshold(plotter_factory, stop, technique):
     pl = plotter_factory((32, 32))
     pl.set_background("black")
     set_camera(pl, (0.0, 0.0, 4.0))
-    cm.add_volume(pl, model, step_scale=0.5, stop_opacity=stop, technique=technique)
+    cm.add_volume(pl, model, stop_opacity=stop, **technique_options(model, technique, 0.5))
     center = cm.render_image(pl)[16, 16].astype(float) / 255.0
     step_alpha = 1 - np.exp(-model.transfer.table[0, 3] * 0.05 * 1.01)
     assert stop - 1 / 255 <= center[0] <= stop + step_alpha + 1 / 255, (center, step_alpha)

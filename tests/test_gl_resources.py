@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 import pv_cubemarch as cm
-from pv_cubemarch.debug_view import add_texture_view
-from pv_cubemarch.gl_resources import RenderToTexturePass, Texture
-from pv_cubemarch.shaders import ShaderRecipe
+from pv_cubemarch.gl.debug_view import add_texture_view
+from pv_cubemarch.gl.passes import RenderToTexturePass
+from pv_cubemarch.gl.shaders import ShaderRecipe
+from pv_cubemarch.gl.textures import Texture
 
 SIZE = (32, 32)
 

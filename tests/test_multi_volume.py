@@ -9,14 +9,10 @@ import pytest
 from conftest import BACKGROUND, blob_grid, set_camera
 
 import pv_cubemarch as cm
-from pv_cubemarch.multi_volume import (
-    VolumeGroup,
-    add_volumes,
-    classify,
-    overlap_groups,
-    projected_pixels,
-)
+from pv_cubemarch import VolumeGroup, add_volumes
+from pv_cubemarch.models.group import overlap_groups
 from pv_cubemarch.testing import compare_images
+from pv_cubemarch.volume.auto import classify, projected_pixels
 
 SIZE = (96, 96)
 
@@ -163,7 +159,7 @@ def test_removing_an_overlay_volume_keeps_the_others(plotter_factory, blob):
     both = cm.render_image(pl)
     pl.cubemarch.remove(first)
     one = cm.render_image(pl)
-    overlay = pl.cubemarch._overlay.renderer
+    overlay = pl.renderer.__dict__["_cubemarch_overlay"].renderer
     assert overlay.GetActors().GetNumberOfItems() == 1
     left, right = one[:, :48].astype(int), one[:, 48:].astype(int)
     assert np.abs(left - both[:, :48].astype(int)).max() > 20   # the first one is gone

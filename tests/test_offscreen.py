@@ -9,7 +9,7 @@ import sys
 import pytest
 
 import pv_cubemarch as cm
-from pv_cubemarch import offscreen
+from pv_cubemarch.core import offscreen
 
 PROBE = "import pv_cubemarch as cm; print(cm.gl_info()['window_class'])"
 

@@ -6,15 +6,15 @@ import numpy as np
 import pytest
 
 import pv_cubemarch as cm
-from pv_cubemarch import shaders
-from pv_cubemarch.shaders import Replacement, ShaderRecipe, define_lines, snippet_source
+from pv_cubemarch.gl import shaders
+from pv_cubemarch.gl.shaders import Replacement, ShaderRecipe, define_lines, snippet_source
 
 
 def test_every_shipped_snippet_loads():
     from importlib import resources
 
-    names = [p.name[:-5] for p in resources.files(shaders.SNIPPET_PACKAGE).iterdir()
-             if p.name.endswith(".glsl")]
+    names = [p.name[:-5] for folder in resources.files(shaders.SNIPPET_PACKAGE).iterdir()
+             if folder.is_dir() for p in folder.iterdir() if p.name.endswith(".glsl")]
     assert {"ea_declarations", "ea_march", "ea_vtk_ray_init", "ea_vtk_declarations"} <= set(names)
     for name in names:
         assert snippet_source(name).strip()
@@ -40,19 +40,17 @@ def test_defines_switch_code_in_assembled_shader():
 
 def test_snippet_with_a_vtk_tag_is_refused(monkeypatch, tmp_path):
     snippet_source.cache_clear()
-    real = shaders.resources.files
-
-    class Fake:
-        def __truediv__(self, name):
-            path = tmp_path / name
-            path.write_text("// uses //VTK::Light::Impl in a comment\n")
-            return path
-
-    monkeypatch.setattr(shaders.resources, "files", lambda package: Fake())
-    with pytest.raises(ValueError, match="VTK tag"):
-        snippet_source("tagged")
-    monkeypatch.setattr(shaders.resources, "files", real)
-    snippet_source.cache_clear()
+    shaders._snippet_paths.cache_clear()
+    (tmp_path / "common").mkdir()
+    (tmp_path / "common" / "tagged.glsl").write_text("// uses //VTK::Light::Impl in a comment\n")
+    monkeypatch.setattr(shaders.resources, "files", lambda package: tmp_path)
+    try:
+        with pytest.raises(ValueError, match="VTK tag"):
+            snippet_source("tagged")
+    finally:
+        monkeypatch.undo()
+        snippet_source.cache_clear()
+        shaders._snippet_paths.cache_clear()
 
 
 def test_compile_error_raises_with_snippet_name(monkeypatch, plotter_factory, blob):

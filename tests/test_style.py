@@ -20,6 +20,6 @@ def test_ruff_clean():
 
 def test_no_glsl_in_python():
     pattern = re.compile(r"void main *\(|gl_FragData|fragOutput0 *=")
-    sources = (ROOT / "pv_cubemarch").glob("*.py")
-    offenders = [p.name for p in sources if pattern.search(p.read_text())]
+    sources = (ROOT / "pv_cubemarch").rglob("*.py")
+    offenders = [str(p) for p in sources if pattern.search(p.read_text())]
     assert offenders == []

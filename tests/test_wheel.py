@@ -7,7 +7,6 @@ import shutil
 import subprocess
 import sys
 import zipfile
-from pathlib import Path
 
 from conftest import ROOT, SCENE
 
@@ -25,10 +24,11 @@ def test_wheel_carries_glsl_and_renders_from_elsewhere(tmp_path):
     assert build.returncode == 0, build.stderr
     wheel = next(dist.glob("pv_cubemarch-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
-    glsl = {Path(n).name for n in names if n.endswith(".glsl")}
-    shipped = {p.name for p in (ROOT / "glsl_replacements").glob("*.glsl")}
-    assert glsl == shipped
     folder = "pv_cubemarch/glsl_replacements/"
+    glsl = {n[len(folder):] for n in names if n.endswith(".glsl")}
+    shipped = {str(p.relative_to(ROOT / "glsl_replacements"))
+               for p in (ROOT / "glsl_replacements").glob("*/*.glsl")}
+    assert glsl == shipped
     assert all(n.startswith(folder) for n in names if n.endswith(".glsl"))
 
     site = tmp_path / "site"

@@ -21,7 +21,14 @@ from ..gl.overlay import scene_overlay
 from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..reference.emission_absorption import render_emission_absorption
-from .march import MARCH_SNIPPETS, VolumeBinding, VolumeData, bind_sampling, world_from_texture
+from .march import (
+    MARCH_SNIPPETS,
+    VolumeBinding,
+    VolumeData,
+    bind_sampling,
+    march_defines,
+    world_from_texture,
+)
 from .options import STEP_SCALES, DirectOptions
 
 #: Depth-aware upsampling: a low-resolution sample stops counting once its depth differs
@@ -159,7 +166,7 @@ def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=No
         bindings.add_texture("cm_sceneColor",
                              SceneDepth(overlay.renderer, color=True, each_use=True))
         bind_camera(bindings, renderer, lambda: world_from_texture(model))
-        recipe = upsample_recipe({"CM_TABLE_SIZE": model.transfer.n_colors})
+        recipe = upsample_recipe(march_defines(model, False))
         bindings.recipe = recipe
         recipe.apply(actor.GetShaderProperty())
         binding = DirectBinding(model, data, bindings, recipe, step_scale,
