@@ -16,6 +16,8 @@ from .core.camera import Camera  # noqa: E402
 from .core.errors import (  # noqa: E402
     CubemarchError,
     OffscreenUnavailableError,
+    PlotterClosedError,
+    SceneChangedError,
     SceneLoadError,
     ShaderCompileError,
     VolumeDataError,
@@ -37,8 +39,9 @@ from .scene.model import Scene, SceneLight, SceneMesh, SkippedPrim  # noqa: E402
 __version__ = "0.1.0"
 
 __all__ = [
-    "Camera", "CubemarchError", "OffscreenUnavailableError", "RenderToTexturePass",
-    "Replacement", "Scene", "SceneLight", "SceneLoadError", "SceneMesh", "ShaderBindings",
+    "Camera", "CubemarchError", "OffscreenUnavailableError", "PlotterClosedError",
+    "RenderToTexturePass", "Replacement", "Scene", "SceneChangedError", "SceneLight",
+    "SceneLoadError", "SceneMesh", "ShaderBindings",
     "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "Texture", "TransferFunction",
     "VolumeDataError", "VolumeGroup", "VolumeLight", "VolumeModel", "add_volume",
     "add_volumes", "configure_offscreen", "gl_info",

@@ -13,6 +13,7 @@ import vtk
 from PIL import Image
 
 from .api import add_volume
+from .core.frame_errors import observe
 from .core.rendering import render_frame, render_image
 from .gl.frame_inputs import MultisamplePolicy
 from .scene.io import load_scene
@@ -47,10 +48,10 @@ class CubemarchComponent:
         if self._window is not None:
             self._multisampling = MultisamplePolicy(self._window)
             self._observers = [
-                (self._window, self._window.AddObserver(vtk.vtkCommand.StartEvent,
-                                                        self._follow_scene)),
-                (self._window, self._window.AddObserver(vtk.vtkCommand.EndEvent,
-                                                        self._redraw_if_missed)),
+                (self._window, observe(self._window, vtk.vtkCommand.StartEvent,
+                                       self._follow_scene)),
+                (self._window, observe(self._window, vtk.vtkCommand.EndEvent,
+                                       self._redraw_if_missed)),
             ]
         plotter.__dict__["_cubemarch_component"] = self
 

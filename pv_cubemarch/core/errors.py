@@ -26,3 +26,11 @@ class SceneLoadError(CubemarchError, ValueError):
 
 class VolumeDataError(CubemarchError, ValueError):
     """Volume data that cannot be rendered as given (bad dtype, NaN, non-uniform grid...)."""
+
+
+class PlotterClosedError(CubemarchError, RuntimeError):
+    """The plotter was closed (``plotter.close()``): it has no window to draw in any more."""
+
+
+class SceneChangedError(CubemarchError, RuntimeError):
+    """The scene changed in a way a volume cannot follow (e.g. its number of lights)."""

@@ -7,6 +7,8 @@ import pyvista
 import vtk
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
+from .errors import PlotterClosedError
+from .frame_errors import collecting_frame_errors, raise_frame_errors
 from .offscreen import configure_offscreen
 from .shader_errors import watch_shader_errors
 
@@ -25,15 +27,31 @@ def _bindings_of(plotter) -> list:
     return component.bindings() if component is not None else []
 
 
-def render_frame(plotter: pyvista.Plotter) -> None:
-    """Draw one frame and raise :class:`ShaderCompileError` if a GLSL snippet failed.
+def _open_window(plotter: pyvista.Plotter):
+    """The plotter's render window, or :class:`PlotterClosedError` once it was closed."""
+    window = getattr(plotter, "ren_win", None)
+    if window is None:
+        raise PlotterClosedError(
+            "The plotter is closed (plotter.close() freed its window); nothing can be "
+            "rendered or read from it. Make a new plotter and add the volumes again.")
+    return window
 
+
+def render_frame(plotter: pyvista.Plotter) -> None:
+    """Draw one frame; raise what went wrong while it was drawn.
+
+    :class:`ShaderCompileError` if a GLSL snippet failed; an exception raised inside one of
+    our VTK observers during the frame (which VTK alone would print and swallow) is raised
+    here once the frame is done; :class:`PlotterClosedError` after ``plotter.close()``.
     A frame that VTK drew without our bindings (its volume mapper rebuilds its shader
     silently) is drawn again by the ``plotter.cubemarch`` component.
     """
+    window = _open_window(plotter)
     snippets = tuple(s for b in _bindings_of(plotter) for s in b.recipe.snippet_names)
     with watch_shader_errors(snippets):
-        plotter.ren_win.Render()
+        with collecting_frame_errors() as errors:
+            window.Render()
+    raise_frame_errors(errors)
 
 
 def render_image(plotter: pyvista.Plotter) -> np.ndarray:
@@ -43,8 +61,9 @@ def render_image(plotter: pyvista.Plotter) -> np.ndarray:
 
 
 def _grab(plotter: pyvista.Plotter, depth: bool) -> np.ndarray:
+    window = _open_window(plotter)
     grab = vtk.vtkWindowToImageFilter()
-    grab.SetInput(plotter.ren_win)
+    grab.SetInput(window)
     if depth:
         grab.SetInputBufferTypeToZBuffer()
     else:

@@ -10,9 +10,9 @@ import contextlib
 import re
 
 import vtk
-from vtkmodules.util.misc import calldata_type
 
 from .errors import ShaderCompileError
+from .frame_errors import observe
 
 #: The comment line that opens each snippet in an assembled shader.
 MARKER = "// pv_cubemarch snippet: "
@@ -41,11 +41,10 @@ def watch_shader_errors(snippets: tuple[str, ...] = ()):
     window = vtk.vtkOutputWindow.GetInstance()
     messages: list[str] = []
 
-    @calldata_type(vtk.VTK_STRING)
     def collect(_caller, _event, text):
         messages.append(str(text))
 
-    tag = window.AddObserver(vtk.vtkCommand.ErrorEvent, collect)
+    tag = observe(window, vtk.vtkCommand.ErrorEvent, collect, calldata=vtk.VTK_STRING)
     try:
         yield messages
     finally:

@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 import vtk
-from vtkmodules.util.misc import calldata_type
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
+from ..core.frame_errors import observe
 from .shaders import ShaderRecipe
 from .textures import Texture
 
@@ -40,12 +40,63 @@ def set_uniform(program, name: str, value: Any) -> None:
         raise ValueError(f"Uniform {name!r}: unsupported value shape {array.shape}.")
 
 
+class TextureUnitLedger:
+    """The texture units our bindings hold in one render window, released per draw.
+
+    A binding activates its textures (each takes a texture unit) when its prop's shader is
+    updated, just before the prop is drawn, and they must stay active through that draw.
+    They are released as soon as the draw is over: at the volume mapper's
+    ``VolumeMapperRenderEndEvent``, or, for polydata mappers (which fire no event after
+    drawing), at the next of our bindings' or passes' activations in the same window,
+    whichever comes first, and at the renderer's ``EndEvent`` at the latest. So one draw's
+    textures are held at a time, whatever the number of props, and the window never runs
+    out of units. One ledger per window, because units belong to the GL context.
+    """
+
+    _by_window: dict[str, TextureUnitLedger] = {}
+
+    def __init__(self):
+        self.held: list[vtkTextureObject] = []
+
+    @classmethod
+    def of(cls, window) -> TextureUnitLedger | None:
+        """The ledger of ``window`` (``None`` without a window)."""
+        if window is None:
+            return None
+        key = window.GetAddressAsString("vtkObject")
+        ledger = cls._by_window.get(key)
+        if ledger is None:
+            ledger = cls._by_window[key] = cls()
+        return ledger
+
+    @classmethod
+    def release_window(cls, window) -> None:
+        """Free the units of ``window``'s last draw (the draw is over)."""
+        if window is None:
+            return
+        ledger = cls._by_window.pop(window.GetAddressAsString("vtkObject"), None)
+        if ledger is not None:
+            ledger.release()
+
+    def hold(self, texture: vtkTextureObject) -> None:
+        """Activate ``texture`` for the draw about to happen (it takes a unit)."""
+        texture.Activate()
+        self.held.append(texture)
+
+    def release(self) -> None:
+        """Deactivate what the last draw held (its units go back to the window)."""
+        for texture in self.held:
+            texture.Deactivate()
+        self.held.clear()
+
+
 class ShaderBindings:
     """Textures and uniforms given to one mapper's shader program at every draw.
 
-    Observes the mapper's ``UpdateShaderEvent`` (fired with the program bound) and the
-    renderer's ``EndEvent`` (to free the texture units). Values may be callables,
-    evaluated at draw time (e.g. a matrix that follows the camera).
+    Observes the mapper's ``UpdateShaderEvent`` (fired with the program bound, just before
+    the draw); the texture units it takes are given back once that draw is over (see
+    :class:`TextureUnitLedger`), so any number of props can be bound in one frame. Values
+    may be callables, evaluated at draw time (e.g. a matrix that follows the camera).
     """
 
     def __init__(self, mapper, renderer, recipe: ShaderRecipe | None = None):
@@ -58,15 +109,14 @@ class ShaderBindings:
         self.frames_bound = 0
         self._bound_this_frame = False
         self._missed = False
-        self._active: list[vtkTextureObject] = []
-        on_update = calldata_type(vtk.VTK_OBJECT)(
-            lambda caller, event, program: self._on_update(program))
         self._observers = [
-            (mapper, mapper.AddObserver(vtk.vtkCommand.UpdateShaderEvent, on_update)),
-            (renderer, renderer.AddObserver(vtk.vtkCommand.StartEvent, self._on_start)),
-            (renderer, renderer.AddObserver(vtk.vtkCommand.EndEvent, self._on_end)),
-            (mapper, mapper.AddObserver(vtk.vtkCommand.VolumeMapperRenderEndEvent,
-                                        self._on_volume_drawn)),
+            (mapper, observe(mapper, vtk.vtkCommand.UpdateShaderEvent,
+                             lambda caller, event, program: self._on_update(program),
+                             calldata=vtk.VTK_OBJECT)),
+            (renderer, observe(renderer, vtk.vtkCommand.StartEvent, self._on_start)),
+            (renderer, observe(renderer, vtk.vtkCommand.EndEvent, self._on_end)),
+            (mapper, observe(mapper, vtk.vtkCommand.VolumeMapperRenderEndEvent,
+                             self._on_volume_drawn)),
         ]
 
     def add_texture(self, sampler: str, texture: Texture) -> Texture:
@@ -88,6 +138,8 @@ class ShaderBindings:
         return self._missed
 
     def _on_volume_drawn(self, *_):
+        # The volume mapper has drawn: its textures' units are free again.
+        TextureUnitLedger.release_window(self.renderer.GetRenderWindow())
         if not self._bound_this_frame:
             self._missed = True
 
@@ -105,10 +157,11 @@ class ShaderBindings:
         if program is None:
             return
         window = self.renderer.GetRenderWindow()
+        ledger = TextureUnitLedger.of(window)
+        ledger.release()  # the previous draw (ours or another binding's) is over
         for sampler, texture in self.textures.items():
             gl_object = texture.ensure(window)
-            gl_object.Activate()
-            self._active.append(gl_object)
+            ledger.hold(gl_object)
             program.SetUniformi(sampler, gl_object.GetTextureUnit())
         for name, value in self.uniforms.items():
             set_uniform(program, name, value() if callable(value) else value)
@@ -116,9 +169,7 @@ class ShaderBindings:
         self.frames_bound += 1
 
     def _on_end(self, *_):
-        for gl_object in self._active:
-            gl_object.Deactivate()
-        self._active.clear()
+        TextureUnitLedger.release_window(self.renderer.GetRenderWindow())
 
     def release(self) -> None:
         """Free the textures and stop observing."""
@@ -128,5 +179,3 @@ class ShaderBindings:
         for subject, tag in self._observers:
             subject.RemoveObserver(tag)
         self._observers.clear()
-
-

@@ -16,6 +16,8 @@ from __future__ import annotations
 import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
+from ..core.frame_errors import observe
+
 _GL_READ_FRAMEBUFFER = 0x8CA8
 #: ``GetObjectName()`` of props that only stand in for a volume's bounds (they draw nothing).
 PROXY_NAME = "pv_cubemarch bounds proxy"
@@ -111,7 +113,7 @@ class FrameInputs:
         self.depth = SceneDepth(renderer)
         self._opaque = None
         # First among the renderer's observers: later ones see this frame's state.
-        self._tag = renderer.AddObserver(vtk.vtkCommand.StartEvent, self._on_start, 10.0)
+        self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start, 10.0)
 
     def _on_start(self, *_):
         self.depth.mark_stale()

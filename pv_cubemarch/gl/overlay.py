@@ -14,6 +14,7 @@ import numpy as np
 import pyvista
 import vtk
 
+from ..core.frame_errors import observe
 from .frame_inputs import PROXY_NAME, frame_inputs
 from .shaders import Replacement, ShaderRecipe
 
@@ -39,7 +40,7 @@ class SceneOverlay:
         self.depth = frame_inputs(self.main).depth
         self.users: dict = {}  # user -> whether it reads the depth copy
         # Priority above the passes' observers: the depth is copied before any pass reads it.
-        self._tag = renderer.AddObserver(vtk.vtkCommand.StartEvent, self._on_start, 1.0)
+        self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start, 1.0)
 
     def _on_start(self, *_):
         if any(self.users.values()):

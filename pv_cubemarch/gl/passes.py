@@ -13,7 +13,8 @@ from vtkmodules.vtkRenderingOpenGL2 import (
     vtkTextureObject,
 )
 
-from .bindings import UniformSource, set_uniform
+from ..core.frame_errors import observe
+from .bindings import TextureUnitLedger, UniformSource, set_uniform
 from .shaders import ShaderRecipe, watch_shader_errors
 from .textures import Texture
 
@@ -84,7 +85,7 @@ class RenderToTexturePass:
         self._fbo = self._quad = None
         self._fragment = recipe.fragment_source() if recipe is not None else None
         self._vertex = vtkOpenGLRenderUtilities.GetFullScreenQuadVertexShader()
-        self._tag = renderer.AddObserver(vtk.vtkCommand.StartEvent, self._on_start)
+        self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start)
 
     def invalidate(self) -> None:
         """Ask for the pass to run at the next frame."""
@@ -137,6 +138,7 @@ class RenderToTexturePass:
         if not (self._needed or self.every_frame or asked):
             return
         window = self.renderer.GetRenderWindow()
+        TextureUnitLedger.release_window(window)  # between draws: the last one is over
         if self._size_source is not None:
             wanted = tuple(max(1, int(v)) for v in self._size_source())
             fits = all(w <= a for w, a in zip(wanted, self.allocated, strict=True))

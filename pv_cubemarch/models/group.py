@@ -70,7 +70,7 @@ class VolumeGroup:
                              f"got {member!r}.")
         index = names.index(member)
         target = self.members[index]
-        values = checked_values(np.asarray(values), target.name, "raise")
+        values, _ = checked_values(values, target.name, "raise", offset=target.value_offset)
         if values.shape != target.values.shape:
             raise ValueError(f"values must keep {target.name!r}'s shape {target.values.shape}, "
                              f"got {values.shape}.")

@@ -12,11 +12,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import pyvista
 
 from ..core.errors import VolumeDataError
 
 #: Opacity values are clipped below 1 so that the extinction stays finite.
 MAX_OPACITY = 1.0 - 1e-6
+#: Largest extinction per world unit in a table. A tiny ``opacity_unit_distance`` (say
+#: 1e-300) would overflow float32 to infinity, which the GPU's filtering and the
+#: reference's interpolation turn into NaN (0 * inf): capped here, a sample is still opaque
+#: over any step longer than 1e-28 world units, and sums of four volumes' extinctions and
+#: their products with colours stay finite in float32.
+MAX_EXTINCTION = 1e30
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,8 +73,6 @@ class TransferFunction:
         >>> tf.table.shape
         (256, 4)
         """
-        import pyvista
-
         lo, hi = (float(v) for v in clim)
         if not np.isfinite([lo, hi]).all() or hi <= lo:
             raise VolumeDataError(f"clim must be two finite increasing numbers, got {tuple(clim)}.")
@@ -81,7 +86,9 @@ class TransferFunction:
         lut = pyvista.LookupTable(cmap, n_values=n)
         rgb = np.array([lut.map_value(lo + (hi - lo) * i / (n - 1))[:3] for i in range(n)])
         alpha = _opacity_values(opacity, n)
-        sigma = -np.log1p(-np.clip(alpha, 0.0, MAX_OPACITY)) / float(opacity_unit_distance)
+        with np.errstate(over="ignore"):
+            sigma = -np.log1p(-np.clip(alpha, 0.0, MAX_OPACITY)) / float(opacity_unit_distance)
+        sigma = np.minimum(sigma, MAX_EXTINCTION)
         table = np.column_stack([rgb, sigma]).astype(np.float32)
         return cls(table=table, clim=(lo, hi))
 
@@ -106,8 +113,6 @@ class TransferFunction:
 
 
 def _opacity_values(opacity, n: int) -> np.ndarray:
-    import pyvista
-
     if isinstance(opacity, str):
         try:
             return pyvista.opacity_transfer_function(opacity, n).astype(np.float64) / 255.0

@@ -11,6 +11,8 @@ from ..core.errors import VolumeDataError
 from .transfer import TransferFunction
 
 NAN_POLICIES = ("raise", "zero")
+#: The largest finite float32: volumes are drawn (and referenced) in float32.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @dataclass(eq=False)
@@ -19,6 +21,11 @@ class VolumeModel:
 
     ``values`` is a float32 array indexed ``[i, j, k]`` (x, y, z) over the grid's points;
     ``transform`` maps the grid's own coordinates to world coordinates.
+
+    ``value_offset`` is what was subtracted from the data so that float32 keeps apart
+    values that are close together but far from 0 (e.g. int64 ``2**40 + k``): a point's
+    data value is ``values + value_offset``, and ``transfer.clim`` is in the units of
+    ``values``. It is 0 for data that float32 holds as it is.
     """
 
     grid: pyvista.ImageData
@@ -26,6 +33,7 @@ class VolumeModel:
     transfer: TransferFunction
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     name: str = "volume"
+    value_offset: int | float = 0
 
     @property
     def dimensions(self) -> tuple[int, int, int]:
@@ -55,10 +63,11 @@ class VolumeModel:
 
 
 def as_image_data(data, scalars: str | None = None, nan_policy: str = "raise"):
-    """Check ``data`` and return ``(grid, values, scalars_name)``.
+    """Check ``data`` and return ``(grid, values, scalars_name, value_offset)``.
 
     Accepts a ``pyvista.ImageData`` / ``vtkImageData``, a uniform ``RectilinearGrid`` or a
-    3D numpy array (indexed x, y, z, unit spacing). Raises :class:`VolumeDataError` that
+    3D numpy array (indexed x, y, z, unit spacing). ``values`` is float32 data minus
+    ``value_offset`` (see :func:`checked_values`). Raises :class:`VolumeDataError` that
     says what is wrong and what to do.
     """
     if nan_policy not in NAN_POLICIES:
@@ -68,9 +77,11 @@ def as_image_data(data, scalars: str | None = None, nan_policy: str = "raise"):
             raise VolumeDataError(
                 f"A numpy volume must be 3D (x, y, z), got an array of shape {data.shape}."
             )
+        values, offset = checked_values(data, "values", nan_policy)
         grid = pyvista.ImageData(dimensions=data.shape)
-        grid.point_data["values"] = checked_values(data, "values", nan_policy).ravel(order="F")
-        data, scalars = grid, "values"
+        grid.point_data["values"] = values.ravel(order="F")
+        grid, values = _thicken_flat_axes(grid, values)
+        return grid, np.ascontiguousarray(values, dtype=np.float32), "values", offset
     grid = _as_uniform_grid(data)
     if scalars is None:
         names = list(grid.point_data.keys()) or list(grid.cell_data.keys())
@@ -90,10 +101,10 @@ def as_image_data(data, scalars: str | None = None, nan_policy: str = "raise"):
         raise VolumeDataError(
             f"Array {scalars!r} has {array.shape[1]} components; pass a single-component array."
         )
-    values = checked_values(array, scalars, nan_policy)
+    values, offset = checked_values(array, scalars, nan_policy)
     values = values.reshape(tuple(grid.dimensions), order="F")
     grid, values = _thicken_flat_axes(grid, values)
-    return grid, np.ascontiguousarray(values, dtype=np.float32), scalars
+    return grid, np.ascontiguousarray(values, dtype=np.float32), scalars, offset
 
 
 def _thicken_flat_axes(grid: pyvista.ImageData, values: np.ndarray):
@@ -147,22 +158,95 @@ def _as_uniform_grid(data) -> pyvista.ImageData:
     )
 
 
-def checked_values(array: np.ndarray, name: str, nan_policy: str) -> np.ndarray:
+def checked_values(array, name: str, nan_policy: str = "raise",
+                   offset: int | float | None = None) -> tuple[np.ndarray, int | float]:
+    """Check a volume's data; return it as float32 minus an offset, and the offset.
+
+    float32 (what the GPU and the reference draw) keeps about 7 significant digits, so
+    values close together but far from 0 (int64 ``2**40 + k``, uint64 near ``2**64``,
+    float64 ``1e10 + x``) would merge into one. Their minimum is then subtracted exactly
+    first (integers in integer arithmetic), so distinct values stay distinct; ``offset``
+    gives the shift to use instead (e.g. a volume's own, when its data is replaced).
+    Raises :class:`VolumeDataError` naming ``name`` for data that cannot be drawn.
+    """
+    array = np.asarray(array)
     if array.dtype.kind not in "biuf":
         raise VolumeDataError(
             f"Array {name!r} has dtype {array.dtype}; volumes need real numbers "
             "(float, int or bool). Convert it, e.g. with .astype(numpy.float32)."
         )
-    values = np.asarray(array, dtype=np.float32)
-    bad = ~np.isfinite(values)
-    if bad.any():
-        if nan_policy == "raise":
+    if array.size == 0:
+        raise VolumeDataError(
+            f"Array {name!r} has no values (shape {array.shape}); a volume needs at least one "
+            "point along each axis."
+        )
+    if array.dtype.kind == "f":
+        bad = ~np.isfinite(array)
+        if bad.any():
+            if nan_policy == "raise":
+                raise VolumeDataError(
+                    f"Array {name!r} has {int(bad.sum())} NaN or infinite values; clean them "
+                    "(numpy.nan_to_num) or pass nan_policy='zero' to treat them as 0."
+                )
+            array = np.where(bad, array.dtype.type(0), array)
+    if offset is None:
+        offset = _float32_offset(array)
+    shifted = _minus(array, offset) if offset else array
+    if shifted.dtype.kind == "f" and shifted.dtype.itemsize > 4:
+        beyond = ~(np.abs(shifted) <= FLOAT32_MAX)
+        if beyond.any():
+            largest = float(np.max(np.abs(array[beyond]).astype(np.float64)))
             raise VolumeDataError(
-                f"Array {name!r} has {int(bad.sum())} NaN or infinite values; clean them "
-                "(numpy.nan_to_num) or pass nan_policy='zero' to treat them as 0."
+                f"Array {name!r} has {int(beyond.sum())} value(s) beyond float32's range "
+                f"(magnitude up to {largest:.3g}; float32 holds up to {FLOAT32_MAX:.3g}), and "
+                "volumes are drawn in float32. Rescale the data first (e.g. divide it by a "
+                "power of ten, and clim with it)."
             )
-        values = np.where(bad, np.float32(0.0), values)
-    return values
+    return np.asarray(shifted, dtype=np.float32), offset
+
+
+def _float32_offset(array: np.ndarray) -> int | float:
+    """What to subtract from ``array`` so that float32 keeps its distinct values apart.
+
+    0 when float32 holds the values well as they are: integers up to 2**24 in magnitude
+    (all exact), floats whose range spans thousands of float32 steps at their magnitude.
+    Otherwise the minimum (a Python int for integer data, so the shift is exact).
+    """
+    kind = array.dtype.kind
+    if kind == "b":
+        return 0
+    if kind in "iu":
+        lo, hi = int(array.min()), int(array.max())
+        return lo if max(abs(lo), abs(hi)) > 2**24 else 0
+    lo, hi = float(array.min()), float(array.max())
+    magnitude, span = max(abs(lo), abs(hi)), hi - lo
+    if not np.isfinite(span) or magnitude > FLOAT32_MAX:
+        return 0.0  # a range beyond float32: no shift brings it in (checked by the caller)
+    if span > 0:
+        step = float(np.spacing(np.float32(magnitude)))
+        return lo if step * 4096 > span else 0.0
+    return lo if magnitude >= 2**24 else 0.0  # constant: the default clim needs resolution
+
+
+def _minus(array: np.ndarray, offset: int | float) -> np.ndarray:
+    """``array - offset`` as float64, exact before the final rounding for integer data."""
+    if array.dtype.kind in "iu" and isinstance(offset, (int, np.integer)):
+        # Split 64-bit integers into high and low 32-bit halves: each difference is exact in
+        # int64, and their float64 sum is the correctly rounded ``array - offset``.
+        offset = int(offset)
+        wide = array.astype(np.uint64 if array.dtype.kind == "u" else np.int64)
+        high = (wide >> np.uint64(32) if wide.dtype == np.uint64 else wide >> 32).astype(np.int64)
+        low = (wide & wide.dtype.type(0xFFFFFFFF)).astype(np.int64)
+        return ((high - (offset >> 32)).astype(np.float64) * 2.0**32
+                + (low - (offset & 0xFFFFFFFF)).astype(np.float64))
+    return np.asarray(array, dtype=np.float64) - float(offset)
+
+
+def shift_value(value, offset: int | float) -> float:
+    """A data value (e.g. a clim bound) in the units of a volume's shifted ``values``."""
+    if isinstance(offset, (int, np.integer)) and isinstance(value, (int, np.integer)):
+        return float(int(value) - int(offset))
+    return float(value) - float(offset)
 
 
 def make_volume(data, scalars: str | None = None, *, cmap="magma", opacity="linear",
@@ -170,16 +254,34 @@ def make_volume(data, scalars: str | None = None, *, cmap="magma", opacity="line
                 transfer: TransferFunction | None = None, transform=None,
                 nan_policy: str = "raise", name: str = "volume") -> VolumeModel:
     """Validate ``data`` and bundle it with a transfer function into a :class:`VolumeModel`."""
-    grid, values, scalars = as_image_data(data, scalars, nan_policy)
+    grid, values, scalars, offset = as_image_data(data, scalars, nan_policy)
     if transfer is None:
         if clim is None:
             lo, hi = float(values.min()), float(values.max())
             clim = (lo, hi if hi > lo else lo + 1.0)
+        else:
+            clim = _shifted_clim(clim, offset)
         if opacity_unit_distance is None:
             opacity_unit_distance = float(np.mean(grid.spacing))
         transfer = TransferFunction.from_colormap(cmap, opacity, clim, opacity_unit_distance)
+    elif offset:
+        transfer = TransferFunction(table=transfer.table,
+                                    clim=_shifted_clim(transfer.clim, offset))
     matrix = np.eye(4) if transform is None else checked_transform(transform)
-    return VolumeModel(grid=grid, values=values, transfer=transfer, transform=matrix, name=name)
+    return VolumeModel(grid=grid, values=values, transfer=transfer, transform=matrix, name=name,
+                       value_offset=offset)
+
+
+def _shifted_clim(clim, offset: int | float) -> tuple[float, float]:
+    """``clim`` (data units) in the units of the shifted values, checked in data units."""
+    try:
+        lo, hi = clim
+        ordered = bool(np.isfinite([float(lo), float(hi)]).all() and hi > lo)
+    except (TypeError, ValueError):
+        ordered = False
+    if not ordered:
+        raise VolumeDataError(f"clim must be two finite increasing numbers, got {clim!r}.")
+    return shift_value(lo, offset), shift_value(hi, offset)
 
 
 def checked_transform(transform) -> np.ndarray:
@@ -187,6 +289,14 @@ def checked_transform(transform) -> np.ndarray:
     matrix = np.asarray(transform, dtype=np.float64)
     if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
         raise VolumeDataError(f"transform must be a finite 4x4 matrix, got shape {matrix.shape}.")
+    if not np.allclose(matrix[3], (0.0, 0.0, 0.0, 1.0), rtol=0.0, atol=1e-12):
+        raise VolumeDataError(
+            f"transform must be affine: its last row must be (0, 0, 0, 1), got "
+            f"{tuple(float(v) for v in matrix[3])}. A projective matrix cannot place a volume; "
+            "pass rotation, scaling and translation only."
+        )
     if abs(np.linalg.det(matrix[:3, :3])) < 1e-300:
         raise VolumeDataError("transform must be invertible (its 3x3 part has determinant 0).")
+    matrix = matrix.copy()
+    matrix[3] = (0.0, 0.0, 0.0, 1.0)
     return matrix

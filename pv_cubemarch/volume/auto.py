@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import vtk
 
+from ..core.frame_errors import observe
 from ..core.registry import Technique, register_technique
 from ..gl.box import camera_matrices
 from ..reference.emission_absorption import render_emission_absorption
@@ -114,7 +115,7 @@ class AutoBinding:
         # The cube pass uses this frame's choice and culling, decided once in _choose.
         self.cubemap.cube_pass.run_when = lambda: self.choice == "cubemap" and self._visible
         # Before anything draws: the direct box is drawn by this renderer's translucent pass.
-        self._tag = self.renderer.AddObserver(vtk.vtkCommand.StartEvent, self._choose, 2.0)
+        self._tag = observe(self.renderer, vtk.vtkCommand.StartEvent, self._choose, 2.0)
 
     def _choose(self, *_):
         frame = self.cubemap.frame

@@ -13,6 +13,7 @@ from __future__ import annotations
 import pyvista
 import vtk
 
+from ..core.frame_errors import observe
 from ..core.registry import Sweep, Technique, register_technique
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, box_actor
@@ -151,8 +152,8 @@ def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=No
         binding.renderer = renderer
         binding.follow_multisampling()
         # After the window decided this frame's multisampling, before any prop draws.
-        binding._tag = renderer.AddObserver(vtk.vtkCommand.StartEvent,
-                                            binding.follow_multisampling, 5.0)
+        binding._tag = observe(renderer, vtk.vtkCommand.StartEvent,
+                               binding.follow_multisampling, 5.0)
     else:
         overlay, low_pass = _reduced_resolution(plotter, data, step_scale, shading,
                                                 downsample, light_map)

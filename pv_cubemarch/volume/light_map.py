@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.errors import SceneChangedError
 from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import ShaderRecipe
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, LightSource, VolumeLight
@@ -63,8 +64,11 @@ class LightMap:
         """Whether a light or the volume's placement changed since the last run."""
         lights = self.source()
         if len(lights) != self.count:
-            raise RuntimeError(f"The volume was set up for {self.count} light(s) and the scene "
-                               f"now has {len(lights)}; add the volume again.")
+            raise SceneChangedError(
+                f"Volume {self.model.name!r} was set up for {self.count} light(s) and the scene "
+                f"now has {len(lights)} switched-on light(s); a lit volume keeps the number of "
+                "lights it was added with: add the volume again (or pass lights=[...] to "
+                "add_volume to fix its lights).")
         key = tuple((li.kind, tuple(np.round(li.direction, 12)), tuple(np.round(li.position, 12)))
                     for li in lights) + (self.model.world_from_index().tobytes(),)
         self._lights = lights

@@ -76,7 +76,8 @@ class VolumeData:
         if member is not None:
             raise ValueError(f"member is for volumes marched jointly; {self.model.name!r} is "
                              "a single volume.")
-        values = checked_values(np.asarray(values), self.model.name, "raise")
+        values, _ = checked_values(values, self.model.name, "raise",
+                                   offset=self.model.value_offset)
         if values.shape != self.model.values.shape:
             raise ValueError(f"values must keep the volume's shape {self.model.values.shape}, "
                              f"got {values.shape}.")
