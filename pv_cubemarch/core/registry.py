@@ -96,8 +96,8 @@ def register_technique(technique: Technique) -> Technique:
 
 
 def techniques(kind: str) -> list[Technique]:
-    """The registered techniques of ``kind``, in registration order."""
-    return [t for (k, _), t in _REGISTRY.items() if k == kind]
+    """The registered techniques of ``kind``, by name (an order that import order cannot change)."""
+    return sorted((t for (k, _), t in _REGISTRY.items() if k == kind), key=lambda t: t.name)
 
 
 def get_technique(kind: str, name) -> Technique:

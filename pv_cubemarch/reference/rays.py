@@ -21,11 +21,12 @@ def ray_box_interval(origins, directions, lower, upper):
         t_b = (upper - origins) * inv
     parallel = directions == 0
     inside = (origins >= lower) & (origins <= upper)
-    t_a = np.where(parallel, np.where(inside, -np.inf, np.inf), t_a)
-    t_b = np.where(parallel, np.where(inside, np.inf, -np.inf), t_b)
-    t_near = np.minimum(t_a, t_b).max(axis=-1)
-    t_far = np.maximum(t_a, t_b).min(axis=-1)
-    return t_near, t_far
+    # A parallel axis bounds nothing inside its slab and everything outside it: set the
+    # slab's entry and exit themselves (taking min/max of +-inf afterwards would turn the
+    # empty interval of a ray outside the slab into an unbounded one).
+    t_near = np.where(parallel, np.where(inside, -np.inf, np.inf), np.minimum(t_a, t_b))
+    t_far = np.where(parallel, np.where(inside, np.inf, -np.inf), np.maximum(t_a, t_b))
+    return t_near.max(axis=-1), t_far.min(axis=-1)
 
 
 def trilinear(values: np.ndarray, points: np.ndarray) -> np.ndarray:
