@@ -78,3 +78,20 @@ def technique_options(model, technique, step_scale=0.5, pixels=40.0):
     samples = max(1, round((max(model.dimensions) - 1) / step_scale))
     return {"technique": technique, "max_samples": samples,
             "sample_factor": np.sqrt(3.0) * samples / pixels}
+
+
+def assert_close_to_reference(image, reference, min_psnr, background=BACKGROUND, margin=6.0):
+    """``image`` within ``min_psnr`` of ``reference``, a floor the background alone fails.
+
+    The background-only image must score at least ``margin`` dB under the floor, so a
+    volume that is not drawn at all can never pass (catches: floors such as 15 dB that a
+    blank frame meets).
+    """
+    from pv_cubemarch.testing import compare_images, to_uint8
+
+    errors = compare_images(image, reference)
+    blank = np.broadcast_to(to_uint8(np.asarray(background, dtype=float)), image.shape)
+    empty = compare_images(np.ascontiguousarray(blank), reference)
+    assert empty.psnr <= min_psnr - margin, f"the floor {min_psnr} dB is too low: {empty}"
+    assert errors.psnr >= min_psnr, errors
+    return errors

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import BACKGROUND, blob_grid, set_camera
+from conftest import BACKGROUND, assert_close_to_reference, blob_grid, set_camera
 
 import pv_cubemarch as cm
 from pv_cubemarch.models.lights import VolumeLight
@@ -47,8 +47,7 @@ def reference_for(model, camera, pl, size=SIZE, mesh=None, **kwargs):
 def test_volume_alone_matches_reference(plotter_factory, model):
     pl, actor, camera, image = render(plotter_factory, model, (3.0, 2.0, 4.0))
     reference, _ = reference_for(model, camera, pl)
-    errors = compare_images(image, reference)
-    assert errors.psnr >= 45, errors
+    errors = assert_close_to_reference(image, reference, 45)
     assert errors.max_abs <= 4, errors
 
 
@@ -153,8 +152,7 @@ def test_lit_volume_matches_lit_reference_and_light_map_runs_once(plotter_factor
     reference, _ = reference_for(model, camera, pl, lights=lights)
     unlit, _ = reference_for(model, camera, pl)
     assert compare_images(unlit, reference).psnr < 35  # the lights matter
-    errors = compare_images(image, reference)
-    assert errors.psnr >= 45, errors
+    assert_close_to_reference(image, reference, 45)
     light_map = actor.cubemarch.light_map
     runs = light_map.render_pass.runs
     set_camera(pl, (3.0, 2.5, 4.0))
@@ -211,8 +209,7 @@ def test_two_volumes_side_by_side_composite_in_order(plotter_factory, model):
     camera = set_camera(pl, (2.0, 1.5, 5.0), focal=(0.4, 0.1, -1.2))
     image = cm.render_image(pl)
     reference, _ = reference_for([model, behind], camera, pl)
-    errors = compare_images(image, reference)
-    assert errors.psnr >= 42, errors
+    assert_close_to_reference(image, reference, 42)
 
 
 def test_light_grid_of_the_reference_matches_exact_transmittance(model):

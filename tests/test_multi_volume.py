@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from conftest import BACKGROUND, blob_grid, set_camera
+from conftest import BACKGROUND, assert_close_to_reference, blob_grid, set_camera
 
 import pv_cubemarch as cm
 from pv_cubemarch import VolumeGroup, add_volumes
@@ -40,8 +40,7 @@ def test_interpenetrating_volumes_marched_jointly_match_reference(plotter_factor
     image = cm.render_image(pl)
     reference = cm.render_emission_absorption(list(pair), camera, SIZE, background=BACKGROUND,
                                               near=pl.camera.clipping_range[0])
-    errors = compare_images(image, reference)
-    assert errors.psnr >= 45, errors
+    errors = assert_close_to_reference(image, reference, 45)
     # Compositing the two one after the other is visibly wrong where they overlap.
     separate = plotter_factory(SIZE)
     for volume in pair:
@@ -86,8 +85,7 @@ def test_lit_joint_group_members_shade_each_other(plotter_factory, pair, techniq
                                               near=near, lights=lights)
     each_alone = cm.render_emission_absorption(list(pair), camera, SIZE, near=near,
                                                background=BACKGROUND, lights=lights)
-    errors = compare_images(image, reference)
-    assert errors.psnr >= 45, errors
+    errors = assert_close_to_reference(image, reference, 45)
     # Lighting each member through itself alone misses their shadows on each other (~39 dB
     # against the joint reference, with this light): the GPU image is the joint one.
     assert compare_images(image, each_alone).psnr < errors.psnr - 10
