@@ -172,6 +172,7 @@ def add_volume(
     if isinstance(model, VolumeGroup) and not chosen.groups:
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
+    options.check_model(model)
     component = plotter.cubemarch  # created now: it follows frames and frees on close
     source = light_source(lights, plotter.renderer)
     data = VolumeData(model)

@@ -1,16 +1,20 @@
 // Direct screen-space marcher on a box actor: declarations (after the colour declarations).
 // The box's back faces are drawn; each fragment reconstructs its eye ray from the window
 // position, so the camera inside the box and a near plane cutting it need no special case.
+// VTK's volume mapper (CM_VTK_MAPPER) sets its rays up with the same code and reads its own
+// copy of the opaque depth, so the depth sampler and its reader are left out there.
+uniform vec4 cm_viewport;             // origin and size of the renderer, in pixels
+uniform mat4 cm_inverseProjection;    // normalised device coordinates to view
+uniform mat4 cm_projection;           // view to clip
+uniform mat4 cm_textureFromView;      // view to volume texture coordinates
+
+#ifndef CM_VTK_MAPPER
 #ifdef CM_DEPTH_MULTISAMPLED
 uniform sampler2DMS cm_sceneDepth;    // the frame's own multisampled depth (not written now)
 uniform int cm_depthSamples;
 #else
 uniform sampler2D cm_sceneDepth;      // opaque depth of this frame, over the viewport
 #endif
-uniform vec4 cm_viewport;             // origin and size of the renderer, in pixels
-uniform mat4 cm_inverseProjection;    // normalised device coordinates to view
-uniform mat4 cm_projection;           // view to clip
-uniform mat4 cm_textureFromView;      // view to volume texture coordinates
 
 // Opaque depth under a window position (pixel is in [0, 1] over the viewport).
 float cm_sceneDepthAt(vec2 pixel)
@@ -34,6 +38,7 @@ float cm_sceneDepthAt(vec2 pixel)
   return texture(cm_sceneDepth, pixel).r;
 #endif
 }
+#endif
 
 vec3 cm_viewPoint(vec2 ndc, float windowDepth)
 {

@@ -9,6 +9,18 @@
 // middle of its segment, the last segment is cut at the exit, and its opacity uses its real
 // world length. With CM_SKIP_EMPTY, bricks whose data range maps to zero extinction are
 // stepped over whole: a brick is read once, its exit found by a slab test.
+//
+// Any number of steps: a ray (or, in a joint group, each piece of it) is marched in blocks
+// of CM_STEP_BLOCK steps, at most CM_STEP_BLOCKS blocks; both loops have constant bounds, so
+// no loop can run forever, and their product (2^24) is more than add_volume lets a setting
+// ask for (it refuses step_scale or max_samples that would need more, saying why). Needs
+// cm_slab (slab.glsl).
+//
+// With CM_JOINT (overlapping volumes marched as one medium), the ray is cut where it enters
+// or leaves a member's box, and each piece is stepped cm_stepScale texels of the finest grid
+// over it (the group's virtual grid or a member's own); pieces no member covers hold nothing
+// and are skipped. A tiny member inside a huge one is stepped at its own spacing, the rest of
+// the ray at the huge one's.
 
 uniform vec3 cm_dims;          // texels (points) along x, y, z
 uniform float cm_stepScale;    // step length in texels along the dominant axis
@@ -59,49 +71,103 @@ bool cm_brickIsEmpty(vec3 position)
 }
 #endif
 
+// Texels of a grid of `dims` points that a span (texture coordinates) crosses along its
+// dominant axis.
+float cm_dominantTexels(vec3 span, vec3 dims)
+{
+  vec3 texels = abs(span) * dims;
+  return max(texels.x, max(texels.y, texels.z));
+}
+
+// Composite the piece from a to b (texture coordinates, worldLength world units) into rgba
+// in `steps` equal steps (fractional: the last one is cut at b). False once the ray is
+// opaque enough to stop.
+bool cm_marchPiece(inout vec4 rgba, vec3 a, vec3 b, float worldLength, float steps)
+{
+  vec3 stepVector = (b - a) / steps;
+  float worldStep = worldLength / steps;
+  float t = 0.0;
+  for (int block = 0; block < CM_STEP_BLOCKS; ++block)
+  {
+    for (int i = 0; i < CM_STEP_BLOCK; ++i)
+    {
+      if (t >= steps)
+      {
+        return true;
+      }
+#ifdef CM_SKIP_EMPTY
+      if (cm_brickIsEmpty(a + stepVector * (t + 0.5 * min(1.0, steps - t))))
+      {
+        // Resume on the same step grid, at the step that holds the brick's exit.
+        t = max(t + 1.0, floor(cm_brickExitSteps(a, stepVector, t) + 1e-4));
+        continue;
+      }
+#endif
+      float fraction = min(1.0, steps - t);
+      vec3 middle = a + stepVector * (t + 0.5 * fraction);
+      cm_composite(rgba, cm_emission(middle), worldStep * fraction);
+      if (rgba.a > cm_stopOpacity)
+      {
+        return false;
+      }
+      t += 1.0;
+    }
+  }
+  return true;
+}
+
+#ifdef CM_JOINT
+// A joint group's ray, piece by piece between the members' box boundaries (joint_sample's
+// cm_memberSpans gives where each member's box starts and ends along the ray).
+void cm_marchJoint(inout vec4 rgba, vec3 entry, vec3 exit, float worldLength,
+                   float groupTexels)
+{
+  vec4 enter, leave, texels;
+  cm_memberSpans(entry, exit, enter, leave, texels);
+  float f0 = 0.0;
+  for (int piece = 0; piece < 2 * CM_VOLUME_COUNT + 1; ++piece)
+  {
+    // The next box boundary after f0 (or the ray's end).
+    vec4 nextEnter = mix(vec4(1.0), enter, greaterThan(enter, vec4(f0)));
+    vec4 nextLeave = mix(vec4(1.0), leave, greaterThan(leave, vec4(f0)));
+    vec4 next = min(min(nextEnter, nextLeave), vec4(1.0));
+    float f1 = min(min(next.x, next.y), min(next.z, next.w));
+    float middle = 0.5 * (f0 + f1);
+    vec4 covers = step(enter, vec4(middle)) * step(vec4(middle), leave);
+    if (f1 > f0 && dot(covers, vec4(1.0)) > 0.0)
+    {
+      vec4 own = covers * texels;
+      float finest = max(groupTexels, max(max(own.x, own.y), max(own.z, own.w)));
+      float steps = max(finest * (f1 - f0) / cm_stepScale, 1e-6);
+      if (!cm_marchPiece(rgba, mix(entry, exit, f0), mix(entry, exit, f1),
+                         worldLength * (f1 - f0), steps))
+      {
+        return;
+      }
+    }
+    f0 = f1;
+    if (f0 >= 1.0)
+    {
+      return;
+    }
+  }
+}
+#endif
+
 // March from entry to exit (texture coordinates) over worldLength world units and return
 // premultiplied rgba (rgb emitted colour, a opacity).
 vec4 cm_march(vec3 entry, vec3 exit, float worldLength)
 {
   vec4 rgba = vec4(0.0);
-  vec3 span = exit - entry;
-  vec3 texels = abs(span) * cm_dims;
-  float dominant = max(texels.x, max(texels.y, texels.z));
+  float dominant = cm_dominantTexels(exit - entry, cm_dims);
   if (!(worldLength > 0.0) || !(dominant > 0.0))
   {
     return rgba;
   }
-  float steps = max(dominant / cm_stepScale, 1e-6);   // fractional number of steps
-  vec3 stepVector = span / steps;
-  float worldStep = worldLength / steps;
-  float t = 0.0;
-  // Any number of steps: the inner loop has a fixed bound, the outer one repeats it until
-  // the ray's end (steps is finite, so this ends; a NaN fails the test and ends at once).
-  while (t < steps)
-  {
-    for (int i = 0; i < CM_STEPS_PER_LOOP; ++i)
-    {
-      if (t >= steps)
-      {
-        break;
-      }
-#ifdef CM_SKIP_EMPTY
-      if (cm_brickIsEmpty(entry + stepVector * (t + 0.5 * min(1.0, steps - t))))
-      {
-        // Resume on the same step grid, at the step that holds the brick's exit.
-        t = max(t + 1.0, floor(cm_brickExitSteps(entry, stepVector, t) + 1e-4));
-        continue;
-      }
+#ifdef CM_JOINT
+  cm_marchJoint(rgba, entry, exit, worldLength, dominant);
+#else
+  cm_marchPiece(rgba, entry, exit, worldLength, max(dominant / cm_stepScale, 1e-6));
 #endif
-      float fraction = min(1.0, steps - t);
-      vec3 middle = entry + stepVector * (t + 0.5 * fraction);
-      cm_composite(rgba, cm_emission(middle), worldStep * fraction);
-      if (rgba.a > cm_stopOpacity)
-      {
-        return rgba;
-      }
-      t += 1.0;
-    }
-  }
   return rgba;
 }

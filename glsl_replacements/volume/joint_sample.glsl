@@ -62,3 +62,41 @@ vec4 cm_unlitEmission(vec3 texturePosition)
 #endif
   return vec4(sum.a > 0.0 ? sum.rgb / sum.a : vec3(0.0), sum.a);
 }
+
+// Where the ray from a to b (group texture coordinates) runs inside a member's box of texel
+// centres, as fractions enter..leave of it (both 2 when it misses), and the member's texels
+// the whole ray spans along its dominant axis (the march steps each piece on its finest grid).
+void cm_memberSpan(mat4 fromGroup, vec3 dims, vec3 a, vec3 b, out float enter,
+                   out float leave, out float texels)
+{
+  vec3 p = (fromGroup * vec4(a, 1.0)).xyz;
+  vec3 d = (fromGroup * vec4(b, 1.0)).xyz - p;
+  vec2 inBox = cm_slab(p, d, 0.5 / dims, 1.0 - 0.5 / dims);
+  enter = clamp(inBox.x, 0.0, 1.0);
+  leave = clamp(inBox.y, 0.0, 1.0);
+  if (!(leave > enter))
+  {
+    enter = 2.0;
+    leave = 2.0;
+  }
+  vec3 spanTexels = abs(d) * dims;
+  texels = max(spanTexels.x, max(spanTexels.y, spanTexels.z));
+}
+
+// Every member's span along the ray, one per component (unused components: 2, 2, 0).
+void cm_memberSpans(vec3 a, vec3 b, out vec4 enter, out vec4 leave, out vec4 texels)
+{
+  enter = vec4(2.0);
+  leave = vec4(2.0);
+  texels = vec4(0.0);
+  cm_memberSpan(cm_memberFromGroup0, cm_memberDims0, a, b, enter.x, leave.x, texels.x);
+#if CM_VOLUME_COUNT > 1
+  cm_memberSpan(cm_memberFromGroup1, cm_memberDims1, a, b, enter.y, leave.y, texels.y);
+#endif
+#if CM_VOLUME_COUNT > 2
+  cm_memberSpan(cm_memberFromGroup2, cm_memberDims2, a, b, enter.z, leave.z, texels.z);
+#endif
+#if CM_VOLUME_COUNT > 3
+  cm_memberSpan(cm_memberFromGroup3, cm_memberDims3, a, b, enter.w, leave.w, texels.w);
+#endif
+}

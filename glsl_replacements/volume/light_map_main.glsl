@@ -27,14 +27,14 @@ float cm_transmittanceToward(vec3 start, vec4 light)
   float steps = max(dominant / cm_lightStepScale, 1e-6);
   float opticalDepth = 0.0;
   float t = 0.0;
-  // Any number of steps, as in cm_march: a bounded inner loop repeated to the end.
-  while (t < steps && opticalDepth <= 30.0)
+  // Any number of steps, in bounded blocks (as ea_march's cm_marchPiece).
+  for (int block = 0; block < CM_STEP_BLOCKS; ++block)
   {
-    for (int i = 0; i < CM_STEPS_PER_LOOP; ++i)
+    for (int i = 0; i < CM_STEP_BLOCK; ++i)
     {
       if (t >= steps || opticalDepth > 30.0)
       {
-        break;
+        return exp(-opticalDepth);
       }
       float fraction = min(1.0, steps - t);
       vec3 middle = start + path * ((t + 0.5 * fraction) / steps);

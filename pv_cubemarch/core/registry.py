@@ -39,7 +39,8 @@ class Technique:
         dispatches among its own kind.
     options : type
         A frozen dataclass whose fields are the options the technique reads, with
-        ``check()`` raising a clear error for a bad value.
+        ``check()`` raising a clear error for a bad value and ``check_model(model)`` for
+        a value the data cannot take (e.g. more steps than a ray can march).
     build : callable
         Makes the technique's actor(s) for one model.
     reference : callable

@@ -43,14 +43,21 @@ def box_actor(upper, world_from_index: np.ndarray) -> pyvista.Actor:
     return actor
 
 
-def place_box(actor, world_from_index: np.ndarray) -> None:
-    """Place a box actor; the culled side follows the placement's handedness."""
+def place_box(actor, world_from_index: np.ndarray, culling: bool = True) -> None:
+    """Place an actor drawn in index space; a box's culled side follows the handedness.
+
+    A placement with a negative determinant (negative spacing, a mirroring direction or
+    transform) reverses the winding of every face on screen, so the faces GL sees as front
+    faces are then the box's back faces: with ``culling`` (the box actors, which draw only
+    back faces) the back faces are culled instead. Called again when the placement changes.
+    """
     matrix = vtk.vtkMatrix4x4()
     matrix.DeepCopy(np.ascontiguousarray(world_from_index, dtype=np.float64).ravel().tolist())
     actor.SetUserMatrix(matrix)
-    mirrored = bool(np.linalg.det(np.asarray(world_from_index)[:3, :3]) < 0)
-    actor.GetProperty().SetFrontfaceCulling(not mirrored)
-    actor.GetProperty().SetBackfaceCulling(mirrored)
+    if culling:
+        mirrored = bool(np.linalg.det(np.asarray(world_from_index)[:3, :3]) < 0)
+        actor.GetProperty().SetFrontfaceCulling(not mirrored)
+        actor.GetProperty().SetBackfaceCulling(mirrored)
 
 
 def bind_camera(target, renderer, world_from_texture: Callable[[], np.ndarray]) -> None:

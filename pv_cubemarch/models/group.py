@@ -14,14 +14,22 @@ from .volume import VolumeModel, checked_values
 
 #: Most members one joint group marches (GLSL 1.50 needs one set of uniforms per member).
 MAX_GROUP_MEMBERS = 4
+#: The virtual grid of a group has at most this many times the points of its largest
+#: member's longest axis along the union box's longest axis (see :class:`VolumeGroup`).
+GROUP_GRID_FACTOR = 2
 
 
 class VolumeGroup:
     """Overlapping volumes drawn as one: the union of their world boxes on a virtual grid.
 
-    The grid is axis-aligned in the world, as fine as the finest member's voxels; it holds
-    no data, only the placement the marchers step through. Each member keeps its own data,
-    transfer function and placement.
+    The grid is axis-aligned in the world; it holds no data, only the placement the
+    marchers step through. It is as fine as the finest member's voxels, but has at most
+    ``GROUP_GRID_FACTOR`` times the largest member's points along the union box's longest
+    axis: a tiny member inside a huge one would otherwise make every ray across the union
+    box take millions of steps. The march cuts each ray where it enters or leaves a member's
+    box and steps every piece on the finest grid over it (this grid or a member's own,
+    ``ea_march.glsl``), so a member finer than the grid is still stepped at its own spacing.
+    Each member keeps its own data, transfer function and placement.
     """
 
     def __init__(self, members: list[VolumeModel], name: str | None = None):
@@ -40,6 +48,8 @@ class VolumeGroup:
         upper = bounds[:, 1::2].max(axis=0)
         spacing = min(float(np.linalg.norm(m.world_from_index()[:3, :3], axis=0).min())
                       for m in members)
+        most_points = GROUP_GRID_FACTOR * max(max(m.dimensions) for m in members)
+        spacing = max(spacing, float((upper - self.lower).max()) / (most_points - 1))
         extent = np.maximum(upper - self.lower, spacing)
         self.shape = tuple(int(math.ceil(e / spacing - 1e-9)) + 1 for e in extent)
         self.spacing = extent / (np.array(self.shape) - 1.0)

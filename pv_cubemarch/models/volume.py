@@ -122,9 +122,20 @@ def _thicken_flat_axes(grid: pyvista.ImageData, values: np.ndarray):
     for axis in flat:
         values = np.repeat(values, 2, axis=axis)
         origin = origin - direction[:, axis] * spacing[axis] / 2.0
-    thick = pyvista.ImageData(dimensions=values.shape, spacing=spacing, origin=origin)
+    thick = image_data(values.shape, spacing, origin)
     thick.direction_matrix = direction
     return thick, values
+
+
+def image_data(dimensions, spacing, origin) -> pyvista.ImageData:
+    """A ``pyvista.ImageData``, also with a negative spacing (a mirrored axis).
+
+    PyVista's constructor refuses negative spacings; VTK's setter takes them, and every
+    technique draws such a grid as the mirror it is.
+    """
+    grid = pyvista.ImageData(dimensions=dimensions, origin=origin)
+    grid.SetSpacing(*(float(s) for s in spacing))
+    return grid
 
 
 def _as_uniform_grid(data) -> pyvista.ImageData:
@@ -138,11 +149,8 @@ def _as_uniform_grid(data) -> pyvista.ImageData:
                 "The RectilinearGrid has non-uniform spacing; resample it to a uniform "
                 "pyvista.ImageData first (e.g. grid.sample(pyvista.ImageData(...)))."
             )
-        image = pyvista.ImageData(
-            dimensions=data.dimensions,
-            spacing=[s[0] if s.size else 1.0 for s in steps],
-            origin=[a[0] for a in axes],
-        )
+        image = image_data(data.dimensions, [s[0] if s.size else 1.0 for s in steps],
+                           [a[0] for a in axes])
         image.point_data.update(data.point_data)
         image.cell_data.update(data.cell_data)
         return image
@@ -262,7 +270,7 @@ def make_volume(data, scalars: str | None = None, *, cmap="magma", opacity="line
         else:
             clim = _shifted_clim(clim, offset)
         if opacity_unit_distance is None:
-            opacity_unit_distance = float(np.mean(grid.spacing))
+            opacity_unit_distance = float(np.mean(np.abs(grid.spacing)))
         transfer = TransferFunction.from_colormap(cmap, opacity, clim, opacity_unit_distance)
     elif offset:
         transfer = TransferFunction(table=transfer.table,

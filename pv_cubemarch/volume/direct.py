@@ -23,6 +23,7 @@ from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..reference.emission_absorption import render_emission_absorption
 from .march import (
+    DECLARATION_SNIPPETS,
     MARCH_SNIPPETS,
     VolumeBinding,
     VolumeData,
@@ -43,7 +44,7 @@ def direct_recipe(defines: dict, lit: bool = False,
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Color::Dec",
-                        ("ea_declarations", sampling, "ea_direct_declarations",
+                        (*DECLARATION_SNIPPETS, sampling, "ea_direct_declarations",
                          *MARCH_SNIPPETS, *(("light_sample",) if lit else ()),
                          "ea_screen_ray"),
                         keep_tag="after"),
@@ -60,7 +61,7 @@ def upsample_recipe(defines: dict) -> ShaderRecipe:
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Color::Dec",
-                        ("ea_declarations", "volume_sample", "ea_direct_declarations",
+                        (*DECLARATION_SNIPPETS, "volume_sample", "ea_direct_declarations",
                          *MARCH_SNIPPETS, "ea_screen_ray", "ea_upsample_declarations"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_upsample_fragment", keep_tag="before"),
@@ -206,7 +207,7 @@ def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
         defines.update(light_map.defines)
         lit = ("light_sample",)
     low_pass.set_recipe(ShaderRecipe(
-        standalone=("pass_head", "ea_declarations", sampling, "ea_direct_declarations",
+        standalone=("pass_head", *DECLARATION_SNIPPETS, sampling, "ea_direct_declarations",
                     *MARCH_SNIPPETS, *lit, "ea_screen_ray", "ea_reduced_main"),
         defines=defines))
     return overlay, low_pass

@@ -12,7 +12,13 @@ from ..core.errors import SceneChangedError
 from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import ShaderRecipe
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, LightSource, VolumeLight
-from .march import MARCH_SNIPPETS, VolumeData, bind_sampling, world_from_texture
+from .march import (
+    DECLARATION_SNIPPETS,
+    MARCH_SNIPPETS,
+    VolumeData,
+    bind_sampling,
+    world_from_texture,
+)
 
 
 class LightMap:
@@ -48,7 +54,7 @@ class LightMap:
                                                self.size * self.size), run_when=self._changed)
         sampling, defines = bind_sampling(self.render_pass, data, 1.0, 1.0, skip_empty=False)
         self.render_pass.set_recipe(ShaderRecipe(
-            standalone=("pass_head", "ea_declarations", sampling, *MARCH_SNIPPETS,
+            standalone=("pass_head", *DECLARATION_SNIPPETS, sampling, *MARCH_SNIPPETS,
                         "light_map_main"),
             defines=dict(defines, CM_LIGHT_COUNT=self.count)))
         self.render_pass.set_uniform("cm_lightMapSize", float(self.size))

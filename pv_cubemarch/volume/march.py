@@ -11,9 +11,9 @@ differ only in how a ray is set up and where its result goes.
 from __future__ import annotations
 
 import numpy as np
-import vtk
 
 from ..gl.bindings import ShaderBindings
+from ..gl.box import place_box
 from ..gl.overlay import place_bounds_proxy
 from ..gl.shaders import ShaderRecipe
 from ..gl.textures import Texture
@@ -21,10 +21,16 @@ from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel, checked_transform, checked_values
 from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
 
-#: Steps of one inner marching loop; an outer loop repeats it, so rays are never cut.
-STEPS_PER_LOOP = 4096
-#: The snippets every marching shader includes, in order (the slab test, then the marcher).
-MARCH_SNIPPETS = ("slab", "ea_march")
+#: The marcher's loops (ea_march.glsl): blocks of STEP_BLOCK steps, at most STEP_BLOCKS
+#: blocks, so a ray (a piece of one in a joint group) takes up to MAX_STEPS steps while every
+#: GLSL loop keeps a constant bound; the options refuse settings that need more.
+STEP_BLOCK = 4096
+STEP_BLOCKS = 4096
+MAX_STEPS = STEP_BLOCK * STEP_BLOCKS
+#: What every marching shader declares first: the transfer lookup, the one slab test.
+DECLARATION_SNIPPETS = ("ea_declarations", "slab")
+#: The marcher itself (after the sampling snippet and the ray set-up's declarations).
+MARCH_SNIPPETS = ("ea_march",)
 
 
 def world_from_texture(model: VolumeModel | VolumeGroup) -> np.ndarray:
@@ -101,10 +107,20 @@ class VolumeData:
             texture.release()
 
 
+def most_texels(model) -> int:
+    """Most texels a ray can cross along its dominant axis in one piece of its march.
+
+    One volume: its longest axis. A joint group steps each piece of a ray on the finest grid
+    over it (its virtual grid or a member's own), so: the longest axis of any of them.
+    """
+    grids = [model, *(model.members if isinstance(model, VolumeGroup) else [])]
+    return max(max(max(grid.dimensions) - 1, 1) for grid in grids)
+
+
 def march_defines(model, skipping: bool) -> dict:
     """The feature switches every marching shader of ``model`` needs."""
-    defines = {"CM_TABLE_SIZE": model.transfer.n_colors, "CM_STEPS_PER_LOOP": STEPS_PER_LOOP,
-               "CM_SKIP_EMPTY": bool(skipping)}
+    defines = {"CM_TABLE_SIZE": model.transfer.n_colors, "CM_STEP_BLOCK": STEP_BLOCK,
+               "CM_STEP_BLOCKS": STEP_BLOCKS, "CM_SKIP_EMPTY": bool(skipping)}
     if isinstance(model, VolumeGroup):
         defines.update(CM_JOINT=True, CM_VOLUME_COUNT=len(model.members))
     return defines
@@ -240,12 +256,9 @@ class VolumeBinding:
                              "with their new transforms (pv_cubemarch.add_volumes).")
         self.model.transform = checked_transform(transform)
         for actor in self.drawn:
-            # VTK's mapper places its grid (origin, spacing) itself; a box spans index space.
-            placement = self.model.transform if self.vtk_input is not None \
-                else self.model.world_from_index()
-            matrix = vtk.vtkMatrix4x4()
-            matrix.DeepCopy(np.ascontiguousarray(placement).ravel().tolist())
-            actor.SetUserMatrix(matrix)
+            # VTK's input grid and the boxes all span index space; a mirroring placement
+            # turns a box inside out, so its culling is chosen again.
+            place_box(actor, self.model.world_from_index(), culling=self.vtk_input is None)
         follow_placement(self)
 
     def set_values(self, values, member: str | None = None) -> None:

@@ -12,9 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
+from .march import MAX_STEPS, most_texels
 
-#: Smallest ``step_scale``: a ray across a 1000-texel grid then takes 10 million steps.
-MIN_STEP_SCALE = 1e-4
 #: Default finest face size ``S_0`` of the cube map (texels per face edge at MIP level 0).
 DEFAULT_FACE_SIZE = 256
 #: Default ``k_z`` of the bilateral depth filter (000 uses 0.5), per cube-map texel of depth.
@@ -51,6 +50,11 @@ def whole_number(name: str, value, low: int, high: int | None = None) -> int:
     return int(value)
 
 
+def default_max_samples(model) -> int:
+    """Two samples per texel along the cube's diagonal (the direct marcher's default step)."""
+    return max(1, 2 * (max(model.dimensions) - 1))
+
+
 @dataclass(frozen=True)
 class Shading:
     """Options every volume technique reads: termination, skipping, lights."""
@@ -76,9 +80,20 @@ class MarchOptions:
     def check(self) -> None:
         """Raise a clear error for a bad option."""
         positive_number("step_scale", self.step_scale, 0.0, 1e3)
-        if float(self.step_scale) < MIN_STEP_SCALE:
-            raise ValueError(f"step_scale={self.step_scale} would take over 10 million steps "
-                             f"across a 1000-texel grid; use at least {MIN_STEP_SCALE}.")
+
+    def check_model(self, model) -> None:
+        """Refuse a step that would ask a ray through ``model`` for more steps than it takes.
+
+        The marcher takes any number of steps up to ``MAX_STEPS`` per ray (per piece of a
+        ray in a joint group); beyond that the ray would be cut short, silently too light.
+        """
+        texels = most_texels(model)
+        steps = texels / float(self.step_scale)
+        if steps > MAX_STEPS:
+            raise ValueError(
+                f"step_scale={self.step_scale:g} asks for up to {steps:,.0f} steps per ray "
+                f"across {texels} texels, more than the {MAX_STEPS:,} steps a ray can take; "
+                f"use step_scale >= {texels / MAX_STEPS:.3g}.")
 
 
 @dataclass(frozen=True)
@@ -114,6 +129,17 @@ class CubeMapOptions:
         positive_number("sample_factor", self.sample_factor)
         positive_number("occlusion_sharpness", self.occlusion_sharpness, closed_low=True)
 
+    def check_model(self, model) -> None:
+        """Refuse ``max_samples`` that would ask a ray for more steps than it takes."""
+        samples = int(self.max_samples or default_max_samples(model))
+        # The cube map steps (longest axis of the volume's own grid) / samples texels.
+        steps = samples * most_texels(model) / max(max(model.dimensions) - 1, 1)
+        if steps > MAX_STEPS:
+            raise ValueError(
+                f"max_samples={samples:,} asks for up to {steps:,.0f} steps per ray, more "
+                f"than the {MAX_STEPS:,} steps a ray can take; use max_samples <= "
+                f"{int(samples * MAX_STEPS / steps):,}.")
+
 
 @dataclass(frozen=True)
 class AutoOptions(CubeMapOptions):
@@ -125,6 +151,11 @@ class AutoOptions(CubeMapOptions):
         """Raise a clear error for a bad option."""
         super().check()
         self.direct.check()
+
+    def check_model(self, model) -> None:
+        """Both paths' step limits."""
+        self.cubemap.check_model(model)
+        self.direct.check_model(model)
 
     @property
     def direct(self) -> DirectOptions:

@@ -1,37 +1,56 @@
 """Emission/absorption ray casting (004) inside VTK's GPU volume mapper (``technique='vtk'``).
 
-VTK's ``vtkOpenGLGPUVolumeRayCastMapper`` sets up the ray (entry at the box or the near
-plane, exit at the box or the opaque depth); we replace its per-sample work with the shared
-marcher: front-to-back emission/absorption from our own transfer table, the exponential
-opacity correction for the real segment length and early ray termination.
+VTK's ``vtkOpenGLGPUVolumeRayCastMapper`` draws the volume's box and copies the opaque
+depth; the box's clip position and each fragment's ray (entry at the box or the near plane,
+exit at the box or the opaque depth) come from our own camera-relative matrices, made in
+double precision, so volumes far from the origin stay exact. Its per-sample work is the
+shared marcher: front-to-back emission/absorption from our own transfer table, the
+exponential opacity correction for the real segment length and early ray termination.
 """
 
 from __future__ import annotations
 
-import numpy as np
 import pyvista
 import vtk
 
 from ..core.registry import Sweep, Technique, register_technique
 from ..gl.bindings import ShaderBindings
+from ..gl.box import bind_camera, camera_matrices, place_box
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..models.volume import VolumeModel
 from ..reference.emission_absorption import render_emission_absorption
-from .march import MARCH_SNIPPETS, VolumeBinding, VolumeData, bind_sampling
+from .march import (
+    DECLARATION_SNIPPETS,
+    MARCH_SNIPPETS,
+    VolumeBinding,
+    VolumeData,
+    bind_sampling,
+    world_from_texture,
+)
 from .options import STEP_SCALES, MarchOptions
 
 
 def vtk_mapper_recipe(defines: dict, lit: bool) -> ShaderRecipe:
-    """The shader replacements of the VTK-mapper path."""
+    """The shader replacements of the VTK-mapper path.
+
+    VTK's mapper draws the box and copies the opaque depth; the box's clip position and each
+    fragment's ray come from our own camera-relative matrices (``ea_vtk_clip_position``,
+    ``ea_vtk_ray_init`` with the direct marcher's ray code), not from VTK's float32 set-up.
+    """
     return ShaderRecipe(
         replacements=[
-            Replacement("//VTK::Base::Dec", "ea_declarations", keep_tag="after"),
+            Replacement("//VTK::Base::Dec", DECLARATION_SNIPPETS, keep_tag="after"),
             Replacement("//VTK::ComputeColor::Dec",
-                        ("ea_vtk_declarations", *MARCH_SNIPPETS,
-                         *(("light_sample",) if lit else ())), keep_tag="after"),
+                        ("ea_vtk_declarations", "ea_direct_declarations", *MARCH_SNIPPETS,
+                         *(("light_sample",) if lit else ()), "ea_screen_ray"),
+                        keep_tag="after"),
             Replacement("//VTK::Shading::Init", "ea_vtk_ray_init"),
+            Replacement("//VTK::Base::Dec", "ea_vtk_vertex_declarations", stage="vertex",
+                        keep_tag="after"),
+            Replacement("//VTK::ComputeClipPos::Impl", "ea_vtk_clip_position",
+                        stage="vertex", keep_tag="before"),
         ],
-        defines=defines,
+        defines=dict(defines, CM_VTK_MAPPER=True),
     )
 
 
@@ -39,9 +58,14 @@ def build_vtk_actor(plotter, data: VolumeData, options, shading, light_map=None)
     """A ``pyvista.Volume`` drawn by VTK's GPU mapper with our marcher; returns the actor."""
     model: VolumeModel = data.model
     step_scale = options.step_scale
-    grid = pyvista.ImageData(dimensions=model.dimensions, spacing=model.grid.spacing,
-                             origin=model.grid.origin)
-    grid.direction_matrix = model.grid.direction_matrix
+    # VTK's mapper gets the grid in index space (origin 0, spacing 1, no rotation) and the
+    # whole placement in the actor's matrix: a mirrored grid (negative spacing, a direction
+    # with determinant -1) is then an ordinary grid under a mirroring matrix, which VTK draws,
+    # and vertex positions stay small. Far from the origin VTK's float32 set-up still fails
+    # (its clip position multiplies world-sized matrices on the GPU, its rays end at the
+    # opaque depth through their inverses), so the clip position and the rays come from our
+    # camera-relative matrices, made in double precision (vtk_mapper_recipe).
+    grid = pyvista.ImageData(dimensions=model.dimensions)
     grid.point_data["scalars"] = model.values.ravel(order="F")
     mapper = vtk.vtkOpenGLGPUVolumeRayCastMapper()
     mapper.SetInputData(grid)
@@ -49,17 +73,23 @@ def build_vtk_actor(plotter, data: VolumeData, options, shading, light_map=None)
     mapper.SetAutoAdjustSampleDistances(False)
     mapper.SetLockSampleDistanceToInputSpacing(False)
     mapper.SetUseJittering(False)
-    mapper.SetSampleDistance(step_scale * float(np.min(model.grid.spacing)))
+    mapper.SetSampleDistance(step_scale)  # index units; VTK's own loop never runs
     prop = vtk.vtkVolumeProperty()
     prop.SetInterpolationTypeToLinear()
     prop.ShadeOff()
     actor = pyvista.Volume()
     actor.SetMapper(mapper)
     actor.SetProperty(prop)
-    matrix = vtk.vtkMatrix4x4()
-    matrix.DeepCopy(np.asarray(model.transform, dtype=np.float64).ravel().tolist())
-    actor.SetUserMatrix(matrix)
-    bindings = ShaderBindings(mapper, plotter.renderer)
+    place_box(actor, model.world_from_index(), culling=False)
+    renderer = plotter.renderer
+    bindings = ShaderBindings(mapper, renderer)
+    bind_camera(bindings, renderer, lambda: world_from_texture(model))
+
+    def clip_from_index():
+        view, projection = camera_matrices(renderer)
+        return projection @ view @ model.world_from_index()
+
+    bindings.set_uniform("cm_clipFromIndex", clip_from_index)
     _, defines = bind_sampling(bindings, data, step_scale, shading.stop_opacity,
                                shading.skip_empty, sample_data=False)
     if light_map is not None:

@@ -31,8 +31,15 @@ from ...gl.passes import RenderToTexturePass
 from ...gl.shaders import Replacement, ShaderRecipe
 from ...models.volume import VolumeModel
 from ...reference.emission_absorption import render_emission_absorption
-from ..march import MARCH_SNIPPETS, VolumeBinding, VolumeData, bind_sampling, world_from_texture
-from ..options import CubeMapOptions
+from ..march import (
+    DECLARATION_SNIPPETS,
+    MARCH_SNIPPETS,
+    VolumeBinding,
+    VolumeData,
+    bind_sampling,
+    world_from_texture,
+)
+from ..options import CubeMapOptions, default_max_samples
 from .lod import LodChoice, choose_lod, cube_corners, project_corners, visible_face_mask
 
 CUBE_TARGETS = ("rgba16f", "r32f")  # colour (premultiplied), the view distance of each ray
@@ -45,11 +52,6 @@ def world_from_local(model: VolumeModel) -> np.ndarray:
     index_from_local[:3, :3] = np.diag(upper / 2.0)
     index_from_local[:3, 3] = upper / 2.0
     return model.world_from_index() @ index_from_local
-
-
-def default_max_samples(model: VolumeModel) -> int:
-    """Two samples per texel along the cube's diagonal (the direct marcher's default step)."""
-    return max(1, 2 * (max(model.dimensions) - 1))
 
 
 class CubeFrame:
@@ -134,7 +136,7 @@ def _outside_frustum(clip_from_local: np.ndarray) -> bool:
 
 
 def _pass_snippets(lit: bool, sampling: str) -> tuple[str, ...]:
-    return ("pass_head", "ea_declarations", sampling, "ea_direct_declarations",
+    return ("pass_head", *DECLARATION_SNIPPETS, sampling, "ea_direct_declarations",
             *MARCH_SNIPPETS, *(("light_sample",) if lit else ()), "ea_screen_ray",
             "cube_faces", "cube_march_main")
 
