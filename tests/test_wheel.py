@@ -7,6 +7,7 @@ import shutil
 import subprocess
 import sys
 import zipfile
+from pathlib import Path
 
 from conftest import ROOT, SCENE
 
@@ -38,12 +39,20 @@ def test_wheel_carries_glsl_and_renders_from_elsewhere(tmp_path):
     assert install.returncode == 0, install.stderr
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
-    code = ("import pv_cubemarch, sys; print(pv_cubemarch.__file__); "
+    # catches: a subpackage left out of pyproject's package list (the editable install of
+    # the checkout would still find it; the wheel would not).
+    packages = {str(p.parent.relative_to(ROOT))
+                for p in (ROOT / "pv_cubemarch").rglob("__init__.py")}
+    assert packages <= {str(Path(n).parent) for n in names if n.endswith("__init__.py")}
+    code = ("import pv_cubemarch, sys; "
             f"pv_cubemarch.load_scene({str(SCENE)!r}).render('out.png', size=(48, 32), "
-            "progress_bar=False)")
+            "progress_bar=False); "
+            "print('\\n'.join(m.__file__ for n, m in sorted(sys.modules.items()) "
+            "if n.startswith('pv_cubemarch') and getattr(m, '__file__', None)))")
     env = dict(os.environ, PYTHONPATH=str(site))
     run = subprocess.run([sys.executable, "-c", code], cwd=elsewhere, capture_output=True,
                          text=True, env=env, timeout=300)
     assert run.returncode == 0, run.stderr
-    assert run.stdout.strip().startswith(str(site))
+    loaded = run.stdout.split()
+    assert len(loaded) > 20 and all(path.startswith(str(site)) for path in loaded), loaded
     assert (elsewhere / "out.png").stat().st_size > 0
