@@ -80,9 +80,9 @@ def add_volume(
     step_scale : float, optional
         ``'vtk'``, ``'direct'`` and ``'auto'``: step length in texels along the ray's
         dominant texture axis (texel-spaced sampling, 0.5 by default). Smaller is more
-        accurate and slower (cost grows as ``1 / step_scale``); any number of steps is
-        marched. ``'cubemap'`` sets its step from ``max_samples`` instead (passing
-        ``step_scale`` with it is an error).
+        accurate and slower (cost grows as ``1 / step_scale``); up to 2^24 steps per ray
+        are marched, and a value that would need more is refused. ``'cubemap'`` sets its
+        step from ``max_samples`` instead (passing ``step_scale`` with it is an error).
     stop_opacity : float
         Early ray termination: stop once the accumulated opacity exceeds this (in (0, 1]).
     skip_empty : bool
@@ -141,10 +141,11 @@ def add_volume(
     -------
     pyvista.Prop3D
         The actor the plotter knows (by ``name``): VTK's volume for ``'vtk'``, the box for
-        ``'direct'``, otherwise an invisible prop spanning the volume's bounds that stands
-        for it (the volume is drawn after the scene). ``actor.cubemarch`` holds the model,
-        the bindings and ``set_values`` / ``set_transform``; ``plotter.remove_actor(actor)``
-        (or adding another actor under the same name) removes the volume and frees it.
+        ``'direct'`` at full resolution, otherwise an invisible prop spanning the volume's
+        bounds that stands for it (the volume is drawn after the scene).
+        ``actor.cubemarch`` holds the model, the bindings and ``set_values`` /
+        ``set_transform``; ``plotter.remove_actor(actor)`` (or adding another actor under
+        the same name) removes the volume and frees it; hiding the actor hides it.
 
     Examples
     --------

@@ -51,9 +51,8 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--step-scale", type=float,
                         help="ray step as a fraction of a voxel, for every volume")
     render.add_argument("--technique", choices=[t.name for t in techniques("volume")],
-                        help="how every volume is drawn: vtk (VTK's mapper), direct (one ray "
-                             "per pixel), cubemap (one ray per cube-map texel, 000), auto "
-                             "(cubemap or direct per volume and frame)")
+                        help="how every volume is drawn: " + "; ".join(
+                            f"{t.name}: {t.summary}" for t in techniques("volume")))
     render.add_argument("--stop-opacity", type=float,
                         help="early ray termination threshold for every volume")
     render.add_argument("--downsample", type=int,
@@ -137,18 +136,29 @@ def _render(args) -> int:
               "upscale": args.upscale, "sample_factor": args.sample_factor,
               "occlusion_sharpness": args.occlusion_sharpness, "lights": args.lights,
               "light_map_size": args.light_map_size, "ambient": args.ambient}
-    # A technique chosen here drops the scene's options of other techniques; options given
-    # here that the technique does not read are errors (add_volume says so).
+    # A technique chosen here drops the scene's options of other techniques. An option given
+    # here that a volume's technique does not read is left out for that volume, with a
+    # warning (with --technique, add_volume refuses it: the user asked for both).
     specific = {name for t in techniques("volume") for name in t.option_names}
-    kept = get_technique("volume", args.technique).option_names if args.technique else None
+    given = {k: v for k, v in chosen.items() if v is not None}
+    if given.get("lights") == "none":
+        given["lights"] = None
     for volume in scene.volumes:
         options = scene.volume_options.setdefault(volume.name, {})
-        if kept is not None:
+        if args.technique:
+            kept = get_technique("volume", args.technique).option_names
             for name in specific - set(kept):
                 options.pop(name, None)
-        options.update({k: v for k, v in chosen.items() if v is not None})
-        if options.get("lights") == "none":
-            options["lights"] = None
+            options.update(given)
+            continue
+        reads = get_technique("volume", options.get("technique", "vtk")).option_names
+        for name, value in given.items():
+            if name in specific and name not in reads:
+                print(f"pv-cubemarch: warning: --{name.replace('_', '-')} does not apply to "
+                      f"volume {volume.name!r} (technique={options.get('technique', 'vtk')!r}"
+                      "); left out for it", file=sys.stderr)
+            else:
+                options[name] = value
     scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
     return 0

@@ -15,7 +15,7 @@ from PIL import Image
 from .api import add_volume
 from .core.frame_errors import observe
 from .core.rendering import render_frame, render_image
-from .gl.frame_inputs import MultisamplePolicy
+from .gl.frame_inputs import MultisamplePolicy, release_frame_inputs
 from .scene.io import load_scene
 from .scene.usd import load_usd
 
@@ -78,7 +78,7 @@ class CubemarchComponent:
             item.follow_anchor()
             shown = bool(item.actor.GetVisibility())
             single_sample |= shown and item.needs_single_sample
-            if item.blends_in_main_renderer:
+            if shown and item.blends_in_main_renderer:
                 translucent[item.main_renderer] = True
         if not self._redrawing:
             self._multisampling.decide(single_sample)
@@ -98,6 +98,10 @@ class CubemarchComponent:
         for item in gone:
             item.release()
             self._tracked.remove(item)
+        in_use = {id(item.main_renderer) for item in self._tracked}
+        for renderer in {id(item.main_renderer): item.main_renderer for item in gone}.values():
+            if id(renderer) not in in_use:
+                release_frame_inputs(renderer)   # the shared depth copy goes with the last
         return gone
 
     def add_volume(self, volume, scalars=None, **kwargs):
@@ -123,7 +127,7 @@ class CubemarchComponent:
 
     @property
     def memory(self) -> dict[str, int]:
-        """GPU bytes our techniques added, by actor name."""
+        """GPU bytes our techniques added, by volume name."""
         return {item.name: item.nbytes for item in self._tracked}
 
     def remove(self, actor) -> bool:
@@ -149,6 +153,8 @@ class CubemarchComponent:
     def __plotter_close__(self) -> None:
         for item in self._tracked:
             item.release()
+        for renderer in {id(i.main_renderer): i.main_renderer for i in self._tracked}.values():
+            release_frame_inputs(renderer)
         self._tracked.clear()
         if self._multisampling is not None:
             self._multisampling.restore()

@@ -171,3 +171,88 @@ def test_auto_chooses_the_cube_frame_once(plotter_factory):
     before = frame.frames
     cm.render_image(pl)
     assert frame.frames - before == 1
+
+
+def test_removed_auto_volume_leaves_nothing_drawn(plotter_factory):
+    # catches: the auto technique's direct box left in the renderer after removal (drawn
+    # with its observers gone when the last frame chose the direct path).
+    pl = plotter_factory(SIZE)
+    pl.set_background("black")
+    actors = pl.renderer.GetActors().GetNumberOfItems()
+    actor = cm.add_volume(pl, blob("a"), technique="auto")
+    actor.cubemarch.force = "direct"
+    view(pl)
+    assert cm.render_image(pl).max() > 100
+    pl.remove_actor(actor)
+    assert cm.render_image(pl).max() == 0
+    assert pl.renderer.GetActors().GetNumberOfItems() == actors
+
+
+@pytest.mark.parametrize("technique", ["cubemap", "direct", "auto"])
+def test_hidden_volume_runs_no_pass(plotter_factory, technique):
+    # catches: the cube pass (and the reduced-resolution pass) marching every frame for a
+    # volume whose actor is hidden.
+    pl = plotter_factory(SIZE)
+    options = {"downsample": 2} if technique == "direct" else {}
+    actor = cm.add_volume(pl, blob("a"), technique=technique, **options)
+    if technique == "auto":
+        actor.cubemarch.force = "cubemap"
+    view(pl)
+    cm.render_image(pl)
+    binding = actor.cubemarch.cubemap if technique == "auto" else actor.cubemarch
+    render_pass = binding.targets[-1]
+    runs = render_pass.runs
+    actor.SetVisibility(False)
+    cm.render_image(pl)
+    cm.render_image(pl)
+    assert render_pass.runs == runs
+    actor.SetVisibility(True)
+    cm.render_image(pl)
+    assert render_pass.runs == runs + 1
+
+
+def test_depth_copy_freed_with_the_last_volume(plotter_factory):
+    # catches: the renderer's shared depth copy living on after its last volume left.
+    pl = plotter_factory(SIZE)
+    pl.ren_win.SetMultiSamples(0)
+    actor = cm.add_volume(pl, blob("a"), technique="direct")
+    view(pl)
+    cm.render_image(pl)
+    depth = frame_inputs(pl.renderer).depth
+    assert depth.gl_object is not None
+    pl.remove_actor(actor)
+    cm.render_image(pl)
+    assert depth.gl_object is None
+    assert "_cubemarch_frame_inputs" not in pl.renderer.__dict__
+
+
+def test_downsampled_joint_group_matches_reference(plotter_factory):
+    # catches: the upsampling box compiled with the group's joint sampling (its shader
+    # did not compile).
+    pl = plotter_factory(SIZE)
+    pl.set_background("black")
+    a, b = blob("a"), blob("b", shift=8.0)
+    cm.add_volumes(pl, [a, b], technique="direct", downsample=2)
+    camera = view(pl)
+    image = cm.render_image(pl)
+    reference = cm.render_emission_absorption(cm.VolumeGroup([a, b]), camera, SIZE)
+    errors = compare_images(image, reference)
+    assert errors.psnr >= 35 > compare_images(np.zeros_like(image), reference).psnr + 10, errors
+
+
+def test_auto_follows_a_mirroring_transform_on_cube_map_frames(plotter_factory):
+    # catches: the auto technique's cube box keeping the old culling after a mirroring
+    # set_transform (the cube-map frames then drew nothing).
+    pl = plotter_factory(SIZE)
+    pl.set_background("black")
+    model = blob("a")
+    actor = cm.add_volume(pl, model, technique="auto")
+    actor.cubemarch.force = "cubemap"
+    camera = view(pl)
+    cm.render_image(pl)
+    mirror = np.diag([-1.0, 1.0, 1.0, 1.0])
+    mirror[0, 3] = 19.0   # the mirrored box covers the same place
+    actor.cubemarch.set_transform(mirror)
+    image = cm.render_image(pl)
+    errors = compare_images(image, cm.render_emission_absorption(model, camera, SIZE))
+    assert errors.psnr >= 40, errors

@@ -262,3 +262,16 @@ def test_render_after_close_says_the_plotter_is_closed(blob, render):
             "component": lambda: pl.cubemarch.render()}[render]
     with pytest.raises(cm.CubemarchError, match="closed"):
         draw()
+
+
+def test_nested_frame_error_collectors_keep_their_own_errors():
+    # catches: removing a collector by equality (two empty lists are equal), which dropped
+    # the outer frame's collector when an inner one closed.
+    from pv_cubemarch.core import frame_errors
+
+    with frame_errors.collecting_frame_errors() as outer:
+        with frame_errors.collecting_frame_errors():
+            pass
+        callback = frame_errors.guarded(lambda *_: 1 / 0)
+        callback()
+    assert len(outer) == 1 and isinstance(outer[0], ZeroDivisionError)

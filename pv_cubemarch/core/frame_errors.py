@@ -60,7 +60,10 @@ def collecting_frame_errors():
     try:
         yield errors
     finally:
-        _collectors.remove(errors)
+        if _collectors and _collectors[-1] is errors:
+            _collectors.pop()
+        else:   # not innermost (should not happen): remove this very list, not an equal one
+            _collectors[:] = [c for c in _collectors if c is not errors]
 
 
 def raise_frame_errors(errors: list[Exception]) -> None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 
 def describe_setting(setting: dict) -> str:
@@ -42,7 +42,11 @@ class Technique:
         ``check()`` raising a clear error for a bad value and ``check_model(model)`` for
         a value the data cannot take (e.g. more steps than a ray can march).
     build : callable
-        Makes the technique's actor(s) for one model.
+        ``build(plotter, data, options, shading, light_map)`` makes the technique's
+        actor(s) for one volume and returns its binding: ``drawn`` (the actors that draw
+        it), ``renderer`` (where they draw), ``needs_single_sample``,
+        ``blends_in_main_renderer``, ``follow_anchor()`` and ``release()`` (see
+        :class:`pv_cubemarch.volume.march.VolumeBinding`).
     reference : callable
         The CPU reference that says what its right image is.
     sweep : Sweep, optional
@@ -61,7 +65,6 @@ class Technique:
     sweep: Sweep | None = None
     summary: str = ""
     groups: bool = True
-    extra: dict = field(default_factory=dict)
 
     @property
     def option_names(self) -> tuple[str, ...]:

@@ -104,6 +104,7 @@ class ShaderBindings:
         self.renderer = renderer
         self.recipe = recipe
         self.textures: dict[str, Texture] = {}
+        self._owned: list = []
         self.uniforms: dict[str, UniformSource] = {}
         self.frames_started = 0
         self.frames_bound = 0
@@ -119,9 +120,15 @@ class ShaderBindings:
                              self._on_volume_drawn)),
         ]
 
-    def add_texture(self, sampler: str, texture: Texture) -> Texture:
-        """Bind ``texture`` to the GLSL sampler ``sampler`` at every draw."""
+    def add_texture(self, sampler: str, texture: Texture, owned: bool = False) -> Texture:
+        """Bind ``texture`` to the GLSL sampler ``sampler`` at every draw.
+
+        ``owned``: these bindings free it on :meth:`release`; a texture shared with other
+        bindings (a volume's data, a pass's target, the frame's depth) is freed by its owner.
+        """
         self.textures[sampler] = texture
+        if owned:
+            self._owned.append(texture)
         return texture
 
     def set_uniform(self, name: str, value: UniformSource) -> None:
@@ -172,10 +179,11 @@ class ShaderBindings:
         TextureUnitLedger.release_window(self.renderer.GetRenderWindow())
 
     def release(self) -> None:
-        """Free the textures and stop observing."""
+        """Free the textures these bindings own and stop observing."""
         self._on_end()
-        for texture in self.textures.values():
+        for texture in self._owned:
             texture.release()
+        self._owned.clear()
         for subject, tag in self._observers:
             subject.RemoveObserver(tag)
         self._observers.clear()

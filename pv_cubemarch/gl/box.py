@@ -21,12 +21,21 @@ def numpy_matrix(matrix) -> np.ndarray:
 
 
 def camera_matrices(renderer) -> tuple[np.ndarray, np.ndarray]:
-    """The renderer's view and projection matrices (world to view, view to clip)."""
+    """The renderer's view and projection matrices (world to view, view to clip).
+
+    Made once per camera state and viewport, however many volumes and passes ask.
+    """
     camera = renderer.GetActiveCamera()
     width, height = renderer.GetSize()
+    key = (camera.GetAddressAsString("vtkObject"), camera.GetMTime(), width, height)
+    cached = renderer.__dict__.get("_cubemarch_camera")
+    if cached is not None and cached[0] == key:
+        return cached[1]
     aspect = width / max(height, 1)
     view = numpy_matrix(camera.GetModelViewTransformMatrix())
     projection = numpy_matrix(camera.GetProjectionTransformMatrix(aspect, -1.0, 1.0))
+    view.flags.writeable = projection.flags.writeable = False
+    renderer.__dict__["_cubemarch_camera"] = (key, (view, projection))
     return view, projection
 
 

@@ -37,7 +37,7 @@ def add_texture_view(plotter: pyvista.Plotter, texture: Texture, *, slice_positi
         defines={_DEFINES[texture.kind]: True})
     recipe.apply(actor.GetShaderProperty())
     bindings = ShaderBindings(mapper, plotter.renderer, recipe)
-    bindings.add_texture("cm_viewTexture", texture)
+    bindings.add_texture("cm_viewTexture", texture, owned=True)
     bindings.set_uniform("cm_viewport", lambda: tuple(float(v) for v in plotter.window_size))
     bindings.set_uniform("cm_viewScale", np.broadcast_to(np.asarray(scale, float), (4,)))
     bindings.set_uniform("cm_viewBias", np.broadcast_to(np.asarray(bias, float), (4,)))

@@ -143,6 +143,13 @@ def frame_inputs(renderer) -> FrameInputs:
     return inputs
 
 
+def release_frame_inputs(renderer) -> None:
+    """Free ``renderer``'s :class:`FrameInputs` (its last volume left), if it has one."""
+    inputs = renderer.__dict__.pop("_cubemarch_frame_inputs", None)
+    if inputs is not None:
+        inputs.release()
+
+
 class MultisamplePolicy:
     """The window's multisampling, decided at the start of every frame.
 
@@ -167,7 +174,7 @@ class MultisamplePolicy:
         self._set = wanted
 
     def restore(self) -> None:
-        """Give the user's setting back (the last volume left)."""
+        """Give the user's setting back (the plotter closes)."""
         if self._set is not None and int(self.window.GetMultiSamples()) == self._set:
             self.window.SetMultiSamples(self.user_samples)
         self._set = None

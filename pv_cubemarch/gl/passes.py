@@ -99,7 +99,10 @@ class RenderToTexturePass:
         self._needed = True
 
     def add_texture(self, sampler: str, texture) -> None:
-        """Bind ``texture`` to the sampler ``sampler`` whenever the pass runs."""
+        """Bind ``texture`` to the sampler ``sampler`` whenever the pass runs.
+
+        The pass does not own it: whoever made it frees it (a volume's data, a light map).
+        """
         self.textures[sampler] = texture
 
     def set_uniform(self, name: str, value: UniformSource) -> None:
@@ -216,8 +219,6 @@ class RenderToTexturePass:
     def release(self) -> None:
         """Free the targets and stop running."""
         self._release_targets(self.renderer.GetRenderWindow())
-        for texture in self.textures.values():
-            texture.release()
         self.renderer.RemoveObserver(self._tag)
 
 

@@ -87,11 +87,6 @@ class VolumeGroup:
         target.values = np.ascontiguousarray(values, dtype=np.float32)
         return index
 
-    @property
-    def defines(self) -> dict:
-        """Feature switches of a joint shader."""
-        return {"CM_JOINT": True, "CM_VOLUME_COUNT": len(self.members)}
-
 
 def boxes_overlap(a: np.ndarray, b: np.ndarray) -> bool:
     """Whether two world bounds ``(xmin, xmax, ...)`` share a volume (touching is not)."""

@@ -130,12 +130,3 @@ def _check_count(count: int, what: str) -> None:
         raise ValueError(f"{what} {count} lights; a volume is lit by at most {MAX_LIGHTS}. "
                          "Pass lights=[...] with the ones that matter, or make the plotter "
                          "with pyvista.Plotter(lighting='three lights').")
-
-
-def check_light_options(light_map_size, ambient) -> None:
-    """Clear errors for the lighting parameters of ``add_volume``."""
-    if int(light_map_size) != light_map_size or not 2 <= light_map_size <= 128:
-        raise ValueError(f"light_map_size must be a whole number from 2 to 128, got "
-                         f"{light_map_size}.")
-    if not 0.0 <= float(ambient) <= 1.0:
-        raise ValueError(f"ambient must be in [0, 1], got {ambient}.")

@@ -61,7 +61,7 @@ def render_emission_absorption(
     lights : sequence of VolumeLight, optional
         Light the samples: emission times ``ambient + (1 - ambient) * sum colour * T``,
         ``T`` the transmittance toward each light, from a grid half a voxel fine
-        (:func:`pv_cubemarch.lighting.light_grid`).
+        (:func:`pv_cubemarch.reference.lighting.light_grid`).
     ambient : float
         Share of the emission no light modulates (with ``lights``).
     crop : sequence of int, optional

@@ -149,7 +149,10 @@ class Scene:
         groups = overlap_groups(self.volumes)
         for group in progress(groups, desc="uploading volumes", enabled=progress_bar):
             options = self.volume_options.get(group[0].name, {})
-            added = add_volumes(plotter, group, **options)
+            try:
+                added = add_volumes(plotter, group, **options)
+            except ValueError as error:   # say which volume's options are wrong
+                raise type(error)(f"volume {group[0].name!r}: {error}") from error
             for v in group:
                 actors[v.name] = added[0] if len(added) == 1 else \
                     next(a for a in added if v.name in a.cubemarch.name.split("+"))

@@ -1,4 +1,4 @@
-"""Read a USD stage (.usd, .usda, .usdc, .usdz) into a :class:`~pv_cubemarch.scene.Scene`.
+"""Read a USD stage (.usd, .usda, .usdc, .usdz) into a :class:`~pv_cubemarch.scene.model.Scene`.
 
 USD composes references, payloads and instancing for us; we walk the composed stage
 (instance proxies included), load what is drawable and record what we skip and why.

@@ -112,8 +112,11 @@ class AutoBinding:
         self.extra_release: list = []
         self._visible = False
         self._released = False
-        # The cube pass uses this frame's choice and culling, decided once in _choose.
-        self.cubemap.cube_pass.run_when = lambda: self.choice == "cubemap" and self._visible
+        # The cube pass uses this frame's choice and culling, decided once in _choose, and
+        # runs only while the volume is shown.
+        self.cubemap.cube_pass.run_when = lambda: (self.shown and self.choice == "cubemap"
+                                                   and self._visible)
+        self.extra_release.append(lambda: self.renderer.RemoveActor(self.direct_actor))
         # Before anything draws: the direct box is drawn by this renderer's translucent pass.
         self._tag = observe(self.renderer, vtk.vtkCommand.StartEvent, self._choose, 2.0)
 
@@ -129,9 +132,13 @@ class AutoBinding:
             choice = classify(bin(frame.face_mask).count("1"), frame.lod.level_size, pixels)
         self.choice = choice
         self.choices[choice] += 1
-        shown = self.actor is None or bool(self.actor.GetVisibility())
-        self.direct_actor.SetVisibility(shown and choice == "direct")
-        self.cube_actor.SetVisibility(shown and choice == "cubemap")
+        self.direct_actor.SetVisibility(self.shown and choice == "direct")
+        self.cube_actor.SetVisibility(self.shown and choice == "cubemap")
+
+    @property
+    def shown(self) -> bool:
+        """Whether the returned actor is visible (a hidden volume marches nothing)."""
+        return self.actor is None or bool(self.actor.GetVisibility())
 
     def follow_anchor(self) -> None:
         """Visibility follows the returned actor at each frame (in :meth:`_choose`)."""
@@ -172,10 +179,8 @@ class AutoBinding:
 
     def set_transform(self, transform) -> None:
         """Move the volume (both paths follow; see ``VolumeBinding.set_transform``)."""
-        self.direct.set_transform(transform)
-        self.cubemap.frame.place()
-        for actor in (self.cube_actor,):
-            actor.SetUserMatrix(self.direct_actor.GetUserMatrix())
+        self.direct.set_transform(transform)   # places the model, and the direct box
+        self.cubemap.set_transform(transform)  # the cube box (culling too) and its frame
         follow_placement(self)
 
     def set_values(self, values, member: str | None = None) -> None:

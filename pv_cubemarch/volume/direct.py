@@ -128,7 +128,7 @@ class DirectBinding(VolumeBinding):
 
 
 def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=None):
-    """A box actor that marches the volume with the shared GLSL; returns the actor.
+    """A box actor that marches the volume with the shared GLSL; returns its binding.
 
     With ``options.downsample`` > 1 the rays are marched by a full-screen pass at
     1/downsample of the viewport, and the box only upsamples the result with a
@@ -166,9 +166,13 @@ def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=No
         bindings.set_uniform("cm_lowSize", lambda: tuple(float(v) for v in low_pass.size))
         bindings.set_uniform("cm_depthSharpness", DEPTH_SHARPNESS)
         bindings.add_texture("cm_sceneColor",
-                             SceneDepth(overlay.renderer, color=True, each_use=True))
+                             SceneDepth(overlay.renderer, color=True, each_use=True), owned=True)
         bind_camera(bindings, renderer, lambda: world_from_texture(model))
-        recipe = upsample_recipe(march_defines(model, False))
+        # The box only upsamples: no joint sampling, whatever the model.
+        defines = march_defines(model, False)
+        defines.pop("CM_JOINT", None)
+        defines.pop("CM_VOLUME_COUNT", None)
+        recipe = upsample_recipe(defines)
         bindings.recipe = recipe
         recipe.apply(actor.GetShaderProperty())
         binding = DirectBinding(model, data, bindings, recipe, step_scale,
@@ -179,6 +183,7 @@ def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=No
         binding.extra_release = [low_pass.release, lambda: overlay.remove_actor(actor),
                                  lambda: overlay.release_user(actor)]
         binding.targets = [bindings, low_pass]
+        low_pass.run_when = lambda: binding.shown   # every frame the volume is shown
     binding.downsample = downsample
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
@@ -196,7 +201,7 @@ def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
         return (-(-width // downsample), -(-height // downsample))
 
     low_pass = RenderToTexturePass(overlay.renderer, None, size=low_size,
-                                   targets=("rgba16f", "r32f"), every_frame=True)
+                                   targets=("rgba16f", "r32f"))
     sampling, defines = bind_sampling(low_pass, data, step_scale, shading.stop_opacity,
                                       shading.skip_empty)
     low_pass.add_texture("cm_sceneDepth", overlay.depth)

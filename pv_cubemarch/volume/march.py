@@ -56,6 +56,7 @@ class VolumeData:
         self.tables = [Texture(m.transfer.table.reshape(1, -1, 4), kind="2d")
                        for m in self.members]
         self._bricks: Texture | None = None
+        self._none_empty = False   # bricks were built and none was empty
         self.brick_builds = 0
 
     def bricks(self) -> Texture | None:
@@ -65,12 +66,13 @@ class VolumeData:
         """
         if isinstance(self.model, VolumeGroup):
             return None
-        if self._bricks is None:
+        if self._bricks is None and not self._none_empty:
             bricks = brick_extinction(self.model.values, self.model.transfer, DEFAULT_BRICK_SIZE)
             self.brick_builds += 1
-            if not (bricks <= 0).any():
-                return None
-            self._bricks = Texture(bricks, kind="3d", interpolate=False)
+            if (bricks <= 0).any():
+                self._bricks = Texture(bricks, kind="3d", interpolate=False)
+            else:
+                self._none_empty = True
         return self._bricks
 
     def set_values(self, values, member: str | None = None) -> None:
@@ -222,6 +224,11 @@ class VolumeBinding:
         data = self.data.nbytes if self.vtk_input is None else \
             sum(t.nbytes for t in self.bindings.textures.values())
         return data + (self.light_map.nbytes if self.light_map else 0)
+
+    @property
+    def shown(self) -> bool:
+        """Whether the returned actor is visible (a hidden volume runs no pass)."""
+        return self.actor is None or bool(self.actor.GetVisibility())
 
     def follow_anchor(self) -> None:
         """At each frame: the drawn actors follow the visibility of the returned actor."""

@@ -55,7 +55,7 @@ def vtk_mapper_recipe(defines: dict, lit: bool) -> ShaderRecipe:
 
 
 def build_vtk_actor(plotter, data: VolumeData, options, shading, light_map=None):
-    """A ``pyvista.Volume`` drawn by VTK's GPU mapper with our marcher; returns the actor."""
+    """A ``pyvista.Volume`` drawn by VTK's GPU mapper with our marcher; returns its binding."""
     model: VolumeModel = data.model
     step_scale = options.step_scale
     # VTK's mapper gets the grid in index space (origin 0, spacing 1, no rotation) and the

@@ -160,7 +160,7 @@ def resample_recipe(occlusion: bool) -> ShaderRecipe:
 
 def build_cubemap_actor(plotter, data: VolumeData, options: CubeMapOptions, shading,
                         light_map=None):
-    """The box actor of a cube-map volume, with its passes; returns the actor."""
+    """The box actor of a cube-map volume, with its passes; returns its binding."""
     model = data.model
     main = plotter.renderer
     overlay = scene_overlay(plotter)
@@ -207,6 +207,7 @@ def build_cubemap_actor(plotter, data: VolumeData, options: CubeMapOptions, shad
                              shading.stop_opacity)
     binding.drawn = [actor]
     frame.on_update = binding.follow_occluders
+    cube_pass.run_when = lambda: binding.shown and frame.update()
     binding.renderer = overlay.renderer
     overlay.add_user(actor)
     binding.extra_release = [cube_pass.release, lambda: overlay.remove_actor(actor),
