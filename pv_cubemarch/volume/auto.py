@@ -17,7 +17,7 @@ from ..reference.emission_absorption import render_emission_absorption
 from .cubemap.lod import cube_corners
 from .cubemap.technique import build_cubemap_actor
 from .direct import build_direct_actor
-from .march import VolumeData, follow_placement
+from .march import VolumeBinding, VolumeData, follow_placement
 from .options import AutoOptions
 
 
@@ -82,11 +82,12 @@ def classify(visible_faces: int, face_size: int, pixels: float) -> str:
     return "cubemap" if texels < pixels else "direct"
 
 
-class AutoBinding:
+class AutoBinding(VolumeBinding):
     """A volume drawn by the cube map or directly, chosen per frame (``technique='auto'``).
 
     ``force`` (``None``, ``'cubemap'`` or ``'direct'``) overrides the choice; ``choice``
-    and ``choices`` (a count per technique) say what was drawn.
+    and ``choices`` (a count per technique) say what was drawn. ``direct`` and ``cubemap``
+    are the two paths' own bindings; both read the same data.
     """
 
     technique = "auto"
@@ -94,29 +95,25 @@ class AutoBinding:
     blends_in_main_renderer = True   # its direct box draws in the translucent pass
 
     def __init__(self, plotter, data: VolumeData, direct, cube):
-        self.renderer = plotter.renderer
-        self.main_renderer = plotter.renderer
-        self.data = data
+        super().__init__(direct.model, data, direct.bindings, direct.recipe, direct.step_scale,
+                         direct.stop_opacity)
+        self.renderer = self.main_renderer = plotter.renderer
         self.direct = direct
         self.cubemap = cube
-        self.direct_actor = direct_actor = direct.drawn[0]
-        self.cube_actor = cube_actor = cube.drawn[0]
-        self.drawn = [direct_actor, cube_actor]
-        self.model = self.direct.model
-        self.light_map = None
-        self.bounds_proxy = None
+        self.direct_actor, self.cube_actor = direct.drawn[0], cube.drawn[0]
+        self.drawn = [self.direct_actor, self.cube_actor]
+        self.targets = direct.targets + cube.targets
         self.force: str | None = None
         self.choice = "direct"
         self.choices = {"cubemap": 0, "direct": 0}
-        self.actor = None
-        self.extra_release: list = []
         self._visible = False
-        self._released = False
         # The cube pass uses this frame's choice and culling, decided once in _choose, and
         # runs only while the volume is shown.
         self.cubemap.cube_pass.run_when = lambda: (self.shown and self.choice == "cubemap"
                                                    and self._visible)
-        self.extra_release.append(lambda: self.renderer.RemoveActor(self.direct_actor))
+        self.extra_release = [lambda: self.renderer.RemoveObserver(self._tag),
+                              lambda: self.renderer.RemoveActor(self.direct_actor),
+                              direct.release, cube.release]
         # Before anything draws: the direct box is drawn by this renderer's translucent pass.
         self._tag = observe(self.renderer, vtk.vtkCommand.StartEvent, self._choose, 2.0)
 
@@ -135,28 +132,8 @@ class AutoBinding:
         self.direct_actor.SetVisibility(self.shown and choice == "direct")
         self.cube_actor.SetVisibility(self.shown and choice == "cubemap")
 
-    @property
-    def shown(self) -> bool:
-        """Whether the returned actor is visible (a hidden volume marches nothing)."""
-        return self.actor is None or bool(self.actor.GetVisibility())
-
     def follow_anchor(self) -> None:
         """Visibility follows the returned actor at each frame (in :meth:`_choose`)."""
-
-    @property
-    def name(self) -> str:
-        """The volume's name."""
-        return self.model.name
-
-    @property
-    def bindings(self):
-        """The direct box's bindings (the one drawn by the plotter's renderer)."""
-        return self.direct.bindings
-
-    @property
-    def recipe(self):
-        """The direct box's recipe."""
-        return self.direct.recipe
 
     @property
     def lod(self):
@@ -182,26 +159,6 @@ class AutoBinding:
         self.direct.set_transform(transform)   # places the model, and the direct box
         self.cubemap.set_transform(transform)  # the cube box (culling too) and its frame
         follow_placement(self)
-
-    def set_values(self, values, member: str | None = None) -> None:
-        """Replace the data of both paths (same shape; ``member`` names one of a group)."""
-        self.data.set_values(values, member)
-        if self.light_map is not None:
-            self.light_map.invalidate()
-
-    def release(self) -> None:
-        """Free both paths (once)."""
-        if self._released:
-            return
-        self._released = True
-        self.renderer.RemoveObserver(self._tag)
-        self.direct.release()
-        self.cubemap.release()
-        for release in self.extra_release:
-            release()
-        self.extra_release = []
-        if self.light_map is not None:
-            self.light_map.release()
 
 
 def build_auto_actor(plotter, data: VolumeData, options: AutoOptions, shading,

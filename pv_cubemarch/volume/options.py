@@ -50,6 +50,14 @@ def whole_number(name: str, value, low: int, high: int | None = None) -> int:
     return int(value)
 
 
+def refuse_more_steps(setting: str, steps: float, instead: str) -> None:
+    """A ValueError when ``setting`` asks a ray for more steps than the marcher takes."""
+    if steps > MAX_STEPS:
+        raise ValueError(f"{setting} asks for up to {steps:,.0f} steps per ray, more than the "
+                         f"{MAX_STEPS:,} steps a ray can take (it would be cut short); use "
+                         f"{instead}.")
+
+
 def default_max_samples(model) -> int:
     """Two samples per texel along the cube's diagonal (the direct marcher's default step)."""
     return max(1, 2 * (max(model.dimensions) - 1))
@@ -88,12 +96,8 @@ class MarchOptions:
         ray in a joint group); beyond that the ray would be cut short, silently too light.
         """
         texels = most_texels(model)
-        steps = texels / float(self.step_scale)
-        if steps > MAX_STEPS:
-            raise ValueError(
-                f"step_scale={self.step_scale:g} asks for up to {steps:,.0f} steps per ray "
-                f"across {texels} texels, more than the {MAX_STEPS:,} steps a ray can take; "
-                f"use step_scale >= {texels / MAX_STEPS:.3g}.")
+        refuse_more_steps(f"step_scale={self.step_scale:g}", texels / float(self.step_scale),
+                          f"step_scale >= {texels / MAX_STEPS:.3g}")
 
 
 @dataclass(frozen=True)
@@ -134,11 +138,8 @@ class CubeMapOptions:
         samples = int(self.max_samples or default_max_samples(model))
         # The cube map steps (longest axis of the volume's own grid) / samples texels.
         steps = samples * most_texels(model) / max(max(model.dimensions) - 1, 1)
-        if steps > MAX_STEPS:
-            raise ValueError(
-                f"max_samples={samples:,} asks for up to {steps:,.0f} steps per ray, more "
-                f"than the {MAX_STEPS:,} steps a ray can take; use max_samples <= "
-                f"{int(samples * MAX_STEPS / steps):,}.")
+        refuse_more_steps(f"max_samples={samples:,}", steps,
+                          f"max_samples <= {int(samples * MAX_STEPS / steps):,}")
 
 
 @dataclass(frozen=True)
