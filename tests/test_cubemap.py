@@ -145,6 +145,8 @@ def test_camera_inside_on_and_near_the_box(plotter_factory, model, position, foc
 
 
 def test_lit_volume_matches_lit_reference_and_light_map_runs_once(plotter_factory, model):
+    # Catches (seen to fail): the light map's transmittance ignored (cm_lightTransmittance
+    # returning 1), and a light pass run again on a camera move.
     lights = [VolumeLight("directional", direction=(-1.0, -0.5, -0.3), color=(1.0, 0.9, 0.8)),
               VolumeLight("point", position=(0.5, 1.5, 1.5), intensity=0.7)]
     pl, actor, camera, image = render(plotter_factory, model, (3.0, 2.0, 4.0), lights=lights,
