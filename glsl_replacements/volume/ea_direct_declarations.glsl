@@ -1,12 +1,7 @@
-// Direct screen-space marcher on a box actor: declarations (after the colour declarations).
-// The box's back faces are drawn; each fragment reconstructs its eye ray from the window
-// position, so the camera inside the box and a near plane cutting it need no special case.
-// VTK's volume mapper (CM_VTK_MAPPER) sets its rays up with the same code and reads its own
-// copy of the opaque depth, so the depth sampler and its reader are left out there.
-uniform vec4 cm_viewport;             // origin and size of the renderer, in pixels
-uniform mat4 cm_inverseProjection;    // normalised device coordinates to view
-uniform mat4 cm_projection;           // view to clip
-uniform mat4 cm_textureFromView;      // view to volume texture coordinates
+// Direct screen-space marcher on a box actor: the frame's opaque depth (after the camera
+// declarations, camera_declarations.glsl). VTK's volume mapper (CM_VTK_MAPPER) sets its rays
+// up with the same code and reads its own copy of the opaque depth, so the depth sampler and
+// its reader are left out there.
 
 #ifndef CM_VTK_MAPPER
 #ifdef CM_DEPTH_MULTISAMPLED
@@ -39,9 +34,3 @@ float cm_sceneDepthAt(vec2 pixel)
 #endif
 }
 #endif
-
-vec3 cm_viewPoint(vec2 ndc, float windowDepth)
-{
-  vec4 point = cm_inverseProjection * vec4(ndc, windowDepth * 2.0 - 1.0, 1.0);
-  return point.xyz / point.w;
-}

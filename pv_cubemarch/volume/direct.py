@@ -25,6 +25,7 @@ from ..reference.emission_absorption import render_emission_absorption
 from .march import (
     DECLARATION_SNIPPETS,
     MARCH_SNIPPETS,
+    SCREEN_DECLARATIONS,
     VolumeBinding,
     VolumeData,
     bind_sampling,
@@ -44,9 +45,9 @@ def direct_recipe(defines: dict, lit: bool = False,
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Color::Dec",
-                        (*DECLARATION_SNIPPETS, sampling, "ea_direct_declarations",
+                        (*DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
                          *MARCH_SNIPPETS, *(("light_sample",) if lit else ()),
-                         "ea_screen_ray"),
+                         "screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_direct_fragment", keep_tag="before"),
             Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
@@ -61,8 +62,8 @@ def upsample_recipe(defines: dict) -> ShaderRecipe:
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Color::Dec",
-                        (*DECLARATION_SNIPPETS, "volume_sample", "ea_direct_declarations",
-                         *MARCH_SNIPPETS, "ea_screen_ray", "ea_upsample_declarations"),
+                        (*DECLARATION_SNIPPETS, "volume_sample", *SCREEN_DECLARATIONS,
+                         *MARCH_SNIPPETS, "screen_ray", "ea_upsample_declarations"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_upsample_fragment", keep_tag="before"),
             Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
@@ -212,8 +213,8 @@ def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
         defines.update(light_map.defines)
         lit = ("light_sample",)
     low_pass.set_recipe(ShaderRecipe(
-        standalone=("pass_head", *DECLARATION_SNIPPETS, sampling, "ea_direct_declarations",
-                    *MARCH_SNIPPETS, *lit, "ea_screen_ray", "ea_reduced_main"),
+        standalone=("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
+                    *MARCH_SNIPPETS, *lit, "screen_ray", "ea_reduced_main"),
         defines=defines))
     return overlay, low_pass
 

@@ -31,6 +31,8 @@ MAX_STEPS = STEP_BLOCK * STEP_BLOCKS
 DECLARATION_SNIPPETS = ("ea_declarations", "slab")
 #: The marcher itself (after the sampling snippet and the ray set-up's declarations).
 MARCH_SNIPPETS = ("ea_march",)
+#: What a screen-space ray set-up declares: the camera, then the frame's opaque depth.
+SCREEN_DECLARATIONS = ("camera_declarations", "ea_direct_declarations")
 
 
 def world_from_texture(model: VolumeModel | VolumeGroup) -> np.ndarray:

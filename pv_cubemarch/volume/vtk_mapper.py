@@ -22,6 +22,7 @@ from ..reference.emission_absorption import render_emission_absorption
 from .march import (
     DECLARATION_SNIPPETS,
     MARCH_SNIPPETS,
+    SCREEN_DECLARATIONS,
     VolumeBinding,
     VolumeData,
     bind_sampling,
@@ -41,8 +42,8 @@ def vtk_mapper_recipe(defines: dict, lit: bool) -> ShaderRecipe:
         replacements=[
             Replacement("//VTK::Base::Dec", DECLARATION_SNIPPETS, keep_tag="after"),
             Replacement("//VTK::ComputeColor::Dec",
-                        ("ea_vtk_declarations", "ea_direct_declarations", *MARCH_SNIPPETS,
-                         *(("light_sample",) if lit else ()), "ea_screen_ray"),
+                        ("ea_vtk_declarations", *SCREEN_DECLARATIONS, *MARCH_SNIPPETS,
+                         *(("light_sample",) if lit else ()), "screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Shading::Init", "ea_vtk_ray_init"),
             Replacement("//VTK::Base::Dec", "ea_vtk_vertex_declarations", stage="vertex",

@@ -34,6 +34,7 @@ from ...reference.emission_absorption import render_emission_absorption
 from ..march import (
     DECLARATION_SNIPPETS,
     MARCH_SNIPPETS,
+    SCREEN_DECLARATIONS,
     VolumeBinding,
     VolumeData,
     bind_sampling,
@@ -136,8 +137,8 @@ def _outside_frustum(clip_from_local: np.ndarray) -> bool:
 
 
 def _pass_snippets(lit: bool, sampling: str) -> tuple[str, ...]:
-    return ("pass_head", *DECLARATION_SNIPPETS, sampling, "ea_direct_declarations",
-            *MARCH_SNIPPETS, *(("light_sample",) if lit else ()), "ea_screen_ray",
+    return ("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
+            *MARCH_SNIPPETS, *(("light_sample",) if lit else ()), "screen_ray",
             "cube_faces", "cube_march_main")
 
 
@@ -148,7 +149,7 @@ def resample_recipe(occlusion: bool) -> ShaderRecipe:
     """
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
-                    ("ea_direct_declarations", "cube_resample_declarations", "cube_faces",
+                    (*SCREEN_DECLARATIONS, "cube_resample_declarations", "cube_faces",
                      "cube_resample_filter"), keep_tag="after"),
         Replacement("//VTK::Light::Impl", "cube_resample_fragment", keep_tag="before"),
         Replacement("//VTK::PositionVC::Dec", "cube_resample_vertex_declarations",
