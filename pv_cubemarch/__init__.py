@@ -11,7 +11,7 @@ from .core.offscreen import configure_offscreen
 configure_offscreen()
 
 from . import plugin  # noqa: E402  (registers plotter.cubemarch for explicit imports too)
-from .api import add_volume, add_volumes  # noqa: E402
+from .api import add_volume, add_volumes, add_voxels  # noqa: E402
 from .core.camera import Camera  # noqa: E402
 from .core.errors import (  # noqa: E402
     CubemarchError,
@@ -32,6 +32,7 @@ from .models.group import VolumeGroup  # noqa: E402
 from .models.lights import VolumeLight  # noqa: E402
 from .models.transfer import TransferFunction  # noqa: E402
 from .models.volume import VolumeModel, make_volume  # noqa: E402
+from .models.voxels import Palette, VoxelModel, make_voxels  # noqa: E402
 from .reference import render_emission_absorption  # noqa: E402
 from .scene.io import load_scene  # noqa: E402
 from .scene.model import Scene, SceneLight, SceneMesh, SkippedPrim  # noqa: E402
@@ -44,7 +45,8 @@ __all__ = [
     "SceneLoadError", "SceneMesh", "ShaderBindings",
     "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "Texture", "TransferFunction",
     "VolumeDataError", "VolumeGroup", "VolumeLight", "VolumeModel", "add_volume",
-    "add_volumes", "configure_offscreen", "gl_info",
+    "add_volumes", "add_voxels", "configure_offscreen", "make_voxels", "Palette",
+    "VoxelModel", "gl_info",
     "load_scene", "make_volume", "offscreen_plotter", "plugin", "render_emission_absorption",
     "render_frame", "render_image",
 ]

@@ -7,7 +7,8 @@ import vtk
 from vtkmodules.util.numpy_support import numpy_to_vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLVertexBufferObject, vtkTextureObject
 
-_VTK_TYPES = {np.dtype(np.float32): vtk.VTK_FLOAT, np.dtype(np.uint8): vtk.VTK_UNSIGNED_CHAR}
+_VTK_TYPES = {np.dtype(np.float32): vtk.VTK_FLOAT, np.dtype(np.uint8): vtk.VTK_UNSIGNED_CHAR,
+              np.dtype(np.uint16): vtk.VTK_UNSIGNED_SHORT}
 
 
 class Texture:
@@ -18,7 +19,7 @@ class Texture:
     array : numpy.ndarray
         ``kind='2d'``: ``(height, width[, components])``; ``kind='3d'``: ``(nx, ny, nz[, c])``
         indexed x, y, z; ``kind='buffer'``: a flat float array read with ``texelFetch``.
-        float32 and uint8 are uploaded as they are; other dtypes are converted to float32.
+        float32, uint8 and uint16 are uploaded as they are; other dtypes are converted to float32.
     kind : str
         ``'2d'``, ``'3d'`` or ``'buffer'``.
     interpolate : bool

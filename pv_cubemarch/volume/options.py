@@ -9,8 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
+from ..core.options import positive_number, whole_number
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
 from .march import MAX_STEPS, most_texels
 
@@ -22,32 +21,6 @@ DEFAULT_OCCLUSION_SHARPNESS = 0.5
 STEP_SCALES = (2.0, 1.0, 0.5, 0.25, 0.125)
 #: Default early-termination opacity (VTK's own loop also stops above 1 - 1/255).
 DEFAULT_STOP_OPACITY = 0.99
-
-
-def positive_number(name: str, value, low: float = 0.0, high: float = np.inf,
-                    closed_low: bool = False) -> float:
-    """``value`` as a float in (low, high] (or [low, high]), or a ValueError naming ``name``."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}.") from None
-    above = number >= low if closed_low else number > low
-    if not (np.isfinite(number) and above and number <= high):
-        bracket = "[" if closed_low else "("
-        raise ValueError(f"{name} must be in {bracket}{low:g}, {high:g}], got {value!r}.")
-    return number
-
-
-def whole_number(name: str, value, low: int, high: int | None = None) -> int:
-    """``value`` as an int in [low, high], or a ValueError naming ``name``."""
-    try:
-        ok = float(value) == int(value)
-    except (TypeError, ValueError, OverflowError):
-        ok = False
-    if not ok or int(value) < low or (high is not None and int(value) > high):
-        span = f"from {low} to {high}" if high is not None else f">= {low}"
-        raise ValueError(f"{name} must be a whole number {span}, got {value!r}.")
-    return int(value)
 
 
 def refuse_more_steps(setting: str, steps: float, instead: str) -> None:

@@ -1,0 +1,20 @@
+// Material grids (002): declarations. Voxel (i, j, k) spans [i, i+1] x [j, j+1] x [k, k+1] of
+// the grid's index space (cm_textureFromView maps view to it); its label is one texel of
+// cm_labels (uint8 or uint16 as a normalised texture, read back exactly with cm_labelScale);
+// a label's colour and opacity are one texel of cm_palette (opacity 0: hidden, traversed as
+// empty).
+uniform sampler3D cm_labels;     // one texel per voxel, nearest
+uniform float cm_labelScale;     // 255 (uint8) or 65535 (uint16)
+uniform sampler2D cm_palette;    // (materials x 1) RGBA
+uniform vec3 cm_gridDims;        // voxels along x, y, z
+
+// The material of a voxel, if it is drawn (0: empty or hidden).
+int cm_visibleMaterial(ivec3 voxel)
+{
+  int material = int(texelFetch(cm_labels, voxel, 0).r * cm_labelScale + 0.5);
+  if (material == 0 || material >= textureSize(cm_palette, 0).x)
+  {
+    return 0;
+  }
+  return texelFetch(cm_palette, ivec2(material, 0), 0).a > 0.0 ? material : 0;
+}

@@ -1,0 +1,216 @@
+"""Material grids: one integer label per voxel (0 = empty), a palette, and a placement.
+
+A voxel ``(i, j, k)`` occupies ``[i, i+1] x [j, j+1] x [k, k+1]`` of the grid's index space;
+:meth:`VoxelModel.world_from_index` places that space in the world. Labels are stored as
+uint8 (up to 255 materials) or uint16 (up to 65535): one or two bytes per voxel.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyvista
+
+from ..core.errors import VolumeDataError
+from .volume import checked_transform
+
+#: Most materials a grid may hold (uint16 labels).
+MAX_MATERIALS = 65535
+
+
+class Palette:
+    """Per-material colour and opacity: row ``m`` is material ``m`` (row 0, empty, unused).
+
+    Opacity 0 hides a material (its voxels are traversed as empty); any other opacity draws
+    it opaque. Changing the palette re-uploads only this small table, never the labels.
+    """
+
+    def __init__(self, rgba: np.ndarray):
+        rgba = np.asarray(rgba, dtype=np.float32)
+        if rgba.ndim != 2 or rgba.shape[1] != 4 or len(rgba) < 2:
+            raise VolumeDataError(f"A palette is an (n, 4) RGBA table with n >= 2, got shape "
+                                  f"{rgba.shape}.")
+        if not np.isfinite(rgba).all() or rgba.min() < 0 or rgba.max() > 1:
+            raise VolumeDataError("Palette colours and opacities must be in [0, 1].")
+        self.rgba = np.ascontiguousarray(rgba)
+        self.version = 0   # bumped at each change, so the GPU copy follows
+
+    @classmethod
+    def make(cls, palette, n_materials: int) -> Palette:
+        """A palette for labels ``1..n_materials - 1`` from what a user may pass.
+
+        ``palette``: ``None`` (a qualitative colormap), a matplotlib colormap name, a list of
+        colours (entry ``m`` for material ``m``; entry 0 is ignored), a dict ``{material:
+        colour}`` or ``{material: (colour, opacity)}`` (materials left out are hidden), an
+        ``(n, 3)`` or ``(n, 4)`` array, or a :class:`Palette`.
+        """
+        if isinstance(palette, Palette):
+            return palette
+        n = max(int(n_materials), 2)
+        if palette is None or isinstance(palette, str):
+            name = palette or ("tab10" if n <= 11 else "tab20" if n <= 21 else "turbo")
+            try:
+                lut = pyvista.LookupTable(name, n_values=max(n - 1, 1))
+            except Exception as error:
+                raise VolumeDataError(f"palette={palette!r} is not a colormap name: "
+                                      f"{error}") from error
+            colors = np.asarray(lut.values, dtype=np.float32) / 255.0
+            rgba = np.vstack([np.zeros((1, 4), np.float32), colors])
+            rgba[1:, 3] = 1.0
+            return cls(rgba)
+        if isinstance(palette, dict):
+            rgba = np.zeros((max(n, max(int(k) for k in palette) + 1), 4), np.float32)
+            for material, entry in palette.items():
+                # (colour, opacity) pairs have two items; a colour has one (a name) or 3-4
+                pair = isinstance(entry, (tuple, list)) and len(entry) == 2
+                color, opacity = entry if pair else (entry, 1.0)
+                rgba[int(material), :3] = pyvista.Color(color).float_rgb
+                rgba[int(material), 3] = float(opacity)
+            return cls(rgba)
+        array = np.asarray(palette)
+        if array.ndim == 2 and array.shape[1] in (3, 4) and array.dtype.kind in "fiu":
+            rgba = np.ones((len(array), 4), np.float32)
+            rgba[:, :array.shape[1]] = array
+            rgba[0, 3] = 0.0
+            return cls(rgba)
+        colors = [pyvista.Color(c).float_rgb for c in palette]
+        rgba = np.ones((len(colors), 4), np.float32)
+        rgba[:, :3] = colors
+        rgba[0, 3] = 0.0
+        return cls(rgba)
+
+    @property
+    def n_materials(self) -> int:
+        """Rows of the table (material ids ``0..n - 1``)."""
+        return int(len(self.rgba))
+
+    def set_color(self, material: int, color=None, opacity: float | None = None) -> None:
+        """Change one material's colour and/or opacity (0 hides it)."""
+        material = int(material)
+        if not 0 < material < self.n_materials:
+            raise ValueError(f"material must be in 1..{self.n_materials - 1}, got {material}.")
+        if color is not None:
+            self.rgba[material, :3] = pyvista.Color(color).float_rgb
+        if opacity is not None:
+            if not 0.0 <= float(opacity) <= 1.0:
+                raise ValueError(f"opacity must be in [0, 1], got {opacity}.")
+            self.rgba[material, 3] = float(opacity)
+        self.version += 1
+
+    @property
+    def visible(self) -> np.ndarray:
+        """Per material: drawn (opacity above 0) or hidden; material 0 never."""
+        shown = self.rgba[:, 3] > 0
+        shown[0] = False
+        return shown
+
+
+@dataclass(eq=False)
+class VoxelModel:
+    """A material grid placed in the world, with its palette."""
+
+    labels: np.ndarray
+    palette: Palette
+    grid_from_index: np.ndarray = field(default_factory=lambda: np.eye(4))
+    transform: np.ndarray = field(default_factory=lambda: np.eye(4))
+    name: str = "voxels"
+
+    @property
+    def dimensions(self) -> tuple[int, int, int]:
+        """Voxels along x, y, z."""
+        return tuple(int(n) for n in self.labels.shape)
+
+    def world_from_index(self) -> np.ndarray:
+        """4x4 from index space (voxel ``(i, j, k)`` spans ``[i, i+1]`` per axis) to world."""
+        return np.asarray(self.transform, dtype=np.float64) @ self.grid_from_index
+
+    def world_bounds(self) -> np.ndarray:
+        """Axis-aligned world bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the grid."""
+        upper = np.array(self.dimensions, dtype=np.float64)
+        corners = np.array([[x, y, z, 1.0] for x in (0, upper[0]) for y in (0, upper[1])
+                            for z in (0, upper[2])])
+        world = corners @ self.world_from_index().T
+        return np.column_stack([world[:, :3].min(axis=0), world[:, :3].max(axis=0)]).ravel()
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the labels (one or two per voxel)."""
+        return int(self.labels.nbytes)
+
+
+def checked_labels(array, name: str = "labels") -> np.ndarray:
+    """Integer labels as uint8 (or uint16 above 255), or a clear error naming ``name``."""
+    array = np.asarray(array)
+    if array.ndim != 3:
+        raise VolumeDataError(f"{name} must be a 3D array (x, y, z), got shape {array.shape}.")
+    if array.size == 0:
+        raise VolumeDataError(f"{name} has no voxels (shape {array.shape}).")
+    if array.dtype.kind == "b":
+        return array.astype(np.uint8)
+    if array.dtype.kind == "f":
+        if not np.isfinite(array).all():
+            raise VolumeDataError(f"{name} holds NaN or infinite values; material labels are "
+                                  "whole numbers (0 = empty).")
+        if not np.array_equal(array, np.round(array)):
+            raise VolumeDataError(f"{name} holds non-integer values (e.g. "
+                                  f"{array[array != np.round(array)].flat[0]!r}); material "
+                                  "labels are whole numbers: round or label the data first.")
+    elif array.dtype.kind not in "iu":
+        raise VolumeDataError(f"{name} has dtype {array.dtype}; material labels are integers.")
+    low, high = array.min(), array.max()
+    if low < 0:
+        raise VolumeDataError(f"{name} holds negative labels (down to {low}); labels are "
+                              "0 (empty) or positive material ids.")
+    if high > MAX_MATERIALS:
+        raise VolumeDataError(f"{name} holds labels up to {high}; at most {MAX_MATERIALS} "
+                              "materials fit (uint16).")
+    dtype = np.uint8 if high <= 255 else np.uint16
+    return np.ascontiguousarray(array.astype(dtype))
+
+
+def make_voxels(data, scalars: str | None = None, *, palette=None, transform=None,
+                name: str = "voxels") -> VoxelModel:
+    """Validate a material grid and bundle it with a palette into a :class:`VoxelModel`.
+
+    ``data``: a 3D integer (or bool) numpy array indexed x, y, z (unit voxels from the
+    origin), or a ``pyvista.ImageData`` whose cell data (one voxel per cell) or point data
+    (one voxel centred on each point, a spacing wide) holds the labels.
+    """
+    grid_from_index = np.eye(4)
+    if isinstance(data, pyvista.ImageData):
+        names = list(data.cell_data.keys()) + list(data.point_data.keys())
+        if scalars is None:
+            if not names:
+                raise VolumeDataError("The grid has no arrays; add the labels to cell_data.")
+            scalars = names[0]
+        direction = np.asarray(data.direction_matrix, dtype=np.float64)
+        spacing = np.asarray(data.spacing, dtype=np.float64)
+        origin = np.asarray(data.origin, dtype=np.float64)
+        if scalars in data.cell_data:
+            shape = tuple(max(int(n) - 1, 1) for n in data.dimensions)
+            values = np.asarray(data.cell_data[scalars]).reshape(shape, order="F")
+            start = origin
+        elif scalars in data.point_data:
+            shape = tuple(int(n) for n in data.dimensions)
+            values = np.asarray(data.point_data[scalars]).reshape(shape, order="F")
+            start = origin - direction @ (spacing / 2.0)
+        else:
+            raise VolumeDataError(f"scalars={scalars!r} is not an array of the grid; it has "
+                                  f"{names}.")
+        grid_from_index[:3, :3] = direction * spacing
+        grid_from_index[:3, 3] = start
+        labels = checked_labels(values, scalars)
+    else:
+        labels = checked_labels(data)
+    matrix = np.eye(4) if transform is None else checked_transform(transform)
+    if abs(np.linalg.det(grid_from_index[:3, :3])) < 1e-300:
+        raise VolumeDataError("The grid's spacing must not be zero along any axis.")
+    chosen = Palette.make(palette, int(labels.max()) + 1)
+    if int(labels.max()) >= chosen.n_materials:
+        top = int(labels.max())
+        raise VolumeDataError(f"Label {top} has no colour: the palette has "
+                              f"{chosen.n_materials} entries (materials 0.."
+                              f"{chosen.n_materials - 1}); pass one with at least {top + 1}.")
+    return VoxelModel(labels=labels, palette=chosen, grid_from_index=grid_from_index,
+                      transform=matrix, name=name)

@@ -1,0 +1,48 @@
+"""The options of the voxel technique, validated in one place."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..core.options import positive_number
+
+TRAVERSALS = ("dda", "fixed")
+MODES = ("flat", "id")
+
+
+@dataclass(frozen=True)
+class VoxelOptions:
+    """How a material grid is traversed and what each pixel shows.
+
+    ``traversal``: ``'dda'`` (exact: every voxel a ray crosses) or ``'fixed'`` (samples
+    ``step_scale`` voxels apart along the dominant axis; misses thin voxels). ``mode``:
+    ``'flat'`` (the palette colour, unlit) or ``'id'`` (the voxel's linear index + 1 as
+    24-bit RGB, for picking and exact tests).
+    """
+
+    traversal: str = "dda"
+    step_scale: float | None = None
+    mode: str = "flat"
+
+    def check(self) -> None:
+        """Raise a clear error for a bad option."""
+        if self.traversal not in TRAVERSALS:
+            raise ValueError(f"traversal must be one of {TRAVERSALS}, got {self.traversal!r}.")
+        if self.mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}.")
+        if self.step_scale is not None:
+            if self.traversal != "fixed":
+                raise ValueError("step_scale is for traversal='fixed' (the DDA visits every "
+                                 "voxel and has no step); leave it out.")
+            positive_number("step_scale", self.step_scale, 0.0, 1e3)
+            if float(self.step_scale) < 1e-3:
+                raise ValueError(f"step_scale={self.step_scale} would take over 1000 samples "
+                                 "per voxel; use at least 0.001.")
+
+    def check_model(self, model) -> None:
+        """Nothing the grid's size forbids: the DDA is bounded by the grid's voxels."""
+
+    @property
+    def step(self) -> float:
+        """The fixed traversal's step in voxels (the seed's 1/10 of a voxel by default)."""
+        return float(self.step_scale) if self.step_scale is not None else 0.1

@@ -1,0 +1,142 @@
+"""Material grids on a box actor: Amanatides & Woo traversal in the fragment shader (002).
+
+The box's back faces are drawn in the opaque pass; each fragment rebuilds its ray from the
+near plane (camera-relative matrices made in double precision, so far grids stay exact),
+traverses the grid in index space to the first drawn voxel, and writes its colour and the
+hit's real depth: meshes and other techniques occlude and are occluded voxel-exactly. One
+byte (or two, above 255 materials) per voxel on the GPU; the palette is a small table that
+changes without touching the labels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyvista
+
+from ..core.registry import Technique, register_technique
+from ..gl.bindings import ShaderBindings
+from ..gl.box import bind_camera, box_actor, place_box
+from ..gl.shaders import Replacement, ShaderRecipe
+from ..gl.textures import Texture
+from ..models.volume import checked_transform
+from ..models.voxels import VoxelModel
+from ..reference.voxels import render_voxels
+from .options import VoxelOptions
+
+
+def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
+    """The box actor's replacements for the chosen traversal and mode."""
+    traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
+    return ShaderRecipe(replacements=[
+        Replacement("//VTK::Color::Dec",
+                    ("camera_declarations", "slab", "screen_ray", "voxel_declarations",
+                     traversal), keep_tag="after"),
+        Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
+        Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
+                    keep_tag="before"),
+    ], defines={"CM_VOXELS": True, "CM_VOXEL_ID": options.mode == "id"})
+
+
+class VoxelBinding:
+    """What ``actor.cubemarch`` holds for a material grid: model, textures, bindings."""
+
+    technique = "voxels"
+    needs_single_sample = False
+    blends_in_main_renderer = False
+
+    def __init__(self, model: VoxelModel, bindings: ShaderBindings, recipe: ShaderRecipe,
+                 labels: Texture, palette: Texture, options: VoxelOptions):
+        self.model = model
+        self.bindings = bindings
+        self.recipe = recipe
+        self.labels = labels
+        self.palette_texture = palette
+        self.options = options
+        self.actor = None
+        self.drawn: list = []
+        self.renderer = None
+        self.main_renderer = None
+        self.bounds_proxy = None
+        self.light_map = None
+        self._released = False
+
+    @property
+    def name(self) -> str:
+        """The grid's name."""
+        return self.model.name
+
+    @property
+    def palette(self):
+        """The grid's :class:`~pv_cubemarch.models.voxels.Palette`."""
+        return self.model.palette
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes: the labels (1 or 2 per voxel) and the palette."""
+        return self.labels.nbytes + self.palette_texture.nbytes
+
+    @property
+    def shown(self) -> bool:
+        """Whether the actor is visible."""
+        return self.actor is None or bool(self.actor.GetVisibility())
+
+    def follow_anchor(self) -> None:
+        """The actor draws itself; nothing follows it."""
+
+    def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
+        """Change a material's colour and/or opacity (0 hides it); the labels stay uploaded.
+
+        Only the palette, a few bytes per material, goes to the GPU again.
+        """
+        self.model.palette.set_color(material, color, opacity)
+        self.palette_texture.set_data(self.model.palette.rgba.reshape(1, -1, 4))
+
+    def set_transform(self, transform) -> None:
+        """Move the grid: ``transform`` is its new 4x4 placement in the world."""
+        self.model.transform = checked_transform(transform)
+        for actor in self.drawn:
+            place_box(actor, self.model.world_from_index())
+        if self.main_renderer is not None:
+            self.main_renderer.ResetCameraClippingRange()
+
+    def release(self) -> None:
+        """Free the textures and observers (once)."""
+        if self._released:
+            return
+        self._released = True
+        self.bindings.release()
+        self.labels.release()
+        self.palette_texture.release()
+
+
+def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> VoxelBinding:
+    """The opaque box actor of a material grid; returns its binding."""
+    renderer = plotter.renderer
+    actor = box_actor(model.dimensions, model.world_from_index())
+    actor.ForceTranslucentOff()
+    actor.ForceOpaqueOn()
+    actor.GetProperty().LightingOff()   # VTK's lighting code would run for nothing
+    labels = Texture(model.labels, kind="3d", interpolate=False)
+    palette = Texture(model.palette.rgba.reshape(1, -1, 4), kind="2d", interpolate=False)
+    bindings = ShaderBindings(actor.GetMapper(), renderer)
+    bindings.add_texture("cm_labels", labels)
+    bindings.add_texture("cm_palette", palette)
+    bindings.set_uniform("cm_labelScale", float(np.iinfo(model.labels.dtype).max))
+    bindings.set_uniform("cm_gridDims", tuple(float(n) for n in model.dimensions))
+    if options.traversal == "fixed":
+        bindings.set_uniform("cm_voxelStep", options.step)
+    bind_camera(bindings, renderer, model.world_from_index)
+    recipe = voxel_recipe(options)
+    bindings.recipe = recipe
+    recipe.apply(actor.GetShaderProperty())
+    binding = VoxelBinding(model, bindings, recipe, labels, palette, options)
+    binding.drawn = [actor]
+    binding.renderer = renderer
+    pyvista.set_new_attribute(actor, "cubemarch", binding)
+    return binding
+
+
+register_technique(Technique(
+    name="voxels", kind="voxels", options=VoxelOptions, build=build_voxel_actor,
+    reference=render_voxels,
+    summary="a material grid drawn exactly by Amanatides & Woo traversal (002)"))
