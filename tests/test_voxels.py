@@ -19,10 +19,8 @@ from pv_cubemarch.reference.voxels import id_colors, render_voxels, trace_voxels
 
 SIZE = (64, 48)
 #: Pixels whose ray passes this close (in voxels) to a voxel edge, or grazes the grid box's
-#: edge, are counted apart: float32 on the GPU may break those ties the other way. Measured
-#: here: the rare mismatches lie within 1e-3 voxel of an edge (the goal is 1e-4; the GPU's
-#: box entry near a box edge is what is off by more).
-EDGE = 1e-3
+#: edge, are counted apart: float32 on the GPU may break those ties the other way.
+EDGE = 1e-4
 
 
 def plotter(plotter_factory, size=SIZE):
@@ -51,15 +49,17 @@ def wrong_pixels(pl, model, camera, size=SIZE):
 
 @pytest.mark.parametrize("fill", [0.01, 0.3])
 def test_dda_is_exact_against_the_cpu_traversal(plotter_factory, fill):
-    # catches: a tie broken by stepping two axes at once (voxels sharing only an edge are
-    # skipped), a voxel index off by one at a boundary, or the ray starting at the eye.
+    # catches (seen to fail): the next boundary taken on the upper side whatever the
+    # direction (11 of 15 tests fail), and a box drawn exactly to the grid's size (one
+    # grazing pixel at a box edge was not rasterised: the box is drawn 1 % larger and each
+    # ray clipped to the exact box in the shader).
     labels = random_labels((24, 20, 16), fill)
     pl = plotter(plotter_factory)
     actor = cm.add_voxels(pl, labels, mode="id")
     camera = set_camera(pl, (40.0, 30.0, 35.0), focal=(12.0, 10.0, 8.0))
     wrong, edge, hits = wrong_pixels(pl, actor.cubemarch.model, camera)
     assert (hits.material > 0).mean() > 0.1   # many voxels in view: a real test
-    assert wrong == 0 and edge < 0.05 * hits.material.size
+    assert wrong == 0 and edge < 0.02 * hits.material.size
 
 
 def test_fixed_step_misses_what_dda_hits(plotter_factory):

@@ -25,7 +25,6 @@ bool cm_screenRayBox(vec2 ndc, float backDepth, float sceneDepth, vec3 lo, vec3 
   return f1 > f0;
 }
 
-#ifndef CM_VOXELS
 // The same through a volume's box of texel centres (texture coordinates; needs cm_dims).
 bool cm_screenRay(vec2 ndc, float backDepth, float sceneDepth,
                   out vec3 entry, out vec3 exit, out vec3 entryView, out vec3 exitView)
@@ -33,4 +32,3 @@ bool cm_screenRay(vec2 ndc, float backDepth, float sceneDepth,
   return cm_screenRayBox(ndc, backDepth, sceneDepth, 0.5 / cm_dims, 1.0 - 0.5 / cm_dims,
                          entry, exit, entryView, exitView);
 }
-#endif

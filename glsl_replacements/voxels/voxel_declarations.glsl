@@ -7,6 +7,7 @@ uniform sampler3D cm_labels;     // one texel per voxel, nearest
 uniform float cm_labelScale;     // 255 (uint8) or 65535 (uint16)
 uniform sampler2D cm_palette;    // (materials x 1) RGBA
 uniform vec3 cm_gridDims;        // voxels along x, y, z
+uniform float cm_near;           // the near plane's view depth
 
 // The material of a voxel, if it is drawn (0: empty or hidden).
 int cm_visibleMaterial(ivec3 voxel)

@@ -1,15 +1,22 @@
 // Material grid on its box actor (opaque pass, back faces; after VTK's lighting, which it
-// replaces): this pixel's ray from the near plane through the grid's box, traversed to the
-// first drawn voxel; its colour (palette, or the voxel's id with CM_VOXEL_ID) and the real
+// replaces): this pixel's ray (pixel_ray.glsl) from the near plane through the grid's box
+// (cm_slab), traversed to the first drawn voxel; its colour (palette, or the voxel's id with CM_VOXEL_ID) and the real
 // depth of the hit, so meshes and other techniques occlude and are occluded exactly.
 {
   vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
-  vec3 cm_a, cm_b, cm_aView, cm_bView;
-  if (!cm_screenRayBox(cm_pixel * 2.0 - 1.0, gl_FragCoord.z, 1.0, vec3(0.0), cm_gridDims,
-                       cm_a, cm_b, cm_aView, cm_bView))
+  vec3 cm_originView, cm_directionView;
+  cm_pixelRay(cm_pixel * 2.0 - 1.0, cm_originView, cm_directionView);
+  // The ray in index space (cm_textureFromView was made in double precision, camera-relative).
+  vec3 cm_origin = (cm_textureFromView * vec4(cm_originView, 1.0)).xyz;
+  vec3 cm_direction = mat3(cm_textureFromView) * cm_directionView;
+  vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
+  float cm_start = max(cm_inBox.x, cm_near);
+  if (!(cm_inBox.y > cm_start))
   {
     discard;
   }
+  vec3 cm_a = cm_origin + cm_direction * cm_start;
+  vec3 cm_b = cm_origin + cm_direction * cm_inBox.y;
   ivec3 cm_voxel;
   int cm_face;
   float cm_t;
@@ -26,6 +33,7 @@
 #else
   fragOutput0 = vec4(texelFetch(cm_palette, ivec2(cm_material, 0), 0).rgb, 1.0);
 #endif
-  vec4 cm_clip = cm_projection * vec4(mix(cm_aView, cm_bView, cm_t), 1.0);
+  float cm_depth = mix(cm_start, cm_inBox.y, cm_t);   // the hit's view depth
+  vec4 cm_clip = cm_projection * vec4(cm_originView + cm_directionView * cm_depth, 1.0);
   gl_FragDepth = clamp(cm_clip.z / cm_clip.w * 0.5 + 0.5, 0.0, 1.0);
 }

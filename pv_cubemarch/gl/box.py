@@ -39,10 +39,17 @@ def camera_matrices(renderer) -> tuple[np.ndarray, np.ndarray]:
     return view, projection
 
 
-def box_actor(upper, world_from_index: np.ndarray) -> pyvista.Actor:
-    """The box ``[0, upper]`` (index space) placed by ``world_from_index``, back faces only."""
+def box_actor(upper, world_from_index: np.ndarray, margin: float = 0.0) -> pyvista.Actor:
+    """The box ``[0, upper]`` (index space) placed by ``world_from_index``, back faces only.
+
+    ``margin`` grows the drawn box on every side (index units): rasterisation covers a
+    pixel whose centre is a hair inside the box's silhouette only when the edge is a
+    sub-pixel step away, so a technique that clips its rays to the exact box in the shader
+    draws a slightly larger box and loses no grazing pixel.
+    """
     upper = np.asarray(upper, dtype=np.float64)
-    box = pyvista.Box(bounds=(0, upper[0], 0, upper[1], 0, upper[2])).triangulate()
+    lo, hi = -float(margin), upper + float(margin)
+    box = pyvista.Box(bounds=(lo, hi[0], lo, hi[1], lo, hi[2])).triangulate()
     mapper = vtk.vtkOpenGLPolyDataMapper()
     mapper.SetInputData(box)
     actor = pyvista.Actor()

@@ -29,12 +29,12 @@ def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
-                    ("camera_declarations", "slab", "screen_ray", "voxel_declarations",
+                    ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
                      traversal), keep_tag="after"),
         Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
-    ], defines={"CM_VOXELS": True, "CM_VOXEL_ID": options.mode == "id"})
+    ], defines={"CM_VOXEL_ID": options.mode == "id"})
 
 
 class VoxelBinding:
@@ -112,7 +112,10 @@ class VoxelBinding:
 def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> VoxelBinding:
     """The opaque box actor of a material grid; returns its binding."""
     renderer = plotter.renderer
-    actor = box_actor(model.dimensions, model.world_from_index())
+    # 1 % larger on every side: the shader clips each ray to the exact grid box, so pixels
+    # whose rays graze the box's edges are covered and decided there, not by rasterisation.
+    actor = box_actor(model.dimensions, model.world_from_index(),
+                      margin=0.01 * max(model.dimensions))
     actor.ForceTranslucentOff()
     actor.ForceOpaqueOn()
     actor.GetProperty().LightingOff()   # VTK's lighting code would run for nothing
@@ -126,6 +129,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     if options.traversal == "fixed":
         bindings.set_uniform("cm_voxelStep", options.step)
     bind_camera(bindings, renderer, model.world_from_index)
+    bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
     recipe = voxel_recipe(options)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
