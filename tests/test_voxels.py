@@ -204,3 +204,31 @@ def test_cell_and_point_data_and_uint16(plotter_factory):
     wrong, _, hits = wrong_pixels(pl, model, camera)
     assert wrong == 0 and (hits.material >= 300).any()
     assert actor.cubemarch.nbytes == model.labels.nbytes + model.palette.rgba.nbytes
+
+
+def test_pick_returns_what_is_drawn(plotter_factory):
+    # Every third pixel's pick against the id image drawn by the GPU (and the material
+    # under it). Catches: a pick computed with another camera, rows counted from the
+    # bottom, or the hidden materials forgotten.
+    labels = random_labels((12, 10, 8), 0.3, seed=9)
+    pl = plotter(plotter_factory)
+    actor = cm.add_voxels(pl, labels, mode="id")
+    actor.cubemarch.set_material(1, opacity=0.0)
+    set_camera(pl, (30.0, 22.0, 26.0), focal=(6.0, 5.0, 4.0))
+    image = cm.render_image(pl).astype(int)
+    ids = image[..., 0] + 256 * image[..., 1] + 65536 * image[..., 2]
+    nx, ny, _ = labels.shape
+    checked = 0
+    for y in range(0, SIZE[1], 3):
+        for x in range(0, SIZE[0], 3):
+            picked = actor.cubemarch.pick(x, y)
+            if ids[y, x] == 0:
+                assert picked is None
+                continue
+            i, j, k = picked.index
+            assert i + nx * (j + ny * k) + 1 == ids[y, x] and picked.material == labels[i, j, k]
+            assert picked.material != 1
+            checked += 1
+    assert checked > 50
+    with pytest.raises(ValueError, match="pixel"):
+        actor.cubemarch.pick(SIZE[0], 0)

@@ -10,9 +10,12 @@ changes without touching the labels.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pyvista
 
+from ..core.camera import Camera
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, box_actor, place_box
@@ -20,7 +23,7 @@ from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.volume import checked_transform
 from ..models.voxels import VoxelModel
-from ..reference.voxels import render_voxels
+from ..reference.voxels import render_voxels, trace_voxels
 from .options import VoxelOptions
 
 
@@ -35,6 +38,21 @@ def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
     ], defines={"CM_VOXEL_ID": options.mode == "id"})
+
+
+@dataclass(frozen=True)
+class VoxelPick:
+    """What a pixel shows: its voxel, material, entry face, depth and world point.
+
+    ``face``: ``2 * axis + 1`` when the ray entered moving +axis, ``2 * axis`` moving -axis,
+    -1 when it starts inside the voxel; ``depth``: the distance along the ray.
+    """
+
+    index: tuple[int, int, int]
+    material: int
+    face: int
+    depth: float
+    point: tuple[float, float, float]
 
 
 class VoxelBinding:
@@ -90,6 +108,30 @@ class VoxelBinding:
         """
         self.model.palette.set_color(material, color, opacity)
         self.palette_texture.set_data(self.model.palette.rgba.reshape(1, -1, 4))
+
+    def pick(self, x: int, y: int) -> VoxelPick | None:
+        """The voxel under pixel ``(x, y)``, or ``None`` where the grid shows nothing.
+
+        ``x``, ``y`` count from the top-left, as image arrays index. Computed as the image
+        is (the exact traversal with the renderer's camera, near plane and palette), so it
+        returns what is drawn.
+        """
+        renderer = self.main_renderer or self.renderer
+        width, height = renderer.GetSize()
+        if not (0 <= int(x) < width and 0 <= int(y) < height):
+            raise ValueError(f"(x, y) must be a pixel of the {width}x{height} renderer, got "
+                             f"({x}, {y}).")
+        camera = Camera.from_pyvista(renderer.GetActiveCamera())
+        hits = trace_voxels(self.model.labels, self.model.world_from_index(), camera,
+                            (width, height), near=camera.clipping_range[0],
+                            visible=self.model.palette.visible, crop=(int(x), int(y), 1, 1))
+        if hits.material[0, 0] == 0:
+            return None
+        origins, directions = camera.rays((width, height))
+        depth = float(hits.depth[0, 0])
+        point = origins[int(y), int(x)] + directions[int(y), int(x)] * depth
+        return VoxelPick(tuple(int(v) for v in hits.index[0, 0]), int(hits.material[0, 0]),
+                         int(hits.face[0, 0]), depth, tuple(float(v) for v in point))
 
     def set_transform(self, transform) -> None:
         """Move the grid: ``transform`` is its new 4x4 placement in the world."""
