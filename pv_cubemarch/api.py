@@ -271,7 +271,11 @@ def add_voxels(
     palette=None,
     traversal: str = "dda",
     step_scale: float | None = None,
-    mode: str = "flat",
+    mode: str = "color",
+    shading: str = "blinn",
+    ambient: float = 0.2,
+    specular: float = 0.3,
+    specular_power: float = 30.0,
     transform=None,
     name: str | None = None,
 ) -> pyvista.Actor:
@@ -304,8 +308,14 @@ def add_voxels(
     step_scale : float, optional
         ``traversal='fixed'`` only: the step in voxels. Cost grows as ``1 / step_scale``.
     mode : str
-        ``'flat'``: the palette colour, unlit. ``'id'``: the voxel's linear index + 1
-        (``i + nx * (j + ny * k) + 1``) as 24-bit RGB, for picking and exact tests.
+        ``'color'``: the palette colour, shaded. ``'id'``: the voxel's linear index + 1
+        (``i + nx * (j + ny * k) + 1``) as 24-bit RGB, for exact tests.
+    shading : str
+        ``'blinn'`` (default): the scene's switched-on lights (up to 8; headlights follow
+        the camera) on the face each ray entered, Lambert plus a Blinn-Phong highlight;
+        ``'flat'``: Lambert only; ``'unlit'``: the palette colour as is.
+    ambient, specular, specular_power : float
+        The share of unlit colour (0-1), the highlight's weight (0-1) and exponent.
     transform : array_like, optional
         4x4 affine placement of the grid in the world.
     name : str, optional
@@ -326,7 +336,9 @@ def add_voxels(
     >>> actor = cm.add_voxels(pl, labels, palette=["black", "tan", "steelblue"])
     """
     chosen = get_technique("voxels", "voxels")
-    options = chosen.make_options({"traversal": traversal, "mode": mode,
+    options = chosen.make_options({"traversal": traversal, "mode": mode, "shading": shading,
+                                   "ambient": ambient, "specular": specular,
+                                   "specular_power": specular_power,
                                    **({"step_scale": step_scale} if step_scale is not None
                                       else {})})
     if isinstance(grid, VoxelModel):

@@ -1,11 +1,12 @@
 // Amanatides & Woo traversal of a material grid (002): from a to b (index space), voxel by
 // voxel, to the first drawn voxel. Returns its material (0: none), the voxel, the face it was
-// entered through (2 * axis + 1 when entered moving +axis, 2 * axis moving -axis; -1 when the
-// ray starts inside it) and the fraction t of a..b where it is entered.
+// entered through (2 * axis + 1 when entered moving +axis, 2 * axis moving -axis; `face`
+// comes in as the face a enters the first voxel through, -1 when a is inside it) and the
+// fraction t of a..b where it is entered.
 // Tie rule: one axis is stepped per iteration; when several axes cross a boundary at the same
 // t, x steps before y before z (the CPU reference's rule). An axis the ray does not move along
 // is never crossed: no division by zero (GLSL 1.50 promises no infinity).
-int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, out int face, out float t)
+int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float t)
 {
   ivec3 dims = ivec3(cm_gridDims);
   vec3 d = b - a;
@@ -17,7 +18,6 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, out int face, out float t)
   vec3 tMax = mix(vec3(1e30), (boundary - a) / safe, moving);
   vec3 tDelta = mix(vec3(1e30), abs(1.0 / safe), moving);
   t = 0.0;
-  face = -1;
   int count = dims.x + dims.y + dims.z + 3;   // no ray crosses more voxels than this
   for (int i = 0; i < count; ++i)
   {

@@ -1,16 +1,16 @@
 // Fixed-step traversal of a material grid (the seed's baseline, kept to show what it misses):
 // samples every cm_voxelStep voxels along the ray's dominant axis, from a to b (index
-// space); the first sample inside a drawn voxel is the hit (its face is unknown: -1).
+// space); the first sample inside a drawn voxel is the hit (its face is the box entry's for
+// the first voxel, else unknown: -1).
 // Thin voxels and corners between samples are stepped over. Same signature as the DDA.
 uniform float cm_voxelStep;   // step in voxels along the dominant axis
 
-int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, out int face, out float t)
+int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float t)
 {
   ivec3 dims = ivec3(cm_gridDims);
   vec3 d = b - a;
   vec3 span = abs(d);
   float steps = max(max(span.x, max(span.y, span.z)) / cm_voxelStep, 1.0);
-  face = -1;
   voxel = ivec3(0);
   for (float s = 0.0; s < steps; s += 1.0)
   {
@@ -21,6 +21,7 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, out int face, out float t)
     {
       return material;
     }
+    face = -1;
   }
   t = 1.0;
   return 0;

@@ -1,7 +1,8 @@
 // Material grid on its box actor (opaque pass, back faces; after VTK's lighting, which it
 // replaces): this pixel's ray (pixel_ray.glsl) from the near plane through the grid's box
-// (cm_slab), traversed to the first drawn voxel; its colour (palette, or the voxel's id with CM_VOXEL_ID) and the real
-// depth of the hit, so meshes and other techniques occlude and are occluded exactly.
+// (cm_slab), traversed to the first drawn voxel; its colour (the palette's, lit with
+// CM_LIGHTING, or the voxel's id with CM_VOXEL_ID) and the real depth of the hit, so meshes
+// and other techniques occlude and are occluded exactly.
 {
   vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
   vec3 cm_originView, cm_directionView;
@@ -17,8 +18,20 @@
   }
   vec3 cm_a = cm_origin + cm_direction * cm_start;
   vec3 cm_b = cm_origin + cm_direction * cm_inBox.y;
+  // The face of the grid box the ray enters through (-1 when it starts inside the box):
+  // the axis whose slab it enters last, ties to the lowest axis (as the CPU reference).
+  int cm_face = -1;
+  if (cm_inBox.x >= cm_near)
+  {
+    vec3 cm_moving = step(vec3(1e-30), abs(cm_direction));
+    vec3 cm_safe = mix(vec3(1.0), cm_direction, cm_moving);
+    vec3 cm_enter = mix(vec3(-1e30), min(-cm_origin / cm_safe, (cm_gridDims - cm_origin)
+                                                                 / cm_safe), cm_moving);
+    int cm_axis = (cm_enter.x >= cm_enter.y && cm_enter.x >= cm_enter.z) ? 0
+                  : (cm_enter.y >= cm_enter.z ? 1 : 2);
+    cm_face = 2 * cm_axis + (cm_direction[cm_axis] > 0.0 ? 1 : 0);
+  }
   ivec3 cm_voxel;
-  int cm_face;
   float cm_t;
   int cm_material = cm_voxelTraverse(cm_a, cm_b, cm_voxel, cm_face, cm_t);
   if (cm_material == 0)
@@ -30,10 +43,16 @@
   int cm_id = cm_voxel.x + cm_dims3.x * (cm_voxel.y + cm_dims3.y * cm_voxel.z) + 1;
   fragOutput0 = vec4(float(cm_id & 255), float((cm_id >> 8) & 255),
                      float((cm_id >> 16) & 255), 255.0) / 255.0;
-#else
-  fragOutput0 = vec4(texelFetch(cm_palette, ivec2(cm_material, 0), 0).rgb, 1.0);
 #endif
   float cm_depth = mix(cm_start, cm_inBox.y, cm_t);   // the hit's view depth
-  vec4 cm_clip = cm_projection * vec4(cm_originView + cm_directionView * cm_depth, 1.0);
+  vec3 cm_hitView = cm_originView + cm_directionView * cm_depth;
+#ifndef CM_VOXEL_ID
+  vec3 cm_color = texelFetch(cm_palette, ivec2(cm_material, 0), 0).rgb;
+#ifdef CM_LIGHTING
+  cm_color = cm_shadeVoxel(cm_color, cm_face, cm_hitView, -normalize(cm_directionView));
+#endif
+  fragOutput0 = vec4(cm_color, 1.0);
+#endif
+  vec4 cm_clip = cm_projection * vec4(cm_hitView, 1.0);
   gl_FragDepth = clamp(cm_clip.z / cm_clip.w * 0.5 + 0.5, 0.0, 1.0);
 }

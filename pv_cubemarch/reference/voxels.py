@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.camera import Camera
+from ..models.lights import VolumeLight
 from .rays import ray_box_interval
 
 
@@ -305,8 +306,13 @@ def render_voxels(
     size: tuple[int, int],
     background: Sequence[float] = (0.0, 0.0, 0.0),
     near: float | None = None,
+    lights: Sequence[VolumeLight] = (),
+    shading: str = "unlit",
+    ambient: float = 0.2,
+    specular: float = 0.3,
+    specular_power: float = 30.0,
 ) -> np.ndarray:
-    """Render a labelled grid flat (unlit): each pixel the colour of the voxel it sees.
+    """Render a labelled grid: each pixel the (lit) colour of the voxel it sees.
 
     Parameters
     ----------
@@ -317,6 +323,15 @@ def render_voxels(
         hidden (traversed as empty). Row 0 (empty) is never drawn.
     background : sequence of float
         RGB where the ray hits no visible voxel.
+    lights : sequence of VolumeLight
+        Directional and point lights (world coordinates) for ``'flat'`` and ``'blinn'``.
+    shading : str
+        ``'unlit'``: the palette colour. ``'flat'``: Lambert on the face the ray entered,
+        ``colour * (ambient + (1 - ambient) * sum light * max(n.l, 0))``. ``'blinn'``: that
+        plus ``specular * sum light * max(n.h, 0) ** specular_power``, ``h`` halfway
+        between the light and the eye. A ray that starts inside its voxel faces the eye.
+    ambient, specular, specular_power : float
+        The shading's share of unlit colour, specular weight and exponent.
 
     Returns
     -------
@@ -326,6 +341,8 @@ def render_voxels(
     palette = np.asarray(palette, dtype=np.float64)
     if palette.ndim != 2 or palette.shape[1] != 4:
         raise ValueError(f"palette must be (n_materials, 4) RGBA, got shape {palette.shape}.")
+    if shading not in ("unlit", "flat", "blinn"):
+        raise ValueError(f"shading must be 'unlit', 'flat' or 'blinn', got {shading!r}.")
     max_label = int(_check_labels(labels).max())
     if palette.shape[0] <= max_label:
         raise ValueError(f"palette has {palette.shape[0]} rows but labels go up to "
@@ -336,8 +353,49 @@ def render_voxels(
     image = np.empty((height, width, 3))
     image[...] = np.asarray(background, dtype=np.float64)
     hit = hits.material > 0
-    image[hit] = palette[hits.material[hit], :3]
+    color = palette[hits.material[hit], :3]
+    if shading != "unlit":
+        origins, directions = camera.rays((width, height))
+        toward_eye = -directions[hit]
+        points = origins[hit] + directions[hit] * hits.depth[hit][:, None]
+        normals = face_normals(hits.face[hit], world_from_index, toward_eye)
+        diffuse = np.zeros_like(color)
+        shine = np.zeros_like(color)
+        for light in lights:
+            if light.kind == "point":
+                toward = np.asarray(light.position, dtype=np.float64) - points
+            else:
+                toward = np.broadcast_to(-np.asarray(light.direction, dtype=np.float64),
+                                         points.shape)
+            toward = toward / np.linalg.norm(toward, axis=1, keepdims=True)
+            diffuse += np.clip(np.sum(normals * toward, axis=1), 0, None)[:, None] \
+                * light.radiance
+            if shading == "blinn":
+                half = toward + toward_eye
+                half /= np.maximum(np.linalg.norm(half, axis=1, keepdims=True), 1e-300)
+                shine += np.clip(np.sum(normals * half, axis=1), 0, None)[:, None] \
+                    ** specular_power * light.radiance
+        color = color * (ambient + (1.0 - ambient) * diffuse) + specular * shine
+    image[hit] = np.clip(color, 0.0, 1.0)
     return image
+
+
+def face_normals(face: np.ndarray, world_from_index: np.ndarray,
+                 toward_eye: np.ndarray) -> np.ndarray:
+    """Unit world normals of the faces rays entered through (facing back along the ray).
+
+    ``face`` as in :class:`VoxelHits`; -1 (the ray starts inside its voxel) faces the eye.
+    """
+    axis = np.clip(face, 0, None) // 2
+    sign = np.where(face % 2 == 1, -1.0, 1.0)   # entered moving +axis: the normal is -axis
+    normal_index = np.zeros((len(face), 3))
+    normal_index[np.arange(len(face)), axis] = sign
+    normal = normal_index @ np.linalg.inv(np.asarray(world_from_index)[:3, :3])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    inside = face < 0
+    normal[inside] = toward_eye[inside] / np.linalg.norm(toward_eye[inside], axis=1,
+                                                         keepdims=True)
+    return normal
 
 
 def id_colors(hits: VoxelHits, shape: tuple[int, int, int]) -> np.ndarray:

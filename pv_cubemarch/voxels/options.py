@@ -7,7 +7,8 @@ from dataclasses import dataclass
 from ..core.options import positive_number
 
 TRAVERSALS = ("dda", "fixed")
-MODES = ("flat", "id")
+MODES = ("color", "id")
+SHADINGS = ("unlit", "flat", "blinn")
 
 
 @dataclass(frozen=True)
@@ -16,13 +17,19 @@ class VoxelOptions:
 
     ``traversal``: ``'dda'`` (exact: every voxel a ray crosses) or ``'fixed'`` (samples
     ``step_scale`` voxels apart along the dominant axis; misses thin voxels). ``mode``:
-    ``'flat'`` (the palette colour, unlit) or ``'id'`` (the voxel's linear index + 1 as
-    24-bit RGB, for picking and exact tests).
+    ``'color'`` (the palette colour, shaded) or ``'id'`` (the voxel's linear index + 1 as
+    24-bit RGB, for picking and exact tests). ``shading``: ``'unlit'``, ``'flat'``
+    (Lambert on the entered face, from the scene's lights) or ``'blinn'`` (plus a
+    Blinn-Phong highlight), with ``ambient``, ``specular`` and ``specular_power``.
     """
 
     traversal: str = "dda"
     step_scale: float | None = None
-    mode: str = "flat"
+    mode: str = "color"
+    shading: str = "blinn"
+    ambient: float = 0.2
+    specular: float = 0.3
+    specular_power: float = 30.0
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
@@ -30,6 +37,11 @@ class VoxelOptions:
             raise ValueError(f"traversal must be one of {TRAVERSALS}, got {self.traversal!r}.")
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}.")
+        if self.shading not in SHADINGS:
+            raise ValueError(f"shading must be one of {SHADINGS}, got {self.shading!r}.")
+        positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)
+        positive_number("specular", self.specular, 0.0, 1.0, closed_low=True)
+        positive_number("specular_power", self.specular_power, 0.0, 1e4)
         if self.step_scale is not None:
             if self.traversal != "fixed":
                 raise ValueError("step_scale is for traversal='fixed' (the DDA visits every "

@@ -18,26 +18,74 @@ import pyvista
 from ..core.camera import Camera
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, box_actor, place_box
+from ..gl.box import bind_camera, box_actor, camera_matrices, place_box
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
+from ..models.lights import VolumeLight
 from ..models.volume import checked_transform
 from ..models.voxels import VoxelModel
 from ..reference.voxels import render_voxels, trace_voxels
 from .options import VoxelOptions
 
+#: Most scene lights a grid is lit by (two mat4 of light vectors and colours).
+MAX_VOXEL_LIGHTS = 8
+
 
 def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
-    """The box actor's replacements for the chosen traversal and mode."""
+    """The box actor's replacements for the chosen traversal, mode and shading."""
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
+    lit = options.mode == "color" and options.shading != "unlit"
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
                     ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
-                     traversal), keep_tag="after"),
+                     traversal, *(("voxel_shading",) if lit else ())), keep_tag="after"),
         Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
-    ], defines={"CM_VOXEL_ID": options.mode == "id"})
+    ], defines={"CM_VOXEL_ID": options.mode == "id", "CM_LIGHTING": lit,
+                "CM_SPECULAR": lit and options.shading == "blinn"})
+
+
+def scene_lights(renderer) -> list[VolumeLight]:
+    """The renderer's switched-on lights as they shine now (headlights follow the camera)."""
+    camera = renderer.GetActiveCamera()
+    lights = [VolumeLight.from_pyvista(li, camera) for li in renderer.GetLights()
+              if li.GetSwitch()]
+    return lights[:MAX_VOXEL_LIGHTS]
+
+
+def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
+                options: VoxelOptions) -> None:
+    """Per-frame light uniforms: the scene's lights in view space, the face normals' map."""
+    def view():
+        return camera_matrices(renderer)[0]
+
+    def vectors(half: int) -> np.ndarray:
+        matrix = np.zeros((4, 4))
+        for column, light in enumerate(scene_lights(renderer)[4 * half:4 * half + 4]):
+            if light.kind == "point":
+                matrix[:, column] = view() @ np.append(light.position, 1.0)
+                matrix[3, column] = 1.0
+            else:
+                toward = -np.asarray(light.direction, dtype=np.float64)
+                matrix[:3, column] = view()[:3, :3] @ (toward / np.linalg.norm(toward))
+        return matrix
+
+    def colors(half: int) -> np.ndarray:
+        matrix = np.zeros((4, 4))
+        for column, light in enumerate(scene_lights(renderer)[4 * half:4 * half + 4]):
+            matrix[:3, column] = light.radiance
+        return matrix
+
+    bindings.set_uniform("cm_lightCount", lambda: len(scene_lights(renderer)))
+    for half in (0, 1):
+        bindings.set_uniform(f"cm_lightVectors{half}", lambda h=half: vectors(h))
+        bindings.set_uniform(f"cm_lightColors{half}", lambda h=half: colors(h))
+    bindings.set_uniform("cm_normalFromIndex", lambda: view()[:3, :3] @ np.linalg.inv(
+        model.world_from_index()[:3, :3]).T)
+    bindings.set_uniform("cm_ambient", float(options.ambient))
+    bindings.set_uniform("cm_specular", float(options.specular))
+    bindings.set_uniform("cm_specularPower", float(options.specular_power))
 
 
 @dataclass(frozen=True)
@@ -171,6 +219,8 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     if options.traversal == "fixed":
         bindings.set_uniform("cm_voxelStep", options.step)
     bind_camera(bindings, renderer, model.world_from_index)
+    if options.mode == "color" and options.shading != "unlit":
+        bind_lights(bindings, renderer, model, options)
     bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
     recipe = voxel_recipe(options)
     bindings.recipe = recipe
