@@ -271,6 +271,7 @@ def add_voxels(
     palette=None,
     traversal: str = "dda",
     step_scale: float | None = None,
+    mip_levels: int | None = None,
     mode: str = "color",
     shading: str = "blinn",
     ambient: float = 0.2,
@@ -307,6 +308,9 @@ def add_voxels(
         kept as the baseline: it steps over thin voxels and corners.
     step_scale : float, optional
         ``traversal='fixed'`` only: the step in voxels. Cost grows as ``1 / step_scale``.
+    mip_levels : int, optional
+        ``traversal='dda'``: occupancy mipmap levels (0-3, 2 by default) used to leave
+        empty space in one step; exact whatever the number, 1/8 + 1/64 + ... more bytes.
     mode : str
         ``'color'``: the palette colour, shaded. ``'id'``: the voxel's linear index + 1
         (``i + nx * (j + ny * k) + 1``) as 24-bit RGB, for exact tests.
@@ -340,6 +344,9 @@ def add_voxels(
                                    "ambient": ambient, "specular": specular,
                                    "specular_power": specular_power,
                                    **({"step_scale": step_scale} if step_scale is not None
+                                      else {}),
+                                   **({"mip_levels": mip_levels} if mip_levels is not None
+                                      else {"mip_levels": 0} if traversal == "fixed"
                                       else {})})
     if isinstance(grid, VoxelModel):
         model = grid

@@ -16,11 +16,41 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
   voxel = clamp(ivec3(floor(a)), ivec3(0), dims - 1);
   vec3 boundary = vec3(voxel) + step(vec3(0.0), d) * moving;   // the next boundary per axis
   vec3 tMax = mix(vec3(1e30), (boundary - a) / safe, moving);
-  vec3 tDelta = mix(vec3(1e30), abs(1.0 / safe), moving);
   t = 0.0;
   int count = dims.x + dims.y + dims.z + 3;   // no ray crosses more voxels than this
   for (int i = 0; i < count; ++i)
   {
+#ifdef CM_MIP_LEVELS
+    // Leave the coarsest empty cell around this voxel in one step (voxel_mip.glsl): its
+    // exit is found like any crossing, from the cell's boundaries, and the traversal goes
+    // on from the voxel just past it, its crossings computed afresh from that voxel.
+    int level = cm_emptyLevel(voxel);
+    if (level > 0)
+    {
+      ivec3 low = (voxel >> level) << level;
+      ivec3 high = min(low + (1 << level), dims);
+      vec3 exits = mix(vec3(1e30), (mix(vec3(low), vec3(high), step(vec3(0.0), d)) - a)
+                                   / safe, moving);
+      int axis = (exits.x <= exits.y && exits.x <= exits.z) ? 0
+                 : (exits.y <= exits.z ? 1 : 2);
+      t = exits[axis];
+      if (t > 1.0)
+      {
+        return 0;
+      }
+      ivec3 inside = clamp(ivec3(floor(a + d * t)), low, high - 1);
+      inside[axis] = stepDir[axis] > 0 ? high[axis] : low[axis] - 1;
+      if (inside[axis] < 0 || inside[axis] >= dims[axis])
+      {
+        return 0;
+      }
+      voxel = inside;
+      face = 2 * axis + (stepDir[axis] > 0 ? 1 : 0);
+      boundary = vec3(voxel) + step(vec3(0.0), d) * moving;
+      tMax = mix(vec3(1e30), (boundary - a) / safe, moving);
+      continue;
+    }
+#endif
     int material = cm_visibleMaterial(voxel);
     if (material != 0)
     {
@@ -37,7 +67,8 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
     {
       return 0;
     }
-    tMax[axis] += tDelta[axis];
+    tMax[axis] = ((float(voxel[axis]) + (stepDir[axis] > 0 ? 1.0 : 0.0)) - a[axis])
+                 / safe[axis];   // from the voxel, never accumulated
     face = 2 * axis + (stepDir[axis] > 0 ? 1 : 0);
   }
   return 0;

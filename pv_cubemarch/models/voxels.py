@@ -214,3 +214,20 @@ def make_voxels(data, scalars: str | None = None, *, palette=None, transform=Non
                               f"{chosen.n_materials - 1}); pass one with at least {top + 1}.")
     return VoxelModel(labels=labels, palette=chosen, grid_from_index=grid_from_index,
                       transform=matrix, name=name)
+
+
+def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
+    """Conservative occupancy mipmaps, levels ``1..levels`` (uint8 0/1).
+
+    Level ``L`` marks, per cell of ``2^L`` voxels per axis, whether any voxel under it is
+    filled: a cell is empty only if every voxel under it is.
+    """
+    filled = np.asarray(labels) != 0
+    result = []
+    for _ in range(int(levels)):
+        pad = [(0, n % 2) for n in filled.shape]
+        grown = np.pad(filled, pad) if any(p for _, p in pad) else filled
+        nx, ny, nz = (n // 2 for n in grown.shape)
+        filled = grown.reshape(nx, 2, ny, 2, nz, 2).any(axis=(1, 3, 5))
+        result.append(filled.astype(np.uint8))
+    return result

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..core.options import positive_number
+from ..core.options import positive_number, whole_number
 
 TRAVERSALS = ("dda", "fixed")
 MODES = ("color", "id")
 SHADINGS = ("unlit", "flat", "blinn")
+#: Most occupancy mipmap levels (one sampler each: GLSL 1.50 indexes no sampler arrays).
+MAX_MIP_LEVELS = 3
 
 
 @dataclass(frozen=True)
@@ -21,10 +23,13 @@ class VoxelOptions:
     24-bit RGB, for picking and exact tests). ``shading``: ``'unlit'``, ``'flat'``
     (Lambert on the entered face, from the scene's lights) or ``'blinn'`` (plus a
     Blinn-Phong highlight), with ``ambient``, ``specular`` and ``specular_power``.
+    ``mip_levels``: occupancy mipmap levels (0-3) the DDA uses to leave empty space in one
+    step; exact whatever the number.
     """
 
     traversal: str = "dda"
     step_scale: float | None = None
+    mip_levels: int = 2
     mode: str = "color"
     shading: str = "blinn"
     ambient: float = 0.2
@@ -37,6 +42,10 @@ class VoxelOptions:
             raise ValueError(f"traversal must be one of {TRAVERSALS}, got {self.traversal!r}.")
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}.")
+        whole_number("mip_levels", self.mip_levels, 0, MAX_MIP_LEVELS)
+        if self.mip_levels and self.traversal != "dda":
+            raise ValueError("mip_levels skip empty space in traversal='dda'; the fixed step "
+                             "has none: pass mip_levels=0 with traversal='fixed'.")
         if self.shading not in SHADINGS:
             raise ValueError(f"shading must be one of {SHADINGS}, got {self.shading!r}.")
         positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)

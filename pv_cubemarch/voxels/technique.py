@@ -23,7 +23,7 @@ from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.lights import VolumeLight
 from ..models.volume import checked_transform
-from ..models.voxels import VoxelModel
+from ..models.voxels import VoxelModel, occupancy_levels
 from ..reference.voxels import render_voxels, trace_voxels
 from .options import VoxelOptions
 
@@ -35,14 +35,16 @@ def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
     """The box actor's replacements for the chosen traversal, mode and shading."""
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
     lit = options.mode == "color" and options.shading != "unlit"
+    mip = ("voxel_mip",) if options.mip_levels else ()
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
-                    ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
+                    ("camera_declarations", "slab", "pixel_ray", "voxel_declarations", *mip,
                      traversal, *(("voxel_shading",) if lit else ())), keep_tag="after"),
         Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
     ], defines={"CM_VOXEL_ID": options.mode == "id", "CM_LIGHTING": lit,
+                "CM_MIP_LEVELS": options.mip_levels or None,
                 "CM_SPECULAR": lit and options.shading == "blinn"})
 
 
@@ -124,6 +126,7 @@ class VoxelBinding:
         self.main_renderer = None
         self.bounds_proxy = None
         self.light_map = None
+        self.occupancy: list = []
         self._released = False
 
     @property
@@ -138,8 +141,9 @@ class VoxelBinding:
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes: the labels (1 or 2 per voxel) and the palette."""
-        return self.labels.nbytes + self.palette_texture.nbytes
+        """GPU bytes: the labels (1 or 2 per voxel), the occupancy levels and the palette."""
+        return (self.labels.nbytes + self.palette_texture.nbytes
+                + sum(t.nbytes for t in self.occupancy))
 
     @property
     def shown(self) -> bool:
@@ -214,6 +218,10 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     bindings = ShaderBindings(actor.GetMapper(), renderer)
     bindings.add_texture("cm_labels", labels)
     bindings.add_texture("cm_palette", palette)
+    occupancy = [Texture(level, kind="3d", interpolate=False)
+                 for level in occupancy_levels(model.labels, options.mip_levels)]
+    for number, texture in enumerate(occupancy, start=1):
+        bindings.add_texture(f"cm_occupancy{number}", texture, owned=True)
     bindings.set_uniform("cm_labelScale", float(np.iinfo(model.labels.dtype).max))
     bindings.set_uniform("cm_gridDims", tuple(float(n) for n in model.dimensions))
     if options.traversal == "fixed":
@@ -226,6 +234,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
     binding = VoxelBinding(model, bindings, recipe, labels, palette, options)
+    binding.occupancy = occupancy
     binding.drawn = [actor]
     binding.renderer = renderer
     pyvista.set_new_attribute(actor, "cubemarch", binding)
