@@ -309,8 +309,9 @@ def add_voxels(
     step_scale : float, optional
         ``traversal='fixed'`` only: the step in voxels. Cost grows as ``1 / step_scale``.
     mip_levels : int, optional
-        ``traversal='dda'``: occupancy mipmap levels (0-3, 2 by default) used to leave
-        empty space in one step; exact whatever the number, 1/8 + 1/64 + ... more bytes.
+        ``traversal='dda'``: occupancy mipmap levels (0-3) used to leave
+        empty space in one step (3 by default); exact whatever the number, for 1/8 + 1/64
+        + 1/512 more bytes.
     mode : str
         ``'color'``: the palette colour, shaded. ``'id'``: the voxel's linear index + 1
         (``i + nx * (j + ny * k) + 1``) as 24-bit RGB, for exact tests.

@@ -9,6 +9,8 @@ from pathlib import Path
 
 from .bench import harness as bench
 from .bench import resolution as bench_resolution
+from .bench import voxels as bench_voxels
+from .bench.voxels import ROWS as VOXEL_ROWS
 from .core.errors import CubemarchError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, techniques
@@ -109,6 +111,19 @@ def build_parser() -> argparse.ArgumentParser:
                             help="smaller cube maps timed at the largest size, to compare "
                                  "with direct at comparable error (default 128,64; 'none')")
     resolution.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    voxels = bench_commands.add_parser(
+        "voxels", help="material grids (002): fixed step, DDA with 0-3 occupancy levels and "
+                       "PyVista's paths, timed side by side, wrong pixels against the CPU")
+    voxels.add_argument("--size", type=_size, default=(512, 512), help="WxH (default 512x512)")
+    voxels.add_argument("--frames", type=int, default=3, help="timed frames per row")
+    voxels.add_argument("--large", type=int, default=256,
+                        help="side of the empty and sphere grids (default 256)")
+    voxels.add_argument("--scenes", default=None,
+                        help="comma-separated scene names to run (default: all)")
+    voxels.add_argument("--rows", default=None,
+                        help="comma-separated rows (default: all of " + ", ".join(VOXEL_ROWS)
+                             + ")")
+    voxels.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     return parser
 
 
@@ -165,7 +180,8 @@ def _render(args) -> int:
 
 
 def _bench(args) -> int:
-
+    if args.bench_command == "voxels":
+        return _bench_voxels(args)
     scene_path = args.scene or str(Path(__file__).resolve().parents[1] / "datasets"
                                    / "smoke_scene.usda")
     if not Path(scene_path).exists():
@@ -188,6 +204,22 @@ def _bench(args) -> int:
         bench.plot_pareto(results, args.plot,
                           title=f"{', '.join(args.technique)} on {Path(scene_path).name}")
         print(f"wrote {args.plot}")
+    return 0
+
+
+def _bench_voxels(args) -> int:
+    rows = args.rows.split(",") if args.rows else tuple(VOXEL_ROWS)
+    only = args.scenes.split(",") if args.scenes else None
+    results = bench_voxels.run_voxels(args.size, frames=args.frames, large=args.large,
+                                      rows=rows, only=only)
+    print(f"{args.size[0]}x{args.size[1]}, median of {args.frames} frames, rows drawn in turn; "
+          "wrong: pixels showing another material than the CPU traversal (unlit colours)")
+    print(bench_voxels.format_voxel_table(results))
+    if args.json_path:
+        bench_voxels.write_voxel_json(results, args.json_path, {
+            "size": list(args.size), "frames": args.frames, "large": args.large,
+            "gl_renderer": gl_info()["renderer"]})
+        print(f"wrote {args.json_path}")
     return 0
 
 

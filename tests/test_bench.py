@@ -139,3 +139,24 @@ def test_crop_windows_cover_the_volume():
     px = bench_resolution.project(camera, centre[None], (400, 300))[0]
     x, y, _, _ = windows[0]
     assert x <= px[0] <= x + 64 and y <= px[1] <= y + 64
+
+
+def test_bench_voxels_rows_and_exactness(tmp_path):
+    # Small scenes: every row runs, ours are exact, the fixed step and PyVista's volume miss.
+    from pv_cubemarch.bench import voxels as bench_voxels
+
+    results = bench_voxels.run_voxels((64, 64), frames=3, large=32,
+                                      only=["sphere 32^3", "random 1% 128^3"])
+    assert {r.row for r in results} == set(bench_voxels.ROWS)
+    by = {(r.scene, r.row): r for r in results}
+    for scene in ("sphere 32^3", "random 1% 128^3"):
+        for row in ("dda", "dda mip 1", "dda mip 3"):
+            assert by[scene, row].wrong_percent < 0.1, (scene, row)
+        assert by[scene, "dda"].nbytes < by[scene, "pyvista cells"].nbytes or scene.startswith(
+            "sphere")
+    assert by["random 1% 128^3", "fixed 0.1"].wrong_percent > 0.5
+    table = bench_voxels.format_voxel_table(results)
+    assert "dda mip 3" in table and "x dda" in table
+    path = tmp_path / "v.json"
+    bench_voxels.write_voxel_json(results, path, {"size": [64, 64]})
+    assert len(json.loads(path.read_text())["results"]) == len(results)

@@ -208,7 +208,7 @@ def test_cell_and_point_data_and_uint16(plotter_factory):
     wrong, _, hits = wrong_pixels(pl, model, camera)
     assert wrong == 0 and (hits.material >= 300).any()
     levels = sum(t.nbytes for t in actor.cubemarch.occupancy)
-    assert levels == 2 * 2 * 1 + 1   # levels 1 and 2 of a 4x3x2 grid: one byte a cell
+    assert levels == 2 * 2 * 1 + 1 + 1   # levels 1-3 of a 4x3x2 grid: one byte a cell
     assert actor.cubemarch.nbytes == model.labels.nbytes + model.palette.rgba.nbytes + levels
 
 

@@ -29,7 +29,7 @@ class VoxelOptions:
 
     traversal: str = "dda"
     step_scale: float | None = None
-    mip_levels: int = 2
+    mip_levels: int = 3
     mode: str = "color"
     shading: str = "blinn"
     ambient: float = 0.2
