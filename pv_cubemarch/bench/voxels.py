@@ -75,7 +75,7 @@ def _pyvista_mesh(plotter, labels: np.ndarray, surface: bool):
     grid.cell_data["labels"] = labels.ravel(order="F")
     mesh = grid.threshold(0.5, scalars="labels")
     if surface:
-        mesh = mesh.extract_surface()
+        mesh = mesh.extract_surface(algorithm="dataset_surface")
     # Each cell's palette colour as RGB (a colormap over the labels would be resampled).
     colors = np.round(PALETTE[np.asarray(mesh.cell_data["labels"]).astype(int), :3] * 255)
     mesh.cell_data["rgb"] = colors.astype(np.uint8)
