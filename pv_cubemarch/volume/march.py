@@ -14,6 +14,7 @@ import numpy as np
 
 from ..gl.bindings import ShaderBindings
 from ..gl.box import place_box
+from ..gl.drawn import DrawnBinding
 from ..gl.overlay import place_bounds_proxy
 from ..gl.shaders import ShaderRecipe
 from ..gl.textures import Texture
@@ -170,7 +171,7 @@ def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: flo
     return "volume_sample", march_defines(model, bricks is not None)
 
 
-class VolumeBinding:
+class VolumeBinding(DrawnBinding):
     """What ``actor.cubemarch`` holds for a volume: model, data, bindings, settings.
 
     The technique's builder fills it; :meth:`set_values`, :meth:`set_transform` and
@@ -178,32 +179,17 @@ class VolumeBinding:
     """
 
     technique = "volume"
-    #: Whether the technique reads the frame's depth as a single-sampled texture (the
-    #: window's multisampling is turned off on frames that draw such a volume).
-    needs_single_sample = False
-    #: Whether a box draws in the plotter's renderer's translucent pass (its weighted
-    #: order-independent translucency is then turned off for the frame).
-    blends_in_main_renderer = False
 
     def __init__(self, model, data: VolumeData, bindings: ShaderBindings,
                  recipe: ShaderRecipe, step_scale: float, stop_opacity: float):
-        self.model = model
+        super().__init__(model, bindings, recipe)
         self.data = data
-        self.bindings = bindings
-        self.recipe = recipe
         self.step_scale = step_scale
         self.stop_opacity = stop_opacity
-        self.actor = None          # the actor add_volume returned (the plotter knows it)
-        self.drawn: list = []      # actors that draw the volume (the actor, or overlay boxes)
         self.vtk_input = None      # VTK's mapper path: the ImageData it reads
         self.extra_release: list = []
         self.targets: list = [bindings]
         self.downsample = 1
-        self.light_map = None
-        self.bounds_proxy = None
-        self.main_renderer = None
-        self.renderer = None
-        self._released = False
 
     @property
     def skips_empty(self) -> bool:
@@ -216,30 +202,11 @@ class VolumeBinding:
         return self.data.brick_builds
 
     @property
-    def name(self) -> str:
-        """The volume's name."""
-        return self.model.name
-
-    @property
     def nbytes(self) -> int:
         """GPU bytes we added (VTK owns the volume texture of its mapper path)."""
         data = self.data.nbytes if self.vtk_input is None else \
             sum(t.nbytes for t in self.bindings.textures.values())
         return data + (self.light_map.nbytes if self.light_map else 0)
-
-    @property
-    def shown(self) -> bool:
-        """Whether the returned actor is visible (a hidden volume runs no pass)."""
-        return self.actor is None or bool(self.actor.GetVisibility())
-
-    def follow_anchor(self) -> None:
-        """At each frame: the drawn actors follow the visibility of the returned actor."""
-        if self.actor is None:
-            return
-        shown = bool(self.actor.GetVisibility())
-        for actor in self.drawn:
-            if actor is not self.actor:
-                actor.SetVisibility(shown)
 
     def release(self) -> None:
         """Free our GPU resources and observers (and any pass or overlay renderer); once."""

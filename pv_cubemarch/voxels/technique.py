@@ -19,6 +19,7 @@ from ..core.camera import Camera
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, box_actor, camera_matrices, place_box
+from ..gl.drawn import DrawnBinding
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.lights import VolumeLight
@@ -105,34 +106,18 @@ class VoxelPick:
     point: tuple[float, float, float]
 
 
-class VoxelBinding:
+class VoxelBinding(DrawnBinding):
     """What ``actor.cubemarch`` holds for a material grid: model, textures, bindings."""
 
     technique = "voxels"
-    needs_single_sample = False
-    blends_in_main_renderer = False
 
     def __init__(self, model: VoxelModel, bindings: ShaderBindings, recipe: ShaderRecipe,
                  labels: Texture, palette: Texture, options: VoxelOptions):
-        self.model = model
-        self.bindings = bindings
-        self.recipe = recipe
+        super().__init__(model, bindings, recipe)
         self.labels = labels
         self.palette_texture = palette
         self.options = options
-        self.actor = None
-        self.drawn: list = []
-        self.renderer = None
-        self.main_renderer = None
-        self.bounds_proxy = None
-        self.light_map = None
         self.occupancy: list = []
-        self._released = False
-
-    @property
-    def name(self) -> str:
-        """The grid's name."""
-        return self.model.name
 
     @property
     def palette(self):
@@ -144,14 +129,6 @@ class VoxelBinding:
         """GPU bytes: the labels (1 or 2 per voxel), the occupancy levels and the palette."""
         return (self.labels.nbytes + self.palette_texture.nbytes
                 + sum(t.nbytes for t in self.occupancy))
-
-    @property
-    def shown(self) -> bool:
-        """Whether the actor is visible."""
-        return self.actor is None or bool(self.actor.GetVisibility())
-
-    def follow_anchor(self) -> None:
-        """The actor draws itself; nothing follows it."""
 
     def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
         """Change a material's colour and/or opacity (0 hides it); the labels stay uploaded.

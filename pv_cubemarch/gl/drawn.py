@@ -1,0 +1,54 @@
+"""What every technique's ``actor.cubemarch`` shares: the actors it draws and where.
+
+The plotter component reads these attributes at every frame (to follow visibility, decide
+multisampling and translucency, and release what left the plotter); each technique adds
+its own state and ``release()``.
+"""
+
+from __future__ import annotations
+
+from .bindings import ShaderBindings
+from .shaders import ShaderRecipe
+
+
+class DrawnBinding:
+    """The drawn side of a technique's per-actor state."""
+
+    technique = "technique"
+    #: Whether the technique reads the frame's depth as a single-sampled texture (the
+    #: window's multisampling is turned off on frames that draw it).
+    needs_single_sample = False
+    #: Whether a box draws in the plotter's renderer's translucent pass (its weighted
+    #: order-independent translucency is then turned off for the frame).
+    blends_in_main_renderer = False
+
+    def __init__(self, model, bindings: ShaderBindings, recipe: ShaderRecipe | None):
+        self.model = model
+        self.bindings = bindings
+        self.recipe = recipe
+        self.actor = None          # the actor add_* returned (the plotter knows it)
+        self.drawn: list = []      # actors that draw it (the actor, or overlay boxes)
+        self.renderer = None       # where ``drawn`` draw
+        self.main_renderer = None  # the plotter's renderer
+        self.bounds_proxy = None
+        self.light_map = None
+        self._released = False
+
+    @property
+    def name(self) -> str:
+        """The model's name."""
+        return self.model.name
+
+    @property
+    def shown(self) -> bool:
+        """Whether the returned actor is visible (a hidden one runs no pass)."""
+        return self.actor is None or bool(self.actor.GetVisibility())
+
+    def follow_anchor(self) -> None:
+        """At each frame: the drawn actors follow the visibility of the returned actor."""
+        if self.actor is None:
+            return
+        shown = bool(self.actor.GetVisibility())
+        for actor in self.drawn:
+            if actor is not self.actor:
+                actor.SetVisibility(shown)
