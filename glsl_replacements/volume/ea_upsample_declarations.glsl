@@ -1,4 +1,5 @@
 // Depth-aware upsampling of the reduced-resolution pass: declarations.
+uniform vec3 cm_dims;                 // texels (points) of the volume along x, y, z
 uniform sampler2D cm_lowColor;        // premultiplied rgba at 1/k resolution
 uniform sampler2D cm_lowDepth;        // view z where each low-resolution ray stopped
 uniform vec2 cm_lowSize;              // texels of the low-resolution targets

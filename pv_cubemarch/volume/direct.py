@@ -29,7 +29,6 @@ from .march import (
     VolumeBinding,
     VolumeData,
     bind_sampling,
-    march_defines,
     world_from_texture,
 )
 from .options import STEP_SCALES, DirectOptions
@@ -57,19 +56,22 @@ def direct_recipe(defines: dict, lit: bool = False,
     )
 
 
-def upsample_recipe(defines: dict) -> ShaderRecipe:
-    """The box actor's replacements when it upsamples a reduced-resolution pass."""
+def upsample_recipe() -> ShaderRecipe:
+    """The box actor's replacements when it upsamples a reduced-resolution pass.
+
+    The box marches nothing: it finds its pixel's ray (for the depth the filter compares)
+    and filters the low-resolution result, so no sampling or marching code is compiled in.
+    """
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Color::Dec",
-                        (*DECLARATION_SNIPPETS, "volume_sample", *SCREEN_DECLARATIONS,
-                         *MARCH_SNIPPETS, "screen_ray", "ea_upsample_declarations"),
+                        (*SCREEN_DECLARATIONS, "ea_upsample_declarations", "slab",
+                         "screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_upsample_fragment", keep_tag="before"),
             Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                         keep_tag="before"),
         ],
-        defines=defines,
     )
 
 
@@ -169,11 +171,7 @@ def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=No
         bindings.add_texture("cm_sceneColor",
                              SceneDepth(overlay.renderer, color=True, each_use=True), owned=True)
         bind_camera(bindings, renderer, lambda: world_from_texture(model))
-        # The box only upsamples: no joint sampling, whatever the model.
-        defines = march_defines(model, False)
-        defines.pop("CM_JOINT", None)
-        defines.pop("CM_VOLUME_COUNT", None)
-        recipe = upsample_recipe(defines)
+        recipe = upsample_recipe()
         bindings.recipe = recipe
         recipe.apply(actor.GetShaderProperty())
         binding = DirectBinding(model, data, bindings, recipe, step_scale,
