@@ -59,33 +59,39 @@ def scene_lights(renderer) -> list[VolumeLight]:
 
 def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
                 options: VoxelOptions) -> None:
-    """Per-frame light uniforms: the scene's lights in view space, the face normals' map."""
-    def view():
-        return camera_matrices(renderer)[0]
+    """Per-frame light uniforms: the scene's lights in view space, the face normals' map.
 
-    def vectors(half: int) -> np.ndarray:
-        matrix = np.zeros((4, 4))
-        for column, light in enumerate(scene_lights(renderer)[4 * half:4 * half + 4]):
-            if light.kind == "point":
-                matrix[:, column] = view() @ np.append(light.position, 1.0)
-                matrix[3, column] = 1.0
-            else:
-                toward = -np.asarray(light.direction, dtype=np.float64)
-                matrix[:3, column] = view()[:3, :3] @ (toward / np.linalg.norm(toward))
-        return matrix
+    The lights are read and placed once per frame (keyed on the frame count of the
+    bindings), however many uniforms take them.
+    """
+    cache: dict = {}
 
-    def colors(half: int) -> np.ndarray:
-        matrix = np.zeros((4, 4))
-        for column, light in enumerate(scene_lights(renderer)[4 * half:4 * half + 4]):
-            matrix[:3, column] = light.radiance
-        return matrix
+    def frame_lights() -> dict:
+        if cache.get("frame") != bindings.frames_started:
+            view = camera_matrices(renderer)[0]
+            vectors, colors = np.zeros((4, 8)), np.zeros((4, 8))
+            lights = scene_lights(renderer)
+            for column, light in enumerate(lights):
+                if light.kind == "point":
+                    vectors[:, column] = view @ np.append(light.position, 1.0)
+                    vectors[3, column] = 1.0
+                else:
+                    toward = -np.asarray(light.direction, dtype=np.float64)
+                    vectors[:3, column] = view[:3, :3] @ (toward / np.linalg.norm(toward))
+                colors[:3, column] = light.radiance
+            cache.update(frame=bindings.frames_started, count=len(lights), vectors=vectors,
+                         colors=colors)
+        return cache
 
-    bindings.set_uniform("cm_lightCount", lambda: len(scene_lights(renderer)))
+    bindings.set_uniform("cm_lightCount", lambda: frame_lights()["count"])
     for half in (0, 1):
-        bindings.set_uniform(f"cm_lightVectors{half}", lambda h=half: vectors(h))
-        bindings.set_uniform(f"cm_lightColors{half}", lambda h=half: colors(h))
-    bindings.set_uniform("cm_normalFromIndex", lambda: view()[:3, :3] @ np.linalg.inv(
-        model.world_from_index()[:3, :3]).T)
+        columns = slice(4 * half, 4 * half + 4)
+        bindings.set_uniform(f"cm_lightVectors{half}",
+                             lambda c=columns: frame_lights()["vectors"][:, c])
+        bindings.set_uniform(f"cm_lightColors{half}",
+                             lambda c=columns: frame_lights()["colors"][:, c])
+    bindings.set_uniform("cm_normalFromIndex", lambda: camera_matrices(renderer)[0][:3, :3]
+                         @ np.linalg.inv(model.world_from_index()[:3, :3]).T)
     bindings.set_uniform("cm_ambient", float(options.ambient))
     bindings.set_uniform("cm_specular", float(options.specular))
     bindings.set_uniform("cm_specularPower", float(options.specular_power))
