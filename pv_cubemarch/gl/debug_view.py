@@ -7,6 +7,7 @@ import pyvista
 import vtk
 
 from .bindings import ShaderBindings
+from .drawn import DrawnBinding
 from .shaders import Replacement, ShaderRecipe
 from .textures import Texture
 
@@ -53,20 +54,15 @@ def add_texture_view(plotter: pyvista.Plotter, texture: Texture, *, slice_positi
     return actor
 
 
-class _Tracked:
-    """Minimal tracked item: a name, its actor, bindings and recipe, and release()."""
+class _Tracked(DrawnBinding):
+    """Minimal tracked item: a texture view's actor, bindings and recipe, and release()."""
 
     technique = "texture view"
-    needs_single_sample = False
-    blends_in_main_renderer = False
+    name = "texture view"
 
     def __init__(self, name: str, bindings: ShaderBindings, recipe: ShaderRecipe):
-        self.name, self.bindings, self.recipe = name, bindings, recipe
-        self.actor = None
-        self.main_renderer = None
-
-    def follow_anchor(self) -> None:
-        """The actor draws itself; nothing follows it."""
+        super().__init__(None, bindings, recipe)
+        self.name = name
 
     @property
     def nbytes(self) -> int:

@@ -54,12 +54,16 @@ class VolumeModel:
 
     def world_bounds(self) -> np.ndarray:
         """Axis-aligned world bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the box."""
-        hi = np.array(self.dimensions, dtype=np.float64) - 1.0
-        corners = np.array([[x, y, z, 1.0] for x in (0, hi[0]) for y in (0, hi[1])
-                            for z in (0, hi[2])])
-        world = corners @ self.world_from_index().T
-        lo, up = world[:, :3].min(axis=0), world[:, :3].max(axis=0)
-        return np.column_stack([lo, up]).ravel()
+        return box_world_bounds(self.world_from_index(),
+                                np.array(self.dimensions, dtype=np.float64) - 1.0)
+
+
+def box_world_bounds(world_from_index: np.ndarray, upper) -> np.ndarray:
+    """World bounds ``(xmin, xmax, ...)`` of the index-space box ``[0, upper]`` placed."""
+    corners = np.array([[x, y, z, 1.0] for x in (0, upper[0]) for y in (0, upper[1])
+                        for z in (0, upper[2])])
+    world = corners @ np.asarray(world_from_index).T
+    return np.column_stack([world[:, :3].min(axis=0), world[:, :3].max(axis=0)]).ravel()
 
 
 def as_image_data(data, scalars: str | None = None, nan_policy: str = "raise"):

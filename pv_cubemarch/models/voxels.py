@@ -13,7 +13,7 @@ import numpy as np
 import pyvista
 
 from ..core.errors import VolumeDataError
-from .volume import checked_transform
+from .volume import box_world_bounds, checked_transform
 
 #: Most materials a grid may hold (uint16 labels).
 MAX_MATERIALS = 65535
@@ -127,11 +127,7 @@ class VoxelModel:
 
     def world_bounds(self) -> np.ndarray:
         """Axis-aligned world bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the grid."""
-        upper = np.array(self.dimensions, dtype=np.float64)
-        corners = np.array([[x, y, z, 1.0] for x in (0, upper[0]) for y in (0, upper[1])
-                            for z in (0, upper[2])])
-        world = corners @ self.world_from_index().T
-        return np.column_stack([world[:, :3].min(axis=0), world[:, :3].max(axis=0)]).ravel()
+        return box_world_bounds(self.world_from_index(), self.dimensions)
 
     @property
     def nbytes(self) -> int:
