@@ -272,6 +272,7 @@ def add_voxels(
     traversal: str = "dda",
     step_scale: float | None = None,
     mip_levels: int | None = None,
+    distance_field: int = 0,
     mode: str = "color",
     shading: str = "blinn",
     ambient: float = 0.2,
@@ -309,9 +310,14 @@ def add_voxels(
     step_scale : float, optional
         ``traversal='fixed'`` only: the step in voxels. Cost grows as ``1 / step_scale``.
     mip_levels : int, optional
-        ``traversal='dda'``: occupancy mipmap levels (0-3) used to leave
-        empty space in one step (3 by default); exact whatever the number, for 1/8 + 1/64
-        + 1/512 more bytes.
+        ``traversal='dda'``: occupancy mipmap levels (0-12; level ``L``'s cells are
+        ``2^L`` voxels wide) used to leave empty space in one step; by default every level
+        the grid has (8 for 256³). The ray descends a level on an occupied cell and climbs
+        back when it leaves it. Exact whatever the number, for at most 1/7 more bytes.
+    distance_field : int
+        ``traversal='dda'``: the seed's neighbour distance field, 0 (off, default) or its
+        largest radius 1-3: one more byte per voxel telling how large an empty cube
+        surrounds it, which the ray leaves in one step. Exact whatever the radius.
     mode : str
         ``'color'``: the palette colour, shaded. ``'id'``: the voxel's linear index + 1
         (``i + nx * (j + ny * k) + 1``) as 24-bit RGB, for exact tests.
@@ -344,11 +350,10 @@ def add_voxels(
     options = chosen.make_options({"traversal": traversal, "mode": mode, "shading": shading,
                                    "ambient": ambient, "specular": specular,
                                    "specular_power": specular_power,
+                                   "distance_field": distance_field,
                                    **({"step_scale": step_scale} if step_scale is not None
                                       else {}),
-                                   **({"mip_levels": mip_levels} if mip_levels is not None
-                                      else {"mip_levels": 0} if traversal == "fixed"
-                                      else {})})
+                                   "mip_levels": mip_levels})
     if isinstance(grid, VoxelModel):
         model = grid
         if transform is not None:

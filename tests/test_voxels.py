@@ -47,11 +47,17 @@ def wrong_pixels(pl, model, camera, size=SIZE):
     return int((wrong & ~hits.near_edge).sum()), int(hits.near_edge.sum()), hits
 
 
-@pytest.mark.parametrize("mip_levels", [0, 1, 3])
+@pytest.mark.parametrize(("mip_levels", "distance_field"),
+                         [(0, 0), (1, 0), (3, 0), (6, 0), (0, 1), (0, 3), (3, 2)])
 @pytest.mark.parametrize("fill", [0.01, 0.3])
-def test_dda_is_exact_against_the_cpu_traversal(plotter_factory, fill, mip_levels):
+@pytest.mark.parametrize("eye", [(40.0, 30.0, 35.0), (-16.0, -10.0, -19.0)])
+def test_dda_is_exact_against_the_cpu_traversal(plotter_factory, fill, mip_levels,
+                                                distance_field, eye):
     # With occupancy levels, also catches (seen to fail): an empty cell's exit taken on the
-    # wrong side, and the voxel past it not stepped along the exit axis.
+    # wrong side, and the voxel past it not stepped along the exit axis; the level rows
+    # uploaded untransposed (levels 3+ read from the wrong texels). With distance fields:
+    # the empty cube one voxel too large on its lower side (rays moving -axis) and on its
+    # upper side (rays moving +axis: the second eye).
     # catches (seen to fail): the next boundary taken on the upper side whatever the
     # direction (11 of 15 tests fail), and a box drawn exactly to the grid's size (one
     # grazing pixel at a box edge was not rasterised: the box is drawn 1 % larger and each
@@ -59,8 +65,9 @@ def test_dda_is_exact_against_the_cpu_traversal(plotter_factory, fill, mip_level
     labels = random_labels((24, 20, 16), fill)
     labels[:12, :12, :12] = 0   # an empty corner the occupancy levels skip in one step
     pl = plotter(plotter_factory)
-    actor = cm.add_voxels(pl, labels, mode="id", mip_levels=mip_levels)
-    camera = set_camera(pl, (40.0, 30.0, 35.0), focal=(12.0, 10.0, 8.0))
+    actor = cm.add_voxels(pl, labels, mode="id", mip_levels=mip_levels,
+                          distance_field=distance_field)
+    camera = set_camera(pl, eye, focal=(12.0, 10.0, 8.0))
     wrong, edge, hits = wrong_pixels(pl, actor.cubemarch.model, camera)
     assert (hits.material > 0).mean() > 0.1   # many voxels in view: a real test
     assert wrong == 0 and edge < 0.02 * hits.material.size
@@ -207,8 +214,10 @@ def test_cell_and_point_data_and_uint16(plotter_factory):
     camera = set_camera(pl, (8.0, 6.0, 7.0), focal=(1.5, 1.0, 0.5))
     wrong, _, hits = wrong_pixels(pl, model, camera)
     assert wrong == 0 and (hits.material >= 300).any()
-    levels = sum(t.nbytes for t in actor.cubemarch.occupancy)
-    assert levels == 2 * 2 * 1 + 1 + 1   # levels 1-3 of a 4x3x2 grid: one byte a cell
+    levels = sum(t.nbytes for t in actor.cubemarch.skipping)
+    # Levels 1-3 of a 4x3x2 grid are 2x2x1, 1x1x1, 1x1x1 cells; the atlas puts level 1 at
+    # the origin and levels 2-3 in a column beside it: 3x2x1 texels, one byte each.
+    assert levels == 3 * 2 * 1
     assert actor.cubemarch.nbytes == model.labels.nbytes + model.palette.rgba.nbytes + levels
 
 
@@ -299,9 +308,42 @@ def test_large_sparse_grid_with_all_levels(plotter_factory):
     labels = ((radius > 30) & (radius < 32)).astype(np.uint8)
     labels[:, :, n // 2:] = 0
     labels[random_labels((n, n, n), 0.0005, seed=13) > 0] = 2
-    for levels in (0, 3):
+    for levels, radius in ((0, 0), (3, 0), (7, 0), (0, 3), (7, 3)):
         pl = plotter(plotter_factory)
-        actor = cm.add_voxels(pl, labels, mode="id", mip_levels=levels)
+        actor = cm.add_voxels(pl, labels, mode="id", mip_levels=levels,
+                              distance_field=radius)
         camera = set_camera(pl, (150.0, 110.0, 160.0), focal=(48.0, 48.0, 40.0))
         wrong, edge, hits = wrong_pixels(pl, actor.cubemarch.model, camera)
-        assert (hits.material > 0).mean() > 0.1 and wrong == 0, (levels, wrong, edge)
+        assert (hits.material > 0).mean() > 0.1 and wrong == 0, (levels, radius, wrong, edge)
+
+
+def test_occupancy_atlas_holds_every_level_apart():
+    # Each level cut back out of the atlas equals the level built alone, and no two levels
+    # share a texel (the atlas has room for all of them side by side).
+    from pv_cubemarch.models.voxels import occupancy_atlas, occupancy_levels
+
+    labels = random_labels((37, 21, 9), 0.02, seed=14)
+    atlas = occupancy_atlas(labels, 7)
+    used = np.zeros(atlas.texels.shape, int)
+    for number, grid in enumerate(occupancy_levels(labels, 7), start=1):
+        assert np.array_equal(atlas.level(number), grid)
+        start = (0, 0, 0) if number == 1 else (atlas.column, atlas.rows[number], 0)
+        used[tuple(slice(o, o + n) for o, n in zip(start, grid.shape, strict=True))] += 1
+    assert used.max() == 1
+
+
+def test_distance_field_is_the_largest_empty_cube():
+    # Checked against a direct scan of the cube around every voxel (outside counts empty).
+    # catches: a dilation that spreads along one axis only (cubes become slabs).
+    from pv_cubemarch.models.voxels import safe_radii
+
+    labels = random_labels((11, 7, 5), 0.03, seed=15)
+    radii = safe_radii(labels, 3)
+    for index in np.ndindex(labels.shape):
+        expected = 0
+        for r in (1, 2, 3):
+            cube = labels[tuple(slice(max(i - r, 0), i + r + 1) for i in index)]
+            if labels[index] or cube.any():
+                break
+            expected = r
+        assert radii[index] == expected, index

@@ -1,33 +1,20 @@
-// Occupancy mipmaps of a material grid (CM_MIP_LEVELS = 1..3): level L holds, per cell of
-// 2^L voxels per axis, whether any voxel under it is filled (any label, hidden or not: the
-// levels never change with the palette). A coarse cell is empty only if every voxel under
-// it is, so skipping it skips nothing drawn.
-uniform sampler3D cm_occupancy1;
-#if CM_MIP_LEVELS > 1
-uniform sampler3D cm_occupancy2;
-#endif
-#if CM_MIP_LEVELS > 2
-uniform sampler3D cm_occupancy3;
-#endif
+// Occupancy mipmaps of a material grid (CM_MIP_LEVELS = 1..n), packed in one atlas so the
+// traversal picks a level at run time: level L holds, per cell of 2^L voxels per axis,
+// whether any voxel under it is filled (any label, hidden or not: the levels never change
+// with the palette). A coarse cell is empty only if every voxel under it is, so skipping it
+// skips nothing drawn. Level 1 sits at the atlas origin; level L >= 2 at
+// (cm_levelColumn, cm_levelRows[L / 4][L % 4], 0).
+uniform sampler3D cm_occupancy;
+uniform float cm_levelColumn;
+uniform mat4 cm_levelRows;
 
-// The coarsest level (0 if none) whose cell around `voxel` is empty.
-int cm_emptyLevel(ivec3 voxel)
+// Whether the level-`level` cell around `voxel` holds a filled voxel (level >= 1).
+bool cm_cellOccupied(ivec3 voxel, int level)
 {
-  if (texelFetch(cm_occupancy1, voxel >> 1, 0).r > 0.0)
+  ivec3 cell = voxel >> level;
+  if (level > 1)
   {
-    return 0;
+    cell += ivec3(int(cm_levelColumn), int(cm_levelRows[level / 4][level % 4]), 0);
   }
-#if CM_MIP_LEVELS > 1
-  if (texelFetch(cm_occupancy2, voxel >> 2, 0).r > 0.0)
-  {
-    return 1;
-  }
-#endif
-#if CM_MIP_LEVELS > 2
-  if (texelFetch(cm_occupancy3, voxel >> 3, 0).r > 0.0)
-  {
-    return 2;
-  }
-#endif
-  return CM_MIP_LEVELS;
+  return texelFetch(cm_occupancy, cell, 0).r > 0.0;
 }

@@ -227,3 +227,75 @@ def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
         filled = grown.reshape(nx, 2, ny, 2, nz, 2).any(axis=(1, 3, 5))
         result.append(filled.astype(np.uint8))
     return result
+
+
+@dataclass(frozen=True)
+class OccupancyAtlas:
+    """Occupancy levels ``1..n`` packed in one 3D texture, read at any level at run time.
+
+    GLSL 1.50 indexes no sampler arrays, hence one texture. Level 1 sits at the origin;
+    levels 2 and up are stacked along y in a column at ``x = column`` (level 1's width):
+    level ``L`` starts at ``(column, rows[L], 0)``.
+    """
+
+    texels: np.ndarray
+    column: int
+    rows: tuple[int, ...]
+    shapes: tuple[tuple[int, int, int], ...]
+
+    @property
+    def levels(self) -> int:
+        """How many levels the atlas holds."""
+        return len(self.shapes)
+
+    def level(self, number: int) -> np.ndarray:
+        """Level ``number`` (1..levels) cut back out of the atlas."""
+        start = (0, 0, 0) if number == 1 else (self.column, self.rows[number], 0)
+        shape = self.shapes[number - 1]
+        return self.texels[tuple(slice(o, o + n) for o, n in zip(start, shape, strict=True))]
+
+
+def occupancy_atlas(labels: np.ndarray, levels: int) -> OccupancyAtlas | None:
+    """The conservative occupancy levels ``1..levels`` of ``labels`` in one atlas (or None)."""
+    grids = occupancy_levels(labels, levels)
+    if not grids:
+        return None
+    shapes = tuple(tuple(int(n) for n in g.shape) for g in grids)
+    column = shapes[0][0]
+    rows = [0, 0, 0]   # rows[L] for level L (levels 0 and 1 are not in the column)
+    for shape in shapes[1:-1]:
+        rows.append(rows[-1] + shape[1])
+    width = column + (shapes[1][0] if len(shapes) > 1 else 0)
+    height = max(shapes[0][1], sum(s[1] for s in shapes[1:]))
+    texels = np.zeros((width, height, shapes[0][2]), np.uint8)
+    atlas = OccupancyAtlas(texels, column, tuple(rows), shapes)
+    for number, grid in enumerate(grids, start=1):
+        atlas.level(number)[...] = grid
+    return atlas
+
+
+def safe_radii(labels: np.ndarray, radius: int) -> np.ndarray:
+    """Per voxel, the largest ``r <= radius`` with an empty ``(2r+1)^3`` cube around it.
+
+    The seed's neighbour distance field (uint8; 0 at filled voxels and next to them): a ray
+    in that voxel may leave the whole cube in one step. Voxels outside the grid count as
+    empty; any label counts as filled (hidden or not), so the field never changes with the
+    palette.
+    """
+    filled = np.asarray(labels) != 0
+    result = np.zeros(filled.shape, np.uint8)
+    for _ in range(int(radius)):
+        grown = filled.copy()
+        for axis in range(3):
+            if filled.shape[axis] < 2:
+                continue
+            ahead = [slice(None)] * 3
+            behind = [slice(None)] * 3
+            ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
+            spread = grown.copy()
+            spread[tuple(behind)] |= grown[tuple(ahead)]
+            spread[tuple(ahead)] |= grown[tuple(behind)]
+            grown = spread
+        filled = grown
+        result += ~filled
+    return result

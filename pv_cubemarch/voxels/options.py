@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ..core.options import positive_number, whole_number
 
 TRAVERSALS = ("dda", "fixed")
 MODES = ("color", "id")
 SHADINGS = ("unlit", "flat", "blinn")
-#: Most occupancy mipmap levels (one sampler each: GLSL 1.50 indexes no sampler arrays).
-MAX_MIP_LEVELS = 3
+#: Most occupancy mipmap levels (one atlas; the shader's table of level rows is a mat4).
+MAX_MIP_LEVELS = 12
+#: Largest radius of the neighbour distance field (the seed's 1..3: 8, 124, 342 neighbours).
+MAX_DISTANCE_FIELD = 3
 
 
 @dataclass(frozen=True)
@@ -23,13 +25,19 @@ class VoxelOptions:
     24-bit RGB, for picking and exact tests). ``shading``: ``'unlit'``, ``'flat'``
     (Lambert on the entered face, from the scene's lights) or ``'blinn'`` (plus a
     Blinn-Phong highlight), with ``ambient``, ``specular`` and ``specular_power``.
-    ``mip_levels``: occupancy mipmap levels (0-3) the DDA uses to leave empty space in one
-    step; exact whatever the number.
+    ``mip_levels``: occupancy mipmap levels (0-12; a level's cells are ``2^L`` voxels wide)
+    the DDA uses to leave empty space in one step; ``None``: every level the grid has
+    (up to the one whose single cell covers it) with the DDA, none with the fixed step.
+    ``distance_field``: the seed's neighbour distance field (0 = off, 1-3 = its largest
+    radius; one more byte per voxel): from a voxel whose surrounding cube is empty the ray
+    leaves the cube in one step. Both are exact whatever their setting; they only change
+    the speed.
     """
 
     traversal: str = "dda"
     step_scale: float | None = None
-    mip_levels: int = 3
+    mip_levels: int | None = None
+    distance_field: int = 0
     mode: str = "color"
     shading: str = "blinn"
     ambient: float = 0.2
@@ -42,10 +50,13 @@ class VoxelOptions:
             raise ValueError(f"traversal must be one of {TRAVERSALS}, got {self.traversal!r}.")
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}.")
-        whole_number("mip_levels", self.mip_levels, 0, MAX_MIP_LEVELS)
-        if self.mip_levels and self.traversal != "dda":
-            raise ValueError("mip_levels skip empty space in traversal='dda'; the fixed step "
-                             "has none: pass mip_levels=0 with traversal='fixed'.")
+        if self.mip_levels is not None:
+            whole_number("mip_levels", self.mip_levels, 0, MAX_MIP_LEVELS)
+        whole_number("distance_field", self.distance_field, 0, MAX_DISTANCE_FIELD)
+        for name in ("mip_levels", "distance_field"):
+            if getattr(self, name) and self.traversal != "dda":
+                raise ValueError(f"{name} skips empty space in traversal='dda'; the fixed step "
+                                 f"has none: pass {name}=0 with traversal='fixed'.")
         if self.shading not in SHADINGS:
             raise ValueError(f"shading must be one of {SHADINGS}, got {self.shading!r}.")
         positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)
@@ -62,6 +73,15 @@ class VoxelOptions:
 
     def check_model(self, model) -> None:
         """Nothing the grid's size forbids: the DDA is bounded by the grid's voxels."""
+
+    def for_grid(self, dimensions) -> VoxelOptions:
+        """These options with ``mip_levels`` settled for a grid of ``dimensions`` voxels."""
+        if self.mip_levels is not None:
+            return self
+        if self.traversal != "dda":
+            return replace(self, mip_levels=0)
+        largest = max(int(n) for n in dimensions)
+        return replace(self, mip_levels=min(max(largest - 1, 0).bit_length(), MAX_MIP_LEVELS))
 
     @property
     def step(self) -> float:

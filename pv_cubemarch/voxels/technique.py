@@ -24,7 +24,7 @@ from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.lights import VolumeLight
 from ..models.volume import checked_transform
-from ..models.voxels import VoxelModel, occupancy_levels
+from ..models.voxels import VoxelModel, occupancy_atlas, safe_radii
 from ..reference.voxels import render_voxels, trace_voxels
 from .options import VoxelOptions
 
@@ -36,16 +36,19 @@ def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
     """The box actor's replacements for the chosen traversal, mode and shading."""
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
     lit = options.mode == "color" and options.shading != "unlit"
-    mip = ("voxel_mip",) if options.mip_levels else ()
+    skipping = (("voxel_mip",) if options.mip_levels else ()) + (
+        ("voxel_distance",) if options.distance_field else ())
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
-                    ("camera_declarations", "slab", "pixel_ray", "voxel_declarations", *mip,
-                     traversal, *(("voxel_shading",) if lit else ())), keep_tag="after"),
+                    ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
+                     *skipping, traversal, *(("voxel_shading",) if lit else ())),
+                    keep_tag="after"),
         Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
     ], defines={"CM_VOXEL_ID": options.mode == "id", "CM_LIGHTING": lit,
                 "CM_MIP_LEVELS": options.mip_levels or None,
+                "CM_DISTANCE_FIELD": options.distance_field or None,
                 "CM_SPECULAR": lit and options.shading == "blinn"})
 
 
@@ -97,6 +100,30 @@ def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
     bindings.set_uniform("cm_specularPower", float(options.specular_power))
 
 
+def bind_skipping(bindings: ShaderBindings, model: VoxelModel,
+                  options: VoxelOptions) -> list[Texture]:
+    """Build and bind the empty-space structures the options ask for; returns their textures.
+
+    The occupancy atlas (``mip_levels``) and the distance field (``distance_field``) count
+    any label as filled, so palette changes never rebuild them.
+    """
+    textures = []
+    atlas = occupancy_atlas(model.labels, options.mip_levels)
+    if atlas is not None:
+        rows = np.zeros(16)
+        rows[:len(atlas.rows)] = atlas.rows
+        textures.append(bindings.add_texture(
+            "cm_occupancy", Texture(atlas.texels, kind="3d", interpolate=False), owned=True))
+        bindings.set_uniform("cm_levelColumn", float(atlas.column))
+        # GLSL reads cm_levelRows[L / 4][L % 4]: column L / 4, row L % 4.
+        bindings.set_uniform("cm_levelRows", rows.reshape(4, 4).T)
+    if options.distance_field:
+        radii = safe_radii(model.labels, options.distance_field)
+        textures.append(bindings.add_texture(
+            "cm_safeRadius", Texture(radii, kind="3d", interpolate=False), owned=True))
+    return textures
+
+
 @dataclass(frozen=True)
 class VoxelPick:
     """What a pixel shows: its voxel, material, entry face, depth and world point.
@@ -123,7 +150,8 @@ class VoxelBinding(DrawnBinding):
         self.labels = labels
         self.palette_texture = palette
         self.options = options
-        self.occupancy: list = []
+        #: The skipping structures' textures (occupancy atlas, distance field), when used.
+        self.skipping: list[Texture] = []
 
     @property
     def palette(self):
@@ -132,9 +160,9 @@ class VoxelBinding(DrawnBinding):
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes: the labels (1 or 2 per voxel), the occupancy levels and the palette."""
+        """GPU bytes: labels (1 or 2 per voxel), palette, occupancy atlas, distance field."""
         return (self.labels.nbytes + self.palette_texture.nbytes
-                + sum(t.nbytes for t in self.occupancy))
+                + sum(t.nbytes for t in self.skipping))
 
     def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
         """Change a material's colour and/or opacity (0 hides it); the labels stay uploaded.
@@ -189,6 +217,7 @@ class VoxelBinding(DrawnBinding):
 def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> VoxelBinding:
     """The opaque box actor of a material grid; returns its binding."""
     renderer = plotter.renderer
+    options = options.for_grid(model.dimensions)
     # 1 % larger on every side: the shader clips each ray to the exact grid box, so pixels
     # whose rays graze the box's edges are covered and decided there, not by rasterisation.
     actor = box_actor(model.dimensions, model.world_from_index(),
@@ -201,10 +230,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     bindings = ShaderBindings(actor.GetMapper(), renderer)
     bindings.add_texture("cm_labels", labels)
     bindings.add_texture("cm_palette", palette)
-    occupancy = [Texture(level, kind="3d", interpolate=False)
-                 for level in occupancy_levels(model.labels, options.mip_levels)]
-    for number, texture in enumerate(occupancy, start=1):
-        bindings.add_texture(f"cm_occupancy{number}", texture, owned=True)
+    skipping = bind_skipping(bindings, model, options)
     bindings.set_uniform("cm_labelScale", float(np.iinfo(model.labels.dtype).max))
     bindings.set_uniform("cm_gridDims", tuple(float(n) for n in model.dimensions))
     if options.traversal == "fixed":
@@ -217,7 +243,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
     binding = VoxelBinding(model, bindings, recipe, labels, palette, options)
-    binding.occupancy = occupancy
+    binding.skipping = skipping
     binding.drawn = [actor]
     binding.renderer = renderer
     pyvista.set_new_attribute(actor, "cubemarch", binding)
