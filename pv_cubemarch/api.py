@@ -320,7 +320,9 @@ def add_voxels(
         surrounds it, which the ray leaves in one step. Exact whatever the radius.
     mode : str
         ``'color'``: the palette colour, shaded. ``'id'``: the voxel's linear index + 1
-        (``i + nx * (j + ny * k) + 1``) as 24-bit RGB, for exact tests.
+        (``i + nx * (j + ny * k) + 1``) as 24-bit RGB, for exact tests. ``'face'``: the
+        face each ray entered its voxel through, as red ``32 * (face + 2)`` (face
+        ``2 * axis + 1`` entered moving +axis, ``2 * axis`` moving -axis, -1 from inside).
     shading : str
         ``'blinn'`` (default): the scene's switched-on lights (up to 8; headlights follow
         the camera) on the face each ray entered, Lambert plus a Blinn-Phong highlight;

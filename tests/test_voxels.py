@@ -15,7 +15,7 @@ import pyvista as pv
 from conftest import set_camera
 
 import pv_cubemarch as cm
-from pv_cubemarch.reference.voxels import id_colors, render_voxels, trace_voxels
+from pv_cubemarch.reference.voxels import face_colors, id_colors, render_voxels, trace_voxels
 
 SIZE = (64, 48)
 #: Pixels whose ray passes this close (in voxels) to a voxel edge, or grazes the grid box's
@@ -132,6 +132,40 @@ def test_extremes(plotter_factory, case):
     assert (hits.material > 0).any()
     assert wrong == 0, (case, wrong, edge)
     assert edge < 0.05 * hits.material.size, (case, edge)
+
+
+@pytest.mark.parametrize("eye", [(40.0, 30.0, 35.0), (-16.0, -10.0, -19.0), (6.5, 5.5, 4.5)])
+def test_face_mode_matches_the_cpu_traversal(plotter_factory, eye):
+    # Every pixel's entered face (what the shading's normal comes from) equals the CPU
+    # traversal's, from two octants and from inside a voxel (face -1).
+    # catches (seen to fail): a face recorded with the wrong sign (2 * axis + 1 when
+    # moving -axis), and a skipped block's exit face not recorded.
+    labels = random_labels((24, 20, 16), 0.05)
+    labels[6, 5, 4] = 1
+    pl = plotter(plotter_factory)
+    actor = cm.add_voxels(pl, labels, mode="face", mip_levels=4, distance_field=1)
+    camera = set_camera(pl, eye, focal=(12.0, 10.0, 8.0))
+    if eye == (6.5, 5.5, 4.5):
+        pl.camera.clipping_range = (0.01, 100.0)
+        camera.clipping_range = (0.01, 100.0)
+    image = cm.render_image(pl).astype(int)
+    hits = trace_voxels(labels, actor.cubemarch.model.world_from_index(), camera, SIZE,
+                        near=pl.camera.clipping_range[0], tie_tolerance=EDGE)
+    expected = face_colors(hits).astype(int)
+    wrong = np.any(image != expected, axis=-1) & ~hits.near_edge
+    faces = set(np.unique(hits.face[hits.material > 0]).tolist())
+    if eye == (6.5, 5.5, 4.5):
+        assert faces == {-1} and (hits.material > 0).all()   # inside voxel (6, 5, 4)
+    else:
+        assert len(faces) >= 3   # several faces in view
+    assert wrong.sum() == 0, wrong.sum()
+
+
+def test_id_mode_refuses_grids_beyond_24_bits(plotter_factory):
+    # 2^24 voxels need 2^24 + 1 ids with 0 kept for "no voxel": one more than RGB8 holds.
+    pl = plotter(plotter_factory)
+    with pytest.raises(ValueError, match="24-bit"):
+        cm.add_voxels(pl, np.zeros((256, 256, 256), np.uint8), mode="id")
 
 
 def test_palette_colours_and_hiding_without_upload(plotter_factory):

@@ -1,7 +1,7 @@
 // Material grid on its box actor (opaque pass, back faces; after VTK's lighting, which it
 // replaces): this pixel's ray (pixel_ray.glsl) from the near plane through the grid's box
 // (cm_slab), traversed to the first drawn voxel; its colour (the palette's, lit with
-// CM_LIGHTING, or the voxel's id with CM_VOXEL_ID) and the real depth of the hit, so meshes
+// CM_LIGHTING, the voxel's id with CM_VOXEL_ID, its entered face with CM_VOXEL_FACE) and the real depth of the hit, so meshes
 // and other techniques occlude and are occluded exactly.
 {
   vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
@@ -44,9 +44,12 @@
   fragOutput0 = vec4(float(cm_id & 255), float((cm_id >> 8) & 255),
                      float((cm_id >> 16) & 255), 255.0) / 255.0;
 #endif
+#ifdef CM_VOXEL_FACE
+  fragOutput0 = vec4(float(32 * (cm_face + 2)) / 255.0, 0.0, 0.0, 1.0);
+#endif
   float cm_depth = mix(cm_start, cm_inBox.y, cm_t);   // the hit's view depth
   vec3 cm_hitView = cm_originView + cm_directionView * cm_depth;
-#ifndef CM_VOXEL_ID
+#if !defined(CM_VOXEL_ID) && !defined(CM_VOXEL_FACE)
   vec3 cm_color = texelFetch(cm_palette, ivec2(cm_material, 0), 0).rgb;
 #ifdef CM_LIGHTING
   cm_color = cm_shadeVoxel(cm_color, cm_face, cm_hitView, -normalize(cm_directionView));

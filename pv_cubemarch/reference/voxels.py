@@ -398,6 +398,18 @@ def face_normals(face: np.ndarray, world_from_index: np.ndarray,
     return normal
 
 
+def face_colors(hits: VoxelHits) -> np.ndarray:
+    """Encode the entered face of every pixel's hit as 8-bit RGB (0, 0, 0 on a miss).
+
+    ``r = 32 * (face + 2)``: 32 for a ray that starts inside its voxel (face -1), 64 + 32 *
+    ``(2 * axis + 1)`` for a face entered moving +axis, 64 + 32 * ``2 * axis`` moving -axis;
+    ``g = b = 0``.
+    """
+    red = np.where(hits.material > 0, 32 * (hits.face + 2), 0)
+    zero = np.zeros_like(red)
+    return np.stack([red, zero, zero], axis=-1).astype(np.uint8)
+
+
 def id_colors(hits: VoxelHits, shape: tuple[int, int, int]) -> np.ndarray:
     """Encode the hit voxel of every pixel as an 8-bit RGB id (0, 0, 0 on a miss).
 

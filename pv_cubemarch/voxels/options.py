@@ -4,10 +4,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from ..core.options import positive_number, whole_number
 
 TRAVERSALS = ("dda", "fixed")
-MODES = ("color", "id")
+MODES = ("color", "id", "face")
 SHADINGS = ("unlit", "flat", "blinn")
 #: Most occupancy mipmap levels (one atlas; the shader's table of level rows is a mat4).
 MAX_MIP_LEVELS = 12
@@ -21,8 +23,9 @@ class VoxelOptions:
 
     ``traversal``: ``'dda'`` (exact: every voxel a ray crosses) or ``'fixed'`` (samples
     ``step_scale`` voxels apart along the dominant axis; misses thin voxels). ``mode``:
-    ``'color'`` (the palette colour, shaded) or ``'id'`` (the voxel's linear index + 1 as
-    24-bit RGB, for picking and exact tests). ``shading``: ``'unlit'``, ``'flat'``
+    ``'color'`` (the palette colour, shaded), ``'id'`` (the voxel's linear index + 1 as
+    24-bit RGB, for picking and exact tests) or ``'face'`` (the entered face as red,
+    :func:`~pv_cubemarch.reference.voxels.face_colors`). ``shading``: ``'unlit'``, ``'flat'``
     (Lambert on the entered face, from the scene's lights) or ``'blinn'`` (plus a
     Blinn-Phong highlight), with ``ambient``, ``specular`` and ``specular_power``.
     ``mip_levels``: occupancy mipmap levels (0-12; a level's cells are ``2^L`` voxels wide)
@@ -72,7 +75,11 @@ class VoxelOptions:
                                  "per voxel; use at least 0.001.")
 
     def check_model(self, model) -> None:
-        """Nothing the grid's size forbids: the DDA is bounded by the grid's voxels."""
+        """Refuse a grid whose ids 24-bit colour cannot hold in ``mode='id'``."""
+        voxels = int(np.prod(model.dimensions))
+        if self.mode == "id" and voxels + 1 > 1 << 24:
+            raise ValueError(f"mode='id' writes voxel ids as 24-bit colour; a grid of "
+                             f"{voxels:,} voxels has more. Crop the grid or use pick().")
 
     def for_grid(self, dimensions) -> VoxelOptions:
         """These options with ``mip_levels`` settled for a grid of ``dimensions`` voxels."""

@@ -46,7 +46,8 @@ def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
         Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
-    ], defines={"CM_VOXEL_ID": options.mode == "id", "CM_LIGHTING": lit,
+    ], defines={"CM_VOXEL_ID": options.mode == "id", "CM_VOXEL_FACE": options.mode == "face",
+                "CM_LIGHTING": lit,
                 "CM_MIP_LEVELS": options.mip_levels or None,
                 "CM_DISTANCE_FIELD": options.distance_field or None,
                 "CM_SPECULAR": lit and options.shading == "blinn"})
