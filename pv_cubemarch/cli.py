@@ -112,9 +112,11 @@ def build_parser() -> argparse.ArgumentParser:
                                  "with direct at comparable error (default 128,64; 'none')")
     resolution.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     voxels = bench_commands.add_parser(
-        "voxels", help="material grids (002): fixed step, DDA with 0-3 occupancy levels and "
-                       "PyVista's paths, timed side by side, wrong pixels against the CPU")
-    voxels.add_argument("--size", type=_size, default=(512, 512), help="WxH (default 512x512)")
+        "voxels", help="material grids (002): fixed step, DDA with occupancy levels and "
+                       "distance fields, PyVista's paths, timed side by side, wrong pixels "
+                       "against the CPU traversal, the seed's tables as ratios")
+    voxels.add_argument("--sizes", type=_sizes, default=((1000, 1000), (400, 400)),
+                        help="comma-separated WxH (default 1000x1000,400x400)")
     voxels.add_argument("--frames", type=int, default=3, help="timed frames per row")
     voxels.add_argument("--large", type=int, default=256,
                         help="side of the empty and sphere grids (default 256)")
@@ -210,15 +212,19 @@ def _bench(args) -> int:
 def _bench_voxels(args) -> int:
     rows = args.rows.split(",") if args.rows else tuple(VOXEL_ROWS)
     only = args.scenes.split(",") if args.scenes else None
-    results = bench_voxels.run_voxels(args.size, frames=args.frames, large=args.large,
+    results = bench_voxels.run_voxels(args.sizes, frames=args.frames, large=args.large,
                                       rows=rows, only=only)
-    print(f"{args.size[0]}x{args.size[1]}, median of {args.frames} frames, rows drawn in turn; "
-          "wrong: pixels showing another material than the CPU traversal (unlit colours)")
+    print(f"median of {args.frames} frames, rows drawn in turn; wrong: pixels showing "
+          "another material than the CPU traversal (unlit colours); GPU MB of PyVista's "
+          "meshes estimated from what VTK uploads (positions, cell colours, indices)")
     print(bench_voxels.format_voxel_table(results))
+    for size in args.sizes:
+        print()
+        print(bench_voxels.format_seed_ratios(results, size))
     if args.json_path:
         bench_voxels.write_voxel_json(results, args.json_path, {
-            "size": list(args.size), "frames": args.frames, "large": args.large,
-            "gl_renderer": gl_info()["renderer"]})
+            "sizes": [list(s) for s in args.sizes], "frames": args.frames,
+            "large": args.large, "gl_renderer": gl_info()["renderer"]})
         print(f"wrote {args.json_path}")
     return 0
 

@@ -145,18 +145,28 @@ def test_bench_voxels_rows_and_exactness(tmp_path):
     # Small scenes: every row runs, ours are exact, the fixed step and PyVista's volume miss.
     from pv_cubemarch.bench import voxels as bench_voxels
 
-    results = bench_voxels.run_voxels((64, 64), frames=3, large=32,
-                                      only=["sphere 32^3", "random 1% 128^3"])
+    results = bench_voxels.run_voxels([(64, 64)], frames=3, large=32,
+                                      only=["sphere 32^3", "random 1% 128^3", "empty 128^3"])
     assert {r.row for r in results} == set(bench_voxels.ROWS)
     by = {(r.scene, r.row): r for r in results}
-    for scene in ("sphere 32^3", "random 1% 128^3"):
-        for row in ("dda", "dda mip 1", "dda mip 3"):
-            assert by[scene, row].wrong_percent < 0.1, (scene, row)
-        assert by[scene, "dda"].nbytes < by[scene, "pyvista cells"].nbytes or scene.startswith(
-            "sphere")
+    for scene in ("sphere 32^3", "random 1% 128^3", "empty 128^3"):
+        for row in bench_voxels.ROWS:
+            if row.startswith("dda"):
+                assert by[scene, row].wrong_percent < 0.1, (scene, row)
+    # 1 byte per voxel plus the palette; the occupancy atlas and distance field on top.
+    sparse = by["random 1% 128^3", "dda"]
+    assert 128**3 <= sparse.gpu_bytes < 128**3 + 4096
+    assert by["random 1% 128^3", "dda df 1"].gpu_bytes >= 2 * 128**3
+    assert sparse.gpu_bytes < by["random 1% 128^3", "pyvista cells"].host_bytes
     assert by["random 1% 128^3", "fixed 0.1"].wrong_percent > 0.5
     table = bench_voxels.format_voxel_table(results)
     assert "dda mip 3" in table and "x dda" in table
+    seed = bench_voxels.seed_ratios(results, (64, 64))
+    # Table 2's empty 128^3 ran (Tables 5 and 6 need empty 256^3): DDA over itself is 1.
+    assert {r["table"] for r in seed} == {"2"}
+    assert next(r for r in seed if r["row"] == "dda")["our_speedup"] == 1.0
+    assert "speed-up over DDA" in bench_voxels.format_seed_ratios(results, (64, 64))
     path = tmp_path / "v.json"
-    bench_voxels.write_voxel_json(results, path, {"size": [64, 64]})
-    assert len(json.loads(path.read_text())["results"]) == len(results)
+    bench_voxels.write_voxel_json(results, path, {"sizes": [[64, 64]]})
+    data = json.loads(path.read_text())
+    assert len(data["results"]) == len(results) and data["seed_tables"]["64x64"] == seed

@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pyvista
@@ -36,30 +36,36 @@ WRONG = 10.0 / 255.0
 def scenes(large: int = 256) -> dict[str, np.ndarray]:
     """The seed's scenes, deterministic (labels 1..3).
 
-    An almost empty and a sphere grid of ``large``³, terrain, a torus, 1 % noise and a
+    Empty grids (one voxel in the middle) of 128³ and ``large``³, a filled 128³ grid, a
+    sphere of 128³ and ``large``³, sine-wave terrain, a torus, 1 % random fill and a
     checkerboard.
     """
     rng = np.random.default_rng(2023)
-    n = large
-    empty = np.zeros((n, n, n), np.uint8)
-    empty[n // 2, n // 2, n // 2] = 1
-    x, y, z = np.ogrid[0:n, 0:n, 0:n]
-    r2 = (x - n / 2 + 0.5) ** 2 + (y - n / 2 + 0.5) ** 2 + (z - n / 2 + 0.5) ** 2
-    sphere = (r2 < (0.3 * n) ** 2).astype(np.uint8)
+    result = {}
+    for n in dict.fromkeys((128, large)):
+        empty = np.zeros((n, n, n), np.uint8)
+        empty[n // 2, n // 2, n // 2] = 1
+        result[f"empty {n}^3"] = empty
+    result["filled 128^3"] = np.ones((128,) * 3, np.uint8)
+    for n in dict.fromkeys((128, large)):
+        x, y, z = np.ogrid[0:n, 0:n, 0:n]
+        r2 = (x - n / 2 + 0.5) ** 2 + (y - n / 2 + 0.5) ** 2 + (z - n / 2 + 0.5) ** 2
+        result[f"sphere {n}^3"] = (r2 < (0.3 * n) ** 2).astype(np.uint8)
     t = 128
     tx, ty = np.meshgrid(np.arange(t), np.arange(t), indexing="ij")
     height = sum(np.sin(tx * f * 0.05 + p) * np.cos(ty * f * 0.043 + q) * 10 / f
                  for f, p, q in ((1, 0.3, 1.1), (2, 2.0, 0.4), (4, 1.2, 2.2), (8, 0.7, 0.1)))
     height = (height - height.min()) / np.ptp(height) * 48 + 4
     tz = np.arange(64)[None, None, :]
-    terrain = np.where(tz < height[..., None] - 6, 2, np.where(tz < height[..., None], 1, 0))
+    result["waves 128x128x64"] = np.where(tz < height[..., None] - 6, 2,
+                                          np.where(tz < height[..., None], 1, 0))
     u, v, w = np.ogrid[-1:1:128j, -1:1:128j, -1:1:128j]
-    torus = ((np.sqrt(u**2 + v**2) - 0.6) ** 2 + w**2 < 0.2**2).astype(np.uint8)
-    noise = np.where(rng.random((128, 128, 128)) < 0.01, rng.integers(1, 4, (128,) * 3), 0)
+    result["torus 128^3"] = ((np.sqrt(u**2 + v**2) - 0.6) ** 2 + w**2 < 0.2**2).astype(np.uint8)
+    result["random 1% 128^3"] = np.where(rng.random((128, 128, 128)) < 0.01,
+                                         rng.integers(1, 4, (128,) * 3), 0)
     i, j, k = np.ogrid[0:64, 0:64, 0:64]
-    checker = ((i // 8 + j // 8 + k // 8) % 2) * (1 + (i // 16 + k // 16) % 3)
-    return {f"empty {n}^3": empty, f"sphere {n}^3": sphere, "terrain 128x128x64": terrain,
-            "torus 128^3": torus, "random 1% 128^3": noise, "checker 64^3": checker}
+    result["checker 64^3"] = ((i // 8 + j // 8 + k // 8) % 2) * (1 + (i // 16 + k // 16) % 3)
+    return result
 
 
 def _lookup() -> pyvista.LookupTable:
@@ -70,7 +76,18 @@ def _lookup() -> pyvista.LookupTable:
     return lut
 
 
-def _pyvista_mesh(plotter, labels: np.ndarray, surface: bool):
+#: What a row holds in memory, read after its first frame: (GPU bytes, host bytes).
+MemoryProbe = Callable[[], tuple[int, int]]
+
+
+def _drawn_polydata(actor):
+    """The polygons VTK's mapper draws for a mesh actor (a grid's surface, made by VTK)."""
+    mapper = actor.GetMapper()
+    inner = mapper.GetPolyDataMapper() if hasattr(mapper, "GetPolyDataMapper") else mapper
+    return inner.GetInput()
+
+
+def _pyvista_mesh(plotter, labels: np.ndarray, surface: bool) -> MemoryProbe:
     grid = pyvista.ImageData(dimensions=np.array(labels.shape) + 1)
     grid.cell_data["labels"] = labels.ravel(order="F")
     mesh = grid.threshold(0.5, scalars="labels")
@@ -79,11 +96,27 @@ def _pyvista_mesh(plotter, labels: np.ndarray, surface: bool):
     # Each cell's palette colour as RGB (a colormap over the labels would be resampled).
     colors = np.round(PALETTE[np.asarray(mesh.cell_data["labels"]).astype(int), :3] * 255)
     mesh.cell_data["rgb"] = colors.astype(np.uint8)
-    plotter.add_mesh(mesh, scalars="rgb", rgb=True, lighting=False, show_scalar_bar=False)
-    return int(mesh.actual_memory_size * 1024)
+    actor = plotter.add_mesh(mesh, scalars="rgb", rgb=True, lighting=False,
+                             show_scalar_bar=False)
+
+    def memory() -> tuple[int, int]:
+        drawn = _drawn_polydata(actor)
+        host = mesh.actual_memory_size * 1024
+        if drawn is not None and drawn is not mesh:
+            host += drawn.GetActualMemorySize() * 1024
+        if drawn is None:
+            return 0, host
+        # GPU, estimated from what VTK uploads: float32 positions, one RGBA8 colour per
+        # cell, and 32-bit triangle indices (a quad is two triangles).
+        sizes = np.diff(pyvista.convert_array(drawn.GetPolys().GetOffsetsArray()))
+        triangles = int(np.maximum(sizes - 2, 0).sum())
+        gpu = drawn.GetNumberOfPoints() * 12 + drawn.GetNumberOfCells() * 4 + triangles * 12
+        return int(gpu), int(host)
+
+    return memory
 
 
-def _pyvista_volume(plotter, labels: np.ndarray):
+def _pyvista_volume(plotter, labels: np.ndarray) -> MemoryProbe:
     grid = pyvista.ImageData(dimensions=labels.shape, origin=(0.5, 0.5, 0.5))
     grid.point_data["labels"] = labels.ravel(order="F").astype(np.float32)
     # A ready lookup table carries the opacities (label 0 clear): pyvista 0.49 scales an
@@ -95,38 +128,44 @@ def _pyvista_volume(plotter, labels: np.ndarray):
     actor.mapper.SetAutoAdjustSampleDistances(False)
     actor.mapper.SetUseJittering(False)
     actor.mapper.SetSampleDistance(0.5)
-    return int(labels.size * 4)
+    # The float32 labels, on the GPU as one 32-bit texel per voxel and on the host.
+    return lambda: (int(labels.size * 4), int(grid.actual_memory_size * 1024))
+
+
+def _ours(plotter, labels, **options) -> MemoryProbe:
+    actor = add_voxels(plotter, labels, palette=Palette(PALETTE.copy()), shading="unlit",
+                       **options)
+    binding = actor.cubemarch
+    # The host keeps the labels and the skipping structures (to rebuild and pick).
+    return lambda: (binding.nbytes, binding.model.nbytes
+                    + sum(t.nbytes for t in binding.skipping))
 
 
 ROWS: dict[str, Callable] = {
     "fixed 0.1": lambda pl, lab: _ours(pl, lab, traversal="fixed", step_scale=0.1),
     "dda": lambda pl, lab: _ours(pl, lab, mip_levels=0),
-    "dda mip 1": lambda pl, lab: _ours(pl, lab, mip_levels=1),
-    "dda mip 2": lambda pl, lab: _ours(pl, lab, mip_levels=2),
-    "dda mip 3": lambda pl, lab: _ours(pl, lab, mip_levels=3),
+    **{f"dda mip {n}": (lambda pl, lab, n=n: _ours(pl, lab, mip_levels=n)) for n in (1, 2, 3)},
+    "dda mip all": lambda pl, lab: _ours(pl, lab),
+    **{f"dda df {n}": (lambda pl, lab, n=n: _ours(pl, lab, mip_levels=0, distance_field=n))
+       for n in (1, 2, 3)},
     "pyvista cells": lambda pl, lab: _pyvista_mesh(pl, lab, surface=False),
     "pyvista surface": lambda pl, lab: _pyvista_mesh(pl, lab, surface=True),
     "pyvista volume": _pyvista_volume,
 }
 
 
-def _ours(plotter, labels, **options) -> int:
-    actor = add_voxels(plotter, labels, palette=Palette(PALETTE.copy()), shading="unlit",
-                       **options)
-    return actor.cubemarch.nbytes
-
-
 @dataclass
 class VoxelRow:
-    """One scene and row: frame times, setup time, bytes and wrong pixels."""
+    """One scene, image size and row: frame times, setup time, bytes and wrong pixels."""
 
     scene: str
     row: str
+    size: tuple[int, int]
     frame_ms: list[float]
     setup_ms: float
-    nbytes: int
+    gpu_bytes: int
+    host_bytes: int
     wrong_percent: float
-    extra: dict = field(default_factory=dict)
 
     @property
     def median_ms(self) -> float:
@@ -134,67 +173,149 @@ class VoxelRow:
         return float(np.median(self.frame_ms))
 
 
-def run_voxels(size: Sequence[int] = (512, 512), frames: int = 3, large: int = 256,
-               rows: Sequence[str] = tuple(ROWS), only: Sequence[str] | None = None,
+def _camera_for(labels: np.ndarray) -> Camera:
+    """The bench's view of a grid: from above one corner, the whole grid in sight."""
+    m = np.array(labels.shape, dtype=float)
+    return Camera(position=tuple(m * (1.55, -0.55, 1.35)), focal_point=tuple(m / 2),
+                  view_up=(0, 0, 1), view_angle=30.0)
+
+
+def _run_scene(labels: np.ndarray, name: str, size: tuple[int, int], frames: int,
+               rows: Sequence[str]) -> list[VoxelRow]:
+    """Every row on one scene at one size, frames drawn in turn; wrong pixels per row."""
+    camera = _camera_for(labels)
+    plotters, setup, memory = {}, {}, {}
+    try:
+        for row in rows:
+            pl = offscreen_plotter(size)
+            pl.disable_anti_aliasing()
+            pl.ren_win.SetMultiSamples(0)
+            pl.set_background(BACKGROUND)
+            start = time.perf_counter()
+            memory[row] = ROWS[row](pl, labels)
+            camera.apply_to(pl.camera)
+            pl.renderer.ResetCameraClippingRange()
+            render_frame(pl)
+            setup[row] = (time.perf_counter() - start) * 1e3
+            plotters[row] = pl
+        times = time_frames_side_by_side(plotters, frames)
+        near = plotters[rows[0]].camera.clipping_range[0]
+        shot = Camera.from_pyvista(plotters[rows[0]].camera)
+        reference = render_voxels(labels, np.eye(4), PALETTE, shot, size, BACKGROUND, near=near)
+        results = []
+        for row in rows:
+            image = read_pixels(plotters[row]).astype(float) / 255.0
+            wrong = np.abs(image - reference).max(axis=-1) > WRONG
+            gpu, host = memory[row]()
+            results.append(VoxelRow(name, row, size, times[row], setup[row], gpu, host,
+                                    100.0 * float(wrong.mean())))
+        return results
+    finally:
+        for pl in plotters.values():
+            pl.close()
+
+
+def run_voxels(sizes: Sequence[Sequence[int]] = ((1000, 1000), (400, 400)), frames: int = 3,
+               large: int = 256, rows: Sequence[str] = tuple(ROWS),
+               only: Sequence[str] | None = None,
                progress_bar: bool | None = None) -> list[VoxelRow]:
-    """Time every row on every scene side by side; measure wrong pixels against the CPU."""
+    """Time every row on every scene and size side by side; wrong pixels against the CPU.
+
+    Parameters
+    ----------
+    sizes : sequence of (width, height)
+        Image sizes; each scene is drawn at each.
+    frames : int
+        Timed frames per row (the median is reported).
+    large : int
+        Edge of the large empty and sphere grids (the seed's 256).
+    rows : sequence of str
+        Rows of :data:`ROWS` to run.
+    only : sequence of str, optional
+        Scene names of :func:`scenes` to run (all by default).
+    progress_bar : bool, optional
+        Show a progress bar (default: when attached to a terminal).
+    """
     unknown = [r for r in rows if r not in ROWS]
     if unknown:
         raise ValueError(f"Unknown rows {unknown}; choose from {list(ROWS)}.")
-    size = (int(size[0]), int(size[1]))
+    built = scenes(large)
+    missing = [name for name in (only or ()) if name not in built]
+    if missing:
+        raise ValueError(f"Unknown scenes {missing}; choose from {list(built)}.")
+    chosen = {k: v for k, v in built.items() if not only or k in only}
+    sizes = [(int(w), int(h)) for w, h in sizes]
+    steps = [(name, size) for name in chosen for size in sizes]
     results = []
-    chosen = {k: v for k, v in scenes(large).items() if not only or k in only}
-    for name, labels in progress(chosen.items(), desc="bench voxels", enabled=progress_bar):
-        m = np.array(labels.shape, dtype=float)
-        camera = Camera(position=tuple(m * (1.55, -0.55, 1.35)), focal_point=tuple(m / 2),
-                        view_up=(0, 0, 1), view_angle=30.0)
-        plotters, setup, nbytes = {}, {}, {}
-        try:
-            for row in rows:
-                pl = offscreen_plotter(size)
-                pl.disable_anti_aliasing()
-                pl.ren_win.SetMultiSamples(0)
-                pl.set_background(BACKGROUND)
-                start = time.perf_counter()
-                nbytes[row] = ROWS[row](pl, labels)
-                camera.apply_to(pl.camera)
-                pl.renderer.ResetCameraClippingRange()
-                render_frame(pl)
-                setup[row] = (time.perf_counter() - start) * 1e3
-                plotters[row] = pl
-            times = time_frames_side_by_side(plotters, frames)
-            near = plotters[rows[0]].camera.clipping_range[0]
-            shot = Camera.from_pyvista(plotters[rows[0]].camera)
-            reference = render_voxels(labels, np.eye(4), PALETTE, shot, size, BACKGROUND,
-                                      near=near)
-            for row in rows:
-                image = read_pixels(plotters[row]).astype(float) / 255.0
-                wrong = np.abs(image - reference).max(axis=-1) > WRONG
-                results.append(VoxelRow(name, row, times[row], setup[row], nbytes[row],
-                                        100.0 * float(wrong.mean())))
-        finally:
-            for pl in plotters.values():
-                pl.close()
+    for name, size in progress(steps, desc="bench voxels", enabled=progress_bar):
+        results += _run_scene(chosen[name], name, size, frames, list(rows))
     return results
 
 
 def format_voxel_table(results: list[VoxelRow]) -> str:
-    """The table: per scene and row, frame and setup time, ratio to plain DDA, bytes, wrong."""
-    lines = [f"{'scene':<20} {'row':<16} {'frame ms':>9} {'x dda':>6} {'setup ms':>9} "
-             f"{'bytes':>13} {'wrong %':>8}", "-" * 86]
-    for scene in dict.fromkeys(r.scene for r in results):
-        rows = [r for r in results if r.scene == scene]
+    """Per size, scene and row: frame and setup time, ratio to plain DDA, bytes, wrong."""
+    lines = [f"{'size':<10} {'scene':<18} {'row':<16} {'frame ms':>9} {'x dda':>6} "
+             f"{'setup ms':>9} {'GPU MB':>8} {'host MB':>8} {'wrong %':>8}", "-" * 100]
+    for size, scene in dict.fromkeys((r.size, r.scene) for r in results):
+        rows = [r for r in results if r.scene == scene and r.size == size]
         dda = next((r.median_ms for r in rows if r.row == "dda"), None)
         for r in rows:
             ratio = f"{r.median_ms / dda:6.2f}" if dda else "     -"
-            lines.append(f"{scene:<20} {r.row:<16} {r.median_ms:9.1f} {ratio} "
-                         f"{r.setup_ms:9.0f} {r.nbytes:13,} {r.wrong_percent:8.3f}")
+            lines.append(f"{size[0]}x{size[1]:<5} {scene:<18} {r.row:<16} {r.median_ms:9.1f} "
+                         f"{ratio} {r.setup_ms:9.0f} {r.gpu_bytes / 1e6:8.2f} "
+                         f"{r.host_bytes / 1e6:8.2f} {r.wrong_percent:8.3f}")
+    return "\n".join(lines)
+
+
+#: The seed's Tables 1, 2, 5 and 6 (M1 Pro, 1000x1000): (table, scene, row, seed ms).
+SEED_TIMES = (
+    [("1", scene, row, ms) for scene, fvta, fixed in
+     (("sphere 128^3", 3, 10), ("waves 128x128x64", 4, 15), ("torus 128^3", 6, 17))
+     for row, ms in (("dda", fvta), ("fixed 0.1", fixed))]
+    + [("2", scene, row, ms) for scene, fvta, fixed in
+       (("empty 128^3", 7, 25), ("empty 256^3", 19, 65), ("filled 128^3", 0.2, 0.2))
+       for row, ms in (("dda", fvta), ("fixed 0.1", fixed))]
+    + [("5", "empty 256^3", row, ms) for row, ms in
+       (("fixed 0.1", 65), ("dda", 22), ("dda df 1", 14), ("dda df 2", 11), ("dda df 3", 10))]
+    + [("6", "empty 256^3", row, ms) for row, ms in
+       (("fixed 0.1", 65), ("dda", 22), ("dda mip 1", 12), ("dda mip 2", 7), ("dda mip 3", 5))]
+)
+
+
+def seed_ratios(results: list[VoxelRow], size: tuple[int, int]) -> list[dict]:
+    """The seed's tables as speed-ups over plain DDA, the seed's and ours side by side.
+
+    Absolute times on a 16-core GPU and on llvmpipe do not compare; the speed-up of each
+    row over the same scene's DDA does. Rows or scenes not run are left out.
+    """
+    ours = {(r.scene, r.row): r.median_ms for r in results if r.size == tuple(size)}
+    seed = {(scene, row): ms for _, scene, row, ms in SEED_TIMES}
+    out = []
+    for table, scene, row, ms in SEED_TIMES:
+        if (scene, row) not in ours or (scene, "dda") not in ours:
+            continue
+        out.append(dict(table=table, scene=scene, row=row,
+                        seed_speedup=seed[scene, "dda"] / ms,
+                        our_speedup=ours[scene, "dda"] / ours[scene, row]))
+    return out
+
+
+def format_seed_ratios(results: list[VoxelRow], size: tuple[int, int]) -> str:
+    """:func:`seed_ratios` as a table (speed-up over DDA: above 1 is faster)."""
+    lines = [f"the seed's tables at {size[0]}x{size[1]}: speed-up over DDA on the same scene",
+             f"{'table':<6} {'scene':<18} {'row':<12} {'seed':>7} {'ours':>7}", "-" * 54]
+    for r in seed_ratios(results, size):
+        lines.append(f"{r['table']:<6} {r['scene']:<18} {r['row']:<12} "
+                     f"{r['seed_speedup']:7.2f} {r['our_speedup']:7.2f}")
     return "\n".join(lines)
 
 
 def write_voxel_json(results: list[VoxelRow], path, meta: dict) -> None:
-    """Every frame time and measure, for later comparison."""
-    rows = [dict(scene=r.scene, row=r.row, frame_ms=r.frame_ms, setup_ms=r.setup_ms,
-                 nbytes=r.nbytes, wrong_percent=r.wrong_percent) for r in results]
+    """Every frame time and measure, and the seed's tables as ratios, for later comparison."""
+    rows = [dict(scene=r.scene, row=r.row, size=list(r.size), frame_ms=r.frame_ms,
+                 setup_ms=r.setup_ms, gpu_bytes=r.gpu_bytes, host_bytes=r.host_bytes,
+                 wrong_percent=r.wrong_percent) for r in results]
+    sizes = list(dict.fromkeys(r.size for r in results))
+    seed = {f"{w}x{h}": seed_ratios(results, (w, h)) for w, h in sizes}
     with open(path, "w") as handle:
-        json.dump({"meta": meta, "results": rows}, handle, indent=2)
+        json.dump({"meta": meta, "results": rows, "seed_tables": seed}, handle, indent=2)
