@@ -278,6 +278,8 @@ def add_voxels(
     ambient: float = 0.2,
     specular: float = 0.3,
     specular_power: float = 30.0,
+    ambient_occlusion: bool = False,
+    occlusion_strength: float = 0.5,
     transform=None,
     name: str | None = None,
 ) -> pyvista.Actor:
@@ -329,6 +331,14 @@ def add_voxels(
         ``'flat'``: Lambert only; ``'unlit'``: the palette colour as is.
     ambient, specular, specular_power : float
         The share of unlit colour (0-1), the highlight's weight (0-1) and exponent.
+    ambient_occlusion : bool
+        Darken each face near the drawn voxels around it (per-vertex voxel ambient
+        occlusion, interpolated over the face; ``mode='color'``, ``traversal='dda'``, any
+        shading): a factor from 1 down to ``1 - occlusion_strength`` scales the unlit
+        colour, or the ambient + diffuse term (not the highlight). Hidden materials cast
+        none; outside the grid is empty.
+    occlusion_strength : float
+        How dark a fully occluded corner gets (0-1, 0.5 by default).
     transform : array_like, optional
         4x4 affine placement of the grid in the world.
     name : str, optional
@@ -353,6 +363,8 @@ def add_voxels(
                                    "ambient": ambient, "specular": specular,
                                    "specular_power": specular_power,
                                    "distance_field": distance_field,
+                                   "ambient_occlusion": ambient_occlusion,
+                                   "occlusion_strength": occlusion_strength,
                                    **({"step_scale": step_scale} if step_scale is not None
                                       else {}),
                                    "mip_levels": mip_levels})

@@ -51,6 +51,11 @@
   vec3 cm_hitView = cm_originView + cm_directionView * cm_depth;
 #if !defined(CM_VOXEL_ID) && !defined(CM_VOXEL_FACE)
   vec3 cm_color = texelFetch(cm_palette, ivec2(cm_material, 0), 0).rgb;
+#ifdef CM_OCCLUSION
+  // The entered face's ambient occlusion (voxel_occlusion.glsl) at the index-space hit: it
+  // scales the colour before lighting, so the ambient + diffuse term, not the highlight.
+  cm_color *= cm_voxelOcclusion(cm_voxel, cm_face, cm_a + (cm_b - cm_a) * cm_t);
+#endif
 #ifdef CM_LIGHTING
   cm_color = cm_shadeVoxel(cm_color, cm_face, cm_hitView, -normalize(cm_directionView));
 #endif

@@ -2,12 +2,13 @@
 
 ``rays``: the one slab test, trilinear sampling, mesh depth; ``emission_absorption``: the
 volume reference; ``lighting``: transmittance toward lights; ``voxels``: exact grid
-traversal (first voxel, face and depth per pixel).
+traversal (first voxel, face and depth per pixel) and the faces' ambient occlusion.
 """
 
 from .emission_absorption import render_emission_absorption
 from .rays import chord_lengths, mesh_depth, ray_box_interval, trilinear
-from .voxels import VoxelHits, id_colors, render_voxels, trace_voxels
+from .voxels import VoxelHits, id_colors, occlusion_factor, render_voxels, trace_voxels
 
-__all__ = ["VoxelHits", "chord_lengths", "id_colors", "mesh_depth", "ray_box_interval",
-           "render_emission_absorption", "render_voxels", "trace_voxels", "trilinear"]
+__all__ = ["VoxelHits", "chord_lengths", "id_colors", "mesh_depth", "occlusion_factor",
+           "ray_box_interval", "render_emission_absorption", "render_voxels", "trace_voxels",
+           "trilinear"]

@@ -3,7 +3,8 @@
 :func:`trace_voxels` walks every pixel's ray through a labelled grid with the
 Amanatides & Woo traversal in float64 and reports the first visible filled voxel, the face
 the ray entered it through and the distance to that entry. :func:`render_voxels` turns the
-hits into a flat (unlit) image through a palette, :func:`id_colors` into an 8-bit id buffer.
+hits into a (lit) image through a palette, :func:`id_colors` into an 8-bit id buffer;
+:func:`occlusion_factor` is the per-vertex ambient occlusion of the hit faces.
 
 Conventions
 -----------
@@ -81,6 +82,10 @@ class VoxelHits:
         ``(h, w)`` bool: the ray passed within ``tie_tolerance`` voxel lengths of a voxel
         edge or corner before the hit (see the module docstring): pixels where a float32
         GPU traversal may legitimately differ.
+    point : numpy.ndarray or None
+        ``(h, w, 3)`` float64 index-space point at ``depth`` along the ray (on the entered
+        face, or the ray's start where it starts inside the voxel); NaN on a miss. Filled
+        by :func:`trace_voxels`; :func:`occlusion_factor` needs it.
     """
 
     index: np.ndarray
@@ -88,6 +93,7 @@ class VoxelHits:
     face: np.ndarray
     depth: np.ndarray
     near_edge: np.ndarray
+    point: np.ndarray | None = None
 
 
 def _check_labels(labels: np.ndarray) -> np.ndarray:
@@ -120,6 +126,21 @@ def _index_rays(origins: np.ndarray, directions: np.ndarray, world_from_index: n
     o_idx = (origins - centre_world) @ index_from_world.T + centre
     d_idx = directions @ index_from_world.T
     return o_idx, d_idx
+
+
+def _drawn(labels: np.ndarray, visible: np.ndarray | None) -> np.ndarray:
+    """Bool grid of the drawn voxels: a nonzero label whose ``visible`` entry is set."""
+    max_label = int(labels.max())
+    if visible is None:
+        table = np.ones(max_label + 1, dtype=bool)
+    else:
+        table = np.asarray(visible, dtype=bool).ravel()
+        if table.size <= max_label:
+            raise ValueError(f"visible has {table.size} entries but labels go up to "
+                             f"{max_label}; give one per material id.")
+    table = table.copy()
+    table[0] = False
+    return table[labels]
 
 
 def _fraction_to_boundary(p: np.ndarray) -> np.ndarray:
@@ -169,17 +190,7 @@ def trace_voxels(
     """
     labels = _check_labels(labels)
     shape = np.array(labels.shape, dtype=np.int64)
-    max_label = int(labels.max())
-    if visible is None:
-        table = np.ones(max_label + 1, dtype=bool)
-    else:
-        table = np.asarray(visible, dtype=bool).ravel()
-        if table.size <= max_label:
-            raise ValueError(f"visible has {table.size} entries but labels go up to "
-                             f"{max_label}; give one per material id.")
-    table = table.copy()
-    table[0] = False
-    filled = table[labels].ravel(order="F")
+    filled = _drawn(labels, visible).ravel(order="F")
     flat_labels = labels.ravel(order="F")
     strides = np.array([1, shape[0], shape[0] * shape[1]], dtype=np.int64)
 
@@ -289,12 +300,16 @@ def trace_voxels(
         if ids.size:
             raise RuntimeError("voxel traversal did not finish; this is a bug.")
 
+    point = np.full((n_rays, 3), np.nan)
+    seen = material > 0
+    point[seen] = o_idx[seen] + depth[seen, None] * d_idx[seen]
     return VoxelHits(
         index=index.reshape(height, width, 3),
         material=material.reshape(height, width),
         face=face.reshape(height, width),
         depth=depth.reshape(height, width),
         near_edge=near_edge.reshape(height, width),
+        point=point.reshape(height, width, 3),
     )
 
 
@@ -311,6 +326,8 @@ def render_voxels(
     ambient: float = 0.2,
     specular: float = 0.3,
     specular_power: float = 30.0,
+    ambient_occlusion: bool = False,
+    occlusion_strength: float = 0.5,
 ) -> np.ndarray:
     """Render a labelled grid: each pixel the (lit) colour of the voxel it sees.
 
@@ -332,6 +349,13 @@ def render_voxels(
         between the light and the eye. A ray that starts inside its voxel faces the eye.
     ambient, specular, specular_power : float
         The shading's share of unlit colour, specular weight and exponent.
+    ambient_occlusion : bool
+        Darken each hit face near the drawn voxels around it by the factor ``ao`` of
+        :func:`occlusion_factor`: ``'unlit'`` gives ``colour * ao``, ``'flat'`` and
+        ``'blinn'`` ``colour * ao * (ambient + (1 - ambient) * sum light * max(n.l, 0))``
+        (plus the unoccluded highlight).
+    occlusion_strength : float
+        How dark a fully occluded corner gets (0-1): ``ao = 1 - occlusion_strength`` there.
 
     Returns
     -------
@@ -354,7 +378,13 @@ def render_voxels(
     image[...] = np.asarray(background, dtype=np.float64)
     hit = hits.material > 0
     color = palette[hits.material[hit], :3]
-    if shading != "unlit":
+    occlusion = np.ones(len(color))
+    if ambient_occlusion:
+        occlusion = occlusion_factor(labels, hits, occlusion_strength,
+                                     visible=palette[:, 3] > 0)[hit]
+    if shading == "unlit":
+        color = color * occlusion[:, None]
+    else:
         origins, directions = camera.rays((width, height))
         toward_eye = -directions[hit]
         points = origins[hit] + directions[hit] * hits.depth[hit][:, None]
@@ -375,9 +405,77 @@ def render_voxels(
                 half /= np.maximum(np.linalg.norm(half, axis=1, keepdims=True), 1e-300)
                 shine += np.clip(np.sum(normals * half, axis=1), 0, None)[:, None] \
                     ** specular_power * light.radiance
-        color = color * (ambient + (1.0 - ambient) * diffuse) + specular * shine
+        color = color * occlusion[:, None] * (ambient + (1.0 - ambient) * diffuse) \
+            + specular * shine
     image[hit] = np.clip(color, 0.0, 1.0)
     return image
+
+
+def occlusion_factor(labels: np.ndarray, hits: VoxelHits, strength: float = 0.5,
+                     visible: np.ndarray | None = None) -> np.ndarray:
+    """Per-vertex ("Minecraft") ambient occlusion of every pixel's hit face, ``(h, w)``.
+
+    For a hit entered through face ``2 * axis + 1`` (moving ``+axis``; the face's normal
+    points ``-axis``) the *layer* is the voxel on the viewer's side of the face,
+    ``voxel - e_axis`` (``voxel + e_axis`` for face ``2 * axis``). The face's other two
+    axes are ``u = (axis + 1) % 3`` and ``v = (axis + 2) % 3``. Each of its 4 corners
+    ``(du, dv)`` (each -1 or +1) looks at 3 voxels of the layer's plane: ``side1 = layer +
+    du e_u``, ``side2 = layer + dv e_v`` and ``corner = layer + du e_u + dv e_v``; its
+    level is 3 when both sides are drawn, else ``side1 + side2 + corner`` (0-3). The level
+    at the hit is the bilinear interpolation of the corners' at the hit point's place on
+    the face, ``s = point_u - voxel_u`` and ``r = point_v - voxel_v`` (clamped to [0, 1];
+    the corner ``(-1, -1)`` is at ``(0, 0)``), and ``factor = 1 - strength * level / 3``.
+
+    Drawn means a nonzero label whose ``visible`` entry is set (as the traversal: a hidden
+    material casts no occlusion); voxels outside the grid are empty. The factor is 1 where
+    the ray misses or starts inside its voxel (face -1). ``hits`` comes from
+    :func:`trace_voxels` on the same ``labels`` and ``visible``.
+    """
+    strength = float(strength)
+    if not 0.0 <= strength <= 1.0:
+        raise ValueError(f"occlusion_strength must be in [0, 1], got {strength!r}.")
+    if hits.point is None:
+        raise ValueError("occlusion_factor needs the hit points (hits.point), which "
+                         "trace_voxels fills.")
+    labels = _check_labels(labels)
+    factor = np.ones(hits.face.shape)
+    faced = hits.face >= 0
+    level = occlusion_levels(_drawn(labels, visible), hits.index[faced], hits.face[faced],
+                             hits.point[faced])
+    factor[faced] = 1.0 - strength * level / 3.0
+    return factor
+
+
+def occlusion_levels(drawn: np.ndarray, index: np.ndarray, face: np.ndarray,
+                     point: np.ndarray) -> np.ndarray:
+    """The interpolated occlusion level (0-3) of ``n`` hits, as :func:`occlusion_factor`.
+
+    ``drawn``: the bool grid; ``index``: ``(n, 3)`` voxels; ``face``: ``(n,)`` entry faces
+    (all >= 0); ``point``: ``(n, 3)`` index-space hit points.
+    """
+    rows = np.arange(len(face))
+    axis = face // 2
+    u, v = (axis + 1) % 3, (axis + 2) % 3
+    layer = index + 1   # in the grid padded by one empty voxel on every side
+    layer[rows, axis] += np.where(face % 2 == 1, -1, 1)
+    padded = np.pad(drawn, 1)
+
+    def occupied(du: int, dv: int) -> np.ndarray:
+        cell = layer.copy()
+        cell[rows, u] += du
+        cell[rows, v] += dv
+        return padded[cell[:, 0], cell[:, 1], cell[:, 2]].astype(np.float64)
+
+    s = np.clip(point[rows, u] - index[rows, u], 0.0, 1.0)
+    r = np.clip(point[rows, v] - index[rows, v], 0.0, 1.0)
+    level = np.zeros(len(face))
+    for du in (-1, 1):
+        for dv in (-1, 1):
+            side1, side2, corner = occupied(du, 0), occupied(0, dv), occupied(du, dv)
+            corner_level = np.where((side1 > 0) & (side2 > 0), 3.0, side1 + side2 + corner)
+            weight = (s if du > 0 else 1.0 - s) * (r if dv > 0 else 1.0 - r)
+            level += weight * corner_level
+    return level
 
 
 def face_normals(face: np.ndarray, world_from_index: np.ndarray,

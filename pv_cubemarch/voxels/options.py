@@ -34,7 +34,12 @@ class VoxelOptions:
     ``distance_field``: the seed's neighbour distance field (0 = off, 1-3 = its largest
     radius; one more byte per voxel): from a voxel whose surrounding cube is empty the ray
     leaves the cube in one step. Both are exact whatever their setting; they only change
-    the speed.
+    the speed. ``ambient_occlusion`` (``traversal='dda'``, mode ``'color'``, any shading):
+    each entered face darkened near the drawn voxels around it (per-vertex voxel AO,
+    bilinear over the face; formula in
+    :func:`~pv_cubemarch.reference.voxels.occlusion_factor`) by a factor from 1 down to
+    ``1 - occlusion_strength`` (0-1) that multiplies the unlit colour, or the ambient +
+    diffuse term (not the highlight).
     """
 
     traversal: str = "dda"
@@ -46,6 +51,8 @@ class VoxelOptions:
     ambient: float = 0.2
     specular: float = 0.3
     specular_power: float = 30.0
+    ambient_occlusion: bool = False
+    occlusion_strength: float = 0.5
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
@@ -65,6 +72,18 @@ class VoxelOptions:
         positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)
         positive_number("specular", self.specular, 0.0, 1.0, closed_low=True)
         positive_number("specular_power", self.specular_power, 0.0, 1e4)
+        if not isinstance(self.ambient_occlusion, (bool, np.bool_)):
+            raise ValueError(f"ambient_occlusion must be True or False, got "
+                             f"{self.ambient_occlusion!r}.")
+        positive_number("occlusion_strength", self.occlusion_strength, 0.0, 1.0,
+                        closed_low=True)
+        if self.ambient_occlusion and self.mode != "color":
+            raise ValueError(f"ambient_occlusion darkens the colours of mode='color'; "
+                             f"mode={self.mode!r} draws none: use mode='color', or leave "
+                             "ambient_occlusion off.")
+        if self.ambient_occlusion and self.traversal != "dda":
+            raise ValueError("ambient_occlusion needs the face each ray entered, which "
+                             "traversal='fixed' does not know: use traversal='dda'.")
         if self.step_scale is not None:
             if self.traversal != "fixed":
                 raise ValueError("step_scale is for traversal='fixed' (the DDA visits every "

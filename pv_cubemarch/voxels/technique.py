@@ -33,16 +33,17 @@ MAX_VOXEL_LIGHTS = 8
 
 
 def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
-    """The box actor's replacements for the chosen traversal, mode and shading."""
+    """The box actor's replacements for the chosen traversal, mode, shading and occlusion."""
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
     lit = options.mode == "color" and options.shading != "unlit"
     skipping = (("voxel_mip",) if options.mip_levels else ()) + (
         ("voxel_distance",) if options.distance_field else ())
+    occlusion = options.mode == "color" and options.ambient_occlusion
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
                     ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
-                     *skipping, traversal, *(("voxel_shading",) if lit else ())),
-                    keep_tag="after"),
+                     *skipping, traversal, *(("voxel_shading",) if lit else ()),
+                     *(("voxel_occlusion",) if occlusion else ())), keep_tag="after"),
         Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
@@ -50,7 +51,7 @@ def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
                 "CM_LIGHTING": lit,
                 "CM_MIP_LEVELS": options.mip_levels or None,
                 "CM_DISTANCE_FIELD": options.distance_field or None,
-                "CM_SPECULAR": lit and options.shading == "blinn"})
+                "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion})
 
 
 def scene_lights(renderer) -> list[VolumeLight]:
@@ -239,6 +240,8 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     bind_camera(bindings, renderer, model.world_from_index)
     if options.mode == "color" and options.shading != "unlit":
         bind_lights(bindings, renderer, model, options)
+    if options.mode == "color" and options.ambient_occlusion:
+        bindings.set_uniform("cm_occlusionStrength", float(options.occlusion_strength))
     bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
     recipe = voxel_recipe(options)
     bindings.recipe = recipe
