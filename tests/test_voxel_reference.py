@@ -211,6 +211,23 @@ def test_camera_inside_a_filled_voxel():
     assert (hits.index == voxel).all() and (hits.material == 2).all()
 
 
+@pytest.mark.parametrize("position", [(1.5, 1.1, 2.0), (-0.9, -0.6, 0.5), (0.05, 0.02, 0.0)])
+def test_only_the_drawn_voxels_box_is_traversed(position):
+    # Voxels drawn only inside (2..5, 1..4, 1..3) of a 9x7x6 grid, one visible material far
+    # outside it hidden: the traversal of that box alone (indices put back) equals the
+    # brute force over the whole grid, from outside the grid, inside the grid but outside
+    # the box, and inside the box.
+    # catches (seen to fail): the sub-box's indices not shifted back; its placement not
+    # shifted by the box's low corner.
+    labels = np.zeros((9, 7, 6), np.int64)
+    labels[2:6, 1:5, 1:4] = random_labels((4, 4, 3), fill=0.4, seed=21)
+    labels[8, 6, 5] = 3
+    visible = np.array([False, True, True, False])
+    camera = Camera(position, (0.1, 0.05, -0.02), view_angle=70)
+    check(labels, centred(labels.shape), camera, visible=visible, min_hits=0.02,
+          near=0.01)
+
+
 def test_near_plane_cutting_the_grid():
     labels = random_labels(seed=6, fill=0.3)
     camera = Camera((2.0, 1.5, 2.4), (0.0, 0.0, 0.0), view_angle=40)

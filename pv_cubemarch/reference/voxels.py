@@ -189,8 +189,27 @@ def trace_voxels(
         Images of the crop (or of the whole ``size``).
     """
     labels = _check_labels(labels)
+    drawn = _drawn(labels, visible)
+    if drawn.any() and not drawn.all():
+        # Nothing is hit outside the drawn voxels' bounding box: traverse only that box (the
+        # same rays, the sub-grid placed where it sits), then put its indices back.
+        spans = [np.nonzero(drawn.any(axis=tuple(a for a in range(3) if a != axis)))[0]
+                 for axis in range(3)]
+        low = np.array([span[0] for span in spans])
+        high = np.array([span[-1] + 1 for span in spans])
+        if np.any(low > 0) or np.any(high < labels.shape):
+            shift = np.eye(4)
+            shift[:3, 3] = low
+            hits = trace_voxels(labels[tuple(slice(lo, hi) for lo, hi in zip(low, high, strict=True))],
+                                np.asarray(world_from_index, dtype=np.float64) @ shift, camera,
+                                size, near=near, visible=visible,
+                                tie_tolerance=tie_tolerance, crop=crop)
+            seen = hits.material > 0
+            hits.index[seen] += low
+            hits.point[seen] += low
+            return hits
     shape = np.array(labels.shape, dtype=np.int64)
-    filled = _drawn(labels, visible).ravel(order="F")
+    filled = drawn.ravel(order="F")
     flat_labels = labels.ravel(order="F")
     strides = np.array([1, shape[0], shape[0] * shape[1]], dtype=np.int64)
 
