@@ -21,6 +21,7 @@ from .volume.light_map import LightMap
 from .volume.march import VolumeData
 from .volume.options import DEFAULT_STOP_OPACITY, Shading
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
+from .voxels.options import VoxelOptions
 
 
 def add_volume(
@@ -263,6 +264,32 @@ def add_volumes(plotter: pyvista.Plotter, volumes, **options) -> list:
 
 
 
+def voxel_options(**given) -> VoxelOptions:
+    """The checked options of :func:`add_voxels` from its keyword arguments.
+
+    Parameters
+    ----------
+    **given
+        Any of ``add_voxels``'s options (``traversal``, ``step_scale``, ``mip_levels``,
+        ``distance_field``, ``mode``, ``shading``, ``ambient``, ``specular``,
+        ``specular_power``, ``ambient_occlusion``, ``occlusion_strength``); ``None`` or left out takes the default (``mip_levels``: every
+        level the grid has with the DDA, none with the fixed step).
+
+    Returns
+    -------
+    VoxelOptions
+        The validated options.
+
+    Raises
+    ------
+    ValueError
+        For a bad value, or a name that is not an option of the voxel technique; the
+        message names the option.
+    """
+    chosen = {key: value for key, value in given.items() if value is not None}
+    return get_technique("voxels", "voxels").make_options(chosen)
+
+
 def add_voxels(
     plotter: pyvista.Plotter,
     grid,
@@ -359,15 +386,11 @@ def add_voxels(
     >>> actor = cm.add_voxels(pl, labels, palette=["black", "tan", "steelblue"])
     """
     chosen = get_technique("voxels", "voxels")
-    options = chosen.make_options({"traversal": traversal, "mode": mode, "shading": shading,
-                                   "ambient": ambient, "specular": specular,
-                                   "specular_power": specular_power,
-                                   "distance_field": distance_field,
-                                   "ambient_occlusion": ambient_occlusion,
-                                   "occlusion_strength": occlusion_strength,
-                                   **({"step_scale": step_scale} if step_scale is not None
-                                      else {}),
-                                   "mip_levels": mip_levels})
+    options = voxel_options(traversal=traversal, step_scale=step_scale, mip_levels=mip_levels,
+                            distance_field=distance_field, mode=mode, shading=shading,
+                            ambient=ambient, specular=specular, specular_power=specular_power,
+                            ambient_occlusion=ambient_occlusion,
+                            occlusion_strength=occlusion_strength)
     if isinstance(grid, VoxelModel):
         model = grid
         if transform is not None:

@@ -95,3 +95,46 @@ def assert_close_to_reference(image, reference, min_psnr, background=BACKGROUND,
     assert empty.psnr <= min_psnr - margin, f"the floor {min_psnr} dB is too low: {empty}"
     assert errors.psnr >= min_psnr, errors
     return errors
+
+
+def rotation_y(degrees):
+    """4x4 right-handed rotation about +y (USD's ``rotateY``)."""
+    c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
+    matrix = np.eye(4)
+    matrix[0, 0], matrix[0, 2], matrix[2, 0], matrix[2, 2] = c, s, -s, c
+    return matrix
+
+
+def write_voxel_stage(tmp_path, labels, *, attrs=None, field_attrs=None, technique="voxels",
+                      file_name="labels.npy", translate=(1.0, -2.0, 0.5), rotate_y=20.0,
+                      eye=(17.0, 12.0, 20.0), target=(7.0, 4.0, 5.7), stage_name="vox.usda"):
+    """A stage with a camera ``/Cam`` and a Volume ``/Vox`` whose ``field:labels`` prim
+    ``/Vox/labels`` names ``labels`` saved as ``file_name`` (``.npy``; pass ``labels=None``
+    to write the file yourself). ``attrs``/``field_attrs``: ``{name: (type name, value)}``
+    authored on the volume / field prim; ``technique=None`` leaves ``cubemarch:technique``
+    out. The volume is placed by ``translate`` then ``rotate_y`` (degrees)."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdVol
+
+    if labels is not None:
+        np.save(tmp_path / file_name, labels)
+    stage = Usd.Stage.CreateNew(str(tmp_path / stage_name))
+    camera = UsdGeom.Camera.Define(stage, "/Cam")
+    camera.CreateFocalLengthAttr(20.0)
+    camera.CreateClippingRangeAttr(Gf.Vec2f(0.5, 500.0))
+    look = Gf.Matrix4d().SetLookAt(Gf.Vec3d(*eye), Gf.Vec3d(*target), Gf.Vec3d(0, 1, 0))
+    UsdGeom.Xformable(camera).AddTransformOp().Set(look.GetInverse())
+    volume = UsdVol.Volume.Define(stage, "/Vox")
+    UsdGeom.Xformable(volume).AddTranslateOp().Set(Gf.Vec3d(*translate))
+    UsdGeom.Xformable(volume).AddRotateYOp().Set(float(rotate_y))
+    field = stage.DefinePrim("/Vox/labels")
+    field.CreateAttribute("filePath", Sdf.ValueTypeNames.Asset).Set(
+        Sdf.AssetPath(f"./{file_name}"))
+    volume.CreateFieldRelationship("labels", field.GetPath())
+    prim = volume.GetPrim()
+    if technique is not None:
+        prim.CreateAttribute("cubemarch:technique", Sdf.ValueTypeNames.Token).Set(technique)
+    for target_prim, given in ((prim, attrs), (field, field_attrs)):
+        for name, (kind, value) in (given or {}).items():
+            target_prim.CreateAttribute(name, getattr(Sdf.ValueTypeNames, kind)).Set(value)
+    stage.GetRootLayer().Save()
+    return tmp_path / stage_name

@@ -150,7 +150,7 @@ def checked_labels(array, name: str = "labels") -> np.ndarray:
                                   "whole numbers (0 = empty).")
         if not np.array_equal(array, np.round(array)):
             raise VolumeDataError(f"{name} holds non-integer values (e.g. "
-                                  f"{array[array != np.round(array)].flat[0]!r}); material "
+                                  f"{array[array != np.round(array)].flat[0].item()!r}); material "
                                   "labels are whole numbers: round or label the data first.")
     elif array.dtype.kind not in "iu":
         raise VolumeDataError(f"{name} has dtype {array.dtype}; material labels are integers.")

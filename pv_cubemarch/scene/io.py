@@ -1,30 +1,39 @@
-"""One entry point for every scene format: USD through usd-core, meshes through trimesh."""
+"""One entry point for every scene format: USD through usd-core, meshes through trimesh.
+
+A grid file (.vti, .vtk, .npy, .npz) is a scene of its one volume or voxel grid.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from ..core.errors import SceneLoadError
+from .grids import GRID_SUFFIXES, load_grid_scene
 from .meshes import MESH_SUFFIXES, load_mesh_scene
 from .model import Scene
 from .usd import USD_SUFFIXES, load_usd
 
 
-def load_scene(path, progress_bar: bool | None = None) -> Scene:
-    """Load a scene from a USD stage or any mesh/scene file trimesh reads.
+def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False) -> Scene:
+    """Load a scene from a USD stage, any mesh/scene file trimesh reads, or a grid file.
 
     Parameters
     ----------
     path : str or pathlib.Path
-        A ``.usd``, ``.usda``, ``.usdc`` or ``.usdz`` stage, or an OBJ, STL, PLY, OFF, GLB or
-        glTF file.
+        A ``.usd``, ``.usda``, ``.usdc`` or ``.usdz`` stage, an OBJ, STL, PLY, OFF, GLB or
+        glTF file, or a ``.vti``/``.vtk`` image or ``.npy``/``.npz`` array (one grid).
     progress_bar : bool, optional
         Show a progress bar while loading; by default only on a terminal.
+    as_voxels : bool
+        Load every volume (USD ``Volume`` prim or grid file) as a voxel grid of integer
+        material labels, whatever its ``cubemarch:technique``. A USD ``Volume`` with
+        ``cubemarch:technique = "voxels"`` is one anyway.
 
     Returns
     -------
     Scene
-        Meshes, volumes, cameras and lights in world coordinates, plus the prims skipped.
+        Meshes, volumes, voxel grids, cameras and lights in world coordinates, plus the
+        prims skipped.
 
     Examples
     --------
@@ -35,10 +44,12 @@ def load_scene(path, progress_bar: bool | None = None) -> Scene:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in USD_SUFFIXES:
-        return load_usd(path, progress_bar=progress_bar)
+        return load_usd(path, progress_bar=progress_bar, as_voxels=as_voxels)
     if suffix in MESH_SUFFIXES:
         return load_mesh_scene(path)
+    if suffix in GRID_SUFFIXES:
+        return load_grid_scene(path, as_voxels=as_voxels)
     raise SceneLoadError(
         f"Cannot load {str(path)!r}: unknown scene type {suffix!r}. Supported: "
-        f"{', '.join(USD_SUFFIXES + MESH_SUFFIXES)}."
+        f"{', '.join(USD_SUFFIXES + MESH_SUFFIXES + GRID_SUFFIXES)}."
     )

@@ -10,12 +10,13 @@ import numpy as np
 import pyvista
 from PIL import Image
 
-from ..api import add_volumes
+from ..api import add_volumes, add_voxels
 from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.rendering import offscreen_plotter, render_image
 from ..models.group import overlap_groups
 from ..models.volume import VolumeModel
+from ..models.voxels import VoxelModel
 
 DEFAULT_BACKGROUND = (0.1, 0.1, 0.12)
 
@@ -57,7 +58,9 @@ class Scene:
     """Everything a scene file asks us to draw, in world coordinates.
 
     Build one with :func:`pv_cubemarch.load_scene`; draw it with :meth:`add_to` or
-    :meth:`render`.
+    :meth:`render`. ``volumes`` are drawn with :func:`pv_cubemarch.add_volumes` and the
+    options in ``volume_options`` (by volume name); ``voxels`` (material grids) with
+    :func:`pv_cubemarch.add_voxels` and the options in ``voxel_options`` (by grid name).
     """
 
     meshes: list[SceneMesh] = field(default_factory=list)
@@ -70,6 +73,8 @@ class Scene:
     source: str = ""
     background: tuple[float, float, float] = DEFAULT_BACKGROUND
     volume_options: dict[str, dict] = field(default_factory=dict)
+    voxels: list[VoxelModel] = field(default_factory=list)
+    voxel_options: dict[str, dict] = field(default_factory=dict)
 
     @property
     def camera(self) -> Camera | None:
@@ -77,9 +82,9 @@ class Scene:
         return next(iter(self.cameras.values()), None)
 
     def bounds(self) -> np.ndarray:
-        """World bounds of all meshes and volume boxes (a unit box for an empty scene)."""
+        """World bounds of all meshes, volume and voxel-grid boxes (a unit box if empty)."""
         boxes = [np.asarray(m.mesh.bounds) for m in self.meshes if m.mesh.n_points]
-        boxes += [v.world_bounds() for v in self.volumes]
+        boxes += [v.world_bounds() for v in (*self.volumes, *self.voxels)]
         if not boxes:
             return np.array([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0])
         stack = np.array(boxes)
@@ -107,6 +112,9 @@ class Scene:
                   for m in self.meshes]
         lines.append(f"volumes: {len(self.volumes)}")
         lines += [f"  {v.name}: {'x'.join(map(str, v.dimensions))} points" for v in self.volumes]
+        lines.append(f"voxel grids: {len(self.voxels)}")
+        lines += [f"  {g.name}: {'x'.join(map(str, g.dimensions))} voxels, labels up to "
+                  f"{int(g.labels.max())}" for g in self.voxels]
         lines.append(f"cameras: {len(self.cameras)}")
         lines += [f"  {name}" for name in self.cameras]
         lines.append(f"lights: {len(self.lights)}")
@@ -116,7 +124,12 @@ class Scene:
         return "\n".join(lines)
 
     def to_multiblock(self) -> pyvista.MultiBlock:
-        """The scene's meshes and volumes as a ``pyvista.MultiBlock`` (what ``pv.read`` returns)."""
+        """The scene's meshes, volumes and voxel grids as a ``pyvista.MultiBlock``.
+
+        This is what ``pv.read`` returns. A voxel grid is an ImageData with its labels in
+        the cell data array ``"labels"`` (one cell per voxel), placed in the world, so
+        ``pv_cubemarch.add_voxels(plotter, block)`` draws it where the scene does.
+        """
         blocks = pyvista.MultiBlock()
         for m in self.meshes:
             blocks[m.name] = m.mesh
@@ -125,11 +138,13 @@ class Scene:
             if not np.allclose(v.transform, np.eye(4)):
                 grid = grid.transform(v.transform, inplace=False)
             blocks[v.name] = grid
+        for g in self.voxels:
+            blocks[g.name] = _voxel_image(g)
         return blocks
 
     def add_to(self, plotter: pyvista.Plotter, camera: str | Camera | None = None,
                progress_bar: bool | None = None) -> dict:
-        """Add meshes, lights, volumes and the camera to ``plotter``; return the actors by name.
+        """Add meshes, lights, volumes, voxel grids and the camera; return the actors by name.
 
         ``camera`` picks a scene camera by name, or gives one; by default the scene's first
         camera, else a view of the whole scene.
@@ -156,6 +171,12 @@ class Scene:
             for v in group:
                 actors[v.name] = added[0] if len(added) == 1 else \
                     next(a for a in added if v.name in a.cubemarch.name.split("+"))
+        for grid in progress(self.voxels, desc="uploading voxel grids", enabled=progress_bar):
+            try:
+                actors[grid.name] = add_voxels(plotter, grid,
+                                               **self.voxel_options.get(grid.name, {}))
+            except ValueError as error:   # say which grid's options or data are wrong
+                raise type(error)(f"voxel grid {grid.name!r}: {error}") from error
         chosen = self.cameras.get(camera) if isinstance(camera, str) else camera
         if isinstance(camera, str) and chosen is None:
             raise KeyError(f"No camera named {camera!r}; the scene has {list(self.cameras)}.")
@@ -217,3 +238,14 @@ class Scene:
             Path(path).parent.mkdir(parents=True, exist_ok=True)
             Image.fromarray(image).save(str(path))
         return image
+
+
+def _voxel_image(grid: VoxelModel) -> pyvista.ImageData:
+    """A voxel grid as an ImageData in world coordinates, its labels as cell data."""
+    matrix = grid.world_from_index()
+    spacing = np.linalg.norm(matrix[:3, :3], axis=0)
+    image = pyvista.ImageData(dimensions=tuple(n + 1 for n in grid.dimensions),
+                              spacing=tuple(spacing), origin=tuple(matrix[:3, 3]))
+    image.direction_matrix = matrix[:3, :3] / spacing
+    image.cell_data["labels"] = grid.labels.ravel(order="F")
+    return image

@@ -11,6 +11,17 @@ options of :func:`pv_cubemarch.add_volume` in camel case (:data:`VOLUME_OPTIONS`
 ``ambient``. The field
 prim a ``field:*`` relationship targets has an asset ``filePath`` (.vti/.vtk/.npy/.npz)
 and, for numpy files, optional ``cubemarch:origin`` and ``cubemarch:spacing``.
+
+A ``Volume`` with ``cubemarch:technique = "voxels"`` (or every ``Volume`` with
+``load_usd(..., as_voxels=True)``) is a material grid: its field (``field:labels``, else
+``field:density``, else the first) holds integer labels, 0 = empty, drawn with
+:func:`pv_cubemarch.add_voxels`. Its palette is ``cubemarch:palette`` (``color3f[]`` or
+``color4f[]``, entry ``m`` for material ``m``, entry 0 unused) or ``cubemarch:cmap`` (a
+colormap name), with optional ``cubemarch:paletteOpacity`` (``float[]``, one per palette
+entry, 0 hides a material); its options are :data:`VOXEL_OPTIONS` (``traversal``,
+``stepScale``, ``mipLevels``, ``mode``, ``shading``, ``ambient``, ``specular``,
+``specularPower``), checked when the stage is loaded. A numpy label array fills voxels
+from ``cubemarch:origin`` (the grid box's corner), as ``add_voxels`` places an array.
 """
 
 from __future__ import annotations
@@ -21,10 +32,13 @@ import numpy as np
 import pyvista
 from pxr import Gf, Tf, Usd, UsdGeom, UsdShade, UsdVol
 
+from ..api import voxel_options
 from ..core.camera import Camera
 from ..core.errors import SceneLoadError, VolumeDataError
 from ..core.progress import progress
 from ..models.volume import make_volume
+from ..models.voxels import Palette, make_voxels
+from .grids import read_grid
 from .model import Scene, SceneLight, SceneMesh, SkippedPrim
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
@@ -34,8 +48,25 @@ _CONTAINERS = ("", "Xform", "Scope", "Material", "Shader", "NodeGraph", "GeomSub
                "OpenVDBAsset", "Field3DAsset", *PRIMITIVES)
 
 
-def load_usd(path: str | Path, progress_bar: bool | None = None) -> Scene:
-    """Open ``path`` and convert its drawable prims; raise :class:`SceneLoadError` if it can't."""
+def load_usd(path: str | Path, progress_bar: bool | None = None,
+             as_voxels: bool = False) -> Scene:
+    """Open ``path`` and convert its drawable prims; raise :class:`SceneLoadError` if it can't.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The stage (.usd, .usda, .usdc, .usdz).
+    progress_bar : bool, optional
+        Show a progress bar; by default only on a terminal.
+    as_voxels : bool
+        Load every ``Volume`` prim as a voxel grid (integer material labels), whatever its
+        ``cubemarch:technique``; its volume-only attributes are then ignored.
+
+    Returns
+    -------
+    Scene
+        What the stage draws, and the prims skipped with the reasons.
+    """
     path = Path(path)
     if not path.is_file():
         raise SceneLoadError(f"USD file {str(path)!r} does not exist.")
@@ -47,7 +78,7 @@ def load_usd(path: str | Path, progress_bar: bool | None = None) -> Scene:
         raise SceneLoadError(f"USD file {str(path)!r} could not be opened (not a USD layer?).")
     scene = Scene(source=str(path), up_axis=str(UsdGeom.GetStageUpAxis(stage)),
                   meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)))
-    reader = _StageReader(stage, scene)
+    reader = _StageReader(stage, scene, as_voxels)
     predicate = Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)
     walk = iter(Usd.PrimRange(stage.GetPseudoRoot(), predicate))
     next(walk)  # the pseudo-root
@@ -66,9 +97,10 @@ def load_usd(path: str | Path, progress_bar: bool | None = None) -> Scene:
 class _StageReader:
     """Converts prims of one stage; keeps the transform cache and stage-wide state."""
 
-    def __init__(self, stage, scene: Scene):
+    def __init__(self, stage, scene: Scene, as_voxels: bool = False):
         self.stage = stage
         self.scene = scene
+        self.as_voxels = as_voxels
         self.time = Usd.TimeCode.Default()
         self.xforms = UsdGeom.XformCache(self.time)
 
@@ -239,12 +271,17 @@ class _StageReader:
         if not fields:
             self.scene.skipped.append(SkippedPrim(name, "Volume has no field relationship"))
             return
-        field_name = "density" if "density" in fields else sorted(fields)[0]
+        voxels = self.as_voxels or _attr(prim, "cubemarch:technique") == "voxels"
+        preferred = ("labels", "density") if voxels else ("density",)
+        field_name = next((f for f in preferred if f in fields), sorted(fields)[0])
         field_prim = self.stage.GetPrimAtPath(fields[field_name])
         if not field_prim:
             raise SceneLoadError(f"Volume {name}: field:{field_name} targets missing prim "
                                  f"{fields[field_name]}.")
-        grid = _read_field(field_prim)
+        grid = _read_field(field_prim, cells=voxels)
+        if voxels:
+            self._voxels(prim, name, field_prim, grid)
+            return
         attrs = {key: _attr(prim, f"cubemarch:{key}") for key in
                  ("cmap", "opacity", "clim", "opacityUnitDistance",
                   *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))}
@@ -269,6 +306,49 @@ class _StageReader:
         if options:
             self.scene.volume_options[name] = options
 
+    def _voxels(self, prim, name: str, field_prim, grid) -> None:
+        """A material grid from an integer field, with its palette and checked options."""
+        where = f"Volume {name} (field {field_prim.GetPath()})"
+        if not self.as_voxels:
+            other = [f"cubemarch:{key}" for key in _VOLUME_ONLY
+                     if _attr(prim, f"cubemarch:{key}") is not None]
+            if other:
+                raise SceneLoadError(
+                    f"Volume {name}: {', '.join(other)} "
+                    f"{'does' if len(other) == 1 else 'do'} not apply to "
+                    'cubemarch:technique = "voxels" (volume options); remove '
+                    f"{'it' if len(other) == 1 else 'them'}, or choose a volume technique.")
+        authored = {}
+        for key, option, kind in VOXEL_OPTIONS:
+            value = _attr(prim, f"cubemarch:{key}")
+            if value is not None:
+                authored[key] = (option, _converted(name, key, value, kind))
+        options = {option: value for option, value in authored.values()}
+        try:
+            voxel_options(**options)
+        except ValueError as exc:
+            named = [f"cubemarch:{key} = {value!r}" for key, (option, value) in
+                     authored.items() if option in str(exc)]
+            raise SceneLoadError(f"Volume {name}: {', '.join(named) or 'its voxel options'}: "
+                                 f"{exc}") from exc
+        if not isinstance(grid, pyvista.ImageData):
+            raise VolumeDataError(f"{where}: the file holds a {type(grid).__name__}; material "
+                                  "labels come on an ImageData (cell or point data).")
+        field_name = _attr(field_prim, "fieldName")
+        scalars = str(field_name) if field_name and str(field_name) in grid.array_names \
+            else None
+        try:
+            model = make_voxels(grid, scalars, transform=self.world_matrix(prim), name=name)
+        except VolumeDataError as exc:
+            why = "as_voxels=True loads every Volume" if self.as_voxels else \
+                'cubemarch:technique = "voxels" draws'
+            raise VolumeDataError(f"{where}: {exc} ({why} as integer material labels, "
+                                  "0 = empty.)") from exc
+        model.palette = _palette(prim, name, where, int(model.labels.max()))
+        self.scene.voxels.append(model)
+        if options:
+            self.scene.voxel_options[name] = options
+
 
 #: ``cubemarch:*`` attributes of a Volume prim and the ``add_volume`` options they set.
 VOLUME_OPTIONS = (
@@ -282,6 +362,97 @@ VOLUME_OPTIONS = (
 )
 
 
+#: ``cubemarch:*`` attributes of a voxels Volume prim and the ``add_voxels`` options they set.
+VOXEL_OPTIONS = (
+    ("traversal", "traversal", str), ("stepScale", "step_scale", float),
+    ("mipLevels", "mip_levels", int), ("mode", "mode", str), ("shading", "shading", str),
+    ("ambient", "ambient", float), ("specular", "specular", float),
+    ("specularPower", "specular_power", float),
+)
+
+#: Volume attributes that a voxels Volume prim must not carry.
+_VOLUME_ONLY = tuple(key for key in ("opacity", "clim", "opacityUnitDistance",
+                                     *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))
+                     if key != "technique" and key not in {k for k, _, _ in VOXEL_OPTIONS})
+
+
+def _converted(name: str, key: str, value, kind):
+    """An authored option value as ``kind``, or a SceneLoadError naming the attribute."""
+    try:
+        if kind is str:
+            if not isinstance(value, str):
+                raise TypeError
+            return str(value)
+        if kind is int:
+            if isinstance(value, (str, bool)) or float(value) != int(value):
+                raise ValueError
+            return int(value)
+        if isinstance(value, (str, bool)):
+            raise TypeError
+        return kind(value)
+    except (TypeError, ValueError, OverflowError):
+        expected = {str: "a string or token", int: "a whole number", float: "a number"}[kind]
+        raise SceneLoadError(f"Volume {name}: cubemarch:{key} must be {expected}, got "
+                             f"{value!r}.") from None
+
+
+def _palette(prim, name: str, where: str, top: int) -> Palette:
+    """The palette a voxels Volume prim asks for, covering labels ``0..top``."""
+    colors = _attr(prim, "cubemarch:palette")
+    opacity = _attr(prim, "cubemarch:paletteOpacity")
+    cmap = _attr(prim, "cubemarch:cmap")
+    if colors is not None and cmap is not None:
+        raise SceneLoadError(f"Volume {name} sets both cubemarch:palette (a colour per "
+                             "material) and cubemarch:cmap (a colormap name); keep one.")
+    if opacity is not None:
+        authored = opacity
+        try:
+            opacity = np.asarray(opacity, dtype=np.float64)
+        except (TypeError, ValueError):
+            opacity = np.zeros(())
+        if opacity.ndim != 1:
+            raise SceneLoadError(f"Volume {name}: cubemarch:paletteOpacity must be a float[] "
+                                 f"(one opacity per palette entry), got {authored!r}.")
+    if colors is not None:
+        rgb = np.asarray(colors)
+        if rgb.ndim != 2 or rgb.shape[1] not in (3, 4) or rgb.dtype.kind not in "fiu":
+            raise SceneLoadError(f"Volume {name}: cubemarch:palette must be a color3f[] (or "
+                                 "color4f[]) array, one colour per material (entry 0 unused), "
+                                 f"got {colors!r}.")
+        if len(rgb) <= top:
+            raise VolumeDataError(f"{where}: cubemarch:palette has {len(rgb)} entries "
+                                  f"(materials 0..{len(rgb) - 1}) but the labels go up to "
+                                  f"{top}; give at least {top + 1} colours (entry 0, empty, "
+                                  "is unused).")
+        rgba = np.ones((len(rgb), 4))
+        rgba[:, :rgb.shape[1]] = rgb
+        source = "cubemarch:palette"
+    else:
+        if cmap is not None and not isinstance(cmap, str):
+            raise SceneLoadError(f"Volume {name}: cubemarch:cmap must be a colormap name "
+                                 f"(string or token), got {cmap!r}.")
+        rows = max(top + 1, 0 if opacity is None else len(opacity))
+        try:
+            rgba = Palette.make(cmap, rows).rgba.astype(np.float64)
+        except VolumeDataError as exc:
+            raise SceneLoadError(f"Volume {name}: cubemarch:cmap = {cmap!r}: {exc}") from exc
+        source = "cubemarch:cmap" if cmap is not None else "the default palette"
+    if opacity is not None:
+        if len(opacity) != len(rgba):
+            raise SceneLoadError(f"Volume {name}: cubemarch:paletteOpacity has {len(opacity)} "
+                                 f"values and {source} {len(rgba)} entries; give one opacity "
+                                 "per entry (entry 0 unused, 0 hides a material).")
+        rgba[1:, 3] = opacity[1:]
+    rgba[0, 3] = 0.0
+    try:
+        return Palette(rgba)
+    except VolumeDataError as exc:
+        attrs = "cubemarch:palette" if colors is not None else ""
+        attrs += (" / " if attrs and opacity is not None else "") + \
+            ("cubemarch:paletteOpacity" if opacity is not None else "")
+        raise SceneLoadError(f"Volume {name}: {attrs or source}: {exc}") from exc
+
+
 def _is_field(prim) -> bool:
     return bool(prim.GetAttribute("filePath"))
 
@@ -291,8 +462,12 @@ def _attr(prim, name):
     return attribute.Get() if attribute and attribute.HasValue() else None
 
 
-def _read_field(field_prim) -> pyvista.ImageData:
-    """Load the grid a field prim's ``filePath`` names (.vti/.vtk/.npy/.npz)."""
+def _read_field(field_prim, cells: bool = False) -> pyvista.ImageData:
+    """Load the grid a field prim's ``filePath`` names (.vti/.vtk/.npy/.npz).
+
+    ``cells``: a numpy array's values fill voxels (material labels) instead of sitting on
+    points (see :mod:`pv_cubemarch.scene.grids`).
+    """
     asset = field_prim.GetAttribute("filePath").Get()
     where = f"field prim {field_prim.GetPath()}"
     if asset is None or not asset.path:
@@ -302,44 +477,10 @@ def _read_field(field_prim) -> pyvista.ImageData:
         layer_dir = Path(field_prim.GetStage().GetRootLayer().realPath).parent
         raise SceneLoadError(f"{where}: volume file {asset.path!r} was not found "
                              f"(looked relative to {layer_dir}).")
-    suffix = Path(resolved).suffix.lower()
     field_name = _attr(field_prim, "fieldName")
-    if suffix == ".vdb":
-        raise SceneLoadError(f"{where}: {asset.path!r} is an OpenVDB file, which pv_cubemarch "
-                             "cannot read (no maintained OpenVDB reader on PyPI); convert it to "
-                             ".vti or .npy.")
-    if suffix in (".vti", ".vtk"):
-        try:
-            grid = pyvista.read(resolved)
-        except Exception as exc:
-            raise SceneLoadError(f"{where}: could not read {asset.path!r}: {exc}") from exc
-        if field_name and field_name in grid.array_names:
-            grid.set_active_scalars(str(field_name))
-        return grid
-    if suffix in (".npy", ".npz"):
-        try:
-            loaded = np.load(resolved, allow_pickle=False)
-        except Exception as exc:
-            raise SceneLoadError(f"{where}: could not read {asset.path!r}: {exc}") from exc
-        if suffix == ".npz":
-            keys = list(loaded.keys())
-            key = str(field_name) if field_name and str(field_name) in keys else keys[0]
-            loaded = loaded[key]
-        if loaded.ndim != 3:
-            raise VolumeDataError(f"{where}: {asset.path!r} holds an array of shape "
-                                  f"{loaded.shape}; a volume needs 3 axes (x, y, z).")
-        origin = _attr(field_prim, "cubemarch:origin")
-        spacing = _attr(field_prim, "cubemarch:spacing")
-        grid = pyvista.ImageData(dimensions=loaded.shape,
-                                 origin=tuple(origin) if origin is not None else (0, 0, 0),
-                                 spacing=tuple(spacing) if spacing is not None else (1, 1, 1))
-        if loaded.dtype.kind not in "biuf":
-            raise VolumeDataError(f"{where}: {asset.path!r} has dtype {loaded.dtype}; volumes "
-                                  "need real numbers.")
-        grid.point_data[str(field_name or "density")] = loaded.ravel(order="F")
-        return grid
-    raise SceneLoadError(f"{where}: unsupported volume file type {suffix!r} ({asset.path!r}); "
-                         "use .vti, .vtk, .npy or .npz.")
+    return read_grid(resolved, where, asset.path, str(field_name) if field_name else None,
+                     _attr(field_prim, "cubemarch:origin"), _attr(field_prim, "cubemarch:spacing"),
+                     cells=cells)
 
 
 def _shader_input(shader, name: str):

@@ -1,0 +1,123 @@
+"""Grid files (.vti, .vtk, .npy, .npz): the data of USD volume fields, or a scene of their own.
+
+A ``.npy``/``.npz`` array is indexed x, y, z. Read as a volume, its values sit on the
+points of an ImageData (``origin`` is the first point); read as material labels
+(``cells=True``), each value fills a voxel and ``origin`` is the grid box's corner, as
+:func:`pv_cubemarch.add_voxels` places a numpy array.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pyvista
+
+from ..core.errors import SceneLoadError, VolumeDataError
+from ..models.volume import make_volume
+from ..models.voxels import make_voxels
+from .model import Scene
+
+#: The grid files a USD field may name, and that ``load_scene`` reads as a scene of one grid.
+GRID_SUFFIXES = (".vti", ".vtk", ".npy", ".npz")
+
+
+def read_grid(path: str | Path, where: str, shown: str | None = None,
+              field_name: str | None = None, origin=None, spacing=None,
+              cells: bool = False) -> pyvista.ImageData:
+    """Read the grid in ``path``; errors start with ``where`` and name the file as ``shown``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        An existing ``.vti``/``.vtk`` image or ``.npy``/``.npz`` array.
+    where : str
+        What the file belongs to, for error messages (e.g. ``"field prim /Vol/density"``).
+    shown : str, optional
+        The file as the user wrote it (a USD asset path); ``path`` by default.
+    field_name : str, optional
+        The array to use: made the active scalars of an image, the key of an ``.npz``.
+    origin, spacing : sequence of float, optional
+        Placement of a numpy array (``(0, 0, 0)`` and ``(1, 1, 1)`` by default).
+    cells : bool
+        Put a numpy array's values on cells (one voxel each, ``origin`` the box's corner)
+        instead of points.
+
+    Returns
+    -------
+    pyvista.ImageData
+        The grid (a ``.vtk`` file may hold another dataset type; the caller checks it).
+    """
+    shown = str(path) if shown is None else shown
+    suffix = Path(path).suffix.lower()
+    if suffix == ".vdb":
+        raise SceneLoadError(f"{where}: {shown!r} is an OpenVDB file, which pv_cubemarch "
+                             "cannot read (no maintained OpenVDB reader on PyPI); convert it to "
+                             ".vti or .npy.")
+    if suffix in (".vti", ".vtk"):
+        try:
+            grid = pyvista.read(str(path))
+        except Exception as exc:
+            raise SceneLoadError(f"{where}: could not read {shown!r}: {exc}") from exc
+        if field_name and field_name in grid.array_names:
+            grid.set_active_scalars(str(field_name))
+        return grid
+    if suffix in (".npy", ".npz"):
+        try:
+            loaded = np.load(str(path), allow_pickle=False)
+        except Exception as exc:
+            raise SceneLoadError(f"{where}: could not read {shown!r}: {exc}") from exc
+        if suffix == ".npz":
+            keys = list(loaded.keys())
+            key = str(field_name) if field_name and str(field_name) in keys else keys[0]
+            loaded = loaded[key]
+        if loaded.ndim != 3:
+            raise VolumeDataError(f"{where}: {shown!r} holds an array of shape "
+                                  f"{loaded.shape}; a volume needs 3 axes (x, y, z).")
+        if loaded.dtype.kind not in "biuf":
+            raise VolumeDataError(f"{where}: {shown!r} has dtype {loaded.dtype}; volumes "
+                                  "need real numbers.")
+        dimensions = tuple(int(n) + 1 for n in loaded.shape) if cells else loaded.shape
+        grid = pyvista.ImageData(dimensions=dimensions,
+                                 origin=tuple(origin) if origin is not None else (0, 0, 0),
+                                 spacing=tuple(spacing) if spacing is not None else (1, 1, 1))
+        data = grid.cell_data if cells else grid.point_data
+        data[str(field_name or ("labels" if cells else "density"))] = loaded.ravel(order="F")
+        return grid
+    raise SceneLoadError(f"{where}: unsupported volume file type {suffix!r} ({shown!r}); "
+                         "use .vti, .vtk, .npy or .npz.")
+
+
+def load_grid_scene(path: str | Path, as_voxels: bool = False) -> Scene:
+    """A scene of the one grid in a ``.vti``/``.vtk``/``.npy``/``.npz`` file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The grid file.
+    as_voxels : bool
+        Read it as integer material labels (a voxel grid with the default palette) instead
+        of a volume (``magma``, linear opacity).
+
+    Returns
+    -------
+    Scene
+        One volume or voxel grid named after the file, no camera (the default view).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise SceneLoadError(f"Grid file {str(path)!r} does not exist.")
+    where = f"grid file {str(path)!r}"
+    grid = read_grid(path, where, cells=as_voxels)
+    scene = Scene(source=str(path))
+    try:
+        if as_voxels:
+            if not isinstance(grid, pyvista.ImageData):
+                raise VolumeDataError(f"it holds a {type(grid).__name__}; material labels "
+                                      "come on an ImageData (cell or point data).")
+            scene.voxels.append(make_voxels(grid, name=path.name))
+        else:
+            scene.volumes.append(make_volume(grid, name=path.name))
+    except VolumeDataError as exc:
+        raise VolumeDataError(f"{where}: {exc}") from exc
+    return scene
