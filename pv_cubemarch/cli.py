@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -11,10 +12,12 @@ from .bench import harness as bench
 from .bench import resolution as bench_resolution
 from .bench import voxels as bench_voxels
 from .bench.voxels import ROWS as VOXEL_ROWS
-from .core.errors import CubemarchError
+from .core.errors import CubemarchError, VolumeDataError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, techniques
 from .scene.io import load_scene
+from .volume.options import Shading
+from .voxels.options import MODES, SHADINGS, TRAVERSALS, VoxelOptions
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -46,15 +49,19 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pv-cubemarch", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
     render = commands.add_parser("render", help="render a scene file to a PNG image")
-    render.add_argument("scene", help="USD stage or mesh file (OBJ, STL, PLY, OFF, GLB, glTF)")
+    render.add_argument("scene", help="USD stage, mesh file (OBJ, STL, PLY, OFF, GLB, glTF) "
+                                      "or grid file (.vti, .vtk, .npy, .npz)")
     render.add_argument("--out", "-o", required=True, help="output PNG path")
     render.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
     render.add_argument("--camera", help="name (prim path) of the scene camera to use")
     render.add_argument("--step-scale", type=float,
-                        help="ray step as a fraction of a voxel, for every volume")
-    render.add_argument("--technique", choices=[t.name for t in techniques("volume")],
+                        help="ray step as a fraction of a voxel, for every volume (and voxel "
+                             "grids with --traversal fixed)")
+    render.add_argument("--technique", choices=[t.name for t in _techniques()],
                         help="how every volume is drawn: " + "; ".join(
-                            f"{t.name}: {t.summary}" for t in techniques("volume")))
+                            f"{t.name}: {t.summary}" for t in _techniques())
+                        + ". With voxels every volume must hold integer labels; a volume "
+                          "technique leaves the scene's voxel grids as they are")
     render.add_argument("--stop-opacity", type=float,
                         help="early ray termination threshold for every volume")
     render.add_argument("--downsample", type=int,
@@ -76,6 +83,20 @@ def build_parser() -> argparse.ArgumentParser:
                      help="light the volumes with the scene's lights (at most 4), or not")
     lit.add_argument("--light-map-size", type=int, help="light-map points per axis (2-128)")
     lit.add_argument("--ambient", type=float, help="share of the emission no light modulates")
+    vox = render.add_argument_group(
+        'voxels (--technique voxels, or Volume prims with cubemarch:technique = "voxels")')
+    vox.add_argument("--traversal", choices=TRAVERSALS,
+                     help="dda: exact, every voxel a ray crosses; fixed: steps of --step-scale "
+                          "voxels (the seed's baseline, misses thin voxels)")
+    vox.add_argument("--mip-levels", type=int,
+                     help="occupancy mipmap levels (0-3) the DDA skips empty space with")
+    vox.add_argument("--shading", choices=SHADINGS,
+                     help="unlit palette colours, or lit by the scene's lights (flat: Lambert; "
+                          "blinn: plus a highlight)")
+    vox.add_argument("--mode", choices=MODES,
+                     help="color (default), or id: each voxel's index + 1 as 24-bit RGB")
+    vox.add_argument("--specular", type=float, help="highlight weight (0-1) with blinn")
+    vox.add_argument("--specular-power", type=float, help="highlight exponent with blinn")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
     info.add_argument("scene", nargs="?", help="scene file to describe")
@@ -143,23 +164,69 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
+def _techniques() -> list:
+    """What ``--technique`` offers: the volume techniques, then the voxel one."""
+    return techniques("volume") + techniques("voxels")
+
+
+def _warn(flag: str, what: str) -> None:
+    print(f"pv-cubemarch: warning: --{flag.replace('_', '-')} does not apply to {what}; left "
+          "out for it", file=sys.stderr)
+
+
 def _render(args) -> int:
     progress_bar = False if args.no_progress else None
-    scene = load_scene(args.scene, progress_bar=progress_bar)
-    chosen = {"step_scale": args.step_scale, "technique": args.technique,
-              "stop_opacity": args.stop_opacity, "downsample": args.downsample,
+    as_voxels = args.technique in {t.name for t in techniques("voxels")}
+    chosen = {"step_scale": args.step_scale, "stop_opacity": args.stop_opacity,
+              "downsample": args.downsample,
               "skip_empty": False if args.no_skip_empty else None,
               "face_size": args.face_size, "max_samples": args.max_samples,
               "upscale": args.upscale, "sample_factor": args.sample_factor,
               "occlusion_sharpness": args.occlusion_sharpness, "lights": args.lights,
-              "light_map_size": args.light_map_size, "ambient": args.ambient}
-    # A technique chosen here drops the scene's options of other techniques. An option given
-    # here that a volume's technique does not read is left out for that volume, with a
-    # warning (with --technique, add_volume refuses it: the user asked for both).
-    specific = {name for t in techniques("volume") for name in t.option_names}
+              "light_map_size": args.light_map_size, "ambient": args.ambient,
+              "traversal": args.traversal, "mip_levels": args.mip_levels,
+              "shading": args.shading, "mode": args.mode, "specular": args.specular,
+              "specular_power": args.specular_power}
     given = {k: v for k, v in chosen.items() if v is not None}
     if given.get("lights") == "none":
         given["lights"] = None
+    reads = {f.name for f in dataclasses.fields(VoxelOptions)}
+    other = [name for name in given if name not in reads]
+    if as_voxels and other:   # the user asked for both: refused before loading anything
+        flags = ", ".join(f"--{name.replace('_', '-')}" for name in other)
+        one = len(other) == 1
+        raise ValueError(f"{flags} {'is not an option' if one else 'are not options'} of "
+                         f"--technique voxels; leave {'it' if one else 'them'} out.")
+    try:
+        scene = load_scene(args.scene, progress_bar=progress_bar, as_voxels=as_voxels)
+    except VolumeDataError as exc:
+        if not as_voxels:
+            raise
+        raise VolumeDataError(
+            f"{exc} --technique voxels draws every volume of the scene as a material grid; "
+            "draw this scene with a volume technique, or leave --technique out and set "
+            'cubemarch:technique = "voxels" on its labelled Volume prims only.') from exc
+    if scene.volumes:
+        _volume_options(scene, args, given)
+    _voxel_options(scene, as_voxels, given)
+    scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)
+    print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
+    return 0
+
+
+def _volume_options(scene, args, given: dict) -> None:
+    """Put the volume options given on the command line into the scene's volumes' options.
+
+    A technique chosen here drops the scene's options of other techniques. An option given
+    here that a volume's technique does not read is left out for that volume, with a
+    warning (with --technique, add_volume refuses it: the user asked for both). Voxel-only
+    options are for the voxel grids, never volumes.
+    """
+    specific = {name for t in techniques("volume") for name in t.option_names}
+    common = {f.name for f in dataclasses.fields(Shading)} | {"lights"}
+    given = {k: v for k, v in given.items() if k in specific | common}
+    if args.technique:
+        given["technique"] = args.technique
     for volume in scene.volumes:
         options = scene.volume_options.setdefault(volume.name, {})
         if args.technique:
@@ -171,14 +238,36 @@ def _render(args) -> int:
         reads = get_technique("volume", options.get("technique", "vtk")).option_names
         for name, value in given.items():
             if name in specific and name not in reads:
-                print(f"pv-cubemarch: warning: --{name.replace('_', '-')} does not apply to "
-                      f"volume {volume.name!r} (technique={options.get('technique', 'vtk')!r}"
-                      "); left out for it", file=sys.stderr)
+                _warn(name, f"volume {volume.name!r} (technique="
+                            f"{options.get('technique', 'vtk')!r})")
             else:
                 options[name] = value
-    scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)
-    print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
-    return 0
+
+
+def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
+    """Put the voxel options given on the command line into the scene's voxel grids' options.
+
+    With ``--technique voxels`` every option given goes to every grid (``_render`` refused
+    the others); otherwise one a grid does not read is left out for it, with a warning
+    (``--step-scale`` is read only with the fixed traversal).
+    """
+    reads = {f.name for f in dataclasses.fields(VoxelOptions)}
+    voxel_only = reads - {name for t in techniques("volume") for name in t.option_names} \
+        - {f.name for f in dataclasses.fields(Shading)}
+    if not scene.voxels:
+        for name in given:
+            if name in voxel_only:
+                _warn(name, "this scene (it has no voxel grids)")
+        return
+    for grid in scene.voxels:
+        options = scene.voxel_options.setdefault(grid.name, {})
+        fixed = given.get("traversal", options.get("traversal")) == "fixed"
+        for name, value in given.items():
+            if as_voxels or (name in reads and (name != "step_scale" or fixed)):
+                options[name] = value
+            else:
+                _warn(name, f"voxel grid {grid.name!r}"
+                            + (" (traversal='dda')" if name == "step_scale" else ""))
 
 
 def _bench(args) -> int:
@@ -265,6 +354,7 @@ def _info(args) -> int:
             out["scene"] = {
                 "source": s.source, "up_axis": s.up_axis, "meters_per_unit": s.meters_per_unit,
                 "meshes": [m.name for m in s.meshes], "volumes": [v.name for v in s.volumes],
+                "voxels": [g.name for g in s.voxels],
                 "cameras": list(s.cameras), "lights": [li.name for li in s.lights],
                 "skipped": [{"path": k.path, "reason": k.reason} for k in s.skipped]}
         print(json.dumps(out, indent=2))

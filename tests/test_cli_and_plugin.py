@@ -9,10 +9,15 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import SCENE
+import pyvista as pv
+from conftest import BACKGROUND, SCENE, rotation_y, write_voxel_stage
 from PIL import Image
 
-from pv_cubemarch.cli import main
+from pv_cubemarch.cli import build_parser, main
+from pv_cubemarch.core.registry import techniques
+from pv_cubemarch.reference.voxels import id_colors, trace_voxels
+from pv_cubemarch.scene.io import load_scene
+from pv_cubemarch.testing import to_uint8
 
 
 def test_render_command_writes_png(tmp_path, capsys):
@@ -155,3 +160,145 @@ def test_usd_cubemap_options(tmp_path):
         assert image.std() > 3
     finally:
         pl.close()
+
+
+def voxel_labels(shape=(12, 10, 8), seed=3):
+    rng = np.random.default_rng(seed)
+    return np.where(rng.random(shape) < 0.3, rng.integers(1, 4, shape), 0).astype(np.int32)
+
+
+def assert_ids_exact(image_path, labels, world, camera, near):
+    """The PNG is the CPU traversal's id image (the scene's background where rays miss)."""
+    image = np.asarray(Image.open(image_path))[..., :3].astype(int)
+    height, width = image.shape[:2]
+    hits = trace_voxels(labels, world, camera, (width, height), near=near)
+    expected = np.where((hits.material > 0)[..., None], id_colors(hits, labels.shape),
+                        to_uint8(np.asarray(BACKGROUND))).astype(int)
+    assert (hits.material > 0).mean() > 0.15   # many voxels in view
+    assert (np.any(image != expected, axis=-1) & ~hits.near_edge).sum() == 0
+    assert hits.near_edge.mean() < 0.02
+
+
+def test_render_technique_voxels_draws_every_volume_exactly(tmp_path, monkeypatch, capsys):
+    # --technique voxels loads every Volume prim as a voxel grid (this one has no
+    # cubemarch:technique, and its volume-only faceSize is dropped) and --mode reaches it:
+    # the PNG is the CPU traversal's id image on every pixel. Multisampling is off (see
+    # test_voxel_scenes.py::test_default_multisampling_loses_no_sample). catches (seen to
+    # fail): --technique voxels not loading the volumes as voxels, and --mode not forwarded.
+    monkeypatch.setattr(pv.global_theme, "multi_samples", 0)
+    labels = voxel_labels()
+    path = write_voxel_stage(tmp_path, labels, technique=None,
+                             attrs={"cubemarch:faceSize": ("Int", 64)},
+                             eye=(18.0, 14.0, 18.0), target=(8.0, 3.0, 2.2))
+    out = tmp_path / "ids.png"
+    assert main(["render", str(path), "-o", str(out), "--size", "64x48", "--technique",
+                 "voxels", "--mode", "id", "--no-progress"]) == 0
+    prim = np.eye(4)
+    prim[:3, 3] = (1.0, -2.0, 0.5)
+    camera = load_scene(path).cameras["/Cam"]
+    assert_ids_exact(out, labels, prim @ rotation_y(20.0), camera, camera.clipping_range[0])
+    capsys.readouterr()
+    assert main(["info", str(path), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["scene"]["voxels"] == []   # a volume there
+
+
+def test_render_label_file_with_technique_voxels(tmp_path, monkeypatch):
+    # A .npy label file renders directly: its voxels span [i, i+1] (as add_voxels places an
+    # array), seen by the default camera. catches (seen to fail): the file's labels put on
+    # points (voxels centred on them, half a voxel off).
+    monkeypatch.setattr(pv.global_theme, "multi_samples", 0)
+    labels = voxel_labels((9, 7, 5), seed=4)
+    np.save(tmp_path / "labels.npy", labels)
+    out = tmp_path / "ids.png"
+    assert main(["render", str(tmp_path / "labels.npy"), "-o", str(out), "--size", "64x48",
+                 "--technique", "voxels", "--mode", "id", "--no-progress"]) == 0
+    camera = load_scene(tmp_path / "labels.npy", as_voxels=True).default_camera(64 / 48)
+    assert_ids_exact(out, labels, np.eye(4), camera, None)
+
+
+def test_technique_voxels_on_a_density_volume_names_it(tmp_path, capsys):
+    # catches (seen to fail): the loader's error passed on without saying what to do.
+    assert main(["render", str(SCENE), "-o", str(tmp_path / "x.png"), "--technique",
+                 "voxels", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "Volume /World/Smoke" in err and "non-integer" in err
+    assert "draw this scene with a volume technique" in err
+    assert 'cubemarch:technique = "voxels" on its labelled Volume prims' in err
+
+
+def test_technique_voxels_refuses_volume_flags_before_loading(tmp_path, capsys):
+    # catches (seen to fail): volume flags handed to add_voxels (a TypeError, not exit 2).
+    path = write_voxel_stage(tmp_path, voxel_labels())
+    for flags, message in ((["--face-size", "64"], "--face-size is not an option"),
+                           (["--lights", "none", "--stop-opacity", "0.9"],
+                            "--stop-opacity, --lights are not options")):
+        assert main(["render", str(path), "-o", str(tmp_path / "x.png"), "--technique",
+                     "voxels", *flags, "--no-progress"]) == 2
+        assert f"{message} of --technique voxels" in capsys.readouterr().err
+
+
+def mixed_scene(tmp_path):
+    """The shipped smoke scene plus a voxel grid /World/Vox (cubemarch:technique voxels)."""
+    from pxr import Sdf, Usd, UsdVol
+
+    stage = Usd.Stage.Open(str(SCENE))
+    np.save(tmp_path / "labels.npy", voxel_labels((6, 5, 4)))
+    volume = UsdVol.Volume.Define(stage, "/World/Vox")
+    field = stage.DefinePrim("/World/Vox/labels")
+    field.CreateAttribute("filePath", Sdf.ValueTypeNames.Asset).Set(
+        Sdf.AssetPath("./labels.npy"))
+    field.CreateAttribute("cubemarch:spacing", Sdf.ValueTypeNames.Float3).Set((0.1, 0.1, 0.1))
+    volume.CreateFieldRelationship("labels", field.GetPath())
+    volume.GetPrim().CreateAttribute("cubemarch:technique",
+                                     Sdf.ValueTypeNames.Token).Set("voxels")
+    path = tmp_path / "mixed.usda"
+    stage.GetRootLayer().Export(str(path))
+    (tmp_path / "smoke_density.vti").write_bytes((SCENE.parent / "smoke_density.vti").read_bytes())
+    return path
+
+
+def test_voxel_flags_reach_voxel_grids_and_volume_flags_volumes(tmp_path, monkeypatch, capsys):
+    # Without --technique, each flag goes where it applies: --step-scale to the volume (vtk)
+    # and to the grid (fixed traversal), voxel flags to the grid only, --face-size to
+    # neither (a warning for each). catches (seen to fail): voxel flags not forwarded, and
+    # voxel flags handed to add_volume (a TypeError).
+    import pv_cubemarch.api as ea
+    import pv_cubemarch.scene.model as scene_model
+
+    seen = {"volume": [], "voxels": []}
+    real_volume, real_voxels = ea.add_volume, scene_model.add_voxels
+
+    def spy_volume(plotter, volume, scalars=None, **kwargs):
+        seen["volume"].append(kwargs)
+        return real_volume(plotter, volume, scalars, **kwargs)
+
+    def spy_voxels(plotter, grid, scalars=None, **kwargs):
+        seen["voxels"].append(kwargs)
+        return real_voxels(plotter, grid, scalars, **kwargs)
+
+    monkeypatch.setattr(ea, "add_volume", spy_volume)
+    monkeypatch.setattr(scene_model, "add_voxels", spy_voxels)
+    out = tmp_path / "m.png"
+    assert main(["render", str(mixed_scene(tmp_path)), "-o", str(out), "--size", "40x30",
+                 "--step-scale", "0.25", "--traversal", "fixed", "--mip-levels", "0",
+                 "--shading", "flat", "--mode", "color", "--specular", "0.5",
+                 "--specular-power", "10", "--ambient", "0.3", "--face-size", "64",
+                 "--no-progress"]) == 0
+    assert seen["volume"] == [{"step_scale": 0.25, "ambient": 0.3}]
+    assert seen["voxels"] == [{"step_scale": 0.25, "traversal": "fixed", "mip_levels": 0,
+                               "shading": "flat", "mode": "color", "specular": 0.5,
+                               "specular_power": 10.0, "ambient": 0.3}]
+    err = capsys.readouterr().err
+    assert "--face-size does not apply to volume '/World/Smoke'" in err
+    assert "--face-size does not apply to voxel grid '/World/Vox'" in err
+    assert out.stat().st_size > 500
+
+
+def test_render_help_lists_voxels_from_the_registry():
+    render = build_parser()._subparsers._group_actions[0].choices["render"]
+    technique = next(a for a in render._actions if a.dest == "technique")
+    voxels = techniques("voxels")
+    assert [t.name for t in voxels] == ["voxels"] and "voxels" in technique.choices
+    assert f"voxels: {voxels[0].summary}" in technique.help
+    titles = [group.title for group in render._action_groups]
+    assert any(title.startswith("voxels (--technique voxels") for title in titles)
