@@ -26,6 +26,7 @@ from ``cubemarch:origin`` (the grid box's corner), as ``add_voxels`` places an a
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -328,7 +329,7 @@ class _StageReader:
             voxel_options(**options)
         except ValueError as exc:
             named = [f"cubemarch:{key} = {value!r}" for key, (option, value) in
-                     authored.items() if option in str(exc)]
+                     authored.items() if re.search(rf"\b{option}\b", str(exc))]
             raise SceneLoadError(f"Volume {name}: {', '.join(named) or 'its voxel options'}: "
                                  f"{exc}") from exc
         if not isinstance(grid, pyvista.ImageData):
