@@ -89,12 +89,17 @@ def build_parser() -> argparse.ArgumentParser:
                      help="dda: exact, every voxel a ray crosses; fixed: steps of --step-scale "
                           "voxels (the seed's baseline, misses thin voxels)")
     vox.add_argument("--mip-levels", type=int,
-                     help="occupancy mipmap levels (0-3) the DDA skips empty space with")
+                     help="occupancy mipmap levels (0-12) the DDA skips empty space with "
+                          "(default: every level the grid has)")
+    vox.add_argument("--distance-field", type=int,
+                     help="the DDA's neighbour distance field: 0 (off, default) or its "
+                          "largest radius 1-3")
     vox.add_argument("--shading", choices=SHADINGS,
                      help="unlit palette colours, or lit by the scene's lights (flat: Lambert; "
                           "blinn: plus a highlight)")
     vox.add_argument("--mode", choices=MODES,
-                     help="color (default), or id: each voxel's index + 1 as 24-bit RGB")
+                     help="color (default); id: each voxel's index + 1 as 24-bit RGB; "
+                          "face: the face each ray entered its voxel through")
     vox.add_argument("--specular", type=float, help="highlight weight (0-1) with blinn")
     vox.add_argument("--specular-power", type=float, help="highlight exponent with blinn")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
@@ -185,6 +190,7 @@ def _render(args) -> int:
               "occlusion_sharpness": args.occlusion_sharpness, "lights": args.lights,
               "light_map_size": args.light_map_size, "ambient": args.ambient,
               "traversal": args.traversal, "mip_levels": args.mip_levels,
+              "distance_field": args.distance_field,
               "shading": args.shading, "mode": args.mode, "specular": args.specular,
               "specular_power": args.specular_power}
     given = {k: v for k, v in chosen.items() if v is not None}

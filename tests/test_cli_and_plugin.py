@@ -192,7 +192,7 @@ def test_render_technique_voxels_draws_every_volume_exactly(tmp_path, monkeypatc
                              eye=(18.0, 14.0, 18.0), target=(8.0, 3.0, 2.2))
     out = tmp_path / "ids.png"
     assert main(["render", str(path), "-o", str(out), "--size", "64x48", "--technique",
-                 "voxels", "--mode", "id", "--no-progress"]) == 0
+                 "voxels", "--mode", "id", "--distance-field", "2", "--no-progress"]) == 0
     prim = np.eye(4)
     prim[:3, 3] = (1.0, -2.0, 0.5)
     camera = load_scene(path).cameras["/Cam"]
@@ -292,6 +292,11 @@ def test_voxel_flags_reach_voxel_grids_and_volume_flags_volumes(tmp_path, monkey
     assert "--face-size does not apply to volume '/World/Smoke'" in err
     assert "--face-size does not apply to voxel grid '/World/Vox'" in err
     assert out.stat().st_size > 500
+    seen["volume"].clear()
+    seen["voxels"].clear()
+    assert main(["render", str(tmp_path / "mixed.usda"), "-o", str(out), "--size", "40x30",
+                 "--distance-field", "2", "--mip-levels", "4", "--no-progress"]) == 0
+    assert seen == {"volume": [{}], "voxels": [{"distance_field": 2, "mip_levels": 4}]}
 
 
 def test_render_help_lists_voxels_from_the_registry():

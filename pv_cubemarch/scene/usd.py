@@ -19,8 +19,8 @@ A ``Volume`` with ``cubemarch:technique = "voxels"`` (or every ``Volume`` with
 ``color4f[]``, entry ``m`` for material ``m``, entry 0 unused) or ``cubemarch:cmap`` (a
 colormap name), with optional ``cubemarch:paletteOpacity`` (``float[]``, one per palette
 entry, 0 hides a material); its options are :data:`VOXEL_OPTIONS` (``traversal``,
-``stepScale``, ``mipLevels``, ``mode``, ``shading``, ``ambient``, ``specular``,
-``specularPower``), checked when the stage is loaded. A numpy label array fills voxels
+``stepScale``, ``mipLevels``, ``distanceField``, ``mode``, ``shading``, ``ambient``,
+``specular``, ``specularPower``), checked when the stage is loaded. A numpy label array fills voxels
 from ``cubemarch:origin`` (the grid box's corner), as ``add_voxels`` places an array.
 """
 
@@ -366,7 +366,8 @@ VOLUME_OPTIONS = (
 #: ``cubemarch:*`` attributes of a voxels Volume prim and the ``add_voxels`` options they set.
 VOXEL_OPTIONS = (
     ("traversal", "traversal", str), ("stepScale", "step_scale", float),
-    ("mipLevels", "mip_levels", int), ("mode", "mode", str), ("shading", "shading", str),
+    ("mipLevels", "mip_levels", int), ("distanceField", "distance_field", int),
+    ("mode", "mode", str), ("shading", "shading", str),
     ("ambient", "ambient", float), ("specular", "specular", float),
     ("specularPower", "specular_power", float),
 )
