@@ -256,12 +256,11 @@ def test_grid_file_as_a_scene(tmp_path):
         cm.load_scene(tmp_path / "smooth.npy", as_voxels=True)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "voxels under multisampling: on pixels that a triangle edge of the drawn box crosses, "
-    "one sample of four keeps the background (a few of 3072 pixels here, within 0.4 px of "
-    "an edge); VoxelBinding.needs_single_sample = True (voxels/technique.py) makes this pass"))
 def test_default_multisampling_loses_no_sample(tmp_path):
-    # Scene.render (and so the CLI) draws with the plotter's default multisampling.
+    # Scene.render (and so the CLI) draws with the plotter's default multisampling; a grid
+    # makes the window single-sampled.
+    # catches (seen to fail): VoxelBinding.needs_single_sample = False (on pixels that a
+    # triangle edge of the drawn box crosses, one sample of four kept the background).
     labels = random_labels(seed=5)
     path = write_voxel_stage(tmp_path, labels, field_attrs=PLACEMENT, attrs={
         "cubemarch:cmap": ("Token", "tab10"), "cubemarch:shading": ("Token", "unlit")})

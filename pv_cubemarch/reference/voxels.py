@@ -200,7 +200,8 @@ def trace_voxels(
         if np.any(low > 0) or np.any(high < labels.shape):
             shift = np.eye(4)
             shift[:3, 3] = low
-            hits = trace_voxels(labels[tuple(slice(lo, hi) for lo, hi in zip(low, high, strict=True))],
+            box = tuple(slice(lo, hi) for lo, hi in zip(low, high, strict=True))
+            hits = trace_voxels(labels[box],
                                 np.asarray(world_from_index, dtype=np.float64) @ shift, camera,
                                 size, near=near, visible=visible,
                                 tie_tolerance=tie_tolerance, crop=crop)
