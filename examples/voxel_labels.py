@@ -3,7 +3,8 @@
 Run: python examples/voxel_labels.py [out.png]
 
 Grains (material 1) in a matrix (material 2) with pores (material 3), cut open by hiding the
-matrix, next to a mesh that crosses the grid: every pixel shows the first voxel its ray meets.
+matrix, next to a mesh that crosses the grid: every pixel shows the first voxel its ray meets,
+lit by the scene's lights with ambient occlusion in the creases.
 """
 
 import sys
@@ -27,7 +28,8 @@ labels[:, :, 48:] = 0                                        # an open top
 
 pl = pv_cubemarch.offscreen_plotter((800, 600))
 pl.set_background("white")
-actor = pv_cubemarch.add_voxels(pl, labels, palette=["black", "goldenrod", "slategray", "crimson"])
+actor = pv_cubemarch.add_voxels(pl, labels, palette=["black", "goldenrod", "slategray", "crimson"],
+                                ambient_occlusion=True)   # darker creases between grains
 actor.cubemarch.set_material(2, opacity=0.0)                 # hide the matrix: no re-upload
 pl.add_mesh(pv.Cylinder(center=(32, 32, 24), direction=(1, 1, 0), radius=4, height=110),
             color="teal")
