@@ -244,7 +244,7 @@ def test_cell_and_point_data_and_uint16(plotter_factory):
     model = cm.make_voxels(points, palette="turbo")
     assert model.labels.dtype == np.uint16 and np.allclose(model.world_bounds()[:2], (-.5, 3.5))
     pl = plotter(plotter_factory)
-    actor = cm.add_voxels(pl, model, mode="id")
+    actor = cm.add_voxels(pl, model, mode="id", mip_levels=3)
     camera = set_camera(pl, (8.0, 6.0, 7.0), focal=(1.5, 1.0, 0.5))
     wrong, _, hits = wrong_pixels(pl, model, camera)
     assert wrong == 0 and (hits.material >= 300).any()
@@ -357,13 +357,25 @@ def test_occupancy_atlas_holds_every_level_apart():
     from pv_cubemarch.models.voxels import occupancy_atlas, occupancy_levels
 
     labels = random_labels((37, 21, 9), 0.02, seed=14)
-    atlas = occupancy_atlas(labels, 7)
+    atlas = occupancy_atlas(occupancy_levels(labels, 7))
     used = np.zeros(atlas.texels.shape, int)
     for number, grid in enumerate(occupancy_levels(labels, 7), start=1):
         assert np.array_equal(atlas.level(number), grid)
         start = (0, 0, 0) if number == 1 else (atlas.column, atlas.rows[number], 0)
         used[tuple(slice(o, o + n) for o, n in zip(start, grid.shape, strict=True))] += 1
     assert used.max() == 1
+
+
+def test_default_levels_follow_the_empty_share(plotter_factory):
+    # One voxel in a 64^3 grid: levels 1-5 are all but empty (a share of 1 - 1/32^3 .. 7/8
+    # at level 5), level 6 is the single covering cell (occupied): 5 levels. A full grid:
+    # no empty cell anywhere, 0. Both read back from the built actor.
+    one = np.zeros((64, 64, 64), np.uint8)
+    one[40, 3, 17] = 1
+    pl = plotter(plotter_factory)
+    assert cm.add_voxels(pl, one).cubemarch.options.mip_levels == 5
+    assert cm.add_voxels(pl, np.ones((8, 8, 8), np.uint8)).cubemarch.options.mip_levels == 0
+    assert cm.add_voxels(pl, one, mip_levels=2).cubemarch.options.mip_levels == 2
 
 
 def test_distance_field_is_the_largest_empty_cube():

@@ -13,9 +13,9 @@
 // by zero (GLSL 1.50 promises no infinity).
 // The t (fraction of a..b) where the ray crosses each axis's forward boundary of the block
 // [low, high); 1e30 on an axis it does not move along.
-vec3 cm_blockExits(vec3 a, vec3 safe, vec3 moving, vec3 forward, ivec3 low, ivec3 high)
+vec3 cm_blockExits(vec3 a, vec3 inverse, vec3 moving, vec3 forward, ivec3 low, ivec3 high)
 {
-  return mix(vec3(1e30), (mix(vec3(low), vec3(high), forward) - a) / safe, moving);
+  return mix(vec3(1e30), (mix(vec3(low), vec3(high), forward) - a) * inverse, moving);
 }
 
 int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float t)
@@ -23,16 +23,19 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
   ivec3 dims = ivec3(cm_gridDims);
   vec3 d = b - a;
   vec3 moving = step(vec3(1e-30), abs(d));
-  vec3 safe = mix(vec3(1.0), d, moving);
+  vec3 inverse = 1.0 / mix(vec3(1.0), d, moving);   // as the CPU reference: t = (x - a) / d
   vec3 forward = step(vec3(0.0), d);
   ivec3 stepDir = ivec3(sign(d) * moving);
   voxel = clamp(ivec3(floor(a)), ivec3(0), dims - 1);
-  vec3 tMax = cm_blockExits(a, safe, moving, forward, voxel, voxel + 1);   // this voxel's
+  vec3 tMax = cm_blockExits(a, inverse, moving, forward, voxel, voxel + 1);   // this voxel's
   t = 0.0;
 #ifdef CM_MIP_LEVELS
-  int level = CM_MIP_LEVELS;
+  // The first voxel is read before any level (a ray into a dense grid hits at once); when
+  // it is empty the ray starts from the coarsest level and descends.
+  int level = 0;
+  bool first = true;
   // A move either leaves a block or descends a level; a level is climbed only after a move.
-  int count = 2 * (dims.x + dims.y + dims.z + 3) + CM_MIP_LEVELS;
+  int count = 2 * (dims.x + dims.y + dims.z + 3) + CM_MIP_LEVELS + 1;
 #else
   int count = dims.x + dims.y + dims.z + 3;   // no ray crosses more voxels than this
 #endif
@@ -61,6 +64,14 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
       {
         return material;
       }
+#ifdef CM_MIP_LEVELS
+      if (first)
+      {
+        first = false;
+        level = CM_MIP_LEVELS;
+        continue;
+      }
+#endif
 #ifdef CM_DISTANCE_FIELD
       int radius = cm_emptyRadius(voxel);
       if (radius > 0)
@@ -71,7 +82,7 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
       }
 #endif
     }
-    vec3 exits = block ? cm_blockExits(a, safe, moving, forward, low, high) : tMax;
+    vec3 exits = block ? cm_blockExits(a, inverse, moving, forward, low, high) : tMax;
     int axis = (exits.x <= exits.y && exits.x <= exits.z) ? 0 : (exits.y <= exits.z ? 1 : 2);
     t = exits[axis];
     if (t > 1.0)
@@ -94,11 +105,11 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
 #endif
     if (block)
     {
-      tMax = cm_blockExits(a, safe, moving, forward, next, next + 1);
+      tMax = cm_blockExits(a, inverse, moving, forward, next, next + 1);
     }
     else
     {
-      tMax[axis] = (float(next[axis]) + forward[axis] - a[axis]) / safe[axis];   // never
+      tMax[axis] = (float(next[axis]) + forward[axis] - a[axis]) * inverse[axis];   // never
     }                                                                             // summed
     voxel = next;
     face = 2 * axis + (stepDir[axis] > 0 ? 1 : 0);

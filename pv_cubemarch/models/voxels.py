@@ -255,9 +255,8 @@ class OccupancyAtlas:
         return self.texels[tuple(slice(o, o + n) for o, n in zip(start, shape, strict=True))]
 
 
-def occupancy_atlas(labels: np.ndarray, levels: int) -> OccupancyAtlas | None:
-    """The conservative occupancy levels ``1..levels`` of ``labels`` in one atlas (or None)."""
-    grids = occupancy_levels(labels, levels)
+def occupancy_atlas(grids: list[np.ndarray]) -> OccupancyAtlas | None:
+    """Occupancy levels ``1..n`` (:func:`occupancy_levels`) packed in one atlas (or None)."""
     if not grids:
         return None
     shapes = tuple(tuple(int(n) for n in g.shape) for g in grids)
@@ -272,6 +271,26 @@ def occupancy_atlas(labels: np.ndarray, levels: int) -> OccupancyAtlas | None:
     for number, grid in enumerate(grids, start=1):
         atlas.level(number)[...] = grid
     return atlas
+
+
+#: A level the traversal climbs to by default must leave at least this share of its cells
+#: empty, and at least 3 levels must: on denser grids (a 1 % random fill, a fine
+#: checkerboard) climbing and descending cost more than the voxel steps they save.
+USEFUL_EMPTY_SHARE = 0.3
+USEFUL_FIRST_LEVEL = 3
+
+
+def useful_levels(grids: list[np.ndarray]) -> int:
+    """How many occupancy levels pay off by default (a rule of thumb from the bench).
+
+    The highest level with at least :data:`USEFUL_EMPTY_SHARE` of its cells empty, or 0
+    when that is below :data:`USEFUL_FIRST_LEVEL`.
+    """
+    useful = 0
+    for number, grid in enumerate(grids, start=1):
+        if 1.0 - float(grid.mean()) >= USEFUL_EMPTY_SHARE:
+            useful = number
+    return useful if useful >= USEFUL_FIRST_LEVEL else 0
 
 
 def safe_radii(labels: np.ndarray, radius: int) -> np.ndarray:

@@ -29,8 +29,9 @@ class VoxelOptions:
     (Lambert on the entered face, from the scene's lights) or ``'blinn'`` (plus a
     Blinn-Phong highlight), with ``ambient``, ``specular`` and ``specular_power``.
     ``mip_levels``: occupancy mipmap levels (0-12; a level's cells are ``2^L`` voxels wide)
-    the DDA uses to leave empty space in one step; ``None``: every level the grid has
-    (up to the one whose single cell covers it) with the DDA, none with the fixed step.
+    the DDA uses to leave empty space in one step; ``None``: the levels that pay off on the
+    grid's labels with the DDA (:func:`~pv_cubemarch.models.voxels.useful_levels`), none
+    with the fixed step.
     ``distance_field``: the seed's neighbour distance field (0 = off, 1-3 = its largest
     radius; one more byte per voxel): from a voxel whose surrounding cube is empty the ray
     leaves the cube in one step. Both are exact whatever their setting; they only change
@@ -100,14 +101,20 @@ class VoxelOptions:
             raise ValueError(f"mode='id' writes voxel ids as 24-bit colour; a grid of "
                              f"{voxels:,} voxels has more. Crop the grid or use pick().")
 
-    def for_grid(self, dimensions) -> VoxelOptions:
-        """These options with ``mip_levels`` settled for a grid of ``dimensions`` voxels."""
+    def for_grid(self, dimensions, useful_levels: int) -> VoxelOptions:
+        """These options with ``mip_levels`` settled for a grid of ``dimensions`` voxels.
+
+        ``useful_levels``: how many levels pay off on its labels
+        (:func:`~pv_cubemarch.models.voxels.useful_levels`), taken when ``mip_levels`` is
+        None, up to the level whose single cell covers the grid.
+        """
         if self.mip_levels is not None:
             return self
         if self.traversal != "dda":
             return replace(self, mip_levels=0)
         largest = max(int(n) for n in dimensions)
-        return replace(self, mip_levels=min(max(largest - 1, 0).bit_length(), MAX_MIP_LEVELS))
+        covering = min(max(largest - 1, 0).bit_length(), MAX_MIP_LEVELS)
+        return replace(self, mip_levels=min(int(useful_levels), covering))
 
     @property
     def step(self) -> float:

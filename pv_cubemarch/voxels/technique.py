@@ -24,9 +24,9 @@ from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.lights import VolumeLight
 from ..models.volume import checked_transform
-from ..models.voxels import VoxelModel, occupancy_atlas, safe_radii
+from ..models.voxels import VoxelModel, occupancy_atlas, occupancy_levels, safe_radii, useful_levels
 from ..reference.voxels import render_voxels, trace_voxels
-from .options import VoxelOptions
+from .options import MAX_MIP_LEVELS, VoxelOptions
 
 #: Most scene lights a grid is lit by (two mat4 of light vectors and colours).
 MAX_VOXEL_LIGHTS = 8
@@ -102,15 +102,16 @@ def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
     bindings.set_uniform("cm_specularPower", float(options.specular_power))
 
 
-def bind_skipping(bindings: ShaderBindings, model: VoxelModel,
-                  options: VoxelOptions) -> list[Texture]:
+def bind_skipping(bindings: ShaderBindings, model: VoxelModel, options: VoxelOptions,
+                  levels: list[np.ndarray]) -> list[Texture]:
     """Build and bind the empty-space structures the options ask for; returns their textures.
 
-    The occupancy atlas (``mip_levels``) and the distance field (``distance_field``) count
-    any label as filled, so palette changes never rebuild them.
+    ``levels``: the grid's occupancy levels (at least ``options.mip_levels`` of them). The
+    occupancy atlas (``mip_levels``) and the distance field (``distance_field``) count any
+    label as filled, so palette changes never rebuild them.
     """
     textures = []
-    atlas = occupancy_atlas(model.labels, options.mip_levels)
+    atlas = occupancy_atlas(levels[:options.mip_levels])
     if atlas is not None:
         rows = np.zeros(16)
         rows[:len(atlas.rows)] = atlas.rows
@@ -223,7 +224,9 @@ class VoxelBinding(DrawnBinding):
 def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> VoxelBinding:
     """The opaque box actor of a material grid; returns its binding."""
     renderer = plotter.renderer
-    options = options.for_grid(model.dimensions)
+    levels = occupancy_levels(model.labels, options.mip_levels if options.mip_levels
+                              is not None else MAX_MIP_LEVELS)
+    options = options.for_grid(model.dimensions, useful_levels(levels))
     # 1 % larger on every side: the shader clips each ray to the exact grid box, so pixels
     # whose rays graze the box's edges are covered and decided there, not by rasterisation.
     actor = box_actor(model.dimensions, model.world_from_index(),
@@ -236,7 +239,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     bindings = ShaderBindings(actor.GetMapper(), renderer)
     bindings.add_texture("cm_labels", labels)
     bindings.add_texture("cm_palette", palette)
-    skipping = bind_skipping(bindings, model, options)
+    skipping = bind_skipping(bindings, model, options, levels)
     bindings.set_uniform("cm_labelScale", float(np.iinfo(model.labels.dtype).max))
     bindings.set_uniform("cm_gridDims", tuple(float(n) for n in model.dimensions))
     if options.traversal == "fixed":
