@@ -102,6 +102,10 @@ def build_parser() -> argparse.ArgumentParser:
                           "face: the face each ray entered its voxel through")
     vox.add_argument("--specular", type=float, help="highlight weight (0-1) with blinn")
     vox.add_argument("--specular-power", type=float, help="highlight exponent with blinn")
+    vox.add_argument("--ambient-occlusion", action="store_true", default=None,
+                     help="darken each face's corners by the voxels beside them")
+    vox.add_argument("--occlusion-strength", type=float,
+                     help="darkening of a fully occluded corner (0-1, default 0.5)")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
     info.add_argument("scene", nargs="?", help="scene file to describe")
@@ -192,7 +196,9 @@ def _render(args) -> int:
               "traversal": args.traversal, "mip_levels": args.mip_levels,
               "distance_field": args.distance_field,
               "shading": args.shading, "mode": args.mode, "specular": args.specular,
-              "specular_power": args.specular_power}
+              "specular_power": args.specular_power,
+              "ambient_occlusion": args.ambient_occlusion,
+              "occlusion_strength": args.occlusion_strength}
     given = {k: v for k, v in chosen.items() if v is not None}
     if given.get("lights") == "none":
         given["lights"] = None

@@ -115,11 +115,16 @@ def test_usd_voxel_options_and_colormap_reach_add_voxels(tmp_path, plotter_facto
     assert actor.cubemarch.options.mip_levels == 0 and actor.cubemarch.options.step == 0.25
     assert cm.render_image(pl).std() > 3
     path = write_voxel_stage(tmp_path, labels, stage_name="dda.usda", attrs={
-        "cubemarch:mipLevels": ("Int", 2), "cubemarch:distanceField": ("Int", 2)})
+        "cubemarch:mipLevels": ("Int", 2), "cubemarch:distanceField": ("Int", 2),
+        "cubemarch:ambientOcclusion": ("Bool", True),
+        "cubemarch:occlusionStrength": ("Float", 0.75)})
     scene = cm.load_scene(path)
-    assert scene.voxel_options["/Vox"] == {"mip_levels": 2, "distance_field": 2}
+    assert scene.voxel_options["/Vox"] == {"mip_levels": 2, "distance_field": 2,
+                                           "ambient_occlusion": True,
+                                           "occlusion_strength": 0.75}
     options = scene.add_to(plotter_factory(SIZE))["/Vox"].cubemarch.options
     assert (options.mip_levels, options.distance_field) == (2, 2)
+    assert options.ambient_occlusion and options.occlusion_strength == 0.75
 
 
 def test_usd_default_palette_and_as_voxels(tmp_path):

@@ -20,7 +20,8 @@ A ``Volume`` with ``cubemarch:technique = "voxels"`` (or every ``Volume`` with
 colormap name), with optional ``cubemarch:paletteOpacity`` (``float[]``, one per palette
 entry, 0 hides a material); its options are :data:`VOXEL_OPTIONS` (``traversal``,
 ``stepScale``, ``mipLevels``, ``distanceField``, ``mode``, ``shading``, ``ambient``,
-``specular``, ``specularPower``), checked when the stage is loaded. A numpy label array fills voxels
+``specular``, ``specularPower``, ``ambientOcclusion``, ``occlusionStrength``), checked
+when the stage is loaded. A numpy label array fills voxels
 from ``cubemarch:origin`` (the grid box's corner), as ``add_voxels`` places an array.
 """
 
@@ -370,6 +371,8 @@ VOXEL_OPTIONS = (
     ("mode", "mode", str), ("shading", "shading", str),
     ("ambient", "ambient", float), ("specular", "specular", float),
     ("specularPower", "specular_power", float),
+    ("ambientOcclusion", "ambient_occlusion", bool),
+    ("occlusionStrength", "occlusion_strength", float),
 )
 
 #: Volume attributes that a voxels Volume prim must not carry.
@@ -385,6 +388,10 @@ def _converted(name: str, key: str, value, kind):
             if not isinstance(value, str):
                 raise TypeError
             return str(value)
+        if kind is bool:
+            if not isinstance(value, bool):
+                raise TypeError
+            return value
         if kind is int:
             if isinstance(value, (str, bool)) or float(value) != int(value):
                 raise ValueError
@@ -393,7 +400,8 @@ def _converted(name: str, key: str, value, kind):
             raise TypeError
         return kind(value)
     except (TypeError, ValueError, OverflowError):
-        expected = {str: "a string or token", int: "a whole number", float: "a number"}[kind]
+        expected = {str: "a string or token", int: "a whole number", float: "a number",
+                    bool: "a bool"}[kind]
         raise SceneLoadError(f"Volume {name}: cubemarch:{key} must be {expected}, got "
                              f"{value!r}.") from None
 
