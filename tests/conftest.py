@@ -138,3 +138,22 @@ def write_voxel_stage(tmp_path, labels, *, attrs=None, field_attrs=None, techniq
             target_prim.CreateAttribute(name, getattr(Sdf.ValueTypeNames, kind)).Set(value)
     stage.GetRootLayer().Save()
     return tmp_path / stage_name
+
+
+def rotated_mirrored_placement() -> np.ndarray:
+    """A placement that rotates 30 degrees about z, mirrors x and stretches y by 1.5."""
+    angle = np.radians(30.0)
+    rotation = np.eye(4)
+    rotation[:2, :2] = [[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]]
+    return rotation @ np.diag([-1.0, 1.5, 1.0, 1.0])
+
+
+def light_with_sun_and_lamp(pl) -> None:
+    """Replace the plotter's lights by a directional scene light and a point light."""
+    pl.remove_all_lights()
+    pl.add_light(pv.Light(position=(1.0, 2.0, 3.0), focal_point=(0, 0, 0),
+                          light_type="scene light", intensity=0.8))
+    point = pv.Light(position=(-20.0, 30.0, 20.0), light_type="scene light", intensity=0.5,
+                     positional=True)
+    point.cone_angle = 180.0
+    pl.add_light(point)

@@ -17,7 +17,13 @@ import inspect
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import BACKGROUND, assert_close_to_reference, set_camera
+from conftest import (
+    BACKGROUND,
+    assert_close_to_reference,
+    light_with_sun_and_lamp,
+    rotated_mirrored_placement,
+    set_camera,
+)
 
 import pv_cubemarch as cm
 from pv_cubemarch.core.registry import get_technique
@@ -152,19 +158,10 @@ def test_gpu_occlusion_matches_the_reference(plotter_factory, shading):
     # out-of-range texelFetch returns 0; GL leaves it undefined, so the check stays).
     rng = np.random.default_rng(21)
     labels = np.where(rng.random((12, 10, 8)) < 0.3, rng.integers(1, 4, (12, 10, 8)), 0)
-    angle = np.radians(30.0)
-    rotation = np.eye(4)
-    rotation[:2, :2] = [[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]]
-    transform = rotation @ np.diag([-1.0, 1.5, 1.0, 1.0])
+    transform = rotated_mirrored_placement()
     size = (96, 72)
     pl = plotter(plotter_factory, size)
-    pl.remove_all_lights()
-    pl.add_light(pv.Light(position=(1.0, 2.0, 3.0), focal_point=(0, 0, 0),
-                          light_type="scene light", intensity=0.8))
-    point = pv.Light(position=(-20.0, 30.0, 20.0), light_type="scene light", intensity=0.5,
-                     positional=True)
-    point.cone_angle = 180.0
-    pl.add_light(point)
+    light_with_sun_and_lamp(pl)
     palette = ["black", "tan", "steelblue", "firebrick"]
     # A broad highlight (power 10): occluding it too would be seen (up to 10/255 here).
     actor = cm.add_voxels(pl, labels, palette=palette, shading=shading, transform=transform,

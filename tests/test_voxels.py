@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import set_camera
+from conftest import light_with_sun_and_lamp, rotated_mirrored_placement, set_camera
 
 import pv_cubemarch as cm
 from pv_cubemarch.reference.voxels import face_colors, id_colors, render_voxels, trace_voxels
@@ -291,18 +291,9 @@ def test_shading_from_the_scene_lights_matches_the_reference(plotter_factory, sh
     # pointing along the ray, and the box's entry face left out (boundary voxels lit as if
     # facing the eye).
     labels = random_labels((12, 10, 8), 0.3, seed=11)
-    angle = np.radians(30.0)
-    rotation = np.eye(4)
-    rotation[:2, :2] = [[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]]
-    transform = rotation @ np.diag([-1.0, 1.5, 1.0, 1.0])
+    transform = rotated_mirrored_placement()
     pl = plotter(plotter_factory)
-    pl.remove_all_lights()
-    pl.add_light(pv.Light(position=(1.0, 2.0, 3.0), focal_point=(0, 0, 0),
-                          light_type="scene light", intensity=0.8))
-    point = pv.Light(position=(-20.0, 30.0, 20.0), light_type="scene light", intensity=0.5,
-                     positional=True)
-    point.cone_angle = 180.0
-    pl.add_light(point)
+    light_with_sun_and_lamp(pl)
     actor = cm.add_voxels(pl, labels, palette=["black", "tan", "steelblue", "firebrick"],
                           shading=shading, transform=transform)
     camera = set_camera(pl, (-30.0, 26.0, 24.0), focal=(-6.0, 7.5, 4.0))
