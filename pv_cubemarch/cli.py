@@ -316,8 +316,10 @@ def _bench_voxels(args) -> int:
     results = bench_voxels.run_voxels(args.sizes, frames=args.frames, large=args.large,
                                       rows=rows, only=only)
     print(f"median of {args.frames} frames, rows drawn in turn; wrong: pixels showing "
-          "another material than the CPU traversal (unlit colours); GPU MB of PyVista's "
-          "meshes estimated from what VTK uploads (positions, cell colours, indices)")
+          "another material than the CPU traversal (unlit colours), away from voxel edges; "
+          "edge px: differing pixels whose ray passes within 1e-4 voxel of an edge; GPU MB "
+          "of PyVista's meshes estimated from what VTK uploads (positions, cell colours, "
+          "indices)")
     print(bench_voxels.format_voxel_table(results))
     for size in args.sizes:
         print()
