@@ -273,7 +273,7 @@ def voxel_options(**given) -> VoxelOptions:
         Any of ``add_voxels``'s options (``traversal``, ``step_scale``, ``mip_levels``,
         ``distance_field``, ``mode``, ``shading``, ``ambient``, ``specular``,
         ``specular_power``, ``ambient_occlusion``, ``occlusion_strength``); ``None`` or
-        left out takes the default (``mip_levels``: every level the grid has with the DDA,
+        left out takes the default (``mip_levels``: the levels that pay off with the DDA,
         none with the fixed step).
 
     Returns
@@ -341,9 +341,11 @@ def add_voxels(
         ``traversal='fixed'`` only: the step in voxels. Cost grows as ``1 / step_scale``.
     mip_levels : int, optional
         ``traversal='dda'``: occupancy mipmap levels (0-12; level ``L``'s cells are
-        ``2^L`` voxels wide) used to leave empty space in one step; by default every level
-        the grid has (8 for 256³). The ray descends a level on an occupied cell and climbs
-        back when it leaves it. Exact whatever the number, for at most 1/7 more bytes.
+        ``2^L`` voxels wide) used to leave empty space in one step; by default the levels
+        that pay off on the labels (every level leaving at least 30 % of its cells empty,
+        none below three: 7 on a sparse 256³ grid, 0 on a 1 % random fill). The ray
+        descends a level on an occupied cell and climbs back when it leaves it. Exact
+        whatever the number, for at most 1/7 more bytes.
     distance_field : int
         ``traversal='dda'``: the seed's neighbour distance field, 0 (off, default) or its
         largest radius 1-3: one more byte per voxel telling how large an empty cube

@@ -90,7 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "voxels (the seed's baseline, misses thin voxels)")
     vox.add_argument("--mip-levels", type=int,
                      help="occupancy mipmap levels (0-12) the DDA skips empty space with "
-                          "(default: every level the grid has)")
+                          "(default: the levels that pay off on the grid's labels)")
     vox.add_argument("--distance-field", type=int,
                      help="the DDA's neighbour distance field: 0 (off, default) or its "
                           "largest radius 1-3")

@@ -1,7 +1,8 @@
 """``pv-cubemarch bench voxels``: material grids, our traversals against PyVista's paths.
 
 Builds the seed's scenes with fixed seeds and times, side by side in one run (frames drawn
-in turn), the fixed step, the DDA with 0-3 occupancy levels, PyVista's thresholded cells
+in turn), the fixed step, the DDA with 1-3 and the default occupancy levels and with
+distance fields 1-3, PyVista's thresholded cells
 (``add_mesh``, with and without ``extract_surface``) and PyVista's ``add_volume`` with
 nearest interpolation. Every row draws unlit palette colours, so each image is compared
 pixel by pixel with the CPU traversal's (:func:`~pv_cubemarch.reference.voxels.trace_voxels`):
