@@ -25,9 +25,9 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
   vec3 moving = step(vec3(1e-30), abs(d));
   vec3 inverse = 1.0 / mix(vec3(1.0), d, moving);   // as the CPU reference: t = (x - a) / d
   vec3 forward = step(vec3(0.0), d);
-  ivec3 stepDir = ivec3(sign(d) * moving);
   voxel = clamp(ivec3(floor(a)), ivec3(0), dims - 1);
   vec3 tMax = cm_blockExits(a, inverse, moving, forward, voxel, voxel + 1);   // this voxel's
+  bool fresh = true;   // tMax is the current voxel's (after a block it is made when needed)
   t = 0.0;
 #ifdef CM_MIP_LEVELS
   // The first voxel is read before any level (a ray into a dense grid hits at once); when
@@ -82,9 +82,23 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
       }
 #endif
     }
-    vec3 exits = block ? cm_blockExits(a, inverse, moving, forward, low, high) : tMax;
+    vec3 exits;
+    if (block)
+    {
+      exits = cm_blockExits(a, inverse, moving, forward, low, high);
+    }
+    else
+    {
+      if (!fresh)
+      {
+        tMax = cm_blockExits(a, inverse, moving, forward, voxel, voxel + 1);
+        fresh = true;
+      }
+      exits = tMax;
+    }
     int axis = (exits.x <= exits.y && exits.x <= exits.z) ? 0 : (exits.y <= exits.z ? 1 : 2);
-    t = exits[axis];
+    ivec3 onAxis = ivec3(equal(ivec3(axis), ivec3(0, 1, 2)));   // no dynamic indexing below
+    t = min(exits.x, min(exits.y, exits.z));
     if (t > 1.0)
     {
       return 0;
@@ -92,8 +106,9 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
     // The voxel past the exit: from one voxel, a step along the exit axis; from a block,
     // the other axes are read at the exit point (kept inside the block's span).
     ivec3 next = block ? clamp(ivec3(floor(a + d * t)), low, high - 1) : voxel;
-    next[axis] = stepDir[axis] > 0 ? high[axis] : low[axis] - 1;
-    if (next[axis] < 0 || next[axis] >= dims[axis])
+    ivec3 past = low - 1 + (high - low + 1) * ivec3(forward);   // per axis, once past it
+    next += (past - next) * onAxis;
+    if (any(lessThan(next, ivec3(0))) || any(greaterThanEqual(next, dims)))
     {
       return 0;
     }
@@ -105,14 +120,14 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
 #endif
     if (block)
     {
-      tMax = cm_blockExits(a, inverse, moving, forward, next, next + 1);
+      fresh = false;
     }
     else
     {
-      tMax[axis] = (float(next[axis]) + forward[axis] - a[axis]) * inverse[axis];   // never
-    }                                                                             // summed
+      tMax = mix(tMax, (vec3(next) + forward - a) * inverse, vec3(onAxis));   // never summed
+    }
     voxel = next;
-    face = 2 * axis + (stepDir[axis] > 0 ? 1 : 0);
+    face = 2 * axis + (dot(vec3(onAxis), forward) > 0.5 ? 1 : 0);
   }
   return 0;
 }
