@@ -89,7 +89,7 @@ def test_fixed_step_misses_what_dda_hits(plotter_factory):
 
 @pytest.mark.parametrize("case", ["inside-grid", "inside-voxel", "axis-parallel",
                                   "parallel-projection", "far-away", "anisotropic-mirrored",
-                                  "one-voxel", "sheet"])
+                                  "one-voxel", "sheet", "tiny", "huge"])
 @pytest.mark.parametrize("skipping", [{"mip_levels": 0}, {"mip_levels": 3, "distance_field": 2}],
                          ids=["plain", "mip3-df2"])
 def test_extremes(plotter_factory, case, skipping):
@@ -115,6 +115,11 @@ def test_extremes(plotter_factory, case, skipping):
         transform = np.diag([-0.5, 2.0, 1.0, 1.0])
         transform[0, 3] = 6.0
         position, focal = (14.0, 30.0, 26.0), (3.0, 10.0, 4.0)
+    elif case in ("tiny", "huge"):   # voxels of 1e-4 and 1e4 world units, seen alike
+        scale = 1e-4 if case == "tiny" else 1e4
+        transform = np.diag([scale, scale, scale, 1.0])
+        position = tuple(np.array(position) * scale)
+        focal = tuple(np.array(focal) * scale)
     elif case == "one-voxel":
         labels = np.ones((1, 1, 1), int)
         position, focal = (2.2, 1.7, 2.9), (0.5, 0.5, 0.5)
