@@ -1,3 +1,10 @@
+// The t (fraction of a..b) where the ray crosses each axis's forward boundary of the block
+// [low, high); 1e30 on an axis it does not move along.
+vec3 cm_blockExits(vec3 a, vec3 inverse, vec3 moving, vec3 forward, ivec3 low, ivec3 high)
+{
+  return mix(vec3(1e30), (mix(vec3(low), vec3(high), forward) - a) * inverse, moving);
+}
+
 // Amanatides & Woo traversal of a material grid (002): from a to b (index space) to the first
 // drawn voxel. Returns its material (0: none), the voxel, the face it was entered through
 // (2 * axis + 1 when entered moving +axis, 2 * axis moving -axis; `face` comes in as the
@@ -11,13 +18,6 @@
 // Tie rule: when several axes cross a boundary at the same t, x steps before y before z (the
 // CPU reference's rule). An axis the ray does not move along is never crossed: no division
 // by zero (GLSL 1.50 promises no infinity).
-// The t (fraction of a..b) where the ray crosses each axis's forward boundary of the block
-// [low, high); 1e30 on an axis it does not move along.
-vec3 cm_blockExits(vec3 a, vec3 inverse, vec3 moving, vec3 forward, ivec3 low, ivec3 high)
-{
-  return mix(vec3(1e30), (mix(vec3(low), vec3(high), forward) - a) * inverse, moving);
-}
-
 int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float t)
 {
   ivec3 dims = ivec3(cm_gridDims);
