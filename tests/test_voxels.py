@@ -352,6 +352,30 @@ def test_large_sparse_grid_with_all_levels(plotter_factory):
         assert (hits.material > 0).mean() > 0.1 and wrong == 0, (levels, radius, wrong, edge)
 
 
+def test_skipping_structures_leave_the_host_and_come_back_from_the_labels(plotter_factory):
+    # After the first frame only the GPU holds the occupancy atlas and the distance field;
+    # a texture that must go up again (its GL object freed, as in a new window) is remade
+    # from the labels, and the image stays exact.
+    # catches (seen to fail): the host copy kept after upload; the rebuild not called
+    # (a None array uploaded).
+    labels = random_labels((24, 20, 16), 0.02, seed=16)
+    pl = plotter(plotter_factory)
+    actor = cm.add_voxels(pl, labels, mode="id", mip_levels=3, distance_field=2)
+    camera = set_camera(pl, (40.0, 30.0, 35.0), focal=(12.0, 10.0, 8.0))
+    assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0
+    skipping = actor.cubemarch.skipping
+    assert len(skipping) == 2 and all(t.host_nbytes == 0 for t in skipping)
+    # The GPU still holds them: the distance field one byte per voxel, as the labels.
+    assert skipping[1].nbytes == labels.size and skipping[0].nbytes > 0
+    assert actor.cubemarch.nbytes == (2 * labels.size + skipping[0].nbytes
+                                      + actor.cubemarch.palette_texture.nbytes)
+    for texture in skipping:
+        texture.release()
+    wrong, _, hits = wrong_pixels(pl, actor.cubemarch.model, camera)
+    assert wrong == 0 and (hits.material > 0).mean() > 0.05
+    assert [t.upload_count for t in skipping] == [2, 2]
+
+
 def test_occupancy_atlas_holds_every_level_apart():
     # Each level cut back out of the atlas equals the level built alone, and no two levels
     # share a texel (the atlas has room for all of them side by side).

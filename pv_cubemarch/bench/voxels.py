@@ -138,9 +138,10 @@ def _ours(plotter, labels, **options) -> MemoryProbe:
     actor = add_voxels(plotter, labels, palette=Palette(PALETTE.copy()), shading="unlit",
                        **options)
     binding = actor.cubemarch
-    # The host keeps the labels and the skipping structures (to rebuild and pick).
+    # The host keeps the labels (to pick, and to remake the skipping structures, whose host
+    # copies go once uploaded).
     return lambda: (binding.nbytes, binding.model.nbytes
-                    + sum(t.nbytes for t in binding.skipping))
+                    + sum(t.host_nbytes for t in binding.skipping))
 
 
 ROWS: dict[str, Callable] = {

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import vtk
 from vtkmodules.util.numpy_support import numpy_to_vtk
@@ -24,9 +26,14 @@ class Texture:
         ``'2d'``, ``'3d'`` or ``'buffer'``.
     interpolate : bool
         Linear filtering (``True``) or nearest (``False``); ignored for buffers.
+    rebuild : callable, optional
+        Makes ``array`` again. Given, the host copy is dropped after each upload and rebuilt
+        only if the texture must be uploaded again (a new window): for data derived from
+        other data the host keeps anyway (occupancy levels from labels).
     """
 
-    def __init__(self, array: np.ndarray, kind: str = "2d", interpolate: bool = True):
+    def __init__(self, array: np.ndarray, kind: str = "2d", interpolate: bool = True,
+                 rebuild: Callable[[], np.ndarray] | None = None):
         if kind not in ("2d", "3d", "buffer"):
             raise ValueError(f"kind must be '2d', '3d' or 'buffer', got {kind!r}.")
         self.kind = kind
@@ -35,6 +42,7 @@ class Texture:
         self._buffer: vtkOpenGLVertexBufferObject | None = None
         self._window = None
         self.upload_count = 0
+        self.rebuild = rebuild
         self.set_data(array)
 
     def set_data(self, array: np.ndarray) -> None:
@@ -46,19 +54,25 @@ class Texture:
         if array.ndim not in expected:
             raise ValueError(f"A {self.kind} texture needs an array with {expected} axes, "
                              f"got shape {array.shape}.")
-        self.array = array
+        self.array: np.ndarray | None = array
+        self._shape, self._nbytes = array.shape, int(array.nbytes)
         self._dirty = True
 
     @property
     def components(self) -> int:
         """Components per texel."""
         spatial = {"2d": 2, "3d": 3, "buffer": 1}[self.kind]
-        return 1 if self.array.ndim == spatial else int(self.array.shape[-1])
+        return 1 if len(self._shape) == spatial else int(self._shape[-1])
 
     @property
     def nbytes(self) -> int:
         """Bytes the texture occupies on the GPU (uncompressed)."""
-        return int(self.array.nbytes)
+        return self._nbytes
+
+    @property
+    def host_nbytes(self) -> int:
+        """Bytes of the host copy held now (0 once a rebuildable texture is uploaded)."""
+        return 0 if self.array is None else int(self.array.nbytes)
 
     def ensure(self, window) -> vtkTextureObject:
         """Create or refresh the GL texture for ``window``; needs the context current."""
@@ -66,6 +80,8 @@ class Texture:
             return self.gl_object
         if self.gl_object is not None and self._window is not window:
             self.release()
+        if self.array is None:
+            self.set_data(self.rebuild())   # dropped after the last upload
         vtk_type = _VTK_TYPES[self.array.dtype]
         texture = self.gl_object or vtkTextureObject()
         texture.SetContext(window)
@@ -94,6 +110,8 @@ class Texture:
                 getattr(texture, setter)(vtkTextureObject.ClampToEdge)
         self.gl_object, self._window, self._dirty = texture, window, False
         self.upload_count += 1
+        if self.rebuild is not None:
+            self.array = None   # the GPU holds it; rebuilt if it must go up again
         return texture
 
     def release(self) -> None:

@@ -108,22 +108,27 @@ def bind_skipping(bindings: ShaderBindings, model: VoxelModel, options: VoxelOpt
 
     ``levels``: the grid's occupancy levels (at least ``options.mip_levels`` of them). The
     occupancy atlas (``mip_levels``) and the distance field (``distance_field``) count any
-    label as filled, so palette changes never rebuild them.
+    label as filled, so palette changes never rebuild them. Both are made from the labels,
+    which the host keeps: their host copies go once uploaded, and are remade from the labels
+    only if a new window needs them.
     """
+    labels, count, radius = model.labels, options.mip_levels, options.distance_field
     textures = []
     atlas = occupancy_atlas(levels[:options.mip_levels])
     if atlas is not None:
         rows = np.zeros(16)
         rows[:len(atlas.rows)] = atlas.rows
         textures.append(bindings.add_texture(
-            "cm_occupancy", Texture(atlas.texels, kind="3d", interpolate=False), owned=True))
+            "cm_occupancy", Texture(atlas.texels, kind="3d", interpolate=False, rebuild=lambda:
+                                    occupancy_atlas(occupancy_levels(labels, count)).texels),
+            owned=True))
         bindings.set_uniform("cm_levelColumn", float(atlas.column))
         # GLSL reads cm_levelRows[L / 4][L % 4]: column L / 4, row L % 4.
         bindings.set_uniform("cm_levelRows", rows.reshape(4, 4).T)
-    if options.distance_field:
-        radii = safe_radii(model.labels, options.distance_field)
+    if radius:
         textures.append(bindings.add_texture(
-            "cm_safeRadius", Texture(radii, kind="3d", interpolate=False), owned=True))
+            "cm_safeRadius", Texture(safe_radii(labels, radius), kind="3d", interpolate=False,
+                                     rebuild=lambda: safe_radii(labels, radius)), owned=True))
     return textures
 
 
