@@ -243,11 +243,6 @@ class OccupancyAtlas:
     rows: tuple[int, ...]
     shapes: tuple[tuple[int, int, int], ...]
 
-    @property
-    def levels(self) -> int:
-        """How many levels the atlas holds."""
-        return len(self.shapes)
-
     def level(self, number: int) -> np.ndarray:
         """Level ``number`` (1..levels) cut back out of the atlas."""
         start = (0, 0, 0) if number == 1 else (self.column, self.rows[number], 0)
@@ -304,7 +299,7 @@ def safe_radii(labels: np.ndarray, radius: int) -> np.ndarray:
     filled = np.asarray(labels) != 0
     result = np.zeros(filled.shape, np.uint8)
     for _ in range(int(radius)):
-        grown = filled.copy()
+        grown = filled
         for axis in range(3):
             if filled.shape[axis] < 2:
                 continue

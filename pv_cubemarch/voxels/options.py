@@ -101,20 +101,28 @@ class VoxelOptions:
             raise ValueError(f"mode='id' writes voxel ids as 24-bit colour; a grid of "
                              f"{voxels:,} voxels has more. Crop the grid or use pick().")
 
-    def for_grid(self, dimensions, useful_levels: int) -> VoxelOptions:
-        """These options with ``mip_levels`` settled for a grid of ``dimensions`` voxels.
+    def candidate_levels(self, dimensions) -> int:
+        """How many occupancy levels to build for a grid of ``dimensions`` voxels.
 
-        ``useful_levels``: how many levels pay off on its labels
-        (:func:`~pv_cubemarch.models.voxels.useful_levels`), taken when ``mip_levels`` is
-        None, up to the level whose single cell covers the grid.
+        The chosen ``mip_levels``; with ``None``, every level up to the one whose single
+        cell covers the grid for the DDA, none for the fixed step.
+        """
+        if self.mip_levels is not None:
+            return int(self.mip_levels)
+        if self.traversal != "dda":
+            return 0
+        largest = max(int(n) for n in dimensions)
+        return min(max(largest - 1, 0).bit_length(), MAX_MIP_LEVELS)
+
+    def for_grid(self, useful_levels: int) -> VoxelOptions:
+        """These options with ``mip_levels`` settled (``useful_levels`` when it is None).
+
+        ``useful_levels``: how many of the candidate levels pay off on the grid's labels
+        (:func:`~pv_cubemarch.models.voxels.useful_levels`).
         """
         if self.mip_levels is not None:
             return self
-        if self.traversal != "dda":
-            return replace(self, mip_levels=0)
-        largest = max(int(n) for n in dimensions)
-        covering = min(max(largest - 1, 0).bit_length(), MAX_MIP_LEVELS)
-        return replace(self, mip_levels=min(int(useful_levels), covering))
+        return replace(self, mip_levels=int(useful_levels))
 
     @property
     def step(self) -> float:

@@ -26,7 +26,7 @@ from ..models.lights import VolumeLight
 from ..models.volume import checked_transform
 from ..models.voxels import VoxelModel, occupancy_atlas, occupancy_levels, safe_radii, useful_levels
 from ..reference.voxels import render_voxels, trace_voxels
-from .options import MAX_MIP_LEVELS, VoxelOptions
+from .options import VoxelOptions
 
 #: Most scene lights a grid is lit by (two mat4 of light vectors and colours).
 MAX_VOXEL_LIGHTS = 8
@@ -229,9 +229,8 @@ class VoxelBinding(DrawnBinding):
 def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> VoxelBinding:
     """The opaque box actor of a material grid; returns its binding."""
     renderer = plotter.renderer
-    levels = occupancy_levels(model.labels, options.mip_levels if options.mip_levels
-                              is not None else MAX_MIP_LEVELS)
-    options = options.for_grid(model.dimensions, useful_levels(levels))
+    levels = occupancy_levels(model.labels, options.candidate_levels(model.dimensions))
+    options = options.for_grid(useful_levels(levels))
     # 1 % larger on every side: the shader clips each ray to the exact grid box, so pixels
     # whose rays graze the box's edges are covered and decided there, not by rasterisation.
     actor = box_actor(model.dimensions, model.world_from_index(),
