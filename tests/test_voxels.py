@@ -180,7 +180,8 @@ def test_id_mode_refuses_grids_beyond_24_bits(plotter_factory):
 
 def test_palette_colours_and_hiding_without_upload(plotter_factory):
     # catches: hiding a material re-uploading the labels, or hidden voxels still drawn
-    # (the voxels behind them must show instead).
+    # (the voxels behind them must show instead); seen to fail: the traversal stopping at
+    # a hidden voxel instead of stepping through it (voxel_dda.glsl's `passing`).
     labels = random_labels((16, 12, 10), 0.3, seed=5)
     pl = plotter(plotter_factory)
     palette = ["black", "tan", "steelblue", "firebrick"]
@@ -258,11 +259,11 @@ def test_cell_and_point_data_and_uint16(plotter_factory):
     camera = set_camera(pl, (8.0, 6.0, 7.0), focal=(1.5, 1.0, 0.5))
     wrong, _, hits = wrong_pixels(pl, model, camera)
     assert wrong == 0 and (hits.material >= 300).any()
-    levels = sum(t.nbytes for t in actor.cubemarch.skipping)
-    # Levels 1-3 of a 4x3x2 grid are 2x2x1, 1x1x1, 1x1x1 cells; the atlas puts level 1 at
-    # the origin and levels 2-3 in a column beside it: 3x2x1 texels, one byte each.
-    assert levels == 3 * 2 * 1
-    assert actor.cubemarch.nbytes == model.labels.nbytes + model.palette.rgba.nbytes + levels
+    # Levels 1-3 of a 4x3x2 grid are 2x2x1, 1x1x1, 1x1x1 cells, past the labels along z
+    # (z from 2), along x from 4 - (4 >> (L - 1)) + L - 1 = 0, 3, 5: the atlas is
+    # max(4, 5 + 1) x max(3, 2) x (2 + 1) texels of two bytes.
+    assert actor.cubemarch.labels.nbytes == 6 * 3 * 3 * 2
+    assert actor.cubemarch.nbytes == 6 * 3 * 3 * 2 + model.palette.rgba.nbytes
 
 
 def test_pick_returns_what_is_drawn(plotter_factory):
@@ -353,7 +354,7 @@ def test_large_sparse_grid_with_all_levels(plotter_factory):
 
 
 def test_skipping_structures_leave_the_host_and_come_back_from_the_labels(plotter_factory):
-    # After the first frame only the GPU holds the occupancy atlas and the distance field;
+    # After the first frame only the GPU holds the level atlas and the distance field;
     # a texture that must go up again (its GL object freed, as in a new window) is remade
     # from the labels, and the image stays exact.
     # catches (seen to fail): the host copy kept after upload; the rebuild not called
@@ -363,11 +364,12 @@ def test_skipping_structures_leave_the_host_and_come_back_from_the_labels(plotte
     actor = cm.add_voxels(pl, labels, mode="id", mip_levels=3, distance_field=2)
     camera = set_camera(pl, (40.0, 30.0, 35.0), focal=(12.0, 10.0, 8.0))
     assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0
-    skipping = actor.cubemarch.skipping
+    skipping = actor.cubemarch.derived_textures
     assert len(skipping) == 2 and all(t.host_nbytes == 0 for t in skipping)
-    # The GPU still holds them: the distance field one byte per voxel, as the labels.
-    assert skipping[1].nbytes == labels.size and skipping[0].nbytes > 0
-    assert actor.cubemarch.nbytes == (2 * labels.size + skipping[0].nbytes
+    # The GPU still holds them: the distance field one byte per voxel, the labels with
+    # their levels more.
+    assert skipping[1].nbytes == labels.size and skipping[0].nbytes > labels.size
+    assert actor.cubemarch.nbytes == (labels.size + skipping[0].nbytes
                                       + actor.cubemarch.palette_texture.nbytes)
     for texture in skipping:
         texture.release()
@@ -376,19 +378,22 @@ def test_skipping_structures_leave_the_host_and_come_back_from_the_labels(plotte
     assert [t.upload_count for t in skipping] == [2, 2]
 
 
-def test_occupancy_atlas_holds_every_level_apart():
-    # Each level cut back out of the atlas equals the level built alone, and no two levels
-    # share a texel (the atlas has room for all of them side by side).
-    from pv_cubemarch.models.voxels import occupancy_atlas, occupancy_levels
+def test_level_atlas_holds_the_labels_and_every_level_apart():
+    # The labels and each level cut back out of the atlas equal the labels and the level
+    # built alone, and no two share a texel (counted by marking each one's box).
+    from pv_cubemarch.models.voxels import level_atlas, occupancy_levels
 
-    labels = random_labels((37, 21, 9), 0.02, seed=14)
-    atlas = occupancy_atlas(occupancy_levels(labels, 7))
-    used = np.zeros(atlas.texels.shape, int)
-    for number, grid in enumerate(occupancy_levels(labels, 7), start=1):
-        assert np.array_equal(atlas.level(number), grid)
-        start = (0, 0, 0) if number == 1 else (atlas.column, atlas.rows[number], 0)
-        used[tuple(slice(o, o + n) for o, n in zip(start, grid.shape, strict=True))] += 1
-    assert used.max() == 1
+    for shape in ((37, 21, 9), (1, 1, 1), (5, 300, 2)):
+        labels = random_labels(shape, 0.02, seed=14).astype(np.uint16) * 300
+        grids = occupancy_levels(labels, 7)
+        atlas = level_atlas(labels, grids)
+        assert atlas.texels.dtype == np.uint16
+        used = np.zeros(atlas.texels.shape, int)
+        for number, grid in enumerate([labels, *grids]):
+            assert np.array_equal(atlas.level(number), grid)
+            start = (0, 0, 0) if number == 0 else (atlas.x_offsets[number], 0, shape[2])
+            used[tuple(slice(o, o + n) for o, n in zip(start, grid.shape, strict=True))] += 1
+        assert used.max() == 1
 
 
 def test_default_levels_follow_the_empty_share(plotter_factory):

@@ -9,13 +9,22 @@ uniform sampler2D cm_palette;    // (materials x 1) RGBA
 uniform vec3 cm_gridDims;        // voxels along x, y, z
 uniform float cm_near;           // the near plane's view depth
 
+// The label of a voxel (0: empty), drawn or hidden.
+int cm_label(ivec3 voxel)
+{
+  return int(texelFetch(cm_labels, voxel, 0).r * cm_labelScale + 0.5);
+}
+
+// Whether a non-zero label is drawn: it has a palette entry of non-zero opacity.
+bool cm_shown(int material)
+{
+  return material < textureSize(cm_palette, 0).x
+         && texelFetch(cm_palette, ivec2(material, 0), 0).a > 0.0;
+}
+
 // The material of a voxel, if it is drawn (0: empty or hidden).
 int cm_visibleMaterial(ivec3 voxel)
 {
-  int material = int(texelFetch(cm_labels, voxel, 0).r * cm_labelScale + 0.5);
-  if (material == 0 || material >= textureSize(cm_palette, 0).x)
-  {
-    return 0;
-  }
-  return texelFetch(cm_palette, ivec2(material, 0), 0).a > 0.0 ? material : 0;
+  int material = cm_label(voxel);
+  return material != 0 && cm_shown(material) ? material : 0;
 }

@@ -141,7 +141,7 @@ def _ours(plotter, labels, **options) -> MemoryProbe:
     # The host keeps the labels (to pick, and to remake the skipping structures, whose host
     # copies go once uploaded).
     return lambda: (binding.nbytes, binding.model.nbytes
-                    + sum(t.host_nbytes for t in binding.skipping))
+                    + sum(t.host_nbytes for t in binding.derived_textures))
 
 
 ROWS: dict[str, Callable] = {

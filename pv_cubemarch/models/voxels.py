@@ -230,39 +230,50 @@ def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
 
 
 @dataclass(frozen=True)
-class OccupancyAtlas:
-    """Occupancy levels ``1..n`` packed in one 3D texture, read at any level at run time.
+class LevelAtlas:
+    """The labels and their occupancy levels ``1..n`` in one 3D texture of the labels' type.
 
-    GLSL 1.50 indexes no sampler arrays, hence one texture. Level 1 sits at the origin;
-    levels 2 and up are stacked along y in a column at ``x = column`` (level 1's width):
-    level ``L`` starts at ``(column, rows[L], 0)``.
+    The traversal reads any level with one fetch of one texture (GLSL 1.50 indexes no
+    sampler arrays, and llvmpipe runs both sides of a branch: a second texture would be
+    read on every step). The labels sit at the origin, so a voxel's label is read where it
+    always was; the levels lie in a slab past the labels along z, side by side along x:
+    level ``L`` starts at ``(level_x_offset(nx, L), 0, nz)``. An occupied cell holds 1.
     """
 
     texels: np.ndarray
-    column: int
-    rows: tuple[int, ...]
+    x_offsets: tuple[int, ...]
     shapes: tuple[tuple[int, int, int], ...]
 
     def level(self, number: int) -> np.ndarray:
-        """Level ``number`` (1..levels) cut back out of the atlas."""
-        start = (0, 0, 0) if number == 1 else (self.column, self.rows[number], 0)
-        shape = self.shapes[number - 1]
+        """Level ``number`` (0: the labels; 1..levels: occupancy) cut back out of the atlas."""
+        start = (0, 0, 0) if number == 0 else (self.x_offsets[number], 0, self.shapes[0][2])
+        shape = self.shapes[number]
         return self.texels[tuple(slice(o, o + n) for o, n in zip(start, shape, strict=True))]
 
 
-def occupancy_atlas(grids: list[np.ndarray]) -> OccupancyAtlas | None:
-    """Occupancy levels ``1..n`` (:func:`occupancy_levels`) packed in one atlas (or None)."""
-    if not grids:
-        return None
-    shapes = tuple(tuple(int(n) for n in g.shape) for g in grids)
-    column = shapes[0][0]
-    rows = [0, 0, 0]   # rows[L] for level L (levels 0 and 1 are not in the column)
-    for shape in shapes[1:-1]:
-        rows.append(rows[-1] + shape[1])
-    width = column + (shapes[1][0] if len(shapes) > 1 else 0)
-    height = max(shapes[0][1], sum(s[1] for s in shapes[1:]))
-    texels = np.zeros((width, height, shapes[0][2]), np.uint8)
-    atlas = OccupancyAtlas(texels, column, tuple(rows), shapes)
+def level_x_offset(nx: int, level: int) -> int:
+    """Where level ``level >= 1`` of a grid ``nx`` voxels wide starts along x in the atlas.
+
+    ``nx - (nx >> (level - 1)) + level - 1``: a formula the shader computes too (no table to
+    index per step), leaving each level room for its ``ceil(nx / 2^level)`` cells.
+    """
+    return 0 if level == 0 else nx - (nx >> (level - 1)) + level - 1
+
+
+def level_atlas(labels: np.ndarray, grids: list[np.ndarray]) -> LevelAtlas:
+    """``labels`` and their occupancy levels ``grids`` (:func:`occupancy_levels`) packed."""
+    labels = np.asarray(labels)
+    shapes = (tuple(int(n) for n in labels.shape),
+              *(tuple(int(n) for n in g.shape) for g in grids))
+    x_offsets = tuple(level_x_offset(shapes[0][0], n) for n in range(len(shapes)))
+    nx, ny, nz = shapes[0]
+    if grids:
+        nx = max(nx, x_offsets[-1] + shapes[-1][0])
+        ny = max(ny, shapes[1][1])
+        nz += shapes[1][2]
+    texels = np.zeros((nx, ny, nz), labels.dtype)
+    atlas = LevelAtlas(texels, x_offsets, shapes)
+    atlas.level(0)[...] = labels
     for number, grid in enumerate(grids, start=1):
         atlas.level(number)[...] = grid
     return atlas

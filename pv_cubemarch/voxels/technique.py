@@ -24,7 +24,13 @@ from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.lights import VolumeLight
 from ..models.volume import checked_transform
-from ..models.voxels import VoxelModel, occupancy_atlas, occupancy_levels, safe_radii, useful_levels
+from ..models.voxels import (
+    VoxelModel,
+    level_atlas,
+    occupancy_levels,
+    safe_radii,
+    useful_levels,
+)
 from ..reference.voxels import render_voxels, trace_voxels
 from .options import VoxelOptions
 
@@ -102,34 +108,37 @@ def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
     bindings.set_uniform("cm_specularPower", float(options.specular_power))
 
 
-def bind_skipping(bindings: ShaderBindings, model: VoxelModel, options: VoxelOptions,
-                  levels: list[np.ndarray]) -> list[Texture]:
-    """Build and bind the empty-space structures the options ask for; returns their textures.
+def bind_labels(bindings: ShaderBindings, model: VoxelModel, options: VoxelOptions,
+                levels: list[np.ndarray]) -> Texture:
+    """Bind the labels, with their occupancy levels beside them when ``mip_levels`` asks.
 
-    ``levels``: the grid's occupancy levels (at least ``options.mip_levels`` of them). The
-    occupancy atlas (``mip_levels``) and the distance field (``distance_field``) count any
-    label as filled, so palette changes never rebuild them. Both are made from the labels,
-    which the host keeps: their host copies go once uploaded, and are remade from the labels
-    only if a new window needs them.
+    ``levels``: the grid's occupancy levels (at least ``options.mip_levels`` of them). With
+    levels, ``cm_labels`` is their :class:`~pv_cubemarch.models.voxels.LevelAtlas` (one fetch
+    reads any level); its host copy goes once uploaded and is remade from the labels, which
+    the host keeps, only if a new window needs it. Without, it is the labels themselves.
     """
-    labels, count, radius = model.labels, options.mip_levels, options.distance_field
-    textures = []
-    atlas = occupancy_atlas(levels[:options.mip_levels])
-    if atlas is not None:
-        rows = np.zeros(16)
-        rows[:len(atlas.rows)] = atlas.rows
-        textures.append(bindings.add_texture(
-            "cm_occupancy", Texture(atlas.texels, kind="3d", interpolate=False, rebuild=lambda:
-                                    occupancy_atlas(occupancy_levels(labels, count)).texels),
-            owned=True))
-        bindings.set_uniform("cm_levelColumn", float(atlas.column))
-        # GLSL reads cm_levelRows[L / 4][L % 4]: column L / 4, row L % 4.
-        bindings.set_uniform("cm_levelRows", rows.reshape(4, 4).T)
-    if radius:
-        textures.append(bindings.add_texture(
-            "cm_safeRadius", Texture(safe_radii(labels, radius), kind="3d", interpolate=False,
-                                     rebuild=lambda: safe_radii(labels, radius)), owned=True))
-    return textures
+    labels, count = model.labels, options.mip_levels
+    if not count:
+        return bindings.add_texture("cm_labels", Texture(labels, kind="3d", interpolate=False))
+    atlas = level_atlas(labels, levels[:count])
+    return bindings.add_texture(
+        "cm_labels", Texture(atlas.texels, kind="3d", interpolate=False, rebuild=lambda:
+                             level_atlas(labels, occupancy_levels(labels, count)).texels))
+
+
+def bind_distance_field(bindings: ShaderBindings, model: VoxelModel,
+                        options: VoxelOptions) -> list[Texture]:
+    """Bind the neighbour distance field when ``distance_field`` asks; returns its texture.
+
+    Any label counts as filled, so palette changes never rebuild it; its host copy goes once
+    uploaded and is remade from the labels only if a new window needs it.
+    """
+    labels, radius = model.labels, options.distance_field
+    if not radius:
+        return []
+    return [bindings.add_texture(
+        "cm_safeRadius", Texture(safe_radii(labels, radius), kind="3d", interpolate=False,
+                                 rebuild=lambda: safe_radii(labels, radius)), owned=True)]
 
 
 @dataclass(frozen=True)
@@ -162,7 +171,7 @@ class VoxelBinding(DrawnBinding):
         self.labels = labels
         self.palette_texture = palette
         self.options = options
-        #: The skipping structures' textures (occupancy atlas, distance field), when used.
+        #: The distance field's texture, when used (the levels live in ``labels``).
         self.skipping: list[Texture] = []
 
     @property
@@ -172,9 +181,18 @@ class VoxelBinding(DrawnBinding):
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes: labels (1 or 2 per voxel), palette, occupancy atlas, distance field."""
+        """GPU bytes: labels (1 or 2 per voxel, with their levels), palette, distance field."""
         return (self.labels.nbytes + self.palette_texture.nbytes
                 + sum(t.nbytes for t in self.skipping))
+
+    @property
+    def derived_textures(self) -> list[Texture]:
+        """Textures made from the labels (level atlas, distance field).
+
+        Their host copies go once uploaded and are remade from the labels if a new window
+        needs them.
+        """
+        return [t for t in (self.labels, *self.skipping) if t.rebuild is not None]
 
     def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
         """Change a material's colour and/or opacity (0 hides it); the labels stay uploaded.
@@ -238,12 +256,11 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     actor.ForceTranslucentOff()
     actor.ForceOpaqueOn()
     actor.GetProperty().LightingOff()   # VTK's lighting code would run for nothing
-    labels = Texture(model.labels, kind="3d", interpolate=False)
     palette = Texture(model.palette.rgba.reshape(1, -1, 4), kind="2d", interpolate=False)
     bindings = ShaderBindings(actor.GetMapper(), renderer)
-    bindings.add_texture("cm_labels", labels)
+    labels = bind_labels(bindings, model, options, levels)
     bindings.add_texture("cm_palette", palette)
-    skipping = bind_skipping(bindings, model, options, levels)
+    skipping = bind_distance_field(bindings, model, options)
     bindings.set_uniform("cm_labelScale", float(np.iinfo(model.labels.dtype).max))
     bindings.set_uniform("cm_gridDims", tuple(float(n) for n in model.dimensions))
     if options.traversal == "fixed":
