@@ -308,6 +308,7 @@ def add_voxels(
     specular_power: float = 30.0,
     ambient_occlusion: bool = False,
     occlusion_strength: float = 0.5,
+    proxy: str = "bricks",
     transform=None,
     name: str | None = None,
 ) -> pyvista.Actor:
@@ -369,6 +370,11 @@ def add_voxels(
         none; outside the grid is empty.
     occlusion_strength : float
         How dark a fully occluded corner gets (0-1, 0.5 by default).
+    proxy : str
+        What starts the rays: ``'bricks'`` (default), the outer faces of the filled 8³
+        bricks, so pixels that see none run nothing and rays start next to the voxels (the
+        box instead on frames where the near plane reaches the grid); ``'box'``, the
+        grid's bounding box (the seed's set-up). Exact either way; only the speed differs.
     transform : array_like, optional
         4x4 affine placement of the grid in the world.
     name : str, optional
@@ -393,7 +399,7 @@ def add_voxels(
                             distance_field=distance_field, mode=mode, shading=shading,
                             ambient=ambient, specular=specular, specular_power=specular_power,
                             ambient_occlusion=ambient_occlusion,
-                            occlusion_strength=occlusion_strength)
+                            occlusion_strength=occlusion_strength, proxy=proxy)
     if isinstance(grid, VoxelModel):
         model = grid
         if transform is not None:

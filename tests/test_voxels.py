@@ -51,8 +51,9 @@ def wrong_pixels(pl, model, camera, size=SIZE):
                          [(0, 0), (1, 0), (3, 0), (6, 0), (0, 1), (0, 3), (3, 2)])
 @pytest.mark.parametrize("fill", [0.01, 0.3])
 @pytest.mark.parametrize("eye", [(40.0, 30.0, 35.0), (-16.0, -10.0, -19.0)])
+@pytest.mark.parametrize("proxy", ["bricks", "box"])
 def test_dda_is_exact_against_the_cpu_traversal(plotter_factory, fill, mip_levels,
-                                                distance_field, eye):
+                                                distance_field, eye, proxy):
     # With occupancy levels, also catches (seen to fail): an empty cell's exit taken on the
     # wrong side, and the voxel past it not stepped along the exit axis; the level rows
     # uploaded untransposed (levels 3+ read from the wrong texels). With distance fields:
@@ -66,9 +67,11 @@ def test_dda_is_exact_against_the_cpu_traversal(plotter_factory, fill, mip_level
     labels[:12, :12, :12] = 0   # an empty corner the occupancy levels skip in one step
     pl = plotter(plotter_factory)
     actor = cm.add_voxels(pl, labels, mode="id", mip_levels=mip_levels,
-                          distance_field=distance_field)
+                          distance_field=distance_field, proxy=proxy)
     camera = set_camera(pl, eye, focal=(12.0, 10.0, 8.0))
     wrong, edge, hits = wrong_pixels(pl, actor.cubemarch.model, camera)
+    if proxy == "bricks":   # the rays did start at the shell
+        assert actor.cubemarch.shell.on_shell and actor.cubemarch.shell.depth.runs > 0
     assert (hits.material > 0).mean() > 0.1   # many voxels in view: a real test
     assert wrong == 0 and edge < 0.02 * hits.material.size
 
@@ -92,7 +95,8 @@ def test_fixed_step_misses_what_dda_hits(plotter_factory):
                                   "one-voxel", "sheet", "tiny", "huge"])
 @pytest.mark.parametrize("skipping", [{"mip_levels": 0}, {"mip_levels": 3, "distance_field": 2}],
                          ids=["plain", "mip3-df2"])
-def test_extremes(plotter_factory, case, skipping):
+@pytest.mark.parametrize("proxy", ["bricks", "box"])
+def test_extremes(plotter_factory, case, skipping, proxy):
     # With skipping, also catches (seen to fail): a skipped block's exit voxel taken from
     # the ray's start instead of its exit point (6 of the 8 cases fail).
     # Sparse with skipping, so empty cells and cubes are really left in one step.
@@ -127,7 +131,8 @@ def test_extremes(plotter_factory, case, skipping):
         labels = random_labels((1, 10, 8), 0.5, seed=4)
         position, focal = (12.0, 9.0, 10.0), (0.5, 5.0, 4.0)
     pl = plotter(plotter_factory, (49, 49))
-    actor = cm.add_voxels(pl, labels, mode="id", transform=transform, **skipping)
+    actor = cm.add_voxels(pl, labels, mode="id", transform=transform, proxy=proxy,
+                          **skipping)
     camera = set_camera(pl, position, focal=focal,
                         up=(0, 1, 0) if case != "axis-parallel" else (0, 1, 0), angle=50.0)
     if case == "parallel-projection":

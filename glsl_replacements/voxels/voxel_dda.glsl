@@ -50,7 +50,7 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
       ivec3 high = voxel + 1;
 #ifdef CM_MIP_LEVELS
       label = cm_levelLabel(voxel, level);
-      if (label != 0 && !passing)
+      if (label != 0 && !passing)   // a filled voxel, or a coarse cell with one under it
       {
         if (level == 0)
         {
@@ -68,6 +68,14 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
       {
         first = false;
         level = CM_MIP_LEVELS;
+#ifdef CM_SHELL_LEVEL
+        // From the brick shell the ray is next to a filled brick: its coarse cells are
+        // filled, so it starts below the bricks' level and climbs as it leaves them.
+        if (cm_startAtProxy > 0.5)
+        {
+          level = min(CM_MIP_LEVELS, CM_SHELL_LEVEL - 1);
+        }
+#endif
         continue;
       }
       first = false;

@@ -8,6 +8,10 @@ uniform float cm_labelScale;     // 255 (uint8) or 65535 (uint16)
 uniform sampler2D cm_palette;    // (materials x 1) RGBA
 uniform vec3 cm_gridDims;        // voxels along x, y, z
 uniform float cm_near;           // the near plane's view depth
+#ifdef CM_SHELL_LEVEL
+uniform float cm_startAtProxy;   // 1: rays start at the brick shell (its depth pass ran)
+uniform sampler2D cm_shellDepth; // per pixel, the view depth where the ray meets the shell
+#endif
 
 // The label of a voxel (0: empty), drawn or hidden.
 int cm_label(ivec3 voxel)

@@ -1,9 +1,23 @@
 // Material grid on its box actor (opaque pass, back faces; after VTK's lighting, which it
-// replaces): this pixel's ray (pixel_ray.glsl) from the near plane through the grid's box
-// (cm_slab), traversed to the first drawn voxel; its colour (the palette's, lit with
-// CM_LIGHTING, the voxel's id with CM_VOXEL_ID, its entered face with CM_VOXEL_FACE) and the real depth of the hit, so meshes
-// and other techniques occlude and are occluded exactly.
+// replaces): this pixel's ray (pixel_ray.glsl) through the grid's box (cm_slab), from the
+// box, the near plane or the brick shell (its depth pass), traversed to the first drawn
+// voxel; its colour (the palette's, lit with CM_LIGHTING, the voxel's id with CM_VOXEL_ID,
+// its entered face with CM_VOXEL_FACE) and the real depth of the hit, so meshes and other
+// techniques occlude and are occluded exactly.
 {
+#ifdef CM_SHELL_LEVEL
+  // Where the ray meets the brick shell (its depth pass), first: a pixel that meets none
+  // is done before any other work.
+  float cm_shell = cm_near;
+  if (cm_startAtProxy > 0.5)
+  {
+    cm_shell = texelFetch(cm_shellDepth, ivec2(gl_FragCoord.xy - cm_viewport.xy), 0).r;
+    if (cm_shell > 1e29)
+    {
+      discard;
+    }
+  }
+#endif
   vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
   vec3 cm_originView, cm_directionView;
   cm_pixelRay(cm_pixel * 2.0 - 1.0, cm_originView, cm_directionView);
@@ -11,7 +25,12 @@
   vec3 cm_origin = (cm_textureFromView * vec4(cm_originView, 1.0)).xyz;
   vec3 cm_direction = mat3(cm_textureFromView) * cm_directionView;
   vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
+  // From the box or the near plane; with the brick shell, from where the ray meets it
+  // (every voxel before that is empty), and not at all where it meets none.
   float cm_start = max(cm_inBox.x, cm_near);
+#ifdef CM_SHELL_LEVEL
+  cm_start = max(cm_start, cm_shell);
+#endif
   if (!(cm_inBox.y > cm_start))
   {
     discard;
@@ -21,7 +40,7 @@
   // The face of the grid box the ray enters through (-1 when it starts inside the box):
   // the axis whose slab it enters last, ties to the lowest axis (as the CPU reference).
   int cm_face = -1;
-  if (cm_inBox.x >= cm_near)
+  if (cm_inBox.x >= cm_start)
   {
     vec3 cm_moving = step(vec3(1e-30), abs(cm_direction));
     vec3 cm_safe = mix(vec3(1.0), cm_direction, cm_moving);

@@ -39,17 +39,18 @@ def camera_matrices(renderer) -> tuple[np.ndarray, np.ndarray]:
     return view, projection
 
 
-def box_actor(upper, world_from_index: np.ndarray, margin: float = 0.0) -> pyvista.Actor:
-    """The box ``[0, upper]`` (index space) placed by ``world_from_index``, back faces only.
+def box_actor(upper, world_from_index: np.ndarray, margin: float = 0.0,
+              lower=(0.0, 0.0, 0.0)) -> pyvista.Actor:
+    """The box ``[lower, upper]`` (index space) placed by ``world_from_index``, back faces.
 
     ``margin`` grows the drawn box on every side (index units): rasterisation covers a
     pixel whose centre is a hair inside the box's silhouette only when the edge is a
     sub-pixel step away, so a technique that clips its rays to the exact box in the shader
     draws a slightly larger box and loses no grazing pixel.
     """
-    upper = np.asarray(upper, dtype=np.float64)
-    lo, hi = -float(margin), upper + float(margin)
-    box = pyvista.Box(bounds=(lo, hi[0], lo, hi[1], lo, hi[2])).triangulate()
+    lo = np.asarray(lower, dtype=np.float64) - float(margin)
+    hi = np.asarray(upper, dtype=np.float64) + float(margin)
+    box = pyvista.Box(bounds=(lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])).triangulate()
     mapper = vtk.vtkOpenGLPolyDataMapper()
     mapper.SetInputData(box)
     actor = pyvista.Actor()
@@ -59,21 +60,47 @@ def box_actor(upper, world_from_index: np.ndarray, margin: float = 0.0) -> pyvis
     return actor
 
 
-def place_box(actor, world_from_index: np.ndarray, culling: bool = True) -> None:
-    """Place an actor drawn in index space; a box's culled side follows the handedness.
+def place_box(actor, world_from_index: np.ndarray, culling: bool = True,
+              faces: str = "back") -> None:
+    """Place an actor drawn in index space; the culled side follows the handedness.
 
     A placement with a negative determinant (negative spacing, a mirroring direction or
     transform) reverses the winding of every face on screen, so the faces GL sees as front
-    faces are then the box's back faces: with ``culling`` (the box actors, which draw only
-    back faces) the back faces are culled instead. Called again when the placement changes.
+    faces are then the box's back faces. With ``culling``, only ``faces`` (``'back'``: the
+    box actors; ``'front'``: a shell whose rays start where they meet it) are drawn. Called
+    again when the placement changes.
     """
     matrix = vtk.vtkMatrix4x4()
     matrix.DeepCopy(np.ascontiguousarray(world_from_index, dtype=np.float64).ravel().tolist())
     actor.SetUserMatrix(matrix)
     if culling:
         mirrored = bool(np.linalg.det(np.asarray(world_from_index)[:3, :3]) < 0)
-        actor.GetProperty().SetFrontfaceCulling(not mirrored)
-        actor.GetProperty().SetBackfaceCulling(mirrored)
+        cull_front = mirrored != (faces == "back")
+        actor.GetProperty().SetFrontfaceCulling(cull_front)
+        actor.GetProperty().SetBackfaceCulling(not cull_front)
+
+
+def quads_polydata(points: np.ndarray, quads: np.ndarray) -> pyvista.PolyData:
+    """Quads (``(n, 4)`` indices into ``points``) as triangles for a mapper."""
+    cells = np.hstack([np.full((len(quads), 1), 4), quads]).ravel()
+    return pyvista.PolyData(np.asarray(points, dtype=np.float64), cells).triangulate()
+
+
+def near_plane_reaches(renderer, world_from_index: np.ndarray, lower, upper,
+                       pad: float) -> bool:
+    """Whether the near plane reaches the box ``[lower, upper]`` grown by ``pad``.
+
+    Index space. False when every corner is deeper than the near plane: then every ray
+    enters the box from outside and nothing of it is clipped by the near plane.
+    """
+    view = camera_matrices(renderer)[0]
+    near = renderer.GetActiveCamera().GetClippingRange()[0]
+    low = np.asarray(lower, dtype=np.float64) - pad
+    high = np.asarray(upper, dtype=np.float64) + pad
+    corners = np.array([[x, y, z, 1.0] for x in (low[0], high[0]) for y in (low[1], high[1])
+                        for z in (low[2], high[2])]).T
+    depths = -(view @ np.asarray(world_from_index, dtype=np.float64) @ corners)[2]
+    return bool(depths.min() <= near)
 
 
 def bind_camera(target, renderer, world_from_texture: Callable[[], np.ndarray]) -> None:

@@ -229,6 +229,31 @@ def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
     return result
 
 
+#: The occupancy level of the bricks whose outer faces start the rays (``proxy='bricks'``)
+#: and their edge in voxels.
+PROXY_LEVEL = 1
+PROXY_BRICK = 1 << PROXY_LEVEL
+#: How far (voxels) the brick faces stand off the bricks, so rasterisation never drops a
+#: pixel whose ray enters a brick near its silhouette (vertex positions are float32).
+PROXY_MARGIN = 1.0 / 64.0
+
+
+def grown_by_one(mask: np.ndarray) -> np.ndarray:
+    """``mask`` grown by one cell in all 26 directions (separable, numpy only)."""
+    grown = np.asarray(mask, dtype=bool)
+    for axis in range(3):
+        if grown.shape[axis] < 2:
+            continue
+        ahead = [slice(None)] * 3
+        behind = [slice(None)] * 3
+        ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
+        spread = grown.copy()
+        spread[tuple(behind)] |= grown[tuple(ahead)]
+        spread[tuple(ahead)] |= grown[tuple(behind)]
+        grown = spread
+    return grown
+
+
 @dataclass(frozen=True)
 class LevelAtlas:
     """The labels and their occupancy levels ``1..n`` in one 3D texture of the labels' type.
@@ -310,17 +335,102 @@ def safe_radii(labels: np.ndarray, radius: int) -> np.ndarray:
     filled = np.asarray(labels) != 0
     result = np.zeros(filled.shape, np.uint8)
     for _ in range(int(radius)):
-        grown = filled
-        for axis in range(3):
-            if filled.shape[axis] < 2:
-                continue
-            ahead = [slice(None)] * 3
-            behind = [slice(None)] * 3
-            ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
-            spread = grown.copy()
-            spread[tuple(behind)] |= grown[tuple(ahead)]
-            spread[tuple(ahead)] |= grown[tuple(behind)]
-            grown = spread
-        filled = grown
+        filled = grown_by_one(filled)
         result += ~filled
     return result
+
+
+
+
+def filled_bounds(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(lower, upper)`` corners (index space) of the box around the filled voxels.
+
+    Both ``(0, 0, 0)`` for a grid with none.
+    """
+    filled = np.asarray(labels) != 0
+    lower, upper = np.zeros(3), np.zeros(3)
+    for axis in range(3):
+        along = np.flatnonzero(filled.any(axis=tuple(a for a in range(3) if a != axis)))
+        if not len(along):
+            return np.zeros(3), np.zeros(3)
+        lower[axis], upper[axis] = along[0], along[-1] + 1
+    return lower, upper
+
+
+def occupied_bricks(labels: np.ndarray, brick: int = PROXY_BRICK) -> np.ndarray:
+    """Per brick of ``brick``³ voxels (the last ones cut by the grid), whether any is filled."""
+    filled = np.asarray(labels) != 0
+    pad = [(0, -n % brick) for n in filled.shape]
+    grown = np.pad(filled, pad) if any(p for _, p in pad) else filled
+    nx, ny, nz = (n // brick for n in grown.shape)
+    return grown.reshape(nx, brick, ny, brick, nz, brick).any(axis=(1, 3, 5))
+
+
+def face_rectangles(mask: np.ndarray) -> np.ndarray:
+    """Cover the true cells of a 2D ``mask`` with disjoint rectangles, greedily.
+
+    Rows ``(u0, u1, v0, v1)``, ends excluded: each grows along ``v`` as far as it can, then
+    along ``u`` while the whole span is free. Fewer, larger faces draw faster on a
+    rasteriser that shades 4x4 blocks (llvmpipe).
+    """
+    free = np.array(mask, dtype=bool)
+    rectangles = []
+    for u0, v0 in np.argwhere(free):
+        if not free[u0, v0]:
+            continue
+        v1 = v0 + 1
+        while v1 < free.shape[1] and free[u0, v1]:
+            v1 += 1
+        u1 = u0 + 1
+        while u1 < free.shape[0] and free[u1, v0:v1].all():
+            u1 += 1
+        free[u0:u1, v0:v1] = False
+        rectangles.append((u0, u1, v0, v1))
+    return np.array(rectangles, dtype=np.int64).reshape(-1, 4)
+
+
+def brick_shell(labels: np.ndarray, brick: int = PROXY_BRICK,
+                margin: float = PROXY_MARGIN) -> tuple[np.ndarray, np.ndarray]:
+    """The outer faces of the filled bricks, as quads facing out: ``(points, quads)``.
+
+    A face is kept where a filled brick meets an empty one or the grid's side, so the
+    faces close around every filled voxel and a ray meets one before its first hit;
+    coplanar faces are merged into rectangles (:func:`face_rectangles`). Each quad stands
+    ``margin`` voxels off its bricks and reaches ``margin`` past its edges (the faces
+    overlap at the seams rather than leave cracks). Index space; ``points`` is ``(4 n, 3)``
+    float64, ``quads`` ``(n, 4)`` indices, counter-clockwise seen from outside.
+    """
+    occupied = occupied_bricks(labels, brick)
+    dims = np.array(np.asarray(labels).shape, dtype=np.float64)
+    corners = []
+    for axis in range(3):
+        u, v = (axis + 1) % 3, (axis + 2) % 3   # (axis, u, v) right-handed: u x v = axis
+        for side in (-1, 1):
+            neighbour = np.zeros_like(occupied)
+            inner = [slice(None)] * 3
+            outer = [slice(None)] * 3
+            if side > 0:
+                inner[axis], outer[axis] = slice(None, -1), slice(1, None)
+            else:
+                inner[axis], outer[axis] = slice(1, None), slice(None, -1)
+            neighbour[tuple(inner)] = occupied[tuple(outer)]
+            exposed = np.transpose(occupied & ~neighbour, (axis, u, v))
+            for layer in np.flatnonzero(exposed.any(axis=(1, 2))):
+                cells = face_rectangles(exposed[layer]).astype(np.float64)
+                plane = min((layer + (side > 0)) * brick, dims[axis]) + side * margin
+                u0 = cells[:, 0] * brick - margin
+                u1 = np.minimum(cells[:, 1] * brick, dims[u]) + margin
+                v0 = cells[:, 2] * brick - margin
+                v1 = np.minimum(cells[:, 3] * brick, dims[v]) + margin
+                ring = ((u0, v0), (u1, v0), (u1, v1), (u0, v1))
+                if side < 0:
+                    ring = ring[::-1]
+                face = np.empty((len(cells), 4, 3))
+                face[:, :, axis] = plane
+                for k, (cu, cv) in enumerate(ring):
+                    face[:, k, u] = cu
+                    face[:, k, v] = cv
+                corners.append(face.reshape(-1, 3))
+    points = np.concatenate(corners) if corners else np.zeros((0, 3))
+    quads = np.arange(len(points)).reshape(-1, 4)
+    return points, quads

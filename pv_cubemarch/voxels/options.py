@@ -11,6 +11,7 @@ from ..core.options import positive_number, whole_number
 TRAVERSALS = ("dda", "fixed")
 MODES = ("color", "id", "face")
 SHADINGS = ("unlit", "flat", "blinn")
+PROXIES = ("bricks", "box")
 #: Most occupancy mipmap levels (one atlas; the shader's table of level rows is a mat4).
 MAX_MIP_LEVELS = 12
 #: Largest radius of the neighbour distance field (the seed's 1..3: 8, 124, 342 neighbours).
@@ -41,6 +42,12 @@ class VoxelOptions:
     :func:`~pv_cubemarch.reference.voxels.occlusion_factor`) by a factor from 1 down to
     ``1 - occlusion_strength`` (0-1) that multiplies the unlit colour, or the ambient +
     diffuse term (not the highlight).
+    ``proxy``: the geometry whose pixels run the traversal. ``'bricks'`` (default): the
+    outer faces of the filled 8³ bricks (:func:`~pv_cubemarch.models.voxels.brick_shell`),
+    so pixels that see no filled brick run nothing and rays start next to the voxels; on
+    frames where the near plane reaches the grid it falls back to ``'box'``: the grid's
+    bounding box, every ray traversed from where it enters the box or from the near plane
+    (the seed's set-up, kept to measure the traversal alone). Exact either way.
     """
 
     traversal: str = "dda"
@@ -54,6 +61,7 @@ class VoxelOptions:
     specular_power: float = 30.0
     ambient_occlusion: bool = False
     occlusion_strength: float = 0.5
+    proxy: str = "bricks"
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
@@ -68,6 +76,8 @@ class VoxelOptions:
             if getattr(self, name) and self.traversal != "dda":
                 raise ValueError(f"{name} skips empty space in traversal='dda'; the fixed step "
                                  f"has none: pass {name}=0 with traversal='fixed'.")
+        if self.proxy not in PROXIES:
+            raise ValueError(f"proxy must be one of {PROXIES}, got {self.proxy!r}.")
         if self.shading not in SHADINGS:
             raise ValueError(f"shading must be one of {SHADINGS}, got {self.shading!r}.")
         positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)

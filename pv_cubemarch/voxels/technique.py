@@ -25,7 +25,9 @@ from ..gl.textures import Texture
 from ..models.lights import VolumeLight
 from ..models.volume import checked_transform
 from ..models.voxels import (
+    PROXY_BRICK,
     VoxelModel,
+    filled_bounds,
     level_atlas,
     occupancy_levels,
     safe_radii,
@@ -33,6 +35,7 @@ from ..models.voxels import (
 )
 from ..reference.voxels import render_voxels, trace_voxels
 from .options import VoxelOptions
+from .proxy import ShellStart
 
 #: Most scene lights a grid is lit by (two mat4 of light vectors and colours).
 MAX_VOXEL_LIGHTS = 8
@@ -56,6 +59,8 @@ def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
     ], defines={"CM_VOXEL_ID": options.mode == "id", "CM_VOXEL_FACE": options.mode == "face",
                 "CM_LIGHTING": lit,
                 "CM_MIP_LEVELS": options.mip_levels or None,
+                "CM_SHELL_LEVEL": (PROXY_BRICK.bit_length() - 1 if options.proxy == "bricks"
+                                   else None),
                 "CM_DISTANCE_FIELD": options.distance_field or None,
                 "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion})
 
@@ -173,6 +178,8 @@ class VoxelBinding(DrawnBinding):
         self.options = options
         #: The distance field's texture, when used (the levels live in ``labels``).
         self.skipping: list[Texture] = []
+        #: The brick shell whose depth pass starts the rays (``proxy='bricks'``).
+        self.shell: ShellStart | None = None
 
     @property
     def palette(self):
@@ -229,8 +236,9 @@ class VoxelBinding(DrawnBinding):
     def set_transform(self, transform) -> None:
         """Move the grid: ``transform`` is its new 4x4 placement in the world."""
         self.model.transform = checked_transform(transform)
-        for actor in self.drawn:
-            place_box(actor, self.model.world_from_index())
+        place_box(self.drawn[0], self.model.world_from_index())
+        if self.shell is not None:
+            self.shell.place()
         if self.main_renderer is not None:
             self.main_renderer.ResetCameraClippingRange()
 
@@ -240,6 +248,8 @@ class VoxelBinding(DrawnBinding):
             return
         self._released = True
         self.bindings.release()
+        if self.shell is not None:
+            self.shell.release()
         self.labels.release()
         self.palette_texture.release()
 
@@ -251,8 +261,11 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     options = options.for_grid(useful_levels(levels))
     # 1 % larger on every side: the shader clips each ray to the exact grid box, so pixels
     # whose rays graze the box's edges are covered and decided there, not by rasterisation.
-    actor = box_actor(model.dimensions, model.world_from_index(),
-                      margin=0.01 * max(model.dimensions))
+    # With the brick shell, rays meet filled voxels only inside the box around them.
+    lower, upper = ((0, 0, 0), model.dimensions) if options.proxy == "box" else \
+        filled_bounds(model.labels)
+    actor = box_actor(upper, model.world_from_index(), margin=0.01 * max(model.dimensions),
+                      lower=lower)
     actor.ForceTranslucentOff()
     actor.ForceOpaqueOn()
     actor.GetProperty().LightingOff()   # VTK's lighting code would run for nothing
@@ -271,11 +284,16 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     if options.mode == "color" and options.ambient_occlusion:
         bindings.set_uniform("cm_occlusionStrength", float(options.occlusion_strength))
     bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
+    shell = ShellStart(model, renderer) if options.proxy == "bricks" else None
+    if shell is not None:
+        bindings.add_texture("cm_shellDepth", shell.depth)
+        bindings.set_uniform("cm_startAtProxy", lambda: shell.start_at_shell)
     recipe = voxel_recipe(options)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
     binding = VoxelBinding(model, bindings, recipe, labels, palette, options)
     binding.skipping = skipping
+    binding.shell = shell
     binding.drawn = [actor]
     binding.renderer = renderer
     pyvista.set_new_attribute(actor, "cubemarch", binding)

@@ -1,0 +1,114 @@
+"""A geometry pass: per pixel, the view depth of the nearest face of an actor's mesh.
+
+Drawn into a float target at the start of a frame (context current, nothing drawn yet),
+with the depth test keeping the nearest face; a technique's actor reads it to start its
+rays there. The mesh's many small faces cost little in this pass, whose shader only writes
+a depth, while the ray marching runs once per pixel on the technique's own large faces (a
+rasteriser that shades 4x4 blocks, as llvmpipe, runs a long shader once per block a face
+touches, so small faces with a long shader waste most of it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import vtk
+from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLFramebufferObject, vtkTextureObject
+
+from ..core.frame_errors import observe
+from .bindings import TextureUnitLedger
+
+#: What the target holds where no face is drawn (farther than any depth).
+NO_FACE = 1e30
+_R32F = 0x822E
+_DEPTH_AND_COLOR = 0x00000100 | 0x00004000
+_DEPTH_TEST, _BLEND, _LESS = 0x0B71, 0x0BE2, 0x0201
+
+
+class FaceDepthPass:
+    """Draw ``actor`` (not in the renderer) into a float target at each frame's start.
+
+    The actor's shader must write its fragment's view depth as red (e.g.
+    ``voxel_shell_depth.glsl``); the target holds :data:`NO_FACE` elsewhere. ``run_when``
+    is asked at each frame: the pass runs only when it returns ``True``.
+    """
+
+    kind = "2d"
+
+    def __init__(self, renderer, actor, run_when: Callable[[], bool]):
+        self.renderer = renderer
+        self.actor = actor
+        self.run_when = run_when
+        self.runs = 0
+        self._target = self._depth = self._fbo = None
+        self._size = (0, 0)
+        self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start)
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes: the float target and its depth buffer."""
+        return self._size[0] * self._size[1] * 8
+
+    def ensure(self, window) -> vtkTextureObject:
+        """The target, as :class:`~pv_cubemarch.gl.bindings.ShaderBindings` binds textures."""
+        if self._target is None:
+            self._create(window, tuple(max(1, int(v)) for v in self.renderer.GetSize()))
+        return self._target
+
+    def _create(self, window, size: tuple[int, int]) -> None:
+        self._release_targets(window)
+        self._target = vtkTextureObject()
+        self._target.SetContext(window)
+        self._target.SetInternalFormat(_R32F)
+        self._target.Allocate2D(size[0], size[1], 1, vtk.VTK_FLOAT)
+        self._target.SetMinificationFilter(vtkTextureObject.Nearest)
+        self._target.SetMagnificationFilter(vtkTextureObject.Nearest)
+        self._depth = vtkTextureObject()
+        self._depth.SetContext(window)
+        self._depth.AllocateDepth(size[0], size[1], vtkTextureObject.Float32)
+        self._fbo = vtkOpenGLFramebufferObject()
+        self._fbo.SetContext(window)
+        self._size = size
+
+    def _on_start(self, *_) -> None:
+        if not self.run_when():
+            return
+        window = self.renderer.GetRenderWindow()
+        TextureUnitLedger.release_window(window)
+        size = tuple(max(1, int(v)) for v in self.renderer.GetSize())
+        if self._fbo is None or size != self._size:
+            self._create(window, size)
+        state = window.GetState()
+        state.Push()
+        state.PushFramebufferBindings()
+        try:
+            self._fbo.Bind()
+            self._fbo.AddColorAttachment(0, self._target)
+            self._fbo.AddDepthAttachment(self._depth)
+            self._fbo.ActivateDrawBuffers(1)
+            self._fbo.Start(*size)
+            state.vtkglClearColor(NO_FACE, 0.0, 0.0, 0.0)
+            state.vtkglClearDepth(1.0)
+            state.vtkglDepthMask(True)
+            state.vtkglEnable(_DEPTH_TEST)
+            state.vtkglDepthFunc(_LESS)
+            state.vtkglDisable(_BLEND)
+            state.vtkglClear(_DEPTH_AND_COLOR)
+            self.actor.RenderOpaqueGeometry(self.renderer)
+        finally:
+            state.PopFramebufferBindings()
+            state.Pop()
+        self.runs += 1
+
+    def _release_targets(self, window) -> None:
+        for gl_object in (self._target, self._depth, self._fbo):
+            if gl_object is not None:
+                gl_object.ReleaseGraphicsResources(window)
+        self._target = self._depth = self._fbo = None
+
+    def release(self) -> None:
+        """Free the target and stop running (safe to call twice)."""
+        if self._tag is not None:
+            self.renderer.RemoveObserver(self._tag)
+            self._tag = None
+        self._release_targets(self.renderer.GetRenderWindow())

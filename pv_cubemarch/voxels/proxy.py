@@ -1,0 +1,74 @@
+"""Where a grid's rays start: at the brick shell, or where they enter the grid's box.
+
+The brick shell (:func:`~pv_cubemarch.models.voxels.brick_shell`) closes around every
+filled voxel. At the start of each frame a depth pass (:class:`FaceDepthPass`) draws its
+front faces: per pixel, the view depth where the ray first meets it. The grid's box then
+traverses each pixel's ray from there (every voxel before it is empty) and skips pixels that
+meet no face. That holds only for rays that come from outside the filled voxels' box: on
+frames where the near plane reaches it, no pass runs and the rays start at the box or the
+near plane.
+"""
+
+from __future__ import annotations
+
+import pyvista
+import vtk
+
+from ..gl.bindings import ShaderBindings
+from ..gl.box import camera_matrices, near_plane_reaches, place_box, quads_polydata
+from ..gl.face_depth import FaceDepthPass
+from ..gl.shaders import Replacement, ShaderRecipe
+from ..models.voxels import PROXY_MARGIN, VoxelModel, brick_shell, filled_bounds
+
+#: How far (voxels) from the filled voxels' box the near plane must stay for the shell:
+#: beyond the shell's faces, which stand PROXY_MARGIN off the voxels.
+NEAR_PLANE_PAD = 2.0 * PROXY_MARGIN
+
+SHELL_RECIPE = ShaderRecipe(replacements=[
+    Replacement("//VTK::Color::Dec", "voxel_shell_declarations", keep_tag="after"),
+    Replacement("//VTK::Light::Impl", "voxel_shell_depth", keep_tag="before"),
+    Replacement("//VTK::PositionVC::Dec", "voxel_proxy_declarations", stage="vertex",
+                keep_tag="after"),
+    Replacement("//VTK::PositionVC::Impl", "voxel_proxy_vertex", stage="vertex",
+                keep_tag="before"),
+])
+
+
+class ShellStart:
+    """The brick shell of one grid, its depth pass, and whether it is used this frame."""
+
+    def __init__(self, model: VoxelModel, renderer):
+        self.model = model
+        self.renderer = renderer
+        self.bounds = filled_bounds(model.labels)
+        self.actor = pyvista.Actor()
+        mapper = vtk.vtkOpenGLPolyDataMapper()
+        mapper.SetInputData(quads_polydata(*brick_shell(model.labels)))
+        self.actor.SetMapper(mapper)
+        self.actor.GetProperty().LightingOff()
+        self.bindings = ShaderBindings(mapper, renderer, SHELL_RECIPE)
+        self.bindings.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
+        SHELL_RECIPE.apply(self.actor.GetShaderProperty())
+        self.on_shell = False
+        self.place()
+        self.depth = FaceDepthPass(renderer, self.actor, self.choose)
+
+    @property
+    def start_at_shell(self) -> float:
+        """The shader's ``cm_startAtProxy``: 1 on frames the depth pass drew."""
+        return 1.0 if self.on_shell else 0.0
+
+    def choose(self) -> bool:
+        """Use the shell unless the near plane reaches the filled voxels' box; returns it."""
+        self.on_shell = not near_plane_reaches(
+            self.renderer, self.model.world_from_index(), *self.bounds, NEAR_PLANE_PAD)
+        return self.on_shell
+
+    def place(self) -> None:
+        """Place the shell like the grid, drawing its front faces."""
+        place_box(self.actor, self.model.world_from_index(), faces="front")
+
+    def release(self) -> None:
+        """Stop the pass and free its target and shader bindings."""
+        self.depth.release()
+        self.bindings.release()
