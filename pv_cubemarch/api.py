@@ -272,9 +272,9 @@ def voxel_options(**given) -> VoxelOptions:
     **given
         Any of ``add_voxels``'s options (``traversal``, ``step_scale``, ``mip_levels``,
         ``distance_field``, ``mode``, ``shading``, ``ambient``, ``specular``,
-        ``specular_power``, ``ambient_occlusion``, ``occlusion_strength``); ``None`` or
-        left out takes the default (``mip_levels``: the levels that pay off with the DDA,
-        none with the fixed step).
+        ``specular_power``, ``ambient_occlusion``, ``occlusion_strength``, ``proxy``);
+        ``None`` or left out takes the default (``mip_levels``: the levels that pay off
+        with the DDA, none with the fixed step).
 
     Returns
     -------

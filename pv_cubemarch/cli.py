@@ -106,6 +106,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="darken each face's corners by the voxels beside them")
     vox.add_argument("--occlusion-strength", type=float,
                      help="darkening of a fully occluded corner (0-1, default 0.5)")
+    vox.add_argument("--proxy", choices=("bricks", "box"),
+                     help="what starts the rays: the filled bricks' faces (default) or the "
+                          "grid's box")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
     info.add_argument("scene", nargs="?", help="scene file to describe")
@@ -198,7 +201,7 @@ def _render(args) -> int:
               "shading": args.shading, "mode": args.mode, "specular": args.specular,
               "specular_power": args.specular_power,
               "ambient_occlusion": args.ambient_occlusion,
-              "occlusion_strength": args.occlusion_strength}
+              "occlusion_strength": args.occlusion_strength, "proxy": args.proxy}
     given = {k: v for k, v in chosen.items() if v is not None}
     if given.get("lights") == "none":
         given["lights"] = None

@@ -296,10 +296,10 @@ def test_voxel_flags_reach_voxel_grids_and_volume_flags_volumes(tmp_path, monkey
     seen["voxels"].clear()
     assert main(["render", str(tmp_path / "mixed.usda"), "-o", str(out), "--size", "40x30",
                  "--distance-field", "2", "--mip-levels", "4", "--ambient-occlusion",
-                 "--occlusion-strength", "0.7", "--no-progress"]) == 0
+                 "--occlusion-strength", "0.7", "--proxy", "box", "--no-progress"]) == 0
     assert seen == {"volume": [{}], "voxels": [{"distance_field": 2, "mip_levels": 4,
                                                 "ambient_occlusion": True,
-                                                "occlusion_strength": 0.7}]}
+                                                "occlusion_strength": 0.7, "proxy": "box"}]}
 
 
 def test_render_help_lists_voxels_from_the_registry():

@@ -117,13 +117,13 @@ def test_usd_voxel_options_and_colormap_reach_add_voxels(tmp_path, plotter_facto
     path = write_voxel_stage(tmp_path, labels, stage_name="dda.usda", attrs={
         "cubemarch:mipLevels": ("Int", 2), "cubemarch:distanceField": ("Int", 2),
         "cubemarch:ambientOcclusion": ("Bool", True),
-        "cubemarch:occlusionStrength": ("Float", 0.75)})
+        "cubemarch:occlusionStrength": ("Float", 0.75), "cubemarch:proxy": ("String", "box")})
     scene = cm.load_scene(path)
     assert scene.voxel_options["/Vox"] == {"mip_levels": 2, "distance_field": 2,
                                            "ambient_occlusion": True,
-                                           "occlusion_strength": 0.75}
+                                           "occlusion_strength": 0.75, "proxy": "box"}
     options = scene.add_to(plotter_factory(SIZE))["/Vox"].cubemarch.options
-    assert (options.mip_levels, options.distance_field) == (2, 2)
+    assert (options.mip_levels, options.distance_field, options.proxy) == (2, 2, "box")
     assert options.ambient_occlusion and options.occlusion_strength == 0.75
 
 

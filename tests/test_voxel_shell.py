@@ -93,6 +93,8 @@ def test_shell_start_draws_the_entered_faces_exactly(plotter_factory):
     wrong = np.any(image != face_colors(hits).astype(int), axis=-1) & ~hits.near_edge
     assert actor.cubemarch.shell.on_shell and (hits.material > 0).mean() > 0.05
     assert wrong.sum() == 0
+    # The pass holds a float and a 32-bit depth per pixel (by hand: 64 x 48 x 8 bytes).
+    assert actor.cubemarch.shell.depth.nbytes == 64 * 48 * 8
 
 
 def test_near_plane_in_the_filled_box_falls_back_to_the_box(plotter_factory):

@@ -268,7 +268,8 @@ def test_cell_and_point_data_and_uint16(plotter_factory):
     # (z from 2), along x from 4 - (4 >> (L - 1)) + L - 1 = 0, 3, 5: the atlas is
     # max(4, 5 + 1) x max(3, 2) x (2 + 1) texels of two bytes.
     assert actor.cubemarch.labels.nbytes == 6 * 3 * 3 * 2
-    assert actor.cubemarch.nbytes == 6 * 3 * 3 * 2 + model.palette.rgba.nbytes
+    assert actor.cubemarch.nbytes == (6 * 3 * 3 * 2 + model.palette.rgba.nbytes
+                                      + actor.cubemarch.shell.nbytes)
 
 
 def test_pick_returns_what_is_drawn(plotter_factory):
@@ -375,7 +376,8 @@ def test_skipping_structures_leave_the_host_and_come_back_from_the_labels(plotte
     # their levels more.
     assert skipping[1].nbytes == labels.size and skipping[0].nbytes > labels.size
     assert actor.cubemarch.nbytes == (labels.size + skipping[0].nbytes
-                                      + actor.cubemarch.palette_texture.nbytes)
+                                      + actor.cubemarch.palette_texture.nbytes
+                                      + actor.cubemarch.shell.nbytes)
     for texture in skipping:
         texture.release()
     wrong, _, hits = wrong_pixels(pl, actor.cubemarch.model, camera)

@@ -20,9 +20,9 @@ A ``Volume`` with ``cubemarch:technique = "voxels"`` (or every ``Volume`` with
 colormap name), with optional ``cubemarch:paletteOpacity`` (``float[]``, one per palette
 entry, 0 hides a material); its options are :data:`VOXEL_OPTIONS` (``traversal``,
 ``stepScale``, ``mipLevels``, ``distanceField``, ``mode``, ``shading``, ``ambient``,
-``specular``, ``specularPower``, ``ambientOcclusion``, ``occlusionStrength``), checked
-when the stage is loaded. A numpy label array fills voxels
-from ``cubemarch:origin`` (the grid box's corner), as ``add_voxels`` places an array.
+``specular``, ``specularPower``, ``ambientOcclusion``, ``occlusionStrength``, ``proxy``),
+checked when the stage is loaded. A numpy label array fills voxels from
+``cubemarch:origin`` (the grid box's corner), as ``add_voxels`` places an array.
 """
 
 from __future__ import annotations
@@ -372,7 +372,7 @@ VOXEL_OPTIONS = (
     ("ambient", "ambient", float), ("specular", "specular", float),
     ("specularPower", "specular_power", float),
     ("ambientOcclusion", "ambient_occlusion", bool),
-    ("occlusionStrength", "occlusion_strength", float),
+    ("occlusionStrength", "occlusion_strength", float), ("proxy", "proxy", str),
 )
 
 #: Volume attributes that a voxels Volume prim must not carry.

@@ -54,6 +54,17 @@ class ShellStart:
         self.depth = FaceDepthPass(renderer, self.actor, self.choose)
 
     @property
+    def nbytes(self) -> int:
+        """GPU bytes: the depth pass's targets and the shell's vertices and triangles."""
+        mesh = self.actor.GetMapper().GetInput()
+        return self.depth.nbytes + 12 * (mesh.GetNumberOfPoints() + mesh.GetNumberOfCells())
+
+    @property
+    def host_nbytes(self) -> int:
+        """Host bytes of the shell's mesh."""
+        return self.actor.GetMapper().GetInput().GetActualMemorySize() * 1024
+
+    @property
     def start_at_shell(self) -> float:
         """The shader's ``cm_startAtProxy``: 1 on frames the depth pass drew."""
         return 1.0 if self.on_shell else 0.0

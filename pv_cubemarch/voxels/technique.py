@@ -188,9 +188,10 @@ class VoxelBinding(DrawnBinding):
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes: labels (1 or 2 per voxel, with their levels), palette, distance field."""
+        """GPU bytes: labels (with levels), palette, distance field, shell and its pass."""
         return (self.labels.nbytes + self.palette_texture.nbytes
-                + sum(t.nbytes for t in self.skipping))
+                + sum(t.nbytes for t in self.skipping)
+                + (self.shell.nbytes if self.shell is not None else 0))
 
     @property
     def derived_textures(self) -> list[Texture]:
