@@ -121,3 +121,43 @@ def test_an_empty_grid_draws_nothing(plotter_factory):
     cm.add_voxels(pl, np.zeros((8, 8, 8), np.uint8), mode="id")
     set_camera(pl, (20.0, 15.0, 18.0), focal=(4.0, 4.0, 4.0))
     assert not cm.render_image(pl).any()
+
+
+def test_depth_pass_runs_only_when_the_view_changes(plotter_factory):
+    # catches: the pass skipped after the camera moved (the old start depths: wrong ids),
+    # or run again on frames that changed nothing.
+    labels = random_labels((16, 12, 10), 0.05, seed=6)
+    pl = plotter(plotter_factory)
+    actor = cm.add_voxels(pl, labels, mode="id")
+    depth = actor.cubemarch.shell.depth
+    camera = set_camera(pl, (30.0, 22.0, 26.0), focal=(8.0, 6.0, 5.0))
+    assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0
+    runs = depth.runs
+    cm.render_image(pl)
+    assert depth.runs == runs
+    camera = set_camera(pl, (-14.0, 30.0, 20.0), focal=(8.0, 6.0, 5.0))
+    assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0 and depth.runs == runs + 1
+    actor.cubemarch.set_transform(np.diag([1.0, 1.0, -1.0, 1.0]))   # mirrored in place
+    camera = set_camera(pl, (-14.0, 30.0, -20.0), focal=(8.0, 6.0, -5.0))
+    assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0 and depth.runs == runs + 2
+
+
+def test_scattered_content_takes_coarser_bricks_or_none(plotter_factory, monkeypatch):
+    # A sphere's shell fits the face budget at the finest level; a 1 % random fill makes
+    # a face per scattered brick and takes coarser bricks. With no level within the
+    # budget, the grid draws without a shell, still exactly.
+    from pv_cubemarch.models import voxels as models
+
+    x, y, z = np.mgrid[0:48, 0:48, 0:48]
+    ball = ((x - 24) ** 2 + (y - 24) ** 2 + (z - 24) ** 2 < 15 ** 2).astype(np.uint8)
+    assert models.choose_shell(ball).level == 1
+    monkeypatch.setattr(models, "SHELL_FACE_BUDGET", 400)
+    scattered = random_labels((48, 48, 48), 0.01, seed=2)
+    assert models.choose_shell(scattered).level > 1
+    monkeypatch.setattr(models, "SHELL_FACE_BUDGET", 0)
+    labels = random_labels((16, 12, 10), 0.05, seed=6)
+    pl = plotter(plotter_factory)
+    actor = cm.add_voxels(pl, labels, mode="id")
+    assert actor.cubemarch.shell is None
+    camera = set_camera(pl, (30.0, 22.0, 26.0), focal=(8.0, 6.0, 5.0))
+    assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0

@@ -229,10 +229,12 @@ def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
     return result
 
 
-#: The occupancy level of the bricks whose outer faces start the rays (``proxy='bricks'``)
-#: and their edge in voxels.
-PROXY_LEVEL = 1
-PROXY_BRICK = 1 << PROXY_LEVEL
+#: Occupancy levels whose bricks' outer faces may start the rays (``proxy='bricks'``),
+#: finest first: the first whose shell has at most SHELL_FACE_BUDGET faces is used (finer
+#: bricks start rays nearer their hits; scattered content makes too many faces, whose depth
+#: pass then costs more than it saves).
+SHELL_LEVELS = (1, 2, 3)
+SHELL_FACE_BUDGET = 16384
 #: How far (voxels) the brick faces stand off the bricks, so rasterisation never drops a
 #: pixel whose ray enters a brick near its silhouette (vertex positions are float32).
 PROXY_MARGIN = 1.0 / 64.0
@@ -357,7 +359,7 @@ def filled_bounds(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lower, upper
 
 
-def occupied_bricks(labels: np.ndarray, brick: int = PROXY_BRICK) -> np.ndarray:
+def occupied_bricks(labels: np.ndarray, brick: int) -> np.ndarray:
     """Per brick of ``brick``³ voxels (the last ones cut by the grid), whether any is filled."""
     filled = np.asarray(labels) != 0
     pad = [(0, -n % brick) for n in filled.shape]
@@ -389,8 +391,8 @@ def face_rectangles(mask: np.ndarray) -> np.ndarray:
     return np.array(rectangles, dtype=np.int64).reshape(-1, 4)
 
 
-def brick_shell(labels: np.ndarray, brick: int = PROXY_BRICK,
-                margin: float = PROXY_MARGIN) -> tuple[np.ndarray, np.ndarray]:
+def brick_shell(labels: np.ndarray, brick: int, margin: float = PROXY_MARGIN,
+                max_faces: int | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """The outer faces of the filled bricks, as quads facing out: ``(points, quads)``.
 
     A face is kept where a filled brick meets an empty one or the grid's side, so the
@@ -398,9 +400,12 @@ def brick_shell(labels: np.ndarray, brick: int = PROXY_BRICK,
     coplanar faces are merged into rectangles (:func:`face_rectangles`). Each quad stands
     ``margin`` voxels off its bricks and reaches ``margin`` past its edges (the faces
     overlap at the seams rather than leave cracks). Index space; ``points`` is ``(4 n, 3)``
-    float64, ``quads`` ``(n, 4)`` indices, counter-clockwise seen from outside.
+    float64, ``quads`` ``(n, 4)`` indices, counter-clockwise seen from outside. ``None``
+    when it would have more than ``max_faces`` faces (given).
     """
     occupied = occupied_bricks(labels, brick)
+    if max_faces is not None and _exposed_faces(occupied) > 16 * max_faces:
+        return None   # merging rarely saves that much: not worth merging to find out
     dims = np.array(np.asarray(labels).shape, dtype=np.float64)
     corners = []
     for axis in range(3):
@@ -433,4 +438,31 @@ def brick_shell(labels: np.ndarray, brick: int = PROXY_BRICK,
                 corners.append(face.reshape(-1, 3))
     points = np.concatenate(corners) if corners else np.zeros((0, 3))
     quads = np.arange(len(points)).reshape(-1, 4)
+    if max_faces is not None and len(quads) > max_faces:
+        return None
     return points, quads
+
+
+def _exposed_faces(occupied: np.ndarray) -> int:
+    """How many brick faces border an empty brick or the grid's side (before merging)."""
+    padded = np.pad(occupied, 1)
+    return int(sum((padded & ~np.roll(padded, shift, axis)).sum()
+                   for axis in range(3) for shift in (-1, 1)))
+
+
+@dataclass(frozen=True)
+class BrickShell:
+    """The outer faces (:func:`brick_shell`) of the filled bricks of occupancy ``level``."""
+
+    level: int
+    points: np.ndarray
+    quads: np.ndarray
+
+
+def choose_shell(labels: np.ndarray) -> BrickShell | None:
+    """The finest shell of :data:`SHELL_LEVELS` within :data:`SHELL_FACE_BUDGET` faces."""
+    for level in SHELL_LEVELS:
+        shell = brick_shell(labels, 1 << level, max_faces=SHELL_FACE_BUDGET)
+        if shell is not None:
+            return BrickShell(level, *shell)
+    return None

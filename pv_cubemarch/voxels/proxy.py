@@ -1,6 +1,6 @@
 """Where a grid's rays start: at the brick shell, or where they enter the grid's box.
 
-The brick shell (:func:`~pv_cubemarch.models.voxels.brick_shell`) closes around every
+The brick shell (:func:`~pv_cubemarch.models.voxels.choose_shell`) closes around every
 filled voxel. At the start of each frame a depth pass (:class:`FaceDepthPass`) draws its
 front faces: per pixel, the view depth where the ray first meets it. The grid's box then
 traverses each pixel's ray from there (every voxel before it is empty) and skips pixels that
@@ -18,7 +18,7 @@ from ..gl.bindings import ShaderBindings
 from ..gl.box import camera_matrices, near_plane_reaches, place_box, quads_polydata
 from ..gl.face_depth import FaceDepthPass
 from ..gl.shaders import Replacement, ShaderRecipe
-from ..models.voxels import PROXY_MARGIN, VoxelModel, brick_shell, filled_bounds
+from ..models.voxels import PROXY_MARGIN, BrickShell, VoxelModel, filled_bounds
 
 #: How far (voxels) from the filled voxels' box the near plane must stay for the shell:
 #: beyond the shell's faces, which stand PROXY_MARGIN off the voxels.
@@ -37,21 +37,23 @@ SHELL_RECIPE = ShaderRecipe(replacements=[
 class ShellStart:
     """The brick shell of one grid, its depth pass, and whether it is used this frame."""
 
-    def __init__(self, model: VoxelModel, renderer):
+    def __init__(self, model: VoxelModel, renderer, shell: BrickShell):
         self.model = model
         self.renderer = renderer
+        self.level = shell.level
         self.bounds = filled_bounds(model.labels)
         self.actor = pyvista.Actor()
         mapper = vtk.vtkOpenGLPolyDataMapper()
-        mapper.SetInputData(quads_polydata(*brick_shell(model.labels)))
+        mapper.SetInputData(quads_polydata(shell.points, shell.quads))
         self.actor.SetMapper(mapper)
         self.actor.GetProperty().LightingOff()
         self.bindings = ShaderBindings(mapper, renderer, SHELL_RECIPE)
         self.bindings.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
         SHELL_RECIPE.apply(self.actor.GetShaderProperty())
         self.on_shell = False
+        self._drawn_for = None   # the view the pass last drew for
         self.place()
-        self.depth = FaceDepthPass(renderer, self.actor, self.choose)
+        self.depth = FaceDepthPass(renderer, self.actor, self.pass_needed)
 
     @property
     def nbytes(self) -> int:
@@ -74,6 +76,22 @@ class ShellStart:
         self.on_shell = not near_plane_reaches(
             self.renderer, self.model.world_from_index(), *self.bounds, NEAR_PLANE_PAD)
         return self.on_shell
+
+    def pass_needed(self) -> bool:
+        """Whether the depth pass draws this frame: the shell is used, and the view changed.
+
+        The camera, the viewport's size or the grid's placement: the target keeps the last
+        drawing otherwise.
+        """
+        if not self.choose():
+            return False
+        camera = self.renderer.GetActiveCamera()
+        view = (camera.GetMTime(), tuple(self.renderer.GetSize()),
+                self.model.world_from_index().tobytes())
+        if view == self._drawn_for and self.depth.runs:
+            return False
+        self._drawn_for = view
+        return True
 
     def place(self) -> None:
         """Place the shell like the grid, drawing its front faces."""

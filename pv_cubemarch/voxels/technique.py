@@ -25,8 +25,8 @@ from ..gl.textures import Texture
 from ..models.lights import VolumeLight
 from ..models.volume import checked_transform
 from ..models.voxels import (
-    PROXY_BRICK,
     VoxelModel,
+    choose_shell,
     filled_bounds,
     level_atlas,
     occupancy_levels,
@@ -41,8 +41,11 @@ from .proxy import ShellStart
 MAX_VOXEL_LIGHTS = 8
 
 
-def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
-    """The box actor's replacements for the chosen traversal, mode, shading and occlusion."""
+def voxel_recipe(options: VoxelOptions, shell_level: int | None = None) -> ShaderRecipe:
+    """The box actor's replacements for the chosen traversal, mode, shading and occlusion.
+
+    ``shell_level``: the occupancy level of the brick shell that starts the rays, if any.
+    """
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
     lit = options.mode == "color" and options.shading != "unlit"
     skipping = (("voxel_mip",) if options.mip_levels else ()) + (
@@ -59,8 +62,7 @@ def voxel_recipe(options: VoxelOptions) -> ShaderRecipe:
     ], defines={"CM_VOXEL_ID": options.mode == "id", "CM_VOXEL_FACE": options.mode == "face",
                 "CM_LIGHTING": lit,
                 "CM_MIP_LEVELS": options.mip_levels or None,
-                "CM_SHELL_LEVEL": (PROXY_BRICK.bit_length() - 1 if options.proxy == "bricks"
-                                   else None),
+                "CM_SHELL_LEVEL": shell_level,
                 "CM_DISTANCE_FIELD": options.distance_field or None,
                 "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion})
 
@@ -285,11 +287,12 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     if options.mode == "color" and options.ambient_occlusion:
         bindings.set_uniform("cm_occlusionStrength", float(options.occlusion_strength))
     bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
-    shell = ShellStart(model, renderer) if options.proxy == "bricks" else None
+    bricks = choose_shell(model.labels) if options.proxy == "bricks" else None
+    shell = ShellStart(model, renderer, bricks) if bricks is not None else None
     if shell is not None:
         bindings.add_texture("cm_shellDepth", shell.depth)
         bindings.set_uniform("cm_startAtProxy", lambda: shell.start_at_shell)
-    recipe = voxel_recipe(options)
+    recipe = voxel_recipe(options, shell.level if shell is not None else None)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
     binding = VoxelBinding(model, bindings, recipe, labels, palette, options)
