@@ -9,6 +9,8 @@ import vtk
 from vtkmodules.util.numpy_support import numpy_to_vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLVertexBufferObject, vtkTextureObject
 
+from .sub_upload import sub_image_3d, sub_image_available
+
 _VTK_TYPES = {np.dtype(np.float32): vtk.VTK_FLOAT, np.dtype(np.uint8): vtk.VTK_UNSIGNED_CHAR,
               np.dtype(np.uint16): vtk.VTK_UNSIGNED_SHORT}
 
@@ -42,6 +44,9 @@ class Texture:
         self._buffer: vtkOpenGLVertexBufferObject | None = None
         self._window = None
         self.upload_count = 0
+        #: Bytes sent to the GPU so far (whole uploads and regions).
+        self.uploaded_bytes = 0
+        self._regions: list[tuple[tuple[int, int, int], np.ndarray]] = []
         self.rebuild = rebuild
         self.set_data(array)
 
@@ -56,7 +61,44 @@ class Texture:
                              f"got shape {array.shape}.")
         self.array: np.ndarray | None = array
         self._shape, self._nbytes = array.shape, int(array.nbytes)
+        self._dtype = array.dtype
         self._dirty = True
+        self._regions = []
+
+    def invalidate(self) -> None:
+        """Upload the whole texture again at the next draw (remade first, if rebuildable).
+
+        For data changed in place: an array the texture shares, or what ``rebuild`` reads.
+        """
+        if self.rebuild is not None:
+            self.array = None
+        self._dirty = True
+        self._regions = []
+
+    def update_region(self, origin, block: np.ndarray) -> None:
+        """Replace the texels ``block`` (3D, one component) from ``origin`` on.
+
+        Uploaded at the next draw as that region alone (``glTexSubImage3D``), or the whole
+        texture where partial uploads are not reachable. The host copy, if held, follows.
+        """
+        block = np.asarray(block)
+        origin = tuple(int(v) for v in origin)
+        if self.kind != "3d" or block.ndim != 3 or len(self._shape) != 3:
+            raise ValueError("update_region takes a 3D block of a one-component 3D texture.")
+        if any(o < 0 or o + n > m for o, n, m in zip(origin, block.shape, self._shape,
+                                                    strict=True)):
+            raise ValueError(f"A block of {block.shape} at {origin} leaves the texture "
+                             f"{self._shape}.")
+        region = tuple(slice(o, o + n) for o, n in zip(origin, block.shape, strict=True))
+        if self.array is not None:
+            self.array[region] = block
+        if self.gl_object is None or self._dirty:
+            return   # a whole upload is coming anyway
+        if not sub_image_available():
+            self._dirty = True
+            return
+        dtype = self.array.dtype if self.array is not None else np.dtype(self._dtype)
+        self._regions.append((origin, block.astype(dtype, copy=True)))
 
     @property
     def components(self) -> int:
@@ -77,6 +119,12 @@ class Texture:
     def ensure(self, window) -> vtkTextureObject:
         """Create or refresh the GL texture for ``window``; needs the context current."""
         if self.gl_object is not None and self._window is window and not self._dirty:
+            if self._regions:
+                self.gl_object.Bind()
+                for origin, block in self._regions:
+                    sub_image_3d(origin, block)
+                    self.uploaded_bytes += int(block.nbytes)
+                self._regions = []
             return self.gl_object
         if self.gl_object is not None and self._window is not window:
             self.release()
@@ -109,7 +157,9 @@ class Texture:
             for setter in ("SetWrapS", "SetWrapT", "SetWrapR"):
                 getattr(texture, setter)(vtkTextureObject.ClampToEdge)
         self.gl_object, self._window, self._dirty = texture, window, False
+        self._regions = []
         self.upload_count += 1
+        self.uploaded_bytes += int(self.array.nbytes)
         if self.rebuild is not None:
             self.array = None   # the GPU holds it; rebuilt if it must go up again
         return texture

@@ -50,6 +50,7 @@ class ShellStart:
         self.bindings = ShaderBindings(mapper, renderer, SHELL_RECIPE)
         self.bindings.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
         SHELL_RECIPE.apply(self.actor.GetShaderProperty())
+        self.enabled = True      # False once edits leave no shell within the face budget
         self.on_shell = False
         self._drawn_for = None   # the view the pass last drew for
         self.place()
@@ -73,9 +74,20 @@ class ShellStart:
 
     def choose(self) -> bool:
         """Use the shell unless the near plane reaches the filled voxels' box; returns it."""
-        self.on_shell = not near_plane_reaches(
+        self.on_shell = self.enabled and not near_plane_reaches(
             self.renderer, self.model.world_from_index(), *self.bounds, NEAR_PLANE_PAD)
         return self.on_shell
+
+    def update(self, shell: BrickShell | None) -> None:
+        """Follow changed labels: the new shell, the filled voxels' box, a new depth pass.
+
+        ``shell``: ``None`` when none fits the face budget (the rays then start at the box).
+        """
+        self.bounds = filled_bounds(self.model.labels)
+        self.enabled = shell is not None
+        if shell is not None:
+            self.actor.GetMapper().SetInputData(quads_polydata(shell.points, shell.quads))
+        self._drawn_for = None
 
     def pass_needed(self) -> bool:
         """Whether the depth pass draws this frame: the shell is used, and the view changed.

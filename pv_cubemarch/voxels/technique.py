@@ -34,6 +34,7 @@ from ..models.voxels import (
     useful_levels,
 )
 from ..reference.voxels import render_voxels, trace_voxels
+from . import editing
 from .options import VoxelOptions
 from .proxy import ShellStart
 
@@ -211,6 +212,32 @@ class VoxelBinding(DrawnBinding):
         """
         self.model.palette.set_color(material, color, opacity)
         self.palette_texture.set_data(self.model.palette.rgba.reshape(1, -1, 4))
+
+    def set_voxels(self, where, material: int) -> None:
+        """Set voxels to ``material`` (0 empties them); shown at the next frame.
+
+        ``where``: an ``(i, j, k)`` index, a tuple of three slices, or a boolean mask of
+        the grid's shape. Only the touched box of the labels, the occupancy cells above
+        it and the distance field around it are uploaded (sub-texture uploads).
+
+        Examples
+        --------
+        >>> actor.cubemarch.set_voxels((3, 4, 5), 2)                    # doctest: +SKIP
+        >>> actor.cubemarch.set_voxels(np.s_[0:8, 0:8, 10:12], 0)      # doctest: +SKIP
+        """
+        editing.set_voxels(self, where, material)
+
+    def fill_sphere(self, center, radius: float, material: int) -> None:
+        """Set the voxels whose centre is within ``radius`` of ``center`` (index space)."""
+        editing.fill_sphere(self, center, radius, material)
+
+    def fill_box(self, lower, upper, material: int) -> None:
+        """Set the voxels ``lower <= (i, j, k) < upper`` to ``material``."""
+        editing.fill_box(self, lower, upper, material)
+
+    def set_values(self, labels) -> None:
+        """Replace every label (same shape; values within the palette); uploaded whole."""
+        editing.set_values(self, labels)
 
     def pick(self, x: int, y: int) -> VoxelPick | None:
         """The voxel under pixel ``(x, y)``, or ``None`` where the grid shows nothing.

@@ -1,0 +1,87 @@
+"""Partial 3D texture uploads (``glTexSubImage3D``), which VTK's Python wrapping lacks.
+
+The function is looked up by ``ctypes`` through the window system whose context is current
+(OSMesa, EGL or GLX: the one VTK renders with) and called while VTK has the context current
+and the texture bound. Where none gives it, callers upload the whole texture.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+from functools import cache
+
+import numpy as np
+
+GL_TEXTURE_3D = 0x806F
+GL_RED = 0x1903
+GL_UNPACK_ALIGNMENT = 0x0CF5
+#: Unpack state a tight block needs at 0 (VTK may leave row lengths set from its uploads).
+GL_UNPACK_ZEROED = (0x0CF2, 0x0CF3, 0x0CF4, 0x806E, 0x806D)   # row length, skips, height
+GL_TYPES = {np.dtype(np.uint8): 0x1401, np.dtype(np.uint16): 0x1403,
+            np.dtype(np.float32): 0x1406}
+
+_SUB_IMAGE = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                              ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                              ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)
+_PIXEL_STORE = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int)
+
+
+#: Window systems VTK may render with: library, its "current context" and lookup functions.
+WINDOW_SYSTEMS = (("OSMesa", "OSMesaGetCurrentContext", "OSMesaGetProcAddress"),
+                  ("EGL", "eglGetCurrentContext", "eglGetProcAddress"),
+                  ("GL", "glXGetCurrentContext", "glXGetProcAddressARB"))
+
+
+@cache
+def _system(library: str, current: str, lookup: str):
+    """``(has_current_context, (sub_image, pixel_store))`` of one window system, or None."""
+    path = ctypes.util.find_library(library)
+    if path is None:
+        return None
+    try:
+        loaded = ctypes.CDLL(path)
+        is_current, get = getattr(loaded, current), getattr(loaded, lookup)
+    except (OSError, AttributeError):
+        return None
+    is_current.restype = ctypes.c_void_p
+    get.restype = ctypes.c_void_p
+    get.argtypes = [ctypes.c_char_p]
+    sub, store = get(b"glTexSubImage3D"), get(b"glPixelStorei")
+    if not (sub and store):
+        return None
+    return is_current, (_SUB_IMAGE(sub), _PIXEL_STORE(store))
+
+
+def _gl_functions() -> tuple | None:
+    """The GL functions of the window system whose context is current now, if any."""
+    for system in WINDOW_SYSTEMS:
+        found = _system(*system)
+        if found is not None and found[0]():
+            return found[1]
+    return None
+
+
+def sub_image_available() -> bool:
+    """Whether partial 3D uploads can be made here: a window system that gives them."""
+    return any(_system(*system) is not None for system in WINDOW_SYSTEMS)
+
+
+def sub_image_3d(origin: tuple[int, int, int], block: np.ndarray) -> None:
+    """Upload ``block`` ((x, y, z), one component) at ``origin`` of the bound 3D texture.
+
+    The texture must be bound to ``GL_TEXTURE_3D`` with its context current.
+    """
+    functions = _gl_functions()
+    if functions is None:
+        raise RuntimeError("No current OpenGL context with glTexSubImage3D; upload the "
+                           "whole texture.")
+    sub, store = functions
+    data = np.ascontiguousarray(np.moveaxis(block, (0, 1, 2), (2, 1, 0)))   # x fastest
+    store(GL_UNPACK_ALIGNMENT, 1)
+    for name in GL_UNPACK_ZEROED:
+        store(name, 0)
+    sub(GL_TEXTURE_3D, 0, int(origin[0]), int(origin[1]), int(origin[2]), block.shape[0],
+        block.shape[1], block.shape[2], GL_RED, GL_TYPES[np.dtype(block.dtype)],
+        data.ctypes.data)
+    store(GL_UNPACK_ALIGNMENT, 4)

@@ -1,0 +1,176 @@
+"""Editing a drawn material grid: labels changed in place, only what they touch uploaded.
+
+An edit writes the labels, then refreshes the box of voxels it touched: that box of the
+labels, the occupancy cells above it at each level and the distance field around it go up as
+sub-texture uploads (:meth:`pv_cubemarch.gl.textures.Texture.update_region`); the brick
+shell and the box around the filled voxels are rebuilt from the labels. Every edit is
+exact: the next frame equals a grid built from the edited labels.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..core.errors import VolumeDataError
+from ..gl.box import box_polydata
+from ..models.procedural import sphere
+from ..models.voxels import (
+    choose_shell,
+    level_x_offset,
+    occupancy_levels,
+    safe_radii,
+)
+
+Box = tuple[slice, slice, slice]
+#: Edits touching more than this share of the grid upload it whole.
+WHOLE_UPLOAD_SHARE = 0.5
+
+
+def checked_material(binding, material) -> int:
+    """``material`` as an int the grid's labels and palette hold, or a clear error."""
+    labels, palette = binding.model.labels, binding.model.palette
+    if isinstance(material, (bool, np.bool_)) or not float(material).is_integer():
+        raise ValueError(f"material must be a whole number, got {material!r}.")
+    value = int(material)
+    top = int(np.iinfo(labels.dtype).max)
+    if not 0 <= value <= top:
+        raise ValueError(f"material must be in 0..{top} for this grid's {labels.dtype} "
+                         f"labels, got {value}.")
+    if value >= palette.n_materials:
+        raise ValueError(f"Material {value} has no colour: the palette has "
+                         f"{palette.n_materials} entries: give the grid a larger palette "
+                         "(add_voxels(..., palette=) with more entries) or use a smaller label.")
+    return value
+
+
+def box_of(where, dimensions: Sequence[int]) -> tuple[Box, np.ndarray | None]:
+    """The box an index, a tuple of slices or a boolean mask of the grid touches.
+
+    Returns the box and, for a mask, the mask cut to it (``None`` otherwise).
+    """
+    dims = tuple(int(n) for n in dimensions)
+    if isinstance(where, np.ndarray) and where.dtype == bool:
+        if where.shape != dims:
+            raise ValueError(f"A mask must have the grid's shape {dims}, got {where.shape}.")
+        if not where.any():
+            return (slice(0, 0),) * 3, where[:0, :0, :0]
+        box = tuple(slice(int(np.flatnonzero(where.any(axis=tuple(a for a in range(3)
+                                                                    if a != axis)))[0]),
+                          int(np.flatnonzero(where.any(axis=tuple(a for a in range(3)
+                                                                  if a != axis)))[-1]) + 1)
+                    for axis in range(3))
+        return box, where[box]
+    if not isinstance(where, tuple) or len(where) != 3:
+        raise ValueError("where must be an (i, j, k) index, a tuple of three slices or a "
+                         f"boolean mask of the grid's shape, got {where!r}.")
+    box = []
+    for axis, (item, n) in enumerate(zip(where, dims, strict=True)):
+        if isinstance(item, slice):
+            start, stop, step = item.indices(n)
+            if step != 1:
+                raise ValueError("slices of an edit must have step 1.")
+            box.append(slice(start, max(start, stop)))
+        else:
+            index = int(item)
+            if not -n <= index < n:
+                raise IndexError(f"index {index} is outside axis {axis} of size {n}.")
+            index %= n
+            box.append(slice(index, index + 1))
+    return tuple(box), None
+
+
+def set_voxels(binding, where, material) -> None:
+    """Set the voxels ``where`` (index, slices or boolean mask) to ``material``."""
+    value = checked_material(binding, material)
+    box, mask = box_of(where, binding.model.dimensions)
+    if any(s.stop <= s.start for s in box):
+        return
+    if mask is None:
+        binding.model.labels[box] = value
+    else:
+        binding.model.labels[box][mask] = value
+    refresh(binding, box)
+
+
+def fill_sphere(binding, center: Sequence[float], radius: float, material) -> None:
+    """Set the voxels whose centre lies within ``radius`` of ``center`` (index space)."""
+    value = checked_material(binding, material)
+    if not float(radius) >= 0:
+        raise ValueError(f"radius must be at least 0, got {radius!r}.")
+    dims = binding.model.dimensions
+    center = np.asarray(center, dtype=np.float64)
+    box = tuple(slice(max(0, int(np.floor(c - radius))), min(n, int(np.ceil(c + radius)) + 1))
+                for c, n in zip(center, dims, strict=True))
+    if any(s.stop <= s.start for s in box):
+        return
+    shape = tuple(s.stop - s.start for s in box)
+    local = sphere(center - [s.start for s in box], float(radius)).voxels(shape) > 0
+    binding.model.labels[box][local] = value
+    refresh(binding, box)
+
+
+def fill_box(binding, lower: Sequence[int], upper: Sequence[int], material) -> None:
+    """Set the voxels ``lower <= (i, j, k) < upper`` to ``material``."""
+    if len(lower) != 3 or len(upper) != 3:
+        raise ValueError("lower and upper must be three voxel indices each.")
+    set_voxels(binding, tuple(slice(int(a), int(b)) for a, b in zip(lower, upper,
+                                                                   strict=True)), material)
+
+
+def set_values(binding, labels: np.ndarray) -> None:
+    """Replace every label (same shape); uploaded whole."""
+    labels = np.asarray(labels)
+    model = binding.model
+    if labels.shape != model.labels.shape:
+        raise ValueError(f"set_values needs labels of the grid's shape {model.labels.shape}, "
+                         f"got {labels.shape}.")
+    if not np.issubdtype(labels.dtype, np.integer) or labels.size and (
+            labels.min() < 0 or labels.max() >= model.palette.n_materials):
+        raise VolumeDataError(f"Labels must be whole numbers in 0..{model.palette.n_materials - 1}"
+                              " (the palette's materials).")
+    model.labels[...] = labels
+    refresh(binding, tuple(slice(0, n) for n in model.labels.shape))
+
+
+def refresh(binding, box: Box) -> None:
+    """Send what the labels in ``box`` change to the GPU at the next frame."""
+    labels = binding.model.labels
+    dims = labels.shape
+    lower = [s.start for s in box]
+    upper = [s.stop for s in box]
+    share = np.prod([b - a for a, b in zip(lower, upper, strict=True)]) / labels.size
+    textures = [binding.labels, *binding.skipping]
+    if share > WHOLE_UPLOAD_SHARE:
+        for texture in textures:
+            texture.invalidate()
+    else:
+        atlas = binding.labels   # the labels, with their levels when there are levels
+        atlas.update_region(lower, labels[box])
+        for level in range(1, binding.options.mip_levels + 1):
+            low = [a >> level for a in lower]
+            high = [((b - 1) >> level) + 1 for b in upper]
+            region = tuple(slice(a << level, min(b << level, n))
+                           for a, b, n in zip(low, high, dims, strict=True))
+            cells = occupancy_levels(labels[region], level)[-1]
+            atlas.update_region((level_x_offset(dims[0], level) + low[0], low[1],
+                                 dims[2] + low[2]), cells.astype(labels.dtype))
+        radius = binding.options.distance_field
+        if radius:
+            outer = [slice(max(0, a - 2 * radius), min(n, b + 2 * radius))
+                     for a, b, n in zip(lower, upper, dims, strict=True)]
+            inner = [slice(max(0, a - radius), min(n, b + radius))
+                     for a, b, n in zip(lower, upper, dims, strict=True)]
+            radii = safe_radii(labels[tuple(outer)], radius)
+            cut = tuple(slice(i.start - o.start, i.stop - o.start)
+                        for i, o in zip(inner, outer, strict=True))
+            binding.skipping[0].update_region([s.start for s in inner], radii[cut])
+    if binding.shell is not None:
+        before = tuple(np.concatenate(binding.shell.bounds))
+        binding.shell.update(choose_shell(labels))
+        if tuple(np.concatenate(binding.shell.bounds)) != before:
+            binding.drawn[0].GetMapper().SetInputData(
+                box_polydata(*binding.shell.bounds, 0.01 * max(dims)))
+            # The near and far planes follow the drawn box, as after a move.
+            (binding.main_renderer or binding.renderer).ResetCameraClippingRange()
