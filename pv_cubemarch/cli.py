@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+from .bench import edits as bench_edits
 from .bench import harness as bench
 from .bench import resolution as bench_resolution
 from .bench import voxels as bench_voxels
@@ -159,6 +160,14 @@ def build_parser() -> argparse.ArgumentParser:
                         help="comma-separated rows (default: all of " + ", ".join(VOXEL_ROWS)
                              + ")")
     voxels.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    edits = bench_commands.add_parser(
+        "voxel-edits", help="voxel edits (latency to the next correct frame, bytes uploaded) "
+                            "and 3D automata (steps per second)")
+    edits.add_argument("--size", type=int, default=128, help="edge of the edited grid")
+    edits.add_argument("--repeats", type=int, default=3, help="timed edits of each kind")
+    edits.add_argument("--automaton-sizes", type=lambda t: [int(v) for v in t.split(",")],
+                       default=[64, 128], help="comma-separated automaton edges (64,128)")
+    edits.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     return parser
 
 
@@ -288,6 +297,8 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
 def _bench(args) -> int:
     if args.bench_command == "voxels":
         return _bench_voxels(args)
+    if args.bench_command == "voxel-edits":
+        return _bench_voxel_edits(args)
     scene_path = args.scene or str(Path(__file__).resolve().parents[1] / "datasets"
                                    / "smoke_scene.usda")
     if not Path(scene_path).exists():
@@ -331,6 +342,25 @@ def _bench_voxels(args) -> int:
         bench_voxels.write_voxel_json(results, args.json_path, {
             "sizes": [list(s) for s in args.sizes], "frames": args.frames,
             "large": args.large, "gl_renderer": gl_info()["renderer"]})
+        print(f"wrote {args.json_path}")
+    return 0
+
+
+def _bench_voxel_edits(args) -> int:
+    edits = bench_edits.run_edits(args.size, repeats=args.repeats)
+    print(f"{args.size}^3 FBM terrain, 800x600, id mode; latency: edit call to the next frame "
+          "read back; frame: a frame without edit; wrong: pixels of that frame off the CPU "
+          "traversal of the edited labels")
+    print(bench_edits.format_edit_table(edits))
+    automata = bench_edits.run_automata(args.automaton_sizes)
+    print()
+    print("automata: numpy steps per second; step+frame: step, upload of the changed box "
+          f"and a 600x600 frame, at {min(args.automaton_sizes)}^3")
+    print(bench_edits.format_automaton_table(automata))
+    if args.json_path:
+        Path(args.json_path).write_text(json.dumps({
+            "edits": [vars(r) for r in edits], "automata": [vars(r) for r in automata],
+            "size": args.size, "gl_renderer": gl_info()["renderer"]}, indent=1))
         print(f"wrote {args.json_path}")
     return 0
 

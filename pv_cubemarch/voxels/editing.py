@@ -119,6 +119,25 @@ def fill_box(binding, lower: Sequence[int], upper: Sequence[int], material) -> N
                                                                    strict=True)), material)
 
 
+def set_block(binding, where: tuple, values: np.ndarray) -> None:
+    """Write ``values`` into the box ``where`` (a tuple of three slices, step 1)."""
+    box, mask = box_of(where, binding.model.dimensions)
+    values = np.asarray(values)
+    shape = tuple(s.stop - s.start for s in box)
+    if mask is not None or values.shape != shape:
+        raise ValueError(f"set_block needs a tuple of slices and values of its shape {shape}, "
+                         f"got values of {values.shape}.")
+    if values.size and (not np.issubdtype(values.dtype, np.integer) or values.min() < 0
+                        or values.max() >= binding.model.palette.n_materials):
+        raise VolumeDataError(f"Labels must be whole numbers in 0.."
+                              f"{binding.model.palette.n_materials - 1} (the palette's "
+                              "materials).")
+    if not values.size:
+        return
+    binding.model.labels[box] = values
+    refresh(binding, box)
+
+
 def set_values(binding, labels: np.ndarray) -> None:
     """Replace every label (same shape); uploaded whole."""
     labels = np.asarray(labels)

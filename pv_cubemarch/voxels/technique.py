@@ -235,6 +235,13 @@ class VoxelBinding(DrawnBinding):
         """Set the voxels ``lower <= (i, j, k) < upper`` to ``material``."""
         editing.fill_box(self, lower, upper, material)
 
+    def set_block(self, where, values) -> None:
+        """Write the labels ``values`` into the box ``where`` (a tuple of three slices).
+
+        For a region of many materials at once, e.g. the box an automaton step changed.
+        """
+        editing.set_block(self, where, values)
+
     def set_values(self, labels) -> None:
         """Replace every label (same shape; values within the palette); uploaded whole."""
         editing.set_values(self, labels)

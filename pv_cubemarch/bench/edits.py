@@ -1,0 +1,167 @@
+"""Voxel edits and automata (002): edit latency and bytes uploaded, automaton steps per second.
+
+``pv-cubemarch bench voxel-edits``: on an FBM terrain grid, each edit (one voxel, a brush of
+32³, a whole replacement) is timed from the edit call to the end of the next frame (read
+back), its uploaded bytes counted, and that frame checked against the CPU traversal of the
+edited labels; a frame without an edit is timed beside them. Automata: numpy steps per second
+at the given sizes, and at the smallest, step + upload of the changed box + frame.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..api import add_voxels
+from ..core.camera import Camera
+from ..core.progress import progress
+from ..core.rendering import offscreen_plotter, read_pixels, render_frame
+from ..models.automaton import VoxelAutomaton
+from ..models.procedural import terrain
+from ..reference.voxels import id_colors, trace_voxels
+
+#: Edits measured on an ``n``³ grid: name and what it does to the binding.
+EDITS: dict[str, Callable] = {
+    "1 voxel": lambda b, n, k: b.set_voxels((k % n, (3 * k) % n, n - 1), 1 + k % 3),
+    "brush 32^3": lambda b, n, k: b.fill_sphere((n / 2 + 4 * k % 16, n / 2, n / 2), 16.0,
+                                               k % 4),
+    "replace all": lambda b, n, k: b.set_values(terrain((n, n, n), seed=k + 1)),
+}
+
+
+@dataclass
+class EditRow:
+    """One kind of edit: median latency to a finished frame, bytes uploaded, wrong pixels."""
+
+    edit: str
+    latency_ms: float
+    frame_ms: float
+    uploaded_bytes: int
+    wrong_pixels: int
+
+
+@dataclass
+class AutomatonRow:
+    """Steps per second of a rule at a size; with ``frame_ms``, step + upload + frame."""
+
+    rule: str
+    size: int
+    steps_per_second: float
+    frame_ms: float | None = None
+
+
+def _uploaded(binding) -> int:
+    return sum(t.uploaded_bytes for t in (binding.labels, *binding.skipping))
+
+
+def _wrong(pl, binding, camera) -> int:
+    near = pl.camera.clipping_range[0]
+    hits = trace_voxels(binding.model.labels, binding.model.world_from_index(), camera,
+                        pl.window_size, near=near, tie_tolerance=1e-4)
+    image = read_pixels(pl).astype(int)
+    wrong = np.any(image != id_colors(hits, binding.model.dimensions).astype(int), axis=-1)
+    return int((wrong & ~hits.near_edge).sum())
+
+
+def run_edits(size: int = 128, image: Sequence[int] = (800, 600), repeats: int = 3,
+              progress_bar: bool | None = None) -> list[EditRow]:
+    """Time each of :data:`EDITS` ``repeats`` times on a ``size``³ terrain (id mode)."""
+    pl = offscreen_plotter(tuple(image))
+    pl.disable_anti_aliasing()
+    pl.ren_win.SetMultiSamples(0)
+    pl.set_background("black")
+    try:
+        actor = add_voxels(pl, terrain((size,) * 3, seed=0), mode="id",
+                           palette=["black", "green", "saddlebrown", "gray"])
+        binding = actor.cubemarch
+        n = float(size)
+        camera = Camera(position=(n * 1.6, -n * 0.7, n * 1.4), focal_point=(n / 2,) * 3,
+                        view_up=(0, 0, 1), view_angle=35.0)
+        camera.apply_to(pl.camera)
+        pl.renderer.ResetCameraClippingRange()
+        render_frame(pl)
+        read_pixels(pl)
+        rows = []
+        for name, edit in progress(EDITS.items(), total=len(EDITS), desc="edits",
+                                   enabled=progress_bar):
+            latencies, frames, sent, wrong = [], [], [], 0
+            for k in range(repeats):
+                start = time.perf_counter()
+                render_frame(pl)
+                read_pixels(pl)
+                frames.append((time.perf_counter() - start) * 1e3)
+                before = _uploaded(binding)
+                start = time.perf_counter()
+                edit(binding, size, k)
+                render_frame(pl)
+                read_pixels(pl)
+                latencies.append((time.perf_counter() - start) * 1e3)
+                sent.append(_uploaded(binding) - before)
+                wrong = max(wrong, _wrong(pl, binding, Camera.from_pyvista(pl.camera)))
+            rows.append(EditRow(name, float(np.median(latencies)), float(np.median(frames)),
+                                int(np.median(sent)), wrong))
+        return rows
+    finally:
+        pl.close()
+
+
+def run_automata(sizes: Sequence[int] = (64, 128), rules: Sequence[str] = ("445",
+                 "clouds", "pyroclastic"), steps: int = 10, image: Sequence[int] = (600, 600),
+                 progress_bar: bool | None = None) -> list[AutomatonRow]:
+    """Steps per second of each rule at each size; at the smallest size also step + frame."""
+    rows = []
+    for rule in progress(rules, total=len(rules), desc="automata", enabled=progress_bar):
+        for size in sizes:
+            automaton = VoxelAutomaton((size,) * 3, rule=rule, seed=1)
+            start = time.perf_counter()
+            for _ in range(steps):
+                automaton.step()
+            rate = steps / (time.perf_counter() - start)
+            rows.append(AutomatonRow(rule, int(size), rate))
+        rows[-len(sizes)].frame_ms = _automaton_frames(rule, min(sizes), steps, image)
+    return rows
+
+
+def _automaton_frames(rule: str, size: int, steps: int, image: Sequence[int]) -> float:
+    """Median ms of step + upload of the changed box + a frame, drawn by add_voxels."""
+    automaton = VoxelAutomaton((size,) * 3, rule=rule, seed=1)
+    states = automaton.rule.states
+    palette = ["black"] + [(0.3 + 0.7 * s / states, 0.4, 1.0 - 0.7 * s / states)
+                           for s in range(1, states)]
+    pl = offscreen_plotter(tuple(image))
+    try:
+        actor = add_voxels(pl, automaton.labels(), palette=palette)
+        pl.camera_position = "iso"
+        pl.reset_camera()
+        render_frame(pl)
+        times = []
+        for _ in range(steps):
+            start = time.perf_counter()
+            box = automaton.step()
+            if box is not None:
+                actor.cubemarch.set_block(box, automaton.state[box])
+            render_frame(pl)
+            read_pixels(pl)
+            times.append((time.perf_counter() - start) * 1e3)
+        return float(np.median(times))
+    finally:
+        pl.close()
+
+
+def format_edit_table(rows: list[EditRow]) -> str:
+    """The edit rows as a text table."""
+    lines = ["edit          latency ms  frame ms  uploaded B  wrong px", "-" * 56]
+    lines += [f"{r.edit:12s} {r.latency_ms:11.1f} {r.frame_ms:9.1f} {r.uploaded_bytes:11d} "
+              f"{r.wrong_pixels:9d}" for r in rows]
+    return "\n".join(lines)
+
+
+def format_automaton_table(rows: list[AutomatonRow]) -> str:
+    """The automaton rows as a text table."""
+    lines = ["rule          size  steps/s  step+frame ms", "-" * 42]
+    lines += [f"{r.rule:12s} {r.size:5d} {r.steps_per_second:8.1f} "
+              f"{'' if r.frame_ms is None else f'{r.frame_ms:14.1f}'}" for r in rows]
+    return "\n".join(lines)
