@@ -110,3 +110,21 @@ def test_bad_edits_are_refused(plotter_factory):
         binding.set_values(np.zeros((4, 4, 4), int))
     with pytest.raises(cm.VolumeDataError, match="palette"):
         binding.set_values(np.full((24, 20, 16), 7))
+
+
+def test_the_shell_grows_by_the_bricks_an_edit_fills(plotter_factory):
+    # A voxel in an empty brick adds that brick's 6 faces (no rebuild); emptying it keeps
+    # them (a ray starting early changes no hit); the image stays exact throughout.
+    pl, actor, camera = edited_grid(plotter_factory)
+    shell = actor.cubemarch.shell
+    quads = len(shell.quads)
+    assert not shell.occupied[23 >> shell.level, 19 >> shell.level, 15 >> shell.level]
+    actor.cubemarch.set_voxels((23, 19, 15), 1)
+    assert len(shell.quads) == quads + 6
+    assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0
+    actor.cubemarch.set_voxels((23, 19, 15), 0)
+    assert len(shell.quads) == quads + 6
+    assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0
+    actor.cubemarch.set_voxels((22, 19, 15), 2)   # the same brick: filled again, no faces
+    assert len(shell.quads) == quads + 6
+    assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0

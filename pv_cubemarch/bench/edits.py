@@ -129,8 +129,8 @@ def _automaton_frames(rule: str, size: int, steps: int, image: Sequence[int]) ->
     """Median ms of step + upload of the changed box + a frame, drawn by add_voxels."""
     automaton = VoxelAutomaton((size,) * 3, rule=rule, seed=1)
     states = automaton.rule.states
-    palette = ["black"] + [(0.3 + 0.7 * s / states, 0.4, 1.0 - 0.7 * s / states)
-                           for s in range(1, states)]
+    palette = [(0.0, 0.0, 0.0)] + [(0.3 + 0.7 * s / states, 0.4, 1.0 - 0.7 * s / states)
+                                   for s in range(1, states)]
     pl = offscreen_plotter(tuple(image))
     try:
         actor = add_voxels(pl, automaton.labels(), palette=palette)

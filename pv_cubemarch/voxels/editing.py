@@ -17,7 +17,7 @@ from ..core.errors import VolumeDataError
 from ..gl.box import box_polydata
 from ..models.procedural import sphere
 from ..models.voxels import (
-    choose_shell,
+    filled_bounds,
     level_x_offset,
     occupancy_levels,
     safe_radii,
@@ -161,7 +161,8 @@ def refresh(binding, box: Box) -> None:
     upper = [s.stop for s in box]
     share = np.prod([b - a for a, b in zip(lower, upper, strict=True)]) / labels.size
     textures = [binding.labels, *binding.skipping]
-    if share > WHOLE_UPLOAD_SHARE:
+    whole = share > WHOLE_UPLOAD_SHARE
+    if whole:
         for texture in textures:
             texture.invalidate()
     else:
@@ -187,9 +188,18 @@ def refresh(binding, box: Box) -> None:
             binding.skipping[0].update_region([s.start for s in inner], radii[cut])
     if binding.shell is not None:
         before = tuple(np.concatenate(binding.shell.bounds))
-        binding.shell.update(choose_shell(labels))
-        if tuple(np.concatenate(binding.shell.bounds)) != before:
-            binding.drawn[0].GetMapper().SetInputData(
-                box_polydata(*binding.shell.bounds, 0.01 * max(dims)))
-            # The near and far planes follow the drawn box, as after a move.
-            (binding.main_renderer or binding.renderer).ResetCameraClippingRange()
+        if whole:
+            binding.shell.rebuild()
+        else:
+            binding.shell.edit(box)
+        after = binding.shell.bounds
+    elif binding.options.proxy == "bricks":   # no shell fits: the box around the labels
+        before = tuple(np.concatenate(binding.drawn_bounds))
+        after = filled_bounds(labels)
+    else:
+        return
+    if tuple(np.concatenate(after)) != before:
+        binding.drawn_bounds = after
+        binding.drawn[0].GetMapper().SetInputData(box_polydata(*after, 0.01 * max(dims)))
+        # The near and far planes follow the drawn box, as after a move.
+        (binding.main_renderer or binding.renderer).ResetCameraClippingRange()

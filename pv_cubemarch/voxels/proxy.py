@@ -11,6 +11,7 @@ near plane.
 
 from __future__ import annotations
 
+import numpy as np
 import pyvista
 import vtk
 
@@ -18,7 +19,16 @@ from ..gl.bindings import ShaderBindings
 from ..gl.box import camera_matrices, near_plane_reaches, place_box, quads_polydata
 from ..gl.face_depth import FaceDepthPass
 from ..gl.shaders import Replacement, ShaderRecipe
-from ..models.voxels import PROXY_MARGIN, BrickShell, VoxelModel, filled_bounds
+from ..models.voxels import (
+    PROXY_MARGIN,
+    BrickShell,
+    VoxelModel,
+    brick_bounds,
+    brick_faces,
+    choose_shell,
+    filled_bounds,
+    occupied_bricks,
+)
 
 #: How far (voxels) from the filled voxels' box the near plane must stay for the shell:
 #: beyond the shell's faces, which stand PROXY_MARGIN off the voxels.
@@ -40,12 +50,10 @@ class ShellStart:
     def __init__(self, model: VoxelModel, renderer, shell: BrickShell):
         self.model = model
         self.renderer = renderer
-        self.level = shell.level
-        self.bounds = filled_bounds(model.labels)
         self.actor = pyvista.Actor()
         mapper = vtk.vtkOpenGLPolyDataMapper()
-        mapper.SetInputData(quads_polydata(shell.points, shell.quads))
         self.actor.SetMapper(mapper)
+        self._use(shell)
         self.actor.GetProperty().LightingOff()
         self.bindings = ShaderBindings(mapper, renderer, SHELL_RECIPE)
         self.bindings.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
@@ -78,15 +86,59 @@ class ShellStart:
             self.renderer, self.model.world_from_index(), *self.bounds, NEAR_PLANE_PAD)
         return self.on_shell
 
-    def update(self, shell: BrickShell | None) -> None:
-        """Follow changed labels: the new shell, the filled voxels' box, a new depth pass.
+    @property
+    def brick(self) -> int:
+        """Edge of the shell's bricks, in voxels."""
+        return 1 << self.level
 
-        ``shell``: ``None`` when none fits the face budget (the rays then start at the box).
-        """
-        self.bounds = filled_bounds(self.model.labels)
+    def _use(self, shell: BrickShell) -> None:
+        """Draw ``shell``: its faces, its bricks' occupancy and box."""
+        self.level = shell.level
+        self.points, self.quads, self.appended = shell.points, shell.quads, 0
+        self.occupied = occupied_bricks(self.model.labels, self.brick)
+        self.bounds = brick_bounds(self.occupied, self.brick, self.model.dimensions)
+        self.actor.GetMapper().SetInputData(quads_polydata(self.points, self.quads))
+        self._drawn_for = None
+
+    def rebuild(self) -> None:
+        """A new shell from all the labels (or none, when none fits the face budget)."""
+        shell = choose_shell(self.model.labels)
         self.enabled = shell is not None
         if shell is not None:
-            self.actor.GetMapper().SetInputData(quads_polydata(shell.points, shell.quads))
+            self._use(shell)
+        else:
+            self.bounds = filled_bounds(self.model.labels)
+            self._drawn_for = None
+
+    def edit(self, box: tuple[slice, slice, slice]) -> None:
+        """Follow labels changed in ``box``: faces for bricks that became filled.
+
+        Bricks that emptied keep their faces (a ray may start earlier than it needs: never
+        wrong); after many additions, or once disabled, the shell is rebuilt whole.
+        """
+        if not self.enabled:
+            self.rebuild()
+            return
+        brick, dims = self.brick, self.model.dimensions
+        low = [s.start // brick for s in box]
+        high = [-(-s.stop // brick) for s in box]
+        region = tuple(slice(a * brick, min(b * brick, n))
+                       for a, b, n in zip(low, high, dims, strict=True))
+        cells = tuple(slice(a, b) for a, b in zip(low, high, strict=True))
+        now = occupied_bricks(self.model.labels[region], brick)
+        added = now & ~self.occupied[cells]
+        self.occupied[cells] = now
+        if not added.any():
+            return
+        points, quads = brick_faces(np.argwhere(added) + low, brick, dims)
+        self.quads = np.concatenate([self.quads, quads + len(self.points)])
+        self.points = np.concatenate([self.points, points])
+        self.appended += len(quads)
+        if self.appended > max(1024, len(self.quads) // 4):
+            self.rebuild()
+            return
+        self.bounds = brick_bounds(self.occupied, brick, dims)
+        self.actor.GetMapper().SetInputData(quads_polydata(self.points, self.quads))
         self._drawn_for = None
 
     def pass_needed(self) -> bool:

@@ -183,6 +183,8 @@ class VoxelBinding(DrawnBinding):
         self.skipping: list[Texture] = []
         #: The brick shell whose depth pass starts the rays (``proxy='bricks'``).
         self.shell: ShellStart | None = None
+        #: Index-space corners of the box the actor draws.
+        self.drawn_bounds: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def palette(self):
@@ -298,9 +300,13 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     options = options.for_grid(useful_levels(levels))
     # 1 % larger on every side: the shader clips each ray to the exact grid box, so pixels
     # whose rays graze the box's edges are covered and decided there, not by rasterisation.
-    # With the brick shell, rays meet filled voxels only inside the box around them.
-    lower, upper = ((0, 0, 0), model.dimensions) if options.proxy == "box" else \
-        filled_bounds(model.labels)
+    # With the brick shell, rays meet filled voxels only inside the box around its bricks.
+    bricks = choose_shell(model.labels) if options.proxy == "bricks" else None
+    shell = ShellStart(model, renderer, bricks) if bricks is not None else None
+    if options.proxy == "box":
+        lower, upper = np.zeros(3), np.asarray(model.dimensions, dtype=np.float64)
+    else:
+        lower, upper = shell.bounds if shell is not None else filled_bounds(model.labels)
     actor = box_actor(upper, model.world_from_index(), margin=0.01 * max(model.dimensions),
                       lower=lower)
     actor.ForceTranslucentOff()
@@ -321,8 +327,6 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     if options.mode == "color" and options.ambient_occlusion:
         bindings.set_uniform("cm_occlusionStrength", float(options.occlusion_strength))
     bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
-    bricks = choose_shell(model.labels) if options.proxy == "bricks" else None
-    shell = ShellStart(model, renderer, bricks) if bricks is not None else None
     if shell is not None:
         bindings.add_texture("cm_shellDepth", shell.depth)
         bindings.set_uniform("cm_startAtProxy", lambda: shell.start_at_shell)
@@ -332,6 +336,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     binding = VoxelBinding(model, bindings, recipe, labels, palette, options)
     binding.skipping = skipping
     binding.shell = shell
+    binding.drawn_bounds = (lower, upper)
     binding.drawn = [actor]
     binding.renderer = renderer
     pyvista.set_new_attribute(actor, "cubemarch", binding)
