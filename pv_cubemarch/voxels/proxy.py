@@ -125,11 +125,11 @@ class ShellStart:
         region = tuple(slice(a * brick, min(b * brick, n))
                        for a, b, n in zip(low, high, dims, strict=True))
         cells = tuple(slice(a, b) for a, b in zip(low, high, strict=True))
-        now = occupied_bricks(self.model.labels[region], brick)
-        added = now & ~self.occupied[cells]
-        self.occupied[cells] = now
+        # `occupied` keeps every brick filled since the last rebuild: its faces stay.
+        added = occupied_bricks(self.model.labels[region], brick) & ~self.occupied[cells]
         if not added.any():
             return
+        self.occupied[cells] |= added
         points, quads = brick_faces(np.argwhere(added) + low, brick, dims)
         self.quads = np.concatenate([self.quads, quads + len(self.points)])
         self.points = np.concatenate([self.points, points])
