@@ -128,3 +128,27 @@ def test_the_shell_grows_by_the_bricks_an_edit_fills(plotter_factory):
     actor.cubemarch.set_voxels((22, 19, 15), 2)   # the same brick: filled again, no faces
     assert len(shell.quads) == quads + 6
     assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0
+
+
+def test_automaton_steps_upload_their_changed_box(plotter_factory):
+    # Each step's changed box goes up through set_block; every frame equals the CPU
+    # traversal of the automaton's state, and only that box's texels travel.
+    from pv_cubemarch.models.automaton import VoxelAutomaton
+
+    automaton = VoxelAutomaton((24, 20, 16), rule="445", seed=4, start_size=0.5)
+    pl = plotter(plotter_factory)
+    actor = cm.add_voxels(pl, automaton.state, mode="id", palette=["black"] + ["tan"] * 4)
+    camera = set_camera(pl, EYE, focal=FOCAL)
+    assert wrong_pixels(pl, actor.cubemarch.model, camera)[0] == 0
+    for _ in range(3):
+        box = automaton.step()
+        before = actor.cubemarch.labels.uploaded_bytes
+        actor.cubemarch.set_block(box, automaton.state[box])
+        wrong, _, hits = wrong_pixels(pl, actor.cubemarch.model, camera)
+        assert wrong == 0 and (hits.material > 0).any()
+        assert np.array_equal(actor.cubemarch.model.labels, automaton.state)
+        sent = actor.cubemarch.labels.uploaded_bytes - before
+        assert sent >= np.prod([s.stop - s.start for s in box])   # the box, and its levels
+        assert sent < actor.cubemarch.labels.nbytes
+    with pytest.raises(ValueError, match="set_block"):
+        actor.cubemarch.set_block(np.s_[0:2, 0:2, 0:2], np.zeros((3, 3, 3), int))
