@@ -371,10 +371,11 @@ def add_voxels(
     occlusion_strength : float
         How dark a fully occluded corner gets (0-1, 0.5 by default).
     proxy : str
-        What starts the rays: ``'bricks'`` (default), the outer faces of the filled 8³
-        bricks, so pixels that see none run nothing and rays start next to the voxels (the
-        box instead on frames where the near plane reaches the grid); ``'box'``, the
-        grid's bounding box (the seed's set-up). Exact either way; only the speed differs.
+        What starts the rays: ``'bricks'`` (default), the outer faces of the filled 2³
+        bricks (4³ or 8³ for scattered content), so pixels that see none run nothing and
+        rays start next to the voxels (the box instead on frames where the near plane
+        reaches them); ``'box'``, the grid's bounding box (the seed's set-up). Exact either
+        way; only the speed differs.
     transform : array_like, optional
         4x4 affine placement of the grid in the world.
     name : str, optional

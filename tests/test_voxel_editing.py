@@ -152,3 +152,44 @@ def test_automaton_steps_upload_their_changed_box(plotter_factory):
         assert sent < actor.cubemarch.labels.nbytes
     with pytest.raises(ValueError, match="set_block"):
         actor.cubemarch.set_block(np.s_[0:2, 0:2, 0:2], np.zeros((3, 3, 3), int))
+
+
+def test_edit_corners_and_types_are_checked(plotter_factory):
+    # catches (seen to fail): a lower corner below 0 read as Python's index from the end
+    # (nothing, or the far side, filled); labels above the grid's type stored wrapped
+    # (uint8: 256 stored as 0, the voxel gone).
+    pl, actor, camera = edited_grid(plotter_factory)
+    binding = actor.cubemarch
+    binding.model.labels[...] = 0
+    binding.set_values(binding.model.labels)
+    binding.fill_box((-3, 0, 0), (4, 2, 2), 1)
+    assert (binding.model.labels[0:4, 0:2, 0:2] == 1).all() and binding.model.labels.sum() == 16
+    binding.fill_box((20, 18, 14), (40, 40, 40), 2)      # clipped at the far corner
+    assert (binding.model.labels[20:, 18:, 14:] == 2).all()
+    assert wrong_pixels(pl, binding.model, camera)[0] == 0
+    wide = cm.add_voxels(plotter(plotter_factory), np.zeros((4, 4, 4), np.uint8),
+                         palette=["black"] + ["tan"] * 299)
+    with pytest.raises(cm.VolumeDataError, match="0..255"):
+        wide.cubemarch.set_block(np.s_[0:1, 0:1, 0:1], np.full((1, 1, 1), 256))
+
+
+def test_grids_that_need_another_atlas_layout_or_none(plotter_factory):
+    # A tall grid: the levels cannot sit past the labels along z (1400 + 700 > 2048), so
+    # they go along another axis; the image stays exact. A grid over the largest texture
+    # is refused with a clear error instead of drawing nothing.
+    # catches (seen to fail): the slab always along z (the tall grid refused; before the
+    # layout was checked, drawn blank: no texture made).
+    from pv_cubemarch.models.voxels import atlas_layout
+
+    assert atlas_layout((16, 16, 1400), 2)[0] != 2
+    assert atlas_layout((1400, 1400, 1400), 1) is None
+    labels = np.zeros((8, 6, 1400), np.uint8)
+    labels[2:5, 1:4, 600:700] = 1
+    labels[6, 5, 1300] = 2
+    pl = plotter(plotter_factory)
+    actor = cm.add_voxels(pl, labels, mode="id", mip_levels=2, proxy="box")
+    camera = set_camera(pl, (30.0, 20.0, 1000.0), focal=(4.0, 3.0, 700.0))
+    wrong, _, hits = wrong_pixels(pl, actor.cubemarch.model, camera)
+    assert wrong == 0 and (hits.material > 0).any()
+    with pytest.raises(ValueError, match="over 2048"):
+        cm.add_voxels(plotter(plotter_factory), np.zeros((2049, 1, 1), np.uint8))

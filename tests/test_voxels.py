@@ -398,7 +398,7 @@ def test_level_atlas_holds_the_labels_and_every_level_apart():
         used = np.zeros(atlas.texels.shape, int)
         for number, grid in enumerate([labels, *grids]):
             assert np.array_equal(atlas.level(number), grid)
-            start = (0, 0, 0) if number == 0 else (atlas.x_offsets[number], 0, shape[2])
+            start = atlas.origin(number)
             used[tuple(slice(o, o + n) for o, n in zip(start, grid.shape, strict=True))] += 1
         assert used.max() == 1
 

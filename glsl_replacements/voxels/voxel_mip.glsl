@@ -3,8 +3,9 @@
 // per cell of 2^L voxels per axis, whether any voxel under it is filled (any label, hidden or
 // not: the levels never change with the palette). A coarse cell is empty only if every
 // voxel under it is, so skipping it skips nothing drawn. The labels (level 0) sit at the
-// origin; level L >= 1 at (nx - (nx >> (L - 1)) + L - 1, 0, nz), as
-// models.voxels.level_x_offset computes it: a formula, no table indexed per step.
+// origin; level L >= 1 past them along CM_LEVEL_SLAB_AXIS, at n - (n >> (L - 1)) + L - 1
+// along CM_LEVEL_ROW_AXIS (n: the grid's size there), as models.voxels.level_origin
+// computes it: a formula, no table indexed per step.
 
 // The label of `voxel` (level 0), or whether its level-`level` cell holds a filled voxel
 // (non-zero: yes).
@@ -14,7 +15,11 @@ int cm_levelLabel(ivec3 voxel, int level)
   if (level > 0)
   {
     ivec3 dims = ivec3(cm_gridDims);
-    cell += ivec3(dims.x - (dims.x >> (level - 1)) + level - 1, 0, dims.z);
+    int along = dims[CM_LEVEL_ROW_AXIS];
+    ivec3 origin = ivec3(0);
+    origin[CM_LEVEL_ROW_AXIS] = along - (along >> (level - 1)) + level - 1;
+    origin[CM_LEVEL_SLAB_AXIS] = dims[CM_LEVEL_SLAB_AXIS];
+    cell += origin;
   }
   return int(texelFetch(cm_labels, cell, 0).r * cm_labelScale + 0.5);
 }

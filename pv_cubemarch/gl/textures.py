@@ -119,13 +119,16 @@ class Texture:
     def ensure(self, window) -> vtkTextureObject:
         """Create or refresh the GL texture for ``window``; needs the context current."""
         if self.gl_object is not None and self._window is window and not self._dirty:
-            if self._regions:
-                self.gl_object.Bind()
+            try:
+                if self._regions:
+                    self.gl_object.Bind()
                 for origin, block in self._regions:
                     sub_image_3d(origin, block)
                     self.uploaded_bytes += int(block.nbytes)
                 self._regions = []
-            return self.gl_object
+                return self.gl_object
+            except RuntimeError:   # no partial uploads with this context: upload it whole
+                self.invalidate()
         if self.gl_object is not None and self._window is not window:
             self.release()
         if self.array is None:

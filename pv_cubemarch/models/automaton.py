@@ -185,6 +185,8 @@ class VoxelAutomaton:
         """
         if color_by not in COLORINGS:
             raise ValueError(f"color_by must be one of {COLORINGS}, got {color_by!r}.")
+        if not 1 <= int(buckets) <= 254:
+            raise ValueError(f"buckets must be in 1..254 (labels 1..buckets), got {buckets!r}.")
         filled = self.state > 0
         if color_by == "state":
             return self.state.copy()

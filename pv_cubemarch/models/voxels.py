@@ -257,6 +257,57 @@ def grown_by_one(mask: np.ndarray) -> np.ndarray:
     return grown
 
 
+#: Largest 3D texture edge assumed (GL_MAX_3D_TEXTURE_SIZE on llvmpipe and many GPUs).
+MAX_TEXTURE_SIZE = 2048
+
+
+def level_offset(n: int, level: int) -> int:
+    """Where level ``level >= 1`` starts along the atlas's row axis (``n`` voxels long).
+
+    ``n - (n >> (level - 1)) + level - 1``: a formula the shader computes too (no table to
+    index per step), leaving each level room for its ``ceil(n / 2^level)`` cells.
+    """
+    return 0 if level == 0 else n - (n >> (level - 1)) + level - 1
+
+
+def level_shapes(dimensions: Sequence[int], count: int) -> list[tuple[int, int, int]]:
+    """The cell counts of the labels (level 0) and of occupancy levels ``1..count``."""
+    dims = tuple(int(n) for n in dimensions)
+    return [tuple(-(-n // (1 << level)) for n in dims) for level in range(int(count) + 1)]
+
+
+def level_origin(dimensions: Sequence[int], level: int, slab_axis: int,
+                 row_axis: int) -> tuple[int, int, int]:
+    """Where level ``level`` starts in its atlas (the labels, level 0, at the origin)."""
+    origin = [0, 0, 0]
+    if level:
+        origin[row_axis] = level_offset(int(dimensions[row_axis]), level)
+        origin[slab_axis] = int(dimensions[slab_axis])
+    return tuple(origin)
+
+
+def atlas_layout(dimensions: Sequence[int], count: int) -> tuple[int, int, tuple] | None:
+    """The smallest level atlas within :data:`MAX_TEXTURE_SIZE`: ``(slab, row, shape)``.
+
+    The levels lie in a slab past the labels along the ``slab`` axis, side by side along
+    the ``row`` axis; tried with the slab along z, x, y (the first wins a tie). ``None``
+    when none fits.
+    """
+    dims = tuple(int(n) for n in dimensions)
+    shapes = level_shapes(dims, count)
+    best = None
+    for slab in (2, 0, 1):
+        for row in (a for a in (0, 1, 2) if a != slab):
+            shape = list(dims)
+            if count:
+                shape[slab] += shapes[1][slab]
+                shape[row] = max(dims[row], level_offset(dims[row], count) + shapes[-1][row])
+            if max(shape) <= MAX_TEXTURE_SIZE and (best is None
+                                                   or np.prod(shape) < np.prod(best[2])):
+                best = (slab, row, tuple(shape))
+    return best
+
+
 @dataclass(frozen=True)
 class LevelAtlas:
     """The labels and their occupancy levels ``1..n`` in one 3D texture of the labels' type.
@@ -264,43 +315,39 @@ class LevelAtlas:
     The traversal reads any level with one fetch of one texture (GLSL 1.50 indexes no
     sampler arrays, and llvmpipe runs both sides of a branch: a second texture would be
     read on every step). The labels sit at the origin, so a voxel's label is read where it
-    always was; the levels lie in a slab past the labels along z, side by side along x:
-    level ``L`` starts at ``(level_x_offset(nx, L), 0, nz)``. An occupied cell holds 1.
+    always was; the levels lie in a slab past the labels along ``slab_axis``, side by side
+    along ``row_axis`` (:func:`level_origin`). An occupied cell holds 1.
     """
 
     texels: np.ndarray
-    x_offsets: tuple[int, ...]
+    slab_axis: int
+    row_axis: int
     shapes: tuple[tuple[int, int, int], ...]
+
+    def origin(self, number: int) -> tuple[int, int, int]:
+        """Where level ``number`` starts in the atlas."""
+        return level_origin(self.shapes[0], number, self.slab_axis, self.row_axis)
 
     def level(self, number: int) -> np.ndarray:
         """Level ``number`` (0: the labels; 1..levels: occupancy) cut back out of the atlas."""
-        start = (0, 0, 0) if number == 0 else (self.x_offsets[number], 0, self.shapes[0][2])
-        shape = self.shapes[number]
+        start, shape = self.origin(number), self.shapes[number]
         return self.texels[tuple(slice(o, o + n) for o, n in zip(start, shape, strict=True))]
 
 
-def level_x_offset(nx: int, level: int) -> int:
-    """Where level ``level >= 1`` of a grid ``nx`` voxels wide starts along x in the atlas.
-
-    ``nx - (nx >> (level - 1)) + level - 1``: a formula the shader computes too (no table to
-    index per step), leaving each level room for its ``ceil(nx / 2^level)`` cells.
-    """
-    return 0 if level == 0 else nx - (nx >> (level - 1)) + level - 1
-
-
 def level_atlas(labels: np.ndarray, grids: list[np.ndarray]) -> LevelAtlas:
-    """``labels`` and their occupancy levels ``grids`` (:func:`occupancy_levels`) packed."""
+    """``labels`` and their occupancy levels ``grids`` (:func:`occupancy_levels`) packed.
+
+    Raises ``ValueError`` when no layout fits :data:`MAX_TEXTURE_SIZE`.
+    """
     labels = np.asarray(labels)
-    shapes = (tuple(int(n) for n in labels.shape),
-              *(tuple(int(n) for n in g.shape) for g in grids))
-    x_offsets = tuple(level_x_offset(shapes[0][0], n) for n in range(len(shapes)))
-    nx, ny, nz = shapes[0]
-    if grids:
-        nx = max(nx, x_offsets[-1] + shapes[-1][0])
-        ny = max(ny, shapes[1][1])
-        nz += shapes[1][2]
-    texels = np.zeros((nx, ny, nz), labels.dtype)
-    atlas = LevelAtlas(texels, x_offsets, shapes)
+    layout = atlas_layout(labels.shape, len(grids))
+    if layout is None:
+        raise ValueError(f"A grid of {labels.shape} voxels with {len(grids)} occupancy levels "
+                         f"needs a texture over {MAX_TEXTURE_SIZE} texels on a side; use "
+                         "mip_levels=0 (or fewer levels), or a smaller grid.")
+    slab, row, shape = layout
+    atlas = LevelAtlas(np.zeros(shape, labels.dtype), slab, row,
+                       tuple(level_shapes(labels.shape, len(grids))))
     atlas.level(0)[...] = labels
     for number, grid in enumerate(grids, start=1):
         atlas.level(number)[...] = grid

@@ -18,7 +18,7 @@ from ..gl.box import box_polydata
 from ..models.procedural import sphere
 from ..models.voxels import (
     filled_bounds,
-    level_x_offset,
+    level_origin,
     occupancy_levels,
     safe_radii,
 )
@@ -43,6 +43,16 @@ def checked_material(binding, material) -> int:
                          f"{palette.n_materials} entries: give the grid a larger palette "
                          "(add_voxels(..., palette=) with more entries) or use a smaller label.")
     return value
+
+
+def checked_labels_for(binding, values: np.ndarray) -> None:
+    """Refuse labels the palette has no colour for, or the grid's type cannot hold."""
+    labels, palette = binding.model.labels, binding.model.palette
+    top = min(palette.n_materials, int(np.iinfo(labels.dtype).max) + 1) - 1
+    if values.size and (not np.issubdtype(values.dtype, np.integer) or values.min() < 0
+                        or values.max() > top):
+        raise VolumeDataError(f"Labels must be whole numbers in 0..{top} (the palette's "
+                              f"materials that the grid's {labels.dtype} labels hold).")
 
 
 def box_of(where, dimensions: Sequence[int]) -> tuple[Box, np.ndarray | None]:
@@ -115,8 +125,10 @@ def fill_box(binding, lower: Sequence[int], upper: Sequence[int], material) -> N
     """Set the voxels ``lower <= (i, j, k) < upper`` to ``material``."""
     if len(lower) != 3 or len(upper) != 3:
         raise ValueError("lower and upper must be three voxel indices each.")
-    set_voxels(binding, tuple(slice(int(a), int(b)) for a, b in zip(lower, upper,
-                                                                   strict=True)), material)
+    dims = binding.model.dimensions
+    box = tuple(slice(min(max(int(a), 0), n), min(max(int(b), 0), n))   # clipped to the grid
+                for a, b, n in zip(lower, upper, dims, strict=True))
+    set_voxels(binding, box, material)
 
 
 def set_block(binding, where: tuple, values: np.ndarray) -> None:
@@ -127,11 +139,7 @@ def set_block(binding, where: tuple, values: np.ndarray) -> None:
     if mask is not None or values.shape != shape:
         raise ValueError(f"set_block needs a tuple of slices and values of its shape {shape}, "
                          f"got values of {values.shape}.")
-    if values.size and (not np.issubdtype(values.dtype, np.integer) or values.min() < 0
-                        or values.max() >= binding.model.palette.n_materials):
-        raise VolumeDataError(f"Labels must be whole numbers in 0.."
-                              f"{binding.model.palette.n_materials - 1} (the palette's "
-                              "materials).")
+    checked_labels_for(binding, values)
     if not values.size:
         return
     binding.model.labels[box] = values
@@ -145,10 +153,7 @@ def set_values(binding, labels: np.ndarray) -> None:
     if labels.shape != model.labels.shape:
         raise ValueError(f"set_values needs labels of the grid's shape {model.labels.shape}, "
                          f"got {labels.shape}.")
-    if not np.issubdtype(labels.dtype, np.integer) or labels.size and (
-            labels.min() < 0 or labels.max() >= model.palette.n_materials):
-        raise VolumeDataError(f"Labels must be whole numbers in 0..{model.palette.n_materials - 1}"
-                              " (the palette's materials).")
+    checked_labels_for(binding, labels)
     model.labels[...] = labels
     refresh(binding, tuple(slice(0, n) for n in model.labels.shape))
 
@@ -174,8 +179,9 @@ def refresh(binding, box: Box) -> None:
             region = tuple(slice(a << level, min(b << level, n))
                            for a, b, n in zip(low, high, dims, strict=True))
             cells = occupancy_levels(labels[region], level)[-1]
-            atlas.update_region((level_x_offset(dims[0], level) + low[0], low[1],
-                                 dims[2] + low[2]), cells.astype(labels.dtype))
+            origin = level_origin(dims, level, *binding.level_axes)
+            atlas.update_region([o + a for o, a in zip(origin, low, strict=True)],
+                                cells.astype(labels.dtype))
         radius = binding.options.distance_field
         if radius:
             outer = [slice(max(0, a - 2 * radius), min(n, b + 2 * radius))
@@ -186,20 +192,36 @@ def refresh(binding, box: Box) -> None:
             cut = tuple(slice(i.start - o.start, i.stop - o.start)
                         for i, o in zip(inner, outer, strict=True))
             binding.skipping[0].update_region([s.start for s in inner], radii[cut])
-    if binding.shell is not None:
-        before = tuple(np.concatenate(binding.shell.bounds))
+    shell = binding.shell
+    if binding.options.proxy != "bricks":
+        return   # the whole grid's box is drawn
+    before = tuple(np.concatenate(binding.drawn_bounds))
+    if shell is not None and (shell.enabled or whole):
         if whole:
-            binding.shell.rebuild()
+            shell.rebuild()
         else:
-            binding.shell.edit(box)
-        after = binding.shell.bounds
-    elif binding.options.proxy == "bricks":   # no shell fits: the box around the labels
-        before = tuple(np.concatenate(binding.drawn_bounds))
-        after = filled_bounds(labels)
-    else:
-        return
+            shell.edit(box)
+        after = shell.bounds if shell.enabled else filled_bounds(labels)
+    else:   # no shell fits: the box around the labels
+        after = filled_bounds(labels) if whole else _grown(binding.drawn_bounds, labels, box)
     if tuple(np.concatenate(after)) != before:
         binding.drawn_bounds = after
         binding.drawn[0].GetMapper().SetInputData(box_polydata(*after, 0.01 * max(dims)))
         # The near and far planes follow the drawn box, as after a move.
         (binding.main_renderer or binding.renderer).ResetCameraClippingRange()
+
+
+def _grown(bounds, labels: np.ndarray, box: Box) -> tuple[np.ndarray, np.ndarray]:
+    """``bounds`` grown to the filled voxels in ``box``.
+
+    Never shrunk: a larger box only starts some rays earlier.
+    """
+    lower, upper = (np.asarray(b, dtype=np.float64) for b in bounds)
+    inside, _ = box_of(labels[box] != 0, labels[box].shape)
+    if any(s.stop <= s.start for s in inside):
+        return lower, upper
+    if not (upper > lower).all():   # nothing was filled before
+        lower, upper = np.full(3, np.inf), np.full(3, -np.inf)
+    start = np.array([b.start + s.start for b, s in zip(box, inside, strict=True)], float)
+    stop = np.array([b.start + s.stop for b, s in zip(box, inside, strict=True)], float)
+    return np.minimum(lower, start), np.maximum(upper, stop)

@@ -7,12 +7,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.options import positive_number, whole_number
+from ..models.voxels import MAX_TEXTURE_SIZE
 
 TRAVERSALS = ("dda", "fixed")
 MODES = ("color", "id", "face")
 SHADINGS = ("unlit", "flat", "blinn")
 PROXIES = ("bricks", "box")
-#: Most occupancy mipmap levels (one atlas; the shader's table of level rows is a mat4).
+#: Most occupancy mipmap levels (cells of 2^12 voxels cover any grid a texture holds).
 MAX_MIP_LEVELS = 12
 #: Largest radius of the neighbour distance field (the seed's 1..3: 8, 124, 342 neighbours).
 MAX_DISTANCE_FIELD = 3
@@ -43,11 +44,12 @@ class VoxelOptions:
     ``1 - occlusion_strength`` (0-1) that multiplies the unlit colour, or the ambient +
     diffuse term (not the highlight).
     ``proxy``: the geometry whose pixels run the traversal. ``'bricks'`` (default): the
-    outer faces of the filled 8³ bricks (:func:`~pv_cubemarch.models.voxels.brick_shell`),
-    so pixels that see no filled brick run nothing and rays start next to the voxels; on
-    frames where the near plane reaches the grid it falls back to ``'box'``: the grid's
-    bounding box, every ray traversed from where it enters the box or from the near plane
-    (the seed's set-up, kept to measure the traversal alone). Exact either way.
+    outer faces of the filled 2³, 4³ or 8³ bricks
+    (:func:`~pv_cubemarch.models.voxels.choose_shell`), so pixels that see no filled brick
+    run nothing and rays start next to the voxels; on frames where the near plane reaches
+    them it falls back to ``'box'``: the grid's bounding box, every ray traversed from where
+    it enters the box or from the near plane (the seed's set-up, kept to measure the
+    traversal alone). Exact either way.
     """
 
     traversal: str = "dda"
@@ -105,7 +107,12 @@ class VoxelOptions:
                                  "per voxel; use at least 0.001.")
 
     def check_model(self, model) -> None:
-        """Refuse a grid whose ids 24-bit colour cannot hold in ``mode='id'``."""
+        """Refuse a grid no 3D texture holds, or whose ids 24-bit colour cannot hold."""
+        if max(model.dimensions) > MAX_TEXTURE_SIZE:
+            raise ValueError(f"A grid of {model.dimensions} voxels is over {MAX_TEXTURE_SIZE} "
+                             "voxels on a side, the largest 3D texture assumed here; crop it "
+                             "or draw it in pieces of at most that size (one add_voxels each, "
+                             "with a transform that places it).")
         voxels = int(np.prod(model.dimensions))
         if self.mode == "id" and voxels + 1 > 1 << 24:
             raise ValueError(f"mode='id' writes voxel ids as 24-bit colour; a grid of "

@@ -59,6 +59,8 @@ class ShellStart:
         self.bindings.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
         SHELL_RECIPE.apply(self.actor.GetShaderProperty())
         self.enabled = True      # False once edits leave no shell within the face budget
+        #: Whether the grid is shown (set by its binding): a hidden grid runs no pass.
+        self.shown = lambda: True
         self.on_shell = False
         self._drawn_for = None   # the view the pass last drew for
         self.place()
@@ -117,8 +119,7 @@ class ShellStart:
         wrong); after many additions, or once disabled, the shell is rebuilt whole.
         """
         if not self.enabled:
-            self.rebuild()
-            return
+            return   # no shell fitted the face budget: the next whole edit tries again
         brick, dims = self.brick, self.model.dimensions
         low = [s.start // brick for s in box]
         high = [-(-s.stop // brick) for s in box]
@@ -147,7 +148,7 @@ class ShellStart:
         The camera, the viewport's size or the grid's placement: the target keeps the last
         drawing otherwise.
         """
-        if not self.choose():
+        if not (self.shown() and self.choose()):
             return False
         camera = self.renderer.GetActiveCamera()
         view = (camera.GetMTime(), tuple(self.renderer.GetSize()),
@@ -165,3 +166,4 @@ class ShellStart:
         """Stop the pass and free its target and shader bindings."""
         self.depth.release()
         self.bindings.release()
+        self.actor.ReleaseGraphicsResources(self.renderer.GetRenderWindow())

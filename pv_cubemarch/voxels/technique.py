@@ -10,7 +10,7 @@ changes without touching the labels.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pyvista
@@ -25,7 +25,9 @@ from ..gl.textures import Texture
 from ..models.lights import VolumeLight
 from ..models.volume import checked_transform
 from ..models.voxels import (
+    MAX_TEXTURE_SIZE,
     VoxelModel,
+    atlas_layout,
     choose_shell,
     filled_bounds,
     level_atlas,
@@ -42,10 +44,12 @@ from .proxy import ShellStart
 MAX_VOXEL_LIGHTS = 8
 
 
-def voxel_recipe(options: VoxelOptions, shell_level: int | None = None) -> ShaderRecipe:
+def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
+                 level_axes: tuple[int, int] = (2, 0)) -> ShaderRecipe:
     """The box actor's replacements for the chosen traversal, mode, shading and occlusion.
 
-    ``shell_level``: the occupancy level of the brick shell that starts the rays, if any.
+    ``shell_level``: the occupancy level of the brick shell that starts the rays, if any;
+    ``level_axes``: the level atlas's slab and row axes (:func:`atlas_layout`).
     """
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
     lit = options.mode == "color" and options.shading != "unlit"
@@ -63,6 +67,8 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None) -> Shade
     ], defines={"CM_VOXEL_ID": options.mode == "id", "CM_VOXEL_FACE": options.mode == "face",
                 "CM_LIGHTING": lit,
                 "CM_MIP_LEVELS": options.mip_levels or None,
+                "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
+                "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None,
                 "CM_SHELL_LEVEL": shell_level,
                 "CM_DISTANCE_FIELD": options.distance_field or None,
                 "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion})
@@ -183,6 +189,8 @@ class VoxelBinding(DrawnBinding):
         self.skipping: list[Texture] = []
         #: The brick shell whose depth pass starts the rays (``proxy='bricks'``).
         self.shell: ShellStart | None = None
+        #: The level atlas's slab and row axes (where levels sit beside the labels).
+        self.level_axes: tuple[int, int] = (2, 0)
         #: Index-space corners of the box the actor draws.
         self.drawn_bounds: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -297,7 +305,16 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     """The opaque box actor of a material grid; returns its binding."""
     renderer = plotter.renderer
     levels = occupancy_levels(model.labels, options.candidate_levels(model.dimensions))
+    chosen_levels = options.mip_levels is not None
     options = options.for_grid(useful_levels(levels))
+    layout = atlas_layout(model.dimensions, options.mip_levels)
+    if layout is None and chosen_levels:
+        raise ValueError(f"mip_levels={options.mip_levels} on a grid of {model.dimensions} "
+                         f"voxels needs a texture over {MAX_TEXTURE_SIZE} texels on a side; "
+                         "use mip_levels=0 or fewer levels.")
+    if layout is None:   # the default levels do not fit beside the labels: draw without
+        options = replace(options, mip_levels=0)
+        layout = atlas_layout(model.dimensions, 0)
     # 1 % larger on every side: the shader clips each ray to the exact grid box, so pixels
     # whose rays graze the box's edges are covered and decided there, not by rasterisation.
     # With the brick shell, rays meet filled voxels only inside the box around its bricks.
@@ -330,12 +347,15 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     if shell is not None:
         bindings.add_texture("cm_shellDepth", shell.depth)
         bindings.set_uniform("cm_startAtProxy", lambda: shell.start_at_shell)
-    recipe = voxel_recipe(options, shell.level if shell is not None else None)
+    recipe = voxel_recipe(options, shell.level if shell is not None else None, layout[:2])
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
     binding = VoxelBinding(model, bindings, recipe, labels, palette, options)
     binding.skipping = skipping
     binding.shell = shell
+    if shell is not None:
+        shell.shown = lambda: binding.shown
+    binding.level_axes = layout[:2]
     binding.drawn_bounds = (lower, upper)
     binding.drawn = [actor]
     binding.renderer = renderer
