@@ -14,7 +14,8 @@ from .gl.overlay import bounds_proxy
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
 from .models.volume import VolumeModel, make_volume
-from .models.voxels import VoxelModel, make_voxels
+from .models.voxels import MAX_TEXTURE_SIZE, VoxelModel, make_voxels
+from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.light_map import LightMap
@@ -22,6 +23,7 @@ from .volume.march import VolumeData
 from .volume.options import DEFAULT_STOP_OPACITY, Shading
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
 from .voxels.options import VoxelOptions
+from .voxels.world import build_world
 
 
 def add_volume(
@@ -218,6 +220,20 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
     return actor
 
 
+def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options) -> pyvista.Actor:
+    """Draw a chunked world; returns the actor that stands for it."""
+    if options.mode == "id":
+        raise ValueError("mode='id' writes a voxel's index within its grid; a grid drawn in "
+                         "chunks has one index space per chunk: use mode='face' or 'color', "
+                         "or pick() on a grid that fits one texture.")
+    actor = build_world(plotter, world, options)
+    if not plotter.camera_set:
+        plotter.reset_camera()
+    else:
+        plotter.renderer.ResetCameraClippingRange()
+    return actor
+
+
 def add_volumes(plotter: pyvista.Plotter, volumes, **options) -> list:
     """Add several volumes; those whose boxes overlap are marched jointly as one medium.
 
@@ -309,6 +325,7 @@ def add_voxels(
     ambient_occlusion: bool = False,
     occlusion_strength: float = 0.5,
     proxy: str = "bricks",
+    chunk_size: int | None = None,
     transform=None,
     name: str | None = None,
 ) -> pyvista.Actor:
@@ -376,6 +393,12 @@ def add_voxels(
         rays start next to the voxels (the box instead on frames where the near plane
         reaches them); ``'box'``, the grid's bounding box (the seed's set-up). Exact either
         way; only the speed differs.
+    chunk_size : int, optional
+        Draw the grid in chunks of this edge (empty chunks cost nothing, a chunk of one
+        label one byte); grids over 2048 voxels on a side (the largest 3D texture here) are
+        chunked by 256 without asking. A chunked grid returns an invisible actor standing
+        for all chunks, whose ``cubemarch`` is a :class:`~pv_cubemarch.voxels.world.WorldBinding`
+        (no ``pick`` or edits yet; ``mode='id'`` is refused).
     transform : array_like, optional
         4x4 affine placement of the grid in the world.
     name : str, optional
@@ -409,6 +432,9 @@ def add_voxels(
     else:
         model = make_voxels(grid, scalars, palette=palette, transform=transform,
                             name=name or "voxels")
+    if chunk_size is not None or max(model.dimensions) > MAX_TEXTURE_SIZE:
+        return _add_world(plotter, VoxelWorld.from_model(
+            model, DEFAULT_CHUNK_SIZE if chunk_size is None else chunk_size), options)
     options.check_model(model)
     component = plotter.cubemarch
     binding = chosen.build(plotter, model, options)

@@ -47,7 +47,8 @@ SHELL_RECIPE = ShaderRecipe(replacements=[
 class ShellStart:
     """The brick shell of one grid, its depth pass, and whether it is used this frame."""
 
-    def __init__(self, model: VoxelModel, renderer, shell: BrickShell):
+    def __init__(self, model: VoxelModel, renderer, shell: BrickShell,
+                 depth: FaceDepthPass | None = None):
         self.model = model
         self.renderer = renderer
         self.actor = pyvista.Actor()
@@ -64,7 +65,11 @@ class ShellStart:
         self.on_shell = False
         self._drawn_for = None   # the view the pass last drew for
         self.place()
-        self.depth = FaceDepthPass(renderer, self.actor, self.pass_needed)
+        #: The depth pass this shell draws in: its own, or one shared by a world's chunks
+        #: (which draws every chunk's shell; the nearest face is a safe start for each).
+        self.shared = depth is not None
+        self.depth = depth if depth is not None else FaceDepthPass(renderer, self.actor,
+                                                                   self.pass_needed)
 
     @property
     def nbytes(self) -> int:
@@ -164,6 +169,8 @@ class ShellStart:
 
     def release(self) -> None:
         """Stop the pass and free its target and shader bindings."""
-        self.depth.release()
+        self.enabled = False   # a shared pass asks no more of it
+        if not self.shared:
+            self.depth.release()
         self.bindings.release()
         self.actor.ReleaseGraphicsResources(self.renderer.GetRenderWindow())

@@ -20,6 +20,7 @@ from ..core.registry import Technique, register_technique
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, box_actor, camera_matrices, place_box
 from ..gl.drawn import DrawnBinding
+from ..gl.face_depth import FaceDepthPass
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.lights import VolumeLight
@@ -297,12 +298,19 @@ class VoxelBinding(DrawnBinding):
         self.bindings.release()
         if self.shell is not None:
             self.shell.release()
+        for actor in self.drawn:   # a world's chunk: its actor stands behind the world's
+            if actor is not self.actor and self.renderer is not None:
+                self.renderer.RemoveActor(actor)
         self.labels.release()
         self.palette_texture.release()
 
 
-def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> VoxelBinding:
-    """The opaque box actor of a material grid; returns its binding."""
+def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
+                      shared_depth: FaceDepthPass | None = None) -> VoxelBinding:
+    """The opaque box actor of a material grid; returns its binding.
+
+    ``shared_depth``: a brick-shell depth pass shared with other grids (a world's chunks).
+    """
     renderer = plotter.renderer
     levels = occupancy_levels(model.labels, options.candidate_levels(model.dimensions))
     chosen_levels = options.mip_levels is not None
@@ -319,7 +327,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions) -> Voxe
     # whose rays graze the box's edges are covered and decided there, not by rasterisation.
     # With the brick shell, rays meet filled voxels only inside the box around its bricks.
     bricks = choose_shell(model.labels) if options.proxy == "bricks" else None
-    shell = ShellStart(model, renderer, bricks) if bricks is not None else None
+    shell = ShellStart(model, renderer, bricks, shared_depth) if bricks is not None else None
     if options.proxy == "box":
         lower, upper = np.zeros(3), np.asarray(model.dimensions, dtype=np.float64)
     else:
