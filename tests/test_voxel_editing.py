@@ -176,7 +176,7 @@ def test_edit_corners_and_types_are_checked(plotter_factory):
 def test_grids_that_need_another_atlas_layout_or_none(plotter_factory):
     # A tall grid: the levels cannot sit past the labels along z (1400 + 700 > 2048), so
     # they go along another axis; the image stays exact. A grid over the largest texture
-    # is refused with a clear error instead of drawing nothing.
+    # is drawn in chunks instead of drawing nothing.
     # catches (seen to fail): the slab always along z (the tall grid refused; before the
     # layout was checked, drawn blank: no texture made).
     from pv_cubemarch.models.voxels import atlas_layout
@@ -191,5 +191,6 @@ def test_grids_that_need_another_atlas_layout_or_none(plotter_factory):
     camera = set_camera(pl, (30.0, 20.0, 1000.0), focal=(4.0, 3.0, 700.0))
     wrong, _, hits = wrong_pixels(pl, actor.cubemarch.model, camera)
     assert wrong == 0 and (hits.material > 0).any()
-    with pytest.raises(ValueError, match="over 2048"):
-        cm.add_voxels(plotter(plotter_factory), np.zeros((2049, 1, 1), np.uint8))
+    # Over the largest texture: chunked, not refused (nothing filled: no chunk at all).
+    assert cm.add_voxels(plotter(plotter_factory), np.zeros((2049, 1, 1), np.uint8)
+                         ).cubemarch.chunks == []

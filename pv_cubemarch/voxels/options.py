@@ -110,9 +110,8 @@ class VoxelOptions:
         """Refuse a grid no 3D texture holds, or whose ids 24-bit colour cannot hold."""
         if max(model.dimensions) > MAX_TEXTURE_SIZE:
             raise ValueError(f"A grid of {model.dimensions} voxels is over {MAX_TEXTURE_SIZE} "
-                             "voxels on a side, the largest 3D texture assumed here; crop it "
-                             "or draw it in pieces of at most that size (one add_voxels each, "
-                             "with a transform that places it).")
+                             "voxels on a side, the largest 3D texture assumed here; draw it "
+                             "in chunks (add_voxels(..., chunk_size=256)).")
         voxels = int(np.prod(model.dimensions))
         if self.mode == "id" and voxels + 1 > 1 << 24:
             raise ValueError(f"mode='id' writes voxel ids as 24-bit colour; a grid of "
