@@ -107,8 +107,20 @@ class Palette:
         return shown
 
 
+class PlacedGrid:
+    """A label grid's placement: ``transform @ grid_from_index`` maps its index space."""
+
+    def world_from_index(self) -> np.ndarray:
+        """4x4 from index space (voxel ``(i, j, k)`` spans ``[i, i+1]`` per axis) to world."""
+        return np.asarray(self.transform, dtype=np.float64) @ self.grid_from_index
+
+    def world_bounds(self) -> np.ndarray:
+        """Axis-aligned world bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the grid."""
+        return box_world_bounds(self.world_from_index(), self.dimensions)
+
+
 @dataclass(eq=False)
-class VoxelModel:
+class VoxelModel(PlacedGrid):
     """A material grid placed in the world, with its palette."""
 
     labels: np.ndarray
@@ -121,14 +133,6 @@ class VoxelModel:
     def dimensions(self) -> tuple[int, int, int]:
         """Voxels along x, y, z."""
         return tuple(int(n) for n in self.labels.shape)
-
-    def world_from_index(self) -> np.ndarray:
-        """4x4 from index space (voxel ``(i, j, k)`` spans ``[i, i+1]`` per axis) to world."""
-        return np.asarray(self.transform, dtype=np.float64) @ self.grid_from_index
-
-    def world_bounds(self) -> np.ndarray:
-        """Axis-aligned world bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the grid."""
-        return box_world_bounds(self.world_from_index(), self.dimensions)
 
     @property
     def nbytes(self) -> int:

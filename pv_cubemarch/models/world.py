@@ -9,15 +9,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .volume import box_world_bounds
-from .voxels import Palette, VoxelModel
+from .voxels import Palette, PlacedGrid, VoxelModel
 
 #: Default chunk edge: well within the largest 3D texture, small enough to skip empty space.
 DEFAULT_CHUNK_SIZE = 256
 
 
 @dataclass(eq=False)
-class VoxelWorld:
+class VoxelWorld(PlacedGrid):
     """Chunks of ``chunk_size``³ voxels (cut at the grid's far sides) of one label grid.
 
     ``stored``: the chunks that hold several labels (their own arrays); ``uniform``: the
@@ -79,14 +78,6 @@ class VoxelWorld:
         return VoxelModel(labels=labels, palette=self.palette,
                           grid_from_index=np.asarray(self.grid_from_index) @ local,
                           transform=self.transform, name=f"{self.name}{list(key)}")
-
-    def world_from_index(self) -> np.ndarray:
-        """The world's index space to world coordinates."""
-        return np.asarray(self.transform, dtype=np.float64) @ self.grid_from_index
-
-    def world_bounds(self) -> np.ndarray:
-        """``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the whole grid's box in the world."""
-        return box_world_bounds(self.world_from_index(), self.dimensions)
 
     @property
     def nbytes(self) -> int:
