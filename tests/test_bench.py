@@ -172,3 +172,22 @@ def test_bench_voxels_rows_and_exactness(tmp_path):
     bench_voxels.write_voxel_json(results, path, {"sizes": [[64, 64]]})
     data = json.loads(path.read_text())
     assert len(data["results"]) == len(results) and data["seed_tables"]["64x64"] == seed
+
+
+def test_bench_voxel_world_rows_and_exactness(tmp_path, capsys):
+    # Small worlds (3 x 3 chunks of 16^3): every row of every scene exact against the CPU
+    # traversal of the whole grid, the empty world drawing and holding nothing.
+    from pv_cubemarch.bench import world as bench_world
+
+    rows = bench_world.run_world((64, 48), chunk=16, count=3, frames=3)
+    assert {(r.scene, r.row) for r in rows} == {
+        (scene, row) for scene in bench_world.world_scenes(16, 3) for row in bench_world.ROWS}
+    assert all(r.wrong_percent == 0 for r in rows)
+    empty = [r for r in rows if r.scene.startswith("empty")]
+    assert all(r.covered_pixels == 0 and r.host_bytes == 0 for r in empty)
+    assert all(r.covered_pixels > 100 for r in rows if not r.scene.startswith("empty"))
+    assert "x one" in bench_world.format_world_table(rows)
+    path = tmp_path / "world.json"
+    assert main(["bench", "voxel-world", "--size", "48x32", "--chunk", "8", "--count", "2",
+                 "--json", str(path)]) == 0
+    assert json.loads(path.read_text())["rows"] and "terrain" in capsys.readouterr().out
