@@ -95,10 +95,14 @@ def test_removing_the_world_releases_its_chunks(plotter_factory):
 
 
 def test_one_depth_pass_serves_every_chunk(plotter_factory):
-    # catches: a pass (and its 8 bytes per pixel) per chunk.
+    # catches: a pass (and its 8 bytes per pixel) per chunk. By default a chunked grid
+    # draws without shells (box and levels: faster with many chunks, bench voxel-world).
     labels = random_labels((24, 20, 16), 0.05, seed=33).astype(np.uint8)
     pl = plotter(plotter_factory)
-    actor = cm.add_voxels(pl, labels, chunk_size=8, palette=PALETTE)
+    plain = cm.add_voxels(pl, labels, chunk_size=8, palette=PALETTE, name="plain")
+    assert all(c.options.proxy == "box" and c.shell is None for c in plain.cubemarch.chunks)
+    plain.SetVisibility(False)
+    actor = cm.add_voxels(pl, labels, chunk_size=8, palette=PALETTE, proxy="bricks")
     set_camera(pl, (40.0, 30.0, 35.0), focal=(12.0, 10.0, 8.0))
     cm.render_image(pl)
     world = actor.cubemarch
