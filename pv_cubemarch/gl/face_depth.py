@@ -26,19 +26,22 @@ _DEPTH_TEST, _BLEND, _LESS = 0x0B71, 0x0BE2, 0x0201
 
 
 class FaceDepthPass:
-    """Draw ``actor`` (not in the renderer) into a float target at each frame's start.
+    """Draw ``actor`` (not in the renderer) into a float target at a frame's start.
 
     The actor's shader must write its fragment's view depth as red (e.g.
-    ``voxel_shell_depth.glsl``); the target holds :data:`NO_FACE` elsewhere. ``run_when``
-    is asked at each frame: the pass runs only when it returns ``True``.
+    ``voxel_shell_depth.glsl``); the target holds :data:`NO_FACE` elsewhere. ``used`` is
+    asked at each frame: the pass draws when it returns ``True`` and the camera or the
+    viewport changed since it last drew, or :meth:`invalidate` was called (the mesh or its
+    placement changed); otherwise the target keeps the last drawing.
     """
 
     kind = "2d"
 
-    def __init__(self, renderer, actor, run_when: Callable[[], bool]):
+    def __init__(self, renderer, actor, used: Callable[[], bool]):
         self.renderer = renderer
         self.actor = actor
-        self.run_when = run_when
+        self.used = used
+        self._drawn_for = None   # the view the target holds
         self.runs = 0
         self._target = self._depth = self._fbo = None
         self._size = (0, 0)
@@ -70,14 +73,22 @@ class FaceDepthPass:
         self._fbo.SetContext(window)
         self._size = size
 
+    def invalidate(self) -> None:
+        """Draw again at the next frame that uses the pass."""
+        self._drawn_for = None
+
     def _on_start(self, *_) -> None:
-        if not self.run_when():
+        if not self.used():
+            return
+        view = (self.renderer.GetActiveCamera().GetMTime(), tuple(self.renderer.GetSize()))
+        if view == self._drawn_for:
             return
         window = self.renderer.GetRenderWindow()
         TextureUnitLedger.release_window(window)
         size = tuple(max(1, int(v)) for v in self.renderer.GetSize())
         if self._fbo is None or size != self._size:
             self._create(window, size)
+        self._drawn_for = view
         state = window.GetState()
         state.Push()
         state.PushFramebufferBindings()
@@ -101,6 +112,7 @@ class FaceDepthPass:
         self.runs += 1
 
     def _release_targets(self, window) -> None:
+        self._drawn_for = None   # a new target holds nothing yet
         for gl_object in (self._target, self._depth, self._fbo):
             if gl_object is not None:
                 gl_object.ReleaseGraphicsResources(window)

@@ -448,7 +448,8 @@ def face_rectangles(mask: np.ndarray) -> np.ndarray:
 
 
 def brick_shell(labels: np.ndarray, brick: int, margin: float = PROXY_MARGIN,
-                max_faces: int | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+                max_faces: int | None = None,
+                occupied: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """The outer faces of the filled bricks, as quads facing out: ``(points, quads)``.
 
     A face is kept where a filled brick meets an empty one or the grid's side, so the
@@ -459,9 +460,11 @@ def brick_shell(labels: np.ndarray, brick: int, margin: float = PROXY_MARGIN,
     where two faces met at an edge with different vertices). Faces beyond what is needed
     only start some rays earlier, which changes no hit. Index space; ``points`` is ``(4 n, 3)``
     float64, ``quads`` ``(n, 4)`` indices, counter-clockwise seen from outside. ``None``
-    when it would have more than ``max_faces`` faces (given).
+    when it would have more than ``max_faces`` faces (given). ``occupied``: the bricks'
+    occupancy (:func:`occupied_bricks`), if already made.
     """
-    occupied = occupied_bricks(labels, brick)
+    if occupied is None:
+        occupied = occupied_bricks(labels, brick)
     if max_faces is not None and _exposed_faces(occupied) > 16 * max_faces:
         return None   # merging rarely saves that much: not worth merging to find out
     dims = np.array(np.asarray(labels).shape, dtype=np.float64)
@@ -558,12 +561,15 @@ class BrickShell:
     level: int
     points: np.ndarray
     quads: np.ndarray
+    occupied: np.ndarray   # per brick, whether it holds a filled voxel
 
 
 def choose_shell(labels: np.ndarray) -> BrickShell | None:
     """The finest shell of :data:`SHELL_LEVELS` within :data:`SHELL_FACE_BUDGET` faces."""
     for level in SHELL_LEVELS:
-        shell = brick_shell(labels, 1 << level, max_faces=SHELL_FACE_BUDGET)
+        occupied = occupied_bricks(labels, 1 << level)
+        shell = brick_shell(labels, 1 << level, max_faces=SHELL_FACE_BUDGET,
+                            occupied=occupied)
         if shell is not None:
-            return BrickShell(level, *shell)
+            return BrickShell(level, *shell, occupied)
     return None

@@ -1,8 +1,8 @@
 """Where a grid's rays start: at the brick shell, or where they enter the grid's box.
 
 The brick shell (:func:`~pv_cubemarch.models.voxels.choose_shell`) closes around every
-filled voxel. At the start of each frame a depth pass (:class:`FaceDepthPass`) draws its
-front faces: per pixel, the view depth where the ray first meets it. The grid's box then
+filled voxel. At the start of a frame whose view changed a depth pass (:class:`FaceDepthPass`) draws
+its front faces: per pixel, the view depth where the ray first meets it. The grid's box then
 traverses each pixel's ray from there (every voxel before it is empty) and skips pixels that
 meet no face. That holds only for rays that come from outside the filled voxels' box: on
 frames where the near plane reaches it, no pass runs and the rays start at the box or the
@@ -54,7 +54,6 @@ class ShellStart:
         self.actor = pyvista.Actor()
         mapper = vtk.vtkOpenGLPolyDataMapper()
         self.actor.SetMapper(mapper)
-        self._use(shell)
         self.actor.GetProperty().LightingOff()
         self.bindings = ShaderBindings(mapper, renderer, SHELL_RECIPE)
         self.bindings.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
@@ -63,13 +62,13 @@ class ShellStart:
         #: Whether the grid is shown (set by its binding): a hidden grid runs no pass.
         self.shown = lambda: True
         self.on_shell = False
-        self._drawn_for = None   # the view the pass last drew for
-        self.place()
         #: The depth pass this shell draws in: its own, or one shared by a world's chunks
         #: (which draws every chunk's shell; the nearest face is a safe start for each).
         self.shared = depth is not None
         self.depth = depth if depth is not None else FaceDepthPass(renderer, self.actor,
-                                                                   self.pass_needed)
+                                                                   self.used)
+        self._use(shell)
+        self.place()
 
     @property
     def nbytes(self) -> int:
@@ -102,10 +101,10 @@ class ShellStart:
         """Draw ``shell``: its faces, its bricks' occupancy and box."""
         self.level = shell.level
         self.points, self.quads, self.appended = shell.points, shell.quads, 0
-        self.occupied = occupied_bricks(self.model.labels, self.brick)
+        self.occupied = shell.occupied.copy()
         self.bounds = brick_bounds(self.occupied, self.brick, self.model.dimensions)
         self.actor.GetMapper().SetInputData(quads_polydata(self.points, self.quads))
-        self._drawn_for = None
+        self.depth.invalidate()
 
     def rebuild(self) -> None:
         """A new shell from all the labels (or none, when none fits the face budget)."""
@@ -115,7 +114,6 @@ class ShellStart:
             self._use(shell)
         else:
             self.bounds = filled_bounds(self.model.labels)
-            self._drawn_for = None
 
     def edit(self, box: tuple[slice, slice, slice]) -> None:
         """Follow labels changed in ``box``: faces for bricks that became filled.
@@ -145,27 +143,19 @@ class ShellStart:
             return
         self.bounds = brick_bounds(self.occupied, brick, dims)
         self.actor.GetMapper().SetInputData(quads_polydata(self.points, self.quads))
-        self._drawn_for = None
+        self.depth.invalidate()
 
-    def pass_needed(self) -> bool:
-        """Whether the depth pass draws this frame: the shell is used, and the view changed.
+    def used(self) -> bool:
+        """Whether this frame's rays start at the shell: the grid shown, the near plane clear.
 
-        The camera, the viewport's size or the grid's placement: the target keeps the last
-        drawing otherwise.
+        The depth pass then draws, if the view changed.
         """
-        if not (self.shown() and self.choose()):
-            return False
-        camera = self.renderer.GetActiveCamera()
-        view = (camera.GetMTime(), tuple(self.renderer.GetSize()),
-                self.model.world_from_index().tobytes())
-        if view == self._drawn_for and self.depth.runs:
-            return False
-        self._drawn_for = view
-        return True
+        return self.shown() and self.choose()
 
     def place(self) -> None:
         """Place the shell like the grid, drawing its front faces."""
         place_box(self.actor, self.model.world_from_index(), faces="front")
+        self.depth.invalidate()
 
     def release(self) -> None:
         """Stop the pass and free its target and shader bindings."""

@@ -54,21 +54,13 @@ def build_world(plotter, world: VoxelWorld, options: VoxelOptions) -> pyvista.Ac
     tracked chunk whose anchor is not in the renderer counts as removed.
     """
     renderer = plotter.renderer
-    shells, seen = [], {"view": None}
+    shells = []
     parts = vtk.vtkAssembly()
 
-    def pass_needed() -> bool:
-        used = [shell.choose() for shell in shells if shell.shown()]
-        if not any(used):
-            return False
-        camera = renderer.GetActiveCamera()
-        view = (camera.GetMTime(), tuple(renderer.GetSize()))
-        if view == seen["view"] and depth.runs:
-            return False
-        seen["view"] = view
-        return True
+    def used() -> bool:   # each shell decides for its chunk; the pass draws if any uses it
+        return any([shell.used() for shell in shells])
 
-    depth = FaceDepthPass(renderer, parts, pass_needed) if options.proxy == "bricks" else None
+    depth = FaceDepthPass(renderer, parts, used) if options.proxy == "bricks" else None
     proxy = bounds_proxy(world)
     plotter.add_actor(proxy, name=world.name, reset_camera=False)
     chunks = []
