@@ -190,11 +190,16 @@ def add_volume(
     binding.light_map = light_map
     actor = _place(plotter, binding, name or model.name)
     component.track(binding)
+    _frame(plotter)
+    return actor
+
+
+def _frame(plotter: pyvista.Plotter) -> None:
+    """Frame a new prop: the camera if the user set none, else the near and far planes."""
     if not plotter.camera_set:
         plotter.reset_camera()
     else:
-        plotter.renderer.ResetCameraClippingRange()  # the near/far planes take the box in
-    return actor
+        plotter.renderer.ResetCameraClippingRange()
 
 
 def _place(plotter: pyvista.Plotter, binding, name: str):
@@ -229,10 +234,7 @@ def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options) -> pyvista.
                          "chunks has one index space per chunk: use mode='face' or 'color', "
                          "or pick() on a grid that fits one texture.")
     actor = build_world(plotter, world, options)
-    if not plotter.camera_set:
-        plotter.reset_camera()
-    else:
-        plotter.renderer.ResetCameraClippingRange()
+    _frame(plotter)
     return actor
 
 
@@ -445,8 +447,5 @@ def add_voxels(
     binding = chosen.build(plotter, model, options)
     actor = _place(plotter, binding, name or model.name)
     component.track(binding)
-    if not plotter.camera_set:
-        plotter.reset_camera()
-    else:
-        plotter.renderer.ResetCameraClippingRange()
+    _frame(plotter)
     return actor
