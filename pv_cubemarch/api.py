@@ -329,6 +329,8 @@ def add_voxels(
     ambient_occlusion: bool = False,
     occlusion_strength: float = 0.5,
     proxy: str | None = None,
+    lod: bool = False,
+    lod_bias: float = 0.0,
     chunk_size: int | None = None,
     transform=None,
     name: str | None = None,
@@ -398,6 +400,15 @@ def add_voxels(
         reaches them); ``'box'``, the grid's bounding box (the seed's set-up). Exact either
         way; only the speed differs. By default ``'bricks'``, and ``'box'`` for a grid drawn
         in chunks (a hundred chunks' shells cost more than they save: ``bench voxel-world``).
+    lod : bool
+        Level of detail (off by default, as it is not exact): where a voxel is smaller than
+        a pixel, rays stop at the coarsest occupancy level whose cells are no wider than a
+        pixel and draw the most frequent label under the cell. Chosen per pixel from where
+        its ray starts, so distant chunks and the far side of a grid go coarse first.
+        ``pv-cubemarch bench voxel-world`` reports its error and speed-up.
+    lod_bias : float
+        With ``lod``: levels added to the chosen one (``1``: cells up to two pixels wide,
+        faster and coarser; ``-1``: finer).
     chunk_size : int, optional
         Draw the grid in chunks of this edge (empty chunks cost nothing, a chunk of one
         label one byte); grids over 2048 voxels on a side (the largest 3D texture here) are
@@ -428,7 +439,8 @@ def add_voxels(
                             distance_field=distance_field, mode=mode, shading=shading,
                             ambient=ambient, specular=specular, specular_power=specular_power,
                             ambient_occlusion=ambient_occlusion,
-                            occlusion_strength=occlusion_strength, proxy=proxy)
+                            occlusion_strength=occlusion_strength, proxy=proxy, lod=lod,
+                            lod_bias=lod_bias)
     if isinstance(grid, VoxelModel):
         model = grid
         if transform is not None:

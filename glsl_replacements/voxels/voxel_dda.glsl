@@ -14,6 +14,12 @@
 // Cost: llvmpipe runs a loop's body whole for 8 pixels at once, both sides of every branch
 // included, so a step reads one texture once (the labels, or the level atlas holding them);
 // the palette is read in the outer loop, once per filled voxel met, never per step.
+#if defined(CM_LOD) && defined(CM_MIP_LEVELS)
+#define CM_FINEST cm_drawLevel
+#else
+#define CM_FINEST 0
+#endif
+
 int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float t)
 {
   ivec3 dims = ivec3(cm_gridDims);
@@ -31,8 +37,10 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
   bool passing = false;   // the current voxel is filled but hidden: step through it
 #ifdef CM_MIP_LEVELS
   // The first voxel is read before any level (a ray into a dense grid hits at once); when
-  // it is empty the ray starts from the coarsest level and descends.
-  int level = 0;
+  // it is empty the ray starts from the coarsest level and descends. With level of detail
+  // (CM_LOD) the traversal never descends below cm_drawLevel: a filled cell there is a hit,
+  // drawn with its representative label (voxel_lod.glsl).
+  int level = CM_FINEST;
   bool first = true;
   // A move either leaves a block or descends a level; a level is climbed only after a
   // move, so descents number at most the moves plus the levels.
@@ -52,19 +60,14 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
       label = cm_levelLabel(voxel, level);
       if (label != 0 && !passing)   // a filled voxel, or a coarse cell with one under it
       {
-        if (level == 0)
+        if (level <= CM_FINEST)
         {
           break;
         }
         --level;
         continue;
       }
-      if (level > 0)
-      {
-        low = (voxel >> level) << level;
-        high = min(low + (1 << level), dims);
-      }
-      else if (first && !passing)
+      if (first && !passing)
       {
         first = false;
         level = CM_MIP_LEVELS;
@@ -73,12 +76,17 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
         // filled, so it starts below the bricks' level and climbs as it leaves them.
         if (cm_startAtProxy > 0.5)
         {
-          level = min(CM_MIP_LEVELS, CM_SHELL_LEVEL - 1);
+          level = max(min(CM_MIP_LEVELS, CM_SHELL_LEVEL - 1), CM_FINEST);
         }
 #endif
         continue;
       }
       first = false;
+      if (level > 0)
+      {
+        low = (voxel >> level) << level;
+        high = min(low + (1 << level), dims);
+      }
 #else
       label = cm_label(voxel);
       if (label != 0 && !passing)
@@ -136,6 +144,13 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
       }
       return label;
     }
+#ifdef CM_LOD
+    if (level > 0)   // a coarse cell whose representative is hidden: look under it
+    {
+      --level;
+      continue;
+    }
+#endif
     passing = true;
   }
   return 0;

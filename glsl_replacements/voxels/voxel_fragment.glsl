@@ -52,6 +52,9 @@
   }
   ivec3 cm_voxel;
   float cm_t;
+#ifdef CM_LOD
+  cm_drawLevel = cm_lodLevel(cm_start);
+#endif
   int cm_material = cm_voxelTraverse(cm_a, cm_b, cm_voxel, cm_face, cm_t);
   if (cm_material == 0)
   {

@@ -234,6 +234,38 @@ def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
     return result
 
 
+def representative_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
+    """Levels ``1..levels`` holding, per cell, a label that stands for the voxels under it.
+
+    For level of detail: a cell of level ``L`` holds the most frequent non-zero label of its
+    8 cells of level ``L - 1`` (the smaller label on a tie; 0 only when all 8 are 0), so it
+    is non-zero exactly where :func:`occupancy_levels` marks the cell filled. Labels' dtype.
+    """
+    grid = np.asarray(labels)
+    result = []
+    for _ in range(int(levels)):
+        pad = [(0, n % 2) for n in grid.shape]
+        grown = np.pad(grid, pad) if any(p for _, p in pad) else grid
+        nx, ny, nz = (n // 2 for n in grown.shape)
+        children = np.sort(grown.reshape(nx, 2, ny, 2, nz, 2).transpose(0, 2, 4, 1, 3, 5)
+                           .reshape(-1, 8), axis=1)
+        chosen = children[:, 7].copy()   # right where all 8 agree (most cells)
+        mixed = np.flatnonzero(children[:, 0] != children[:, 7])
+        some = children[mixed]
+        counts = (some[:, :, None] == some[:, None, :]).sum(axis=2)
+        counts[some == 0] = 0
+        best = np.argmax(counts, axis=1)   # sorted: the first of the most frequent is smallest
+        chosen[mixed] = some[np.arange(len(some)), best]
+        grid = chosen.reshape(nx, ny, nz)
+        result.append(grid)
+    return result
+
+
+def atlas_levels(labels: np.ndarray, levels: int, representative: bool) -> list[np.ndarray]:
+    """The levels a level atlas holds: representative labels (level of detail) or occupancy."""
+    return (representative_levels if representative else occupancy_levels)(labels, levels)
+
+
 #: Occupancy levels whose bricks' outer faces may start the rays (``proxy='bricks'``),
 #: finest first: the first whose shell has at most SHELL_FACE_BUDGET faces is used (finer
 #: bricks start rays nearer their hits; scattered content makes too many faces, whose depth

@@ -17,9 +17,9 @@ from ..core.errors import VolumeDataError
 from ..gl.box import box_polydata
 from ..models.procedural import sphere
 from ..models.voxels import (
+    atlas_levels,
     filled_bounds,
     level_origin,
-    occupancy_levels,
     safe_radii,
 )
 
@@ -178,7 +178,7 @@ def refresh(binding, box: Box) -> None:
             high = [((b - 1) >> level) + 1 for b in upper]
             region = tuple(slice(a << level, min(b << level, n))
                            for a, b, n in zip(low, high, dims, strict=True))
-            cells = occupancy_levels(labels[region], level)[-1]
+            cells = atlas_levels(labels[region], level, binding.options.lod)[-1]
             origin = level_origin(dims, level, *binding.level_axes)
             atlas.update_region([o + a for o, a in zip(origin, low, strict=True)],
                                 cells.astype(labels.dtype))

@@ -64,6 +64,8 @@ class VoxelOptions:
     ambient_occlusion: bool = False
     occlusion_strength: float = 0.5
     proxy: str = "bricks"
+    lod: bool = False
+    lod_bias: float = 0.0
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
@@ -80,6 +82,20 @@ class VoxelOptions:
                                  f"has none: pass {name}=0 with traversal='fixed'.")
         if self.proxy not in PROXIES:
             raise ValueError(f"proxy must be one of {PROXIES}, got {self.proxy!r}.")
+        if not isinstance(self.lod, (bool, np.bool_)):
+            raise ValueError(f"lod must be True or False, got {self.lod!r}.")
+        positive_number("lod_bias", self.lod_bias, -float(MAX_MIP_LEVELS),
+                        float(MAX_MIP_LEVELS), closed_low=True)
+        if self.lod_bias and not self.lod:
+            raise ValueError("lod_bias shifts the level of detail, which is off: pass "
+                             "lod=True with it.")
+        if self.lod and (self.traversal != "dda" or self.mip_levels == 0):
+            raise ValueError("lod draws coarser occupancy levels, which only the DDA with "
+                             "mip_levels has: use traversal='dda' and mip_levels=None (or "
+                             "at least 1).")
+        if self.lod and self.mode == "id":
+            raise ValueError("mode='id' names the exact voxel of each pixel; lod draws "
+                             "coarser cells: leave lod off with mode='id'.")
         if self.shading not in SHADINGS:
             raise ValueError(f"shading must be one of {SHADINGS}, got {self.shading!r}.")
         positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)
@@ -130,14 +146,17 @@ class VoxelOptions:
         largest = max(int(n) for n in dimensions)
         return min(max(largest - 1, 0).bit_length(), MAX_MIP_LEVELS)
 
-    def for_grid(self, useful_levels: int) -> VoxelOptions:
-        """These options with ``mip_levels`` settled (``useful_levels`` when it is None).
+    def for_grid(self, useful_levels: int, candidates: int) -> VoxelOptions:
+        """These options with ``mip_levels`` settled when it is None.
 
-        ``useful_levels``: how many of the candidate levels pay off on the grid's labels
-        (:func:`~pv_cubemarch.models.voxels.useful_levels`).
+        ``useful_levels``: how many of the ``candidates`` levels pay off on the grid's labels
+        (:func:`~pv_cubemarch.models.voxels.useful_levels`); with ``lod``, all candidates
+        (each is a level of detail).
         """
         if self.mip_levels is not None:
             return self
+        if self.lod:
+            return replace(self, mip_levels=int(candidates))
         return replace(self, mip_levels=int(useful_levels))
 
     @property

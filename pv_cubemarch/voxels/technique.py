@@ -29,6 +29,7 @@ from ..models.voxels import (
     MAX_TEXTURE_SIZE,
     VoxelModel,
     atlas_layout,
+    atlas_levels,
     choose_shell,
     filled_bounds,
     level_atlas,
@@ -54,8 +55,10 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
     """
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
     lit = options.mode == "color" and options.shading != "unlit"
+    lod = bool(options.lod and options.mip_levels)
     skipping = (("voxel_mip",) if options.mip_levels else ()) + (
-        ("voxel_distance",) if options.distance_field else ())
+        ("voxel_distance",) if options.distance_field else ()) + (
+        ("voxel_lod",) if lod else ())
     occlusion = options.mode == "color" and options.ambient_occlusion
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
@@ -70,7 +73,7 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                 "CM_MIP_LEVELS": options.mip_levels or None,
                 "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
                 "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None,
-                "CM_SHELL_LEVEL": shell_level,
+                "CM_SHELL_LEVEL": shell_level, "CM_LOD": lod,
                 "CM_DISTANCE_FIELD": options.distance_field or None,
                 "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion})
 
@@ -129,16 +132,17 @@ def bind_labels(bindings: ShaderBindings, model: VoxelModel, options: VoxelOptio
 
     ``levels``: the grid's occupancy levels (at least ``options.mip_levels`` of them). With
     levels, ``cm_labels`` is their :class:`~pv_cubemarch.models.voxels.LevelAtlas` (one fetch
-    reads any level); its host copy goes once uploaded and is remade from the labels, which
-    the host keeps, only if a new window needs it. Without, it is the labels themselves.
+    reads any level; with ``lod`` the levels hold representative labels); its host copy goes
+    once uploaded and is remade from the labels, which the host keeps, only if a new window
+    needs it. Without, it is the labels themselves.
     """
-    labels, count = model.labels, options.mip_levels
+    labels, count, lod = model.labels, options.mip_levels, options.lod
     if not count:
         return bindings.add_texture("cm_labels", Texture(labels, kind="3d", interpolate=False))
-    atlas = level_atlas(labels, levels[:count])
+    atlas = level_atlas(labels, atlas_levels(labels, count, lod) if lod else levels[:count])
     return bindings.add_texture(
         "cm_labels", Texture(atlas.texels, kind="3d", interpolate=False, rebuild=lambda:
-                             level_atlas(labels, occupancy_levels(labels, count)).texels))
+                             level_atlas(labels, atlas_levels(labels, count, lod)).texels))
 
 
 def bind_distance_field(bindings: ShaderBindings, model: VoxelModel,
@@ -314,7 +318,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     renderer = plotter.renderer
     levels = occupancy_levels(model.labels, options.candidate_levels(model.dimensions))
     chosen_levels = options.mip_levels is not None
-    options = options.for_grid(useful_levels(levels))
+    options = options.for_grid(useful_levels(levels), len(levels))
     layout = atlas_layout(model.dimensions, options.mip_levels)
     if layout is None and chosen_levels:
         raise ValueError(f"mip_levels={options.mip_levels} on a grid of {model.dimensions} "
@@ -349,6 +353,10 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     bind_camera(bindings, renderer, model.world_from_index)
     if options.mode == "color" and options.shading != "unlit":
         bind_lights(bindings, renderer, model, options)
+    if options.lod and options.mip_levels:
+        bindings.set_uniform("cm_lodBias", float(options.lod_bias))
+        bindings.set_uniform("cm_voxelSize", lambda: float(np.linalg.norm(
+            model.world_from_index()[:3, :3], axis=0).max()))
     if options.mode == "color" and options.ambient_occlusion:
         bindings.set_uniform("cm_occlusionStrength", float(options.occlusion_strength))
     bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
