@@ -345,10 +345,10 @@ def add_voxels(
     ----------
     plotter : pyvista.Plotter
         The plotter to draw in.
-    grid : numpy.ndarray, pyvista.ImageData or VoxelModel
+    grid : numpy.ndarray, pyvista.ImageData, VoxelModel or VoxelWorld
         Integer labels, 0 = empty: a 3D array indexed x, y, z (unit voxels from the
         origin), or an ImageData whose cell data (one voxel per cell) or point data (one
-        voxel centred on each point) holds them.
+        voxel centred on each point) holds them; or a world of chunks.
     scalars : str, optional
         The ImageData array of labels; the first cell (then point) array by default.
     palette : str, list, dict, array or Palette, optional
@@ -414,7 +414,9 @@ def add_voxels(
         label one byte); grids over 2048 voxels on a side (the largest 3D texture here) are
         chunked by 256 without asking. A chunked grid returns an invisible actor standing
         for all chunks, whose ``cubemarch`` is a :class:`~pv_cubemarch.voxels.world.WorldBinding`
-        (no ``pick`` or edits yet; ``mode='id'`` is refused).
+        (edits, ``pick`` and ``set_material`` in world voxel indices; ``mode='id'`` is
+        refused). A :class:`~pv_cubemarch.models.world.VoxelWorld` (e.g. chunks placed by hand
+        with ``VoxelWorld.from_chunks``) is drawn in its own chunks.
     transform : array_like, optional
         4x4 affine placement of the grid in the world.
     name : str, optional
@@ -441,14 +443,21 @@ def add_voxels(
                             ambient_occlusion=ambient_occlusion,
                             occlusion_strength=occlusion_strength, proxy=proxy, lod=lod,
                             lod_bias=lod_bias)
-    if isinstance(grid, VoxelModel):
+    if isinstance(grid, (VoxelModel, VoxelWorld)):
         model = grid
         if transform is not None:
-            raise ValueError("transform goes with raw data; a VoxelModel carries its own "
-                             "(set model.transform, or actor.cubemarch.set_transform).")
+            raise ValueError("transform goes with raw data; a VoxelModel or VoxelWorld carries "
+                             "its own (set model.transform, or actor.cubemarch.set_transform).")
     else:
         model = make_voxels(grid, scalars, palette=palette, transform=transform,
                             name=name or "voxels")
+    if isinstance(model, VoxelWorld):
+        if chunk_size is not None and chunk_size != model.chunk_size:
+            raise ValueError(f"chunk_size={chunk_size} differs from the world's own "
+                             f"{model.chunk_size}; leave it out for a VoxelWorld.")
+        if proxy is None:
+            options = dataclasses.replace(options, proxy="box")
+        return _add_world(plotter, model, options)
     if chunk_size is not None or max(model.dimensions) > MAX_TEXTURE_SIZE:
         if proxy is None:
             options = dataclasses.replace(options, proxy="box")

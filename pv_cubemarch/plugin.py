@@ -145,6 +145,12 @@ class CubemarchComponent:
         self.release_removed()  # an actor of the same name may just have been replaced
         self._tracked.append(item)
 
+    def untrack(self, item) -> None:
+        """Release ``item`` now and stop following it (e.g. a world's replaced chunk)."""
+        item.release()
+        if item in self._tracked:
+            self._tracked.remove(item)
+
     @property
     def tracked(self) -> list:
         """The volumes this plotter draws with our techniques."""

@@ -8,6 +8,10 @@ uniform float cm_labelScale;     // 255 (uint8) or 65535 (uint16)
 uniform sampler2D cm_palette;    // (materials x 1) RGBA
 uniform vec3 cm_gridDims;        // voxels along x, y, z
 uniform float cm_near;           // the near plane's view depth
+#ifdef CM_OCCLUDERS
+uniform float cm_useOccluders;      // 1: the world's solid faces were drawn this frame
+uniform sampler2D cm_occluderDepth; // per pixel, a view depth no ray passes without a hit
+#endif
 #ifdef CM_SHELL_LEVEL
 uniform float cm_startAtProxy;   // 1: rays start at the brick shell (its depth pass ran)
 uniform sampler2D cm_shellDepth; // per pixel, the view depth where the ray meets the shell

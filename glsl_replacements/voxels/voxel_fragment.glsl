@@ -31,6 +31,15 @@
 #ifdef CM_SHELL_LEVEL
   cm_start = max(cm_start, cm_shell);
 #endif
+#ifdef CM_OCCLUDERS
+  // A world's chunk: no ray passes the nearest solid face (voxels/occluders.py) without
+  // a hit, so rays end there and a chunk hidden behind it is done here.
+  if (cm_useOccluders > 0.5)
+  {
+    cm_inBox.y = min(cm_inBox.y, texelFetch(cm_occluderDepth,
+                                            ivec2(gl_FragCoord.xy - cm_viewport.xy), 0).r);
+  }
+#endif
   if (!(cm_inBox.y > cm_start))
   {
     discard;

@@ -3,10 +3,12 @@
 ``pv-cubemarch bench voxel-world``: an FBM terrain as one grid of ``2 chunk``³ voxels and as
 ``count x count`` chunks of ``chunk``³ (the seed: 256³ against 10 x 10 chunks of 128³), the
 same terrain with a long low valley across the diagonal (the seed's worst case, Terrain*),
-and ``count x count`` empty chunks; each drawn with plain DDA, the default occupancy levels
-and the defaults (brick shell), frames drawn in turn as if the view turned. Per row: median
+the chunked terrain seen from a camera standing on it (``inside``: with a row drawing only
+the chunks a pixel shows, so the cost of those behind the camera or hidden is measured), and
+``count x count`` empty chunks; each drawn with plain DDA, the default occupancy levels, the
+defaults and level of detail, frames drawn in turn as if the view turned. Per row: median
 frame time, setup, GPU/host bytes and the share of pixels showing another material than the
-CPU traversal of the whole grid.
+CPU traversal of the whole grid (the level of detail's error; 0 for every other row).
 """
 
 from __future__ import annotations
@@ -32,11 +34,20 @@ ROWS = {
     "dda": {"mip_levels": 0, "proxy": "box"},
     "dda mip": {"proxy": "box"},
     "default": {},
+    "lod": {"lod": True},
 }
+#: The inside scene's extra row: the defaults on the chunks the reference sees, all others
+#: emptied; its time against ``default`` is what the chunks behind the camera or hidden
+#: behind the terrain cost.
+SEEN_ONLY = "seen only"
 
 
 def world_scenes(chunk: int = 128, count: int = 10) -> dict[str, tuple[np.ndarray, int | None]]:
-    """Scene name to ``(labels, chunk size or None)``, deterministic."""
+    """Scene name to ``(labels, chunk size or None)``, deterministic.
+
+    The scene whose name starts with ``inside`` is the chunked terrain seen from a camera
+    standing on it (:func:`_camera`).
+    """
     side = chunk * count
     ground = terrain((side, side, chunk), feature_size=side / 8, seed=1)
     valley = ground.copy()
@@ -48,6 +59,7 @@ def world_scenes(chunk: int = 128, count: int = 10) -> dict[str, tuple[np.ndarra
         f"terrain {2 * chunk}^3": (one, None),
         f"terrain {count}x{count}x{chunk}^3": (ground, chunk),
         f"terrain* {count}x{count}x{chunk}^3": (valley, chunk),
+        f"inside {count}x{count}x{chunk}^3": (ground, chunk),
         f"empty {count}x{count}x{chunk}^3": (np.zeros((side, side, chunk), np.uint8), chunk),
     }
 
@@ -71,9 +83,21 @@ class WorldRow:
         return float(np.median(self.frame_ms))
 
 
-def _camera(labels: np.ndarray) -> Camera:
-    """From above one corner, the whole grid in sight."""
+def _camera(name: str, labels: np.ndarray) -> Camera:
+    """From above one corner, the whole grid in sight; ``inside``: on the ground.
+
+    Inside, the eye stands a few voxels over the terrain near one corner and looks along
+    the diagonal with a 60 degree view: chunks behind it, and most in front hidden behind
+    the nearer hills.
+    """
     n = np.array(labels.shape, dtype=float)
+    if name.startswith("inside"):
+        corner = (int(n[0] * 0.15), int(n[1] * 0.2))
+        height = float(np.count_nonzero(labels[corner]))
+        eye = np.array([corner[0] + 0.5, corner[1] + 0.5, height + max(n[2] / 20, 1.5)])
+        return Camera(position=tuple(eye), focal_point=tuple(eye + [n[0] / 2, n[1] * 0.4,
+                                                                     -n[2] / 16]),
+                      view_up=(0, 0, 1), view_angle=60.0)
     return Camera(position=tuple(n / 2 + max(n) * np.array([0.75, -0.55, 0.7])),
                   focal_point=tuple(n / 2), view_up=(0, 0, 1), view_angle=40.0)
 
@@ -87,31 +111,23 @@ def run_world(size: Sequence[int] = (640, 480), chunk: int = 128, count: int = 1
     for name, (labels, chunk_size) in progress(scenes.items(), total=len(scenes),
                                                desc="worlds", enabled=progress_bar):
         plotters, setup, memory = {}, {}, {}
-        camera = _camera(labels)
+        camera = _camera(name, labels)
         try:
             for row, options in ROWS.items():
-                pl = offscreen_plotter(size)
-                pl.disable_anti_aliasing()
-                pl.ren_win.SetMultiSamples(0)
-                pl.set_background(BACKGROUND)
-                start = time.perf_counter()
-                actor = add_voxels(pl, labels, palette=PALETTE.copy(), shading="unlit",
-                                   chunk_size=chunk_size, **options)
-                camera.apply_to(pl.camera)
-                pl.renderer.ResetCameraClippingRange()
-                render_frame(pl)
-                setup[row] = (time.perf_counter() - start) * 1e3
-                binding = actor.cubemarch   # a grid's or a world's: labels kept on the host
-                memory[row] = (binding.nbytes, binding.model.nbytes)
-                plotters[row] = pl
-            times = time_frames_side_by_side(plotters, frames, warmup=0, camera_moves=True)
+                plotters[row], setup[row], memory[row] = _draw_row(size, camera, labels,
+                                                                   chunk_size, options)
             first = plotters["dda"]
             hits = trace_voxels(labels, np.eye(4), Camera.from_pyvista(first.camera), size,
                                 near=first.camera.clipping_range[0])
+            if name.startswith("inside"):
+                seen = _seen_chunks(labels, hits, chunk_size)
+                plotters[SEEN_ONLY], setup[SEEN_ONLY], memory[SEEN_ONLY] = _draw_row(
+                    size, camera, seen, chunk_size, {})
+            times = time_frames_side_by_side(plotters, frames, warmup=0, camera_moves=True)
             reference = np.where(hits.material[..., None] > 0,
                                  PALETTE[np.clip(hits.material, 0, len(PALETTE) - 1)],
                                  np.asarray(BACKGROUND))
-            for row in ROWS:
+            for row in plotters:
                 image = read_pixels(plotters[row]).astype(float) / 255.0
                 wrong = (np.abs(image - reference).max(axis=-1) > 3.0 / 255.0) \
                     & ~hits.near_edge
@@ -124,14 +140,45 @@ def run_world(size: Sequence[int] = (640, 480), chunk: int = 128, count: int = 1
     return results
 
 
+def _draw_row(size, camera: Camera, labels: np.ndarray, chunk_size: int | None,
+              options: dict) -> tuple:
+    """A plotter showing ``labels`` with ``options``: ``(plotter, setup ms, (GPU, host bytes))``.
+
+    Setup runs from the call to the first frame.
+    """
+    pl = offscreen_plotter(size)
+    pl.disable_anti_aliasing()
+    pl.ren_win.SetMultiSamples(0)
+    pl.set_background(BACKGROUND)
+    start = time.perf_counter()
+    actor = add_voxels(pl, labels, palette=PALETTE.copy(), shading="unlit",
+                       chunk_size=chunk_size, **options)
+    camera.apply_to(pl.camera)
+    pl.renderer.ResetCameraClippingRange()
+    render_frame(pl)
+    setup = (time.perf_counter() - start) * 1e3
+    binding = actor.cubemarch   # a grid's or a world's: labels kept on the host
+    return pl, setup, (binding.nbytes, binding.model.nbytes)
+
+
+def _seen_chunks(labels: np.ndarray, hits, chunk: int) -> np.ndarray:
+    """``labels`` with every chunk that holds no voxel a pixel shows emptied."""
+    seen = np.zeros_like(labels)
+    for key in {tuple(k) for k in hits.index[hits.material > 0] // chunk}:
+        box = tuple(slice(c * chunk, (c + 1) * chunk) for c in key)
+        seen[box] = labels[box]
+    return seen
+
+
 def format_world_table(results: list[WorldRow]) -> str:
     """The rows as a text table, with each row's time over the one-grid scene's same row."""
     base = {r.row: r.median_ms for r in results if r.scene == results[0].scene}
-    lines = ["scene                      row      frame ms  x one  setup ms   GPU MB  host MB"
-             "  covered px  wrong %", "-" * 101]
+    lines = ["scene                      row       frame ms  x one  setup ms   GPU MB  host MB"
+             "  covered px  wrong %", "-" * 102]
     for r in results:
-        lines.append(f"{r.scene:26s} {r.row:8s} {r.median_ms:9.1f} "
-                     f"{r.median_ms / base[r.row]:6.2f} {r.setup_ms:9.0f} "
+        ratio = r.median_ms / base[r.row] if r.row in base else float("nan")
+        lines.append(f"{r.scene:26s} {r.row:9s}{r.median_ms:9.1f} "
+                     f"{ratio:6.2f} {r.setup_ms:9.0f} "
                      f"{r.gpu_bytes / 1e6:8.1f} {r.host_bytes / 1e6:8.1f} "
                      f"{r.covered_pixels:11d} {r.wrong_percent:8.3f}")
     return "\n".join(lines)

@@ -497,9 +497,20 @@ def brick_shell(labels: np.ndarray, brick: int, margin: float = PROXY_MARGIN,
     """
     if occupied is None:
         occupied = occupied_bricks(labels, brick)
+    return shell_faces(occupied, brick, np.asarray(labels).shape, margin, max_faces)
+
+
+def shell_faces(occupied: np.ndarray, brick: int, dimensions: Sequence[int],
+                margin: float = PROXY_MARGIN,
+                max_faces: int | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """The outer faces of the bricks ``occupied`` marks, as :func:`brick_shell` makes them.
+
+    ``dimensions``: the grid's voxels (bricks at its far sides are cut there). A negative
+    ``margin`` stands the faces inside the bricks and shrinks them by ``2 |margin|``.
+    """
     if max_faces is not None and _exposed_faces(occupied) > 16 * max_faces:
         return None   # merging rarely saves that much: not worth merging to find out
-    dims = np.array(np.asarray(labels).shape, dtype=np.float64)
+    dims = np.array(dimensions, dtype=np.float64)
     corners = []
     for axis in range(3):
         u, v = (axis + 1) % 3, (axis + 2) % 3   # (axis, u, v) right-handed: u x v = axis

@@ -5,11 +5,12 @@ Empty chunks are not stored, uniform ones are one label each.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .voxels import Palette, PlacedGrid, VoxelModel
+from .voxels import Palette, PlacedGrid, VoxelModel, checked_labels
 
 #: Default chunk edge: well within the largest 3D texture, small enough to skip empty space.
 DEFAULT_CHUNK_SIZE = 256
@@ -53,6 +54,118 @@ class VoxelWorld(PlacedGrid):
                 world.stored[key] = block.copy()
         return world
 
+    @classmethod
+    def from_chunks(cls, chunks: dict, chunk_size: int, palette=None,
+                    dimensions: Sequence[int] | None = None, **placement) -> VoxelWorld:
+        """A world from chunks placed by hand: ``{(i, j, k): labels}``.
+
+        Chunk ``(i, j, k)`` covers voxels ``i * chunk_size`` to ``(i + 1) * chunk_size`` on x
+        (and so on); its labels have that shape (or less at the far sides). ``dimensions``:
+        the world's voxels, by default up to the farthest chunk's far side. ``palette``: as
+        :func:`~pv_cubemarch.models.voxels.make_voxels` takes it. ``placement``:
+        ``grid_from_index``, ``transform``, ``name``.
+        """
+        size = int(chunk_size)
+        if size < 1:
+            raise ValueError(f"chunk_size must be at least 1, got {chunk_size!r}.")
+        arrays = {}
+        for key, labels in chunks.items():
+            if len(tuple(key)) != 3 or any(int(k) != k or k < 0 for k in key):
+                raise ValueError(f"A chunk key is three whole numbers >= 0, got {key!r}.")
+            arrays[tuple(int(k) for k in key)] = checked_labels(labels, f"chunk {key}")
+        if dimensions is None:
+            far = [0, 0, 0]
+            for key, labels in arrays.items():
+                far = [max(f, k * size + n) for f, k, n in zip(far, key, labels.shape,
+                                                               strict=True)]
+            dimensions = tuple(max(f, 1) for f in far)
+        top = max([int(a.max()) for a in arrays.values() if a.size] + [1])
+        dtype = np.uint8 if top < 256 else np.uint16
+        world = cls(tuple(int(n) for n in dimensions), size, Palette.make(palette, top + 1),
+                    **placement)
+        for key, labels in arrays.items():
+            origin, shape = world.chunk_box(key)
+            if labels.shape != shape or any(o >= n for o, n in zip(origin, world.dimensions,
+                                                                    strict=True)):
+                raise ValueError(f"Chunk {key} must have the shape {shape} (chunk_size "
+                                 f"{size} cut at the world's far sides), got {labels.shape}.")
+            world.write(tuple(slice(o, o + n) for o, n in zip(origin, shape, strict=True)),
+                        labels.astype(dtype, copy=False))
+        return world
+
+    @property
+    def dtype(self) -> np.dtype:
+        """The labels' type: that of the stored chunks (uint8 when there are none)."""
+        for labels in self.stored.values():
+            return labels.dtype
+        return np.dtype(np.uint16 if max(self.uniform.values(), default=0) > 255
+                        else np.uint8)
+
+    def keys_in(self, box) -> list[tuple[int, int, int]]:
+        """The chunk keys a box of voxels (three slices) touches."""
+        ranges = [range(s.start // self.chunk_size, -(-s.stop // self.chunk_size))
+                  for s in box]
+        return [tuple(r[i] for r, i in zip(ranges, k, strict=True))
+                for k in np.ndindex(*(len(r) for r in ranges))]
+
+    def chunk_labels(self, key) -> np.ndarray:
+        """Chunk ``key``'s labels as a full array (a new one for uniform and empty chunks)."""
+        if key in self.stored:
+            return self.stored[key]
+        return np.full(self.chunk_box(key)[1], self.uniform.get(key, 0), self.dtype)
+
+    def labels_in(self, box) -> np.ndarray:
+        """A copy of the labels in a box of voxels (three slices), from the chunks."""
+        out = np.zeros([s.stop - s.start for s in box], self.dtype)
+        for key, inner, local in self.pieces(box):
+            if key in self.stored:
+                out[local] = self.stored[key][inner]
+            elif key in self.uniform:
+                out[local] = self.uniform[key]
+        return out
+
+    def write(self, box, values: np.ndarray) -> list[tuple[int, int, int]]:
+        """Write ``values`` into a box of voxels; returns the chunks whose kind changed.
+
+        A chunk changes kind when it goes from empty or uniform to stored (an edit of part
+        of it) or to another single label; stored chunks change in place.
+        """
+        changed = []
+        for key, inner, local in self.pieces(box):
+            piece = values[local]
+            if key in self.stored:
+                self.stored[key][inner] = piece
+                continue
+            if not (piece != self.uniform.get(key, 0)).any():
+                continue
+            labels = self.chunk_labels(key)
+            labels[inner] = piece
+            self.uniform.pop(key, None)
+            low, high = int(labels.min()), int(labels.max())
+            if low == high and high:
+                self.uniform[key] = high
+            elif high:
+                self.stored[key] = labels
+            changed.append(key)
+        return changed
+
+    def pieces(self, box):
+        """Per chunk a box touches: its key, the box's part in the chunk and in the box.
+
+        Both parts are three slices: in the chunk's voxels and in the box's.
+        """
+        for key in self.keys_in(box):
+            origin, shape = self.chunk_box(key)
+            low = [max(s.start, o) for s, o in zip(box, origin, strict=True)]
+            high = [min(s.stop, o + n) for s, o, n in zip(box, origin, shape, strict=True)]
+            if any(h <= lo for lo, h in zip(low, high, strict=True)):
+                continue
+            inner = tuple(slice(lo - o, h - o) for lo, h, o in zip(low, high, origin,
+                                                                   strict=True))
+            local = tuple(slice(lo - s.start, h - s.start) for lo, h, s in zip(low, high, box,
+                                                                               strict=True))
+            yield key, inner, local
+
     def chunk_box(self, key) -> tuple[np.ndarray, tuple[int, int, int]]:
         """The index-space origin and the shape (voxels) of chunk ``key``."""
         origin = np.asarray(key, dtype=np.int64) * self.chunk_size
@@ -78,6 +191,32 @@ class VoxelWorld(PlacedGrid):
         return VoxelModel(labels=labels, palette=self.palette,
                           grid_from_index=np.asarray(self.grid_from_index) @ local,
                           transform=self.transform, name=f"{self.name}{list(key)}")
+
+    def solid_bricks(self, brick: int) -> np.ndarray | None:
+        """Per brick of ``brick``³ voxels, whether every voxel in it is drawn (shown label).
+
+        A ray that reaches such a brick has hit a drawn voxel: the bricks' faces bound every
+        ray's first hit (the world's occluders). Bricks cut by the grid's far sides count as
+        not solid. ``None`` when ``brick`` does not divide the chunk size.
+        """
+        if self.chunk_size % brick:
+            return None
+        per_chunk = self.chunk_size // brick
+        solid = np.zeros([-(-n // brick) for n in self.dimensions], bool)
+        shown = np.append(self.palette.visible, False)   # labels past the palette: hidden
+        for key in set(self.stored) | set(self.uniform):
+            origin, shape = self.chunk_box(key)
+            cells = [n // brick for n in shape]   # whole bricks only
+            start = [k * per_chunk for k in key]
+            where = tuple(slice(a, a + c) for a, c in zip(start, cells, strict=True))
+            if key in self.uniform:
+                solid[where] = bool(shown[self.uniform[key]])
+                continue
+            drawn = shown[np.minimum(self.stored[key], len(shown) - 1)]
+            drawn = drawn[tuple(slice(0, c * brick) for c in cells)]
+            solid[where] = drawn.reshape(cells[0], brick, cells[1], brick, cells[2],
+                                         brick).all(axis=(1, 3, 5))
+        return solid
 
     @property
     def nbytes(self) -> int:

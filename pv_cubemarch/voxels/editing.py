@@ -30,13 +30,17 @@ WHOLE_UPLOAD_SHARE = 0.5
 
 def checked_material(binding, material) -> int:
     """``material`` as an int the grid's labels and palette hold, or a clear error."""
-    labels, palette = binding.model.labels, binding.model.palette
+    return check_material(material, binding.model.labels.dtype, binding.model.palette)
+
+
+def check_material(material, dtype, palette) -> int:
+    """``material`` as an int labels of ``dtype`` and ``palette`` hold, or a clear error."""
     if isinstance(material, (bool, np.bool_)) or not float(material).is_integer():
         raise ValueError(f"material must be a whole number, got {material!r}.")
     value = int(material)
-    top = int(np.iinfo(labels.dtype).max)
+    top = int(np.iinfo(dtype).max)
     if not 0 <= value <= top:
-        raise ValueError(f"material must be in 0..{top} for this grid's {labels.dtype} "
+        raise ValueError(f"material must be in 0..{top} for this grid's {np.dtype(dtype)} "
                          f"labels, got {value}.")
     if value >= palette.n_materials:
         raise ValueError(f"Material {value} has no colour: the palette has "
@@ -47,12 +51,16 @@ def checked_material(binding, material) -> int:
 
 def checked_labels_for(binding, values: np.ndarray) -> None:
     """Refuse labels the palette has no colour for, or the grid's type cannot hold."""
-    labels, palette = binding.model.labels, binding.model.palette
-    top = min(palette.n_materials, int(np.iinfo(labels.dtype).max) + 1) - 1
+    check_labels(values, binding.model.labels.dtype, binding.model.palette)
+
+
+def check_labels(values: np.ndarray, dtype, palette) -> None:
+    """Refuse labels ``palette`` has no colour for, or labels of ``dtype`` cannot hold."""
+    top = min(palette.n_materials, int(np.iinfo(dtype).max) + 1) - 1
     if values.size and (not np.issubdtype(values.dtype, np.integer) or values.min() < 0
                         or values.max() > top):
         raise VolumeDataError(f"Labels must be whole numbers in 0..{top} (the palette's "
-                              f"materials that the grid's {labels.dtype} labels hold).")
+                              f"materials that the grid's {np.dtype(dtype)} labels hold).")
 
 
 def box_of(where, dimensions: Sequence[int]) -> tuple[Box, np.ndarray | None]:
@@ -107,28 +115,43 @@ def set_voxels(binding, where, material) -> None:
 def fill_sphere(binding, center: Sequence[float], radius: float, material) -> None:
     """Set the voxels whose centre lies within ``radius`` of ``center`` (index space)."""
     value = checked_material(binding, material)
-    if not float(radius) >= 0:
-        raise ValueError(f"radius must be at least 0, got {radius!r}.")
-    dims = binding.model.dimensions
-    center = np.asarray(center, dtype=np.float64)
-    box = tuple(slice(max(0, int(np.floor(c - radius))), min(n, int(np.ceil(c + radius)) + 1))
-                for c, n in zip(center, dims, strict=True))
-    if any(s.stop <= s.start for s in box):
+    box, local = sphere_region(center, radius, binding.model.dimensions)
+    if local is None:
         return
-    shape = tuple(s.stop - s.start for s in box)
-    local = sphere(center - [s.start for s in box], float(radius)).voxels(shape) > 0
     binding.model.labels[box][local] = value
     refresh(binding, box)
 
 
+def sphere_region(center: Sequence[float], radius: float,
+                  dimensions: Sequence[int]) -> tuple[Box, np.ndarray | None]:
+    """The box of voxels whose centre is within ``radius`` of ``center``, and their mask.
+
+    The mask is ``None`` when the sphere misses the grid.
+    """
+    if not float(radius) >= 0:
+        raise ValueError(f"radius must be at least 0, got {radius!r}.")
+    if len(center) != 3:
+        raise ValueError(f"center must be three coordinates, got {center!r}.")
+    center = np.asarray(center, dtype=np.float64)
+    box = tuple(slice(max(0, int(np.floor(c - radius))), min(n, int(np.ceil(c + radius)) + 1))
+                for c, n in zip(center, dimensions, strict=True))
+    if any(s.stop <= s.start for s in box):
+        return box, None
+    shape = tuple(s.stop - s.start for s in box)
+    return box, sphere(center - [s.start for s in box], float(radius)).voxels(shape) > 0
+
+
 def fill_box(binding, lower: Sequence[int], upper: Sequence[int], material) -> None:
     """Set the voxels ``lower <= (i, j, k) < upper`` to ``material``."""
+    set_voxels(binding, clipped_box(lower, upper, binding.model.dimensions), material)
+
+
+def clipped_box(lower: Sequence[int], upper: Sequence[int], dimensions: Sequence[int]) -> Box:
+    """The voxels ``lower <= (i, j, k) < upper``, clipped to the grid, as three slices."""
     if len(lower) != 3 or len(upper) != 3:
         raise ValueError("lower and upper must be three voxel indices each.")
-    dims = binding.model.dimensions
-    box = tuple(slice(min(max(int(a), 0), n), min(max(int(b), 0), n))   # clipped to the grid
-                for a, b, n in zip(lower, upper, dims, strict=True))
-    set_voxels(binding, box, material)
+    return tuple(slice(min(max(int(a), 0), n), min(max(int(b), 0), n))
+                 for a, b, n in zip(lower, upper, dimensions, strict=True))
 
 
 def set_block(binding, where: tuple, values: np.ndarray) -> None:
@@ -193,7 +216,7 @@ def refresh(binding, box: Box) -> None:
                         for i, o in zip(inner, outer, strict=True))
             binding.skipping[0].update_region([s.start for s in inner], radii[cut])
     shell = binding.shell
-    if binding.options.proxy != "bricks":
+    if not binding.box_follows_voxels:
         return   # the whole grid's box is drawn
     before = tuple(np.concatenate(binding.drawn_bounds))
     if shell is not None and (shell.enabled or whole):

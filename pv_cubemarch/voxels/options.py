@@ -15,6 +15,9 @@ SHADINGS = ("unlit", "flat", "blinn")
 PROXIES = ("bricks", "box")
 #: Most occupancy mipmap levels (cells of 2^12 voxels cover any grid a texture holds).
 MAX_MIP_LEVELS = 12
+#: Fewest levels of detail a grid gets with ``lod`` (cells up to 8 voxels wide), where
+#: fewer levels would pay off for skipping alone.
+LOD_LEVELS = 3
 #: Largest radius of the neighbour distance field (the seed's 1..3: 8, 124, 342 neighbours).
 MAX_DISTANCE_FIELD = 3
 
@@ -150,13 +153,14 @@ class VoxelOptions:
         """These options with ``mip_levels`` settled when it is None.
 
         ``useful_levels``: how many of the ``candidates`` levels pay off on the grid's labels
-        (:func:`~pv_cubemarch.models.voxels.useful_levels`); with ``lod``, all candidates
-        (each is a level of detail).
+        (:func:`~pv_cubemarch.models.voxels.useful_levels`); with ``lod``, at least
+        :data:`LOD_LEVELS` of them (levels of detail even where skipping would not pay).
         """
         if self.mip_levels is not None:
             return self
         if self.lod:
-            return replace(self, mip_levels=int(candidates))
+            return replace(self, mip_levels=max(int(useful_levels),
+                                                min(int(candidates), LOD_LEVELS)))
         return replace(self, mip_levels=int(useful_levels))
 
     @property

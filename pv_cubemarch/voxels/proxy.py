@@ -44,6 +44,21 @@ SHELL_RECIPE = ShaderRecipe(replacements=[
 ])
 
 
+def face_depth_actor(renderer) -> tuple[pyvista.Actor, ShaderBindings]:
+    """An actor (not in the renderer) whose fragments write their view depth.
+
+    For a :class:`FaceDepthPass`; its mesh is set with ``GetMapper().SetInputData``.
+    """
+    actor = pyvista.Actor()
+    mapper = vtk.vtkOpenGLPolyDataMapper()
+    actor.SetMapper(mapper)
+    actor.GetProperty().LightingOff()
+    bindings = ShaderBindings(mapper, renderer, SHELL_RECIPE)
+    bindings.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
+    SHELL_RECIPE.apply(actor.GetShaderProperty())
+    return actor, bindings
+
+
 class ShellStart:
     """The brick shell of one grid, its depth pass, and whether it is used this frame."""
 
@@ -51,13 +66,7 @@ class ShellStart:
                  depth: FaceDepthPass | None = None):
         self.model = model
         self.renderer = renderer
-        self.actor = pyvista.Actor()
-        mapper = vtk.vtkOpenGLPolyDataMapper()
-        self.actor.SetMapper(mapper)
-        self.actor.GetProperty().LightingOff()
-        self.bindings = ShaderBindings(mapper, renderer, SHELL_RECIPE)
-        self.bindings.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
-        SHELL_RECIPE.apply(self.actor.GetShaderProperty())
+        self.actor, self.bindings = face_depth_actor(renderer)
         self.enabled = True      # False once edits leave no shell within the face budget
         #: Whether the grid is shown (set by its binding): a hidden grid runs no pass.
         self.shown = lambda: True

@@ -39,6 +39,7 @@ from ..models.voxels import (
 )
 from ..reference.voxels import render_voxels, trace_voxels
 from . import editing
+from .occluders import WorldOccluders
 from .options import VoxelOptions
 from .proxy import ShellStart
 
@@ -47,11 +48,12 @@ MAX_VOXEL_LIGHTS = 8
 
 
 def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
-                 level_axes: tuple[int, int] = (2, 0)) -> ShaderRecipe:
+                 level_axes: tuple[int, int] = (2, 0), occluders: bool = False) -> ShaderRecipe:
     """The box actor's replacements for the chosen traversal, mode, shading and occlusion.
 
     ``shell_level``: the occupancy level of the brick shell that starts the rays, if any;
-    ``level_axes``: the level atlas's slab and row axes (:func:`atlas_layout`).
+    ``level_axes``: the level atlas's slab and row axes (:func:`atlas_layout`);
+    ``occluders``: rays end at a world's solid faces (:mod:`.occluders`).
     """
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
     lit = options.mode == "color" and options.shading != "unlit"
@@ -73,7 +75,7 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                 "CM_MIP_LEVELS": options.mip_levels or None,
                 "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
                 "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None,
-                "CM_SHELL_LEVEL": shell_level, "CM_LOD": lod,
+                "CM_SHELL_LEVEL": shell_level, "CM_LOD": lod, "CM_OCCLUDERS": occluders,
                 "CM_DISTANCE_FIELD": options.distance_field or None,
                 "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion})
 
@@ -198,6 +200,8 @@ class VoxelBinding(DrawnBinding):
         self.level_axes: tuple[int, int] = (2, 0)
         #: Index-space corners of the box the actor draws.
         self.drawn_bounds: tuple[np.ndarray, np.ndarray] | None = None
+        #: Whether that box follows the filled voxels (edits grow it), or is the grid's.
+        self.box_follows_voxels = False
 
     @property
     def palette(self):
@@ -310,10 +314,12 @@ class VoxelBinding(DrawnBinding):
 
 
 def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
-                      shared_depth: FaceDepthPass | None = None) -> VoxelBinding:
+                      shared_depth: FaceDepthPass | None = None,
+                      occluders: WorldOccluders | None = None) -> VoxelBinding:
     """The opaque box actor of a material grid; returns its binding.
 
-    ``shared_depth``: a brick-shell depth pass shared with other grids (a world's chunks).
+    ``shared_depth``: a brick-shell depth pass shared with other grids (a world's chunks);
+    ``occluders``: the solid faces of the world the grid is a chunk of, where rays end.
     """
     renderer = plotter.renderer
     levels = occupancy_levels(model.labels, options.candidate_levels(model.dimensions))
@@ -332,10 +338,12 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     # With the brick shell, rays meet filled voxels only inside the box around its bricks.
     bricks = choose_shell(model.labels) if options.proxy == "bricks" else None
     shell = ShellStart(model, renderer, bricks, shared_depth) if bricks is not None else None
-    if options.proxy == "box":
+    if options.proxy == "box" and occluders is None:
         lower, upper = np.zeros(3), np.asarray(model.dimensions, dtype=np.float64)
+    elif shell is None:   # the box around the voxels (a world's chunk: less overdraw)
+        lower, upper = filled_bounds(model.labels)
     else:
-        lower, upper = shell.bounds if shell is not None else filled_bounds(model.labels)
+        lower, upper = shell.bounds
     actor = box_actor(upper, model.world_from_index(), margin=0.01 * max(model.dimensions),
                       lower=lower)
     actor.ForceTranslucentOff()
@@ -363,7 +371,11 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     if shell is not None:
         bindings.add_texture("cm_shellDepth", shell.depth)
         bindings.set_uniform("cm_startAtProxy", lambda: shell.start_at_shell)
-    recipe = voxel_recipe(options, shell.level if shell is not None else None, layout[:2])
+    if occluders is not None:
+        bindings.add_texture("cm_occluderDepth", occluders.depth)
+        bindings.set_uniform("cm_useOccluders", lambda: occluders.use)
+    recipe = voxel_recipe(options, shell.level if shell is not None else None, layout[:2],
+                          occluders is not None)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
     binding = VoxelBinding(model, bindings, recipe, labels, palette, options)
@@ -373,6 +385,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
         shell.shown = lambda: binding.shown
     binding.level_axes = layout[:2]
     binding.drawn_bounds = (lower, upper)
+    binding.box_follows_voxels = options.proxy == "bricks" or occluders is not None
     binding.drawn = [actor]
     binding.renderer = renderer
     pyvista.set_new_attribute(actor, "cubemarch", binding)

@@ -1,50 +1,253 @@
-"""Voxel worlds on screen: a box actor per chunk that holds voxels, one shared depth pass.
+"""Voxel worlds on screen: a box actor per chunk that holds voxels, shared depth passes.
 
 Each chunk is drawn as a grid of its own (:func:`build_voxel_actor`), so frustum culling,
 levels and editing work per chunk; a chunk of one label is a single stretched voxel, and
-empty chunks draw nothing. The chunks' brick shells are drawn by one depth pass: the
-nearest shell face over all chunks is a safe start for every chunk's rays (no chunk has a
-filled voxel before it), so a chunk behind another starts at its own box and a chunk in
-front of the nearest face ends at once. The world stands in the plotter as one invisible
-bounds actor; the chunks' actors follow its visibility and leave with it.
+empty chunks draw nothing. Every chunk's rays end at the world's solid faces
+(:class:`~.occluders.WorldOccluders`), so chunks hidden behind nearer terrain cost one
+texture read per pixel. With ``proxy='bricks'`` the chunks' brick shells are drawn by one
+depth pass: the nearest shell face over all chunks is a safe start for every chunk's rays.
+The world stands in the plotter as one invisible bounds actor; the chunks' actors follow its
+visibility and leave with it. Edits, picks and palette changes go through the world
+(:class:`WorldBinding`): an edit reaching an empty or uniform chunk gives it its own labels
+and actor.
 """
 
 from __future__ import annotations
 
+import numpy as np
 import pyvista
 import vtk
 
+from ..core.camera import Camera
+from ..gl.drawn import DrawnBinding
 from ..gl.face_depth import FaceDepthPass
 from ..gl.overlay import bounds_proxy
+from ..models.volume import checked_transform
 from ..models.world import VoxelWorld
+from ..reference.voxels import trace_voxels
+from . import editing
+from .occluders import WorldOccluders
 from .options import VoxelOptions
-from .technique import VoxelBinding, build_voxel_actor
+from .technique import VoxelBinding, VoxelPick, build_voxel_actor
 
 
 class WorldBinding:
-    """What ``actor.cubemarch`` holds for a world: the world and its chunks' bindings."""
+    """What ``actor.cubemarch`` holds for a world: the world, its chunks, their passes.
+
+    Edits take world voxel indices, as a single grid's do (:class:`VoxelBinding`).
+    """
 
     technique = "voxels"
 
-    def __init__(self, world: VoxelWorld, chunks: list[VoxelBinding],
-                 depth: FaceDepthPass | None):
+    def __init__(self, plotter, world: VoxelWorld, options: VoxelOptions, anchor):
+        self.plotter = plotter
         self.model = world
-        self.chunks = chunks
-        self.depth = depth
+        self.options = options
+        self.anchor = anchor
+        renderer = plotter.renderer
+        self.renderer = renderer
+        self.chunks: dict[tuple[int, int, int], VoxelBinding] = {}
+        self._parts = vtk.vtkAssembly()
+        self.depth = (FaceDepthPass(renderer, self._parts, self._shells_used)
+                      if options.proxy == "bricks" else None)
+        self.occluders = WorldOccluders(world, renderer)
+        self.occluders.shown = lambda: bool(anchor.GetVisibility())
+        for key in sorted(set(world.stored) | set(world.uniform)):
+            self._build_chunk(key)
+
+    def _shells_used(self) -> bool:
+        """Each shell decides for its chunk; the shared pass draws if any uses it."""
+        return any([c.shell.used() for c in self.chunks.values() if c.shell is not None])
+
+    def _build_chunk(self, key) -> None:
+        """Draw chunk ``key`` (replacing its actor, if any) or nothing when it is empty."""
+        old = self.chunks.pop(key, None)
+        if old is not None:
+            if old.shell is not None:
+                self._parts.RemovePart(old.shell.actor)
+            self.plotter.cubemarch.untrack(old)
+        if key not in self.model.stored and key not in self.model.uniform:
+            return
+        model = self.model.chunk_model(key)
+        self.options.check_model(model)
+        binding = build_voxel_actor(self.plotter, model, self.options, shared_depth=self.depth,
+                                    occluders=self.occluders)
+        self.renderer.AddActor(binding.drawn[0])
+        binding.main_renderer = self.renderer
+        binding.actor = self.anchor   # the chunk follows its visibility, leaves with it
+        if binding.shell is not None:
+            binding.shell.shared = True   # the world's passes are freed with the world
+            self._parts.AddPart(binding.shell.actor)
+        self.plotter.cubemarch.track(binding)
+        self.chunks[key] = binding
+
+    @property
+    def palette(self):
+        """The world's :class:`~pv_cubemarch.models.voxels.Palette` (shared by its chunks)."""
+        return self.model.palette
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes of every chunk, the shared depth pass counted once."""
-        total = sum(c.nbytes for c in self.chunks)
-        shared = sum(1 for c in self.chunks if c.shell is not None)
-        return total - max(shared - 1, 0) * (self.depth.nbytes if self.depth else 0)
+        """GPU bytes of every chunk and the occluders, the shared depth pass counted once."""
+        total = sum(c.nbytes for c in self.chunks.values()) + self.occluders.nbytes
+        shells = sum(1 for c in self.chunks.values() if c.shell is not None)
+        return total - max(shells - 1, 0) * (self.depth.nbytes if self.depth else 0)
+
+    def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
+        """Change a material's colour and/or opacity (0 hides it) in every chunk."""
+        self.model.palette.set_color(material, color, opacity)
+        for chunk in self.chunks.values():
+            chunk.palette_texture.set_data(self.model.palette.rgba.reshape(1, -1, 4))
+        self.occluders.rebuild()   # which bricks are solid depends on what is shown
+
+    def set_voxels(self, where, material: int) -> None:
+        """Set voxels to ``material`` (0 empties them): an index, slices or world mask."""
+        value = self._checked_material(material)
+        box, mask = editing.box_of(where, self.model.dimensions)
+        if any(s.stop <= s.start for s in box):
+            return
+        if mask is None:
+            block = np.full([s.stop - s.start for s in box], value, self.model.dtype)
+        else:
+            block = self.model.labels_in(box)
+            block[mask] = value
+        self._write(box, block)
+
+    def fill_sphere(self, center, radius: float, material: int) -> None:
+        """Set the voxels whose centre is within ``radius`` of ``center`` (world indices)."""
+        value = self._checked_material(material)
+        box, local = editing.sphere_region(center, radius, self.model.dimensions)
+        if local is None:
+            return
+        block = self.model.labels_in(box)
+        block[local] = value
+        self._write(box, block)
+
+    def fill_box(self, lower, upper, material: int) -> None:
+        """Set the voxels ``lower <= (i, j, k) < upper`` to ``material``."""
+        self.set_voxels(editing.clipped_box(lower, upper, self.model.dimensions), material)
+
+    def set_block(self, where, values) -> None:
+        """Write the labels ``values`` into the box ``where`` (a tuple of three slices)."""
+        box, mask = editing.box_of(where, self.model.dimensions)
+        values = np.asarray(values)
+        shape = tuple(s.stop - s.start for s in box)
+        if mask is not None or values.shape != shape:
+            raise ValueError(f"set_block needs a tuple of slices and values of its shape "
+                             f"{shape}, got values of {values.shape}.")
+        editing.check_labels(values, self.model.dtype, self.model.palette)
+        if values.size:
+            self._write(box, values)
+
+    def set_values(self, labels) -> None:
+        """Replace every label (the world's shape)."""
+        labels = np.asarray(labels)
+        if labels.shape != tuple(self.model.dimensions):
+            raise ValueError(f"set_values needs labels of the world's shape "
+                             f"{tuple(self.model.dimensions)}, got {labels.shape}.")
+        self.set_block(tuple(slice(0, n) for n in self.model.dimensions), labels)
+
+    def _checked_material(self, material) -> int:
+        return editing.check_material(material, self.model.dtype, self.model.palette)
+
+    def _write(self, box, values: np.ndarray) -> None:
+        """Labels into the world; chunks that changed kind get new actors, others edits."""
+        stored_before = set(self.model.stored)
+        rebuilt = set(self.model.write(box, values.astype(self.model.dtype, copy=False)))
+        for key, inner, _ in self.model.pieces(box):
+            if key in rebuilt:
+                self._build_chunk(key)
+            elif key in stored_before and key in self.chunks:
+                editing.refresh(self.chunks[key], inner)
+        self.occluders.edit(box)
+
+    def pick(self, x: int, y: int) -> VoxelPick | None:
+        """The voxel under pixel ``(x, y)`` (from the top-left), or ``None``.
+
+        The chunks the pixel's ray crosses are traversed near to far on the CPU (as each is
+        drawn) until one is hit; the index is the world's.
+        """
+        width, height = self.renderer.GetSize()
+        if not (0 <= int(x) < width and 0 <= int(y) < height):
+            raise ValueError(f"(x, y) must be a pixel of the {width}x{height} renderer, got "
+                             f"({x}, {y}).")
+        camera = Camera.from_pyvista(self.renderer.GetActiveCamera())
+        origins, directions = camera.rays((width, height))
+        origin, direction = origins[int(y), int(x)], directions[int(y), int(x)]
+        index_from_world = np.linalg.inv(self.model.world_from_index())
+        o = (index_from_world @ np.append(origin, 1.0))[:3]
+        d = index_from_world[:3, :3] @ direction
+        order = []
+        for key in self.chunks:
+            start, shape = self.model.chunk_box(key)
+            entry = _slab(o, d, start.astype(float), start + np.asarray(shape, float))
+            if entry is not None:
+                order.append((entry, key))
+        for _, key in sorted(order):
+            chunk = self.chunks[key]
+            hits = trace_voxels(chunk.model.labels, chunk.model.world_from_index(), camera,
+                                (width, height), near=camera.clipping_range[0],
+                                visible=self.model.palette.visible, crop=(int(x), int(y), 1, 1))
+            if hits.material[0, 0] == 0:
+                continue
+            depth = float(hits.depth[0, 0])
+            point = origin + direction * depth
+            inside = (index_from_world @ np.append(point, 1.0))[:3] + 1e-6 * d
+            start, shape = self.model.chunk_box(key)
+            index = np.clip(np.floor(inside).astype(int), start, start + np.array(shape) - 1)
+            return VoxelPick(tuple(int(v) for v in index), int(hits.material[0, 0]),
+                             int(hits.face[0, 0]), depth, tuple(float(v) for v in point))
+        return None
+
+    def set_transform(self, transform) -> None:
+        """Move the world: ``transform`` is its new 4x4 placement."""
+        self.model.transform = checked_transform(transform)
+        for chunk in self.chunks.values():
+            chunk.set_transform(transform)
+        self.occluders.place()
+
+
+def _slab(origin: np.ndarray, direction: np.ndarray, low: np.ndarray,
+          high: np.ndarray) -> float | None:
+    """Where a ray enters the box ``[low, high]`` (its parameter, >= 0), or ``None``."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = (low - origin) / direction
+        b = (high - origin) / direction
+    inside = (origin >= low) & (origin <= high)
+    near = np.where(direction == 0, np.where(inside, -np.inf, np.inf), np.minimum(a, b))
+    far = np.where(direction == 0, np.where(inside, np.inf, -np.inf), np.maximum(a, b))
+    enter, leave = max(float(near.max()), 0.0), float(far.min())
+    return enter if enter <= leave else None
+
+
+class WorldPasses(DrawnBinding):
+    """The world's shared passes as the plotter tracks them: freed when the world leaves."""
+
+    def __init__(self, world: WorldBinding):
+        super().__init__(world.model, world.occluders.bindings, None)
+        self.world = world
+        self.actor = world.anchor
+        self.main_renderer = self.renderer = world.renderer
+
+    @property
+    def name(self) -> str:
+        """The world's name, for the plotter's memory report."""
+        return f"{self.model.name} passes"
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of the occluders' pass and the shared shell pass."""
+        return self.world.occluders.nbytes + (self.world.depth.nbytes if self.world.depth
+                                              else 0)
 
     def release(self) -> None:
-        """Free every chunk and the shared pass."""
-        for chunk in self.chunks:
-            chunk.release()
-        if self.depth is not None:
-            self.depth.release()
+        """Free the passes (the chunks are tracked and freed on their own)."""
+        if self._released:
+            return
+        self._released = True
+        if self.world.depth is not None:
+            self.world.depth.release()
+        self.world.occluders.release()
 
 
 def build_world(plotter, world: VoxelWorld, options: VoxelOptions) -> pyvista.Actor:
@@ -53,30 +256,9 @@ def build_world(plotter, world: VoxelWorld, options: VoxelOptions) -> pyvista.Ac
     That actor is in the plotter (named after the world) before any chunk is tracked: a
     tracked chunk whose anchor is not in the renderer counts as removed.
     """
-    renderer = plotter.renderer
-    shells = []
-    parts = vtk.vtkAssembly()
-
-    def used() -> bool:   # each shell decides for its chunk; the pass draws if any uses it
-        return any([shell.used() for shell in shells])
-
-    depth = FaceDepthPass(renderer, parts, used) if options.proxy == "bricks" else None
     proxy = bounds_proxy(world)
     plotter.add_actor(proxy, name=world.name, reset_camera=False)
-    chunks = []
-    for key in sorted(set(world.stored) | set(world.uniform)):
-        model = world.chunk_model(key)
-        options.check_model(model)
-        binding = build_voxel_actor(plotter, model, options, shared_depth=depth)
-        renderer.AddActor(binding.drawn[0])
-        binding.main_renderer = renderer
-        binding.actor = proxy   # the anchor: the chunk follows its visibility, leaves with it
-        if binding.shell is not None:
-            parts.AddPart(binding.shell.actor)
-            shells.append(binding.shell)
-        plotter.cubemarch.track(binding)
-        chunks.append(binding)
-    if shells:
-        shells[0].shared = False   # the first chunk's release frees the pass with the world
-    pyvista.set_new_attribute(proxy, "cubemarch", WorldBinding(world, chunks, depth))
+    binding = WorldBinding(plotter, world, options, proxy)
+    plotter.cubemarch.track(WorldPasses(binding))
+    pyvista.set_new_attribute(proxy, "cubemarch", binding)
     return proxy
