@@ -159,9 +159,9 @@ def test_solid_faces_end_rays_without_cutting_a_hit(plotter_factory, eye, up):
 def test_world_edits_show_next_frame_across_chunks(plotter_factory):
     # One voxel in a stored chunk, a sphere across seams into empty and uniform chunks, a
     # box emptying a uniform chunk in part, a mask: each frame equals one grid's traversal
-    # of the edited labels. catches (seen to fail): an edit of an empty chunk drawing
-    # nothing (no actor made), a uniform chunk edited as its one stretched voxel, the
-    # occluders kept after a solid brick was carved (the carved hole drawn closed).
+    # of the edited labels. catches (seen to fail): an edit of an empty or uniform chunk
+    # given no new actor (drawn as before), the occluders kept after a solid brick was
+    # carved (rays ended at the carved hole's old faces).
     labels = terrain_labels()
     labels[32:48, 0:16, 0:16] = 3          # a uniform chunk
     pl, actor = world_plotter(plotter_factory, labels)
