@@ -17,6 +17,7 @@ from .bench.voxels import ROWS as VOXEL_ROWS
 from .core.errors import CubemarchError, VolumeDataError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, techniques
+from .models.voxels import VoxelModel
 from .scene.io import load_scene
 from .volume.options import Shading
 from .voxels.options import MODES, SHADINGS, TRAVERSALS, VoxelOptions
@@ -111,6 +112,11 @@ def build_parser() -> argparse.ArgumentParser:
     vox.add_argument("--proxy", choices=("bricks", "box"),
                      help="what starts the rays: the filled bricks' faces (default) or the "
                           "grid's box")
+    vox.add_argument("--lod", action="store_true", default=None,
+                     help="level of detail: coarser cells where voxels are under a pixel")
+    vox.add_argument("--lod-bias", type=float, help="levels added to the level of detail")
+    vox.add_argument("--chunk-size", type=int,
+                     help="draw each voxel grid in chunks of this edge (a voxel world)")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
     info.add_argument("scene", nargs="?", help="scene file to describe")
@@ -218,7 +224,8 @@ def _render(args) -> int:
               "shading": args.shading, "mode": args.mode, "specular": args.specular,
               "specular_power": args.specular_power,
               "ambient_occlusion": args.ambient_occlusion,
-              "occlusion_strength": args.occlusion_strength, "proxy": args.proxy}
+              "occlusion_strength": args.occlusion_strength, "proxy": args.proxy,
+              "lod": args.lod, "lod_bias": args.lod_bias}
     given = {k: v for k, v in chosen.items() if v is not None}
     if given.get("lights") == "none":
         given["lights"] = None
@@ -241,6 +248,10 @@ def _render(args) -> int:
     if scene.volumes:
         _volume_options(scene, args, given)
     _voxel_options(scene, as_voxels, given)
+    if args.chunk_size is not None:
+        for grid in scene.voxels:   # worlds keep their own chunks
+            if isinstance(grid, VoxelModel):
+                scene.voxel_options.setdefault(grid.name, {})["chunk_size"] = args.chunk_size
     scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
     return 0

@@ -17,6 +17,7 @@ from ..core.rendering import offscreen_plotter, render_image
 from ..models.group import overlap_groups
 from ..models.volume import VolumeModel
 from ..models.voxels import VoxelModel
+from ..models.world import VoxelWorld
 
 DEFAULT_BACKGROUND = (0.1, 0.1, 0.12)
 
@@ -73,7 +74,7 @@ class Scene:
     source: str = ""
     background: tuple[float, float, float] = DEFAULT_BACKGROUND
     volume_options: dict[str, dict] = field(default_factory=dict)
-    voxels: list[VoxelModel] = field(default_factory=list)
+    voxels: list[VoxelModel | VoxelWorld] = field(default_factory=list)
     voxel_options: dict[str, dict] = field(default_factory=dict)
 
     @property
@@ -113,8 +114,10 @@ class Scene:
         lines.append(f"volumes: {len(self.volumes)}")
         lines += [f"  {v.name}: {'x'.join(map(str, v.dimensions))} points" for v in self.volumes]
         lines.append(f"voxel grids: {len(self.voxels)}")
-        lines += [f"  {g.name}: {'x'.join(map(str, g.dimensions))} voxels, labels up to "
-                  f"{int(g.labels.max())}" for g in self.voxels]
+        lines += [f"  {g.name}: {'x'.join(map(str, g.dimensions))} voxels, "
+                  + (f"labels up to {int(g.labels.max())}" if isinstance(g, VoxelModel) else
+                     f"{len(g.stored) + len(g.uniform)} chunks of {g.chunk_size}^3")
+                  for g in self.voxels]
         lines.append(f"cameras: {len(self.cameras)}")
         lines += [f"  {name}" for name in self.cameras]
         lines.append(f"lights: {len(self.lights)}")
@@ -128,7 +131,8 @@ class Scene:
 
         This is what ``pv.read`` returns. A voxel grid is an ImageData with its labels in
         the cell data array ``"labels"`` (one cell per voxel), placed in the world, so
-        ``pv_cubemarch.add_voxels(plotter, block)`` draws it where the scene does.
+        ``pv_cubemarch.add_voxels(plotter, block)`` draws it where the scene does; a voxel
+        world gives one such block per chunk that holds voxels.
         """
         blocks = pyvista.MultiBlock()
         for m in self.meshes:
@@ -139,7 +143,15 @@ class Scene:
                 grid = grid.transform(v.transform, inplace=False)
             blocks[v.name] = grid
         for g in self.voxels:
-            blocks[g.name] = _voxel_image(g)
+            if isinstance(g, VoxelModel):
+                blocks[g.name] = _voxel_image(g)
+                continue
+            for key in sorted(set(g.stored) | set(g.uniform)):   # a world: block per chunk
+                chunk = g.chunk_model(key)
+                chunk.labels = g.chunk_labels(key)
+                chunk.grid_from_index = g.world_from_index() @ _shifted(g.chunk_box(key)[0])
+                chunk.transform = np.eye(4)
+                blocks[chunk.name] = _voxel_image(chunk)
         return blocks
 
     def add_to(self, plotter: pyvista.Plotter, camera: str | Camera | None = None,
@@ -238,6 +250,13 @@ class Scene:
             Path(path).parent.mkdir(parents=True, exist_ok=True)
             Image.fromarray(image).save(str(path))
         return image
+
+
+def _shifted(origin) -> np.ndarray:
+    """A 4x4 translation by ``origin``."""
+    matrix = np.eye(4)
+    matrix[:3, 3] = origin
+    return matrix
 
 
 def _voxel_image(grid: VoxelModel) -> pyvista.ImageData:

@@ -20,9 +20,11 @@ A ``Volume`` with ``cubemarch:technique = "voxels"`` (or every ``Volume`` with
 colormap name), with optional ``cubemarch:paletteOpacity`` (``float[]``, one per palette
 entry, 0 hides a material); its options are :data:`VOXEL_OPTIONS` (``traversal``,
 ``stepScale``, ``mipLevels``, ``distanceField``, ``mode``, ``shading``, ``ambient``,
-``specular``, ``specularPower``, ``ambientOcclusion``, ``occlusionStrength``, ``proxy``),
-checked when the stage is loaded. A numpy label array fills voxels from
-``cubemarch:origin`` (the grid box's corner), as ``add_voxels`` places an array.
+``specular``, ``specularPower``, ``ambientOcclusion``, ``occlusionStrength``, ``proxy``,
+``lod``, ``lodBias``), checked when the stage is loaded; ``cubemarch:chunkSize`` draws it in
+chunks. A numpy label array fills voxels from ``cubemarch:origin`` (the grid box's corner),
+as ``add_voxels`` places an array. Voxels Volumes with ``cubemarch:world`` and
+``cubemarch:chunk`` are chunks of one world (:mod:`.voxel_worlds`).
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from ..models.volume import make_volume
 from ..models.voxels import Palette, make_voxels
 from .grids import read_grid
 from .model import Scene, SceneLight, SceneMesh, SkippedPrim
+from .voxel_worlds import ChunkPrim, join_world
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 PRIMITIVES = ("Sphere", "Cube", "Cylinder", "Cone", "Capsule")
@@ -93,6 +96,11 @@ def load_usd(path: str | Path, progress_bar: bool | None = None,
             walk.PruneChildren()
             continue
         reader.read(prim)
+    for name, chunks in reader.world_chunks.items():
+        world, options = join_world(name, chunks)
+        scene.voxels.append(world)
+        if options:
+            scene.voxel_options[name] = options
     return scene
 
 
@@ -103,6 +111,8 @@ class _StageReader:
         self.stage = stage
         self.scene = scene
         self.as_voxels = as_voxels
+        #: Chunks of voxel worlds by world name, joined once the stage is read.
+        self.world_chunks: dict[str, list[ChunkPrim]] = {}
         self.time = Usd.TimeCode.Default()
         self.xforms = UsdGeom.XformCache(self.time)
 
@@ -347,7 +357,22 @@ class _StageReader:
             raise VolumeDataError(f"{where}: {exc} ({why} as integer material labels, "
                                   "0 = empty.)") from exc
         model.palette = _palette(prim, name, where, int(model.labels.max()))
+        world = _attr(prim, "cubemarch:world")
+        if world is not None:
+            key = _attr(prim, "cubemarch:chunk")
+            if key is None or len(key) != 3 or min(int(k) for k in key) < 0:
+                raise SceneLoadError(f"Volume {name}: cubemarch:world = {str(world)!r} needs "
+                                     "cubemarch:chunk, an int3 of whole numbers >= 0 (the "
+                                     "chunk's place in the world).")
+            size = _attr(prim, "cubemarch:chunkSize")
+            self.world_chunks.setdefault(str(world), []).append(ChunkPrim(
+                tuple(int(k) for k in key), model, options, str(prim.GetPath()),
+                None if size is None else int(size)))
+            return
         self.scene.voxels.append(model)
+        size = _attr(prim, "cubemarch:chunkSize")
+        if size is not None:
+            options["chunk_size"] = int(size)
         if options:
             self.scene.voxel_options[name] = options
 
@@ -373,6 +398,7 @@ VOXEL_OPTIONS = (
     ("specularPower", "specular_power", float),
     ("ambientOcclusion", "ambient_occlusion", bool),
     ("occlusionStrength", "occlusion_strength", float), ("proxy", "proxy", str),
+    ("lod", "lod", bool), ("lodBias", "lod_bias", float),
 )
 
 #: Volume attributes that a voxels Volume prim must not carry.
