@@ -12,8 +12,10 @@ import numpy as np
 import pytest
 import pyvista as pv
 from conftest import rotation_y, set_camera, write_voxel_stage
+from PIL import Image
 
 import pv_cubemarch as cm
+from pv_cubemarch.cli import main
 from pv_cubemarch.reference.voxels import face_colors, id_colors, render_voxels, trace_voxels
 
 SIZE = (64, 48)
@@ -316,7 +318,7 @@ def write_world_stage(tmp_path, labels, chunk, spacing=(0.5, 0.5, 0.5), shift=No
             Gf.Vec3f(*spacing))
         volume.CreateFieldRelationship("labels", field.GetPath())
         prim = volume.GetPrim()
-        for attr, kind, value in (("technique", "Token", "voxels"), ("mode", "Token", "id"),
+        for attr, kind, value in (("technique", "Token", "voxels"), ("mode", "Token", "face"),
                                   ("world", "String", "land"), ("chunkSize", "Int", chunk),
                                   ("chunk", "Int3", Gf.Vec3i(*key))):
             prim.CreateAttribute(f"cubemarch:{attr}", getattr(Sdf.ValueTypeNames, kind)).Set(
@@ -327,8 +329,8 @@ def write_world_stage(tmp_path, labels, chunk, spacing=(0.5, 0.5, 0.5), shift=No
 
 def test_usd_world_of_chunk_volumes_draws_as_one_grid(tmp_path, plotter_factory):
     # Chunk Volumes of one world are joined into a VoxelWorld, placed as the stage places
-    # the whole grid (derived here by hand). catches (seen to fail): the chunk's key offset
-    # applied twice (chunks drawn twice as far apart), chunks left as separate grids.
+    # the whole grid (derived here by hand). catches (seen to fail): the world placed by a
+    # chunk's own placement, its key's offset not undone (the world drawn shifted).
     labels = random_labels((20, 12, 10), fill=0.4).astype(np.uint8)
     labels[8:16, :, :4] = 2   # one chunk uniform
     path = write_world_stage(tmp_path, labels, chunk=8)
@@ -339,7 +341,6 @@ def test_usd_world_of_chunk_volumes_draws_as_one_grid(tmp_path, plotter_factory)
     pl.disable_anti_aliasing()
     pl.ren_win.SetMultiSamples(0)
     scene.background = (0.0, 0.0, 0.0)
-    scene.voxel_options["land"]["mode"] = "face"   # ids are per chunk: faces are the world's
     scene.add_to(pl)
     image = cm.render_image(pl).astype(int)
     world = placed(spacing=(0.5, 0.5, 0.5), origin=(0.0, 0.0, 0.0))
@@ -357,3 +358,16 @@ def test_usd_world_chunk_out_of_place_is_named(tmp_path):
     path = write_world_stage(tmp_path, labels, chunk=8, shift=((1, 0, 0), (0.25, 0, 0)))
     with pytest.raises(cm.SceneLoadError, match="/World/c1_0_0 at \\(1, 0, 0\\) is not where"):
         cm.load_scene(path)
+
+
+def test_cli_renders_a_usd_world_with_level_of_detail(tmp_path, capsys):
+    labels = random_labels((20, 12, 10), fill=0.4).astype(np.uint8)
+    path = write_world_stage(tmp_path, labels, chunk=8)
+    out = tmp_path / "world.png"
+    assert main(["render", str(path), "--out", str(out), "--size", "64x48", "--lod",
+                 "--lod-bias", "1", "--mode", "color", "--no-progress"]) == 0
+    assert np.asarray(Image.open(out)).any()
+    grid = write_voxel_stage(tmp_path, random_labels(), stage_name="grid.usda")
+    assert main(["render", str(grid), "--out", str(out), "--size", "64x48",
+                 "--chunk-size", "4", "--no-progress"]) == 0
+    assert "wrote" in capsys.readouterr().out
