@@ -16,7 +16,7 @@ from .gl.overlay import bounds_proxy
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
 from .models.volume import VolumeModel, make_volume
-from .models.voxels import MAX_TEXTURE_SIZE, VoxelModel, make_voxels
+from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
@@ -411,12 +411,13 @@ def add_voxels(
         faster and coarser; ``-1``: finer).
     chunk_size : int, optional
         Draw the grid in chunks of this edge (empty chunks cost nothing, a chunk of one
-        label one byte); grids over 2048 voxels on a side (the largest 3D texture here) are
-        chunked by 256 without asking. A chunked grid returns an invisible actor standing
-        for all chunks, whose ``cubemarch`` is a :class:`~pv_cubemarch.voxels.world.WorldBinding`
-        (edits, ``pick`` and ``set_material`` in world voxel indices; ``mode='id'`` is
-        refused). A :class:`~pv_cubemarch.models.world.VoxelWorld` (e.g. chunks placed by hand
-        with ``VoxelWorld.from_chunks``) is drawn in its own chunks.
+        label one byte); grids over 2048 voxels on a side (the largest 3D texture here) or
+        over 512 MiB of labels are chunked by 128 without asking. A chunked grid returns
+        an invisible actor standing for all chunks, whose ``cubemarch`` is a
+        :class:`~pv_cubemarch.voxels.world.WorldBinding` (edits, ``pick`` and
+        ``set_material`` in world voxel indices; ``mode='id'`` is refused). A
+        :class:`~pv_cubemarch.models.world.VoxelWorld` (e.g. chunks placed by hand with
+        ``VoxelWorld.from_chunks``) is drawn in its own chunks.
     transform : array_like, optional
         4x4 affine placement of the grid in the world.
     name : str, optional
@@ -458,7 +459,7 @@ def add_voxels(
         if proxy is None:
             options = dataclasses.replace(options, proxy="box")
         return _add_world(plotter, model, options)
-    if chunk_size is not None or max(model.dimensions) > MAX_TEXTURE_SIZE:
+    if chunk_size is not None or not fits_one_texture(model.dimensions, model.labels.dtype):
         if proxy is None:
             options = dataclasses.replace(options, proxy="box")
         return _add_world(plotter, VoxelWorld.from_model(

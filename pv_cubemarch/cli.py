@@ -10,6 +10,7 @@ from pathlib import Path
 
 from .bench import edits as bench_edits
 from .bench import harness as bench
+from .bench import large as bench_large
 from .bench import resolution as bench_resolution
 from .bench import voxels as bench_voxels
 from .bench import world as bench_world
@@ -175,6 +176,15 @@ def build_parser() -> argparse.ArgumentParser:
     edits.add_argument("--automaton-sizes", type=lambda t: [int(v) for v in t.split(",")],
                        default=[64, 128], help="comma-separated automaton edges (64,128)")
     edits.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    large = bench_commands.add_parser(
+        "voxel-large", help="a sparse 2048x2048x512 label volume: chunks, bytes, exactness")
+    large.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
+    large.add_argument("--scale", type=float, default=1.0,
+                       help="shrink the volume by this factor (default 1: 2048x2048x512)")
+    large.add_argument("--frames", type=int, default=3, help="timed frames after the first")
+    large.add_argument("--no-reference", action="store_true",
+                       help="skip the CPU traversal (at full size: minutes, ~10 GB)")
+    large.add_argument("--json", dest="json_path", help="write the result as JSON here")
     world = bench_commands.add_parser(
         "voxel-world", help="chunked voxel worlds against one grid (the seed's Tables 3/4)")
     world.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
@@ -320,6 +330,16 @@ def _bench(args) -> int:
         return _bench_voxel_edits(args)
     if args.bench_command == "voxel-world":
         return _bench_voxel_world(args)
+    if args.bench_command == "voxel-large":
+        result = bench_large.run_large(args.size, args.scale, args.frames,
+                                       reference=not args.no_reference)
+        print(bench_large.format_large(result))
+        if args.json_path:
+            Path(args.json_path).write_text(json.dumps(
+                {**dataclasses.asdict(result), "gl_renderer": gl_info()["renderer"]},
+                indent=1))
+            print(f"wrote {args.json_path}")
+        return 0
     scene_path = args.scene or str(Path(__file__).resolve().parents[1] / "datasets"
                                    / "smoke_scene.usda")
     if not Path(scene_path).exists():

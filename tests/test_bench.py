@@ -198,3 +198,14 @@ def test_bench_voxel_world_rows_and_exactness(tmp_path, capsys):
     assert main(["bench", "voxel-world", "--size", "48x32", "--chunk", "8", "--count", "2",
                  "--json", str(path)]) == 0
     assert json.loads(path.read_text())["rows"] and "terrain" in capsys.readouterr().out
+
+
+def test_bench_voxel_large_is_exact_and_reports_bytes_per_voxel(tmp_path, capsys):
+    # The sparse volume at 1/16 of its size (128 x 128 x 32): drawn exactly, bytes reported.
+    path = tmp_path / "large.json"
+    assert main(["bench", "voxel-large", "--scale", "0.0625", "--size", "64x48",
+                 "--frames", "1", "--json", str(path)]) == 0
+    data = json.loads(path.read_text())
+    assert data["shape"] == [128, 128, 32] and data["filled_voxels"] > 1000
+    assert data["covered_pixels"] > 100 and data["wrong_pixels"] == 0
+    assert "per filled voxel" in capsys.readouterr().out

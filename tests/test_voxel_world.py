@@ -73,7 +73,7 @@ def test_grids_over_the_largest_texture_are_chunked(plotter_factory):
     labels[2050:, :, :] = 2
     pl = plotter(plotter_factory)
     actor = cm.add_voxels(pl, labels, mode="face", palette=PALETTE)
-    assert len(actor.cubemarch.chunks) == 9   # by 256 along x: 8 full chunks and 52 voxels
+    assert len(actor.cubemarch.chunks) == 17   # by 128 along x: 16 full chunks and 52 voxels
     camera = set_camera(pl, (1900.0, 60.0, 40.0), focal=(2060.0, 2.0, 1.5))
     wrong, off, hits = exact_against_one_grid(pl, labels, camera)
     assert wrong == 0 and off == 0 and (hits.material > 0).any()
@@ -243,3 +243,40 @@ def test_chunks_placed_by_hand_draw_as_the_split_grid(plotter_factory):
         VoxelWorld.from_chunks({(0, 0, 0): np.ones((4, 4, 4))}, 8, dimensions=(16, 16, 16))
     with pytest.raises(ValueError, match="three whole numbers"):
         VoxelWorld.from_chunks({(0, -1, 0): np.ones((8, 8, 8))}, 8)
+
+
+def test_grids_over_the_byte_budget_are_chunked(plotter_factory, monkeypatch):
+    # 2048 x 2048 x 512 uint8 fits the largest texture edge but not llvmpipe's memory for
+    # one texture (seen: a blank image, GL_OUT_OF_MEMORY unreported): chunked by bytes too.
+    # catches: chunking on the edge alone (this grid drawn as one texture).
+    from pv_cubemarch.models import voxels as voxel_models
+
+    assert not voxel_models.fits_one_texture((2048, 2048, 512), np.uint8)
+    assert voxel_models.fits_one_texture((2048, 64, 64), np.uint8)
+    assert not voxel_models.fits_one_texture((2049, 1, 1), np.uint8)
+    monkeypatch.setattr(voxel_models, "MAX_GRID_BYTES", 16 ** 3 - 1)
+    labels = terrain_labels()[:16, :16, :16]
+    pl = plotter(plotter_factory)
+    actor = cm.add_voxels(pl, labels, mode="face", palette=PALETTE)
+    assert isinstance(actor.cubemarch.model, VoxelWorld)
+    camera = set_camera(pl, (40.0, -20.0, 30.0), focal=(8.0, 8.0, 8.0), up=(0, 0, 1))
+    wrong, off, _ = exact_against_one_grid(pl, labels, camera)
+    assert wrong == 0 and off == 0
+
+
+def test_an_upload_the_driver_refused_is_an_error(plotter_factory, monkeypatch):
+    # VTK reports success when the driver runs out of memory; the GL error flag says so.
+    # catches: the flag not read after the upload (a grid drawn blank, in silence).
+    from pv_cubemarch.gl import textures
+
+    calls = []
+
+    def flags():
+        calls.append(1)
+        return [] if len(calls) % 2 else [0x0505]   # before the upload: none; after: OOM
+
+    monkeypatch.setattr(textures, "pending_gl_errors", flags)
+    pl = plotter(plotter_factory)
+    cm.add_voxels(pl, terrain_labels(), palette=PALETTE)
+    with pytest.raises(MemoryError, match="chunk_size=128"):
+        cm.render_image(pl)

@@ -25,6 +25,8 @@ _SUB_IMAGE = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.c_int, c
                               ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int,
                               ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)
 _PIXEL_STORE = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int)
+_GET_ERROR = ctypes.CFUNCTYPE(ctypes.c_uint)
+GL_OUT_OF_MEMORY = 0x0505
 
 
 #: Window systems VTK may render with: library, its "current context" and lookup functions.
@@ -35,7 +37,10 @@ WINDOW_SYSTEMS = (("OSMesa", "OSMesaGetCurrentContext", "OSMesaGetProcAddress"),
 
 @cache
 def _system(library: str, current: str, lookup: str):
-    """``(has_current_context, (sub_image, pixel_store))`` of one window system, or None."""
+    """``(has_current_context, (sub_image, pixel_store, get_error))`` of a window system.
+
+    ``None`` where the library or a function is missing.
+    """
     path = ctypes.util.find_library(library)
     if path is None:
         return None
@@ -47,10 +52,10 @@ def _system(library: str, current: str, lookup: str):
     is_current.restype = ctypes.c_void_p
     get.restype = ctypes.c_void_p
     get.argtypes = [ctypes.c_char_p]
-    sub, store = get(b"glTexSubImage3D"), get(b"glPixelStorei")
-    if not (sub and store):
+    sub, store, error = get(b"glTexSubImage3D"), get(b"glPixelStorei"), get(b"glGetError")
+    if not (sub and store and error):
         return None
-    return is_current, (_SUB_IMAGE(sub), _PIXEL_STORE(store))
+    return is_current, (_SUB_IMAGE(sub), _PIXEL_STORE(store), _GET_ERROR(error))
 
 
 def _gl_functions() -> tuple | None:
@@ -76,7 +81,7 @@ def sub_image_3d(origin: tuple[int, int, int], block: np.ndarray) -> None:
     if functions is None:
         raise RuntimeError("No current OpenGL context with glTexSubImage3D; upload the "
                            "whole texture.")
-    sub, store = functions
+    sub, store, _ = functions
     data = np.ascontiguousarray(np.moveaxis(block, (0, 1, 2), (2, 1, 0)))   # x fastest
     store(GL_UNPACK_ALIGNMENT, 1)
     for name in GL_UNPACK_ZEROED:
@@ -85,3 +90,22 @@ def sub_image_3d(origin: tuple[int, int, int], block: np.ndarray) -> None:
         block.shape[1], block.shape[2], GL_RED, GL_TYPES[np.dtype(block.dtype)],
         data.ctypes.data)
     store(GL_UNPACK_ALIGNMENT, 4)
+
+
+def pending_gl_errors() -> list[int]:
+    """The GL error flags set in the current context since they were last read (cleared).
+
+    Empty where no window system gives ``glGetError``. VTK's uploads report success even when
+    the driver refused the memory (``GL_OUT_OF_MEMORY``): the caller reads the flags around
+    an upload to know.
+    """
+    functions = _gl_functions()
+    if functions is None:
+        return []
+    errors = []
+    for _ in range(16):   # one flag per error kind at most
+        code = int(functions[2]())
+        if code == 0:
+            break
+        errors.append(code)
+    return errors

@@ -9,7 +9,12 @@ import vtk
 from vtkmodules.util.numpy_support import numpy_to_vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLVertexBufferObject, vtkTextureObject
 
-from .sub_upload import sub_image_3d, sub_image_available
+from .sub_upload import (
+    GL_OUT_OF_MEMORY,
+    pending_gl_errors,
+    sub_image_3d,
+    sub_image_available,
+)
 
 _VTK_TYPES = {np.dtype(np.float32): vtk.VTK_FLOAT, np.dtype(np.uint8): vtk.VTK_UNSIGNED_CHAR,
               np.dtype(np.uint16): vtk.VTK_UNSIGNED_SHORT}
@@ -134,6 +139,7 @@ class Texture:
         if self.array is None:
             self.set_data(self.rebuild())   # dropped after the last upload
         vtk_type = _VTK_TYPES[self.array.dtype]
+        pending_gl_errors()   # older flags are not this upload's
         texture = self.gl_object or vtkTextureObject()
         texture.SetContext(window)
         shape, ncomp = self.array.shape, self.components
@@ -153,6 +159,12 @@ class Texture:
             ok = texture.CreateTextureBuffer(self.array.size, 1, vtk.VTK_FLOAT, buffer)
         if not ok:
             raise RuntimeError(f"Uploading a {self.kind} texture of shape {shape} failed.")
+        if GL_OUT_OF_MEMORY in pending_gl_errors():   # VTK said yes; the driver said no
+            texture.ReleaseGraphicsResources(window)
+            raise MemoryError(f"The GPU (or its driver) has no room for a {self.kind} texture "
+                              f"of shape {shape} ({self.array.nbytes / 2**20:.0f} MiB): draw "
+                              "it in smaller pieces (add_voxels(..., chunk_size=128)) or "
+                              "downsample it.")
         if self.kind != "buffer":
             mode = vtkTextureObject.Linear if self.interpolate else vtkTextureObject.Nearest
             texture.SetMinificationFilter(mode)

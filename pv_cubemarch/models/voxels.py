@@ -167,7 +167,7 @@ def checked_labels(array, name: str = "labels") -> np.ndarray:
         raise VolumeDataError(f"{name} holds labels up to {high}; at most {MAX_MATERIALS} "
                               "materials fit (uint16).")
     dtype = np.uint8 if high <= 255 else np.uint16
-    return np.ascontiguousarray(array.astype(dtype))
+    return np.ascontiguousarray(array.astype(dtype))   # a copy: edits leave the input be
 
 
 def make_voxels(data, scalars: str | None = None, *, palette=None, transform=None,
@@ -295,6 +295,17 @@ def grown_by_one(mask: np.ndarray) -> np.ndarray:
 
 #: Largest 3D texture edge assumed (GL_MAX_3D_TEXTURE_SIZE on llvmpipe and many GPUs).
 MAX_TEXTURE_SIZE = 2048
+#: Most label bytes drawn as one grid: beyond, a grid is drawn in chunks. Its level atlas
+#: is up to 1.5x the labels and its upload makes one more copy; llvmpipe here refused 3D
+#: textures over about 1.8 GB (GL_OUT_OF_MEMORY, which VTK's upload does not report).
+MAX_GRID_BYTES = 512 * 2**20
+
+
+def fits_one_texture(dimensions: Sequence[int], dtype) -> bool:
+    """Whether a grid of ``dimensions`` labels of ``dtype`` is drawn whole, not in chunks."""
+    voxels = int(np.prod([int(n) for n in dimensions], dtype=np.int64))
+    return (max(int(n) for n in dimensions) <= MAX_TEXTURE_SIZE
+            and voxels * np.dtype(dtype).itemsize <= MAX_GRID_BYTES)
 
 
 def level_offset(n: int, level: int) -> int:

@@ -12,8 +12,9 @@ import numpy as np
 
 from .voxels import Palette, PlacedGrid, VoxelModel, checked_labels
 
-#: Default chunk edge: well within the largest 3D texture, small enough to skip empty space.
-DEFAULT_CHUNK_SIZE = 256
+#: Default chunk edge (the seed's): small enough that empty and uniform chunks take much of
+#: a sparse volume, large enough that a hundred chunks cost little more than one grid.
+DEFAULT_CHUNK_SIZE = 128
 
 
 @dataclass(eq=False)

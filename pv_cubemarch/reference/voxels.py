@@ -103,10 +103,11 @@ def _check_labels(labels: np.ndarray) -> np.ndarray:
                          f"{labels.shape}.")
     if not (np.issubdtype(labels.dtype, np.integer) or labels.dtype == bool):
         raise ValueError(f"labels must hold integers (0 = empty), got dtype {labels.dtype}.")
-    labels = labels.astype(np.int64, copy=False)
-    if labels.min() < 0:
+    if labels.dtype == bool:
+        return labels.astype(np.uint8)
+    if np.issubdtype(labels.dtype, np.signedinteger) and labels.min() < 0:
         raise ValueError("labels must be >= 0 (0 = empty).")
-    return labels
+    return labels   # its own type: a 2048 x 2048 x 512 grid as int64 would take 16 GiB
 
 
 def _index_rays(origins: np.ndarray, directions: np.ndarray, world_from_index: np.ndarray,
