@@ -175,6 +175,8 @@ def build_parser() -> argparse.ArgumentParser:
     edits.add_argument("--repeats", type=int, default=3, help="timed edits of each kind")
     edits.add_argument("--automaton-sizes", type=lambda t: [int(v) for v in t.split(",")],
                        default=[64, 128], help="comma-separated automaton edges (64,128)")
+    edits.add_argument("--world", type=int, default=0, metavar="COUNT",
+                       help="also edit a terrain of COUNT x COUNT chunks of --size^3 (e.g. 10)")
     edits.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     large = bench_commands.add_parser(
         "voxel-large", help="a sparse 2048x2048x512 label volume: chunks, bytes, exactness")
@@ -393,6 +395,12 @@ def _bench_voxel_edits(args) -> int:
           "read back; frame: a frame without edit; wrong: pixels of that frame off the CPU "
           "traversal of the edited labels")
     print(bench_edits.format_edit_table(edits))
+    if args.world:
+        world = bench_edits.run_world_edits(args.size, args.world, repeats=args.repeats)
+        print(f"\n{args.world}x{args.world} chunks of {args.size}^3 (FBM terrain), 640x480, "
+              "face mode; wrong: the last frame against the CPU traversal of the edited world")
+        print(bench_edits.format_edit_table(world))
+        edits += world
     automata = bench_edits.run_automata(args.automaton_sizes)
     print()
     print("automata: numpy steps per second; step+frame: step, upload of the changed box "

@@ -209,3 +209,19 @@ def test_bench_voxel_large_is_exact_and_reports_bytes_per_voxel(tmp_path, capsys
     assert data["shape"] == [128, 128, 32] and data["filled_voxels"] > 1000
     assert data["covered_pixels"] > 100 and data["wrong_pixels"] == 0
     assert "per filled voxel" in capsys.readouterr().out
+
+
+def test_bench_voxel_edits_on_a_grid_and_a_world(tmp_path, capsys):
+    # Small sizes: every edit's next frame exact against the CPU traversal of the edited
+    # labels (one grid in id mode; the world's last frame in face mode), bytes reported.
+    path = tmp_path / "edits.json"
+    assert main(["bench", "voxel-edits", "--size", "16", "--repeats", "1",
+                 "--automaton-sizes", "8", "--world", "2", "--json", str(path)]) == 0
+    data = json.loads(path.read_text())
+    rows = {r["edit"]: r for r in data["edits"]}
+    assert {"1 voxel", "brush 32^3", "replace all", "world 1 voxel",
+            "world brush 32^3"} <= set(rows)
+    assert all(r["wrong_pixels"] == 0 for r in data["edits"] if r["wrong_pixels"] >= 0)
+    assert rows["world brush 32^3"]["wrong_pixels"] == 0
+    assert 0 < rows["1 voxel"]["uploaded_bytes"] < rows["replace all"]["uploaded_bytes"]
+    assert data["automata"] and "steps/s" in capsys.readouterr().out

@@ -280,3 +280,24 @@ def test_an_upload_the_driver_refused_is_an_error(plotter_factory, monkeypatch):
     cm.add_voxels(pl, terrain_labels(), palette=PALETTE)
     with pytest.raises(MemoryError, match="chunk_size=128"):
         cm.render_image(pl)
+
+
+@pytest.mark.parametrize("eye", [(-30.0, 20.0, 12.0), (-6.0, 30.0, 20.0), (-2.0, 3.0, 3.0)])
+def test_chunks_hidden_behind_solid_ground_are_not_drawn(plotter_factory, eye):
+    # A solid wall (x < 16, all drawn) in front of chunks of scattered voxels: the chunks
+    # behind it are left out of the frame (their every pixel ends at the wall first), the
+    # frame is still the whole grid's. The last eye is close to the wall: its rectangle
+    # covers pixels the wall misses at the edges. catches (seen to fail): the rectangle's
+    # nearest occluder taken instead of its farthest (chunks beside the wall's silhouette
+    # left out: wrong pixels), the chunks never left out (hidden_chunks == 0).
+    labels = random_labels((48, 40, 24), 0.2, seed=44).astype(np.uint8)
+    labels[:16] = 3
+    pl, actor = world_plotter(plotter_factory, labels)
+    camera = set_camera(pl, eye, focal=(24.0, 20.0, 12.0), up=(0, 0, 1), angle=40.0)
+    wrong, off, hits = exact_against_one_grid(pl, labels, camera)
+    world = actor.cubemarch
+    behind = sum(1 for key in world.chunks if key[0] > 0)
+    assert wrong == 0 and off == 0 and (hits.material > 0).mean() > 0.3
+    assert world.hidden_chunks > 0
+    if eye[0] < -10:   # far enough that the wall hides everything behind it
+        assert world.hidden_chunks >= behind

@@ -17,6 +17,7 @@ from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLFramebufferObject, vtkTextur
 
 from ..core.frame_errors import observe
 from .bindings import TextureUnitLedger
+from .sub_upload import read_red_floats
 
 #: What the target holds where no face is drawn (farther than any depth).
 NO_FACE = 1e30
@@ -43,6 +44,12 @@ class FaceDepthPass:
         self.used = used
         self._drawn_for = None   # the view the target holds
         self.runs = 0
+        #: Read the target back after each drawing (into :attr:`depths`).
+        self.read_back = False
+        #: The last drawing's depths, ``(height, width)`` from the bottom row, when read.
+        self.depths = None
+        #: Called after the pass at every frame that uses it (drawn or kept).
+        self.on_frame: Callable[[], None] | None = None
         self._target = self._depth = self._fbo = None
         self._size = (0, 0)
         self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start)
@@ -81,8 +88,13 @@ class FaceDepthPass:
         if not self.used():
             return
         view = (self.renderer.GetActiveCamera().GetMTime(), tuple(self.renderer.GetSize()))
-        if view == self._drawn_for:
-            return
+        if view != self._drawn_for:
+            self._draw(view)
+        if self.on_frame is not None:
+            self.on_frame()
+
+    def _draw(self, view) -> None:
+        """Draw the actor's faces into the target (and read it back when asked)."""
         window = self.renderer.GetRenderWindow()
         TextureUnitLedger.release_window(window)
         size = tuple(max(1, int(v)) for v in self.renderer.GetSize())
@@ -106,6 +118,8 @@ class FaceDepthPass:
             state.vtkglDisable(_BLEND)
             state.vtkglClear(_DEPTH_AND_COLOR)
             self.actor.RenderOpaqueGeometry(self.renderer)
+            if self.read_back:
+                self.depths = read_red_floats(*size)
         finally:
             state.PopFramebufferBindings()
             state.Pop()
@@ -113,6 +127,7 @@ class FaceDepthPass:
 
     def _release_targets(self, window) -> None:
         self._drawn_for = None   # a new target holds nothing yet
+        self.depths = None
         for gl_object in (self._target, self._depth, self._fbo):
             if gl_object is not None:
                 gl_object.ReleaseGraphicsResources(window)

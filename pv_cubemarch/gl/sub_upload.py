@@ -1,4 +1,4 @@
-"""Partial 3D texture uploads (``glTexSubImage3D``), which VTK's Python wrapping lacks.
+"""GL calls VTK's Python wrapping lacks: partial 3D uploads, error flags, float readback.
 
 The function is looked up by ``ctypes`` through the window system whose context is current
 (OSMesa, EGL or GLX: the one VTK renders with) and called while VTK has the context current
@@ -26,6 +26,11 @@ _SUB_IMAGE = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.c_int, c
                               ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)
 _PIXEL_STORE = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int)
 _GET_ERROR = ctypes.CFUNCTYPE(ctypes.c_uint)
+_READ_PIXELS = ctypes.CFUNCTYPE(None, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                                ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)
+GL_FLOAT = 0x1406
+GL_PACK_ALIGNMENT = 0x0D05
+GL_PACK_ZEROED = (0x0D02, 0x0D03, 0x0D04)   # pack row length, skip rows, skip pixels
 GL_OUT_OF_MEMORY = 0x0505
 
 
@@ -37,7 +42,9 @@ WINDOW_SYSTEMS = (("OSMesa", "OSMesaGetCurrentContext", "OSMesaGetProcAddress"),
 
 @cache
 def _system(library: str, current: str, lookup: str):
-    """``(has_current_context, (sub_image, pixel_store, get_error))`` of a window system.
+    """``(has_current_context, (sub_image, pixel_store, get_error, read_pixels))``.
+
+    Of one window system: its library's current-context test and GL functions.
 
     ``None`` where the library or a function is missing.
     """
@@ -53,9 +60,11 @@ def _system(library: str, current: str, lookup: str):
     get.restype = ctypes.c_void_p
     get.argtypes = [ctypes.c_char_p]
     sub, store, error = get(b"glTexSubImage3D"), get(b"glPixelStorei"), get(b"glGetError")
-    if not (sub and store and error):
+    read = get(b"glReadPixels")
+    if not (sub and store and error and read):
         return None
-    return is_current, (_SUB_IMAGE(sub), _PIXEL_STORE(store), _GET_ERROR(error))
+    return is_current, (_SUB_IMAGE(sub), _PIXEL_STORE(store), _GET_ERROR(error),
+                        _READ_PIXELS(read))
 
 
 def _gl_functions() -> tuple | None:
@@ -81,7 +90,7 @@ def sub_image_3d(origin: tuple[int, int, int], block: np.ndarray) -> None:
     if functions is None:
         raise RuntimeError("No current OpenGL context with glTexSubImage3D; upload the "
                            "whole texture.")
-    sub, store, _ = functions
+    sub, store = functions[:2]
     data = np.ascontiguousarray(np.moveaxis(block, (0, 1, 2), (2, 1, 0)))   # x fastest
     store(GL_UNPACK_ALIGNMENT, 1)
     for name in GL_UNPACK_ZEROED:
@@ -109,3 +118,21 @@ def pending_gl_errors() -> list[int]:
             break
         errors.append(code)
     return errors
+
+
+def read_red_floats(width: int, height: int) -> np.ndarray | None:
+    """The red channel of the bound read framebuffer as float32 ``(height, width)``.
+
+    Row 0 is the bottom row (GL's order). ``None`` where no window system gives the GL
+    functions.
+    """
+    functions = _gl_functions()
+    if functions is None:
+        return None
+    store, read = functions[1], functions[3]
+    for name in GL_PACK_ZEROED:
+        store(name, 0)
+    store(GL_PACK_ALIGNMENT, 4)
+    out = np.empty((int(height), int(width)), np.float32)
+    read(0, 0, int(width), int(height), GL_RED, GL_FLOAT, out.ctypes.data)
+    return out

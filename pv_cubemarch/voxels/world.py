@@ -14,11 +14,14 @@ and actor.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pyvista
 import vtk
 
 from ..core.camera import Camera
+from ..gl.box import camera_matrices
 from ..gl.drawn import DrawnBinding
 from ..gl.face_depth import FaceDepthPass
 from ..gl.overlay import bounds_proxy
@@ -52,6 +55,10 @@ class WorldBinding:
                       if options.proxy == "bricks" else None)
         self.occluders = WorldOccluders(world, renderer)
         self.occluders.shown = lambda: bool(anchor.GetVisibility())
+        self.occluders.depth.read_back = True
+        self.occluders.depth.on_frame = self._hide_hidden_chunks
+        #: How many chunks the last frame left out as hidden behind the occluders.
+        self.hidden_chunks = 0
         for key in sorted(set(world.stored) | set(world.uniform)):
             self._build_chunk(key)
 
@@ -80,6 +87,45 @@ class WorldBinding:
             self._parts.AddPart(binding.shell.actor)
         self.plotter.cubemarch.track(binding)
         self.chunks[key] = binding
+
+    def _hide_hidden_chunks(self) -> None:
+        """Leave out of this frame the chunks whose every pixel ends before they start.
+
+        Where the occluders' depth over a chunk's screen rectangle is everywhere nearer than
+        the chunk's nearest corner, each of its fragments would discard (its ray starts at
+        or past that corner, and ends at the occluder): the chunk is not drawn at all, so
+        chunks hidden behind terrain cost nothing. The plotter shows every chunk again at
+        the next frame's start; this runs after, at each frame the occluders are used.
+        """
+        depths = self.occluders.depth.depths
+        self.hidden_chunks = 0
+        drawn = [c for c in self.chunks.values() if c.drawn[0].GetVisibility()]
+        if depths is None or not drawn:
+            return
+        view, projection = camera_matrices(self.renderer)
+        height, width = depths.shape
+        pick = np.array(list(itertools.product((0, 1), repeat=3)))
+        corners = []
+        for chunk in drawn:
+            low, high = chunk.drawn_bounds
+            box = np.where(pick == 0, low, high)
+            corners.append(np.c_[box, np.ones(8)] @ (view @ chunk.model.world_from_index()).T)
+        corners = np.array(corners)                     # (chunks, 8, 4), view space
+        depth = -corners[..., 2]                          # the pixel rays' parameter
+        clip = corners @ np.asarray(projection).T
+        ahead = (depth > 0).all(axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ndc = clip[..., :2] / clip[..., 3:4]
+        for index in np.flatnonzero(ahead):
+            x = (ndc[index, :, 0] + 1.0) * 0.5 * width - 0.5   # pixel centres' coordinates
+            y = (ndc[index, :, 1] + 1.0) * 0.5 * height - 0.5
+            i0, i1 = max(int(np.floor(x.min())) - 1, 0), min(int(np.ceil(x.max())) + 1, width)
+            j0, j1 = max(int(np.floor(y.min())) - 1, 0), min(int(np.ceil(y.max())) + 1, height)
+            if i1 <= i0 or j1 <= j0:
+                continue   # off screen: VTK's frustum culling leaves it out
+            if depth[index].min() > depths[j0:j1, i0:i1].max():
+                drawn[index].drawn[0].SetVisibility(False)
+                self.hidden_chunks += 1
 
     @property
     def palette(self):
