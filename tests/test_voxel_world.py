@@ -301,3 +301,26 @@ def test_chunks_hidden_behind_solid_ground_are_not_drawn(plotter_factory, eye):
     assert world.hidden_chunks > 0
     if eye[0] < -10:   # far enough that the wall hides everything behind it
         assert world.hidden_chunks >= behind
+
+
+@pytest.mark.parametrize("parallel", [False, True])
+def test_chunks_are_drawn_far_to_near(plotter_factory, parallel):
+    # Hits in adjacent chunks may lie closer than the depth buffer resolves; the depth test
+    # passes equal depths, so the nearer chunk must be drawn last (seen: 10 pixels of the
+    # bench's 100-chunk terrain showing the farther chunk's face). catches: the chunks left
+    # in the order they were made (nearest first from this eye).
+    labels = terrain_labels()
+    pl, actor = world_plotter(plotter_factory, labels)
+    pl.camera.parallel_projection = parallel
+    camera = set_camera(pl, (-60.0, -50.0, 40.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))
+    cm.render_image(pl)
+    world = actor.cubemarch
+    where = {id(c.drawn[0]): key for key, c in world.chunks.items()}
+    order = [where[id(p)] for p in pl.renderer.GetViewProps() if id(p) in where]
+    centers = (np.array(order, float) + 0.5) * 16
+    offsets = centers - np.asarray(camera.position)
+    forward = np.subtract(camera.focal_point, camera.position)
+    distance = offsets @ (forward / np.linalg.norm(forward)) if parallel else np.linalg.norm(
+        offsets, axis=1)
+    assert len(order) == len(world.chunks) > 4
+    assert np.all(np.diff(distance) <= 1e-9)
