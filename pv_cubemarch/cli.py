@@ -184,6 +184,9 @@ def build_parser() -> argparse.ArgumentParser:
     large.add_argument("--scale", type=float, default=1.0,
                        help="shrink the volume by this factor (default 1: 2048x2048x512)")
     large.add_argument("--frames", type=int, default=3, help="timed frames after the first")
+    large.add_argument("--scene", choices=("labels", "terrain"), default="labels",
+                       help="labels: sparse 2048x2048x512 segmentation (default); terrain: "
+                            "4096x4096x256 FBM terrain made chunk by chunk")
     large.add_argument("--no-reference", action="store_true",
                        help="skip the CPU traversal (at full size: minutes, ~10 GB)")
     large.add_argument("--json", dest="json_path", help="write the result as JSON here")
@@ -334,7 +337,7 @@ def _bench(args) -> int:
         return _bench_voxel_world(args)
     if args.bench_command == "voxel-large":
         result = bench_large.run_large(args.size, args.scale, args.frames,
-                                       reference=not args.no_reference)
+                                       reference=not args.no_reference, scene=args.scene)
         print(bench_large.format_large(result))
         if args.json_path:
             Path(args.json_path).write_text(json.dumps(

@@ -225,3 +225,12 @@ def test_bench_voxel_edits_on_a_grid_and_a_world(tmp_path, capsys):
     assert rows["world brush 32^3"]["wrong_pixels"] == 0
     assert 0 < rows["1 voxel"]["uploaded_bytes"] < rows["replace all"]["uploaded_bytes"]
     assert data["automata"] and "steps/s" in capsys.readouterr().out
+
+
+def test_bench_voxel_large_terrain_is_made_chunk_by_chunk(tmp_path):
+    path = tmp_path / "terrain.json"
+    assert main(["bench", "voxel-large", "--scene", "terrain", "--scale", "0.03125",
+                 "--size", "64x48", "--frames", "1", "--json", str(path)]) == 0
+    data = json.loads(path.read_text())
+    assert data["shape"] == [128, 128, 8] and data["wrong_pixels"] is None
+    assert data["chunks_stored"] + data["chunks_uniform"] > 4 and data["filled_voxels"] > 0

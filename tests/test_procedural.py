@@ -160,3 +160,11 @@ def test_dying_cells_neither_count_nor_are_born_again():
         automaton.step()
         rows.append(automaton.state[:, 0, 0].tolist())
     assert rows == [[2, 2, 0, 0, 0], [1, 1, 2, 0, 0], [0, 0, 2, 2, 0]]
+
+
+def test_terrain_region_is_the_same_box_of_the_whole_terrain():
+    # catches: the region's columns sampled from 0 (each chunk the same terrain).
+    whole = terrain((40, 36, 24), feature_size=9.0, seed=4)
+    box = (slice(8, 24), slice(16, 36), slice(4, 20))
+    assert np.array_equal(terrain((40, 36, 24), feature_size=9.0, seed=4, region=box),
+                          whole[box])

@@ -10,6 +10,9 @@ from test_voxels import EDGE, SIZE, plotter, random_labels
 
 import pv_cubemarch as cm
 from pv_cubemarch.core.rendering import read_depth
+from pv_cubemarch.gl import textures
+from pv_cubemarch.models import voxels as voxel_models
+from pv_cubemarch.models.procedural import terrain
 from pv_cubemarch.models.voxels import make_voxels
 from pv_cubemarch.models.world import VoxelWorld
 from pv_cubemarch.reference.voxels import face_colors, trace_voxels
@@ -249,8 +252,6 @@ def test_grids_over_the_byte_budget_are_chunked(plotter_factory, monkeypatch):
     # 2048 x 2048 x 512 uint8 fits the largest texture edge but not llvmpipe's memory for
     # one texture (seen: a blank image, GL_OUT_OF_MEMORY unreported): chunked by bytes too.
     # catches: chunking on the edge alone (this grid drawn as one texture).
-    from pv_cubemarch.models import voxels as voxel_models
-
     assert not voxel_models.fits_one_texture((2048, 2048, 512), np.uint8)
     assert voxel_models.fits_one_texture((2048, 64, 64), np.uint8)
     assert not voxel_models.fits_one_texture((2049, 1, 1), np.uint8)
@@ -267,8 +268,6 @@ def test_grids_over_the_byte_budget_are_chunked(plotter_factory, monkeypatch):
 def test_an_upload_the_driver_refused_is_an_error(plotter_factory, monkeypatch):
     # VTK reports success when the driver runs out of memory; the GL error flag says so.
     # catches: the flag not read after the upload (a grid drawn blank, in silence).
-    from pv_cubemarch.gl import textures
-
     calls = []
 
     def flags():
@@ -324,3 +323,21 @@ def test_chunks_are_drawn_far_to_near(plotter_factory, parallel):
         offsets, axis=1)
     assert len(order) == len(world.chunks) > 4
     assert np.all(np.diff(distance) <= 1e-9)
+
+
+def test_world_filled_chunk_by_chunk_equals_the_split_grid():
+    dims = (40, 36, 24)
+    whole = terrain(dims, feature_size=9.0, seed=4)
+    split = VoxelWorld.from_model(make_voxels(whole, palette=PALETTE), chunk_size=16)
+    asked = []
+
+    def fill(box):
+        asked.append(box)
+        return terrain(dims, feature_size=9.0, seed=4, region=box)
+
+    world = VoxelWorld.from_function(dims, 16, fill, palette=PALETTE)
+    assert len(asked) == 3 * 3 * 2 and world.uniform == split.uniform
+    assert all(np.array_equal(world.stored[k], split.stored[k]) for k in split.stored)
+    assert set(world.stored) == set(split.stored)
+    with pytest.raises(ValueError, match="that box's shape"):
+        VoxelWorld.from_function(dims, 16, lambda box: np.ones((2, 2, 2), np.uint8))

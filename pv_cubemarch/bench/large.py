@@ -1,10 +1,13 @@
-"""``pv-cubemarch bench voxel-large``: a label volume larger than any one texture, sparse.
+"""``pv-cubemarch bench voxel-large``: volumes larger than any one texture, sparse.
 
-A 2048 x 2048 x 512 uint8 grid (``scale`` shrinks it, for tests) that is 99.7 % empty: 20
-balls of 5 materials, a one-voxel-thick plane and a one-voxel-thin wall, as a segmentation
-of that size would be. ``add_voxels`` draws it in chunks by itself (too many bytes for one
-texture); the command reports setup, the first and later frames, GPU and host bytes in all
-and per filled voxel, and the pixels that differ from the CPU traversal of the whole grid.
+``labels``: a 2048 x 2048 x 512 uint8 grid (``scale`` shrinks it, for tests) that is 99.7 %
+empty: 20 balls of 5 materials, a one-voxel-thick plane and a one-voxel-thin wall, as a
+segmentation of that size would be; ``add_voxels`` draws it in chunks by itself (too many
+bytes for one texture), and the frame is compared with the CPU traversal of the whole grid.
+``terrain``: a 4096 x 4096 x 256 FBM terrain (4.3 G voxels) made chunk by chunk
+(:meth:`~pv_cubemarch.models.world.VoxelWorld.from_function`: never one array), chunks of
+128; too large for the CPU traversal, so not compared (the chunk tests are). Reported:
+setup, the first and later frames, GPU and host bytes in all and per filled voxel.
 """
 
 from __future__ import annotations
@@ -18,6 +21,8 @@ import numpy as np
 from ..api import add_voxels
 from ..core.camera import Camera
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
+from ..models.procedural import terrain
+from ..models.world import VoxelWorld
 from ..reference.voxels import trace_voxels
 
 SHAPE = (2048, 2048, 512)
@@ -61,23 +66,51 @@ class LargeResult:
     wrong_pixels: int | None
 
 
+#: The terrain scene's full size and chunk edge.
+TERRAIN_SHAPE = (4096, 4096, 256)
+TERRAIN_CHUNK = 128
+
+
+def terrain_world(scale: float = 1.0, progress_bar: bool | None = None) -> VoxelWorld:
+    """The terrain scene as a world filled chunk by chunk (a gentle relief: sparse chunks)."""
+    shape = tuple(max(8, int(n * scale)) for n in TERRAIN_SHAPE)
+    chunk = max(8, int(TERRAIN_CHUNK * scale))
+    return VoxelWorld.from_function(
+        shape, chunk, lambda box: terrain(shape, feature_size=shape[0] / 16, seed=5,
+                                          relief=0.12, region=box),
+        palette=PALETTE[:4], progress_bar=progress_bar, name="terrain")
+
+
 def run_large(size: Sequence[int] = (800, 600), scale: float = 1.0, frames: int = 3,
-              reference: bool = True) -> LargeResult:
-    """Draw :func:`sparse_labels` with the defaults; compare with the CPU traversal."""
+              reference: bool = True, scene: str = "labels",
+              progress_bar: bool | None = None) -> LargeResult:
+    """Draw a scene (``'labels'`` or ``'terrain'``) with the defaults and measure it.
+
+    The ``labels`` frame is compared with the CPU traversal when ``reference``.
+    """
+    if scene not in ("labels", "terrain"):
+        raise ValueError(f"scene must be 'labels' or 'terrain', got {scene!r}.")
     size = tuple(int(v) for v in size)
-    labels = sparse_labels(scale)
+    start = time.perf_counter()
+    if scene == "labels":
+        labels = sparse_labels(scale)
+    else:
+        labels = terrain_world(scale, progress_bar)
+        reference = False
+    made = time.perf_counter() - start
     pl = offscreen_plotter(size)
     try:
         pl.disable_anti_aliasing()
         pl.ren_win.SetMultiSamples(0)
         pl.set_background(BACKGROUND)
         start = time.perf_counter()
-        actor = add_voxels(pl, labels, palette=PALETTE, shading="unlit")
-        n = np.array(labels.shape, float)
+        colors = {"palette": PALETTE} if scene == "labels" else {}   # a world has its own
+        actor = add_voxels(pl, labels, shading="unlit", **colors)
+        n = np.array(labels.dimensions if scene == "terrain" else labels.shape, float)
         Camera(position=tuple(n * np.array([1.3, -0.4, 1.6])), focal_point=tuple(n / 2),
                view_up=(0, 0, 1), view_angle=40.0).apply_to(pl.camera)
         pl.renderer.ResetCameraClippingRange()
-        setup = time.perf_counter() - start
+        setup = time.perf_counter() - start + made
         start = time.perf_counter()
         render_frame(pl)
         read_pixels(pl)
@@ -101,11 +134,18 @@ def run_large(size: Sequence[int] = (800, 600), scale: float = 1.0, frames: int 
                                 np.asarray(BACKGROUND))
             off = np.abs(image.astype(float) / 255.0 - expected).max(axis=-1) > 3.0 / 255.0
             covered, wrong = int((hits.material > 0).sum()), int((off & ~hits.near_edge).sum())
-        return LargeResult(labels.shape, int(np.count_nonzero(labels)), stored, uniform,
+        filled = int(np.count_nonzero(labels)) if scene == "labels" else _filled(world)
+        return LargeResult(tuple(int(v) for v in n), filled, stored, uniform,
                            setup, first, float(np.median(times)), int(binding.nbytes),
                            int(world.nbytes), covered or 0, wrong)
     finally:
         pl.close()
+
+
+def _filled(world: VoxelWorld) -> int:
+    """Filled voxels of a world: its stored chunks' and its uniform chunks' whole boxes."""
+    return sum(int(np.count_nonzero(c)) for c in world.stored.values()) + sum(
+        int(np.prod(world.chunk_box(key)[1])) for key in world.uniform)
 
 
 def format_large(result: LargeResult) -> str:

@@ -180,20 +180,25 @@ def fbm2(x: np.ndarray, y: np.ndarray, octaves: int = 5, hurst: float = 1.0,
 def terrain(dimensions: Sequence[int], octaves: int = 5, hurst: float = 1.0,
             feature_size: float = 64.0, noise: str = "perlin", seed: int = 0,
             layers: Sequence[tuple[int, int]] = ((1, 1), (2, 3)),
-            bedrock: int = 3, ground: float = 0.5, relief: float = 0.35) -> np.ndarray:
+            bedrock: int = 3, ground: float = 0.5, relief: float = 0.35,
+            region: tuple[slice, slice, slice] | None = None) -> np.ndarray:
     """A height-field terrain of FBM noise, filled from z = 0 up to the surface.
 
     ``feature_size``: voxels per noise cell of the first octave. The surface lies at
     ``(ground + relief * fbm) * nz``. ``layers``: ``(material, thickness)`` from the
-    surface down (grass, then dirt, by default); below them ``bedrock``.
+    surface down (grass, then dirt, by default); below them ``bedrock``. ``region``: only
+    this box (three slices, step 1) of the terrain, the same voxels as
+    ``terrain(dimensions)[region]``: a world too large for memory is made chunk by chunk.
     """
     nx, ny, nz = (int(n) for n in dimensions)
     if min(nx, ny, nz) < 1 or float(feature_size) <= 0:
         raise ValueError("dimensions must be positive and feature_size above 0.")
-    x = (np.arange(nx) + 0.5)[:, None] / float(feature_size)
-    y = (np.arange(ny) + 0.5)[None, :] / float(feature_size)
+    ranges = [np.arange(n)[part] for n, part in zip(
+        (nx, ny, nz), region if region is not None else (slice(None),) * 3, strict=True)]
+    x = (ranges[0] + 0.5)[:, None] / float(feature_size)
+    y = (ranges[1] + 0.5)[None, :] / float(feature_size)
     height = (ground + relief * fbm2(x, y, octaves, hurst, noise, seed)) * nz
-    depth = height[:, :, None] - (np.arange(nz) + 0.5)[None, None, :]   # > 0 below ground
+    depth = height[:, :, None] - (ranges[2] + 0.5)[None, None, :]   # > 0 below ground
     labels = np.where(depth > 0, bedrock, 0).astype(np.uint8)
     top = 0.0
     for material, thickness in layers:

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.progress import progress
 from .voxels import Palette, PlacedGrid, VoxelModel, checked_labels
 
 #: Default chunk edge (the seed's): small enough that empty and uniform chunks take much of
@@ -93,6 +94,35 @@ class VoxelWorld(PlacedGrid):
             world.write(tuple(slice(o, o + n) for o, n in zip(origin, shape, strict=True)),
                         labels.astype(dtype, copy=False))
         return world
+
+    @classmethod
+    def from_function(cls, dimensions: Sequence[int], chunk_size: int, fill,
+                      palette=None, progress_bar: bool | None = None,
+                      **placement) -> VoxelWorld:
+        """A world whose labels ``fill(box)`` gives chunk by chunk (never all at once).
+
+        ``fill`` takes a box of voxels (three slices) and returns its labels (that shape,
+        whole numbers); e.g. ``lambda box: terrain(dims, region=box)``. Only chunks that
+        hold several labels are kept, so a sparse world larger than memory as one array
+        can be made. ``palette``, ``placement``: as :meth:`from_chunks`.
+        """
+        size = int(chunk_size)
+        if size < 1:
+            raise ValueError(f"chunk_size must be at least 1, got {chunk_size!r}.")
+        dims = tuple(int(n) for n in dimensions)
+        counts = [-(-n // size) for n in dims]
+        keys = list(np.ndindex(*counts))
+        chunks = {}
+        for key in progress(keys, total=len(keys), desc="filling chunks", enabled=progress_bar):
+            box = tuple(slice(k * size, min((k + 1) * size, n)) for k, n in zip(key, dims,
+                                                                               strict=True))
+            labels = np.asarray(fill(box))
+            if labels.shape != tuple(s.stop - s.start for s in box):
+                raise ValueError(f"fill returned labels of shape {labels.shape} for the box "
+                                 f"{box}; it must return that box's shape.")
+            if labels.any():
+                chunks[key] = labels
+        return cls.from_chunks(chunks, size, palette=palette, dimensions=dims, **placement)
 
     @property
     def dtype(self) -> np.dtype:
