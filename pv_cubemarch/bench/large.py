@@ -72,12 +72,15 @@ TERRAIN_CHUNK = 128
 
 
 def terrain_world(scale: float = 1.0, progress_bar: bool | None = None) -> VoxelWorld:
-    """The terrain scene as a world filled chunk by chunk (a gentle relief: sparse chunks)."""
+    """The terrain scene as a world filled chunk by chunk.
+
+    Its surface lies in the lower half (a gentle relief), so the upper chunks are empty.
+    """
     shape = tuple(max(8, int(n * scale)) for n in TERRAIN_SHAPE)
     chunk = max(8, int(TERRAIN_CHUNK * scale))
     return VoxelWorld.from_function(
         shape, chunk, lambda box: terrain(shape, feature_size=shape[0] / 16, seed=5,
-                                          relief=0.12, region=box),
+                                          ground=0.25, relief=0.1, region=box),
         palette=PALETTE[:4], progress_bar=progress_bar, name="terrain")
 
 
