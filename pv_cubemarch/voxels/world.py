@@ -27,6 +27,7 @@ from ..gl.drawn import DrawnBinding
 from ..gl.face_depth import FaceDepthPass
 from ..gl.overlay import bounds_proxy
 from ..models.volume import checked_transform
+from ..models.voxels import occupied_bricks
 from ..models.world import VoxelWorld
 from ..reference.voxels import trace_voxels
 from . import editing
@@ -60,6 +61,9 @@ class WorldBinding:
         self.occluders.depth.on_frame = self._hide_hidden_chunks
         #: How many chunks the last frame left out as hidden behind the occluders.
         self.hidden_chunks = 0
+        self._blocks: dict = {}   # per chunk key, its filled blocks (index-space boxes)
+        self._culled_for = None
+        self._hidden: list[VoxelBinding] = []
         self._ordered_for = None
         self._order_tag = observe(renderer, vtk.vtkCommand.StartEvent, self._order_chunks)
         for key in sorted(set(world.stored) | set(world.uniform)):
@@ -71,6 +75,7 @@ class WorldBinding:
 
     def _build_chunk(self, key) -> None:
         """Draw chunk ``key`` (replacing its actor, if any) or nothing when it is empty."""
+        self._blocks.pop(key, None)
         old = self.chunks.pop(key, None)
         if old is not None:
             if old.shell is not None:
@@ -122,43 +127,69 @@ class WorldBinding:
             props.AddItem(actor)
 
     def _hide_hidden_chunks(self) -> None:
-        """Leave out of this frame the chunks whose every pixel ends before they start.
+        """Leave out of this frame the chunks whose every pixel ends before its voxels.
 
-        Where the occluders' depth over a chunk's screen rectangle is everywhere nearer than
-        the chunk's nearest corner, each of its fragments would discard (its ray starts at
-        or past that corner, and ends at the occluder): the chunk is not drawn at all, so
-        chunks hidden behind terrain cost nothing. The plotter shows every chunk again at
-        the next frame's start; this runs after, at each frame the occluders are used.
+        Each chunk's filled blocks of :data:`CULL_BLOCK`³ voxels are tested: where the
+        occluders' depth over a block's screen rectangle is everywhere nearer than the
+        block's nearest corner, every ray that could meet a voxel of the block has ended
+        before it (its fragments would discard there). A chunk all of whose blocks are so
+        hidden is not drawn at all: chunks behind nearer terrain cost nothing. Decided again
+        when the occluders were drawn again or the chunks changed; the plotter shows every
+        chunk at each frame's start, this runs after.
         """
         depths = self.occluders.depth.depths
+        key = (self.occluders.depth.runs, tuple(id(c) for c in self.chunks.values()))
+        if key != self._culled_for:
+            self._culled_for = key
+            self._hidden = [] if depths is None else self._hidden_by(depths)
         self.hidden_chunks = 0
-        drawn = [c for c in self.chunks.values() if c.drawn[0].GetVisibility()]
-        if depths is None or not drawn:
-            return
+        for chunk in self._hidden:
+            if chunk.drawn[0].GetVisibility():
+                chunk.drawn[0].SetVisibility(False)
+                self.hidden_chunks += 1
+
+    def _hidden_by(self, depths: np.ndarray) -> list[VoxelBinding]:
+        """The chunks whose filled blocks all lie behind ``depths`` (the occluders')."""
         view, projection = camera_matrices(self.renderer)
         height, width = depths.shape
         pick = np.array(list(itertools.product((0, 1), repeat=3)))
-        corners = []
-        for chunk in drawn:
-            low, high = chunk.drawn_bounds
-            box = np.where(pick == 0, low, high)
-            corners.append(np.c_[box, np.ones(8)] @ (view @ chunk.model.world_from_index()).T)
-        corners = np.array(corners)                     # (chunks, 8, 4), view space
+        chunks, corners = [], []
+        for key, chunk in self.chunks.items():
+            blocks = self._blocks.get(key)
+            if blocks is None:
+                blocks = self._blocks[key] = _filled_blocks(chunk.model.labels)
+            to_view = view @ chunk.model.world_from_index()
+            for low, high in blocks:
+                box = np.where(pick == 0, low, high)
+                corners.append(np.c_[box, np.ones(8)] @ to_view.T)
+                chunks.append(chunk)
+        if not corners:
+            return []
+        corners = np.array(corners)                     # (blocks, 8, 4), view space
         depth = -corners[..., 2]                          # the pixel rays' parameter
         clip = corners @ np.asarray(projection).T
-        ahead = (depth > 0).all(axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            ndc = clip[..., :2] / clip[..., 3:4]
-        for index in np.flatnonzero(ahead):
-            x = (ndc[index, :, 0] + 1.0) * 0.5 * width - 0.5   # pixel centres' coordinates
-            y = (ndc[index, :, 1] + 1.0) * 0.5 * height - 0.5
-            i0, i1 = max(int(np.floor(x.min())) - 1, 0), min(int(np.ceil(x.max())) + 1, width)
-            j0, j1 = max(int(np.floor(y.min())) - 1, 0), min(int(np.ceil(y.max())) + 1, height)
-            if i1 <= i0 or j1 <= j0:
-                continue   # off screen: VTK's frustum culling leaves it out
-            if depth[index].min() > depths[j0:j1, i0:i1].max():
-                drawn[index].drawn[0].SetVisibility(False)
-                self.hidden_chunks += 1
+            ndc = np.nan_to_num(clip[..., :2] / clip[..., 3:4])   # blocks the eye's plane
+        x = (ndc[..., 0] + 1.0) * 0.5 * width - 0.5      # cuts are kept below, whatever it is
+        y = (ndc[..., 1] + 1.0) * 0.5 * height - 0.5
+        i0 = np.clip(np.floor(x.min(axis=1)) - 1, 0, width).astype(int)
+        i1 = np.clip(np.ceil(x.max(axis=1)) + 1, 0, width).astype(int)
+        j0 = np.clip(np.floor(y.min(axis=1)) - 1, 0, height).astype(int)
+        j1 = np.clip(np.ceil(y.max(axis=1)) + 1, 0, height).astype(int)
+        ahead = (depth > 0).all(axis=1)   # else the eye's plane cuts the block
+        on_screen = (i1 > i0) & (j1 > j0)
+        nearest = depth.min(axis=1)
+        # The pyramid proves most hidden blocks hidden at once; those it cannot (its texels
+        # reach past their rectangles) are read exactly, a chunk's reading stopping at its
+        # first block found in sight.
+        maybe = on_screen & ahead & ~(nearest > _rectangle_max(depths, i0, i1, j0, j1,
+                                                                on_screen & ahead))
+        shown = {id(chunks[index]) for index in np.flatnonzero(~ahead)}
+        for index in np.flatnonzero(maybe):
+            if id(chunks[index]) not in shown and not nearest[index] > depths[
+                    j0[index]:j1[index], i0[index]:i1[index]].max():
+                shown.add(id(chunks[index]))
+        return [c for c in self.chunks.values() if id(c) not in shown]
 
     @property
     def palette(self):
@@ -238,6 +269,8 @@ class WorldBinding:
                 self._build_chunk(key)
             elif key in stored_before and key in self.chunks:
                 editing.refresh(self.chunks[key], inner)
+                self._blocks.pop(key, None)
+        self._culled_for = None
         self.occluders.edit(box)
 
     def pick(self, x: int, y: int) -> VoxelPick | None:
@@ -284,6 +317,51 @@ class WorldBinding:
         for chunk in self.chunks.values():
             chunk.set_transform(transform)
         self.occluders.place()
+
+
+#: Edge (voxels) of the blocks whose screen rectangles decide if a chunk is hidden: finer
+#: blocks hide more chunks whose boxes show above nearer terrain but whose voxels do not
+#: (bench's inside view: 51 of 100 chunks with 64, 28 with whole chunk boxes; 32 and 16
+#: found 54 for 2x and 5x the work).
+CULL_BLOCK = 64
+
+
+def _rectangle_max(image: np.ndarray, i0, i1, j0, j1, which: np.ndarray) -> np.ndarray:
+    """Per rectangle ``[j0, j1) x [i0, i1)`` of ``image`` (where ``which``), at least its max.
+
+    From a max pyramid: each rectangle is read at the level where it spans at most two
+    texels a side, so at most 3 x 3 texels that cover it (and a little around it: the
+    result may be larger than the exact max, never smaller). ``-inf`` where not ``which``.
+    """
+    levels = [image]
+    while max(levels[-1].shape) > 1:
+        last = levels[-1]
+        padded = np.pad(last, [(0, n % 2) for n in last.shape], constant_values=-np.inf)
+        levels.append(padded.reshape(padded.shape[0] // 2, 2, padded.shape[1] // 2, 2)
+                      .max(axis=(1, 3)))
+    result = np.full(len(which), -np.inf)
+    span = np.maximum(i1 - i0, j1 - j0)
+    level = np.maximum(np.ceil(np.log2(np.maximum(span, 1))).astype(int) - 1, 0)
+    for number in np.unique(level[which]):
+        rows = np.flatnonzero(which & (level == number))
+        grid = levels[min(number, len(levels) - 1)]
+        top_i, top_j = grid.shape[1] - 1, grid.shape[0] - 1
+        for di in range(3):
+            for dj in range(3):
+                ci = np.minimum((i0[rows] >> number) + di, np.minimum((i1[rows] - 1) >> number,
+                                                                      top_i))
+                cj = np.minimum((j0[rows] >> number) + dj, np.minimum((j1[rows] - 1) >> number,
+                                                                      top_j))
+                result[rows] = np.maximum(result[rows], grid[cj, ci])
+    return result
+
+
+def _filled_blocks(labels: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Index-space ``(low, high)`` corners of the :data:`CULL_BLOCK` blocks holding voxels."""
+    occupied = occupied_bricks(labels, CULL_BLOCK)
+    dims = np.asarray(labels.shape)
+    return [(cell * CULL_BLOCK, np.minimum((cell + 1) * CULL_BLOCK, dims))
+            for cell in np.argwhere(occupied)]
 
 
 def _slab(origin: np.ndarray, direction: np.ndarray, low: np.ndarray,
