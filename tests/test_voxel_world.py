@@ -286,9 +286,10 @@ def test_chunks_hidden_behind_solid_ground_are_not_drawn(plotter_factory, eye):
     # A solid wall (x < 16, all drawn) in front of chunks of scattered voxels: the chunks
     # behind it are left out of the frame (their every pixel ends at the wall first), the
     # frame is still the whole grid's. The last eye is close to the wall: its rectangle
-    # covers pixels the wall misses at the edges. catches (seen to fail): the rectangle's
-    # nearest occluder taken instead of its farthest (chunks beside the wall's silhouette
-    # left out: wrong pixels), the chunks never left out (hidden_chunks == 0).
+    # covers pixels the wall misses at the edges. catches (seen to fail): a block's
+    # rectangle read for its nearest occluder instead of its farthest (in the pyramid and
+    # the exact reading: chunks beside the wall's silhouette left out, wrong pixels), the
+    # chunks never left out (hidden_chunks == 0).
     labels = random_labels((48, 40, 24), 0.2, seed=44).astype(np.uint8)
     labels[:16] = 3
     pl, actor = world_plotter(plotter_factory, labels)
