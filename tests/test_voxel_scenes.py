@@ -371,3 +371,14 @@ def test_cli_renders_a_usd_world_with_level_of_detail(tmp_path, capsys):
     assert main(["render", str(grid), "--out", str(out), "--size", "64x48",
                  "--chunk-size", "4", "--no-progress"]) == 0
     assert "wrote" in capsys.readouterr().out
+
+
+def test_usd_world_chunks_with_other_top_labels_share_one_palette(tmp_path):
+    # No palette authored: each chunk's colormap palette is made for the world's top label.
+    # catches (seen, review): "has another palette" when one chunk holds labels up to 1
+    # and another up to 3.
+    labels = random_labels((16, 8, 8), fill=0.4).astype(np.uint8)
+    labels[8:] = np.minimum(labels[8:], 1)
+    scene = cm.load_scene(write_world_stage(tmp_path, labels, chunk=8))
+    (world,) = scene.voxels
+    assert world.palette.n_materials >= 4 and world.label_type == "uint8"

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import set_camera
+import vtk
+from conftest import rotated_mirrored_placement, set_camera
 from test_voxels import EDGE, SIZE, plotter, random_labels
 
 import pv_cubemarch as cm
-from pv_cubemarch.core.rendering import read_depth
+from pv_cubemarch.core.rendering import offscreen_plotter, read_depth
 from pv_cubemarch.gl import textures
 from pv_cubemarch.models import voxels as voxel_models
 from pv_cubemarch.models.procedural import terrain
@@ -342,3 +343,103 @@ def test_world_filled_chunk_by_chunk_equals_the_split_grid():
     assert set(world.stored) == set(split.stored)
     with pytest.raises(ValueError, match="that box's shape"):
         VoxelWorld.from_function(dims, 16, lambda box: np.ones((2, 2, 2), np.uint8))
+
+
+def test_labels_above_255_stay_whole_in_worlds(plotter_factory):
+    # catches (seen, review): chunks filed as uint8 while none was stored yet (300 -> 44),
+    # a 401-entry palette overflowing the uint8 visibility lookup.
+    mixed = np.zeros((8, 8, 8), np.uint16)
+    mixed[2:5, 2:5, 2:5] = 300
+    mixed[0, 0, 0] = 2
+    world = VoxelWorld.from_chunks({(0, 0, 0): mixed, (1, 0, 0): np.full((8, 8, 8), 300)}, 8,
+                                   palette="turbo")
+    assert world.label_type == "uint16" and world.uniform == {(1, 0, 0): 300}
+    assert set(np.unique(world.stored[(0, 0, 0)])) == {0, 2, 300}
+    labels = terrain_labels()[:32, :32, :16]
+    pl = plotter(plotter_factory)
+    actor = cm.add_voxels(pl, labels, mode="face", palette="turbo", chunk_size=16)
+    palette = np.tile([[1.0, 0.0, 0.0, 1.0]], (401, 1))
+    big = plotter(plotter_factory)
+    cm.add_voxels(big, labels, palette=palette, chunk_size=16)   # builds: no overflow
+    actor.cubemarch.model.palette = cm.Palette(np.tile([[1.0, 0.0, 0.0, 1.0]], (301, 1)))
+    actor.cubemarch.fill_box((0, 0, 0), (20, 20, 4), 300)   # widens every chunk to uint16
+    labels = labels.astype(np.uint16)
+    labels[:20, :20, :4] = 300
+    assert actor.cubemarch.model.label_type == "uint16"
+    camera = set_camera(pl, (50.0, -20.0, 30.0), focal=(16.0, 16.0, 4.0), up=(0, 0, 1))
+    wrong, off, _ = exact_against_one_grid(pl, labels, camera)
+    assert wrong == 0 and off == 0
+
+
+def test_world_pick_with_tiny_rotated_voxels():
+    # catches (seen, review): the nudge into a uniform chunk's voxel in index units per
+    # world unit (55 of 498 picks wrong at a spacing of 1e-5).
+    labels = terrain_labels()
+    labels[32:48, 0:16, 0:16] = 3
+    placement = rotated_mirrored_placement() @ np.diag([1e-5, 1e-5, 1e-5, 1.0])
+    pl = offscreen_plotter(SIZE)
+    actor = cm.add_voxels(pl, labels, mode="face", palette=PALETTE, chunk_size=16,
+                          transform=placement)
+    eye = (placement @ [70.0, -30.0, 40.0, 1.0])[:3]
+    focal = (placement @ [24.0, 20.0, 8.0, 1.0])[:3]
+    camera = set_camera(pl, tuple(eye), focal=tuple(focal), up=tuple(placement[:3, 2]))
+    cm.render_image(pl)
+    hits = trace_voxels(labels, placement, camera, SIZE, near=pl.camera.clipping_range[0])
+    picked = 0
+    for y in range(0, SIZE[1], 4):
+        for x in range(0, SIZE[0], 4):
+            if hits.material[y, x] == 0 or hits.near_edge[y, x]:
+                continue
+            assert actor.cubemarch.pick(x, y).index == tuple(hits.index[y, x])
+            picked += 1
+    assert picked > 50
+
+
+def test_world_keeps_chunks_as_small_as_their_labels(plotter_factory):
+    # catches: from_function holding every non-empty chunk as an array (uniform ones too),
+    # a stored chunk left stored once an edit made it one label.
+    world = VoxelWorld.from_function((32, 32, 16), 16, lambda box: np.ones(
+        [s.stop - s.start for s in box], np.uint8), palette=PALETTE)
+    assert world.stored == {} and len(world.uniform) == 4
+    labels = terrain_labels()
+    pl, actor = world_plotter(plotter_factory, labels)
+    key = next(iter(actor.cubemarch.model.stored))
+    box = tuple(slice(k * 16, min((k + 1) * 16, n)) for k, n in zip(key, labels.shape,
+                                                                   strict=True))
+    actor.cubemarch.set_voxels(box, 2)
+    labels[box] = 2
+    assert key in actor.cubemarch.model.uniform and key not in actor.cubemarch.model.stored
+    camera = set_camera(pl, (70.0, -30.0, 40.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))
+    wrong, off, _ = exact_against_one_grid(pl, labels, camera)
+    assert wrong == 0 and off == 0
+
+
+def test_a_failed_world_build_leaves_nothing(plotter_factory):
+    # catches (seen, review): the anchor, the passes and the ordering observer left behind.
+    labels = np.zeros((2100, 4, 3), np.uint8)
+    labels[::7, 1, 1] = 1
+    pl = plotter(plotter_factory)
+    observers = pl.renderer.HasObserver(vtk.vtkCommand.StartEvent)
+    with pytest.raises(ValueError, match="chunk"):
+        cm.add_voxels(pl, labels, chunk_size=4096)
+    assert "voxels" not in pl.actors and pl.cubemarch.tracked == []
+    assert pl.renderer.HasObserver(vtk.vtkCommand.StartEvent) == observers
+
+
+def test_level_of_detail_in_chunks_matches_one_grid(plotter_factory):
+    # Coarse cells reach past their voxels; chunk boxes cut at the voxels cut them off.
+    # Cells of 4 voxels here (levels up to the chunk's own size agree with one grid's).
+    # catches (seen, review): 54 pixels missing at lod_bias=2 before the boxes were grown
+    # to whole coarse cells.
+    labels = terrain_labels()
+    images = []
+    for chunk in (None, 16):
+        pl = plotter(plotter_factory)
+        cm.add_voxels(pl, labels, palette=PALETTE, shading="unlit", lod=True, lod_bias=2,
+                      proxy="box", chunk_size=chunk)
+        pl.camera.parallel_projection = True
+        pl.camera.parallel_scale = 1.2 * SIZE[1] / 2   # 1.2 voxels a pixel: level 0 + 2
+        set_camera(pl, (70.0, -30.0, 40.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))
+        images.append(cm.render_image(pl).astype(int))
+    assert (np.abs(images[0] - images[1]).max(axis=-1) > 2).sum() == 0
+    assert images[0].any(axis=-1).mean() > 0.2

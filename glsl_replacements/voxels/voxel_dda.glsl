@@ -148,6 +148,7 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
     if (level > 0)   // a coarse cell whose representative is hidden: look under it
     {
       --level;
+      first = false;   // not back up to the top on an empty sub-cell: it is under this one
       continue;
     }
 #endif

@@ -439,6 +439,17 @@ def safe_radii(labels: np.ndarray, radius: int) -> np.ndarray:
 
 
 
+def bounds_in_cells(bounds, level: int, dimensions: Sequence[int]) -> tuple[np.ndarray,
+                                                                          np.ndarray]:
+    """``(lower, upper)`` grown to whole cells of ``2^level`` voxels, within the grid."""
+    lower, upper = (np.asarray(b, dtype=np.float64) for b in bounds)
+    if level <= 0 or not (upper > lower).all():
+        return lower, upper
+    cell = float(1 << int(level))
+    return (np.floor(lower / cell) * cell,
+            np.minimum(np.ceil(upper / cell) * cell, np.asarray(dimensions, np.float64)))
+
+
 def filled_bounds(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(lower, upper)`` corners (index space) of the box around the filled voxels.
 

@@ -35,6 +35,8 @@ class VoxelWorld(PlacedGrid):
     grid_from_index: np.ndarray = field(default_factory=lambda: np.eye(4))
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     name: str = "voxels"
+    #: The labels' type, the same for every stored chunk: ``'uint8'`` or ``'uint16'``.
+    label_type: str = "uint8"
 
     @classmethod
     def from_model(cls, model: VoxelModel, chunk_size: int = DEFAULT_CHUNK_SIZE) -> VoxelWorld:
@@ -43,18 +45,31 @@ class VoxelWorld(PlacedGrid):
         if size < 1:
             raise ValueError(f"chunk_size must be at least 1, got {chunk_size!r}.")
         world = cls(model.dimensions, size, model.palette, grid_from_index=model.grid_from_index,
-                    transform=model.transform, name=model.name)
+                    transform=model.transform, name=model.name,
+                    label_type=str(model.labels.dtype))
         counts = [-(-n // size) for n in model.dimensions]
         for key in np.ndindex(*counts):
-            block = model.labels[tuple(slice(k * size, (k + 1) * size) for k in key)]
-            low, high = int(block.min()), int(block.max())
-            if high == 0:
-                continue
-            if low == high:
-                world.uniform[key] = low
-            else:
-                world.stored[key] = block.copy()
+            world._keep(key, model.labels[tuple(slice(k * size, (k + 1) * size) for k in key)])
         return world
+
+    def _keep(self, key, labels: np.ndarray) -> None:
+        """File chunk ``key``'s labels: nothing when all 0, one label when all one, else a copy.
+
+        Labels above 255 turn the world's (and its stored chunks') type to uint16.
+        """
+        low, high = int(labels.min()), int(labels.max())
+        self.stored.pop(key, None)
+        self.uniform.pop(key, None)
+        if high > 255 and self.label_type == "uint8":
+            self.label_type = "uint16"
+            for other, kept in self.stored.items():
+                self.stored[other] = kept.astype(np.uint16)
+        if high == 0:
+            return
+        if low == high:
+            self.uniform[key] = high
+        else:
+            self.stored[key] = np.array(labels, dtype=self.label_type)
 
     @classmethod
     def from_chunks(cls, chunks: dict, chunk_size: int, palette=None,
@@ -82,7 +97,6 @@ class VoxelWorld(PlacedGrid):
                                                                strict=True)]
             dimensions = tuple(max(f, 1) for f in far)
         top = max([int(a.max()) for a in arrays.values() if a.size] + [1])
-        dtype = np.uint8 if top < 256 else np.uint16
         world = cls(tuple(int(n) for n in dimensions), size, Palette.make(palette, top + 1),
                     **placement)
         for key, labels in arrays.items():
@@ -91,8 +105,7 @@ class VoxelWorld(PlacedGrid):
                                                                     strict=True)):
                 raise ValueError(f"Chunk {key} must have the shape {shape} (chunk_size "
                                  f"{size} cut at the world's far sides), got {labels.shape}.")
-            world.write(tuple(slice(o, o + n) for o, n in zip(origin, shape, strict=True)),
-                        labels.astype(dtype, copy=False))
+            world._keep(key, labels)
         return world
 
     @classmethod
@@ -112,25 +125,25 @@ class VoxelWorld(PlacedGrid):
         dims = tuple(int(n) for n in dimensions)
         counts = [-(-n // size) for n in dims]
         keys = list(np.ndindex(*counts))
-        chunks = {}
+        world = cls(dims, size, Palette.make(palette, 2), **placement)
         for key in progress(keys, total=len(keys), desc="filling chunks", enabled=progress_bar):
             box = tuple(slice(k * size, min((k + 1) * size, n)) for k, n in zip(key, dims,
                                                                                strict=True))
-            labels = np.asarray(fill(box))
+            labels = checked_labels(fill(box), f"fill{box}")
             if labels.shape != tuple(s.stop - s.start for s in box):
                 raise ValueError(f"fill returned labels of shape {labels.shape} for the box "
                                  f"{box}; it must return that box's shape.")
-            if labels.any():
-                chunks[key] = labels
-        return cls.from_chunks(chunks, size, palette=palette, dimensions=dims, **placement)
+            world._keep(key, labels)   # only mixed chunks kept as arrays, one at a time
+        if palette is None or isinstance(palette, str):   # colours for every label found
+            top = max([int(a.max()) for a in world.stored.values()]
+                      + list(world.uniform.values()) + [1])
+            world.palette = Palette.make(palette, top + 1)
+        return world
 
     @property
     def dtype(self) -> np.dtype:
-        """The labels' type: that of the stored chunks (uint8 when there are none)."""
-        for labels in self.stored.values():
-            return labels.dtype
-        return np.dtype(np.uint16 if max(self.uniform.values(), default=0) > 255
-                        else np.uint8)
+        """The labels' type (:attr:`label_type`)."""
+        return np.dtype(self.label_type)
 
     def keys_in(self, box) -> list[tuple[int, int, int]]:
         """The chunk keys a box of voxels (three slices) touches."""
@@ -159,25 +172,31 @@ class VoxelWorld(PlacedGrid):
         """Write ``values`` into a box of voxels; returns the chunks whose kind changed.
 
         A chunk changes kind when it goes from empty or uniform to stored (an edit of part
-        of it) or to another single label; stored chunks change in place.
+        of it), to another single label, or from stored to one label or empty; otherwise a
+        stored chunk changes in place. Labels above 255 in a uint8 world change every
+        stored chunk's type (all returned).
         """
         changed = []
+        if values.size and int(values.max()) > 255 and self.label_type == "uint8":
+            self.label_type = "uint16"   # every stored chunk's texture is made again
+            changed += list(self.stored)
+            for key, kept in self.stored.items():
+                self.stored[key] = kept.astype(np.uint16)
         for key, inner, local in self.pieces(box):
             piece = values[local]
             if key in self.stored:
-                self.stored[key][inner] = piece
+                labels = self.stored[key]
+                labels[inner] = piece
+                if labels.min() != labels.max():
+                    continue
+            elif not (piece != self.uniform.get(key, 0)).any():
                 continue
-            if not (piece != self.uniform.get(key, 0)).any():
-                continue
-            labels = self.chunk_labels(key)
-            labels[inner] = piece
-            self.uniform.pop(key, None)
-            low, high = int(labels.min()), int(labels.max())
-            if low == high and high:
-                self.uniform[key] = high
-            elif high:
-                self.stored[key] = labels
-            changed.append(key)
+            else:
+                labels = self.chunk_labels(key)
+                labels[inner] = piece
+            self._keep(key, labels)   # a stored chunk all one label (or 0) is one no more
+            if key not in changed:
+                changed.append(key)
         return changed
 
     def pieces(self, box):
@@ -223,6 +242,13 @@ class VoxelWorld(PlacedGrid):
                           grid_from_index=np.asarray(self.grid_from_index) @ local,
                           transform=self.transform, name=f"{self.name}{list(key)}")
 
+    def drawn_labels(self) -> np.ndarray:
+        """Per label value the world's type holds: drawn (shown by the palette) or not."""
+        table = np.zeros(int(np.iinfo(self.dtype).max) + 1, bool)
+        visible = self.palette.visible[:len(table)]
+        table[:len(visible)] = visible
+        return table
+
     def solid_bricks(self, brick: int) -> np.ndarray | None:
         """Per brick of ``brick``³ voxels, whether every voxel in it is drawn (shown label).
 
@@ -234,7 +260,7 @@ class VoxelWorld(PlacedGrid):
             return None
         per_chunk = self.chunk_size // brick
         solid = np.zeros([-(-n // brick) for n in self.dimensions], bool)
-        shown = np.append(self.palette.visible, False)   # labels past the palette: hidden
+        shown = self.drawn_labels()
         for key in set(self.stored) | set(self.uniform):
             origin, shape = self.chunk_box(key)
             cells = [n // brick for n in shape]   # whole bricks only
@@ -243,7 +269,7 @@ class VoxelWorld(PlacedGrid):
             if key in self.uniform:
                 solid[where] = bool(shown[self.uniform[key]])
                 continue
-            drawn = shown[np.minimum(self.stored[key], len(shown) - 1)]
+            drawn = shown[self.stored[key]]
             drawn = drawn[tuple(slice(0, c * brick) for c in cells)]
             solid[where] = drawn.reshape(cells[0], brick, cells[1], brick, cells[2],
                                          brick).all(axis=(1, 3, 5))

@@ -367,7 +367,8 @@ class _StageReader:
             size = _attr(prim, "cubemarch:chunkSize")
             self.world_chunks.setdefault(str(world), []).append(ChunkPrim(
                 tuple(int(k) for k in key), model, options, str(prim.GetPath()),
-                None if size is None else int(size)))
+                None if size is None else int(size),
+                lambda top, prim=prim: _palette(prim, name, where, top)))
             return
         self.scene.voxels.append(model)
         size = _attr(prim, "cubemarch:chunkSize")

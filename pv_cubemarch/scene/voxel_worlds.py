@@ -11,6 +11,7 @@ worlds.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +30,10 @@ class ChunkPrim:
     options: dict
     path: str
     chunk_size: int | None = None
+    #: The chunk's palette for a world whose largest label is the argument (its own
+    #: authored palette, or a colormap's that many colours): chunks compare them on one
+    #: footing, whatever labels each happens to hold.
+    palette_for: Callable | None = None
 
 
 def join_world(name: str, chunks: list[ChunkPrim]) -> tuple[VoxelWorld, dict]:
@@ -59,12 +64,15 @@ def join_world(name: str, chunks: list[ChunkPrim]) -> tuple[VoxelWorld, dict]:
             raise SceneLoadError(f"Voxel world {name!r}: chunk {chunk.path} has options "
                                  f"{chunk.options}, chunk {first.path} {first.options}; the "
                                  "chunks of a world share them.")
-        if not np.array_equal(chunk.model.palette.rgba, first.model.palette.rgba):
+    top = max(int(c.model.labels.max()) for c in chunks)
+    palettes = [c.palette_for(top) if c.palette_for is not None else c.model.palette
+                for c in chunks]
+    for chunk, palette in zip(chunks, palettes, strict=True):
+        if not np.array_equal(palette.rgba, palettes[0].rgba):
             raise SceneLoadError(f"Voxel world {name!r}: chunk {chunk.path} has another "
                                  f"palette than {first.path}; the chunks of a world share it.")
     world = VoxelWorld.from_chunks({c.key: c.model.labels for c in chunks}, size,
-                                   palette=first.model.palette, grid_from_index=placement,
-                                   name=name)
+                                   palette=palettes[0], grid_from_index=placement, name=name)
     return world, dict(first.options)
 
 

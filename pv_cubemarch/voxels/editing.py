@@ -18,10 +18,12 @@ from ..gl.box import box_polydata
 from ..models.procedural import sphere
 from ..models.voxels import (
     atlas_levels,
+    bounds_in_cells,
     filled_bounds,
     level_origin,
     safe_radii,
 )
+from .options import drawn_level
 
 Box = tuple[slice, slice, slice]
 #: Edits touching more than this share of the grid upload it whole.
@@ -227,6 +229,7 @@ def refresh(binding, box: Box) -> None:
         after = shell.bounds if shell.enabled else filled_bounds(labels)
     else:   # no shell fits: the box around the labels
         after = filled_bounds(labels) if whole else _grown(binding.drawn_bounds, labels, box)
+        after = bounds_in_cells(after, drawn_level(binding.options), dims)
     if tuple(np.concatenate(after)) != before:
         binding.drawn_bounds = after
         binding.drawn[0].GetMapper().SetInputData(box_polydata(*after, 0.01 * max(dims)))

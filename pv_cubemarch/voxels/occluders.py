@@ -54,8 +54,7 @@ class WorldOccluders:
         if any(c.stop <= c.start for c in cells):
             return
         region = tuple(slice(c.start * brick, c.stop * brick) for c in cells)
-        shown = np.append(self.world.palette.visible, False)
-        drawn = shown[np.minimum(self.world.labels_in(region), len(shown) - 1)]
+        drawn = self.world.drawn_labels()[self.world.labels_in(region)]
         n = [c.stop - c.start for c in cells]
         solid = drawn.reshape(n[0], brick, n[1], brick, n[2], brick).all(axis=(1, 3, 5))
         if np.array_equal(solid, self.solid[cells]):

@@ -167,3 +167,8 @@ class VoxelOptions:
     def step(self) -> float:
         """The fixed traversal's step in voxels (the seed's 1/10 of a voxel by default)."""
         return float(self.step_scale) if self.step_scale is not None else 0.1
+
+
+def drawn_level(options: VoxelOptions) -> int:
+    """The coarsest level whose cells the traversal may draw: ``mip_levels`` with ``lod``."""
+    return int(options.mip_levels or 0) if options.lod else 0

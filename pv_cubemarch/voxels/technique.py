@@ -30,6 +30,7 @@ from ..models.voxels import (
     VoxelModel,
     atlas_layout,
     atlas_levels,
+    bounds_in_cells,
     choose_shell,
     filled_bounds,
     level_atlas,
@@ -40,7 +41,7 @@ from ..models.voxels import (
 from ..reference.voxels import render_voxels, trace_voxels
 from . import editing
 from .occluders import WorldOccluders
-from .options import VoxelOptions
+from .options import VoxelOptions, drawn_level
 from .proxy import ShellStart
 
 #: Most scene lights a grid is lit by (two mat4 of light vectors and colours).
@@ -341,7 +342,10 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     if options.proxy == "box" and occluders is None:
         lower, upper = np.zeros(3), np.asarray(model.dimensions, dtype=np.float64)
     elif shell is None:   # the box around the voxels (a world's chunk: less overdraw)
-        lower, upper = filled_bounds(model.labels)
+        # With level of detail, whole cells of the coarsest level: a coarse cell reaches past
+        # its voxels, and a box cut at them would cut its silhouette (seen: 54 pixels).
+        lower, upper = bounds_in_cells(filled_bounds(model.labels), drawn_level(options),
+                                       model.dimensions)
     else:
         lower, upper = shell.bounds
     actor = box_actor(upper, model.world_from_index(), margin=0.01 * max(model.dimensions),

@@ -59,15 +59,27 @@ class WorldBinding:
         self.occluders.shown = lambda: bool(anchor.GetVisibility())
         self.occluders.depth.read_back = True
         self.occluders.depth.on_frame = self._hide_hidden_chunks
-        #: How many chunks the last frame left out as hidden behind the occluders.
-        self.hidden_chunks = 0
         self._blocks: dict = {}   # per chunk key, its filled blocks (index-space boxes)
         self._culled_for = None
         self._hidden: list[VoxelBinding] = []
         self._ordered_for = None
         self._order_tag = observe(renderer, vtk.vtkCommand.StartEvent, self._order_chunks)
-        for key in sorted(set(world.stored) | set(world.uniform)):
-            self._build_chunk(key)
+        try:
+            for key in sorted(set(world.stored) | set(world.uniform)):
+                self._build_chunk(key)
+        except BaseException:
+            self.discard()
+            raise
+
+    def discard(self) -> None:
+        """Take back what a failed build made: chunks, passes, the ordering observer."""
+        for chunk in self.chunks.values():
+            self.plotter.cubemarch.untrack(chunk)
+        self.chunks = {}
+        for part in (self.depth, self.occluders):
+            if part is not None:
+                part.release()
+        self.renderer.RemoveObserver(self._order_tag)
 
     def _shells_used(self) -> bool:
         """Each shell decides for its chunk; the shared pass draws if any uses it."""
@@ -142,11 +154,8 @@ class WorldBinding:
         if key != self._culled_for:
             self._culled_for = key
             self._hidden = [] if depths is None else self._hidden_by(depths)
-        self.hidden_chunks = 0
         for chunk in self._hidden:
-            if chunk.drawn[0].GetVisibility():
-                chunk.drawn[0].SetVisibility(False)
-                self.hidden_chunks += 1
+            chunk.drawn[0].SetVisibility(False)
 
     def _hidden_by(self, depths: np.ndarray) -> list[VoxelBinding]:
         """The chunks whose filled blocks all lie behind ``depths`` (the occluders')."""
@@ -192,6 +201,13 @@ class WorldBinding:
         return [c for c in self.chunks.values() if id(c) not in shown]
 
     @property
+    def hidden_chunks(self) -> int:
+        """How many chunks the last frame left out as hidden behind the occluders."""
+        if not self.anchor.GetVisibility():
+            return 0
+        return sum(1 for c in self.chunks.values() if not c.drawn[0].GetVisibility())
+
+    @property
     def palette(self):
         """The world's :class:`~pv_cubemarch.models.voxels.Palette` (shared by its chunks)."""
         return self.model.palette
@@ -217,11 +233,15 @@ class WorldBinding:
         if any(s.stop <= s.start for s in box):
             return
         if mask is None:
-            block = np.full([s.stop - s.start for s in box], value, self.model.dtype)
+            block = np.full([s.stop - s.start for s in box], value, self._type_for(value))
         else:
-            block = self.model.labels_in(box)
+            block = self.model.labels_in(box).astype(self._type_for(value), copy=False)
             block[mask] = value
         self._write(box, block)
+
+    def _type_for(self, value: int) -> np.dtype:
+        """The labels' type, or uint16 for a label above 255 (the world widens to it)."""
+        return np.dtype(np.uint16) if value > 255 else self.model.dtype
 
     def fill_sphere(self, center, radius: float, material: int) -> None:
         """Set the voxels whose centre is within ``radius`` of ``center`` (world indices)."""
@@ -229,7 +249,7 @@ class WorldBinding:
         box, local = editing.sphere_region(center, radius, self.model.dimensions)
         if local is None:
             return
-        block = self.model.labels_in(box)
+        block = self.model.labels_in(box).astype(self._type_for(value), copy=False)
         block[local] = value
         self._write(box, block)
 
@@ -245,7 +265,7 @@ class WorldBinding:
         if mask is not None or values.shape != shape:
             raise ValueError(f"set_block needs a tuple of slices and values of its shape "
                              f"{shape}, got values of {values.shape}.")
-        editing.check_labels(values, self.model.dtype, self.model.palette)
+        editing.check_labels(values, np.uint16, self.model.palette)
         if values.size:
             self._write(box, values)
 
@@ -258,18 +278,21 @@ class WorldBinding:
         self.set_block(tuple(slice(0, n) for n in self.model.dimensions), labels)
 
     def _checked_material(self, material) -> int:
-        return editing.check_material(material, self.model.dtype, self.model.palette)
+        """``material`` if the palette has it (a world's labels widen to uint16 on need)."""
+        return editing.check_material(material, np.uint16, self.model.palette)
 
     def _write(self, box, values: np.ndarray) -> None:
         """Labels into the world; chunks that changed kind get new actors, others edits."""
         stored_before = set(self.model.stored)
-        rebuilt = set(self.model.write(box, values.astype(self.model.dtype, copy=False)))
+        rebuilt = set(self.model.write(box, values))
         for key, inner, _ in self.model.pieces(box):
             if key in rebuilt:
                 self._build_chunk(key)
             elif key in stored_before and key in self.chunks:
                 editing.refresh(self.chunks[key], inner)
                 self._blocks.pop(key, None)
+        for key in rebuilt - {key for key, _, _ in self.model.pieces(box)}:
+            self._build_chunk(key)   # a chunk outside the box whose labels widened
         self._culled_for = None
         self.occluders.edit(box)
 
@@ -304,9 +327,14 @@ class WorldBinding:
                 continue
             depth = float(hits.depth[0, 0])
             point = origin + direction * depth
-            inside = (index_from_world @ np.append(point, 1.0))[:3] + 1e-6 * d
             start, shape = self.model.chunk_box(key)
-            index = np.clip(np.floor(inside).astype(int), start, start + np.array(shape) - 1)
+            if key in self.model.stored:
+                index = start + hits.index[0, 0]
+            else:   # one stretched voxel: the voxel of the world the ray enters there
+                inside = (index_from_world @ np.append(point, 1.0))[:3] + 1e-6 * d / np.abs(
+                    d).max()
+                index = np.clip(np.floor(inside).astype(int), start,
+                                start + np.array(shape) - 1)
             return VoxelPick(tuple(int(v) for v in index), int(hits.material[0, 0]),
                              int(hits.face[0, 0]), depth, tuple(float(v) for v in point))
         return None
@@ -416,7 +444,12 @@ def build_world(plotter, world: VoxelWorld, options: VoxelOptions) -> pyvista.Ac
     """
     proxy = bounds_proxy(world)
     plotter.add_actor(proxy, name=world.name, reset_camera=False)
-    binding = WorldBinding(plotter, world, options, proxy)
+    try:
+        binding = WorldBinding(plotter, world, options, proxy)
+    except BaseException:
+        plotter.remove_actor(proxy, reset_camera=False)   # the binding took back its parts
+        raise
     plotter.cubemarch.track(WorldPasses(binding))
     pyvista.set_new_attribute(proxy, "cubemarch", binding)
     return proxy
+
