@@ -61,6 +61,7 @@ class WorldBinding:
         self.occluders.depth.on_frame = self._hide_hidden_chunks
         self._blocks: dict = {}   # per chunk key, its filled blocks (index-space boxes)
         self._culled_for = None
+        self._corners_for = None
         self._hidden: list[VoxelBinding] = []
         self._ordered_for = None
         self._order_tag = observe(renderer, vtk.vtkCommand.StartEvent, self._order_chunks)
@@ -157,24 +158,38 @@ class WorldBinding:
         for chunk in self._hidden:
             chunk.drawn[0].SetVisibility(False)
 
+    def _block_corners(self) -> tuple[list[VoxelBinding], np.ndarray]:
+        """Every chunk's filled blocks as world-space corners ``(blocks, 8, 4)``, and owners.
+
+        Kept until the chunks, their labels (an edit forgets it) or the placement change.
+        """
+        key = (tuple(id(c) for c in self.chunks.values()),
+               self.model.world_from_index().tobytes())
+        if self._corners_for is not None and self._corners_for[0] == key:
+            return self._corners_for[1]
+        pick = np.array(list(itertools.product((0, 1), repeat=3)))
+        chunks, corners = [], []
+        for chunk_key, chunk in self.chunks.items():
+            blocks = self._blocks.get(chunk_key)
+            if blocks is None:
+                blocks = self._blocks[chunk_key] = _filled_blocks(chunk.model.labels)
+            to_world = chunk.model.world_from_index()
+            for low, high in blocks:
+                box = np.where(pick == 0, low, high)
+                corners.append(np.c_[box, np.ones(8)] @ to_world.T)
+                chunks.append(chunk)
+        found = (chunks, np.array(corners).reshape(-1, 8, 4))
+        self._corners_for = (key, found)
+        return found
+
     def _hidden_by(self, depths: np.ndarray) -> list[VoxelBinding]:
         """The chunks whose filled blocks all lie behind ``depths`` (the occluders')."""
         view, projection = camera_matrices(self.renderer)
         height, width = depths.shape
-        pick = np.array(list(itertools.product((0, 1), repeat=3)))
-        chunks, corners = [], []
-        for key, chunk in self.chunks.items():
-            blocks = self._blocks.get(key)
-            if blocks is None:
-                blocks = self._blocks[key] = _filled_blocks(chunk.model.labels)
-            to_view = view @ chunk.model.world_from_index()
-            for low, high in blocks:
-                box = np.where(pick == 0, low, high)
-                corners.append(np.c_[box, np.ones(8)] @ to_view.T)
-                chunks.append(chunk)
-        if not corners:
+        chunks, world_corners = self._block_corners()
+        if not chunks:
             return []
-        corners = np.array(corners)                     # (blocks, 8, 4), view space
+        corners = world_corners @ np.asarray(view).T       # (blocks, 8, 4), view space
         depth = -corners[..., 2]                          # the pixel rays' parameter
         clip = corners @ np.asarray(projection).T
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -193,7 +208,12 @@ class WorldBinding:
         # first block found in sight.
         maybe = on_screen & ahead & ~(nearest > _rectangle_max(depths, i0, i1, j0, j1,
                                                                 on_screen & ahead))
-        shown = {id(chunks[index]) for index in np.flatnonzero(~ahead)}
+        # One pixel at or past the block's nearest corner shows it in sight: the centre's
+        # is read first for all blocks at once.
+        middle = depths[np.minimum((j0 + j1) // 2, height - 1),
+                        np.minimum((i0 + i1) // 2, width - 1)]
+        shown = {id(chunks[index]) for index in np.flatnonzero(~ahead | (maybe & (
+            middle >= nearest)))}
         for index in np.flatnonzero(maybe):
             if id(chunks[index]) not in shown and not nearest[index] > depths[
                     j0[index]:j1[index], i0[index]:i1[index]].max():
@@ -291,6 +311,7 @@ class WorldBinding:
             elif key in stored_before and key in self.chunks:
                 editing.refresh(self.chunks[key], inner)
                 self._blocks.pop(key, None)
+                self._corners_for = None
         for key in rebuilt - {key for key, _, _ in self.model.pieces(box)}:
             self._build_chunk(key)   # a chunk outside the box whose labels widened
         self._culled_for = None
@@ -365,8 +386,8 @@ def _rectangle_max(image: np.ndarray, i0, i1, j0, j1, which: np.ndarray) -> np.n
     while max(levels[-1].shape) > 1:
         last = levels[-1]
         padded = np.pad(last, [(0, n % 2) for n in last.shape], constant_values=-np.inf)
-        levels.append(padded.reshape(padded.shape[0] // 2, 2, padded.shape[1] // 2, 2)
-                      .max(axis=(1, 3)))
+        levels.append(np.maximum(np.maximum(padded[0::2, 0::2], padded[1::2, 0::2]),
+                                 np.maximum(padded[0::2, 1::2], padded[1::2, 1::2])))
     result = np.full(len(which), -np.inf)
     span = np.maximum(i1 - i0, j1 - j0)
     level = np.maximum(np.ceil(np.log2(np.maximum(span, 1))).astype(int) - 1, 0)
