@@ -452,18 +452,17 @@ def add_voxels(
     else:
         model = make_voxels(grid, scalars, palette=palette, transform=transform,
                             name=name or "voxels")
-    if isinstance(model, VoxelWorld):
-        if chunk_size is not None and chunk_size != model.chunk_size:
-            raise ValueError(f"chunk_size={chunk_size} differs from the world's own "
-                             f"{model.chunk_size}; leave it out for a VoxelWorld.")
-        if proxy is None:
+    if isinstance(model, VoxelWorld) and chunk_size not in (None, model.chunk_size):
+        raise ValueError(f"chunk_size={chunk_size} differs from the world's own "
+                         f"{model.chunk_size}; leave it out for a VoxelWorld.")
+    if isinstance(model, VoxelWorld) or chunk_size is not None or not fits_one_texture(
+            model.dimensions, model.labels.dtype):
+        if proxy is None:   # chunks: no brick shells by default (bench voxel-world)
             options = dataclasses.replace(options, proxy="box")
+        if not isinstance(model, VoxelWorld):
+            model = VoxelWorld.from_model(
+                model, DEFAULT_CHUNK_SIZE if chunk_size is None else chunk_size)
         return _add_world(plotter, model, options)
-    if chunk_size is not None or not fits_one_texture(model.dimensions, model.labels.dtype):
-        if proxy is None:
-            options = dataclasses.replace(options, proxy="box")
-        return _add_world(plotter, VoxelWorld.from_model(
-            model, DEFAULT_CHUNK_SIZE if chunk_size is None else chunk_size), options)
     options.check_model(model)
     component = plotter.cubemarch
     binding = chosen.build(plotter, model, options)

@@ -127,8 +127,9 @@ def run_large(size: Sequence[int] = (800, 600), scale: float = 1.0, frames: int 
             times.append((time.perf_counter() - start) * 1e3)
         binding = actor.cubemarch
         world = binding.model
-        stored = len(getattr(world, "stored", {})) or int(not hasattr(world, "stored"))
-        uniform = len(getattr(world, "uniform", {}))
+        chunked = isinstance(world, VoxelWorld)   # else drawn whole: one stored grid
+        stored = len(world.stored) if chunked else 1
+        uniform = len(world.uniform) if chunked else 0
         covered = wrong = None
         if reference:
             hits = trace_voxels(labels, np.eye(4), Camera.from_pyvista(pl.camera), size,

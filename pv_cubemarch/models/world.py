@@ -223,17 +223,17 @@ class VoxelWorld(PlacedGrid):
                       for o, n in zip(origin, self.dimensions, strict=True))
         return origin, shape
 
-    def chunk_model(self, key) -> VoxelModel:
+    def chunk_model(self, key, whole: bool = False) -> VoxelModel:
         """Chunk ``key`` as a grid of its own, placed where it sits in the world.
 
         A uniform chunk is one voxel stretched over the chunk's box: drawn exactly the same,
-        one byte on the GPU.
+        one byte on the GPU (``whole``: all its voxels, e.g. to export it).
         """
         origin, shape = self.chunk_box(key)
         local = np.eye(4)
         local[:3, 3] = origin
-        if key in self.stored:
-            labels = self.stored[key]
+        if key in self.stored or whole:
+            labels = self.chunk_labels(key)
         else:
             labels = np.full((1, 1, 1), self.uniform[key],
                              np.uint8 if self.uniform[key] < 256 else np.uint16)
@@ -269,13 +269,29 @@ class VoxelWorld(PlacedGrid):
             if key in self.uniform:
                 solid[where] = bool(shown[self.uniform[key]])
                 continue
-            drawn = shown[self.stored[key]]
-            drawn = drawn[tuple(slice(0, c * brick) for c in cells)]
-            solid[where] = drawn.reshape(cells[0], brick, cells[1], brick, cells[2],
-                                         brick).all(axis=(1, 3, 5))
+            solid[where] = _all_drawn(shown[self.stored[key]], brick, cells)
         return solid
+
+    def solid_bricks_in(self, brick: int, box) -> tuple[tuple[slice, ...], np.ndarray]:
+        """The whole bricks a box of voxels touches, and which are solid.
+
+        As :meth:`solid_bricks` finds them; the bricks are three slices of brick cells.
+        """
+        cells = tuple(slice(s.start // brick, min(-(-s.stop // brick), n // brick))
+                      for s, n in zip(box, self.dimensions, strict=True))
+        counts = [max(c.stop - c.start, 0) for c in cells]
+        if 0 in counts:
+            return cells, np.zeros(counts, bool)
+        region = tuple(slice(c.start * brick, c.stop * brick) for c in cells)
+        return cells, _all_drawn(self.drawn_labels()[self.labels_in(region)], brick, counts)
 
     @property
     def nbytes(self) -> int:
         """Host bytes of the labels kept: the stored chunks (uniform ones: one label)."""
         return sum(int(c.nbytes) for c in self.stored.values()) + 2 * len(self.uniform)
+
+
+def _all_drawn(drawn: np.ndarray, brick: int, cells) -> np.ndarray:
+    """Per brick of the first ``cells`` bricks of a drawn-voxel mask: all of it drawn."""
+    drawn = drawn[tuple(slice(0, c * brick) for c in cells)]
+    return drawn.reshape(cells[0], brick, cells[1], brick, cells[2], brick).all(axis=(1, 3, 5))

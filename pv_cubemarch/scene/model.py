@@ -147,10 +147,7 @@ class Scene:
                 blocks[g.name] = _voxel_image(g)
                 continue
             for key in sorted(set(g.stored) | set(g.uniform)):   # a world: block per chunk
-                chunk = g.chunk_model(key)
-                chunk.labels = g.chunk_labels(key)
-                chunk.grid_from_index = g.world_from_index() @ _shifted(g.chunk_box(key)[0])
-                chunk.transform = np.eye(4)
+                chunk = g.chunk_model(key, whole=True)
                 blocks[chunk.name] = _voxel_image(chunk)
         return blocks
 
@@ -250,13 +247,6 @@ class Scene:
             Path(path).parent.mkdir(parents=True, exist_ok=True)
             Image.fromarray(image).save(str(path))
         return image
-
-
-def _shifted(origin) -> np.ndarray:
-    """A 4x4 translation by ``origin``."""
-    matrix = np.eye(4)
-    matrix[:3, 3] = origin
-    return matrix
 
 
 def _voxel_image(grid: VoxelModel) -> pyvista.ImageData:

@@ -48,16 +48,8 @@ class WorldOccluders:
         """Follow labels changed in ``box`` (three slices of world voxels)."""
         if self.solid is None:
             return
-        brick, dims = self.brick, self.world.dimensions
-        cells = tuple(slice(s.start // brick, min(-(-s.stop // brick), n // brick))
-                      for s, n in zip(box, dims, strict=True))   # whole bricks only
-        if any(c.stop <= c.start for c in cells):
-            return
-        region = tuple(slice(c.start * brick, c.stop * brick) for c in cells)
-        drawn = self.world.drawn_labels()[self.world.labels_in(region)]
-        n = [c.stop - c.start for c in cells]
-        solid = drawn.reshape(n[0], brick, n[1], brick, n[2], brick).all(axis=(1, 3, 5))
-        if np.array_equal(solid, self.solid[cells]):
+        cells, solid = self.world.solid_bricks_in(self.brick, box)
+        if not solid.size or np.array_equal(solid, self.solid[cells]):
             return
         self.solid[cells] = solid
         self._draw_faces()

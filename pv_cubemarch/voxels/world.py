@@ -29,6 +29,7 @@ from ..gl.overlay import bounds_proxy
 from ..models.volume import checked_transform
 from ..models.voxels import occupied_bricks
 from ..models.world import VoxelWorld
+from ..reference.rays import ray_box_interval
 from ..reference.voxels import trace_voxels
 from . import editing
 from .occluders import WorldOccluders
@@ -77,10 +78,14 @@ class WorldBinding:
         for chunk in self.chunks.values():
             self.plotter.cubemarch.untrack(chunk)
         self.chunks = {}
-        for part in (self.depth, self.occluders):
-            if part is not None:
-                part.release()
+        self.release_passes()
+
+    def release_passes(self) -> None:
+        """Free the shared passes and stop ordering (the chunks are freed on their own)."""
         self.renderer.RemoveObserver(self._order_tag)
+        if self.depth is not None:
+            self.depth.release()
+        self.occluders.release()
 
     def _shells_used(self) -> bool:
         """Each shell decides for its chunk; the shared pass draws if any uses it."""
@@ -333,13 +338,13 @@ class WorldBinding:
         index_from_world = np.linalg.inv(self.model.world_from_index())
         o = (index_from_world @ np.append(origin, 1.0))[:3]
         d = index_from_world[:3, :3] @ direction
-        order = []
-        for key in self.chunks:
-            start, shape = self.model.chunk_box(key)
-            entry = _slab(o, d, start.astype(float), start + np.asarray(shape, float))
-            if entry is not None:
-                order.append((entry, key))
-        for _, key in sorted(order):
+        keys = list(self.chunks)
+        boxes = [self.model.chunk_box(key) for key in keys]
+        lower = np.array([start for start, _ in boxes], dtype=np.float64).reshape(-1, 3)
+        enter, leave = ray_box_interval(o, d, lower, lower + [shape for _, shape in boxes])
+        enter = np.maximum(enter, 0.0)
+        crossed = np.flatnonzero(enter <= leave)
+        for key in [keys[i] for i in crossed[np.argsort(enter[crossed], kind="stable")]]:
             chunk = self.chunks[key]
             hits = trace_voxels(chunk.model.labels, chunk.model.world_from_index(), camera,
                                 (width, height), near=camera.clipping_range[0],
@@ -413,19 +418,6 @@ def _filled_blocks(labels: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
             for cell in np.argwhere(occupied)]
 
 
-def _slab(origin: np.ndarray, direction: np.ndarray, low: np.ndarray,
-          high: np.ndarray) -> float | None:
-    """Where a ray enters the box ``[low, high]`` (its parameter, >= 0), or ``None``."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = (low - origin) / direction
-        b = (high - origin) / direction
-    inside = (origin >= low) & (origin <= high)
-    near = np.where(direction == 0, np.where(inside, -np.inf, np.inf), np.minimum(a, b))
-    far = np.where(direction == 0, np.where(inside, np.inf, -np.inf), np.maximum(a, b))
-    enter, leave = max(float(near.max()), 0.0), float(far.min())
-    return enter if enter <= leave else None
-
-
 class WorldPasses(DrawnBinding):
     """The world's shared passes as the plotter tracks them: freed when the world leaves."""
 
@@ -451,10 +443,7 @@ class WorldPasses(DrawnBinding):
         if self._released:
             return
         self._released = True
-        self.world.renderer.RemoveObserver(self.world._order_tag)
-        if self.world.depth is not None:
-            self.world.depth.release()
-        self.world.occluders.release()
+        self.world.release_passes()
 
 
 def build_world(plotter, world: VoxelWorld, options: VoxelOptions) -> pyvista.Actor:
