@@ -24,6 +24,7 @@ from .volume.light_map import LightMap
 from .volume.march import VolumeData
 from .volume.options import DEFAULT_STOP_OPACITY, Shading
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
+from .voxels.indexed import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
 from .voxels.world import build_world
 
@@ -227,13 +228,21 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
     return actor
 
 
-def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options) -> pyvista.Actor:
-    """Draw a chunked world; returns the actor that stands for it."""
-    if options.mode == "id":
-        raise ValueError("mode='id' writes a voxel's index within its grid; a grid drawn in "
-                         "chunks has one index space per chunk: use mode='face' or 'color', "
-                         "or pick() on a grid that fits one texture.")
-    actor = build_world(plotter, world, options)
+def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str | None):
+    """Draw a chunked world by one traversal or a box per chunk; returns its actor."""
+    traversal = options.world_traversal
+    if traversal is None:
+        traversal = "index" if why_not_indexed(world, options) is None else "per_chunk"
+    if traversal == "index":
+        binding = build_indexed_world(plotter, world, options)
+        actor = _place(plotter, binding, name or world.name)
+        plotter.cubemarch.track(binding)
+    else:
+        if options.mode == "id":
+            raise ValueError("mode='id' writes a voxel's index within its grid; a world "
+                             "drawn per chunk has one index space per chunk: use "
+                             "world_traversal='index', mode='face' or 'color', or pick().")
+        actor = build_world(plotter, world, options)
     _frame(plotter)
     return actor
 
@@ -331,6 +340,7 @@ def add_voxels(
     proxy: str | None = None,
     lod: bool = False,
     lod_bias: float = 0.0,
+    world_traversal: str | None = None,
     chunk_size: int | None = None,
     transform=None,
     name: str | None = None,
@@ -409,13 +419,24 @@ def add_voxels(
     lod_bias : float
         With ``lod``: levels added to the chosen one (``1``: cells up to two pixels wide,
         faster and coarser; ``-1``: finer).
+    world_traversal : str, optional
+        How a grid drawn in chunks is traversed. ``'index'``: one box and one traversal
+        over the whole world through a small chunk index (an empty chunk is one step,
+        stored chunks are read from one pool texture; a ray stops at its first hit in any
+        chunk, so chunks behind the camera or behind nearer ground cost nothing).
+        ``'per_chunk'``: a box per chunk, culled against the view and the world's solid
+        faces, drawn far to near. ``None`` (default): ``'index'`` where its pool fits one
+        texture and the options allow it (a power-of-two ``chunk_size``, no
+        ``distance_field``, ``proxy`` not ``'bricks'``), else ``'per_chunk'``.
     chunk_size : int, optional
         Draw the grid in chunks of this edge (empty chunks cost nothing, a chunk of one
         label one byte); grids over 2048 voxels on a side (the largest 3D texture here) or
-        over 512 MiB of labels are chunked by 128 without asking. A chunked grid returns
-        an invisible actor standing for all chunks, whose ``cubemarch`` is a
-        :class:`~pv_cubemarch.voxels.world.WorldBinding` (edits, ``pick`` and
-        ``set_material`` in world voxel indices; ``mode='id'`` is refused). A
+        over 512 MiB of labels are chunked by 128 without asking. A chunked grid's
+        ``actor.cubemarch`` is an
+        :class:`~pv_cubemarch.voxels.indexed.IndexedWorldBinding` (the world's box) or,
+        per chunk, a :class:`~pv_cubemarch.voxels.world.WorldBinding` (an invisible
+        actor standing for all chunks); both take edits, ``pick`` and ``set_material`` in
+        world voxel indices (``mode='id'`` only with ``'index'``). A
         :class:`~pv_cubemarch.models.world.VoxelWorld` (e.g. chunks placed by hand with
         ``VoxelWorld.from_chunks``) is drawn in its own chunks.
     transform : array_like, optional
@@ -443,7 +464,7 @@ def add_voxels(
                             ambient=ambient, specular=specular, specular_power=specular_power,
                             ambient_occlusion=ambient_occlusion,
                             occlusion_strength=occlusion_strength, proxy=proxy, lod=lod,
-                            lod_bias=lod_bias)
+                            lod_bias=lod_bias, world_traversal=world_traversal)
     if isinstance(grid, (VoxelModel, VoxelWorld)):
         model = grid
         if transform is not None:
@@ -462,7 +483,7 @@ def add_voxels(
         if not isinstance(model, VoxelWorld):
             model = VoxelWorld.from_model(
                 model, DEFAULT_CHUNK_SIZE if chunk_size is None else chunk_size)
-        return _add_world(plotter, model, options)
+        return _add_world(plotter, model, options, name)
     options.check_model(model)
     component = plotter.cubemarch
     binding = chosen.build(plotter, model, options)

@@ -192,5 +192,5 @@ def test_grids_that_need_another_atlas_layout_or_none(plotter_factory):
     wrong, _, hits = wrong_pixels(pl, actor.cubemarch.model, camera)
     assert wrong == 0 and (hits.material > 0).any()
     # Over the largest texture: chunked, not refused (nothing filled: no chunk at all).
-    assert cm.add_voxels(plotter(plotter_factory), np.zeros((2049, 1, 1), np.uint8)
-                         ).cubemarch.chunks == {}
+    world = cm.add_voxels(plotter(plotter_factory), np.zeros((2049, 1, 1), np.uint8)).cubemarch
+    assert world.slots == {} and world.model.stored == {} and world.model.uniform == {}

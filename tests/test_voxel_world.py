@@ -38,9 +38,10 @@ def exact_against_one_grid(pl, labels, camera):
     return int(wrong.sum()), int(off.sum()), hits
 
 
-@pytest.mark.parametrize("proxy", ["bricks", "box"])
+@pytest.mark.parametrize(("proxy", "traversal"), [("bricks", "per_chunk"), ("box", "per_chunk"),
+                                                  ("box", "index")])
 @pytest.mark.parametrize("eye", [(40.0, 30.0, 35.0), (-16.0, -10.0, -19.0)])
-def test_chunk_seams_neither_miss_nor_double_a_voxel(plotter_factory, proxy, eye):
+def test_chunk_seams_neither_miss_nor_double_a_voxel(plotter_factory, proxy, traversal, eye):
     # Chunks of 8 voxels cut the grid into 3 x 3 x 2 pieces: rays cross many seams, and
     # every pixel must show the face and depth of one whole grid's first voxel.
     # catches (seen to fail): chunks placed without their origin (all drawn at the corner).
@@ -49,13 +50,16 @@ def test_chunk_seams_neither_miss_nor_double_a_voxel(plotter_factory, proxy, eye
     labels[16:24, 8:16, 0:8] = 0             # an empty one
     pl = plotter(plotter_factory)
     actor = cm.add_voxels(pl, labels, mode="face", chunk_size=8, proxy=proxy,
-                          palette=PALETTE)
+                          palette=PALETTE, world_traversal=traversal)
     camera = set_camera(pl, eye, focal=(12.0, 10.0, 8.0))
     wrong, off, hits = exact_against_one_grid(pl, labels, camera)
     assert wrong == 0 and off == 0 and (hits.material > 0).mean() > 0.1
     world = actor.cubemarch.model
     assert (1, 0, 1) in world.uniform and (2, 1, 0) not in world.stored
-    assert len(actor.cubemarch.chunks) == len(world.stored) + len(world.uniform)
+    if traversal == "index":   # a slot per stored chunk, none for the others
+        assert sorted(actor.cubemarch.slots) == sorted(world.stored)
+    else:
+        assert len(actor.cubemarch.chunks) == len(world.stored) + len(world.uniform)
 
 
 def test_empty_and_uniform_chunks_cost_nothing_and_one_label():
@@ -77,19 +81,21 @@ def test_grids_over_the_largest_texture_are_chunked(plotter_factory):
     labels[2050:, :, :] = 2
     pl = plotter(plotter_factory)
     actor = cm.add_voxels(pl, labels, mode="face", palette=PALETTE)
-    assert len(actor.cubemarch.chunks) == 17   # by 128 along x: 16 full chunks and 52 voxels
+    world = actor.cubemarch.model   # by 128 along x: 16 full chunks and 52 voxels
+    assert len(world.stored) + len(world.uniform) == 17
     camera = set_camera(pl, (1900.0, 60.0, 40.0), focal=(2060.0, 2.0, 1.5))
     wrong, off, hits = exact_against_one_grid(pl, labels, camera)
     assert wrong == 0 and off == 0 and (hits.material > 0).any()
     with pytest.raises(ValueError, match="index within its grid"):
-        cm.add_voxels(plotter(plotter_factory), labels, mode="id")
+        cm.add_voxels(plotter(plotter_factory), labels, mode="id", world_traversal="per_chunk")
 
 
 def test_removing_the_world_releases_its_chunks(plotter_factory):
     labels = random_labels((24, 20, 16), 0.05, seed=32).astype(np.uint8)
     labels[:16, :16, :8] = 2   # solid bricks: the occluders' pass runs
     pl = plotter(plotter_factory)
-    actor = cm.add_voxels(pl, labels, chunk_size=8, palette=PALETTE)
+    actor = cm.add_voxels(pl, labels, chunk_size=8, palette=PALETTE,
+                          world_traversal="per_chunk")
     set_camera(pl, (40.0, 30.0, 35.0), focal=(12.0, 10.0, 8.0))
     assert cm.render_image(pl).any()
     chunks = list(actor.cubemarch.chunks.values())
@@ -107,7 +113,8 @@ def test_one_depth_pass_serves_every_chunk(plotter_factory):
     # draws without shells (box and levels: faster with many chunks, bench voxel-world).
     labels = random_labels((24, 20, 16), 0.05, seed=33).astype(np.uint8)
     pl = plotter(plotter_factory)
-    plain = cm.add_voxels(pl, labels, chunk_size=8, palette=PALETTE, name="plain")
+    plain = cm.add_voxels(pl, labels, chunk_size=8, palette=PALETTE, name="plain",
+                          world_traversal="per_chunk")
     assert all(c.options.proxy == "box" and c.shell is None
                for c in plain.cubemarch.chunks.values())
     plain.SetVisibility(False)
@@ -136,9 +143,14 @@ def terrain_labels(seed=40):
     return labels
 
 
-def world_plotter(plotter_factory, labels, **options):
+#: Both ways of drawing a world: one traversal over the chunk index, a box per chunk.
+BOTH = pytest.mark.parametrize("traversal", ["index", "per_chunk"])
+
+
+def world_plotter(plotter_factory, labels, traversal="per_chunk", **options):
     pl = plotter(plotter_factory)
-    actor = cm.add_voxels(pl, labels, mode="face", palette=PALETTE, chunk_size=16, **options)
+    actor = cm.add_voxels(pl, labels, mode="face", palette=PALETTE, chunk_size=16,
+                          world_traversal=traversal, **options)
     return pl, actor
 
 
@@ -160,7 +172,8 @@ def test_solid_faces_end_rays_without_cutting_a_hit(plotter_factory, eye, up):
     assert (hits.material > 0).mean() > 0.15 and wrong == 0 and off == 0
 
 
-def test_world_edits_show_next_frame_across_chunks(plotter_factory):
+@BOTH
+def test_world_edits_show_next_frame_across_chunks(plotter_factory, traversal):
     # One voxel in a stored chunk, a sphere across seams into empty and uniform chunks, a
     # box emptying a uniform chunk in part, a mask: each frame equals one grid's traversal
     # of the edited labels. catches (seen to fail): an edit of an empty or uniform chunk
@@ -168,7 +181,7 @@ def test_world_edits_show_next_frame_across_chunks(plotter_factory):
     # carved (rays ended at the carved hole's old faces).
     labels = terrain_labels()
     labels[32:48, 0:16, 0:16] = 3          # a uniform chunk
-    pl, actor = world_plotter(plotter_factory, labels)
+    pl, actor = world_plotter(plotter_factory, labels, traversal)
     world = actor.cubemarch
     assert (2, 0, 0) in world.model.uniform
     camera = set_camera(pl, (70.0, -30.0, 40.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))
@@ -195,12 +208,13 @@ def test_world_edits_show_next_frame_across_chunks(plotter_factory):
     assert (2, 0, 0) in world.model.stored and (2, 0, 0) not in world.model.uniform
 
 
-def test_world_pick_matches_the_cpu_traversal_of_the_whole_grid(plotter_factory):
+@BOTH
+def test_world_pick_matches_the_cpu_traversal_of_the_whole_grid(plotter_factory, traversal):
     # catches (seen to fail): chunks tried far to near (a hidden voxel picked), a uniform
     # chunk's index taken as its one stretched voxel's.
     labels = terrain_labels()
     labels[32:48, 0:16, 0:16] = 3
-    pl, actor = world_plotter(plotter_factory, labels)
+    pl, actor = world_plotter(plotter_factory, labels, traversal)
     camera = set_camera(pl, (70.0, -30.0, 40.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))
     cm.render_image(pl)
     hits = trace_voxels(labels, np.eye(4), camera, SIZE, near=pl.camera.clipping_range[0])
@@ -216,11 +230,12 @@ def test_world_pick_matches_the_cpu_traversal_of_the_whole_grid(plotter_factory)
     assert picked > 50
 
 
-def test_world_palette_changes_reach_every_chunk_and_the_occluders(plotter_factory):
+@BOTH
+def test_world_palette_changes_reach_every_chunk_and_the_occluders(plotter_factory, traversal):
     # Hiding the top layer (2) shows the layer under it: the solid bricks of 2 no longer
     # end rays. catches (seen to fail): occluders not rebuilt (rays ended at hidden ground).
     labels = terrain_labels()
-    pl, actor = world_plotter(plotter_factory, labels)
+    pl, actor = world_plotter(plotter_factory, labels, traversal)
     camera = set_camera(pl, (70.0, -30.0, 40.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))
     cm.render_image(pl)
     actor.cubemarch.set_material(2, opacity=0.0)
@@ -232,14 +247,15 @@ def test_world_palette_changes_reach_every_chunk_and_the_occluders(plotter_facto
     assert (hits.material == 3).sum() > 100 and wrong.sum() == 0
 
 
-def test_chunks_placed_by_hand_draw_as_the_split_grid(plotter_factory):
+@BOTH
+def test_chunks_placed_by_hand_draw_as_the_split_grid(plotter_factory, traversal):
     labels = terrain_labels()
     split = VoxelWorld.from_model(make_voxels(labels, palette=PALETTE), chunk_size=16)
     chunks = {key: split.chunk_labels(key) for key in (*split.stored, *split.uniform)}
     world = VoxelWorld.from_chunks(chunks, 16, palette=PALETTE, dimensions=labels.shape)
     assert world.uniform == split.uniform and set(world.stored) == set(split.stored)
     pl = plotter(plotter_factory)
-    cm.add_voxels(pl, world, mode="face")
+    cm.add_voxels(pl, world, mode="face", world_traversal=traversal)
     camera = set_camera(pl, (70.0, -30.0, 40.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))
     wrong, off, _ = exact_against_one_grid(pl, labels, camera)
     assert wrong == 0 and off == 0
@@ -371,7 +387,8 @@ def test_labels_above_255_stay_whole_in_worlds(plotter_factory):
     assert wrong == 0 and off == 0
 
 
-def test_world_pick_with_tiny_rotated_voxels():
+@BOTH
+def test_world_pick_with_tiny_rotated_voxels(traversal):
     # catches (seen, review): the nudge into a uniform chunk's voxel in index units per
     # world unit (55 of 498 picks wrong at a spacing of 1e-5).
     labels = terrain_labels()
@@ -379,7 +396,7 @@ def test_world_pick_with_tiny_rotated_voxels():
     placement = rotated_mirrored_placement() @ np.diag([1e-5, 1e-5, 1e-5, 1.0])
     pl = offscreen_plotter(SIZE)
     actor = cm.add_voxels(pl, labels, mode="face", palette=PALETTE, chunk_size=16,
-                          transform=placement)
+                          transform=placement, world_traversal=traversal)
     eye = (placement @ [70.0, -30.0, 40.0, 1.0])[:3]
     focal = (placement @ [24.0, 20.0, 8.0, 1.0])[:3]
     camera = set_camera(pl, tuple(eye), focal=tuple(focal), up=tuple(placement[:3, 2]))
@@ -395,14 +412,15 @@ def test_world_pick_with_tiny_rotated_voxels():
     assert picked > 50
 
 
-def test_world_keeps_chunks_as_small_as_their_labels(plotter_factory):
+@BOTH
+def test_world_keeps_chunks_as_small_as_their_labels(plotter_factory, traversal):
     # catches: from_function holding every non-empty chunk as an array (uniform ones too),
     # a stored chunk left stored once an edit made it one label.
     world = VoxelWorld.from_function((32, 32, 16), 16, lambda box: np.ones(
         [s.stop - s.start for s in box], np.uint8), palette=PALETTE)
     assert world.stored == {} and len(world.uniform) == 4
     labels = terrain_labels()
-    pl, actor = world_plotter(plotter_factory, labels)
+    pl, actor = world_plotter(plotter_factory, labels, traversal)
     key = next(iter(actor.cubemarch.model.stored))
     box = tuple(slice(k * 16, min((k + 1) * 16, n)) for k, n in zip(key, labels.shape,
                                                                    strict=True))
@@ -426,7 +444,8 @@ def test_a_failed_world_build_leaves_nothing(plotter_factory):
     assert pl.renderer.HasObserver(vtk.vtkCommand.StartEvent) == observers
 
 
-def test_level_of_detail_in_chunks_matches_one_grid(plotter_factory):
+@BOTH
+def test_level_of_detail_in_chunks_matches_one_grid(plotter_factory, traversal):
     # Coarse cells reach past their voxels; chunk boxes cut at the voxels cut them off.
     # Cells of 4 voxels here (levels up to the chunk's own size agree with one grid's).
     # catches (seen, review): 54 pixels missing at lod_bias=2 before the boxes were grown
@@ -436,7 +455,8 @@ def test_level_of_detail_in_chunks_matches_one_grid(plotter_factory):
     for chunk in (None, 16):
         pl = plotter(plotter_factory)
         cm.add_voxels(pl, labels, palette=PALETTE, shading="unlit", lod=True, lod_bias=2,
-                      proxy="box", chunk_size=chunk)
+                      proxy="box", chunk_size=chunk,
+                      world_traversal=traversal if chunk else None)
         pl.camera.parallel_projection = True
         pl.camera.parallel_scale = 1.2 * SIZE[1] / 2   # 1.2 voxels a pixel: level 0 + 2
         set_camera(pl, (70.0, -30.0, 40.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))

@@ -17,11 +17,16 @@ uniform float cm_startAtProxy;   // 1: rays start at the brick shell (its depth 
 uniform sampler2D cm_shellDepth; // per pixel, the view depth where the ray meets the shell
 #endif
 
-// The label of a voxel (0: empty), drawn or hidden.
+// The label of a voxel (0: empty), drawn or hidden (a world's: through its chunk index,
+// voxel_chunk_index.glsl).
+#ifdef CM_CHUNK_INDEX
+int cm_label(ivec3 voxel);
+#else
 int cm_label(ivec3 voxel)
 {
   return int(texelFetch(cm_labels, voxel, 0).r * cm_labelScale + 0.5);
 }
+#endif
 
 // Whether a non-zero label is drawn: it has a palette entry of non-zero opacity.
 bool cm_shown(int material)

@@ -17,5 +17,10 @@ int cm_lodLevel(float depth)
   float pixel = 2.0 / min(p[0][0] * cm_viewport.z, p[1][1] * cm_viewport.w);
   pixel *= p[3][3] == 0.0 ? max(depth, 0.0) : 1.0;
   float level = floor(log2(max(pixel / cm_voxelSize, 1e-30)) + cm_lodBias);
+#ifdef CM_CHUNK_INDEX
+  // A world's coarsest level is its chunk index, which holds slots, not labels.
+  return int(clamp(level, 0.0, float(min(CM_MIP_LEVELS, CM_CHUNK_INDEX - 1))));
+#else
   return int(clamp(level, 0.0, float(CM_MIP_LEVELS)));
+#endif
 }

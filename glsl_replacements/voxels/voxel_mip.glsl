@@ -9,6 +9,7 @@
 
 // The label of `voxel` (level 0), or whether its level-`level` cell holds a filled voxel
 // (non-zero: yes).
+#ifndef CM_CHUNK_INDEX   // a world's levels: through its chunk index
 int cm_levelLabel(ivec3 voxel, int level)
 {
   ivec3 cell = voxel >> level;
@@ -23,3 +24,4 @@ int cm_levelLabel(ivec3 voxel, int level)
   }
   return int(texelFetch(cm_labels, cell, 0).r * cm_labelScale + 0.5);
 }
+#endif

@@ -401,6 +401,31 @@ def level_atlas(labels: np.ndarray, grids: list[np.ndarray]) -> LevelAtlas:
     return atlas
 
 
+def atlas_updates(labels: np.ndarray, box, count: int, representative: bool,
+                  origin_of) -> list[tuple[tuple[int, int, int], np.ndarray]]:
+    """What a level atlas changes where the labels in ``box`` (three slices) changed.
+
+    Per level ``0..count``: the atlas texel where its changed block starts and the block
+    (the labels, then each level's cells over the box, recomputed from the labels under
+    them). ``origin_of(level)``: where that level starts in the atlas.
+    """
+    dims = labels.shape
+    lower = [s.start for s in box]
+    upper = [s.stop for s in box]
+    updates = [(tuple(int(o + a) for o, a in zip(origin_of(0), lower, strict=True)),
+                labels[tuple(box)])]
+    for level in range(1, int(count) + 1):
+        low = [a >> level for a in lower]
+        high = [((b - 1) >> level) + 1 for b in upper]
+        region = tuple(slice(a << level, min(b << level, n))
+                       for a, b, n in zip(low, high, dims, strict=True))
+        cells = atlas_levels(labels[region], level, representative)[-1]
+        origin = origin_of(level)
+        updates.append((tuple(int(o + a) for o, a in zip(origin, low, strict=True)),
+                        cells.astype(labels.dtype)))
+    return updates
+
+
 #: A level the traversal climbs to by default must leave at least this share of its cells
 #: empty, and at least 3 levels must: on denser grids (a 1 % random fill, a fine
 #: checkerboard) climbing and descending cost more than the voxel steps they save.

@@ -17,7 +17,7 @@ from ..core.errors import VolumeDataError
 from ..gl.box import box_polydata
 from ..models.procedural import sphere
 from ..models.voxels import (
-    atlas_levels,
+    atlas_updates,
     bounds_in_cells,
     filled_bounds,
     level_origin,
@@ -196,17 +196,10 @@ def refresh(binding, box: Box) -> None:
         for texture in textures:
             texture.invalidate()
     else:
-        atlas = binding.labels   # the labels, with their levels when there are levels
-        atlas.update_region(lower, labels[box])
-        for level in range(1, binding.options.mip_levels + 1):
-            low = [a >> level for a in lower]
-            high = [((b - 1) >> level) + 1 for b in upper]
-            region = tuple(slice(a << level, min(b << level, n))
-                           for a, b, n in zip(low, high, dims, strict=True))
-            cells = atlas_levels(labels[region], level, binding.options.lod)[-1]
-            origin = level_origin(dims, level, *binding.level_axes)
-            atlas.update_region([o + a for o, a in zip(origin, low, strict=True)],
-                                cells.astype(labels.dtype))
+        for origin, block in atlas_updates(
+                labels, box, binding.options.mip_levels or 0, binding.options.lod,
+                lambda level: level_origin(dims, level, *binding.level_axes)):
+            binding.labels.update_region(origin, block)   # the labels, then their levels
         radius = binding.options.distance_field
         if radius:
             outer = [slice(max(0, a - 2 * radius), min(n, b + 2 * radius))

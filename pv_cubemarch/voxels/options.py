@@ -13,6 +13,7 @@ TRAVERSALS = ("dda", "fixed")
 MODES = ("color", "id", "face")
 SHADINGS = ("unlit", "flat", "blinn")
 PROXIES = ("bricks", "box")
+WORLD_TRAVERSALS = ("index", "per_chunk")
 #: Most occupancy mipmap levels (cells of 2^12 voxels cover any grid a texture holds).
 MAX_MIP_LEVELS = 12
 #: Fewest levels of detail a grid gets with ``lod`` (cells up to 8 voxels wide), where
@@ -53,6 +54,11 @@ class VoxelOptions:
     them it falls back to ``'box'``: the grid's bounding box, every ray traversed from where
     it enters the box or from the near plane (the seed's set-up, kept to measure the
     traversal alone). Exact either way.
+    ``world_traversal`` (grids drawn in chunks): ``'index'``, one box and one traversal over
+    the whole world, stepping through a chunk index (empty chunks left in one step, stored
+    ones read from a pool of slots); ``'per_chunk'``, a box per chunk, culled and ordered
+    (:mod:`pv_cubemarch.voxels.world`); ``None``: ``'index'`` where its pool fits one
+    texture and the options allow it, else ``'per_chunk'``.
     """
 
     traversal: str = "dda"
@@ -69,6 +75,7 @@ class VoxelOptions:
     proxy: str = "bricks"
     lod: bool = False
     lod_bias: float = 0.0
+    world_traversal: str | None = None
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
@@ -85,6 +92,9 @@ class VoxelOptions:
                                  f"has none: pass {name}=0 with traversal='fixed'.")
         if self.proxy not in PROXIES:
             raise ValueError(f"proxy must be one of {PROXIES}, got {self.proxy!r}.")
+        if self.world_traversal is not None and self.world_traversal not in WORLD_TRAVERSALS:
+            raise ValueError(f"world_traversal must be one of {WORLD_TRAVERSALS} or None, got "
+                             f"{self.world_traversal!r}.")
         if not isinstance(self.lod, (bool, np.bool_)):
             raise ValueError(f"lod must be True or False, got {self.lod!r}.")
         positive_number("lod_bias", self.lod_bias, -float(MAX_MIP_LEVELS),

@@ -49,12 +49,15 @@ MAX_VOXEL_LIGHTS = 8
 
 
 def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
-                 level_axes: tuple[int, int] = (2, 0), occluders: bool = False) -> ShaderRecipe:
+                 level_axes: tuple[int, int] = (2, 0), occluders: bool = False,
+                 chunk_shift: int | None = None) -> ShaderRecipe:
     """The box actor's replacements for the chosen traversal, mode, shading and occlusion.
 
     ``shell_level``: the occupancy level of the brick shell that starts the rays, if any;
     ``level_axes``: the level atlas's slab and row axes (:func:`atlas_layout`);
-    ``occluders``: rays end at a world's solid faces (:mod:`.occluders`).
+    ``occluders``: rays end at a world's solid faces (:mod:`.occluders`);
+    ``chunk_shift``: a world drawn by one traversal, labels read through its chunk index
+    (chunks of ``2^chunk_shift`` voxels, :mod:`pv_cubemarch.models.chunk_pool`).
     """
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
     lit = options.mode == "color" and options.shading != "unlit"
@@ -66,7 +69,8 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
                     ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
-                     *skipping, traversal, *(("voxel_shading",) if lit else ()),
+                     *(("voxel_chunk_index",) if chunk_shift else ()), *skipping, traversal,
+                     *(("voxel_shading",) if lit else ()),
                      *(("voxel_occlusion",) if occlusion else ())), keep_tag="after"),
         Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
@@ -77,6 +81,7 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                 "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
                 "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None,
                 "CM_SHELL_LEVEL": shell_level, "CM_LOD": lod, "CM_OCCLUDERS": occluders,
+                "CM_CHUNK_INDEX": chunk_shift,
                 "CM_DISTANCE_FIELD": options.distance_field or None,
                 "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion})
 
@@ -127,6 +132,29 @@ def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
     bindings.set_uniform("cm_ambient", float(options.ambient))
     bindings.set_uniform("cm_specular", float(options.specular))
     bindings.set_uniform("cm_specularPower", float(options.specular_power))
+
+
+def bind_grid(bindings: ShaderBindings, renderer, model, label_type,
+              options: VoxelOptions) -> None:
+    """The uniforms every traversal of a grid (or world) reads: sizes, camera, lights, LOD.
+
+    ``model``: a placed grid (``dimensions``, ``world_from_index``, ``palette``);
+    ``label_type``: its labels' dtype (uint8 or uint16).
+    """
+    bindings.set_uniform("cm_labelScale", float(np.iinfo(label_type).max))
+    bindings.set_uniform("cm_gridDims", tuple(float(n) for n in model.dimensions))
+    if options.traversal == "fixed":
+        bindings.set_uniform("cm_voxelStep", options.step)
+    bind_camera(bindings, renderer, model.world_from_index)
+    if options.mode == "color" and options.shading != "unlit":
+        bind_lights(bindings, renderer, model, options)
+    if options.lod and options.mip_levels:
+        bindings.set_uniform("cm_lodBias", float(options.lod_bias))
+        bindings.set_uniform("cm_voxelSize", lambda: float(np.linalg.norm(
+            model.world_from_index()[:3, :3], axis=0).max()))
+    if options.mode == "color" and options.ambient_occlusion:
+        bindings.set_uniform("cm_occlusionStrength", float(options.occlusion_strength))
+    bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
 
 
 def bind_labels(bindings: ShaderBindings, model: VoxelModel, options: VoxelOptions,
@@ -358,20 +386,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     labels = bind_labels(bindings, model, options, levels)
     bindings.add_texture("cm_palette", palette)
     skipping = bind_distance_field(bindings, model, options)
-    bindings.set_uniform("cm_labelScale", float(np.iinfo(model.labels.dtype).max))
-    bindings.set_uniform("cm_gridDims", tuple(float(n) for n in model.dimensions))
-    if options.traversal == "fixed":
-        bindings.set_uniform("cm_voxelStep", options.step)
-    bind_camera(bindings, renderer, model.world_from_index)
-    if options.mode == "color" and options.shading != "unlit":
-        bind_lights(bindings, renderer, model, options)
-    if options.lod and options.mip_levels:
-        bindings.set_uniform("cm_lodBias", float(options.lod_bias))
-        bindings.set_uniform("cm_voxelSize", lambda: float(np.linalg.norm(
-            model.world_from_index()[:3, :3], axis=0).max()))
-    if options.mode == "color" and options.ambient_occlusion:
-        bindings.set_uniform("cm_occlusionStrength", float(options.occlusion_strength))
-    bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
+    bind_grid(bindings, renderer, model, model.labels.dtype, options)
     if shell is not None:
         bindings.add_texture("cm_shellDepth", shell.depth)
         bindings.set_uniform("cm_startAtProxy", lambda: shell.start_at_shell)

@@ -1,0 +1,283 @@
+"""A voxel world drawn by one traversal over its chunk index (``world_traversal='index'``).
+
+One box actor around the world's filled voxels; each pixel's ray runs the same Amanatides &
+Woo traversal as a single grid, whose labels and occupancy levels are read through the chunk
+index (``voxel_chunk_index.glsl``): an empty chunk is one step, a uniform chunk its label,
+a stored chunk a slot of the pool texture (:mod:`pv_cubemarch.models.chunk_pool`). A ray
+stops at its first hit whatever chunk it is in, so chunks behind the camera or behind
+nearer ground cost nothing, and there are no seams, ties or draw order between chunks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pyvista
+
+from ..gl.bindings import ShaderBindings
+from ..gl.box import box_actor, box_polydata, place_box
+from ..gl.drawn import DrawnBinding
+from ..gl.textures import Texture
+from ..models.chunk_pool import (
+    PoolLayout,
+    chunk_index,
+    chunk_shift,
+    pool_layout,
+    slot_texels,
+    world_filled_bounds,
+)
+from ..models.volume import checked_transform
+from ..models.voxels import atlas_updates, bounds_in_cells, filled_bounds
+from ..models.world import VoxelWorld
+from .options import VoxelOptions, drawn_level
+from .technique import bind_grid, voxel_recipe
+from .world_edits import WorldEditing
+
+#: Spare slots a pool gets when an edit needs one more than it has: a quarter more.
+POOL_GROWTH = 1.25
+
+
+def index_levels(world: VoxelWorld, options: VoxelOptions) -> int:
+    """The traversal's occupancy levels: every level up to the chunk index by default."""
+    shift = chunk_shift(world.chunk_size)
+    if options.traversal != "dda":
+        return 0
+    return shift if options.mip_levels is None else int(options.mip_levels)
+
+
+def why_not_indexed(world: VoxelWorld, options: VoxelOptions) -> str | None:
+    """Why ``world`` cannot be drawn by one traversal with ``options`` (None: it can)."""
+    shift = chunk_shift(world.chunk_size)
+    if shift is None:
+        return (f"its chunk index needs a chunk_size that is a power of two, got "
+                f"{world.chunk_size}")
+    if options.distance_field:
+        return "the distance field is kept per chunk only"
+    if options.proxy == "bricks":
+        return "brick shells start rays per chunk only"
+    levels = index_levels(world, options)
+    if levels > shift:
+        return (f"its levels stop at the chunk index: mip_levels={levels} is over "
+                f"log2(chunk_size)={shift}")
+    if _layout(world, options, len(world.stored)) is None:
+        return (f"its {len(world.stored)} stored chunks do not fit one texture of at most "
+                "512 MiB")
+    if options.mode == "id" and int(np.prod(world.dimensions, dtype=np.int64)) + 1 > 1 << 24:
+        return "mode='id' writes 24-bit ids and the world has more voxels"
+    return None
+
+
+def _layout(world: VoxelWorld, options: VoxelOptions, slots: int) -> PoolLayout | None:
+    """The pool for ``slots`` stored chunks of ``world`` with ``options``' levels."""
+    shift = chunk_shift(world.chunk_size)
+    inside = min(index_levels(world, options), shift - 1)
+    return pool_layout(world.chunk_size, inside, slots, world.dtype.itemsize)
+
+
+class IndexedWorldBinding(WorldEditing, DrawnBinding):
+    """What ``actor.cubemarch`` holds for a world drawn by one traversal.
+
+    Edits, brushes, ``pick`` and ``set_material`` take world voxel indices; an edit uploads
+    the touched texels of a stored chunk's slot and, when a chunk changes kind (empty,
+    one label, stored), its slot and the small index.
+    """
+
+    technique = "voxels"
+    needs_single_sample = True   # as a single grid's box (technique.VoxelBinding)
+
+    def __init__(self, world: VoxelWorld, options: VoxelOptions, renderer):
+        self.options = options
+        self.layout = _layout(world, options, len(world.stored))
+        self.slots = {key: slot for slot, key in enumerate(sorted(world.stored))}
+        #: Slots the pool texture has: none while no chunk is stored (a one-texel pool).
+        self.capacity = self.layout.capacity if self.slots else 0
+        actor = box_actor(np.ones(3), world.world_from_index())
+        super().__init__(world, ShaderBindings(actor.GetMapper(), renderer), None)
+        self.renderer = renderer
+        self.drawn = [actor]
+        self.pool = Texture(self._pool_texels(), kind="3d", interpolate=False,
+                            rebuild=self._pool_texels)
+        self.index = Texture(self._index(), kind="3d", interpolate=False)
+        self.palette_texture = Texture(world.palette.rgba.reshape(1, -1, 4), kind="2d",
+                                       interpolate=False)
+        self._palette_seen = (id(world.palette), world.palette.version)
+        self.drawn_bounds = bounds_in_cells(world_filled_bounds(world), drawn_level(options),
+                                            world.dimensions)
+        self._place_box()
+
+    @property
+    def palette(self):
+        """The world's :class:`~pv_cubemarch.models.voxels.Palette`."""
+        return self.model.palette
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes: the pool of stored chunks, the chunk index and the palette."""
+        return self.pool.nbytes + self.index.nbytes + self.palette_texture.nbytes
+
+    @property
+    def derived_textures(self) -> list[Texture]:
+        """The pool, remade from the world's chunks if a new window needs it."""
+        return [self.pool]
+
+    def _pool_texels(self) -> np.ndarray:
+        """Every stored chunk's level atlas in its slot (one texel when there is none)."""
+        layout = self.layout
+        if not self.capacity:
+            return np.zeros((1, 1, 1), self.model.dtype)
+        texels = np.zeros(layout.shape, self.model.dtype)
+        for key, slot in self.slots.items():
+            origin = layout.slot_origin(slot)
+            texels[tuple(slice(o, o + n) for o, n in zip(origin, layout.slot_shape,
+                                                         strict=True))] = self._slot(key)
+        return texels
+
+    def _slot(self, key) -> np.ndarray:
+        """Stored chunk ``key``'s slot texels (its labels padded, then its levels)."""
+        return slot_texels(self.model, key, self.layout, bool(self.options.lod))
+
+    def _index(self) -> np.ndarray:
+        """The chunk index for the current slots and palette."""
+        return chunk_index(self.model, self.slots, self.model.drawn_labels())
+
+    def _place_box(self) -> None:
+        """The box actor around the filled voxels (1 % larger: rays clip to it exactly)."""
+        lower, upper = self.drawn_bounds
+        margin = 0.01 * max(self.model.dimensions)
+        self.drawn[0].GetMapper().SetInputData(box_polydata(lower, upper, margin))
+        renderer = self.main_renderer or self.renderer
+        if renderer is not None and renderer.GetActors().IsItemPresent(self.drawn[0]):
+            renderer.ResetCameraClippingRange()
+
+    def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
+        """Change a material's colour and/or opacity (0 hides it): the palette and index go up.
+
+        The index changes where a chunk of one label is hidden or shown; the pool stays.
+        """
+        self.model.palette.set_color(material, color, opacity)
+        self._follow_palette()
+
+    def _follow_palette(self) -> None:
+        """Upload the palette, and the index it hides chunks in, if either changed."""
+        palette = self.model.palette
+        if (id(palette), palette.version) == self._palette_seen:
+            return
+        self._palette_seen = (id(palette), palette.version)
+        self.palette_texture.set_data(palette.rgba.reshape(1, -1, 4))
+        self.index.set_data(self._index())
+
+    def _write(self, box, values: np.ndarray) -> None:
+        """Labels into the world; the touched texels of stored slots, new slots, the index."""
+        dtype = self.model.dtype
+        changed = set(self.model.write(box, values))
+        if self.model.dtype != dtype:   # widened to uint16: every slot again
+            self._reslot()
+        else:
+            self._follow_kinds(changed)
+            for key, inner, _ in self.model.pieces(box):
+                if key in self.model.stored and key not in changed:
+                    slot = self.slots[key]
+                    for origin, block in atlas_updates(
+                            self.model.stored[key], inner, self.layout.levels,
+                            bool(self.options.lod),
+                            lambda level, s=slot: self.layout.level_origin(s, level)):
+                        self.pool.update_region(origin, block)
+        if changed:
+            self.index.set_data(self._index())
+        self._follow_palette()   # a palette set on the model directly
+        self._grow_box(box, values)
+
+    def _follow_kinds(self, changed: set) -> None:
+        """Give chunks that became stored a slot (and their texels), free the others'."""
+        for key in [k for k in changed if k in self.slots and k not in self.model.stored]:
+            del self.slots[key]
+        arriving = sorted(k for k in changed if k in self.model.stored)
+        free = sorted(set(range(self.capacity)) - set(self.slots.values()))
+        if len(arriving) > len(free):
+            self._reslot(growth=POOL_GROWTH)
+            return
+        for key, slot in zip(arriving, free, strict=False):
+            self.slots[key] = slot
+            self.pool.update_region(self.layout.slot_origin(slot), self._slot(key))
+
+    def _reslot(self, growth: float = 1.0) -> None:
+        """A new pool for every stored chunk (``growth`` times as many slots), uploaded whole."""
+        count = len(self.model.stored)
+        layout = _layout(self.model, self.options, max(int(np.ceil(count * growth)), count))
+        if layout is None:
+            raise MemoryError(f"{count} stored chunks no longer fit one texture of at most "
+                              "512 MiB: draw the world with world_traversal='per_chunk'.")
+        self.layout = layout
+        self.slots = {key: slot for slot, key in enumerate(sorted(self.model.stored))}
+        self.capacity = layout.capacity if self.slots else 0
+        self.pool.set_data(self._pool_texels())
+        self.index.set_data(self._index())
+
+    def _grow_box(self, box, values: np.ndarray) -> None:
+        """Grow the drawn box to the filled voxels just written (it never shrinks)."""
+        low, high = filled_bounds(values)
+        if not (high > low).all():
+            return
+        start = np.array([s.start for s in box], dtype=np.float64)
+        lower, upper = self.drawn_bounds
+        if not (upper > lower).all():
+            lower, upper = np.full(3, np.inf), np.full(3, -np.inf)
+        grown = bounds_in_cells((np.minimum(lower, start + low), np.maximum(upper, start + high)),
+                                drawn_level(self.options), self.model.dimensions)
+        if tuple(np.concatenate(grown)) != tuple(np.concatenate(self.drawn_bounds)):
+            self.drawn_bounds = grown
+            self._place_box()
+
+    def set_transform(self, transform) -> None:
+        """Move the world: ``transform`` is its new 4x4 placement."""
+        self.model.transform = checked_transform(transform)
+        place_box(self.drawn[0], self.model.world_from_index())
+        if self.main_renderer is not None:
+            self.main_renderer.ResetCameraClippingRange()
+
+    def release(self) -> None:
+        """Free the textures (once)."""
+        if self._released:
+            return
+        self._released = True
+        self.bindings.release()
+        for texture in (self.pool, self.index, self.palette_texture):
+            texture.release()
+
+
+def build_indexed_world(plotter, world: VoxelWorld,
+                        options: VoxelOptions) -> IndexedWorldBinding:
+    """The box actor of ``world`` drawn by one traversal; returns its binding.
+
+    Raises ``ValueError`` saying why when the world or options do not allow it
+    (:func:`why_not_indexed`).
+    """
+    reason = why_not_indexed(world, options)
+    if reason is not None:
+        raise ValueError(f"world_traversal='index' cannot draw {world.name!r}: {reason}. Use "
+                         "world_traversal='per_chunk' (or leave it None to choose).")
+    renderer = plotter.renderer
+    options = replace(options, mip_levels=index_levels(world, options))
+    binding = IndexedWorldBinding(world, options, renderer)
+    actor = binding.drawn[0]
+    actor.ForceTranslucentOff()
+    actor.ForceOpaqueOn()
+    actor.GetProperty().LightingOff()
+    bindings = binding.bindings
+    bindings.add_texture("cm_labels", binding.pool)
+    bindings.add_texture("cm_chunkIndex", binding.index)
+    bindings.add_texture("cm_palette", binding.palette_texture)
+    bindings.set_uniform("cm_slotGrid", lambda: tuple(float(n) for n in binding.layout.grid))
+    bindings.set_uniform("cm_slotShape",
+                         lambda: tuple(float(n) for n in binding.layout.slot_shape))
+    bind_grid(bindings, renderer, world, world.dtype, options)
+    # An edit above 255 widens the world's labels (and its pool) to uint16.
+    bindings.set_uniform("cm_labelScale", lambda: float(np.iinfo(world.dtype).max))
+    layout = binding.layout
+    recipe = voxel_recipe(options, None, (layout.slab_axis, layout.row_axis),
+                          chunk_shift=chunk_shift(world.chunk_size))
+    bindings.recipe = binding.recipe = recipe
+    recipe.apply(actor.GetShaderProperty())
+    pyvista.set_new_attribute(actor, "cubemarch", binding)
+    return binding
