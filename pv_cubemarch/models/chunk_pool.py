@@ -115,17 +115,20 @@ def chunk_counts(world: VoxelWorld) -> tuple[int, int, int]:
     return tuple(-(-int(n) // world.chunk_size) for n in world.dimensions)
 
 
-def chunk_index(world: VoxelWorld, slots: dict, shown: np.ndarray) -> np.ndarray:
-    """Per chunk (float32, x, y, z): 0 nothing drawn, ``-m`` all of label ``m``, ``s + 1`` slot s.
+def chunk_index(world: VoxelWorld, slots: dict, shown: np.ndarray,
+                layout: PoolLayout) -> np.ndarray:
+    """Per chunk (x, y, z, float32 RGBA): where its slot starts in the pool, and its kind.
 
-    ``slots``: each stored chunk's slot; ``shown``: per label, drawn or hidden (a uniform
-    chunk of a hidden label is empty to the traversal, as hidden voxels are).
+    Kind (alpha): 0 nothing drawn, ``-m`` all of label ``m``, 1 stored (the slot's first
+    pool texel in RGB, :meth:`PoolLayout.slot_origin`). ``slots``: each stored chunk's
+    slot; ``shown``: per label, drawn or hidden (a uniform chunk of a hidden label is empty
+    to the traversal, as hidden voxels are).
     """
-    index = np.zeros(chunk_counts(world), np.float32)
+    index = np.zeros((*chunk_counts(world), 4), np.float32)
     for key, label in world.uniform.items():
-        index[key] = -float(label) if shown[label] else 0.0
+        index[key][3] = -float(label) if shown[label] else 0.0
     for key, slot in slots.items():
-        index[key] = float(slot + 1)
+        index[key] = (*layout.slot_origin(slot), 1.0)
     return index
 
 

@@ -139,7 +139,7 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
 
     def _index(self) -> np.ndarray:
         """The chunk index for the current slots and palette."""
-        return chunk_index(self.model, self.slots, self.model.drawn_labels())
+        return chunk_index(self.model, self.slots, self.model.drawn_labels(), self.layout)
 
     def _place_box(self) -> None:
         """The box actor around the filled voxels (1 % larger: rays clip to it exactly)."""
@@ -268,9 +268,6 @@ def build_indexed_world(plotter, world: VoxelWorld,
     bindings.add_texture("cm_labels", binding.pool)
     bindings.add_texture("cm_chunkIndex", binding.index)
     bindings.add_texture("cm_palette", binding.palette_texture)
-    bindings.set_uniform("cm_slotGrid", lambda: tuple(float(n) for n in binding.layout.grid))
-    bindings.set_uniform("cm_slotShape",
-                         lambda: tuple(float(n) for n in binding.layout.slot_shape))
     bind_grid(bindings, renderer, world, world.dtype, options)
     # An edit above 255 widens the world's labels (and its pool) to uint16.
     bindings.set_uniform("cm_labelScale", lambda: float(np.iinfo(world.dtype).max))
