@@ -126,7 +126,8 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
         layout = self.layout
         if not self.capacity:
             return np.zeros((1, 1, 1), self.model.dtype)
-        texels = np.zeros(layout.shape, self.model.dtype)
+        # x fastest, as the upload wants it: no transposed copy of the whole pool there.
+        texels = np.zeros(layout.shape, self.model.dtype, order="F")
         for key, slot in self.slots.items():
             origin = layout.slot_origin(slot)
             texels[tuple(slice(o, o + n) for o, n in zip(origin, layout.slot_shape,
