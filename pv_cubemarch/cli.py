@@ -189,6 +189,9 @@ def build_parser() -> argparse.ArgumentParser:
                             "4096x4096x256 FBM terrain made chunk by chunk")
     large.add_argument("--no-reference", action="store_true",
                        help="skip the CPU traversal (at full size: minutes, ~10 GB)")
+    large.add_argument("--world-traversal", choices=("index", "per_chunk"),
+                       help="how the chunks are drawn (default: index where its pool fits "
+                            "one texture)")
     large.add_argument("--json", dest="json_path", help="write the result as JSON here")
     world = bench_commands.add_parser(
         "voxel-world", help="chunked voxel worlds against one grid (the seed's Tables 3/4)")
@@ -337,7 +340,8 @@ def _bench(args) -> int:
         return _bench_voxel_world(args)
     if args.bench_command == "voxel-large":
         result = bench_large.run_large(args.size, args.scale, args.frames,
-                                       reference=not args.no_reference, scene=args.scene)
+                                       reference=not args.no_reference, scene=args.scene,
+                                       world_traversal=args.world_traversal)
         print(bench_large.format_large(result))
         if args.json_path:
             Path(args.json_path).write_text(json.dumps(

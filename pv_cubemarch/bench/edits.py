@@ -54,7 +54,7 @@ class AutomatonRow:
 
 
 def _uploaded(binding) -> int:
-    return sum(t.uploaded_bytes for t in (binding.labels, *binding.skipping))
+    return binding.uploaded_bytes
 
 
 def _wrong(pl, binding, camera) -> int:
@@ -146,13 +146,13 @@ def run_world_edits(chunk: int = 128, count: int = 10, image: Sequence[int] = (6
                 render_frame(pl)
                 read_pixels(pl)
                 frames.append((time.perf_counter() - start) * 1e3)
-                before = sum(_uploaded(c) for c in world.chunks.values())
+                before = _uploaded(world)
                 start = time.perf_counter()
                 edit(world, labels.shape, k)
                 render_frame(pl)
                 read_pixels(pl)
                 latencies.append((time.perf_counter() - start) * 1e3)
-                sent.append(sum(_uploaded(c) for c in world.chunks.values()) - before)
+                sent.append(_uploaded(world) - before)
             rows.append(EditRow(name, float(np.median(latencies)), float(np.median(frames)),
                                 int(np.median(sent)), -1))
         edited = world.model.labels_in(tuple(slice(0, v) for v in labels.shape))

@@ -24,6 +24,7 @@ from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..models.procedural import terrain
 from ..models.world import VoxelWorld
 from ..reference.voxels import trace_voxels
+from ..voxels.indexed import IndexedWorldBinding
 
 SHAPE = (2048, 2048, 512)
 PALETTE = np.array([[0, 0, 0], [0.9, 0.1, 0.1], [0.1, 0.7, 0.1], [0.1, 0.2, 0.9],
@@ -64,6 +65,8 @@ class LargeResult:
     host_bytes: int
     covered_pixels: int
     wrong_pixels: int | None
+    #: How the world was drawn: ``'index'``, ``'per_chunk'`` or ``'one grid'``.
+    drawn_as: str = "one grid"
 
 
 #: The terrain scene's full size and chunk edge.
@@ -86,10 +89,12 @@ def terrain_world(scale: float = 1.0, progress_bar: bool | None = None) -> Voxel
 
 def run_large(size: Sequence[int] = (800, 600), scale: float = 1.0, frames: int = 3,
               reference: bool = True, scene: str = "labels",
-              progress_bar: bool | None = None) -> LargeResult:
+              progress_bar: bool | None = None,
+              world_traversal: str | None = None) -> LargeResult:
     """Draw a scene (``'labels'`` or ``'terrain'``) with the defaults and measure it.
 
-    The ``labels`` frame is compared with the CPU traversal when ``reference``.
+    The ``labels`` frame is compared with the CPU traversal when ``reference``;
+    ``world_traversal`` forces how the chunks are drawn (None: the default choice).
     """
     if scene not in ("labels", "terrain"):
         raise ValueError(f"scene must be 'labels' or 'terrain', got {scene!r}.")
@@ -108,7 +113,8 @@ def run_large(size: Sequence[int] = (800, 600), scale: float = 1.0, frames: int 
         pl.set_background(BACKGROUND)
         start = time.perf_counter()
         colors = {"palette": PALETTE} if scene == "labels" else {}   # a world has its own
-        actor = add_voxels(pl, labels, shading="unlit", **colors)
+        actor = add_voxels(pl, labels, shading="unlit", world_traversal=world_traversal,
+                           **colors)
         n = np.array(labels.dimensions if scene == "terrain" else labels.shape, float)
         Camera(position=tuple(n * np.array([1.3, -0.4, 1.6])), focal_point=tuple(n / 2),
                view_up=(0, 0, 1), view_angle=40.0).apply_to(pl.camera)
@@ -139,9 +145,11 @@ def run_large(size: Sequence[int] = (800, 600), scale: float = 1.0, frames: int 
             off = np.abs(image.astype(float) / 255.0 - expected).max(axis=-1) > 3.0 / 255.0
             covered, wrong = int((hits.material > 0).sum()), int((off & ~hits.near_edge).sum())
         filled = int(np.count_nonzero(labels)) if scene == "labels" else _filled(world)
+        drawn_as = ("one grid" if not chunked else "index"
+                    if isinstance(binding, IndexedWorldBinding) else "per_chunk")
         return LargeResult(tuple(int(v) for v in n), filled, stored, uniform,
                            setup, first, float(np.median(times)), int(binding.nbytes),
-                           int(world.nbytes), covered or 0, wrong)
+                           int(world.nbytes), covered or 0, wrong, drawn_as)
     finally:
         pl.close()
 
@@ -161,7 +169,7 @@ def format_large(result: LargeResult) -> str:
     return "\n".join([
         f"grid {'x'.join(map(str, r.shape))}: {r.filled_voxels:,} filled voxels "
         f"({100.0 * r.filled_voxels / np.prod(r.shape):.2f} %)",
-        f"chunks: {r.chunks_stored} stored, {r.chunks_uniform} uniform",
+        f"chunks: {r.chunks_stored} stored, {r.chunks_uniform} uniform, drawn {r.drawn_as}",
         f"setup {r.setup_s:.1f} s, first frame {r.first_frame_s:.1f} s, "
         f"later frames {r.frame_ms:.0f} ms",
         f"GPU {r.gpu_bytes / 2**20:.0f} MiB ({r.gpu_bytes / per:.1f} B per filled voxel), "

@@ -117,6 +117,11 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
         return self.pool.nbytes + self.index.nbytes + self.palette_texture.nbytes
 
     @property
+    def uploaded_bytes(self) -> int:
+        """Bytes of the pool (labels and levels) and the chunk index sent so far."""
+        return self.pool.uploaded_bytes + self.index.uploaded_bytes
+
+    @property
     def derived_textures(self) -> list[Texture]:
         """The pool, remade from the world's chunks if a new window needs it."""
         return [self.pool]

@@ -245,6 +245,11 @@ class VoxelBinding(DrawnBinding):
                 + (self.shell.nbytes if self.shell is not None else 0))
 
     @property
+    def uploaded_bytes(self) -> int:
+        """Bytes of labels, levels and distance field sent to the GPU so far."""
+        return sum(t.uploaded_bytes for t in (self.labels, *self.skipping))
+
+    @property
     def derived_textures(self) -> list[Texture]:
         """Textures made from the labels (level atlas, distance field).
 

@@ -242,6 +242,11 @@ class WorldBinding(WorldEditing):
         shells = sum(1 for c in self.chunks.values() if c.shell is not None)
         return total - max(shells - 1, 0) * (self.depth.nbytes if self.depth else 0)
 
+    @property
+    def uploaded_bytes(self) -> int:
+        """Bytes of every chunk's labels, levels and distance field sent so far."""
+        return sum(c.uploaded_bytes for c in self.chunks.values())
+
     def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
         """Change a material's colour and/or opacity (0 hides it) in every chunk."""
         self.model.palette.set_color(material, color, opacity)
