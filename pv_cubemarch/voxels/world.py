@@ -1,4 +1,8 @@
-"""Voxel worlds on screen: a box actor per chunk that holds voxels, shared depth passes.
+"""Voxel worlds drawn per chunk (``world_traversal='per_chunk'``): a box actor per chunk.
+
+The other drawing, one traversal over a chunk index, is :mod:`.indexed`; this one serves
+worlds it cannot draw (chunk sizes that are no power of two, distance fields, brick shells,
+pools over one texture).
 
 Each chunk is drawn as a grid of its own (:func:`build_voxel_actor`), so frustum culling,
 levels and editing work per chunk; a chunk of one label is a single stretched voxel, and
