@@ -242,6 +242,11 @@ def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str |
             raise ValueError("mode='id' writes a voxel's index within its grid; a world "
                              "drawn per chunk has one index space per chunk: use "
                              "world_traversal='index', mode='face' or 'color', or pick().")
+        if options.ambient_occlusion:   # seen: 101 of 3072 pixels lighter at chunk borders
+            raise ValueError("ambient_occlusion reads the voxels around each hit, across "
+                             "chunk borders, which a world drawn per chunk cannot: use "
+                             "world_traversal='index' (a power-of-two chunk_size, no "
+                             "distance_field, proxy='box').")
         actor = build_world(plotter, world, options)
     _frame(plotter)
     return actor

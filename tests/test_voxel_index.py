@@ -116,8 +116,8 @@ def test_extremes_against_the_cpu_traversal_of_one_grid(plotter_factory, case, m
 def test_terrain_from_inside_and_with_ambient_occlusion_across_chunks(plotter_factory):
     # The eye standing among the hills (chunks behind it and hidden behind nearer ground),
     # then the corners' occlusion read across chunk borders: one grid's image, pixel for
-    # pixel. catches (seen to fail): neighbours in another chunk read as empty (faces at
-    # chunk borders lighter than one grid's).
+    # pixel. catches (seen to fail): neighbours in another chunk read as empty (the per
+    # chunk drawing: 101 pixels at chunk borders lighter than one grid's; now refused).
     labels = terrain_labels()
     pl = plotter(plotter_factory)
     indexed(pl, labels, chunk_size=16, mode="face", palette=PALETTE)
@@ -135,6 +135,9 @@ def test_terrain_from_inside_and_with_ambient_occlusion_across_chunks(plotter_fa
         set_camera(pl, (70.0, -30.0, 40.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))
         images.append(cm.render_image(pl).astype(int))
     assert np.abs(images[0] - images[1]).max() <= 1 and images[0].any(axis=-1).mean() > 0.3
+    with pytest.raises(ValueError, match="across chunk borders"):   # per chunk: refused
+        cm.add_voxels(plotter(plotter_factory), labels, chunk_size=16, proxy="box",
+                      ambient_occlusion=True, world_traversal="per_chunk")
 
 
 def test_edits_upload_slot_texels_and_the_index_only_when_kinds_change(plotter_factory):
