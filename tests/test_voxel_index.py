@@ -62,7 +62,8 @@ def test_extremes_against_the_cpu_traversal_of_one_grid(plotter_factory, case, m
     # Chunks of 4 cut a 12 x 10 x 8 grid into 3 x 3 x 2, the last along y cut to 2 voxels;
     # ids (mode='id', one index space for the world) must be the whole grid's.
     # catches (seen to fail): slots read at slot 0's origin (every stored chunk showed the
-    # first one's voxels), the chunk level read from the pool instead of the index.
+    # first one's voxels), the chunk level read from the pool instead of the index, the
+    # chunk's entry kept from the first chunk a ray entered.
     labels = random_labels((12, 10, 8), 0.2 if mip_levels == 0 else 0.05, seed=3)
     labels[4:8, 0:4, 4:8] = 2            # a uniform chunk
     transform = np.eye(4)
@@ -176,6 +177,16 @@ def test_edits_upload_slot_texels_and_the_index_only_when_kinds_change(plotter_f
     labels[voxel] = 0
     wrong, off, _ = exact_against_one_grid(pl, labels, camera)
     assert wrong == 0 and off == 0 and key not in world.slots
+    # Another empty chunk filled: it takes a free slot, only its texels go up (the pool
+    # keeps its size). catches (seen to fail): a new slot's texels not uploaded.
+    grown, other = world.capacity, empty[-1]
+    voxel = tuple(16 * k + 5 for k in other)
+    pool_uploads = world.pool.upload_count
+    world.set_voxels(voxel, 3)
+    labels[voxel] = 3
+    wrong, off, _ = exact_against_one_grid(pl, labels, camera)
+    assert wrong == 0 and off == 0 and other in world.slots
+    assert world.capacity == grown and world.pool.upload_count == pool_uploads
 
 
 def test_hiding_a_uniform_chunk_shows_what_is_behind_it(plotter_factory):
