@@ -7,7 +7,14 @@ import numpy as np
 import pytest
 from conftest import set_camera
 from test_voxel_world import PALETTE, exact_against_one_grid, terrain_labels
-from test_voxels import SIZE, plotter, random_labels, wrong_pixels
+from test_voxels import (
+    SIZE,
+    extreme_scene,
+    finish_extreme_camera,
+    plotter,
+    random_labels,
+    wrong_pixels,
+)
 
 import pv_cubemarch as cm
 from pv_cubemarch.models.chunk_pool import chunk_index, chunk_shift, pool_layout
@@ -66,48 +73,13 @@ def test_extremes_against_the_cpu_traversal_of_one_grid(plotter_factory, case, m
     # chunk's entry kept from the first chunk a ray entered.
     labels = random_labels((12, 10, 8), 0.2 if mip_levels == 0 else 0.05, seed=3)
     labels[4:8, 0:4, 4:8] = 2            # a uniform chunk
-    transform = np.eye(4)
-    position, focal = (30.0, 22.0, 26.0), (6.0, 5.0, 4.0)
-    if case == "inside-grid":            # the eye in an empty voxel of a stored chunk
-        position, focal = (6.0, 5.5, 4.2), (0.0, 0.0, 0.0)
-        labels[6, 5, 4] = 0
-    elif case == "inside-voxel":
-        position, focal = (6.5, 5.5, 4.5), (0.0, 0.0, 0.0)
-        labels[6, 5, 4] = 2
-    elif case == "axis-parallel":        # the centre ray along chunk and voxel edges
-        position, focal = (8.0, 4.0, 40.0), (8.0, 4.0, 4.0)
-    elif case == "far-away":
-        transform[:3, 3] = 1e6
-        position = tuple(np.array(position) + 1e6)
-        focal = tuple(np.array(focal) + 1e6)
-    elif case == "anisotropic-mirrored":
-        transform = np.diag([-0.5, 2.0, 1.0, 1.0])
-        transform[0, 3] = 6.0
-        position, focal = (14.0, 30.0, 26.0), (3.0, 10.0, 4.0)
-    elif case in ("tiny", "huge"):
-        scale = 1e-4 if case == "tiny" else 1e4
-        transform = np.diag([scale, scale, scale, 1.0])
-        position = tuple(np.array(position) * scale)
-        focal = tuple(np.array(focal) * scale)
-    elif case == "one-voxel":            # one chunk, uniform
-        labels = np.ones((1, 1, 1), int)
-        position, focal = (2.2, 1.7, 2.9), (0.5, 0.5, 0.5)
-    elif case == "sheet":
-        labels = random_labels((1, 10, 8), 0.5, seed=4)
-        position, focal = (12.0, 9.0, 10.0), (0.5, 5.0, 4.0)
+    # the axis-parallel centre ray runs along chunk and voxel edges
+    labels, transform, position, focal = extreme_scene(case, labels, axis_point=(8.0, 4.0))
     model = make_voxels(labels, transform=transform)
     pl = plotter(plotter_factory, (49, 49))
     cm.add_voxels(pl, model, mode="id", chunk_size=4, world_traversal="index",
                   mip_levels=mip_levels, proxy="box")
-    camera = set_camera(pl, position, focal=focal, angle=50.0)
-    if case == "parallel-projection":
-        pl.camera.parallel_projection = True
-        pl.camera.parallel_scale = 9.0
-        pl.renderer.ResetCameraClippingRange()
-        camera = cm.Camera.from_pyvista(pl.camera)
-    if case.startswith("inside"):
-        pl.camera.clipping_range = (0.01, 100.0)
-        camera.clipping_range = (0.01, 100.0)
+    camera = finish_extreme_camera(pl, case, set_camera(pl, position, focal=focal, angle=50.0))
     wrong, edge, hits = wrong_pixels(pl, model, camera, (49, 49))
     assert (hits.material > 0).any()
     assert wrong == 0, (case, wrong, edge)

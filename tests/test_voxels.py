@@ -90,17 +90,11 @@ def test_fixed_step_misses_what_dda_hits(plotter_factory):
     assert counts["dda"] == 0 and counts["fixed"] > 20, counts
 
 
-@pytest.mark.parametrize("case", ["inside-grid", "inside-voxel", "axis-parallel",
-                                  "parallel-projection", "far-away", "anisotropic-mirrored",
-                                  "one-voxel", "sheet", "tiny", "huge"])
-@pytest.mark.parametrize("skipping", [{"mip_levels": 0}, {"mip_levels": 3, "distance_field": 2}],
-                         ids=["plain", "mip3-df2"])
-@pytest.mark.parametrize("proxy", ["bricks", "box"])
-def test_extremes(plotter_factory, case, skipping, proxy):
-    # With skipping, also catches (seen to fail): a skipped block's exit voxel taken from
-    # the ray's start instead of its exit point (6 of the 8 cases fail).
-    # Sparse with skipping, so empty cells and cubes are really left in one step.
-    labels = random_labels((12, 10, 8), 0.25 if skipping["mip_levels"] == 0 else 0.04, seed=3)
+def extreme_scene(case, labels, axis_point=(6.0, 5.0)):
+    """``(labels, transform, eye, focal)`` of one of the extreme cases on a 12 x 10 x 8 grid.
+
+    ``axis_point``: where the axis-parallel case's centre ray runs along z.
+    """
     transform = np.eye(4)
     position, focal = (30.0, 22.0, 26.0), (6.0, 5.0, 4.0)
     if case == "inside-grid":
@@ -110,7 +104,8 @@ def test_extremes(plotter_factory, case, skipping, proxy):
         position, focal = (6.5, 5.5, 4.5), (0.0, 0.0, 0.0)
         labels[6, 5, 4] = 2
     elif case == "axis-parallel":
-        position, focal = (6.0, 5.0, 40.0), (6.0, 5.0, 4.0)   # the centre ray on voxel edges
+        position = (*axis_point, 40.0)   # the centre ray on voxel edges
+        focal = (*axis_point, 4.0)
     elif case == "far-away":
         transform[:3, 3] = 1e6
         position = tuple(np.array(position) + 1e6)
@@ -130,11 +125,11 @@ def test_extremes(plotter_factory, case, skipping, proxy):
     elif case == "sheet":
         labels = random_labels((1, 10, 8), 0.5, seed=4)
         position, focal = (12.0, 9.0, 10.0), (0.5, 5.0, 4.0)
-    pl = plotter(plotter_factory, (49, 49))
-    actor = cm.add_voxels(pl, labels, mode="id", transform=transform, proxy=proxy,
-                          **skipping)
-    camera = set_camera(pl, position, focal=focal,
-                        up=(0, 1, 0) if case != "axis-parallel" else (0, 1, 0), angle=50.0)
+    return labels, transform, position, focal
+
+
+def finish_extreme_camera(pl, case, camera):
+    """The parallel projection, or the near plane close to an eye inside the grid."""
     if case == "parallel-projection":
         pl.camera.parallel_projection = True
         pl.camera.parallel_scale = 9.0
@@ -143,6 +138,25 @@ def test_extremes(plotter_factory, case, skipping, proxy):
     if case.startswith("inside"):
         pl.camera.clipping_range = (0.01, 100.0)
         camera.clipping_range = (0.01, 100.0)
+    return camera
+
+
+@pytest.mark.parametrize("case", ["inside-grid", "inside-voxel", "axis-parallel",
+                                  "parallel-projection", "far-away", "anisotropic-mirrored",
+                                  "one-voxel", "sheet", "tiny", "huge"])
+@pytest.mark.parametrize("skipping", [{"mip_levels": 0}, {"mip_levels": 3, "distance_field": 2}],
+                         ids=["plain", "mip3-df2"])
+@pytest.mark.parametrize("proxy", ["bricks", "box"])
+def test_extremes(plotter_factory, case, skipping, proxy):
+    # With skipping, also catches (seen to fail): a skipped block's exit voxel taken from
+    # the ray's start instead of its exit point (6 of the 8 cases fail).
+    # Sparse with skipping, so empty cells and cubes are really left in one step.
+    labels = random_labels((12, 10, 8), 0.25 if skipping["mip_levels"] == 0 else 0.04, seed=3)
+    labels, transform, position, focal = extreme_scene(case, labels)
+    pl = plotter(plotter_factory, (49, 49))
+    actor = cm.add_voxels(pl, labels, mode="id", transform=transform, proxy=proxy,
+                          **skipping)
+    camera = finish_extreme_camera(pl, case, set_camera(pl, position, focal=focal, angle=50.0))
     wrong, edge, hits = wrong_pixels(pl, actor.cubemarch.model, camera, (49, 49))
     assert (hits.material > 0).any()
     assert wrong == 0, (case, wrong, edge)
