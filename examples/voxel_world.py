@@ -4,8 +4,9 @@ Run: python examples/voxel_world.py [out.png]
 
 A 512 x 512 x 64 terrain drawn in chunks of 32 (`add_voxels(..., chunk_size=32)`): chunks
 of air cost nothing, chunks of solid rock are one label each, and one traversal runs over
-the chunk index for the whole world, so chunks hidden behind nearer hills are never read. `lod=True` draws distant terrain from coarser occupancy levels where a voxel is
-smaller than a pixel. A digger carves a trench through three chunks (`fill_box`), a ball
+the chunk index for the whole world, so chunks hidden behind nearer hills are never read.
+`lod=True` draws distant terrain from coarser occupancy levels where a voxel is smaller
+than a pixel. A digger carves a trench through three chunks (`fill_box`), a ball
 where the middle pixel's voxel is (`pick`, then `fill_sphere`) and hides the grass
 (`set_material`); each edit is in the next frame.
 """

@@ -18,12 +18,12 @@ import pyvista
 from ..core.camera import Camera
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, box_actor, camera_matrices, place_box
+from ..gl.box import bind_camera, box_actor, place_box
 from ..gl.drawn import DrawnBinding
 from ..gl.face_depth import FaceDepthPass
+from ..gl.lights import bind_scene_lights
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
-from ..models.lights import VolumeLight
 from ..models.volume import checked_transform
 from ..models.voxels import (
     MAX_TEXTURE_SIZE,
@@ -43,9 +43,6 @@ from . import editing
 from .occluders import WorldOccluders
 from .options import VoxelOptions, drawn_level
 from .proxy import ShellStart
-
-#: Most scene lights a grid is lit by (two mat4 of light vectors and colours).
-MAX_VOXEL_LIGHTS = 8
 
 
 def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
@@ -70,7 +67,7 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
         Replacement("//VTK::Color::Dec",
                     ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
                      *(("voxel_chunk_index",) if chunk_shift else ()), *skipping, traversal,
-                     *(("voxel_shading",) if lit else ()),
+                     *(("blinn_phong", "voxel_shading") if lit else ()),
                      *(("voxel_occlusion",) if occlusion else ())), keep_tag="after"),
         Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
@@ -86,49 +83,10 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                 "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion})
 
 
-def scene_lights(renderer) -> list[VolumeLight]:
-    """The renderer's switched-on lights as they shine now (headlights follow the camera)."""
-    camera = renderer.GetActiveCamera()
-    lights = [VolumeLight.from_pyvista(li, camera) for li in renderer.GetLights()
-              if li.GetSwitch()]
-    return lights[:MAX_VOXEL_LIGHTS]
-
-
 def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
                 options: VoxelOptions) -> None:
-    """Per-frame light uniforms: the scene's lights in view space, the face normals' map.
-
-    The lights are read and placed once per frame (keyed on the frame count of the
-    bindings), however many uniforms take them.
-    """
-    cache: dict = {}
-
-    def frame_lights() -> dict:
-        if cache.get("frame") != bindings.frames_started:
-            view = camera_matrices(renderer)[0]
-            vectors, colors = np.zeros((4, 8)), np.zeros((4, 8))
-            lights = scene_lights(renderer)
-            for column, light in enumerate(lights):
-                if light.kind == "point":
-                    vectors[:, column] = view @ np.append(light.position, 1.0)
-                    vectors[3, column] = 1.0
-                else:
-                    toward = -np.asarray(light.direction, dtype=np.float64)
-                    vectors[:3, column] = view[:3, :3] @ (toward / np.linalg.norm(toward))
-                colors[:3, column] = light.radiance
-            cache.update(frame=bindings.frames_started, count=len(lights), vectors=vectors,
-                         colors=colors)
-        return cache
-
-    bindings.set_uniform("cm_lightCount", lambda: frame_lights()["count"])
-    for half in (0, 1):
-        columns = slice(4 * half, 4 * half + 4)
-        bindings.set_uniform(f"cm_lightVectors{half}",
-                             lambda c=columns: frame_lights()["vectors"][:, c])
-        bindings.set_uniform(f"cm_lightColors{half}",
-                             lambda c=columns: frame_lights()["colors"][:, c])
-    bindings.set_uniform("cm_normalFromIndex", lambda: camera_matrices(renderer)[0][:3, :3]
-                         @ np.linalg.inv(model.world_from_index()[:3, :3]).T)
+    """The scene's lights (:func:`~pv_cubemarch.gl.lights.bind_scene_lights`) on a grid."""
+    bind_scene_lights(bindings, renderer, model.world_from_index)
     bindings.set_uniform("cm_ambient", float(options.ambient))
     bindings.set_uniform("cm_specular", float(options.specular))
     bindings.set_uniform("cm_specularPower", float(options.specular_power))
