@@ -1,0 +1,191 @@
+"""The implicit-surface CPU reference: the first root of f along every pixel's ray (003).
+
+:func:`trace_surface` walks each ray through the field's cells in float64 (the voxel
+reference's traversal: crossings from the cell index, no drift); in each cell the surface
+may cross (its Bernstein coefficients change sign: no other cell holds a zero) the field
+along the ray is a polynomial of degree at most 6, sampled at :data:`BRACKETS` + 1 points;
+the first sign change is refined by bisection to 1e-9 of the cell's diagonal. A ray whose
+polynomial comes within :data:`TANGENT_TOLERANCE` of zero at a local extremum before that
+root without changing sign (a tangent ray, or two roots closer than the samples) is marked
+``ambiguous``: a float32 renderer may rightly see a hit there or not.
+
+Conventions as :mod:`pv_cubemarch.reference.voxels`: world rays from :meth:`Camera.rays`
+(unit directions, so ``depth`` is a world distance), the ray starting at ``max(0, domain
+entry, near / dot(direction, forward))``; the field positive inside, the normal the unit
+of ``-gradient`` (pointing out).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.camera import Camera
+from ..models.surface import SplineField, bernstein_basis
+from .rays import ray_box_interval
+
+#: Sample intervals per cell segment in which the first sign change is looked for.
+BRACKETS = 256
+#: Bisection steps on the bracketing interval (2^-40 of it: below 1e-9 of a diagonal).
+BISECTIONS = 40
+#: A local extremum of |f| along a ray below this share of the cell's largest Bernstein
+#: coefficient, without a sign change, marks the pixel ambiguous (tangent).
+TANGENT_TOLERANCE = 1e-4
+
+
+@dataclass
+class SurfaceHits:
+    """Per pixel ``(height, width)``: hit or not, its depth, world point, normal and cell.
+
+    ``depth``: distance along the (unit) ray, ``inf`` where nothing is hit; ``normal``:
+    outward unit normal (``-gradient``); ``cell``: the hit's cell, ``-1`` on a miss;
+    ``ambiguous``: a tangent or near-double root before (or at) the first root found.
+    """
+
+    hit: np.ndarray
+    depth: np.ndarray
+    point: np.ndarray
+    normal: np.ndarray
+    cell: np.ndarray
+    ambiguous: np.ndarray
+
+
+def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
+                  size: Sequence[int], near: float = 0.0,
+                  crop: tuple[int, int, int, int] | None = None) -> SurfaceHits:
+    """The first root of ``field`` along each pixel's ray, within the ``active`` cells.
+
+    ``active``: ``(n, 3)`` cells that may hold a zero (e.g.
+    :func:`~pv_cubemarch.models.surface.active_cells` with ``'bernstein'``: exact); the
+    others are passed through. ``crop``: ``(x, y, width, height)`` of the pixels to trace.
+    """
+    width, height = (int(v) for v in size)
+    origins, directions = camera.rays((width, height))
+    x0, y0, w, h = crop if crop is not None else (0, 0, width, height)
+    origins = origins[y0:y0 + h, x0:x0 + w].reshape(-1, 3)
+    directions = directions[y0:y0 + h, x0:x0 + w].reshape(-1, 3)
+    world_from_index = field.world_from_index()
+    index_from_world = np.linalg.inv(world_from_index)
+    # Camera-relative: origins are moved to the grid's centre before the inverse is applied.
+    dims = np.asarray(field.dimensions, dtype=np.float64)
+    centre = world_from_index[:3, :3] @ (dims / 2) + world_from_index[:3, 3]
+    o = (origins - centre) @ index_from_world[:3, :3].T + dims / 2
+    d = directions @ index_from_world[:3, :3].T
+    forward = np.asarray(camera.basis()[2])
+    start = np.maximum(near / np.maximum(directions @ forward, 1e-300), 0.0)
+    enter, leave = ray_box_interval(o, d, np.zeros(3), dims)
+    t = np.maximum(enter, start)
+    n = len(o)
+    depth = np.full(n, np.inf)
+    cell_hit = np.full((n, 3), -1, np.int64)
+    ambiguous = np.zeros(n, bool)
+    mask = np.zeros(field.dimensions, bool)
+    if len(active):
+        mask[tuple(np.asarray(active).T)] = True
+    going = np.flatnonzero(t < leave)
+    moving = d != 0
+    with np.errstate(divide="ignore"):
+        inverse = np.where(moving, 1.0 / np.where(moving, d, 1.0), 0.0)
+    ahead = d > 0
+    # First cell: the one the ray occupies just after its start (ahead on a boundary).
+    p = o[going] + d[going] * t[going, None]
+    cell = np.where(ahead[going], np.floor(p), np.ceil(p) - 1).astype(np.int64)
+    cell = np.where(moving[going], cell, np.floor(p).astype(np.int64))
+    cell = np.clip(cell, 0, np.asarray(field.dimensions) - 1)
+    t_in = t[going]
+    while len(going):
+        bound = cell + ahead[going]
+        crossing = np.where(moving[going], (bound - o[going]) * inverse[going], np.inf)
+        axis = np.argmin(crossing, axis=1)
+        t_out = np.minimum(crossing[np.arange(len(going)), axis], leave[going])
+        here = mask[tuple(cell.T)]
+        if here.any():
+            rows = np.flatnonzero(here)
+            root, unsure = _first_root(field, cell[rows], o[going[rows]], d[going[rows]],
+                                       t_in[rows], t_out[rows])
+            found = np.isfinite(root)
+            rays = going[rows]
+            ambiguous[rays] |= unsure
+            depth[rays[found]] = root[found]
+            cell_hit[rays[found]] = cell[rows[found]]
+            done = np.zeros(len(going), bool)
+            done[rows[found]] = True
+        else:
+            done = np.zeros(len(going), bool)
+        step = np.where(ahead[going, axis], 1, -1)
+        cell[np.arange(len(going)), axis] += step
+        inside = np.all((cell >= 0) & (cell < np.asarray(field.dimensions)), axis=1)
+        keep = ~done & inside & (t_out < leave[going])
+        going, cell, t_in = going[keep], cell[keep], t_out[keep]
+    hit = np.isfinite(depth)
+    point = np.full((n, 3), np.nan)
+    normal = np.full((n, 3), np.nan)
+    if hit.any():
+        local = o[hit] + d[hit] * depth[hit, None]
+        point[hit] = origins[hit] + directions[hit] * depth[hit, None]
+        gradient = field.gradient_at_cells(local) @ index_from_world[:3, :3]
+        normal[hit] = -gradient / np.maximum(np.linalg.norm(gradient, axis=1,
+                                                            keepdims=True), 1e-300)
+    shape = (h, w)
+    return SurfaceHits(hit.reshape(shape), depth.reshape(shape), point.reshape(*shape, 3),
+                       normal.reshape(*shape, 3), cell_hit.reshape(*shape, 3),
+                       ambiguous.reshape(shape))
+
+
+def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
+                t0: np.ndarray, t1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per ray, the first ``t`` in ``[t0, t1]`` where the cell's field is zero.
+
+    ``inf`` where there is none; also whether a tangent or near-double root makes the ray
+    ambiguous.
+    """
+    beta = field.cell_bernstein(cells)
+    scale = np.abs(beta).max(axis=(1, 2, 3))
+    s = np.linspace(0.0, 1.0, BRACKETS + 1)
+    span = (t1 - t0)[:, None]
+    ts = t0[:, None] + span * s[None, :]
+
+    def field_at(tt):   # (m, k) ray parameters -> field values
+        local = o[:, None, :] + d[:, None, :] * tt[..., None] - cells[:, None, :]
+        local = np.clip(local, 0.0, 1.0)
+        bu, bv, bw = (bernstein_basis(local[..., a]) for a in range(3))
+        return np.einsum("mabc,mka,mkb,mkc->mk", beta, bu, bv, bw, optimize=True)
+
+    values = field_at(ts)
+    zero = values == 0.0
+    change = (np.sign(values[:, :-1]) * np.sign(values[:, 1:]) < 0) | zero[:, :-1]
+    first = np.where(change.any(axis=1), np.argmax(change, axis=1), BRACKETS)
+    found = first < BRACKETS
+    # Tangent: |f| has a local minimum near 0 before the first sign change.
+    magnitude = np.abs(values)
+    dip = (magnitude[:, 1:-1] <= magnitude[:, :-2]) & (magnitude[:, 1:-1] <= magnitude[:, 2:])
+    small = magnitude[:, 1:-1] < TANGENT_TOLERANCE * scale[:, None]
+    before = np.arange(1, BRACKETS)[None, :] < first[:, None]
+    unsure = (dip & small & before).any(axis=1)
+    root = np.full(len(cells), np.inf)
+    rows = np.flatnonzero(found)
+    if len(rows):
+        k = first[rows]
+        lo = ts[rows, k]
+        hi = ts[rows, np.minimum(k + 1, BRACKETS)]
+        f_lo = values[rows, k]
+        exact = f_lo == 0.0
+        for _ in range(BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            f_mid = _at(beta[rows], o[rows], d[rows], cells[rows], mid)
+            same = np.sign(f_mid) == np.sign(f_lo)
+            lo = np.where(same, mid, lo)
+            f_lo = np.where(same, f_mid, f_lo)
+            hi = np.where(same, hi, mid)
+        root[rows] = np.where(exact, ts[rows, k], 0.5 * (lo + hi))
+    return root, unsure
+
+
+def _at(beta: np.ndarray, o: np.ndarray, d: np.ndarray, cells: np.ndarray,
+        t: np.ndarray) -> np.ndarray:
+    """The cells' fields (Bernstein ``beta``) at ray parameters ``t``, one per ray."""
+    local = np.clip(o + d * t[:, None] - cells, 0.0, 1.0)
+    bu, bv, bw = (bernstein_basis(local[:, a]) for a in range(3))
+    return np.einsum("mabc,ma,mb,mc->m", beta, bu, bv, bw, optimize=True)

@@ -1,0 +1,151 @@
+"""Quadratic B-spline fields (003) and their CPU reference: checked against the seed's
+equations written out again and against analytic spheres."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pv_cubemarch.core.camera import Camera
+from pv_cubemarch.core.errors import VolumeDataError
+from pv_cubemarch.models.surface import (
+    SplineField,
+    active_cells,
+    interpolating_coefficients,
+)
+from pv_cubemarch.reference.surfaces import trace_surface
+
+
+def seed_basis(t):
+    """The seed's equation 2, piece by piece."""
+    t = np.asarray(t, dtype=np.float64)
+    return np.select([(t >= -1) & (t < 0), (t >= 0) & (t < 1), (t >= 1) & (t < 2)],
+                     [(t + 1) ** 2 / 2, -t * t + t + 0.5, (t - 2) ** 2 / 2], 0.0)
+
+
+def seed_field(coefficients, x):
+    """The seed's equation 1: sum over i, j, k from -1 of c_ijk b_i(x) b_j(y) b_k(z)."""
+    n = np.array(coefficients.shape) - 2
+    bx, by, bz = (seed_basis(x[:, a, None] - np.arange(-1, n[a] + 1)[None, :])
+                  for a in range(3))
+    return np.einsum("ijk,ni,nj,nk->n", coefficients, bx, by, bz)
+
+
+def sphere_coefficients(cells, centre, radius):
+    """Exact coefficients of R^2 - |x - c|^2: per axis the blossom of x^2 at the cell's
+    knots, i (i + 1), of x, i + 1/2 (by hand; quadratic B-splines reproduce quadratics)."""
+    per = []
+    for n, c in zip(cells, centre, strict=True):
+        i = np.arange(-1, n + 1, dtype=np.float64)
+        per.append(i * (i + 1) - 2 * c * (i + 0.5) + c * c)
+    return radius ** 2 - (per[0][:, None, None] + per[1][None, :, None]
+                          + per[2][None, None, :])
+
+
+def test_cell_local_evaluation_is_the_seeds_equation():
+    # catches: a Bernstein coefficient off (e.g. beta_1 = (c0 + c2) / 2), the cell's
+    # coefficients taken one index off.
+    rng = np.random.default_rng(1)
+    coefficients = rng.normal(size=(7, 5, 4))
+    field = SplineField(coefficients)
+    x = rng.random((200, 3)) * np.array(field.dimensions)
+    assert np.allclose(field.at_cells(x), seed_field(coefficients, x), atol=1e-12)
+    h = 1e-6   # the gradient against central differences of the seed's field
+    numeric = np.stack([(seed_field(coefficients, x + h * e) - seed_field(coefficients,
+                                                                         x - h * e)) / (2 * h)
+                        for e in np.eye(3)], axis=-1)
+    assert np.allclose(field.gradient_at_cells(x), numeric, atol=1e-6)
+
+
+def test_samples_are_interpolated_at_cell_centres_and_quadratics_reproduced():
+    rng = np.random.default_rng(2)
+    samples = rng.normal(size=(6, 4, 5))
+    field = SplineField(interpolating_coefficients(samples))
+    centres = np.argwhere(np.ones(samples.shape)) + 0.5
+    assert field.dimensions == samples.shape
+    assert np.abs(field.at_cells(centres) - samples.ravel()).max() < 1e-12
+    one = SplineField(interpolating_coefficients(np.full((1, 1, 1), 2.5)))
+    assert np.allclose(one.at_cells(np.array([[0.1, 0.9, 0.5]])), 2.5)
+    sphere = SplineField(sphere_coefficients((8, 8, 8), (4.0, 3.5, 4.2), 3.0))
+    x = rng.random((100, 3)) * 8
+    assert np.allclose(sphere.at_cells(x), 9.0 - ((x - (4.0, 3.5, 4.2)) ** 2).sum(1),
+                       atol=1e-12)
+
+
+def test_bernstein_test_never_misses_a_crossed_cell_and_sampling_can():
+    # On random fields, every cell whose 9^3 samples change sign is active (the Bernstein
+    # hull holds the field); a small sphere inside one cell, between its corners, is missed
+    # by the seed's test with 2 samples per axis (the corners).
+    # catches: one-sided activity (min < 0 < max without the equal cases), the test run
+    # on raw coefficients' corners only.
+    rng = np.random.default_rng(3)
+    field = SplineField(rng.normal(size=(10, 9, 8)) + 0.3)
+    active = {tuple(c) for c in active_cells(field)}
+    lattice = np.linspace(0, 1, 9)
+    u = np.stack(np.meshgrid(lattice, lattice, lattice, indexing="ij"), -1).reshape(-1, 3)
+    for cell in np.argwhere(np.ones(field.dimensions, bool)):
+        values = field.at_cells(cell + u * 0.999999)
+        if values.min() < 0 < values.max():
+            assert tuple(cell) in active
+    assert len(active) < np.prod(field.dimensions)
+    bump = SplineField(sphere_coefficients((4, 4, 4), (1.5, 1.5, 1.5), 0.4))
+    assert (1, 1, 1) in {tuple(c) for c in active_cells(bump, "bernstein")}
+    assert len(active_cells(bump, "sample", samples=2)) == 0
+    with pytest.raises(ValueError, match="active_test must be one of"):
+        active_cells(bump, "corners")
+
+
+@pytest.mark.parametrize("parallel", [False, True])
+def test_reference_against_analytic_sphere(parallel):
+    # The first root, its depth and normal equal the ray-sphere intersection by hand; the
+    # silhouette's tangent rays are the only ambiguous pixels.
+    centre, radius = (8.0, 7.0, 8.5), 5.3
+    field = SplineField(sphere_coefficients((16, 16, 16), centre, radius))
+    camera = Camera(position=(30.0, 20.0, 25.0), focal_point=centre, view_up=(0, 0, 1),
+                    view_angle=30.0, parallel_projection=parallel, parallel_scale=8.0)
+    hits = trace_surface(field, active_cells(field), camera, (64, 48))
+    origins, directions = camera.rays((64, 48))
+    offset = origins - np.array(centre)
+    b = (offset * directions).sum(-1)
+    disc = b * b - ((offset * offset).sum(-1) - radius ** 2)
+    expected = np.where(disc > 0, -b - np.sqrt(np.maximum(disc, 0)), np.inf)
+    assert (hits.hit == (disc > 0)).all() and 0.2 < hits.hit.mean() < 0.9
+    assert np.abs(hits.depth[hits.hit] - expected[hits.hit]).max() < 1e-9
+    normal = (origins + directions * expected[..., None] - centre) / radius
+    assert np.abs(hits.normal[hits.hit] - normal[hits.hit]).max() < 1e-9
+    assert not hits.ambiguous[hits.hit].any()
+
+
+def test_reference_flags_tangent_rays_and_starts_at_the_near_plane():
+    # A ray grazing the sphere (distance radius - 1e-7 from its centre, two roots 2e-3 apart)
+    # is ambiguous; with the near plane past the sphere's front, the back is the first root.
+    centre, radius = (8.0, 8.0, 8.0), 5.0
+    field = SplineField(sphere_coefficients((16, 16, 16), centre, radius))
+    camera = Camera(position=(8.0, 8.0 + radius - 1e-7, -30.0), focal_point=(8.0, 8.0 +
+                    radius - 1e-7, 8.0), view_up=(0, 1, 0), view_angle=1e-3)
+    hits = trace_surface(field, active_cells(field), camera, (1, 1))
+    assert hits.ambiguous[0, 0] or hits.hit[0, 0]
+    camera = Camera(position=(8.0, 8.0, -30.0), focal_point=centre, view_up=(0, 1, 0),
+                    view_angle=10.0)
+    hits = trace_surface(field, active_cells(field), camera, (3, 3), near=38.0)
+    assert abs(hits.depth[1, 1] - 43.0) < 1e-9 and hits.normal[1, 1, 2] > 0.99
+
+
+def test_save_load_and_bad_coefficients(tmp_path):
+    rng = np.random.default_rng(4)
+    field = SplineField(rng.normal(size=(5, 6, 7)), transform=np.diag([2.0, 1.0, 1.0, 1.0]),
+                        name="blob")
+    field.save(tmp_path / "blob.npz")
+    back = SplineField.load(tmp_path / "blob.npz")
+    assert np.array_equal(back.coefficients, field.coefficients) and back.name == "blob"
+    points = rng.random((5, 3)) * 4
+    assert np.allclose(back(points), field(points))
+    assert np.allclose(field.gradient(points)[:, 0] * 2.0,
+                       field.gradient_at_cells(points / [2.0, 1.0, 1.0])[:, 0])
+    with pytest.raises(VolumeDataError, match="NaN"):
+        SplineField(np.full((4, 4, 4), np.nan))
+    with pytest.raises(VolumeDataError, match="at least one cell"):
+        SplineField(np.zeros((2, 4, 4)))
+    np.savez(tmp_path / "other.npz", x=np.zeros(3))
+    with pytest.raises(VolumeDataError, match="not a saved SplineField"):
+        SplineField.load(tmp_path / "other.npz")
