@@ -98,7 +98,7 @@ def test_bernstein_test_never_misses_a_crossed_cell_and_sampling_can():
 @pytest.mark.parametrize("parallel", [False, True])
 def test_reference_against_analytic_sphere(parallel):
     # The first root, its depth and normal equal the ray-sphere intersection by hand; the
-    # silhouette's tangent rays are the only ambiguous pixels.
+    # silhouette's nearly tangent rays are the only ambiguous pixels.
     centre, radius = (8.0, 7.0, 8.5), 5.3
     field = SplineField(sphere_coefficients((16, 16, 16), centre, radius))
     camera = Camera(position=(30.0, 20.0, 25.0), focal_point=centre, view_up=(0, 0, 1),
@@ -113,18 +113,23 @@ def test_reference_against_analytic_sphere(parallel):
     assert np.abs(hits.depth[hits.hit] - expected[hits.hit]).max() < 1e-9
     normal = (origins + directions * expected[..., None] - centre) / radius
     assert np.abs(hits.normal[hits.hit] - normal[hits.hit]).max() < 1e-9
-    assert not hits.ambiguous[hits.hit].any()
+    # Ambiguous hits only where the ray nearly grazes the sphere (half-chord below a cell).
+    grazing = hits.ambiguous & hits.hit
+    assert grazing.sum() <= 0.03 * hits.hit.sum() and (np.sqrt(disc[grazing]) < 1.0).all()
 
 
 def test_reference_flags_tangent_rays_and_starts_at_the_near_plane():
-    # A ray grazing the sphere (distance radius - 1e-7 from its centre, two roots 2e-3 apart)
-    # is ambiguous; with the near plane past the sphere's front, the back is the first root.
+    # A ray passing 1e-9 outside the sphere (no root; |f| dips to 1e-8) is ambiguous; with
+    # the near plane past the sphere's front, the back is the first root.
+    # catches (seen to fail): no tolerance for the dip (the tangent ray counted as a clean
+    # miss), 10 bisections (depth off by 1e-4).
     centre, radius = (8.0, 8.0, 8.0), 5.0
     field = SplineField(sphere_coefficients((16, 16, 16), centre, radius))
-    camera = Camera(position=(8.0, 8.0 + radius - 1e-7, -30.0), focal_point=(8.0, 8.0 +
-                    radius - 1e-7, 8.0), view_up=(0, 1, 0), view_angle=1e-3)
+    y = 8.0 + radius + 1e-9
+    camera = Camera(position=(8.0, y, -30.0), focal_point=(8.0, y, 8.0), view_up=(0, 1, 0),
+                    view_angle=1e-6)
     hits = trace_surface(field, active_cells(field), camera, (1, 1))
-    assert hits.ambiguous[0, 0] or hits.hit[0, 0]
+    assert hits.ambiguous[0, 0] and not hits.hit[0, 0]
     camera = Camera(position=(8.0, 8.0, -30.0), focal_point=centre, view_up=(0, 1, 0),
                     view_angle=10.0)
     hits = trace_surface(field, active_cells(field), camera, (3, 3), near=38.0)

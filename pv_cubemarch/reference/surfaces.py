@@ -5,7 +5,7 @@ reference's traversal: crossings from the cell index, no drift); in each cell th
 may cross (its Bernstein coefficients change sign: no other cell holds a zero) the field
 along the ray is a polynomial of degree at most 6, sampled at :data:`BRACKETS` + 1 points;
 the first sign change is refined by bisection to 1e-9 of the cell's diagonal. A ray whose
-polynomial comes within :data:`TANGENT_TOLERANCE` of zero at a local extremum before that
+field comes within :data:`TANGENT_TOLERANCE` of zero, and flat, at a sample before that
 root without changing sign (a tangent ray, or two roots closer than the samples) is marked
 ``ambiguous``: a float32 renderer may rightly see a hit there or not.
 
@@ -30,9 +30,11 @@ from .rays import ray_box_interval
 BRACKETS = 256
 #: Bisection steps on the bracketing interval (2^-40 of it: below 1e-9 of a diagonal).
 BISECTIONS = 40
-#: A local extremum of |f| along a ray below this share of the cell's largest Bernstein
-#: coefficient, without a sign change, marks the pixel ambiguous (tangent).
+#: |f| along a ray below this share of the cell's largest Bernstein coefficient, with a
+#: slope (per cell segment) below FLAT_TOLERANCE of it, before the first sign change, marks
+#: the pixel ambiguous (tangent).
 TANGENT_TOLERANCE = 1e-4
+FLAT_TOLERANCE = 1e-2
 
 
 @dataclass
@@ -158,12 +160,14 @@ def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndar
     change = (np.sign(values[:, :-1]) * np.sign(values[:, 1:]) < 0) | zero[:, :-1]
     first = np.where(change.any(axis=1), np.argmax(change, axis=1), BRACKETS)
     found = first < BRACKETS
-    # Tangent: |f| has a local minimum near 0 before the first sign change.
-    magnitude = np.abs(values)
-    dip = (magnitude[:, 1:-1] <= magnitude[:, :-2]) & (magnitude[:, 1:-1] <= magnitude[:, 2:])
-    small = magnitude[:, 1:-1] < TANGENT_TOLERANCE * scale[:, None]
-    before = np.arange(1, BRACKETS)[None, :] < first[:, None]
-    unsure = (dip & small & before).any(axis=1)
+    # Tangent: |f| comes near 0, and flat, before the bracket of the first sign change (at
+    # any sample, the segment's ends included: a tangent point may lie on a cell's face; a
+    # sample next to a root in the next cell is near 0 too, but steep).
+    slope = np.abs(np.gradient(values, axis=1)) * BRACKETS
+    small = ((np.abs(values) < TANGENT_TOLERANCE * scale[:, None])
+             & (slope < FLAT_TOLERANCE * scale[:, None]))
+    before = np.arange(BRACKETS + 1)[None, :] < first[:, None]
+    unsure = (small & before).any(axis=1)
     root = np.full(len(cells), np.inf)
     rows = np.flatnonzero(found)
     if len(rows):
