@@ -31,7 +31,7 @@ BRACKETS = 256
 #: Bisection steps on the bracketing interval (2^-40 of it: below 1e-9 of a diagonal).
 BISECTIONS = 40
 #: |f| along a ray below this share of the cell's largest Bernstein coefficient, with a
-#: slope (per cell segment) below FLAT_TOLERANCE of it, before the first sign change, marks
+#: slope (per cell length) below FLAT_TOLERANCE of it, before the first sign change, marks
 #: the pixel ambiguous (tangent).
 TANGENT_TOLERANCE = 1e-4
 FLAT_TOLERANCE = 1e-2
@@ -163,7 +163,8 @@ def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndar
     # Tangent: |f| comes near 0, and flat, before the bracket of the first sign change (at
     # any sample, the segment's ends included: a tangent point may lie on a cell's face; a
     # sample next to a root in the next cell is near 0 too, but steep).
-    slope = np.abs(np.gradient(values, axis=1)) * BRACKETS
+    length = np.maximum(np.linalg.norm(d, axis=1) * (t1 - t0), 1e-300)   # cell units
+    slope = np.abs(np.gradient(values, axis=1)) * BRACKETS / length[:, None]
     small = ((np.abs(values) < TANGENT_TOLERANCE * scale[:, None])
              & (slope < FLAT_TOLERANCE * scale[:, None]))
     before = np.arange(BRACKETS + 1)[None, :] < first[:, None]
