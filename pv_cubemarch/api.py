@@ -230,6 +230,7 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
 
 def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str | None):
     """Draw a chunked world by one traversal or a box per chunk; returns its actor."""
+    options.check_ids(world.dimensions)
     traversal = options.world_traversal
     if traversal is None:
         traversal = "index" if why_not_indexed(world, options) is None else "per_chunk"
@@ -239,9 +240,12 @@ def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str |
         plotter.cubemarch.track(binding)
     else:
         if options.mode == "id":
+            reason = why_not_indexed(world, options)
             raise ValueError("mode='id' writes a voxel's index within its grid; a world "
-                             "drawn per chunk has one index space per chunk: use "
-                             "world_traversal='index', mode='face' or 'color', or pick().")
+                             "drawn per chunk has one index space per chunk: " + (
+                                 f"one traversal cannot draw this one ({reason}). Use "
+                                 "mode='face' or 'color', or pick()." if reason else
+                                 "use world_traversal='index'."))
         if options.ambient_occlusion:   # seen: 101 of 3072 pixels lighter at chunk borders
             raise ValueError("ambient_occlusion reads the voxels around each hit, across "
                              "chunk borders, which a world drawn per chunk cannot: use "

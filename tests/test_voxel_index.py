@@ -17,11 +17,14 @@ from test_voxels import (
 )
 
 import pv_cubemarch as cm
+from pv_cubemarch.core.rendering import offscreen_plotter
+from pv_cubemarch.models import voxels as voxel_models
 from pv_cubemarch.models.chunk_pool import chunk_index, chunk_shift, pool_layout
 from pv_cubemarch.models.voxels import make_voxels
 from pv_cubemarch.models.world import VoxelWorld
 from pv_cubemarch.reference.voxels import face_colors, trace_voxels
-from pv_cubemarch.voxels.indexed import IndexedWorldBinding
+from pv_cubemarch.voxels.indexed import IndexedWorldBinding, why_not_indexed
+from pv_cubemarch.voxels.options import VoxelOptions
 
 
 def indexed(pl, labels, chunk_size=4, **options) -> IndexedWorldBinding:
@@ -225,3 +228,43 @@ def test_removing_the_world_frees_its_textures(plotter_factory):
     pl.cubemarch.release_removed()
     assert world._released and world.pool.gl_object is None
     assert world.index.gl_object is None and pl.cubemarch.tracked == []
+
+
+def test_an_edit_no_pool_holds_is_refused_and_leaves_the_world_as_it_was(plotter_factory,
+                                                                          monkeypatch):
+    # A budget of exactly 3 slots and 2 stored chunks: a third stored chunk still fits (the
+    # pool is made again for exactly 3 when a quarter more does not fit); a fourth does not:
+    # MemoryError, and the labels, slots and image stay as before; other edits go on.
+    # catches (seen, review): growth refused although the chunks fit, a refused edit kept
+    # in the world with stale slots (wrong pixels, then KeyError on the next edit).
+    labels = np.zeros((16, 16, 8), np.uint8)
+    labels[1, 1, 1] = labels[9, 1, 1] = 1
+    slot_bytes = 8 * 8 * 12   # chunks of 8 with levels 1 and 2 in the slot
+    monkeypatch.setattr(voxel_models, "MAX_GRID_BYTES", 3 * slot_bytes)
+    pl = plotter(plotter_factory)
+    world = indexed(pl, labels, chunk_size=8, mode="face", palette=PALETTE)
+    camera = set_camera(pl, (30.0, -20.0, 25.0), focal=(8.0, 8.0, 4.0), up=(0, 0, 1))
+    cm.render_image(pl)
+    world.set_voxels((2, 9, 2), 2)
+    labels[2, 9, 2] = 2
+    assert world.capacity == 3 and len(world.slots) == 3
+    with pytest.raises(MemoryError, match="the edit was not made"):
+        world.set_voxels((10, 10, 2), 3)
+    assert np.array_equal(world.model.labels_in(np.s_[0:16, 0:16, 0:8]), labels)
+    wrong, off, _ = exact_against_one_grid(pl, labels, camera)
+    assert wrong == 0 and off == 0
+    world.set_voxels((3, 9, 3), 3)   # a stored chunk: no new slot
+    labels[3, 9, 3] = 3
+    wrong, off, _ = exact_against_one_grid(pl, labels, camera)
+    assert wrong == 0 and off == 0
+
+
+def test_worlds_the_index_cannot_hold_and_ids_beyond_24_bits():
+    # catches (review): a chunk index over 2048 texels (the far chunks read as empty), two
+    # errors for mode='id' pointing at each other.
+    long = VoxelWorld((8 * 2049, 8, 8), 8, cm.Palette.make(None, 2))
+    assert "over 2048" in why_not_indexed(long, VoxelOptions(proxy="box"))
+    big = VoxelWorld((4096, 64, 72), 64, cm.Palette.make(None, 2))
+    for traversal in (None, "index", "per_chunk"):
+        with pytest.raises(ValueError, match="Crop the grid or use pick"):
+            cm.add_voxels(offscreen_plotter((8, 8)), big, mode="id", world_traversal=traversal)

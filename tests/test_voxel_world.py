@@ -361,9 +361,11 @@ def test_world_filled_chunk_by_chunk_equals_the_split_grid():
         VoxelWorld.from_function(dims, 16, lambda box: np.ones((2, 2, 2), np.uint8))
 
 
-def test_labels_above_255_stay_whole_in_worlds(plotter_factory):
+@BOTH
+def test_labels_above_255_stay_whole_in_worlds(plotter_factory, traversal):
     # catches (seen, review): chunks filed as uint8 while none was stored yet (300 -> 44),
-    # a 401-entry palette overflowing the uint8 visibility lookup.
+    # a 401-entry palette overflowing the uint8 visibility lookup, the pool's texture
+    # object reused after its labels widened to uint16 (it kept GL_R8: 1079 pixels wrong).
     mixed = np.zeros((8, 8, 8), np.uint16)
     mixed[2:5, 2:5, 2:5] = 300
     mixed[0, 0, 0] = 2
@@ -373,16 +375,18 @@ def test_labels_above_255_stay_whole_in_worlds(plotter_factory):
     assert set(np.unique(world.stored[(0, 0, 0)])) == {0, 2, 300}
     labels = terrain_labels()[:32, :32, :16]
     pl = plotter(plotter_factory)
-    actor = cm.add_voxels(pl, labels, mode="face", palette="turbo", chunk_size=16)
+    actor = cm.add_voxels(pl, labels, mode="face", palette="turbo", chunk_size=16,
+                          world_traversal=traversal)
     palette = np.tile([[1.0, 0.0, 0.0, 1.0]], (401, 1))
     big = plotter(plotter_factory)
     cm.add_voxels(big, labels, palette=palette, chunk_size=16)   # builds: no overflow
+    camera = set_camera(pl, (50.0, -20.0, 30.0), focal=(16.0, 16.0, 4.0), up=(0, 0, 1))
+    assert cm.render_image(pl).any()   # uploaded as uint8 first
     actor.cubemarch.model.palette = cm.Palette(np.tile([[1.0, 0.0, 0.0, 1.0]], (301, 1)))
     actor.cubemarch.fill_box((0, 0, 0), (20, 20, 4), 300)   # widens every chunk to uint16
     labels = labels.astype(np.uint16)
     labels[:20, :20, :4] = 300
     assert actor.cubemarch.model.label_type == "uint16"
-    camera = set_camera(pl, (50.0, -20.0, 30.0), focal=(16.0, 16.0, 4.0), up=(0, 0, 1))
     wrong, off, _ = exact_against_one_grid(pl, labels, camera)
     assert wrong == 0 and off == 0
 

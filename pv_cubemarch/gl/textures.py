@@ -52,6 +52,7 @@ class Texture:
         #: Bytes sent to the GPU so far (whole uploads and regions).
         self.uploaded_bytes = 0
         self._regions: list[tuple[tuple[int, int, int], np.ndarray]] = []
+        self._layout = None   # (dtype, components) of the texture object's last upload
         self.rebuild = rebuild
         self.set_data(array)
 
@@ -134,10 +135,16 @@ class Texture:
                 return self.gl_object
             except RuntimeError:   # no partial uploads with this context: upload it whole
                 self.invalidate()
-        if self.gl_object is not None and self._window is not window:
-            self.release()
         if self.array is None:
             self.set_data(self.rebuild())   # dropped after the last upload
+        layout = (self.array.dtype, self.components)
+        if self.gl_object is not None and (self._window is not window
+                                           or layout != self._layout):
+            # Another window, or another texel format (e.g. labels widened to uint16): a
+            # reused texture object keeps its old internal format (seen: uint16 labels read
+            # as GL_R8), so a new one is made.
+            self.release()
+        self._layout = layout
         vtk_type = _VTK_TYPES[self.array.dtype]
         pending_gl_errors()   # older flags are not this upload's
         texture = self.gl_object or vtkTextureObject()

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import voxels as grids
 from .voxels import (
-    MAX_GRID_BYTES,
     MAX_TEXTURE_SIZE,
     atlas_layout,
     atlas_levels,
@@ -70,12 +70,14 @@ class PoolLayout:
 
 
 def pool_layout(chunk_size: int, levels: int, slots: int, itemsize: int = 1,
-                budget: int = MAX_GRID_BYTES) -> PoolLayout | None:
+                budget: int | None = None) -> PoolLayout | None:
     """The smallest pool of at least ``slots`` slots, or None when none fits one texture.
 
     A pool fits when no side is over :data:`~pv_cubemarch.models.voxels.MAX_TEXTURE_SIZE`
-    and it holds at most ``budget`` bytes (``itemsize`` per texel).
+    and it holds at most ``budget`` bytes (``itemsize`` per texel; by default
+    :data:`~pv_cubemarch.models.voxels.MAX_GRID_BYTES`, as one grid).
     """
+    budget = grids.MAX_GRID_BYTES if budget is None else int(budget)
     layout = atlas_layout((int(chunk_size),) * 3, int(levels))
     if layout is None:
         return None

@@ -21,6 +21,7 @@ from ..gl.drawn import DrawnBinding
 from ..gl.textures import Texture
 from ..models.chunk_pool import (
     PoolLayout,
+    chunk_counts,
     chunk_index,
     chunk_shift,
     pool_layout,
@@ -28,7 +29,7 @@ from ..models.chunk_pool import (
     world_filled_bounds,
 )
 from ..models.volume import checked_transform
-from ..models.voxels import atlas_updates, bounds_in_cells, filled_bounds
+from ..models.voxels import MAX_TEXTURE_SIZE, atlas_updates, bounds_in_cells, filled_bounds
 from ..models.world import VoxelWorld
 from .options import VoxelOptions, drawn_level
 from .technique import bind_grid, voxel_recipe
@@ -56,6 +57,10 @@ def why_not_indexed(world: VoxelWorld, options: VoxelOptions) -> str | None:
         return "the distance field is kept per chunk only"
     if options.proxy == "bricks":
         return "brick shells start rays per chunk only"
+    counts = chunk_counts(world)
+    if max(counts) > MAX_TEXTURE_SIZE:
+        return (f"its chunk index would be {counts} texels, over {MAX_TEXTURE_SIZE} on a side: "
+                "use a larger chunk_size")
     levels = index_levels(world, options)
     if levels > shift:
         return (f"its levels stop at the chunk index: mip_levels={levels} is over "
@@ -63,8 +68,6 @@ def why_not_indexed(world: VoxelWorld, options: VoxelOptions) -> str | None:
     if _layout(world, options, len(world.stored)) is None:
         return (f"its {len(world.stored)} stored chunks do not fit one texture of at most "
                 "512 MiB")
-    if options.mode == "id" and int(np.prod(world.dimensions, dtype=np.int64)) + 1 > 1 << 24:
-        return "mode='id' writes 24-bit ids and the world has more voxels"
     return None
 
 
@@ -90,7 +93,7 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
         self.options = options
         self.layout = _layout(world, options, len(world.stored))
         self.slots = {key: slot for slot, key in enumerate(sorted(world.stored))}
-        #: Slots the pool texture has: none while no chunk is stored (a one-texel pool).
+        #: Slots the pool texture has (none when built with no stored chunk: one texel).
         self.capacity = self.layout.capacity if self.slots else 0
         actor = box_actor(np.ones(3), world.world_from_index())
         super().__init__(world, ShaderBindings(actor.GetMapper(), renderer), None)
@@ -101,7 +104,7 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
         self.index = Texture(self._index(), kind="3d", interpolate=False)
         self.palette_texture = Texture(world.palette.rgba.reshape(1, -1, 4), kind="2d",
                                        interpolate=False)
-        self._palette_seen = (id(world.palette), world.palette.version)
+        self._palette_seen = (world.palette, world.palette.version)
         self.drawn_bounds = bounds_in_cells(world_filled_bounds(world), drawn_level(options),
                                             world.dimensions)
         self._place_box()
@@ -167,20 +170,36 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
     def _follow_palette(self) -> None:
         """Upload the palette, and the index it hides chunks in, if either changed."""
         palette = self.model.palette
-        if (id(palette), palette.version) == self._palette_seen:
+        if palette is self._palette_seen[0] and palette.version == self._palette_seen[1]:
             return
-        self._palette_seen = (id(palette), palette.version)
+        self._palette_seen = (palette, palette.version)
         self.palette_texture.set_data(palette.rgba.reshape(1, -1, 4))
         self.index.set_data(self._index())
 
     def _write(self, box, values: np.ndarray) -> None:
-        """Labels into the world; the touched texels of stored slots, new slots, the index."""
+        """Labels into the world; the touched texels of stored slots, new slots, the index.
+
+        An edit whose chunks no pool within one texture holds raises ``MemoryError`` and
+        leaves the world as it was.
+        """
         dtype = self.model.dtype
+        widening = bool(values.size) and int(values.max()) > 255 and dtype == np.uint8
+        needed = len(self.model.stored) + sum(1 for k in self.model.keys_in(box)
+                                              if k not in self.model.stored)
+        room = not widening and (needed <= self.capacity
+                                 or _layout(self.model, self.options, needed) is not None)
+        previous = None if room else self.model.labels_in(box)   # to undo a refused edit
         changed = set(self.model.write(box, values))
-        if self.model.dtype != dtype:   # widened to uint16: every slot again
-            self._reslot()
-        else:
-            self._follow_kinds(changed)
+        try:
+            if self.model.dtype != dtype:   # widened to uint16: every slot again
+                self._reslot()
+            else:
+                self._follow_kinds(changed)
+        except MemoryError:
+            if previous is not None:
+                self._undo(box, previous, dtype)
+            raise
+        if self.model.dtype == dtype:
             for key, inner, _ in self.model.pieces(box):
                 if key in self.model.stored and key not in changed:
                     slot = self.slots[key]
@@ -194,26 +213,44 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
         self._follow_palette()   # a palette set on the model directly
         self._grow_box(box, values)
 
+    def _undo(self, box, previous: np.ndarray, dtype) -> None:
+        """Put back the labels ``previous`` in ``box`` (and the world's label type)."""
+        if self.model.dtype != dtype:
+            self.model.label_type = str(np.dtype(dtype))
+            for key, kept in self.model.stored.items():
+                self.model.stored[key] = kept.astype(dtype)   # the box is written next
+        self.model.write(box, previous)
+
     def _follow_kinds(self, changed: set) -> None:
-        """Give chunks that became stored a slot (and their texels), free the others'."""
-        for key in [k for k in changed if k in self.slots and k not in self.model.stored]:
-            del self.slots[key]
-        arriving = sorted(k for k in changed if k in self.model.stored)
-        free = sorted(set(range(self.capacity)) - set(self.slots.values()))
+        """Give chunks that became stored a slot (and their texels), free the others'.
+
+        A pool with too few free slots is made again with room to spare (nothing changes
+        when even the chunks alone do not fit: ``MemoryError``).
+        """
+        kept = {k: s for k, s in self.slots.items() if k in self.model.stored}
+        arriving = sorted(k for k in changed if k in self.model.stored and k not in kept)
+        free = sorted(set(range(self.capacity)) - set(kept.values()))
         if len(arriving) > len(free):
             self._reslot(growth=POOL_GROWTH)
             return
+        self.slots = kept
         for key, slot in zip(arriving, free, strict=False):
             self.slots[key] = slot
             self.pool.update_region(self.layout.slot_origin(slot), self._slot(key))
 
     def _reslot(self, growth: float = 1.0) -> None:
-        """A new pool for every stored chunk (``growth`` times as many slots), uploaded whole."""
+        """A new pool for every stored chunk, uploaded whole.
+
+        ``growth`` times as many slots if they fit one texture, else exactly as many;
+        ``MemoryError`` (nothing changed) when even those do not fit.
+        """
         count = len(self.model.stored)
-        layout = _layout(self.model, self.options, max(int(np.ceil(count * growth)), count))
+        layout = (_layout(self.model, self.options, max(int(np.ceil(count * growth)), count))
+                  or _layout(self.model, self.options, count))
         if layout is None:
-            raise MemoryError(f"{count} stored chunks no longer fit one texture of at most "
-                              "512 MiB: draw the world with world_traversal='per_chunk'.")
+            raise MemoryError(f"{count} stored chunks do not fit one texture of at most "
+                              "512 MiB: the edit was not made. Draw the world with "
+                              "world_traversal='per_chunk' for edits this large.")
         self.layout = layout
         self.slots = {key: slot for slot, key in enumerate(sorted(self.model.stored))}
         self.capacity = layout.capacity if self.slots else 0

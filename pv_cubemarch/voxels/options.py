@@ -141,7 +141,11 @@ class VoxelOptions:
             raise ValueError(f"A grid of {model.dimensions} voxels is over {MAX_TEXTURE_SIZE} "
                              "voxels on a side, the largest 3D texture assumed here; draw it "
                              "in chunks (add_voxels(..., chunk_size=256)).")
-        voxels = int(np.prod(model.dimensions))
+        self.check_ids(model.dimensions)
+
+    def check_ids(self, dimensions) -> None:
+        """Refuse ``mode='id'`` on a grid (or world) with more voxels than 24-bit ids."""
+        voxels = int(np.prod([int(n) for n in dimensions], dtype=np.int64))
         if self.mode == "id" and voxels + 1 > 1 << 24:
             raise ValueError(f"mode='id' writes voxel ids as 24-bit colour; a grid of "
                              f"{voxels:,} voxels has more. Crop the grid or use pick().")
