@@ -435,8 +435,12 @@ def add_voxels(
         chunk, so chunks behind the camera or behind nearer ground cost nothing).
         ``'per_chunk'``: a box per chunk, culled against the view and the world's solid
         faces, drawn far to near. ``None`` (default): ``'index'`` where its pool fits one
-        texture and the options allow it (a power-of-two ``chunk_size``, no
-        ``distance_field``, ``proxy`` not ``'bricks'``), else ``'per_chunk'``.
+        texture and the options allow it (a power-of-two ``chunk_size``, at most 2048
+        chunks a side, ``mip_levels`` at most ``log2(chunk_size)``, no
+        ``distance_field``, ``proxy`` not ``'bricks'``), else ``'per_chunk'``. With
+        ``'index'``, ``lod`` cells reach at most half a chunk. Either way, change colours
+        with ``actor.cubemarch.set_material`` (a palette changed on the model directly is
+        drawn only after the next edit).
     chunk_size : int, optional
         Draw the grid in chunks of this edge (empty chunks cost nothing, a chunk of one
         label one byte); grids over 2048 voxels on a side (the largest 3D texture here) or

@@ -58,7 +58,8 @@ class VoxelOptions:
     the whole world, stepping through a chunk index (empty chunks left in one step, stored
     ones read from a pool of slots); ``'per_chunk'``, a box per chunk, culled and ordered
     (:mod:`pv_cubemarch.voxels.world`); ``None``: ``'index'`` where its pool fits one
-    texture and the options allow it, else ``'per_chunk'``.
+    texture and the options allow it (:func:`pv_cubemarch.voxels.indexed.why_not_indexed`
+    says why not), else ``'per_chunk'``.
     """
 
     traversal: str = "dda"
