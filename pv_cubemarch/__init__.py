@@ -11,7 +11,7 @@ from .core.offscreen import configure_offscreen
 configure_offscreen()
 
 from . import plugin  # noqa: E402  (registers plotter.cubemarch for explicit imports too)
-from .api import add_volume, add_volumes, add_voxels  # noqa: E402
+from .api import add_surface, add_volume, add_volumes, add_voxels  # noqa: E402
 from .core.camera import Camera  # noqa: E402
 from .core.errors import (  # noqa: E402
     CubemarchError,
@@ -30,6 +30,7 @@ from .gl.shaders import Replacement, ShaderRecipe  # noqa: E402
 from .gl.textures import Texture  # noqa: E402
 from .models.group import VolumeGroup  # noqa: E402
 from .models.lights import VolumeLight  # noqa: E402
+from .models.surface import SplineField, make_field  # noqa: E402
 from .models.transfer import TransferFunction  # noqa: E402
 from .models.volume import VolumeModel, make_volume  # noqa: E402
 from .models.voxels import Palette, VoxelModel, make_voxels  # noqa: E402
@@ -45,8 +46,8 @@ __all__ = [
     "SceneLoadError", "SceneMesh", "ShaderBindings",
     "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "Texture", "TransferFunction",
     "VolumeDataError", "VolumeGroup", "VolumeLight", "VolumeModel", "add_volume",
-    "add_volumes", "add_voxels", "configure_offscreen", "make_voxels", "Palette",
-    "VoxelModel", "gl_info",
+    "add_surface", "add_volumes", "add_voxels", "SplineField", "make_field",
+    "configure_offscreen", "make_voxels", "Palette", "VoxelModel", "gl_info",
     "load_scene", "make_volume", "offscreen_plotter", "plugin", "render_emission_absorption",
     "render_frame", "render_image",
 ]

@@ -15,9 +15,11 @@ from .core.registry import get_technique
 from .gl.overlay import bounds_proxy
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
+from .models.surface import make_field
 from .models.volume import VolumeModel, make_volume
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
+from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.light_map import LightMap
@@ -502,5 +504,102 @@ def add_voxels(
     binding = chosen.build(plotter, model, options)
     actor = _place(plotter, binding, name or model.name)
     component.track(binding)
+    _frame(plotter)
+    return actor
+
+
+def add_surface(
+    plotter: pyvista.Plotter,
+    field,
+    isovalue: float | None = None,
+    scalars: str | None = None,
+    *,
+    technique: str = "active",
+    steps: int = 500,
+    refine_steps: int = 10,
+    active_test: str = "bernstein",
+    active_samples: int = 4,
+    color="white",
+    shading: str = "blinn",
+    ambient: float = 0.2,
+    specular: float = 0.3,
+    specular_power: float = 30.0,
+    transform=None,
+    name: str | None = None,
+) -> pyvista.Actor:
+    """Draw the implicit surface f = 0 of a field, per pixel, from its cells' polynomials.
+
+    The field is a uniform quadratic B-spline (the seed 003's): each cell's 27 coefficients
+    make a polynomial evaluated in the cell's own coordinates; with the default
+    ``technique='active'`` only the cells the surface can cross are stored and drawn, and
+    each pixel's ray is marched only inside them. The hit's real depth is written, so
+    meshes and other techniques occlude the surface and are occluded by it.
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter
+        The plotter to draw in.
+    field : SplineField, numpy.ndarray or pyvista.ImageData
+        A :class:`~pv_cubemarch.models.surface.SplineField` (e.g. from raw coefficients:
+        ``SplineField(coefficients)`` with ``(nx + 2, ny + 2, nz + 2)`` of them), or
+        samples (one per cell: a 3D array indexed x, y, z, or an ImageData's cell or point
+        data) whose ``isovalue`` surface is drawn, the inside where they exceed it.
+    isovalue : float, optional
+        The level of sampled data to draw (required for samples).
+    scalars : str, optional
+        The ImageData array; the first cell (then point) array by default.
+    technique : str
+        ``'active'`` (default): the seed's active cells. ``'full'``: the seed's baseline,
+        every ray marched through the whole domain with every cell's coefficients.
+    steps : int
+        The seed's M: samples along the domain's diagonal (in cells); each cell crossed is
+        sampled every ``diagonal / steps`` from where the ray enters it and at its exit.
+        More steps miss fewer thin features and grazing hits, at a cost.
+    refine_steps : int
+        Bisections of the first sign change (the seed's 10): the depth error halves with
+        each.
+    active_test : str
+        ``'bernstein'`` (default, exact: a cell is kept when its Bernstein coefficients
+        change sign, so no crossed cell is ever left out) or ``'sample'`` (the seed's: the
+        field at ``active_samples``³ points per cell changes sign; misses thin features).
+    active_samples : int
+        Points per axis per cell of ``active_test='sample'``.
+    color : ColorLike
+        The surface's colour.
+    shading : str
+        ``'blinn'`` (default), ``'flat'`` or ``'unlit'``: the scene's lights (up to 8) on the
+        analytic normal, both sides lit; ``ambient``, ``specular``, ``specular_power`` as
+        for voxels.
+    ambient, specular, specular_power : float
+        The share of unlit colour (0-1), the highlight's weight (0-1) and exponent.
+    transform : array_like, optional
+        4x4 placement of the field in the world.
+    name : str, optional
+        The actor's name in the plotter.
+
+    Returns
+    -------
+    pyvista.Actor
+        The surface's actor; ``actor.cubemarch`` holds the field (``model``), the active
+        cells (``cells``) and the GPU bytes (``nbytes``, against ``dense_bytes``).
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv, pv_cubemarch as cm
+    >>> x, y, z = np.mgrid[-1:1:32j, -1:1:32j, -1:1:32j]
+    >>> pl = pv.Plotter(off_screen=True)
+    >>> actor = cm.add_surface(pl, 0.8 - (x**2 + y**2 + z**2), isovalue=0.0)
+    """
+    chosen = get_technique("surface", technique)
+    options = chosen.make_options(dict(
+        steps=steps, refine_steps=refine_steps, active_test=active_test,
+        active_samples=active_samples, color=color, shading=shading, ambient=ambient,
+        specular=specular, specular_power=specular_power))
+    model = make_field(field, isovalue, scalars, transform=transform,
+                       name=name or getattr(field, "name", "surface"))
+    options.check_model(model)
+    binding = chosen.build(plotter, model, options)
+    actor = _place(plotter, binding, name or model.name)
+    plotter.cubemarch.track(binding)
     _frame(plotter)
     return actor

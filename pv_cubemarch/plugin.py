@@ -12,7 +12,7 @@ import pyvista
 import vtk
 from PIL import Image
 
-from .api import add_volume, add_voxels
+from .api import add_surface, add_volume, add_voxels
 from .core.frame_errors import observe
 from .core.rendering import render_frame, render_image
 from .gl.frame_inputs import MultisamplePolicy, release_frame_inputs
@@ -111,6 +111,10 @@ class CubemarchComponent:
     def add_voxels(self, grid, scalars=None, **kwargs):
         """Same as :func:`pv_cubemarch.add_voxels` on this plotter."""
         return add_voxels(self._plotter, grid, scalars, **kwargs)
+
+    def add_surface(self, field, isovalue=None, scalars=None, **kwargs):
+        """Same as :func:`pv_cubemarch.add_surface` on this plotter."""
+        return add_surface(self._plotter, field, isovalue, scalars, **kwargs)
 
     def add_scene(self, scene, camera=None):
         """Add a :class:`~pv_cubemarch.Scene` (or a path to one) to this plotter."""

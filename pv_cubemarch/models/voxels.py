@@ -170,6 +170,41 @@ def checked_labels(array, name: str = "labels") -> np.ndarray:
     return np.ascontiguousarray(array.astype(dtype))   # a copy: edits leave the input be
 
 
+def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndarray,
+                                                                         np.ndarray]:
+    """An ImageData's array as one sample per cell, and the 4x4 placing those cells.
+
+    Cell data: one cell per ImageData cell. Point data: one cell centred on each point, a
+    spacing wide. ``scalars``: the array (the first cell, then point array by default).
+    Returns ``(values indexed x, y, z, grid_from_index)`` (cell ``(i, j, k)`` spans
+    ``[i, i+1]`` per axis of index space).
+    """
+    names = list(data.cell_data.keys()) + list(data.point_data.keys())
+    if scalars is None:
+        if not names:
+            raise VolumeDataError("The grid has no arrays; add the values to cell_data or "
+                                  "point_data.")
+        scalars = names[0]
+    direction = np.asarray(data.direction_matrix, dtype=np.float64)
+    spacing = np.asarray(data.spacing, dtype=np.float64)
+    origin = np.asarray(data.origin, dtype=np.float64)
+    if scalars in data.cell_data:
+        shape = tuple(max(int(n) - 1, 1) for n in data.dimensions)
+        values = np.asarray(data.cell_data[scalars]).reshape(shape, order="F")
+        start = origin
+    elif scalars in data.point_data:
+        shape = tuple(int(n) for n in data.dimensions)
+        values = np.asarray(data.point_data[scalars]).reshape(shape, order="F")
+        start = origin - direction @ (spacing / 2.0)
+    else:
+        raise VolumeDataError(f"scalars={scalars!r} is not an array of the grid; it has "
+                              f"{names}.")
+    grid_from_index = np.eye(4)
+    grid_from_index[:3, :3] = direction * spacing
+    grid_from_index[:3, 3] = start
+    return values, grid_from_index
+
+
 def make_voxels(data, scalars: str | None = None, *, palette=None, transform=None,
                 name: str = "voxels") -> VoxelModel:
     """Validate a material grid and bundle it with a palette into a :class:`VoxelModel`.
@@ -178,31 +213,11 @@ def make_voxels(data, scalars: str | None = None, *, palette=None, transform=Non
     origin), or a ``pyvista.ImageData`` whose cell data (one voxel per cell) or point data
     (one voxel centred on each point, a spacing wide) holds the labels.
     """
-    grid_from_index = np.eye(4)
     if isinstance(data, pyvista.ImageData):
-        names = list(data.cell_data.keys()) + list(data.point_data.keys())
-        if scalars is None:
-            if not names:
-                raise VolumeDataError("The grid has no arrays; add the labels to cell_data.")
-            scalars = names[0]
-        direction = np.asarray(data.direction_matrix, dtype=np.float64)
-        spacing = np.asarray(data.spacing, dtype=np.float64)
-        origin = np.asarray(data.origin, dtype=np.float64)
-        if scalars in data.cell_data:
-            shape = tuple(max(int(n) - 1, 1) for n in data.dimensions)
-            values = np.asarray(data.cell_data[scalars]).reshape(shape, order="F")
-            start = origin
-        elif scalars in data.point_data:
-            shape = tuple(int(n) for n in data.dimensions)
-            values = np.asarray(data.point_data[scalars]).reshape(shape, order="F")
-            start = origin - direction @ (spacing / 2.0)
-        else:
-            raise VolumeDataError(f"scalars={scalars!r} is not an array of the grid; it has "
-                                  f"{names}.")
-        grid_from_index[:3, :3] = direction * spacing
-        grid_from_index[:3, 3] = start
-        labels = checked_labels(values, scalars)
+        values, grid_from_index = image_samples(data, scalars)
+        labels = checked_labels(values, scalars or "labels")
     else:
+        grid_from_index = np.eye(4)
         labels = checked_labels(data)
     matrix = np.eye(4) if transform is None else checked_transform(transform)
     if abs(np.linalg.det(grid_from_index[:3, :3])) < 1e-300:

@@ -23,8 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.camera import Camera
-from ..models.surface import SplineField, bernstein_basis
+from ..models.lights import VolumeLight
+from ..models.surface import SplineField, active_cells, bernstein_basis
 from .rays import ray_box_interval
+from .shading import blinn_phong
 
 #: Sample intervals per cell segment in which the first sign change is looked for.
 BRACKETS = 256
@@ -194,3 +196,33 @@ def _at(beta: np.ndarray, o: np.ndarray, d: np.ndarray, cells: np.ndarray,
     local = np.clip(o + d * t[:, None] - cells, 0.0, 1.0)
     bu, bv, bw = (bernstein_basis(local[:, a]) for a in range(3))
     return np.einsum("mabc,ma,mb,mc->m", beta, bu, bv, bw, optimize=True)
+
+
+def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
+                   color: Sequence[float] = (1.0, 1.0, 1.0),
+                   background: Sequence[float] = (0.0, 0.0, 0.0), near: float = 0.0,
+                   lights: Sequence[VolumeLight] = (), shading: str = "unlit",
+                   ambient: float = 0.2, specular: float = 0.3,
+                   specular_power: float = 30.0) -> np.ndarray:
+    """Render the surface f = 0: each pixel its first root's (lit) colour, both sides lit.
+
+    The normal at the hit faces the eye (open surfaces show their back lit as their front);
+    lighting as :func:`~pv_cubemarch.reference.shading.blinn_phong`. Returns ``(height,
+    width, 3)`` float64 RGB.
+    """
+    if shading not in ("unlit", "flat", "blinn"):
+        raise ValueError(f"shading must be 'unlit', 'flat' or 'blinn', got {shading!r}.")
+    width, height = (int(v) for v in size)
+    hits = trace_surface(field, active_cells(field), camera, (width, height), near=near)
+    image = np.empty((height, width, 3))
+    image[...] = np.asarray(background, dtype=np.float64)
+    hit = hits.hit
+    _, directions = camera.rays((width, height))
+    toward_eye = -directions[hit]
+    normals = hits.normal[hit]
+    normals = np.where(np.sum(normals * toward_eye, axis=1, keepdims=True) < 0, -normals,
+                       normals)
+    base = np.broadcast_to(np.asarray(color, dtype=np.float64), normals.shape)
+    image[hit] = np.clip(blinn_phong(base, normals, hits.point[hit], toward_eye, lights,
+                                     shading, ambient, specular, specular_power), 0.0, 1.0)
+    return image

@@ -56,6 +56,7 @@ import numpy as np
 from ..core.camera import Camera
 from ..models.lights import VolumeLight
 from .rays import ray_box_interval
+from .shading import blinn_phong
 
 
 @dataclass
@@ -410,24 +411,8 @@ def render_voxels(
         toward_eye = -directions[hit]
         points = origins[hit] + directions[hit] * hits.depth[hit][:, None]
         normals = face_normals(hits.face[hit], world_from_index, toward_eye)
-        diffuse = np.zeros_like(color)
-        shine = np.zeros_like(color)
-        for light in lights:
-            if light.kind == "point":
-                toward = np.asarray(light.position, dtype=np.float64) - points
-            else:
-                toward = np.broadcast_to(-np.asarray(light.direction, dtype=np.float64),
-                                         points.shape)
-            toward = toward / np.linalg.norm(toward, axis=1, keepdims=True)
-            diffuse += np.clip(np.sum(normals * toward, axis=1), 0, None)[:, None] \
-                * light.radiance
-            if shading == "blinn":
-                half = toward + toward_eye
-                half /= np.maximum(np.linalg.norm(half, axis=1, keepdims=True), 1e-300)
-                shine += np.clip(np.sum(normals * half, axis=1), 0, None)[:, None] \
-                    ** specular_power * light.radiance
-        color = color * occlusion[:, None] * (ambient + (1.0 - ambient) * diffuse) \
-            + specular * shine
+        color = blinn_phong(color * occlusion[:, None], normals, points, toward_eye, lights,
+                            shading, ambient, specular, specular_power)
     image[hit] = np.clip(color, 0.0, 1.0)
     return image
 

@@ -1,0 +1,30 @@
+// Active cells (003, the seed's proposed method): each fragment of an active cell's back
+// faces marches its pixel's ray within that cell only, from where the ray enters it (or the
+// near plane: the camera inside the cell) to where it leaves; the depth test keeps the
+// nearest hit of all cells along the ray. The cell is the primitive's: 12 triangles each,
+// in the order of cm_cells. Followed by surface_hit.glsl (one block of main: cm_ names).
+  int cm_cell = gl_PrimitiveID / 12;
+  int cm_base = cm_cell * CM_CELL_FLOATS;
+  vec3 cm_corner = vec3(texelFetch(cm_cells, cm_base).r, texelFetch(cm_cells, cm_base + 1).r,
+                        texelFetch(cm_cells, cm_base + 2).r);
+  vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
+  vec3 cm_originView, cm_directionView;
+  cm_pixelRay(cm_pixel * 2.0 - 1.0, cm_originView, cm_directionView);
+  vec3 cm_origin = (cm_textureFromView * vec4(cm_originView, 1.0)).xyz - cm_corner;
+  vec3 cm_direction = mat3(cm_textureFromView) * cm_directionView;
+  vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(0.0), vec3(1.0));
+  float cm_start = max(cm_span.x, cm_near);
+  if (!(cm_span.y > cm_start))
+  {
+    discard;
+  }
+  cm_loadCell(cm_cell);
+  vec3 cm_a = cm_origin + cm_direction * cm_start;
+  vec3 cm_b = cm_origin + cm_direction * cm_span.y;
+  float cm_s = cm_marchCell(cm_a, cm_b);
+  if (cm_s < 0.0)
+  {
+    discard;
+  }
+  float cm_depth = mix(cm_start, cm_span.y, cm_s);
+  vec3 cm_local = clamp(mix(cm_a, cm_b, cm_s), 0.0, 1.0);

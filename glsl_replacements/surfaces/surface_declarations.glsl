@@ -1,0 +1,71 @@
+// Polynomial surfaces (003): declarations. Cell (i, j, k) spans [i, i+1] x [j, j+1] x [k, k+1]
+// of cell space (cm_textureFromView maps view to it); its field is the quadratic tensor
+// Bernstein polynomial sum beta[a][b][c] B_a(u) B_b(v) B_c(w) in cell-local (u, v, w) in
+// [0, 1]^3 (models/surface.py), kept local: global powers lose all precision in float32.
+// cm_cells holds CM_CELL_FLOATS floats per cell: with CM_CELL_CORNERS its corner (i, j, k)
+// first, then its 27 coefficients, a slowest, c fastest.
+uniform samplerBuffer cm_cells;
+uniform vec3 cm_gridDims;        // cells along x, y, z
+uniform float cm_near;           // the near plane's view depth
+uniform float cm_stepLength;     // cell units between samples (the domain's diagonal / M)
+uniform int cm_refineSteps;      // bisections of the first sign change
+uniform vec3 cm_surfaceColor;
+
+float cm_beta[27];               // the cell being marched
+
+#ifdef CM_CELL_CORNERS
+#define CM_CELL_FLOATS 30
+#define CM_FIRST_COEFFICIENT 3
+#else
+#define CM_CELL_FLOATS 27
+#define CM_FIRST_COEFFICIENT 0
+#endif
+
+// Read cell `number`'s 27 coefficients into cm_beta.
+void cm_loadCell(int number)
+{
+  int base = number * CM_CELL_FLOATS + CM_FIRST_COEFFICIENT;
+  for (int n = 0; n < 27; ++n)
+  {
+    cm_beta[n] = texelFetch(cm_cells, base + n).r;
+  }
+}
+
+vec3 cm_basis(float u)
+{
+  return vec3((1.0 - u) * (1.0 - u), 2.0 * u * (1.0 - u), u * u);
+}
+
+vec3 cm_basisDerivative(float u)
+{
+  return vec3(-2.0 * (1.0 - u), 2.0 - 4.0 * u, 2.0 * u);
+}
+
+// The field of the loaded cell at local `u`, from the three axes' basis values.
+float cm_tensor(vec3 bu, vec3 bv, vec3 bw)
+{
+  float f = 0.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    for (int b = 0; b < 3; ++b)
+    {
+      int n = 9 * a + 3 * b;
+      f += bu[a] * bv[b] * dot(vec3(cm_beta[n], cm_beta[n + 1], cm_beta[n + 2]), bw);
+    }
+  }
+  return f;
+}
+
+float cm_field(vec3 u)
+{
+  return cm_tensor(cm_basis(u.x), cm_basis(u.y), cm_basis(u.z));
+}
+
+// The loaded cell's gradient per cell unit at local `u`.
+vec3 cm_fieldGradient(vec3 u)
+{
+  vec3 bu = cm_basis(u.x), bv = cm_basis(u.y), bw = cm_basis(u.z);
+  return vec3(cm_tensor(cm_basisDerivative(u.x), bv, bw),
+              cm_tensor(bu, cm_basisDerivative(u.y), bw),
+              cm_tensor(bu, bv, cm_basisDerivative(u.z)));
+}

@@ -1,0 +1,55 @@
+// The whole domain (003, the seed's conventional ray marching, kept as the baseline): each
+// fragment of the domain box's back faces marches its pixel's ray from where it enters the
+// domain (or the near plane) to where it leaves, every cm_stepLength cell units, each sample
+// in its own cell's polynomial (dense: cell n's coefficients at 27 n, loaded when the ray
+// enters the cell), the exit sampled last; the first sign change is bisected. Followed by
+// surface_hit.glsl.
+  vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
+  vec3 cm_originView, cm_directionView;
+  cm_pixelRay(cm_pixel * 2.0 - 1.0, cm_originView, cm_directionView);
+  vec3 cm_origin = (cm_textureFromView * vec4(cm_originView, 1.0)).xyz;
+  vec3 cm_direction = mat3(cm_textureFromView) * cm_directionView;
+  vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
+  float cm_start = max(cm_span.x, cm_near);
+  if (!(cm_span.y > cm_start))
+  {
+    discard;
+  }
+  float cm_cells = length(cm_direction) * (cm_span.y - cm_start);   // cell units
+  int cm_count = max(int(ceil(cm_cells / cm_stepLength)), 1);
+  float cm_dt = (cm_span.y - cm_start) * cm_stepLength / max(cm_cells, 1e-30);
+  float cm_t0 = cm_start;
+  float cm_f0 = cm_fieldAt(cm_origin + cm_direction * cm_t0);
+  float cm_depth = cm_f0 == 0.0 ? cm_t0 : -1.0;
+  for (int cm_k = 1; cm_k <= cm_count && cm_depth < 0.0; ++cm_k)
+  {
+    float cm_t1 = min(cm_start + float(cm_k) * cm_dt, cm_span.y);
+    float cm_f1 = cm_fieldAt(cm_origin + cm_direction * cm_t1);
+    if (cm_f0 * cm_f1 <= 0.0)
+    {
+      for (int cm_r = 0; cm_r < cm_refineSteps; ++cm_r)
+      {
+        float cm_t = 0.5 * (cm_t0 + cm_t1);
+        float cm_f = cm_fieldAt(cm_origin + cm_direction * cm_t);
+        if (cm_f0 * cm_f > 0.0)
+        {
+          cm_t0 = cm_t;
+          cm_f0 = cm_f;
+        }
+        else
+        {
+          cm_t1 = cm_t;
+        }
+      }
+      cm_depth = cm_refineSteps == 0 ? cm_t1 : 0.5 * (cm_t0 + cm_t1);
+    }
+    cm_t0 = cm_t1;
+    cm_f0 = cm_f1;
+  }
+  if (cm_depth < 0.0)
+  {
+    discard;
+  }
+  vec3 cm_point = cm_origin + cm_direction * cm_depth;
+  cm_fieldAt(cm_point);   // loads the hit's cell
+  vec3 cm_local = clamp(cm_point - vec3(cm_loadedCell), 0.0, 1.0);

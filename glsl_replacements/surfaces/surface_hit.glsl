@@ -1,0 +1,14 @@
+  // The hit (cm_depth along the view ray, cm_local in the loaded cell): the analytic
+  // gradient's normal (pointing out: the field is positive inside), lit on the side facing
+  // the eye, and the hit's real depth, so meshes and other techniques occlude exactly.
+  vec3 cm_hitView = cm_originView + cm_directionView * cm_depth;
+#ifdef CM_LIGHTING
+  vec3 cm_towardEye = -normalize(cm_directionView);
+  vec3 cm_normal = normalize(cm_normalFromIndex * -cm_fieldGradient(cm_local));
+  cm_normal = dot(cm_normal, cm_towardEye) < 0.0 ? -cm_normal : cm_normal;
+  fragOutput0 = vec4(cm_shade(cm_surfaceColor, cm_normal, cm_hitView, cm_towardEye), 1.0);
+#else
+  fragOutput0 = vec4(cm_surfaceColor, 1.0);
+#endif
+  vec4 cm_clip = cm_projection * vec4(cm_hitView, 1.0);
+  gl_FragDepth = clamp(cm_clip.z / cm_clip.w * 0.5 + 0.5, 0.0, 1.0);

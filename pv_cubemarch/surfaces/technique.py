@@ -1,0 +1,182 @@
+"""Implicit surfaces drawn per pixel from their cells' polynomials (003).
+
+``'active'`` (the seed's method): the back faces of the active cells' boxes (12 triangles
+a cell, sharing their corners), each fragment marching its ray inside its own cell, found
+from the primitive's number (no per-vertex index: the seed's 7 floats on 36 vertices per
+cell become 12 triangles of shared corners); the cells' corners and 27 Bernstein
+coefficients in one texture buffer (the seed's SSBO). ``'full'`` (the seed's baseline):
+the domain's box, each ray marched through every cell, with every cell's coefficients.
+Both write the hit's real depth: the depth test keeps the nearest hit of all cells, and
+meshes and other techniques occlude and are occluded.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyvista
+import vtk
+
+from ..core.registry import Technique, register_technique
+from ..gl.bindings import ShaderBindings
+from ..gl.box import bind_camera, box_actor, place_box
+from ..gl.drawn import DrawnBinding
+from ..gl.lights import bind_scene_lights
+from ..gl.shaders import Replacement, ShaderRecipe
+from ..gl.textures import Texture
+from ..models.surface import SplineField, active_cells
+from ..reference.surfaces import render_surface
+from .options import SurfaceOptions
+
+#: The 12 triangles of a unit cell, as corners ``x + 2 y + 4 z``, wound outward.
+CELL_TRIANGLES = np.array([
+    [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5],      # x = 0, x = 1
+    [0, 1, 5], [0, 5, 4], [2, 6, 7], [2, 7, 3],      # y = 0, y = 1
+    [0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6],      # z = 0, z = 1
+])
+CORNERS = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)])
+
+
+def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
+    """The replacements of ``technique`` (``'active'`` or ``'full'``) with ``options``."""
+    lit = options.shading != "unlit"
+    dense = ("surface_dense",) if technique == "full" else ()
+    march = ("surface_march",) if technique == "active" else ()
+    return ShaderRecipe(replacements=[
+        Replacement("//VTK::Color::Dec",
+                    ("camera_declarations", "slab", "pixel_ray", "surface_declarations",
+                     *dense, *march, *(("blinn_phong",) if lit else ())), keep_tag="after"),
+        Replacement("//VTK::Light::Impl", (f"surface_{technique}_fragment", "surface_hit"),
+                    keep_tag="before"),
+        Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
+                    keep_tag="before"),
+    ], defines={"CM_CELL_CORNERS": technique == "active", "CM_LIGHTING": lit,
+                "CM_SPECULAR": lit and options.shading == "blinn"})
+
+
+def cell_boxes(cells: np.ndarray) -> pyvista.PolyData:
+    """The boxes of ``cells`` (``(n, 3)``) as 12 triangles each, in order, corners shared."""
+    cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
+    corners = (cells[:, None, :] + CORNERS[None, :, :]).reshape(-1, 3)
+    points, index = np.unique(corners, axis=0, return_inverse=True)
+    triangles = index.reshape(-1, 8)[:, CELL_TRIANGLES].reshape(-1, 3)
+    faces = np.hstack([np.full((len(triangles), 1), 3), triangles]).ravel()
+    return pyvista.PolyData(points.astype(np.float64), faces=faces)
+
+
+def cell_buffer(field: SplineField, cells: np.ndarray, corners: bool) -> np.ndarray:
+    """Per cell (float32): with ``corners`` its corner (i, j, k), then its 27 coefficients."""
+    beta = field.cell_bernstein(cells).reshape(len(cells), 27)
+    if corners:
+        beta = np.hstack([np.asarray(cells, dtype=np.float64).reshape(-1, 3), beta])
+    return beta.astype(np.float32).ravel()
+
+
+class SurfaceBinding(DrawnBinding):
+    """What ``actor.cubemarch`` holds for a surface: the field, its cells, the textures."""
+
+    technique = "surface"
+    needs_single_sample = True   # a pixel's hit is one ray's, as for voxels
+
+    def __init__(self, field: SplineField, bindings: ShaderBindings, recipe: ShaderRecipe,
+                 buffer: Texture, options: SurfaceOptions, cells: np.ndarray | None):
+        super().__init__(field, bindings, recipe)
+        self.buffer = buffer
+        self.options = options
+        #: The active cells drawn (``'active'``), or None (``'full'``: every cell).
+        self.cells = cells
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes: the coefficient buffer and the drawn geometry (points, triangles)."""
+        polydata = self.drawn[0].GetMapper().GetInput()
+        geometry = 4 * 3 * polydata.GetNumberOfPoints() + 4 * 3 * polydata.GetNumberOfCells()
+        return self.buffer.nbytes + geometry
+
+    @property
+    def dense_bytes(self) -> int:
+        """What the seed's dense layout takes: 27 floats per cell of the grid."""
+        return 27 * 4 * int(np.prod(self.model.dimensions))
+
+    def set_transform(self, transform) -> None:
+        """Move the surface: ``transform`` is its new 4x4 placement in the world."""
+        self.model.transform = np.asarray(transform, dtype=np.float64)
+        place_box(self.drawn[0], self.model.world_from_index())
+        if self.main_renderer is not None:
+            self.main_renderer.ResetCameraClippingRange()
+
+    def release(self) -> None:
+        """Free the buffer and the observers (once)."""
+        if self._released:
+            return
+        self._released = True
+        self.bindings.release()
+        self.buffer.release()
+
+
+def _build(plotter, field: SplineField, options: SurfaceOptions,
+           technique: str) -> SurfaceBinding:
+    """The actor of ``field``'s surface drawn by ``technique``; returns its binding."""
+    renderer = plotter.renderer
+    dims = field.dimensions
+    if technique == "active":
+        cells = active_cells(field, options.active_test, options.active_samples)
+        mapper = vtk.vtkOpenGLPolyDataMapper()
+        mapper.SetInputData(cell_boxes(cells) if len(cells) else pyvista.PolyData())
+        actor = pyvista.Actor()
+        actor.SetMapper(mapper)
+        place_box(actor, field.world_from_index())
+        buffer = cell_buffer(field, cells, corners=True)
+    else:
+        cells = None
+        actor = box_actor(np.asarray(dims, dtype=np.float64), field.world_from_index(),
+                          margin=0.01 * max(dims))
+        buffer = cell_buffer(field, np.argwhere(np.ones(dims[::-1], bool))[:, ::-1],
+                             corners=False)
+    actor.ForceTranslucentOff()
+    actor.ForceOpaqueOn()
+    actor.GetProperty().LightingOff()
+    mapper = actor.GetMapper()
+    mapper.ScalarVisibilityOff()
+    bindings = ShaderBindings(mapper, renderer)
+    texture = bindings.add_texture("cm_cells", Texture(buffer if len(buffer) else
+                                                       np.zeros(1, np.float32), kind="buffer"))
+    bindings.set_uniform("cm_gridDims", tuple(float(n) for n in dims))
+    bindings.set_uniform("cm_stepLength", options.step_length(dims))
+    bindings.set_uniform("cm_refineSteps", int(options.refine_steps))
+    bindings.set_uniform("cm_surfaceColor", options.rgb)
+    bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
+    bind_camera(bindings, renderer, field.world_from_index)
+    if options.shading != "unlit":
+        bind_scene_lights(bindings, renderer, field.world_from_index)
+        bindings.set_uniform("cm_ambient", float(options.ambient))
+        bindings.set_uniform("cm_specular", float(options.specular))
+        bindings.set_uniform("cm_specularPower", float(options.specular_power))
+    recipe = surface_recipe(options, technique)
+    bindings.recipe = recipe
+    recipe.apply(actor.GetShaderProperty())
+    binding = SurfaceBinding(field, bindings, recipe, texture, options, cells)
+    binding.drawn = [actor]
+    binding.renderer = renderer
+    pyvista.set_new_attribute(actor, "cubemarch", binding)
+    return binding
+
+
+def build_active(plotter, field: SplineField, options: SurfaceOptions) -> SurfaceBinding:
+    """The active cells' boxes, each fragment marching its own cell (the seed's method)."""
+    return _build(plotter, field, options, "active")
+
+
+def build_full(plotter, field: SplineField, options: SurfaceOptions) -> SurfaceBinding:
+    """The domain's box, each ray marched through the whole grid (the seed's baseline)."""
+    return _build(plotter, field, options, "full")
+
+
+register_technique(Technique(
+    name="active", kind="surface", options=SurfaceOptions, build=build_active,
+    reference=render_surface,
+    summary="f = 0 of a quadratic B-spline field, marched only in the cells it crosses (003)"))
+register_technique(Technique(
+    name="full", kind="surface", options=SurfaceOptions, build=build_full,
+    reference=render_surface,
+    summary="f = 0 of a quadratic B-spline field, marched through the whole domain (003's "
+            "baseline)"))
