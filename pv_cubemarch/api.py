@@ -8,6 +8,7 @@ is placed in the plotter the same way for every technique.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import pyvista
 
@@ -598,6 +599,10 @@ def add_surface(
     model = make_field(field, isovalue, scalars, transform=transform,
                        name=name or getattr(field, "name", "surface"))
     options.check_model(model)
+    low, high = float(model.coefficients.min()), float(model.coefficients.max())
+    if low > 0.0 or high < 0.0:   # the field is a convex combination of its coefficients
+        warnings.warn(f"The field has no zero (its coefficients lie in [{low:g}, {high:g}]): "
+                      "nothing is drawn. Check the isovalue or the field's sign.", stacklevel=2)
     binding = chosen.build(plotter, model, options)
     actor = _place(plotter, binding, name or model.name)
     plotter.cubemarch.track(binding)

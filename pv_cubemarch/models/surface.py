@@ -13,6 +13,7 @@ powers ``x^p y^q z^r`` lose all precision in float32 (errors of 1e3 to 1e10 at 3
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -269,6 +270,9 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     if isovalue is None:
         raise VolumeDataError(f"A sampled field needs isovalue= (its values span "
                               f"[{values.min():g}, {values.max():g}]).")
+    if not values.min() <= float(isovalue) <= values.max():
+        warnings.warn(f"isovalue={isovalue:g} is outside the data range [{values.min():g}, "
+                      f"{values.max():g}]: the surface is empty.", stacklevel=3)
     matrix = np.eye(4) if transform is None else np.asarray(transform, dtype=np.float64)
     return SplineField(interpolating_coefficients(values - float(isovalue)), grid_from_index,
                        matrix, name)
