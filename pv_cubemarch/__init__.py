@@ -28,9 +28,10 @@ from .gl.bindings import ShaderBindings  # noqa: E402
 from .gl.passes import RenderToTexturePass  # noqa: E402
 from .gl.shaders import Replacement, ShaderRecipe  # noqa: E402
 from .gl.textures import Texture  # noqa: E402
+from .models.field_sources import make_field  # noqa: E402
 from .models.group import VolumeGroup  # noqa: E402
 from .models.lights import VolumeLight  # noqa: E402
-from .models.surface import SplineField, make_field  # noqa: E402
+from .models.surface import SplineField  # noqa: E402
 from .models.transfer import TransferFunction  # noqa: E402
 from .models.volume import VolumeModel, make_volume  # noqa: E402
 from .models.voxels import Palette, VoxelModel, make_voxels  # noqa: E402

@@ -14,9 +14,9 @@ import pyvista
 
 from .core.registry import get_technique
 from .gl.overlay import bounds_proxy
+from .models.field_sources import make_field
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
-from .models.surface import make_field
 from .models.volume import VolumeModel, make_volume
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
@@ -525,6 +525,7 @@ def add_surface(
     ambient: float = 0.2,
     specular: float = 0.3,
     specular_power: float = 30.0,
+    cells=64,
     transform=None,
     name: str | None = None,
 ) -> pyvista.Actor:
@@ -540,11 +541,13 @@ def add_surface(
     ----------
     plotter : pyvista.Plotter
         The plotter to draw in.
-    field : SplineField, numpy.ndarray or pyvista.ImageData
+    field : SplineField, numpy.ndarray, pyvista.ImageData, pyvista.PolyData or path
         A :class:`~pv_cubemarch.models.surface.SplineField` (e.g. from raw coefficients:
-        ``SplineField(coefficients)`` with ``(nx + 2, ny + 2, nz + 2)`` of them), or
-        samples (one per cell: a 3D array indexed x, y, z, or an ImageData's cell or point
-        data) whose ``isovalue`` surface is drawn, the inside where they exceed it.
+        ``SplineField(coefficients)`` with ``(nx + 2, ny + 2, nz + 2)`` of them); samples
+        (one per cell: a 3D array indexed x, y, z, or an ImageData's cell or point data)
+        whose ``isovalue`` surface is drawn, the inside where they exceed it; or a closed
+        surface mesh (or a mesh file), drawn from its signed distance sampled at the
+        centres of ``cells`` cells along its longest side.
     isovalue : float, optional
         The level of sampled data to draw (required for samples).
     scalars : str, optional
@@ -573,6 +576,9 @@ def add_surface(
         for voxels.
     ambient, specular, specular_power : float
         The share of unlit colour (0-1), the highlight's weight (0-1) and exponent.
+    cells : int or sequence of int
+        A mesh's resolution: cells along its longest side (64), or three counts; two more
+        on every side keep the surface inside the domain.
     transform : array_like, optional
         4x4 placement of the field in the world.
     name : str, optional
@@ -596,7 +602,7 @@ def add_surface(
         steps=steps, refine_steps=refine_steps, active_test=active_test,
         active_samples=active_samples, color=color, shading=shading, ambient=ambient,
         specular=specular, specular_power=specular_power))
-    model = make_field(field, isovalue, scalars, transform=transform,
+    model = make_field(field, isovalue, scalars, cells=cells, transform=transform,
                        name=name or getattr(field, "name", "surface"))
     options.check_model(model)
     low, high = float(model.coefficients.min()), float(model.coefficients.max())

@@ -13,15 +13,13 @@ powers ``x^p y^q z^r`` lose all precision in float32 (errors of 1e3 to 1e10 at 3
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pyvista
 
 from ..core.errors import VolumeDataError
-from .voxels import PlacedGrid, image_samples
+from .voxels import PlacedGrid
 
 #: Per axis, the three coefficients of a cell to its three Bernstein coefficients.
 TO_BERNSTEIN = np.array([[0.5, 0.5, 0.0], [0.0, 1.0, 0.0], [0.0, 0.5, 0.5]])
@@ -238,41 +236,3 @@ def active_cells(surface: SplineField, test: str = "bernstein", samples: int = 4
         keep.append(part[(low <= 0.0) & (high >= 0.0)])
     return np.concatenate(keep) if keep else np.zeros((0, 3), np.int64)
 
-
-def make_field(data, isovalue: float | None = None, scalars: str | None = None, *,
-               transform=None, name: str = "surface") -> SplineField:
-    """The field whose zero set is the surface ``data`` describes, positive inside.
-
-    ``data``: a :class:`SplineField` (as is); a 3D array of samples indexed x, y, z (one
-    per unit cell, at its centre) or a ``pyvista.ImageData`` (cell data: one sample per
-    cell; point data: a cell centred on each point), with ``isovalue``: the quadratic
-    B-spline interpolating ``samples - isovalue`` at the cell centres
-    (:func:`interpolating_coefficients`), so the inside is where the data exceed the
-    isovalue. Raises ``VolumeDataError`` for NaN samples or a missing isovalue.
-    """
-    if isinstance(data, SplineField):
-        if transform is not None:
-            data.transform = np.asarray(transform, dtype=np.float64)
-        return data
-    if isinstance(data, pyvista.ImageData):
-        values, grid_from_index = image_samples(data, scalars)
-    else:
-        values, grid_from_index = np.asarray(data), np.eye(4)
-    if values.ndim != 3 or values.size == 0:
-        raise VolumeDataError(f"Samples must be a 3D array (x, y, z), got shape {values.shape}.")
-    if values.dtype.kind not in "fiub":
-        raise VolumeDataError(f"Samples must be numbers, got dtype {values.dtype}.")
-    values = values.astype(np.float64)
-    if not np.isfinite(values).all():
-        raise VolumeDataError(f"The samples hold {int((~np.isfinite(values)).sum())} NaN or "
-                              "infinite values; fill them (e.g. with a value outside the "
-                              "surface) or crop the grid.")
-    if isovalue is None:
-        raise VolumeDataError(f"A sampled field needs isovalue= (its values span "
-                              f"[{values.min():g}, {values.max():g}]).")
-    if not values.min() <= float(isovalue) <= values.max():
-        warnings.warn(f"isovalue={isovalue:g} is outside the data range [{values.min():g}, "
-                      f"{values.max():g}]: the surface is empty.", stacklevel=3)
-    matrix = np.eye(4) if transform is None else np.asarray(transform, dtype=np.float64)
-    return SplineField(interpolating_coefficients(values - float(isovalue)), grid_from_index,
-                       matrix, name)
