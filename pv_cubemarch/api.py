@@ -518,6 +518,7 @@ def add_surface(
     technique: str = "active",
     steps: int = 500,
     refine_steps: int = 10,
+    root: str = "march",
     active_test: str = "bernstein",
     active_samples: int = 4,
     color="white",
@@ -562,6 +563,11 @@ def add_surface(
     refine_steps : int
         Bisections of the first sign change (the seed's 10): the depth error halves with
         each.
+    root : str
+        ``'march'`` (default, the seed's: samples every ``diagonal / steps``, so two roots
+        closer than a step, a thin feature or a grazing ray, can be missed) or ``'exact'``
+        (the first root of each cell's degree-6 polynomial along the ray by Bernstein
+        subdivision, whatever ``steps``; ``technique='active'``).
     active_test : str
         ``'bernstein'`` (default, exact: a cell is kept when its Bernstein coefficients
         change sign, so no crossed cell is ever left out) or ``'sample'`` (the seed's: the
@@ -599,7 +605,7 @@ def add_surface(
     """
     chosen = get_technique("surface", technique)
     options = chosen.make_options(dict(
-        steps=steps, refine_steps=refine_steps, active_test=active_test,
+        steps=steps, refine_steps=refine_steps, root=root, active_test=active_test,
         active_samples=active_samples, color=color, shading=shading, ambient=ambient,
         specular=specular, specular_power=specular_power))
     model = make_field(field, isovalue, scalars, cells=cells, transform=transform,

@@ -3,10 +3,12 @@ depth, shading, at the numerical extremes, for the active cells and the full dom
 
 from __future__ import annotations
 
+from math import comb
+
 import numpy as np
 import pytest
 import pyvista
-from conftest import set_camera
+from conftest import ROOT, set_camera
 from test_surface_field import sphere_coefficients
 
 import pv_cubemarch as cm
@@ -221,3 +223,46 @@ def test_a_closed_mesh_is_drawn_from_its_signed_distance(plotter_factory, tmp_pa
     assert hits.hit.mean() > 0.2 and wrong == 0 and off == 0
     with pytest.raises(VolumeDataError, match="not watertight"):
         cm.add_surface(pl, pyvista.Plane(), cells=8)
+
+
+def slab_field(cells=(8, 8, 8), centre=3.7, half=0.04):
+    """A slab 0.08 cell thick across x (positive inside): f = half^2 - (x - centre)^2,
+    coefficients by hand (the blossom of x^2 and x per cell, as for the sphere)."""
+    i = np.arange(-1, cells[0] + 1, dtype=np.float64)
+    per_x = half ** 2 - (i * (i + 1) - 2 * centre * (i + 0.5) + centre ** 2)
+    return SplineField(np.broadcast_to(per_x[:, None, None],
+                                       (cells[0] + 2, cells[1] + 2, cells[2] + 2)).copy())
+
+
+@pytest.mark.parametrize("root", ["march", "exact"])
+def test_exact_roots_find_thin_features_any_march_steps_over(plotter_factory, root):
+    # A slab 0.08 cell thick seen obliquely, with 8 steps along the diagonal (1.7 cells a
+    # step): the march steps over it where no sample lands inside; the exact root finds it
+    # in every pixel the reference does, at its depth. catches (seen to fail): the
+    # subdivision's next interval taken at the wrong depth (rays missing the slab).
+    field = slab_field()
+    pl = plotter(plotter_factory)
+    cm.add_surface(pl, field, root=root, steps=8, refine_steps=30, shading="unlit")
+    camera = set_camera(pl, (14.0, -6.0, 9.0), focal=(3.7, 4.0, 4.0), up=(0, 0, 1))
+    wrong, off, hits = against_reference(pl, field, camera)
+    assert hits.hit.mean() > 0.15
+    if root == "exact":
+        assert wrong == 0 and off == 0
+    else:
+        assert wrong > 0.3 * hits.hit.sum()
+
+
+def test_exact_root_coefficients_are_the_inverse_bernstein_basis():
+    # The 7x7 matrix in surface_exact.glsl against numpy's inverse of the degree-6 Bernstein
+    # basis at s = k / 6, derived here again.
+    source = (ROOT / "glsl_replacements" / "surfaces" / "surface_exact.glsl").read_text()
+    body = source.split("float[49](")[1].split(");")[0]
+    values = [eval(term, {"__builtins__": {}}) for term in body.replace("\n", " ").split(",")]
+    s = np.arange(7) / 6.0
+    basis = np.array([[comb(6, j) * t ** j * (1 - t) ** (6 - j) for j in range(7)] for t in s])
+    assert np.allclose(np.array(values).reshape(7, 7), np.linalg.inv(basis), atol=1e-12)
+
+
+def test_exact_root_is_refused_by_the_full_march(plotter_factory):
+    with pytest.raises(ValueError, match="use technique='active'"):
+        cm.add_surface(plotter(plotter_factory), slab_field(), technique="full", root="exact")

@@ -21,7 +21,11 @@
   cm_loadCell(cm_cell);
   vec3 cm_a = cm_origin + cm_direction * cm_start;
   vec3 cm_b = cm_origin + cm_direction * cm_span.y;
+#ifdef CM_EXACT_ROOT
+  float cm_s = cm_exactRoot(cm_a, cm_b);
+#else
   float cm_s = cm_marchCell(cm_a, cm_b);
+#endif
   if (cm_s < 0.0)
   {
     discard;

@@ -10,7 +10,7 @@ import pyvista
 from ..core.options import positive_number, whole_number
 from ..models.surface import ACTIVE_TESTS
 
-ROOTS = ("march",)
+ROOTS = ("march", "exact")
 SHADINGS = ("unlit", "flat", "blinn")
 #: Most steps along the domain's diagonal (the seed's M; 5000 in its tables).
 MAX_STEPS = 100_000
@@ -25,7 +25,9 @@ class SurfaceOptions:
     ``steps``: the seed's M, samples along the domain's diagonal (in cell units): each cell
     crossed is sampled every ``diagonal / steps`` from where the ray enters it, its exit
     included; ``refine_steps``: bisections on the first sign change (the seed's 10).
-    ``root``: ``'march'`` (the seed's). ``active_test``: ``'bernstein'`` (exact: no crossed
+    ``root``: ``'march'`` (the seed's) or ``'exact'`` (the first root of the cell's
+    degree-6 polynomial along the ray, by Bernstein subdivision: none missed at any
+    ``steps``; ``technique='active'`` only). ``active_test``: ``'bernstein'`` (exact: no crossed
     cell is ever left out) or ``'sample'`` (the seed's: a ``active_samples``³ lattice per
     cell). ``color``: the surface's colour; ``shading``: ``'unlit'``, ``'flat'`` (Lambert
     from the scene's lights) or ``'blinn'`` (plus a highlight), with ``ambient``,

@@ -40,7 +40,9 @@ def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
     """The replacements of ``technique`` (``'active'`` or ``'full'``) with ``options``."""
     lit = options.shading != "unlit"
     dense = ("surface_dense",) if technique == "full" else ()
-    march = ("surface_march",) if technique == "active" else ()
+    exact = technique == "active" and options.root == "exact"
+    march = (("surface_exact",) if exact else ("surface_march",)) if technique == "active" \
+        else ()
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
                     ("camera_declarations", "slab", "pixel_ray", "surface_declarations",
@@ -49,7 +51,8 @@ def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
                     keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
-    ], defines={"CM_CELL_CORNERS": technique == "active", "CM_LIGHTING": lit,
+    ], defines={"CM_CELL_CORNERS": technique == "active", "CM_EXACT_ROOT": exact,
+                "CM_LIGHTING": lit,
                 "CM_SPECULAR": lit and options.shading == "blinn"})
 
 
@@ -168,6 +171,10 @@ def build_active(plotter, field: SplineField, options: SurfaceOptions) -> Surfac
 
 def build_full(plotter, field: SplineField, options: SurfaceOptions) -> SurfaceBinding:
     """The domain's box, each ray marched through the whole grid (the seed's baseline)."""
+    if options.root != "march":
+        raise ValueError("root='exact' solves each cell's polynomial along the ray, which "
+                         "technique='full' (the seed's march through the whole domain) "
+                         "does not: use technique='active' with it.")
     return _build(plotter, field, options, "full")
 
 

@@ -1,0 +1,136 @@
+// The exact root (root = 'exact', beyond the seed): inside a cell the field along the ray
+// a..b is a polynomial of degree at most 6 in s; its 7 Bernstein coefficients come from 7
+// samples at s = k/6 through the inverse of the Bernstein basis there (exact fractions:
+// tests/test_surfaces.py derives them again). A polynomial whose coefficients all have one
+// sign has no root on its interval (the convex hull); otherwise the interval is halved (de
+// Casteljau), depth first, left before right, down to CM_EXACT_DEPTH halvings, so the
+// first root is found whatever the step: thin features and grazing rays are not missed.
+// The last interval is then bisected on the field itself (cm_refineSteps).
+const float CM_SAMPLES_TO_BERNSTEIN[49] = float[49](
+  1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+  (-29.0 / 20.0), 6.0, (-15.0 / 2.0), (20.0 / 3.0), (-15.0 / 4.0), (6.0 / 5.0), (-1.0 / 6.0),
+  (227.0 / 150.0), (-222.0 / 25.0), (201.0 / 10.0), (-308.0 / 15.0), (123.0 / 10.0),
+  (-102.0 / 25.0), (29.0 / 50.0),
+  (-227.0 / 200.0), (189.0 / 25.0), (-837.0 / 40.0), 30.0, (-837.0 / 40.0), (189.0 / 25.0),
+  (-227.0 / 200.0),
+  (29.0 / 50.0), (-102.0 / 25.0), (123.0 / 10.0), (-308.0 / 15.0), (201.0 / 10.0),
+  (-222.0 / 25.0), (227.0 / 150.0),
+  (-1.0 / 6.0), (6.0 / 5.0), (-15.0 / 4.0), (20.0 / 3.0), (-15.0 / 2.0), 6.0, (-29.0 / 20.0),
+  0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0);
+#define CM_EXACT_DEPTH 16
+#define CM_EXACT_ITERATIONS 160
+
+// The coefficients of w's polynomial on [0, t] of its interval (de Casteljau at t).
+void cm_keepLeft(inout float w[7], float t)
+{
+  float c[7] = w;
+  for (int level = 1; level < 7; ++level)
+  {
+    for (int i = 6; i >= level; --i)
+    {
+      c[i] = mix(c[i - 1], c[i], t);
+    }
+    w[level] = c[level];
+  }
+}
+
+// The coefficients of w's polynomial on [t, 1] of its interval.
+void cm_keepRight(inout float w[7], float t)
+{
+  for (int level = 1; level < 7; ++level)
+  {
+    for (int i = 0; i < 7 - level; ++i)
+    {
+      w[i] = mix(w[i], w[i + 1], t);
+    }
+  }
+}
+
+// 1 when every coefficient is above 0, -1 below, 0 when they do not all agree.
+float cm_oneSign(float w[7])
+{
+  float low = min(min(min(w[0], w[1]), min(w[2], w[3])), min(min(w[4], w[5]), w[6]));
+  float high = max(max(max(w[0], w[1]), max(w[2], w[3])), max(max(w[4], w[5]), w[6]));
+  return low > 0.0 ? 1.0 : (high < 0.0 ? -1.0 : 0.0);
+}
+
+// The fraction of a..b at the first root of the loaded cell's field, or -1 if none.
+float cm_exactRoot(vec3 a, vec3 b)
+{
+  float samples[7];
+  for (int k = 0; k < 7; ++k)
+  {
+    samples[k] = cm_field(mix(a, b, float(k) / 6.0));
+  }
+  float whole[7];
+  for (int j = 0; j < 7; ++j)
+  {
+    float sum = 0.0;
+    for (int k = 0; k < 7; ++k)
+    {
+      sum += CM_SAMPLES_TO_BERNSTEIN[7 * j + k] * samples[k];
+    }
+    whole[j] = sum;
+  }
+  float w[7] = whole;
+  int depth = 0;
+  int index = 0;   // the interval [index, index + 1] / 2^depth
+  float found = -1.0;
+  for (int iteration = 0; iteration < CM_EXACT_ITERATIONS && found < 0.0; ++iteration)
+  {
+    if (cm_oneSign(w) != 0.0)   // no root here: on to the next interval to the right
+    {
+      index += 1;
+      while (depth > 0 && (index & 1) == 0)
+      {
+        index >>= 1;
+        depth -= 1;
+      }
+      if (depth == 0)
+      {
+        return -1.0;
+      }
+      float size = 1.0 / float(1 << depth);
+      w = whole;
+      cm_keepLeft(w, min(float(index + 1) * size, 1.0));
+      cm_keepRight(w, float(index) / float(index + 1));
+      continue;
+    }
+    if (depth == CM_EXACT_DEPTH)
+    {
+      found = float(index);
+      break;
+    }
+    cm_keepLeft(w, 0.5);
+    depth += 1;
+    index *= 2;
+  }
+  if (found < 0.0)
+  {
+    return -1.0;
+  }
+  // Bisect the last interval on the field itself where its ends differ in sign.
+  float size = 1.0 / float(1 << depth);
+  float s0 = found * size;
+  float s1 = s0 + size;
+  float f0 = cm_field(mix(a, b, s0));
+  float f1 = cm_field(mix(a, b, s1));
+  if (f0 * f1 <= 0.0)
+  {
+    for (int r = 0; r < cm_refineSteps; ++r)
+    {
+      float s = 0.5 * (s0 + s1);
+      float f = cm_field(mix(a, b, s));
+      if (f0 * f > 0.0)
+      {
+        s0 = s;
+        f0 = f;
+      }
+      else
+      {
+        s1 = s;
+      }
+    }
+  }
+  return 0.5 * (s0 + s1);
+}
