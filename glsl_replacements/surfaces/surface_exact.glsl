@@ -20,37 +20,49 @@ const float CM_SAMPLES_TO_BERNSTEIN[49] = float[49](
 #define CM_EXACT_DEPTH 16
 #define CM_EXACT_ITERATIONS 160
 
-// The coefficients of w's polynomial on [0, t] of its interval (de Casteljau at t).
-void cm_keepLeft(inout float w[7], float t)
+float cm_whole[7];   // the polynomial on the cell's whole segment
+float cm_part[7];    // on the interval being looked at
+
+// cm_part becomes its polynomial on [0, t] of its interval (de Casteljau at t).
+void cm_keepLeft(float t)
 {
-  float c[7] = w;
+  float c[7];
+  for (int i = 0; i < 7; ++i)
+  {
+    c[i] = cm_part[i];
+  }
   for (int level = 1; level < 7; ++level)
   {
     for (int i = 6; i >= level; --i)
     {
       c[i] = mix(c[i - 1], c[i], t);
     }
-    w[level] = c[level];
+    cm_part[level] = c[level];
   }
 }
 
-// The coefficients of w's polynomial on [t, 1] of its interval.
-void cm_keepRight(inout float w[7], float t)
+// cm_part becomes its polynomial on [t, 1] of its interval.
+void cm_keepRight(float t)
 {
   for (int level = 1; level < 7; ++level)
   {
     for (int i = 0; i < 7 - level; ++i)
     {
-      w[i] = mix(w[i], w[i + 1], t);
+      cm_part[i] = mix(cm_part[i], cm_part[i + 1], t);
     }
   }
 }
 
-// 1 when every coefficient is above 0, -1 below, 0 when they do not all agree.
-float cm_oneSign(float w[7])
+// 1 when every coefficient of cm_part is above 0, -1 below, 0 when they do not agree.
+float cm_oneSign()
 {
-  float low = min(min(min(w[0], w[1]), min(w[2], w[3])), min(min(w[4], w[5]), w[6]));
-  float high = max(max(max(w[0], w[1]), max(w[2], w[3])), max(max(w[4], w[5]), w[6]));
+  float low = cm_part[0];
+  float high = cm_part[0];
+  for (int i = 1; i < 7; ++i)
+  {
+    low = min(low, cm_part[i]);
+    high = max(high, cm_part[i]);
+  }
   return low > 0.0 ? 1.0 : (high < 0.0 ? -1.0 : 0.0);
 }
 
@@ -62,7 +74,6 @@ float cm_exactRoot(vec3 a, vec3 b)
   {
     samples[k] = cm_field(mix(a, b, float(k) / 6.0));
   }
-  float whole[7];
   for (int j = 0; j < 7; ++j)
   {
     float sum = 0.0;
@@ -70,15 +81,15 @@ float cm_exactRoot(vec3 a, vec3 b)
     {
       sum += CM_SAMPLES_TO_BERNSTEIN[7 * j + k] * samples[k];
     }
-    whole[j] = sum;
+    cm_whole[j] = sum;
+    cm_part[j] = sum;
   }
-  float w[7] = whole;
   int depth = 0;
   int index = 0;   // the interval [index, index + 1] / 2^depth
   float found = -1.0;
   for (int iteration = 0; iteration < CM_EXACT_ITERATIONS && found < 0.0; ++iteration)
   {
-    if (cm_oneSign(w) != 0.0)   // no root here: on to the next interval to the right
+    if (cm_oneSign() != 0.0)   // no root here: on to the next interval to the right
     {
       index += 1;
       while (depth > 0 && (index & 1) == 0)
@@ -91,9 +102,12 @@ float cm_exactRoot(vec3 a, vec3 b)
         return -1.0;
       }
       float size = 1.0 / float(1 << depth);
-      w = whole;
-      cm_keepLeft(w, min(float(index + 1) * size, 1.0));
-      cm_keepRight(w, float(index) / float(index + 1));
+      for (int i = 0; i < 7; ++i)
+      {
+        cm_part[i] = cm_whole[i];
+      }
+      cm_keepLeft(min(float(index + 1) * size, 1.0));
+      cm_keepRight(float(index) / float(index + 1));
       continue;
     }
     if (depth == CM_EXACT_DEPTH)
@@ -101,7 +115,7 @@ float cm_exactRoot(vec3 a, vec3 b)
       found = float(index);
       break;
     }
-    cm_keepLeft(w, 0.5);
+    cm_keepLeft(0.5);
     depth += 1;
     index *= 2;
   }
