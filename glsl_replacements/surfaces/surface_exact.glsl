@@ -23,33 +23,38 @@ const float CM_SAMPLES_TO_BERNSTEIN[49] = float[49](
 float cm_whole[7];   // the polynomial on the cell's whole segment
 float cm_part[7];    // on the interval being looked at
 
-// cm_part becomes its polynomial on [0, t] of its interval (de Casteljau at t).
-void cm_keepLeft(float t)
+// cm_part becomes its polynomial on [0, s] (left) or [s, 1] (right) of its interval: de
+// Casteljau's levels written out on scalars (array loops with a bound set by the outer
+// loop left the coefficients unchanged on llvmpipe). After level r, p_i is the point
+// P(r, i): the left part is P(r, 0) for r = 0..6, the right part P(6 - j, j).
+void cm_split(float s, bool left)
 {
-  float c[7];
-  for (int i = 0; i < 7; ++i)
+  float p0 = cm_part[0], p1 = cm_part[1], p2 = cm_part[2], p3 = cm_part[3];
+  float p4 = cm_part[4], p5 = cm_part[5], p6 = cm_part[6];
+  float l1, l2, l3, l4, l5;
+  float r5, r4, r3, r2, r1;
+  p0 = mix(p0, p1, s); p1 = mix(p1, p2, s); p2 = mix(p2, p3, s);
+  p3 = mix(p3, p4, s); p4 = mix(p4, p5, s); p5 = mix(p5, p6, s);
+  l1 = p0; r5 = p5;
+  p0 = mix(p0, p1, s); p1 = mix(p1, p2, s); p2 = mix(p2, p3, s);
+  p3 = mix(p3, p4, s); p4 = mix(p4, p5, s);
+  l2 = p0; r4 = p4;
+  p0 = mix(p0, p1, s); p1 = mix(p1, p2, s); p2 = mix(p2, p3, s); p3 = mix(p3, p4, s);
+  l3 = p0; r3 = p3;
+  p0 = mix(p0, p1, s); p1 = mix(p1, p2, s); p2 = mix(p2, p3, s);
+  l4 = p0; r2 = p2;
+  p0 = mix(p0, p1, s); p1 = mix(p1, p2, s);
+  l5 = p0; r1 = p1;
+  p0 = mix(p0, p1, s);   // the point at s: both parts' shared end
+  if (left)
   {
-    c[i] = cm_part[i];
+    cm_part[1] = l1; cm_part[2] = l2; cm_part[3] = l3;
+    cm_part[4] = l4; cm_part[5] = l5; cm_part[6] = p0;
   }
-  for (int level = 1; level < 7; ++level)
+  else
   {
-    for (int i = 6; i >= level; --i)
-    {
-      c[i] = mix(c[i - 1], c[i], t);
-    }
-    cm_part[level] = c[level];
-  }
-}
-
-// cm_part becomes its polynomial on [t, 1] of its interval.
-void cm_keepRight(float t)
-{
-  for (int level = 1; level < 7; ++level)
-  {
-    for (int i = 0; i < 7 - level; ++i)
-    {
-      cm_part[i] = mix(cm_part[i], cm_part[i + 1], t);
-    }
+    cm_part[0] = p0; cm_part[1] = r1; cm_part[2] = r2;
+    cm_part[3] = r3; cm_part[4] = r4; cm_part[5] = r5;
   }
 }
 
@@ -106,8 +111,8 @@ float cm_exactRoot(vec3 a, vec3 b)
       {
         cm_part[i] = cm_whole[i];
       }
-      cm_keepLeft(min(float(index + 1) * size, 1.0));
-      cm_keepRight(float(index) / float(index + 1));
+      cm_split(min(float(index + 1) * size, 1.0), true);
+      cm_split(float(index) / float(index + 1), false);
       continue;
     }
     if (depth == CM_EXACT_DEPTH)
@@ -115,7 +120,7 @@ float cm_exactRoot(vec3 a, vec3 b)
       found = float(index);
       break;
     }
-    cm_keepLeft(0.5);
+    cm_split(0.5, true);
     depth += 1;
     index *= 2;
   }
