@@ -12,6 +12,7 @@ from .bench import edits as bench_edits
 from .bench import harness as bench
 from .bench import large as bench_large
 from .bench import resolution as bench_resolution
+from .bench import surfaces as bench_surfaces
 from .bench import voxels as bench_voxels
 from .bench import world as bench_world
 from .bench.voxels import ROWS as VOXEL_ROWS
@@ -193,6 +194,20 @@ def build_parser() -> argparse.ArgumentParser:
                        help="how the chunks are drawn (default: index where its pool fits "
                             "one texture)")
     large.add_argument("--json", dest="json_path", help="write the result as JSON here")
+    surfaces = bench_commands.add_parser(
+        "surfaces", help="polynomial surfaces against their reference and today's tools "
+                         "(the seed's Tables 1/2)")
+    surfaces.add_argument("--size", type=_size, default=(720, 720),
+                          help="WxH (default 720x720)")
+    surfaces.add_argument("--grids", type=_face_sizes, default=[32, 128],
+                          help="cells per side, comma-separated (default 32,128; 512 takes "
+                               "minutes and gigabytes)")
+    surfaces.add_argument("--steps", type=_face_sizes, default=[50, 500, 5000],
+                          help="the seed's M values (default 50,500,5000)")
+    surfaces.add_argument("--shapes", default=",".join(bench_surfaces.SHAPES),
+                          help="comma-separated among " + ", ".join(bench_surfaces.SHAPES))
+    surfaces.add_argument("--frames", type=int, default=3, help="timed frames per row")
+    surfaces.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     world = bench_commands.add_parser(
         "voxel-world", help="chunked voxel worlds against one grid (the seed's Tables 3/4)")
     world.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
@@ -338,6 +353,8 @@ def _bench(args) -> int:
         return _bench_voxel_edits(args)
     if args.bench_command == "voxel-world":
         return _bench_voxel_world(args)
+    if args.bench_command == "surfaces":
+        return _bench_surfaces(args)
     if args.bench_command == "voxel-large":
         result = bench_large.run_large(args.size, args.scale, args.frames,
                                        reference=not args.no_reference, scene=args.scene,
@@ -417,6 +434,23 @@ def _bench_voxel_edits(args) -> int:
         Path(args.json_path).write_text(json.dumps({
             "edits": [vars(r) for r in edits], "automata": [vars(r) for r in automata],
             "size": args.size, "gl_renderer": gl_info()["renderer"]}, indent=1))
+        print(f"wrote {args.json_path}")
+    return 0
+
+
+def _bench_surfaces(args) -> int:
+    shapes = [s.strip() for s in args.shapes.split(",") if s.strip()]
+    rows = bench_surfaces.run_surfaces(args.size, args.grids, args.steps, shapes,
+                                       frames=args.frames)
+    print(f"median of up to {args.frames} frames at {args.size[0]}x{args.size[1]}, rows drawn "
+          "in turn; x full: the full-domain march's time at the same M over the row's; "
+          "errors against the CPU reference's first roots (depth in cells; later: pixels "
+          "more than half a cell behind the reference)")
+    print(bench_surfaces.format_surfaces(rows))
+    if args.json_path:
+        Path(args.json_path).write_text(json.dumps({
+            "rows": [{**vars(r), "median_ms": r.median_ms} for r in rows],
+            "size": list(args.size), "gl_renderer": gl_info()["renderer"]}, indent=1))
         print(f"wrote {args.json_path}")
     return 0
 

@@ -1,0 +1,279 @@
+"""Polynomial surfaces (003, the seed's Tables 1 and 2): time against error, with anchors.
+
+``pv-cubemarch bench surfaces``: three shapes (PyVista's shipped ``nut.ply`` mesh by its
+signed distance, an analytic thin holey sphere, a sampled field of blobs) on grids of
+``N``³ cells, each drawn by the seed's full-domain march and its active-cell march at
+several ``steps`` (M), by the exact root, and by the tools users have today: PyVista's
+contour (flying edges) of the field resampled at 1, 2 and 4 samples per cell, drawn as a
+mesh, and VTK's GPU isosurface blend mode at half-cell steps. Rows of a shape and grid are
+drawn in turn. Per row: median frame time, preprocessing (build + first frame), GPU bytes,
+the active-cell share, and accuracy against the CPU reference's first roots: coverage IoU,
+depth error (cells) median / p95 / max over pixels both cover, and the pixels whose depth
+lies more than half a cell behind the reference's (a later root taken).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pyvista
+import vtk
+from pyvista import examples as pyvista_examples
+
+from ..api import add_surface
+from ..core.camera import Camera
+from ..core.progress import progress
+from ..core.rendering import offscreen_plotter, read_depth, read_pixels, render_frame
+from ..models.field_sources import mesh_field
+from ..models.surface import SplineField, active_cells, interpolating_coefficients
+from ..reference.surfaces import trace_surface
+from .harness import time_frames_side_by_side
+
+SHAPES = ("nut", "holey sphere", "blobs")
+#: Resampling the field for flying edges stops at this many samples a side (memory).
+MAX_CONTOUR_SAMPLES = 260
+#: A row's frames stop once they add up to this (a frame of seconds varies little).
+ROW_BUDGET_MS = 20_000.0
+
+
+@dataclass
+class SurfaceRow:
+    """One shape, grid and row: times, bytes and errors against the reference."""
+
+    shape: str
+    cells: int
+    row: str
+    frame_ms: list[float]
+    setup_ms: float
+    gpu_bytes: int
+    active_share: float | None
+    iou: float
+    depth_median: float | None
+    depth_p95: float | None
+    depth_max: float | None
+    later_root_pixels: int | None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def median_ms(self) -> float:
+        """Median frame time."""
+        return float(np.median(self.frame_ms))
+
+
+def shape_field(name: str, cells: int, progress_bar: bool | None = None) -> SplineField:
+    """The field of shape ``name`` on about ``cells``³ cells (deterministic)."""
+    if name == "nut":
+        mesh = pyvista.read(Path(pyvista_examples.__file__).parent / "nut.ply")
+        return mesh_field(mesh, cells - 4, progress_bar=progress_bar, name=name)
+    n = int(cells)
+    centres = (np.indices((n, n, n)).reshape(3, -1).T + 0.5) / n * 2.0 - 1.0   # [-1, 1]^3
+    if name == "holey sphere":
+        # A shell of radius 0.7, 0.03 thick (2 cells at 128), with six round holes along
+        # the axes: min(shell, outside every hole), a distance in domain units.
+        radius = np.linalg.norm(centres, axis=1)
+        shell = 0.015 - np.abs(radius - 0.7)
+        holes = np.min([np.hypot(*np.delete(centres, a, axis=1).T) - 0.25 for a in range(3)],
+                       axis=0)
+        values = np.minimum(shell, holes)
+    elif name == "blobs":
+        rng = np.random.default_rng(3)
+        where = rng.uniform(-0.6, 0.6, (12, 3))
+        values = sum(np.exp(-np.sum((centres - w) ** 2, axis=1) / 0.03) for w in where) - 0.4
+    else:
+        raise ValueError(f"shape must be one of {SHAPES}, got {name!r}.")
+    grid_from_index = np.diag([2.0 / n, 2.0 / n, 2.0 / n, 1.0])
+    grid_from_index[:3, 3] = -1.0
+    return SplineField(interpolating_coefficients(values.reshape(n, n, n)), grid_from_index,
+                       name=name)
+
+
+def _camera(surface: SplineField) -> Camera:
+    """From a corner above, the whole domain in sight."""
+    lower, upper = (np.asarray(surface.world_bounds()).reshape(3, 2).T)
+    centre, size = (lower + upper) / 2, float(np.linalg.norm(upper - lower))
+    return Camera(position=tuple(centre + size * np.array([0.75, -0.55, 0.5])),
+                  focal_point=tuple(centre), view_up=(0, 0, 1), view_angle=35.0)
+
+
+def _plotter(size: Sequence[int]) -> pyvista.Plotter:
+    pl = offscreen_plotter(tuple(size))
+    pl.disable_anti_aliasing()
+    pl.ren_win.SetMultiSamples(0)
+    pl.set_background("black")
+    return pl
+
+
+def _samples(surface: SplineField, per_cell: int) -> pyvista.ImageData | None:
+    """The field at ``per_cell`` samples per cell edge (corners included), as an ImageData."""
+    counts = np.asarray(surface.dimensions) * per_cell + 1
+    if counts.max() > MAX_CONTOUR_SAMPLES:
+        return None
+    axes = [np.linspace(0.0, float(n), int(c)) for n, c in zip(surface.dimensions, counts,
+                                                               strict=True)]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    batch = 1 << 20
+    values = np.concatenate([surface.at_cells(points[i:i + batch])
+                             for i in range(0, len(points), batch)])
+    matrix = surface.world_from_index()
+    grid = pyvista.ImageData(dimensions=tuple(int(c) for c in counts),
+                             spacing=tuple(np.diag(matrix)[:3] / per_cell),
+                             origin=tuple(matrix[:3, 3]))
+    grid.point_data["f"] = values.reshape(tuple(int(c) for c in counts)).ravel(order="F")
+    return grid
+
+
+def _vtk_isosurface(pl: pyvista.Plotter, surface: SplineField) -> int:
+    """VTK's GPU isosurface blend mode on the field at the cell centres, half-cell steps."""
+    n = surface.dimensions
+    centres = np.stack(np.meshgrid(*[np.arange(k) + 0.5 for k in n], indexing="ij"),
+                       -1).reshape(-1, 3)
+    values = surface.at_cells(centres)
+    matrix = surface.world_from_index()
+    spacing = np.diag(matrix)[:3]
+    image = pyvista.ImageData(dimensions=n, spacing=tuple(spacing),
+                              origin=tuple(matrix[:3, 3] + spacing / 2))
+    image.point_data["f"] = values.reshape(n).ravel(order="F")
+    mapper = vtk.vtkOpenGLGPUVolumeRayCastMapper()
+    mapper.SetInputData(image)
+    mapper.SetBlendModeToIsoSurface()
+    mapper.AutoAdjustSampleDistancesOff()
+    mapper.SetSampleDistance(float(spacing.min()) / 2)
+    prop = vtk.vtkVolumeProperty()
+    color = vtk.vtkColorTransferFunction()
+    color.AddRGBPoint(float(values.min()), 1.0, 1.0, 1.0)
+    color.AddRGBPoint(float(values.max()), 1.0, 1.0, 1.0)
+    opacity = vtk.vtkPiecewiseFunction()
+    opacity.AddPoint(float(values.min()), 1.0)
+    opacity.AddPoint(float(values.max()), 1.0)
+    prop.SetColor(color)
+    prop.SetScalarOpacity(opacity)
+    prop.GetIsoSurfaceValues().SetValue(0, 0.0)
+    volume = vtk.vtkVolume()
+    volume.SetMapper(mapper)
+    volume.SetProperty(prop)
+    pl.add_actor(volume, reset_camera=False)
+    return int(values.nbytes // 2)   # float32 on the GPU
+
+
+def _rows(steps: Sequence[int], cells: int) -> dict:
+    """Row name to how it is drawn: ``('surface', options)`` or an anchor."""
+    rows: dict = {}
+    for m in steps:
+        rows[f"full M={m}"] = ("surface", {"technique": "full", "steps": m})
+    for m in steps:
+        rows[f"active M={m}"] = ("surface", {"technique": "active", "steps": m})
+    rows["active exact"] = ("surface", {"technique": "active", "root": "exact", "steps": 1})
+    for k in (1, 2, 4):
+        if cells * k + 1 <= MAX_CONTOUR_SAMPLES:
+            rows[f"contour {k}/cell"] = ("contour", k)
+    rows["vtk isosurface"] = ("vtk", None)
+    return rows
+
+
+def _draw(size, camera: Camera, surface: SplineField, how) -> tuple:
+    """A plotter showing the row: ``(plotter, setup ms, GPU bytes, active share)``."""
+    pl = _plotter(size)
+    start = time.perf_counter()
+    share, nbytes = None, 0
+    kind, setting = how
+    if kind == "surface":
+        actor = add_surface(pl, surface, shading="unlit", color="white", refine_steps=10,
+                            **setting)
+        nbytes = actor.cubemarch.nbytes
+        if actor.cubemarch.cells is not None:
+            share = len(actor.cubemarch.cells) / float(np.prod(surface.dimensions))
+    elif kind == "contour":
+        mesh = _samples(surface, setting).contour([0.0], scalars="f",
+                                                  method="flying_edges")
+        if mesh.n_points:   # a feature thinner than the samples leaves no triangle
+            pl.add_mesh(mesh, color="white", lighting=False)
+        nbytes = int(mesh.n_points * 12 + mesh.n_cells * 12)
+    else:
+        nbytes = _vtk_isosurface(pl, surface)
+    camera.apply_to(pl.camera)
+    pl.renderer.ResetCameraClippingRange()
+    render_frame(pl)
+    read_pixels(pl)
+    return pl, (time.perf_counter() - start) * 1e3, nbytes, share
+
+
+def _errors(pl: pyvista.Plotter, surface: SplineField, hits, cell: float) -> tuple:
+    """Coverage IoU, depth error (cells) median / p95 / max, later-root pixels."""
+    covered = read_pixels(pl).max(axis=-1) > 127
+    sure = ~hits.ambiguous
+    union = ((covered | hits.hit) & sure).sum()
+    iou = float(((covered & hits.hit) & sure).sum() / max(union, 1))
+    near, far = pl.camera.clipping_range
+    depth = read_depth(pl)
+    both = covered & hits.hit & sure & (depth < 1.0)
+    if not both.any():
+        return iou, None, None, None, None
+    camera = Camera.from_pyvista(pl.camera)
+    forward = np.subtract(camera.focal_point, camera.position)
+    forward /= np.linalg.norm(forward)
+    z_ref = (hits.point[both] - camera.position) @ forward
+    z_got = far * near / (far - depth[both] * (far - near))
+    error = (z_got - z_ref) / cell
+    return (iou, float(np.median(np.abs(error))), float(np.percentile(np.abs(error), 95)),
+            float(np.abs(error).max()), int((error > 0.5).sum()))
+
+
+def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 128),
+                 steps: Sequence[int] = (50, 500, 5000), shapes: Sequence[str] = SHAPES,
+                 frames: int = 3, progress_bar: bool | None = None) -> list[SurfaceRow]:
+    """Every row on every shape and grid, rows of one shape and grid drawn in turn."""
+    size = tuple(int(v) for v in size)
+    results = []
+    cases = [(s, int(n)) for s in shapes for n in grids]
+    for shape, cells in progress(cases, total=len(cases), desc="surfaces",
+                                 enabled=progress_bar):
+        surface = shape_field(shape, cells, progress_bar)
+        camera = _camera(surface)
+        cell = float(np.linalg.norm(surface.world_from_index()[:3, 0]))
+        plotters, drawn = {}, {}
+        try:
+            for row, how in _rows(steps, cells).items():
+                plotters[row], *drawn[row] = _draw(size, camera, surface, how)
+            first = next(iter(plotters.values()))
+            hits = trace_surface(surface, active_cells(surface),
+                                 Camera.from_pyvista(first.camera), size,
+                                 near=first.camera.clipping_range[0])
+            times = time_frames_side_by_side(plotters, frames, warmup=0,
+                                             row_budget_ms=ROW_BUDGET_MS)
+            for row, pl in plotters.items():
+                render_frame(pl)
+                setup, nbytes, share = drawn[row]
+                results.append(SurfaceRow(shape, cells, row, times[row], setup, nbytes, share,
+                                          *_errors(pl, surface, hits, cell)))
+        finally:
+            for pl in plotters.values():
+                pl.close()
+    return results
+
+
+def format_surfaces(results: list[SurfaceRow]) -> str:
+    """The rows as a text table; ``x full``: the full march's time (same M) over the row's."""
+    full = {(r.shape, r.cells, r.row.split()[-1]): r.median_ms for r in results
+            if r.row.startswith("full")}
+    lines = ["shape          cells  row               frame ms   x full  setup ms   GPU MB"
+             "  active %     IoU  depth med   p95     max  later", "-" * 118]
+    for r in results:
+        speedup = full.get((r.shape, r.cells, r.row.split()[-1])) if r.row.startswith(
+            "active M") else None
+        share = None if r.active_share is None else 100 * r.active_share
+        lines.append(
+            f"{r.shape:14s} {r.cells:5d}  {r.row:16s} {r.median_ms:9.1f} "
+            f"{_number(speedup and speedup / r.median_ms, '8.1f'):>8s} {r.setup_ms:9.0f} "
+            f"{r.gpu_bytes / 1e6:8.2f} {_number(share, '8.2f'):>9s} {r.iou:7.4f} "
+            f"{_number(r.depth_median, '9.5f'):>10s} {_number(r.depth_p95, '7.4f'):>7s} "
+            f"{_number(r.depth_max, '7.3f'):>7s} {_number(r.later_root_pixels, 'd'):>6s}")
+    return "\n".join(lines)
+
+
+def _number(value, form: str) -> str:
+    """``value`` formatted, or ``-`` for none."""
+    return "-" if value is None else format(value, form)
