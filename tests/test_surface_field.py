@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import pyvista
 
 from pv_cubemarch.core.camera import Camera
 from pv_cubemarch.core.errors import VolumeDataError
+from pv_cubemarch.models.field_sources import make_field
 from pv_cubemarch.models.surface import (
     SplineField,
     active_cells,
@@ -154,3 +156,22 @@ def test_save_load_and_bad_coefficients(tmp_path):
     np.savez(tmp_path / "other.npz", x=np.zeros(3))
     with pytest.raises(VolumeDataError, match="not a saved SplineField"):
         SplineField.load(tmp_path / "other.npz")
+
+
+def test_image_data_samples_are_placed_at_their_cells_and_points():
+    # Cell data: one cell per ImageData cell; point data: a cell centred on each point. The
+    # field's value at each sample's world position is the sample (minus the isovalue).
+    # catches: point data placed like cell data (half a spacing off).
+    rng = np.random.default_rng(6)
+    image = pyvista.ImageData(dimensions=(5, 4, 6), spacing=(0.5, 2.0, 1.0),
+                              origin=(10.0, -3.0, 1.0))
+    image.point_data["p"] = rng.normal(size=image.n_points)
+    image.cell_data["c"] = rng.normal(size=image.n_cells)
+    points = make_field(image, 0.25, "p")
+    assert points.dimensions == (5, 4, 6)
+    assert np.allclose(points(image.points), image.point_data["p"] - 0.25, atol=1e-12)
+    cells = make_field(image, 0.0, "c")
+    assert cells.dimensions == (4, 3, 5)
+    assert np.allclose(cells(image.cell_centers().points), image.cell_data["c"], atol=1e-12)
+    with pytest.warns(UserWarning, match="outside the data range"):
+        make_field(image, 99.0, "p")
