@@ -175,3 +175,19 @@ def test_image_data_samples_are_placed_at_their_cells_and_points():
     assert np.allclose(cells(image.cell_centers().points), image.cell_data["c"], atol=1e-12)
     with pytest.warns(UserWarning, match="outside the data range"):
         make_field(image, 99.0, "p")
+
+
+def test_reference_flags_near_double_roots():
+    # A slab 0.006 cell thick (the field peaks at 9e-6 between its two roots, 0.006 apart):
+    # the first root is found, and flagged ambiguous (a float32 renderer may lose the
+    # sliver); a slab 0.2 thick is not. catches: only tangent dips flagged (the sliver's
+    # pixels counted as wrong for a float32 renderer that misses it).
+    for half, flagged in ((0.003, True), (0.1, False)):
+        i = np.arange(-1, 9, dtype=np.float64)
+        per_x = half ** 2 - (i * (i + 1) - 2 * 3.5 * (i + 0.5) + 3.5 ** 2)
+        field = SplineField(np.broadcast_to(per_x[:, None, None], (10, 10, 10)).copy())
+        camera = Camera(position=(-5.0, 4.2, 4.3), focal_point=(4.0, 4.2, 4.3),
+                        view_up=(0, 0, 1), view_angle=1e-3)
+        hits = trace_surface(field, active_cells(field), camera, (1, 1))
+        assert hits.hit[0, 0] and abs(hits.point[0, 0, 0] - (3.5 - half)) < 1e-9
+        assert bool(hits.ambiguous[0, 0]) == flagged

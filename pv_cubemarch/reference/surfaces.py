@@ -6,7 +6,8 @@ may cross (its Bernstein coefficients change sign: no other cell holds a zero) t
 along the ray is a polynomial of degree at most 6, sampled at :data:`BRACKETS` + 1 points;
 the first sign change is refined by bisection to 1e-9 of the cell's diagonal. A ray whose
 field comes within :data:`TANGENT_TOLERANCE` of zero, and flat, at a sample before that
-root without changing sign (a tangent ray, or two roots closer than the samples) is marked
+root without changing sign (a tangent ray, or two roots closer than the samples), or whose
+first root is one of a close pair with the field that near 0 between them, is marked
 ``ambiguous``: a float32 renderer may rightly see a hit there or not.
 
 Conventions as :mod:`pv_cubemarch.reference.voxels`: world rays from :meth:`Camera.rays`
@@ -37,6 +38,9 @@ BISECTIONS = 40
 #: the pixel ambiguous (tangent).
 TANGENT_TOLERANCE = 1e-4
 FLAT_TOLERANCE = 1e-2
+#: Sample intervals after the first sign change within which a return of the sign, with the
+#: field that close to 0 between, makes the root a near-double one (ambiguous).
+PAIR_BRACKETS = 2
 
 
 @dataclass
@@ -171,6 +175,16 @@ def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndar
              & (slope < FLAT_TOLERANCE * scale[:, None]))
     before = np.arange(BRACKETS + 1)[None, :] < first[:, None]
     unsure = (small & before).any(axis=1)
+    # A near-double root: the sign comes back within PAIR_BRACKETS of the first change,
+    # the field between them staying within TANGENT_TOLERANCE of 0 (a sliver a float32
+    # renderer may rightly miss).
+    interval = np.arange(BRACKETS)[None, :]
+    after = (change & (interval > first[:, None])
+             & (interval <= first[:, None] + PAIR_BRACKETS))
+    sample = np.arange(BRACKETS + 1)[None, :]
+    between = (sample > first[:, None]) & (sample <= first[:, None] + PAIR_BRACKETS)
+    peak = np.where(between, np.abs(values), 0.0).max(axis=1)
+    unsure |= found & after.any(axis=1) & (peak < TANGENT_TOLERANCE * scale)
     root = np.full(len(cells), np.inf)
     rows = np.flatnonzero(found)
     if len(rows):
