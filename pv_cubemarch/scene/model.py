@@ -10,11 +10,12 @@ import numpy as np
 import pyvista
 from PIL import Image
 
-from ..api import add_volumes, add_voxels
+from ..api import add_surface, add_volumes, add_voxels
 from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.rendering import offscreen_plotter, render_image
 from ..models.group import overlap_groups
+from ..models.surface import SplineField
 from ..models.volume import VolumeModel
 from ..models.voxels import VoxelModel
 from ..models.world import VoxelWorld
@@ -61,7 +62,9 @@ class Scene:
     Build one with :func:`pv_cubemarch.load_scene`; draw it with :meth:`add_to` or
     :meth:`render`. ``volumes`` are drawn with :func:`pv_cubemarch.add_volumes` and the
     options in ``volume_options`` (by volume name); ``voxels`` (material grids) with
-    :func:`pv_cubemarch.add_voxels` and the options in ``voxel_options`` (by grid name).
+    :func:`pv_cubemarch.add_voxels` and the options in ``voxel_options`` (by grid name);
+    ``surfaces`` (spline fields) with :func:`pv_cubemarch.add_surface` and the options in
+    ``surface_options`` (by field name).
     """
 
     meshes: list[SceneMesh] = field(default_factory=list)
@@ -76,6 +79,8 @@ class Scene:
     volume_options: dict[str, dict] = field(default_factory=dict)
     voxels: list[VoxelModel | VoxelWorld] = field(default_factory=list)
     voxel_options: dict[str, dict] = field(default_factory=dict)
+    surfaces: list[SplineField] = field(default_factory=list)
+    surface_options: dict[str, dict] = field(default_factory=dict)
 
     @property
     def camera(self) -> Camera | None:
@@ -85,7 +90,7 @@ class Scene:
     def bounds(self) -> np.ndarray:
         """World bounds of all meshes, volume and voxel-grid boxes (a unit box if empty)."""
         boxes = [np.asarray(m.mesh.bounds) for m in self.meshes if m.mesh.n_points]
-        boxes += [v.world_bounds() for v in (*self.volumes, *self.voxels)]
+        boxes += [v.world_bounds() for v in (*self.volumes, *self.voxels, *self.surfaces)]
         if not boxes:
             return np.array([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0])
         stack = np.array(boxes)
@@ -118,6 +123,9 @@ class Scene:
                   + (f"labels up to {int(g.labels.max())}" if isinstance(g, VoxelModel) else
                      f"{len(g.stored) + len(g.uniform)} chunks of {g.chunk_size}^3")
                   for g in self.voxels]
+        lines.append(f"surfaces: {len(self.surfaces)}")
+        lines += [f"  {f.name}: {'x'.join(map(str, f.dimensions))} cells"
+                  for f in self.surfaces]
         lines.append(f"cameras: {len(self.cameras)}")
         lines += [f"  {name}" for name in self.cameras]
         lines.append(f"lights: {len(self.lights)}")
@@ -153,7 +161,9 @@ class Scene:
 
     def add_to(self, plotter: pyvista.Plotter, camera: str | Camera | None = None,
                progress_bar: bool | None = None) -> dict:
-        """Add meshes, lights, volumes, voxel grids and the camera; return the actors by name.
+        """Add meshes, lights, volumes, voxel grids, surfaces and the camera; return the actors.
+
+        The actors come by name.
 
         ``camera`` picks a scene camera by name, or gives one; by default the scene's first
         camera, else a view of the whole scene.
@@ -186,6 +196,13 @@ class Scene:
                                                **self.voxel_options.get(grid.name, {}))
             except ValueError as error:   # say which grid's options or data are wrong
                 raise type(error)(f"voxel grid {grid.name!r}: {error}") from error
+        for surface in progress(self.surfaces, desc="uploading surfaces",
+                                enabled=progress_bar):
+            try:
+                actors[surface.name] = add_surface(
+                    plotter, surface, **self.surface_options.get(surface.name, {}))
+            except ValueError as error:   # say which surface's options are wrong
+                raise type(error)(f"surface {surface.name!r}: {error}") from error
         chosen = self.cameras.get(camera) if isinstance(camera, str) else camera
         if isinstance(camera, str) and chosen is None:
             raise KeyError(f"No camera named {camera!r}; the scene has {list(self.cameras)}.")

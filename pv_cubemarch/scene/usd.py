@@ -25,6 +25,13 @@ entry, 0 hides a material); its options are :data:`VOXEL_OPTIONS` (``traversal``
 chunks. A numpy label array fills voxels from ``cubemarch:origin`` (the grid box's corner),
 as ``add_voxels`` places an array. Voxels Volumes with ``cubemarch:world`` and
 ``cubemarch:chunk`` are chunks of one world (:mod:`.voxel_worlds`).
+
+A ``Volume`` with ``cubemarch:technique = "surface"`` is an implicit surface: the level
+``cubemarch:isovalue`` of its field (``field:density``, else the first; one sample per point,
+a cell centred on each), drawn with :func:`pv_cubemarch.add_surface`; its options are
+:data:`SURFACE_OPTIONS` (``surfaceTechnique``: ``"active"`` or ``"full"``, ``steps``,
+``refineSteps``, ``root``, ``activeTest``, ``activeSamples``, ``shading``, ``ambient``,
+``specular``, ``specularPower``) and ``cubemarch:color``, checked when the stage is loaded.
 """
 
 from __future__ import annotations
@@ -40,6 +47,8 @@ from ..api import voxel_options
 from ..core.camera import Camera
 from ..core.errors import SceneLoadError, VolumeDataError
 from ..core.progress import progress
+from ..core.registry import get_technique
+from ..models.field_sources import make_field
 from ..models.volume import make_volume
 from ..models.voxels import Palette, make_voxels
 from .grids import read_grid
@@ -284,6 +293,7 @@ class _StageReader:
             self.scene.skipped.append(SkippedPrim(name, "Volume has no field relationship"))
             return
         voxels = self.as_voxels or _attr(prim, "cubemarch:technique") == "voxels"
+        surface = not self.as_voxels and _attr(prim, "cubemarch:technique") == "surface"
         preferred = ("labels", "density") if voxels else ("density",)
         field_name = next((f for f in preferred if f in fields), sorted(fields)[0])
         field_prim = self.stage.GetPrimAtPath(fields[field_name])
@@ -293,6 +303,9 @@ class _StageReader:
         grid = _read_field(field_prim, cells=voxels)
         if voxels:
             self._voxels(prim, name, field_prim, grid)
+            return
+        if surface:
+            self._surface(prim, name, field_prim, grid)
             return
         attrs = {key: _attr(prim, f"cubemarch:{key}") for key in
                  ("cmap", "opacity", "clim", "opacityUnitDistance",
@@ -378,6 +391,43 @@ class _StageReader:
             self.scene.voxel_options[name] = options
 
 
+    def _surface(self, prim, name: str, field_prim, grid) -> None:
+        """A spline field from sampled data and ``cubemarch:isovalue``, options checked."""
+        where = f"Volume {name} (field {field_prim.GetPath()})"
+        authored = {}
+        for key, option, kind in SURFACE_OPTIONS:
+            value = _attr(prim, f"cubemarch:{key}")
+            if value is not None:
+                authored[key] = (option, _converted(name, key, value, kind))
+        options = {option: value for option, value in authored.values()}
+        color = _attr(prim, "cubemarch:color")
+        if color is not None:
+            options["color"] = tuple(float(c) for c in color)
+        try:
+            get_technique("surface", options.get("technique", "active")).make_options(
+                {k: v for k, v in options.items() if k != "technique"})
+        except ValueError as exc:
+            named = [f"cubemarch:{key} = {value!r}" for key, (option, value) in
+                     authored.items() if re.search(rf"\b{option}\b", str(exc))]
+            raise SceneLoadError(f"Volume {name}: {', '.join(named) or 'its surface options'}"
+                                 f": {exc}") from exc
+        isovalue = _attr(prim, "cubemarch:isovalue")
+        if isovalue is None:
+            raise SceneLoadError(f"Volume {name}: cubemarch:technique = \"surface\" needs "
+                                 "cubemarch:isovalue (the level of the field to draw).")
+        field_name = _attr(field_prim, "fieldName")
+        scalars = str(field_name) if field_name and str(field_name) in grid.array_names \
+            else None
+        try:
+            surface = make_field(grid, float(_converted(name, "isovalue", isovalue, float)),
+                                 scalars, transform=self.world_matrix(prim), name=name)
+        except VolumeDataError as exc:
+            raise VolumeDataError(f"{where}: {exc}") from exc
+        self.scene.surfaces.append(surface)
+        if options:
+            self.scene.surface_options[name] = options
+
+
 #: ``cubemarch:*`` attributes of a Volume prim and the ``add_volume`` options they set.
 VOLUME_OPTIONS = (
     ("stepScale", "step_scale", float), ("technique", "technique", str),
@@ -400,6 +450,16 @@ VOXEL_OPTIONS = (
     ("ambientOcclusion", "ambient_occlusion", bool),
     ("occlusionStrength", "occlusion_strength", float), ("proxy", "proxy", str),
     ("lod", "lod", bool), ("lodBias", "lod_bias", float),
+)
+
+#: ``cubemarch:*`` attributes of a surface Volume prim and the ``add_surface`` options they
+#: set (with ``cubemarch:isovalue``, required, and ``cubemarch:color``, a color3f).
+SURFACE_OPTIONS = (
+    ("surfaceTechnique", "technique", str), ("steps", "steps", int),
+    ("refineSteps", "refine_steps", int), ("root", "root", str),
+    ("activeTest", "active_test", str), ("activeSamples", "active_samples", int),
+    ("shading", "shading", str), ("ambient", "ambient", float),
+    ("specular", "specular", float), ("specularPower", "specular_power", float),
 )
 
 #: Volume attributes that a voxels Volume prim must not carry.
