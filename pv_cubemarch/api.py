@@ -546,9 +546,12 @@ def add_surface(
         A :class:`~pv_cubemarch.models.surface.SplineField` (e.g. from raw coefficients:
         ``SplineField(coefficients)`` with ``(nx + 2, ny + 2, nz + 2)`` of them); samples
         (one per cell: a 3D array indexed x, y, z, or an ImageData's cell or point data)
-        whose ``isovalue`` surface is drawn, the inside where they exceed it; or a closed
+        whose ``isovalue`` surface is drawn, the inside where they exceed it; a closed
         surface mesh (or a mesh file), drawn from its signed distance sampled at the
-        centres of ``cells`` cells along its longest side.
+        centres of ``cells`` cells along its longest side; or a point cloud with outward
+        normals (a PolyData without faces with ``point_data['Normals']``, or a
+        ``(points, normals)`` pair), fitted by sparse least squares on ``cells`` cells
+        (32³ in seconds, with a progress bar).
     isovalue : float, optional
         The level of sampled data to draw (required for samples).
     scalars : str, optional
@@ -583,8 +586,8 @@ def add_surface(
     ambient, specular, specular_power : float
         The share of unlit colour (0-1), the highlight's weight (0-1) and exponent.
     cells : int or sequence of int
-        A mesh's resolution: cells along its longest side (64), or three counts; two more
-        on every side keep the surface inside the domain.
+        A mesh's or point cloud's resolution: cells along its longest side (64), or (a
+        mesh) three counts; two more on every side keep the surface inside the domain.
     transform : array_like, optional
         4x4 placement of the field in the world.
     name : str, optional

@@ -17,6 +17,9 @@ from pathlib import Path
 import numpy as np
 import pyvista
 import vtk
+from scipy import sparse
+from scipy.sparse import linalg as sparse_linalg
+from scipy.spatial import cKDTree
 from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 
 from ..core.errors import VolumeDataError
@@ -90,13 +93,25 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     (:func:`interpolating_coefficients`), so the inside is where the data exceed the
     isovalue; a closed surface mesh (``pyvista.PolyData`` or other non-image dataset, or
     a mesh file ``pyvista.read`` reads): its signed distance on ``cells`` cells along its
-    longest side (:func:`mesh_field`). Raises ``VolumeDataError`` for NaN samples, a
-    missing isovalue or an open mesh.
+    longest side (:func:`mesh_field`); a point cloud with outward normals (a PolyData
+    without faces and with ``point_data['Normals']``, or a ``(points, normals)`` pair):
+    the least-squares fit of :func:`point_cloud_field` on ``cells`` cells. Raises
+    ``VolumeDataError`` for NaN samples, a missing isovalue, an open mesh or a cloud
+    without normals.
     """
     if isinstance(data, (str, Path)):
         data = pyvista.read(data)
     if isinstance(data, SplineField):
         field = data
+    elif isinstance(data, tuple) and len(data) == 2:   # (points, normals)
+        field = point_cloud_field(*data, cells, progress_bar=progress_bar, name=name)
+    elif isinstance(data, pyvista.PolyData) and data.n_faces == 0:
+        if "Normals" not in data.point_data:
+            raise VolumeDataError("A point cloud needs normals (point_data['Normals'], "
+                                  "pointing out of the surface) to be fitted; estimate them "
+                                  "first, or pass a closed mesh.")
+        field = point_cloud_field(data.points, data.point_data["Normals"], cells,
+                                  progress_bar=progress_bar, name=name)
     elif isinstance(data, pyvista.DataSet) and not isinstance(data, pyvista.ImageData):
         field = mesh_field(data, cells, progress_bar=progress_bar, name=name)
     else:
@@ -130,3 +145,108 @@ def _sampled_field(data, isovalue: float | None, scalars: str | None,
                       f"{values.max():g}]: the surface is empty.", stacklevel=4)
     return SplineField(interpolating_coefficients(values - float(isovalue)), grid_from_index,
                        name=name)
+
+
+def point_cloud_field(points, normals, cells: int = 32, *, offset: float = 0.5,
+                      smoothness: float = 0.1, tolerance: float = 1e-6,
+                      max_iterations: int = 2000, progress_bar: bool | None = None,
+                      name: str = "surface") -> SplineField:
+    """A field fitted to oriented points: 0 on them, positive inside (behind the normals).
+
+    Least squares on the coefficients (scipy.sparse): each point asks ``f = 0`` there and
+    ``f = -+h`` at ``offset`` cells (``h`` world units) along its outward normal either side;
+    ``smoothness`` weighs the coefficients' second differences along each axis, which fill
+    the space far from the points. Solved by conjugate gradients on the normal equations
+    (Jacobi preconditioner), started from each coefficient's signed distance to its nearest
+    point along that point's normal, with a progress bar over the iterations. ``cells``:
+    cells along the points' longest side (two more on every side).
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    if len(points) < 10:
+        raise VolumeDataError(f"A fit needs at least 10 points with normals, got "
+                              f"{len(points)}.")
+    if normals.shape != points.shape:
+        raise VolumeDataError(f"One normal per point: {len(points)} points and "
+                              f"{len(normals)} normals.")
+    if not (np.isfinite(points).all() and np.isfinite(normals).all()):
+        raise VolumeDataError("The points or normals hold NaN or infinite values.")
+    lengths = np.linalg.norm(normals, axis=1)
+    if (lengths == 0).any():
+        raise VolumeDataError(f"{int((lengths == 0).sum())} normals are zero: every point "
+                              "needs a direction out of the surface.")
+    normals = normals / lengths[:, None]
+    low, high = points.min(axis=0), points.max(axis=0)
+    size = float((high - low).max()) / max(int(cells), 1)
+    if not size > 0:
+        raise VolumeDataError("The points all coincide: they span no surface.")
+    counts = np.maximum(np.ceil((high - low) / size).astype(int), 1) + 2 * MARGIN_CELLS
+    start = (low + high) / 2 - counts * size / 2
+    shape = tuple(int(n) + 2 for n in counts)
+    h = float(offset) * size
+    samples = np.concatenate([points, points - h * normals, points + h * normals])
+    targets = np.concatenate([np.zeros(len(points)), np.full(len(points), h),
+                              np.full(len(points), -h)])
+    data = _basis_rows((samples - start) / size, counts, shape)
+    smooth = _second_differences(shape) * (float(smoothness) * np.sqrt(len(samples)
+                                                                       / np.prod(shape)))
+    system = (data.T @ data + smooth.T @ smooth).tocsr()
+    rhs = data.T @ targets
+    guess = _nearest_signed_distance(points, normals, start, size, shape)
+    preconditioner = sparse.diags(1.0 / np.maximum(system.diagonal(), 1e-300))
+    bar = progress(total=int(max_iterations), desc="fitting points", enabled=progress_bar)
+    try:
+        solution, info = sparse_linalg.cg(system, rhs, x0=guess, rtol=tolerance,
+                                          maxiter=int(max_iterations), M=preconditioner,
+                                          callback=lambda _: bar.update(1))
+    finally:
+        bar.close()
+    if info > 0:
+        warnings.warn(f"The point fit stopped after {max_iterations} iterations before its "
+                      f"tolerance {tolerance:g}: the surface may be rough; raise "
+                      "max_iterations or smoothness.", stacklevel=2)
+    grid_from_index = np.diag([size, size, size, 1.0])
+    grid_from_index[:3, 3] = start
+    return SplineField(solution.reshape(shape), grid_from_index, name=name)
+
+
+def _basis_rows(x: np.ndarray, counts, shape) -> sparse.csr_matrix:
+    """Per cell-space point, its 27 B-spline basis weights on the coefficients."""
+    cell = np.clip(np.floor(x).astype(np.int64), 0, np.asarray(counts) - 1)
+    u = x - cell
+    weights = [np.stack([(1 - v) ** 2 / 2, 0.5 + v - v * v, v * v / 2], axis=-1)
+               for v in u.T]
+    rows, columns, values = [], [], []
+    index = np.arange(len(x))
+    for a in range(3):
+        for b in range(3):
+            for c in range(3):
+                rows.append(index)
+                columns.append(np.ravel_multi_index((cell[:, 0] + a, cell[:, 1] + b,
+                                                     cell[:, 2] + c), shape))
+                values.append(weights[0][:, a] * weights[1][:, b] * weights[2][:, c])
+    return sparse.csr_matrix((np.concatenate(values), (np.concatenate(rows),
+                                                       np.concatenate(columns))),
+                             shape=(len(x), int(np.prod(shape))))
+
+
+def _second_differences(shape) -> sparse.csr_matrix:
+    """Rows ``c[i-1] - 2 c[i] + c[i+1]`` along each axis of a coefficient grid."""
+    blocks = []
+    for axis in range(3):
+        n = shape[axis]
+        if n < 3:
+            continue
+        second = sparse.diags([1.0, -2.0, 1.0], [0, 1, 2], shape=(n - 2, n))
+        parts = [sparse.identity(m) for m in shape]
+        parts[axis] = second
+        blocks.append(sparse.kron(sparse.kron(parts[0], parts[1]), parts[2]))
+    return sparse.vstack(blocks).tocsr()
+
+
+def _nearest_signed_distance(points, normals, start, size, shape) -> np.ndarray:
+    """Each coefficient's centre's distance along its nearest point's normal, negated."""
+    axes = [start[a] + (np.arange(shape[a]) - 0.5) * size for a in range(3)]
+    centres = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    _, nearest = cKDTree(points).query(centres)
+    return -np.einsum("ij,ij->i", centres - points[nearest], normals[nearest])
