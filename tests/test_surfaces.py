@@ -303,8 +303,7 @@ def test_a_point_cloud_with_normals_is_fitted(plotter_factory):
     # 2000 points of a sphere of radius 2 with outward normals, fitted on 16 cells: zero on
     # the sphere within a twentieth of a cell, positive inside, drawn as the reference draws
     # the fitted field. catches (seen to fail): the offsets' targets swapped (the field
-    # negative inside: its outside drawn), the initial guess's sign flipped (CG stopping on
-    # a rough field).
+    # negative inside). (The initial guess only speeds the solve: flipped, it still passes.)
     rng = np.random.default_rng(8)
     normals = rng.normal(size=(2000, 3))
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
