@@ -103,30 +103,35 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
     cell = np.where(moving[going], cell, np.floor(p).astype(np.int64))
     cell = np.clip(cell, 0, np.asarray(field.dimensions) - 1)
     t_in = t[going]
+    # The field at the previous cell's exit, where that cell was active (else NaN): a root
+    # exactly on the face between two cells may round to the outside of both samples.
+    last_end = np.full(len(going), np.nan)
     while len(going):
         bound = cell + ahead[going]
         crossing = np.where(moving[going], (bound - o[going]) * inverse[going], np.inf)
         axis = np.argmin(crossing, axis=1)
         t_out = np.minimum(crossing[np.arange(len(going)), axis], leave[going])
         here = mask[tuple(cell.T)]
+        done = np.zeros(len(going), bool)
+        ends = np.full(len(going), np.nan)
         if here.any():
             rows = np.flatnonzero(here)
-            root, unsure = _first_root(field, cell[rows], o[going[rows]], d[going[rows]],
-                                       t_in[rows], t_out[rows])
+            root, unsure, start_value, end_value = _first_root(
+                field, cell[rows], o[going[rows]], d[going[rows]], t_in[rows], t_out[rows])
+            on_face = np.sign(last_end[rows]) * np.sign(start_value) < 0   # NaN: False
+            root = np.where(on_face, t_in[rows], root)
             found = np.isfinite(root)
             rays = going[rows]
-            ambiguous[rays] |= unsure
+            ambiguous[rays] |= unsure & ~on_face
             depth[rays[found]] = root[found]
             cell_hit[rays[found]] = cell[rows[found]]
-            done = np.zeros(len(going), bool)
             done[rows[found]] = True
-        else:
-            done = np.zeros(len(going), bool)
+            ends[rows] = end_value
         step = np.where(ahead[going, axis], 1, -1)
         cell[np.arange(len(going)), axis] += step
         inside = np.all((cell >= 0) & (cell < np.asarray(field.dimensions)), axis=1)
         keep = ~done & inside & (t_out < leave[going])
-        going, cell, t_in = going[keep], cell[keep], t_out[keep]
+        going, cell, t_in, last_end = going[keep], cell[keep], t_out[keep], ends[keep]
     hit = np.isfinite(depth)
     point = np.full((n, 3), np.nan)
     normal = np.full((n, 3), np.nan)
@@ -147,7 +152,7 @@ def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndar
     """Per ray, the first ``t`` in ``[t0, t1]`` where the cell's field is zero.
 
     ``inf`` where there is none; also whether a tangent or near-double root makes the ray
-    ambiguous.
+    ambiguous, and the field at the segment's start and end.
     """
     beta = field.cell_bernstein(cells)
     scale = np.abs(beta).max(axis=(1, 2, 3))
@@ -163,7 +168,7 @@ def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndar
 
     values = field_at(ts)
     zero = values == 0.0
-    change = (np.sign(values[:, :-1]) * np.sign(values[:, 1:]) < 0) | zero[:, :-1]
+    change = (np.sign(values[:, :-1]) * np.sign(values[:, 1:]) < 0) | zero[:, :-1] | zero[:, 1:]
     first = np.where(change.any(axis=1), np.argmax(change, axis=1), BRACKETS)
     found = first < BRACKETS
     # Tangent: |f| comes near 0, and flat, before the bracket of the first sign change (at
@@ -201,7 +206,7 @@ def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndar
             f_lo = np.where(same, f_mid, f_lo)
             hi = np.where(same, hi, mid)
         root[rows] = np.where(exact, ts[rows, k], 0.5 * (lo + hi))
-    return root, unsure
+    return root, unsure, values[:, 0], values[:, -1]
 
 
 def _at(beta: np.ndarray, o: np.ndarray, d: np.ndarray, cells: np.ndarray,
