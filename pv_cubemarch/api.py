@@ -14,7 +14,7 @@ import pyvista
 
 from .core.registry import get_technique
 from .gl.overlay import bounds_proxy
-from .models.field_sources import make_field
+from .models.field_sources import color_values, make_field
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
 from .models.volume import VolumeModel, make_volume
@@ -526,6 +526,9 @@ def add_surface(
     ambient: float = 0.2,
     specular: float = 0.3,
     specular_power: float = 30.0,
+    color_by=None,
+    cmap: str = "viridis",
+    clim=None,
     cells=64,
     transform=None,
     name: str | None = None,
@@ -585,6 +588,16 @@ def add_surface(
         for voxels.
     ambient, specular, specular_power : float
         The share of unlit colour (0-1), the highlight's weight (0-1) and exponent.
+    color_by : str or array_like, optional
+        ``'curvature'``: the mean curvature per world unit (positive where the surface
+        bends like a ball), computed from the cell polynomial's gradient and Hessian;
+        or a second field's samples (an array or ImageData on the same cells as the
+        surface's samples), interpolated as the field is and read at the hit.
+    cmap : str
+        The colormap of ``color_by`` (256 entries).
+    clim : sequence of float, optional
+        The values at the colormap's ends (by default the second field's range, or
+        plus and minus 4 / the domain's smallest side for curvature).
     cells : int or sequence of int
         A mesh's or point cloud's resolution: cells along its longest side (64), or (a
         mesh) three counts; two more on every side keep the surface inside the domain.
@@ -607,12 +620,16 @@ def add_surface(
     >>> actor = cm.add_surface(pl, 0.8 - (x**2 + y**2 + z**2), isovalue=0.0)
     """
     chosen = get_technique("surface", technique)
+    colouring = color_by if color_by is None or isinstance(color_by, str) else "field"
     options = chosen.make_options(dict(
         steps=steps, refine_steps=refine_steps, root=root, active_test=active_test,
         active_samples=active_samples, color=color, shading=shading, ambient=ambient,
-        specular=specular, specular_power=specular_power))
+        specular=specular, specular_power=specular_power, color_by=colouring, cmap=cmap,
+        clim=None if clim is None else tuple(clim)))
     model = make_field(field, isovalue, scalars, cells=cells, transform=transform,
                        name=name or getattr(field, "name", "surface"))
+    if colouring == "field" and not (isinstance(color_by, str)):
+        model.color_values = color_values(color_by, model)
     options.check_model(model)
     low, high = float(model.coefficients.min()), float(model.coefficients.max())
     if low > 0.0 or high < 0.0:   # the field is a convex combination of its coefficients

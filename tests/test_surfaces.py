@@ -336,3 +336,42 @@ def test_a_point_cloud_with_normals_is_fitted(plotter_factory):
     zero[3] = 0.0
     with pytest.raises(VolumeDataError, match="normals are zero"):
         cm.add_surface(pl, (normals, zero))
+
+
+@pytest.mark.parametrize("technique", TECHNIQUES)
+def test_colour_by_curvature_and_by_a_second_field(plotter_factory, technique):
+    # A ball of radius 3 cells placed at 2 world units a cell: its mean curvature is
+    # 1/6 everywhere (by hand), so every pixel is the colormap's entry at 1/6 over clim
+    # (0, 1/3): the middle one. A second field, x itself (one sample per cell at its
+    # centre), colours the ball by the hit's x: the reference's colours within 3/255.
+    # catches (seen to fail): the Hessian kept in cell units (curvature twice too large),
+    # the colour coefficients read at the field's offset.
+    cells, centre = (8, 8, 8), (4.0, 4.0, 4.0)
+    placement = np.diag([2.0, 2.0, 2.0, 1.0])
+    field = SplineField(sphere_coefficients(cells, centre, 3.0), transform=placement)
+    pl = plotter(plotter_factory)
+    cm.add_surface(pl, field, technique=technique, shading="unlit", color_by="curvature",
+                   clim=(0.0, 1.0 / 3.0), steps=300, refine_steps=20)
+    camera = set_camera(pl, (30.0, -20.0, 22.0), focal=(8.0, 8.0, 8.0), up=(0, 0, 1))
+    image = cm.render_image(pl).astype(float) / 255.0
+    table = np.asarray(pyvista.LookupTable("viridis", n_values=256).values[:, :3]) / 255.0
+    hits = trace_surface(field, active_cells(field), camera, SIZE,
+                         near=pl.camera.clipping_range[0])
+    sure = hits.hit & ~hits.ambiguous
+    assert sure.mean() > 0.1
+    assert np.abs(image[sure] - table[128]).max() <= 2.0 / 255.0
+    samples = np.broadcast_to((np.arange(8) + 0.5)[:, None, None], cells)
+    pl = plotter(plotter_factory)
+    cm.add_surface(pl, SplineField(field.coefficients, transform=placement),
+                   technique=technique, shading="unlit", color_by=samples, cmap="viridis",
+                   clim=(0.0, 8.0), steps=300, refine_steps=20)
+    set_camera(pl, (30.0, -20.0, 22.0), focal=(8.0, 8.0, 8.0), up=(0, 0, 1))
+    image = cm.render_image(pl).astype(float) / 255.0
+    coloured = SplineField(field.coefficients, transform=placement,
+                           color_values=cm.models.field_sources.color_values(samples, field))
+    expected = render_surface(coloured, camera, SIZE, near=pl.camera.clipping_range[0],
+                              color_by="field", lookup_table=table, clim=(0.0, 8.0))
+    close = np.abs(image - expected).max(axis=-1) <= 3.0 / 255.0
+    assert (close | hits.ambiguous).mean() > 0.995
+    with pytest.raises(ValueError, match="one sample per cell"):
+        cm.add_surface(pl, field, color_by=np.zeros((3, 3, 3)))

@@ -32,3 +32,4 @@
   }
   float cm_depth = mix(cm_start, cm_span.y, cm_s);
   vec3 cm_local = clamp(mix(cm_a, cm_b, cm_s), 0.0, 1.0);
+  int cm_hitCell = cm_cell;

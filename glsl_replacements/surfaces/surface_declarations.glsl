@@ -2,8 +2,10 @@
 // of cell space (cm_textureFromView maps view to it); its field is the quadratic tensor
 // Bernstein polynomial sum beta[a][b][c] B_a(u) B_b(v) B_c(w) in cell-local (u, v, w) in
 // [0, 1]^3 (models/surface.py), kept local: global powers lose all precision in float32.
-// cm_cells holds CM_CELL_FLOATS floats per cell: with CM_CELL_CORNERS its corner (i, j, k)
-// first, then its 27 coefficients, a slowest, c fastest.
+// cm_cells holds CM_CELL_FLOATS floats per cell: its corner (i, j, k) first when the
+// fragment finds its cell by number ('active'), its 27 coefficients from
+// CM_FIRST_COEFFICIENT on (a slowest, c fastest), and with CM_COLOR_VALUES a second
+// field's 27 from there.
 uniform samplerBuffer cm_cells;
 uniform vec3 cm_gridDims;        // cells along x, y, z
 uniform float cm_near;           // the near plane's view depth
@@ -12,14 +14,6 @@ uniform int cm_refineSteps;      // bisections of the first sign change
 uniform vec3 cm_surfaceColor;
 
 float cm_beta[27];               // the cell being marched
-
-#ifdef CM_CELL_CORNERS
-#define CM_CELL_FLOATS 30
-#define CM_FIRST_COEFFICIENT 3
-#else
-#define CM_CELL_FLOATS 27
-#define CM_FIRST_COEFFICIENT 0
-#endif
 
 // Read cell `number`'s 27 coefficients into cm_beta.
 void cm_loadCell(int number)

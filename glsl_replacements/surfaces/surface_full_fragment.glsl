@@ -53,3 +53,6 @@
   vec3 cm_point = cm_origin + cm_direction * cm_depth;
   cm_fieldAt(cm_point);   // loads the hit's cell
   vec3 cm_local = clamp(cm_point - vec3(cm_loadedCell), 0.0, 1.0);
+  ivec3 cm_cellsPerAxis = ivec3(cm_gridDims);
+  int cm_hitCell = cm_loadedCell.x + cm_cellsPerAxis.x * (cm_loadedCell.y
+                                                          + cm_cellsPerAxis.y * cm_loadedCell.z);

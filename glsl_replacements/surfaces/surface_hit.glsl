@@ -2,13 +2,20 @@
   // gradient's normal (pointing out: the field is positive inside), lit on the side facing
   // the eye, and the hit's real depth, so meshes and other techniques occlude exactly.
   vec3 cm_hitView = cm_originView + cm_directionView * cm_depth;
+  vec3 cm_albedo = cm_surfaceColor;
+#ifdef CM_COLOR_BY_CURVATURE
+  cm_albedo = cm_colorOf(cm_meanCurvature(cm_local));
+#endif
+#ifdef CM_COLOR_VALUES
+  cm_albedo = cm_colorOf(cm_colorValue(cm_hitCell, cm_local));
+#endif
 #ifdef CM_LIGHTING
   vec3 cm_towardEye = -normalize(cm_directionView);
   vec3 cm_normal = normalize(cm_normalFromIndex * -cm_fieldGradient(cm_local));
   cm_normal = dot(cm_normal, cm_towardEye) < 0.0 ? -cm_normal : cm_normal;
-  fragOutput0 = vec4(cm_shade(cm_surfaceColor, cm_normal, cm_hitView, cm_towardEye), 1.0);
+  fragOutput0 = vec4(cm_shade(cm_albedo, cm_normal, cm_hitView, cm_towardEye), 1.0);
 #else
-  fragOutput0 = vec4(cm_surfaceColor, 1.0);
+  fragOutput0 = vec4(cm_albedo, 1.0);
 #endif
   vec4 cm_clip = cm_projection * vec4(cm_hitView, 1.0);
   gl_FragDepth = clamp(cm_clip.z / cm_clip.w * 0.5 + 0.5, 0.0, 1.0);

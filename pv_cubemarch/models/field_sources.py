@@ -250,3 +250,20 @@ def _nearest_signed_distance(points, normals, start, size, shape) -> np.ndarray:
     centres = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     _, nearest = cKDTree(points).query(centres)
     return -np.einsum("ij,ij->i", centres - points[nearest], normals[nearest])
+
+
+def color_values(data, surface: SplineField) -> np.ndarray:
+    """Coefficients of a second field on ``surface``'s cells, from one sample per cell.
+
+    ``data``: an array (or an ImageData's first array) of the surface's cell counts,
+    interpolated at the cell centres as the surface's own samples are.
+    """
+    values = image_samples(data, None)[0] if isinstance(data, pyvista.ImageData) else \
+        np.asarray(data)
+    if values.shape != tuple(surface.dimensions):
+        raise VolumeDataError(f"color_by values must have one sample per cell of the "
+                              f"surface, {tuple(surface.dimensions)}, got {values.shape}.")
+    values = values.astype(np.float64)
+    if not np.isfinite(values).all():
+        raise VolumeDataError("color_by values hold NaN or infinite values.")
+    return interpolating_coefficients(values)

@@ -53,6 +53,9 @@ class SplineField(PlacedGrid):
     grid_from_index: np.ndarray = field(default_factory=lambda: np.eye(4))
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     name: str = "surface"
+    #: Coefficients of a second field on the same cells (the same shape), whose value at
+    #: the surface colours it (``add_surface(..., color_by=values)``), or None.
+    color_values: np.ndarray | None = None
 
     def __post_init__(self):
         c = np.asarray(self.coefficients, dtype=np.float64)
@@ -63,6 +66,12 @@ class SplineField(PlacedGrid):
             raise VolumeDataError(f"Spline coefficients hold {int((~np.isfinite(c)).sum())} "
                                   "NaN or infinite values; fill or crop them first.")
         self.coefficients = c
+        if self.color_values is not None:
+            values = np.asarray(self.color_values, dtype=np.float64)
+            if values.shape != c.shape or not np.isfinite(values).all():
+                raise VolumeDataError(f"Colour values must be finite coefficients of the "
+                                      f"field's shape {c.shape}, got {values.shape}.")
+            self.color_values = values
 
     @property
     def dimensions(self) -> tuple[int, int, int]:
@@ -74,11 +83,13 @@ class SplineField(PlacedGrid):
         """Host bytes of the coefficients."""
         return int(self.coefficients.nbytes)
 
-    def cell_bernstein(self, cells: np.ndarray | None = None) -> np.ndarray:
+    def cell_bernstein(self, cells: np.ndarray | None = None,
+                       coefficients: np.ndarray | None = None) -> np.ndarray:
         """``(n, 3, 3, 3)`` Bernstein coefficients of ``cells`` (``(n, 3)`` ints; all: None).
 
         Cell-local: ``f = sum beta[a, b, c] B_a(u) B_b(v) B_c(w)`` with ``(u, v, w)`` in
-        [0, 1]³ across the cell.
+        [0, 1]³ across the cell. ``coefficients``: another spline on the same cells (e.g.
+        :attr:`color_values`) instead of the field's.
         """
         if cells is None:
             cells = np.argwhere(np.ones(self.dimensions, bool))
@@ -87,7 +98,7 @@ class SplineField(PlacedGrid):
         i = cells[:, 0, None, None, None] + offsets[None, :, None, None]
         j = cells[:, 1, None, None, None] + offsets[None, None, :, None]
         k = cells[:, 2, None, None, None] + offsets[None, None, None, :]
-        local = self.coefficients[i, j, k]
+        local = (self.coefficients if coefficients is None else coefficients)[i, j, k]
         return np.einsum("ap,bq,cr,npqr->nabc", TO_BERNSTEIN, TO_BERNSTEIN, TO_BERNSTEIN,
                          local, optimize=True)
 
@@ -104,10 +115,13 @@ class SplineField(PlacedGrid):
         inverse = np.linalg.inv(self.world_from_index())
         return p @ inverse[:3, :3].T + inverse[:3, 3]
 
-    def at_cells(self, x: np.ndarray) -> np.ndarray:
-        """The field at cell-space points ``x`` (``(n, 3)``), clamped into the grid."""
+    def at_cells(self, x: np.ndarray, coefficients: np.ndarray | None = None) -> np.ndarray:
+        """The field (or the spline ``coefficients``) at cell-space points ``x`` (``(n, 3)``).
+
+        Points outside the grid take their nearest cell's polynomial.
+        """
         cell, u = self._cells_of(x)
-        beta = self.cell_bernstein(cell)
+        beta = self.cell_bernstein(cell, coefficients)
         bu, bv, bw = (bernstein_basis(u[:, a]) for a in range(3))
         return np.einsum("nabc,na,nb,nc->n", beta, bu, bv, bw)
 
@@ -120,6 +134,38 @@ class SplineField(PlacedGrid):
         return np.stack([np.einsum("nabc,na,nb,nc->n", beta, d[0], b[1], b[2]),
                          np.einsum("nabc,na,nb,nc->n", beta, b[0], d[1], b[2]),
                          np.einsum("nabc,na,nb,nc->n", beta, b[0], b[1], d[2])], axis=-1)
+
+    def hessian_at_cells(self, x: np.ndarray) -> np.ndarray:
+        """``(n, 3, 3)`` second derivatives per cell unit squared at cell-space points."""
+        cell, u = self._cells_of(x)
+        beta = self.cell_bernstein(cell)
+        b = [bernstein_basis(u[:, a]) for a in range(3)]
+        d = [bernstein_derivative(u[:, a]) for a in range(3)]
+        second = np.broadcast_to(np.array([2.0, -4.0, 2.0]), (len(u), 3))
+        out = np.empty((len(u), 3, 3))
+        for i in range(3):
+            for j in range(i, 3):
+                factors = [b[0], b[1], b[2]]
+                if i == j:
+                    factors[i] = second
+                else:
+                    factors[i], factors[j] = d[i], d[j]
+                out[:, i, j] = out[:, j, i] = np.einsum("nabc,na,nb,nc->n", beta, *factors)
+        return out
+
+    def mean_curvature_at_cells(self, x: np.ndarray) -> np.ndarray:
+        """Mean curvature (per world unit) of the level set through cell-space points ``x``.
+
+        Positive where the surface bends like a ball's outside (the field positive inside):
+        ``-(|g|^2 tr H - g.H.g) / (2 |g|^3)`` with the world gradient ``g`` and Hessian ``H``.
+        """
+        inverse = np.linalg.inv(self.world_from_index()[:3, :3])
+        g = self.gradient_at_cells(x) @ inverse
+        h = np.einsum("ai,nab,bj->nij", inverse, self.hessian_at_cells(x), inverse)
+        norm = np.maximum(np.linalg.norm(g, axis=1), 1e-300)
+        trace = np.trace(h, axis1=1, axis2=2)
+        along = np.einsum("ni,nij,nj->n", g, h, g)
+        return -(norm ** 2 * trace - along) / (2.0 * norm ** 3)
 
     def __call__(self, points) -> np.ndarray:
         """The field at world ``points`` (``(..., 3)``).
@@ -138,9 +184,10 @@ class SplineField(PlacedGrid):
 
     def save(self, path) -> None:
         """Write the field (coefficients, placement, name) to an ``.npz`` file."""
+        extra = {} if self.color_values is None else {"color_values": self.color_values}
         np.savez_compressed(Path(path), coefficients=self.coefficients,
                             grid_from_index=self.grid_from_index, transform=self.transform,
-                            name=np.array(self.name))
+                            name=np.array(self.name), **extra)
 
     @classmethod
     def load(cls, path) -> SplineField:
@@ -151,7 +198,8 @@ class SplineField(PlacedGrid):
                 raise VolumeDataError(f"{path} is not a saved SplineField: it lacks "
                                       f"{sorted(missing)}.")
             return cls(data["coefficients"], np.asarray(data["grid_from_index"]),
-                       np.asarray(data["transform"]), str(data["name"]))
+                       np.asarray(data["transform"]), str(data["name"]),
+                       data["color_values"] if "color_values" in data.files else None)
 
 
 def interpolating_coefficients(samples: np.ndarray) -> np.ndarray:

@@ -222,12 +222,16 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
                    background: Sequence[float] = (0.0, 0.0, 0.0), near: float = 0.0,
                    lights: Sequence[VolumeLight] = (), shading: str = "unlit",
                    ambient: float = 0.2, specular: float = 0.3,
-                   specular_power: float = 30.0) -> np.ndarray:
+                   specular_power: float = 30.0, color_by: str | None = None,
+                   lookup_table: np.ndarray | None = None,
+                   clim: Sequence[float] = (0.0, 1.0)) -> np.ndarray:
     """Render the surface f = 0: each pixel its first root's (lit) colour, both sides lit.
 
     The normal at the hit faces the eye (open surfaces show their back lit as their front);
-    lighting as :func:`~pv_cubemarch.reference.shading.blinn_phong`. Returns ``(height,
-    width, 3)`` float64 RGB.
+    lighting as :func:`~pv_cubemarch.reference.shading.blinn_phong`. ``color_by``:
+    ``'curvature'`` (the mean curvature at the hit) or ``'field'`` (the field's
+    ``color_values`` there) through ``lookup_table`` (``(n, 3)``) over ``clim``, the entry
+    nearest the value's place. Returns ``(height, width, 3)`` float64 RGB.
     """
     if shading not in ("unlit", "flat", "blinn"):
         raise ValueError(f"shading must be 'unlit', 'flat' or 'blinn', got {shading!r}.")
@@ -242,6 +246,14 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
     normals = np.where(np.sum(normals * toward_eye, axis=1, keepdims=True) < 0, -normals,
                        normals)
     base = np.broadcast_to(np.asarray(color, dtype=np.float64), normals.shape)
+    if color_by is not None:
+        local = (hits.point[hit] - field.world_from_index()[:3, 3]) @ np.linalg.inv(
+            field.world_from_index()[:3, :3]).T
+        values = (field.mean_curvature_at_cells(local) if color_by == "curvature" else
+                  field.at_cells(local, field.color_values))
+        table = np.asarray(lookup_table, dtype=np.float64)
+        place = np.clip((values - clim[0]) / (clim[1] - clim[0]), 0.0, 1.0)
+        base = table[np.floor(place * (len(table) - 1) + 0.5).astype(int)]
     image[hit] = np.clip(blinn_phong(base, normals, hits.point[hit], toward_eye, lights,
                                      shading, ambient, specular, specular_power), 0.0, 1.0)
     return image

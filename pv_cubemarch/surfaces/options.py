@@ -11,6 +11,7 @@ from ..core.options import positive_number, whole_number
 from ..models.surface import ACTIVE_TESTS
 
 ROOTS = ("march", "exact")
+COLOR_BY = ("curvature", "field")
 SHADINGS = ("unlit", "flat", "blinn")
 #: Most steps along the domain's diagonal (the seed's M; 5000 in its tables).
 MAX_STEPS = 100_000
@@ -32,6 +33,11 @@ class SurfaceOptions:
     cell). ``color``: the surface's colour; ``shading``: ``'unlit'``, ``'flat'`` (Lambert
     from the scene's lights) or ``'blinn'`` (plus a highlight), with ``ambient``,
     ``specular``, ``specular_power``; both sides are lit (open surfaces show their back).
+    ``color_by``: ``None`` (``color``), ``'curvature'`` (the mean curvature, per world unit,
+    positive where the surface bends like a ball) or ``'field'`` (a second field's value,
+    the model's ``color_values``), through ``cmap`` over ``clim`` (by default the second
+    field's coefficients' range, or for curvature plus and minus 4 / the domain's smallest
+    side: a ball filling the domain's narrowest way sits at half the range).
     """
 
     steps: int = 500
@@ -44,6 +50,9 @@ class SurfaceOptions:
     ambient: float = 0.2
     specular: float = 0.3
     specular_power: float = 30.0
+    color_by: str | None = None
+    cmap: str = "viridis"
+    clim: tuple[float, float] | None = None
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
@@ -64,9 +73,40 @@ class SurfaceOptions:
         positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)
         positive_number("specular", self.specular, 0.0, 1.0, closed_low=True)
         positive_number("specular_power", self.specular_power, 0.0, 1e4)
+        if self.color_by is not None and self.color_by not in COLOR_BY:
+            raise ValueError(f"color_by must be None, one of {COLOR_BY} or a field's values, "
+                             f"got {self.color_by!r}.")
+        if self.clim is not None:
+            low, high = (float(v) for v in self.clim)
+            if not (np.isfinite(low) and np.isfinite(high) and high > low):
+                raise ValueError(f"clim must be two finite numbers, low < high, got "
+                                 f"{self.clim!r}.")
+        try:
+            pyvista.LookupTable(self.cmap)
+        except Exception as error:
+            raise ValueError(f"cmap={self.cmap!r} is not a colormap name: {error}") from None
 
     def check_model(self, model) -> None:
-        """Nothing the field can refuse yet (any grid of cells is drawn)."""
+        """Refuse ``color_by='field'`` on a field without colour values."""
+        if self.color_by == "field" and getattr(model, "color_values", None) is None:
+            raise ValueError("color_by='field' colours by the field's color_values, which "
+                             "this field has none of: pass the values as color_by=.")
+
+    def color_range(self, model) -> tuple[float, float]:
+        """``clim``, or the default range of what ``color_by`` colours by."""
+        if self.clim is not None:
+            return float(self.clim[0]), float(self.clim[1])
+        if self.color_by == "field":
+            low, high = float(model.color_values.min()), float(model.color_values.max())
+            return (low, high) if high > low else (low - 0.5, low + 0.5)
+        bounds = np.asarray(model.world_bounds()).reshape(3, 2)
+        bend = 4.0 / max(float((bounds[:, 1] - bounds[:, 0]).min()), 1e-300)
+        return -bend, bend
+
+    def lookup_table(self) -> np.ndarray:
+        """``(256, 3)`` float colours of ``cmap``, low to high."""
+        return np.asarray(pyvista.LookupTable(self.cmap, n_values=256).values[:, :3],
+                          dtype=np.float64) / 255.0
 
     @property
     def rgb(self) -> tuple[float, float, float]:

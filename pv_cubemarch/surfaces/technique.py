@@ -43,17 +43,31 @@ def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
     exact = technique == "active" and options.root == "exact"
     march = (("surface_exact",) if exact else ("surface_march",)) if technique == "active" \
         else ()
+    first, floats, values = cell_layout(technique, options)
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
                     ("camera_declarations", "slab", "pixel_ray", "surface_declarations",
-                     *dense, *march, *(("blinn_phong",) if lit else ())), keep_tag="after"),
+                     *dense, *march, *(("blinn_phong",) if lit else ()),
+                     *(("surface_color",) if options.color_by else ())), keep_tag="after"),
         Replacement("//VTK::Light::Impl", (f"surface_{technique}_fragment", "surface_hit"),
                     keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
-    ], defines={"CM_CELL_CORNERS": technique == "active", "CM_EXACT_ROOT": exact,
-                "CM_LIGHTING": lit,
-                "CM_SPECULAR": lit and options.shading == "blinn"})
+    ], defines={"CM_CELL_FLOATS": floats, "CM_FIRST_COEFFICIENT": first,
+                "CM_COLOR_VALUES": values, "CM_EXACT_ROOT": exact,
+                "CM_COLOR_BY_CURVATURE": options.color_by == "curvature",
+                "CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn"})
+
+
+def cell_layout(technique: str, options: SurfaceOptions) -> tuple[int, int, int | None]:
+    """Floats of a cell's record: ``(first coefficient, floats per cell, colour values)``.
+
+    ``'active'`` records start with the cell's corner (3 floats); then 27 coefficients;
+    with ``color_by='field'``, 27 more of the second field (their offset, else None).
+    """
+    first = 3 if technique == "active" else 0
+    values = first + 27 if options.color_by == "field" else None
+    return first, first + 27 + (27 if values is not None else 0), values
 
 
 def cell_boxes(cells: np.ndarray) -> pyvista.PolyData:
@@ -66,12 +80,19 @@ def cell_boxes(cells: np.ndarray) -> pyvista.PolyData:
     return pyvista.PolyData(points.astype(np.float64), faces=faces)
 
 
-def cell_buffer(field: SplineField, cells: np.ndarray, corners: bool) -> np.ndarray:
-    """Per cell (float32): with ``corners`` its corner (i, j, k), then its 27 coefficients."""
-    beta = field.cell_bernstein(cells).reshape(len(cells), 27)
+def cell_buffer(field: SplineField, cells: np.ndarray, corners: bool,
+                color_values: bool = False) -> np.ndarray:
+    """Per cell (float32), as :func:`cell_layout` orders it.
+
+    With ``corners`` its corner (i, j, k), then its 27 coefficients, with ``color_values``
+    the second field's 27.
+    """
+    parts = [field.cell_bernstein(cells).reshape(len(cells), 27)]
     if corners:
-        beta = np.hstack([np.asarray(cells, dtype=np.float64).reshape(-1, 3), beta])
-    return beta.astype(np.float32).ravel()
+        parts.insert(0, np.asarray(cells, dtype=np.float64).reshape(-1, 3))
+    if color_values:
+        parts.append(field.cell_bernstein(cells, field.color_values).reshape(len(cells), 27))
+    return np.hstack(parts).astype(np.float32).ravel()
 
 
 class SurfaceBinding(DrawnBinding):
@@ -128,13 +149,14 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
         actor = pyvista.Actor()
         actor.SetMapper(mapper)
         place_box(actor, field.world_from_index())
-        buffer = cell_buffer(field, cells, corners=True)
+        buffer = cell_buffer(field, cells, corners=True,
+                             color_values=options.color_by == "field")
     else:
         cells = None
         actor = box_actor(np.asarray(dims, dtype=np.float64), field.world_from_index(),
                           margin=0.01 * max(dims))
         buffer = cell_buffer(field, np.argwhere(np.ones(dims[::-1], bool))[:, ::-1],
-                             corners=False)
+                             corners=False, color_values=options.color_by == "field")
     actor.ForceTranslucentOff()
     actor.ForceOpaqueOn()
     actor.GetProperty().LightingOff()
@@ -154,6 +176,13 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
         bindings.set_uniform("cm_ambient", float(options.ambient))
         bindings.set_uniform("cm_specular", float(options.specular))
         bindings.set_uniform("cm_specularPower", float(options.specular_power))
+    if options.color_by:
+        bindings.add_texture("cm_colormap", Texture(
+            options.lookup_table().reshape(1, 256, 3).astype(np.float32), kind="2d",
+            interpolate=False), owned=True)
+        bindings.set_uniform("cm_colorRange", options.color_range(field))
+        bindings.set_uniform("cm_indexFromWorld",
+                             lambda: np.linalg.inv(field.world_from_index()[:3, :3]))
     recipe = surface_recipe(options, technique)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
