@@ -3,9 +3,11 @@
 // samples at s = k/6 through the inverse of the Bernstein basis there (exact fractions:
 // tests/test_surfaces.py derives them again). A polynomial whose coefficients all have one
 // sign has no root on its interval (the convex hull); otherwise the interval is halved (de
-// Casteljau), depth first, left before right, down to CM_EXACT_DEPTH halvings, so the
-// first root is found whatever the step: thin features and grazing rays are not missed.
-// The last interval is then bisected on the field itself (cm_refineSteps).
+// Casteljau), depth first, left before right, down to CM_EXACT_DEPTH halvings (1/1024 of
+// the segment), where the field itself must change sign across the interval; so the first
+// root is found whatever the step: thin features and grazing rays are not missed, short of
+// two roots within one 1/1024 of the segment. That interval is then bisected on the field
+// itself (cm_refineSteps).
 const float CM_SAMPLES_TO_BERNSTEIN[49] = float[49](
   1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
   (-29.0 / 20.0), 6.0, (-15.0 / 2.0), (20.0 / 3.0), (-15.0 / 4.0), (6.0 / 5.0), (-1.0 / 6.0),
@@ -17,7 +19,7 @@ const float CM_SAMPLES_TO_BERNSTEIN[49] = float[49](
   (-222.0 / 25.0), (227.0 / 150.0),
   (-1.0 / 6.0), (6.0 / 5.0), (-15.0 / 4.0), (20.0 / 3.0), (-15.0 / 2.0), 6.0, (-29.0 / 20.0),
   0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0);
-#define CM_EXACT_DEPTH 16
+#define CM_EXACT_DEPTH 10
 #define CM_EXACT_ITERATIONS 160
 
 float cm_whole[7];   // the polynomial on the cell's whole segment
@@ -89,12 +91,38 @@ float cm_exactRoot(vec3 a, vec3 b)
     cm_whole[j] = sum;
     cm_part[j] = sum;
   }
+  float tiny = 0.0;   // 1e-6 of the polynomial's largest coefficient
+  for (int j = 0; j < 7; ++j)
+  {
+    tiny = max(tiny, abs(cm_whole[j]));
+  }
+  tiny *= 1e-6;
   int depth = 0;
   int index = 0;   // the interval [index, index + 1] / 2^depth
   float found = -1.0;
+  float f0 = 0.0;
+  float f1 = 0.0;
   for (int iteration = 0; iteration < CM_EXACT_ITERATIONS && found < 0.0; ++iteration)
   {
-    if (cm_oneSign() != 0.0)   // no root here: on to the next interval to the right
+    bool rootless = cm_oneSign() != 0.0;
+    if (!rootless && depth == CM_EXACT_DEPTH)
+    {
+      // The hull still straddles 0: the field itself must change sign across the
+      // interval (float32 hulls of deep intervals, restricted from the whole segment's,
+      // are not trusted further: seen to lose a plain crossing).
+      float size = 1.0 / float(1 << depth);
+      f0 = cm_field(mix(a, b, float(index) * size));
+      f1 = cm_field(mix(a, b, float(index + 1) * size));
+      // An end within float32's reach of 0 counts: a root on the cell's face may round
+      // to the outside in both cells' samples (seen: a slab's face lost).
+      if (f0 * f1 <= 0.0 || min(abs(f0), abs(f1)) <= tiny)
+      {
+        found = float(index);
+        break;
+      }
+      rootless = true;
+    }
+    if (rootless)   // no root here: on to the next interval to the right
     {
       index += 1;
       while (depth > 0 && (index & 1) == 0)
@@ -115,11 +143,6 @@ float cm_exactRoot(vec3 a, vec3 b)
       cm_split(float(index) / float(index + 1), false);
       continue;
     }
-    if (depth == CM_EXACT_DEPTH)
-    {
-      found = float(index);
-      break;
-    }
     cm_split(0.5, true);
     depth += 1;
     index *= 2;
@@ -128,27 +151,22 @@ float cm_exactRoot(vec3 a, vec3 b)
   {
     return -1.0;
   }
-  // Bisect the last interval on the field itself where its ends differ in sign.
+  // Bisect the last interval on the field itself (its ends differ in sign).
   float size = 1.0 / float(1 << depth);
   float s0 = found * size;
   float s1 = s0 + size;
-  float f0 = cm_field(mix(a, b, s0));
-  float f1 = cm_field(mix(a, b, s1));
-  if (f0 * f1 <= 0.0)
+  for (int r = 0; r < cm_refineSteps; ++r)
   {
-    for (int r = 0; r < cm_refineSteps; ++r)
+    float s = 0.5 * (s0 + s1);
+    float f = cm_field(mix(a, b, s));
+    if (f0 * f > 0.0 && abs(f0) > tiny)
     {
-      float s = 0.5 * (s0 + s1);
-      float f = cm_field(mix(a, b, s));
-      if (f0 * f > 0.0)
-      {
-        s0 = s;
-        f0 = f;
-      }
-      else
-      {
-        s1 = s;
-      }
+      s0 = s;
+      f0 = f;
+    }
+    else
+    {
+      s1 = s;
     }
   }
   return 0.5 * (s0 + s1);
