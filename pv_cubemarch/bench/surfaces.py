@@ -244,8 +244,7 @@ def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 1
                                  near=first.camera.clipping_range[0])
             times = time_frames_side_by_side(plotters, frames, warmup=0,
                                              row_budget_ms=ROW_BUDGET_MS)
-            for row, pl in plotters.items():
-                render_frame(pl)
+            for row, pl in plotters.items():   # each window keeps its last frame
                 setup, nbytes, share = drawn[row]
                 results.append(SurfaceRow(shape, cells, row, times[row], setup, nbytes, share,
                                           *_errors(pl, surface, hits, cell)))
