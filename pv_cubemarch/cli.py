@@ -438,6 +438,16 @@ def _bench_voxel_edits(args) -> int:
     return 0
 
 
+def _write_rows(path: str | None, rows: list, **run) -> None:
+    """A bench's rows (dataclasses with ``median_ms``) and its run's settings as JSON."""
+    if not path:
+        return
+    Path(path).write_text(json.dumps({
+        "rows": [{**vars(r), "median_ms": r.median_ms} for r in rows], **run,
+        "gl_renderer": gl_info()["renderer"]}, indent=1))
+    print(f"wrote {path}")
+
+
 def _bench_surfaces(args) -> int:
     shapes = [s.strip() for s in args.shapes.split(",") if s.strip()]
     rows = bench_surfaces.run_surfaces(args.size, args.grids, args.steps, shapes,
@@ -447,11 +457,7 @@ def _bench_surfaces(args) -> int:
           "errors against the CPU reference's first roots (depth in cells; later: pixels "
           "more than half a cell behind the reference)")
     print(bench_surfaces.format_surfaces(rows))
-    if args.json_path:
-        Path(args.json_path).write_text(json.dumps({
-            "rows": [{**vars(r), "median_ms": r.median_ms} for r in rows],
-            "size": list(args.size), "gl_renderer": gl_info()["renderer"]}, indent=1))
-        print(f"wrote {args.json_path}")
+    _write_rows(args.json_path, rows, size=list(args.size))
     return 0
 
 
@@ -462,12 +468,8 @@ def _bench_voxel_world(args) -> int:
           "turn as if the view turned; x one: over the one-grid scene's same row; wrong: "
           "pixels off the CPU traversal of the whole grid, away from voxel edges")
     print(bench_world.format_world_table(rows))
-    if args.json_path:
-        Path(args.json_path).write_text(json.dumps({
-            "rows": [{**vars(r), "median_ms": r.median_ms} for r in rows],
-            "size": list(args.size), "chunk": args.chunk, "count": args.count,
-            "gl_renderer": gl_info()["renderer"]}, indent=1))
-        print(f"wrote {args.json_path}")
+    _write_rows(args.json_path, rows, size=list(args.size), chunk=args.chunk,
+                count=args.count)
     return 0
 
 

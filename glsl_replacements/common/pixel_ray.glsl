@@ -17,3 +17,14 @@ void cm_pixelRay(vec2 ndc, out vec3 originView, out vec3 directionView)
     directionView = vec3(0.0, 0.0, -1.0);
   }
 }
+
+// This fragment's ray in view space and in the technique's own space (cm_textureFromView,
+// made in double precision, camera-relative), from the fragment's window position.
+void cm_fragmentRay(out vec3 originView, out vec3 directionView, out vec3 origin,
+                    out vec3 direction)
+{
+  vec2 pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
+  cm_pixelRay(pixel * 2.0 - 1.0, originView, directionView);
+  origin = (cm_textureFromView * vec4(originView, 1.0)).xyz;
+  direction = mat3(cm_textureFromView) * directionView;
+}

@@ -7,11 +7,9 @@
   int cm_base = cm_cell * CM_CELL_FLOATS;
   vec3 cm_corner = vec3(texelFetch(cm_cells, cm_base).r, texelFetch(cm_cells, cm_base + 1).r,
                         texelFetch(cm_cells, cm_base + 2).r);
-  vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
-  vec3 cm_originView, cm_directionView;
-  cm_pixelRay(cm_pixel * 2.0 - 1.0, cm_originView, cm_directionView);
-  vec3 cm_origin = (cm_textureFromView * vec4(cm_originView, 1.0)).xyz - cm_corner;
-  vec3 cm_direction = mat3(cm_textureFromView) * cm_directionView;
+  vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and cell space
+  cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
+  cm_origin -= cm_corner;   // the cell's own coordinates
   vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(0.0), vec3(1.0));
   float cm_start = max(cm_span.x, cm_near);
   if (!(cm_span.y > cm_start))

@@ -4,11 +4,8 @@
 // in its own cell's polynomial (dense: cell n's coefficients at 27 n, loaded when the ray
 // enters the cell), the exit sampled last; the first sign change is bisected. Followed by
 // surface_hit.glsl.
-  vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
-  vec3 cm_originView, cm_directionView;
-  cm_pixelRay(cm_pixel * 2.0 - 1.0, cm_originView, cm_directionView);
-  vec3 cm_origin = (cm_textureFromView * vec4(cm_originView, 1.0)).xyz;
-  vec3 cm_direction = mat3(cm_textureFromView) * cm_directionView;
+  vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and cell space
+  cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
   vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
   float cm_start = max(cm_span.x, cm_near);
   if (!(cm_span.y > cm_start))

@@ -18,12 +18,8 @@
     }
   }
 #endif
-  vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
-  vec3 cm_originView, cm_directionView;
-  cm_pixelRay(cm_pixel * 2.0 - 1.0, cm_originView, cm_directionView);
-  // The ray in index space (cm_textureFromView was made in double precision, camera-relative).
-  vec3 cm_origin = (cm_textureFromView * vec4(cm_originView, 1.0)).xyz;
-  vec3 cm_direction = mat3(cm_textureFromView) * cm_directionView;
+  vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and index space
+  cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
   vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
   // From the box or the near plane; with the brick shell, from where the ray meets it
   // (every voxel before that is empty), and not at all where it meets none.

@@ -8,6 +8,7 @@ its own state and ``release()``.
 from __future__ import annotations
 
 from .bindings import ShaderBindings
+from .box import place_box
 from .shaders import ShaderRecipe
 
 
@@ -52,3 +53,17 @@ class DrawnBinding:
         for actor in self.drawn:
             if actor is not self.actor:
                 actor.SetVisibility(shown)
+
+    def follow_placement(self) -> None:
+        """After the model moved: its box actor follows, and the near and far planes."""
+        place_box(self.drawn[0], self.model.world_from_index())
+        if self.main_renderer is not None:
+            self.main_renderer.ResetCameraClippingRange()
+
+    def begin_release(self) -> bool:
+        """Mark the binding released and free its bindings; False if it already was."""
+        if self._released:
+            return False
+        self._released = True
+        self.bindings.release()
+        return True

@@ -343,11 +343,7 @@ class _StageReader:
                     f"{'does' if len(other) == 1 else 'do'} not apply to "
                     'cubemarch:technique = "voxels" (volume options); remove '
                     f"{'it' if len(other) == 1 else 'them'}, or choose a volume technique.")
-        authored = {}
-        for key, option, kind in VOXEL_OPTIONS:
-            value = _attr(prim, f"cubemarch:{key}")
-            if value is not None:
-                authored[key] = (option, _converted(name, key, value, kind))
+        authored = _authored(prim, name, VOXEL_OPTIONS)
         options = {option: value for option, value in authored.values()}
         try:
             voxel_options(**options)
@@ -394,11 +390,7 @@ class _StageReader:
     def _surface(self, prim, name: str, field_prim, grid) -> None:
         """A spline field from sampled data and ``cubemarch:isovalue``, options checked."""
         where = f"Volume {name} (field {field_prim.GetPath()})"
-        authored = {}
-        for key, option, kind in SURFACE_OPTIONS:
-            value = _attr(prim, f"cubemarch:{key}")
-            if value is not None:
-                authored[key] = (option, _converted(name, key, value, kind))
+        authored = _authored(prim, name, SURFACE_OPTIONS)
         options = {option: value for option, value in authored.values()}
         color = _attr(prim, "cubemarch:color")
         if color is not None:
@@ -466,6 +458,20 @@ SURFACE_OPTIONS = (
 _VOLUME_ONLY = tuple(key for key in ("opacity", "clim", "opacityUnitDistance",
                                      *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))
                      if key != "technique" and key not in {k for k, _, _ in VOXEL_OPTIONS})
+
+
+def _authored(prim, name: str, table) -> dict:
+    """The ``cubemarch:*`` options of ``table`` authored on ``prim``.
+
+    ``{key: (option, value)}``, each converted to its kind (a SceneLoadError names a
+    wrong one).
+    """
+    authored = {}
+    for key, option, kind in table:
+        value = _attr(prim, f"cubemarch:{key}")
+        if value is not None:
+            authored[key] = (option, _converted(name, key, value, kind))
+    return authored
 
 
 def _converted(name: str, key: str, value, kind):

@@ -24,6 +24,7 @@ from ..gl.lights import bind_scene_lights
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.surface import SplineField, active_cells
+from ..models.volume import checked_transform
 from ..reference.surfaces import render_surface
 from .options import SurfaceOptions
 
@@ -123,18 +124,13 @@ class SurfaceBinding(DrawnBinding):
 
     def set_transform(self, transform) -> None:
         """Move the surface: ``transform`` is its new 4x4 placement in the world."""
-        self.model.transform = np.asarray(transform, dtype=np.float64)
-        place_box(self.drawn[0], self.model.world_from_index())
-        if self.main_renderer is not None:
-            self.main_renderer.ResetCameraClippingRange()
+        self.model.transform = checked_transform(transform)
+        self.follow_placement()
 
     def release(self) -> None:
         """Free the buffer and the observers (once)."""
-        if self._released:
-            return
-        self._released = True
-        self.bindings.release()
-        self.buffer.release()
+        if self.begin_release():
+            self.buffer.release()
 
 
 def _build(plotter, field: SplineField, options: SurfaceOptions,

@@ -16,7 +16,7 @@ import numpy as np
 import pyvista
 
 from ..gl.bindings import ShaderBindings
-from ..gl.box import box_actor, box_polydata, place_box
+from ..gl.box import box_actor, box_polydata
 from ..gl.drawn import DrawnBinding
 from ..gl.textures import Texture
 from ..models.chunk_pool import (
@@ -275,18 +275,13 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
     def set_transform(self, transform) -> None:
         """Move the world: ``transform`` is its new 4x4 placement."""
         self.model.transform = checked_transform(transform)
-        place_box(self.drawn[0], self.model.world_from_index())
-        if self.main_renderer is not None:
-            self.main_renderer.ResetCameraClippingRange()
+        self.follow_placement()
 
     def release(self) -> None:
         """Free the textures (once)."""
-        if self._released:
-            return
-        self._released = True
-        self.bindings.release()
-        for texture in (self.pool, self.index, self.palette_texture):
-            texture.release()
+        if self.begin_release():
+            for texture in (self.pool, self.index, self.palette_texture):
+                texture.release()
 
 
 def build_indexed_world(plotter, world: VoxelWorld,

@@ -18,7 +18,7 @@ import pyvista
 from ..core.camera import Camera
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, box_actor, place_box
+from ..gl.box import bind_camera, box_actor
 from ..gl.drawn import DrawnBinding
 from ..gl.face_depth import FaceDepthPass
 from ..gl.lights import bind_scene_lights
@@ -284,18 +284,14 @@ class VoxelBinding(DrawnBinding):
     def set_transform(self, transform) -> None:
         """Move the grid: ``transform`` is its new 4x4 placement in the world."""
         self.model.transform = checked_transform(transform)
-        place_box(self.drawn[0], self.model.world_from_index())
         if self.shell is not None:
             self.shell.place()
-        if self.main_renderer is not None:
-            self.main_renderer.ResetCameraClippingRange()
+        self.follow_placement()
 
     def release(self) -> None:
         """Free the textures and observers (once)."""
-        if self._released:
+        if not self.begin_release():
             return
-        self._released = True
-        self.bindings.release()
         if self.shell is not None:
             self.shell.release()
         for actor in self.drawn:   # a world's chunk: its actor stands behind the world's
