@@ -628,8 +628,8 @@ def add_surface(
         clim=None if clim is None else tuple(clim)))
     model = make_field(field, isovalue, scalars, cells=cells, transform=transform,
                        name=name or getattr(field, "name", "surface"))
-    if colouring == "field" and not (isinstance(color_by, str)):
-        model.color_values = color_values(color_by, model)
+    if colouring == "field" and not isinstance(color_by, str):   # values, not a name
+        model = dataclasses.replace(model, color_values=color_values(color_by, model))
     options.check_model(model)
     low, high = float(model.coefficients.min()), float(model.coefficients.max())
     if low > 0.0 or high < 0.0:   # the field is a convex combination of its coefficients

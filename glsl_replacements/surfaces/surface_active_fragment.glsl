@@ -10,7 +10,10 @@
   vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and cell space
   cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
   cm_origin -= cm_corner;   // the cell's own coordinates
-  vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(0.0), vec3(1.0));
+  // The cell's slab grown by 1e-4 cell: a pixel the rasteriser gives this cell may have a
+  // ray exactly on its edge that float32 puts an ulp outside (seen: holes along cell lines
+  // in an axis-aligned parallel view); the polynomial extends smoothly past the cell.
+  vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(-1e-4), vec3(1.0 + 1e-4));
   float cm_start = max(cm_span.x, cm_near);
   if (!(cm_span.y > cm_start))
   {

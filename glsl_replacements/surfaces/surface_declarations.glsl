@@ -15,6 +15,20 @@ uniform vec3 cm_surfaceColor;
 
 float cm_beta[27];               // the cell being marched
 
+// Whether a root lies between two field values: they differ in sign, or one is 0. Signs are
+// compared, never multiplied: a product of two small values underflows to 0 in float32
+// (seen: fields scaled by 1e-19 drawn where they have no root).
+bool cm_brackets(float f0, float f1)
+{
+  return (f0 <= 0.0 && f1 >= 0.0) || (f0 >= 0.0 && f1 <= 0.0);
+}
+
+// Whether two field values lie strictly on the same side of 0.
+bool cm_sameSide(float f0, float f1)
+{
+  return (f0 > 0.0 && f1 > 0.0) || (f0 < 0.0 && f1 < 0.0);
+}
+
 // Read cell `number`'s 27 coefficients into cm_beta.
 void cm_loadCell(int number)
 {

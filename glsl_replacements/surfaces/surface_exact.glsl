@@ -115,7 +115,7 @@ float cm_exactRoot(vec3 a, vec3 b)
       f1 = cm_field(mix(a, b, float(index + 1) * size));
       // An end within float32's reach of 0 counts: a root on the cell's face may round
       // to the outside in both cells' samples (seen: a slab's face lost).
-      if (f0 * f1 <= 0.0 || min(abs(f0), abs(f1)) <= tiny)
+      if (cm_brackets(f0, f1) || min(abs(f0), abs(f1)) <= tiny)
       {
         found = float(index);
         break;
@@ -159,7 +159,7 @@ float cm_exactRoot(vec3 a, vec3 b)
   {
     float s = 0.5 * (s0 + s1);
     float f = cm_field(mix(a, b, s));
-    if (f0 * f > 0.0 && abs(f0) > tiny)
+    if (cm_sameSide(f0, f) && abs(f0) > tiny)
     {
       s0 = s;
       f0 = f;

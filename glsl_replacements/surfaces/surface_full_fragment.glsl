@@ -22,13 +22,13 @@
   {
     float cm_t1 = min(cm_start + float(cm_k) * cm_dt, cm_span.y);
     float cm_f1 = cm_fieldAt(cm_origin + cm_direction * cm_t1);
-    if (cm_f0 * cm_f1 <= 0.0)
+    if (cm_brackets(cm_f0, cm_f1))
     {
       for (int cm_r = 0; cm_r < cm_refineSteps; ++cm_r)
       {
         float cm_t = 0.5 * (cm_t0 + cm_t1);
         float cm_f = cm_fieldAt(cm_origin + cm_direction * cm_t);
-        if (cm_f0 * cm_f > 0.0)
+        if (cm_sameSide(cm_f0, cm_f))
         {
           cm_t0 = cm_t;
           cm_f0 = cm_f;

@@ -17,13 +17,13 @@ float cm_marchCell(vec3 a, vec3 b)
   {
     float s1 = min(float(k) * step, 1.0);
     float f1 = cm_field(mix(a, b, s1));
-    if (f0 * f1 <= 0.0)
+    if (cm_brackets(f0, f1))
     {
       for (int r = 0; r < cm_refineSteps; ++r)
       {
         float s = 0.5 * (s0 + s1);
         float f = cm_field(mix(a, b, s));
-        if (f0 * f > 0.0)
+        if (cm_sameSide(f0, f))
         {
           s0 = s;
           f0 = f;

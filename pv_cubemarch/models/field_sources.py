@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +26,7 @@ from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 from ..core.errors import VolumeDataError
 from ..core.progress import progress
 from .surface import SplineField, interpolating_coefficients
+from .volume import checked_transform
 from .voxels import image_samples
 
 #: Distances evaluated per batch (one step of the progress bar).
@@ -59,6 +61,9 @@ def mesh_field(mesh: pyvista.DataSet, cells: int | Sequence[int] = 64, *,
         counts = np.maximum(np.ceil(extent / max(size, 1e-300)).astype(int), 1)
     else:
         counts = np.asarray(cells, dtype=int)
+        if counts.shape != (3,) or counts.min() < 1:
+            raise VolumeDataError(f"cells is one count or three counts of at least 1, got "
+                                  f"{cells!r}.")
         size = float((extent / counts).max())
     if not size > 0:
         raise VolumeDataError("The mesh is flat or a point: it encloses nothing.")
@@ -78,6 +83,10 @@ def mesh_field(mesh: pyvista.DataSet, cells: int | Sequence[int] = 64, *,
     grid_from_index = np.diag([size, size, size, 1.0])
     grid_from_index[:3, 3] = start
     samples = values.reshape(*counts)
+    if samples[0, 0, 0] > 0:   # the domain's corner lies outside: the faces point inward
+        warnings.warn("The mesh's faces are wound inward (its outside came out positive): "
+                      "the field is flipped so that it is positive inside.", stacklevel=3)
+        samples = -samples
     return SplineField(interpolating_coefficients(samples), grid_from_index, name=name)
 
 
@@ -86,7 +95,8 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
                progress_bar: bool | None = None) -> SplineField:
     """The field whose zero set is the surface ``data`` describes, positive inside.
 
-    ``data``: a :class:`SplineField` (as is); a 3D array of samples indexed x, y, z (one
+    ``data``: a :class:`SplineField` (a copy; ``isovalue``, if given, is subtracted: the
+    field's level drawn); a 3D array of samples indexed x, y, z (one
     per unit cell, at its centre) or a ``pyvista.ImageData`` (cell data: one sample per
     cell; point data: a cell centred on each point), with ``isovalue``: the quadratic
     B-spline interpolating ``samples - isovalue`` at the cell centres
@@ -101,8 +111,8 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     """
     if isinstance(data, (str, Path)):
         data = pyvista.read(data)
-    if isinstance(data, SplineField):
-        field = data
+    if isinstance(data, SplineField):   # a copy: the caller's field stays as it was
+        field = replace(data, coefficients=data.coefficients - float(isovalue or 0.0))
     elif isinstance(data, tuple) and len(data) == 2:   # (points, normals)
         field = point_cloud_field(*data, cells, progress_bar=progress_bar, name=name)
     elif isinstance(data, pyvista.PolyData) and data.n_faces == 0:
@@ -117,7 +127,7 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     else:
         field = _sampled_field(data, isovalue, scalars, name)
     if transform is not None:
-        field.transform = np.asarray(transform, dtype=np.float64)
+        field.transform = checked_transform(transform)
     return field
 
 
@@ -161,6 +171,9 @@ def point_cloud_field(points, normals, cells: int = 32, *, offset: float = 0.5,
     point along that point's normal, with a progress bar over the iterations. ``cells``:
     cells along the points' longest side (two more on every side).
     """
+    if not np.isscalar(cells) and np.ndim(cells) != 0:
+        raise VolumeDataError(f"A point cloud's cells is one count (along its longest side), "
+                              f"got {cells!r}.")
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     normals = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     if len(points) < 10:
@@ -207,7 +220,12 @@ def point_cloud_field(points, normals, cells: int = 32, *, offset: float = 0.5,
                       "max_iterations or smoothness.", stacklevel=2)
     grid_from_index = np.diag([size, size, size, 1.0])
     grid_from_index[:3, 3] = start
-    return SplineField(solution.reshape(shape), grid_from_index, name=name)
+    coefficients = solution.reshape(shape)
+    if coefficients[0, 0, 0] > 0:   # the domain's corner lies outside: normals point in
+        warnings.warn("The normals point into the surface (its outside came out positive): "
+                      "the field is flipped so that it is positive inside.", stacklevel=3)
+        coefficients = -coefficients
+    return SplineField(coefficients, grid_from_index, name=name)
 
 
 def _basis_rows(x: np.ndarray, counts, shape) -> sparse.csr_matrix:

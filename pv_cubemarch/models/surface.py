@@ -193,7 +193,7 @@ class SplineField(PlacedGrid):
     def load(cls, path) -> SplineField:
         """Read a field :meth:`save` wrote."""
         with np.load(Path(path)) as data:
-            missing = {"coefficients", "grid_from_index", "transform"} - set(data.files)
+            missing = {"coefficients", "grid_from_index", "transform", "name"} - set(data.files)
             if missing:
                 raise VolumeDataError(f"{path} is not a saved SplineField: it lacks "
                                       f"{sorted(missing)}.")
@@ -269,6 +269,8 @@ def active_cells(surface: SplineField, test: str = "bernstein", samples: int = 4
         raise ValueError(f"samples must be at least 2 (the cell's corners), got {samples}.")
     dims = surface.dimensions
     cells = np.argwhere(np.ones(dims[::-1], bool))[:, ::-1]   # x fastest
+    if test == "sample":   # at most about 4 M field values at once
+        batch = max(1, min(int(batch), 4_000_000 // int(samples) ** 3))
     keep = []
     lattice = np.linspace(0.0, 1.0, int(samples))
     basis = bernstein_basis(lattice)
