@@ -192,7 +192,7 @@ def add_volume(
         plotter.renderer, data, source, int(light_map_size), float(ambient))
     binding = chosen.build(plotter, data, options, shading, light_map)
     binding.light_map = light_map
-    actor = _place(plotter, binding, name or model.name)
+    actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     component.track(binding)
     _frame(plotter)
     return actor
@@ -204,6 +204,22 @@ def _frame(plotter: pyvista.Plotter) -> None:
         plotter.reset_camera()
     else:
         plotter.renderer.ResetCameraClippingRange()
+
+
+def _unused_name(plotter: pyvista.Plotter, base: str) -> str:
+    """``base``, or ``base-2``, ``base-3``... the first no actor of the plotter has.
+
+    A name the user gives replaces the actor of that name, as in PyVista; a default name
+    must not (PyVista's own defaults are unique): two surfaces added without names both
+    stay.
+    """
+    taken = set(plotter.actors)
+    if base not in taken:
+        return base
+    number = 2
+    while f"{base}-{number}" in taken:
+        number += 1
+    return f"{base}-{number}"
 
 
 def _place(plotter: pyvista.Plotter, binding, name: str):
@@ -239,7 +255,7 @@ def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str |
         traversal = "index" if why_not_indexed(world, options) is None else "per_chunk"
     if traversal == "index":
         binding = build_indexed_world(plotter, world, options)
-        actor = _place(plotter, binding, name or world.name)
+        actor = _place(plotter, binding, name or _unused_name(plotter, world.name))
         plotter.cubemarch.track(binding)
     else:
         if options.mode == "id":
@@ -503,7 +519,7 @@ def add_voxels(
     options.check_model(model)
     component = plotter.cubemarch
     binding = chosen.build(plotter, model, options)
-    actor = _place(plotter, binding, name or model.name)
+    actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     component.track(binding)
     _frame(plotter)
     return actor
@@ -636,7 +652,7 @@ def add_surface(
         warnings.warn(f"The field has no zero (its coefficients lie in [{low:g}, {high:g}]): "
                       "nothing is drawn. Check the isovalue or the field's sign.", stacklevel=2)
     binding = chosen.build(plotter, model, options)
-    actor = _place(plotter, binding, name or model.name)
+    actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     plotter.cubemarch.track(binding)
     _frame(plotter)
     return actor

@@ -430,3 +430,21 @@ def test_the_callers_field_is_left_as_it_was_and_inward_sources_are_flipped(plot
     with pytest.warns(UserWarning, match="wound inward"):
         flipped = cm.make_field(pyvista.Sphere(radius=1.0).flip_faces(), cells=12)
     assert flipped(np.zeros((1, 3)))[0] > 0.5
+
+
+def test_two_surfaces_without_names_are_both_drawn(plotter_factory):
+    # catches (seen): every surface named "surface" by default, so the second replaced the
+    # first in the plotter (PyVista's own default names are unique).
+    field = SplineField(sphere_coefficients((8, 8, 8), (4.0, 4.0, 4.0), 3.0))
+    moved = np.eye(4)
+    moved[0, 3] = 12.0
+    pl = plotter(plotter_factory, (200, 100))
+    cm.add_surface(pl, field, shading="unlit", color="red")
+    cm.add_surface(pl, SplineField(field.coefficients, transform=moved), shading="unlit",
+                   color="lime")
+    assert len(pl.actors) == 2
+    set_camera(pl, (10.0, -40.0, 4.0), focal=(10.0, 4.0, 4.0), up=(0, 0, 1))
+    image = cm.render_image(pl).astype(int)
+    red = (image[..., 0] > 200) & (image[..., 1] < 50)
+    green = (image[..., 1] > 200) & (image[..., 0] < 50)
+    assert red.sum() > 100 and green.sum() > 100
