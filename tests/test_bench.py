@@ -234,3 +234,16 @@ def test_bench_voxel_large_terrain_is_made_chunk_by_chunk(tmp_path):
     data = json.loads(path.read_text())
     assert data["shape"] == [128, 128, 8] and data["wrong_pixels"] is None
     assert data["chunks_stored"] + data["chunks_uniform"] > 4 and data["filled_voxels"] > 0
+
+
+def test_bench_surfaces_rows_and_errors(tmp_path, capsys):
+    # A tiny run through the CLI: every row of one shape and grid, the exact root exact
+    # against the reference (IoU 1), the anchors present, JSON written.
+    out = tmp_path / "surfaces.json"
+    assert main(["bench", "surfaces", "--size", "48x48", "--grids", "8", "--steps", "50",
+                 "--shapes", "blobs", "--frames", "1", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    rows = {r["row"]: r for r in json.loads(out.read_text())["rows"]}
+    assert {"full M=50", "active M=50", "active exact", "contour 1/cell",
+            "vtk isosurface"} <= set(rows) and "x full" in text
+    assert rows["active exact"]["iou"] > 0.999 and rows["active exact"]["active_share"] < 1
