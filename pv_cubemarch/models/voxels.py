@@ -139,6 +139,11 @@ class VoxelModel(PlacedGrid):
         """Bytes of the labels (one or two per voxel)."""
         return int(self.labels.nbytes)
 
+    @property
+    def dtype(self) -> np.dtype:
+        """The labels' type (uint8 or uint16), as a world's."""
+        return self.labels.dtype
+
 
 def checked_labels(array, name: str = "labels") -> np.ndarray:
     """Integer labels as uint8 (or uint16 above 255), or a clear error naming ``name``."""

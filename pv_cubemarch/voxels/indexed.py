@@ -306,9 +306,7 @@ def build_indexed_world(plotter, world: VoxelWorld,
     bindings.add_texture("cm_labels", binding.pool)
     bindings.add_texture("cm_chunkIndex", binding.index)
     bindings.add_texture("cm_palette", binding.palette_texture)
-    bind_grid(bindings, renderer, world, world.dtype, options)
-    # An edit above 255 widens the world's labels (and its pool) to uint16.
-    bindings.set_uniform("cm_labelScale", lambda: float(np.iinfo(world.dtype).max))
+    bind_grid(bindings, renderer, world, options)
     layout = binding.layout
     recipe = voxel_recipe(options, None, (layout.slab_axis, layout.row_axis),
                           chunk_shift=chunk_shift(world.chunk_size))

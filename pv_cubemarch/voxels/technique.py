@@ -92,14 +92,13 @@ def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
     bindings.set_uniform("cm_specularPower", float(options.specular_power))
 
 
-def bind_grid(bindings: ShaderBindings, renderer, model, label_type,
-              options: VoxelOptions) -> None:
+def bind_grid(bindings: ShaderBindings, renderer, model, options: VoxelOptions) -> None:
     """The uniforms every traversal of a grid (or world) reads: sizes, camera, lights, LOD.
 
-    ``model``: a placed grid (``dimensions``, ``world_from_index``, ``palette``);
-    ``label_type``: its labels' dtype (uint8 or uint16).
+    ``model``: a placed grid or world (``dimensions``, ``world_from_index``, ``dtype``);
+    the label scale is read at each draw, as a world's labels may widen to uint16.
     """
-    bindings.set_uniform("cm_labelScale", float(np.iinfo(label_type).max))
+    bindings.set_uniform("cm_labelScale", lambda: float(np.iinfo(model.dtype).max))
     bindings.set_uniform("cm_gridDims", tuple(float(n) for n in model.dimensions))
     if options.traversal == "fixed":
         bindings.set_uniform("cm_voxelStep", options.step)
@@ -345,7 +344,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     labels = bind_labels(bindings, model, options, levels)
     bindings.add_texture("cm_palette", palette)
     skipping = bind_distance_field(bindings, model, options)
-    bind_grid(bindings, renderer, model, model.labels.dtype, options)
+    bind_grid(bindings, renderer, model, options)
     if shell is not None:
         bindings.add_texture("cm_shellDepth", shell.depth)
         bindings.set_uniform("cm_startAtProxy", lambda: shell.start_at_shell)

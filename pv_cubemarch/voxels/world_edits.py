@@ -79,10 +79,6 @@ class WorldEditing:
         """``material`` if the palette has it (a world's labels widen to uint16 on need)."""
         return editing.check_material(material, np.uint16, self.model.palette)
 
-    def _write(self, box, values: np.ndarray) -> None:
-        """Write labels into the world and send what they change to the GPU."""
-        raise NotImplementedError
-
     def pick(self, x: int, y: int) -> VoxelPick | None:
         """The voxel under pixel ``(x, y)`` (from the top-left), or ``None``.
 
