@@ -19,6 +19,7 @@ from .voxels import (
     MAX_TEXTURE_SIZE,
     atlas_layout,
     atlas_levels,
+    filled_bounds,
     level_atlas,
     level_origin,
 )
@@ -144,13 +145,11 @@ def world_filled_bounds(world: VoxelWorld) -> tuple[np.ndarray, np.ndarray]:
         origin, shape = world.chunk_box(key)
         lows.append(origin)
         highs.append(origin + shape)
-    for key, labels in world.stored.items():
+    for key, labels in world.stored.items():   # a stored chunk holds a non-zero label
         origin, _ = world.chunk_box(key)
-        filled = labels != 0
-        along = [np.flatnonzero(filled.any(axis=tuple(a for a in range(3) if a != axis)))
-                 for axis in range(3)]
-        lows.append(origin + [a[0] for a in along])
-        highs.append(origin + [a[-1] + 1 for a in along])
+        low, high = filled_bounds(labels)
+        lows.append(origin + low)
+        highs.append(origin + high)
     if not lows:
         return np.zeros(3), np.zeros(3)
     return (np.min(lows, axis=0).astype(np.float64), np.max(highs, axis=0).astype(np.float64))

@@ -159,14 +159,7 @@ def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndar
     s = np.linspace(0.0, 1.0, BRACKETS + 1)
     span = (t1 - t0)[:, None]
     ts = t0[:, None] + span * s[None, :]
-
-    def field_at(tt):   # (m, k) ray parameters -> field values
-        local = o[:, None, :] + d[:, None, :] * tt[..., None] - cells[:, None, :]
-        local = np.clip(local, 0.0, 1.0)
-        bu, bv, bw = (bernstein_basis(local[..., a]) for a in range(3))
-        return np.einsum("mabc,mka,mkb,mkc->mk", beta, bu, bv, bw, optimize=True)
-
-    values = field_at(ts)
+    values = _at(beta, o, d, cells, ts)
     zero = values == 0.0
     change = (np.sign(values[:, :-1]) * np.sign(values[:, 1:]) < 0) | zero[:, :-1] | zero[:, 1:]
     first = np.where(change.any(axis=1), np.argmax(change, axis=1), BRACKETS)
@@ -200,7 +193,7 @@ def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndar
         exact = f_lo == 0.0
         for _ in range(BISECTIONS):
             mid = 0.5 * (lo + hi)
-            f_mid = _at(beta[rows], o[rows], d[rows], cells[rows], mid)
+            f_mid = _at(beta[rows], o[rows], d[rows], cells[rows], mid[:, None])[:, 0]
             same = np.sign(f_mid) == np.sign(f_lo)
             lo = np.where(same, mid, lo)
             f_lo = np.where(same, f_mid, f_lo)
@@ -211,10 +204,10 @@ def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndar
 
 def _at(beta: np.ndarray, o: np.ndarray, d: np.ndarray, cells: np.ndarray,
         t: np.ndarray) -> np.ndarray:
-    """The cells' fields (Bernstein ``beta``) at ray parameters ``t``, one per ray."""
-    local = np.clip(o + d * t[:, None] - cells, 0.0, 1.0)
-    bu, bv, bw = (bernstein_basis(local[:, a]) for a in range(3))
-    return np.einsum("mabc,ma,mb,mc->m", beta, bu, bv, bw, optimize=True)
+    """The cells' fields (Bernstein ``beta``) at ray parameters ``t`` (``(m, k)``: k per ray)."""
+    local = np.clip(o[:, None, :] + d[:, None, :] * t[..., None] - cells[:, None, :], 0.0, 1.0)
+    bu, bv, bw = (bernstein_basis(local[..., a]) for a in range(3))
+    return np.einsum("mabc,mka,mkb,mkc->mk", beta, bu, bv, bw, optimize=True)
 
 
 def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
