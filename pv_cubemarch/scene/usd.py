@@ -348,16 +348,11 @@ class _StageReader:
         try:
             voxel_options(**options)
         except ValueError as exc:
-            named = [f"cubemarch:{key} = {value!r}" for key, (option, value) in
-                     authored.items() if re.search(rf"\b{option}\b", str(exc))]
-            raise SceneLoadError(f"Volume {name}: {', '.join(named) or 'its voxel options'}: "
-                                 f"{exc}") from exc
+            raise _options_error(name, authored, "voxel", exc) from exc
         if not isinstance(grid, pyvista.ImageData):
             raise VolumeDataError(f"{where}: the file holds a {type(grid).__name__}; material "
                                   "labels come on an ImageData (cell or point data).")
-        field_name = _attr(field_prim, "fieldName")
-        scalars = str(field_name) if field_name and str(field_name) in grid.array_names \
-            else None
+        scalars = _field_array(field_prim, grid)
         try:
             model = make_voxels(grid, scalars, transform=self.world_matrix(prim), name=name)
         except VolumeDataError as exc:
@@ -399,17 +394,12 @@ class _StageReader:
             get_technique("surface", options.get("technique", "active")).make_options(
                 {k: v for k, v in options.items() if k != "technique"})
         except ValueError as exc:
-            named = [f"cubemarch:{key} = {value!r}" for key, (option, value) in
-                     authored.items() if re.search(rf"\b{option}\b", str(exc))]
-            raise SceneLoadError(f"Volume {name}: {', '.join(named) or 'its surface options'}"
-                                 f": {exc}") from exc
+            raise _options_error(name, authored, "surface", exc) from exc
         isovalue = _attr(prim, "cubemarch:isovalue")
         if isovalue is None:
             raise SceneLoadError(f"Volume {name}: cubemarch:technique = \"surface\" needs "
                                  "cubemarch:isovalue (the level of the field to draw).")
-        field_name = _attr(field_prim, "fieldName")
-        scalars = str(field_name) if field_name and str(field_name) in grid.array_names \
-            else None
+        scalars = _field_array(field_prim, grid)
         try:
             surface = make_field(grid, float(_converted(name, "isovalue", isovalue, float)),
                                  scalars, transform=self.world_matrix(prim), name=name)
@@ -458,6 +448,20 @@ SURFACE_OPTIONS = (
 _VOLUME_ONLY = tuple(key for key in ("opacity", "clim", "opacityUnitDistance",
                                      *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))
                      if key != "technique" and key not in {k for k, _, _ in VOXEL_OPTIONS})
+
+
+def _options_error(name: str, authored: dict, kind: str, error: ValueError) -> SceneLoadError:
+    """A SceneLoadError naming the authored attributes the options' ``error`` is about."""
+    named = [f"cubemarch:{key} = {value!r}" for key, (option, value) in authored.items()
+             if re.search(rf"\b{option}\b", str(error))]
+    return SceneLoadError(f"Volume {name}: {', '.join(named) or f'its {kind} options'}: "
+                          f"{error}")
+
+
+def _field_array(field_prim, grid) -> str | None:
+    """The grid's array the field prim's ``fieldName`` names, if the grid has it."""
+    field_name = _attr(field_prim, "fieldName")
+    return str(field_name) if field_name and str(field_name) in grid.array_names else None
 
 
 def _authored(prim, name: str, table) -> dict:
