@@ -535,6 +535,7 @@ def add_surface(
     steps: int = 500,
     refine_steps: int = 10,
     root: str = "march",
+    traversal: str = "index",
     active_test: str = "bernstein",
     active_samples: int = 4,
     color="white",
@@ -590,6 +591,14 @@ def add_surface(
         closer than a step, a thin feature or a grazing ray, can be missed) or ``'exact'``
         (the first root of each cell's degree-6 polynomial along the ray by Bernstein
         subdivision, whatever ``steps``; ``technique='active'``).
+    traversal : str
+        How ``technique='active'`` reaches its cells. ``'index'`` (default): one ray per
+        pixel steps through bricks of 4³ cells, skipping those without active cells, and
+        marches the active cells it meets in order, stopping at the first root; the
+        bricks share their cells' coefficients (about 9 floats per active cell). ``'cell_boxes'``
+        (the seed's): every active cell's box is drawn and each of its fragments marches
+        that cell alone, the depth test keeping the nearest hit (27 floats and 12
+        triangles per active cell; every active cell on a ray is marched).
     active_test : str
         ``'bernstein'`` (default, exact: a cell is kept when its Bernstein coefficients
         change sign, so no crossed cell is ever left out) or ``'sample'`` (the seed's: the
@@ -638,7 +647,8 @@ def add_surface(
     chosen = get_technique("surface", technique)
     colouring = color_by if color_by is None or isinstance(color_by, str) else "field"
     options = chosen.make_options(dict(
-        steps=steps, refine_steps=refine_steps, root=root, active_test=active_test,
+        steps=steps, refine_steps=refine_steps, root=root, traversal=traversal,
+        active_test=active_test,
         active_samples=active_samples, color=color, shading=shading, ambient=ambient,
         specular=specular, specular_power=specular_power, color_by=colouring, cmap=cmap,
         clim=None if clim is None else tuple(clim)))

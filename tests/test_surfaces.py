@@ -18,7 +18,14 @@ from pv_cubemarch.models.surface import TO_BERNSTEIN, SplineField, active_cells
 from pv_cubemarch.reference.surfaces import render_surface, trace_surface
 
 SIZE = (64, 48)
-TECHNIQUES = ["active", "full"]
+#: The three ways a surface is drawn, each with the keywords choosing it: the active cells
+#: through their brick index (the default), as the seed's boxes, and the seed's full march.
+DRAWINGS = {"index": {"technique": "active"},
+            "cell_boxes": {"technique": "active", "traversal": "cell_boxes"},
+            "full": {"technique": "full"}}
+#: Each drawing with each root mode it takes.
+ROOTED = [("index", "march"), ("index", "exact"), ("cell_boxes", "march"),
+          ("cell_boxes", "exact"), ("full", "march")]
 
 
 def plotter(plotter_factory, size=SIZE):
@@ -64,16 +71,15 @@ def blob(cells=(12, 10, 8), seed=5):
     return SplineField(c + rng.normal(scale=2.0, size=c.shape))
 
 
-@pytest.mark.parametrize(("technique", "root"), [("active", "march"), ("full", "march"),
-                                               ("active", "exact")])
+@pytest.mark.parametrize(("drawing", "root"), ROOTED)
 @pytest.mark.parametrize("parallel", [False, True])
-def test_first_roots_match_the_reference(plotter_factory, technique, root, parallel):
+def test_first_roots_match_the_reference(plotter_factory, drawing, root, parallel):
     # catches (seen to fail): the exit of a cell not sampled (roots in the last, shorter
     # interval missed: at 50 steps a cell gets 1-2 samples), refine_steps ignored (depth
     # off by up to a step), the cell taken from the primitive number / 6.
     field = blob()
     pl = plotter(plotter_factory)
-    cm.add_surface(pl, field, technique=technique, root=root, shading="unlit", steps=50,
+    cm.add_surface(pl, field, **DRAWINGS[drawing], root=root, shading="unlit", steps=50,
                    refine_steps=30)
     camera = set_camera(pl, (16.0, -8.0, 12.0), focal=(6.0, 5.0, 4.0), up=(0, 0, 1))
     if parallel:
@@ -118,8 +124,8 @@ EXTREMES = ["inside-domain", "inside-active-cell", "near-plane-cuts", "axis-para
 
 
 @pytest.mark.parametrize("case", EXTREMES)
-@pytest.mark.parametrize("technique", TECHNIQUES)
-def test_extremes(plotter_factory, case, technique):
+@pytest.mark.parametrize("drawing", DRAWINGS)
+def test_extremes(plotter_factory, case, drawing):
     # catches (seen to fail): rays started at the cell's entry behind the near plane
     # (near-plane-cuts: the cut-away front drawn); in the reference, roots lying exactly on
     # a cell face missed (along-cell-faces: 0 at a segment's end not counted, or rounded to
@@ -158,7 +164,7 @@ def test_extremes(plotter_factory, case, technique):
                                        coefficients.shape).copy()
     field = SplineField(coefficients, transform=transform)
     pl = plotter(plotter_factory, (49, 49))
-    cm.add_surface(pl, field, technique=technique, shading="unlit", steps=400,
+    cm.add_surface(pl, field, **DRAWINGS[drawing], shading="unlit", steps=400,
                    refine_steps=30)
     up = (0, 1, 0) if case == "axis-parallel" else (0, 0, 1)
     camera = set_camera(pl, tuple(eye), focal=tuple(focal), up=up, angle=50.0)
@@ -188,20 +194,36 @@ def test_a_field_with_no_zero_draws_nothing_and_bad_input_is_refused(plotter_fac
         cm.add_surface(pl, np.ones((4, 4, 4)), isovalue=0.0, steps=0)
     with pytest.raises(ValueError, match="technique must be one of"):
         cm.add_surface(pl, np.ones((4, 4, 4)), isovalue=0.0, technique="mesh")
+    with pytest.raises(ValueError, match="traversal must be one of"):
+        cm.add_surface(pl, np.ones((4, 4, 4)), isovalue=0.0, traversal="boxes")
+    with pytest.raises(ValueError, match="leave traversal out"):
+        cm.add_surface(pl, blob(), technique="full", traversal="cell_boxes")
 
 
-def test_active_cells_save_memory_and_meshes_occlude(plotter_factory):
-    # Bytes by hand: 30 floats per active cell, 12 triangles of 3 ints each, 3 floats per
-    # shared corner; the dense layout 27 floats per cell. A plane through the sphere's
-    # middle hides its back half: the depth test between a mesh and the surface.
+@pytest.mark.parametrize("traversal", ["index", "cell_boxes"])
+def test_active_cells_save_memory_and_meshes_occlude(plotter_factory, traversal):
+    # Bytes by hand. Cell boxes: 30 floats per active cell, 12 triangles of 3 ints each, 3
+    # floats per shared corner. Index: per brick of 4³ cells holding an active cell, its 6³
+    # shared coefficients (floats) and 4³ activity bytes (slots rounded up to a box of
+    # slots: at most one more row of them), 16 bytes per brick of the index, and the
+    # domain's box (8 corners, 12 triangles). The dense layout: 27 floats per cell. A plane
+    # through the sphere's middle hides its back half: the depth test between a mesh and
+    # the surface.
     field = SplineField(sphere_coefficients((32, 32, 32), (16.0, 16.0, 16.0), 11.0))
     pl = plotter(plotter_factory)
-    actor = cm.add_surface(pl, field, shading="unlit", color="white")
+    actor = cm.add_surface(pl, field, traversal=traversal, shading="unlit", color="white")
     binding = actor.cubemarch
     n = len(binding.cells)
-    corners = binding.drawn[0].GetMapper().GetInput().GetNumberOfPoints()
-    assert binding.nbytes == 4 * 30 * n + 4 * 36 * n + 12 * corners
     assert binding.dense_bytes == 27 * 4 * 32 ** 3 and n < 0.1 * 32 ** 3
+    if traversal == "cell_boxes":
+        corners = binding.drawn[0].GetMapper().GetInput().GetNumberOfPoints()
+        assert binding.nbytes == 4 * 30 * n + 4 * 36 * n + 12 * corners
+    else:
+        bricks = len({tuple(c) for c in binding.cells // 4})
+        least = bricks * (4 * 6 ** 3 + 4 ** 3) + 16 * 8 ** 3 + 12 * 8 + 12 * 12
+        slack = int(np.ceil(bricks ** (2.0 / 3.0))) * (4 * 6 ** 3 + 4 ** 3)
+        assert least <= binding.nbytes <= least + slack
+        assert binding.nbytes < 0.05 * binding.dense_bytes
     plane = pyvista.Plane(center=(16.0, 16.0, 16.0), direction=(1.0, 0.0, 0.0),
                           i_size=40, j_size=40)
     pl.add_mesh(plane, color="red", lighting=False)
@@ -338,8 +360,8 @@ def test_a_point_cloud_with_normals_is_fitted(plotter_factory):
         cm.add_surface(pl, (normals, zero))
 
 
-@pytest.mark.parametrize("technique", TECHNIQUES)
-def test_colour_by_curvature_and_by_a_second_field(plotter_factory, technique):
+@pytest.mark.parametrize("drawing", DRAWINGS)
+def test_colour_by_curvature_and_by_a_second_field(plotter_factory, drawing):
     # A ball of radius 3 cells placed at 2 world units a cell: its mean curvature is
     # 1/6 everywhere (by hand), so every pixel is the colormap's entry at 1/6 over clim
     # (0, 1/3): the middle one. A second field, x itself (one sample per cell at its
@@ -350,7 +372,7 @@ def test_colour_by_curvature_and_by_a_second_field(plotter_factory, technique):
     placement = np.diag([2.0, 2.0, 2.0, 1.0])
     field = SplineField(sphere_coefficients(cells, centre, 3.0), transform=placement)
     pl = plotter(plotter_factory)
-    cm.add_surface(pl, field, technique=technique, shading="unlit", color_by="curvature",
+    cm.add_surface(pl, field, **DRAWINGS[drawing], shading="unlit", color_by="curvature",
                    clim=(0.0, 1.0 / 3.0), steps=300, refine_steps=20)
     camera = set_camera(pl, (30.0, -20.0, 22.0), focal=(8.0, 8.0, 8.0), up=(0, 0, 1))
     image = cm.render_image(pl).astype(float) / 255.0
@@ -363,7 +385,7 @@ def test_colour_by_curvature_and_by_a_second_field(plotter_factory, technique):
     samples = np.broadcast_to((np.arange(8) + 0.5)[:, None, None], cells)
     pl = plotter(plotter_factory)
     cm.add_surface(pl, SplineField(field.coefficients, transform=placement),
-                   technique=technique, shading="unlit", color_by=samples, cmap="viridis",
+                   **DRAWINGS[drawing], shading="unlit", color_by=samples, cmap="viridis",
                    clim=(0.0, 8.0), steps=300, refine_steps=20)
     set_camera(pl, (30.0, -20.0, 22.0), focal=(8.0, 8.0, 8.0), up=(0, 0, 1))
     image = cm.render_image(pl).astype(float) / 255.0
@@ -377,10 +399,9 @@ def test_colour_by_curvature_and_by_a_second_field(plotter_factory, technique):
         cm.add_surface(pl, field, color_by=np.zeros((3, 3, 3)))
 
 
-@pytest.mark.parametrize(("technique", "root"), [("active", "march"), ("active", "exact"),
-                                               ("full", "march")])
+@pytest.mark.parametrize(("drawing", "root"), ROOTED)
 def test_pixel_centres_on_cell_edges_in_an_axis_aligned_parallel_view(plotter_factory,
-                                                                       technique, root):
+                                                                       drawing, root):
     # Looking straight down z under a parallel projection whose pixel centres fall on the
     # cell lines (4 pixels a cell): a ray on a cell's edge belongs to the cell the
     # rasteriser picks. catches (seen, review): float32 putting that ray an ulp outside
@@ -390,7 +411,7 @@ def test_pixel_centres_on_cell_edges_in_an_axis_aligned_parallel_view(plotter_fa
     field = SplineField(sphere_coefficients(cells, centre, 3.3)
                         + rng.normal(scale=0.7, size=(14, 12, 10)))
     pl = plotter(plotter_factory)
-    cm.add_surface(pl, field, technique=technique, root=root, shading="unlit", steps=400,
+    cm.add_surface(pl, field, **DRAWINGS[drawing], root=root, shading="unlit", steps=400,
                    refine_steps=30)
     set_camera(pl, (6.25, 5.25, 30.0), focal=(6.25, 5.25, 4.0), up=(0, 1, 0))
     pl.camera.parallel_projection = True
@@ -407,13 +428,13 @@ def test_tiny_and_huge_fields_draw_the_same_surface(plotter_factory, scale):
     # tests by products underflowing in float32 (293 pixels drawn where there is no root).
     base = blob()
     field = SplineField(base.coefficients * scale)
-    for technique, root in (("active", "march"), ("active", "exact"), ("full", "march")):
+    for drawing, root in ROOTED:
         pl = plotter(plotter_factory)
-        cm.add_surface(pl, field, technique=technique, root=root, shading="unlit", steps=200,
+        cm.add_surface(pl, field, **DRAWINGS[drawing], root=root, shading="unlit", steps=200,
                        refine_steps=30)
         camera = set_camera(pl, (16.0, -8.0, 12.0), focal=(6.0, 5.0, 4.0), up=(0, 0, 1))
         wrong, off, hits = against_reference(pl, field, camera)
-        assert hits.hit.mean() > 0.2 and wrong <= 2 and off == 0, (technique, root, wrong)
+        assert hits.hit.mean() > 0.2 and wrong <= 2 and off == 0, (drawing, root, wrong)
 
 
 def test_the_callers_field_is_left_as_it_was_and_inward_sources_are_flipped(plotter_factory):

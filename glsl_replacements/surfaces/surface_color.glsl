@@ -1,6 +1,7 @@
 // Colour by a value at the hit (CM_COLOR_BY_CURVATURE: the mean curvature; CM_COLOR_VALUES:
-// a second field on the same cells), through a 256-entry colormap over cm_colorRange, the
-// entry nearest the value's place (as the CPU reference picks it).
+// a second field on the same cells, read by the storage's cm_colorValue), through a
+// 256-entry colormap over cm_colorRange, the entry nearest the value's place (as the CPU
+// reference picks it).
 uniform sampler2D cm_colormap;     // 256 x 1 RGB
 uniform vec2 cm_colorRange;        // the values at the colormap's ends
 #ifdef CM_COLOR_BY_CURVATURE
@@ -13,26 +14,6 @@ vec3 cm_colorOf(float value)
                       0.0, 1.0);
   return texelFetch(cm_colormap, ivec2(int(place * 255.0 + 0.5), 0), 0).rgb;
 }
-
-#ifdef CM_COLOR_VALUES
-// The second field of cell `number` at local `u` (its 27 coefficients read once, here).
-float cm_colorValue(int number, vec3 u)
-{
-  int base = number * CM_CELL_FLOATS + CM_COLOR_VALUES;
-  vec3 bu = cm_basis(u.x), bv = cm_basis(u.y), bw = cm_basis(u.z);
-  float f = 0.0;
-  for (int a = 0; a < 3; ++a)
-  {
-    for (int b = 0; b < 3; ++b)
-    {
-      int n = base + 9 * a + 3 * b;
-      f += bu[a] * bv[b] * dot(vec3(texelFetch(cm_cells, n).r, texelFetch(cm_cells, n + 1).r,
-                                    texelFetch(cm_cells, n + 2).r), bw);
-    }
-  }
-  return f;
-}
-#endif
 
 #ifdef CM_COLOR_BY_CURVATURE
 // The mean curvature (per world unit) of the loaded cell's level set at local `u`:

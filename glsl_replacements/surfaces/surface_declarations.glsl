@@ -2,11 +2,8 @@
 // of cell space (cm_textureFromView maps view to it); its field is the quadratic tensor
 // Bernstein polynomial sum beta[a][b][c] B_a(u) B_b(v) B_c(w) in cell-local (u, v, w) in
 // [0, 1]^3 (models/surface.py), kept local: global powers lose all precision in float32.
-// cm_cells holds CM_CELL_FLOATS floats per cell: its corner (i, j, k) first when the
-// fragment finds its cell by number ('active'), its 27 coefficients from
-// CM_FIRST_COEFFICIENT on (a slowest, c fastest), and with CM_COLOR_VALUES a second
-// field's 27 from there.
-uniform samplerBuffer cm_cells;
+// Where the cells' coefficients come from is the storage's (surface_records.glsl: per-cell
+// records; surface_bricks.glsl: bricks of shared spline coefficients).
 uniform vec3 cm_gridDims;        // cells along x, y, z
 uniform float cm_near;           // the near plane's view depth
 uniform float cm_stepLength;     // cell units between samples (the domain's diagonal / M)
@@ -27,16 +24,6 @@ bool cm_brackets(float f0, float f1)
 bool cm_sameSide(float f0, float f1)
 {
   return (f0 > 0.0 && f1 > 0.0) || (f0 < 0.0 && f1 < 0.0);
-}
-
-// Read cell `number`'s 27 coefficients into cm_beta.
-void cm_loadCell(int number)
-{
-  int base = number * CM_CELL_FLOATS + CM_FIRST_COEFFICIENT;
-  for (int n = 0; n < 27; ++n)
-  {
-    cm_beta[n] = texelFetch(cm_cells, base + n).r;
-  }
 }
 
 vec3 cm_basis(float u)

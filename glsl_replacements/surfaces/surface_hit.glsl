@@ -1,7 +1,13 @@
-  // The hit (cm_depth along the view ray, cm_local in the loaded cell): the analytic
-  // gradient's normal (pointing out: the field is positive inside), lit on the side facing
-  // the eye, and the hit's real depth, so meshes and other techniques occlude exactly.
+  // The hit (cm_depth along the view ray, cm_local in the loaded cell cm_hitCell): the
+  // analytic gradient's normal (pointing out: the field is positive inside), lit on the
+  // side facing the eye, and the hit's real depth, so meshes and other techniques occlude
+  // exactly. The normal is taken first: a second field's value may replace the loaded cell.
   vec3 cm_hitView = cm_originView + cm_directionView * cm_depth;
+#ifdef CM_LIGHTING
+  vec3 cm_towardEye = -normalize(cm_directionView);
+  vec3 cm_normal = normalize(cm_normalFromIndex * -cm_fieldGradient(cm_local));
+  cm_normal = dot(cm_normal, cm_towardEye) < 0.0 ? -cm_normal : cm_normal;
+#endif
   vec3 cm_albedo = cm_surfaceColor;
 #ifdef CM_COLOR_BY_CURVATURE
   cm_albedo = cm_colorOf(cm_meanCurvature(cm_local));
@@ -10,9 +16,6 @@
   cm_albedo = cm_colorOf(cm_colorValue(cm_hitCell, cm_local));
 #endif
 #ifdef CM_LIGHTING
-  vec3 cm_towardEye = -normalize(cm_directionView);
-  vec3 cm_normal = normalize(cm_normalFromIndex * -cm_fieldGradient(cm_local));
-  cm_normal = dot(cm_normal, cm_towardEye) < 0.0 ? -cm_normal : cm_normal;
   fragOutput0 = vec4(cm_shade(cm_albedo, cm_normal, cm_hitView, cm_towardEye), 1.0);
 #else
   fragOutput0 = vec4(cm_albedo, 1.0);

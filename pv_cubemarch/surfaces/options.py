@@ -11,6 +11,9 @@ from ..core.options import positive_number, whole_number
 from ..models.surface import ACTIVE_TESTS
 
 ROOTS = ("march", "exact")
+#: How ``technique='active'`` finds its active cells: one traversal per pixel through their
+#: brick index, or the seed's boxes (a fragment per cell).
+TRAVERSALS = ("index", "cell_boxes")
 COLOR_BY = ("curvature", "field")
 SHADINGS = ("unlit", "flat", "blinn")
 #: Most steps along the domain's diagonal (the seed's M; 5000 in its tables).
@@ -28,11 +31,15 @@ class SurfaceOptions:
     included; ``refine_steps``: bisections on the first sign change (the seed's 10).
     ``root``: ``'march'`` (the seed's) or ``'exact'`` (the first root of the cell's
     degree-6 polynomial along the ray, by Bernstein subdivision: none missed at any
-    ``steps``; ``technique='active'`` only). ``active_test``: ``'bernstein'`` (exact: no crossed
-    cell is ever left out) or ``'sample'`` (the seed's: a ``active_samples``³ lattice per
-    cell). ``color``: the surface's colour; ``shading``: ``'unlit'``, ``'flat'`` (Lambert
-    from the scene's lights) or ``'blinn'`` (plus a highlight), with ``ambient``,
-    ``specular``, ``specular_power``; both sides are lit (open surfaces show their back).
+    ``steps``; ``technique='active'`` only). ``traversal`` (``technique='active'``):
+    ``'index'`` (one ray per pixel through the active cells' bricks, stopping at the first
+    root) or ``'cell_boxes'`` (the seed's: each active cell's box drawn, a fragment marching
+    its own cell, the depth test keeping the nearest). ``active_test``: ``'bernstein'``
+    (exact: no crossed cell is ever left out) or ``'sample'`` (the seed's: a
+    ``active_samples``³ lattice per cell). ``color``: the surface's colour; ``shading``:
+    ``'unlit'``, ``'flat'`` (Lambert from the scene's lights) or ``'blinn'`` (plus a
+    highlight), with ``ambient``, ``specular``, ``specular_power``; both sides are lit
+    (open surfaces show their back).
     ``color_by``: ``None`` (``color``), ``'curvature'`` (the mean curvature, per world unit,
     positive where the surface bends like a ball) or ``'field'`` (a second field's value,
     the model's ``color_values``), through ``cmap`` over ``clim`` (by default the second
@@ -43,6 +50,7 @@ class SurfaceOptions:
     steps: int = 500
     refine_steps: int = 10
     root: str = "march"
+    traversal: str = "index"
     active_test: str = "bernstein"
     active_samples: int = 4
     color: object = "white"
@@ -60,6 +68,8 @@ class SurfaceOptions:
         whole_number("refine_steps", self.refine_steps, 0, MAX_REFINE_STEPS)
         if self.root not in ROOTS:
             raise ValueError(f"root must be one of {ROOTS}, got {self.root!r}.")
+        if self.traversal not in TRAVERSALS:
+            raise ValueError(f"traversal must be one of {TRAVERSALS}, got {self.traversal!r}.")
         if self.active_test not in ACTIVE_TESTS:
             raise ValueError(f"active_test must be one of {ACTIVE_TESTS}, got "
                              f"{self.active_test!r}.")

@@ -1,13 +1,19 @@
 """Implicit surfaces drawn per pixel from their cells' polynomials (003).
 
-``'active'`` (the seed's method): the back faces of the active cells' boxes (12 triangles
-a cell, sharing their corners), each fragment marching its ray inside its own cell, found
-from the primitive's number (no per-vertex index: the seed's 7 floats on 36 vertices per
-cell become 12 triangles of shared corners); the cells' corners and 27 Bernstein
-coefficients in one texture buffer (the seed's SSBO). ``'full'`` (the seed's baseline):
-the domain's box, each ray marched through every cell, with every cell's coefficients.
-Both write the hit's real depth: the depth test keeps the nearest hit of all cells, and
-meshes and other techniques occlude and are occluded.
+``'active'`` marches only the active cells, drawn one of two ways (``traversal``):
+
+- ``'index'`` (default): the domain's box, each pixel's ray traversing the active cells'
+  brick index (``models/surface_bricks.py``) and marching each active cell it meets, in
+  order, up to the first root: one fragment a pixel, its cells' coefficients shared.
+- ``'cell_boxes'`` (the seed's method): the back faces of the active cells' boxes (12
+  triangles a cell, sharing their corners), each fragment marching its ray inside its own
+  cell, found from the primitive's number (no per-vertex index: the seed's 7 floats on 36
+  vertices per cell become 12 triangles of shared corners); the cells' corners and 27
+  Bernstein coefficients in one texture buffer (the seed's SSBO).
+
+``'full'`` (the seed's baseline): the domain's box, each ray marched through every cell,
+with every cell's coefficients. All write the hit's real depth: the depth test keeps the
+nearest hit, and meshes and other techniques occlude and are occluded.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from ..gl.lights import bind_scene_lights
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.surface import SplineField, active_cells
+from ..models.surface_bricks import BRICK_SIZE, SurfaceBricks, surface_bricks
 from ..models.volume import checked_transform
 from ..reference.surfaces import render_surface
 from .options import SurfaceOptions
@@ -37,27 +44,44 @@ CELL_TRIANGLES = np.array([
 CORNERS = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)])
 
 
+def drawing(technique: str, options: SurfaceOptions) -> str:
+    """How the surface is drawn: ``'index'``, ``'cell_boxes'`` (both active) or ``'full'``."""
+    return options.traversal if technique == "active" else "full"
+
+
+#: Per drawing: the cells' storage and the fragment's main block.
+STORAGE = {"index": "surface_bricks", "cell_boxes": "surface_records",
+           "full": "surface_records"}
+FRAGMENT = {"index": "surface_traverse_fragment", "cell_boxes": "surface_cell_boxes_fragment",
+            "full": "surface_full_fragment"}
+
+
 def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
     """The replacements of ``technique`` (``'active'`` or ``'full'``) with ``options``."""
     lit = options.shading != "unlit"
-    dense = ("surface_dense",) if technique == "full" else ()
-    exact = technique == "active" and options.root == "exact"
-    march = (("surface_exact",) if exact else ("surface_march",)) if technique == "active" \
-        else ()
-    first, floats, values = cell_layout(technique, options)
+    how = drawing(technique, options)
+    exact = options.root == "exact"
+    root = ("surface_exact" if exact else "surface_march",) if how != "full" else ()
+    cells = ("surface_dense",) if how == "full" else (
+        ("surface_traverse",) if how == "index" else ())
+    defines = {"CM_EXACT_ROOT": exact, "CM_COLOR_BY_CURVATURE": options.color_by == "curvature",
+               "CM_COLOR_VALUES": options.color_by == "field", "CM_LIGHTING": lit,
+               "CM_SPECULAR": lit and options.shading == "blinn"}
+    if how == "index":
+        defines["CM_BRICK_SHIFT"] = BRICK_SIZE.bit_length() - 1
+    else:
+        first, floats, values = cell_layout(technique, options)
+        defines.update(CM_CELL_FLOATS=floats, CM_FIRST_COEFFICIENT=first,
+                       CM_COLOR_VALUES=values)
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
                     ("camera_declarations", "slab", "pixel_ray", "surface_declarations",
-                     *dense, *march, *(("blinn_phong",) if lit else ()),
+                     STORAGE[how], *root, *cells, *(("blinn_phong",) if lit else ()),
                      *(("surface_color",) if options.color_by else ())), keep_tag="after"),
-        Replacement("//VTK::Light::Impl", (f"surface_{technique}_fragment", "surface_hit"),
-                    keep_tag="before"),
+        Replacement("//VTK::Light::Impl", (FRAGMENT[how], "surface_hit"), keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
-    ], defines={"CM_CELL_FLOATS": floats, "CM_FIRST_COEFFICIENT": first,
-                "CM_COLOR_VALUES": values, "CM_EXACT_ROOT": exact,
-                "CM_COLOR_BY_CURVATURE": options.color_by == "curvature",
-                "CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn"})
+    ], defines=defines)
 
 
 def cell_layout(technique: str, options: SurfaceOptions) -> tuple[int, int, int | None]:
@@ -103,19 +127,21 @@ class SurfaceBinding(DrawnBinding):
     needs_single_sample = True   # a pixel's hit is one ray's, as for voxels
 
     def __init__(self, field: SplineField, bindings: ShaderBindings, recipe: ShaderRecipe,
-                 buffer: Texture, options: SurfaceOptions, cells: np.ndarray | None):
+                 options: SurfaceOptions, cells: np.ndarray | None,
+                 bricks: SurfaceBricks | None = None):
         super().__init__(field, bindings, recipe)
-        self.buffer = buffer
         self.options = options
         #: The active cells drawn (``'active'``), or None (``'full'``: every cell).
         self.cells = cells
+        #: The bricks of active cells (``traversal='index'``), or None.
+        self.bricks = bricks
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes: the coefficient buffer and the drawn geometry (points, triangles)."""
+        """GPU bytes: the textures and the drawn geometry (points, triangles)."""
         polydata = self.drawn[0].GetMapper().GetInput()
         geometry = 4 * 3 * polydata.GetNumberOfPoints() + 4 * 3 * polydata.GetNumberOfCells()
-        return self.buffer.nbytes + geometry
+        return self.bindings.nbytes + geometry
 
     @property
     def dense_bytes(self) -> int:
@@ -128,39 +154,64 @@ class SurfaceBinding(DrawnBinding):
         self.follow_placement()
 
     def release(self) -> None:
-        """Free the buffer and the observers (once)."""
-        if self.begin_release():
-            self.buffer.release()
+        """Free the textures and the observers (once)."""
+        self.begin_release()
+
+
+def _domain_actor(field: SplineField) -> pyvista.Actor:
+    """The back faces of the domain's box (a hair larger: no grazing pixel lost)."""
+    dims = field.dimensions
+    return box_actor(np.asarray(dims, dtype=np.float64), field.world_from_index(),
+                     margin=0.01 * max(dims))
+
+
+def _cell_boxes_actor(field: SplineField, cells: np.ndarray) -> pyvista.Actor:
+    """The active cells' boxes as one mesh (12 triangles a cell, in ``cells``' order)."""
+    mapper = vtk.vtkOpenGLPolyDataMapper()
+    mapper.SetInputData(cell_boxes(cells) if len(cells) else pyvista.PolyData())
+    actor = pyvista.Actor()
+    actor.SetMapper(mapper)
+    place_box(actor, field.world_from_index())
+    return actor
+
+
+def _bind_cells(bindings: ShaderBindings, field: SplineField, options: SurfaceOptions,
+                how: str, cells: np.ndarray | None) -> SurfaceBricks | None:
+    """Bind where the cells' coefficients live; returns the bricks (``'index'``) or None."""
+    colors = options.color_by == "field"
+    if how == "index":
+        bricks = surface_bricks(field, cells, colors=colors)
+        for sampler, array in (("cm_brickIndex", bricks.index),
+                               ("cm_brickCoefficients", bricks.coefficients),
+                               ("cm_brickCells", bricks.active), ("cm_brickColors", bricks.colors)):
+            if array is not None:
+                bindings.add_texture(sampler, Texture(array, kind="3d", interpolate=False),
+                                     owned=True)
+        return bricks
+    if how == "full":
+        cells = np.argwhere(np.ones(field.dimensions[::-1], bool))[:, ::-1]
+    buffer = cell_buffer(field, cells, corners=how == "cell_boxes", color_values=colors)
+    bindings.add_texture("cm_cells", Texture(buffer if len(buffer) else np.zeros(1, np.float32),
+                                             kind="buffer"), owned=True)
+    return None
 
 
 def _build(plotter, field: SplineField, options: SurfaceOptions,
            technique: str) -> SurfaceBinding:
     """The actor of ``field``'s surface drawn by ``technique``; returns its binding."""
     renderer = plotter.renderer
-    dims = field.dimensions
-    if technique == "active":
-        cells = active_cells(field, options.active_test, options.active_samples)
-        mapper = vtk.vtkOpenGLPolyDataMapper()
-        mapper.SetInputData(cell_boxes(cells) if len(cells) else pyvista.PolyData())
-        actor = pyvista.Actor()
-        actor.SetMapper(mapper)
-        place_box(actor, field.world_from_index())
-        buffer = cell_buffer(field, cells, corners=True,
-                             color_values=options.color_by == "field")
-    else:
-        cells = None
-        actor = box_actor(np.asarray(dims, dtype=np.float64), field.world_from_index(),
-                          margin=0.01 * max(dims))
-        buffer = cell_buffer(field, np.argwhere(np.ones(dims[::-1], bool))[:, ::-1],
-                             corners=False, color_values=options.color_by == "field")
+    how = drawing(technique, options)
+    cells = None if how == "full" else active_cells(field, options.active_test,
+                                                     options.active_samples)
+    actor = _cell_boxes_actor(field, cells) if how == "cell_boxes" else _domain_actor(field)
     actor.ForceTranslucentOff()
     actor.ForceOpaqueOn()
     actor.GetProperty().LightingOff()
     mapper = actor.GetMapper()
     mapper.ScalarVisibilityOff()
     bindings = ShaderBindings(mapper, renderer)
-    texture = bindings.add_texture("cm_cells", Texture(buffer if len(buffer) else
-                                                       np.zeros(1, np.float32), kind="buffer"))
+    bricks = _bind_cells(bindings, field, options, how, cells)
+    dims = field.dimensions
     bindings.set_uniform("cm_gridDims", tuple(float(n) for n in dims))
     bindings.set_uniform("cm_stepLength", options.step_length(dims))
     bindings.set_uniform("cm_refineSteps", int(options.refine_steps))
@@ -182,7 +233,7 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
     recipe = surface_recipe(options, technique)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
-    binding = SurfaceBinding(field, bindings, recipe, texture, options, cells)
+    binding = SurfaceBinding(field, bindings, recipe, options, cells, bricks)
     binding.drawn = [actor]
     binding.renderer = renderer
     pyvista.set_new_attribute(actor, "cubemarch", binding)
@@ -190,12 +241,16 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
 
 
 def build_active(plotter, field: SplineField, options: SurfaceOptions) -> SurfaceBinding:
-    """The active cells' boxes, each fragment marching its own cell (the seed's method)."""
+    """Only the active cells marched: through their index, or as boxes (the seed's)."""
     return _build(plotter, field, options, "active")
 
 
 def build_full(plotter, field: SplineField, options: SurfaceOptions) -> SurfaceBinding:
     """The domain's box, each ray marched through the whole grid (the seed's baseline)."""
+    if options.traversal != "index":
+        raise ValueError(f"traversal={options.traversal!r} chooses how technique='active' "
+                         "finds its active cells; technique='full' marches every cell: "
+                         "leave traversal out with it.")
     if options.root != "march":
         raise ValueError("root='exact' solves each cell's polynomial along the ray, which "
                          "technique='full' (the seed's march through the whole domain) "

@@ -1,8 +1,9 @@
-// Active cells (003, the seed's proposed method): each fragment of an active cell's back
-// faces marches its pixel's ray within that cell only, from where the ray enters it (or the
-// near plane: the camera inside the cell) to where it leaves; the depth test keeps the
-// nearest hit of all cells along the ray. The cell is the primitive's: 12 triangles each,
-// in the order of cm_cells. Followed by surface_hit.glsl (one block of main: cm_ names).
+// Active cells drawn as boxes (003, the seed's proposed method; traversal 'cell_boxes'):
+// each fragment of an active cell's back faces marches its pixel's ray within that cell
+// only, from where the ray enters it (or the near plane: the camera inside the cell) to
+// where it leaves; the depth test keeps the nearest hit of all cells along the ray. The
+// cell is the primitive's: 12 triangles each, in the order of cm_cells. Followed by
+// surface_hit.glsl (one block of main: cm_ names).
   int cm_cell = gl_PrimitiveID / 12;
   int cm_base = cm_cell * CM_CELL_FLOATS;
   vec3 cm_corner = vec3(texelFetch(cm_cells, cm_base).r, texelFetch(cm_cells, cm_base + 1).r,
