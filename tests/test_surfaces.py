@@ -94,6 +94,22 @@ def test_first_roots_match_the_reference(plotter_factory, drawing, root, paralle
                                                                                      off)
 
 
+@pytest.mark.parametrize("drawing", DRAWINGS)
+def test_tens_of_thousands_of_steps_lose_no_hit(plotter_factory, drawing):
+    # M = 40000 on a 12x10x8 grid: about 2300 samples per cell crossed, 10^4 before a hit.
+    # llvmpipe stops every loop of a fragment once 65535 iterations of all its loops are
+    # spent. catches (seen to fail): the field's 27 terms summed in two nested loops (13
+    # iterations a sample: the full march lost 1008 of 1301 hits, the index 83, the cell
+    # boxes 44).
+    field = blob()
+    pl = plotter(plotter_factory)
+    cm.add_surface(pl, field, **DRAWINGS[drawing], shading="unlit", steps=40000,
+                   refine_steps=10)
+    camera = set_camera(pl, (16.0, -8.0, 12.0), focal=(6.0, 5.0, 4.0), up=(0, 0, 1))
+    wrong, off, hits = against_reference(pl, field, camera)
+    assert hits.hit.mean() > 0.2 and wrong == 0 and off == 0, (wrong, off)
+
+
 def test_shading_matches_the_reference(plotter_factory):
     # The scene's light on the analytic normal, both sides lit: the reference's image
     # within 3/255 away from tangent pixels. catches (seen to fail): the gradient's x and

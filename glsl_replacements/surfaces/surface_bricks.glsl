@@ -45,46 +45,44 @@ ivec3 cm_coefficientTexel(ivec3 cell)
   return ivec3(cm_brickEntry.xyz) * (CM_BRICK_SIZE + 2) + (cell & (CM_BRICK_SIZE - 1));
 }
 
+// Three spline coefficients along z from `first` in `pool`, as Bernstein coefficients along
+// z: (c0, c1, c2) becomes ((c0 + c1) / 2, c1, (c1 + c2) / 2) (models/surface.py's
+// TO_BERNSTEIN, per axis).
+vec3 cm_splineRow(sampler3D pool, ivec3 first)
+{
+  float c0 = texelFetch(pool, first, 0).r;
+  float c1 = texelFetch(pool, first + ivec3(0, 0, 1), 0).r;
+  float c2 = texelFetch(pool, first + ivec3(0, 0, 2), 0).r;
+  return vec3(0.5 * (c0 + c1), c1, 0.5 * (c1 + c2));
+}
+
+// The same conversion across three rows of cm_beta (along y or x).
+void cm_toBernstein(int r0, int r1, int r2)
+{
+  vec3 middle = cm_beta[r1];
+  cm_beta[r0] = 0.5 * (cm_beta[r0] + middle);
+  cm_beta[r2] = 0.5 * (cm_beta[r2] + middle);
+}
+
 // The 27 spline coefficients from `first` in `pool` to the cell's Bernstein coefficients in
-// cm_beta: per axis (c0, c1, c2) becomes ((c0 + c1) / 2, c1, (c1 + c2) / 2), as
-// models/surface.py's TO_BERNSTEIN.
+// cm_beta, along z, then y, then x (written out: no loop).
 void cm_loadSpline(sampler3D pool, ivec3 first)
 {
-  float c[27];
-  for (int a = 0; a < 3; ++a)
-  {
-    for (int b = 0; b < 3; ++b)
-    {
-      for (int k = 0; k < 3; ++k)
-      {
-        c[9 * a + 3 * b + k] = texelFetch(pool, first + ivec3(a, b, k), 0).r;
-      }
-    }
-  }
-  for (int line = 0; line < 9; ++line)   // along z: n, n + 1, n + 2
-  {
-    int n = 3 * line;
-    float middle = c[n + 1];
-    c[n] = 0.5 * (c[n] + middle);
-    c[n + 2] = 0.5 * (c[n + 2] + middle);
-  }
-  for (int line = 0; line < 9; ++line)   // along y: n, n + 3, n + 6
-  {
-    int n = 9 * (line / 3) + line % 3;
-    float middle = c[n + 3];
-    c[n] = 0.5 * (c[n] + middle);
-    c[n + 6] = 0.5 * (c[n + 6] + middle);
-  }
-  for (int n = 0; n < 9; ++n)   // along x: n, n + 9, n + 18
-  {
-    float middle = c[n + 9];
-    c[n] = 0.5 * (c[n] + middle);
-    c[n + 18] = 0.5 * (c[n + 18] + middle);
-  }
-  for (int n = 0; n < 27; ++n)
-  {
-    cm_beta[n] = c[n];
-  }
+  cm_beta[0] = cm_splineRow(pool, first);
+  cm_beta[1] = cm_splineRow(pool, first + ivec3(0, 1, 0));
+  cm_beta[2] = cm_splineRow(pool, first + ivec3(0, 2, 0));
+  cm_beta[3] = cm_splineRow(pool, first + ivec3(1, 0, 0));
+  cm_beta[4] = cm_splineRow(pool, first + ivec3(1, 1, 0));
+  cm_beta[5] = cm_splineRow(pool, first + ivec3(1, 2, 0));
+  cm_beta[6] = cm_splineRow(pool, first + ivec3(2, 0, 0));
+  cm_beta[7] = cm_splineRow(pool, first + ivec3(2, 1, 0));
+  cm_beta[8] = cm_splineRow(pool, first + ivec3(2, 2, 0));
+  cm_toBernstein(0, 1, 2);   // along y
+  cm_toBernstein(3, 4, 5);
+  cm_toBernstein(6, 7, 8);
+  cm_toBernstein(0, 3, 6);   // along x
+  cm_toBernstein(1, 4, 7);
+  cm_toBernstein(2, 5, 8);
 }
 
 // Read active cell `cell`'s coefficients into cm_beta.

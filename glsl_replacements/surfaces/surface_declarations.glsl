@@ -10,7 +10,12 @@ uniform float cm_stepLength;     // cell units between samples (the domain's dia
 uniform int cm_refineSteps;      // bisections of the first sign change
 uniform vec3 cm_surfaceColor;
 
-float cm_beta[27];               // the cell being marched
+// The cell being marched: cm_beta[3 a + b][c]. No function evaluated per sample has a
+// loop: llvmpipe counts every iteration of every loop of a fragment against one budget of
+// 65535 (gallivm's loop limiter), and loops stop once it is spent (seen: the full march
+// losing far hits past about 4200 samples, 15 iterations each). Inner loops are written
+// out so the budget goes to samples.
+vec3 cm_beta[9];
 
 // Whether a root lies between two field values: they differ in sign, or one is 0. Signs are
 // compared, never multiplied: a product of two small values underflows to 0 in float32
@@ -39,16 +44,10 @@ vec3 cm_basisDerivative(float u)
 // The field of the loaded cell at local `u`, from the three axes' basis values.
 float cm_tensor(vec3 bu, vec3 bv, vec3 bw)
 {
-  float f = 0.0;
-  for (int a = 0; a < 3; ++a)
-  {
-    for (int b = 0; b < 3; ++b)
-    {
-      int n = 9 * a + 3 * b;
-      f += bu[a] * bv[b] * dot(vec3(cm_beta[n], cm_beta[n + 1], cm_beta[n + 2]), bw);
-    }
-  }
-  return f;
+  vec3 rows0 = vec3(dot(cm_beta[0], bw), dot(cm_beta[1], bw), dot(cm_beta[2], bw));
+  vec3 rows1 = vec3(dot(cm_beta[3], bw), dot(cm_beta[4], bw), dot(cm_beta[5], bw));
+  vec3 rows2 = vec3(dot(cm_beta[6], bw), dot(cm_beta[7], bw), dot(cm_beta[8], bw));
+  return bu.x * dot(rows0, bv) + bu.y * dot(rows1, bv) + bu.z * dot(rows2, bv);
 }
 
 float cm_field(vec3 u)

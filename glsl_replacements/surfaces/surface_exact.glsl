@@ -63,40 +63,41 @@ void cm_split(float s, bool left)
 // 1 when every coefficient of cm_part is above 0, -1 below, 0 when they do not agree.
 float cm_oneSign()
 {
-  float low = cm_part[0];
-  float high = cm_part[0];
-  for (int i = 1; i < 7; ++i)
-  {
-    low = min(low, cm_part[i]);
-    high = max(high, cm_part[i]);
-  }
+  float low = min(min(min(cm_part[0], cm_part[1]), min(cm_part[2], cm_part[3])),
+                  min(min(cm_part[4], cm_part[5]), cm_part[6]));
+  float high = max(max(max(cm_part[0], cm_part[1]), max(cm_part[2], cm_part[3])),
+                   max(max(cm_part[4], cm_part[5]), cm_part[6]));
   return low > 0.0 ? 1.0 : (high < 0.0 ? -1.0 : 0.0);
 }
 
-// The fraction of a..b at the first root of the loaded cell's field, or -1 if none.
+// Row j of the samples-to-Bernstein matrix applied to the 7 samples (s0..s3, s4..s6).
+float cm_bernsteinOf(int j, vec4 first, vec3 last)
+{
+  int r = 7 * j;
+  return dot(vec4(CM_SAMPLES_TO_BERNSTEIN[r], CM_SAMPLES_TO_BERNSTEIN[r + 1],
+                  CM_SAMPLES_TO_BERNSTEIN[r + 2], CM_SAMPLES_TO_BERNSTEIN[r + 3]), first)
+         + dot(vec3(CM_SAMPLES_TO_BERNSTEIN[r + 4], CM_SAMPLES_TO_BERNSTEIN[r + 5],
+                    CM_SAMPLES_TO_BERNSTEIN[r + 6]), last);
+}
+
+// The fraction of a..b at the first root of the loaded cell's field, or -1 if none. The
+// setting up is written out (no loop: llvmpipe's budget of loop iterations per fragment
+// goes to the subdivision).
 float cm_exactRoot(vec3 a, vec3 b)
 {
-  float samples[7];
-  for (int k = 0; k < 7; ++k)
-  {
-    samples[k] = cm_field(mix(a, b, float(k) / 6.0));
-  }
-  for (int j = 0; j < 7; ++j)
-  {
-    float sum = 0.0;
-    for (int k = 0; k < 7; ++k)
-    {
-      sum += CM_SAMPLES_TO_BERNSTEIN[7 * j + k] * samples[k];
-    }
-    cm_whole[j] = sum;
-    cm_part[j] = sum;
-  }
-  float tiny = 0.0;   // 1e-6 of the polynomial's largest coefficient
-  for (int j = 0; j < 7; ++j)
-  {
-    tiny = max(tiny, abs(cm_whole[j]));
-  }
-  tiny *= 1e-6;
+  vec4 first = vec4(cm_field(a), cm_field(mix(a, b, 1.0 / 6.0)), cm_field(mix(a, b, 2.0 / 6.0)),
+                    cm_field(mix(a, b, 3.0 / 6.0)));
+  vec3 last = vec3(cm_field(mix(a, b, 4.0 / 6.0)), cm_field(mix(a, b, 5.0 / 6.0)),
+                   cm_field(b));
+  cm_whole = float[7](cm_bernsteinOf(0, first, last), cm_bernsteinOf(1, first, last),
+                      cm_bernsteinOf(2, first, last), cm_bernsteinOf(3, first, last),
+                      cm_bernsteinOf(4, first, last), cm_bernsteinOf(5, first, last),
+                      cm_bernsteinOf(6, first, last));
+  cm_part = cm_whole;
+  // 1e-6 of the polynomial's largest coefficient
+  float tiny = 1e-6 * max(max(max(abs(cm_whole[0]), abs(cm_whole[1])),
+                              max(abs(cm_whole[2]), abs(cm_whole[3]))),
+                          max(max(abs(cm_whole[4]), abs(cm_whole[5])), abs(cm_whole[6])));
   int depth = 0;
   int index = 0;   // the interval [index, index + 1] / 2^depth
   float found = -1.0;
@@ -135,10 +136,7 @@ float cm_exactRoot(vec3 a, vec3 b)
         return -1.0;
       }
       float size = 1.0 / float(1 << depth);
-      for (int i = 0; i < 7; ++i)
-      {
-        cm_part[i] = cm_whole[i];
-      }
+      cm_part = cm_whole;
       cm_split(min(float(index + 1) * size, 1.0), true);
       cm_split(float(index) / float(index + 1), false);
       continue;

@@ -5,32 +5,38 @@
 // CM_COLOR_VALUES a second field's 27 from there.
 uniform samplerBuffer cm_cells;
 
+// Three consecutive floats of cm_cells from `first`.
+vec3 cm_cellFloats(int first)
+{
+  return vec3(texelFetch(cm_cells, first).r, texelFetch(cm_cells, first + 1).r,
+              texelFetch(cm_cells, first + 2).r);
+}
+
+// Read 27 coefficients from float `base` on into cm_beta (written out: no loop).
+void cm_loadFloats(int base)
+{
+  cm_beta[0] = cm_cellFloats(base);
+  cm_beta[1] = cm_cellFloats(base + 3);
+  cm_beta[2] = cm_cellFloats(base + 6);
+  cm_beta[3] = cm_cellFloats(base + 9);
+  cm_beta[4] = cm_cellFloats(base + 12);
+  cm_beta[5] = cm_cellFloats(base + 15);
+  cm_beta[6] = cm_cellFloats(base + 18);
+  cm_beta[7] = cm_cellFloats(base + 21);
+  cm_beta[8] = cm_cellFloats(base + 24);
+}
+
 // Read cell `number`'s 27 coefficients into cm_beta.
 void cm_loadCell(int number)
 {
-  int base = number * CM_CELL_FLOATS + CM_FIRST_COEFFICIENT;
-  for (int n = 0; n < 27; ++n)
-  {
-    cm_beta[n] = texelFetch(cm_cells, base + n).r;
-  }
+  cm_loadFloats(number * CM_CELL_FLOATS + CM_FIRST_COEFFICIENT);
 }
 
 #ifdef CM_COLOR_VALUES
-// The second field of cell `number` at local `u` (its 27 coefficients read once, here).
+// The second field of cell `number` at local `u` (replaces cm_beta: read the geometry first).
 float cm_colorValue(int number, vec3 u)
 {
-  int base = number * CM_CELL_FLOATS + CM_COLOR_VALUES;
-  vec3 bu = cm_basis(u.x), bv = cm_basis(u.y), bw = cm_basis(u.z);
-  float f = 0.0;
-  for (int a = 0; a < 3; ++a)
-  {
-    for (int b = 0; b < 3; ++b)
-    {
-      int n = base + 9 * a + 3 * b;
-      f += bu[a] * bv[b] * dot(vec3(texelFetch(cm_cells, n).r, texelFetch(cm_cells, n + 1).r,
-                                    texelFetch(cm_cells, n + 2).r), bw);
-    }
-  }
-  return f;
+  cm_loadFloats(number * CM_CELL_FLOATS + CM_COLOR_VALUES);
+  return cm_field(u);
 }
 #endif
