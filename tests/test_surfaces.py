@@ -98,9 +98,9 @@ def test_first_roots_match_the_reference(plotter_factory, drawing, root, paralle
 def test_tens_of_thousands_of_steps_lose_no_hit(plotter_factory, drawing):
     # M = 40000 on a 12x10x8 grid: about 2300 samples per cell crossed, 10^4 before a hit.
     # llvmpipe stops every loop of a fragment once 65535 iterations of all its loops are
-    # spent. catches (seen to fail): the field's 27 terms summed in two nested loops (13
-    # iterations a sample: the full march lost 1008 of 1301 hits, the index 83, the cell
-    # boxes 44).
+    # spent. catches (seen to fail): the field's 27 terms summed in two nested loops (12
+    # iterations a sample: the index traversal lost 337 of 782 hits, the cell boxes put 1
+    # a cell deep, the full march lost all 782).
     field = blob()
     pl = plotter(plotter_factory)
     cm.add_surface(pl, field, **DRAWINGS[drawing], shading="unlit", steps=40000,
