@@ -21,6 +21,8 @@ from .core.offscreen import gl_info
 from .core.registry import get_technique, techniques
 from .models.voxels import VoxelModel
 from .scene.io import load_scene
+from .surfaces.options import ROOTS, SurfaceOptions
+from .surfaces.options import TRAVERSALS as SURFACE_TRAVERSALS
 from .volume.options import Shading
 from .voxels.options import MODES, SHADINGS, TRAVERSALS, VoxelOptions
 
@@ -119,6 +121,21 @@ def build_parser() -> argparse.ArgumentParser:
     vox.add_argument("--lod-bias", type=float, help="levels added to the level of detail")
     vox.add_argument("--chunk-size", type=int,
                      help="draw each voxel grid in chunks of this edge (a voxel world)")
+    surf = render.add_argument_group(
+        'surfaces (--isovalue on a grid file, or Volume prims with cubemarch:technique = '
+        '"surface"; --shading, --ambient, --specular and --specular-power apply too)')
+    surf.add_argument("--isovalue", type=float,
+                      help="draw a grid file's field as its implicit surface at this level "
+                           "(003: a quadratic B-spline through its samples)")
+    surf.add_argument("--surface-technique", choices=[t.name for t in techniques("surface")],
+                      help="; ".join(f"{t.name}: {t.summary}" for t in techniques("surface")))
+    surf.add_argument("--surface-traversal", choices=SURFACE_TRAVERSALS,
+                      help="with active: index (one ray per pixel through bricks of active "
+                           "cells, default) or cell_boxes (the seed's boxes)")
+    surf.add_argument("--steps", type=int, help="samples along the domain's diagonal (M)")
+    surf.add_argument("--refine-steps", type=int, help="bisections of the first sign change")
+    surf.add_argument("--root", choices=ROOTS,
+                      help="march (the seed's) or exact (Bernstein subdivision: no root missed)")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
     info.add_argument("scene", nargs="?", help="scene file to describe")
@@ -269,8 +286,12 @@ def _render(args) -> int:
         one = len(other) == 1
         raise ValueError(f"{flags} {'is not an option' if one else 'are not options'} of "
                          f"--technique voxels; leave {'it' if one else 'them'} out.")
+    if as_voxels and args.isovalue is not None:
+        raise ValueError("--isovalue draws the grid as a surface, --technique voxels as "
+                         "material labels: leave one out.")
     try:
-        scene = load_scene(args.scene, progress_bar=progress_bar, as_voxels=as_voxels)
+        scene = load_scene(args.scene, progress_bar=progress_bar, as_voxels=as_voxels,
+                           isovalue=args.isovalue)
     except VolumeDataError as exc:
         if not as_voxels:
             raise
@@ -281,6 +302,7 @@ def _render(args) -> int:
     if scene.volumes:
         _volume_options(scene, args, given)
     _voxel_options(scene, as_voxels, given)
+    _surface_options(scene, args, given)
     if args.chunk_size is not None:
         for grid in scene.voxels:   # worlds keep their own chunks
             if isinstance(grid, VoxelModel):
@@ -320,6 +342,26 @@ def _volume_options(scene, args, given: dict) -> None:
                 options[name] = value
 
 
+def _surface_options(scene, args, given: dict) -> None:
+    """Put the surface options given on the command line into the scene's surfaces' options.
+
+    The surface flags go to every surface (a warning when the scene has none); the shading
+    flags given go to them too.
+    """
+    flags = {"technique": args.surface_technique, "traversal": args.surface_traversal,
+             "steps": args.steps, "refine_steps": args.refine_steps, "root": args.root}
+    flags = {k: v for k, v in flags.items() if v is not None}
+    if not scene.surfaces:
+        for name in flags:
+            _warn("surface_" + name if name in ("technique", "traversal") else name,
+                  "this scene (it has no surfaces: give a grid file --isovalue)")
+        return
+    reads = {f.name for f in dataclasses.fields(SurfaceOptions)}
+    flags.update({k: v for k, v in given.items() if k in reads})
+    for surface in scene.surfaces:
+        scene.surface_options.setdefault(surface.name, {}).update(flags)
+
+
 def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
     """Put the voxel options given on the command line into the scene's voxel grids' options.
 
@@ -331,8 +373,10 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
     voxel_only = reads - {name for t in techniques("volume") for name in t.option_names} \
         - {f.name for f in dataclasses.fields(Shading)}
     if not scene.voxels:
+        surfaces_read = {f.name for f in dataclasses.fields(SurfaceOptions)} \
+            if scene.surfaces else set()
         for name in given:
-            if name in voxel_only:
+            if name in voxel_only and name not in surfaces_read:
                 _warn(name, "this scene (it has no voxel grids)")
         return
     for grid in scene.voxels:

@@ -12,6 +12,7 @@ from conftest import SCENE
 import pv_cubemarch as cm
 from pv_cubemarch.bench import harness as bench
 from pv_cubemarch.bench import resolution as bench_resolution
+from pv_cubemarch.bench import surfaces as bench_surfaces
 from pv_cubemarch.cli import main
 
 
@@ -244,6 +245,12 @@ def test_bench_surfaces_rows_and_errors(tmp_path, capsys):
                  "--shapes", "blobs", "--frames", "1", "--json", str(out)]) == 0
     text = capsys.readouterr().out
     rows = {r["row"]: r for r in json.loads(out.read_text())["rows"]}
-    assert {"full M=50", "active M=50", "active exact", "contour 1/cell",
+    assert {"full M=50", "active M=50", "active exact", "boxes M=50", "contour 1/cell",
             "vtk isosurface"} <= set(rows) and "x full" in text
+    # At 512³ the dense baseline (14.5 GB), the cell boxes and 4 samples a cell are not run,
+    # and say why.
+    big = bench_surfaces._rows([5000], 512)
+    assert big["full M=5000"] == ("not run", "dense layout 14.5 GB")
+    assert big["boxes M=5000"][0] == big["contour 2/cell"][0] == "not run"
+    assert big["active M=5000"][0] == "surface" and big["contour 1/cell"][0] == "contour"
     assert rows["active exact"]["iou"] > 0.999 and rows["active exact"]["active_share"] < 1

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import pyvista
 from conftest import write_voxel_stage
+from PIL import Image
 
 import pv_cubemarch as cm
 from pv_cubemarch.cli import main
@@ -58,6 +60,8 @@ def test_usd_surface_is_placed_and_drawn_as_its_field(tmp_path, plotter_factory)
 @pytest.mark.parametrize(("attrs", "message"), [
     ({"cubemarch:steps": ("Int", 0)}, "cubemarch:steps = 0"),
     ({"cubemarch:root": ("Token", "newton")}, "cubemarch:root = 'newton'"),
+    ({"cubemarch:surfaceTraversal": ("Token", "boxes")},
+     "cubemarch:surfaceTraversal = 'boxes'"),
     ({"cubemarch:steps": ("String", "many")}, "cubemarch:steps must be a whole number"),
 ])
 def test_bad_surface_prims_are_named(tmp_path, attrs, message):
@@ -79,3 +83,49 @@ def test_cli_renders_a_surface_stage(tmp_path, capsys):
     assert out.exists() and out.stat().st_size > 0
     assert main(["info", str(surface_stage(tmp_path, name="again.usda"))]) == 0
     assert "surfaces: 1" in capsys.readouterr().out
+
+
+def test_a_grid_file_is_a_surface_with_isovalue(tmp_path, capsys):
+    # The samples minus the isovalue, interpolated: the field equals them at the cell
+    # centres (by hand: sample (i, j, k) sits at the centre of cell (i, j, k)). The CLI
+    # draws it with the surface flags, refuses --isovalue with --technique voxels, and
+    # warns of surface flags on a scene without surfaces. catches: --isovalue not passed
+    # to the loader (a volume drawn: its options refused), the surface flags dropped.
+    samples = ball_samples()
+    path = tmp_path / "ball.npy"
+    np.save(path, samples)
+    scene = cm.load_scene(path, isovalue=1.0)
+    assert not scene.volumes and len(scene.surfaces) == 1
+    field = scene.surfaces[0]
+    centres = np.argwhere(np.ones(samples.shape, bool)) + 0.5
+    assert np.abs(field.at_cells(centres) - (samples.ravel() - 1.0)).max() < 1e-9
+    out = tmp_path / "ball.png"
+    assert main(["render", str(path), "--isovalue", "0", "--out", str(out), "--size", "64x48",
+                 "--root", "exact", "--surface-traversal", "cell_boxes", "--steps", "80",
+                 "--shading", "unlit"]) == 0
+    image = np.asarray(Image.open(out))
+    assert (image[..., :3].min(axis=-1) > 200).sum() > 200   # the white ball
+    capsys.readouterr()
+    assert main(["render", str(path), "--isovalue", "0", "--technique", "voxels", "--out",
+                 str(out)]) == 2
+    assert "--isovalue draws the grid as a surface" in capsys.readouterr().err
+    with pytest.raises(SceneLoadError, match="isovalue applies to grid files"):
+        cm.load_scene(surface_stage(tmp_path), isovalue=0.0)
+    assert main(["render", str(path), "--out", str(out), "--size", "32x24", "--steps",
+                 "50"]) == 0
+    assert "--steps does not apply to this scene" in capsys.readouterr().err
+
+
+def test_pv_read_gives_a_surface_as_its_field_at_the_cell_centres(tmp_path):
+    # A stage's surface comes back from pv.read as an ImageData placed in the world with
+    # the field at each cell centre; interpolated again (isovalue 0) it is the same field
+    # (the interpolation of centre values is one-to-one with mirror ends). catches: the
+    # block left out, values at the corners (a field shifted by half a cell).
+    path = surface_stage(tmp_path)
+    field = cm.load_scene(path).surfaces[0]
+    blocks = pyvista.read(path)
+    block = blocks[field.name]
+    assert block.n_cells == np.prod(field.dimensions)
+    again = cm.make_field(block, 0.0, "field")
+    assert np.abs(again.coefficients - field.coefficients).max() < 1e-9
+    assert np.allclose(again.world_from_index(), field.world_from_index())

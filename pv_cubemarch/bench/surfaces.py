@@ -2,14 +2,17 @@
 
 ``pv-cubemarch bench surfaces``: three shapes (PyVista's shipped ``nut.ply`` mesh by its
 signed distance, an analytic thin holey sphere, a sampled field of blobs) on grids of
-``N``³ cells, each drawn by the seed's full-domain march and its active-cell march at
-several ``steps`` (M), by the exact root, and by the tools users have today: PyVista's
-contour (flying edges) of the field resampled at 1, 2 and 4 samples per cell, drawn as a
-mesh, and VTK's GPU isosurface blend mode at half-cell steps. Rows of a shape and grid are
-drawn in turn. Per row: median frame time, preprocessing (build + first frame), GPU bytes,
-the active-cell share, and accuracy against the CPU reference's first roots: coverage IoU,
-depth error (cells) median / p95 / max over pixels both cover, and the pixels whose depth
-lies more than half a cell behind the reference's (a later root taken).
+``N``³ cells, each drawn by the seed's full-domain march, by the active cells through their
+brick index (``active``) and as the seed's cell boxes (``boxes``), at several ``steps`` (M),
+by the exact root, and by the tools users have today: PyVista's contour (flying edges) of
+the field resampled at 1, 2 and 4 samples per cell, drawn as a mesh, and VTK's GPU
+isosurface blend mode at half-cell steps. Rows of a shape and grid are drawn in turn; a
+row that does not fit (the dense layout over :data:`MAX_DENSE_BYTES`, cell boxes past
+:data:`MAX_BOX_GRID` cells a side, resampling past :data:`MAX_CONTOUR_SAMPLES`) is listed
+as not run, with the reason. Per row: median frame time, preprocessing (build + first
+frame), GPU bytes, the active-cell share, and accuracy against the CPU reference's first
+roots: coverage IoU, depth error (cells) median / p95 / max over pixels both cover, and the
+pixels whose depth lies more than half a cell behind the reference's (a later root taken).
 """
 
 from __future__ import annotations
@@ -35,7 +38,11 @@ from .harness import time_frames_side_by_side
 
 SHAPES = ("nut", "holey sphere", "blobs")
 #: Resampling the field for flying edges stops at this many samples a side (memory).
-MAX_CONTOUR_SAMPLES = 260
+MAX_CONTOUR_SAMPLES = 513
+#: The full march's dense layout (27 floats a cell) is run up to this many bytes.
+MAX_DENSE_BYTES = 1 << 30
+#: The seed's cell boxes are drawn up to grids of this many cells a side.
+MAX_BOX_GRID = 128
 #: A row's frames stop once they add up to this (a frame of seconds varies little).
 ROW_BUDGET_MS = 20_000.0
 
@@ -57,11 +64,13 @@ class SurfaceRow:
     depth_max: float | None
     later_root_pixels: int | None
     extra: dict = field(default_factory=dict)
+    #: Why the row was not run (its other fields are empty), or None.
+    not_run: str | None = None
 
     @property
-    def median_ms(self) -> float:
-        """Median frame time."""
-        return float(np.median(self.frame_ms))
+    def median_ms(self) -> float | None:
+        """Median frame time (None: not run)."""
+        return float(np.median(self.frame_ms)) if self.frame_ms else None
 
 
 def shape_field(name: str, cells: int, progress_bar: bool | None = None) -> SplineField:
@@ -69,26 +78,31 @@ def shape_field(name: str, cells: int, progress_bar: bool | None = None) -> Spli
     if name == "nut":
         mesh = pyvista.read(Path(pyvista_examples.__file__).parent / "nut.ply")
         return mesh_field(mesh, cells - 4, progress_bar=progress_bar, name=name)
+    if name not in SHAPES:
+        raise ValueError(f"shape must be one of {SHAPES}, got {name!r}.")
     n = int(cells)
-    centres = (np.indices((n, n, n)).reshape(3, -1).T + 0.5) / n * 2.0 - 1.0   # [-1, 1]^3
+    axis = (np.arange(n) + 0.5) / n * 2.0 - 1.0   # cell centres in [-1, 1]
+    values = np.empty((n, n, n))
+    for k in range(n):   # a slab at a time: 512³ centres at once would take gigabytes
+        x, y = np.meshgrid(axis, axis, indexing="ij")
+        values[:, :, k] = _analytic(name, x, y, np.full_like(x, axis[k]))
+    grid_from_index = np.diag([2.0 / n, 2.0 / n, 2.0 / n, 1.0])
+    grid_from_index[:3, 3] = -1.0
+    return SplineField(interpolating_coefficients(values), grid_from_index, name=name)
+
+
+def _analytic(name: str, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The analytic shapes' fields at points of [-1, 1]³ (positive inside)."""
     if name == "holey sphere":
         # A shell of radius 0.7, 0.03 thick (2 cells at 128), with six round holes along
         # the axes: min(shell, outside every hole), a distance in domain units.
-        radius = np.linalg.norm(centres, axis=1)
-        shell = 0.015 - np.abs(radius - 0.7)
-        holes = np.min([np.hypot(*np.delete(centres, a, axis=1).T) - 0.25 for a in range(3)],
-                       axis=0)
-        values = np.minimum(shell, holes)
-    elif name == "blobs":
-        rng = np.random.default_rng(3)
-        where = rng.uniform(-0.6, 0.6, (12, 3))
-        values = sum(np.exp(-np.sum((centres - w) ** 2, axis=1) / 0.03) for w in where) - 0.4
-    else:
-        raise ValueError(f"shape must be one of {SHAPES}, got {name!r}.")
-    grid_from_index = np.diag([2.0 / n, 2.0 / n, 2.0 / n, 1.0])
-    grid_from_index[:3, 3] = -1.0
-    return SplineField(interpolating_coefficients(values.reshape(n, n, n)), grid_from_index,
-                       name=name)
+        shell = 0.015 - np.abs(np.sqrt(x * x + y * y + z * z) - 0.7)
+        holes = np.minimum(np.minimum(np.hypot(y, z), np.hypot(x, z)), np.hypot(x, y)) - 0.25
+        return np.minimum(shell, holes)
+    rng = np.random.default_rng(3)   # blobs
+    where = rng.uniform(-0.6, 0.6, (12, 3))
+    return sum(np.exp(-((x - w[0]) ** 2 + (y - w[1]) ** 2 + (z - w[2]) ** 2) / 0.03)
+               for w in where) - 0.4
 
 
 def _camera(surface: SplineField) -> Camera:
@@ -107,36 +121,25 @@ def _plotter(size: Sequence[int]) -> pyvista.Plotter:
     return pl
 
 
-def _samples(surface: SplineField, per_cell: int) -> pyvista.ImageData | None:
+def _samples(surface: SplineField, per_cell: int) -> pyvista.ImageData:
     """The field at ``per_cell`` samples per cell edge (corners included), as an ImageData."""
-    counts = np.asarray(surface.dimensions) * per_cell + 1
-    if counts.max() > MAX_CONTOUR_SAMPLES:
-        return None
-    axes = [np.linspace(0.0, float(n), int(c)) for n, c in zip(surface.dimensions, counts,
-                                                               strict=True)]
-    points = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-    batch = 1 << 20
-    values = np.concatenate([surface.at_cells(points[i:i + batch])
-                             for i in range(0, len(points), batch)])
+    values = surface.on_lattice(per_cell).astype(np.float32)
     matrix = surface.world_from_index()
-    grid = pyvista.ImageData(dimensions=tuple(int(c) for c in counts),
+    grid = pyvista.ImageData(dimensions=values.shape,
                              spacing=tuple(np.diag(matrix)[:3] / per_cell),
                              origin=tuple(matrix[:3, 3]))
-    grid.point_data["f"] = values.reshape(tuple(int(c) for c in counts)).ravel(order="F")
+    grid.point_data["f"] = values.ravel(order="F")
     return grid
 
 
 def _vtk_isosurface(pl: pyvista.Plotter, surface: SplineField) -> int:
     """VTK's GPU isosurface blend mode on the field at the cell centres, half-cell steps."""
-    n = surface.dimensions
-    centres = np.stack(np.meshgrid(*[np.arange(k) + 0.5 for k in n], indexing="ij"),
-                       -1).reshape(-1, 3)
-    values = surface.at_cells(centres)
+    values = surface.on_lattice(1, centred=True).astype(np.float32)
     matrix = surface.world_from_index()
     spacing = np.diag(matrix)[:3]
-    image = pyvista.ImageData(dimensions=n, spacing=tuple(spacing),
+    image = pyvista.ImageData(dimensions=values.shape, spacing=tuple(spacing),
                               origin=tuple(matrix[:3, 3] + spacing / 2))
-    image.point_data["f"] = values.reshape(n).ravel(order="F")
+    image.point_data["f"] = values.ravel(order="F")
     mapper = vtk.vtkOpenGLGPUVolumeRayCastMapper()
     mapper.SetInputData(image)
     mapper.SetBlendModeToIsoSurface()
@@ -156,20 +159,25 @@ def _vtk_isosurface(pl: pyvista.Plotter, surface: SplineField) -> int:
     volume.SetMapper(mapper)
     volume.SetProperty(prop)
     pl.add_actor(volume, reset_camera=False)
-    return int(values.nbytes // 2)   # float32 on the GPU
+    return int(values.nbytes)   # float32 on the GPU
 
 
 def _rows(steps: Sequence[int], cells: int) -> dict:
-    """Row name to how it is drawn: ``('surface', options)`` or an anchor."""
+    """Row name to how it is drawn: ``('surface', options)``, an anchor, or a reason not to."""
     rows: dict = {}
+    dense = 27 * 4 * cells ** 3
     for m in steps:
-        rows[f"full M={m}"] = ("surface", {"technique": "full", "steps": m})
+        rows[f"full M={m}"] = ("surface", {"technique": "full", "steps": m}) \
+            if dense <= MAX_DENSE_BYTES else ("not run", f"dense layout {dense / 1e9:.1f} GB")
     for m in steps:
         rows[f"active M={m}"] = ("surface", {"technique": "active", "steps": m})
     rows["active exact"] = ("surface", {"technique": "active", "root": "exact", "steps": 1})
+    for m in steps:
+        rows[f"boxes M={m}"] = ("surface", {"traversal": "cell_boxes", "steps": m}) \
+            if cells <= MAX_BOX_GRID else ("not run", f"cell boxes past {MAX_BOX_GRID}³")
     for k in (1, 2, 4):
-        if cells * k + 1 <= MAX_CONTOUR_SAMPLES:
-            rows[f"contour {k}/cell"] = ("contour", k)
+        rows[f"contour {k}/cell"] = ("contour", k) if cells * k + 1 <= MAX_CONTOUR_SAMPLES \
+            else ("not run", f"{cells * k + 1}³ samples")
     rows["vtk isosurface"] = ("vtk", None)
     return rows
 
@@ -187,8 +195,7 @@ def _draw(size, camera: Camera, surface: SplineField, how) -> tuple:
         if actor.cubemarch.cells is not None:
             share = len(actor.cubemarch.cells) / float(np.prod(surface.dimensions))
     elif kind == "contour":
-        mesh = _samples(surface, setting).contour([0.0], scalars="f",
-                                                  method="flying_edges")
+        mesh = _samples(surface, setting).contour([0.0], scalars="f", method="flying_edges")
         if mesh.n_points:   # a feature thinner than the samples leaves no triangle
             pl.add_mesh(mesh, color="white", lighting=False)
         nbytes = int(mesh.n_points * 12 + mesh.n_cells * 12)
@@ -235,8 +242,13 @@ def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 1
         camera = _camera(surface)
         cell = float(np.linalg.norm(surface.world_from_index()[:3, 0]))
         plotters, drawn = {}, {}
+        skipped = []
         try:
             for row, how in _rows(steps, cells).items():
+                if how[0] == "not run":
+                    skipped.append(SurfaceRow(shape, cells, row, [], 0.0, 0, None, 0.0, None,
+                                              None, None, None, not_run=how[1]))
+                    continue
                 plotters[row], *drawn[row] = _draw(size, camera, surface, how)
             first = next(iter(plotters.values()))
             hits = trace_surface(surface, active_cells(surface),
@@ -248,6 +260,7 @@ def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 1
                 setup, nbytes, share = drawn[row]
                 results.append(SurfaceRow(shape, cells, row, times[row], setup, nbytes, share,
                                           *_errors(pl, surface, hits, cell)))
+            results.extend(skipped)
         finally:
             for pl in plotters.values():
                 pl.close()
@@ -257,12 +270,15 @@ def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 1
 def format_surfaces(results: list[SurfaceRow]) -> str:
     """The rows as a text table; ``x full``: the full march's time (same M) over the row's."""
     full = {(r.shape, r.cells, r.row.split()[-1]): r.median_ms for r in results
-            if r.row.startswith("full")}
+            if r.row.startswith("full") and r.not_run is None}
     lines = ["shape          cells  row               frame ms   x full  setup ms   GPU MB"
              "  active %     IoU  depth med   p95     max  later", "-" * 118]
     for r in results:
+        if r.not_run is not None:
+            lines.append(f"{r.shape:14s} {r.cells:5d}  {r.row:16s} not run: {r.not_run}")
+            continue
         speedup = full.get((r.shape, r.cells, r.row.split()[-1])) if r.row.startswith(
-            "active M") else None
+            ("active M", "boxes M")) else None
         share = None if r.active_share is None else 100 * r.active_share
         lines.append(
             f"{r.shape:14s} {r.cells:5d}  {r.row:16s} {r.median_ms:9.1f} "

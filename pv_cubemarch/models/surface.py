@@ -182,6 +182,22 @@ class SplineField(PlacedGrid):
         inverse = np.linalg.inv(self.world_from_index()[:3, :3])
         return (per_cell @ inverse).reshape(shape)
 
+    def on_lattice(self, per_cell: int = 1, centred: bool = False) -> np.ndarray:
+        """The field on a regular lattice of cell space, per axis at once (any grid size).
+
+        ``per_cell`` points per cell edge: at ``m / per_cell`` for ``m`` in ``0 ..
+        per_cell * n`` (corners included: ``per_cell * n + 1`` a side), or with
+        ``centred`` at ``(m + 1/2) / per_cell`` (``per_cell = 1``: the cell centres).
+        """
+        per_cell = int(per_cell)
+        if per_cell < 1:
+            raise ValueError(f"per_cell must be at least 1, got {per_cell}.")
+        values = self.coefficients
+        for axis, n in enumerate(self.dimensions):
+            m = np.arange(per_cell * n + (0 if centred else 1), dtype=np.float64)
+            values = _spline_along(values, axis, (m + (0.5 if centred else 0.0)) / per_cell)
+        return values
+
     def save(self, path) -> None:
         """Write the field (coefficients, placement, name) to an ``.npz`` file."""
         extra = {} if self.color_values is None else {"color_values": self.color_values}
@@ -200,6 +216,18 @@ class SplineField(PlacedGrid):
             return cls(data["coefficients"], np.asarray(data["grid_from_index"]),
                        np.asarray(data["transform"]), str(data["name"]),
                        data["color_values"] if "color_values" in data.files else None)
+
+
+def _spline_along(c: np.ndarray, axis: int, positions: np.ndarray) -> np.ndarray:
+    """Along ``axis``: the spline of coefficients ``c`` at cell-space ``positions``."""
+    n = c.shape[axis] - 2
+    cell = np.clip(np.floor(positions).astype(np.int64), 0, n - 1)
+    u = positions - cell
+    shape = [1] * c.ndim
+    shape[axis] = -1
+    weights = (0.5 * (1.0 - u) ** 2, 0.5 + u - u * u, 0.5 * u * u)   # the seed's equation 2
+    return sum(w.reshape(shape) * np.take(c, cell + k, axis=axis)
+               for k, w in enumerate(weights))
 
 
 def interpolating_coefficients(samples: np.ndarray) -> np.ndarray:
@@ -267,22 +295,46 @@ def active_cells(surface: SplineField, test: str = "bernstein", samples: int = 4
         raise ValueError(f"active_test must be one of {ACTIVE_TESTS}, got {test!r}.")
     if test == "sample" and int(samples) < 2:
         raise ValueError(f"samples must be at least 2 (the cell's corners), got {samples}.")
+    if test == "bernstein":
+        return _bernstein_active(surface.coefficients)
     dims = surface.dimensions
     cells = np.argwhere(np.ones(dims[::-1], bool))[:, ::-1]   # x fastest
-    if test == "sample":   # at most about 4 M field values at once
-        batch = max(1, min(int(batch), 4_000_000 // int(samples) ** 3))
+    batch = max(1, min(int(batch), 4_000_000 // int(samples) ** 3))   # ~4 M values at once
     keep = []
     lattice = np.linspace(0.0, 1.0, int(samples))
     basis = bernstein_basis(lattice)
     for start in range(0, len(cells), batch):
         part = cells[start:start + batch]
-        beta = surface.cell_bernstein(part)
-        if test == "bernstein":
-            low, high = beta.min(axis=(1, 2, 3)), beta.max(axis=(1, 2, 3))
-        else:
-            values = np.einsum("nabc,ia,jb,kc->nijk", beta, basis, basis, basis,
-                               optimize=True)
-            low, high = values.min(axis=(1, 2, 3)), values.max(axis=(1, 2, 3))
+        values = np.einsum("nabc,ia,jb,kc->nijk", surface.cell_bernstein(part), basis, basis,
+                           basis, optimize=True)
+        low, high = values.min(axis=(1, 2, 3)), values.max(axis=(1, 2, 3))
         keep.append(part[(low <= 0.0) & (high >= 0.0)])
     return np.concatenate(keep) if keep else np.zeros((0, 3), np.int64)
 
+
+def _bernstein_rows(c: np.ndarray, axis: int) -> np.ndarray:
+    """Along ``axis``: ``n + 2`` coefficients to each cell's 3 Bernstein ones, stacked first."""
+    n = c.shape[axis] - 2
+    first, middle, last = (np.take(c, np.arange(k, k + n), axis=axis) for k in range(3))
+    return np.stack([0.5 * (first + middle), middle, 0.5 * (middle + last)])
+
+
+def _bernstein_active(coefficients: np.ndarray, budget: int = 1 << 28) -> np.ndarray:
+    """The ``'bernstein'`` test, by slabs of cells along z (about ``budget`` bytes each).
+
+    Each cell's 27 Bernstein coefficients come from per-axis averages of the grid's
+    coefficients (:data:`TO_BERNSTEIN` along x, then y, then z), whole slabs at a time.
+    """
+    nx, ny, nz = (int(n) - 2 for n in coefficients.shape)
+    slab = max(1, min(nz, budget // (27 * 8 * nx * ny)))
+    keep = []
+    for k0 in range(0, nz, slab):
+        k1 = min(nz, k0 + slab)
+        beta = _bernstein_rows(coefficients[:, :, k0:k1 + 2], 0)    # (3, nx, ny+2, s+2)
+        beta = _bernstein_rows(beta, 2)                             # (3, 3, nx, ny, s+2)
+        beta = _bernstein_rows(beta, 4)                             # (3, 3, 3, nx, ny, s)
+        crossed = (beta.min(axis=(0, 1, 2)) <= 0.0) & (beta.max(axis=(0, 1, 2)) >= 0.0)
+        cells = np.argwhere(crossed.transpose(2, 1, 0))[:, ::-1]   # x fastest
+        cells[:, 2] += k0
+        keep.append(cells)
+    return np.concatenate(keep) if keep else np.zeros((0, 3), np.int64)

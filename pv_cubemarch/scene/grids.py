@@ -14,6 +14,7 @@ import numpy as np
 import pyvista
 
 from ..core.errors import SceneLoadError, VolumeDataError
+from ..models.field_sources import make_field
 from ..models.volume import make_volume
 from ..models.voxels import make_voxels
 from .model import Scene
@@ -88,7 +89,8 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
                          "use .vti, .vtk, .npy or .npz.")
 
 
-def load_grid_scene(path: str | Path, as_voxels: bool = False) -> Scene:
+def load_grid_scene(path: str | Path, as_voxels: bool = False,
+                    isovalue: float | None = None) -> Scene:
     """A scene of the one grid in a ``.vti``/``.vtk``/``.npy``/``.npz`` file.
 
     Parameters
@@ -98,11 +100,15 @@ def load_grid_scene(path: str | Path, as_voxels: bool = False) -> Scene:
     as_voxels : bool
         Read it as integer material labels (a voxel grid with the default palette) instead
         of a volume (``magma``, linear opacity).
+    isovalue : float, optional
+        Read it as samples (one per cell, or the point data at the points) whose surface
+        at this level is drawn (a spline field), instead of a volume.
 
     Returns
     -------
     Scene
-        One volume or voxel grid named after the file, no camera (the default view).
+        One volume, voxel grid or surface named after the file, no camera (the default
+        view).
     """
     path = Path(path)
     if not path.is_file():
@@ -116,6 +122,8 @@ def load_grid_scene(path: str | Path, as_voxels: bool = False) -> Scene:
                 raise VolumeDataError(f"it holds a {type(grid).__name__}; material labels "
                                       "come on an ImageData (cell or point data).")
             scene.voxels.append(make_voxels(grid, name=path.name))
+        elif isovalue is not None:
+            scene.surfaces.append(make_field(grid, float(isovalue), name=path.name))
         else:
             scene.volumes.append(make_volume(grid, name=path.name))
     except VolumeDataError as exc:

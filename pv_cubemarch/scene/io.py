@@ -1,6 +1,6 @@
 """One entry point for every scene format: USD through usd-core, meshes through trimesh.
 
-A grid file (.vti, .vtk, .npy, .npz) is a scene of its one volume or voxel grid.
+A grid file (.vti, .vtk, .npy, .npz) is a scene of its one volume, voxel grid or surface.
 """
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ from .model import Scene
 from .usd import USD_SUFFIXES, load_usd
 
 
-def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False) -> Scene:
+def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
+               isovalue: float | None = None) -> Scene:
     """Load a scene from a USD stage, any mesh/scene file trimesh reads, or a grid file.
 
     Parameters
@@ -28,6 +29,11 @@ def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False) 
         Load every volume (USD ``Volume`` prim or grid file) as a voxel grid of integer
         material labels, whatever its ``cubemarch:technique``. A USD ``Volume`` with
         ``cubemarch:technique = "voxels"`` is one anyway.
+    isovalue : float, optional
+        A grid file only: load its field as the implicit surface at this level (a
+        :class:`~pv_cubemarch.models.surface.SplineField`, drawn by
+        :func:`~pv_cubemarch.add_surface`). In a USD stage a ``Volume`` prim says so itself
+        (``cubemarch:technique = "surface"`` and ``cubemarch:isovalue``).
 
     Returns
     -------
@@ -43,12 +49,20 @@ def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False) 
     """
     path = Path(path)
     suffix = path.suffix.lower()
+    if isovalue is not None and suffix not in GRID_SUFFIXES:
+        raise SceneLoadError(
+            f"isovalue applies to grid files ({', '.join(GRID_SUFFIXES)}), not {suffix!r}: in "
+            "a USD stage set cubemarch:technique = \"surface\" and cubemarch:isovalue on the "
+            "Volume prims to draw as surfaces.")
+    if isovalue is not None and as_voxels:
+        raise SceneLoadError("A grid file is loaded as voxels (as_voxels) or as a surface "
+                             "(isovalue), not both: leave one out.")
     if suffix in USD_SUFFIXES:
         return load_usd(path, progress_bar=progress_bar, as_voxels=as_voxels)
     if suffix in MESH_SUFFIXES:
         return load_mesh_scene(path)
     if suffix in GRID_SUFFIXES:
-        return load_grid_scene(path, as_voxels=as_voxels)
+        return load_grid_scene(path, as_voxels=as_voxels, isovalue=isovalue)
     raise SceneLoadError(
         f"Cannot load {str(path)!r}: unknown scene type {suffix!r}. Supported: "
         f"{', '.join(USD_SUFFIXES + MESH_SUFFIXES + GRID_SUFFIXES)}."

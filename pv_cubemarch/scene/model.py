@@ -140,7 +140,10 @@ class Scene:
         This is what ``pv.read`` returns. A voxel grid is an ImageData with its labels in
         the cell data array ``"labels"`` (one cell per voxel), placed in the world, so
         ``pv_cubemarch.add_voxels(plotter, block)`` draws it where the scene does; a voxel
-        world gives one such block per chunk that holds voxels.
+        world gives one such block per chunk that holds voxels. A surface is an ImageData
+        with its field at each cell's centre in the cell data array ``"field"`` (zero on the
+        surface): ``pv_cubemarch.add_surface(plotter, block, isovalue=0.0)`` interpolates
+        those values again, the same field where it came from samples or a mesh.
         """
         blocks = pyvista.MultiBlock()
         for m in self.meshes:
@@ -152,11 +155,13 @@ class Scene:
             blocks[v.name] = grid
         for g in self.voxels:
             if isinstance(g, VoxelModel):
-                blocks[g.name] = _voxel_image(g)
+                blocks[g.name] = _cell_image(g, "labels", g.labels)
                 continue
             for key in sorted(set(g.stored) | set(g.uniform)):   # a world: block per chunk
                 chunk = g.chunk_model(key, whole=True)
-                blocks[chunk.name] = _voxel_image(chunk)
+                blocks[chunk.name] = _cell_image(chunk, "labels", chunk.labels)
+        for f in self.surfaces:
+            blocks[f.name] = _cell_image(f, "field", f.on_lattice(1, centred=True))
         return blocks
 
     def add_to(self, plotter: pyvista.Plotter, camera: str | Camera | None = None,
@@ -266,12 +271,12 @@ class Scene:
         return image
 
 
-def _voxel_image(grid: VoxelModel) -> pyvista.ImageData:
-    """A voxel grid as an ImageData in world coordinates, its labels as cell data."""
+def _cell_image(grid, name: str, values: np.ndarray) -> pyvista.ImageData:
+    """A placed grid of cells as a world ImageData, ``values`` (x, y, z) as cell data ``name``."""
     matrix = grid.world_from_index()
     spacing = np.linalg.norm(matrix[:3, :3], axis=0)
     image = pyvista.ImageData(dimensions=tuple(n + 1 for n in grid.dimensions),
                               spacing=tuple(spacing), origin=tuple(matrix[:3, 3]))
     image.direction_matrix = matrix[:3, :3] / spacing
-    image.cell_data["labels"] = grid.labels.ravel(order="F")
+    image.cell_data[name] = np.asarray(values).ravel(order="F")
     return image

@@ -29,7 +29,8 @@ as ``add_voxels`` places an array. Voxels Volumes with ``cubemarch:world`` and
 A ``Volume`` with ``cubemarch:technique = "surface"`` is an implicit surface: the level
 ``cubemarch:isovalue`` of its field (``field:density``, else the first; one sample per point,
 a cell centred on each), drawn with :func:`pv_cubemarch.add_surface`; its options are
-:data:`SURFACE_OPTIONS` (``surfaceTechnique``: ``"active"`` or ``"full"``, ``steps``,
+:data:`SURFACE_OPTIONS` (``surfaceTechnique``: ``"active"`` or ``"full"``,
+``surfaceTraversal``: ``"index"`` or ``"cell_boxes"``, ``steps``,
 ``refineSteps``, ``root``, ``activeTest``, ``activeSamples``, ``shading``, ``ambient``,
 ``specular``, ``specularPower``) and ``cubemarch:color``, checked when the stage is loaded.
 """
@@ -437,7 +438,8 @@ VOXEL_OPTIONS = (
 #: ``cubemarch:*`` attributes of a surface Volume prim and the ``add_surface`` options they
 #: set (with ``cubemarch:isovalue``, required, and ``cubemarch:color``, a color3f).
 SURFACE_OPTIONS = (
-    ("surfaceTechnique", "technique", str), ("steps", "steps", int),
+    ("surfaceTechnique", "technique", str), ("surfaceTraversal", "traversal", str),
+    ("steps", "steps", int),
     ("refineSteps", "refine_steps", int), ("root", "root", str),
     ("activeTest", "active_test", str), ("activeSamples", "active_samples", int),
     ("shading", "shading", str), ("ambient", "ambient", float),

@@ -16,8 +16,10 @@ ROOTS = ("march", "exact")
 TRAVERSALS = ("index", "cell_boxes")
 COLOR_BY = ("curvature", "field")
 SHADINGS = ("unlit", "flat", "blinn")
-#: Most steps along the domain's diagonal (the seed's M; 5000 in its tables).
-MAX_STEPS = 100_000
+#: Most steps along the domain's diagonal (the seed's M; 5000 in its tables). llvmpipe stops
+#: a fragment's loops once 65535 iterations of them all are spent: a ray of 50,000 samples
+#: keeps room for its refinement and traversal.
+MAX_STEPS = 50_000
 #: Most bisection steps refining a bracketed root (float32 halves it 24 times at most).
 MAX_REFINE_STEPS = 40
 
