@@ -1,13 +1,15 @@
-"""Implicit surfaces from each field source: samples, a closed mesh, raw coefficients.
+"""Implicit surfaces from each field source: samples, a mesh, coefficients, a point cloud.
 
 Run: python examples/surface_sources.py [out.png]
 
-Three surfaces side by side, each drawn per pixel from its quadratic B-spline field
+Four surfaces side by side, each drawn per pixel from its quadratic B-spline field
 (`pv_cubemarch.add_surface`, the seed 003's active cells):
 
 - a sampled field (a CT-like volume of smooth blobs) with an isovalue;
 - PyVista's shipped `nut.ply` mesh, by its signed distance on 48 cells along its longest side;
-- raw coefficients: a torus-like field written down by hand, 12 + 2 per axis.
+- raw coefficients: a torus-like field written down by hand, 12 + 2 per axis;
+- a point cloud with outward normals (points on an ellipsoid), fitted by sparse least
+  squares on 24 cells, coloured by its mean curvature.
 
 The field object stays on `actor.cubemarch.model`: it can be evaluated on the CPU and saved.
 """
@@ -23,7 +25,7 @@ import pv_cubemarch
 from pv_cubemarch import SplineField
 
 out = sys.argv[1] if len(sys.argv) > 1 else "surface_sources.png"
-pl = pv.Plotter(off_screen=True, window_size=(900, 360))
+pl = pv.Plotter(off_screen=True, window_size=(1100, 360))
 
 # 1. Samples and an isovalue: the inside is where the data exceed it.
 x, y, z = np.mgrid[-1:1:40j, -1:1:40j, -1:1:40j]
@@ -50,10 +52,23 @@ placement[:3, 3] = (2.2, -0.85, -0.85)
 torus = pv_cubemarch.add_surface(pl, SplineField(coefficients, transform=placement),
                                  color="khaki", root="exact")
 
+# 4. A point cloud with outward normals: the least-squares field through the points.
+rng = np.random.default_rng(0)
+directions = rng.normal(size=(3000, 3))
+directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+axes = np.array([0.5, 0.7, 0.9])
+points = directions * axes + (5.0, 0.0, 0.0)
+normals = directions / axes                        # the ellipsoid's gradient direction
+normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+cloud = pv_cubemarch.add_surface(pl, (points, normals), cells=24, color_by="curvature",
+                                 cmap="coolwarm")
+
 pl.camera_position = [(0.0, -7.0, 3.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
 pl.reset_camera()
+pl.camera.zoom(1.7)
 pl.screenshot(out)
-for name, actor in [("samples", samples), ("mesh", mesh), ("coefficients", torus)]:
+for name, actor in [("samples", samples), ("mesh", mesh), ("coefficients", torus),
+                    ("point cloud", cloud)]:
     binding = actor.cubemarch
     print(f"{name}: {binding.model.dimensions} cells, {len(binding.cells)} active, "
           f"{binding.nbytes / 1e3:.0f} kB on the GPU (dense: {binding.dense_bytes / 1e3:.0f} kB)")
