@@ -229,6 +229,23 @@ def _errors(pl: pyvista.Plotter, surface: SplineField, hits, cell: float) -> tup
             float(np.abs(error).max()), int((error > 0.5).sum()))
 
 
+def _depth_quantum(pl: pyvista.Plotter, hits, cell: float) -> tuple[float, float] | None:
+    """One step of a 24-bit depth buffer at the reference's hits, in cells (median, max).
+
+    Depth errors are read back through the depth buffer: errors of this size are its
+    resolution, not the technique's.
+    """
+    if not hits.hit.any():
+        return None
+    near, far = pl.camera.clipping_range
+    camera = Camera.from_pyvista(pl.camera)
+    forward = np.subtract(camera.focal_point, camera.position)
+    forward /= np.linalg.norm(forward)
+    z = (hits.point[hits.hit] - camera.position) @ forward
+    step = z * z * (far - near) / (far * near) / float(1 << 24) / cell
+    return float(np.median(step)), float(step.max())
+
+
 def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 128),
                  steps: Sequence[int] = (50, 500, 5000), shapes: Sequence[str] = SHAPES,
                  frames: int = 3, progress_bar: bool | None = None) -> list[SurfaceRow]:
@@ -256,10 +273,12 @@ def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 1
                                  near=first.camera.clipping_range[0])
             times = time_frames_side_by_side(plotters, frames, warmup=0,
                                              row_budget_ms=ROW_BUDGET_MS)
+            quantum = _depth_quantum(first, hits, cell)
             for row, pl in plotters.items():   # each window keeps its last frame
                 setup, nbytes, share = drawn[row]
                 results.append(SurfaceRow(shape, cells, row, times[row], setup, nbytes, share,
-                                          *_errors(pl, surface, hits, cell)))
+                                          *_errors(pl, surface, hits, cell),
+                                          extra={"depth_quantum_cells": quantum}))
             results.extend(skipped)
         finally:
             for pl in plotters.values():
@@ -286,6 +305,11 @@ def format_surfaces(results: list[SurfaceRow]) -> str:
             f"{r.gpu_bytes / 1e6:8.2f} {_number(share, '8.2f'):>9s} {r.iou:7.4f} "
             f"{_number(r.depth_median, '9.5f'):>10s} {_number(r.depth_p95, '7.4f'):>7s} "
             f"{_number(r.depth_max, '7.3f'):>7s} {_number(r.later_root_pixels, 'd'):>6s}")
+    quanta = {(r.shape, r.cells): r.extra.get("depth_quantum_cells") for r in results}
+    for (shape, cells), quantum in quanta.items():
+        if quantum:
+            lines.append(f"{shape} {cells}³: one depth-buffer step (24 bits) at the hits is "
+                         f"{quantum[0]:.1e} cell (median), {quantum[1]:.1e} (max)")
     return "\n".join(lines)
 
 
