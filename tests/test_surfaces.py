@@ -15,6 +15,7 @@ import pv_cubemarch as cm
 from pv_cubemarch.core.errors import VolumeDataError
 from pv_cubemarch.core.rendering import read_depth
 from pv_cubemarch.models.surface import TO_BERNSTEIN, SplineField, active_cells
+from pv_cubemarch.models.surface_bricks import surface_bricks
 from pv_cubemarch.reference.surfaces import render_surface, trace_surface
 
 SIZE = (64, 48)
@@ -221,8 +222,8 @@ def test_active_cells_save_memory_and_meshes_occlude(plotter_factory, traversal)
     # Bytes by hand. Cell boxes: 30 floats per active cell, 12 triangles of 3 ints each, 3
     # floats per shared corner. Index: per brick of 4³ cells holding an active cell, its 6³
     # shared coefficients (floats) and 4³ activity bytes (slots rounded up to a box of
-    # slots: at most one more row of them), 16 bytes per brick of the index, and the
-    # domain's box (8 corners, 12 triangles). The dense layout: 27 floats per cell. A plane
+    # slots: at most one more row of them), 16 bytes per brick of the index, a byte per
+    # block of 16³ cells, and the domain's box (8 corners, 12 triangles). The dense layout: 27 floats per cell. A plane
     # through the sphere's middle hides its back half: the depth test between a mesh and
     # the surface.
     field = SplineField(sphere_coefficients((32, 32, 32), (16.0, 16.0, 16.0), 11.0))
@@ -236,7 +237,7 @@ def test_active_cells_save_memory_and_meshes_occlude(plotter_factory, traversal)
         assert binding.nbytes == 4 * 30 * n + 4 * 36 * n + 12 * corners
     else:
         bricks = len({tuple(c) for c in binding.cells // 4})
-        least = bricks * (4 * 6 ** 3 + 4 ** 3) + 16 * 8 ** 3 + 12 * 8 + 12 * 12
+        least = bricks * (4 * 6 ** 3 + 4 ** 3) + 16 * 8 ** 3 + 2 ** 3 + 12 * 8 + 12 * 12
         slack = int(np.ceil(bricks ** (2.0 / 3.0))) * (4 * 6 ** 3 + 4 ** 3)
         assert least <= binding.nbytes <= least + slack
         assert binding.nbytes < 0.05 * binding.dense_bytes
@@ -485,3 +486,26 @@ def test_two_surfaces_without_names_are_both_drawn(plotter_factory):
     red = (image[..., 0] > 200) & (image[..., 1] < 50)
     green = (image[..., 1] > 200) & (image[..., 0] < 50)
     assert red.sum() > 100 and green.sum() > 100
+
+
+def test_a_grid_of_many_blocks_and_partial_bricks_is_drawn_whole(plotter_factory):
+    # 37 x 21 x 50 cells: three blocks of 16³ cells along z, partial bricks and blocks on
+    # every far side, a noisy ball crossing them all; the index traversal against the
+    # reference, and the block bytes against a by-hand loop over the bricks. catches: the
+    # blocks reduced along the wrong axes (a block of stored bricks read as empty: hits lost
+    # behind it), the far side's partial bricks clipped.
+    rng = np.random.default_rng(7)
+    cells = (37, 21, 50)
+    field = SplineField(sphere_coefficients(cells, (18.0, 10.0, 25.0), 14.0)
+                        + rng.normal(scale=1.5, size=(39, 23, 52)))
+    bricks = surface_bricks(field, active_cells(field))
+    stored = bricks.index[..., 3] > 0
+    expected = np.zeros(bricks.blocks.shape, np.uint8)
+    for b in np.argwhere(stored):
+        expected[tuple(b // 4)] = 1
+    assert np.array_equal(bricks.blocks, expected) and bricks.blocks.shape == (3, 2, 4)
+    pl = plotter(plotter_factory)
+    cm.add_surface(pl, field, shading="unlit", steps=400, refine_steps=30)
+    camera = set_camera(pl, (70.0, -40.0, 60.0), focal=(18.0, 10.0, 25.0), up=(0, 0, 1))
+    wrong, off, hits = against_reference(pl, field, camera)
+    assert hits.hit.mean() > 0.2 and wrong == 0 and off == 0, (wrong, off)

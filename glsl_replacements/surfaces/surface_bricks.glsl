@@ -3,14 +3,23 @@
 // slot (x, y, z in the slot grid) and 1, or 0 when it has no active cell. A slot holds the
 // brick's (CM_BRICK_SIZE + 2)^3 B-spline coefficients in cm_brickCoefficients (the second
 // field's in cm_brickColors), neighbouring cells sharing theirs, and one byte per cell in
-// cm_brickCells: 1 where the cell is active.
+// cm_brickCells: 1 where the cell is active. Above them, cm_blocks holds per block of
+// CM_BLOCK_SIZE cells per edge whether any of its bricks is stored.
 uniform sampler3D cm_brickIndex;          // RGBA float per brick
 uniform sampler3D cm_brickCoefficients;   // R float
 uniform sampler3D cm_brickCells;          // R8
 #ifdef CM_COLOR_VALUES
 uniform sampler3D cm_brickColors;         // R float, as cm_brickCoefficients
 #endif
+uniform sampler3D cm_blocks;              // R8
 #define CM_BRICK_SIZE (1 << CM_BRICK_SHIFT)
+#define CM_BLOCK_SIZE (1 << CM_BLOCK_SHIFT)
+
+// Whether `block` holds a stored brick (read at every step: each enters another block).
+bool cm_blockOccupied(ivec3 block)
+{
+  return texelFetch(cm_blocks, block, 0).r > 0.0;   // 1 / 255 (normalised bytes)
+}
 
 ivec3 cm_indexedBrick = ivec3(-1);   // the brick whose entry cm_brickEntry holds
 vec4 cm_brickEntry = vec4(0.0);

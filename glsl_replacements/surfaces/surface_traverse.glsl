@@ -1,7 +1,7 @@
 // One traversal per pixel through the active cells (traversal 'index', beyond the seed's
-// boxes): Amanatides & Woo from a to b (cell space) over two levels, bricks of CM_BRICK_SIZE
-// cells and cells. A brick with no active cell is left in one step; in a stored brick the
-// ray steps cell by cell, and each active cell it meets is loaded and marched from where
+// boxes): Amanatides & Woo from a to b (cell space) over three levels, blocks of
+// CM_BLOCK_SIZE cells, bricks of CM_BRICK_SIZE cells, and cells. A block or brick with no
+// active cell is left in one step; in a stored brick the ray steps cell by cell, and each active cell it meets is loaded and marched from where
 // the ray enters it to where it leaves (cm_marchCell, or cm_exactRoot), in the order the ray
 // meets them: the first root found is the nearest, and the traversal stops there. Returns
 // the fraction of a..b at the hit (-1: none) and the hit's cell.
@@ -35,9 +35,10 @@ float cm_traverse(vec3 a, vec3 b, out ivec3 cell)
   ivec3 ahead = ivec3(cm_rayForward);
   cell = clamp(ivec3(floor(a)), ivec3(0), dims - 1);
   float entry = 0.0;      // where the ray entered `cell` (or its block)
-  int level = 1;          // 1: bricks, 0: cells of a stored brick
+  int level = 2;          // 2: blocks, 1: bricks of an occupied block, 0: cells of a brick
   bool passing = false;   // the current cell was marched: step out of it
-  // Moves number at most the cells plus the bricks crossed, descents the bricks.
+  // Moves number at most the cells, bricks and blocks crossed, descents the bricks and
+  // blocks.
   int count = 3 * (dims.x + dims.y + dims.z + 3);
   int i = 0;
   while (i < count)   // once per active cell met
@@ -46,7 +47,17 @@ float cm_traverse(vec3 a, vec3 b, out ivec3 cell)
     {
       ivec3 low = cell;
       ivec3 high = cell + 1;
-      if (level == 1)
+      if (level == 2)
+      {
+        if (cm_blockOccupied(cell >> CM_BLOCK_SHIFT))
+        {
+          level = 1;   // look at its bricks, from this cell's
+          continue;
+        }
+        low = (cell >> CM_BLOCK_SHIFT) << CM_BLOCK_SHIFT;
+        high = min(low + CM_BLOCK_SIZE, dims);
+      }
+      else if (level == 1)
       {
         if (cm_brickStored(cell >> CM_BRICK_SHIFT))
         {
@@ -77,9 +88,13 @@ float cm_traverse(vec3 a, vec3 b, out ivec3 cell)
       {
         return -1.0;
       }
-      if (any(notEqual(next >> CM_BRICK_SHIFT, cell >> CM_BRICK_SHIFT)))
+      if (any(notEqual(next >> CM_BLOCK_SHIFT, cell >> CM_BLOCK_SHIFT)))
       {
-        level = 1;   // into another brick: is it stored?
+        level = 2;   // into another block: is it occupied?
+      }
+      else if (level == 0 && any(notEqual(next >> CM_BRICK_SHIFT, cell >> CM_BRICK_SHIFT)))
+      {
+        level = 1;   // into another brick of this block
       }
       cell = next;
       entry = exit;

@@ -7,7 +7,9 @@ read (neighbouring cells share 26 of their 27, so a brick keeps about 9 floats p
 cell where per-cell records keep 27), and one byte per cell saying whether the cell is
 active. A small index holds, per brick, its slot or nothing: the traversal leaves a brick
 without active cells in one step, steps cell by cell through the others, and loads and
-marches only active cells.
+marches only active cells. Above the bricks, blocks of :data:`BLOCK_SIZE`³ cells say
+whether any of their bricks is stored: a ray that misses the surface crosses a 512³ grid in
+about 100 steps instead of about 400.
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ from .voxels import MAX_TEXTURE_SIZE
 BRICK_SIZE = 4
 #: Coefficients per brick edge: a cell reads its own 3 along each axis.
 BRICK_COEFFICIENTS = BRICK_SIZE + 2
+#: Cells per block edge (a power of two, a whole number of bricks).
+BLOCK_SIZE = 16
 
 
 @dataclass(frozen=True)
@@ -35,12 +39,15 @@ class SurfaceBricks:
     ``(sx, sy, sz)`` holds ``c[4 bx + a, 4 by + b, 4 bz + c]`` at ``6 (sx, sy, sz) + (a, b,
     c)``. ``active``: the pool of slots of ``BRICK_SIZE``³ bytes, 1 where the cell is
     active. ``colors``: the second field's coefficients in the coefficients' layout, or None.
+    ``blocks``: ``(kx, ky, kz)`` bytes per block of ``BLOCK_SIZE``³ cells, 1 where a brick
+    of it is stored.
     """
 
     index: np.ndarray
     coefficients: np.ndarray
     active: np.ndarray
     colors: np.ndarray | None
+    blocks: np.ndarray
 
     @property
     def slots(self) -> int:
@@ -50,7 +57,7 @@ class SurfaceBricks:
     @property
     def nbytes(self) -> int:
         """Bytes of every array (what the GPU holds)."""
-        parts = (self.index, self.coefficients, self.active, self.colors)
+        parts = (self.index, self.coefficients, self.active, self.colors, self.blocks)
         return int(sum(p.nbytes for p in parts if p is not None))
 
 
@@ -119,4 +126,14 @@ def surface_bricks(field: SplineField, cells: np.ndarray, colors: bool = False) 
         color_pool = _pool(_brick_blocks(field.color_values, bricks), places, grid,
                            BRICK_COEFFICIENTS, np.float32)
     return SurfaceBricks(index, coefficients, _pool(flags, places, grid, BRICK_SIZE, np.uint8),
-                         color_pool)
+                         color_pool, block_occupancy(index[..., 3] > 0))
+
+
+def block_occupancy(stored: np.ndarray) -> np.ndarray:
+    """Per block of ``BLOCK_SIZE``³ cells (uint8): 1 where any of its bricks is ``stored``."""
+    per = BLOCK_SIZE // BRICK_SIZE
+    counts = -(-np.asarray(stored.shape) // per)
+    padded = np.zeros(tuple(counts * per), bool)
+    padded[:stored.shape[0], :stored.shape[1], :stored.shape[2]] = stored
+    blocks = padded.reshape(counts[0], per, counts[1], per, counts[2], per).any(axis=(1, 3, 5))
+    return blocks.astype(np.uint8)

@@ -30,7 +30,7 @@ from ..gl.lights import bind_scene_lights
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.surface import SplineField, active_cells
-from ..models.surface_bricks import BRICK_SIZE, SurfaceBricks, surface_bricks
+from ..models.surface_bricks import BLOCK_SIZE, BRICK_SIZE, SurfaceBricks, surface_bricks
 from ..models.volume import checked_transform
 from ..reference.surfaces import render_surface
 from .options import SurfaceOptions
@@ -69,6 +69,7 @@ def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
                "CM_SPECULAR": lit and options.shading == "blinn"}
     if how == "index":
         defines["CM_BRICK_SHIFT"] = BRICK_SIZE.bit_length() - 1
+        defines["CM_BLOCK_SHIFT"] = BLOCK_SIZE.bit_length() - 1
     else:
         first, floats, values = cell_layout(technique, options)
         defines.update(CM_CELL_FLOATS=floats, CM_FIRST_COEFFICIENT=first,
@@ -183,7 +184,8 @@ def _bind_cells(bindings: ShaderBindings, field: SplineField, options: SurfaceOp
         bricks = surface_bricks(field, cells, colors=colors)
         for sampler, array in (("cm_brickIndex", bricks.index),
                                ("cm_brickCoefficients", bricks.coefficients),
-                               ("cm_brickCells", bricks.active), ("cm_brickColors", bricks.colors)):
+                               ("cm_brickCells", bricks.active), ("cm_brickColors", bricks.colors),
+                               ("cm_blocks", bricks.blocks)):
             if array is not None:
                 bindings.add_texture(sampler, Texture(array, kind="3d", interpolate=False),
                                      owned=True)
