@@ -21,7 +21,7 @@ from .core.offscreen import gl_info
 from .core.registry import get_technique, techniques
 from .models.voxels import VoxelModel
 from .scene.io import load_scene
-from .surfaces.options import ROOTS, SurfaceOptions
+from .surfaces.options import ROOTS
 from .surfaces.options import TRAVERSALS as SURFACE_TRAVERSALS
 from .volume.options import Shading
 from .voxels.options import MODES, SHADINGS, TRAVERSALS, VoxelOptions
@@ -342,6 +342,10 @@ def _volume_options(scene, args, given: dict) -> None:
                 options[name] = value
 
 
+#: Flags of the voxel group that surfaces read too.
+SHARED_SHADING = ("shading", "ambient", "specular", "specular_power")
+
+
 def _surface_options(scene, args, given: dict) -> None:
     """Put the surface options given on the command line into the scene's surfaces' options.
 
@@ -356,8 +360,9 @@ def _surface_options(scene, args, given: dict) -> None:
             _warn("surface_" + name if name in ("technique", "traversal") else name,
                   "this scene (it has no surfaces: give a grid file --isovalue)")
         return
-    reads = {f.name for f in dataclasses.fields(SurfaceOptions)}
-    flags.update({k: v for k, v in given.items() if k in reads})
+    # Of the other flags only the shading ones: --traversal, --step-scale … are voxels' and
+    # volumes' (a surface's own are --surface-traversal, --steps …).
+    flags.update({k: v for k, v in given.items() if k in SHARED_SHADING})
     for surface in scene.surfaces:
         scene.surface_options.setdefault(surface.name, {}).update(flags)
 
@@ -373,8 +378,7 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
     voxel_only = reads - {name for t in techniques("volume") for name in t.option_names} \
         - {f.name for f in dataclasses.fields(Shading)}
     if not scene.voxels:
-        surfaces_read = {f.name for f in dataclasses.fields(SurfaceOptions)} \
-            if scene.surfaces else set()
+        surfaces_read = set(SHARED_SHADING) if scene.surfaces else set()
         for name in given:
             if name in voxel_only and name not in surfaces_read:
                 _warn(name, "this scene (it has no voxel grids)")

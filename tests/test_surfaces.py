@@ -14,7 +14,12 @@ from test_surface_field import sphere_coefficients
 import pv_cubemarch as cm
 from pv_cubemarch.core.errors import VolumeDataError
 from pv_cubemarch.core.rendering import read_depth
-from pv_cubemarch.models.surface import TO_BERNSTEIN, SplineField, active_cells
+from pv_cubemarch.models.surface import (
+    TO_BERNSTEIN,
+    SplineField,
+    _bernstein_active,
+    active_cells,
+)
 from pv_cubemarch.models.surface_bricks import surface_bricks
 from pv_cubemarch.reference.surfaces import render_surface, trace_surface
 
@@ -37,16 +42,18 @@ def plotter(plotter_factory, size=SIZE):
     return pl
 
 
-def against_reference(pl, field, camera, size=SIZE, depth_tolerance=1e-3):
+def against_reference(pl, field, camera, size=SIZE, depth_tolerance=1e-3, cells=None):
     """(wrong coverage pixels, depth errors over the tolerance, reference hits).
 
     Coverage: the unlit white surface against the reference's hits, ambiguous (tangent)
     pixels apart. Depth: the window depth of each hit against the reference's, converted
-    by hand (perspective or parallel), over ``depth_tolerance`` of a cell.
+    by hand (perspective or parallel), over ``depth_tolerance`` of a cell. ``cells``: the
+    active cells the reference walks (the Bernstein test's by default).
     """
     image = cm.render_image(pl)
     near, far = pl.camera.clipping_range
-    hits = trace_surface(field, active_cells(field), camera, size, near=near)
+    cells = active_cells(field) if cells is None else cells
+    hits = trace_surface(field, cells, camera, size, near=near)
     covered = image.max(axis=-1) > 127
     wrong = (covered != hits.hit) & ~hits.ambiguous
     depth = read_depth(pl)
@@ -223,9 +230,9 @@ def test_active_cells_save_memory_and_meshes_occlude(plotter_factory, traversal)
     # floats per shared corner. Index: per brick of 4³ cells holding an active cell, its 6³
     # shared coefficients (floats) and 4³ activity bytes (slots rounded up to a box of
     # slots: at most one more row of them), 16 bytes per brick of the index, a byte per
-    # block of 16³ cells, and the domain's box (8 corners, 12 triangles). The dense layout: 27 floats per cell. A plane
-    # through the sphere's middle hides its back half: the depth test between a mesh and
-    # the surface.
+    # block of 16³ cells, and the domain's box (8 corners, 12 triangles). The dense layout:
+    # 27 floats per cell. A plane through the sphere's middle hides its back half: the
+    # depth test between a mesh and the surface.
     field = SplineField(sphere_coefficients((32, 32, 32), (16.0, 16.0, 16.0), 11.0))
     pl = plotter(plotter_factory)
     actor = cm.add_surface(pl, field, traversal=traversal, shading="unlit", color="white")
@@ -509,3 +516,72 @@ def test_a_grid_of_many_blocks_and_partial_bricks_is_drawn_whole(plotter_factory
     camera = set_camera(pl, (70.0, -40.0, 60.0), focal=(18.0, 10.0, 25.0), up=(0, 0, 1))
     wrong, off, hits = against_reference(pl, field, camera)
     assert hits.hit.mean() > 0.2 and wrong == 0 and off == 0, (wrong, off)
+
+
+@pytest.mark.parametrize("drawing", DRAWINGS)
+def test_a_long_ray_through_active_cells_reaches_the_far_wall(plotter_factory, drawing):
+    # 1500 x 2 x 2 cells: the plane z = 1 makes every cell along x active, and a wall in
+    # the last cell closes the field, so the rays above the plane hit only there, 99.98 %
+    # of the way along (one sample a cell at 50 steps). catches: a traversal bounded by
+    # the cells a ray crosses (nx + ny + nz: the index stops 2/3 of the way), a ray cut
+    # short of its end (exit >= 0.999).
+    n = 1500
+    c = np.broadcast_to((1.0 - (np.arange(4) - 0.5))[None, None, :], (n + 2, 4, 4)).copy()
+    c[n + 1] += 5.0
+    field = SplineField(c)
+    pl = plotter(plotter_factory, (9, 9))
+    cm.add_surface(pl, field, **DRAWINGS[drawing], shading="unlit", steps=50,
+                   refine_steps=30)
+    # (a tenth of a pixel off the cell faces: cell boxes rasterise a ray lying exactly on
+    # the grid's outer face by the edge rule, sometimes not at all)
+    camera = set_camera(pl, (-10.0, 1.03, 1.03), focal=(0.0, 1.03, 1.03), up=(0, 0, 1))
+    pl.camera.parallel_projection = True
+    pl.camera.parallel_scale = 1.5
+    pl.camera.clipping_range = (1.0, n + 20.0)
+    camera = cm.Camera.from_pyvista(pl.camera)
+    wrong, off, hits = against_reference(pl, field, camera, (9, 9))
+    assert hits.hit.sum() >= 18 and wrong == 0 and off == 0, (wrong, off)
+
+
+def test_the_loop_budget_refuses_steps_and_long_grids_leave_the_index(plotter_factory):
+    # By hand: 4 iterations a cell crossed, plus the steps and bisections, within 30,000.
+    # 1500 + 2 + 2 cells: 6016 + 25000 + 10 is over (refused, saying which steps fit: 23,974);
+    # 8200 + 1 + 1 cells: 32,808 for the traversal alone, so the grid is drawn as cell
+    # boxes, with a warning. catches: the budget left unchecked (far hits lost in silence).
+    long = SplineField(np.zeros((1502, 4, 4)) + np.arange(4)[None, None, :] - 1.5)
+    with pytest.raises(ValueError, match=r"use steps <= 23,974, or traversal='cell_boxes'"):
+        cm.add_surface(plotter(plotter_factory), long, steps=25000)
+    longer = SplineField(np.zeros((8202, 3, 3)) + np.arange(3)[None, None, :] - 1.0)
+    with pytest.warns(UserWarning, match="beyond traversal='index'"):
+        actor = cm.add_surface(plotter(plotter_factory), longer)
+    assert actor.cubemarch.options.traversal == "cell_boxes"
+
+
+def test_the_bernstein_test_by_slabs_keeps_every_crossed_cell():
+    # Slabs of a few cells along z (a tiny byte budget) against each cell's 27 Bernstein
+    # coefficients taken one by one. catches: a slab's cells not shifted to their z.
+    rng = np.random.default_rng(3)
+    field = SplineField(rng.normal(size=(9, 7, 23)))
+    every = np.argwhere(np.ones(field.dimensions, bool))
+    beta = field.cell_bernstein(every)
+    crossed = every[(beta.min(axis=(1, 2, 3)) <= 0) & (beta.max(axis=(1, 2, 3)) >= 0)]
+    got = _bernstein_active(field.coefficients, budget=27 * 8 * 7 * 5 * 3)
+    assert {tuple(c) for c in got} == {tuple(c) for c in crossed} and len(got) == len(crossed)
+
+
+def test_only_the_active_cells_are_marched(plotter_factory):
+    # The seed's sampled test at the corners only (active_samples=2) misses a slab 0.08
+    # cell thick inside cell 3, and keeps the cells of a thick slab in the same brick: the
+    # thin slab, in front, must not be drawn. catches: the cells' active bytes ignored (the
+    # whole stored brick marched: the thin slab drawn).
+    thin = slab_field().coefficients
+    thick = slab_field(centre=1.5, half=0.6).coefficients
+    field = SplineField(np.maximum(thin, thick))
+    cells = active_cells(field, "sample", 2)
+    assert not any(c[0] == 3 for c in cells) and any(c[0] == 3 for c in active_cells(field))
+    pl = plotter(plotter_factory)
+    cm.add_surface(pl, field, active_test="sample", active_samples=2, steps=200,
+                   refine_steps=30, shading="unlit")
+    camera = set_camera(pl, (14.0, -6.0, 9.0), focal=(3.7, 4.0, 4.0), up=(0, 0, 1))
+    wrong, off, hits = against_reference(pl, field, camera, cells=cells)
+    assert hits.hit.mean() > 0.15 and wrong == 0 and off == 0, (wrong, off)

@@ -305,7 +305,8 @@ def format_surfaces(results: list[SurfaceRow]) -> str:
             f"{r.gpu_bytes / 1e6:8.2f} {_number(share, '8.2f'):>9s} {r.iou:7.4f} "
             f"{_number(r.depth_median, '9.5f'):>10s} {_number(r.depth_p95, '7.4f'):>7s} "
             f"{_number(r.depth_max, '7.3f'):>7s} {_number(r.later_root_pixels, 'd'):>6s}")
-    quanta = {(r.shape, r.cells): r.extra.get("depth_quantum_cells") for r in results}
+    quanta = {(r.shape, r.cells): r.extra["depth_quantum_cells"] for r in results
+              if r.extra.get("depth_quantum_cells")}
     for (shape, cells), quantum in quanta.items():
         if quantum:
             lines.append(f"{shape} {cells}³: one depth-buffer step (24 bits) at the hits is "

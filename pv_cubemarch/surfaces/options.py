@@ -16,10 +16,16 @@ ROOTS = ("march", "exact")
 TRAVERSALS = ("index", "cell_boxes")
 COLOR_BY = ("curvature", "field")
 SHADINGS = ("unlit", "flat", "blinn")
-#: Most steps along the domain's diagonal (the seed's M; 5000 in its tables). llvmpipe stops
-#: a fragment's loops once 65535 iterations of them all are spent: a ray of 50,000 samples
-#: keeps room for its refinement and traversal.
-MAX_STEPS = 50_000
+#: Loop iterations one fragment may run. Mesa's llvmpipe stops every loop of a fragment once
+#: its limiter is spent (65535 decrements; measured: about 32,000 iterations of our loops, a
+#: ray of more samples losing its far hits); this keeps under it with room.
+LOOP_BUDGET = 30_000
+#: Most steps along the domain's diagonal (the seed's M; 5000 in its tables): a ray of the
+#: full march takes at most this many samples, within LOOP_BUDGET.
+MAX_STEPS = 25_000
+#: Loop iterations of traversal='index' per cell a ray crosses: its moves and descents
+#: through blocks, bricks and cells, and a marched cell's sample count rounded up.
+INDEX_ITERATIONS_PER_CELL = 4
 #: Most bisection steps refining a bracketed root (float32 halves it 24 times at most).
 MAX_REFINE_STEPS = 40
 
@@ -124,6 +130,16 @@ class SurfaceOptions:
     def rgb(self) -> tuple[float, float, float]:
         """The colour as linear floats."""
         return tuple(float(v) for v in pyvista.Color(self.color).float_rgb)
+
+    def index_iterations(self, dimensions) -> int:
+        """Loop iterations a ray of ``traversal='index'`` may take on this grid, at most.
+
+        Every cell along the longest ray (at most ``nx + ny + nz``), all of ``steps``
+        samples, the refinement (``root='exact'`` adds up to about 200 per cell it solves,
+        not counted: such rays have few).
+        """
+        cells = int(sum(int(n) for n in dimensions))
+        return INDEX_ITERATIONS_PER_CELL * cells + int(self.steps) + int(self.refine_steps)
 
     def step_length(self, dimensions) -> float:
         """Cell units between samples: the domain's diagonal over ``steps``."""

@@ -18,6 +18,9 @@ nearest hit, and meshes and other techniques occlude and are occluded.
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
+
 import numpy as np
 import pyvista
 import vtk
@@ -32,8 +35,9 @@ from ..gl.textures import Texture
 from ..models.surface import SplineField, active_cells
 from ..models.surface_bricks import BLOCK_SIZE, BRICK_SIZE, SurfaceBricks, surface_bricks
 from ..models.volume import checked_transform
+from ..models.voxels import MAX_TEXTURE_SIZE
 from ..reference.surfaces import render_surface
-from .options import SurfaceOptions
+from .options import LOOP_BUDGET, SurfaceOptions
 
 #: The 12 triangles of a unit cell, as corners ``x + 2 y + 4 z``, wound outward.
 CELL_TRIANGLES = np.array([
@@ -176,12 +180,45 @@ def _cell_boxes_actor(field: SplineField, cells: np.ndarray) -> pyvista.Actor:
     return actor
 
 
+def _index_bricks(field: SplineField, options: SurfaceOptions,
+                  cells: np.ndarray) -> SurfaceBricks | None:
+    """The bricks of ``traversal='index'``, or None when this grid is beyond the index.
+
+    Beyond it (with a warning, drawn as cell boxes instead): an index wider than a 3D
+    texture, a pool of bricks that fits none, or a grid so long that a ray's traversal
+    alone would overrun llvmpipe's loop budget. ``steps`` that overrun it are refused.
+    """
+    dims = field.dimensions
+    least = dataclasses.replace(options, steps=1, refine_steps=0).index_iterations(dims)
+    why = None
+    if max(-(-n // BRICK_SIZE) for n in dims) > MAX_TEXTURE_SIZE:
+        why = f"its brick index would be wider than {MAX_TEXTURE_SIZE} texels"
+    elif least > LOOP_BUDGET:
+        why = (f"a ray could cross {sum(dims):,} cells, more than one fragment's loops may "
+               "run on llvmpipe")
+    else:
+        need = options.index_iterations(dims)
+        if need > LOOP_BUDGET:
+            raise ValueError(
+                f"steps={options.steps} on {dims} cells: a ray of traversal='index' may run "
+                f"{need:,} loop iterations, and llvmpipe stops a fragment's loops after about "
+                f"32,000: use steps <= {LOOP_BUDGET - need + options.steps:,}, or "
+                "traversal='cell_boxes'.")
+        try:
+            return surface_bricks(field, cells, colors=options.color_by == "field")
+        except MemoryError as error:
+            why = str(error)
+    warnings.warn(f"A grid of {dims} cells is beyond traversal='index' ({why}): drawn with "
+                  "traversal='cell_boxes'.", stacklevel=4)
+    return None
+
+
 def _bind_cells(bindings: ShaderBindings, field: SplineField, options: SurfaceOptions,
-                how: str, cells: np.ndarray | None) -> SurfaceBricks | None:
-    """Bind where the cells' coefficients live; returns the bricks (``'index'``) or None."""
+                how: str, cells: np.ndarray | None,
+                bricks: SurfaceBricks | None) -> None:
+    """Bind where the cells' coefficients live: the ``bricks`` (``'index'``), or records."""
     colors = options.color_by == "field"
     if how == "index":
-        bricks = surface_bricks(field, cells, colors=colors)
         for sampler, array in (("cm_brickIndex", bricks.index),
                                ("cm_brickCoefficients", bricks.coefficients),
                                ("cm_brickCells", bricks.active), ("cm_brickColors", bricks.colors),
@@ -189,13 +226,12 @@ def _bind_cells(bindings: ShaderBindings, field: SplineField, options: SurfaceOp
             if array is not None:
                 bindings.add_texture(sampler, Texture(array, kind="3d", interpolate=False),
                                      owned=True)
-        return bricks
+        return
     if how == "full":
         cells = np.argwhere(np.ones(field.dimensions[::-1], bool))[:, ::-1]
     buffer = cell_buffer(field, cells, corners=how == "cell_boxes", color_values=colors)
     bindings.add_texture("cm_cells", Texture(buffer if len(buffer) else np.zeros(1, np.float32),
                                              kind="buffer"), owned=True)
-    return None
 
 
 def _build(plotter, field: SplineField, options: SurfaceOptions,
@@ -205,6 +241,10 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
     how = drawing(technique, options)
     cells = None if how == "full" else active_cells(field, options.active_test,
                                                      options.active_samples)
+    bricks = _index_bricks(field, options, cells) if how == "index" else None
+    if how == "index" and bricks is None:
+        options = dataclasses.replace(options, traversal="cell_boxes")
+        how = "cell_boxes"
     actor = _cell_boxes_actor(field, cells) if how == "cell_boxes" else _domain_actor(field)
     actor.ForceTranslucentOff()
     actor.ForceOpaqueOn()
@@ -212,7 +252,7 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
     mapper = actor.GetMapper()
     mapper.ScalarVisibilityOff()
     bindings = ShaderBindings(mapper, renderer)
-    bricks = _bind_cells(bindings, field, options, how, cells)
+    _bind_cells(bindings, field, options, how, cells, bricks)
     dims = field.dimensions
     bindings.set_uniform("cm_gridDims", tuple(float(n) for n in dims))
     bindings.set_uniform("cm_stepLength", options.step_length(dims))
