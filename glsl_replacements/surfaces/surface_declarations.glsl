@@ -63,3 +63,15 @@ vec3 cm_fieldGradient(vec3 u)
               cm_tensor(bu, cm_basisDerivative(u.y), bw),
               cm_tensor(bu, bv, cm_basisDerivative(u.z)));
 }
+
+// This fragment's ray in view and cell space, and the span of it inside the domain from
+// where it enters (or the near plane: the camera inside) to where it leaves; false when
+// none of it is.
+bool cm_domainRay(out vec3 originView, out vec3 directionView, out vec3 origin,
+                  out vec3 direction, out vec2 span)
+{
+  cm_fragmentRay(originView, directionView, origin, direction);
+  span = cm_slab(origin, direction, vec3(0.0), cm_gridDims);
+  span.x = max(span.x, cm_near);
+  return span.y > span.x;
+}

@@ -5,13 +5,12 @@
 // enters the cell), the exit sampled last; the first sign change is bisected. Followed by
 // surface_hit.glsl.
   vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and cell space
-  cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
-  vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
-  float cm_start = max(cm_span.x, cm_near);
-  if (!(cm_span.y > cm_start))
+  vec2 cm_span;
+  if (!cm_domainRay(cm_originView, cm_directionView, cm_origin, cm_direction, cm_span))
   {
     discard;
   }
+  float cm_start = cm_span.x;
   float cm_cells = length(cm_direction) * (cm_span.y - cm_start);   // cell units
   int cm_count = max(int(ceil(cm_cells / cm_stepLength)), 1);
   float cm_dt = (cm_span.y - cm_start) * cm_stepLength / max(cm_cells, 1e-30);

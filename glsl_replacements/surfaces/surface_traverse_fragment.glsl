@@ -3,13 +3,12 @@
 // the camera inside the domain or an active cell) to where it leaves (cm_traverse), and
 // stops at the first root. Followed by surface_hit.glsl (one block of main: cm_ names).
   vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and cell space
-  cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
-  vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
-  float cm_start = max(cm_span.x, cm_near);
-  if (!(cm_span.y > cm_start))
+  vec2 cm_span;
+  if (!cm_domainRay(cm_originView, cm_directionView, cm_origin, cm_direction, cm_span))
   {
     discard;
   }
+  float cm_start = cm_span.x;
   vec3 cm_a = cm_origin + cm_direction * cm_start;
   vec3 cm_b = cm_origin + cm_direction * cm_span.y;
   ivec3 cm_hitCell;
