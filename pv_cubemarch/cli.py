@@ -301,6 +301,8 @@ def _render(args) -> int:
             'cubemarch:technique = "voxels" on its labelled Volume prims only.') from exc
     if scene.volumes:
         _volume_options(scene, args, given)
+    elif not as_voxels:
+        _warn_volume_flags(args, given)
     _voxel_options(scene, as_voxels, given)
     _surface_options(scene, args, given)
     if args.chunk_size is not None:
@@ -310,6 +312,16 @@ def _render(args) -> int:
     scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
     return 0
+
+
+def _warn_volume_flags(args, given: dict) -> None:
+    """Warn of each volume flag given for a scene without volumes (left out)."""
+    specific = {name for t in techniques("volume") for name in t.option_names}
+    if args.technique:
+        _warn("technique", "this scene (it has no volumes)")
+    for name in given:
+        if name in specific:
+            _warn(name, "this scene (it has no volumes)")
 
 
 def _volume_options(scene, args, given: dict) -> None:

@@ -114,6 +114,12 @@ def test_a_grid_file_is_a_surface_with_isovalue(tmp_path, capsys):
     assert main(["render", str(path), "--out", str(out), "--size", "32x24", "--steps",
                  "50"]) == 0
     assert "--steps does not apply to this scene" in capsys.readouterr().err
+    # Volume and voxel flags on a surface: left out, each with a warning (--traversal is
+    # the voxels'; a surface's is --surface-traversal).
+    assert main(["render", str(path), "--isovalue", "0", "--out", str(out), "--size",
+                 "32x24", "--technique", "cubemap", "--traversal", "fixed"]) == 0
+    err = capsys.readouterr().err
+    assert "--technique does not apply" in err and "--traversal does not apply" in err
 
 
 def test_pv_read_gives_a_surface_as_its_field_at_the_cell_centres(tmp_path):
