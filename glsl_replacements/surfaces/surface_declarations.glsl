@@ -9,6 +9,9 @@ uniform float cm_near;           // the near plane's view depth
 uniform float cm_stepLength;     // cell units between samples (the domain's diagonal / M)
 uniform int cm_refineSteps;      // bisections of the first sign change
 uniform vec3 cm_surfaceColor;
+#ifdef CM_NORMAL_COLORS
+uniform mat3 cm_normalFromIndex;   // cell-space normals to view space (inverse transpose)
+#endif
 
 // The cell being marched: cm_beta[3 a + b][c]. No function evaluated per sample has a
 // loop: llvmpipe counts every iteration of every loop of a fragment against one budget of

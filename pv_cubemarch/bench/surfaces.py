@@ -229,6 +229,28 @@ def _errors(pl: pyvista.Plotter, surface: SplineField, hits, cell: float) -> tup
             float(np.abs(error).max()), int((error > 0.5).sum()))
 
 
+def normal_angles(image: np.ndarray, hits, camera: Camera) -> np.ndarray:
+    """Degrees between the normals an image of ``shading='normals'`` shows and the reference's.
+
+    Per pixel the reference hits and the image covers (away from tangents): the image's
+    colour ``0.5 + 0.5 n`` back to a view-space ``n``, against the reference's world normal
+    turned toward the eye and taken to view space. 8-bit colours resolve about 0.3 degrees.
+    """
+    forward = np.subtract(camera.focal_point, camera.position)
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, camera.view_up)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    sure = hits.hit & ~hits.ambiguous & (image.max(axis=-1) > 0)
+    normal = hits.normal[sure]
+    toward_eye = np.asarray(camera.position) - hits.point[sure]
+    normal = np.where((np.sum(normal * toward_eye, axis=1) < 0)[:, None], -normal, normal)
+    expected = normal @ np.stack([right, up, -forward], axis=1)
+    shown = image[sure][:, :3].astype(np.float64) / 255.0 * 2.0 - 1.0
+    shown /= np.maximum(np.linalg.norm(shown, axis=1, keepdims=True), 1e-12)
+    return np.degrees(np.arccos(np.clip(np.sum(shown * expected, axis=1), -1.0, 1.0)))
+
+
 def _depth_quantum(pl: pyvista.Plotter, hits, cell: float) -> tuple[float, float] | None:
     """One step of a 24-bit depth buffer at the reference's hits, in cells (median, max).
 

@@ -15,7 +15,7 @@ ROOTS = ("march", "exact")
 #: brick index, or the seed's boxes (a fragment per cell).
 TRAVERSALS = ("index", "cell_boxes")
 COLOR_BY = ("curvature", "field")
-SHADINGS = ("unlit", "flat", "blinn")
+SHADINGS = ("unlit", "flat", "blinn", "normals")
 #: Loop iterations one fragment may run. Mesa's llvmpipe stops every loop of a fragment once
 #: its limiter is spent (65535 decrements; measured: about 32,000 iterations of our loops, a
 #: ray of more samples losing its far hits); this keeps under it with room.
@@ -47,7 +47,8 @@ class SurfaceOptions:
     ``active_samples``³ lattice per cell). ``color``: the surface's colour; ``shading``:
     ``'unlit'``, ``'flat'`` (Lambert from the scene's lights) or ``'blinn'`` (plus a
     highlight), with ``ambient``, ``specular``, ``specular_power``; both sides are lit
-    (open surfaces show their back).
+    (open surfaces show their back); ``'normals'`` shows the view-space normal facing the
+    eye as the colour ``0.5 + 0.5 n`` (for checking normals against a reference).
     ``color_by``: ``None`` (``color``), ``'curvature'`` (the mean curvature, per world unit,
     positive where the surface bends like a ball) or ``'field'`` (a second field's value,
     the model's ``color_values``), through ``cmap`` over ``clim`` (by default the second

@@ -62,7 +62,7 @@ FRAGMENT = {"index": "surface_traverse_fragment", "cell_boxes": "surface_cell_bo
 
 def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
     """The replacements of ``technique`` (``'active'`` or ``'full'``) with ``options``."""
-    lit = options.shading != "unlit"
+    lit = options.shading in ("flat", "blinn")
     how = drawing(technique, options)
     exact = options.root == "exact"
     root = ("surface_exact" if exact else "surface_march",) if how != "full" else ()
@@ -70,6 +70,7 @@ def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
         ("surface_traverse",) if how == "index" else ())
     defines = {"CM_EXACT_ROOT": exact, "CM_COLOR_BY_CURVATURE": options.color_by == "curvature",
                "CM_COLOR_VALUES": options.color_by == "field", "CM_LIGHTING": lit,
+               "CM_NORMAL_COLORS": options.shading == "normals",
                "CM_SPECULAR": lit and options.shading == "blinn"}
     if how == "index":
         defines["CM_BRICK_SHIFT"] = BRICK_SIZE.bit_length() - 1
@@ -260,7 +261,7 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
     bindings.set_uniform("cm_surfaceColor", options.rgb)
     bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
     bind_camera(bindings, renderer, field.world_from_index)
-    if options.shading != "unlit":
+    if options.shading != "unlit":   # the lights, and the normals' map to view space
         bind_scene_lights(bindings, renderer, field.world_from_index)
         bindings.set_uniform("cm_ambient", float(options.ambient))
         bindings.set_uniform("cm_specular", float(options.specular))
