@@ -254,3 +254,6 @@ def test_bench_surfaces_rows_and_errors(tmp_path, capsys):
     assert big["boxes M=5000"][0] == big["contour 2/cell"][0] == "not run"
     assert big["active M=5000"][0] == "surface" and big["contour 1/cell"][0] == "contour"
     assert rows["active exact"]["iou"] > 0.999 and rows["active exact"]["active_share"] < 1
+    # Normals: every surface row's against the reference (8-bit colours: ~0.3 degrees).
+    assert rows["active exact"]["extra"]["normal_degrees"][1] < 1.0
+    assert "normal_degrees" not in rows["contour 1/cell"]["extra"]

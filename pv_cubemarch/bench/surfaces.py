@@ -189,8 +189,8 @@ def _draw(size, camera: Camera, surface: SplineField, how) -> tuple:
     share, nbytes = None, 0
     kind, setting = how
     if kind == "surface":
-        actor = add_surface(pl, surface, shading="unlit", color="white", refine_steps=10,
-                            **setting)
+        actor = add_surface(pl, surface, **{"shading": "unlit", "color": "white",
+                                            "refine_steps": 10, **setting})
         nbytes = actor.cubemarch.nbytes
         if actor.cubemarch.cells is not None:
             share = len(actor.cubemarch.cells) / float(np.prod(surface.dimensions))
@@ -251,6 +251,19 @@ def normal_angles(image: np.ndarray, hits, camera: Camera) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(np.sum(shown * expected, axis=1), -1.0, 1.0)))
 
 
+def _normal_errors(size, camera: Camera, surface: SplineField, setting: dict,
+                   hits) -> tuple[float, float] | None:
+    """Median and p95 degrees off the reference's normals, from a frame of the normals."""
+    pl, *_ = _draw(size, camera, surface, ("surface", {**setting, "shading": "normals"}))
+    try:
+        angles = normal_angles(read_pixels(pl), hits, Camera.from_pyvista(pl.camera))
+    finally:
+        pl.close()
+    if not len(angles):
+        return None
+    return float(np.median(angles)), float(np.percentile(angles, 95))
+
+
 def _depth_quantum(pl: pyvista.Plotter, hits, cell: float) -> tuple[float, float] | None:
     """One step of a 24-bit depth buffer at the reference's hits, in cells (median, max).
 
@@ -283,7 +296,8 @@ def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 1
         plotters, drawn = {}, {}
         skipped = []
         try:
-            for row, how in _rows(steps, cells).items():
+            rows = _rows(steps, cells)
+            for row, how in rows.items():
                 if how[0] == "not run":
                     skipped.append(SurfaceRow(shape, cells, row, [], 0.0, 0, None, 0.0, None,
                                               None, None, None, not_run=how[1]))
@@ -298,9 +312,13 @@ def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 1
             quantum = _depth_quantum(first, hits, cell)
             for row, pl in plotters.items():   # each window keeps its last frame
                 setup, nbytes, share = drawn[row]
+                extra = {"depth_quantum_cells": quantum}
+                how = rows[row]
+                if how[0] == "surface":   # drawn again showing its normals, not timed
+                    extra["normal_degrees"] = _normal_errors(size, camera, surface, how[1],
+                                                             hits)
                 results.append(SurfaceRow(shape, cells, row, times[row], setup, nbytes, share,
-                                          *_errors(pl, surface, hits, cell),
-                                          extra={"depth_quantum_cells": quantum}))
+                                          *_errors(pl, surface, hits, cell), extra=extra))
             results.extend(skipped)
         finally:
             for pl in plotters.values():
@@ -313,7 +331,7 @@ def format_surfaces(results: list[SurfaceRow]) -> str:
     full = {(r.shape, r.cells, r.row.split()[-1]): r.median_ms for r in results
             if r.row.startswith("full") and r.not_run is None}
     lines = ["shape          cells  row               frame ms   x full  setup ms   GPU MB"
-             "  active %     IoU  depth med   p95     max  later", "-" * 118]
+             "  active %     IoU  depth med   p95     max  later  normal° med/p95", "-" * 135]
     for r in results:
         if r.not_run is not None:
             lines.append(f"{r.shape:14s} {r.cells:5d}  {r.row:16s} not run: {r.not_run}")
@@ -326,7 +344,8 @@ def format_surfaces(results: list[SurfaceRow]) -> str:
             f"{_number(speedup and speedup / r.median_ms, '8.1f'):>8s} {r.setup_ms:9.0f} "
             f"{r.gpu_bytes / 1e6:8.2f} {_number(share, '8.2f'):>9s} {r.iou:7.4f} "
             f"{_number(r.depth_median, '9.5f'):>10s} {_number(r.depth_p95, '7.4f'):>7s} "
-            f"{_number(r.depth_max, '7.3f'):>7s} {_number(r.later_root_pixels, 'd'):>6s}")
+            f"{_number(r.depth_max, '7.3f'):>7s} {_number(r.later_root_pixels, 'd'):>6s}"
+            f"  {_degrees(r.extra.get('normal_degrees')):>15s}")
     quanta = {(r.shape, r.cells): r.extra["depth_quantum_cells"] for r in results
               if r.extra.get("depth_quantum_cells")}
     for (shape, cells), quantum in quanta.items():
@@ -334,6 +353,11 @@ def format_surfaces(results: list[SurfaceRow]) -> str:
             lines.append(f"{shape} {cells}³: one depth-buffer step (24 bits) at the hits is "
                          f"{quantum[0]:.1e} cell (median), {quantum[1]:.1e} (max)")
     return "\n".join(lines)
+
+
+def _degrees(pair) -> str:
+    """``median/p95`` degrees, or ``-``."""
+    return "-" if not pair else f"{pair[0]:.2f}/{pair[1]:.2f}"
 
 
 def _number(value, form: str) -> str:
