@@ -610,7 +610,8 @@ def add_surface(
     shading : str
         ``'blinn'`` (default), ``'flat'`` or ``'unlit'``: the scene's lights (up to 8) on the
         analytic normal, both sides lit; ``ambient``, ``specular``, ``specular_power`` as
-        for voxels.
+        for voxels. ``'normals'``: the view-space normal facing the eye as the colour
+        ``0.5 + 0.5 n`` (to check normals).
     ambient, specular, specular_power : float
         The share of unlit colour (0-1), the highlight's weight (0-1) and exponent.
     color_by : str or array_like, optional
