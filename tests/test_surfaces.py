@@ -105,14 +105,13 @@ def test_first_roots_match_the_reference(plotter_factory, drawing, root, paralle
 
 @pytest.mark.parametrize("drawing", DRAWINGS)
 def test_tens_of_thousands_of_steps_lose_no_hit(plotter_factory, drawing):
-    # M = 40000 on a 12x10x8 grid: about 2300 samples per cell crossed, 10^4 before a hit.
-    # llvmpipe stops every loop of a fragment once 65535 iterations of all its loops are
-    # spent. catches (seen to fail): the field's 27 terms summed in two nested loops (12
-    # iterations a sample: the index traversal lost 337 of 782 hits, the cell boxes put 1
-    # a cell deep, the full march lost all 782).
+    # M = 25000 (the most allowed) on a 12x10x8 grid: about 1400 samples per cell
+    # crossed, thousands before a hit. llvmpipe stops every loop of a fragment once the
+    # iterations of all its loops (about 32,000) are spent. catches (seen to fail): the
+    # field's 27 terms summed in two nested loops (12 iterations a sample).
     field = blob()
     pl = plotter(plotter_factory)
-    cm.add_surface(pl, field, **DRAWINGS[drawing], shading="unlit", steps=40000,
+    cm.add_surface(pl, field, **DRAWINGS[drawing], shading="unlit", steps=25000,
                    refine_steps=10)
     camera = set_camera(pl, (16.0, -8.0, 12.0), focal=(6.0, 5.0, 4.0), up=(0, 0, 1))
     wrong, off, hits = against_reference(pl, field, camera)
