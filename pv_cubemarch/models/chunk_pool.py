@@ -70,6 +70,28 @@ class PoolLayout:
         return tuple(a + b for a, b in zip(self.slot_origin(slot), inside, strict=True))
 
 
+def slot_grid(slots: int, slot_shape) -> tuple[int, int, int] | None:
+    """Slots along x, y, z of the smallest pool of ``slots`` blocks of ``slot_shape`` texels.
+
+    Fewest slots, then the most even sides; no side over
+    :data:`~pv_cubemarch.models.voxels.MAX_TEXTURE_SIZE` texels (None when none fits).
+    """
+    most = [MAX_TEXTURE_SIZE // int(n) for n in slot_shape]
+    slots = max(int(slots), 1)
+    best = None
+    for gx in range(1, min(most[0], slots) + 1):
+        for gy in range(1, min(most[1], -(-slots // gx)) + 1):
+            gz = -(-slots // (gx * gy))
+            if gz > most[2]:
+                continue
+            count = gx * gy * gz
+            # fewest slots, then the most even sides (the nearest to a cube)
+            rank = (count, max(gx, gy, gz) - min(gx, gy, gz))
+            if best is None or rank < best[0]:
+                best = (rank, (gx, gy, gz))
+    return None if best is None else best[1]
+
+
 def pool_layout(chunk_size: int, levels: int, slots: int, itemsize: int = 1,
                 budget: int | None = None) -> PoolLayout | None:
     """The smallest pool of at least ``slots`` slots, or None when none fits one texture.
@@ -83,22 +105,10 @@ def pool_layout(chunk_size: int, levels: int, slots: int, itemsize: int = 1,
     if layout is None:
         return None
     slab, row, slot = layout
-    most = [MAX_TEXTURE_SIZE // n for n in slot]
-    slots = max(int(slots), 1)
-    best = None
-    for gx in range(1, min(most[0], slots) + 1):
-        for gy in range(1, min(most[1], -(-slots // gx)) + 1):
-            gz = -(-slots // (gx * gy))
-            if gz > most[2]:
-                continue
-            count = gx * gy * gz
-            # fewest slots, then the most even sides (the nearest to a cube)
-            rank = (count, max(gx, gy, gz) - min(gx, gy, gz))
-            if best is None or rank < best[0]:
-                best = (rank, (gx, gy, gz))
-    if best is None:
+    grid = slot_grid(slots, slot)
+    if grid is None:
         return None
-    pool = PoolLayout(int(chunk_size), int(levels), slab, row, slot, best[1])
+    pool = PoolLayout(int(chunk_size), int(levels), slab, row, slot, grid)
     if int(np.prod(pool.shape, dtype=np.int64)) * int(itemsize) > budget:
         return None
     return pool

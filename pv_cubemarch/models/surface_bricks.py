@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .chunk_pool import slot_grid
 from .surface import SplineField
-from .voxels import MAX_TEXTURE_SIZE
 
 #: Cells per brick edge (a power of two: the shader finds a cell's brick by a shift).
 BRICK_SIZE = 4
@@ -61,22 +61,6 @@ class SurfaceBricks:
         return int(sum(p.nbytes for p in parts if p is not None))
 
 
-def slot_grid(slots: int) -> tuple[int, int, int]:
-    """Slots along x, y, z for ``slots`` bricks: nearly a cube, no side over the GPU's limit.
-
-    Raises ``MemoryError`` when the coefficient pool cannot fit one 3D texture.
-    """
-    slots = max(int(slots), 1)
-    most = MAX_TEXTURE_SIZE // BRICK_COEFFICIENTS
-    gx = min(int(np.ceil(slots ** (1.0 / 3.0))), most)
-    gy = min(int(np.ceil(np.sqrt(slots / gx))), most)
-    gz = -(-slots // (gx * gy))
-    if gz > most:
-        raise MemoryError(f"{slots} bricks of active cells do not fit one 3D texture "
-                          f"({most}³ slots at most): use a coarser grid (fewer cells).")
-    return gx, gy, gz
-
-
 def _pool(blocks: np.ndarray, places: np.ndarray, grid, edge: int, dtype) -> np.ndarray:
     """The pool texture (x, y, z) with ``blocks[n]`` (edge³) at slot ``places[n]``."""
     gx, gy, gz = grid
@@ -109,7 +93,10 @@ def surface_bricks(field: SplineField, cells: np.ndarray, colors: bool = False) 
     cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
     bricks, owner = np.unique(cells // BRICK_SIZE, axis=0, return_inverse=True)
     owner = owner.reshape(-1)
-    grid = slot_grid(len(bricks))
+    grid = slot_grid(len(bricks), (BRICK_COEFFICIENTS,) * 3)
+    if grid is None:
+        raise MemoryError(f"{len(bricks)} bricks of active cells do not fit one 3D texture: "
+                          "use a coarser grid (fewer cells).")
     number = np.arange(len(bricks))
     places = np.stack([number % grid[0], (number // grid[0]) % grid[1],
                        number // (grid[0] * grid[1])], axis=1)

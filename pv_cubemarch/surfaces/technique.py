@@ -190,21 +190,21 @@ def _index_bricks(field: SplineField, options: SurfaceOptions,
     alone would overrun llvmpipe's loop budget. ``steps`` that overrun it are refused.
     """
     dims = field.dimensions
-    least = dataclasses.replace(options, steps=1, refine_steps=0).index_iterations(dims)
+    need = options.index_iterations(dims)
+    traversal = need - options.steps - options.refine_steps   # the cells crossed alone
     why = None
     if max(-(-n // BRICK_SIZE) for n in dims) > MAX_TEXTURE_SIZE:
         why = f"its brick index would be wider than {MAX_TEXTURE_SIZE} texels"
-    elif least > LOOP_BUDGET:
+    elif traversal >= LOOP_BUDGET:
         why = (f"a ray could cross {sum(dims):,} cells, more than one fragment's loops may "
                "run on llvmpipe")
     else:
-        need = options.index_iterations(dims)
         if need > LOOP_BUDGET:
             raise ValueError(
                 f"steps={options.steps} on {dims} cells: a ray of traversal='index' may run "
                 f"{need:,} loop iterations, and llvmpipe stops a fragment's loops after about "
-                f"32,000: use steps <= {LOOP_BUDGET - need + options.steps:,}, or "
-                "traversal='cell_boxes'.")
+                f"32,000: use steps <= {LOOP_BUDGET - traversal - options.refine_steps:,}, "
+                "or traversal='cell_boxes'.")
         try:
             return surface_bricks(field, cells, colors=options.color_by == "field")
         except MemoryError as error:
