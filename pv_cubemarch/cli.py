@@ -299,10 +299,7 @@ def _render(args) -> int:
             f"{exc} --technique voxels draws every volume of the scene as a material grid; "
             "draw this scene with a volume technique, or leave --technique out and set "
             'cubemarch:technique = "voxels" on its labelled Volume prims only.') from exc
-    if scene.volumes:
-        _volume_options(scene, args, given)
-    elif not as_voxels:
-        _warn_volume_flags(args, given)
+    _volume_options(scene, args, given, as_voxels)
     _voxel_options(scene, as_voxels, given)
     _surface_options(scene, args, given)
     if args.chunk_size is not None:
@@ -314,25 +311,27 @@ def _render(args) -> int:
     return 0
 
 
-def _warn_volume_flags(args, given: dict) -> None:
-    """Warn of each volume flag given for a scene without volumes (left out)."""
-    specific = {name for t in techniques("volume") for name in t.option_names}
-    if args.technique:
-        _warn("technique", "this scene (it has no volumes)")
-    for name in given:
-        if name in specific:
-            _warn(name, "this scene (it has no volumes)")
+def _volume_option_names() -> set[str]:
+    """The options some volume technique reads and the others do not share."""
+    return {name for t in techniques("volume") for name in t.option_names}
 
 
-def _volume_options(scene, args, given: dict) -> None:
+def _volume_options(scene, args, given: dict, as_voxels: bool) -> None:
     """Put the volume options given on the command line into the scene's volumes' options.
 
     A technique chosen here drops the scene's options of other techniques. An option given
     here that a volume's technique does not read is left out for that volume, with a
-    warning (with --technique, add_volume refuses it: the user asked for both). Voxel-only
-    options are for the voxel grids, never volumes.
+    warning (with --technique, add_volume refuses it: the user asked for both); so is
+    each volume flag for a scene without volumes. Voxel-only options are for the voxel
+    grids, never volumes.
     """
-    specific = {name for t in techniques("volume") for name in t.option_names}
+    specific = _volume_option_names()
+    if not scene.volumes:
+        if not as_voxels:   # --technique voxels took them all as voxel grids
+            for name in (["technique"] if args.technique else []) + [
+                    n for n in given if n in specific]:
+                _warn(name, "this scene (it has no volumes)")
+        return
     common = {f.name for f in dataclasses.fields(Shading)} | {"lights"}
     given = {k: v for k, v in given.items() if k in specific | common}
     if args.technique:
@@ -387,7 +386,7 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
     (``--step-scale`` is read only with the fixed traversal).
     """
     reads = {f.name for f in dataclasses.fields(VoxelOptions)}
-    voxel_only = reads - {name for t in techniques("volume") for name in t.option_names} \
+    voxel_only = reads - _volume_option_names() \
         - {f.name for f in dataclasses.fields(Shading)}
     if not scene.voxels:
         surfaces_read = set(SHARED_SHADING) if scene.surfaces else set()
