@@ -34,3 +34,7 @@ class PlotterClosedError(CubemarchError, RuntimeError):
 
 class SceneChangedError(CubemarchError, RuntimeError):
     """The scene changed in a way a volume cannot follow (e.g. its number of lights)."""
+
+
+class SceneWarning(UserWarning):
+    """Part of a scene was left out or drawn approximately; ``scene.skipped`` says which and why."""
