@@ -19,6 +19,7 @@ from .core.errors import (  # noqa: E402
     PlotterClosedError,
     SceneChangedError,
     SceneLoadError,
+    SceneWarning,
     ShaderCompileError,
     VolumeDataError,
 )
@@ -44,7 +45,7 @@ __version__ = "0.1.0"
 __all__ = [
     "Camera", "CubemarchError", "OffscreenUnavailableError", "PlotterClosedError",
     "RenderToTexturePass", "Replacement", "Scene", "SceneChangedError", "SceneLight",
-    "SceneLoadError", "SceneMesh", "ShaderBindings",
+    "SceneLoadError", "SceneMesh", "SceneWarning", "ShaderBindings",
     "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "Texture", "TransferFunction",
     "VolumeDataError", "VolumeGroup", "VolumeLight", "VolumeModel", "add_volume",
     "add_surface", "add_volumes", "add_voxels", "SplineField", "make_field",

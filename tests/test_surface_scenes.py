@@ -66,14 +66,14 @@ def test_usd_surface_is_placed_and_drawn_as_its_field(tmp_path, plotter_factory)
 ])
 def test_bad_surface_prims_are_named(tmp_path, attrs, message):
     with pytest.raises(SceneLoadError, match=message):
-        cm.load_scene(surface_stage(tmp_path, attrs))
+        cm.load_scene(surface_stage(tmp_path, attrs), strict=True)
 
 
 def test_a_surface_prim_needs_its_isovalue(tmp_path):
     path = write_voxel_stage(tmp_path, ball_samples(), technique="surface",
                              stage_name="no_iso.usda")
     with pytest.raises(SceneLoadError, match="needs cubemarch:isovalue"):
-        cm.load_scene(path)
+        cm.load_scene(path, strict=True)
 
 
 def test_cli_renders_a_surface_stage(tmp_path, capsys):

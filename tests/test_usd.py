@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -64,9 +66,9 @@ def test_mesh_normals_colors_material_and_xform_stack(tmp_path):
     assert quad.vertex_colors == "displayColor"
     assert np.allclose(quad.mesh.point_data["displayColor"][1], (0, 1, 0))
     plain_mesh = next(m for m in scene.meshes if m.name == "/Plain")
-    assert np.allclose(plain_mesh.color, (0.2, 0.4, 0.6))
-    assert plain_mesh.opacity == pytest.approx(0.5)
-    assert plain_mesh.roughness == pytest.approx(0.25)
+    assert np.allclose(plain_mesh.material.diffuse_color, (0.2, 0.4, 0.6))
+    assert plain_mesh.material.opacity == pytest.approx(0.5)
+    assert plain_mesh.material.roughness == pytest.approx(0.25)
 
 
 def test_primitives_with_their_sizes(tmp_path):
@@ -157,14 +159,15 @@ def test_skipped_prims_are_reported_with_reasons(tmp_path):
     quad_mesh(stage, "/Off").GetPrim().SetActive(False)
     quad_mesh(stage, "/Guide").CreatePurposeAttr(UsdGeom.Tokens.guide)
     quad_mesh(stage, "/Proxy").CreatePurposeAttr(UsdGeom.Tokens.proxy)
-    UsdGeom.BasisCurves.Define(stage, "/Curves")
+    UsdGeom.NurbsPatch.Define(stage, "/Patch")
     stage.GetRootLayer().Save()
     scene = cm.load_scene(tmp_path / "s.usda")
     assert [m.name for m in scene.meshes] == ["/Shown"]
     reasons = {s.path: s.reason for s in scene.skipped}
     assert reasons == {"/Hidden": "invisible", "/Off": "inactive", "/Guide": "purpose is guide",
                        "/Proxy": "purpose is proxy",
-                       "/Curves": "unsupported prim type BasisCurves"}
+                       "/Patch": "NURBS patches are not tessellated", "/": reasons["/"]}
+    assert reasons["/"].startswith("1 subdivision meshes")
     assert "/Hidden: invisible" in scene.summary()
 
 
@@ -225,29 +228,35 @@ def test_bad_usd_files(tmp_path, content, message):
         cm.load_scene(path)
 
 
+def reported(path, match: str):
+    """Load ``path``: the problem is a SceneWarning and a skipped entry; strict raises it."""
+    with pytest.warns(cm.SceneWarning, match=match):
+        scene = cm.load_scene(path)
+    assert any(re.search(match, s.reason) for s in scene.skipped), scene.summary()
+    with pytest.raises(cm.CubemarchError, match=match):
+        cm.load_scene(path, strict=True)
+    return scene
+
+
 def test_missing_field_file_names_it(tmp_path):
     path = write_field_stage(tmp_path, "./nowhere.vti")
-    with pytest.raises(cm.SceneLoadError, match="nowhere.vti"):
-        cm.load_scene(path)
+    scene = reported(path, "nowhere.vti")
+    assert not scene.volumes
 
 
 def test_openvdb_field_is_a_clear_error(tmp_path):
     (tmp_path / "smoke.vdb").write_bytes(b"not really vdb")
     path = write_field_stage(tmp_path, "./smoke.vdb")
-    with pytest.raises(cm.SceneLoadError, match="OpenVDB"):
-        cm.load_scene(path)
+    reported(path, "OpenVDB")
 
 
 def test_field_with_bad_data(tmp_path):
     np.save(tmp_path / "nan.npy", np.full((3, 3, 3), np.nan))
-    with pytest.raises(cm.VolumeDataError, match="NaN"):
-        cm.load_scene(write_field_stage(tmp_path, "./nan.npy"))
+    reported(write_field_stage(tmp_path, "./nan.npy"), "NaN")
     np.save(tmp_path / "flat.npy", np.zeros((3, 3)))
-    with pytest.raises(cm.VolumeDataError, match="3 axes"):
-        cm.load_scene(write_field_stage(tmp_path, "./flat.npy"))
+    reported(write_field_stage(tmp_path, "./flat.npy"), "3 axes")
     np.save(tmp_path / "text.npy", np.array([[["a"]]]))
-    with pytest.raises(cm.VolumeDataError, match="dtype"):
-        cm.load_scene(write_field_stage(tmp_path, "./text.npy"))
+    reported(write_field_stage(tmp_path, "./text.npy"), "dtype")
 
 
 def test_unknown_scene_suffix(tmp_path):

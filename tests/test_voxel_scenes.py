@@ -246,7 +246,7 @@ def test_bad_voxel_prims_get_errors_naming_prim_and_attribute(tmp_path, labels, 
     labels = random_labels() if labels is None else labels
     path = write_voxel_stage(tmp_path, labels, attrs=attrs)
     with pytest.raises(error, match=message):
-        cm.load_scene(path)
+        cm.load_scene(path, strict=True)
 
 
 def test_grid_file_as_a_scene(tmp_path):
@@ -357,7 +357,7 @@ def test_usd_world_chunk_out_of_place_is_named(tmp_path):
     labels = random_labels((16, 8, 8), fill=0.4).astype(np.uint8)
     path = write_world_stage(tmp_path, labels, chunk=8, shift=((1, 0, 0), (0.25, 0, 0)))
     with pytest.raises(cm.SceneLoadError, match="/World/c1_0_0 at \\(1, 0, 0\\) is not where"):
-        cm.load_scene(path)
+        cm.load_scene(path, strict=True)
 
 
 def test_cli_renders_a_usd_world_with_level_of_detail(tmp_path, capsys):

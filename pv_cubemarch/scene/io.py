@@ -15,7 +15,8 @@ from .usd import USD_SUFFIXES, load_usd
 
 
 def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
-               isovalue: float | None = None) -> Scene:
+               isovalue: float | None = None, time: float | None = None,
+               strict: bool = False) -> Scene:
     """Load a scene from a USD stage, any mesh/scene file trimesh reads, or a grid file.
 
     Parameters
@@ -34,6 +35,13 @@ def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
         :class:`~pv_cubemarch.models.surface.SplineField`, drawn by
         :func:`~pv_cubemarch.add_surface`). In a USD stage a ``Volume`` prim says so itself
         (``cubemarch:technique = "surface"`` and ``cubemarch:isovalue``).
+    time : float, optional
+        A USD stage only: the time code to read animated values at; by default the stage's
+        start time when it is animated.
+    strict : bool
+        A USD stage only: raise at the first prim that cannot be read. By default such a
+        prim is reported (a ``SceneWarning`` and an entry in ``scene.skipped``, with the
+        prim path and the reason) and the rest of the stage is read.
 
     Returns
     -------
@@ -57,8 +65,12 @@ def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
     if isovalue is not None and as_voxels:
         raise SceneLoadError("A grid file is loaded as voxels (as_voxels) or as a surface "
                              "(isovalue), not both: leave one out.")
+    if time is not None and suffix not in USD_SUFFIXES:
+        raise SceneLoadError(f"time applies to USD stages ({', '.join(USD_SUFFIXES)}), not "
+                             f"{suffix!r} files, which hold no animation.")
     if suffix in USD_SUFFIXES:
-        return load_usd(path, progress_bar=progress_bar, as_voxels=as_voxels)
+        return load_usd(path, progress_bar=progress_bar, as_voxels=as_voxels, time=time,
+                        strict=strict)
     if suffix in MESH_SUFFIXES:
         return load_mesh_scene(path)
     if suffix in GRID_SUFFIXES:

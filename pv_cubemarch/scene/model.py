@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from PIL import Image
 
 from ..api import add_surface, add_volumes, add_voxels
 from ..core.camera import Camera
+from ..core.errors import SceneWarning
 from ..core.progress import progress
 from ..core.rendering import offscreen_plotter, render_image
 from ..models.group import overlap_groups
@@ -19,40 +21,10 @@ from ..models.surface import SplineField
 from ..models.volume import VolumeModel
 from ..models.voxels import VoxelModel
 from ..models.world import VoxelWorld
+from .mesh_drawing import add_scene_mesh
+from .parts import SceneLight, SceneMesh, SkippedPrim
 
 DEFAULT_BACKGROUND = (0.1, 0.1, 0.12)
-
-
-@dataclass
-class SceneMesh:
-    """An opaque or translucent surface in world coordinates with its material."""
-
-    name: str
-    mesh: pyvista.PolyData
-    color: tuple[float, float, float] = (0.8, 0.8, 0.8)
-    opacity: float = 1.0
-    roughness: float = 0.5
-    vertex_colors: str | None = None
-
-
-@dataclass
-class SceneLight:
-    """A light as the file describes it; ``intensity`` is the file's, before normalisation."""
-
-    name: str
-    kind: str  # 'distant', 'sphere' or 'dome'
-    color: tuple[float, float, float] = (1.0, 1.0, 1.0)
-    intensity: float = 1.0
-    position: tuple[float, float, float] | None = None
-    direction: tuple[float, float, float] | None = None
-
-
-@dataclass
-class SkippedPrim:
-    """A prim that was not loaded, and why."""
-
-    path: str
-    reason: str
 
 
 @dataclass
@@ -81,6 +53,8 @@ class Scene:
     voxel_options: dict[str, dict] = field(default_factory=dict)
     surfaces: list[SplineField] = field(default_factory=list)
     surface_options: dict[str, dict] = field(default_factory=dict)
+    #: The time code the file was read at (``None``: default values, nothing animated).
+    time: float | None = None
 
     @property
     def camera(self) -> Camera | None:
@@ -175,14 +149,8 @@ class Scene:
         """
         actors = {}
         plotter.set_background(self.background)
-        for m in self.meshes:
-            kwargs = dict(color=m.color, opacity=m.opacity, smooth_shading=True,
-                          split_sharp_edges=True,
-                          specular=0.3 * (1.0 - m.roughness), name=m.name)
-            if m.vertex_colors:
-                kwargs.update(scalars=m.vertex_colors, rgb=True)
-                kwargs.pop("color")
-            actors[m.name] = plotter.add_mesh(m.mesh, **kwargs)
+        for m in progress(self.meshes, desc="adding meshes", enabled=progress_bar):
+            actors[m.name] = add_scene_mesh(plotter, m, self._report)
         self._add_lights(plotter)
         # Volumes whose boxes overlap are marched jointly, with the first one's options.
         groups = overlap_groups(self.volumes)
@@ -219,6 +187,13 @@ class Scene:
         if chosen.clipping_range is None:
             plotter.renderer.ResetCameraClippingRange()
         return actors
+
+    def _report(self, path: str, reason: str) -> None:
+        """Record what is drawn otherwise than authored (once per path and reason)."""
+        entry = SkippedPrim(path, reason)
+        if entry not in self.skipped:
+            self.skipped.append(entry)
+            warnings.warn(f"{path}: {reason}", SceneWarning, stacklevel=3)
 
     def _add_lights(self, plotter: pyvista.Plotter) -> None:
         if not self.lights:

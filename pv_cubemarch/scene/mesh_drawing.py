@@ -1,0 +1,164 @@
+"""Scene meshes as PyVista actors: plain colours, or UsdPreviewSurface materials with VTK's PBR.
+
+A material with textures, metallic or roughness is drawn physically based: the base
+colour texture is sRGB (its alpha the opacity), occlusion / roughness / metallic are
+packed into one ORM texture, normal maps need tangents (computed here), and
+``opacityThreshold`` cuts out fragments below it (a one-line shader replacement).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyvista
+
+from ..gl.shaders import Replacement, ShaderRecipe
+from .materials import PrimvarInput, SurfaceMaterial, TextureInput
+from .parts import SceneMesh
+from .textures import base_color_image, normal_image, orm_image
+
+_WRAP = {"repeat": "REPEAT", "clamp": "CLAMP_TO_EDGE", "mirror": "MIRRORED_REPEAT",
+         "black": "CLAMP_TO_BORDER"}
+
+
+def add_scene_mesh(plotter: pyvista.Plotter, part: SceneMesh, report=None):
+    """Add ``part`` to ``plotter`` as its material asks; return the actor.
+
+    ``report(path, reason)`` is told what could not be drawn as authored.
+    """
+    report = report or (lambda path, reason: None)
+    mesh = part.mesh
+    material = part.material
+    kwargs = dict(name=part.name, opacity=part.opacity,
+                  smooth_shading=part.shading == "auto", split_sharp_edges=part.shading == "auto",
+                  culling=None if part.double_sided else "back")
+    if part.vertex_colors:
+        kwargs.update(scalars=part.vertex_colors, rgb=True)
+    else:
+        kwargs["color"] = part.color
+    if material is None:
+        kwargs["specular"] = 0.3 * (1.0 - part.roughness)
+        actor = plotter.add_mesh(mesh, **kwargs)
+        _set_interpolation(actor, part, pbr=False)
+        return actor
+    mesh = mesh.copy(deep=False)
+    textured = _texture_coordinates(mesh, material, part.name, report)
+    constant = _constants(material, part)
+    if not part.vertex_colors:
+        kwargs["color"] = constant["color"]
+    kwargs.update(opacity=constant["opacity"], pbr=True, metallic=constant["metallic"],
+                  roughness=constant["roughness"])
+    if material.normal is not None and textured:
+        mesh = _with_tangents(mesh, part.name, report)
+    actor = plotter.add_mesh(mesh, **kwargs)
+    prop = actor.GetProperty()
+    if textured:
+        _bind_textures(prop, mesh, material)
+    emissive = material.emissive_color
+    if not isinstance(emissive, (TextureInput, PrimvarInput)) and max(emissive) > 0:
+        prop.SetEmissiveFactor(*emissive[:3])
+        if not textured:
+            report(part.name, "a constant emissiveColor without texture coordinates is not "
+                   "drawn (VTK's PBR emits only through a texture)")
+    if material.opacity_threshold > 0:
+        ShaderRecipe([Replacement("//VTK::Light::Impl", "alpha_cutout", keep_tag="before")],
+                     defines={"CM_OPACITY_THRESHOLD": f"{material.opacity_threshold:.9g}"}
+                     ).apply(actor.GetShaderProperty())
+        actor.SetForceOpaque(True)
+    _set_interpolation(actor, part, pbr=True)
+    return actor
+
+
+def _set_interpolation(actor, part: SceneMesh, pbr: bool) -> None:
+    """PBR or Phong with the mesh's own normals; flat when it has none."""
+    if pbr:
+        actor.prop.interpolation = "pbr"
+    elif part.shading in ("normals", "smooth"):
+        actor.prop.interpolation = "phong"
+    elif part.shading == "flat":
+        actor.prop.interpolation = "flat"
+
+
+def _constants(material: SurfaceMaterial, part: SceneMesh) -> dict:
+    """The uniform factors: colour white under a colour texture, else the constant."""
+    def number(value, default: float) -> float:
+        return float(value) if isinstance(value, (int, float)) else default
+
+    color = material.diffuse_color
+    if isinstance(color, TextureInput):
+        color = (1.0, 1.0, 1.0)
+    elif isinstance(color, PrimvarInput):
+        color = part.color
+    opacity = material.opacity
+    return {"color": tuple(color[:3]),
+            "opacity": part.opacity if isinstance(opacity, PrimvarInput) else
+            number(opacity, 1.0) if not isinstance(opacity, TextureInput) else 1.0,
+            "metallic": number(material.metallic, 1.0),
+            "roughness": number(material.roughness, 1.0)}
+
+
+def _texture_coordinates(mesh: pyvista.PolyData, material: SurfaceMaterial, name: str,
+                         report) -> bool:
+    """Make the material's ``st`` primvar the active texture coordinates (transformed)."""
+    textures = material.textures()
+    if not textures:
+        return False
+    first = textures[0]
+    if any(t.st != first.st for t in textures):
+        report(name, f"textures read different st primvars; all use {first.st!r}")
+    if first.st not in mesh.point_data:
+        report(name, f"textures need the primvar {first.st!r}, which the mesh lacks (or not "
+               "per point); drawn untextured")
+        return False
+    st = np.asarray(mesh.point_data[first.st], dtype=np.float64)[:, :2]
+    if first.st_transform is not None:
+        st = st @ first.st_transform[:2, :2].T + first.st_transform[:2, 2]
+    mesh.active_texture_coordinates = st.astype(np.float32)
+    return True
+
+
+def _with_tangents(mesh: pyvista.PolyData, name: str, report) -> pyvista.PolyData:
+    """Triangles with the tangents a normal map needs."""
+    triangles = mesh.triangulate()
+    if "Normals" not in triangles.point_data:
+        triangles = triangles.compute_normals(cell_normals=False, split_vertices=False)
+    try:
+        return triangles.compute_tangents()   # needs point normals and texture coordinates
+    except (AttributeError, ValueError) as exc:
+        report(name, f"normal map not drawn (tangents: {exc})")
+        return mesh
+
+
+def _texture(image: np.ndarray, wrap: tuple[str, str], srgb: bool) -> pyvista.Texture:
+    texture = pyvista.Texture(image)
+    texture.wrap = _WRAP[wrap[0]]
+    texture.mipmap = True
+    texture.interpolate = True
+    if srgb:
+        texture.UseSRGBColorSpaceOn()
+    return texture
+
+
+def _bind_textures(prop, mesh: pyvista.PolyData, material: SurfaceMaterial) -> None:
+    """Base colour, ORM, emissive and normal textures on a PBR property."""
+    color, opacity = material.diffuse_color, material.opacity
+    if isinstance(color, TextureInput) or isinstance(opacity, TextureInput):
+        wrap = (color if isinstance(color, TextureInput) else opacity).wrap
+        prop.SetBaseColorTexture(_texture(base_color_image(
+            color if not isinstance(color, PrimvarInput) else (1.0, 1.0, 1.0),
+            opacity if isinstance(opacity, TextureInput) else 1.0), wrap, srgb=True))
+    orm = (material.occlusion, material.roughness, material.metallic)
+    if any(isinstance(v, TextureInput) for v in orm):
+        first = next(v for v in orm if isinstance(v, TextureInput))
+        prop.SetORMTexture(_texture(orm_image(*orm), first.wrap, srgb=False))
+        if not isinstance(material.roughness, TextureInput):
+            prop.SetRoughness(1.0)
+        if not isinstance(material.metallic, TextureInput):
+            prop.SetMetallic(1.0)
+    emissive = material.emissive_color
+    if isinstance(emissive, TextureInput):
+        prop.SetEmissiveTexture(_texture(base_color_image(emissive, 1.0), emissive.wrap,
+                                         srgb=True))
+        prop.SetEmissiveFactor(1.0, 1.0, 1.0)
+    if material.normal is not None and "Tangents" in mesh.point_data:
+        prop.SetNormalTexture(_texture(normal_image(material.normal), material.normal.wrap,
+                                       srgb=False))

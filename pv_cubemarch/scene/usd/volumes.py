@@ -1,0 +1,258 @@
+"""Volume prims: emission/absorption volumes, voxel grids and implicit surfaces from fields.
+
+See :mod:`pv_cubemarch.scene.usd` for the ``cubemarch:*`` attributes each technique reads.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pyvista
+from pxr import UsdVol
+
+from ...api import voxel_options
+from ...core.errors import SceneLoadError, VolumeDataError
+from ...core.registry import get_technique
+from ...models.field_sources import make_field
+from ...models.volume import make_volume
+from ...models.voxels import Palette, make_voxels
+from ..grids import read_grid
+from ..voxel_worlds import ChunkPrim
+from .attributes import (
+    SURFACE_OPTIONS,
+    VOLUME_ONLY,
+    VOLUME_OPTIONS,
+    VOXEL_OPTIONS,
+    attr,
+    authored,
+    converted,
+    options_error,
+)
+from .context import StageContext
+
+
+def read_volume(ctx: StageContext, prim, name: str) -> None:
+    """Add the Volume prim to the scene as the technique ``cubemarch:technique`` chooses.
+
+    Of several fields, ``density`` is drawn (``labels`` first for voxels); the others are
+    listed in the report.
+    """
+    fields = UsdVol.Volume(prim).GetFieldPaths()
+    if not fields:
+        ctx.report(name, "Volume has no field relationship")
+        return
+    voxels = ctx.as_voxels or attr(prim, "cubemarch:technique") == "voxels"
+    surface = not ctx.as_voxels and attr(prim, "cubemarch:technique") == "surface"
+    preferred = ("labels", "density") if voxels else ("density",)
+    field_name = next((f for f in preferred if f in fields), sorted(fields)[0])
+    others = sorted(set(fields) - {field_name})
+    if others:
+        ctx.report(name, f"fields {', '.join(others)} not drawn (field:{field_name} is)",
+                   warn=False)
+    field_prim = ctx.stage.GetPrimAtPath(fields[field_name])
+    if not field_prim:
+        raise SceneLoadError(f"Volume {name}: field:{field_name} targets missing prim "
+                             f"{fields[field_name]}.")
+    grid = _read_field(field_prim, cells=voxels)
+    if voxels:
+        _voxels(ctx, prim, name, field_prim, grid)
+        return
+    if surface:
+        _surface(ctx, prim, name, field_prim, grid)
+        return
+    attrs = {key: attr(prim, f"cubemarch:{key}") for key in
+             ("cmap", "opacity", "clim", "opacityUnitDistance",
+              *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))}
+    options = {}
+    for key, option, kind in VOLUME_OPTIONS:
+        if attrs[key] is not None:
+            options[option] = kind(attrs[key])
+    if options.get("lights") == "none":
+        options["lights"] = None
+    opacity = attrs["opacity"]
+    if opacity is not None and not isinstance(opacity, str):
+        opacity = [float(v) for v in opacity]
+    try:
+        volume = make_volume(
+            grid, cmap=attrs["cmap"] or "magma", opacity=opacity or "linear",
+            clim=tuple(attrs["clim"]) if attrs["clim"] is not None else None,
+            opacity_unit_distance=attrs["opacityUnitDistance"],
+            transform=ctx.world_matrix(prim), name=name)
+    except VolumeDataError as exc:
+        raise VolumeDataError(f"Volume {name} (field {field_prim.GetPath()}): {exc}") from exc
+    ctx.scene.volumes.append(volume)
+    if options:
+        ctx.scene.volume_options[name] = options
+
+def _voxels(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
+    """A material grid from an integer field, with its palette and checked options."""
+    where = f"Volume {name} (field {field_prim.GetPath()})"
+    if not ctx.as_voxels:
+        other = [f"cubemarch:{key}" for key in VOLUME_ONLY
+                 if attr(prim, f"cubemarch:{key}") is not None]
+        if other:
+            raise SceneLoadError(
+                f"Volume {name}: {', '.join(other)} "
+                f"{'does' if len(other) == 1 else 'do'} not apply to "
+                'cubemarch:technique = "voxels" (volume options); remove '
+                f"{'it' if len(other) == 1 else 'them'}, or choose a volume technique.")
+    found = authored(prim, name, VOXEL_OPTIONS)
+    options = {option: value for option, value in found.values()}
+    try:
+        voxel_options(**options)
+    except ValueError as exc:
+        raise options_error(name, found, "voxel", exc) from exc
+    if not isinstance(grid, pyvista.ImageData):
+        raise VolumeDataError(f"{where}: the file holds a {type(grid).__name__}; material "
+                              "labels come on an ImageData (cell or point data).")
+    scalars = _field_array(field_prim, grid)
+    try:
+        model = make_voxels(grid, scalars, transform=ctx.world_matrix(prim), name=name)
+    except VolumeDataError as exc:
+        why = "as_voxels=True loads every Volume" if ctx.as_voxels else \
+            'cubemarch:technique = "voxels" draws'
+        raise VolumeDataError(f"{where}: {exc} ({why} as integer material labels, "
+                              "0 = empty.)") from exc
+    model.palette = _palette(prim, name, where, int(model.labels.max()))
+    world = attr(prim, "cubemarch:world")
+    if world is not None:
+        key = attr(prim, "cubemarch:chunk")
+        if key is None or len(key) != 3 or min(int(k) for k in key) < 0:
+            raise SceneLoadError(f"Volume {name}: cubemarch:world = {str(world)!r} needs "
+                                 "cubemarch:chunk, an int3 of whole numbers >= 0 (the "
+                                 "chunk's place in the world).")
+        size = attr(prim, "cubemarch:chunkSize")
+        ctx.world_chunks.setdefault(str(world), []).append(ChunkPrim(
+            tuple(int(k) for k in key), model, options, str(prim.GetPath()),
+            None if size is None else int(size),
+            lambda top, prim=prim: _palette(prim, name, where, top)))
+        return
+    ctx.scene.voxels.append(model)
+    size = attr(prim, "cubemarch:chunkSize")
+    if size is not None:
+        options["chunk_size"] = int(size)
+    if options:
+        ctx.scene.voxel_options[name] = options
+
+
+def _surface(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
+    """A spline field from sampled data and ``cubemarch:isovalue``, options checked."""
+    where = f"Volume {name} (field {field_prim.GetPath()})"
+    found = authored(prim, name, SURFACE_OPTIONS)
+    options = {option: value for option, value in found.values()}
+    color = attr(prim, "cubemarch:color")
+    if color is not None:
+        options["color"] = tuple(float(c) for c in color)
+    try:
+        get_technique("surface", options.get("technique", "active")).make_options(
+            {k: v for k, v in options.items() if k != "technique"})
+    except ValueError as exc:
+        raise options_error(name, found, "surface", exc) from exc
+    isovalue = attr(prim, "cubemarch:isovalue")
+    if isovalue is None:
+        raise SceneLoadError(f"Volume {name}: cubemarch:technique = \"surface\" needs "
+                             "cubemarch:isovalue (the level of the field to draw).")
+    scalars = _field_array(field_prim, grid)
+    try:
+        surface = make_field(grid, float(converted(name, "isovalue", isovalue, float)),
+                             scalars, transform=ctx.world_matrix(prim), name=name)
+    except VolumeDataError as exc:
+        raise VolumeDataError(f"{where}: {exc}") from exc
+    ctx.scene.surfaces.append(surface)
+    if options:
+        ctx.scene.surface_options[name] = options
+
+
+
+
+def _field_array(field_prim, grid) -> str | None:
+    """The grid's array the field prim's ``fieldName`` names, if the grid has it."""
+    field_name = attr(field_prim, "fieldName")
+    return str(field_name) if field_name and str(field_name) in grid.array_names else None
+
+
+def is_field(prim) -> bool:
+    """A field prim (anything with a ``filePath``, e.g. ``OpenVDBAsset``)."""
+    return bool(prim.GetAttribute("filePath"))
+
+
+def _palette(prim, name: str, where: str, top: int) -> Palette:
+    """The palette a voxels Volume prim asks for, covering labels ``0..top``."""
+    colors = attr(prim, "cubemarch:palette")
+    opacity = attr(prim, "cubemarch:paletteOpacity")
+    cmap = attr(prim, "cubemarch:cmap")
+    if colors is not None and cmap is not None:
+        raise SceneLoadError(f"Volume {name} sets both cubemarch:palette (a colour per "
+                             "material) and cubemarch:cmap (a colormap name); keep one.")
+    if opacity is not None:
+        authored = opacity
+        try:
+            opacity = np.asarray(opacity, dtype=np.float64)
+        except (TypeError, ValueError):
+            opacity = np.zeros(())
+        if opacity.ndim != 1:
+            raise SceneLoadError(f"Volume {name}: cubemarch:paletteOpacity must be a float[] "
+                                 f"(one opacity per palette entry), got {authored!r}.")
+    if colors is not None:
+        rgb = np.asarray(colors)
+        if rgb.ndim != 2 or rgb.shape[1] not in (3, 4) or rgb.dtype.kind not in "fiu":
+            raise SceneLoadError(f"Volume {name}: cubemarch:palette must be a color3f[] (or "
+                                 "color4f[]) array, one colour per material (entry 0 unused), "
+                                 f"got {colors!r}.")
+        if len(rgb) <= top:
+            raise VolumeDataError(f"{where}: cubemarch:palette has {len(rgb)} entries "
+                                  f"(materials 0..{len(rgb) - 1}) but the labels go up to "
+                                  f"{top}; give at least {top + 1} colours (entry 0, empty, "
+                                  "is unused).")
+        rgba = np.ones((len(rgb), 4))
+        rgba[:, :rgb.shape[1]] = rgb
+        source = "cubemarch:palette"
+    else:
+        if cmap is not None and not isinstance(cmap, str):
+            raise SceneLoadError(f"Volume {name}: cubemarch:cmap must be a colormap name "
+                                 f"(string or token), got {cmap!r}.")
+        rows = max(top + 1, 0 if opacity is None else len(opacity))
+        try:
+            rgba = Palette.make(cmap, rows).rgba.astype(np.float64)
+        except VolumeDataError as exc:
+            raise SceneLoadError(f"Volume {name}: cubemarch:cmap = {cmap!r}: {exc}") from exc
+        source = "cubemarch:cmap" if cmap is not None else "the default palette"
+    if opacity is not None:
+        if len(opacity) != len(rgba):
+            raise SceneLoadError(f"Volume {name}: cubemarch:paletteOpacity has {len(opacity)} "
+                                 f"values and {source} {len(rgba)} entries; give one opacity "
+                                 "per entry (entry 0 unused, 0 hides a material).")
+        rgba[1:, 3] = opacity[1:]
+    rgba[0, 3] = 0.0
+    try:
+        return Palette(rgba)
+    except VolumeDataError as exc:
+        attrs = "cubemarch:palette" if colors is not None else ""
+        attrs += (" / " if attrs and opacity is not None else "") + \
+            ("cubemarch:paletteOpacity" if opacity is not None else "")
+        raise SceneLoadError(f"Volume {name}: {attrs or source}: {exc}") from exc
+
+
+
+def _read_field(field_prim, cells: bool = False) -> pyvista.ImageData:
+    """Load the grid a field prim's ``filePath`` names (.vti/.vtk/.npy/.npz).
+
+    ``cells``: a numpy array's values fill voxels (material labels) instead of sitting on
+    points (see :mod:`pv_cubemarch.scene.grids`).
+    """
+    asset = field_prim.GetAttribute("filePath").Get()
+    where = f"field prim {field_prim.GetPath()}"
+    if asset is None or not asset.path:
+        raise SceneLoadError(f"{where} has no filePath.")
+    resolved = asset.resolvedPath
+    if not resolved:
+        layer_dir = Path(field_prim.GetStage().GetRootLayer().realPath).parent
+        raise SceneLoadError(f"{where}: volume file {asset.path!r} was not found "
+                             f"(looked relative to {layer_dir}).")
+    field_name = attr(field_prim, "fieldName")
+    return read_grid(resolved, where, asset.path, str(field_name) if field_name else None,
+                     attr(field_prim, "cubemarch:origin"), attr(field_prim, "cubemarch:spacing"),
+                     cells=cells)
+
+
