@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import json
 import sys
+import warnings
 from pathlib import Path
 
 from .bench import edits as bench_edits
@@ -16,7 +17,7 @@ from .bench import surfaces as bench_surfaces
 from .bench import voxels as bench_voxels
 from .bench import world as bench_world
 from .bench.voxels import ROWS as VOXEL_ROWS
-from .core.errors import CubemarchError, VolumeDataError
+from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, techniques
 from .models.voxels import VoxelModel
@@ -139,6 +140,13 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
     info.add_argument("scene", nargs="?", help="scene file to describe")
+    for command in (render, info):
+        command.add_argument("--time", type=float,
+                             help="USD time code to read animated values at (default: the "
+                                  "stage's start time when it is animated)")
+        command.add_argument("--strict", action="store_true",
+                             help="fail at the first prim that cannot be read, instead of "
+                                  "leaving it out with a note")
     info.add_argument("--gl", action="store_true", help="report the window class and GL strings")
     info.add_argument("--json", action="store_true", help="print JSON instead of text")
     bench = commands.add_parser("bench", help="speed/accuracy measurements")
@@ -290,8 +298,10 @@ def _render(args) -> int:
         raise ValueError("--isovalue draws the grid as a surface, --technique voxels as "
                          "material labels: leave one out.")
     try:
-        scene = load_scene(args.scene, progress_bar=progress_bar, as_voxels=as_voxels,
-                           isovalue=args.isovalue)
+        scene = _load(args, progress_bar=progress_bar, as_voxels=as_voxels,
+                      isovalue=args.isovalue)
+        for entry in (s for s in scene.skipped if s.problem):
+            print(f"pv-cubemarch: note: {entry.path}: {entry.reason}", file=sys.stderr)
     except VolumeDataError as exc:
         if not as_voxels:
             raise
@@ -306,7 +316,15 @@ def _render(args) -> int:
         for grid in scene.voxels:   # worlds keep their own chunks
             if isinstance(grid, VoxelModel):
                 scene.voxel_options.setdefault(grid.name, {})["chunk_size"] = args.chunk_size
-    scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SceneWarning)
+        scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)
+    for warning in caught:
+        if issubclass(warning.category, SceneWarning):
+            print(f"pv-cubemarch: note: {warning.message}", file=sys.stderr)
+        else:
+            warnings.warn_explicit(warning.message, warning.category, warning.filename,
+                                   warning.lineno)
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
     return 0
 
@@ -551,6 +569,13 @@ def _bench_resolution(args, scene, scene_path) -> int:
     return 0
 
 
+def _load(args, **options):
+    """The scene of ``args.scene``; its problems are printed as notes, not warnings."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneWarning)
+        return load_scene(args.scene, time=args.time, strict=args.strict, **options)
+
+
 def _info(args) -> int:
     if not args.gl and not args.scene:
         print("pv-cubemarch info: give a SCENE, --gl, or both", file=sys.stderr)
@@ -559,8 +584,7 @@ def _info(args) -> int:
     if args.gl:
         report["gl"] = gl_info()
     if args.scene:
-        scene = load_scene(args.scene, progress_bar=False)
-        report["scene"] = scene
+        report["scene"] = _load(args, progress_bar=False)
     if args.json:
         out = dict(report)
         if "scene" in out:
@@ -569,6 +593,7 @@ def _info(args) -> int:
                 "source": s.source, "up_axis": s.up_axis, "meters_per_unit": s.meters_per_unit,
                 "meshes": [m.name for m in s.meshes], "volumes": [v.name for v in s.volumes],
                 "voxels": [g.name for g in s.voxels],
+                "surfaces": [f.name for f in s.surfaces], "time": s.time,
                 "cameras": list(s.cameras), "lights": [li.name for li in s.lights],
                 "skipped": [{"path": k.path, "reason": k.reason} for k in s.skipped]}
         print(json.dumps(out, indent=2))

@@ -130,7 +130,7 @@ def _with_tangents(mesh: pyvista.PolyData, name: str, report) -> pyvista.PolyDat
 
 def _texture(image: np.ndarray, wrap: tuple[str, str], srgb: bool) -> pyvista.Texture:
     texture = pyvista.Texture(image)
-    texture.wrap = _WRAP[wrap[0]]
+    texture.wrap = pyvista.Texture.WrapType.from_any(_WRAP[wrap[0]])
     texture.mipmap = True
     texture.interpolate = True
     if srgb:

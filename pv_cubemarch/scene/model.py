@@ -190,7 +190,7 @@ class Scene:
 
     def _report(self, path: str, reason: str) -> None:
         """Record what is drawn otherwise than authored (once per path and reason)."""
-        entry = SkippedPrim(path, reason)
+        entry = SkippedPrim(path, reason, problem=True)
         if entry not in self.skipped:
             self.skipped.append(entry)
             warnings.warn(f"{path}: {reason}", SceneWarning, stacklevel=3)

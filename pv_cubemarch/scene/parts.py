@@ -52,3 +52,6 @@ class SkippedPrim:
 
     path: str
     reason: str
+    #: Left out or drawn otherwise because something was wrong or unsupported (a
+    #: SceneWarning was issued), not on purpose (invisible, inactive, guides).
+    problem: bool = False

@@ -21,7 +21,7 @@ _CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3}
 
 @lru_cache(maxsize=64)
 def _decoded(file: str, data: bytes | None) -> tuple[np.ndarray, bool]:
-    """RGBA floats (rows bottom-up, as texture coordinates run) and whether the file is 8-bit.
+    """RGBA floats (rows top-down, as in the file) and whether the file is 8-bit.
 
     Single-channel images give (v, v, v, 1), two-channel ones (v, v, v, a).
     """
@@ -41,7 +41,7 @@ def _decoded(file: str, data: bytes | None) -> tuple[np.ndarray, bool]:
             channels = len(image.getbands())
             eight_bit = channels >= 3 and mode not in ("P", "PA")
             rgba = np.asarray(image.convert("RGBA"), dtype=np.float64) / 255.0
-    rgba = np.ascontiguousarray(rgba[::-1])
+    rgba = np.ascontiguousarray(rgba)
     rgba.setflags(write=False)
     return rgba, eight_bit
 

@@ -54,6 +54,6 @@ class StageContext:
 
         Prims left out on purpose (invisible, inactive, guides) are recorded silently.
         """
-        self.scene.skipped.append(SkippedPrim(str(path), reason))
+        self.scene.skipped.append(SkippedPrim(str(path), reason, problem=warn))
         if warn:
             warnings.warn(f"{path}: {reason}", SceneWarning, stacklevel=3)

@@ -28,19 +28,21 @@ def read_instancer(ctx: StageContext, prim,
     if not prototypes:
         raise PrimError("it has no prototypes")
     indices = np.asarray(instancer.GetProtoIndicesAttr().Get(ctx.time) or [], dtype=np.int64)
-    matrices = instancer.ComputeInstanceTransformsAtTime(ctx.time, ctx.time)
-    if len(matrices) != len(indices):
-        raise PrimError(f"its {len(indices)} protoIndices and its positions/orientations/"
-                        "scales do not match in length")
     if indices.size and (indices.min() < 0 or indices.max() >= len(prototypes)):
         raise PrimError(f"protoIndices go up to {int(indices.max())} but there are "
                         f"{len(prototypes)} prototypes")
     mask = np.asarray(instancer.ComputeMaskAtTime(ctx.time) or [True] * len(indices), bool)
+    visible = indices[mask]
+    # the transforms of the visible instances only (invisibleIds and the mask applied)
+    matrices = instancer.ComputeInstanceTransformsAtTime(ctx.time, ctx.time)
+    if len(matrices) != len(visible):
+        raise PrimError(f"its {len(indices)} protoIndices and its positions/orientations/"
+                        "scales do not match in length")
     placement = ctx.world_matrix(prim)
     instances = np.array([np.array(m, dtype=np.float64).T for m in matrices]).reshape(-1, 4, 4)
     parts = []
     for number, target in enumerate(prototypes):
-        chosen = np.nonzero((indices == number) & mask)[0]
+        chosen = np.nonzero(visible == number)[0]
         root = ctx.stage.GetPrimAtPath(target)
         if not root:
             ctx.report(str(target), f"prototype of {prim.GetPath()} does not exist")
@@ -90,8 +92,9 @@ def _copied(part: SceneMesh, matrices: np.ndarray) -> SceneMesh:
     all_connectivity = (connectivity[None, :] + shift).ravel()
     all_offsets = np.concatenate([(offsets[:-1][None, :] + (np.arange(count) * len(
         connectivity))[:, None]).ravel(), [count * len(connectivity)]])
-    out = pyvista.PolyData(points.reshape(-1, 3))
-    out.SetPolys(pyvista.CellArray.from_arrays(all_offsets, all_connectivity))
+    out = pyvista.PolyData()   # PolyData(points) would add a vertex cell per point
+    out.points = points.reshape(-1, 3)
+    out.SetPolys(pyvista.CellArray.from_arrays(all_offsets, all_connectivity, deep=True))
     for name in mesh.point_data.keys():
         values = np.asarray(mesh.point_data[name])
         if name == "Normals":

@@ -1,0 +1,257 @@
+"""USD geometry: primvars and normals of every interpolation, subsets, instancers, points,
+curves, time samples, and malformed prims reported while the rest of the stage loads.
+
+Expected values are written out by hand from the authored arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
+
+import pv_cubemarch as cm
+
+#: Two unit quads side by side: 6 points, 2 faces, 8 corners.
+POINTS = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0), (2, 1, 0)]
+COUNTS = [4, 4]
+INDICES = [0, 1, 2, 3, 1, 4, 5, 2]
+
+
+def two_quads(stage, path="/M", scheme="none"):
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr(POINTS)
+    mesh.CreateFaceVertexCountsAttr(COUNTS)
+    mesh.CreateFaceVertexIndicesAttr(INDICES)
+    mesh.CreateSubdivisionSchemeAttr(scheme)
+    return mesh
+
+
+def new_stage(tmp_path, name="s.usda"):
+    return Usd.Stage.CreateNew(str(tmp_path / name))
+
+
+def load(stage, **kwargs):
+    stage.GetRootLayer().Save()
+    return cm.load_scene(stage.GetRootLayer().realPath, **kwargs)
+
+
+@pytest.mark.parametrize("interpolation, values, where, expected", [
+    ("constant", [(0.1, 0.2, 0.3)], "color", (0.1, 0.2, 0.3)),
+    ("uniform", [(1, 0, 0), (0, 1, 0)], "cell", [(1, 0, 0), (0, 1, 0)]),
+    ("vertex", [(i / 10, 0, 0) for i in range(6)], "point", [(i / 10, 0, 0) for i in range(6)]),
+    ("varying", [(i / 10, 0, 0) for i in range(6)], "point", [(i / 10, 0, 0) for i in range(6)]),
+    # faceVarying: one point per corner, in corner order
+    ("faceVarying", [(c / 10, 1, 0) for c in range(8)], "point",
+     [(c / 10, 1, 0) for c in range(8)]),
+])
+def test_display_color_in_every_interpolation(tmp_path, interpolation, values, where, expected):
+    stage = new_stage(tmp_path)
+    mesh = two_quads(stage)
+    mesh.CreateDisplayColorPrimvar(interpolation).Set(values)
+    part = load(stage).meshes[0]
+    if where == "color":
+        assert part.color == pytest.approx(expected) and part.vertex_colors is None
+        return
+    data = part.mesh.cell_data if where == "cell" else part.mesh.point_data
+    assert part.vertex_colors == "displayColor"
+    assert np.allclose(data["displayColor"], expected)
+    assert part.mesh.n_points == (8 if interpolation == "faceVarying" else 6)
+    if interpolation == "faceVarying":   # unwelded: corner c sits on point INDICES[c]
+        assert np.allclose(part.mesh.points, np.asarray(POINTS)[INDICES])
+
+
+def test_indexed_primvar_is_flattened(tmp_path):
+    stage = new_stage(tmp_path)
+    mesh = two_quads(stage)
+    primvar = mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.uniform)
+    primvar.Set([(1, 0, 0), (0, 0, 1)])
+    primvar.SetIndices(Vt.IntArray([1, 0]))
+    part = load(stage).meshes[0]
+    assert np.allclose(part.mesh.cell_data["displayColor"], [(0, 0, 1), (1, 0, 0)])
+
+
+@pytest.mark.parametrize("interpolation, values, expected", [
+    ("constant", [(0, 0, 2)], [(0, 0, 1)] * 6),
+    ("vertex", [(0, 0, 1)] * 3 + [(1, 0, 0)] * 3, [(0, 0, 1)] * 3 + [(1, 0, 0)] * 3),
+    ("uniform", [(0, 0, 1), (0, 1, 0)], [(0, 0, 1)] * 4 + [(0, 1, 0)] * 4),
+    ("faceVarying", [(0, 0, 1)] * 4 + [(0, 0, -1)] * 4, [(0, 0, 1)] * 4 + [(0, 0, -1)] * 4),
+])
+def test_normals_in_every_interpolation(tmp_path, interpolation, values, expected):
+    # catches: the usd-wg schema test's `len()` of an int (normals interpolations other than
+    # vertex and faceVarying), and uniform normals smeared over shared points.
+    stage = new_stage(tmp_path)
+    mesh = two_quads(stage)
+    mesh.CreateNormalsAttr(values)
+    mesh.SetNormalsInterpolation(interpolation)
+    part = load(stage).meshes[0]
+    assert part.shading == "normals"
+    assert np.allclose(part.mesh.point_data["Normals"], expected)
+
+
+def test_primvar_normals_override_the_attribute(tmp_path):
+    stage = new_stage(tmp_path)
+    mesh = two_quads(stage)
+    mesh.CreateNormalsAttr([(0, 0, 1)] * 6)
+    primvar = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("normals", Sdf.ValueTypeNames.Normal3fArray,
+                                                      UsdGeom.Tokens.constant)
+    primvar.Set([(1, 0, 0)])
+    assert np.allclose(load(stage).meshes[0].mesh.point_data["Normals"], (1, 0, 0))
+
+
+def test_normals_without_authoring_follow_the_subdivision_scheme(tmp_path):
+    stage = new_stage(tmp_path)
+    two_quads(stage, "/Flat", scheme="none")
+    two_quads(stage, "/Smooth", scheme="catmullClark")
+    parts = {m.name: m for m in load(stage).meshes}
+    assert parts["/Flat"].shading == "flat" and "Normals" not in parts["/Flat"].mesh.point_data
+    assert parts["/Smooth"].shading == "smooth"
+    assert np.allclose(parts["/Smooth"].mesh.point_data["Normals"], (0, 0, 1))
+
+
+def cell_normal(part) -> np.ndarray:
+    return np.asarray(part.mesh.compute_normals(cell_normals=True,
+                                                point_normals=False).cell_data["Normals"][0])
+
+
+def test_left_handed_and_mirrored_meshes_wind_the_other_way(tmp_path):
+    # catches: orientation ignored (back faces culled on a left-handed mesh), and a mirroring
+    # transform (negative scale) flipping the winding once more unnoticed.
+    stage = new_stage(tmp_path)
+    two_quads(stage, "/Right")
+    two_quads(stage, "/Left").CreateOrientationAttr(UsdGeom.Tokens.leftHanded)
+    mirrored = two_quads(stage, "/Mirror")
+    mirrored.AddScaleOp().Set(Gf.Vec3f(1, 1, -1))
+    parts = {m.name: m for m in load(stage).meshes}
+    assert np.allclose(cell_normal(parts["/Right"]), (0, 0, 1))
+    assert np.allclose(cell_normal(parts["/Left"]), (0, 0, -1))
+    # mirrored in z: the right-handed quad's front now faces -z, and so does its winding
+    assert np.allclose(cell_normal(parts["/Mirror"]), (0, 0, -1))
+
+
+def test_malformed_meshes_are_reported_and_the_rest_loads(tmp_path):
+    stage = new_stage(tmp_path)
+    two_quads(stage, "/Good")
+    bad = two_quads(stage, "/BadIndices")
+    bad.CreateFaceVertexIndicesAttr([0, 1, 2, 3, 1, 4, 5, 99])
+    short = two_quads(stage, "/ShortCounts")
+    short.CreateFaceVertexCountsAttr([4])
+    wrong = two_quads(stage, "/WrongColors")
+    wrong.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set([(1, 0, 0)] * 5)
+    degenerate = two_quads(stage, "/Degenerate")
+    degenerate.CreateFaceVertexCountsAttr([4, 2, 2])
+    UsdGeom.Mesh.Define(stage, "/Empty")
+    stage.DefinePrim("/WrongType", "Sphere")   # a wrong-typed attribute, as hand edits make
+    spec = stage.GetRootLayer().GetPrimAtPath("/WrongType")
+    Sdf.AttributeSpec(spec, "radius", Sdf.ValueTypeNames.String).default = "big"
+    stage.GetRootLayer().Save()
+    path = tmp_path / "s.usda"
+    with pytest.warns(cm.SceneWarning):
+        scene = cm.load_scene(path)
+    names = {m.name for m in scene.meshes}
+    assert {"/Good", "/WrongColors", "/Degenerate"} <= names
+    assert not names & {"/BadIndices", "/ShortCounts", "/WrongType"}
+    reasons = {s.path: s.reason for s in scene.skipped}
+    assert "99" in reasons["/BadIndices"] and "6 points" in reasons["/BadIndices"]
+    assert "sum to 4" in reasons["/ShortCounts"]
+    assert "5 values" in reasons["/WrongColors.primvars:displayColor"]
+    assert "radius" in reasons["/WrongType"]
+    assert reasons["/Degenerate"].startswith("2 faces of fewer than 3")
+    assert next(m for m in scene.meshes if m.name == "/Degenerate").mesh.n_cells == 1
+    with pytest.raises(cm.SceneLoadError, match="99"):
+        cm.load_scene(path, strict=True)
+
+
+def bind_color(stage, prim, name, color):
+    material = UsdShade.Material.Define(stage, f"/Looks/{name}")
+    shader = UsdShade.Shader.Define(stage, f"/Looks/{name}/PS")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*color))
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(prim).Bind(material)
+    return material
+
+
+def test_geom_subsets_get_their_own_materials(tmp_path):
+    stage = new_stage(tmp_path)
+    mesh = two_quads(stage)
+    bind_color(stage, mesh.GetPrim(), "Base", (0.5, 0.5, 0.5))
+    subset = UsdShade.MaterialBindingAPI(mesh.GetPrim()).CreateMaterialBindSubset(
+        "right", Vt.IntArray([1]))
+    bind_color(stage, subset.GetPrim(), "Red", (1, 0, 0))
+    parts = {m.name: m for m in load(stage).meshes}
+    assert set(parts) == {"/M:Red", "/M:Base"}
+    assert parts["/M:Red"].mesh.n_cells == 1 and parts["/M:Base"].mesh.n_cells == 1
+    assert parts["/M:Red"].mesh.bounds[:2] == pytest.approx((1, 2))
+    assert parts["/M:Red"].material.diffuse_color == pytest.approx((1, 0, 0))
+
+
+def test_point_instancer_places_each_visible_instance(tmp_path):
+    stage = new_stage(tmp_path)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/Inst")
+    cube = UsdGeom.Cube.Define(stage, "/Inst/Protos/Box")
+    cube.CreateSizeAttr(1.0)
+    sphere = UsdGeom.Sphere.Define(stage, "/Inst/Protos/Ball")
+    sphere.CreateRadiusAttr(0.5)
+    instancer.CreatePrototypesRel().SetTargets([cube.GetPath(), sphere.GetPath()])
+    instancer.CreateProtoIndicesAttr([0, 0, 1, 0])
+    instancer.CreatePositionsAttr([(0, 0, 0), (10, 0, 0), (0, 10, 0), (0, 0, 10)])
+    instancer.CreateScalesAttr([(1, 1, 1), (2, 2, 2), (1, 1, 1), (1, 1, 1)])
+    instancer.CreateOrientationsAttr([Gf.Quath(1, 0, 0, 0)] * 4)
+    instancer.CreateInvisibleIdsAttr([3])
+    UsdGeom.Xformable(instancer).AddTranslateOp().Set(Gf.Vec3d(100, 0, 0))
+    parts = {m.name: m for m in load(stage).meshes}
+    assert set(parts) == {"/Inst[/Inst/Protos/Box]", "/Inst[/Inst/Protos/Ball]"}
+    boxes = parts["/Inst[/Inst/Protos/Box]"].mesh
+    # two boxes: a unit one at x=100 and one scaled 2 at x=110; the invisible one is gone
+    assert boxes.bounds == pytest.approx((99.5, 111, -1, 1, -1, 1))
+    assert parts["/Inst[/Inst/Protos/Ball]"].mesh.center == pytest.approx((100, 10, 0),
+                                                                           abs=1e-6)
+
+
+def test_points_become_spheres_of_their_widths(tmp_path):
+    stage = new_stage(tmp_path)
+    points = UsdGeom.Points.Define(stage, "/P")
+    points.CreatePointsAttr([(0, 0, 0), (5, 0, 0)])
+    points.CreateWidthsAttr([1.0, 3.0])
+    points.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+    mesh = load(stage).meshes[0].mesh
+    # widths are diameters (radius-as-width would be twice as wide); 0.15: sphere facets
+    assert mesh.bounds == pytest.approx((-0.5, 6.5, -1.5, 1.5, -1.5, 1.5), abs=0.15)
+
+
+def test_curves_become_tubes(tmp_path):
+    stage = new_stage(tmp_path)
+    linear = UsdGeom.BasisCurves.Define(stage, "/Lin")
+    linear.CreateTypeAttr(UsdGeom.Tokens.linear)
+    linear.CreatePointsAttr([(0, 0, 0), (4, 0, 0), (4, 4, 0)])
+    linear.CreateCurveVertexCountsAttr([3])
+    linear.CreateWidthsAttr([0.5])
+    bezier = UsdGeom.BasisCurves.Define(stage, "/Bez")
+    bezier.CreateTypeAttr(UsdGeom.Tokens.cubic)
+    bezier.CreateBasisAttr(UsdGeom.Tokens.bezier)
+    # a Bezier arc: control points (0,0), (0,3), (3,3), (3,0) peak at y = 0.75*3 = 2.25
+    bezier.CreatePointsAttr([(0, 0, 10), (0, 3, 10), (3, 3, 10), (3, 0, 10)])
+    bezier.CreateCurveVertexCountsAttr([4])
+    bezier.CreateWidthsAttr([0.2])
+    parts = {m.name: m.mesh for m in load(stage).meshes}
+    # flat caps at the ends (0, 0) and (4, 4); the tube's side reaches 0.25 out at (4, 0)
+    assert parts["/Lin"].bounds == pytest.approx((0, 4.25, -0.25, 4, -0.25, 0.25), abs=0.03)
+    assert parts["/Bez"].bounds[3] == pytest.approx(2.25 + 0.1, abs=0.01)
+
+
+def test_time_samples_default_to_the_start_and_follow_time(tmp_path):
+    stage = new_stage(tmp_path)
+    stage.SetStartTimeCode(10)
+    stage.SetEndTimeCode(20)
+    mesh = two_quads(stage)
+    op = mesh.AddTranslateOp()
+    op.Set(Gf.Vec3d(0, 0, 0), 10)
+    op.Set(Gf.Vec3d(0, 0, 10), 20)
+    stage.GetRootLayer().Save()
+    path = stage.GetRootLayer().realPath
+    assert cm.load_scene(path).time == 10
+    assert cm.load_scene(path).meshes[0].mesh.bounds[4] == pytest.approx(0)
+    assert cm.load_scene(path, time=15).meshes[0].mesh.bounds[4] == pytest.approx(5)
+    with pytest.raises(cm.SceneLoadError, match="time applies to USD"):
+        cm.load_scene(tmp_path / "x.vti", time=1)
