@@ -18,31 +18,49 @@ from ..models.field_sources import make_field
 from ..models.volume import make_volume
 from ..models.voxels import make_voxels
 from .model import Scene
+from .openvdb import VdbFormatError
+from .openvdb.image import INDEX_TO_WORLD, vdb_image
 
 #: The grid files a USD field may name, and that ``load_scene`` reads as a scene of one grid.
-GRID_SUFFIXES = (".vti", ".vtk", ".npy", ".npz")
+GRID_SUFFIXES = (".vti", ".vtk", ".npy", ".npz", ".vdb")
+
+
+def placement(grid, world: np.ndarray | None = None) -> np.ndarray | None:
+    """The transform to draw ``grid`` with (``None``: as it is placed).
+
+    ``world`` (a prim's placement) after the map a sheared OpenVDB grid keeps in its field
+    data.
+    """
+    if INDEX_TO_WORLD not in grid.field_data:
+        return world
+    matrix = np.asarray(grid.field_data[INDEX_TO_WORLD], dtype=np.float64).reshape(4, 4)
+    return matrix if world is None else world @ matrix
 
 
 def read_grid(path: str | Path, where: str, shown: str | None = None,
               field_name: str | None = None, origin=None, spacing=None,
-              cells: bool = False) -> pyvista.ImageData:
+              cells: bool = False, field_index: int | None = None) -> pyvista.ImageData:
     """Read the grid in ``path``; errors start with ``where`` and name the file as ``shown``.
 
     Parameters
     ----------
     path : str or pathlib.Path
-        An existing ``.vti``/``.vtk`` image or ``.npy``/``.npz`` array.
+        An existing ``.vti``/``.vtk`` image, ``.npy``/``.npz`` array or ``.vdb`` OpenVDB
+        file.
     where : str
         What the file belongs to, for error messages (e.g. ``"field prim /Vol/density"``).
     shown : str, optional
         The file as the user wrote it (a USD asset path); ``path`` by default.
     field_name : str, optional
-        The array to use: made the active scalars of an image, the key of an ``.npz``.
+        The array to use: made the active scalars of an image, the key of an ``.npz``, the
+        grid of a ``.vdb`` (by default its ``density`` grid, else its first).
     origin, spacing : sequence of float, optional
         Placement of a numpy array (``(0, 0, 0)`` and ``(1, 1, 1)`` by default).
     cells : bool
         Put a numpy array's values on cells (one voxel each, ``origin`` the box's corner)
         instead of points.
+    field_index : int, optional
+        Which of several ``.vdb`` grids named ``field_name`` (USD's ``fieldIndex``).
 
     Returns
     -------
@@ -52,9 +70,11 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
     shown = str(path) if shown is None else shown
     suffix = Path(path).suffix.lower()
     if suffix == ".vdb":
-        raise SceneLoadError(f"{where}: {shown!r} is an OpenVDB file, which pv_cubemarch "
-                             "cannot read (no maintained OpenVDB reader on PyPI); convert it to "
-                             ".vti or .npy.")
+        try:
+            return vdb_image(path, str(field_name) if field_name else None, field_index,
+                             cells=cells)
+        except VdbFormatError as exc:
+            raise SceneLoadError(f"{where}: OpenVDB file {shown!r}: {exc}") from exc
     if suffix in (".vti", ".vtk"):
         try:
             grid = pyvista.read(str(path))
@@ -121,11 +141,12 @@ def load_grid_scene(path: str | Path, as_voxels: bool = False,
             if not isinstance(grid, pyvista.ImageData):
                 raise VolumeDataError(f"it holds a {type(grid).__name__}; material labels "
                                       "come on an ImageData (cell or point data).")
-            scene.voxels.append(make_voxels(grid, name=path.name))
+            scene.voxels.append(make_voxels(grid, transform=placement(grid), name=path.name))
         elif isovalue is not None:
-            scene.surfaces.append(make_field(grid, float(isovalue), name=path.name))
+            scene.surfaces.append(make_field(grid, float(isovalue), transform=placement(grid),
+                                             name=path.name))
         else:
-            scene.volumes.append(make_volume(grid, name=path.name))
+            scene.volumes.append(make_volume(grid, transform=placement(grid), name=path.name))
     except VolumeDataError as exc:
         raise VolumeDataError(f"{where}: {exc}") from exc
     return scene

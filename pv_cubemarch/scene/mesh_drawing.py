@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pyvista
+import vtk
 
 from ..gl.shaders import Replacement, ShaderRecipe
 from .materials import PrimvarInput, SurfaceMaterial, TextureInput
@@ -48,7 +49,7 @@ def add_scene_mesh(plotter: pyvista.Plotter, part: SceneMesh, report=None):
     kwargs.update(opacity=constant["opacity"], pbr=True, metallic=constant["metallic"],
                   roughness=constant["roughness"])
     if material.normal is not None and textured:
-        mesh = _with_tangents(mesh, part.name, report)
+        mesh = _with_tangents(mesh)
     actor = plotter.add_mesh(mesh, **kwargs)
     prop = actor.GetProperty()
     if textured:
@@ -116,16 +117,17 @@ def _texture_coordinates(mesh: pyvista.PolyData, material: SurfaceMaterial, name
     return True
 
 
-def _with_tangents(mesh: pyvista.PolyData, name: str, report) -> pyvista.PolyData:
-    """Triangles with the tangents a normal map needs."""
+def _with_tangents(mesh: pyvista.PolyData) -> pyvista.PolyData:
+    """Triangles with the point tangents a normal map needs (from normals and coordinates)."""
     triangles = mesh.triangulate()
     if "Normals" not in triangles.point_data:
         triangles = triangles.compute_normals(cell_normals=False, split_vertices=False)
-    try:
-        return triangles.compute_tangents()   # needs point normals and texture coordinates
-    except (AttributeError, ValueError) as exc:
-        report(name, f"normal map not drawn (tangents: {exc})")
-        return mesh
+    tangents = vtk.vtkPolyDataTangents()
+    tangents.SetInputData(triangles)
+    tangents.ComputePointTangentsOn()
+    tangents.ComputeCellTangentsOff()
+    tangents.Update()
+    return pyvista.wrap(tangents.GetOutput())
 
 
 def _texture(image: np.ndarray, wrap: tuple[str, str], srgb: bool) -> pyvista.Texture:

@@ -17,10 +17,12 @@ from ..core.errors import SceneWarning
 from ..core.progress import progress
 from ..core.rendering import offscreen_plotter, render_image
 from ..models.group import overlap_groups
+from ..models.lights import VolumeLight
 from ..models.surface import SplineField
 from ..models.volume import VolumeModel
 from ..models.voxels import VoxelModel
 from ..models.world import VoxelWorld
+from .lighting import add_scene_lights
 from .mesh_drawing import add_scene_mesh
 from .parts import SceneLight, SceneMesh, SkippedPrim
 
@@ -55,6 +57,8 @@ class Scene:
     surface_options: dict[str, dict] = field(default_factory=dict)
     #: The time code the file was read at (``None``: default values, nothing animated).
     time: float | None = None
+    #: Lit as usdview lights a stage (a camera light when it has none), not as PyVista.
+    usd_lighting: bool = False
 
     @property
     def camera(self) -> Camera | None:
@@ -156,6 +160,8 @@ class Scene:
         groups = overlap_groups(self.volumes)
         for group in progress(groups, desc="uploading volumes", enabled=progress_bar):
             options = self.volume_options.get(group[0].name, {})
+            if options.get("lights") == "scene" and self.usd_lighting:
+                options = {**options, "lights": self.volume_lights()}
             try:
                 added = add_volumes(plotter, group, **options)
             except ValueError as error:   # say which volume's options are wrong
@@ -196,33 +202,24 @@ class Scene:
             warnings.warn(f"{path}: {reason}", SceneWarning, stacklevel=3)
 
     def _add_lights(self, plotter: pyvista.Plotter) -> None:
-        if not self.lights:
-            return
-        plotter.remove_all_lights()
-        strongest = max((li.intensity for li in self.lights), default=1.0)
-        scale = 1.0 / max(strongest, 1.0)
-        ambient = [li for li in self.lights if li.kind == "dome"]
-        for li in self.lights:
-            if li.kind == "dome":
-                continue
-            light = pyvista.Light(color=li.color, intensity=li.intensity * scale,
-                                  light_type="scene light")
-            if li.kind == "distant":
-                light.positional = False
-                light.position = tuple(-np.asarray(li.direction))
-                light.focal_point = (0.0, 0.0, 0.0)
-            else:
-                light.positional = True
-                light.cone_angle = 180.0
-                light.position = li.position
-                light.focal_point = tuple(np.asarray(li.position) + (0.0, -1.0, 0.0))
-            plotter.add_light(light)
-        if ambient:
-            level = min(1.0, sum(li.intensity for li in ambient) * scale)
-            for actor in plotter.renderer.actors.values():
-                prop = getattr(actor, "prop", None)
-                if prop is not None and hasattr(prop, "ambient"):
-                    prop.ambient = 0.35 * level
+        """The scene's lights, as usdview draws them; other scenes keep the plotter's."""
+        if self.lights or self.usd_lighting:
+            add_scene_lights(plotter, self.lights, self._report)
+
+    def volume_lights(self) -> list[VolumeLight] | str:
+        """The scene's lights as a volume sees them (``'scene'`` when it has none).
+
+        Intensities are scaled so the strongest is at most 1: a volume's lights modulate
+        its emission, which has no physical unit.
+        """
+        lights = [li for li in self.lights if li.kind != "dome"]
+        if not lights:
+            return "scene"
+        scale = 1.0 / max(max(li.intensity * li.area for li in lights), 1.0)
+        return [VolumeLight("directional", direction=li.direction, color=li.color,
+                            intensity=li.intensity * scale) if li.kind == "distant" else
+                VolumeLight("point", position=li.position, color=li.color,
+                            intensity=li.intensity * li.area * scale) for li in lights]
 
     def render(self, path: str | os.PathLike | None = None, size: tuple[int, int] = (800, 600),
                camera: str | Camera | None = None, progress_bar: bool | None = None) -> np.ndarray:

@@ -24,6 +24,15 @@ LIGHT_KINDS = {"DistantLight": "distant", "SphereLight": "sphere", "DomeLight": 
                "DomeLight_1": "dome"}
 
 
+def _area(kind: str, number) -> float:
+    """The emitting area of a positional light, projected (what scales its power)."""
+    if kind in ("sphere", "disk"):
+        return float(np.pi * number("radius", 0.5) ** 2)
+    if kind == "rect":
+        return number("width", 1.0) * number("height", 1.0)
+    return 2.0 * number("radius", 0.5) * number("length", 1.0)   # cylinder, side-on
+
+
 def read_camera(ctx: StageContext, prim) -> Camera:
     """A UsdGeom.Camera at the stage time, placed in the world."""
     gf_camera = UsdGeom.Camera(prim).GetCamera(ctx.time)
@@ -89,4 +98,6 @@ def read_light(ctx: StageContext, prim, type_name: str) -> SceneLight:
         cone = ctx.get(prim, "inputs:shaping:cone:angle")
         if cone is not None:
             light.cone_angle = float(cone)
+        if not ctx.get(prim, "inputs:normalize", False):
+            light.area = _area(kind, lambda name, default: number(f"inputs:{name}", default))
     return light

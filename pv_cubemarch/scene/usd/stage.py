@@ -15,6 +15,7 @@ from pxr import Tf, Usd, UsdGeom
 
 from ...core.errors import CubemarchError, SceneLoadError
 from ...core.progress import progress
+from ..materials import SurfaceMaterial
 from ..model import Scene
 from ..parts import SceneMesh
 from ..voxel_worlds import join_world
@@ -80,7 +81,7 @@ def load_usd(path: str | Path, progress_bar: bool | None = None, as_voxels: bool
         time = stage.GetStartTimeCode()
     scene = Scene(source=str(path), up_axis=str(UsdGeom.GetStageUpAxis(stage)),
                   meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
-                  time=time)
+                  time=time, usd_lighting=True)
     ctx = StageContext(stage, scene, Usd.TimeCode(time) if time is not None
                        else Usd.TimeCode.Default(), as_voxels=as_voxels, strict=strict)
     predicate = Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)
@@ -120,7 +121,8 @@ def _read_prim(ctx: StageContext, prim) -> bool:
         return True
     try:
         if type_name == "PointInstancer":
-            ctx.scene.meshes.extend(read_instancer(ctx, prim, lambda p: _local_parts(ctx, p)))
+            ctx.scene.meshes.extend(with_fallback(part) for part in
+                                    read_instancer(ctx, prim, lambda p: _local_parts(ctx, p)))
             return False
         if type_name == "Camera":
             ctx.scene.cameras[path] = read_camera(ctx, prim)
@@ -134,7 +136,7 @@ def _read_prim(ctx: StageContext, prim) -> bool:
             if parts is None:
                 ctx.report(path, _NOT_DRAWN.get(type_name, f"unsupported prim type {type_name}"))
                 return False
-            ctx.scene.meshes.extend(placed(part, matrix) for part in parts)
+            ctx.scene.meshes.extend(placed(with_fallback(part), matrix) for part in parts)
     except (PrimError, CubemarchError, ValueError, TypeError, IndexError, Tf.ErrorException,
             ArithmeticError) as exc:
         if ctx.strict:
@@ -177,6 +179,14 @@ def _skip_reason(ctx: StageContext, prim) -> str | None:
         if purpose in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy):
             return f"purpose is {purpose}"
     return None
+
+
+def with_fallback(part: SceneMesh) -> SceneMesh:
+    """Give a part without a material Storm's fallback: a UsdPreviewSurface of its colour."""
+    if part.material is None:
+        part.material = SurfaceMaterial(name="fallback", diffuse_color=part.color,
+                                        opacity=part.opacity)
+    return part
 
 
 def placed(part: SceneMesh, matrix: np.ndarray) -> SceneMesh:

@@ -17,7 +17,7 @@ from ...core.registry import get_technique
 from ...models.field_sources import make_field
 from ...models.volume import make_volume
 from ...models.voxels import Palette, make_voxels
-from ..grids import read_grid
+from ..grids import placement, read_grid
 from ..voxel_worlds import ChunkPrim
 from .attributes import (
     SURFACE_OPTIONS,
@@ -54,7 +54,7 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
     if not field_prim:
         raise SceneLoadError(f"Volume {name}: field:{field_name} targets missing prim "
                              f"{fields[field_name]}.")
-    grid = _read_field(field_prim, cells=voxels)
+    grid = _read_field(ctx, field_prim, cells=voxels)
     if voxels:
         _voxels(ctx, prim, name, field_prim, grid)
         return
@@ -78,7 +78,7 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
             grid, cmap=attrs["cmap"] or "magma", opacity=opacity or "linear",
             clim=tuple(attrs["clim"]) if attrs["clim"] is not None else None,
             opacity_unit_distance=attrs["opacityUnitDistance"],
-            transform=ctx.world_matrix(prim), name=name)
+            transform=placement(grid, ctx.world_matrix(prim)), name=name)
     except VolumeDataError as exc:
         raise VolumeDataError(f"Volume {name} (field {field_prim.GetPath()}): {exc}") from exc
     ctx.scene.volumes.append(volume)
@@ -108,7 +108,8 @@ def _voxels(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
                               "labels come on an ImageData (cell or point data).")
     scalars = _field_array(field_prim, grid)
     try:
-        model = make_voxels(grid, scalars, transform=ctx.world_matrix(prim), name=name)
+        model = make_voxels(grid, scalars, transform=placement(grid, ctx.world_matrix(prim)),
+                            name=name)
     except VolumeDataError as exc:
         why = "as_voxels=True loads every Volume" if ctx.as_voxels else \
             'cubemarch:technique = "voxels" draws'
@@ -156,7 +157,8 @@ def _surface(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
     scalars = _field_array(field_prim, grid)
     try:
         surface = make_field(grid, float(converted(name, "isovalue", isovalue, float)),
-                             scalars, transform=ctx.world_matrix(prim), name=name)
+                             scalars, transform=placement(grid, ctx.world_matrix(prim)),
+                             name=name)
     except VolumeDataError as exc:
         raise VolumeDataError(f"{where}: {exc}") from exc
     ctx.scene.surfaces.append(surface)
@@ -235,13 +237,15 @@ def _palette(prim, name: str, where: str, top: int) -> Palette:
 
 
 
-def _read_field(field_prim, cells: bool = False) -> pyvista.ImageData:
-    """Load the grid a field prim's ``filePath`` names (.vti/.vtk/.npy/.npz).
+def _read_field(ctx: StageContext, field_prim, cells: bool = False) -> pyvista.ImageData:
+    """Load the grid a field prim's ``filePath`` names (.vti/.vtk/.npy/.npz/.vdb).
 
-    ``cells``: a numpy array's values fill voxels (material labels) instead of sitting on
-    points (see :mod:`pv_cubemarch.scene.grids`).
+    The file path is read at the stage time (a sequence of files animates a volume);
+    ``fieldName`` and ``fieldIndex`` choose the grid of a ``.vdb``. ``cells``: the values
+    fill voxels (material labels) instead of sitting on points (see
+    :mod:`pv_cubemarch.scene.grids`).
     """
-    asset = field_prim.GetAttribute("filePath").Get()
+    asset = field_prim.GetAttribute("filePath").Get(ctx.time)
     where = f"field prim {field_prim.GetPath()}"
     if asset is None or not asset.path:
         raise SceneLoadError(f"{where} has no filePath.")
@@ -251,8 +255,9 @@ def _read_field(field_prim, cells: bool = False) -> pyvista.ImageData:
         raise SceneLoadError(f"{where}: volume file {asset.path!r} was not found "
                              f"(looked relative to {layer_dir}).")
     field_name = attr(field_prim, "fieldName")
+    field_index = attr(field_prim, "fieldIndex")
     return read_grid(resolved, where, asset.path, str(field_name) if field_name else None,
                      attr(field_prim, "cubemarch:origin"), attr(field_prim, "cubemarch:spacing"),
-                     cells=cells)
+                     cells=cells, field_index=None if field_index is None else int(field_index))
 
 

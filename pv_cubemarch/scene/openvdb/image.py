@@ -1,0 +1,102 @@
+"""An OpenVDB grid as PyVista data placed by the grid's transform.
+
+OpenVDB puts voxel ``ijk``'s value at the world point ``index_to_world @ (i, j, k, 1)``, so
+a dense box of values is an ImageData whose points are the voxel centres (or, with
+``cells``, whose cells are the voxels). A map with orthogonal axes is the ImageData's
+spacing and direction matrix; a sheared one cannot be, and the ImageData stays in index
+space with the 4x4 map in ``field_data["index_to_world"]`` (the volume readers compose it).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pyvista
+
+from .reader import list_grids, read_grid
+from .records import VdbFormatError, VdbGrid
+
+#: Where an ImageData that could not take the grid's map (a shear) keeps it.
+INDEX_TO_WORLD = "index_to_world"
+
+
+def choose_grid(path: str | Path, name: str | None = None, index: int | None = None
+                ) -> tuple[str, int, list[str]]:
+    """The grid to draw (``name``, else ``density``, else the first) and the other names."""
+    infos = list_grids(path)
+    if not infos:
+        raise VdbFormatError(f"{str(path)!r} holds no grids.")
+    names = [info.name for info in infos]
+    if name is not None and name not in names:
+        raise VdbFormatError(f"{str(path)!r} has no grid named {name!r}; it has "
+                             f"{sorted(set(names))}.")
+    chosen = name if name is not None else "density" if "density" in names else names[0]
+    same = [info for info in infos if info.name == chosen]
+    if index is not None and not 0 <= index < len(same):
+        raise VdbFormatError(f"{str(path)!r} has {len(same)} grid(s) named {chosen!r}; "
+                             f"fieldIndex {index} is not one of them.")
+    others = [n for n in names if n != chosen]
+    return chosen, 0 if index is None else int(index), others
+
+
+def vdb_image(path: str | Path, name: str | None = None, index: int | None = None,
+              cells: bool = False, region=None, stride: int = 1) -> pyvista.ImageData:
+    """One grid of a ``.vdb`` file as an ImageData (values in ``point_data[name]``).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The ``.vdb`` file.
+    name : str, optional
+        The grid; by default ``density`` when the file has one, else the first.
+    index : int, optional
+        Which of several grids of that name (0 by default).
+    cells : bool
+        Put the values on cells (one per voxel) instead of points (voxel centres).
+    region, stride
+        A part of the grid (an inclusive index box) and a step, for grids too large to
+        read whole (see :func:`~pv_cubemarch.scene.openvdb.read_grid`).
+
+    Returns
+    -------
+    pyvista.ImageData
+        Placed in the grid's world space, or in index space with the map in
+        ``field_data["index_to_world"]`` when the map shears.
+    """
+    chosen, number, _ = choose_grid(path, name, index)
+    grid = read_grid(path, chosen, number, region=region, stride=stride)
+    return grid_image(grid, cells)
+
+
+def grid_image(grid: VdbGrid, cells: bool = False) -> pyvista.ImageData:
+    """A decoded grid as an ImageData (see :func:`vdb_image`)."""
+    values = grid.values
+    if values.ndim == 4:
+        raise VdbFormatError(f"grid {grid.info.name!r} holds {grid.info.value_type} vectors; "
+                             "a volume, voxel grid or surface needs a scalar grid (choose one "
+                             "with fieldName).")
+    if values.dtype == bool:
+        values = values.astype(np.uint8)
+    index_to_world = np.asarray(grid.info.index_to_world, dtype=np.float64)
+    step = np.diag([grid.stride] * 3 + [1]).astype(np.float64)
+    step[:3, 3] = grid.origin_index
+    if cells:   # voxel ijk fills [i - 0.5, i + 0.5]: the box starts half a voxel earlier
+        step[:3, 3] -= 0.5 * grid.stride
+    matrix = index_to_world @ step          # sample (a, b, c) of the array -> world
+    columns = matrix[:3, :3]
+    spacing = np.linalg.norm(columns, axis=0)
+    dims = tuple(int(n) + (1 if cells else 0) for n in values.shape)
+    name = grid.info.name or "density"
+    unit = columns / np.where(spacing > 0, spacing, 1.0)
+    if np.allclose(unit.T @ unit, np.eye(3), atol=1e-9):
+        image = pyvista.ImageData(dimensions=dims, spacing=tuple(spacing),
+                                  origin=tuple(matrix[:3, 3]))
+        image.direction_matrix = unit
+    else:
+        image = pyvista.ImageData(dimensions=dims)
+        image.field_data[INDEX_TO_WORLD] = matrix.ravel()
+    data = image.cell_data if cells else image.point_data
+    data[name] = values.ravel(order="F")
+    data.active_scalars_name = name
+    return image

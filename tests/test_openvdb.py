@@ -1,0 +1,405 @@
+"""Tests of the pure-numpy OpenVDB reader against Debian's pyopenvdb (OpenVDB 10).
+
+Reference files and arrays are made by ``make_test_grids.py`` under ``/usr/bin/python3``
+(the interpreter with ``pyopenvdb``).  pyopenvdb can only write blosc + active-mask
+compressed float/bool/vec3s grids, so a minimal writer below produces zip, uncompressed,
+raw-chunk, double/int, TranslationMap/UnitaryMap/ScaleMap and no-offset files; float
+files it writes are read back by pyopenvdb too, which checks the writer itself.
+"""
+
+import shutil
+import struct
+import subprocess
+import time
+import uuid
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pv_cubemarch.scene.openvdb as vf
+from pv_cubemarch.scene.openvdb import records, tree
+
+HERE = Path(__file__).resolve().parent
+SYSTEM_PYTHON = "/usr/bin/python3"
+MAKER = HERE / "tools" / "vdb_reference.py"
+
+
+def _has_pyopenvdb():
+    try:
+        return subprocess.run([SYSTEM_PYTHON, "-c", "import pyopenvdb"], timeout=60,
+                              capture_output=True).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+
+
+MISSING_REFERENCE = (
+    f"{SYSTEM_PYTHON} cannot import pyopenvdb, the reference library these tests compare "
+    "with: install Debian's python3-openvdb (apt-get install python3-openvdb; "
+    "tools/setup.sh does it when run as root)")
+
+
+@pytest.fixture(scope="session")
+def ref_dir(tmp_path_factory):
+    """Reference files written by OpenVDB itself, with what OpenVDB reads back from them."""
+    assert _has_pyopenvdb(), MISSING_REFERENCE   # a failure, never a skip
+    out = tmp_path_factory.mktemp("vdb")
+    subprocess.run([SYSTEM_PYTHON, str(MAKER), "write", str(out)], check=True, timeout=600)
+    return out
+
+
+def _dump(path, regions=()):
+    """Read a file back with pyopenvdb and return its reference arrays."""
+    args = [SYSTEM_PYTHON, str(MAKER), "dump", str(path), str(path) + ".npz"]
+    for lo, hi in regions:
+        args += ["--region", *map(str, lo), *map(str, hi)]
+    subprocess.run(args, check=True, timeout=300)
+    return dict(np.load(str(path) + ".npz"))
+
+
+def _ref_index(ref, name, index):
+    for n in range(int(ref["count"])):
+        if str(ref[f"g{n}_name"]) == name and int(ref[f"g{n}_index"]) == index:
+            return n
+    raise AssertionError(f"{name}[{index}] not in the reference dump")
+
+
+REF_FILES = ["tiles.vdb", "root_tile.vdb", "half.vdb", "modes.vdb", "level_set.vdb",
+             "negative.vdb", "multi.vdb", "affine.vdb", "bool_vec.vdb", "big_sphere.vdb",
+             "big_block.vdb"]
+
+
+def _compare_file(path, ref):
+    infos = vf.list_grids(path)
+    assert len(infos) == int(ref["count"])
+    for info in infos:
+        k = f"g{_ref_index(ref, info.name, info.index)}_"
+        np.testing.assert_allclose(info.index_to_world, ref[k + "matrix"], rtol=1e-12,
+                                   atol=1e-12)
+        assert info.stored_as_half == bool(ref[k + "half"])
+        if k + "values" in ref:
+            grid = vf.read_grid(path, info.name, info.index)
+            expected = ref[k + "values"]
+            assert grid.origin_index == tuple(int(v) for v in ref[k + "bmin"])
+            assert grid.values.shape == expected.shape
+            assert grid.values.dtype == expected.dtype
+            np.testing.assert_array_equal(grid.values, expected)
+            if info.bbox_min is not None:
+                assert info.bbox_min == grid.origin_index
+        r = 0
+        while k + f"r{r}_values" in ref:
+            lo, hi = ref[k + f"r{r}_box"]
+            grid = vf.read_grid(path, info.name, info.index, region=(tuple(lo), tuple(hi)))
+            np.testing.assert_array_equal(grid.values, ref[k + f"r{r}_values"])
+            r += 1
+
+
+@pytest.mark.parametrize("fname", REF_FILES)
+def test_matches_pyopenvdb(ref_dir, fname):
+    path = ref_dir / fname
+    _compare_file(path, dict(np.load(str(path) + ".npz")))
+
+
+def test_grid_infos(ref_dir):
+    infos = vf.list_grids(ref_dir / "multi.vdb")
+    assert [(i.name, i.index) for i in infos] == [
+        ("density", 0), ("density", 1), ("temperature", 0), ("density", 2)]
+    assert infos[0].map_type == "UniformScaleTranslateMap"
+    assert infos[0].compression == records.COMPRESS_BLOSC | records.COMPRESS_ACTIVE_MASK
+    ls = vf.list_grids(ref_dir / "level_set.vdb")[0]
+    assert ls.grid_class == "level set" and ls.value_type == "float"
+    assert vf.list_grids(ref_dir / "tiles.vdb")[0].grid_class == "fog volume"
+    half = vf.list_grids(ref_dir / "half.vdb")
+    assert all(i.stored_as_half for i in half)
+    assert [i.value_type for i in vf.list_grids(ref_dir / "bool_vec.vdb")] == ["bool", "vec3s"]
+    assert vf.list_grids(ref_dir / "affine.vdb")[0].map_type == "AffineMap"
+    big = vf.list_grids(ref_dir / "big_block.vdb")[0]
+    assert big.voxel_count == int(np.count_nonzero(vf.read_grid(ref_dir / "big_block.vdb")
+                                                    .values))
+
+
+def test_all_node_modes_seen(ref_dir):
+    for fname, index in (("modes.vdb", 0), ("half.vdb", 1)):
+        grid = vf.read_grid(ref_dir / fname, index=index)
+        assert set(grid.stats["modes"]) == set(range(7))
+
+
+def test_stride_and_region(ref_dir):
+    path = ref_dir / "level_set.vdb"
+    full = vf.read_grid(path)
+    sub = vf.read_grid(path, stride=3)
+    np.testing.assert_array_equal(sub.values, full.values[::3, ::3, ::3])
+    lo = np.array(full.origin_index) + 17
+    part = vf.read_grid(path, region=(tuple(lo), tuple(lo + 40)), stride=2)
+    np.testing.assert_array_equal(part.values, full.values[17:58:2, 17:58:2, 17:58:2])
+    outside = vf.read_grid(path, region=((5000, 5000, 5000), (5001, 5002, 5003)))
+    assert outside.values.shape == (2, 3, 4)
+    assert (outside.values == full.background).all()
+
+
+def test_too_large(ref_dir):
+    with pytest.raises(vf.VdbFormatError, match="region=.*stride="):
+        vf.read_grid(ref_dir / "root_tile.vdb")
+
+
+def test_unsupported_map(ref_dir):
+    info = vf.list_grids(ref_dir / "frustum.vdb")[0]
+    assert info.map_type == "NonlinearFrustumMap" and info.index_to_world is None
+    with pytest.raises(vf.VdbFormatError, match="NonlinearFrustumMap"):
+        vf.read_grid(ref_dir / "frustum.vdb")
+
+
+def test_blosc_missing(ref_dir, monkeypatch):
+    monkeypatch.setattr(tree, "blosc", None)
+    with pytest.raises(vf.VdbFormatError, match=r"blosc.*pip install"):
+        vf.read_grid(ref_dir / "negative.vdb")
+
+
+def test_bad_magic(tmp_path):
+    path = tmp_path / "bad.vdb"
+    path.write_bytes(b"not a vdb file at all" * 4)
+    with pytest.raises(vf.VdbFormatError, match="not an OpenVDB file"):
+        vf.list_grids(path)
+    empty = tmp_path / "empty.vdb"
+    empty.write_bytes(b"")
+    with pytest.raises(vf.VdbFormatError, match="not an OpenVDB file"):
+        vf.read_grid(empty)
+
+
+def test_truncated(ref_dir, tmp_path):
+    data = (ref_dir / "level_set.vdb").read_bytes()
+    for cut in (30, 300, len(data) // 2, len(data) - 10):
+        path = tmp_path / f"cut{cut}.vdb"
+        path.write_bytes(data[:cut])
+        with pytest.raises(vf.VdbFormatError, match="truncated|corrupt"):
+            vf.read_grid(path)
+
+
+def test_old_version(ref_dir, tmp_path):
+    data = bytearray((ref_dir / "modes.vdb").read_bytes())
+    data[8:12] = struct.pack("<I", 221)
+    path = tmp_path / "old.vdb"
+    path.write_bytes(bytes(data))
+    with pytest.raises(vf.VdbFormatError, match="version 221"):
+        vf.list_grids(path)
+
+
+def test_missing_grid(ref_dir):
+    with pytest.raises(vf.VdbFormatError, match="density"):
+        vf.read_grid(ref_dir / "multi.vdb", "pressure")
+    with pytest.raises(vf.VdbFormatError):
+        vf.read_grid(ref_dir / "multi.vdb", "density", index=3)
+
+
+def test_timing_one_million_voxels(ref_dir, capsys):
+    for fname in ("big_sphere.vdb", "big_block.vdb"):
+        path = ref_dir / fname
+        vf.read_grid(path)
+        best = min(_timed(vf.read_grid, path) for _ in range(3))
+        active = vf.list_grids(path)[0].voxel_count
+        with capsys.disabled():
+            print(f"\n{fname}: {active} active voxels read in {best * 1000:.0f} ms")
+
+
+def _timed(fn, *args):
+    t = time.perf_counter()
+    fn(*args)
+    return time.perf_counter() - t
+
+
+# ---------------------------------------------------------------- minimal writer
+
+
+def _string(s):
+    b = s.encode()
+    return struct.pack("<I", len(b)) + b
+
+
+def _chunk(raw, compression, force_raw=False):
+    """Encode one value array the way OpenVDB's writeData does."""
+    if compression & records.COMPRESS_BLOSC:
+        packed = tree.blosc.compress(raw, typesize=4, clevel=9, shuffle=tree.blosc.SHUFFLE,
+                                   cname="lz4")
+    elif compression & records.COMPRESS_ZIP:
+        packed = zlib.compress(raw)
+    else:
+        return raw
+    if force_raw or len(packed) >= len(raw):
+        return struct.pack("<q", -len(raw)) + raw
+    return struct.pack("<q", len(packed)) + packed
+
+
+def _values_block(values, active, background, compression, dtype, force_raw=False):
+    """Per-node metadata byte, inactive value and value chunk for one node."""
+    if not compression & records.COMPRESS_ACTIVE_MASK:
+        return bytes([records.NO_MASK_AND_ALL_VALS]) + _chunk(values.astype(dtype).tobytes(),
+                                                        compression, force_raw)
+    inactive = np.unique(values[~active])
+    head = b""
+    if inactive.size == 0 or (inactive.size == 1 and inactive[0] == background):
+        mode = records.NO_MASK_OR_INACTIVE_VALS
+    elif inactive.size == 1 and inactive[0] == -background:
+        mode = records.NO_MASK_AND_MINUS_BG
+    elif inactive.size == 1:
+        mode = records.NO_MASK_AND_ONE_INACTIVE_VAL
+        head = np.array(inactive[0], dtype).tobytes()
+    else:
+        mode = records.NO_MASK_AND_ALL_VALS
+    stored = values if mode == records.NO_MASK_AND_ALL_VALS else values[active]
+    return bytes([mode]) + head + _chunk(stored.astype(dtype).tobytes(), compression,
+                                         force_raw)
+
+
+def _mask_bytes(bits):
+    return np.packbits(bits, bitorder="little").tobytes()
+
+
+def _grid_body(grid):
+    """Compression flags, metadata, transform, topology and buffers of one grid."""
+    comp, bg, dtype = grid["compression"], grid["background"], grid["dtype"]
+    name = grid["name"].encode()
+    out = [struct.pack("<I", comp), struct.pack("<I", 2), _string("class"),
+           _string("string"), struct.pack("<I", 10), b"fog volume", _string("name"),
+           _string("string"), struct.pack("<I", len(name)), name]
+    out += [_string(grid["map"][0]), np.asarray(grid["map"][1], "<f8").tobytes()]
+    out += [struct.pack("<i", 1), np.array(bg, dtype).tobytes()]
+    leaves = grid["leaves"]  # {origin: (values (512,), active (512,) bool)}
+    tops = sorted({tuple(np.array(o) & ~4095) for o in leaves})
+    out.append(struct.pack("<II", 0, len(tops)))
+    buffers = []
+    for top in tops:
+        out.append(struct.pack("<3i", *top))
+        mids = sorted({tuple(np.array(o) & ~127) for o in leaves
+                       if tuple(np.array(o) & ~4095) == top})
+        out.append(_internal(top, mids, 5, 7, grid))
+        for mid in mids:
+            kids = sorted(o for o in leaves if tuple(np.array(o) & ~127) == mid)
+            out.append(_internal(mid, kids, 4, 3, grid))
+            for o in kids:
+                values, active = leaves[o]
+                out.append(_mask_bytes(active))
+                buffers += [_mask_bytes(active),
+                            _values_block(values, active, bg, comp, dtype,
+                                          force_raw=o[0] % 16 == 8)]
+    return b"".join(out + buffers)
+
+
+def _internal(origin, children, log2, child_log2, grid):
+    """Masks and (all-background, inactive) tile values of an internal node."""
+    n = 1 << (3 * log2)
+    child = np.zeros(n, bool)
+    for c in children:
+        x, y, z = ((np.array(c) - origin) >> child_log2)
+        child[(x << (2 * log2)) + (y << log2) + z] = True
+    values = np.full(n, grid["background"], grid["dtype"])
+    return (_mask_bytes(child) + _mask_bytes(np.zeros(n, bool))
+            + _values_block(values, np.zeros(n, bool), grid["background"],
+                            grid["compression"], grid["dtype"]))
+
+
+def write_vdb(path, grids, has_offsets=True):
+    """Write a version-224 file of float/double/int grids without tiles."""
+    out = bytearray(struct.pack("<qIIIB", records.MAGIC, 224, 10, 0, int(has_offsets)))
+    out += str(uuid.uuid4()).encode() + struct.pack("<I", 0) + struct.pack("<i", len(grids))
+    for n, grid in enumerate(grids):
+        out += _string(f"{grid['name']}\x1e{n}") + _string(grid["type"]) + _string("")
+        body = _grid_body(grid)
+        start = len(out) + 24
+        out += struct.pack("<3q", *((start, start, start + len(body)) if has_offsets
+                                    else (0, 0, 0)))
+        out += body
+    Path(path).write_bytes(bytes(out))
+
+
+def _random_leaves(rng, dtype, background, count=12, inactive="bg"):
+    leaves = {}
+    for _ in range(count):
+        o = tuple(int(v) * 8 for v in rng.integers(-6, 6, 3))
+        active = rng.random(512) < 0.6
+        values = (rng.random(512) * 100 - 50).astype(dtype)
+        if inactive == "bg":
+            values[~active] = background
+        elif inactive == "one":
+            values[~active] = 3
+        elif inactive == "minus":
+            values[~active] = -background
+        leaves[o] = (values, active)
+    return leaves
+
+
+def _expected(leaves, background, dtype):
+    coords = np.concatenate([np.array(o) + np.argwhere(a.reshape(8, 8, 8))
+                             for o, (v, a) in leaves.items()])
+    lo, hi = coords.min(axis=0), coords.max(axis=0)
+    dense = np.full(hi - lo + 1, background, dtype)
+    for o, (v, _a) in leaves.items():
+        block = v.reshape(8, 8, 8)
+        s = np.array(o) - lo
+        src = tuple(slice(max(-s[a], 0), min(8, dense.shape[a] - s[a])) for a in range(3))
+        dst = tuple(slice(max(s[a], 0), min(s[a] + 8, dense.shape[a])) for a in range(3))
+        dense[dst] = block[src]
+    return lo, dense
+
+
+MAPS = {
+    "translation": ("TranslationMap", [1.5, -2.0, 3.25]),
+    "scale": ("ScaleMap", [0.5, 2, 3, 0.5, 2, 3, 2, 0.5, 1 / 3, 4, 0.25, 1 / 9, 1, 0.25,
+                           1 / 6]),
+    "unitary": ("UnitaryMap", [0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]),
+    "uniform": ("UniformScaleMap", [0.5] * 6 + [2.0] * 3 + [4.0] * 3 + [1.0] * 3),
+}
+
+WRITER_CASES = [
+    ("float", "<f4", 0, "translation", "bg"),
+    ("float", "<f4", records.COMPRESS_ZIP, "scale", "one"),
+    ("float", "<f4", records.COMPRESS_ACTIVE_MASK, "unitary", "minus"),
+    ("float", "<f4", records.COMPRESS_ZIP | records.COMPRESS_ACTIVE_MASK, "uniform", "many"),
+    ("float", "<f4", records.COMPRESS_BLOSC | records.COMPRESS_ACTIVE_MASK, "translation", "one"),
+    ("double", "<f8", records.COMPRESS_ZIP | records.COMPRESS_ACTIVE_MASK, "uniform", "minus"),
+    ("int32", "<i4", records.COMPRESS_ACTIVE_MASK, "uniform", "bg"),
+    ("int64", "<i8", records.COMPRESS_ZIP, "uniform", "many"),
+]
+
+
+@pytest.mark.parametrize("has_offsets", [True, False])
+@pytest.mark.parametrize("case", WRITER_CASES, ids=lambda c: f"{c[0]}-{c[2]}-{c[3]}")
+def test_minimal_writer(tmp_path, case, has_offsets):
+    vtype, dtype, comp, map_key, inactive = case
+    rng = np.random.default_rng(zlib.crc32(repr(case).encode()))
+    background = np.array(2, dtype)
+    leaves = _random_leaves(rng, dtype, background, inactive=inactive)
+    grid = {"name": "g", "type": f"Tree_{vtype}_5_4_3", "dtype": dtype, "compression": comp,
+            "background": background, "map": MAPS[map_key], "leaves": leaves}
+    other = dict(grid, name="g", leaves=_random_leaves(rng, dtype, background, count=3))
+    path = tmp_path / "w.vdb"
+    write_vdb(path, [other, grid], has_offsets=has_offsets)
+    lo, expected = _expected(leaves, background, dtype)
+    got = vf.read_grid(path, "g", 1)
+    assert got.origin_index == tuple(lo)
+    np.testing.assert_array_equal(got.values, expected)
+    assert vf.list_grids(path)[1].compression == comp
+    if vtype == "float":
+        assert _has_pyopenvdb(), MISSING_REFERENCE
+        ref = _dump(path)  # the reference library reads our writer's file
+        n = _ref_index(ref, "g", 1)
+        np.testing.assert_array_equal(ref[f"g{n}_values"], expected)
+        assert tuple(ref[f"g{n}_bmin"]) == tuple(lo)
+        np.testing.assert_allclose(vf.list_grids(path)[1].index_to_world,
+                                   ref[f"g{n}_matrix"], atol=1e-12)
+
+
+def test_instance_grid(ref_dir, tmp_path):
+    assert shutil.which(SYSTEM_PYTHON), MISSING_REFERENCE
+    path = tmp_path / "inst.vdb"
+    code = (
+        "import pyopenvdb as v\n"
+        "g = v.FloatGrid(); g.name = 'a'; g.fill((0, 0, 0), (20, 3, 3), 1.5)\n"
+        "h = g.copy(); h.name = 'b'; h.transform = v.createLinearTransform(0.5)\n"
+        f"v.write({str(path)!r}, [g, h])\n")
+    subprocess.run([SYSTEM_PYTHON, "-c", code], check=True, timeout=120)
+    infos = vf.list_grids(path)
+    assert infos[1].instance_parent == infos[0].unique_name
+    a, b = vf.read_grid(path, "a"), vf.read_grid(path, "b")
+    np.testing.assert_array_equal(a.values, b.values)
+    assert b.info.index_to_world[0, 0] == 0.5 and (b.values == 1.5).all()
