@@ -17,6 +17,7 @@ from .core.frame_errors import observe
 from .core.rendering import render_frame, render_image
 from .gl.frame_inputs import MultisamplePolicy, release_frame_inputs
 from .scene.io import load_scene
+from .scene.openvdb.image import read_vdb
 from .scene.usd import load_usd
 
 
@@ -116,10 +117,14 @@ class CubemarchComponent:
         """Same as :func:`pv_cubemarch.add_surface` on this plotter."""
         return add_surface(self._plotter, field, isovalue, scalars, **kwargs)
 
-    def add_scene(self, scene, camera=None):
-        """Add a :class:`~pv_cubemarch.Scene` (or a path to one) to this plotter."""
+    def add_scene(self, scene, camera=None, **load_options):
+        """Add a :class:`~pv_cubemarch.Scene` (or a path to one) to this plotter.
+
+        ``load_options`` (``time``, ``strict``, ``as_voxels`` ...) go to
+        :func:`~pv_cubemarch.load_scene` when ``scene`` is a path.
+        """
         if not hasattr(scene, "add_to"):
-            scene = load_scene(scene)
+            scene = load_scene(scene, **load_options)
         return scene.add_to(self._plotter, camera=camera)
 
     def render(self) -> None:
@@ -181,3 +186,8 @@ class CubemarchComponent:
 def read_usd(path: str, **kwargs) -> pyvista.MultiBlock:
     """``pyvista.read`` handler for .usd/.usda/.usdc/.usdz: the scene's meshes and volumes."""
     return load_usd(path, progress_bar=kwargs.get("progress_bar")).to_multiblock()
+
+
+def read_vdb_file(path: str, **kwargs) -> pyvista.DataSet:
+    """``pyvista.read`` handler for .vdb: the file's density grid (else its first)."""
+    return read_vdb(path, **kwargs)

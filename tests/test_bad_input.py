@@ -89,7 +89,7 @@ def test_bad_scene_leaves_plotter_as_it_was(plotter_factory, tmp_path, bad):
     pl.add_mesh(pv.Sphere())
     before = dict(pl.renderer.actors)
     with pytest.raises(cm.SceneLoadError):
-        pl.cubemarch.add_scene(tmp_path / bad)
+        pl.cubemarch.add_scene(tmp_path / bad, strict=True)
     assert dict(pl.renderer.actors) == before
 
 

@@ -1,0 +1,264 @@
+"""UsdPreviewSurface materials, textures and lights, read from stages written here and drawn.
+
+Expected pixels come from the scene's geometry worked out by hand (where the quad and its
+transparent strip fall on screen) and from the shading model (a Lambertian albedo a under
+irradiance E returns a·E/π, and VTK's PBR writes it gamma 1/2.2), never from our output.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, UsdUtils
+
+import pv_cubemarch as cm
+from pv_cubemarch.scene.materials import TextureInput
+from pv_cubemarch.scene.textures import base_color_image, normal_image, texture_values
+
+SIZE = 200
+#: The quad [0, 1]² seen from (0.5, 0.5, 4) with USD's default camera (50 mm focal length,
+#: 15.2908 mm vertical aperture): half the view is 4·tan(atan(15.2908 / 100)) = 0.6116 units,
+#: so the quad spans pixels 100 ± 100·0.5/0.6116 = 18.2 .. 181.8 in x and y.
+QUAD_FIRST, QUAD_LAST = 18.2, 181.8
+
+
+def column_of(x: float) -> int:
+    """The pixel column at quad coordinate ``x``."""
+    return int(round(QUAD_FIRST + x * (QUAD_LAST - QUAD_FIRST)))
+
+
+def texture_file(path, strip_alpha=0):
+    """64x64 RGBA: the top half red, the bottom half blue, the left eighth of alpha ``strip``."""
+    image = np.zeros((64, 64, 4), np.uint8)
+    image[..., 3] = 255
+    image[:32, :, 0] = 255
+    image[32:, :, 2] = 255
+    image[:, :8, 3] = strip_alpha
+    Image.fromarray(image).save(path)
+
+
+def quad_stage(tmp_path, texture="./tex.png", threshold=0.5, lights="sun", name="q.usda"):
+    stage = Usd.Stage.CreateNew(str(tmp_path / name))
+    mesh = UsdGeom.Mesh.Define(stage, "/Quad")
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    mesh.CreateSubdivisionSchemeAttr("none")
+    st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
+                                                 UsdGeom.Tokens.faceVarying)
+    st.Set([(0, 0), (1, 0), (1, 1), (0, 1)])
+    material = UsdShade.Material.Define(stage, "/Mat")
+    surface = UsdShade.Shader.Define(stage, "/Mat/PS")
+    surface.CreateIdAttr("UsdPreviewSurface")
+    if texture is not None:
+        tex = UsdShade.Shader.Define(stage, "/Mat/Tex")
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(texture)
+        reader = UsdShade.Shader.Define(stage, "/Mat/St")
+        reader.CreateIdAttr("UsdPrimvarReader_float2")
+        reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
+        tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
+            reader.ConnectableAPI(), "result")
+        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+            tex.ConnectableAPI(), "rgb")
+        surface.CreateInput("opacity", Sdf.ValueTypeNames.Float).ConnectToSource(
+            tex.ConnectableAPI(), "a")
+        surface.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(threshold)
+    else:
+        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(
+            Gf.Vec3f(0.8, 0.8, 0.8))
+    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+    UsdGeom.Camera.Define(stage, "/Cam").AddTranslateOp().Set(Gf.Vec3d(0.5, 0.5, 4.0))
+    if lights == "sun":
+        UsdLux.DistantLight.Define(stage, "/Sun").CreateIntensityAttr(1.0)
+    elif lights == "behind":   # points along +z: the quad's back is lit, its front is not
+        sun = UsdLux.DistantLight.Define(stage, "/Sun")
+        sun.AddRotateYOp().Set(180.0)
+    elif lights == "dome":
+        UsdLux.DomeLight.Define(stage, "/Dome").CreateIntensityAttr(1.0)
+    stage.GetRootLayer().Save()
+    return tmp_path / name
+
+
+def render(path):
+    return cm.load_scene(path).render(size=(SIZE, SIZE)).astype(int)
+
+
+def test_texture_orientation_colours_and_cutout(tmp_path):
+    # catches: the image drawn upside down (t = 0 is the image's bottom row), the base colour
+    # texture without its sRGB flag (VTK drops it: the quad turns white), opacityThreshold
+    # ignored (the strip drawn), and texture coordinates not made active (one colour).
+    texture_file(tmp_path / "tex.png")
+    image = render(quad_stage(tmp_path))
+    background = image[3, 3]
+    top, bottom = image[60, 100], image[140, 100]
+    assert top[0] > top[2] + 60 and bottom[2] > bottom[0] + 60
+    assert np.abs(image[100, column_of(0.06)] - background).sum() <= 6       # cut out
+    assert np.abs(image[100, column_of(0.2)] - background).sum() > 100       # drawn
+
+
+def test_lambert_level_of_a_sun_of_intensity_one(tmp_path):
+    # A white sun of intensity 1 head-on: red albedo 1 returns 1/π; VTK writes (1/π)^(1/2.2)
+    # = 0.594 → 151, plus a little specular (F0 = 0.04 at roughness 0.5). Catches light
+    # intensities rescaled (the old division by the strongest light, or by π twice).
+    texture_file(tmp_path / "tex.png", strip_alpha=255)
+    red = render(quad_stage(tmp_path))[60, 100]
+    assert 140 <= red[0] <= 175
+
+
+def test_default_camera_light_only_without_lights(tmp_path):
+    # catches: usdview's camera light missing (the quad black) or added to a lit stage (a sun
+    # behind the quad then leaves its front lit).
+    lit = render(quad_stage(tmp_path, texture=None, lights=None))[100, 100]
+    dark = render(quad_stage(tmp_path, texture=None, lights="behind", name="b.usda"))[100, 100]
+    assert lit.min() > 110            # 0.8/π → 0.538 → 137 (and some specular)
+    assert dark.max() < 40
+
+
+def test_uniform_dome_light_is_image_based_ambient(tmp_path):
+    # A uniform dome of radiance 1 gives irradiance π: albedo 0.8 returns 0.8, written
+    # 0.8^(1/2.2) = 0.904 → 230. Catches the dome dropped (VTK's PBR has no ambient term).
+    pixel = render(quad_stage(tmp_path, texture=None, lights="dome"))[100, 100]
+    assert np.all(np.abs(pixel - 230) <= 14)
+
+
+def uv_texture_stage(tmp_path, inputs: dict, output="rgb"):
+    """A material whose diffuseColor comes from a UsdUVTexture with ``inputs``."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "uv.usda"))
+    UsdGeom.Sphere.Define(stage, "/Ball")
+    material = UsdShade.Material.Define(stage, "/Mat")
+    surface = UsdShade.Shader.Define(stage, "/Mat/PS")
+    surface.CreateIdAttr("UsdPreviewSurface")
+    tex = UsdShade.Shader.Define(stage, "/Mat/Tex")
+    tex.CreateIdAttr("UsdUVTexture")
+    for name, (kind, value) in inputs.items():
+        tex.CreateInput(name, kind).Set(value)
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        tex.ConnectableAPI(), output)
+    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/Ball")).Bind(material)
+    stage.GetRootLayer().Save()
+    return tmp_path / "uv.usda"
+
+
+def test_uv_texture_settings_are_read(tmp_path):
+    Image.new("RGB", (4, 4), (188, 100, 50)).save(tmp_path / "t.png")
+    path = uv_texture_stage(tmp_path, {
+        "file": (Sdf.ValueTypeNames.Asset, "./t.png"),
+        "wrapS": (Sdf.ValueTypeNames.Token, "mirror"),
+        "wrapT": (Sdf.ValueTypeNames.Token, "clamp"),
+        "scale": (Sdf.ValueTypeNames.Float4, Gf.Vec4f(2, 2, 2, 1)),
+        "bias": (Sdf.ValueTypeNames.Float4, Gf.Vec4f(-1, -1, -1, 0)),
+        "sourceColorSpace": (Sdf.ValueTypeNames.Token, "raw")}, output="g")
+    texture = cm.load_scene(path).meshes[0].material.diffuse_color
+    assert isinstance(texture, TextureInput)
+    assert texture.wrap == ("mirror", "clamp") and texture.channels == "g"
+    assert texture.scale == (2, 2, 2, 1) and texture.bias == (-1, -1, -1, 0)
+    # raw: green 100/255 = 0.392, scaled and biased: 2·0.392 - 1 = -0.216
+    assert texture_values(texture)[0, 0, 0] == pytest.approx(2 * 100 / 255 - 1)
+
+
+def test_texture_values_decode_srgb_pick_channels_and_pack_for_vtk(tmp_path):
+    rgba = np.zeros((2, 2, 4), np.uint8)
+    rgba[..., 0], rgba[..., 1], rgba[..., 2], rgba[..., 3] = 188, 128, 255, 64
+    Image.fromarray(rgba).save(tmp_path / "c.png")
+    color = TextureInput(file=str(tmp_path / "c.png"))
+    # sRGB 188/255 = 0.737 decodes to ((0.737 + 0.055) / 1.055)^2.4 = 0.503
+    assert texture_values(color)[0, 0] == pytest.approx([0.5029, 0.2158, 1.0], abs=1e-3)
+    alpha = TextureInput(file=str(tmp_path / "c.png"), channels="a")
+    assert texture_values(alpha)[0, 0, 0] == pytest.approx(64 / 255)   # alpha is never sRGB
+    packed = base_color_image(color, alpha)
+    assert packed[0, 0].tolist() == [188, 128, 255, 64]                # encoded back for VTK
+    Image.fromarray(np.full((2, 2, 3), (128, 128, 255), np.uint8)).save(tmp_path / "n.png")
+    normal = TextureInput(file=str(tmp_path / "n.png"), color_space="raw",
+                          scale=(2, 2, 2, 1), bias=(-1, -1, -1, 0))
+    # USD's [-1, 1] normal back in VTK's [0, 1] encoding: the texel itself
+    assert normal_image(normal)[0, 0].tolist() == [128, 128, 255]
+    gray16 = np.full((2, 2), 65535 // 4, np.uint16)
+    Image.fromarray(gray16).save(tmp_path / "g16.png")
+    deep = TextureInput(file=str(tmp_path / "g16.png"), channels="r")
+    assert texture_values(deep)[0, 0, 0] == pytest.approx(0.25, abs=1e-4)   # 16-bit is raw
+
+
+def test_transform_2d_material_interface_and_primvar_reader(tmp_path):
+    stage = Usd.Stage.CreateNew(str(tmp_path / "net.usda"))
+    UsdGeom.Sphere.Define(stage, "/Ball")
+    material = UsdShade.Material.Define(stage, "/Mat")
+    tint = material.CreateInput("tint", Sdf.ValueTypeNames.Color3f)
+    tint.Set(Gf.Vec3f(0.1, 0.6, 0.3))
+    surface = UsdShade.Shader.Define(stage, "/Mat/PS")
+    surface.CreateIdAttr("UsdPreviewSurface")
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tint)
+    transform = UsdShade.Shader.Define(stage, "/Mat/Move")
+    transform.CreateIdAttr("UsdTransform2d")
+    transform.CreateInput("scale", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(2, 3))
+    transform.CreateInput("rotation", Sdf.ValueTypeNames.Float).Set(90.0)
+    transform.CreateInput("translation", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.5, 0.25))
+    reader = UsdShade.Shader.Define(stage, "/Mat/St")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("uv")
+    transform.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(
+        reader.ConnectableAPI(), "result")
+    Image.new("RGB", (2, 2)).save(tmp_path / "r.png")
+    tex = UsdShade.Shader.Define(stage, "/Mat/Tex")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("./r.png")
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
+        transform.ConnectableAPI(), "result")
+    surface.CreateInput("roughness", Sdf.ValueTypeNames.Float).ConnectToSource(
+        tex.ConnectableAPI(), "r")
+    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath("/Ball")).Bind(material)
+    stage.GetRootLayer().Save()
+    read = cm.load_scene(tmp_path / "net.usda").meshes[0].material
+    assert read.diffuse_color == pytest.approx((0.1, 0.6, 0.3))   # through the interface
+    assert read.roughness.st == "uv"
+    # scale (2, 3), then rotate 90°, then translate: (1, 0) -> (2, 0) -> (0, 2) -> (0.5, 2.25)
+    st = read.roughness.st_transform @ np.array([1.0, 0.0, 1.0])
+    assert st[:2] == pytest.approx((0.5, 2.25))
+
+
+def test_problems_in_materials_are_reported(tmp_path):
+    path = uv_texture_stage(tmp_path, {"file": (Sdf.ValueTypeNames.Asset, "./nowhere.png")})
+    with pytest.warns(cm.SceneWarning, match="nowhere.png"):
+        scene = cm.load_scene(path)
+    assert scene.meshes and scene.meshes[0].material.diffuse_color == pytest.approx(
+        (0.18, 0.18, 0.18))       # UsdPreviewSurface's default, as the spec says
+    stage = Usd.Stage.Open(str(path))
+    stage.GetPrimAtPath("/Mat/PS").GetAttribute("info:id").Set("ND_standard_surface")
+    stage.GetRootLayer().Save()
+    with pytest.warns(cm.SceneWarning, match="not UsdPreviewSurface"):
+        cm.load_scene(path)
+
+
+def test_textures_inside_a_usdz_package(tmp_path):
+    texture_file(tmp_path / "tex.png", strip_alpha=255)
+    quad_stage(tmp_path, name="pack.usdc")
+    assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(str(tmp_path / "pack.usdc")),
+                                         str(tmp_path / "pack.usdz"))
+    (tmp_path / "tex.png").unlink()    # only the package's copy is left
+    image = render(tmp_path / "pack.usdz")
+    assert image[60, 100][0] > image[60, 100][2] + 60
+
+
+def test_light_colour_temperature_area_and_shaping(tmp_path):
+    stage = Usd.Stage.CreateNew(str(tmp_path / "l.usda"))
+    warm = UsdLux.DistantLight.Define(stage, "/Warm")
+    warm.CreateEnableColorTemperatureAttr(True)
+    warm.CreateColorTemperatureAttr(2000.0)
+    rect = UsdLux.RectLight.Define(stage, "/Rect")
+    rect.CreateWidthAttr(2.0)
+    rect.CreateHeightAttr(3.0)
+    rect.CreateIntensityAttr(5.0)
+    UsdLux.ShapingAPI.Apply(rect.GetPrim()).CreateShapingConeAngleAttr(30.0)
+    disk = UsdLux.DiskLight.Define(stage, "/Disk")
+    disk.CreateNormalizeAttr(True)
+    stage.GetRootLayer().Save()
+    lights = {li.name: li for li in cm.load_scene(tmp_path / "l.usda").lights}
+    red, _, blue = lights["/Warm"].color
+    assert red > 2 * blue                      # 2000 K is orange-red
+    assert lights["/Rect"].kind == "rect" and lights["/Rect"].area == pytest.approx(6.0)
+    assert lights["/Rect"].cone_angle == pytest.approx(30.0)
+    assert lights["/Disk"].area == 1.0         # normalized: power independent of size
