@@ -38,8 +38,8 @@ from .models.volume import VolumeModel, make_volume  # noqa: E402
 from .models.voxels import Palette, VoxelModel, make_voxels  # noqa: E402
 from .reference import render_emission_absorption  # noqa: E402
 from .scene.io import load_scene  # noqa: E402
-from .scene.openvdb.image import read_vdb  # noqa: E402
 from .scene.model import Scene, SceneLight, SceneMesh, SkippedPrim  # noqa: E402
+from .scene.openvdb.image import read_vdb  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -51,6 +51,6 @@ __all__ = [
     "VolumeDataError", "VolumeGroup", "VolumeLight", "VolumeModel", "add_volume",
     "add_surface", "add_volumes", "add_voxels", "SplineField", "make_field",
     "configure_offscreen", "make_voxels", "Palette", "VoxelModel", "gl_info",
-    "load_scene", "make_volume", "read_vdb", "offscreen_plotter", "plugin", "render_emission_absorption",
-    "render_frame", "render_image",
+    "load_scene", "make_volume", "read_vdb", "offscreen_plotter", "plugin",
+    "render_emission_absorption", "render_frame", "render_image",
 ]

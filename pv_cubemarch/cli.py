@@ -573,7 +573,9 @@ def _load(args, **options):
     """The scene of ``args.scene``; its problems are printed as notes, not warnings."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SceneWarning)
-        return load_scene(args.scene, time=args.time, strict=args.strict, **options)
+        # every volume forced into labels: one that is not is an error, as asked
+        strict = args.strict or options.get("as_voxels", False)
+        return load_scene(args.scene, time=args.time, strict=strict, **options)
 
 
 def _info(args) -> int:

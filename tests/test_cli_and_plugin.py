@@ -86,8 +86,9 @@ def test_pyvista_read_usd_in_fresh_process():
     (["--technique", "cubemap", "--face-size", "64", "--max-samples", "50", "--upscale", "2",
       "--sample-factor", "1.5", "--occlusion-sharpness", "0.25", "--lights", "scene",
       "--light-map-size", "16", "--ambient", "0.3"],
+     # a stage's "scene" lights are its own: the one sun, intensity 3 scaled to 1
      {"technique": "cubemap", "face_size": 64, "max_samples": 50, "upscale": 2.0,
-      "sample_factor": 1.5, "occlusion_sharpness": 0.25, "lights": "scene",
+      "sample_factor": 1.5, "occlusion_sharpness": 0.25, "lights": "stage sun",
       "light_map_size": 16, "ambient": 0.3}),
     (["--technique", "auto", "--lights", "none"], {"technique": "auto", "lights": None}),
 ], ids=["direct", "cubemap", "auto"])
@@ -105,6 +106,12 @@ def test_render_options_reach_every_volume(tmp_path, monkeypatch, arguments, exp
     out = tmp_path / "d.png"
     assert main(["render", str(SCENE), "-o", str(out), "--size", "40x30", *arguments,
                  "--no-progress"]) == 0
+    if expected.get("lights") == "stage sun":
+        sun = next(li for li in load_scene(SCENE).lights if li.kind == "distant")
+        (light,) = seen[0].pop("lights")
+        assert light.kind == "directional" and light.intensity == pytest.approx(1.0)
+        assert light.direction == pytest.approx(sun.direction)
+        expected = {k: v for k, v in expected.items() if k != "lights"}
     assert seen == [expected]
     assert out.stat().st_size > 500
 

@@ -15,6 +15,12 @@ def render_scene():
     return cm.load_scene(SCENE).render(size=(160, 120), progress_bar=False)
 
 
+def render_mixed():
+    """Textures, a cut-out, image-based lighting, OpenVDB smoke, voxels and a surface."""
+    return cm.load_scene(SCENE.parent / "mixed_scene.usda").render(size=(200, 125),
+                                                                    progress_bar=False)
+
+
 def render_blob():
     pl = cm.offscreen_plotter((64, 64))
     try:
@@ -27,7 +33,7 @@ def render_blob():
         pl.close()
 
 
-CASES = {"smoke_scene": render_scene, "blob_volume": render_blob}
+CASES = {"smoke_scene": render_scene, "blob_volume": render_blob, "mixed_scene": render_mixed}
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
