@@ -255,3 +255,33 @@ def test_time_samples_default_to_the_start_and_follow_time(tmp_path):
     assert cm.load_scene(path, time=15).meshes[0].mesh.bounds[4] == pytest.approx(5)
     with pytest.raises(cm.SceneLoadError, match="time applies to USD"):
         cm.load_scene(tmp_path / "x.vti", time=1)
+
+
+def test_wrong_typed_points_and_normals_and_a_singular_transform(tmp_path):
+    # From the usd-wg schema tests: normals and points authored as scalars (int, double)
+    # raised TypeError/ValueError, and a transform of scale 0 a LinAlgError in the normals.
+    stage = new_stage(tmp_path)
+    two_quads(stage, "/Good")
+    flat = two_quads(stage, "/Flattened")
+    flat.CreateNormalsAttr([(0, 0, 1)] * 6)
+    flat.AddScaleOp().Set(Gf.Vec3f(1, 1, 0))
+    two_quads(stage, "/ScalarNormals")
+    two_quads(stage, "/ScalarPoints")
+    stage.GetRootLayer().Save()
+    layer = stage.GetRootLayer()
+    for path, name, kind, value in (("/ScalarNormals", "normals", Sdf.ValueTypeNames.Int, 3),
+                                    ("/ScalarPoints", "points", Sdf.ValueTypeNames.Double, 1.5)):
+        spec = layer.GetPrimAtPath(path)
+        if name in spec.properties:
+            spec.RemoveProperty(spec.properties[name])
+        Sdf.AttributeSpec(spec, name, kind).default = value
+    layer.Save()
+    with pytest.warns(cm.SceneWarning):
+        scene = cm.load_scene(tmp_path / "s.usda")
+    parts = {m.name: m for m in scene.meshes}
+    assert {"/Good", "/Flattened", "/ScalarNormals"} <= set(parts)
+    assert parts["/ScalarNormals"].shading == "flat"      # not the scalar: scheme "none"
+    # x and y survive the flattening: the normal stays along z (the cofactor of diag(1,1,0))
+    assert np.allclose(parts["/Flattened"].mesh.point_data["Normals"], (0, 0, 1))
+    reasons = {s.path: s.reason for s in scene.skipped}
+    assert "3-vectors" in reasons["/ScalarNormals"] and "3-vectors" in reasons["/ScalarPoints"]

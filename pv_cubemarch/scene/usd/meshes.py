@@ -25,6 +25,7 @@ from .primvars import (
     per_corner,
     polydata,
     read_polygons,
+    vectors,
 )
 
 
@@ -140,10 +141,10 @@ def _normals(ctx: StageContext, usd_mesh, polygons: Polygons):
     else:
         values = ctx.get(prim, "normals")
         interpolation = usd_mesh.GetNormalsInterpolation()
-    if values is None or len(values) == 0:
-        return None
-    values = np.asarray(values, dtype=np.float64).reshape(-1, 3)
     try:
+        values = vectors(values, "normals")
+        if len(values) == 0:
+            return None
         check_length("normals", values, str(interpolation), polygons)
     except PrimError as exc:
         ctx.report(str(prim.GetPath()), f"{exc}; normals computed instead")

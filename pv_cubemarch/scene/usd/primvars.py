@@ -46,7 +46,7 @@ def read_polygons(points, counts, indices, reverse: bool) -> Polygons:
 
     ``reverse`` flips every face's corner order (left-handed meshes, mirroring transforms).
     """
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    points = vectors(points, "points")
     counts = np.asarray(counts, dtype=np.int64).ravel()
     indices = np.asarray(indices, dtype=np.int64).ravel()
     if counts.size and counts.min() < 0:
@@ -69,6 +69,22 @@ def read_polygons(points, counts, indices, reverse: bool) -> Polygons:
     corner_source = starts[face_source][corner_face] + position
     return Polygons(points, kept_counts, indices[corner_source], face_source, corner_source,
                     len(counts), int(indices.size), int((~keep).sum()))
+
+
+def vectors(values, name: str) -> np.ndarray:
+    """``values`` as an (n, 3) float array, or a PrimError saying what they are instead."""
+    try:
+        array = np.asarray(values if values is not None else [], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise PrimError(f"{name} must be an array of 3-vectors, got {values!r:.60}") from None
+    if array.size == 0:
+        return array.reshape(0, 3)
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise PrimError(f"{name} must be an array of 3-vectors, got {type(values).__name__} "
+                        f"of shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise PrimError(f"{name} has NaN or infinite values")
+    return array
 
 
 def expected_length(interpolation: str, polygons: Polygons) -> int | None:

@@ -189,6 +189,12 @@ def with_fallback(part: SceneMesh) -> SceneMesh:
     return part
 
 
+def cofactor(matrix: np.ndarray) -> np.ndarray:
+    """The cofactor matrix, det · inverse transpose: it turns normals, even when singular."""
+    a, b, c = matrix.T
+    return np.column_stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)])
+
+
 def placed(part: SceneMesh, matrix: np.ndarray) -> SceneMesh:
     """``part`` moved by the column-vector 4x4 ``matrix``, its normals turned with it."""
     if np.allclose(matrix, np.eye(4)):
@@ -196,7 +202,7 @@ def placed(part: SceneMesh, matrix: np.ndarray) -> SceneMesh:
     mesh = part.mesh.copy()
     mesh.points = mesh.points @ matrix[:3, :3].T + matrix[:3, 3]
     if "Normals" in mesh.point_data:
-        normals = np.asarray(mesh.point_data["Normals"]) @ np.linalg.inv(matrix[:3, :3])
+        normals = np.asarray(mesh.point_data["Normals"]) @ cofactor(matrix[:3, :3]).T
         lengths = np.linalg.norm(normals, axis=1, keepdims=True)
         mesh.point_data["Normals"] = normals / np.where(lengths > 0, lengths, 1.0)
     part.mesh = mesh
