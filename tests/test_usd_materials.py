@@ -262,3 +262,45 @@ def test_light_colour_temperature_area_and_shaping(tmp_path):
     assert lights["/Rect"].kind == "rect" and lights["/Rect"].area == pytest.approx(6.0)
     assert lights["/Rect"].cone_angle == pytest.approx(30.0)
     assert lights["/Disk"].area == 1.0         # normalized: power independent of size
+
+
+def test_instanced_materials_and_display_opacity(tmp_path):
+    # Materials bound inside an instanceable asset reach every instance proxy; a mesh of
+    # displayOpacity 0.5 is translucent (red over a blue wall: both colours in the pixel).
+    asset = Usd.Stage.CreateNew(str(tmp_path / "asset.usda"))
+    root = UsdGeom.Xform.Define(asset, "/Asset")
+    ball = UsdGeom.Sphere.Define(asset, "/Asset/Ball")
+    material = UsdShade.Material.Define(asset, "/Asset/Looks/Gold")
+    shader = UsdShade.Shader.Define(asset, "/Asset/Looks/Gold/PS")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(1, 0.8, 0.2))
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(ball.GetPrim()).Bind(material)
+    asset.SetDefaultPrim(root.GetPrim())
+    asset.GetRootLayer().Save()
+    stage = Usd.Stage.CreateNew(str(tmp_path / "inst.usda"))
+    for i in range(2):
+        prim = stage.DefinePrim(f"/Copy{i}")
+        prim.GetReferences().AddReference("./asset.usda")
+        prim.SetInstanceable(True)
+    stage.GetRootLayer().Save()
+    balls = cm.load_scene(tmp_path / "inst.usda").meshes
+    assert len(balls) == 2
+    assert all(b.material.diffuse_color == pytest.approx((1, 0.8, 0.2)) for b in balls)
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "glass.usda"))
+    front = UsdGeom.Mesh.Define(stage, "/Front")
+    back = UsdGeom.Mesh.Define(stage, "/Back")
+    for mesh, z, size, color in ((front, 0, 1, (1, 0, 0)), (back, -1, 3, (0, 0, 1))):
+        lo = (1 - size) / 2
+        mesh.CreatePointsAttr([(lo, lo, z), (lo + size, lo, z), (lo + size, lo + size, z),
+                               (lo, lo + size, z)])
+        mesh.CreateFaceVertexCountsAttr([4])
+        mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        mesh.CreateDisplayColorPrimvar().Set([color])
+    front.CreateDisplayOpacityPrimvar().Set([0.5])
+    UsdGeom.Camera.Define(stage, "/Cam").AddTranslateOp().Set(Gf.Vec3d(0.5, 0.5, 6.0))
+    stage.GetRootLayer().Save()
+    image = cm.load_scene(tmp_path / "glass.usda").render(size=(100, 100)).astype(int)
+    middle, wall = image[50, 50], image[50, 5]
+    assert middle[0] > wall[0] + 40 and middle[2] > 60      # red over blue, both seen
