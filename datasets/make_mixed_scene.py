@@ -213,6 +213,7 @@ def write_stage(path: Path) -> None:
     sky.CreateIntensityAttr(0.8)
     sun = UsdLux.DistantLight.Define(stage, "/World/Sun")
     sun.CreateIntensityAttr(2.5)
+    sun.CreateNormalizeAttr(True)   # intensity is the irradiance, not the sun disk's radiance
     sun.AddRotateXYZOp().Set(Gf.Vec3f(-50.0, 30.0, 0.0))
     camera = UsdGeom.Camera.Define(stage, "/World/Camera")
     camera.CreateFocalLengthAttr(24.0)

@@ -120,6 +120,7 @@ def write_stage(path: Path, field_file: str) -> None:
     UsdGeom.Xformable(camera).AddTransformOp().Set(view.GetInverse())
 
     sun = UsdLux.DistantLight.Define(stage, "/World/Sun")
+    sun.CreateNormalizeAttr(True)   # intensity is the irradiance, not the sun disk's radiance
     sun.CreateIntensityAttr(3.0)
     sun.CreateColorAttr(Gf.Vec3f(1.0, 0.95, 0.85))
     UsdGeom.Xformable(sun).AddRotateXYZOp().Set(Gf.Vec3f(-50, 35, 0))

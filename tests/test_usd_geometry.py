@@ -285,3 +285,10 @@ def test_wrong_typed_points_and_normals_and_a_singular_transform(tmp_path):
     assert np.allclose(parts["/Flattened"].mesh.point_data["Normals"], (0, 0, 1))
     reasons = {s.path: s.reason for s in scene.skipped}
     assert "3-vectors" in reasons["/ScalarNormals"] and "3-vectors" in reasons["/ScalarPoints"]
+
+
+def test_hole_indices_leave_faces_out(tmp_path):
+    stage = new_stage(tmp_path)
+    two_quads(stage).CreateHoleIndicesAttr([0])
+    mesh = load(stage).meshes[0].mesh
+    assert mesh.n_cells == 1 and mesh.bounds[:2] == pytest.approx((1, 2))

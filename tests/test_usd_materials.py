@@ -72,7 +72,12 @@ def quad_stage(tmp_path, texture="./tex.png", threshold=0.5, lights="sun", name=
     UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
     UsdGeom.Camera.Define(stage, "/Cam").AddTranslateOp().Set(Gf.Vec3d(0.5, 0.5, 4.0))
     if lights == "sun":
-        UsdLux.DistantLight.Define(stage, "/Sun").CreateIntensityAttr(1.0)
+        sun = UsdLux.DistantLight.Define(stage, "/Sun")
+        sun.CreateIntensityAttr(1.0)
+        sun.CreateNormalizeAttr(True)        # the intensity is the irradiance
+    elif lights == "sun disk":   # a sun disk of 0.53° and radiance 1/Ω: irradiance 1 again
+        sun = UsdLux.DistantLight.Define(stage, "/Sun")
+        sun.CreateIntensityAttr(1.0 / (2 * np.pi * (1 - np.cos(np.radians(0.53 / 2)))))
     elif lights == "behind":   # points along +z: the quad's back is lit, its front is not
         sun = UsdLux.DistantLight.Define(stage, "/Sun")
         sun.AddRotateYOp().Set(180.0)
@@ -99,12 +104,15 @@ def test_texture_orientation_colours_and_cutout(tmp_path):
     assert np.abs(image[100, column_of(0.2)] - background).sum() > 100       # drawn
 
 
-def test_lambert_level_of_a_sun_of_intensity_one(tmp_path):
-    # A white sun of intensity 1 head-on: red albedo 1 returns 1/π; VTK writes (1/π)^(1/2.2)
+@pytest.mark.parametrize("lights", ["sun", "sun disk"])
+def test_lambert_level_of_a_sun_of_irradiance_one(tmp_path, lights):
+    # A white sun of irradiance 1 head-on: red albedo 1 returns 1/π; VTK writes (1/π)^(1/2.2)
     # = 0.594 → 151, plus a little specular (F0 = 0.04 at roughness 0.5). Catches light
-    # intensities rescaled (the old division by the strongest light, or by π twice).
+    # intensities rescaled (the old division by the strongest light, or by π twice) and, for
+    # the un-normalized sun, its disk's solid angle left out (McUsd's default 50000 sun then
+    # burns everything white, as the usd-wg survey found).
     texture_file(tmp_path / "tex.png", strip_alpha=255)
-    red = render(quad_stage(tmp_path))[60, 100]
+    red = render(quad_stage(tmp_path, lights=lights))[60, 100]
     assert 140 <= red[0] <= 175
 
 

@@ -2,8 +2,8 @@
 
 VTK's PBR and Storm share units (a Lambertian surface returns albedo/π of the light), so a
 light's VTK intensity is its USD intensity × 2^exposure (colour and blackbody colour in
-its colour). Positional lights fall off with the square of the distance and carry their
-emitting area (unless normalized). A DomeLight is image-based lighting: its latitude-
+its colour), times its area (a distant light's solid angle) unless normalized. Positional
+lights fall off with the square of the distance. A DomeLight is image-based lighting: its latitude-
 longitude texture, or a constant image of its colour, since VTK's PBR has no ambient term;
 a textured dome is also the background. A scene without lights gets usdview's default
 camera light.
@@ -48,7 +48,7 @@ def add_scene_lights(plotter: pyvista.Plotter, lights: list[SceneLight], report)
 
 def _vtk_light(light: SceneLight) -> pyvista.Light:
     """A distant light as a directional scene light; the others as positional lights."""
-    vtk_light = pyvista.Light(color=light.color, intensity=light.intensity,
+    vtk_light = pyvista.Light(color=light.color, intensity=light.intensity * light.area,
                               light_type="scene light")
     if light.kind == "distant":
         vtk_light.positional = False

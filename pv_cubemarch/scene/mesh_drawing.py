@@ -106,6 +106,11 @@ def _texture_coordinates(mesh: pyvista.PolyData, material: SurfaceMaterial, name
     first = textures[0]
     if any(t.st != first.st for t in textures):
         report(name, f"textures read different st primvars; all use {first.st!r}")
+    if any(not _same_transform(t.st_transform, first.st_transform) for t in textures):
+        report(name, "textures have different UsdTransform2d; all use the first one's")
+    if any(t.wrap[0] != t.wrap[1] for t in textures):
+        report(name, "a texture's wrapS and wrapT differ; VTK has one wrap mode (repeat is "
+               "used when either repeats)")
     if first.st not in mesh.point_data:
         report(name, f"textures need the primvar {first.st!r}, which the mesh lacks (or not "
                "per point); drawn untextured")
@@ -115,6 +120,12 @@ def _texture_coordinates(mesh: pyvista.PolyData, material: SurfaceMaterial, name
         st = st @ first.st_transform[:2, :2].T + first.st_transform[:2, 2]
     mesh.active_texture_coordinates = st.astype(np.float32)
     return True
+
+
+def _same_transform(a, b) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.allclose(a, b))
 
 
 def _with_tangents(mesh: pyvista.PolyData) -> pyvista.PolyData:
@@ -130,9 +141,14 @@ def _with_tangents(mesh: pyvista.PolyData) -> pyvista.PolyData:
     return pyvista.wrap(tangents.GetOutput())
 
 
+def _one_wrap(wrap: tuple[str, str]) -> str:
+    """VTK's one wrap mode for USD's two: repeat if either repeats (reported when they differ)."""
+    return wrap[0] if wrap[0] == wrap[1] else "repeat" if "repeat" in wrap else wrap[0]
+
+
 def _texture(image: np.ndarray, wrap: tuple[str, str], srgb: bool) -> pyvista.Texture:
     texture = pyvista.Texture(image)
-    texture.wrap = pyvista.Texture.WrapType.from_any(_WRAP[wrap[0]])
+    texture.wrap = pyvista.Texture.WrapType[_WRAP[_one_wrap(wrap)]]
     texture.mipmap = True
     texture.interpolate = True
     if srgb:

@@ -217,7 +217,7 @@ class Scene:
             return "scene"
         scale = 1.0 / max(max(li.intensity * li.area for li in lights), 1.0)
         return [VolumeLight("directional", direction=li.direction, color=li.color,
-                            intensity=li.intensity * scale) if li.kind == "distant" else
+                            intensity=li.intensity * li.area * scale) if li.kind == "distant" else
                 VolumeLight("point", position=li.position, color=li.color,
                             intensity=li.intensity * li.area * scale) for li in lights]
 

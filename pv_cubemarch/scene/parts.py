@@ -44,7 +44,8 @@ class SceneLight:
     texture: str | None = None
     #: A shaped light's cone half-angle (degrees).
     cone_angle: float | None = None
-    #: A positional light's emitting area as seen from afar (1 when ``normalize`` is on).
+    #: What the intensity is multiplied by: a positional light's emitting area, a distant
+    #: light's solid angle (1 when ``normalize`` is on).
     area: float = 1.0
 
 

@@ -38,8 +38,8 @@ def _decoded(file: str, data: bytes | None) -> tuple[np.ndarray, bool]:
             rgba = np.dstack([values] * 3 + [np.ones_like(values)])
             eight_bit = False
         else:
-            channels = len(image.getbands())
-            eight_bit = channels >= 3 and mode not in ("P", "PA")
+            # 8-bit colour (palette images included) is sRGB under 'auto'; grey is raw
+            eight_bit = mode in ("RGB", "RGBA", "P", "PA", "CMYK", "YCbCr", "RGBX")
             rgba = np.asarray(image.convert("RGBA"), dtype=np.float64) / 255.0
     rgba = np.ascontiguousarray(rgba)
     rgba.setflags(write=False)

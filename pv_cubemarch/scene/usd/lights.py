@@ -3,7 +3,9 @@
 A light's colour is ``inputs:color`` times its blackbody colour when
 ``inputs:enableColorTemperature`` is on; its intensity is ``inputs:intensity`` times
 2^``inputs:exposure``. A DomeLight keeps its texture file (image-based lighting where VTK
-can draw it); a DistantLight its angular diameter; SphereLight, RectLight, DiskLight and
+can draw it). A DistantLight's intensity is the radiance of a sun disk of ``inputs:angle``
+(irradiance: times the disk's solid angle) unless ``inputs:normalize`` makes it the
+irradiance itself; SphereLight, RectLight, DiskLight and
 CylinderLight are positional lights at their origin, pointing down their -z axis with the
 cone of ``shaping:cone:angle`` when shaped.
 """
@@ -83,6 +85,10 @@ def read_light(ctx: StageContext, prim, type_name: str) -> SceneLight:
             raise PrimError("its transform is degenerate (no direction)")
         light.direction = tuple(direction / np.linalg.norm(direction))
         light.angle = number("inputs:angle", 0.53)
+        if not ctx.get(prim, "inputs:normalize", False):
+            # intensity is the sun disk's radiance: irradiance is it times the disk's solid
+            # angle (6.7e-5 sr at the default 0.53 degrees), as Storm draws it
+            light.area = 2.0 * np.pi * (1.0 - np.cos(np.radians(light.angle) / 2.0))
     elif kind == "dome":
         texture = ctx.get(prim, "inputs:texture:file")
         if texture is not None and getattr(texture, "path", ""):

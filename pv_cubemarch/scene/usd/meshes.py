@@ -35,7 +35,8 @@ def read_mesh(ctx: StageContext, prim, mirrored: bool) -> list[SceneMesh]:
     name = str(prim.GetPath())
     left = ctx.get(prim, "orientation") == UsdGeom.Tokens.leftHanded
     polygons = read_polygons(ctx.get(prim, "points", []), ctx.get(prim, "faceVertexCounts", []),
-                             ctx.get(prim, "faceVertexIndices", []), reverse=left != mirrored)
+                             ctx.get(prim, "faceVertexIndices", []), reverse=left != mirrored,
+                             holes=ctx.get(prim, "holeIndices", []))
     if polygons.dropped:
         ctx.report(name, f"{polygons.dropped} faces of fewer than 3 vertices left out")
     parts = _material_parts(ctx, prim, polygons)

@@ -22,7 +22,7 @@ DRAWN_INPUTS = {"diffuseColor": "diffuse_color", "emissiveColor": "emissive_colo
                 "occlusion": "occlusion", "normal": "normal"}
 #: Inputs read but not drawn: VTK's PBR has no equivalent we use.
 UNDRAWN_INPUTS = ("clearcoat", "clearcoatRoughness", "displacement", "specularColor",
-                  "useSpecularWorkflow", "ior")
+                  "useSpecularWorkflow", "ior", "specular")
 _WRAPS = {"repeat": "repeat", "clamp": "clamp", "mirror": "mirror", "black": "black",
           "useMetadata": "repeat"}
 
@@ -69,7 +69,12 @@ def read_material(ctx: StageContext, material) -> SurfaceMaterial | None:
         if isinstance(value, float):
             result.opacity_threshold = value
     result.ignored = [name for name in UNDRAWN_INPUTS if shader.GetInput(name)
-                      and shader.GetInput(name).GetAttr().HasAuthoredValue()]
+                      and _producer(shader.GetInput(name)) is not None
+                      and (name != "useSpecularWorkflow"
+                           or _shader_value(ctx, shader, name))]
+    if result.ignored:
+        ctx.report(path, f"inputs {', '.join(result.ignored)} are read but not drawn (VTK's "
+                   "PBR has no equivalent we use)")
     return result
 
 

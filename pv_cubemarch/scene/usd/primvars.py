@@ -41,10 +41,11 @@ class Polygons:
         return np.repeat(np.arange(len(self.counts)), self.counts)
 
 
-def read_polygons(points, counts, indices, reverse: bool) -> Polygons:
+def read_polygons(points, counts, indices, reverse: bool, holes=()) -> Polygons:
     """Check the topology arrays and keep faces of three corners or more.
 
-    ``reverse`` flips every face's corner order (left-handed meshes, mirroring transforms).
+    ``reverse`` flips every face's corner order (left-handed meshes, mirroring transforms);
+    the faces in ``holes`` (``holeIndices``) are left out.
     """
     points = vectors(points, "points")
     counts = np.asarray(counts, dtype=np.int64).ravel()
@@ -59,6 +60,10 @@ def read_polygons(points, counts, indices, reverse: bool) -> Polygons:
                         f"{int(indices.max())} but there are {len(points)} points")
     starts = np.cumsum(counts) - counts
     keep = counts >= 3
+    holes = np.asarray(holes if holes is not None else [], dtype=np.int64).ravel()
+    holes = holes[(holes >= 0) & (holes < len(counts))]
+    dropped = int((~keep).sum())
+    keep[holes] = False
     face_source = np.nonzero(keep)[0]
     kept_counts = counts[keep]
     corner_face = np.repeat(np.arange(len(kept_counts)), kept_counts)
@@ -68,7 +73,7 @@ def read_polygons(points, counts, indices, reverse: bool) -> Polygons:
         position = kept_counts[corner_face] - 1 - position
     corner_source = starts[face_source][corner_face] + position
     return Polygons(points, kept_counts, indices[corner_source], face_source, corner_source,
-                    len(counts), int(indices.size), int((~keep).sum()))
+                    len(counts), int(indices.size), dropped)
 
 
 def vectors(values, name: str) -> np.ndarray:
