@@ -317,3 +317,25 @@ def test_render_help_lists_voxels_from_the_registry():
     assert f"voxels: {voxels[0].summary}" in technique.help
     titles = [group.title for group in render._action_groups]
     assert any(title.startswith("voxels (--technique voxels") for title in titles)
+
+
+def test_cli_time_and_strict(tmp_path, capsys):
+    from pxr import Gf, Usd, UsdGeom
+    stage = Usd.Stage.CreateNew(str(tmp_path / "t.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(2)
+    ball = UsdGeom.Sphere.Define(stage, "/Ball")
+    op = ball.AddTranslateOp()
+    op.Set(Gf.Vec3d(0, 0, 0), 1)
+    op.Set(Gf.Vec3d(0, 0, 8), 2)
+    UsdGeom.Mesh.Define(stage, "/Broken").CreateFaceVertexCountsAttr([3])
+    stage.GetRootLayer().Save()
+    assert main(["info", str(tmp_path / "t.usda"), "--json", "--time", "2"]) == 0
+    report = json.loads(capsys.readouterr().out)["scene"]
+    assert report["time"] == 2.0
+    assert any(s["path"] == "/Broken" for s in report["skipped"])
+    assert main(["render", str(tmp_path / "t.usda"), "-o", str(tmp_path / "t.png"),
+                 "--size", "32x24", "--no-progress"]) == 0
+    assert "note: /Broken" in capsys.readouterr().err
+    assert main(["info", str(tmp_path / "t.usda"), "--strict"]) == 2
+    assert "/Broken" in capsys.readouterr().err

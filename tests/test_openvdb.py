@@ -302,9 +302,9 @@ def _internal(origin, children, log2, child_log2, grid):
                             grid["compression"], grid["dtype"]))
 
 
-def write_vdb(path, grids, has_offsets=True):
-    """Write a version-224 file of float/double/int grids without tiles."""
-    out = bytearray(struct.pack("<qIIIB", records.MAGIC, 224, 10, 0, int(has_offsets)))
+def write_vdb(path, grids, has_offsets=True, version=224):
+    """Write a file (version 222-224) of float/double/int grids without tiles."""
+    out = bytearray(struct.pack("<qIIIB", records.MAGIC, version, 10, 0, int(has_offsets)))
     out += str(uuid.uuid4()).encode() + struct.pack("<I", 0) + struct.pack("<i", len(grids))
     for n, grid in enumerate(grids):
         out += _string(f"{grid['name']}\x1e{n}") + _string(grid["type"]) + _string("")
@@ -369,6 +369,18 @@ WRITER_CASES = [
 @pytest.mark.parametrize("has_offsets", [True, False])
 @pytest.mark.parametrize("case", WRITER_CASES, ids=lambda c: f"{c[0]}-{c[2]}-{c[3]}")
 def test_minimal_writer(tmp_path, case, has_offsets):
+    _check_writer_case(tmp_path, case, has_offsets)
+
+
+@pytest.mark.parametrize("version", [222, 223])
+def test_older_file_versions(tmp_path, version):
+    # 222 (per-node compression metadata) and 223 (before blosc, multipass I/O) share the
+    # 224 layout for float/double/int grids: the same files in those versions read the same.
+    for case in WRITER_CASES[:2]:
+        _check_writer_case(tmp_path, case, True, version)
+
+
+def _check_writer_case(tmp_path, case, has_offsets, version=224):
     vtype, dtype, comp, map_key, inactive = case
     rng = np.random.default_rng(zlib.crc32(repr(case).encode()))
     background = np.array(2, dtype)
@@ -377,7 +389,7 @@ def test_minimal_writer(tmp_path, case, has_offsets):
             "background": background, "map": MAPS[map_key], "leaves": leaves}
     other = dict(grid, name="g", leaves=_random_leaves(rng, dtype, background, count=3))
     path = tmp_path / "w.vdb"
-    write_vdb(path, [other, grid], has_offsets=has_offsets)
+    write_vdb(path, [other, grid], has_offsets=has_offsets, version=version)
     lo, expected = _expected(leaves, background, dtype)
     got = vf.read_grid(path, "g", 1)
     assert got.origin_index == tuple(lo)

@@ -292,3 +292,65 @@ def test_hole_indices_leave_faces_out(tmp_path):
     two_quads(stage).CreateHoleIndicesAttr([0])
     mesh = load(stage).meshes[0].mesh
     assert mesh.n_cells == 1 and mesh.bounds[:2] == pytest.approx((1, 2))
+
+
+def every_imageable_type() -> list[str]:
+    """Every concrete prim type this usd-core knows that can be drawn or placed."""
+    from pxr import Tf
+    registry = Usd.SchemaRegistry()
+    names = []
+    for kind in Tf.Type.FindByName("UsdGeomImageable").GetAllDerivedTypes():
+        name = registry.GetSchemaTypeName(kind)
+        if name and registry.IsConcrete(kind):
+            names.append(str(name))
+    return sorted(names)
+
+
+def test_every_prim_type_loads_and_renders_or_is_reported(tmp_path):
+    # Each concrete UsdGeom/UsdLux/UsdVol/... type, defined with no attributes at all (their
+    # fallbacks only), then with one attribute of the wrong type: the stage loads, renders,
+    # and whatever is not drawn is in the report. Catches any reader raising on a fallback.
+    names = every_imageable_type()
+    assert {"Mesh", "PointInstancer", "BasisCurves", "NurbsPatch", "Cylinder_1"} <= set(names)
+    stage = new_stage(tmp_path)
+    for name in names:
+        stage.DefinePrim(f"/Empty_{name}", name)
+        prim = stage.DefinePrim(f"/Bad_{name}", name)
+        Sdf.AttributeSpec(stage.GetRootLayer().GetPrimAtPath(prim.GetPath()), "points",
+                          Sdf.ValueTypeNames.String).default = "nonsense"
+    stage.GetRootLayer().Save()
+    with pytest.warns(cm.SceneWarning):
+        scene = cm.load_scene(tmp_path / "s.usda")
+    image = scene.render(size=(48, 36))
+    assert image.shape == (36, 48, 3)
+    drawn = {m.name.split("/")[1] for m in scene.meshes}
+    assert {"Empty_Sphere", "Empty_Cube", "Empty_Cylinder_1", "Empty_Plane"} <= drawn
+    reasons = {s.path: s.reason for s in scene.skipped}
+    assert "3-vectors" in reasons["/Bad_Mesh"]
+    assert reasons["/Empty_NurbsPatch"] == "NURBS patches are not tessellated"
+
+
+def test_cylinder_of_two_radii_and_oriented_instances(tmp_path):
+    stage = new_stage(tmp_path)
+    cone = stage.DefinePrim("/Frustum", "Cylinder_1")
+    cone.CreateAttribute("radiusBottom", Sdf.ValueTypeNames.Double).Set(2.0)
+    cone.CreateAttribute("radiusTop", Sdf.ValueTypeNames.Double).Set(0.5)
+    cone.CreateAttribute("height", Sdf.ValueTypeNames.Double).Set(4.0)
+    cone.CreateAttribute("axis", Sdf.ValueTypeNames.Token).Set("Z")
+    instancer = UsdGeom.PointInstancer.Define(stage, "/Inst")
+    bar = UsdGeom.Cube.Define(stage, "/Inst/Protos/Bar")
+    bar.AddScaleOp().Set(Gf.Vec3f(2, 0.5, 0.5))        # size 2 scaled: a 4 x 1 x 1 bar along x
+    instancer.CreatePrototypesRel().SetTargets([bar.GetPath()])
+    instancer.CreateProtoIndicesAttr([0])
+    instancer.CreatePositionsAttr([(0, 0, 20)])
+    half = np.sqrt(0.5)                                  # 90 degrees about z: along y now
+    instancer.CreateOrientationsAttr([Gf.Quath(half, 0, 0, half)])
+    parts = {m.name: m.mesh for m in load(stage).meshes}
+    frustum = parts["/Frustum"]
+    bottom = frustum.points[frustum.points[:, 2] < -1.99]
+    top = frustum.points[frustum.points[:, 2] > 1.99]
+    assert np.linalg.norm(bottom[:, :2], axis=1).max() == pytest.approx(2.0, abs=1e-6)
+    assert np.linalg.norm(top[:, :2], axis=1).max() == pytest.approx(0.5, abs=1e-6)
+    # turned onto y, centred on (0, 0, 20); 1e-3: orientations are half floats
+    assert parts["/Inst[/Inst/Protos/Bar]"].bounds == pytest.approx(
+        (-0.5, 0.5, -2, 2, 19.5, 20.5), abs=1e-3)

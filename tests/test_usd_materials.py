@@ -312,3 +312,37 @@ def test_instanced_materials_and_display_opacity(tmp_path):
     image = cm.load_scene(tmp_path / "glass.usda").render(size=(100, 100)).astype(int)
     middle, wall = image[50, 50], image[50, 5]
     assert middle[0] > wall[0] + 40 and middle[2] > 60      # red over blue, both seen
+
+
+def test_single_sided_meshes_cull_their_back_and_double_sided_do_not(tmp_path):
+    # Seen from behind (camera at z = -4 looking along +z): usdview culls a single-sided
+    # quad's back, draws a doubleSided one. Catches culling ignored or applied to both.
+    images = {}
+    for sided in (False, True):
+        path = quad_stage(tmp_path, texture=None, lights=None, name=f"s{sided}.usda")
+        stage = Usd.Stage.Open(str(path))
+        UsdGeom.Mesh(stage.GetPrimAtPath("/Quad")).CreateDoubleSidedAttr(sided)
+        camera = UsdGeom.Xformable(stage.GetPrimAtPath("/Cam"))
+        camera.ClearXformOpOrder()
+        camera.AddTranslateOp().Set(Gf.Vec3d(0.5, 0.5, -4.0))
+        camera.AddRotateYOp().Set(180.0)
+        stage.GetRootLayer().Save()
+        images[sided] = render(path)
+    background = images[False][3, 3]
+    assert np.abs(images[False][100, 100] - background).sum() <= 6
+    assert np.abs(images[True][100, 100] - background).sum() > 100
+
+
+def test_textured_dome_lights_and_is_the_background(tmp_path):
+    # A dome whose image is pure green: the background is green (the skybox, gamma as the
+    # PBR output) and the white quad reflects green light only.
+    Image.new("RGB", (16, 8), (0, 255, 0)).save(tmp_path / "sky.png")
+    path = quad_stage(tmp_path, texture=None, lights=None)
+    stage = Usd.Stage.Open(str(path))
+    dome = UsdLux.DomeLight.Define(stage, "/Dome")
+    dome.CreateTextureFileAttr(Sdf.AssetPath("./sky.png"))
+    stage.GetRootLayer().Save()
+    image = render(path)
+    sky, quad = image[3, 3], image[100, 100]
+    assert sky[1] > 230 and sky[0] < 20 and sky[2] < 20
+    assert quad[1] > 150 and quad[0] < 40 and quad[2] < 40

@@ -77,7 +77,8 @@ def _prototype_parts(ctx: StageContext, root, read_local):
                 matrix, _ = ctx.xforms.ComputeRelativeTransform(prim, root)
                 relative = np.array(matrix, dtype=np.float64).T
             for part in local:
-                yield part, relative
+                if part.mesh.n_cells:
+                    yield part, relative
 
 
 def _copied(part: SceneMesh, matrices: np.ndarray) -> SceneMesh:

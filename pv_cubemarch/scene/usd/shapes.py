@@ -15,7 +15,8 @@ from ..parts import SceneMesh
 from .context import PrimError, StageContext
 from .meshes import _material_of
 
-PRIMITIVES = ("Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane")
+PRIMITIVES = ("Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane", "Cylinder_1",
+              "Capsule_1")
 CURVE_SAMPLES = 8
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 #: Cubic bases as 4x4 matrices on (1, t, t², t³) (rows) and the step between segments.
@@ -54,6 +55,15 @@ def read_primitive(ctx: StageContext, prim, type_name: str) -> list[SceneMesh]:
     elif type_name == "Capsule":
         mesh = pyvista.Capsule(direction=_AXES[axis], radius=number("radius", 0.5),
                                cylinder_length=number("height", 1.0), resolution=32)
+    elif type_name == "Cylinder_1":
+        mesh = _frustum(axis, number("radiusBottom", 1.0), number("radiusTop", 1.0),
+                        number("height", 2.0))
+    elif type_name == "Capsule_1":
+        bottom, top = number("radiusBottom", 0.5), number("radiusTop", 0.5)
+        if bottom != top:
+            ctx.report(str(prim.GetPath()), "a capsule of two radii is drawn with their mean")
+        mesh = pyvista.Capsule(direction=_AXES[axis], radius=(bottom + top) / 2,
+                               cylinder_length=number("height", 1.0), resolution=32)
     else:
         normal = {"X": (1, 0, 0), "Y": (0, 1, 0), "Z": (0, 0, 1)}[axis]
         mesh = pyvista.Plane(direction=normal, i_size=number("width", 2.0),
@@ -63,6 +73,18 @@ def read_primitive(ctx: StageContext, prim, type_name: str) -> list[SceneMesh]:
                      double_sided=bool(ctx.get(prim, "doubleSided", False)))
     _display_color(ctx, prim, part)
     return [part]
+
+
+def _frustum(axis: str, bottom: float, top: float, height: float) -> pyvista.PolyData:
+    """A capped cylinder along ``axis`` whose radius goes from ``bottom`` to ``top``."""
+    direction = np.array(_AXES[axis])
+    mesh = pyvista.Cylinder(direction=tuple(direction), radius=1.0, height=height,
+                            resolution=48).triangulate()
+    along = mesh.points @ direction
+    radius = bottom + (top - bottom) * (along / height + 0.5)
+    mesh.points = along[:, None] * direction + (mesh.points - along[:, None] * direction) \
+        * radius[:, None]
+    return mesh
 
 
 def _display_color(ctx: StageContext, prim, part: SceneMesh) -> None:

@@ -136,6 +136,9 @@ def _read_prim(ctx: StageContext, prim) -> bool:
             if parts is None:
                 ctx.report(path, _NOT_DRAWN.get(type_name, f"unsupported prim type {type_name}"))
                 return False
+            if parts and not any(part.mesh.n_cells for part in parts):
+                ctx.report(path, f"{type_name} has no faces to draw")
+            parts = [part for part in parts if part.mesh.n_cells]
             ctx.scene.meshes.extend(placed(with_fallback(part), matrix) for part in parts)
     except (PrimError, CubemarchError, ValueError, TypeError, IndexError, Tf.ErrorException,
             ArithmeticError) as exc:
