@@ -158,16 +158,17 @@ def test_skipped_prims_are_reported_with_reasons(tmp_path):
     quad_mesh(stage, "/Hidden/Child")
     quad_mesh(stage, "/Off").GetPrim().SetActive(False)
     quad_mesh(stage, "/Guide").CreatePurposeAttr(UsdGeom.Tokens.guide)
-    quad_mesh(stage, "/Proxy").CreatePurposeAttr(UsdGeom.Tokens.proxy)
+    quad_mesh(stage, "/Proxy").CreatePurposeAttr(UsdGeom.Tokens.proxy)    # usdview shows it
+    quad_mesh(stage, "/Render").CreatePurposeAttr(UsdGeom.Tokens.render)  # and not this
     UsdGeom.NurbsPatch.Define(stage, "/Patch")
     stage.GetRootLayer().Save()
     scene = cm.load_scene(tmp_path / "s.usda")
-    assert [m.name for m in scene.meshes] == ["/Shown"]
+    assert [m.name for m in scene.meshes] == ["/Shown", "/Proxy"]
     reasons = {s.path: s.reason for s in scene.skipped}
     assert reasons == {"/Hidden": "invisible", "/Off": "inactive", "/Guide": "purpose is guide",
-                       "/Proxy": "purpose is proxy",
+                       "/Render": "purpose is render",
                        "/Patch": "NURBS patches are not tessellated", "/": reasons["/"]}
-    assert reasons["/"].startswith("1 subdivision meshes")
+    assert reasons["/"].startswith("2 subdivision meshes")
     assert "/Hidden: invisible" in scene.summary()
 
 

@@ -180,10 +180,11 @@ def test_geom_subsets_get_their_own_materials(tmp_path):
         "right", Vt.IntArray([1]))
     bind_color(stage, subset.GetPrim(), "Red", (1, 0, 0))
     parts = {m.name: m for m in load(stage).meshes}
-    assert set(parts) == {"/M:Red", "/M:Base"}
-    assert parts["/M:Red"].mesh.n_cells == 1 and parts["/M:Base"].mesh.n_cells == 1
-    assert parts["/M:Red"].mesh.bounds[:2] == pytest.approx((1, 2))
-    assert parts["/M:Red"].material.diffuse_color == pytest.approx((1, 0, 0))
+    assert set(parts) == {"/M:right", "/M:rest"}     # named by subset: names never collide
+    assert parts["/M:right"].mesh.n_cells == 1 and parts["/M:rest"].mesh.n_cells == 1
+    assert parts["/M:right"].mesh.bounds[:2] == pytest.approx((1, 2))
+    assert parts["/M:right"].material.diffuse_color == pytest.approx((1, 0, 0))
+    assert parts["/M:rest"].material.diffuse_color == pytest.approx((0.5, 0.5, 0.5))
 
 
 def test_point_instancer_places_each_visible_instance(tmp_path):

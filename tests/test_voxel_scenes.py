@@ -135,7 +135,7 @@ def test_usd_default_palette_and_as_voxels(tmp_path):
     # (seen to fail): as_voxels not handed from load_scene to the stage reader.
     labels = random_labels(seed=7)
     path = write_voxel_stage(tmp_path, labels, technique=None, attrs={
-        "cubemarch:faceSize": ("Int", 64), "cubemarch:cmap": ("String", "plasma")})
+        "cubemarch:stopOpacity": ("Float", 0.9), "cubemarch:cmap": ("String", "plasma")})
     scene = cm.load_scene(path)
     assert [v.name for v in scene.volumes] == ["/Vox"] and scene.voxels == []
     scene = cm.load_scene(path, as_voxels=True)

@@ -47,8 +47,13 @@ def add_scene_lights(plotter: pyvista.Plotter, lights: list[SceneLight], report)
 
 
 def _vtk_light(light: SceneLight) -> pyvista.Light:
-    """A distant light as a directional scene light; the others as positional lights."""
-    vtk_light = pyvista.Light(color=light.color, intensity=light.intensity * light.area,
+    """A distant light as a directional scene light; the others as positional lights.
+
+    VTK's light colours are at most 1: a brighter colour (a blackbody's can pass 1) gives its
+    largest component to the intensity.
+    """
+    color, brightness = light_color(light.color)
+    vtk_light = pyvista.Light(color=color, intensity=light.intensity * light.area * brightness,
                               light_type="scene light")
     if light.kind == "distant":
         vtk_light.positional = False
@@ -61,9 +66,17 @@ def _vtk_light(light: SceneLight) -> pyvista.Light:
     vtk_light.focal_point = tuple(np.asarray(light.position) + direction)
     vtk_light.cone_angle = min(float(light.cone_angle), 90.0) \
         if light.cone_angle is not None else 180.0
-    vtk_light.intensity = light.intensity * light.area
     vtk_light.attenuation_values = (0.0, 0.0, 1.0)
     return vtk_light
+
+
+def light_color(color) -> tuple[tuple[float, float, float], float]:
+    """A colour split into VTK's (components in [0, 1]) and a brightness factor."""
+    rgb = np.clip(np.asarray(color, dtype=np.float64), 0.0, None)
+    top = float(rgb.max())
+    if top <= 0.0:
+        return (0.0, 0.0, 0.0), 0.0
+    return tuple(float(c) for c in rgb / max(top, 1.0)), max(top, 1.0)
 
 
 def _add_dome(plotter: pyvista.Plotter, light: SceneLight, report) -> None:
@@ -84,10 +97,13 @@ def _add_dome(plotter: pyvista.Plotter, light: SceneLight, report) -> None:
     renderer.GetEnvMapLookupTable().SetLUTSize(_LUT_SIZE)
     renderer.GetEnvMapLookupTable().SetLUTSamples(_LUT_SIZE)
     renderer.GetEnvMapPrefiltered().SetPrefilterMaxSamples(_PREFILTER_SAMPLES)
+    # a lookup direction in the world is turned into the dome's frame, then into VTK's
+    # latitude-longitude frame
+    turn = np.asarray(_LATLONG_ROTATION) @ np.asarray(light.rotation).T
     rotation = vtk.vtkMatrix3x3()
     for row in range(3):
         for column in range(3):
-            rotation.SetElement(row, column, _LATLONG_ROTATION[row][column])
+            rotation.SetElement(row, column, float(turn[row, column]))
     renderer.SetEnvironmentRotationMatrix(rotation)
     if image is not None:
         sky = vtk.vtkSkybox()

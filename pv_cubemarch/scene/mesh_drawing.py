@@ -8,6 +8,8 @@ packed into one ORM texture, normal maps need tangents (computed here), and
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pyvista
 import vtk
@@ -15,7 +17,7 @@ import vtk
 from ..gl.shaders import Replacement, ShaderRecipe
 from .materials import PrimvarInput, SurfaceMaterial, TextureInput
 from .parts import SceneMesh
-from .textures import base_color_image, normal_image, orm_image
+from .textures import base_color_image, normal_image, orm_image, texture_values
 
 _WRAP = {"repeat": "REPEAT", "clamp": "CLAMP_TO_EDGE", "mirror": "MIRRORED_REPEAT",
          "black": "CLAMP_TO_BORDER"}
@@ -43,6 +45,8 @@ def add_scene_mesh(plotter: pyvista.Plotter, part: SceneMesh, report=None):
         return actor
     mesh = mesh.copy(deep=False)
     textured = _texture_coordinates(mesh, material, part.name, report)
+    material = _resolved(material, textured, mesh, part.name, report)
+    textured = textured and bool(material.textures())
     constant = _constants(material, part)
     if not part.vertex_colors:
         kwargs["color"] = constant["color"]
@@ -50,16 +54,18 @@ def add_scene_mesh(plotter: pyvista.Plotter, part: SceneMesh, report=None):
                   roughness=constant["roughness"])
     if material.normal is not None and textured:
         mesh = _with_tangents(mesh)
+    emissive = material.emissive_color
+    glows = not isinstance(emissive, TextureInput) and max(emissive) > 0
+    if glows and mesh.active_texture_coordinates is None:
+        mesh.active_texture_coordinates = np.zeros((mesh.n_points, 2), np.float32)
     actor = plotter.add_mesh(mesh, **kwargs)
     prop = actor.GetProperty()
     if textured:
         _bind_textures(prop, mesh, material)
-    emissive = material.emissive_color
-    if not isinstance(emissive, (TextureInput, PrimvarInput)) and max(emissive) > 0:
+    if glows:   # VTK's PBR emits only through a texture: a white texel times the colour
+        prop.SetEmissiveTexture(_texture(np.full((1, 1, 3), 255, np.uint8), ("clamp", "clamp"),
+                                         srgb=True))
         prop.SetEmissiveFactor(*emissive[:3])
-        if not textured:
-            report(part.name, "a constant emissiveColor without texture coordinates is not "
-                   "drawn (VTK's PBR emits only through a texture)")
     if material.opacity_threshold > 0:
         ShaderRecipe([Replacement("//VTK::Light::Impl", "alpha_cutout", keep_tag="before")],
                      defines={"CM_OPACITY_THRESHOLD": f"{material.opacity_threshold:.9g}"}
@@ -79,22 +85,72 @@ def _set_interpolation(actor, part: SceneMesh, pbr: bool) -> None:
         actor.prop.interpolation = "flat"
 
 
+#: UsdPreviewSurface's defaults, for inputs that cannot be drawn as authored.
+_DEFAULTS = {"diffuse_color": (0.18, 0.18, 0.18), "emissive_color": (0.0, 0.0, 0.0),
+             "opacity": 1.0, "metallic": 0.0, "roughness": 0.5, "occlusion": 1.0}
+
+
+def _resolved(material: SurfaceMaterial, textured: bool, mesh: pyvista.PolyData, name: str,
+              report) -> SurfaceMaterial:
+    """The material with every input VTK cannot take as authored made a constant.
+
+    A texture that cannot be read, or is not mapped (no texture coordinates), becomes its
+    ``fallback`` or its mean (reported); a primvar read as metallic, roughness, opacity or
+    occlusion becomes its mean on the mesh (reported), or its fallback, or the default.
+    The diffuse colour's primvar stays (drawn as vertex colours).
+    """
+    out = replace(material)
+    for field_name, default in _DEFAULTS.items():
+        value = getattr(material, field_name)
+        if isinstance(value, TextureInput):
+            try:
+                mean = texture_values(value).reshape(-1, texture_values(value).shape[-1]).mean(0)
+            except (OSError, ValueError) as exc:
+                report(name, f"texture {value.file!r} could not be read ({exc}); its "
+                       "fallback or the default is used")
+                setattr(out, field_name, _constant(value.fallback, default))
+                continue
+            if not textured:
+                setattr(out, field_name, _constant(value.fallback, default)
+                        if value.fallback is not None else _constant(tuple(mean), default))
+        elif isinstance(value, PrimvarInput) and field_name != "diffuse_color":
+            data = mesh.point_data.get(value.name, mesh.cell_data.get(value.name))
+            if data is None and value.name in mesh.field_data:
+                data = mesh.field_data[value.name]
+            if data is not None:
+                report(name, f"{field_name} from primvar {value.name!r} is drawn as its mean")
+                setattr(out, field_name, _constant(tuple(np.asarray(data).mean(0).ravel()),
+                                                   default))
+            else:
+                setattr(out, field_name, _constant(value.fallback, default))
+    if material.normal is not None and not textured:
+        out.normal = None
+    return out
+
+
+def _constant(value, default):
+    """``value`` shaped like ``default`` (a float, or an RGB tuple), or ``default``."""
+    if value is None:
+        return default
+    array = np.atleast_1d(np.asarray(value, dtype=np.float64))
+    if isinstance(default, tuple):
+        return tuple(float(v) for v in np.resize(array, 3)) if array.size in (1, 3, 4) \
+            else default
+    return float(array[0])
+
+
 def _constants(material: SurfaceMaterial, part: SceneMesh) -> dict:
-    """The uniform factors: colour white under a colour texture, else the constant."""
-    def number(value, default: float) -> float:
-        return float(value) if isinstance(value, (int, float)) else default
+    """The uniform factors: 1 under a texture (VTK multiplies them), else the constant."""
+    def number(value) -> float:
+        return 1.0 if isinstance(value, TextureInput) else float(value)
 
     color = material.diffuse_color
     if isinstance(color, TextureInput):
         color = (1.0, 1.0, 1.0)
     elif isinstance(color, PrimvarInput):
         color = part.color
-    opacity = material.opacity
-    return {"color": tuple(color[:3]),
-            "opacity": part.opacity if isinstance(opacity, PrimvarInput) else
-            number(opacity, 1.0) if not isinstance(opacity, TextureInput) else 1.0,
-            "metallic": number(material.metallic, 1.0),
-            "roughness": number(material.roughness, 1.0)}
+    return {"color": tuple(color[:3]), "opacity": number(material.opacity),
+            "metallic": number(material.metallic), "roughness": number(material.roughness)}
 
 
 def _texture_coordinates(mesh: pyvista.PolyData, material: SurfaceMaterial, name: str,
@@ -111,9 +167,10 @@ def _texture_coordinates(mesh: pyvista.PolyData, material: SurfaceMaterial, name
     if any(t.wrap[0] != t.wrap[1] for t in textures):
         report(name, "a texture's wrapS and wrapT differ; VTK has one wrap mode (repeat is "
                "used when either repeats)")
-    if first.st not in mesh.point_data:
-        report(name, f"textures need the primvar {first.st!r}, which the mesh lacks (or not "
-               "per point); drawn untextured")
+    if first.st not in mesh.point_data or mesh.point_data[first.st].ndim != 2 \
+            or mesh.point_data[first.st].shape[1] < 2:
+        report(name, f"textures need the primvar {first.st!r} as 2D coordinates per point, "
+               "which the mesh lacks; drawn untextured (each texture's fallback or mean)")
         return False
     st = np.asarray(mesh.point_data[first.st], dtype=np.float64)[:, :2]
     if first.st_transform is not None:

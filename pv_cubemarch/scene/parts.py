@@ -42,6 +42,8 @@ class SceneLight:
     angle: float | None = None
     #: A dome light's latitude-longitude image, drawn as image-based lighting.
     texture: str | None = None
+    #: A dome light's orientation in the world (3x3 rotation; its +y is the image's pole).
+    rotation: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     #: A shaped light's cone half-angle (degrees).
     cone_angle: float | None = None
     #: What the intensity is multiplied by: a positional light's emitting area, a distant

@@ -9,6 +9,7 @@ opacity), ORM (occlusion, roughness, metallic in R, G, B) and normal maps (linea
 from __future__ import annotations
 
 import io
+import os
 from functools import lru_cache
 
 import numpy as np
@@ -20,17 +21,19 @@ _CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3}
 
 
 @lru_cache(maxsize=64)
-def _decoded(file: str, data: bytes | None) -> tuple[np.ndarray, bool]:
+def _decoded(file: str, data: bytes | None, stamp: int | None) -> tuple[np.ndarray, bool]:
     """RGBA floats (rows top-down, as in the file) and whether the file is 8-bit.
 
-    Single-channel images give (v, v, v, 1), two-channel ones (v, v, v, a).
+    Single-channel images give (v, v, v, 1), two-channel ones (v, v, v, a). ``stamp``
+    (the file's modification time) keys the cache, so an edited file is read again.
     """
     with Image.open(io.BytesIO(data) if data is not None else file) as image:
         image.load()
         mode = image.mode
         if mode in ("I;16", "I;16B", "I;16L", "I"):
-            values = np.asarray(image, dtype=np.float64) / (65535.0 if "16" in mode else
-                                                            float(np.iinfo(np.int32).max))
+            values = np.asarray(image, dtype=np.float64)
+            # 'I' holds 16-bit PNGs in some Pillow versions: scale by what the values fill
+            values /= 65535.0 if "16" in mode or values.max() <= 65535 else 2.0 ** 31 - 1
             rgba = np.dstack([values] * 3 + [np.ones_like(values)])
             eight_bit = False
         elif mode == "F":
@@ -59,7 +62,8 @@ def linear_to_srgb(values: np.ndarray) -> np.ndarray:
 
 def texture_values(texture: TextureInput) -> np.ndarray:
     """The texture's linear values as the material reads them: (h, w, channels)."""
-    rgba, eight_bit = _decoded(texture.file, texture.data)
+    stamp = None if texture.data is not None else os.stat(texture.file).st_mtime_ns
+    rgba, eight_bit = _decoded(texture.file, texture.data, stamp)
     rgba = rgba.copy()
     srgb = texture.color_space == "sRGB" or texture.color_space == "auto" and eight_bit
     if srgb:

@@ -15,13 +15,16 @@ from pxr import Usd, UsdGeom
 
 from ..parts import SceneMesh
 from .context import PrimError, StageContext
+from .primvars import cell_arrays, reversed_connectivity
 
 
-def read_instancer(ctx: StageContext, prim,
-                   read_local: Callable[[object], list[SceneMesh]]) -> list[SceneMesh]:
-    """Every visible instance's parts, placed in the world.
+def read_instancer(ctx: StageContext, prim, read_local: Callable[[object], list | None],
+                   skip_reason: Callable) -> list[SceneMesh]:
+    """Every visible instance's parts, in the instancer's own frame.
 
-    ``read_local(prim)`` gives a drawable prim's parts in its own frame (or raises).
+    ``read_local(prim)`` gives a drawable prim's parts in its own frame (``None`` for types
+    not drawn; a nested PointInstancer's in its frame); ``skip_reason(ctx, prim)`` says why
+    a prim under a prototype is left out (invisible, guide or render purpose), or ``None``.
     """
     instancer = UsdGeom.PointInstancer(prim)
     prototypes = instancer.GetPrototypesRel().GetTargets()
@@ -38,7 +41,6 @@ def read_instancer(ctx: StageContext, prim,
     if len(matrices) != len(visible):
         raise PrimError(f"its {len(indices)} protoIndices and its positions/orientations/"
                         "scales do not match in length")
-    placement = ctx.world_matrix(prim)
     instances = np.array([np.array(m, dtype=np.float64).T for m in matrices]).reshape(-1, 4, 4)
     parts = []
     for number, target in enumerate(prototypes):
@@ -49,27 +51,34 @@ def read_instancer(ctx: StageContext, prim,
             continue
         if not chosen.size:
             continue
-        for part, relative in _prototype_parts(ctx, root, read_local):
-            copy = _copied(part, placement @ instances[chosen] @ relative)
+        for part, relative in _prototype_parts(ctx, root, read_local, skip_reason):
+            copy = _copied(part, instances[chosen] @ relative)
             copy.name = f"{prim.GetPath()}[{part.name}]"
             parts.append(copy)
     return parts
 
 
-def _prototype_parts(ctx: StageContext, root, read_local):
+def _prototype_parts(ctx: StageContext, root, read_local, skip_reason):
     """(part, matrix from the part's frame to the prototype root's) under ``root``."""
     predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
     walk = iter(Usd.PrimRange(root, predicate))
     for prim in walk:
-        imageable = UsdGeom.Imageable(prim)
-        if imageable and ctx.get(prim, "visibility") == UsdGeom.Tokens.invisible:
+        reason = skip_reason(ctx, prim)
+        if reason is not None:
             walk.PruneChildren()
             continue
         try:
             local = read_local(prim)
-        except PrimError as exc:
-            ctx.report(str(prim.GetPath()), str(exc))
+        except (PrimError, ValueError, TypeError, IndexError, ArithmeticError) as exc:
+            ctx.report(str(prim.GetPath()), f"in a prototype: {exc}")
+            walk.PruneChildren()
             continue
+        if local is None:
+            ctx.report(str(prim.GetPath()), f"{prim.GetTypeName()} in a prototype is not drawn")
+            walk.PruneChildren()
+            continue
+        if str(prim.GetTypeName()) == "PointInstancer":
+            walk.PruneChildren()          # its own prototypes are drawn through it
         if local:
             if prim == root:
                 relative = np.eye(4)
@@ -82,15 +91,20 @@ def _prototype_parts(ctx: StageContext, root, read_local):
 
 
 def _copied(part: SceneMesh, matrices: np.ndarray) -> SceneMesh:
-    """``part`` copied once per matrix (column-vector 4x4s) into one mesh."""
+    """``part`` copied once per matrix (column-vector 4x4s) into one mesh.
+
+    Copies under a mirroring matrix wind their faces the other way; normals turn with the
+    inverse transpose's direction (the cofactor matrix: defined for zero scales too).
+    """
     mesh = part.mesh
     count = len(matrices)
     points = np.einsum("nij,pj->npi", matrices[:, :3, :3], mesh.points) + matrices[:, None, :3, 3]
-    polys = mesh.GetPolys()
-    offsets = pyvista.convert_array(polys.GetOffsetsArray()).astype(np.int64)
-    connectivity = pyvista.convert_array(polys.GetConnectivityArray()).astype(np.int64)
+    offsets, connectivity = cell_arrays(mesh)
+    determinants = np.linalg.det(matrices[:, :3, :3])
+    flipped = reversed_connectivity(offsets, connectivity)
+    per_copy = np.where((determinants < 0)[:, None], flipped[None, :], connectivity[None, :])
     shift = (np.arange(count) * mesh.n_points)[:, None]
-    all_connectivity = (connectivity[None, :] + shift).ravel()
+    all_connectivity = (per_copy + shift).ravel()
     all_offsets = np.concatenate([(offsets[:-1][None, :] + (np.arange(count) * len(
         connectivity))[:, None]).ravel(), [count * len(connectivity)]])
     out = pyvista.PolyData()   # PolyData(points) would add a vertex cell per point
@@ -99,12 +113,20 @@ def _copied(part: SceneMesh, matrices: np.ndarray) -> SceneMesh:
     for name in mesh.point_data.keys():
         values = np.asarray(mesh.point_data[name])
         if name == "Normals":
-            inverse = np.linalg.inv(matrices[:, :3, :3]).transpose(0, 2, 1)
-            turned = np.einsum("nij,pj->npi", inverse, values)
+            a, b, c = (matrices[:, :3, k] for k in range(3))
+            turn = np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=2)
+            turn *= np.where(determinants < 0, -1.0, 1.0)[:, None, None]
+            turned = np.einsum("nij,pj->npi", turn, values)
             turned /= np.maximum(np.linalg.norm(turned, axis=2, keepdims=True), 1e-300)
             out.point_data[name] = turned.reshape(-1, 3)
+            out.point_data.active_normals_name = name
         else:
             out.point_data[name] = np.concatenate([values] * count)
     for name in mesh.cell_data.keys():
         out.cell_data[name] = np.concatenate([np.asarray(mesh.cell_data[name])] * count)
+    for name in mesh.field_data.keys():
+        out.field_data[name] = mesh.field_data[name]
+    if mesh.active_texture_coordinates is not None:
+        out.active_texture_coordinates = np.concatenate(
+            [mesh.active_texture_coordinates] * count)
     return SceneMesh(**{**part.__dict__, "mesh": out})

@@ -47,6 +47,8 @@ def read_camera(ctx: StageContext, prim) -> Camera:
     forward /= np.linalg.norm(forward)
     distance = gf_camera.focusDistance if gf_camera.focusDistance > 0 else 1.0
     clip = gf_camera.clippingRange
+    if not 0.0 < clip.min < clip.max:
+        raise PrimError(f"its clippingRange ({clip.min:g}, {clip.max:g}) is not 0 < near < far")
     angle = float(gf_camera.GetFieldOfView(Gf.Camera.FOVVertical))
     if not 0.0 < angle < 180.0:
         raise PrimError(f"its vertical field of view is {angle:g} degrees (aperture or focal "
@@ -90,6 +92,9 @@ def read_light(ctx: StageContext, prim, type_name: str) -> SceneLight:
             # angle (6.7e-5 sr at the default 0.53 degrees), as Storm draws it
             light.area = 2.0 * np.pi * (1.0 - np.cos(np.radians(light.angle) / 2.0))
     elif kind == "dome":
+        frame = matrix[:3, :3]
+        u, _, vt = np.linalg.svd(frame)            # its rotation, scale left out
+        light.rotation = tuple(map(tuple, u @ vt))
         texture = ctx.get(prim, "inputs:texture:file")
         if texture is not None and getattr(texture, "path", ""):
             if texture.resolvedPath and Path(texture.resolvedPath).is_file():

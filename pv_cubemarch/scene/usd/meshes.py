@@ -29,19 +29,22 @@ from .primvars import (
 )
 
 
-def read_mesh(ctx: StageContext, prim, mirrored: bool) -> list[SceneMesh]:
-    """The mesh's drawn parts in its local frame; ``mirrored``: its placement mirrors."""
+def read_mesh(ctx: StageContext, prim) -> list[SceneMesh]:
+    """The mesh's drawn parts in its local frame, faces wound counter-clockwise (outward).
+
+    A mirroring placement winds them back when the parts are placed (``stage.placed``).
+    """
     usd_mesh = UsdGeom.Mesh(prim)
     name = str(prim.GetPath())
     left = ctx.get(prim, "orientation") == UsdGeom.Tokens.leftHanded
     polygons = read_polygons(ctx.get(prim, "points", []), ctx.get(prim, "faceVertexCounts", []),
-                             ctx.get(prim, "faceVertexIndices", []), reverse=left != mirrored,
+                             ctx.get(prim, "faceVertexIndices", []), reverse=left,
                              holes=ctx.get(prim, "holeIndices", []))
     if polygons.dropped:
         ctx.report(name, f"{polygons.dropped} faces of fewer than 3 vertices left out")
     parts = _material_parts(ctx, prim, polygons)
     wanted = {"displayColor", "displayOpacity"}
-    for material, _ in parts:
+    for material, _, _ in parts:
         if material is not None:
             wanted |= material.primvars()
     primvars = _primvars(ctx, prim, polygons, wanted)
@@ -53,10 +56,10 @@ def read_mesh(ctx: StageContext, prim, mirrored: bool) -> list[SceneMesh]:
         ctx.counts["subdivision"] = ctx.counts.get("subdivision", 0) + 1
     double_sided = bool(ctx.get(prim, "doubleSided", False))
     meshes = []
-    for material, faces in parts:
+    for material, faces, label in parts:
         mesh, source = polydata(polygons, welded, faces)
         shading = _attach_normals(mesh, polygons, welded, source, normals, scheme)
-        part = SceneMesh(name=name if len(parts) == 1 else f"{name}:{_part_name(material)}",
+        part = SceneMesh(name=name if len(parts) == 1 else f"{name}:{label}",
                          mesh=mesh, material=material, shading=shading,
                          double_sided=double_sided)
         _attach_primvars(ctx, part, polygons, welded, source, faces, primvars)
@@ -64,17 +67,16 @@ def read_mesh(ctx: StageContext, prim, mirrored: bool) -> list[SceneMesh]:
     return meshes
 
 
-def _part_name(material: SurfaceMaterial | None) -> str:
-    return "unbound" if material is None else material.name.rsplit("/", 1)[-1]
-
-
 def _material_parts(ctx: StageContext, prim, polygons: Polygons
-                    ) -> list[tuple[SurfaceMaterial | None, np.ndarray | None]]:
-    """(material, drawn faces) of the mesh's material subsets and the rest."""
+                    ) -> list[tuple[SurfaceMaterial | None, np.ndarray | None, str]]:
+    """(material, drawn faces, label) of the mesh's material subsets and the rest.
+
+    A label is the subset's prim name (unique among its siblings), or ``rest``.
+    """
     whole = _material_of(ctx, prim)
     subsets = UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets()
     if not subsets:
-        return [(whole, None)]
+        return [(whole, None, "")]
     drawn_of_authored = np.full(polygons.authored_faces, -1)
     drawn_of_authored[polygons.face_source] = np.arange(len(polygons.face_source))
     taken = np.zeros(len(polygons.counts), dtype=bool)
@@ -89,10 +91,11 @@ def _material_parts(ctx: StageContext, prim, polygons: Polygons
         faces = np.unique(faces[(faces >= 0) & ~taken[np.maximum(faces, 0)]])
         if faces.size:
             taken[faces] = True
-            parts.append((_material_of(ctx, subset.GetPrim()), faces))
+            parts.append((_material_of(ctx, subset.GetPrim()), faces,
+                          str(subset.GetPrim().GetName())))
     rest = np.nonzero(~taken)[0]
     if rest.size:
-        parts.append((whole, rest))
+        parts.append((whole, rest, "rest"))
     return parts
 
 
@@ -121,8 +124,15 @@ def _primvars(ctx: StageContext, prim, polygons: Polygons, wanted: set[str]) -> 
         except (TypeError, ValueError):
             ctx.report(where, f"not numeric ({primvar.GetTypeName()}); left out")
             continue
+        if not primvar.GetTypeName().isArray:   # one value authored without brackets
+            values = values.reshape(1, -1)
         if values.ndim == 1:
             values = values[:, None]
+        columns = {"displayColor": 3, "displayOpacity": 1}.get(name)
+        if columns is not None and values.shape[1] != columns or values.ndim != 2:
+            ctx.report(where, f"has {values.shape[1:]} components per value, not "
+                       f"{columns}; left out")
+            continue
         interpolation = str(primvar.GetInterpolation())
         try:
             check_length(f"primvars:{name}", values, interpolation, polygons)
@@ -164,6 +174,7 @@ def _attach_normals(mesh: pyvista.PolyData, polygons: Polygons, welded: bool,
         else:
             point_values = per_corner(values, interpolation, polygons)[source]
         mesh.point_data["Normals"] = _unit(point_values)
+        mesh.point_data.active_normals_name = "Normals"
         return "normals"
     if scheme == "none" or mesh.n_cells == 0:
         return "flat"
@@ -173,6 +184,7 @@ def _attach_normals(mesh: pyvista.PolyData, polygons: Polygons, welded: bool,
         cell_normals=False, split_vertices=False, consistent_normals=False,
         auto_orient_normals=False).point_data["Normals"]
     mesh.point_data["Normals"] = smooth[source] if welded else smooth[polygons.indices[source]]
+    mesh.point_data.active_normals_name = "Normals"
     return "smooth"
 
 
@@ -181,10 +193,13 @@ def _attach_primvars(ctx: StageContext, part: SceneMesh, polygons: Polygons, wel
     """Store primvars on the part's mesh; set its display colour and opacity."""
     mesh = part.mesh
     drawn_faces = np.arange(len(polygons.counts)) if faces is None else np.unique(faces)
+    material = part.material
+    read = material.diffuse_color.name if material is not None and isinstance(
+        material.diffuse_color, PrimvarInput) else None
     for name, (values, interpolation) in primvars.items():
         if interpolation == CONSTANT:
-            if name == "displayColor":
-                part.color = tuple(float(c) for c in values[0][:3])
+            if name == "displayColor" and material is None or name == read:
+                part.color = tuple(float(c) for c in np.resize(values[0], 3))
             elif name == "displayOpacity":
                 part.opacity = float(values[0][0])
             else:
@@ -196,14 +211,15 @@ def _attach_primvars(ctx: StageContext, part: SceneMesh, polygons: Polygons, wel
             mesh.point_data[name] = values[source]
         else:
             mesh.point_data[name] = per_corner(values, interpolation, polygons)[source]
-        if name == "displayColor":
+        if name == "displayColor" and material is None or name == read:
+            # Storm ignores displayColor under a bound material unless the material reads it
+            colors = mesh.point_data if name in mesh.point_data else mesh.cell_data
+            if colors[name].shape[1:] != (3,):    # a float primvar read as a colour: grey
+                colors[f"{name}:rgb"] = np.repeat(np.asarray(colors[name])[:, :1], 3, axis=1)
+                name = f"{name}:rgb"
             part.vertex_colors = name
         elif name == "displayOpacity":
             part.opacity = float(np.mean(values))
-    material = part.material
-    if material is not None and isinstance(material.diffuse_color, PrimvarInput):
-        if material.diffuse_color.name in primvars:
-            part.vertex_colors = material.diffuse_color.name
 
 
 def _unit(vectors: np.ndarray) -> np.ndarray:

@@ -143,3 +143,27 @@ def polydata(polygons: Polygons, welded: bool, faces: np.ndarray | None = None
     chosen = counts[faces]
     cells = np.insert(local, np.cumsum(chosen) - chosen, chosen) if chosen.size else None
     return pyvista.PolyData(points, faces=cells), source
+
+
+def reversed_connectivity(offsets: np.ndarray, connectivity: np.ndarray) -> np.ndarray:
+    """Each cell's point ids in reverse order (cells given as VTK offsets and connectivity)."""
+    counts = np.diff(offsets)
+    cell = np.repeat(np.arange(len(counts)), counts)
+    position = np.arange(len(connectivity)) - offsets[:-1][cell]
+    return connectivity[offsets[:-1][cell] + counts[cell] - 1 - position]
+
+
+def cell_arrays(mesh: pyvista.PolyData) -> tuple[np.ndarray, np.ndarray]:
+    """The offsets and connectivity of a mesh's polygons."""
+    polys = mesh.GetPolys()
+    return (pyvista.convert_array(polys.GetOffsetsArray()).astype(np.int64),
+            pyvista.convert_array(polys.GetConnectivityArray()).astype(np.int64))
+
+
+def with_winding_reversed(mesh: pyvista.PolyData) -> pyvista.PolyData:
+    """A copy of ``mesh`` whose polygons wind the other way (points and data unchanged)."""
+    offsets, connectivity = cell_arrays(mesh)
+    out = mesh.copy()
+    out.SetPolys(pyvista.CellArray.from_arrays(offsets, reversed_connectivity(
+        offsets, connectivity), deep=True))
+    return out

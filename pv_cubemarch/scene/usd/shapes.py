@@ -183,7 +183,7 @@ def _cubic(points: np.ndarray, widths: np.ndarray, basis: str, wrap: str):
     values = np.column_stack([points, widths])
     if wrap == "periodic":
         values = np.vstack([values, values[:4 - step if step == 3 else 3]])
-    elif wrap == "pinned" and basis != "bezier":
+    elif wrap == "pinned" and basis != "bezier" and len(values) >= 2:
         values = np.vstack([2 * values[0] - values[1], values, 2 * values[-1] - values[-2]])
     segments = (len(values) - 4) // step + 1 if len(values) >= 4 else 0
     if segments <= 0:

@@ -23,6 +23,7 @@ from .context import PrimError, StageContext
 from .instancers import read_instancer
 from .lights import LIGHT_KINDS, read_camera, read_light
 from .meshes import read_mesh
+from .primvars import with_winding_reversed
 from .shapes import PRIMITIVES, read_curves, read_points, read_primitive
 from .volumes import is_field, read_volume
 
@@ -82,8 +83,9 @@ def load_usd(path: str | Path, progress_bar: bool | None = None, as_voxels: bool
     scene = Scene(source=str(path), up_axis=str(UsdGeom.GetStageUpAxis(stage)),
                   meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
                   time=time, usd_lighting=True)
+    # without a time range, each attribute's earliest sample (its default when it has none)
     ctx = StageContext(stage, scene, Usd.TimeCode(time) if time is not None
-                       else Usd.TimeCode.Default(), as_voxels=as_voxels, strict=strict)
+                       else Usd.TimeCode.EarliestTime(), as_voxels=as_voxels, strict=strict)
     predicate = Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)
     walk = iter(Usd.PrimRange(stage.GetPseudoRoot(), predicate))
     next(walk)  # the pseudo-root
@@ -120,10 +122,6 @@ def _read_prim(ctx: StageContext, prim) -> bool:
     if type_name in CONTAINERS or is_field(prim):
         return True
     try:
-        if type_name == "PointInstancer":
-            ctx.scene.meshes.extend(with_fallback(part) for part in
-                                    read_instancer(ctx, prim, lambda p: _local_parts(ctx, p)))
-            return False
         if type_name == "Camera":
             ctx.scene.cameras[path] = read_camera(ctx, prim)
         elif type_name in LIGHT_KINDS:
@@ -132,7 +130,7 @@ def _read_prim(ctx: StageContext, prim) -> bool:
             read_volume(ctx, prim, path)
         else:
             matrix = ctx.world_matrix(prim)
-            parts = _local_parts(ctx, prim, mirrored=np.linalg.det(matrix[:3, :3]) < 0)
+            parts = _local_parts(ctx, prim)
             if parts is None:
                 ctx.report(path, _NOT_DRAWN.get(type_name, f"unsupported prim type {type_name}"))
                 return False
@@ -140,6 +138,8 @@ def _read_prim(ctx: StageContext, prim) -> bool:
                 ctx.report(path, f"{type_name} has no faces to draw")
             parts = [part for part in parts if part.mesh.n_cells]
             ctx.scene.meshes.extend(placed(with_fallback(part), matrix) for part in parts)
+            if type_name == "PointInstancer":
+                return False     # its prototypes are drawn through it only
     except (PrimError, CubemarchError, ValueError, TypeError, IndexError, Tf.ErrorException,
             ArithmeticError) as exc:
         if ctx.strict:
@@ -154,11 +154,13 @@ def _read_prim(ctx: StageContext, prim) -> bool:
     return True
 
 
-def _local_parts(ctx: StageContext, prim, mirrored: bool = False) -> list[SceneMesh] | None:
+def _local_parts(ctx: StageContext, prim) -> list[SceneMesh] | None:
     """A drawable prim's parts in its own frame; ``None`` for prim types we do not draw."""
     type_name = str(prim.GetTypeName())
     if type_name == "Mesh":
-        return read_mesh(ctx, prim, mirrored)
+        return read_mesh(ctx, prim)
+    if type_name == "PointInstancer":
+        return read_instancer(ctx, prim, lambda p: _local_parts(ctx, p), _skip_reason)
     if type_name in PRIMITIVES:
         return read_primitive(ctx, prim, type_name)
     if type_name == "Points":
@@ -179,7 +181,8 @@ def _skip_reason(ctx: StageContext, prim) -> str | None:
         if ctx.get(prim, "visibility") == UsdGeom.Tokens.invisible:
             return "invisible"
         purpose = ctx.get(prim, "purpose")
-        if purpose in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy):
+        if purpose in (UsdGeom.Tokens.guide, UsdGeom.Tokens.render):
+            # usdview shows the default and proxy purposes, not guide or render
             return f"purpose is {purpose}"
     return None
 
@@ -199,14 +202,29 @@ def cofactor(matrix: np.ndarray) -> np.ndarray:
 
 
 def placed(part: SceneMesh, matrix: np.ndarray) -> SceneMesh:
-    """``part`` moved by the column-vector 4x4 ``matrix``, its normals turned with it."""
+    """``part`` moved by the column-vector 4x4 ``matrix``, its normals turned with it.
+
+    A mirroring matrix (negative determinant) winds the faces the other way, so the side
+    facing out stays the front.
+    """
     if np.allclose(matrix, np.eye(4)):
         return part
-    mesh = part.mesh.copy()
+    mirrored = np.linalg.det(matrix[:3, :3]) < 0
+    mesh = with_winding_reversed(part.mesh) if mirrored else part.mesh.copy()
     mesh.points = mesh.points @ matrix[:3, :3].T + matrix[:3, 3]
     if "Normals" in mesh.point_data:
-        normals = np.asarray(mesh.point_data["Normals"]) @ cofactor(matrix[:3, :3]).T
-        lengths = np.linalg.norm(normals, axis=1, keepdims=True)
-        mesh.point_data["Normals"] = normals / np.where(lengths > 0, lengths, 1.0)
+        mesh.point_data["Normals"] = turned_normals(mesh.point_data["Normals"], matrix)
+        mesh.point_data.active_normals_name = "Normals"
     part.mesh = mesh
     return part
+
+
+def turned_normals(normals, matrix: np.ndarray) -> np.ndarray:
+    """Unit normals moved by ``matrix`` (the inverse transpose's direction).
+
+    The cofactor matrix gives that direction and stays defined for singular matrices.
+    """
+    turn = cofactor(matrix[:3, :3]) * (-1.0 if np.linalg.det(matrix[:3, :3]) < 0 else 1.0)
+    out = np.asarray(normals, dtype=np.float64) @ turn.T
+    lengths = np.linalg.norm(out, axis=1, keepdims=True)
+    return out / np.where(lengths > 0, lengths, 1.0)

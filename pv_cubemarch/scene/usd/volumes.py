@@ -13,10 +13,11 @@ from pxr import UsdVol
 
 from ...api import voxel_options
 from ...core.errors import SceneLoadError, VolumeDataError
-from ...core.registry import get_technique
+from ...core.registry import get_technique, techniques
 from ...models.field_sources import make_field
 from ...models.volume import make_volume
 from ...models.voxels import Palette, make_voxels
+from ...volume.options import Shading
 from ..grids import placement, read_grid
 from ..voxel_worlds import ChunkPrim
 from .attributes import (
@@ -64,10 +65,9 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
     attrs = {key: attr(prim, f"cubemarch:{key}") for key in
              ("cmap", "opacity", "clim", "opacityUnitDistance",
               *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))}
-    options = {}
-    for key, option, kind in VOLUME_OPTIONS:
-        if attrs[key] is not None:
-            options[option] = kind(attrs[key])
+    found = authored(prim, name, VOLUME_OPTIONS)
+    options = {option: value for option, value in found.values()}
+    _check_volume_options(name, found, options)
     if options.get("lights") == "none":
         options["lights"] = None
     opacity = attrs["opacity"]
@@ -166,6 +166,26 @@ def _surface(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
         ctx.scene.surface_options[name] = options
 
 
+
+
+def _check_volume_options(name: str, found: dict, options: dict) -> None:
+    """Refuse, when the stage loads, volume options ``add_volume`` would refuse when drawn."""
+    try:
+        technique = get_technique("volume", options.get("technique", "vtk"))
+        technique.make_options({k: v for k, v in options.items()
+                                if k in _volume_option_names()})
+        Shading(**{k: options[k] for k in ("stop_opacity", "skip_empty", "light_map_size",
+                                           "ambient") if k in options}).check()
+    except ValueError as exc:
+        raise options_error(name, found, "volume", exc) from exc
+    if options.get("lights", "scene") not in ("scene", "none"):
+        raise options_error(name, found, "volume", ValueError(
+            f"lights must be 'scene' or 'none', got {options['lights']!r}"))
+
+
+def _volume_option_names() -> set[str]:
+    """Options some volume technique reads and another does not."""
+    return {n for t in techniques("volume") for n in t.option_names}
 
 
 def _field_array(field_prim, grid) -> str | None:
