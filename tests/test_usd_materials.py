@@ -28,7 +28,7 @@ def column_of(x: float) -> int:
     return int(round(QUAD_FIRST + x * (QUAD_LAST - QUAD_FIRST)))
 
 
-def texture_file(path, strip_alpha=0):
+def texture_file(path, strip_alpha=64):
     """64x64 RGBA: the top half red, the bottom half blue, the left eighth of alpha ``strip``."""
     image = np.zeros((64, 64, 4), np.uint8)
     image[..., 3] = 255
@@ -95,7 +95,8 @@ def test_texture_orientation_colours_and_cutout(tmp_path):
     # catches: the image drawn upside down (t = 0 is the image's bottom row), the base colour
     # texture without its sRGB flag (VTK drops it: the quad turns white), opacityThreshold
     # ignored (the strip drawn), and texture coordinates not made active (one colour).
-    texture_file(tmp_path / "tex.png")
+    # the strip's alpha 64/255 = 0.25 is under the threshold 0.5: cut out, not blended
+    texture_file(tmp_path / "tex.png", strip_alpha=64)
     image = render(quad_stage(tmp_path))
     background = image[3, 3]
     top, bottom = image[60, 100], image[140, 100]
@@ -346,3 +347,90 @@ def test_textured_dome_lights_and_is_the_background(tmp_path):
     sky, quad = image[3, 3], image[100, 100]
     assert sky[1] > 230 and sky[0] < 20 and sky[2] < 20
     assert quad[1] > 150 and quad[0] < 40 and quad[2] < 40
+
+
+def latlong_markers(path):
+    """A latitude-longitude image (OpenEXR/USD convention: u = 0.5 looks along +z, u = 0.25
+    along +x, the top row straight up) grey but for coloured columns at +x, +z, -x, -z."""
+    image = np.full((32, 64, 3), 128, np.uint8)
+    for u, color in ((0.25, (0, 255, 0)), (0.5, (255, 0, 0)), (0.75, (0, 0, 255))):
+        column = int(u * 64)
+        image[:, column - 4:column + 4] = color
+    image[:, :4] = image[:, -4:] = (255, 255, 0)
+    image[:6] = (255, 0, 255)        # the pole
+    Image.fromarray(image).save(path)
+
+
+@pytest.mark.parametrize("look, rotate, expected", [
+    ((1, 0, 0), None, "green"), ((0, 0, 1), None, "red"), ((-1, 0, 0), None, "blue"),
+    ((0, 0, -1), None, "yellow"),
+    ((1, 0, 0), ("Y", 90.0), "red"),    # the dome turned 90° about y: its +z faces +x
+    ((0, 0, 1), ("X", 90.0), "magenta"),  # turned 90° about x: its pole (+y) faces +z
+    ((0, 1, 0), ("X", 90.0), "yellow"),   # ... and its -z column faces +y
+])
+def test_dome_texture_orientation(tmp_path, look, rotate, expected):
+    # catches: VTK's own latitude-longitude convention (a quarter turn off USD's) and the
+    # dome prim's rotation ignored.
+    latlong_markers(tmp_path / "sky.png")
+    stage = Usd.Stage.CreateNew(str(tmp_path / "dome.usda"))
+    dome = UsdLux.DomeLight.Define(stage, "/Dome")
+    dome.CreateTextureFileAttr(Sdf.AssetPath("./sky.png"))
+    if rotate is not None:
+        getattr(dome, f"AddRotate{rotate[0]}Op")().Set(rotate[1])
+    camera = UsdGeom.Camera.Define(stage, "/Cam")
+    up = Gf.Vec3d(0, 0, 1) if look[1] else Gf.Vec3d(0, 1, 0)
+    view = Gf.Matrix4d().SetLookAt(Gf.Vec3d(0, 0, 0), Gf.Vec3d(*look), up)
+    camera.AddTransformOp().Set(view.GetInverse())
+    stage.GetRootLayer().Save()
+    centre = cm.load_scene(tmp_path / "dome.usda").render(size=(64, 48))[24, 32].astype(int)
+    colors = {"green": (0, 255, 0), "red": (255, 0, 0), "blue": (0, 0, 255),
+              "yellow": (255, 255, 0), "magenta": (255, 0, 255), "grey": (128, 128, 128)}
+    nearest = min(colors, key=lambda name: np.abs(centre - colors[name]).sum())
+    assert nearest == expected, centre
+
+
+def test_orm_packing_and_texture_settings_reach_vtk(tmp_path):
+    # catches: the ORM channels out of order (VTK: occlusion R, roughness G, metallic B), the
+    # wrap mode, the UsdTransform2d and the emissive texture's sRGB flag not handed to VTK.
+    from pv_cubemarch.scene.textures import orm_image
+    Image.new("RGB", (2, 2), (10, 200, 30)).save(tmp_path / "rough.png")
+    rough = TextureInput(file=str(tmp_path / "rough.png"), channels="g", color_space="raw")
+    assert orm_image(0.2, rough, 0.7)[0, 0].tolist() == [51, 200, 178]
+    path = uv_texture_stage(tmp_path, {
+        "file": (Sdf.ValueTypeNames.Asset, "./rough.png"),
+        "wrapS": (Sdf.ValueTypeNames.Token, "mirror"),
+        "wrapT": (Sdf.ValueTypeNames.Token, "mirror")})
+    stage = Usd.Stage.Open(str(path))
+    surface = UsdShade.Shader(stage.GetPrimAtPath("/Mat/PS"))
+    tex = UsdShade.Shader(stage.GetPrimAtPath("/Mat/Tex"))
+    surface.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        tex.ConnectableAPI(), "rgb")
+    move = UsdShade.Shader.Define(stage, "/Mat/Move")
+    move.CreateIdAttr("UsdTransform2d")
+    move.CreateInput("translation", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.25, 0.5))
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(move.ConnectableAPI(),
+                                                                     "result")
+    ball = UsdGeom.Sphere(stage.GetPrimAtPath("/Ball"))
+    stage.RemovePrim("/Ball")
+    mesh = UsdGeom.Mesh.Define(stage, "/Ball")
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (1, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([3])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
+    UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
+                                            UsdGeom.Tokens.vertex).Set([(0, 0), (1, 0), (1, 1)])
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(
+        UsdShade.Material(stage.GetPrimAtPath("/Mat")))
+    del ball
+    stage.GetRootLayer().Save()
+    pl = cm.offscreen_plotter((32, 32))
+    try:
+        actors = cm.load_scene(path).add_to(pl)
+        actor = actors["/Ball"]
+        prop = actor.GetProperty()
+        albedo = prop.GetTexture("albedoTex")
+        assert albedo.GetWrap() == albedo.MirroredRepeat
+        assert prop.GetTexture("emissiveTex").GetUseSRGBColorSpace()
+        st = np.asarray(actor.mapper.dataset.active_texture_coordinates)
+        assert st.tolist() == [[0.25, 0.5], [1.25, 0.5], [1.25, 1.5]]
+    finally:
+        pl.close()

@@ -39,7 +39,8 @@ def placement(grid, world: np.ndarray | None = None) -> np.ndarray | None:
 
 def read_grid(path: str | Path, where: str, shown: str | None = None,
               field_name: str | None = None, origin=None, spacing=None,
-              cells: bool = False, field_index: int | None = None) -> pyvista.ImageData:
+              cells: bool = False, field_index: int | None = None,
+              margin: int = 0) -> pyvista.ImageData:
     """Read the grid in ``path``; errors start with ``where`` and name the file as ``shown``.
 
     Parameters
@@ -61,6 +62,9 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
         instead of points.
     field_index : int, optional
         Which of several ``.vdb`` grids named ``field_name`` (USD's ``fieldIndex``).
+    margin : int
+        A ``.vdb`` grid only: voxels beyond its active box to read on every side (one, for
+        a surface: its inside may fill the active box).
 
     Returns
     -------
@@ -72,7 +76,7 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
     if suffix == ".vdb":
         try:
             return vdb_image(path, str(field_name) if field_name else None, field_index,
-                             cells=cells)
+                             cells=cells, margin=margin)
         except VdbFormatError as exc:
             raise SceneLoadError(f"{where}: OpenVDB file {shown!r}: {exc}") from exc
     if suffix in (".vti", ".vtk"):
@@ -134,7 +138,7 @@ def load_grid_scene(path: str | Path, as_voxels: bool = False,
     if not path.is_file():
         raise SceneLoadError(f"Grid file {str(path)!r} does not exist.")
     where = f"grid file {str(path)!r}"
-    grid = read_grid(path, where, cells=as_voxels)
+    grid = read_grid(path, where, cells=as_voxels, margin=1 if isovalue is not None else 0)
     scene = Scene(source=str(path))
     try:
         if as_voxels:

@@ -89,7 +89,8 @@ def _add_dome(plotter: pyvista.Plotter, light: SceneLight, report) -> None:
         except (OSError, ValueError) as exc:
             report(light.name, f"dome texture {light.texture!r} could not be read ({exc}); "
                    "a uniform dome of its colour is used")
-    environment = np.full((32, 64, 3), 1.0) if image is None else image
+    environment = np.full((32, 64, 3), 1.0) if image is None else \
+        rotated_latlong(image, np.asarray(light.rotation))
     texture = _float_texture(environment * scale)
     renderer = plotter.renderer
     renderer.UseImageBasedLightingOn()
@@ -97,13 +98,10 @@ def _add_dome(plotter: pyvista.Plotter, light: SceneLight, report) -> None:
     renderer.GetEnvMapLookupTable().SetLUTSize(_LUT_SIZE)
     renderer.GetEnvMapLookupTable().SetLUTSamples(_LUT_SIZE)
     renderer.GetEnvMapPrefiltered().SetPrefilterMaxSamples(_PREFILTER_SAMPLES)
-    # a lookup direction in the world is turned into the dome's frame, then into VTK's
-    # latitude-longitude frame
-    turn = np.asarray(_LATLONG_ROTATION) @ np.asarray(light.rotation).T
     rotation = vtk.vtkMatrix3x3()
     for row in range(3):
         for column in range(3):
-            rotation.SetElement(row, column, float(turn[row, column]))
+            rotation.SetElement(row, column, _LATLONG_ROTATION[row][column])
     renderer.SetEnvironmentRotationMatrix(rotation)
     if image is not None:
         sky = vtk.vtkSkybox()
@@ -111,6 +109,31 @@ def _add_dome(plotter: pyvista.Plotter, light: SceneLight, report) -> None:
         sky.SetProjectionToSphere()
         sky.GammaCorrectOn()
         renderer.AddActor(sky)
+
+
+def rotated_latlong(image: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """A latitude-longitude image (rows bottom-up) as seen once its dome turns by ``rotation``.
+
+    Each texel's world direction (USD's convention: u = 0.5 along +z, u = 0.25 along +x, the
+    top row +y) is turned back into the dome's frame and looked up there (nearest texel),
+    so VTK draws it with one fixed orientation for every dome.
+    """
+    if np.allclose(rotation, np.eye(3)):
+        return image
+    height, width = image.shape[:2]
+    u = (np.arange(width) + 0.5) / width
+    v = 1.0 - (np.arange(height) + 0.5) / height          # rows bottom-up: v from the top
+    longitude = np.pi * (1.0 - 2.0 * u)[None, :]
+    latitude = np.pi * (0.5 - v)[:, None]
+    world = np.stack(np.broadcast_arrays(np.cos(latitude) * np.sin(longitude),
+                                         np.sin(latitude),
+                                         np.cos(latitude) * np.cos(longitude)), axis=-1)
+    local = world @ rotation                                # rotationᵀ · direction, per texel
+    source_u = (1.0 - np.arctan2(local[..., 0], local[..., 2]) / np.pi) / 2.0
+    source_v = 0.5 - np.arcsin(np.clip(local[..., 1], -1.0, 1.0)) / np.pi
+    column = np.clip((source_u * width).astype(int), 0, width - 1)
+    row = np.clip(((1.0 - source_v) * height).astype(int), 0, height - 1)
+    return image[row, column]
 
 
 def _latlong(path: str) -> np.ndarray:

@@ -154,7 +154,10 @@ class Scene:
         actors = {}
         plotter.set_background(self.background)
         for m in progress(self.meshes, desc="adding meshes", enabled=progress_bar):
-            actors[m.name] = add_scene_mesh(plotter, m, self._report)
+            try:
+                actors[m.name] = add_scene_mesh(plotter, m, self._report)
+            except (ValueError, TypeError, IndexError, OSError) as exc:   # drawn without it
+                self._report(m.name, f"could not be drawn ({type(exc).__name__}: {exc})")
         self._add_lights(plotter)
         # Volumes whose boxes overlap are marched jointly, with the first one's options.
         groups = overlap_groups(self.volumes)

@@ -41,7 +41,8 @@ def choose_grid(path: str | Path, name: str | None = None, index: int | None = N
 
 
 def vdb_image(path: str | Path, name: str | None = None, index: int | None = None,
-              cells: bool = False, region=None, stride: int = 1) -> pyvista.ImageData:
+              cells: bool = False, region=None, stride: int = 1,
+              margin: int = 0) -> pyvista.ImageData:
     """One grid of a ``.vdb`` file as an ImageData (values in ``point_data[name]``).
 
     Parameters
@@ -57,6 +58,9 @@ def vdb_image(path: str | Path, name: str | None = None, index: int | None = Non
     region, stride
         A part of the grid (an inclusive index box) and a step, for grids too large to
         read whole (see :func:`~pv_cubemarch.scene.openvdb.read_grid`).
+    margin : int
+        Samples of what lies outside the active box (the background, mostly) to add on
+        every side: a surface whose inside fills the active box closes there.
 
     Returns
     -------
@@ -66,6 +70,11 @@ def vdb_image(path: str | Path, name: str | None = None, index: int | None = Non
     """
     chosen, number, _ = choose_grid(path, name, index)
     grid = read_grid(path, chosen, number, region=region, stride=stride)
+    if margin and region is None:
+        low = np.array(grid.origin_index) - margin * stride
+        high = np.array(grid.origin_index) + (np.array(grid.values.shape[:3]) - 1 + margin) \
+            * stride
+        grid = read_grid(path, chosen, number, region=(tuple(low), tuple(high)), stride=stride)
     return grid_image(grid, cells)
 
 

@@ -55,7 +55,7 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
     if not field_prim:
         raise SceneLoadError(f"Volume {name}: field:{field_name} targets missing prim "
                              f"{fields[field_name]}.")
-    grid = _read_field(ctx, field_prim, cells=voxels)
+    grid = _read_field(ctx, field_prim, cells=voxels, margin=1 if surface else 0)
     if voxels:
         _voxels(ctx, prim, name, field_prim, grid)
         return
@@ -257,7 +257,8 @@ def _palette(prim, name: str, where: str, top: int) -> Palette:
 
 
 
-def _read_field(ctx: StageContext, field_prim, cells: bool = False) -> pyvista.ImageData:
+def _read_field(ctx: StageContext, field_prim, cells: bool = False,
+                margin: int = 0) -> pyvista.ImageData:
     """Load the grid a field prim's ``filePath`` names (.vti/.vtk/.npy/.npz/.vdb).
 
     The file path is read at the stage time (a sequence of files animates a volume);
@@ -278,6 +279,7 @@ def _read_field(ctx: StageContext, field_prim, cells: bool = False) -> pyvista.I
     field_index = attr(field_prim, "fieldIndex")
     return read_grid(resolved, where, asset.path, str(field_name) if field_name else None,
                      attr(field_prim, "cubemarch:origin"), attr(field_prim, "cubemarch:spacing"),
-                     cells=cells, field_index=None if field_index is None else int(field_index))
+                     cells=cells, field_index=None if field_index is None else int(field_index),
+                     margin=margin)
 
 
