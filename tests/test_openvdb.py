@@ -519,3 +519,45 @@ def test_cli_renders_a_vdb_file(ref_dir, tmp_path):
     image = np.asarray(Image.open(out))[..., :3].astype(int)
     # the fog sphere fills the middle of the default view; the corners are background
     assert np.abs(image[36, 48] - image[2, 2]).sum() > 60
+
+
+def _openvdb_writes(path, code: str) -> None:
+    """Run ``code`` (with ``v`` = pyopenvdb and ``path``) under the reference library."""
+    assert _has_pyopenvdb(), MISSING_REFERENCE
+    subprocess.run([SYSTEM_PYTHON, "-c", f"import pyopenvdb as v\npath = {str(path)!r}\n"
+                    + code], check=True, timeout=120)
+
+
+def test_voxels_fill_their_cells_and_sheared_maps_place_volumes(tmp_path):
+    # catches: a VDB's labels put on points (voxels centred half a voxel off), and a sheared
+    # map (kept as field data) left out of the volume's placement.
+    shear = [[0.5, 0.0, 0.0, 0.0], [0.25, 0.5, 0.0, 0.0], [0.0, 0.0, 0.5, 0.0],
+             [1.0, 2.0, 3.0, 1.0]]
+    _openvdb_writes(tmp_path / "s.vdb", f"""
+g = v.FloatGrid(); g.name = 'density'
+g.fill((2, 3, 4), (5, 6, 7), 1.0, True)
+g.transform = v.createLinearTransform({shear})
+v.write(path, [g])
+""")
+    matrix = np.array(shear).T                            # OpenVDB's row-vector convention
+    volume = cm.load_scene(tmp_path / "s.vdb").volumes[0]
+    corner = np.eye(4)
+    corner[:3, 3] = (2, 3, 4)
+    np.testing.assert_allclose(volume.world_from_index(), matrix @ corner, atol=1e-9)
+    voxels = cm.load_scene(tmp_path / "s.vdb", as_voxels=True).voxels[0]
+    corner[:3, 3] = (1.5, 2.5, 3.5)                        # voxel (2, 3, 4) spans ±0.5
+    np.testing.assert_allclose(voxels.world_from_index(), matrix @ corner, atol=1e-9)
+
+
+def test_a_surface_closes_at_the_edge_of_the_active_box(tmp_path):
+    # A fog block of 1s (background 0): the level 0.5 lies between the active box and the
+    # background just outside; without a margin read past the box the surface is lost.
+    _openvdb_writes(tmp_path / "b.vdb", """
+g = v.FloatGrid(0.0); g.name = 'density'
+g.fill((0, 0, 0), (5, 5, 5), 1.0, True)
+v.write(path, [g])
+""")
+    surface = cm.load_scene(tmp_path / "b.vdb", isovalue=0.5).surfaces[0]
+    assert surface.dimensions == (8, 8, 8)                 # 6 voxels and one on each side
+    image = cm.load_scene(tmp_path / "b.vdb", isovalue=0.5).render(size=(48, 36))
+    assert np.abs(image[18, 24].astype(int) - image[1, 1]).sum() > 60   # the block is drawn

@@ -355,3 +355,111 @@ def test_cylinder_of_two_radii_and_oriented_instances(tmp_path):
     # turned onto y, centred on (0, 0, 20); 1e-3: orientations are half floats
     assert parts["/Inst[/Inst/Protos/Bar]"].bounds == pytest.approx(
         (-0.5, 0.5, -2, 2, 19.5, 20.5), abs=1e-3)
+
+
+def test_normals_turn_by_the_inverse_transpose_and_stay_active(tmp_path):
+    # A face in the plane x + y = 0 (normal (1, 1, 0)/√2) scaled by 2 in x lies in
+    # x/2 + y = 0: its normal is (1/2, 1, 0)/|.| = (0.447, 0.894, 0), not M·n (0.894, 0.447).
+    stage = new_stage(tmp_path)
+    mesh = UsdGeom.Mesh.Define(stage, "/Tilted")
+    mesh.CreatePointsAttr([(1, -1, 0), (1, -1, 1), (-1, 1, 1), (-1, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    mesh.CreateNormalsAttr([(np.sqrt(0.5), np.sqrt(0.5), 0)] * 4)
+    mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+    mesh.AddScaleOp().Set(Gf.Vec3f(2, 1, 1))
+    part = load(stage).meshes[0]
+    assert part.mesh.point_data.active_normals_name == "Normals"   # VTK draws with them
+    assert np.allclose(part.mesh.point_data["Normals"], (1 / np.sqrt(5), 2 / np.sqrt(5), 0))
+
+
+def outward(part) -> bool:
+    """Every face's winding normal points away from the part's centre."""
+    mesh = part.mesh.compute_normals(cell_normals=True, point_normals=False,
+                                     consistent_normals=False, auto_orient_normals=False)
+    away = mesh.cell_centers().points - np.asarray(mesh.center)
+    return bool((np.einsum("ij,ij->i", mesh.cell_data["Normals"], away) > 0).all())
+
+
+def test_mirrored_primitives_and_instances_keep_their_fronts_outside(tmp_path):
+    # catches: a negative scale drawing spheres inside out (back faces culled: the far side
+    # shows), and mirrored instances or a zero-scale instance dropping the instancer.
+    stage = new_stage(tmp_path)
+    UsdGeom.Sphere.Define(stage, "/Mirror").AddScaleOp().Set(Gf.Vec3f(-1, 1, 1))
+    instancer = UsdGeom.PointInstancer.Define(stage, "/Inst")
+    ball = UsdGeom.Sphere.Define(stage, "/Inst/Protos/Ball")
+    instancer.CreatePrototypesRel().SetTargets([ball.GetPath()])
+    instancer.CreateProtoIndicesAttr([0, 0, 0])
+    instancer.CreatePositionsAttr([(10, 0, 0), (20, 0, 0), (30, 0, 0)])
+    instancer.CreateScalesAttr([(-1, 1, 1), (0, 0, 0), (1, 1, 1)])
+    parts = {m.name: m for m in load(stage).meshes}
+    assert outward(parts["/Mirror"])
+    copies = parts["/Inst[/Inst/Protos/Ball]"].mesh
+    first = copies.extract_points(copies.points[:, 0] < 15, adjacent_cells=False)
+    assert first.n_cells and outward(type(parts["/Mirror"])(name="x", mesh=first
+                                                            .extract_surface()))
+    assert copies.bounds[1] == pytest.approx(31, abs=0.01)    # the last copy is there
+
+
+def test_nested_instancers_and_prototype_children(tmp_path):
+    stage = new_stage(tmp_path)
+    outer = UsdGeom.PointInstancer.Define(stage, "/Outer")
+    inner = UsdGeom.PointInstancer.Define(stage, "/Outer/Protos/Inner")
+    holder = UsdGeom.Xform.Define(stage, "/Outer/Protos/Inner/Protos/Holder")
+    cube = UsdGeom.Cube.Define(stage, "/Outer/Protos/Inner/Protos/Holder/Box")
+    cube.CreateSizeAttr(1.0)
+    cube.AddTranslateOp().Set(Gf.Vec3d(0, 5, 0))          # a child below the prototype root
+    inner.CreatePrototypesRel().SetTargets([holder.GetPath()])
+    inner.CreateProtoIndicesAttr([0, 0])
+    inner.CreatePositionsAttr([(0, 0, 0), (0, 0, 3)])
+    outer.CreatePrototypesRel().SetTargets([inner.GetPath()])
+    outer.CreateProtoIndicesAttr([0])
+    outer.CreatePositionsAttr([(100, 0, 0)])
+    (part,) = load(stage).meshes
+    # two boxes (the inner instances), moved by the outer instance, 5 up from their holder
+    assert part.mesh.n_cells == 2 * 12
+    assert part.mesh.bounds == pytest.approx((99.5, 100.5, 4.5, 5.5, -0.5, 3.5))
+
+
+def test_uniform_values_follow_their_faces_when_faces_are_dropped(tmp_path):
+    stage = new_stage(tmp_path)
+    mesh = UsdGeom.Mesh.Define(stage, "/M")
+    mesh.CreatePointsAttr(POINTS)
+    mesh.CreateFaceVertexCountsAttr([2, 4, 4])            # the first face is a segment
+    mesh.CreateFaceVertexIndicesAttr([0, 1, *INDICES])
+    mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.uniform).Set(
+        [(1, 1, 1), (1, 0, 0), (0, 1, 0)])
+    with pytest.warns(cm.SceneWarning):
+        part = load(stage).meshes[0]
+    assert np.allclose(part.mesh.cell_data["displayColor"], [(1, 0, 0), (0, 1, 0)])
+
+
+def test_cubic_bases_and_wrap_modes():
+    from pv_cubemarch.scene.usd.shapes import CURVE_SAMPLES, _cubic
+    points = np.array([(0, 0, 0), (1, 2, 0), (3, 2, 0), (4, 0, 0), (6, 1, 0)], float)
+    widths = np.ones(len(points))
+    # Catmull-Rom interpolates its inner control points, segment by segment
+    samples, _ = _cubic(points, widths, "catmullRom", "nonperiodic")
+    assert np.allclose(samples[::CURVE_SAMPLES], points[1:4])
+    # pinned: phantom end points make it start and end at the first and last points
+    samples, _ = _cubic(points, widths, "bspline", "pinned")
+    assert np.allclose(samples[0], points[0]) and np.allclose(samples[-1], points[-1])
+    # periodic: closed
+    samples, _ = _cubic(points, widths, "bspline", "periodic")
+    assert np.allclose(samples[0], samples[-1])
+    # a B-spline's first sample is (p0 + 4 p1 + p2) / 6
+    samples, _ = _cubic(points, widths, "bspline", "nonperiodic")
+    assert np.allclose(samples[0], (points[0] + 4 * points[1] + points[2]) / 6)
+
+
+def test_animated_attributes_are_read_at_the_time(tmp_path):
+    # catches: attributes read at the default time (only transforms followed the time), and
+    # a stage with samples but no time range read at no time (its points missing).
+    stage = new_stage(tmp_path)
+    ball = UsdGeom.Sphere.Define(stage, "/Ball")
+    ball.CreateRadiusAttr().Set(1.0, 1)
+    ball.GetRadiusAttr().Set(3.0, 2)
+    path = tmp_path / "s.usda"
+    stage.GetRootLayer().Save()
+    assert cm.load_scene(path).meshes[0].mesh.bounds[1] == pytest.approx(1.0, abs=0.01)
+    assert cm.load_scene(path, time=2).meshes[0].mesh.bounds[1] == pytest.approx(3.0, abs=0.01)
