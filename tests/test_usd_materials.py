@@ -434,3 +434,30 @@ def test_orm_packing_and_texture_settings_reach_vtk(tmp_path):
         assert st.tolist() == [[0.25, 0.5], [1.25, 0.5], [1.25, 1.5]]
     finally:
         pl.close()
+
+
+def test_constant_normal_and_default_valued_inputs(tmp_path):
+    # From the usd-wg survey: a constant `normal = (0, 0, 1)` on a textured material crashed
+    # the drawing (a tuple taken for a normal map), and inputs authored at their defaults
+    # (clearcoat 0, ior 1.5) flooded the report though nothing is lost.
+    texture_file(tmp_path / "tex.png")
+    path = quad_stage(tmp_path)
+    stage = Usd.Stage.Open(str(path))
+    surface = UsdShade.Shader(stage.GetPrimAtPath("/Mat/PS"))
+    surface.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).Set(Gf.Vec3f(0, 0, 1))
+    surface.CreateInput("clearcoat", Sdf.ValueTypeNames.Float).Set(0.0)
+    surface.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.5)
+    surface.CreateInput("clearcoatRoughness", Sdf.ValueTypeNames.Float).Set(0.3)
+    stage.GetRootLayer().Save()
+    scene = cm.load_scene(path)
+    assert scene.meshes[0].material.normal is None
+    assert scene.meshes[0].material.ignored == ["clearcoatRoughness"]
+    assert render(path)[60, 100][0] > 100          # drawn, textured
+
+
+def test_an_up_axis_other_than_y_or_z_is_reported(tmp_path):
+    path = tmp_path / "x.usda"
+    path.write_text('#usda 1.0\n(\n    upAxis = "X"\n)\ndef Sphere "Ball" {}\n')
+    with pytest.warns(cm.SceneWarning, match="upAxis 'X'"):
+        scene = cm.load_scene(path)
+    assert scene.up_axis == "Y" and scene.render(size=(32, 24)).shape == (24, 32, 3)

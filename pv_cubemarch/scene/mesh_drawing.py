@@ -104,7 +104,8 @@ def _resolved(material: SurfaceMaterial, textured: bool, mesh: pyvista.PolyData,
         value = getattr(material, field_name)
         if isinstance(value, TextureInput):
             try:
-                mean = texture_values(value).reshape(-1, texture_values(value).shape[-1]).mean(0)
+                values = texture_values(value)
+                mean = values.reshape(-1, values.shape[-1]).mean(0) if not textured else None
             except (OSError, ValueError) as exc:
                 report(name, f"texture {value.file!r} could not be read ({exc}); its "
                        "fallback or the default is used")

@@ -61,17 +61,32 @@ def linear_to_srgb(values: np.ndarray) -> np.ndarray:
 
 
 def texture_values(texture: TextureInput) -> np.ndarray:
-    """The texture's linear values as the material reads them: (h, w, channels)."""
+    """The texture's linear values as the material reads them: (h, w, channels), read-only.
+
+    Cached by file (and its modification time), colour space, scale, bias and channels: a
+    texture many materials share is decoded and converted once.
+    """
     stamp = None if texture.data is not None else os.stat(texture.file).st_mtime_ns
-    rgba, eight_bit = _decoded(texture.file, texture.data, stamp)
+    return _values(texture.file, texture.data, stamp, texture.color_space,
+                   tuple(texture.scale), tuple(texture.bias), texture.channels)
+
+
+@lru_cache(maxsize=64)
+def _values(file: str, data: bytes | None, stamp, color_space: str, scale: tuple,
+            bias: tuple, channels: str) -> np.ndarray:
+    rgba, eight_bit = _decoded(file, data, stamp)
     rgba = rgba.copy()
-    srgb = texture.color_space == "sRGB" or texture.color_space == "auto" and eight_bit
-    if srgb:
+    if color_space == "sRGB" or color_space == "auto" and eight_bit:
         rgba[..., :3] = srgb_to_linear(rgba[..., :3])
-    rgba = rgba * np.asarray(texture.scale) + np.asarray(texture.bias)
-    if texture.channels in ("rgb", "rgba"):
-        return rgba[..., :len(texture.channels)]
-    return rgba[..., _CHANNELS[texture.channels]:_CHANNELS[texture.channels] + 1]
+    if scale != (1.0, 1.0, 1.0, 1.0) or bias != (0.0, 0.0, 0.0, 0.0):
+        rgba = rgba * np.asarray(scale) + np.asarray(bias)
+    if channels in ("rgb", "rgba"):
+        out = rgba[..., :len(channels)]
+    else:
+        out = rgba[..., _CHANNELS[channels]:_CHANNELS[channels] + 1]
+    out = np.ascontiguousarray(out)
+    out.setflags(write=False)
+    return out
 
 
 def _resized(values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -103,7 +103,9 @@ def _material_of(ctx: StageContext, prim) -> SurfaceMaterial | None:
     material = bound_material(prim)
     if material is None:
         return None
-    key = str(material.GetPath())
+    prim = material.GetPrim()
+    # instances share their prototype's material: read (and reported) once
+    key = str(prim.GetPrimInPrototype().GetPath() if prim.IsInstanceProxy() else prim.GetPath())
     if key not in ctx.materials:
         ctx.materials[key] = read_material(ctx, material)
     return ctx.materials[key]

@@ -20,9 +20,11 @@ from .context import PrimError, StageContext
 DRAWN_INPUTS = {"diffuseColor": "diffuse_color", "emissiveColor": "emissive_color",
                 "opacity": "opacity", "metallic": "metallic", "roughness": "roughness",
                 "occlusion": "occlusion", "normal": "normal"}
-#: Inputs read but not drawn: VTK's PBR has no equivalent we use.
-UNDRAWN_INPUTS = ("clearcoat", "clearcoatRoughness", "displacement", "specularColor",
-                  "useSpecularWorkflow", "ior", "specular")
+#: Inputs not drawn (VTK's PBR has no equivalent we use), with the UsdPreviewSurface
+#: defaults at which leaving them out changes nothing.
+UNDRAWN_INPUTS = {"clearcoat": 0.0, "clearcoatRoughness": 0.01, "displacement": 0.0,
+                  "specularColor": (0.0, 0.0, 0.0), "useSpecularWorkflow": 0, "ior": 1.5,
+                  "specular": None}
 _WRAPS = {"repeat": "repeat", "clamp": "clamp", "mirror": "mirror", "black": "black",
           "useMetadata": "repeat"}
 
@@ -61,6 +63,8 @@ def read_material(ctx: StageContext, material) -> SurfaceMaterial | None:
         except PrimError as exc:
             ctx.report(f"{shader.GetPath()}.inputs:{name}", f"{exc}; its default is used")
             continue
+        if field_name == "normal" and not isinstance(value, TextureInput):
+            continue          # a constant normal is the surface's own (its default)
         if value is not None:
             setattr(result, field_name, value)
     threshold = shader.GetInput("opacityThreshold")
@@ -68,14 +72,27 @@ def read_material(ctx: StageContext, material) -> SurfaceMaterial | None:
         value = _input_value(ctx, threshold, "opacityThreshold")
         if isinstance(value, float):
             result.opacity_threshold = value
-    result.ignored = [name for name in UNDRAWN_INPUTS if shader.GetInput(name)
-                      and _producer(shader.GetInput(name)) is not None
-                      and (name != "useSpecularWorkflow"
-                           or _shader_value(ctx, shader, name))]
+    result.ignored = [name for name, default in UNDRAWN_INPUTS.items()
+                      if shader.GetInput(name) and _changes_look(ctx, shader, name, default)]
     if result.ignored:
         ctx.report(path, f"inputs {', '.join(result.ignored)} are read but not drawn (VTK's "
                    "PBR has no equivalent we use)")
     return result
+
+
+def _changes_look(ctx: StageContext, shader, name: str, default) -> bool:
+    """Whether an input we do not draw is authored away from its default (or connected)."""
+    attribute = _producer(shader.GetInput(name))
+    if attribute is None:
+        return False
+    if UsdShade.Output.IsOutput(attribute) or default is None:
+        return True
+    value = attribute.Get(ctx.time)
+    try:
+        return value is not None and not np.allclose(np.asarray(value, dtype=np.float64),
+                                                     default)
+    except (TypeError, ValueError):
+        return True
 
 
 def _producer(shader_input):

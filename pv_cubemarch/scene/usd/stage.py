@@ -80,12 +80,15 @@ def load_usd(path: str | Path, progress_bar: bool | None = None, as_voxels: bool
         raise SceneLoadError(f"time must be a finite time code, got {time!r}.")
     if time is None and stage.HasAuthoredTimeCodeRange():
         time = stage.GetStartTimeCode()
-    scene = Scene(source=str(path), up_axis=str(UsdGeom.GetStageUpAxis(stage)),
+    up_axis = str(UsdGeom.GetStageUpAxis(stage))
+    scene = Scene(source=str(path), up_axis=up_axis if up_axis in ("Y", "Z") else "Y",
                   meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
                   time=time, usd_lighting=True)
     # without a time range, each attribute's earliest sample (its default when it has none)
     ctx = StageContext(stage, scene, Usd.TimeCode(time) if time is not None
                        else Usd.TimeCode.EarliestTime(), as_voxels=as_voxels, strict=strict)
+    if up_axis not in ("Y", "Z"):
+        ctx.report("/", f"upAxis {up_axis!r} is not Y or Z (USD allows only those); Y is used")
     predicate = Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)
     walk = iter(Usd.PrimRange(stage.GetPseudoRoot(), predicate))
     next(walk)  # the pseudo-root
