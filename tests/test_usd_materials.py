@@ -38,6 +38,24 @@ def texture_file(path, strip_alpha=64):
     Image.fromarray(image).save(path)
 
 
+def primvar_reader(stage, name: str):
+    """/Mat/St: a UsdPrimvarReader_float2 of the primvar ``name``."""
+    reader = UsdShade.Shader.Define(stage, "/Mat/St")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set(name)
+    return reader
+
+
+def uv_texture(stage, file: str, st_source):
+    """/Mat/Tex: a UsdUVTexture of ``file`` whose st is ``st_source``'s result."""
+    tex = UsdShade.Shader.Define(stage, "/Mat/Tex")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(file)
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
+        st_source.ConnectableAPI(), "result")
+    return tex
+
+
 def quad_stage(tmp_path, texture="./tex.png", threshold=0.5, lights="sun", name="q.usda"):
     stage = Usd.Stage.CreateNew(str(tmp_path / name))
     mesh = UsdGeom.Mesh.Define(stage, "/Quad")
@@ -52,14 +70,7 @@ def quad_stage(tmp_path, texture="./tex.png", threshold=0.5, lights="sun", name=
     surface = UsdShade.Shader.Define(stage, "/Mat/PS")
     surface.CreateIdAttr("UsdPreviewSurface")
     if texture is not None:
-        tex = UsdShade.Shader.Define(stage, "/Mat/Tex")
-        tex.CreateIdAttr("UsdUVTexture")
-        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(texture)
-        reader = UsdShade.Shader.Define(stage, "/Mat/St")
-        reader.CreateIdAttr("UsdPrimvarReader_float2")
-        reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
-        tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
-            reader.ConnectableAPI(), "result")
+        tex = uv_texture(stage, texture, primvar_reader(stage, "st"))
         surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
             tex.ConnectableAPI(), "rgb")
         surface.CreateInput("opacity", Sdf.ValueTypeNames.Float).ConnectToSource(
@@ -205,17 +216,10 @@ def test_transform_2d_material_interface_and_primvar_reader(tmp_path):
     transform.CreateInput("scale", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(2, 3))
     transform.CreateInput("rotation", Sdf.ValueTypeNames.Float).Set(90.0)
     transform.CreateInput("translation", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.5, 0.25))
-    reader = UsdShade.Shader.Define(stage, "/Mat/St")
-    reader.CreateIdAttr("UsdPrimvarReader_float2")
-    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("uv")
     transform.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(
-        reader.ConnectableAPI(), "result")
+        primvar_reader(stage, "uv").ConnectableAPI(), "result")
     Image.new("RGB", (2, 2)).save(tmp_path / "r.png")
-    tex = UsdShade.Shader.Define(stage, "/Mat/Tex")
-    tex.CreateIdAttr("UsdUVTexture")
-    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("./r.png")
-    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
-        transform.ConnectableAPI(), "result")
+    tex = uv_texture(stage, "./r.png", transform)
     surface.CreateInput("roughness", Sdf.ValueTypeNames.Float).ConnectToSource(
         tex.ConnectableAPI(), "r")
     material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
