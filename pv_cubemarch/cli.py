@@ -24,6 +24,7 @@ from .models.voxels import VoxelModel
 from .scene.io import load_scene
 from .surfaces.options import ROOTS
 from .surfaces.options import TRAVERSALS as SURFACE_TRAVERSALS
+from .views.app import serve
 from .volume.options import Shading
 from .voxels.options import MODES, SHADINGS, TRAVERSALS, VoxelOptions
 
@@ -149,6 +150,15 @@ def build_parser() -> argparse.ArgumentParser:
                                   "leaving it out with a note")
     info.add_argument("--gl", action="store_true", help="report the window class and GL strings")
     info.add_argument("--json", action="store_true", help="print JSON instead of text")
+    view = commands.add_parser("view", help="serve a live view of a scene with its techniques' "
+                                            "knobs (a trame app on localhost)")
+    view.add_argument("scene", nargs="?", help="scene file (default: the shipped "
+                                               "datasets/smoke_scene.usda)")
+    view.add_argument("--port", type=int, default=8080, help="port (default 8080)")
+    view.add_argument("--host", default="127.0.0.1",
+                      help="address to listen on (default 127.0.0.1: this machine only)")
+    view.add_argument("--size", type=_size, default=(800, 600),
+                      help="view size WxH (default 800x600)")
     bench = commands.add_parser("bench", help="speed/accuracy measurements")
     bench_commands = bench.add_subparsers(dest="bench_command", required=True)
     tradeoff = bench_commands.add_parser(
@@ -243,6 +253,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: The shipped scene the bench and the viewer use when none is given.
+DEFAULT_SCENE = Path(__file__).resolve().parents[1] / "datasets" / "smoke_scene.usda"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``pv-cubemarch``; returns the process exit code."""
     args = build_parser().parse_args(argv)
@@ -251,6 +265,9 @@ def main(argv: list[str] | None = None) -> int:
             return _render(args)
         if args.command == "bench":
             return _bench(args)
+        if args.command == "view":
+            serve(args.scene or DEFAULT_SCENE, port=args.port, host=args.host, size=args.size)
+            return 0
         return _info(args)
     except (CubemarchError, FileNotFoundError, KeyError, ValueError) as exc:
         print(f"pv-cubemarch: error: {exc}", file=sys.stderr)
@@ -443,8 +460,7 @@ def _bench(args) -> int:
                 indent=1))
             print(f"wrote {args.json_path}")
         return 0
-    scene_path = args.scene or str(Path(__file__).resolve().parents[1] / "datasets"
-                                   / "smoke_scene.usda")
+    scene_path = args.scene or str(DEFAULT_SCENE)
     if not Path(scene_path).exists():
         raise FileNotFoundError(f"Scene {scene_path!r} not found; pass --scene.")
     scene = load_scene(scene_path, progress_bar=False)

@@ -1,0 +1,168 @@
+"""The trame app: the plotter rendered on the server (our GLSL included) and a knob panel.
+
+Built from a :class:`~pv_cubemarch.views.session.TuningSession`: one panel section per kind
+of technique in the scene, a control per knob (bound to trame state ``<kind>__<option>``),
+the last frame's time, and a button that measures the error against the CPU reference.
+trame, trame-vtk and trame-vuetify are the optional ``jupyter`` extra; without them
+:func:`build_app` says what to install.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+import pyvista
+
+from ..core.rendering import offscreen_plotter
+from ..scene.io import load_scene
+from ..scene.model import Scene
+from .knobs import Knob
+from .session import TuningSession
+
+try:
+    from trame.app import get_server
+    from trame.ui.vuetify3 import SinglePageWithDrawerLayout
+    from trame.widgets import html, vuetify3
+    from trame.widgets import vtk as vtk_widgets
+except ImportError:                    # the optional extra is not installed
+    get_server = None
+
+INSTALL = "install the optional extra: pip install 'pv_cubemarch[jupyter]' (trame, trame-vtk, " \
+    "trame-vuetify)"
+
+
+def state_name(kind: str, knob: Knob) -> str:
+    """The trame state variable of a knob."""
+    return f"{kind}__{knob.name}"
+
+
+def build_app(scene: Scene | str, size: tuple[int, int] = (800, 600), name: str = "cubemarch"):
+    """The trame server, its layout and the tuning session for ``scene``.
+
+    Parameters
+    ----------
+    scene : Scene or str
+        A scene, or a path :func:`pv_cubemarch.load_scene` reads.
+    size : tuple of int
+        The view's size in pixels (the server renders at this size).
+    name : str
+        The trame server's name (one server per name and process).
+
+    Returns
+    -------
+    tuple
+        ``(server, layout, session)``.
+    """
+    if get_server is None:
+        raise ImportError(f"pv_cubemarch's live view needs trame: {INSTALL}.")
+    # trame-vtklocal (pulled in by some trame installs) downloads WebAssembly when it
+    # starts; an empty local folder keeps it offline.
+    os.environ.setdefault("VTK_WASM_DIR_OVERRIDE", tempfile.mkdtemp(prefix="cubemarch_wasm"))
+    scene = load_scene(scene) if not isinstance(scene, Scene) else scene
+    plotter = offscreen_plotter(size)
+    session = TuningSession(scene, plotter)
+    session.draw()                      # context and shaders before any client connects
+    server = get_server(name, client_type="vue3")
+    state, ctrl = server.state, server.controller
+    state.trame__title = "pv_cubemarch"
+    state.frame_ms = round(session.last_frame_ms or 0.0, 1)
+    state.error_text = "error: not measured"
+    for kind in session.kinds():
+        for knob in session.knobs(kind):
+            _bind(server, session, kind, knob)
+    layout = _layout(server, session, plotter, size)
+
+    @ctrl.set("measure_error")
+    def measure_error():
+        try:
+            errors = session.reference_error()
+        except ValueError as exc:
+            state.error_text = f"error: {exc}"
+            return
+        state.error_text = (f"error vs CPU reference: mean {errors['mean_abs']:.2f}/255, "
+                            f"PSNR {errors['psnr']:.1f} dB, SSIM {errors['ssim']:.4f}")
+    return server, layout, session
+
+
+def _bind(server, session: TuningSession, kind: str, knob: Knob) -> None:
+    """Set the knob's state from the session and redraw when it changes."""
+    state, ctrl = server.state, server.controller
+    variable = state_name(kind, knob)
+    value = session.value(kind, knob.name)
+    initial = value if value is not None else (knob.choices[0] if knob.choices else knob.low)
+    state[variable] = initial
+
+    @state.change(variable)
+    def changed(**current):
+        new = current[variable]
+        unset = session.value(kind, knob.name) is None
+        if new == session.value(kind, knob.name) or unset and new == initial:
+            return                      # the control's start (an option left at "auto")
+        try:
+            state.frame_ms = round(session.set(kind, knob.name, _typed(knob, new)), 1)
+            state.message = ""
+        except ValueError as exc:
+            state.message = str(exc)
+        state.error_text = "error: not measured"
+        ctrl.view_update()
+
+
+def _typed(knob: Knob, value):
+    """A control's value as the option's type."""
+    if knob.control == "switch":
+        return bool(value)
+    if knob.control == "slider":
+        return float(value) if isinstance(knob.step, float) and knob.step % 1 else \
+            int(round(float(value)))
+    choice = next((c for c in knob.choices if str(c) == str(value)), value)
+    return choice
+
+
+def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size):
+    """The page: a drawer of knobs by kind and the server-rendered view."""
+    with SinglePageWithDrawerLayout(server) as layout:
+        layout.title.set_text("pv_cubemarch")
+        with layout.drawer:
+            for kind in session.kinds():
+                html.Div(kind, classes="text-subtitle-2 ma-2")
+                for knob in session.knobs(kind):
+                    _control(kind, knob)
+            html.Div("frame: {{ frame_ms }} ms", id="frame-time", classes="ma-2")
+            vuetify3.VBtn("measure error", id="measure-error", click=server.controller
+                          .measure_error, classes="ma-2", size="small")
+            html.Div("{{ error_text }}", id="error-text", classes="ma-2 text-caption")
+            html.Div("{{ message }}", id="message", classes="ma-2 text-caption text-error")
+        with layout.content:
+            with html.Div(id="view-box", style=f"width:{size[0]}px;height:{size[1]}px;"
+                                               "position:relative;"):
+                view = vtk_widgets.VtkRemoteView(plotter.ren_win, ref="view",
+                                                 interactive_ratio=1, still_quality=100)
+                server.controller.view_update = view.update
+    return layout
+
+
+def _control(kind: str, knob: Knob) -> None:
+    """One vuetify control bound to the knob's state."""
+    variable = state_name(kind, knob)
+    ident = f"knob-{kind}-{knob.name}"
+    if knob.control == "select":
+        vuetify3.VSelect(v_model=(variable,), items=(repr(list(knob.choices)),),
+                         label=knob.label, id=ident, density="compact", classes="mx-2",
+                         hide_details=True)
+    elif knob.control == "switch":
+        vuetify3.VSwitch(v_model=(variable,), label=knob.label, id=ident, density="compact",
+                         classes="mx-2", hide_details=True)
+    else:
+        vuetify3.VSlider(v_model=(variable,), min=knob.low, max=knob.high, step=knob.step,
+                         label=knob.label, id=ident, thumb_label=True, hide_details=True,
+                         density="compact", classes="mx-2")
+
+
+def serve(scene: Scene | str, port: int = 8080, host: str = "127.0.0.1",
+          size: tuple[int, int] = (800, 600)) -> None:
+    """Serve the live view of ``scene`` on ``http://host:port/`` until stopped (Ctrl-C)."""
+    server, _, _ = build_app(scene, size)
+    print(f"pv-cubemarch view: http://{host}:{port}/", flush=True)
+    server.start(port=port, host=host, open_browser=False, show_connection_info=False,
+                 timeout=0)

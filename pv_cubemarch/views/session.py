@@ -1,0 +1,178 @@
+"""A scene in a plotter whose techniques' knobs can be turned, each change drawn and timed.
+
+No GUI here: :mod:`.app` binds these calls to controls. A change applies to every item of
+its kind (every volume, voxel grid or surface of the scene), re-adds them with the new
+options under the same names (which replaces and frees the old ones), and draws a frame.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pyvista
+
+from ..api import add_surface, add_volume, add_voxels
+from ..bench.harness import opaque_layer
+from ..core.camera import Camera
+from ..core.registry import get_technique, techniques
+from ..core.rendering import render_image
+from ..scene.model import Scene
+from ..testing import compare_images
+from .knobs import Knob, surface_knobs, volume_knobs, voxel_knobs
+
+#: The kinds of items, in panel order.
+KINDS = ("volume", "voxels", "surface")
+
+
+@dataclass
+class TunedItem:
+    """One drawn model, its options and the function that adds it."""
+
+    kind: str
+    model: object
+    options: dict = field(default_factory=dict)
+
+
+class TuningSession:
+    """A scene drawn in ``plotter`` with knobs per kind of technique.
+
+    Parameters
+    ----------
+    scene : Scene
+        What to draw (see :func:`pv_cubemarch.load_scene`).
+    plotter : pyvista.Plotter
+        Where; the scene is added to it now.
+    """
+
+    def __init__(self, scene: Scene, plotter: pyvista.Plotter):
+        self.scene = scene
+        self.plotter = plotter
+        scene.add_to(plotter)
+        self.items: dict[str, TunedItem] = {}
+        for volume in scene.volumes:
+            self.items[volume.name] = TunedItem(
+                "volume", volume, dict(scene.volume_options.get(volume.name, {})))
+        for grid in scene.voxels:
+            self.items[grid.name] = TunedItem("voxels", grid,
+                                              dict(scene.voxel_options.get(grid.name, {})))
+        for surface in scene.surfaces:
+            self.items[surface.name] = TunedItem(
+                "surface", surface, dict(scene.surface_options.get(surface.name, {})))
+        self._originals = {name: item.model for name, item in self.items.items()}
+        self.level_shift = 0.0
+        #: Milliseconds of the last frame drawn (after the last change).
+        self.last_frame_ms: float | None = None
+
+    def kinds(self) -> list[str]:
+        """The kinds of items the scene holds, in panel order."""
+        present = {item.kind for item in self.items.values()}
+        return [kind for kind in KINDS if kind in present]
+
+    def knobs(self, kind: str) -> tuple[Knob, ...]:
+        """The knobs of ``kind``."""
+        if kind == "volume":
+            return volume_knobs()
+        if kind == "voxels":
+            return voxel_knobs()
+        coefficients = np.concatenate([item.model.coefficients.ravel() for item in
+                                       self._of("surface")])
+        spread = float(np.ptp(coefficients)) or 1.0
+        return surface_knobs((-spread / 2.0, spread / 2.0))
+
+    def value(self, kind: str, name: str):
+        """The knob's current value (the first item's; a change sets every item's)."""
+        if kind == "surface" and name == "isovalue":
+            return self.level_shift
+        item = self._of(kind)[0]
+        if name in item.options:
+            value = item.options[name]
+            return "none" if name == "lights" and value is None else value
+        return _default(kind, item.options.get("technique"), name)
+
+    def set(self, kind: str, name: str, value) -> float:
+        """Set a knob on every item of ``kind``, redraw; return the frame's milliseconds.
+
+        A technique that does not read an option set for another is given the option left
+        out (its default), as the panel greys the knob out.
+        """
+        for item_name, item in self.items.items():
+            if item.kind != kind:
+                continue
+            if kind == "surface" and name == "isovalue":
+                self.level_shift = float(value)
+                original = self._originals[item_name]
+                item.model = replace(original, coefficients=original.coefficients
+                                     - self.level_shift)
+            else:
+                item.options[name] = None if name == "lights" and value == "none" else value
+            self._add(item_name, item)
+        return self.draw()
+
+    def draw(self) -> float:
+        """Draw a frame; return (and keep) its milliseconds."""
+        start = time.perf_counter()
+        render_image(self.plotter)
+        self.last_frame_ms = 1000.0 * (time.perf_counter() - start)
+        return self.last_frame_ms
+
+    def reference_error(self, step_voxels: float = 0.1) -> dict:
+        """The frame's error against the CPU reference of the scene's volume (slow).
+
+        Returns the image metrics (``mean_abs``, ``psnr``, ``ssim`` ...). Only scenes with
+        one volume (and meshes) have a reference here.
+        """
+        volumes = self._of("volume")
+        if len(volumes) != 1 or self._of("voxels") or self._of("surface"):
+            raise ValueError("the error against the CPU reference is measured for scenes "
+                             "of one volume (and meshes); this one has "
+                             f"{len(volumes)} volumes, {len(self._of('voxels'))} voxel "
+                             f"grids and {len(self._of('surface'))} surfaces")
+        item = volumes[0]
+        width, height = self.plotter.window_size
+        camera = Camera.from_pyvista(self.plotter.camera)    # where the user has turned to
+        color, distance = opaque_layer(self.scene, camera, (width, height))
+        technique = get_technique("volume", item.options.get("technique", "vtk"))
+        reference = technique.reference(
+            item.model, camera, (width, height), step_voxels=step_voxels,
+            opaque_depth=distance, opaque_color=color,
+            near=camera.clipping_range[0] if camera.clipping_range else None)
+        return compare_images(render_image(self.plotter), reference).as_dict()
+
+    def _of(self, kind: str) -> list[TunedItem]:
+        return [item for item in self.items.values() if item.kind == kind]
+
+    def _add(self, name: str, item: TunedItem) -> None:
+        """Add the item again under its name (replacing and freeing the old one)."""
+        technique = item.options.get("technique") or DEFAULT_TECHNIQUE[item.kind]
+        knobs = {k.name: k for k in self.knobs(item.kind)}
+        options = {key: value for key, value in item.options.items()
+                   if key not in knobs or knobs[key].applies_to(technique)}
+        if item.kind == "volume":
+            add_volume(self.plotter, item.model, name=name, **options)
+        elif item.kind == "voxels":
+            add_voxels(self.plotter, item.model, name=name, **options)
+        else:
+            add_surface(self.plotter, item.model, name=name, **options)
+
+
+#: Each kind's default technique.
+DEFAULT_TECHNIQUE = {"volume": "vtk", "voxels": "voxels", "surface": "active"}
+#: Defaults of knobs that are not fields of a technique's options dataclass.
+_OTHER_DEFAULTS = {"lights": "none", "stop_opacity": 0.99, "ambient": 0.2, "lod": False,
+                   "mip_levels": None}
+
+
+def _default(kind: str, technique: str | None, name: str):
+    """An option's default for a technique (from its options dataclass), or ``None``."""
+    if name == "technique":
+        return DEFAULT_TECHNIQUE[kind]
+    chosen = get_technique(kind, technique or DEFAULT_TECHNIQUE[kind])
+    readers = [chosen] + [t for t in techniques(kind) if t is not chosen]
+    for reader in readers:      # the chosen technique's default, else a reader's
+        defaults = {f.name: f.default for f in dataclasses.fields(reader.options)}
+        if name in defaults:
+            return defaults[name]
+    return _OTHER_DEFAULTS.get(name)

@@ -1,0 +1,172 @@
+"""The live viewer in a real browser: Debian's chromium driven by Playwright.
+
+`pv-cubemarch view` serves the shipped smoke scene on localhost; the test waits for the
+first streamed frame and compares it with `render_image` of the same scene and camera
+(the stream is JPEG: mean difference under 2/255 and 99th percentile under 12, while a real
+change of step is several times that), moves the step slider and checks the frame changed
+as the same setting does offscreen, switches the technique with the select, and always
+stops the server. Run apart from the default tests: `pytest tests/browser`.
+"""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import io
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+import warnings
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+from playwright.sync_api import sync_playwright
+
+import pv_cubemarch as cm
+from pv_cubemarch.views.session import TuningSession
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENE = ROOT / "datasets" / "smoke_scene.usda"
+SIZE = (480, 360)
+CHROMIUM = "/usr/bin/chromium"
+#: Keep chromium off the network: every name but localhost fails to resolve.
+CHROMIUM_ARGS = ["--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1",
+                 "--disable-background-networking", "--disable-component-update",
+                 "--disable-sync", "--no-pings", "--disable-domain-reliability"]
+QUIET = 0.8    # seconds without a new frame before one counts (VTK re-sends a stale one)
+
+def free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+@contextlib.contextmanager
+def served(tmp_path):
+    """``pv-cubemarch view`` on a free port; yields its URL; always stops it."""
+    port = free_port()
+    url = f"http://127.0.0.1:{port}/"
+    log = open(tmp_path / "server.log", "w")  # noqa: SIM115 (closed below)
+    process = subprocess.Popen(
+        [sys.executable, "-m", "pv_cubemarch.cli", "view", str(SCENE), "--port", str(port),
+         "--size", f"{SIZE[0]}x{SIZE[1]}"], stdout=log, stderr=subprocess.STDOUT,
+        start_new_session=True, env=dict(os.environ, VTK_WASM_DIR_OVERRIDE=str(tmp_path)))
+    try:
+        deadline = time.monotonic() + 120
+        while True:
+            assert process.poll() is None, (tmp_path / "server.log").read_text()
+            assert time.monotonic() < deadline, "the viewer did not start in 120 s"
+            try:
+                with urllib.request.urlopen(url + "index.html", timeout=1) as reply:
+                    if reply.status == 200:
+                        break
+            except OSError:
+                time.sleep(0.2)
+        yield url
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGTERM)
+        try:
+            process.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+        log.close()
+
+
+READ_FRAME = """() => {
+  const img = document.querySelector('#view-box img');
+  if (!img || !img.complete || !img.naturalWidth) return null;
+  const canvas = document.createElement('canvas');
+  canvas.width = img.naturalWidth; canvas.height = img.naturalHeight;
+  canvas.getContext('2d').drawImage(img, 0, 0);
+  return {src: img.src, png: canvas.toDataURL('image/png')};
+}"""
+
+
+def settled_frame(page, previous: str | None = None, timeout: float = 60.0):
+    """The view's frame once a new full-size one has arrived and the stream is quiet."""
+    deadline = time.monotonic() + timeout
+    last, since = None, time.monotonic()
+    while time.monotonic() < deadline:
+        frame = page.evaluate(READ_FRAME)
+        if frame and frame["src"] != previous:
+            if last is None or frame["src"] != last["src"]:
+                last, since = frame, time.monotonic()
+            elif time.monotonic() - since > QUIET:
+                image = np.asarray(Image.open(io.BytesIO(base64.b64decode(
+                    frame["png"].split(",", 1)[1]))).convert("RGB")).astype(int)
+                if image.shape[:2] == (SIZE[1], SIZE[0]):
+                    return frame["src"], image
+        time.sleep(0.1)
+    raise AssertionError(f"no settled {SIZE} frame within {timeout} s")
+
+
+def offscreen(**settings) -> np.ndarray:
+    """The same scene and camera drawn offscreen with the volume knobs ``settings``."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plotter = cm.offscreen_plotter(SIZE)
+    try:
+        session = TuningSession(cm.load_scene(SCENE), plotter)
+        for name, value in settings.items():
+            session.set("volume", name, value)
+        return cm.render_image(plotter).astype(int)
+    finally:
+        plotter.close()
+
+
+def close(a: np.ndarray, b: np.ndarray) -> bool:
+    difference = np.abs(a - b)
+    return difference.mean() < 2.0 and np.percentile(difference, 99) < 12
+
+
+def test_viewer_streams_our_rendering_and_its_knobs_change_it(tmp_path):
+    assert Path(CHROMIUM).exists(), "Debian's chromium is needed (tools/setup.sh installs it)"
+    with served(tmp_path) as url, sync_playwright() as driver:
+        browser = driver.chromium.launch(executable_path=CHROMIUM, headless=True,
+                                         args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1200, "height": 800},
+                                    device_scale_factor=1)
+            outside = []
+            page.on("request", lambda r: outside.append(r.url)
+                    if not r.url.startswith(("http://127.0.0.1", "ws://127.0.0.1", "blob:",
+                                             "data:")) else None)
+            page.goto(url)
+            src, first = settled_frame(page)
+            assert close(first, offscreen()), "the first frame is not our rendering"
+            assert first.std() > 5                   # not a blank background
+            page.wait_for_function("() => window.trame && window.trame.state")
+            # the stop-opacity slider to 0.5 (rays end early: darker where dense), by the
+            # keyboard on the slider's thumb, as a user would: Home then 0.01 steps up
+            thumb = page.locator("#knob-volume-stop_opacity").locator(
+                "xpath=ancestor::div[contains(@class,'v-slider')][1]").locator(
+                ".v-slider-thumb[role=slider]").first
+            thumb.focus()
+            thumb.press("Home")
+            page.wait_for_function(
+                "() => window.trame.state.get('volume__stop_opacity') <= 0.5")
+            src, early = settled_frame(page, src)
+            assert not close(early, first), "the slider did not change the frame"
+            assert close(early, offscreen(stop_opacity=0.5))
+            # the technique select: the cube map
+            page.locator(".v-select", has=page.locator("#knob-volume-technique")).locator(
+                ".v-field").first.click()
+            page.locator(".v-overlay-container .v-list-item", has_text="cubemap").click()
+            page.wait_for_function(
+                "() => window.trame.state.get('volume__technique') === 'cubemap'")
+            src, cubemap = settled_frame(page, src)
+            assert close(cubemap, offscreen(stop_opacity=0.5, technique="cubemap"))
+            shot = tmp_path / "viewer.png"
+            page.screenshot(path=str(shot))
+            if os.environ.get("PV_CUBEMARCH_SCREENSHOT"):
+                Path(os.environ["PV_CUBEMARCH_SCREENSHOT"]).write_bytes(shot.read_bytes())
+            assert not outside, f"the page reached beyond localhost: {outside}"
+        finally:
+            browser.close()
