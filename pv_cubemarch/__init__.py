@@ -40,6 +40,7 @@ from .reference import render_emission_absorption  # noqa: E402
 from .scene.io import load_scene  # noqa: E402
 from .scene.model import Scene, SceneLight, SceneMesh, SkippedPrim  # noqa: E402
 from .scene.openvdb.image import read_vdb  # noqa: E402
+from .views.app import widget  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -52,5 +53,5 @@ __all__ = [
     "add_surface", "add_volumes", "add_voxels", "SplineField", "make_field",
     "configure_offscreen", "make_voxels", "Palette", "VoxelModel", "gl_info",
     "load_scene", "make_volume", "read_vdb", "offscreen_plotter", "plugin",
-    "render_emission_absorption", "render_frame", "render_image",
+    "render_emission_absorption", "render_frame", "render_image", "widget",
 ]

@@ -1,20 +1,21 @@
 #!/usr/bin/env bash
 # Set up a fresh machine for pv_cubemarch: Debian packages (Mesa's OSMesa for offscreen
-# OpenGL; python3-openvdb, the reference library the OpenVDB reader's tests compare with)
-# when missing and apt is usable, a virtual environment in .venv, and the package
-# (editable) with its test extra.
+# OpenGL; python3-openvdb, the reference library the OpenVDB reader's tests compare with;
+# chromium, the browser the viewer's tests drive) when missing and apt is usable, a virtual
+# environment in .venv, and the package (editable) with its test extra.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 wanted=()
 ldconfig -p 2>/dev/null | grep -q 'libOSMesa\.so' || wanted+=(libosmesa6)
 /usr/bin/python3 -c "import pyopenvdb" >/dev/null 2>&1 || wanted+=(python3-openvdb)
+[ -x /usr/bin/chromium ] || wanted+=(chromium)
 if [ ${#wanted[@]} -gt 0 ]; then
   if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = "0" ]; then
     echo "setup: installing ${wanted[*]} (Debian)"
     apt-get update -qq >/dev/null && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${wanted[@]}" >/dev/null \
-      || echo "setup: could not install ${wanted[*]}; without OSMesa pv_cubemarch uses EGL (PV_CUBEMARCH_GL=egl), without python3-openvdb the OpenVDB cross-check tests fail"
+      || echo "setup: could not install ${wanted[*]}; without OSMesa pv_cubemarch uses EGL (PV_CUBEMARCH_GL=egl), without python3-openvdb the OpenVDB cross-check tests fail, without chromium the browser tests fail"
   else
-    echo "setup: ${wanted[*]} missing and apt-get not usable: without OSMesa pv_cubemarch tries EGL; without python3-openvdb the OpenVDB cross-check tests fail"
+    echo "setup: ${wanted[*]} missing and apt-get not usable: without OSMesa pv_cubemarch tries EGL; without python3-openvdb the OpenVDB cross-check tests fail; without chromium the browser tests fail"
   fi
 fi
 PYTHON=${PYTHON:-python3}

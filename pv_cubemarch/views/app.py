@@ -9,6 +9,7 @@ trame, trame-vtk and trame-vuetify are the optional ``jupyter`` extra; without t
 
 from __future__ import annotations
 
+import itertools
 import os
 import tempfile
 
@@ -37,13 +38,15 @@ def state_name(kind: str, knob: Knob) -> str:
     return f"{kind}__{knob.name}"
 
 
-def build_app(scene: Scene | str, size: tuple[int, int] = (800, 600), name: str = "cubemarch"):
+def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800, 600),
+              name: str = "cubemarch"):
     """The trame server, its layout and the tuning session for ``scene``.
 
     Parameters
     ----------
-    scene : Scene or str
-        A scene, or a path :func:`pv_cubemarch.load_scene` reads.
+    scene : Scene, str or pyvista.Plotter
+        A scene, a path :func:`pv_cubemarch.load_scene` reads, or a plotter holding our
+        techniques' actors (drawn as it is, at its own size).
     size : tuple of int
         The view's size in pixels (the server renders at this size).
     name : str
@@ -59,9 +62,14 @@ def build_app(scene: Scene | str, size: tuple[int, int] = (800, 600), name: str 
     # trame-vtklocal (pulled in by some trame installs) downloads WebAssembly when it
     # starts; an empty local folder keeps it offline.
     os.environ.setdefault("VTK_WASM_DIR_OVERRIDE", tempfile.mkdtemp(prefix="cubemarch_wasm"))
-    scene = load_scene(scene) if not isinstance(scene, Scene) else scene
-    plotter = offscreen_plotter(size)
-    session = TuningSession(scene, plotter)
+    if isinstance(scene, pyvista.Plotter):
+        plotter = scene
+        size = tuple(plotter.window_size)
+        session = TuningSession.from_plotter(plotter)
+    else:
+        scene = load_scene(scene) if not isinstance(scene, Scene) else scene
+        plotter = offscreen_plotter(size)
+        session = TuningSession(scene, plotter)
     session.draw()                      # context and shaders before any client connects
     server = get_server(name, client_type="vue3")
     state, ctrl = server.state, server.controller
@@ -143,20 +151,51 @@ def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size):
 
 
 def _control(kind: str, knob: Knob) -> None:
-    """One vuetify control bound to the knob's state."""
+    """One vuetify control bound to the knob's state (greyed out where not read)."""
     variable = state_name(kind, knob)
-    ident = f"knob-{kind}-{knob.name}"
+    common = dict(v_model=(variable,), label=knob.label, id=f"knob-{kind}-{knob.name}",
+                  density="compact", classes="mx-2", hide_details=True)
+    if knob.techniques:
+        common["disabled"] = (f"!{list(knob.techniques)!r}.includes({kind}__technique)",)
     if knob.control == "select":
-        vuetify3.VSelect(v_model=(variable,), items=(repr(list(knob.choices)),),
-                         label=knob.label, id=ident, density="compact", classes="mx-2",
-                         hide_details=True)
+        vuetify3.VSelect(items=(repr(list(knob.choices)),), **common)
     elif knob.control == "switch":
-        vuetify3.VSwitch(v_model=(variable,), label=knob.label, id=ident, density="compact",
-                         classes="mx-2", hide_details=True)
+        vuetify3.VSwitch(**common)
     else:
-        vuetify3.VSlider(v_model=(variable,), min=knob.low, max=knob.high, step=knob.step,
-                         label=knob.label, id=ident, thumb_label=True, hide_details=True,
-                         density="compact", classes="mx-2")
+        vuetify3.VSlider(min=knob.low, max=knob.high, step=knob.step, thumb_label=True,
+                         **common)
+
+
+def widget(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800, 600)):
+    """The live view and knob panel of a scene or plotter, for a Jupyter notebook.
+
+    The view is rendered on the server (our shaders included), whatever PyVista's
+    notebook backend is; every knob change re-renders it, and the panel shows the frame's
+    time and, on request, its error against the CPU reference.
+
+    Parameters
+    ----------
+    scene : Scene, str or pyvista.Plotter
+        What to show (see :func:`build_app`).
+    size : tuple of int
+        The view's size for a scene.
+
+    Returns
+    -------
+    trame layout
+        Display it in a cell after ``await view.ready``.
+
+    Examples
+    --------
+    >>> view = pv_cubemarch.widget(plotter)  # doctest: +SKIP
+    >>> await view.ready  # doctest: +SKIP
+    >>> view  # doctest: +SKIP
+    """
+    _, layout, _ = build_app(scene, size, name=f"cubemarch-{next(_COUNTER)}")
+    return layout
+
+
+_COUNTER = itertools.count()
 
 
 def serve(scene: Scene | str, port: int = 8080, host: str = "127.0.0.1",

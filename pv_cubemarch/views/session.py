@@ -19,6 +19,7 @@ from ..bench.harness import opaque_layer
 from ..core.camera import Camera
 from ..core.registry import get_technique, techniques
 from ..core.rendering import render_image
+from ..models.surface import SplineField
 from ..scene.model import Scene
 from ..testing import compare_images
 from .knobs import Knob, surface_knobs, volume_knobs, voxel_knobs
@@ -47,11 +48,23 @@ class TuningSession:
         Where; the scene is added to it now.
     """
 
-    def __init__(self, scene: Scene, plotter: pyvista.Plotter):
-        self.scene = scene
+    def __init__(self, scene: Scene | None, plotter: pyvista.Plotter):
+        self.scene = scene if scene is not None else Scene()
         self.plotter = plotter
-        scene.add_to(plotter)
         self.items: dict[str, TunedItem] = {}
+        if scene is None:
+            self._adopt(plotter)
+            self.scene.volumes = [i.model for i in self.items.values() if i.kind == "volume"]
+        else:
+            scene.add_to(plotter)
+            self._from_scene(scene)
+        self._originals = {name: item.model for name, item in self.items.items()}
+        self.level_shift = 0.0
+        #: Milliseconds of the last frame drawn (after the last change).
+        self.last_frame_ms: float | None = None
+
+    def _from_scene(self, scene: Scene) -> None:
+        """Items for the scene's volumes, voxel grids and surfaces with their options."""
         for volume in scene.volumes:
             self.items[volume.name] = TunedItem(
                 "volume", volume, dict(scene.volume_options.get(volume.name, {})))
@@ -61,10 +74,37 @@ class TuningSession:
         for surface in scene.surfaces:
             self.items[surface.name] = TunedItem(
                 "surface", surface, dict(scene.surface_options.get(surface.name, {})))
-        self._originals = {name: item.model for name, item in self.items.items()}
-        self.level_shift = 0.0
-        #: Milliseconds of the last frame drawn (after the last change).
-        self.last_frame_ms: float | None = None
+
+    @classmethod
+    def from_plotter(cls, plotter: pyvista.Plotter) -> TuningSession:
+        """A session over the volumes, voxel grids and surfaces already in ``plotter``.
+
+        Their options are read back from their actors where the actors keep them (the
+        technique, the step and stop opacity of marched volumes, every voxel and surface
+        option); the others start at their defaults. Meshes stay as they are; the error
+        against the CPU reference leaves them out.
+        """
+        return cls(None, plotter)
+
+    def _adopt(self, plotter: pyvista.Plotter) -> None:
+        """Items for the techniques' actors the plotter holds, by actor name."""
+        for name, actor in list(plotter.renderer.actors.items()):
+            binding = getattr(actor, "cubemarch", None)
+            model = getattr(binding, "model", None)
+            if model is None:
+                continue
+            if isinstance(model, SplineField):
+                self.items[name] = TunedItem("surface", model, _fields(binding.options))
+            elif hasattr(binding, "labels"):
+                self.items[name] = TunedItem("voxels", model, _fields(binding.options))
+            else:
+                options = {"technique": binding.technique}
+                for option in ("step_scale", "stop_opacity", "downsample"):
+                    reader = get_technique("volume", binding.technique)
+                    if hasattr(binding, option) and (option in reader.option_names
+                                                     or option == "stop_opacity"):
+                        options[option] = getattr(binding, option)
+                self.items[name] = TunedItem("volume", model, options)
 
     def kinds(self) -> list[str]:
         """The kinds of items the scene holds, in panel order."""
@@ -163,6 +203,12 @@ DEFAULT_TECHNIQUE = {"volume": "vtk", "voxels": "voxels", "surface": "active"}
 #: Defaults of knobs that are not fields of a technique's options dataclass.
 _OTHER_DEFAULTS = {"lights": "none", "stop_opacity": 0.99, "ambient": 0.2, "lod": False,
                    "mip_levels": None}
+
+
+def _fields(options) -> dict:
+    """An options dataclass as keyword arguments, unset (``None``) fields left out."""
+    return {key: value for key, value in dataclasses.asdict(options).items()
+            if value is not None}
 
 
 def _default(kind: str, technique: str | None, name: str):
