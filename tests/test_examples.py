@@ -5,6 +5,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import nbclient
+import nbformat
 import pytest
 from conftest import ROOT
 
@@ -18,3 +20,17 @@ def test_example_runs(script, tmp_path):
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr[-2000:]
     assert out.stat().st_size > 0
+
+
+NOTEBOOKS = sorted((ROOT / "examples").glob("*.ipynb"))
+
+
+@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=[n.name for n in NOTEBOOKS])
+def test_notebook_runs_top_to_bottom(notebook, tmp_path):
+    # catches a notebook that rots: every cell must run (the live view's included).
+    book = nbformat.read(notebook, as_version=4)
+    nbclient.NotebookClient(book, timeout=240, kernel_name="python3",
+                            resources={"metadata": {"path": str(tmp_path)}}).execute()
+    outputs = [o for cell in book.cells if cell.cell_type == "code" for o in cell.outputs]
+    assert not [o for o in outputs if o.output_type == "error"]
+    assert any("iframe" in str(o.get("data", {})) for o in outputs)   # the view was shown

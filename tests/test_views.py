@@ -106,3 +106,14 @@ def test_the_app_binds_every_knob_of_the_scene():
         assert server.state.error_text.startswith("error vs CPU reference: mean")
     finally:
         session.plotter.close()
+
+
+def test_an_adopted_plotter_is_measured_on_its_own_background(plotter_factory):
+    # catches: the reference drawn on the scene's default background (every pixel of a
+    # black plotter then off by ~26/255)
+    pl = plotter_factory(SIZE)
+    pl.set_background("black")
+    x, y, z = np.mgrid[-1:1:24j, -1:1:24j, -1:1:24j]
+    cm.add_volume(pl, np.exp(-4 * (x * x + y * y + z * z)), cmap="inferno", technique="direct")
+    errors = TuningSession.from_plotter(pl).reference_error()
+    assert errors["mean_abs"] < 2.0

@@ -9,6 +9,11 @@ from tqdm.auto import tqdm
 
 def progress(iterable: Iterable | None = None, *, desc: str, total: int | None = None,
              enabled: bool | None = None):
-    """Wrap ``iterable`` in a progress bar; ``enabled=None`` shows it only on a terminal."""
+    """Wrap ``iterable`` in a progress bar; ``enabled=None`` shows it only on a terminal.
+
+    In a notebook ``tqdm.auto`` gives the notebook's bar; an empty step shows none.
+    """
+    if enabled is None and total is None and hasattr(iterable, "__len__") and not len(iterable):
+        enabled = False
     return tqdm(iterable, desc=desc, total=total, disable=None if enabled is None else not enabled,
                 leave=False, unit="item")

@@ -55,6 +55,7 @@ class TuningSession:
         if scene is None:
             self._adopt(plotter)
             self.scene.volumes = [i.model for i in self.items.values() if i.kind == "volume"]
+            self.scene.background = tuple(pyvista.Color(plotter.background_color).float_rgb)
         else:
             scene.add_to(plotter)
             self._from_scene(scene)
