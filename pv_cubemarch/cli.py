@@ -269,7 +269,8 @@ def main(argv: list[str] | None = None) -> int:
             serve(args.scene or DEFAULT_SCENE, port=args.port, host=args.host, size=args.size)
             return 0
         return _info(args)
-    except (CubemarchError, FileNotFoundError, KeyError, ValueError) as exc:
+    except (CubemarchError, OSError, KeyError, ValueError, ImportError) as exc:
+        # OSError: a port in use, a file that cannot be read; ImportError: an extra missing
         print(f"pv-cubemarch: error: {exc}", file=sys.stderr)
         return 2
 

@@ -117,3 +117,23 @@ def test_an_adopted_plotter_is_measured_on_its_own_background(plotter_factory):
     cm.add_volume(pl, np.exp(-4 * (x * x + y * y + z * z)), cmap="inferno", technique="direct")
     errors = TuningSession.from_plotter(pl).reference_error()
     assert errors["mean_abs"] < 2.0
+
+
+def test_a_refused_value_leaves_the_scene_as_it_was(session):
+    # catches: a refused value kept in the options (every later change then failing too)
+    before = cm.render_image(session.plotter).astype(int)
+    with pytest.raises(ValueError, match="step_scale"):
+        session.set("volume", "step_scale", -1.0)
+    assert session.value("volume", "step_scale") == 0.5
+    assert np.abs(cm.render_image(session.plotter).astype(int) - before).max() <= 1
+    session.set("volume", "stop_opacity", 0.5)           # later changes still work
+    assert session.value("volume", "stop_opacity") == 0.5
+
+
+def test_an_adopted_surface_keeps_its_technique(plotter_factory):
+    pl = plotter_factory(SIZE)
+    x, y, z = np.mgrid[-1:1:10j, -1:1:10j, -1:1:10j]
+    cm.add_surface(pl, x * x + y * y + z * z, isovalue=0.5, technique="full", name="ball")
+    session = TuningSession.from_plotter(pl)
+    session.set("surface", "steps", 120)
+    assert pl.renderer.actors["ball"].cubemarch.cells is None       # still the full march

@@ -61,7 +61,8 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
         raise ImportError(f"pv_cubemarch's live view needs trame: {INSTALL}.")
     # trame-vtklocal (pulled in by some trame installs) downloads WebAssembly when it
     # starts; an empty local folder keeps it offline.
-    os.environ.setdefault("VTK_WASM_DIR_OVERRIDE", tempfile.mkdtemp(prefix="cubemarch_wasm"))
+    if "VTK_WASM_DIR_OVERRIDE" not in os.environ:
+        os.environ["VTK_WASM_DIR_OVERRIDE"] = tempfile.mkdtemp(prefix="cubemarch_wasm")
     if isinstance(scene, pyvista.Plotter):
         plotter = scene
         size = tuple(plotter.window_size)
@@ -76,6 +77,8 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     state.trame__title = "pv_cubemarch"
     state.frame_ms = round(session.last_frame_ms or 0.0, 1)
     state.error_text = "error: not measured"
+    state.message = ""
+    state.drawn = _drawn(session)
     for kind in session.kinds():
         for knob in session.knobs(kind):
             _bind(server, session, kind, knob)
@@ -110,10 +113,19 @@ def _bind(server, session: TuningSession, kind: str, knob: Knob) -> None:
         try:
             state.frame_ms = round(session.set(kind, knob.name, _typed(knob, new)), 1)
             state.message = ""
-        except ValueError as exc:
+        except ValueError as exc:        # refused: the scene is as it was, and so is the knob
             state.message = str(exc)
+            state[variable] = session.value(kind, knob.name)
+        state.drawn = _drawn(session)
         state.error_text = "error: not measured"
         ctrl.view_update()
+
+
+def _drawn(session: TuningSession) -> str:
+    """What each item is drawn with now, as its actor says."""
+    actors = session.plotter.renderer.actors
+    return ", ".join(f"{name}: {getattr(actors[name].cubemarch, 'technique', '?')}"
+                     for name in session.items if name in actors)
 
 
 def _typed(knob: Knob, value):
@@ -137,6 +149,7 @@ def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size):
                 for knob in session.knobs(kind):
                     _control(kind, knob)
             html.Div("frame: {{ frame_ms }} ms", id="frame-time", classes="ma-2")
+            html.Div("drawn with {{ drawn }}", id="drawn", classes="ma-2 text-caption")
             vuetify3.VBtn("measure error", id="measure-error", click=server.controller
                           .measure_error, classes="ma-2", size="small")
             html.Div("{{ error_text }}", id="error-text", classes="ma-2 text-caption")

@@ -62,10 +62,13 @@ def voxel_knobs() -> tuple[Knob, ...]:
 
 
 def surface_knobs(isovalue_range: tuple[float, float] = (-1.0, 1.0)) -> tuple[Knob, ...]:
-    """Active-cell surfaces: samples per diagonal, root finding, the level drawn."""
+    """Active-cell surfaces: samples per diagonal, root finding, the level drawn.
+
+    The level is a shift from the loaded isovalue (0: as loaded), applied to every surface.
+    """
     low, high = isovalue_range
     return (
         Knob("steps", "steps (M)", "slider", 10, 5000, 10, help="samples along the diagonal"),
         Knob("root", "root", "select", choices=("march", "exact")),
-        Knob("isovalue", "isovalue", "slider", low, high, (high - low) / 100 or 0.01),
+        Knob("isovalue", "isovalue shift", "slider", low, high, (high - low) / 100 or 0.01),
     )

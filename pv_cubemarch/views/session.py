@@ -80,10 +80,11 @@ class TuningSession:
     def from_plotter(cls, plotter: pyvista.Plotter) -> TuningSession:
         """A session over the volumes, voxel grids and surfaces already in ``plotter``.
 
-        Their options are read back from their actors where the actors keep them (the
-        technique, the step and stop opacity of marched volumes, every voxel and surface
-        option); the others start at their defaults. Meshes stay as they are; the error
-        against the CPU reference leaves them out.
+        Their options are read back from their actors where the actors keep them (a
+        volume's technique, and the step and stop opacity of marched ones; a voxel grid's
+        and a surface's options and technique); the others (a cube map's face size, a
+        volume's lights) are drawn at their defaults from the first change on. Meshes stay
+        as they are; the error against the CPU reference leaves them out.
         """
         return cls(None, plotter)
 
@@ -95,7 +96,10 @@ class TuningSession:
             if model is None:
                 continue
             if isinstance(model, SplineField):
-                self.items[name] = TunedItem("surface", model, _fields(binding.options))
+                # the active-cell technique keeps its active cells; the full march has none
+                self.items[name] = TunedItem("surface", model, {
+                    **_fields(binding.options),
+                    "technique": "active" if binding.cells is not None else "full"})
             elif hasattr(binding, "labels"):
                 self.items[name] = TunedItem("voxels", model, _fields(binding.options))
             else:
@@ -137,19 +141,32 @@ class TuningSession:
         """Set a knob on every item of ``kind``, redraw; return the frame's milliseconds.
 
         A technique that does not read an option set for another is given the option left
-        out (its default), as the panel greys the knob out.
+        out (its default), as the panel greys the knob out. A value a technique refuses
+        raises its ``ValueError`` and leaves every item as it was. The time returned is
+        the second frame's: the first after adding builds the shaders.
         """
-        for item_name, item in self.items.items():
-            if item.kind != kind:
-                continue
-            if kind == "surface" and name == "isovalue":
-                self.level_shift = float(value)
-                original = self._originals[item_name]
-                item.model = replace(original, coefficients=original.coefficients
-                                     - self.level_shift)
-            else:
-                item.options[name] = None if name == "lights" and value == "none" else value
-            self._add(item_name, item)
+        done = []
+        try:
+            for item_name, item in self.items.items():
+                if item.kind != kind:
+                    continue
+                done.append((item_name, item, item.model, dict(item.options),
+                             self.level_shift))
+                if kind == "surface" and name == "isovalue":
+                    self.level_shift = float(value)
+                    original = self._originals[item_name]
+                    item.model = replace(original, coefficients=original.coefficients
+                                         - self.level_shift)
+                else:
+                    item.options[name] = None if name == "lights" and value == "none" \
+                        else value
+                self._add(item_name, item)
+        except ValueError:
+            for item_name, item, model, options, shift in done:   # back as it was
+                item.model, item.options, self.level_shift = model, options, shift
+                self._add(item_name, item)
+            raise
+        self.draw()
         return self.draw()
 
     def draw(self) -> float:
@@ -188,9 +205,11 @@ class TuningSession:
     def _add(self, name: str, item: TunedItem) -> None:
         """Add the item again under its name (replacing and freeing the old one)."""
         technique = item.options.get("technique") or DEFAULT_TECHNIQUE[item.kind]
-        knobs = {k.name: k for k in self.knobs(item.kind)}
+        reader = get_technique(item.kind, technique)
+        # options some technique of the kind reads and this one does not are left out
+        specific = {n for t in techniques(item.kind) for n in t.option_names}
         options = {key: value for key, value in item.options.items()
-                   if key not in knobs or knobs[key].applies_to(technique)}
+                   if key not in specific or key in reader.option_names}
         if item.kind == "volume":
             add_volume(self.plotter, item.model, name=name, **options)
         elif item.kind == "voxels":
