@@ -19,7 +19,7 @@ from .bench import world as bench_world
 from .bench.voxels import ROWS as VOXEL_ROWS
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
-from .core.registry import get_technique, techniques
+from .core.registry import get_technique, specific_option_names, techniques
 from .models.voxels import VoxelModel
 from .scene.io import load_scene
 from .surfaces.options import ROOTS
@@ -347,11 +347,6 @@ def _render(args) -> int:
     return 0
 
 
-def _volume_option_names() -> set[str]:
-    """The options some volume technique reads and the others do not share."""
-    return {name for t in techniques("volume") for name in t.option_names}
-
-
 def _volume_options(scene, args, given: dict, as_voxels: bool) -> None:
     """Put the volume options given on the command line into the scene's volumes' options.
 
@@ -361,7 +356,7 @@ def _volume_options(scene, args, given: dict, as_voxels: bool) -> None:
     each volume flag for a scene without volumes. Voxel-only options are for the voxel
     grids, never volumes.
     """
-    specific = _volume_option_names()
+    specific = specific_option_names("volume")
     if not scene.volumes:
         if not as_voxels:   # --technique voxels took them all as voxel grids
             for name in (["technique"] if args.technique else []) + [
@@ -422,7 +417,7 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
     (``--step-scale`` is read only with the fixed traversal).
     """
     reads = {f.name for f in dataclasses.fields(VoxelOptions)}
-    voxel_only = reads - _volume_option_names() \
+    voxel_only = reads - specific_option_names("volume") \
         - {f.name for f in dataclasses.fields(Shading)}
     if not scene.voxels:
         surfaces_read = set(SHARED_SHADING) if scene.surfaces else set()

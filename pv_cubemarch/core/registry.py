@@ -104,6 +104,11 @@ def techniques(kind: str) -> list[Technique]:
     return sorted((t for (k, _), t in _REGISTRY.items() if k == kind), key=lambda t: t.name)
 
 
+def specific_option_names(kind: str) -> set[str]:
+    """The options some technique of ``kind`` reads (each technique reads only its own)."""
+    return {name for t in techniques(kind) for name in t.option_names}
+
+
 def get_technique(kind: str, name) -> Technique:
     """The technique ``name`` of ``kind``, or a ValueError listing the choices."""
     found = _REGISTRY.get((kind, name)) if isinstance(name, str) else None

@@ -17,11 +17,12 @@ import pyvista
 from ..api import add_surface, add_volume, add_voxels
 from ..bench.harness import opaque_layer
 from ..core.camera import Camera
-from ..core.registry import get_technique, techniques
+from ..core.registry import get_technique, specific_option_names, techniques
 from ..core.rendering import render_image
 from ..models.surface import SplineField
 from ..scene.model import Scene
 from ..testing import compare_images
+from ..volume.options import Shading
 from .knobs import Knob, surface_knobs, volume_knobs, voxel_knobs
 
 #: The kinds of items, in panel order.
@@ -207,7 +208,7 @@ class TuningSession:
         technique = item.options.get("technique") or DEFAULT_TECHNIQUE[item.kind]
         reader = get_technique(item.kind, technique)
         # options some technique of the kind reads and this one does not are left out
-        specific = {n for t in techniques(item.kind) for n in t.option_names}
+        specific = specific_option_names(item.kind)
         options = {key: value for key, value in item.options.items()
                    if key not in specific or key in reader.option_names}
         if item.kind == "volume":
@@ -221,8 +222,8 @@ class TuningSession:
 #: Each kind's default technique.
 DEFAULT_TECHNIQUE = {"volume": "vtk", "voxels": "voxels", "surface": "active"}
 #: Defaults of knobs that are not fields of a technique's options dataclass.
-_OTHER_DEFAULTS = {"lights": "none", "stop_opacity": 0.99, "ambient": 0.2, "lod": False,
-                   "mip_levels": None}
+_OTHER_DEFAULTS = {"lights": "none", "lod": False, "mip_levels": None,
+                   **{f.name: f.default for f in dataclasses.fields(Shading)}}
 
 
 def _fields(options) -> dict:

@@ -15,7 +15,7 @@ from pxr import Usd, UsdGeom
 
 from ..parts import SceneMesh
 from .context import PrimError, StageContext
-from .primvars import cell_arrays, reversed_connectivity
+from .primvars import cell_arrays, cofactor, reversed_connectivity
 
 
 def read_instancer(ctx: StageContext, prim, read_local: Callable[[object], list | None],
@@ -113,8 +113,7 @@ def _copied(part: SceneMesh, matrices: np.ndarray) -> SceneMesh:
     for name in mesh.point_data.keys():
         values = np.asarray(mesh.point_data[name])
         if name == "Normals":
-            a, b, c = (matrices[:, :3, k] for k in range(3))
-            turn = np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=2)
+            turn = cofactor(matrices[:, :3, :3])
             turn *= np.where(determinants < 0, -1.0, 1.0)[:, None, None]
             turned = np.einsum("nij,pj->npi", turn, values)
             turned /= np.maximum(np.linalg.norm(turned, axis=2, keepdims=True), 1e-300)

@@ -167,3 +167,13 @@ def with_winding_reversed(mesh: pyvista.PolyData) -> pyvista.PolyData:
     out.SetPolys(pyvista.CellArray.from_arrays(offsets, reversed_connectivity(
         offsets, connectivity), deep=True))
     return out
+
+
+def cofactor(matrix: np.ndarray) -> np.ndarray:
+    """The cofactor matrices (det · inverse transpose) of ``(..., 3, 3)`` matrices.
+
+    They turn normals as the inverse transpose does, and stay defined for singular
+    (zero-scale) matrices.
+    """
+    a, b, c = (matrix[..., :, k] for k in range(3))
+    return np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=-1)

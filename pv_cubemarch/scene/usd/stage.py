@@ -23,7 +23,7 @@ from .context import PrimError, StageContext
 from .instancers import read_instancer
 from .lights import LIGHT_KINDS, read_camera, read_light
 from .meshes import read_mesh
-from .primvars import with_winding_reversed
+from .primvars import cofactor, with_winding_reversed
 from .shapes import PRIMITIVES, read_curves, read_points, read_primitive
 from .volumes import is_field, read_volume
 
@@ -196,12 +196,6 @@ def with_fallback(part: SceneMesh) -> SceneMesh:
         part.material = SurfaceMaterial(name="fallback", diffuse_color=part.color,
                                         opacity=part.opacity)
     return part
-
-
-def cofactor(matrix: np.ndarray) -> np.ndarray:
-    """The cofactor matrix, det · inverse transpose: it turns normals, even when singular."""
-    a, b, c = matrix.T
-    return np.column_stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)])
 
 
 def placed(part: SceneMesh, matrix: np.ndarray) -> SceneMesh:

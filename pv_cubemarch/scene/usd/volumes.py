@@ -13,7 +13,7 @@ from pxr import UsdVol
 
 from ...api import voxel_options
 from ...core.errors import SceneLoadError, VolumeDataError
-from ...core.registry import get_technique, techniques
+from ...core.registry import get_technique, specific_option_names
 from ...models.field_sources import make_field
 from ...models.volume import make_volume
 from ...models.voxels import Palette, make_voxels
@@ -173,7 +173,7 @@ def _check_volume_options(name: str, found: dict, options: dict) -> None:
     try:
         technique = get_technique("volume", options.get("technique", "vtk"))
         technique.make_options({k: v for k, v in options.items()
-                                if k in _volume_option_names()})
+                                if k in specific_option_names("volume")})
         Shading(**{k: options[k] for k in ("stop_opacity", "skip_empty", "light_map_size",
                                            "ambient") if k in options}).check()
     except ValueError as exc:
@@ -181,11 +181,6 @@ def _check_volume_options(name: str, found: dict, options: dict) -> None:
     if options.get("lights", "scene") not in ("scene", "none"):
         raise options_error(name, found, "volume", ValueError(
             f"lights must be 'scene' or 'none', got {options['lights']!r}"))
-
-
-def _volume_option_names() -> set[str]:
-    """Options some volume technique reads and another does not."""
-    return {n for t in techniques("volume") for n in t.option_names}
 
 
 def _field_array(field_prim, grid) -> str | None:
