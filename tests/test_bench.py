@@ -81,6 +81,7 @@ def test_bad_bench_arguments():
         bench.run_tradeoff("vtk", scene, frames=1)
 
 
+@pytest.mark.slow
 def test_resolution_bench_rows_and_table(tmp_path):
     scene = cm.load_scene(SCENE, progress_bar=False)
     rows = bench_resolution.run_resolution(scene, sizes=[(96, 54), (160, 90)], frames=3,
@@ -103,6 +104,7 @@ def test_resolution_bench_rows_and_table(tmp_path):
     assert len(json.loads((tmp_path / "r.json").read_text())["rows"]) == len(rows)
 
 
+@pytest.mark.slow
 def test_resolution_bench_cli(tmp_path, capsys):
     out = tmp_path / "res.json"
     assert main(["bench", "resolution", "--sizes", "64x36,96x54", "--crop", "16",

@@ -11,9 +11,13 @@ import pytest
 from conftest import ROOT
 
 SCRIPTS = sorted((ROOT / "examples").glob("*.py"))
+#: Scripts over 5 s: run by the slow step (pytest -m slow).
+SLOW_SCRIPTS = {"cubemap_volumes.py", "volume_with_mesh.py", "voxel_world.py"}
 
 
-@pytest.mark.parametrize("script", SCRIPTS, ids=[s.name for s in SCRIPTS])
+@pytest.mark.parametrize("script", [
+    pytest.param(s, marks=pytest.mark.slow) if s.name in SLOW_SCRIPTS else s for s in SCRIPTS],
+    ids=[s.name for s in SCRIPTS])
 def test_example_runs(script, tmp_path):
     out = tmp_path / "out.png"
     result = subprocess.run([sys.executable, str(script), str(out)], cwd=tmp_path,

@@ -70,6 +70,7 @@ def test_joint_group_refuses_vtk(plotter_factory, pair):
         cm.add_volume(plotter_factory(), group, technique="vtk")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("technique", ["direct", "cubemap"])
 def test_lit_joint_group_members_shade_each_other(plotter_factory, pair, technique):
     # The light comes from +x: the rotated blob b (at x ~ 0.7) shades blob a behind it.
@@ -116,6 +117,7 @@ def test_projected_pixels_and_classification():
     assert classify(3, 16, 2500.0) == "cubemap"   # 768 texels
 
 
+@pytest.mark.slow
 def test_auto_picks_per_frame_and_can_be_forced(plotter_factory, blob):
     model = cm.make_volume(blob, clim=(0, 1), opacity_unit_distance=0.1)
     pl = plotter_factory((320, 320))

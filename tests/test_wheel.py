@@ -9,9 +9,11 @@ import sys
 import zipfile
 from pathlib import Path
 
+import pytest
 from conftest import ROOT, SCENE
 
 
+@pytest.mark.slow
 def test_wheel_carries_glsl_and_renders_from_elsewhere(tmp_path):
     # Build from a clean copy: setuptools keeps a build/ folder in the source tree, and a
     # stale one would smuggle deleted files into the wheel.
