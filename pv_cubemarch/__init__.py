@@ -1,7 +1,9 @@
 """pv_cubemarch: ray-marching techniques for PyVista/VTK through GLSL injection.
 
 Importing the package selects an offscreen OpenGL window when there is no display
-(OSMesa by default, EGL with ``PV_CUBEMARCH_GL=egl``).
+(OSMesa by default, EGL with ``PV_CUBEMARCH_GL=egl``) and, with the ``jupyter`` extra,
+makes ``plotter.show()`` in a notebook show plotters holding our techniques by the
+server-rendered view (:mod:`pv_cubemarch.views.notebook`).
 """
 
 from __future__ import annotations
@@ -40,9 +42,15 @@ from .reference import render_emission_absorption  # noqa: E402
 from .scene.io import load_scene  # noqa: E402
 from .scene.model import Scene, SceneLight, SceneMesh, SkippedPrim  # noqa: E402
 from .scene.openvdb.image import read_vdb  # noqa: E402
-from .views.app import widget  # noqa: E402
+from .views.live import LiveView, live_view  # noqa: E402
+from .views.notebook import register_notebook_backends  # noqa: E402
 
 __version__ = "0.1.0"
+
+#: Another name for :func:`live_view` (a live view is the notebook widget).
+widget = live_view
+
+register_notebook_backends()
 
 __all__ = [
     "Camera", "CubemarchError", "OffscreenUnavailableError", "PlotterClosedError",
@@ -54,4 +62,5 @@ __all__ = [
     "configure_offscreen", "make_voxels", "Palette", "VoxelModel", "gl_info",
     "load_scene", "make_volume", "read_vdb", "offscreen_plotter", "plugin",
     "render_emission_absorption", "render_frame", "render_image", "widget",
+    "live_view", "LiveView",
 ]

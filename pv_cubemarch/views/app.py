@@ -9,7 +9,6 @@ trame, trame-vtk and trame-vuetify are the optional ``jupyter`` extra; without t
 
 from __future__ import annotations
 
-import itertools
 import os
 import tempfile
 
@@ -30,7 +29,7 @@ except ImportError:                    # the optional extra is not installed
     get_server = None
 
 INSTALL = "install the optional extra: pip install 'pv_cubemarch[jupyter]' (trame, trame-vtk, " \
-    "trame-vuetify)"
+    "trame-vuetify, nest-asyncio2)"
 
 
 def state_name(kind: str, knob: Knob) -> str:
@@ -39,7 +38,7 @@ def state_name(kind: str, knob: Knob) -> str:
 
 
 def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800, 600),
-              name: str = "cubemarch"):
+              name: str = "cubemarch", show_panel: bool = True):
     """The trame server, its layout and the tuning session for ``scene``.
 
     Parameters
@@ -51,6 +50,8 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
         The view's size in pixels (the server renders at this size).
     name : str
         The trame server's name (one server per name and process).
+    show_panel : bool
+        Open the knob panel at start (the toolbar's menu button toggles it).
 
     Returns
     -------
@@ -82,7 +83,7 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     for kind in session.kinds():
         for knob in session.knobs(kind):
             _bind(server, session, kind, knob)
-    layout = _layout(server, session, plotter, size)
+    layout = _layout(server, session, plotter, size, show_panel)
 
     @ctrl.set("measure_error")
     def measure_error():
@@ -139,9 +140,9 @@ def _typed(knob: Knob, value):
     return choice
 
 
-def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size):
+def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size, show_panel: bool):
     """The page: a drawer of knobs by kind and the server-rendered view."""
-    with SinglePageWithDrawerLayout(server) as layout:
+    with SinglePageWithDrawerLayout(server, show_drawer=show_panel) as layout:
         layout.title.set_text("pv_cubemarch")
         with layout.drawer:
             for kind in session.kinds():
@@ -177,38 +178,6 @@ def _control(kind: str, knob: Knob) -> None:
     else:
         vuetify3.VSlider(min=knob.low, max=knob.high, step=knob.step, thumb_label=True,
                          **common)
-
-
-def widget(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800, 600)):
-    """The live view and knob panel of a scene or plotter, for a Jupyter notebook.
-
-    The view is rendered on the server (our shaders included), whatever PyVista's
-    notebook backend is; every knob change re-renders it, and the panel shows the frame's
-    time and, on request, its error against the CPU reference.
-
-    Parameters
-    ----------
-    scene : Scene, str or pyvista.Plotter
-        What to show (see :func:`build_app`).
-    size : tuple of int
-        The view's size for a scene.
-
-    Returns
-    -------
-    trame layout
-        Display it in a cell after ``await view.ready``.
-
-    Examples
-    --------
-    >>> view = pv_cubemarch.widget(plotter)  # doctest: +SKIP
-    >>> await view.ready  # doctest: +SKIP
-    >>> view  # doctest: +SKIP
-    """
-    _, layout, _ = build_app(scene, size, name=f"cubemarch-{next(_COUNTER)}")
-    return layout
-
-
-_COUNTER = itertools.count()
 
 
 def serve(scene: Scene | str, port: int = 8080, host: str = "127.0.0.1",

@@ -1,0 +1,154 @@
+"""A live view in a notebook: the app's server started at once, shown as an iframe, stopped.
+
+:func:`live_view` (also ``pv_cubemarch.widget``) builds the app of :mod:`.app` for a scene
+or a plotter and starts its server before returning, so the cell that calls it can display
+it (no ``await`` needed). One server per view, on a free localhost port, until
+:meth:`LiveView.close`; showing a plotter again reuses its view.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+
+import pyvista
+
+from ..scene.model import Scene
+from .app import INSTALL, build_app
+from .session import TuningSession
+
+try:
+    import nest_asyncio2
+except ImportError:                     # the optional extra is not installed
+    nest_asyncio2 = None
+
+
+class LiveView:
+    """A running live view: the trame server, its page and the tuning session behind it.
+
+    Display it in a notebook cell (an iframe of the page); turn knobs from code with
+    :meth:`set` (the page follows); :meth:`close` stops the server.
+    """
+
+    def __init__(self, server, layout, session: TuningSession, owns_plotter: bool):
+        self.server = server
+        self.layout = layout
+        self.session = session
+        self._owns_plotter = owns_plotter
+
+    @property
+    def url(self) -> str:
+        """The page's address (``http://localhost:<port>/...``) while the server runs."""
+        return self.layout.url
+
+    @property
+    def running(self) -> bool:
+        """Whether the server is serving the page."""
+        return self.server.running
+
+    @property
+    def ready(self):
+        """An awaitable that resolves once the server listens (it already does)."""
+        return self.layout.ready
+
+    def set(self, kind: str, name: str, value) -> float:
+        """Turn a knob from code (see :meth:`TuningSession.set`); the panel shows the value."""
+        milliseconds = self.session.set(kind, name, value)
+        self.server.state.frame_ms = round(milliseconds, 1)
+        self.server.controller.view_update()
+        return milliseconds
+
+    def close(self) -> None:
+        """Stop the server; a view made from a scene also closes its plotter."""
+        _run_now(self.server.stop())
+        if self._owns_plotter:
+            self.session.plotter.close()
+        for plotter, view in list(_VIEWS.items()):
+            if view is self:
+                del _VIEWS[plotter]
+
+    def _ipython_display_(self):
+        if not self.running:
+            raise RuntimeError("this live view was closed; make a new one with "
+                               "pv_cubemarch.live_view(...)")
+        self.layout._ipython_display_()
+
+    def __repr__(self) -> str:
+        state = self.url if self.running else "closed"
+        return f"<LiveView {', '.join(self.session.kinds()) or 'meshes only'}: {state}>"
+
+
+def live_view(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800, 600),
+              panel: bool = True) -> LiveView:
+    """The live view and knob panel of a scene or plotter, for a notebook or a browser.
+
+    The view is rendered on the server (our shaders included), whatever PyVista's
+    notebook backend is, and turns and zooms with the mouse; every knob change re-renders
+    it, and the panel shows the frame's time and, on request, its error against the CPU
+    reference. The server is started before this returns, on a free localhost port.
+
+    Parameters
+    ----------
+    scene : Scene, str or pyvista.Plotter
+        A scene, a path :func:`pv_cubemarch.load_scene` reads, or a plotter holding our
+        techniques' actors (shown at its own size; showing it again reuses this view).
+    size : tuple of int
+        The view's size in pixels for a scene.
+    panel : bool, default: True
+        Open the knob panel at start (the toolbar's menu button opens and closes it).
+
+    Returns
+    -------
+    LiveView
+        Displayed as an iframe when it ends a cell; ``view.set(kind, knob, value)`` turns
+        a knob from code; ``view.close()`` stops its server.
+
+    Examples
+    --------
+    >>> import pv_cubemarch
+    >>> view = pv_cubemarch.live_view("datasets/smoke_scene.usda")  # doctest: +SKIP
+    >>> view  # doctest: +SKIP
+    >>> view.set("volume", "step_scale", 0.5)  # doctest: +SKIP
+    """
+    if isinstance(scene, pyvista.Plotter):
+        view = _VIEWS.get(scene)
+        if view is not None and view.running:
+            if scene.render_window is None:
+                raise ValueError("the plotter was closed; make a new one to show")
+            view.server.state[PANEL_STATE] = panel
+            return view
+    server, layout, session = build_app(scene, size, name=f"cubemarch-{next(_COUNTER)}",
+                                        show_panel=panel)
+    _run_now(_started(layout))
+    view = LiveView(server, layout, session, owns_plotter=not isinstance(scene,
+                                                                          pyvista.Plotter))
+    if isinstance(scene, pyvista.Plotter):
+        _VIEWS[scene] = view
+    return view
+
+
+#: The trame state that opens the page's knob panel (the drawer of the "main" template).
+PANEL_STATE = "main_drawer"
+#: The live view of each plotter shown (so showing it again reuses the running server).
+_VIEWS: dict[pyvista.Plotter, LiveView] = {}
+_COUNTER = itertools.count()
+
+
+async def _started(layout) -> None:
+    """Start the layout's server (as a task of the running loop) and wait until it listens."""
+    await layout.ready
+
+
+def _run_now(coroutine) -> None:
+    """Run ``coroutine`` to its end now, inside a notebook's running event loop too."""
+    try:
+        loop = asyncio.get_event_loop()
+    except RuntimeError:                 # a thread without a loop
+        loop = asyncio.new_event_loop()
+        asyncio.set_event_loop(loop)
+    if loop.is_running():                # a notebook's kernel: wait inside its loop
+        if nest_asyncio2 is None:
+            raise ImportError(f"showing a live view without `await` needs nest-asyncio2: "
+                              f"{INSTALL}")
+        nest_asyncio2.apply(loop)
+    loop.run_until_complete(coroutine)
