@@ -6,13 +6,18 @@ expected images are drawn by loading the scene with that option, not through the
 
 from __future__ import annotations
 
+import asyncio
+import urllib.request
 import warnings
 
 import numpy as np
 import pytest
+import pyvista
 from conftest import SCENE
+from pyvista.jupyter.notebook import handle_plotter
 
 import pv_cubemarch as cm
+from pv_cubemarch.views import live, notebook
 from pv_cubemarch.views.app import build_app, state_name
 from pv_cubemarch.views.session import TuningSession
 
@@ -137,3 +142,71 @@ def test_an_adopted_surface_keeps_its_technique(plotter_factory):
     session = TuningSession.from_plotter(pl)
     session.set("surface", "steps", 120)
     assert pl.renderer.actors["ball"].cubemarch.cells is None       # still the full march
+
+
+# --- plotter.show() in a notebook: PyVista's backends as pv_cubemarch wraps them ----------
+
+def served_page(view) -> bytes:
+    """The page the view's server answers with (the server runs on this loop's turns)."""
+    async def fetch():
+        loop = asyncio.get_running_loop()
+        return await loop.run_in_executor(None, lambda: urllib.request.urlopen(
+            view.url, timeout=10).read())
+    return asyncio.get_event_loop().run_until_complete(fetch())
+
+
+@pytest.fixture
+def volume_plotter():
+    pl = pyvista.Plotter(notebook=True, window_size=SIZE)
+    x, y, z = np.mgrid[-1:1:24j, -1:1:24j, -1:1:24j]
+    cm.add_volume(pl, np.exp(-4 * (x * x + y * y + z * z)), technique="direct")
+    yield pl
+    view = live._VIEWS.get(pl)
+    if view is not None:
+        view.close()
+    pl.close()
+
+
+def test_a_client_side_backend_shows_our_plotter_server_rendered(volume_plotter):
+    # catches: the wrapper handing our plotter to vtk.js (no LiveView, no warning), or a
+    # view whose server does not answer.
+    volume_plotter.theme.jupyter_backend = "client"
+    with pytest.warns(UserWarning, match="vtk.js"):
+        shown = handle_plotter(volume_plotter, backend="client")
+    assert isinstance(shown, cm.LiveView) and shown.running
+    assert b"trame" in served_page(shown)
+    assert cm.live_view(volume_plotter) is shown        # shown again: the same server
+
+
+def test_server_side_backends_show_our_plotter_without_a_warning(volume_plotter):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        shown = handle_plotter(volume_plotter, backend="trame")
+    assert isinstance(shown, cm.LiveView)
+
+
+def test_other_plotters_go_to_the_backends_own_handler(monkeypatch):
+    # catches: every plotter taken over (trame-pyvista's client view lost for meshes)
+    calls = []
+    monkeypatch.setattr(notebook, "_original_handler",
+                        lambda name: lambda plotter, **kw: calls.append((name, plotter)))
+    pl = pyvista.Plotter(notebook=True, window_size=SIZE)
+    pl.add_mesh(pyvista.Sphere())
+    try:
+        handle_plotter(pl, backend="client")
+        assert calls == [("client", pl)]
+    finally:
+        pl.close()
+
+
+def test_static_backend_stays_an_image_of_our_rendering(volume_plotter):
+    image = np.asarray(handle_plotter(volume_plotter, backend="static")).astype(int)
+    assert image.shape[:2] == (SIZE[1], SIZE[0])
+    expected = cm.render_image(volume_plotter).astype(int)[..., :3]
+    assert np.abs(image[..., :3] - expected).max() <= 2 and expected.std() > 5
+
+
+def test_the_backends_are_registered():
+    names = {b.name: b.source for b in pyvista.registered_jupyter_backends()}
+    for name in (*notebook.WRAPPED_BACKENDS, "cubemarch"):
+        assert names[name].startswith("pv_cubemarch.views.notebook")
