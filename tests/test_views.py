@@ -210,3 +210,51 @@ def test_the_backends_are_registered():
     names = {b.name: b.source for b in pyvista.registered_jupyter_backends()}
     for name in (*notebook.WRAPPED_BACKENDS, "cubemarch"):
         assert names[name].startswith("pv_cubemarch.views.notebook")
+
+
+def test_hiding_a_voxel_material_draws_as_a_palette_without_it(plotter_factory):
+    # catches: the materials knob not reaching the GPU palette (binding.set_material
+    # skipped: the frame unchanged), or a hidden material not shown again. Expected: the grid added with material 2 left out of a
+    # dict palette (materials left out are hidden), drawn without the session.
+    labels = np.zeros((6, 5, 4), np.uint8)
+    labels[1:5, 1:4, 1:3] = 1
+    labels[2:4, 2:4, 2:4] = 2
+    labels[0, 0, 0] = 3
+    palette = {1: "tomato", 2: "steelblue", 3: "gold"}
+    pl = plotter_factory(SIZE)
+    cm.add_voxels(pl, labels, palette=palette, name="blocks")
+    pl.camera_position = "iso"
+    session = TuningSession.from_plotter(pl)
+    assert session.value("voxels", "materials") == [1, 2, 3]
+    full = cm.render_image(pl).astype(int)
+    session.set("voxels", "materials", [1, 3])
+    expected_pl = plotter_factory(SIZE)
+    cm.add_voxels(expected_pl, labels, palette={1: "tomato", 3: "gold"}, name="blocks")
+    expected_pl.camera_position = "iso"
+    assert np.abs(cm.render_image(pl).astype(int)
+                  - cm.render_image(expected_pl).astype(int)).max() <= 1
+    assert np.abs(cm.render_image(pl).astype(int) - full).max() > 50   # blue is gone
+    session.set("voxels", "materials", [1, 2, 3])
+    assert np.abs(cm.render_image(pl).astype(int) - full).max() <= 1
+    with pytest.raises(ValueError, match="materials"):
+        session.set("voxels", "materials", [9])
+
+
+def test_unset_options_show_as_auto_and_can_be_set_back():
+    # catches: an unset option shown as a made-up number, or "auto" not unsetting it
+    view = cm.live_view(SCENE, size=SIZE)          # a running server: its state flushes
+    state, session = view.server.state, view.session
+    try:
+        assert state["volume__max_samples"] == "auto"
+        state["volume__technique"] = "cubemap"
+        state.flush()
+        state["volume__max_samples"] = 128
+        state.flush()
+        assert session.value("volume", "max_samples") == 128
+        state["volume__max_samples"] = "auto"
+        state.flush()
+        assert session.value("volume", "max_samples") is None
+        actor = session.plotter.renderer.actors[session.scene.volumes[0].name]
+        assert actor.cubemarch.technique == "cubemap"
+    finally:
+        view.close()

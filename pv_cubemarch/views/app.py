@@ -17,7 +17,7 @@ import pyvista
 from ..core.rendering import offscreen_plotter
 from ..scene.io import load_scene
 from ..scene.model import Scene
-from .knobs import Knob
+from .knobs import AUTO, Knob
 from .session import TuningSession
 
 try:
@@ -101,22 +101,19 @@ def _bind(server, session: TuningSession, kind: str, knob: Knob) -> None:
     """Set the knob's state from the session and redraw when it changes."""
     state, ctrl = server.state, server.controller
     variable = state_name(kind, knob)
-    value = session.value(kind, knob.name)
-    initial = value if value is not None else (knob.choices[0] if knob.choices else knob.low)
-    state[variable] = initial
+    state[variable] = _shown(knob, session.value(kind, knob.name))
 
     @state.change(variable)
     def changed(**current):
-        new = current[variable]
-        unset = session.value(kind, knob.name) is None
-        if new == session.value(kind, knob.name) or unset and new == initial:
-            return                      # the control's start (an option left at "auto")
+        new = _typed(knob, current[variable])
+        if new == session.value(kind, knob.name):
+            return                      # the control's start, or set back after a refusal
         try:
-            state.frame_ms = round(session.set(kind, knob.name, _typed(knob, new)), 1)
+            state.frame_ms = round(session.set(kind, knob.name, new), 1)
             state.message = ""
         except ValueError as exc:        # refused: the scene is as it was, and so is the knob
             state.message = str(exc)
-            state[variable] = session.value(kind, knob.name)
+            state[variable] = _shown(knob, session.value(kind, knob.name))
         state.drawn = _drawn(session)
         state.error_text = "error: not measured"
         ctrl.view_update()
@@ -129,10 +126,21 @@ def _drawn(session: TuningSession) -> str:
                      for name in session.items if name in actors)
 
 
+def _shown(knob: Knob, value):
+    """An option's value as its control shows it (an unset option as "auto")."""
+    if value is None:
+        return AUTO if AUTO in knob.choices else knob.low if knob.control == "slider" else None
+    return value
+
+
 def _typed(knob: Knob, value):
-    """A control's value as the option's type."""
+    """A control's value as the option's type ("auto": unset)."""
+    if value == AUTO:
+        return None
     if knob.control == "switch":
         return bool(value)
+    if knob.control == "multiselect":
+        return sorted(next((c for c in knob.choices if str(c) == str(v)), v) for v in value)
     if knob.control == "slider":
         return float(value) if isinstance(knob.step, float) and knob.step % 1 else \
             int(round(float(value)))
@@ -171,8 +179,9 @@ def _control(kind: str, knob: Knob) -> None:
                   density="compact", classes="mx-2", hide_details=True)
     if knob.techniques:
         common["disabled"] = (f"!{list(knob.techniques)!r}.includes({kind}__technique)",)
-    if knob.control == "select":
-        vuetify3.VSelect(items=(repr(list(knob.choices)),), **common)
+    if knob.control in ("select", "multiselect"):
+        vuetify3.VSelect(items=(repr(list(knob.choices)),), multiple=knob.control ==
+                         "multiselect", chips=knob.control == "multiselect", **common)
     elif knob.control == "switch":
         vuetify3.VSwitch(**common)
     else:

@@ -1,8 +1,9 @@
 """The speed/accuracy knobs of each kind of technique, as data a panel turns into controls.
 
-A knob is an option of ``add_volume``/``add_voxels``/``add_surface`` (or the technique,
-or a surface's isovalue) with the range a user tunes it over; ``techniques`` names the
-techniques that read it (empty: every technique of its kind).
+A knob is an option of ``add_volume``/``add_voxels``/``add_surface`` (or the technique, a
+surface's isovalue, the voxel materials shown) with the range a user tunes it over;
+``techniques`` names the techniques that read it (empty: every technique of its kind). A
+select whose choices start with :data:`AUTO` may be left unset: the technique decides.
 """
 
 from __future__ import annotations
@@ -11,6 +12,9 @@ from dataclasses import dataclass
 
 from ..core.registry import techniques
 
+#: The choice of an option left unset (``None``): the technique picks its value.
+AUTO = "auto"
+
 
 @dataclass(frozen=True)
 class Knob:
@@ -18,7 +22,7 @@ class Knob:
 
     name: str
     label: str
-    control: str                  # 'slider', 'select' or 'switch'
+    control: str                  # 'slider', 'select', 'multiselect' or 'switch'
     low: float = 0.0
     high: float = 1.0
     step: float = 0.1
@@ -44,20 +48,23 @@ def volume_knobs() -> tuple[Knob, ...]:
              techniques=("direct",), help="march at 1/N of the viewport"),
         Knob("face_size", "cube-map face", "select", choices=(64, 128, 256, 512, 1024),
              techniques=("cubemap", "auto"), help="texels per face edge"),
-        Knob("max_samples", "max samples", "slider", 16, 1024, 16,
+        Knob("max_samples", "max samples", "select", choices=(AUTO, 64, 128, 256, 512, 1024,
+                                                              2048),
              techniques=("cubemap", "auto"), help="samples along the box diagonal"),
         Knob("lights", "lights", "select", choices=("none", "scene")),
         Knob("ambient", "ambient", "slider", 0.0, 1.0, 0.05),
     )
 
 
-def voxel_knobs() -> tuple[Knob, ...]:
-    """Voxel DDA blocks: traversal, occupancy levels, level of detail."""
+def voxel_knobs(materials: tuple[int, ...] = ()) -> tuple[Knob, ...]:
+    """Voxel DDA blocks: traversal, occupancy levels, level of detail, materials shown."""
     return (
         Knob("traversal", "traversal", "select", choices=("dda", "fixed"),
              help="dda is exact; fixed steps may miss thin voxels"),
-        Knob("mip_levels", "occupancy levels", "slider", 0, 12, 1),
+        Knob("mip_levels", "occupancy levels", "select", choices=(AUTO, *range(13))),
         Knob("lod", "level of detail", "switch"),
+        Knob("materials", "materials shown", "multiselect", choices=tuple(materials),
+             help="a hidden material's voxels are traversed as empty"),
     )
 
 

@@ -61,6 +61,9 @@ class TuningSession:
             scene.add_to(plotter)
             self._from_scene(scene)
         self._originals = {name: item.model for name, item in self.items.items()}
+        #: Each voxel grid's material opacities as loaded (shown again at these).
+        self._opacities = {name: item.model.palette.rgba[:, 3].copy()
+                           for name, item in self.items.items() if item.kind == "voxels"}
         self.level_shift = 0.0
         #: Milliseconds of the last frame drawn (after the last change).
         self.last_frame_ms: float | None = None
@@ -122,7 +125,7 @@ class TuningSession:
         if kind == "volume":
             return volume_knobs()
         if kind == "voxels":
-            return voxel_knobs()
+            return voxel_knobs(self._materials())
         coefficients = np.concatenate([item.model.coefficients.ravel() for item in
                                        self._of("surface")])
         spread = float(np.ptp(coefficients)) or 1.0
@@ -133,6 +136,9 @@ class TuningSession:
         if kind == "surface" and name == "isovalue":
             return self.level_shift
         item = self._of(kind)[0]
+        if kind == "voxels" and name == "materials":
+            visible = item.model.palette.visible
+            return [m for m in self._materials() if m < len(visible) and visible[m]]
         if name in item.options:
             value = item.options[name]
             return "none" if name == "lights" and value is None else value
@@ -144,8 +150,13 @@ class TuningSession:
         A technique that does not read an option set for another is given the option left
         out (its default), as the panel greys the knob out. A value a technique refuses
         raises its ``ValueError`` and leaves every item as it was. The time returned is
-        the second frame's: the first after adding builds the shaders.
+        the second frame's: the first after adding builds the shaders. The voxel knob
+        ``materials`` (the materials shown) changes only the palettes, a few bytes each.
         """
+        if kind == "voxels" and name == "materials":
+            self._show_materials({int(m) for m in value})
+            self.draw()
+            return self.draw()
         done = []
         try:
             for item_name, item in self.items.items():
@@ -200,6 +211,28 @@ class TuningSession:
             near=camera.clipping_range[0] if camera.clipping_range else None)
         return compare_images(render_image(self.plotter), reference).as_dict()
 
+    def _materials(self) -> tuple[int, ...]:
+        """The materials of the voxel grids' palettes (at most :data:`LISTED_MATERIALS`)."""
+        rows = max((len(item.model.palette.rgba) for item in self._of("voxels")), default=1)
+        return tuple(range(1, min(rows, LISTED_MATERIALS + 1)))
+
+    def _show_materials(self, shown: set[int]) -> None:
+        """Hide the listed materials not in ``shown`` and show those in it, in every grid."""
+        unknown = shown - set(self._materials())
+        if unknown:
+            raise ValueError(f"materials {sorted(unknown)} are not in the voxel palettes "
+                             f"(materials 1-{max(self._materials(), default=0)})")
+        for name, item in self.items.items():
+            if item.kind != "voxels":
+                continue
+            binding = self.plotter.renderer.actors[name].cubemarch
+            loaded, visible = self._opacities[name], item.model.palette.visible
+            for material in self._materials():
+                if material >= len(visible) or visible[material] == (material in shown):
+                    continue             # unchanged: no upload
+                opacity = (float(loaded[material]) or 1.0) if material in shown else 0.0
+                binding.set_material(material, opacity=opacity)
+
     def _of(self, kind: str) -> list[TunedItem]:
         return [item for item in self.items.values() if item.kind == kind]
 
@@ -219,6 +252,8 @@ class TuningSession:
             add_surface(self.plotter, item.model, name=name, **options)
 
 
+#: Materials listed by the ``materials`` knob (the first of a larger palette).
+LISTED_MATERIALS = 64
 #: Each kind's default technique.
 DEFAULT_TECHNIQUE = {"volume": "vtk", "voxels": "voxels", "surface": "active"}
 #: Defaults of knobs that are not fields of a technique's options dataclass.
