@@ -15,6 +15,7 @@ import base64
 import contextlib
 import io
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -24,7 +25,10 @@ import urllib.request
 import warnings
 from pathlib import Path
 
+import nbclient
+import nbformat
 import numpy as np
+import pyvista
 from PIL import Image
 from playwright.sync_api import sync_playwright
 
@@ -90,7 +94,7 @@ READ_FRAME = """() => {
 }"""
 
 
-def settled_frame(page, previous: str | None = None, timeout: float = 60.0):
+def settled_frame(page, previous: str | None = None, timeout: float = 60.0, size=SIZE):
     """The view's frame once a new full-size one has arrived and the stream is quiet."""
     deadline = time.monotonic() + timeout
     last, since = None, time.monotonic()
@@ -102,10 +106,10 @@ def settled_frame(page, previous: str | None = None, timeout: float = 60.0):
             elif time.monotonic() - since > QUIET:
                 image = np.asarray(Image.open(io.BytesIO(base64.b64decode(
                     frame["png"].split(",", 1)[1]))).convert("RGB")).astype(int)
-                if image.shape[:2] == (SIZE[1], SIZE[0]):
+                if image.shape[:2] == (size[1], size[0]):
                     return frame["src"], image
         time.sleep(0.1)
-    raise AssertionError(f"no settled {SIZE} frame within {timeout} s")
+    raise AssertionError(f"no settled {size} frame within {timeout} s")
 
 
 def offscreen(**settings) -> np.ndarray:
@@ -173,5 +177,73 @@ def test_viewer_streams_our_rendering_and_its_knobs_change_it(tmp_path):
             if os.environ.get("PV_CUBEMARCH_SCREENSHOT"):
                 Path(os.environ["PV_CUBEMARCH_SCREENSHOT"]).write_bytes(shot.read_bytes())
             assert not outside, f"the page reached beyond localhost: {outside}"
+        finally:
+            browser.close()
+
+
+#: A notebook cell: a client-side backend set, a volume added, plotter.show().
+SHOW_CELL = """
+import numpy as np
+import pyvista as pv
+import pv_cubemarch
+pv.set_jupyter_backend('client')
+x, y, z = np.mgrid[-1:1:32j, -1:1:32j, -1:1:32j]
+plotter = pv.Plotter(notebook=True, window_size=(320, 240))
+pv_cubemarch.add_volume(plotter, np.exp(-4 * (x**2 + y**2 + z**2)), cmap='inferno',
+                        technique='direct')
+plotter.show()
+"""
+
+
+def shown_offscreen(camera_position) -> np.ndarray:
+    """What SHOW_CELL's plotter draws from ``camera_position``, drawn in this process."""
+    x, y, z = np.mgrid[-1:1:32j, -1:1:32j, -1:1:32j]
+    plotter = pyvista.Plotter(off_screen=True, window_size=(320, 240))
+    try:
+        cm.add_volume(plotter, np.exp(-4 * (x**2 + y**2 + z**2)), cmap="inferno",
+                      technique="direct")
+        plotter.camera_position = camera_position
+        return cm.render_image(plotter).astype(int)
+    finally:
+        plotter.close()
+
+
+def test_plotter_show_in_a_notebook_streams_our_rendering(tmp_path):
+    # catches: plotter.show() under a client-side backend drawing with vtk.js (the
+    # iframe would not be our server's, or its frame the volume's box), and a view that
+    # does not turn with the mouse.
+    book = nbformat.v4.new_notebook()
+    book.cells.append(nbformat.v4.new_code_cell(SHOW_CELL))
+    book.cells.append(nbformat.v4.new_code_cell(
+        "print([list(v) for v in plotter.camera_position])"))
+    client = nbclient.NotebookClient(book, timeout=240, kernel_name="python3",
+                                     resources={"metadata": {"path": str(tmp_path)}})
+    with client.setup_kernel(), sync_playwright() as driver:
+        client.execute_cell(book.cells[0], 0)
+        client.execute_cell(book.cells[1], 1)
+        camera = eval(book.cells[1].outputs[0]["text"])     # noqa: S307 (our own print)
+        outputs = str(book.cells[0].outputs)
+        assert "vtk.js" in outputs                          # the client backend's warning
+        url = re.search(r'src="(http://localhost:\d+/[^"]*)"', outputs).group(1)
+        browser = driver.chromium.launch(executable_path=CHROMIUM, headless=True,
+                                         args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 900, "height": 700})
+            page.goto(url.replace("localhost", "127.0.0.1"))
+            src, first = settled_frame(page, size=(320, 240))
+            assert close(first, shown_offscreen(camera)), "plotter.show() is not our rendering"
+            assert first.std() > 5
+            box = page.locator("#view-box").bounding_box()
+            page.mouse.move(box["x"] + 160, box["y"] + 120)
+            page.mouse.down()
+            page.mouse.move(box["x"] + 260, box["y"] + 150, steps=8)
+            page.mouse.up()
+            page.mouse.wheel(0, -400)                         # and zoom in
+            src, turned = settled_frame(page, src, size=(320, 240))
+            client.execute_cell(book.cells[1], 1)             # where the kernel's camera is
+            moved = eval(book.cells[1].outputs[0]["text"])    # noqa: S307 (our own print)
+            assert not np.allclose(moved[0], camera[0]), "the mouse did not move the camera"
+            assert close(turned, shown_offscreen(moved))
+            assert np.abs(turned - first).mean() > 2.0        # zoomed: a larger blob
         finally:
             browser.close()
