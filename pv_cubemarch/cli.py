@@ -24,7 +24,7 @@ from .models.voxels import VoxelModel
 from .scene.io import load_scene
 from .surfaces.options import ROOTS
 from .surfaces.options import TRAVERSALS as SURFACE_TRAVERSALS
-from .views.app import serve
+from .views.app import WINDOW_MODES, serve
 from .volume.options import Shading
 from .voxels.options import MODES, SHADINGS, TRAVERSALS, VoxelOptions
 
@@ -159,6 +159,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="address to listen on (default 127.0.0.1: this machine only)")
     view.add_argument("--size", type=_size, default=(800, 600),
                       help="view size WxH (default 800x600)")
+    view.add_argument("--window", choices=WINDOW_MODES, default="auto",
+                      help="where the app opens: app (a desktop window, needs pywebview), "
+                           "browser (the default browser), none (serve only); auto "
+                           "(default): app or browser where a display exists, else none")
     bench = commands.add_parser("bench", help="speed/accuracy measurements")
     bench_commands = bench.add_subparsers(dest="bench_command", required=True)
     tradeoff = bench_commands.add_parser(
@@ -266,7 +270,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "bench":
             return _bench(args)
         if args.command == "view":
-            serve(args.scene or DEFAULT_SCENE, port=args.port, host=args.host, size=args.size)
+            serve(args.scene or DEFAULT_SCENE, port=args.port, host=args.host, size=args.size,
+                  window=args.window)
             return 0
         return _info(args)
     except (CubemarchError, OSError, KeyError, ValueError, ImportError) as exc:

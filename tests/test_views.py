@@ -7,6 +7,8 @@ expected images are drawn by loading the scene with that option, not through the
 from __future__ import annotations
 
 import asyncio
+import importlib.util
+import sys
 import urllib.request
 import warnings
 
@@ -17,8 +19,9 @@ from conftest import SCENE
 from pyvista.jupyter.notebook import handle_plotter
 
 import pv_cubemarch as cm
+from pv_cubemarch.cli import main
 from pv_cubemarch.views import live, notebook
-from pv_cubemarch.views.app import build_app, state_name
+from pv_cubemarch.views.app import build_app, state_name, window_mode
 from pv_cubemarch.views.session import TuningSession
 
 SIZE = (160, 120)
@@ -214,8 +217,9 @@ def test_the_backends_are_registered():
 
 def test_hiding_a_voxel_material_draws_as_a_palette_without_it(plotter_factory):
     # catches: the materials knob not reaching the GPU palette (binding.set_material
-    # skipped: the frame unchanged), or a hidden material not shown again. Expected: the grid added with material 2 left out of a
-    # dict palette (materials left out are hidden), drawn without the session.
+    # skipped: the frame unchanged), or a hidden material not shown again. Expected: the
+    # grid added with material 2 left out of a dict palette (materials left out are
+    # hidden), drawn without the session.
     labels = np.zeros((6, 5, 4), np.uint8)
     labels[1:5, 1:4, 1:3] = 1
     labels[2:4, 2:4, 2:4] = 2
@@ -258,3 +262,26 @@ def test_unset_options_show_as_auto_and_can_be_set_back():
         assert actor.cubemarch.technique == "cubemap"
     finally:
         view.close()
+
+
+def test_the_viewer_opens_a_window_only_where_a_display_exists(monkeypatch):
+    # catches: a browser launched on a headless server, or none on a desktop
+    monkeypatch.setattr(sys, "platform", "linux")
+    assert window_mode("auto", {}) == "none"
+    assert window_mode("auto", {"DISPLAY": ":0"}) in ("app", "browser")
+    assert window_mode("browser", {}) == "browser"
+    assert window_mode("none", {"DISPLAY": ":0"}) == "none"
+    with pytest.raises(ValueError, match="window='tab'"):
+        window_mode("tab")
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)   # no pywebview
+    assert window_mode("auto", {"WAYLAND_DISPLAY": "wayland-0"}) == "browser"
+    with pytest.raises(ImportError, match="pip install pywebview"):
+        window_mode("app", {"DISPLAY": ":0"})
+
+
+def test_view_command_says_what_a_desktop_window_needs(capsys, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["view", "--window", "app"]) == 2
+    error = capsys.readouterr().err
+    assert "pywebview" in error or "display" in error

@@ -9,7 +9,9 @@ trame, trame-vtk and trame-vuetify are the optional ``jupyter`` extra; without t
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import sys
 import tempfile
 
 import pyvista
@@ -190,9 +192,48 @@ def _control(kind: str, knob: Knob) -> None:
 
 
 def serve(scene: Scene | str, port: int = 8080, host: str = "127.0.0.1",
-          size: tuple[int, int] = (800, 600)) -> None:
-    """Serve the live view of ``scene`` on ``http://host:port/`` until stopped (Ctrl-C)."""
+          size: tuple[int, int] = (800, 600), window: str = "auto") -> None:
+    """Serve the live view of ``scene`` on ``http://host:port/`` until stopped (Ctrl-C).
+
+    ``window`` (see :func:`window_mode`): where a display exists the app also opens in a
+    desktop window (``'app'``, pywebview) or the default browser (``'browser'``).
+    """
+    mode = window_mode(window)
     server, _, _ = build_app(scene, size)
-    print(f"pv-cubemarch view: http://{host}:{port}/", flush=True)
-    server.start(port=port, host=host, open_browser=False, show_connection_info=False,
-                 timeout=0)
+    if mode == "app":
+        print("pv-cubemarch view: opening a desktop window (pywebview)", flush=True)
+    else:
+        print(f"pv-cubemarch view: http://{host}:{port}/", flush=True)
+    server.start(port=port, host=host, open_browser=mode == "browser",
+                 exec_mode="desktop" if mode == "app" else "main",
+                 show_connection_info=False, timeout=0)
+
+
+#: What ``pv-cubemarch view --window`` accepts.
+WINDOW_MODES = ("auto", "app", "browser", "none")
+
+
+def window_mode(window: str = "auto", environ: dict | None = None) -> str:
+    """Where the served app opens: ``'app'``, ``'browser'`` or ``'none'`` (serve only).
+
+    ``'auto'``: with a display (``DISPLAY`` or ``WAYLAND_DISPLAY``, or macOS/Windows) a
+    desktop window when pywebview is installed, else the default browser; without one,
+    nowhere. ``'app'`` without pywebview or without a display is an error saying why.
+    """
+    if window not in WINDOW_MODES:
+        raise ValueError(f"window={window!r}: use one of {', '.join(WINDOW_MODES)}")
+    environ = os.environ if environ is None else environ
+    display = sys.platform in ("darwin", "win32") or bool(
+        environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"))
+    desktop = importlib.util.find_spec("webview") is not None
+    if window == "app":
+        if not desktop:
+            raise ImportError("window='app' opens the view in a desktop window with "
+                              "pywebview: pip install pywebview (or use window='browser')")
+        if not display:
+            raise ValueError("window='app' needs a display (DISPLAY or WAYLAND_DISPLAY is not "
+                             "set); serve with window='none' and open the printed URL")
+        return "app"
+    if window == "auto":
+        return ("app" if desktop else "browser") if display else "none"
+    return window
