@@ -285,3 +285,15 @@ def test_view_command_says_what_a_desktop_window_needs(capsys, monkeypatch):
     assert main(["view", "--window", "app"]) == 2
     error = capsys.readouterr().err
     assert "pywebview" in error or "display" in error
+
+
+def test_closing_a_view_stops_its_server(volume_plotter):
+    # catches: close() leaving the port served (a server per view never stopped)
+    view = cm.live_view(volume_plotter, panel=False)
+    assert b"trame" in served_page(view)
+    url = view.url
+    view.close()
+    assert not view.running and "closed" in repr(view)
+    with pytest.raises(OSError):
+        urllib.request.urlopen(url, timeout=5)
+    assert cm.live_view(volume_plotter) is not view          # shown again: a new server
