@@ -297,3 +297,14 @@ def test_closing_a_view_stops_its_server(volume_plotter):
     with pytest.raises(OSError):
         urllib.request.urlopen(url, timeout=5)
     assert cm.live_view(volume_plotter) is not view          # shown again: a new server
+
+
+def test_a_view_displays_as_a_widget_and_as_html(volume_plotter):
+    # catches: a view shown only as an ipywidget (a JupyterLab without the widget frontend
+    # then shows its text form, no iframe), and a closed view displayed as if running
+    view = cm.live_view(volume_plotter)
+    bundle = view._repr_mimebundle_()
+    assert "application/vnd.jupyter.widget-view+json" in bundle
+    assert f'src="{view.url}"' in bundle["text/html"].replace("&amp;", "&")
+    view.close()
+    assert "text/html" not in view._repr_mimebundle_()

@@ -121,6 +121,21 @@ def _bind(server, session: TuningSession, kind: str, knob: Knob) -> None:
         ctrl.view_update()
 
 
+def show_session(server, session: TuningSession) -> None:
+    """Push the session's knob values, frame time and drawn techniques to the page now.
+
+    For changes made from code (not from the page): written inside the state's context, so
+    they are sent at once; the change handlers find the session already there.
+    """
+    with server.state as state:
+        for kind in session.kinds():
+            for knob in session.knobs(kind):
+                state[state_name(kind, knob)] = _shown(knob, session.value(kind, knob.name))
+        state.frame_ms = round(session.last_frame_ms or 0.0, 1)
+        state.drawn = _drawn(session)
+        state.error_text = "error: not measured"
+
+
 def _drawn(session: TuningSession) -> str:
     """What each item is drawn with now, as its actor says."""
     actors = session.plotter.renderer.actors

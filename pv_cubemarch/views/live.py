@@ -14,7 +14,7 @@ import itertools
 import pyvista
 
 from ..scene.model import Scene
-from .app import INSTALL, build_app
+from .app import INSTALL, build_app, show_session
 from .session import TuningSession
 
 try:
@@ -54,9 +54,14 @@ class LiveView:
     def set(self, kind: str, name: str, value) -> float:
         """Turn a knob from code (see :meth:`TuningSession.set`); the panel shows the value."""
         milliseconds = self.session.set(kind, name, value)
-        self.server.state.frame_ms = round(milliseconds, 1)
+        show_session(self.server, self.session)
         self.server.controller.view_update()
         return milliseconds
+
+    def show_panel(self, shown: bool = True) -> None:
+        """Open (or close) the knob panel on the pages showing this view."""
+        with self.server.state as state:
+            state[PANEL_STATE] = bool(shown)
 
     def close(self) -> None:
         """Stop the server; a view made from a scene also closes its plotter."""
@@ -67,11 +72,18 @@ class LiveView:
             if view is self:
                 del _VIEWS[plotter]
 
-    def _ipython_display_(self):
+    def _repr_mimebundle_(self, include=None, exclude=None) -> dict:
+        """The page in an iframe: as a widget where the frontend has ipywidgets, else HTML.
+
+        A JupyterLab without the widget frontend shows the ``text/html`` iframe instead of
+        the widget's text form.
+        """
         if not self.running:
-            raise RuntimeError("this live view was closed; make a new one with "
-                               "pv_cubemarch.live_view(...)")
-        self.layout._ipython_display_()
+            return {"text/plain": f"{self!r}: make a new one with pv_cubemarch.live_view(...)"}
+        iframe = self.layout.ipywidget
+        bundle = dict(iframe._repr_mimebundle_() or {})
+        bundle["text/html"] = iframe.value
+        return bundle
 
     def __repr__(self) -> str:
         state = self.url if self.running else "closed"
@@ -115,10 +127,13 @@ def live_view(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
         if view is not None and view.running:
             if scene.render_window is None:
                 raise ValueError("the plotter was closed; make a new one to show")
-            view.server.state[PANEL_STATE] = panel
+            view.show_panel(panel)
             return view
     server, layout, session = build_app(scene, size, name=f"cubemarch-{next(_COUNTER)}",
                                         show_panel=panel)
+    # the iframe tall enough for the view under the app bar, and for the panel's knobs
+    height = max(int(session.plotter.window_size[1]) + IFRAME_MARGIN, IFRAME_MIN_HEIGHT)
+    layout.iframe_style = f"border: none; width: 100%; height: {height}px;"
     _run_now(_started(layout))
     view = LiveView(server, layout, session, owns_plotter=not isinstance(scene,
                                                                           pyvista.Plotter))
@@ -127,6 +142,8 @@ def live_view(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     return view
 
 
+#: Pixels of the page above and below the view (the app bar), and the iframe's least height.
+IFRAME_MARGIN, IFRAME_MIN_HEIGHT = 96, 480
 #: The trame state that opens the page's knob panel (the drawer of the "main" template).
 PANEL_STATE = "main_drawer"
 #: The live view of each plotter shown (so showing it again reuses the running server).

@@ -245,5 +245,15 @@ def test_plotter_show_in_a_notebook_streams_our_rendering(tmp_path):
             assert not np.allclose(moved[0], camera[0]), "the mouse did not move the camera"
             assert close(turned, shown_offscreen(moved))
             assert np.abs(turned - first).mean() > 2.0        # zoomed: a larger blob
+            # a knob turned from code reaches the page shown by plotter.show(): its state,
+            # the panel opened by live_view, and the frame
+            book.cells.append(nbformat.v4.new_code_cell(
+                "pv_cubemarch.live_view(plotter).set('volume', 'stop_opacity', 0.5)"))
+            client.execute_cell(book.cells[2], 2)
+            page.wait_for_function(
+                "() => window.trame.state.get('volume__stop_opacity') === 0.5"
+                " && window.trame.state.get('main_drawer') === true", timeout=30_000)
+            src, early = settled_frame(page, src, size=(320, 240))
+            assert not close(early, turned), "the knob set from code did not change the frame"
         finally:
             browser.close()
