@@ -6,18 +6,17 @@ first streamed frame and compares it with `render_image` of the same scene and c
 stop-opacity change below is several times that), moves the stop-opacity slider with the
 keyboard and checks the frame changed as the same setting does offscreen, switches the
 technique with the select (the server then says it draws a cube map), and always stops
-the server. Run apart from the default tests: `pytest tests/browser`.
+the server. Then `plotter.show()` in a Jupyter kernel (nbclient) under the client backend:
+its view must be our server's frame, turn and zoom with the mouse, and follow a knob set
+from code. Run apart from the default tests: `pytest tests/browser`.
 """
 
 from __future__ import annotations
 
-import base64
 import contextlib
-import io
 import os
 import re
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -28,8 +27,16 @@ from pathlib import Path
 import nbclient
 import nbformat
 import numpy as np
-import pyvista
-from PIL import Image
+from browsing import (
+    SHOW_CELL,
+    SHOWN_SIZE,
+    close,
+    free_port,
+    launch,
+    settled_frame,
+    shown_offscreen,
+    watch_outside,
+)
 from playwright.sync_api import sync_playwright
 
 import pv_cubemarch as cm
@@ -38,19 +45,6 @@ from pv_cubemarch.views.session import TuningSession
 ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "datasets" / "smoke_scene.usda"
 SIZE = (480, 360)
-CHROMIUM = "/usr/bin/chromium"
-#: Keep chromium off the network: every name but localhost fails to resolve.
-CHROMIUM_ARGS = ["--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1",
-                 "--disable-background-networking", "--disable-component-update",
-                 "--disable-sync", "--no-pings", "--disable-domain-reliability"]
-QUIET = 1.5    # seconds without a new frame before one counts (VTK re-sends a stale one)
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
-
-
 @contextlib.contextmanager
 def served(tmp_path):
     """``pv-cubemarch view`` on a free port; yields its URL; always stops it."""
@@ -84,34 +78,6 @@ def served(tmp_path):
         log.close()
 
 
-READ_FRAME = """() => {
-  const img = document.querySelector('#view-box img');
-  if (!img || !img.complete || !img.naturalWidth) return null;
-  const canvas = document.createElement('canvas');
-  canvas.width = img.naturalWidth; canvas.height = img.naturalHeight;
-  canvas.getContext('2d').drawImage(img, 0, 0);
-  return {src: img.src, png: canvas.toDataURL('image/png')};
-}"""
-
-
-def settled_frame(page, previous: str | None = None, timeout: float = 60.0, size=SIZE):
-    """The view's frame once a new full-size one has arrived and the stream is quiet."""
-    deadline = time.monotonic() + timeout
-    last, since = None, time.monotonic()
-    while time.monotonic() < deadline:
-        frame = page.evaluate(READ_FRAME)
-        if frame and frame["src"] != previous:
-            if last is None or frame["src"] != last["src"]:
-                last, since = frame, time.monotonic()
-            elif time.monotonic() - since > QUIET:
-                image = np.asarray(Image.open(io.BytesIO(base64.b64decode(
-                    frame["png"].split(",", 1)[1]))).convert("RGB")).astype(int)
-                if image.shape[:2] == (size[1], size[0]):
-                    return frame["src"], image
-        time.sleep(0.1)
-    raise AssertionError(f"no settled {size} frame within {timeout} s")
-
-
 def offscreen(**settings) -> np.ndarray:
     """The same scene and camera drawn offscreen with the volume knobs ``settings``."""
     with warnings.catch_warnings():
@@ -126,27 +92,15 @@ def offscreen(**settings) -> np.ndarray:
         plotter.close()
 
 
-def close(a: np.ndarray, b: np.ndarray) -> bool:
-    difference = np.abs(a - b)
-    return difference.mean() < 2.0 and np.percentile(difference, 99) < 12
-
-
 def test_viewer_streams_our_rendering_and_its_knobs_change_it(tmp_path):
-    assert Path(CHROMIUM).exists(), "Debian's chromium is needed (tools/setup.sh installs it)"
     with served(tmp_path) as url, sync_playwright() as driver:
-        browser = driver.chromium.launch(executable_path=CHROMIUM, headless=True,
-                                         args=CHROMIUM_ARGS)
+        browser = launch(driver)
         try:
             page = browser.new_page(viewport={"width": 1200, "height": 800},
                                     device_scale_factor=1)
-            outside = []
-            page.on("request", lambda r: outside.append(r.url)
-                    if not r.url.startswith(("http://127.0.0.1", "ws://127.0.0.1", "blob:",
-                                             "data:")) else None)
-            page.on("websocket", lambda socket: outside.append(socket.url)
-                    if not socket.url.startswith("ws://127.0.0.1") else None)
+            outside = watch_outside(page)
             page.goto(url)
-            src, first = settled_frame(page)
+            src, first = settled_frame(page, SIZE)
             assert close(first, offscreen()), "the first frame is not our rendering"
             assert first.std() > 5                   # not a blank background
             page.wait_for_function("() => window.trame && window.trame.state")
@@ -159,7 +113,7 @@ def test_viewer_streams_our_rendering_and_its_knobs_change_it(tmp_path):
             thumb.press("Home")
             page.wait_for_function(
                 "() => window.trame.state.get('volume__stop_opacity') <= 0.5")
-            src, early = settled_frame(page, src)
+            src, early = settled_frame(page, SIZE, src)
             assert not close(early, first), "the slider did not change the frame"
             assert close(early, offscreen(stop_opacity=0.5))
             # the technique select: the cube map
@@ -170,7 +124,7 @@ def test_viewer_streams_our_rendering_and_its_knobs_change_it(tmp_path):
                 "() => window.trame.state.get('volume__technique') === 'cubemap'")
             page.wait_for_function(   # the server's own account of what its actor draws
                 "() => (window.trame.state.get('drawn') || '').includes('cubemap')")
-            src, cubemap = settled_frame(page, src)
+            src, cubemap = settled_frame(page, SIZE, src)
             assert close(cubemap, offscreen(stop_opacity=0.5, technique="cubemap"))
             shot = tmp_path / "viewer.png"
             page.screenshot(path=str(shot))
@@ -179,33 +133,6 @@ def test_viewer_streams_our_rendering_and_its_knobs_change_it(tmp_path):
             assert not outside, f"the page reached beyond localhost: {outside}"
         finally:
             browser.close()
-
-
-#: A notebook cell: a client-side backend set, a volume added, plotter.show().
-SHOW_CELL = """
-import numpy as np
-import pyvista as pv
-import pv_cubemarch
-pv.set_jupyter_backend('client')
-x, y, z = np.mgrid[-1:1:32j, -1:1:32j, -1:1:32j]
-plotter = pv.Plotter(notebook=True, window_size=(320, 240))
-pv_cubemarch.add_volume(plotter, np.exp(-4 * (x**2 + y**2 + z**2)), cmap='inferno',
-                        technique='direct')
-plotter.show()
-"""
-
-
-def shown_offscreen(camera_position) -> np.ndarray:
-    """What SHOW_CELL's plotter draws from ``camera_position``, drawn in this process."""
-    x, y, z = np.mgrid[-1:1:32j, -1:1:32j, -1:1:32j]
-    plotter = pyvista.Plotter(off_screen=True, window_size=(320, 240))
-    try:
-        cm.add_volume(plotter, np.exp(-4 * (x**2 + y**2 + z**2)), cmap="inferno",
-                      technique="direct")
-        plotter.camera_position = camera_position
-        return cm.render_image(plotter).astype(int)
-    finally:
-        plotter.close()
 
 
 def test_plotter_show_in_a_notebook_streams_our_rendering(tmp_path):
@@ -225,12 +152,11 @@ def test_plotter_show_in_a_notebook_streams_our_rendering(tmp_path):
         outputs = str(book.cells[0].outputs)
         assert "vtk.js" in outputs                          # the client backend's warning
         url = re.search(r'src="(http://localhost:\d+/[^"]*)"', outputs).group(1)
-        browser = driver.chromium.launch(executable_path=CHROMIUM, headless=True,
-                                         args=CHROMIUM_ARGS)
+        browser = launch(driver)
         try:
             page = browser.new_page(viewport={"width": 900, "height": 700})
             page.goto(url.replace("localhost", "127.0.0.1"))
-            src, first = settled_frame(page, size=(320, 240))
+            src, first = settled_frame(page, SHOWN_SIZE)
             assert close(first, shown_offscreen(camera)), "plotter.show() is not our rendering"
             assert first.std() > 5
             box = page.locator("#view-box").bounding_box()
@@ -239,7 +165,7 @@ def test_plotter_show_in_a_notebook_streams_our_rendering(tmp_path):
             page.mouse.move(box["x"] + 260, box["y"] + 150, steps=8)
             page.mouse.up()
             page.mouse.wheel(0, -400)                         # and zoom in
-            src, turned = settled_frame(page, src, size=(320, 240))
+            src, turned = settled_frame(page, SHOWN_SIZE, src)
             client.execute_cell(book.cells[1], 1)             # where the kernel's camera is
             moved = eval(book.cells[1].outputs[0]["text"])    # noqa: S307 (our own print)
             assert not np.allclose(moved[0], camera[0]), "the mouse did not move the camera"
@@ -253,7 +179,7 @@ def test_plotter_show_in_a_notebook_streams_our_rendering(tmp_path):
             page.wait_for_function(
                 "() => window.trame.state.get('volume__stop_opacity') === 0.5"
                 " && window.trame.state.get('main_drawer') === true", timeout=30_000)
-            src, early = settled_frame(page, src, size=(320, 240))
+            src, early = settled_frame(page, SHOWN_SIZE, src)
             assert not close(early, turned), "the knob set from code did not change the frame"
         finally:
             browser.close()
