@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import base64
 import io
+import os
 import socket
 import time
 from pathlib import Path
@@ -20,11 +21,20 @@ import pv_cubemarch as cm
 
 CHROMIUM = "/usr/bin/chromium"
 #: Keep chromium off the network: every name but localhost fails to resolve.
-CHROMIUM_ARGS = ["--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1",
+CHROMIUM_ARGS = ["--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1, EXCLUDE localhost",
                  "--disable-background-networking", "--disable-component-update",
                  "--disable-sync", "--no-pings", "--disable-domain-reliability"]
 QUIET = 1.5    # seconds without a new frame before one counts (VTK re-sends a stale one)
 
+
+
+def keep_screenshot(page, tmp_path: Path, name: str) -> None:
+    """Screenshot the page into ``tmp_path``, and into ``$PV_CUBEMARCH_SCREENSHOTS`` if set
+    (``PV_CUBEMARCH_SCREENSHOTS=docs/images pytest tests/browser`` refreshes the README's)."""
+    shot = tmp_path / name
+    page.screenshot(path=str(shot))
+    if os.environ.get("PV_CUBEMARCH_SCREENSHOTS"):
+        (Path(os.environ["PV_CUBEMARCH_SCREENSHOTS"]) / name).write_bytes(shot.read_bytes())
 
 
 def launch(driver):
@@ -33,13 +43,20 @@ def launch(driver):
     return driver.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
 
 
-def watch_outside(page) -> list[str]:
-    """A list that collects the page's requests and websockets beyond localhost."""
+def watch_outside(page, frames_only: bool = False) -> list[str]:
+    """A list that collects the page's requests and websockets beyond localhost.
+
+    ``frames_only``: only the requests of the page's iframes (our views inside JupyterLab,
+    whose own page is not ours to vouch for).
+    """
     outside: list[str] = []
     local = ("http://127.0.0.1", "http://localhost", "ws://127.0.0.1", "ws://localhost",
              "blob:", "data:")
-    page.on("request", lambda r: outside.append(r.url)
-            if not r.url.startswith(local) else None)
+
+    def request(r):
+        if not r.url.startswith(local) and not (frames_only and r.frame == page.main_frame):
+            outside.append(r.url)
+    page.on("request", request)
     page.on("websocket", lambda socket: outside.append(socket.url)
             if not socket.url.startswith(local) else None)
     return outside
@@ -57,16 +74,18 @@ READ_FRAME = """() => {
   const canvas = document.createElement('canvas');
   canvas.width = img.naturalWidth; canvas.height = img.naturalHeight;
   canvas.getContext('2d').drawImage(img, 0, 0);
-  return {src: img.src, png: canvas.toDataURL('image/png')};
+  return {src: img.src, png: canvas.toDataURL('image/png'),
+          size: [img.naturalWidth, img.naturalHeight]};
 }"""
 
 
 def settled_frame(page, size, previous: str | None = None, timeout: float = 60.0):
     """The view's frame once a new full-size one has arrived and the stream is quiet."""
     deadline = time.monotonic() + timeout
-    last, since = None, time.monotonic()
+    last, since, seen = None, time.monotonic(), set()
     while time.monotonic() < deadline:
         frame = page.evaluate(READ_FRAME)
+        seen.add(None if frame is None else (frame["src"][-12:], tuple(frame["size"])))
         if frame and frame["src"] != previous:
             if last is None or frame["src"] != last["src"]:
                 last, since = frame, time.monotonic()
@@ -76,7 +95,8 @@ def settled_frame(page, size, previous: str | None = None, timeout: float = 60.0
                 if image.shape[:2] == (size[1], size[0]):
                     return frame["src"], image
         time.sleep(0.1)
-    raise AssertionError(f"no settled {size} frame within {timeout} s")
+    raise AssertionError(f"no settled {size} frame within {timeout} s; seen: "
+                         f"{sorted(map(str, seen))[:12]}")
 
 
 def close(a: np.ndarray, b: np.ndarray) -> bool:

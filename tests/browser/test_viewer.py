@@ -32,6 +32,7 @@ from browsing import (
     SHOWN_SIZE,
     close,
     free_port,
+    keep_screenshot,
     launch,
     settled_frame,
     shown_offscreen,
@@ -126,10 +127,7 @@ def test_viewer_streams_our_rendering_and_its_knobs_change_it(tmp_path):
                 "() => (window.trame.state.get('drawn') || '').includes('cubemap')")
             src, cubemap = settled_frame(page, SIZE, src)
             assert close(cubemap, offscreen(stop_opacity=0.5, technique="cubemap"))
-            shot = tmp_path / "viewer.png"
-            page.screenshot(path=str(shot))
-            if os.environ.get("PV_CUBEMARCH_SCREENSHOT"):
-                Path(os.environ["PV_CUBEMARCH_SCREENSHOT"]).write_bytes(shot.read_bytes())
+            keep_screenshot(page, tmp_path, "viewer.png")
             assert not outside, f"the page reached beyond localhost: {outside}"
         finally:
             browser.close()
