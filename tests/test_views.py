@@ -308,3 +308,24 @@ def test_a_view_displays_as_a_widget_and_as_html(volume_plotter):
     assert f'src="{view.url}"' in bundle["text/html"].replace("&amp;", "&")
     view.close()
     assert "text/html" not in view._repr_mimebundle_()
+
+
+def test_the_panel_hides_voxel_materials(plotter_factory):
+    # catches: the materials control not bound (its state missing) or its change not
+    # reaching the session (the multiselect's values not typed back to materials)
+    labels = np.zeros((4, 4, 4), np.uint8)
+    labels[:2] = 1
+    labels[2:] = 2
+    pl = plotter_factory(SIZE)
+    cm.add_voxels(pl, labels, name="blocks")
+    view = cm.live_view(pl)
+    state = view.server.state
+    try:
+        assert state["voxels__materials"] == [1, 2]
+        assert state["voxels__mip_levels"] in ("auto", *range(13))   # adopted: as resolved
+        state["voxels__materials"] = ["2"]                   # as a client may send it
+        state.flush()
+        assert view.session.value("voxels", "materials") == [2]
+        assert not pl.renderer.actors["blocks"].cubemarch.model.palette.visible[1]
+    finally:
+        view.close()
