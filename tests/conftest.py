@@ -14,6 +14,18 @@ SCENE = ROOT / "datasets" / "smoke_scene.usda"
 BACKGROUND = (0.1, 0.1, 0.12)
 
 
+def pytest_collection_modifyitems(config, items):
+    """Leave the tests marked slow to their own step (``pytest -m slow``), unless a ``-m``
+    expression chooses, or test files or ids are named (``pytest tests/test_wheel.py``)."""
+    named = any(arg.split("::")[0].endswith(".py") for arg in config.args)
+    if config.getoption("markexpr") or named:
+        return
+    slow = [item for item in items if item.get_closest_marker("slow")]
+    if slow:
+        config.hook.pytest_deselected(items=slow)
+        items[:] = [item for item in items if not item.get_closest_marker("slow")]
+
+
 def pytest_addoption(parser):
     parser.addoption("--update-baselines", action="store_true",
                      help="rewrite tests/baselines/*.png from the current rendering")

@@ -8,11 +8,16 @@ from __future__ import annotations
 
 import asyncio
 import importlib.util
+import json
+import os
+import socket
+import subprocess
 import sys
 import urllib.request
 import warnings
 
 import numpy as np
+import PIL.Image
 import pytest
 import pyvista
 from conftest import SCENE
@@ -188,16 +193,77 @@ def test_server_side_backends_show_our_plotter_without_a_warning(volume_plotter)
     assert isinstance(shown, cm.LiveView)
 
 
-def test_other_plotters_go_to_the_backends_own_handler(monkeypatch):
-    # catches: every plotter taken over (trame-pyvista's client view lost for meshes)
-    calls = []
-    monkeypatch.setattr(notebook, "_original_handler",
-                        lambda name: lambda plotter, **kw: calls.append((name, plotter)))
+#: A stand-in for trame-pyvista: entry points for the four trame names, and an import that
+#: registers its own mode-bound handlers over them (as trame-pyvista's does).
+FAKE_TRAME_PYVISTA = """
+from pyvista import register_jupyter_backend
+CALLS = []
+def show(plotter, mode=None, **kwargs):
+    CALLS.append(mode)
+    return "fake"
+def _bound(mode):
+    def handler(plotter, **kwargs):
+        kwargs.setdefault("mode", mode)
+        return show(plotter, **kwargs)
+    return handler
+for _name in ("trame", "server", "client", "html"):
+    register_jupyter_backend(_name, _bound(_name), override=True)
+"""
+SHOW_EACH_BACKEND = """
+import json, sys
+import numpy as np, pyvista as pv
+if sys.argv[1] == "with":
+    import pv_cubemarch
+from pyvista.jupyter.notebook import handle_plotter
+plain = pv.Plotter(notebook=True)
+plain.add_mesh(pv.Sphere())
+shown = [str(handle_plotter(plain, backend=name)) for name in
+         (None, "client", "html", "server", "trame")]
+import fake_tpv
+ours = None
+if sys.argv[1] == "with":
+    ours = pv.Plotter(notebook=True)
+    pv_cubemarch.add_volume(ours, np.random.default_rng(0).random((8, 8, 8)))
+    ours = type(handle_plotter(ours)).__name__
+print(json.dumps([fake_tpv.CALLS, shown, ours]))
+"""
+
+
+def test_other_plotters_keep_trame_pyvistas_views(tmp_path):
+    # catches: our registration replaced by trame-pyvista's import (our plotters then shown
+    # by vtk.js), and plotters without our actors shown otherwise than without us (another
+    # mode, our server, or a different auto choice). Expected: the same run without
+    # importing pv_cubemarch.
+    site = tmp_path / "site"
+    (site / "fake_tpv-1.0.dist-info").mkdir(parents=True)
+    (site / "fake_tpv.py").write_text(FAKE_TRAME_PYVISTA)
+    (site / "fake_tpv-1.0.dist-info" / "METADATA").write_text(
+        "Metadata-Version: 2.1\nName: fake-tpv\nVersion: 1.0\n")
+    (site / "fake_tpv-1.0.dist-info" / "entry_points.txt").write_text(
+        "[pyvista.jupyter_backends]\n"
+        + "".join(f"{name} = fake_tpv:show\n" for name in ("client", "html", "server", "trame")))
+    script = tmp_path / "show.py"
+    script.write_text(SHOW_EACH_BACKEND)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), os.environ.get(
+        "PYTHONPATH", "")]))
+    runs = {}
+    for mode in ("without", "with"):
+        done = subprocess.run([sys.executable, str(script), mode], capture_output=True,
+                              text=True, env=env, timeout=300, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr[-2000:]
+        runs[mode] = json.loads(done.stdout.strip().splitlines()[-1])
+    calls, shown, ours = runs["with"]
+    assert calls == runs["without"][0] and shown == runs["without"][1]
+    assert len(calls) == 5 and ours == "LiveView"
+
+
+def test_other_plotters_without_trame_pyvista_stay_static_images():
+    # catches: every plotter given a server of ours once pv_cubemarch is imported
     pl = pyvista.Plotter(notebook=True, window_size=SIZE)
     pl.add_mesh(pyvista.Sphere())
     try:
-        handle_plotter(pl, backend="client")
-        assert calls == [("client", pl)]
+        for name in (None, "client", "trame"):
+            assert isinstance(handle_plotter(pl, backend=name), PIL.Image.Image)
     finally:
         pl.close()
 
@@ -291,11 +357,12 @@ def test_closing_a_view_stops_its_server(volume_plotter):
     # catches: close() leaving the port served (a server per view never stopped)
     view = cm.live_view(volume_plotter, panel=False)
     assert b"trame" in served_page(view)
-    url = view.url
+    port = view.server.port
     view.close()
     assert not view.running and "closed" in repr(view)
-    with pytest.raises(OSError):
-        urllib.request.urlopen(url, timeout=5)
+    with socket.socket() as sock:       # nothing listens there now (TIME_WAIT allowed)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind(("127.0.0.1", port))
     assert cm.live_view(volume_plotter) is not view          # shown again: a new server
 
 

@@ -107,13 +107,13 @@ def _bind(server, session: TuningSession, kind: str, knob: Knob) -> None:
 
     @state.change(variable)
     def changed(**current):
-        new = _typed(knob, current[variable])
-        if new == session.value(kind, knob.name):
-            return                      # the control's start, or set back after a refusal
         try:
+            new = _typed(knob, current[variable])
+            if new == session.value(kind, knob.name):
+                return                  # the control's start, or set back after a refusal
             state.frame_ms = round(session.set(kind, knob.name, new), 1)
             state.message = ""
-        except ValueError as exc:        # refused: the scene is as it was, and so is the knob
+        except (ValueError, TypeError) as exc:   # refused: the scene and the knob as they were
             state.message = str(exc)
             state[variable] = _shown(knob, session.value(kind, knob.name))
         state.drawn = _drawn(session)
@@ -138,24 +138,23 @@ def show_session(server, session: TuningSession) -> None:
 
 def _drawn(session: TuningSession) -> str:
     """What each item is drawn with now, as its actor says."""
-    actors = session.plotter.renderer.actors
-    return ", ".join(f"{name}: {getattr(actors[name].cubemarch, 'technique', '?')}"
-                     for name in session.items if name in actors)
+    return ", ".join(f"{name}: {getattr(session.actor(name).cubemarch, 'technique', '?')}"
+                     for name in session.items)
 
 
 def _shown(knob: Knob, value):
-    """An option's value as its control shows it (an unset option as "auto")."""
-    if value is None:
-        return AUTO if AUTO in knob.choices else knob.low if knob.control == "slider" else None
+    """An option's value as its control shows it (an unset optional one as "auto")."""
+    if value is None and knob.optional:
+        return AUTO
     return value
 
 
 def _typed(knob: Knob, value):
-    """A control's value as the option's type ("auto": unset)."""
-    if value == AUTO:
+    """A control's value as the option's type (an optional knob's "auto": unset)."""
+    if knob.optional and value == AUTO:
         return None
     if knob.control == "switch":
-        return bool(value)
+        return value.lower() == "true" if isinstance(value, str) else bool(value)
     if knob.control == "multiselect":
         return sorted(next((c for c in knob.choices if str(c) == str(v)), v) for v in value)
     if knob.control == "slider":
@@ -216,7 +215,8 @@ def serve(scene: Scene | str, port: int = 8080, host: str = "127.0.0.1",
     mode = window_mode(window)
     server, _, _ = build_app(scene, size)
     if mode == "app":
-        print("pv-cubemarch view: opening a desktop window (pywebview)", flush=True)
+        print("pv-cubemarch view: opening a desktop window (pywebview, on a port of its own "
+              "choosing: --port is not used)", flush=True)
     else:
         print(f"pv-cubemarch view: http://{host}:{port}/", flush=True)
     server.start(port=port, host=host, open_browser=mode == "browser",

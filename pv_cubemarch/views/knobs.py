@@ -2,8 +2,8 @@
 
 A knob is an option of ``add_volume``/``add_voxels``/``add_surface`` (or the technique, a
 surface's isovalue, the voxel materials shown) with the range a user tunes it over;
-``techniques`` names the techniques that read it (empty: every technique of its kind). A
-select whose choices start with :data:`AUTO` may be left unset: the technique decides.
+``techniques`` names the techniques that read it (empty: every technique of its kind). An
+``optional`` knob may be left unset (its choice :data:`AUTO`): the technique decides.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ class Knob:
     choices: tuple = ()
     techniques: tuple[str, ...] = ()
     help: str = ""
+    optional: bool = False        # AUTO (first choice) leaves the option unset
 
     def applies_to(self, technique: str) -> bool:
         """Whether ``technique`` reads this knob."""
@@ -50,7 +51,8 @@ def volume_knobs() -> tuple[Knob, ...]:
              techniques=("cubemap", "auto"), help="texels per face edge"),
         Knob("max_samples", "max samples", "select", choices=(AUTO, 64, 128, 256, 512, 1024,
                                                               2048),
-             techniques=("cubemap", "auto"), help="samples along the box diagonal"),
+             techniques=("cubemap", "auto"), help="samples along the box diagonal",
+             optional=True),
         Knob("lights", "lights", "select", choices=("none", "scene")),
         Knob("ambient", "ambient", "slider", 0.0, 1.0, 0.05),
     )
@@ -61,7 +63,8 @@ def voxel_knobs(materials: tuple[int, ...] = ()) -> tuple[Knob, ...]:
     return (
         Knob("traversal", "traversal", "select", choices=("dda", "fixed"),
              help="dda is exact; fixed steps may miss thin voxels"),
-        Knob("mip_levels", "occupancy levels", "select", choices=(AUTO, *range(13))),
+        Knob("mip_levels", "occupancy levels", "select", choices=(AUTO, *range(13)),
+             optional=True),
         Knob("lod", "level of detail", "switch"),
         Knob("materials", "materials shown", "multiselect", choices=tuple(materials),
              help="a hidden material's voxels are traversed as empty"),

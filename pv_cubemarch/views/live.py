@@ -15,6 +15,11 @@ import pyvista
 
 from ..scene.model import Scene
 from .app import INSTALL, build_app, show_session
+
+try:
+    from trame.app.core import AVAILABLE_SERVERS
+except ImportError:                     # the optional extra is not installed
+    AVAILABLE_SERVERS = {}
 from .session import TuningSession
 
 try:
@@ -49,10 +54,12 @@ class LiveView:
     @property
     def ready(self):
         """An awaitable that resolves once the server listens (it already does)."""
+        self._check_open()
         return self.layout.ready
 
     def set(self, kind: str, name: str, value) -> float:
         """Turn a knob from code (see :meth:`TuningSession.set`); the panel shows the value."""
+        self._check_open()
         milliseconds = self.session.set(kind, name, value)
         show_session(self.server, self.session)
         self.server.controller.view_update()
@@ -64,13 +71,23 @@ class LiveView:
             state[PANEL_STATE] = bool(shown)
 
     def close(self) -> None:
-        """Stop the server; a view made from a scene also closes its plotter."""
-        _run_now(self.server.stop())
+        """Stop the server and let it go; a view made from a scene also closes its plotter."""
+        if self.running:
+            _run_now(self.server.stop())
+        AVAILABLE_SERVERS.pop(self.server.name, None)    # trame keeps every server by name
         if self._owns_plotter:
             self.session.plotter.close()
         for plotter, view in list(_VIEWS.items()):
             if view is self:
                 del _VIEWS[plotter]
+
+    def _check_open(self) -> None:
+        if not self.running:
+            raise RuntimeError("this live view was closed: make a new one with "
+                               "pv_cubemarch.live_view(...)")
+        if self.session.plotter.render_window is None:
+            raise RuntimeError("the plotter of this live view was closed: make a new "
+                               "plotter and show it")
 
     def _repr_mimebundle_(self, include=None, exclude=None) -> dict:
         """The page in an iframe: as a widget where the frontend has ipywidgets, else HTML.
@@ -107,7 +124,8 @@ def live_view(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     size : tuple of int
         The view's size in pixels for a scene.
     panel : bool, default: True
-        Open the knob panel at start (the toolbar's menu button opens and closes it).
+        Open the knob panel at start (the toolbar's menu button opens and closes it; a
+        plotter shown again keeps its view, and ``panel=True`` opens the panel there).
 
     Returns
     -------
@@ -121,14 +139,23 @@ def live_view(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     >>> view = pv_cubemarch.live_view("datasets/smoke_scene.usda")  # doctest: +SKIP
     >>> view  # doctest: +SKIP
     >>> view.set("volume", "step_scale", 0.5)  # doctest: +SKIP
+
+    In a script (no running event loop) the server answers only while the loop turns: use
+    :func:`pv_cubemarch.views.app.serve` or ``pv-cubemarch view`` there.
     """
+    for plotter, view in list(_VIEWS.items()):       # plotters closed since: their servers
+        if plotter.render_window is None:
+            view.close()
     if isinstance(scene, pyvista.Plotter):
+        if scene.render_window is None:
+            raise ValueError("the plotter was closed: make a new one to show")
         view = _VIEWS.get(scene)
-        if view is not None and view.running:
-            if scene.render_window is None:
-                raise ValueError("the plotter was closed; make a new one to show")
-            view.show_panel(panel)
+        if view is not None and view.running and view.session.holds_all_of(scene):
+            if panel:
+                view.show_panel(True)
             return view
+        if view is not None:                           # its actors changed: a new session
+            view.close()
     server, layout, session = build_app(scene, size, name=f"cubemarch-{next(_COUNTER)}",
                                         show_panel=panel)
     # the iframe tall enough for the view under the app bar, and for the panel's knobs

@@ -5,17 +5,18 @@ PyVista's client-side notebook backends (``'client'``, ``'html'`` and the client
 box. Importing pv_cubemarch (with the ``jupyter`` extra) registers wrappers of PyVista's
 trame backends (:func:`pyvista.register_jupyter_backend`): a plotter that holds one of our
 actors is shown by :func:`~.live.live_view` (panel closed), warning when a client-side
-backend was set; any other plotter goes to the backend's own handler (trame-pyvista's, when
-installed) unchanged. ``'static'`` (a server-rendered image: correct) and ``'none'`` are
-left alone. The backend ``'cubemarch'`` shows any plotter this way.
+backend was set; any other plotter goes to the handler registered before ours
+(trame-pyvista's, when installed), or without one to PyVista's static image, as before.
+``'static'`` (a server-rendered image: correct) and ``'none'`` are left alone.
+The backend ``'cubemarch'`` shows any plotter by the live view.
 """
 
 from __future__ import annotations
 
 import warnings
-from importlib.metadata import entry_points
 
 import pyvista
+from pyvista.jupyter.notebook import show_static_image
 
 from .app import get_server
 from .live import LiveView, live_view
@@ -48,41 +49,47 @@ def show_server_rendered(plotter: pyvista.Plotter, screenshot=None, panel: bool 
     return live_view(plotter, panel=panel)
 
 
-def _wrapped(name: str):
-    """The handler registered under PyVista's backend ``name``."""
+def _wrapped(name: str, original):
+    """The handler registered under PyVista's backend ``name`` (``original``: the one before)."""
     def handler(plotter, screenshot=None, **kwargs):
         if not holds_our_actors(plotter):
-            original = _original_handler(name)
-            if original is not None:
-                return original(plotter, screenshot=screenshot, **kwargs)
-        elif name in CLIENT_SIDE_BACKENDS and plotter.theme.jupyter_backend == name:
+            if original is None:                 # PyVista's own fallback, as before us
+                return show_static_image(plotter, screenshot)
+            return original(plotter, screenshot=screenshot, **kwargs)   # as before us
+        if name in CLIENT_SIDE_BACKENDS and name in (plotter.theme.jupyter_backend,
+                                                     pyvista.global_theme.jupyter_backend):
             warnings.warn(
                 f"jupyter backend {name!r} renders in the browser (vtk.js), which cannot run "
                 "pv_cubemarch's shaders (a volume would show as its box): showing the "
                 "server-rendered view instead. Set pyvista.set_jupyter_backend('trame') or "
                 "'cubemarch' to silence this.", stacklevel=3)
         kwargs.pop("mode", None)            # trame-pyvista's; ours is always server-side
-        return show_server_rendered(plotter, screenshot=screenshot, **kwargs)
+        try:
+            return show_server_rendered(plotter, screenshot=screenshot, **kwargs)
+        except (ImportError, OSError, ValueError, RuntimeError) as error:
+            warnings.warn(f"pv_cubemarch's live view could not start ({error}): showing a "
+                          "static image of the server's rendering instead", stacklevel=3)
+            return show_static_image(plotter, screenshot)
     handler.__qualname__ = f"wrapped_{name}_backend"
     return handler
-
-
-def _original_handler(name: str):
-    """The handler another package declares for backend ``name`` (trame-pyvista), if any."""
-    for point in entry_points(group="pyvista.jupyter_backends", name=name):
-        return point.load()
-    return None
 
 
 def register_notebook_backends() -> bool:
     """Register the wrapped backends and ``'cubemarch'``; ``False`` without trame.
 
-    Without trame (the ``jupyter`` extra) nothing is registered: PyVista's own fallbacks
-    (a static image) stay, and they draw our techniques correctly.
+    The handlers already registered under those names (trame-pyvista's: discovered first,
+    which imports it, so that it cannot replace ours later) are kept to show the plotters
+    that hold none of our actors. Without trame (the ``jupyter`` extra) nothing is
+    registered: PyVista's own fallbacks (a static image) stay, and they draw our
+    techniques correctly.
     """
     if get_server is None:
         return False
+    before = {b.name: b.handler for b in pyvista.registered_jupyter_backends()}
     for name in WRAPPED_BACKENDS:
-        pyvista.register_jupyter_backend(name, _wrapped(name), override=True)
+        original = before.get(name)
+        if getattr(original, "__module__", None) == __name__:
+            continue                                 # registered already (a reload)
+        pyvista.register_jupyter_backend(name, _wrapped(name, original), override=True)
     pyvista.register_jupyter_backend("cubemarch", show_server_rendered, override=True)
     return True

@@ -20,6 +20,8 @@ from ..core.camera import Camera
 from ..core.registry import get_technique, specific_option_names, techniques
 from ..core.rendering import render_image
 from ..models.surface import SplineField
+from ..models.voxels import VoxelModel
+from ..models.world import VoxelWorld
 from ..scene.model import Scene
 from ..testing import compare_images
 from ..volume.options import Shading
@@ -31,11 +33,12 @@ KINDS = ("volume", "voxels", "surface")
 
 @dataclass
 class TunedItem:
-    """One drawn model, its options and the function that adds it."""
+    """One drawn model, its options, and the renderer (index in the plotter) it is in."""
 
     kind: str
     model: object
     options: dict = field(default_factory=dict)
+    renderer: int = 0
 
 
 class TuningSession:
@@ -70,15 +73,16 @@ class TuningSession:
 
     def _from_scene(self, scene: Scene) -> None:
         """Items for the scene's volumes, voxel grids and surfaces with their options."""
+        active = self._renderer_index(self.plotter.renderer)
         for volume in scene.volumes:
             self.items[volume.name] = TunedItem(
-                "volume", volume, dict(scene.volume_options.get(volume.name, {})))
+                "volume", volume, dict(scene.volume_options.get(volume.name, {})), active)
         for grid in scene.voxels:
-            self.items[grid.name] = TunedItem("voxels", grid,
-                                              dict(scene.voxel_options.get(grid.name, {})))
+            self.items[grid.name] = TunedItem(
+                "voxels", grid, dict(scene.voxel_options.get(grid.name, {})), active)
         for surface in scene.surfaces:
             self.items[surface.name] = TunedItem(
-                "surface", surface, dict(scene.surface_options.get(surface.name, {})))
+                "surface", surface, dict(scene.surface_options.get(surface.name, {})), active)
 
     @classmethod
     def from_plotter(cls, plotter: pyvista.Plotter) -> TuningSession:
@@ -94,26 +98,35 @@ class TuningSession:
 
     def _adopt(self, plotter: pyvista.Plotter) -> None:
         """Items for the techniques' actors the plotter holds, by actor name."""
-        for name, actor in list(plotter.renderer.actors.items()):
-            binding = getattr(actor, "cubemarch", None)
-            model = getattr(binding, "model", None)
-            if model is None:
-                continue
+        for name, actor, index in adoptable_actors(plotter):
+            binding = actor.cubemarch
+            model = binding.model
             if isinstance(model, SplineField):
                 # the active-cell technique keeps its active cells; the full march has none
                 self.items[name] = TunedItem("surface", model, {
                     **_fields(binding.options),
-                    "technique": "active" if binding.cells is not None else "full"})
-            elif hasattr(binding, "labels"):
-                self.items[name] = TunedItem("voxels", model, _fields(binding.options))
+                    "technique": "active" if binding.cells is not None else "full"}, index)
+            elif isinstance(model, (VoxelModel, VoxelWorld)):
+                self.items[name] = TunedItem("voxels", model, _fields(binding.options), index)
             else:
                 options = {"technique": binding.technique}
+                reader = get_technique("volume", binding.technique)
                 for option in ("step_scale", "stop_opacity", "downsample"):
-                    reader = get_technique("volume", binding.technique)
                     if hasattr(binding, option) and (option in reader.option_names
                                                      or option == "stop_opacity"):
                         options[option] = getattr(binding, option)
-                self.items[name] = TunedItem("volume", model, options)
+                self.items[name] = TunedItem("volume", model, options, index)
+
+    def _renderer_index(self, renderer) -> int:
+        return list(self.plotter.renderers).index(renderer)
+
+    def actor(self, name: str):
+        """The actor item ``name`` is drawn by now (in its own renderer)."""
+        return self.plotter.renderers[self.items[name].renderer].actors[name]
+
+    def holds_all_of(self, plotter: pyvista.Plotter) -> bool:
+        """Whether the session's items are still the techniques' actors ``plotter`` holds."""
+        return {name for name, _, _ in adoptable_actors(plotter)} == set(self.items)
 
     def kinds(self) -> list[str]:
         """The kinds of items the scene holds, in panel order."""
@@ -136,9 +149,10 @@ class TuningSession:
         if kind == "surface" and name == "isovalue":
             return self.level_shift
         item = self._of(kind)[0]
-        if kind == "voxels" and name == "materials":
-            visible = item.model.palette.visible
-            return [m for m in self._materials() if m < len(visible) and visible[m]]
+        if kind == "voxels" and name == "materials":     # shown in any grid
+            return [m for m in self._materials() if any(
+                m < len(grid.model.palette.visible) and grid.model.palette.visible[m]
+                for grid in self._of("voxels"))]
         if name in item.options:
             value = item.options[name]
             return "none" if name == "lights" and value is None else value
@@ -217,39 +231,45 @@ class TuningSession:
         return tuple(range(1, min(rows, LISTED_MATERIALS + 1)))
 
     def _show_materials(self, shown: set[int]) -> None:
-        """Hide the listed materials not in ``shown`` and show those in it, in every grid."""
+        """Hide the listed materials taken out of ``shown``, show those put in, in every grid.
+
+        Only the change from the knob's value counts: a material shown in one grid and
+        hidden (by its palette) in another stays so until the knob itself moves it.
+        """
         unknown = shown - set(self._materials())
         if unknown:
             raise ValueError(f"materials {sorted(unknown)} are not in the voxel palettes "
                              f"(materials 1-{max(self._materials(), default=0)})")
+        before = set(self.value("voxels", "materials"))
         for name, item in self.items.items():
             if item.kind != "voxels":
                 continue
-            binding = self.plotter.renderer.actors[name].cubemarch
-            loaded, visible = self._opacities[name], item.model.palette.visible
-            for material in self._materials():
-                if material >= len(visible) or visible[material] == (material in shown):
-                    continue             # unchanged: no upload
-                opacity = (float(loaded[material]) or 1.0) if material in shown else 0.0
-                binding.set_material(material, opacity=opacity)
+            binding, loaded = self.actor(name).cubemarch, self._opacities[name]
+            rows = len(item.model.palette.rgba)
+            for material in sorted((before - shown) | (shown - before)):
+                if material < rows:     # only the palette's few bytes go to the GPU
+                    binding.set_material(material, opacity=(float(loaded[material]) or 1.0)
+                                         if material in shown else 0.0)
 
     def _of(self, kind: str) -> list[TunedItem]:
         return [item for item in self.items.values() if item.kind == kind]
 
     def _add(self, name: str, item: TunedItem) -> None:
-        """Add the item again under its name (replacing and freeing the old one)."""
+        """Add the item again under its name, in its renderer (replacing the old one)."""
         technique = item.options.get("technique") or DEFAULT_TECHNIQUE[item.kind]
         reader = get_technique(item.kind, technique)
         # options some technique of the kind reads and this one does not are left out
         specific = specific_option_names(item.kind)
         options = {key: value for key, value in item.options.items()
                    if key not in specific or key in reader.option_names}
-        if item.kind == "volume":
-            add_volume(self.plotter, item.model, name=name, **options)
-        elif item.kind == "voxels":
-            add_voxels(self.plotter, item.model, name=name, **options)
-        else:
-            add_surface(self.plotter, item.model, name=name, **options)
+        adders = {"volume": add_volume, "voxels": add_voxels, "surface": add_surface}
+        active = self.plotter.renderer
+        self.plotter.subplot(*self.plotter.renderers.index_to_loc(item.renderer))
+        try:
+            adders[item.kind](self.plotter, item.model, name=name, **options)
+        finally:
+            self.plotter.subplot(*self.plotter.renderers.index_to_loc(
+                self._renderer_index(active)))
 
 
 #: Materials listed by the ``materials`` knob (the first of a larger palette).
@@ -259,6 +279,20 @@ DEFAULT_TECHNIQUE = {"volume": "vtk", "voxels": "voxels", "surface": "active"}
 #: Defaults of knobs that are not fields of a technique's options dataclass.
 _OTHER_DEFAULTS = {"lights": "none", "lod": False, "mip_levels": None,
                    **{f.name: f.default for f in dataclasses.fields(Shading)}}
+
+
+def adoptable_actors(plotter: pyvista.Plotter) -> list[tuple[str, object, int]]:
+    """``(name, actor, renderer index)`` of each of our techniques' actors in ``plotter``.
+
+    Actors another binding draws for it (the direct half of an ``auto`` volume, a world's
+    chunks) belong to that binding and are left out.
+    """
+    found = [(name, actor, index) for index, renderer in enumerate(plotter.renderers)
+             for name, actor in renderer.actors.items()
+             if getattr(getattr(actor, "cubemarch", None), "model", None) is not None]
+    owned = {id(part) for _, actor, _ in found
+             for part in getattr(actor.cubemarch, "drawn", None) or () if part is not actor}
+    return [(name, actor, index) for name, actor, index in found if id(actor) not in owned]
 
 
 def _fields(options) -> dict:

@@ -54,8 +54,9 @@ def served(tmp_path):
     log = open(tmp_path / "server.log", "w")  # noqa: SIM115 (closed below)
     process = subprocess.Popen(
         [sys.executable, "-m", "pv_cubemarch.cli", "view", str(SCENE), "--port", str(port),
-         "--size", f"{SIZE[0]}x{SIZE[1]}"], stdout=log, stderr=subprocess.STDOUT,
-        start_new_session=True, env=dict(os.environ, VTK_WASM_DIR_OVERRIDE=str(tmp_path)))
+         "--window", "none", "--size", f"{SIZE[0]}x{SIZE[1]}"], stdout=log,
+        stderr=subprocess.STDOUT, start_new_session=True,
+        env=dict(os.environ, VTK_WASM_DIR_OVERRIDE=str(tmp_path)))
     try:
         deadline = time.monotonic() + 120
         while True:
