@@ -27,7 +27,7 @@ import pv_cubemarch as cm
 from pv_cubemarch.cli import main
 from pv_cubemarch.views import live, notebook
 from pv_cubemarch.views.app import build_app, state_name, window_mode
-from pv_cubemarch.views.session import TuningSession
+from pv_cubemarch.views.session import TuningSession, adoptable_actors
 
 SIZE = (160, 120)
 
@@ -396,3 +396,78 @@ def test_the_panel_hides_voxel_materials(plotter_factory):
         assert not pl.renderer.actors["blocks"].cubemarch.model.palette.visible[1]
     finally:
         view.close()
+
+
+def test_the_technique_select_offers_auto_as_a_technique():
+    # catches: "auto" read as an unset option for every knob (the volume technique 'auto'
+    # then refused by the panel)
+    view = cm.live_view(SCENE, size=SIZE)
+    try:
+        view.server.state["volume__technique"] = "auto"
+        view.server.state.flush()
+        assert view.session.value("volume", "technique") == "auto"
+        assert view.session.actor(view.session.scene.volumes[0].name).cubemarch.technique \
+            == "auto"
+    finally:
+        view.close()
+
+
+def test_adoption_takes_each_technique_once_in_its_renderer(plotter_factory):
+    # catches: an auto volume's direct half adopted as a second volume (a knob change then
+    # adding a duplicate), a voxel world taken for a volume, and items of other renderers
+    # left out or re-added into the active one
+    pl = pyvista.Plotter(off_screen=True, window_size=SIZE, shape=(1, 2))
+    try:
+        x, y, z = np.mgrid[-1:1:8j, -1:1:8j, -1:1:8j]
+        cm.add_volume(pl, np.exp(-(x * x + y * y + z * z)), technique="auto", name="vol")
+        pl.subplot(0, 1)
+        labels = np.zeros((24, 8, 8), np.uint8)
+        labels[:, :4] = 1
+        labels[::5, 4:] = 2
+        cm.add_voxels(pl, labels, chunk_size=8, name="world")
+        cm.render_image(pl)
+        session = TuningSession.from_plotter(pl)
+        assert {n: (i.kind, i.renderer) for n, i in session.items.items()} == {
+            "vol": ("volume", 0), "world": ("voxels", 1)}
+        assert session.value("volume", "technique") == "auto"
+        session.set("volume", "stop_opacity", 0.9)
+        session.set("voxels", "materials", [1])
+        assert [name for name, _, _ in adoptable_actors(pl)] == ["vol", "world"]
+        assert "vol" not in pl.renderers[1].actors and "world" not in pl.renderers[0].actors
+        assert not pl.renderers[1].actors["world"].cubemarch.model.palette.visible[2]
+    finally:
+        pl.close()
+
+
+def test_materials_over_several_grids_change_only_what_the_knob_moves(plotter_factory):
+    # catches: the knob showing the first grid's materials only, and a change applying the
+    # whole set to every grid (materials a grid shows the first lacks hidden by it)
+    pl = plotter_factory(SIZE)
+    small = np.zeros((4, 4, 4), np.uint8)
+    small[:2] = 1
+    large = np.zeros((4, 4, 4), np.uint8)
+    large[:, :2] = 3
+    large[:, 2:] = 4
+    cm.add_voxels(pl, small, palette={1: "red"}, name="small")
+    cm.add_voxels(pl, large, palette={3: "green", 4: "blue"}, name="large")
+    session = TuningSession.from_plotter(pl)
+    assert session.value("voxels", "materials") == [1, 3, 4]
+    session.set("voxels", "materials", [1, 3])
+    large_shown = pl.renderer.actors["large"].cubemarch.model.palette.visible
+    assert large_shown[3] and not large_shown[4]
+    assert pl.renderer.actors["small"].cubemarch.model.palette.visible[1]
+
+
+def test_showing_a_plotter_again_follows_its_actors(volume_plotter):
+    # catches: a view kept after the plotter's actors changed (new items without knobs)
+    first = cm.live_view(volume_plotter, panel=False)
+    assert cm.live_view(volume_plotter) is first
+    x, y, z = np.mgrid[-1:1:10j, -1:1:10j, -1:1:10j]
+    cm.add_surface(volume_plotter, x * x + y * y + z * z, isovalue=0.5, name="ball")
+    second = cm.live_view(volume_plotter)
+    assert second is not first and not first.running
+    assert second.session.kinds() == ["volume", "surface"]
+    volume_plotter.close()
+    with pytest.raises(ValueError, match="closed"):
+        cm.live_view(volume_plotter)
+    assert not second.running                          # reaped with its closed plotter
