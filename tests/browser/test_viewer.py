@@ -46,17 +46,20 @@ from pv_cubemarch.views.session import TuningSession
 ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "datasets" / "smoke_scene.usda"
 SIZE = (480, 360)
+
+
 @contextlib.contextmanager
-def served(tmp_path):
-    """``pv-cubemarch view`` on a free port; yields its URL; always stops it."""
+def served(tmp_path, window: str = "none", **environ):
+    """``pv-cubemarch view --window window`` on a free port (``environ`` added to its
+    environment); yields its URL; always stops it."""
     port = free_port()
     url = f"http://127.0.0.1:{port}/"
     log = open(tmp_path / "server.log", "w")  # noqa: SIM115 (closed below)
     process = subprocess.Popen(
         [sys.executable, "-m", "pv_cubemarch.cli", "view", str(SCENE), "--port", str(port),
-         "--window", "none", "--size", f"{SIZE[0]}x{SIZE[1]}"], stdout=log,
+         "--window", window, "--size", f"{SIZE[0]}x{SIZE[1]}"], stdout=log,
         stderr=subprocess.STDOUT, start_new_session=True,
-        env=dict(os.environ, VTK_WASM_DIR_OVERRIDE=str(tmp_path)))
+        env=dict(os.environ, VTK_WASM_DIR_OVERRIDE=str(tmp_path), **environ))
     try:
         deadline = time.monotonic() + 120
         while True:
@@ -182,3 +185,19 @@ def test_plotter_show_in_a_notebook_streams_our_rendering(tmp_path):
             assert not close(early, turned), "the knob set from code did not change the frame"
         finally:
             browser.close()
+
+
+def test_with_a_display_the_viewer_opens_the_browser(tmp_path):
+    # catches: `pv-cubemarch view` opening nothing where a display exists (without
+    # pywebview the default browser, which $BROWSER names: here a script noting the URL)
+    opened = tmp_path / "opened.txt"
+    browser = tmp_path / "browser.sh"
+    browser.write_text(f"#!/bin/sh\necho \"$1\" >> {opened}\n")
+    browser.chmod(0o755)
+    with served(tmp_path, window="auto", DISPLAY=":99", BROWSER=f"{browser} %s") as url:
+        deadline = time.monotonic() + 30
+        while not opened.exists() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert opened.exists(), (tmp_path / "server.log").read_text()
+        port = url.rsplit(":", 1)[1].strip("/")
+        assert f":{port}/" in opened.read_text()
