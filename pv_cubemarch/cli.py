@@ -162,7 +162,7 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_argument("--window", choices=WINDOW_MODES, default="auto",
                       help="where the app opens: app (a desktop window, needs pywebview), "
                            "browser (the default browser), none (serve only); auto "
-                           "(default): app or browser where a display exists, else none")
+                           "(default): browser where a display exists, else none")
     bench = commands.add_parser("bench", help="speed/accuracy measurements")
     bench_commands = bench.add_subparsers(dest="bench_command", required=True)
     tradeoff = bench_commands.add_parser(

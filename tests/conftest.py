@@ -15,10 +15,13 @@ BACKGROUND = (0.1, 0.1, 0.12)
 
 
 def pytest_collection_modifyitems(config, items):
-    """Leave the tests marked slow to their own step (``pytest -m slow``), unless a ``-m``
-    expression chooses, or test files or ids are named (``pytest tests/test_wheel.py``)."""
+    """Leave the tests marked slow to their own step (``pytest -m slow``).
+
+    Unless a ``-m`` or ``-k`` expression chooses, or test files or ids are named
+    (``pytest tests/test_wheel.py``).
+    """
     named = any(arg.split("::")[0].endswith(".py") for arg in config.args)
-    if config.getoption("markexpr") or named:
+    if config.getoption("markexpr") or config.getoption("keyword") or named:
         return
     slow = [item for item in items if item.get_closest_marker("slow")]
     if slow:

@@ -113,7 +113,7 @@ def _bind(server, session: TuningSession, kind: str, knob: Knob) -> None:
                 return                  # the control's start, or set back after a refusal
             state.frame_ms = round(session.set(kind, knob.name, new), 1)
             state.message = ""
-        except (ValueError, TypeError) as exc:   # refused: the scene and the knob as they were
+        except Exception as exc:    # refused (any error): the scene and the knob as they were
             state.message = str(exc)
             state[variable] = _shown(knob, session.value(kind, knob.name))
         state.drawn = _drawn(session)
@@ -231,18 +231,17 @@ WINDOW_MODES = ("auto", "app", "browser", "none")
 def window_mode(window: str = "auto", environ: dict | None = None) -> str:
     """Where the served app opens: ``'app'``, ``'browser'`` or ``'none'`` (serve only).
 
-    ``'auto'``: with a display (``DISPLAY`` or ``WAYLAND_DISPLAY``, or macOS/Windows) a
-    desktop window when pywebview is installed, else the default browser; without one,
-    nowhere. ``'app'`` without pywebview or without a display is an error saying why.
+    ``'auto'``: with a display (``DISPLAY`` or ``WAYLAND_DISPLAY``, or macOS/Windows) the
+    default browser, a window every desktop can open; without one, nowhere. ``'app'``
+    (a pywebview window) without pywebview or without a display is an error saying why.
     """
     if window not in WINDOW_MODES:
         raise ValueError(f"window={window!r}: use one of {', '.join(WINDOW_MODES)}")
     environ = os.environ if environ is None else environ
     display = sys.platform in ("darwin", "win32") or bool(
         environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"))
-    desktop = importlib.util.find_spec("webview") is not None
     if window == "app":
-        if not desktop:
+        if importlib.util.find_spec("webview") is None:
             raise ImportError("window='app' opens the view in a desktop window with "
                               "pywebview: pip install pywebview (or use window='browser')")
         if not display:
@@ -250,5 +249,5 @@ def window_mode(window: str = "auto", environ: dict | None = None) -> str:
                              "set); serve with window='none' and open the printed URL")
         return "app"
     if window == "auto":
-        return ("app" if desktop else "browser") if display else "none"
+        return "browser" if display else "none"
     return window

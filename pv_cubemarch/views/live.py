@@ -18,8 +18,11 @@ from .app import INSTALL, build_app, show_session
 
 try:
     from trame.app.core import AVAILABLE_SERVERS
+    from trame_vtk.modules.vtk import HELPERS_PER_SERVER
+    #: trame's registries of servers by name (the server, the vtk view's helper).
+    SERVER_REGISTRIES = (AVAILABLE_SERVERS, HELPERS_PER_SERVER)
 except ImportError:                     # the optional extra is not installed
-    AVAILABLE_SERVERS = {}
+    SERVER_REGISTRIES = ()
 from .session import TuningSession
 
 try:
@@ -74,7 +77,8 @@ class LiveView:
         """Stop the server and let it go; a view made from a scene also closes its plotter."""
         if self.running:
             _run_now(self.server.stop())
-        AVAILABLE_SERVERS.pop(self.server.name, None)    # trame keeps every server by name
+        for registry in SERVER_REGISTRIES:        # trame keeps every server (and its view)
+            registry.pop(self.server.name, None)
         if self._owns_plotter:
             self.session.plotter.close()
         for plotter, view in list(_VIEWS.items()):
@@ -161,9 +165,13 @@ def live_view(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     # the iframe tall enough for the view under the app bar, and for the panel's knobs
     height = max(int(session.plotter.window_size[1]) + IFRAME_MARGIN, IFRAME_MIN_HEIGHT)
     layout.iframe_style = f"border: none; width: 100%; height: {height}px;"
-    _run_now(_started(layout))
     view = LiveView(server, layout, session, owns_plotter=not isinstance(scene,
                                                                           pyvista.Plotter))
+    try:
+        _run_now(_started(layout))
+    except BaseException:                  # not started: let go of what was made for it
+        view.close()
+        raise
     if isinstance(scene, pyvista.Plotter):
         _VIEWS[scene] = view
     return view
@@ -185,14 +193,15 @@ async def _started(layout) -> None:
 
 def _run_now(coroutine) -> None:
     """Run ``coroutine`` to its end now, inside a notebook's running event loop too."""
+    if nest_asyncio2 is None:
+        coroutine.close()                # never awaited: no "never awaited" warning
+        raise ImportError(f"showing a live view without `await` needs nest-asyncio2: "
+                          f"{INSTALL}")
     try:
         loop = asyncio.get_event_loop()
     except RuntimeError:                 # a thread without a loop
         loop = asyncio.new_event_loop()
         asyncio.set_event_loop(loop)
     if loop.is_running():                # a notebook's kernel: wait inside its loop
-        if nest_asyncio2 is None:
-            raise ImportError(f"showing a live view without `await` needs nest-asyncio2: "
-                              f"{INSTALL}")
         nest_asyncio2.apply(loop)
     loop.run_until_complete(coroutine)

@@ -54,10 +54,13 @@ def _wrapped(name: str, original):
     def handler(plotter, screenshot=None, **kwargs):
         if not holds_our_actors(plotter):
             if original is None:                 # PyVista's own fallback, as before us
+                warnings.warn(f"no notebook backend {name!r} is installed for plotters "
+                              "without pv_cubemarch's actors: showing a static image "
+                              "(pip install 'pyvista[jupyter]' for PyVista's interactive "
+                              "views)", stacklevel=3)
                 return show_static_image(plotter, screenshot)
             return original(plotter, screenshot=screenshot, **kwargs)   # as before us
-        if name in CLIENT_SIDE_BACKENDS and name in (plotter.theme.jupyter_backend,
-                                                     pyvista.global_theme.jupyter_backend):
+        if name in CLIENT_SIDE_BACKENDS:         # asked for: the auto choice is 'trame'
             warnings.warn(
                 f"jupyter backend {name!r} renders in the browser (vtk.js), which cannot run "
                 "pv_cubemarch's shaders (a volume would show as its box): showing the "

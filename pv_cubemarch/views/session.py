@@ -33,12 +33,17 @@ KINDS = ("volume", "voxels", "surface")
 
 @dataclass
 class TunedItem:
-    """One drawn model, its options, and the renderer (index in the plotter) it is in."""
+    """One drawn model, its options, where it is and the binding that draws it now.
+
+    ``name`` is its actor's name, ``renderer`` the index of its renderer in the plotter.
+    """
 
     kind: str
     model: object
     options: dict = field(default_factory=dict)
+    name: str = ""
     renderer: int = 0
+    binding: object = None
 
 
 class TuningSession:
@@ -63,6 +68,8 @@ class TuningSession:
         else:
             scene.add_to(plotter)
             self._from_scene(scene)
+            for item in self.items.values():
+                item.binding = self.actor(item).cubemarch
         self._originals = {name: item.model for name, item in self.items.items()}
         #: Each voxel grid's material opacities as loaded (shown again at these).
         self._opacities = {name: item.model.palette.rgba[:, 3].copy()
@@ -74,15 +81,12 @@ class TuningSession:
     def _from_scene(self, scene: Scene) -> None:
         """Items for the scene's volumes, voxel grids and surfaces with their options."""
         active = self._renderer_index(self.plotter.renderer)
-        for volume in scene.volumes:
-            self.items[volume.name] = TunedItem(
-                "volume", volume, dict(scene.volume_options.get(volume.name, {})), active)
-        for grid in scene.voxels:
-            self.items[grid.name] = TunedItem(
-                "voxels", grid, dict(scene.voxel_options.get(grid.name, {})), active)
-        for surface in scene.surfaces:
-            self.items[surface.name] = TunedItem(
-                "surface", surface, dict(scene.surface_options.get(surface.name, {})), active)
+        for kind, models, options in (("volume", scene.volumes, scene.volume_options),
+                                      ("voxels", scene.voxels, scene.voxel_options),
+                                      ("surface", scene.surfaces, scene.surface_options)):
+            for model in models:
+                self.items[model.name] = TunedItem(kind, model, dict(options.get(model.name, {})),
+                                                   model.name, active)
 
     @classmethod
     def from_plotter(cls, plotter: pyvista.Plotter) -> TuningSession:
@@ -97,36 +101,49 @@ class TuningSession:
         return cls(None, plotter)
 
     def _adopt(self, plotter: pyvista.Plotter) -> None:
-        """Items for the techniques' actors the plotter holds, by actor name."""
-        for name, actor, index in adoptable_actors(plotter):
+        """Items for the techniques' actors the plotter holds.
+
+        Labelled by actor name, suffixed by the renderer where one name is in several.
+        """
+        found = adoptable_actors(plotter)
+        names = [name for name, _, _ in found]
+        for name, actor, index in found:
             binding = actor.cubemarch
             model = binding.model
             if isinstance(model, SplineField):
                 # the active-cell technique keeps its active cells; the full march has none
-                self.items[name] = TunedItem("surface", model, {
+                kind, options = "surface", {
                     **_fields(binding.options),
-                    "technique": "active" if binding.cells is not None else "full"}, index)
+                    "technique": "active" if binding.cells is not None else "full"}
             elif isinstance(model, (VoxelModel, VoxelWorld)):
-                self.items[name] = TunedItem("voxels", model, _fields(binding.options), index)
+                kind, options = "voxels", _fields(binding.options)
             else:
-                options = {"technique": binding.technique}
+                kind, options = "volume", {"technique": binding.technique}
                 reader = get_technique("volume", binding.technique)
                 for option in ("step_scale", "stop_opacity", "downsample"):
                     if hasattr(binding, option) and (option in reader.option_names
                                                      or option == "stop_opacity"):
                         options[option] = getattr(binding, option)
-                self.items[name] = TunedItem("volume", model, options, index)
+            label = name if names.count(name) == 1 else f"{name} (renderer {index})"
+            self.items[label] = TunedItem(kind, model, options, name, index, binding)
 
     def _renderer_index(self, renderer) -> int:
         return list(self.plotter.renderers).index(renderer)
 
-    def actor(self, name: str):
-        """The actor item ``name`` is drawn by now (in its own renderer)."""
-        return self.plotter.renderers[self.items[name].renderer].actors[name]
+    def actor(self, item: TunedItem | str):
+        """The actor an item (or the item of that label) is drawn by now."""
+        item = self.items[item] if isinstance(item, str) else item
+        return self.plotter.renderers[item.renderer].actors[item.name]
 
     def holds_all_of(self, plotter: pyvista.Plotter) -> bool:
-        """Whether the session's items are still the techniques' actors ``plotter`` holds."""
-        return {name for name, _, _ in adoptable_actors(plotter)} == set(self.items)
+        """Whether the items are still what ``plotter`` holds (none replaced, added or gone).
+
+        Compared by binding: an actor added again under the same name is a new one.
+        """
+        found = {(index, name): actor.cubemarch for name, actor, index in
+                 adoptable_actors(plotter)}
+        ours = {(item.renderer, item.name): item.binding for item in self.items.values()}
+        return found.keys() == ours.keys() and all(found[k] is ours[k] for k in found)
 
     def kinds(self) -> list[str]:
         """The kinds of items the scene holds, in panel order."""
@@ -176,8 +193,7 @@ class TuningSession:
             for item_name, item in self.items.items():
                 if item.kind != kind:
                     continue
-                done.append((item_name, item, item.model, dict(item.options),
-                             self.level_shift))
+                done.append((item, item.model, dict(item.options), self.level_shift))
                 if kind == "surface" and name == "isovalue":
                     self.level_shift = float(value)
                     original = self._originals[item_name]
@@ -186,11 +202,11 @@ class TuningSession:
                 else:
                     item.options[name] = None if name == "lights" and value == "none" \
                         else value
-                self._add(item_name, item)
-        except ValueError:
-            for item_name, item, model, options, shift in done:   # back as it was
+                self._add(item)
+        except Exception:       # refused (ValueError, or TypeError for a wrong type)
+            for item, model, options, shift in done:   # back as it was
                 item.model, item.options, self.level_shift = model, options, shift
-                self._add(item_name, item)
+                self._add(item)
             raise
         self.draw()
         return self.draw()
@@ -244,7 +260,7 @@ class TuningSession:
         for name, item in self.items.items():
             if item.kind != "voxels":
                 continue
-            binding, loaded = self.actor(name).cubemarch, self._opacities[name]
+            binding, loaded = item.binding, self._opacities[name]
             rows = len(item.model.palette.rgba)
             for material in sorted((before - shown) | (shown - before)):
                 if material < rows:     # only the palette's few bytes go to the GPU
@@ -254,7 +270,7 @@ class TuningSession:
     def _of(self, kind: str) -> list[TunedItem]:
         return [item for item in self.items.values() if item.kind == kind]
 
-    def _add(self, name: str, item: TunedItem) -> None:
+    def _add(self, item: TunedItem) -> None:
         """Add the item again under its name, in its renderer (replacing the old one)."""
         technique = item.options.get("technique") or DEFAULT_TECHNIQUE[item.kind]
         reader = get_technique(item.kind, technique)
@@ -263,13 +279,17 @@ class TuningSession:
         options = {key: value for key, value in item.options.items()
                    if key not in specific or key in reader.option_names}
         adders = {"volume": add_volume, "voxels": add_voxels, "surface": add_surface}
-        active = self.plotter.renderer
-        self.plotter.subplot(*self.plotter.renderers.index_to_loc(item.renderer))
+        active = self._renderer_index(self.plotter.renderer)
+        self._make_active(item.renderer)
         try:
-            adders[item.kind](self.plotter, item.model, name=name, **options)
+            actor = adders[item.kind](self.plotter, item.model, name=item.name, **options)
+            item.binding = actor.cubemarch
         finally:
-            self.plotter.subplot(*self.plotter.renderers.index_to_loc(
-                self._renderer_index(active)))
+            self._make_active(active)
+
+    def _make_active(self, index: int) -> None:
+        """Make renderer ``index`` the plotter's active one (any subplot layout)."""
+        self.plotter.subplot(*np.atleast_1d(self.plotter.renderers.index_to_loc(index)))
 
 
 #: Materials listed by the ``materials`` knob (the first of a larger palette).
@@ -284,15 +304,13 @@ _OTHER_DEFAULTS = {"lights": "none", "lod": False, "mip_levels": None,
 def adoptable_actors(plotter: pyvista.Plotter) -> list[tuple[str, object, int]]:
     """``(name, actor, renderer index)`` of each of our techniques' actors in ``plotter``.
 
-    Actors another binding draws for it (the direct half of an ``auto`` volume, a world's
-    chunks) belong to that binding and are left out.
+    Actors a binding draws for another one (the direct half of an ``auto`` volume, a
+    world's chunks: their binding's ``actor`` is that other one's) are left out.
     """
-    found = [(name, actor, index) for index, renderer in enumerate(plotter.renderers)
-             for name, actor in renderer.actors.items()
-             if getattr(getattr(actor, "cubemarch", None), "model", None) is not None]
-    owned = {id(part) for _, actor, _ in found
-             for part in getattr(actor.cubemarch, "drawn", None) or () if part is not actor}
-    return [(name, actor, index) for name, actor, index in found if id(actor) not in owned]
+    return [(name, actor, index) for index, renderer in enumerate(plotter.renderers)
+            for name, actor in renderer.actors.items()
+            if getattr(getattr(actor, "cubemarch", None), "model", None) is not None
+            and getattr(actor.cubemarch, "actor", actor) is actor]
 
 
 def _fields(options) -> dict:
