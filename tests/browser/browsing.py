@@ -7,10 +7,14 @@ and the stream has been quiet for :data:`QUIET` seconds (VTK re-sends a stale fr
 from __future__ import annotations
 
 import base64
+import contextlib
 import io
 import os
+import signal
 import socket
+import subprocess
 import time
+import urllib.request
 from pathlib import Path
 
 import numpy as np
@@ -60,6 +64,42 @@ def watch_outside(page, frames_only: bool = False) -> list[str]:
     page.on("websocket", lambda socket: outside.append(socket.url)
             if not socket.url.startswith(local) else None)
     return outside
+
+
+@contextlib.contextmanager
+def serving(command: list[str], log: Path, ready_url: str, env: dict, shutdown=None):
+    """Run ``command`` (a server) until ``ready_url`` answers 200; always stop it after.
+
+    ``shutdown``: called first to stop it gracefully (else SIGTERM to its process group);
+    it is killed if it has not ended 30 s later. Its output goes to ``log``.
+    """
+    with open(log, "w") as out:
+        process = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, env=env,
+                                   start_new_session=True)
+        try:
+            deadline = time.monotonic() + 120
+            while True:
+                assert process.poll() is None, log.read_text()[-3000:]
+                assert time.monotonic() < deadline, f"{command[:3]} did not start in 120 s"
+                try:
+                    with urllib.request.urlopen(ready_url, timeout=1) as reply:
+                        if reply.status == 200:
+                            break
+                except OSError:
+                    time.sleep(0.2)
+            yield process
+        finally:
+            if shutdown is not None:
+                with contextlib.suppress(OSError):
+                    shutdown()
+            else:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(process.pid, signal.SIGTERM)
+            try:
+                process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.wait()
 
 
 def free_port() -> int:

@@ -16,8 +16,6 @@ import contextlib
 import json
 import os
 import re
-import signal
-import subprocess
 import sys
 import time
 import urllib.request
@@ -31,6 +29,7 @@ from browsing import (
     free_port,
     keep_screenshot,
     launch,
+    serving,
     settled_frame,
     shown_offscreen,
     watch_outside,
@@ -54,36 +53,16 @@ def jupyterlab(root: Path):
                JUPYTERLAB_SETTINGS_DIR=str(root / ".settings"),
                JUPYTERLAB_WORKSPACES_DIR=str(root / ".workspaces"),
                VTK_WASM_DIR_OVERRIDE=str(root))
-    log = open(root / "jupyterlab.log", "w")  # noqa: SIM115 (closed below)
-    process = subprocess.Popen(
-        [sys.executable, "-m", "jupyterlab", "--no-browser", "--ip=127.0.0.1",
-         f"--port={port}", "--IdentityProvider.token=", "--ServerApp.password=",
-         "--ServerApp.disable_check_xsrf=True", f"--ServerApp.root_dir={root}",
-         "--allow-root"], stdout=log, stderr=subprocess.STDOUT, env=env,
-        start_new_session=True)
-    try:
-        deadline = time.monotonic() + 120
-        while True:
-            assert process.poll() is None, (root / "jupyterlab.log").read_text()[-3000:]
-            assert time.monotonic() < deadline, "JupyterLab did not start in 120 s"
-            try:
-                with urllib.request.urlopen(url + "/api/status", timeout=1) as reply:
-                    if reply.status == 200:
-                        break
-            except OSError:
-                time.sleep(0.3)
+    command = [sys.executable, "-m", "jupyterlab", "--no-browser", "--ip=127.0.0.1",
+               f"--port={port}", "--IdentityProvider.token=", "--ServerApp.password=",
+               "--ServerApp.disable_check_xsrf=True", f"--ServerApp.root_dir={root}",
+               "--allow-root"]
+
+    def shutdown():          # the server's own shutdown stops its kernels too
+        urllib.request.urlopen(urllib.request.Request(url + "/api/shutdown", method="POST"),
+                               timeout=10)
+    with serving(command, root / "jupyterlab.log", url + "/api/status", env, shutdown):
         yield url
-    finally:
-        # the server's own shutdown stops its kernels too; the signal is the fallback
-        with contextlib.suppress(OSError):
-            urllib.request.urlopen(urllib.request.Request(url + "/api/shutdown",
-                                                          method="POST"), timeout=10)
-        try:
-            process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-        log.close()
 
 
 def run_cell(page, index: int, timeout: float = 240.0):

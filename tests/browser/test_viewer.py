@@ -16,11 +16,8 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import signal
-import subprocess
 import sys
 import time
-import urllib.request
 import warnings
 from pathlib import Path
 
@@ -34,6 +31,7 @@ from browsing import (
     free_port,
     keep_screenshot,
     launch,
+    serving,
     settled_frame,
     shown_offscreen,
     watch_outside,
@@ -54,33 +52,11 @@ def served(tmp_path, window: str = "none", **environ):
     environment); yields its URL; always stops it."""
     port = free_port()
     url = f"http://127.0.0.1:{port}/"
-    log = open(tmp_path / "server.log", "w")  # noqa: SIM115 (closed below)
-    process = subprocess.Popen(
-        [sys.executable, "-m", "pv_cubemarch.cli", "view", str(SCENE), "--port", str(port),
-         "--window", window, "--size", f"{SIZE[0]}x{SIZE[1]}"], stdout=log,
-        stderr=subprocess.STDOUT, start_new_session=True,
-        env=dict(os.environ, VTK_WASM_DIR_OVERRIDE=str(tmp_path), **environ))
-    try:
-        deadline = time.monotonic() + 120
-        while True:
-            assert process.poll() is None, (tmp_path / "server.log").read_text()
-            assert time.monotonic() < deadline, "the viewer did not start in 120 s"
-            try:
-                with urllib.request.urlopen(url + "index.html", timeout=1) as reply:
-                    if reply.status == 200:
-                        break
-            except OSError:
-                time.sleep(0.2)
+    command = [sys.executable, "-m", "pv_cubemarch.cli", "view", str(SCENE), "--port",
+               str(port), "--window", window, "--size", f"{SIZE[0]}x{SIZE[1]}"]
+    env = dict(os.environ, VTK_WASM_DIR_OVERRIDE=str(tmp_path), **environ)
+    with serving(command, tmp_path / "server.log", url + "index.html", env):
         yield url
-    finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(process.pid, signal.SIGTERM)
-        try:
-            process.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-        log.close()
 
 
 def offscreen(**settings) -> np.ndarray:
