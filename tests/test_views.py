@@ -530,3 +530,21 @@ def test_a_closed_view_leaves_trames_registries():
     view.close()
     assert all(name not in registry for registry in live.SERVER_REGISTRIES)
     assert len(live.SERVER_REGISTRIES) == 2
+
+
+def test_a_scenes_joint_volumes_are_one_item(plotter_factory):
+    # catches: overlapping volumes (marched jointly as one actor) re-added one by one under
+    # their own names beside the joint actor, which stayed: drawn twice after a change
+    shift = np.eye(4)
+    shift[0, 3] = 8.0                                    # half a box along x: they overlap
+    rng = np.random.default_rng(1)
+    a = cm.make_volume(rng.random((16, 16, 16)), name="a")
+    b = cm.make_volume(rng.random((16, 16, 16)), name="b", transform=shift)
+    scene = cm.Scene(volumes=[a, b], volume_options={"a": {"technique": "direct"}})
+    session = TuningSession(scene, plotter_factory(SIZE))
+    assert [(i.kind, i.name) for i in session.items.values()] == [("volume", "a+b")]
+    assert session.value("volume", "technique") == "direct"
+    actors = len(session.plotter.renderer.actors)
+    session.set("volume", "stop_opacity", 0.8)
+    assert len(session.plotter.renderer.actors) == actors
+    assert session.holds_all_of(session.plotter)

@@ -61,15 +61,14 @@ class TuningSession:
         self.scene = scene if scene is not None else Scene()
         self.plotter = plotter
         self.items: dict[str, TunedItem] = {}
+        if scene is not None:
+            scene.add_to(plotter)
+        self._adopt(plotter)            # what was drawn, volumes marched jointly as one item
         if scene is None:
-            self._adopt(plotter)
             self.scene.volumes = [i.model for i in self.items.values() if i.kind == "volume"]
             self.scene.background = tuple(pyvista.Color(plotter.background_color).float_rgb)
         else:
-            scene.add_to(plotter)
-            self._from_scene(scene)
-            for item in self.items.values():
-                item.binding = self.actor(item).cubemarch
+            self._take_scene_options(scene)
         self._originals = {name: item.model for name, item in self.items.items()}
         #: Each voxel grid's material opacities as loaded (shown again at these).
         self._opacities = {name: item.model.palette.rgba[:, 3].copy()
@@ -78,15 +77,14 @@ class TuningSession:
         #: Milliseconds of the last frame drawn (after the last change).
         self.last_frame_ms: float | None = None
 
-    def _from_scene(self, scene: Scene) -> None:
-        """Items for the scene's volumes, voxel grids and surfaces with their options."""
-        active = self._renderer_index(self.plotter.renderer)
-        for kind, models, options in (("volume", scene.volumes, scene.volume_options),
-                                      ("voxels", scene.voxels, scene.voxel_options),
-                                      ("surface", scene.surfaces, scene.surface_options)):
-            for model in models:
-                self.items[model.name] = TunedItem(kind, model, dict(options.get(model.name, {})),
-                                                   model.name, active)
+    def _take_scene_options(self, scene: Scene) -> None:
+        """The scene's own options for its items (a joint group: its first volume's)."""
+        tables = {"volume": scene.volume_options, "voxels": scene.voxel_options,
+                  "surface": scene.surface_options}
+        for item in self.items.values():
+            first = item.name.split("+")[0]
+            if first in tables[item.kind]:
+                item.options = dict(tables[item.kind][first])
 
     @classmethod
     def from_plotter(cls, plotter: pyvista.Plotter) -> TuningSession:
