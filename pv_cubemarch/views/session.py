@@ -51,10 +51,12 @@ class TuningSession:
 
     Parameters
     ----------
-    scene : Scene
-        What to draw (see :func:`pv_cubemarch.load_scene`).
+    scene : Scene or None
+        What to draw (see :func:`pv_cubemarch.load_scene`), with its own options; ``None``
+        adopts the techniques' actors ``plotter`` holds (see :meth:`from_plotter`).
     plotter : pyvista.Plotter
-        Where; the scene is added to it now.
+        Where; the scene is added to it now. Either way the items are what was drawn:
+        volumes marched jointly are one item, re-added as their group.
     """
 
     def __init__(self, scene: Scene | None, plotter: pyvista.Plotter):
