@@ -19,6 +19,7 @@ from ..bench.harness import opaque_layer
 from ..core.camera import Camera
 from ..core.registry import get_technique, specific_option_names, techniques
 from ..core.rendering import render_image
+from ..models.group import overlap_groups
 from ..models.surface import SplineField
 from ..models.voxels import VoxelModel
 from ..models.world import VoxelWorld
@@ -55,7 +56,7 @@ class TuningSession:
         What to draw (see :func:`pv_cubemarch.load_scene`), with its own options; ``None``
         adopts the techniques' actors ``plotter`` holds (see :meth:`from_plotter`).
     plotter : pyvista.Plotter
-        Where; the scene is added to it now. Either way the items are what was drawn:
+        Where; a scene is added to it now. Either way the items are what was drawn:
         volumes marched jointly are one item, re-added as their group.
     """
 
@@ -80,13 +81,23 @@ class TuningSession:
         self.last_frame_ms: float | None = None
 
     def _take_scene_options(self, scene: Scene) -> None:
-        """The scene's own options for its items (a joint group: its first volume's)."""
+        """The scene's own options for its items, and the technique each was drawn with.
+
+        A volume marched jointly was drawn with its group's first volume's options (as
+        :meth:`Scene.add_to` does), and ``'vtk'`` becomes ``'direct'`` for a group.
+        """
         tables = {"volume": scene.volume_options, "voxels": scene.voxel_options,
                   "surface": scene.surface_options}
+        leader = {v.name: group[0].name for group in overlap_groups(scene.volumes)
+                  for v in group}
         for item in self.items.values():
-            first = item.name.split("+")[0]
-            if first in tables[item.kind]:
-                item.options = dict(tables[item.kind][first])
+            model = getattr(item.model, "members", [item.model])[0]
+            key = leader.get(model.name, model.name) if item.kind == "volume" else model.name
+            if key in tables[item.kind]:
+                drawn = item.options.get("technique")
+                item.options = dict(tables[item.kind][key])
+                if drawn is not None:
+                    item.options["technique"] = drawn
 
     @classmethod
     def from_plotter(cls, plotter: pyvista.Plotter) -> TuningSession:
@@ -278,6 +289,8 @@ class TuningSession:
         specific = specific_option_names(item.kind)
         options = {key: value for key, value in item.options.items()
                    if key not in specific or key in reader.option_names}
+        if options.get("lights") == "scene" and self.scene.usd_lighting:
+            options["lights"] = self.scene.volume_lights()   # as Scene.add_to lights them
         adders = {"volume": add_volume, "voxels": add_voxels, "surface": add_surface}
         active = self._renderer_index(self.plotter.renderer)
         self._make_active(item.renderer)

@@ -86,15 +86,17 @@ def serving(command: list[str], log: Path, ready_url: str, env: dict, shutdown=N
                         if reply.status == 200:
                             break
                 except OSError:
-                    time.sleep(0.2)
+                    pass
+                time.sleep(0.2)
             yield process
         finally:
             if shutdown is not None:
                 with contextlib.suppress(OSError):
                     shutdown()
-            else:
-                with contextlib.suppress(ProcessLookupError):
-                    os.killpg(process.pid, signal.SIGTERM)
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    process.wait(timeout=20)
+            with contextlib.suppress(ProcessLookupError):   # (JupyterLab stops its kernels)
+                os.killpg(process.pid, signal.SIGTERM)
             try:
                 process.wait(timeout=30)
             except subprocess.TimeoutExpired:

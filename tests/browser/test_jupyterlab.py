@@ -59,8 +59,8 @@ def jupyterlab(root: Path):
                "--allow-root"]
 
     def shutdown():          # the server's own shutdown stops its kernels too
-        urllib.request.urlopen(urllib.request.Request(url + "/api/shutdown", method="POST"),
-                               timeout=10)
+        request = urllib.request.Request(url + "/api/shutdown", method="POST")
+        urllib.request.urlopen(request, timeout=10).close()
     with serving(command, root / "jupyterlab.log", url + "/api/status", env, shutdown):
         yield url
 
