@@ -107,25 +107,25 @@ def _bind(server, session: TuningSession, kind: str, knob: Knob) -> None:
 
     @state.change(variable)
     def changed(**current):
+        message = ""
         try:
             new = _typed(knob, current[variable])
             if new == session.value(kind, knob.name):
-                return                  # the control's start, or set back after a refusal
-            state.frame_ms = round(session.set(kind, knob.name, new), 1)
-            state.message = ""
+                return                  # the control's start, or set back by show_session
+            session.set(kind, knob.name, new)
         except Exception as exc:    # refused (any error): the scene and the knob as they were
-            state.message = str(exc)
-            state[variable] = _shown(knob, session.value(kind, knob.name))
-        state.drawn = _drawn(session)
-        state.error_text = "error: not measured"
+            message = str(exc)
+        show_session(server, session)   # every knob as now (a technique switch moves some)
+        state.message = message
         ctrl.view_update()
 
 
 def show_session(server, session: TuningSession) -> None:
-    """Push the session's knob values, frame time and drawn techniques to the page now.
+    """Push the session's knob values, frame time and drawn techniques to the page.
 
-    For changes made from code (not from the page): written inside the state's context, so
-    they are sent at once; the change handlers find the session already there.
+    After a change from the page or from code: written inside the state's context, so they
+    are sent at once (within a change handler, with its flush); the knobs' change handlers
+    find the session already there.
     """
     with server.state as state:
         for kind in session.kinds():
