@@ -26,6 +26,7 @@ from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cub
 from .volume.light_map import LightMap
 from .volume.march import VolumeData
 from .volume.options import DEFAULT_STOP_OPACITY, Shading
+from .volume.pyvista_keywords import add_scalar_bar, resolve_aliases, volume_input
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
 from .voxels.indexed import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
@@ -35,12 +36,21 @@ from .voxels.world import build_world
 def add_volume(
     plotter: pyvista.Plotter,
     volume,
-    scalars: str | None = None,
+    scalars=None,
     *,
-    cmap="magma",
+    cmap=None,
     opacity="linear",
     clim=None,
     opacity_unit_distance: float | None = None,
+    n_colors: int = 256,
+    flip_scalars: bool = False,
+    log_scale: bool = False,
+    categories: bool | int = False,
+    resolution=None,
+    preference: str = "point",
+    show_scalar_bar: bool = False,
+    scalar_bar_args: dict | None = None,
+    annotations: dict | None = None,
     technique: str = "vtk",
     step_scale: float | None = None,
     stop_opacity: float = DEFAULT_STOP_OPACITY,
@@ -55,8 +65,15 @@ def add_volume(
     light_map_size: int = DEFAULT_LIGHT_MAP_SIZE,
     ambient: float = DEFAULT_AMBIENT,
     transform=None,
+    user_matrix=None,
     nan_policy: str = "raise",
     name: str | None = None,
+    reset_camera: bool | None = None,
+    pickable: bool = True,
+    render: bool = True,
+    blending: str = "composite",
+    shade: bool = False,
+    **kwargs,
 ) -> pyvista.Prop3D:
     """Add a volume rendered with emission/absorption compositing; return its actor.
 
@@ -68,17 +85,43 @@ def add_volume(
         Scalars on a uniform grid (a numpy array is indexed x, y, z with unit spacing), a
         :class:`VolumeModel` that already carries its transfer function and placement, or a
         :class:`VolumeGroup` of overlapping volumes marched jointly (see :func:`add_volumes`).
-    scalars : str, optional
-        Name of the point (or cell) array to draw; the active scalars by default.
-    cmap : str or sequence
-        Matplotlib colormap for the emitted colour.
+    scalars : str or numpy.ndarray, optional
+        Name of the point (or cell) array to draw, or the values themselves (one per point
+        or per cell); the active scalars by default.
+    cmap : str, sequence, matplotlib colormap or pyvista.LookupTable, optional
+        Colormap of the emitted colour (PyVista's theme colormap by default); a lookup
+        table brings its own colours and opacities. ``colormap=`` is an alias.
     opacity : str, float or sequence of float
-        PyVista opacity preset or values over ``clim``: the fraction absorbed over
-        ``opacity_unit_distance``.
-    clim : sequence of float, optional
-        Scalar range of the transfer function; the data range by default.
+        PyVista opacity preset (``'linear'``, ``'sigmoid'``, ``'geom'`` ...), a constant, or
+        values in [0, 1] over ``clim``: the fraction absorbed over
+        ``opacity_unit_distance`` (capped at 0.998, as PyVista caps it).
+    clim : float or sequence of float, optional
+        Scalar range of the colormap and opacity, in the data's units (the data range by
+        default; one number ``c`` means ``(-c, c)``). ``rng=`` is an alias.
     opacity_unit_distance : float, optional
-        World length that ``opacity`` refers to; the mean grid spacing by default.
+        World length that ``opacity`` refers to; as in PyVista, the grid's diagonal over
+        its mean number of points less one by default.
+    n_colors : int
+        Colours of the colormap (rows of the transfer table, 2 to 16384).
+    flip_scalars : bool
+        Reverse the colormap.
+    log_scale : bool
+        Map colours over ``clim`` logarithmically (a lower bound at or below 0 becomes the
+        smallest positive float, as in PyVista).
+    categories : bool or int
+        ``True``: as many colours as the data has distinct values; a number: that many.
+    resolution : sequence of float, optional
+        A numpy volume's spacing (unit spacing by default).
+    preference : str
+        ``'point'`` or ``'cell'``: where a ``scalars`` array that fits both goes.
+    show_scalar_bar : bool
+        Add a scalar bar of the volume's colours (off by default, unlike PyVista, so that
+        images compare with the CPU reference); ``plotter.add_scalar_bar()`` adds one
+        afterwards either way.
+    scalar_bar_args : dict, optional
+        Keywords of ``plotter.add_scalar_bar`` (title, position, ...).
+    annotations : dict, optional
+        Scalar value to label, shown on the scalar bar.
     technique : str
         ``'vtk'``: marched inside VTK's GPU volume mapper (it sets up the ray). ``'direct'``:
         the direct screen-space marcher on a box actor, one ray per pixel. ``'cubemap'``:
@@ -138,12 +181,29 @@ def add_volume(
         bytes and a longer light pass.
     ambient : float
         Share of the emission no light modulates, in [0, 1] (with ``lights``).
-    transform : array_like, optional
-        4x4 matrix placing the grid in the world.
+    transform, user_matrix : array_like, optional
+        4x4 matrix placing the grid in the world (``user_matrix`` is PyVista's name; give
+        one of the two).
     nan_policy : str
         ``'raise'`` (default) for NaN/Inf in the data, or ``'zero'`` to draw them as 0.
     name : str, optional
         Actor name in the plotter (replaces an actor of the same name).
+    reset_camera : bool, optional
+        Reset the camera to the scene after adding (by default only while the user has
+        set no camera, as PyVista does).
+    pickable : bool
+        Whether the actor is pickable.
+    render : bool
+        Render once the volume is added, if the plotter is already shown.
+    blending : str
+        ``'composite'`` (emission/absorption); PyVista's other blend modes are not drawn
+        yet and raise an error that says so.
+    shade : bool
+        ``False``; gradient shading is not drawn yet (``lights=`` lights the medium by its
+        own transmittance instead).
+    **kwargs
+        PyVista's aliases ``rng`` (``clim``) and ``colormap`` (``cmap``). Any other
+        keyword raises a ``TypeError`` that says what to use instead.
 
     Options of another technique than the chosen one raise a ``ValueError`` that names
     the techniques using them.
@@ -167,6 +227,19 @@ def add_volume(
     >>> actor = pv_cubemarch.add_volume(pl, density, cmap="inferno", step_scale=0.5)
     >>> image = pv_cubemarch.render_image(pl)  # doctest: +SKIP
     """
+    named = resolve_aliases(kwargs, {"clim": clim, "cmap": cmap})
+    clim, cmap = named["clim"], named["cmap"]
+    if blending != "composite":
+        raise ValueError(f"blending={blending!r} is not drawn yet: pv_cubemarch composites "
+                         "emission/absorption (blending='composite'); use PyVista's own "
+                         "plotter.add_volume for other blend modes.")
+    if shade:
+        raise ValueError("shade=True (gradient shading) is not drawn yet; lights= lights the "
+                         "medium by its transmittance toward each light instead.")
+    if user_matrix is not None:
+        if transform is not None:
+            raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")
+        transform = user_matrix
     chosen = get_technique("volume", technique)
     given = {key: value for key, value in dict(
         step_scale=step_scale, downsample=downsample, face_size=face_size,
@@ -178,9 +251,12 @@ def add_volume(
     if isinstance(volume, (VolumeModel, VolumeGroup)):
         model = volume
     else:
+        volume, scalars = volume_input(volume, scalars, resolution, preference)
         model = make_volume(volume, scalars, cmap=cmap, opacity=opacity, clim=clim,
                             opacity_unit_distance=opacity_unit_distance, transform=transform,
-                            nan_policy=nan_policy, name=name or "volume")
+                            nan_policy=nan_policy, name=name or "volume", n_colors=n_colors,
+                            flip_scalars=flip_scalars, log_scale=log_scale,
+                            categories=categories)
     if isinstance(model, VolumeGroup) and not chosen.groups:
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
@@ -193,14 +269,20 @@ def add_volume(
     binding = chosen.build(plotter, data, options, shading, light_map)
     binding.light_map = light_map
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
+    actor.SetPickable(bool(pickable))
     component.track(binding)
-    _frame(plotter)
+    if not isinstance(model, VolumeGroup):
+        add_scalar_bar(plotter, model, scalars if isinstance(scalars, str) else model.name,
+                       show_scalar_bar, scalar_bar_args, annotations)
+    _frame(plotter, reset_camera)
+    if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
+        plotter.render()
     return actor
 
 
-def _frame(plotter: pyvista.Plotter) -> None:
-    """Frame a new prop: the camera if the user set none, else the near and far planes."""
-    if not plotter.camera_set:
+def _frame(plotter: pyvista.Plotter, reset_camera: bool | None = None) -> None:
+    """Frame a new prop: the camera if asked or the user set none, else the clipping range."""
+    if reset_camera or (reset_camera is None and not plotter.camera_set):
         plotter.reset_camera()
     else:
         plotter.renderer.ResetCameraClippingRange()

@@ -1,13 +1,19 @@
-"""Transfer functions shared by the GPU shaders and the CPU reference.
+"""Transfer functions: colour and extinction over ``clim``, as PyVista's ``add_volume`` maps them.
 
-One table serves both sides, so a difference between the GPU image and the reference
-is the renderer's, never the lookup's. Each row holds linear RGB emission colour and the
-extinction coefficient sigma (per world unit): a sample of length ``dt`` has opacity
-``1 - exp(-sigma * dt)`` whatever the step, which is the exponential correction.
+The table is built the way PyVista builds a volume's transfer functions
+(``LookupTable.to_color_tf`` / ``to_opacity_tf``): ``n_colors`` points spaced evenly over
+``clim``, each with the lookup table's colour at that value (linear or logarithmic mapping)
+and its opacity (capped at PyVista's 0.998), linear in between. Each row holds linear RGB
+emission colour and the extinction coefficient sigma (per world unit): a sample of length
+``dt`` has opacity ``1 - exp(-sigma * dt)`` whatever the step (VTK's opacity correction).
+
+What the user asked for is kept beside the table (:class:`TransferSpec`), so the CPU
+reference can derive the right colours on its own, from matplotlib, without this table.
 """
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -16,14 +22,38 @@ import pyvista
 
 from ..core.errors import VolumeDataError
 
-#: Opacity values are clipped below 1 so that the extinction stays finite.
-MAX_OPACITY = 1.0 - 1e-6
+#: PyVista's ``to_opacity_tf(max_clip=0.998)``: the most opacity a table row may have.
+MAX_OPACITY = 0.998
 #: Largest extinction per world unit in a table. A tiny ``opacity_unit_distance`` (say
 #: 1e-300) would overflow float32 to infinity, which the GPU's filtering and the
 #: reference's interpolation turn into NaN (0 * inf): capped here, a sample is still opaque
 #: over any step longer than 1e-28 world units, and sums of four volumes' extinctions and
 #: their products with colours stay finite in float32.
 MAX_EXTINCTION = 1e30
+#: Most colours of a colormap (``n_colors``).
+MAX_COLORS = 16384
+#: Rows a table is refined to (about): VTK interpolates opacity linearly between the
+#: colormap's points, while the GPU interpolates the table's extinction; on rows this fine
+#: the two agree (within 1/255 of opacity even for 16 colours of a ``'geom'`` curve).
+REFINED_ROWS = 4096
+
+
+@dataclass(frozen=True)
+class TransferSpec:
+    """What a transfer function was asked to be, in the data's own units.
+
+    ``colors`` and ``alphas`` are the colour map and opacity curve sampled at ``n_colors``
+    evenly spaced points in [0, 1] (after ``flip_scalars``), as given; ``clim`` is in data
+    units (before any value offset). The CPU reference reads this, not the table.
+    """
+
+    cmap: object
+    opacity: object
+    clim: tuple[float, float]
+    n_colors: int
+    flip_scalars: bool
+    log_scale: bool
+    opacity_unit_distance: float
 
 
 @dataclass(frozen=True, eq=False)
@@ -33,64 +63,98 @@ class TransferFunction:
     Parameters
     ----------
     table : numpy.ndarray
-        ``(n, 4)`` float32: RGB in [0, 1] and extinction per world unit.
+        ``(n, 4)`` float32: RGB in [0, 1] and extinction per world unit, rows at values
+        spaced evenly over ``clim``.
     clim : tuple of float
-        Scalar values mapped to the first and last row.
+        Scalar values of the first and last row, in the units of the volume's stored
+        values (the data minus its ``value_offset``).
+    spec : TransferSpec, optional
+        What the table was built from (``None`` for a table given as is).
     """
 
     table: np.ndarray
     clim: tuple[float, float]
+    spec: TransferSpec | None = None
 
     @classmethod
     def from_colormap(
         cls,
-        cmap: str | Sequence = "magma",
+        cmap: str | Sequence | pyvista.LookupTable | None = None,
         opacity: str | float | Sequence[float] = "linear",
-        clim: Sequence[float] = (0.0, 1.0),
+        clim: float | Sequence[float] = (0.0, 1.0),
         opacity_unit_distance: float = 1.0,
         n_colors: int = 256,
+        flip_scalars: bool = False,
+        log_scale: bool = False,
+        value_offset: int | float = 0,
     ) -> TransferFunction:
-        """Build a table from a matplotlib colormap and a PyVista-style opacity.
+        """Build a table as PyVista's ``add_volume`` builds its transfer functions.
 
         Parameters
         ----------
-        cmap : str or sequence
-            A matplotlib colormap name, or a list of colours.
+        cmap : str, sequence, matplotlib colormap or pyvista.LookupTable, optional
+            A colormap name (PyVista's theme colormap by default), a list of colours, or a
+            ready lookup table (its colours and opacities are used, ``opacity`` is not).
         opacity : str, float or sequence of float
             A PyVista opacity preset (``'linear'``, ``'sigmoid'``, ``'geom'`` ...), a constant,
             or values in [0, 1] resampled over ``clim``.
-        clim : sequence of float
-            Scalar range covered by the table.
+        clim : float or sequence of float
+            Scalar range covered by the table, in data units; one number ``c`` means
+            ``(-c, c)``.
         opacity_unit_distance : float
             World length over which a sample of opacity ``o`` absorbs the fraction ``o``.
         n_colors : int
-            Rows in the table.
+            Rows in the table (colours of the colormap).
+        flip_scalars : bool
+            Reverse the colormap.
+        log_scale : bool
+            Map colours over ``clim`` logarithmically (a lower bound at or below 0 becomes
+            the smallest positive float, as in PyVista).
+        value_offset : int or float
+            What the volume subtracted from its data (see :class:`VolumeModel`): the
+            table's ``clim`` is stored in those shifted units.
 
         Examples
         --------
         >>> from pv_cubemarch import TransferFunction
         >>> tf = TransferFunction.from_colormap("viridis", "sigmoid", clim=(0, 2))
-        >>> tf.table.shape
-        (256, 4)
+        >>> tf.spec.n_colors, tf.table.shape  # rows refined so opacity interpolates as VTK's
+        (256, (4081, 4))
         """
-        lo, hi = (float(v) for v in clim)
-        if not np.isfinite([lo, hi]).all() or hi <= lo:
-            raise VolumeDataError(f"clim must be two finite increasing numbers, got {tuple(clim)}.")
+        lo, hi = checked_clim(clim)
+        if log_scale and lo <= 0:
+            lo = sys.float_info.min
         if opacity_unit_distance <= 0 or not np.isfinite(opacity_unit_distance):
             raise VolumeDataError(
                 f"opacity_unit_distance must be a positive length, got {opacity_unit_distance}."
             )
-        n = int(n_colors)
-        if n < 2:
-            raise VolumeDataError(f"n_colors must be at least 2, got {n_colors}.")
-        lut = pyvista.LookupTable(cmap, n_values=n)
-        rgb = np.array([lut.map_value(lo + (hi - lo) * i / (n - 1))[:3] for i in range(n)])
-        alpha = _opacity_values(opacity, n)
-        with np.errstate(over="ignore"):
-            sigma = -np.log1p(-np.clip(alpha, 0.0, MAX_OPACITY)) / float(opacity_unit_distance)
+        lut = _lookup_table(cmap, opacity, n_colors, flip_scalars)
+        n = lut.n_values
+        lut.scalar_range = (lo, hi)
+        lut.log_scale = bool(log_scale)
+        # PyVista's to_color_tf: a point at each of n values over clim, coloured by the
+        # lookup table's own mapping of that value (which is where log_scale acts).
+        positions = np.linspace(lo, hi, n)
+        rgb = np.array([lut.map_value(float(p), opacity=False) for p in positions])
+        if isinstance(cmap, pyvista.LookupTable) or isinstance(opacity, str) or np.ndim(
+                opacity) == 0:
+            alpha = np.asarray(lut.values[:, 3], dtype=np.float64) / 255.0
+        else:   # a curve in [0, 1], kept at full precision (not as the table's bytes)
+            alpha = _resampled(opacity, n)
+        alpha = np.minimum(alpha, MAX_OPACITY)
+        rgb, alpha = _refined(rgb, alpha)
+        with np.errstate(over="ignore", divide="ignore"):
+            sigma = -np.log1p(-alpha) / float(opacity_unit_distance)
         sigma = np.minimum(sigma, MAX_EXTINCTION)
         table = np.column_stack([rgb, sigma]).astype(np.float32)
-        return cls(table=table, clim=(lo, hi))
+        spec = TransferSpec(
+            cmap=_spec_cmap(cmap, lut), opacity=_spec_opacity(cmap, opacity, lut),
+            clim=(lo, hi), n_colors=n, flip_scalars=bool(flip_scalars),
+            log_scale=bool(log_scale), opacity_unit_distance=float(opacity_unit_distance))
+        raw = (clim, clim) if np.ndim(clim) == 0 else tuple(clim)
+        shifted = (_shift(lo, -raw[0] if np.ndim(clim) == 0 else raw[0], value_offset),
+                   _shift(hi, raw[1], value_offset))
+        return cls(table=table, clim=shifted, spec=spec)
 
     @property
     def n_colors(self) -> int:
@@ -112,15 +176,112 @@ class TransferFunction:
         return float(self.table[:, 3].max())
 
 
-def _opacity_values(opacity, n: int) -> np.ndarray:
-    if isinstance(opacity, str):
+def _refined(rgb: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Colours and opacities at ``k (n - 1) + 1`` rows, linear between the ``n`` given.
+
+    Every given row stays a row (``k`` whole), so the colours are exactly VTK's piecewise
+    linear function; the opacity is interpolated before it becomes an extinction.
+    """
+    n = len(alpha)
+    k = max(1, (REFINED_ROWS - 1) // (n - 1))
+    if k == 1:
+        return rgb, alpha
+    coarse = np.linspace(0.0, 1.0, n)
+    fine = np.linspace(0.0, 1.0, k * (n - 1) + 1)
+    rgb = np.column_stack([np.interp(fine, coarse, rgb[:, c]) for c in range(3)])
+    return rgb, np.interp(fine, coarse, alpha)
+
+
+def checked_clim(clim) -> tuple[float, float]:
+    """``clim`` as two finite increasing floats (one number ``c``: ``(-c, c)``), or an error."""
+    if np.ndim(clim) == 0:
         try:
-            return pyvista.opacity_transfer_function(opacity, n).astype(np.float64) / 255.0
+            clim = (-float(clim), float(clim))
+        except (TypeError, ValueError):
+            raise VolumeDataError(f"clim must be a number or two numbers, got {clim!r}.") from None
+    try:
+        lo, hi = (float(v) for v in clim)
+    except (TypeError, ValueError):
+        raise VolumeDataError(f"clim must be two finite increasing numbers, got {clim!r}.") \
+            from None
+    if not np.isfinite([lo, hi]).all() or hi <= lo:
+        raise VolumeDataError(f"clim must be two finite increasing numbers, got {tuple(clim)}.")
+    return lo, hi
+
+
+def _lookup_table(cmap, opacity, n_colors, flip_scalars) -> pyvista.LookupTable:
+    """PyVista's lookup table for these settings, as ``add_volume`` makes it."""
+    if isinstance(cmap, pyvista.LookupTable):
+        lut = pyvista.LookupTable()
+        lut.DeepCopy(cmap)
+        return lut
+    try:
+        n = int(n_colors)
+    except (TypeError, ValueError):
+        raise VolumeDataError(f"n_colors must be an integer, got {n_colors!r}.") from None
+    if not 2 <= n <= MAX_COLORS:
+        raise VolumeDataError(f"n_colors must be 2 to {MAX_COLORS}, got {n_colors!r}.")
+    from pyvista.plotting.colors import get_cmap_safe
+
+    if cmap is None:
+        cmap = pyvista.global_theme.cmap
+    try:
+        cmap_obj = get_cmap_safe(list(cmap) if isinstance(cmap, tuple) else cmap)
+    except Exception as exc:
+        raise VolumeDataError(f"cmap {cmap!r} is not a colormap: {exc}") from exc
+    if flip_scalars:
+        cmap_obj = cmap_obj.reversed()
+    lut = pyvista.LookupTable()
+    lut.apply_cmap(cmap_obj, n)
+    if isinstance(opacity, str) or np.ndim(opacity) == 0:
+        try:
+            if isinstance(opacity, str):
+                lut.values[:, 3] = pyvista.opacity_transfer_function(opacity, lut.n_values)
+            else:
+                lut.apply_opacity(float(opacity))
         except Exception as exc:
-            raise VolumeDataError(f"Unknown opacity preset {opacity!r}: {exc}") from exc
+            raise VolumeDataError(f"Unknown opacity {opacity!r}: {exc}") from exc
+    else:
+        lut.values[:, 3] = np.round(_resampled(opacity, lut.n_values) * 255.0)
+    return lut
+
+
+def _resampled(opacity, n: int) -> np.ndarray:
+    """Opacity values in [0, 1] at ``n`` points, a curve resampled as PyVista resamples it.
+
+    An array of exactly ``n`` values is taken as it is (PyVista 0.49 would read such an
+    array as bytes, 0..255, and draw it almost transparent).
+    """
     values = np.atleast_1d(np.asarray(opacity, dtype=np.float64))
-    if not np.isfinite(values).all() or values.min() < 0 or values.max() > 1:
+    if values.ndim != 1 or not np.isfinite(values).all() or values.min() < 0 or values.max() > 1:
         raise VolumeDataError("opacity values must be finite numbers in [0, 1].")
     if values.size == 1:
         return np.full(n, values[0])
-    return np.interp(np.linspace(0, 1, n), np.linspace(0, 1, values.size), values)
+    if values.size == n:
+        return values
+    lut = pyvista.LookupTable(n_values=n)
+    lut.apply_opacity(values)   # PyVista's add_volume path: its own interpolation
+    return np.asarray(lut.values[:, 3], np.float64) / 255.0
+
+
+def _spec_cmap(cmap, lut: pyvista.LookupTable):
+    """The colormap as the reference reads it: a name, or an explicit list of RGB colours."""
+    if isinstance(cmap, pyvista.LookupTable):
+        return np.asarray(lut.values[:, :3], dtype=np.float64) / 255.0
+    return pyvista.global_theme.cmap if cmap is None else cmap
+
+
+def _spec_opacity(cmap, opacity, lut: pyvista.LookupTable):
+    if isinstance(cmap, pyvista.LookupTable):
+        return np.asarray(lut.values[:, 3], dtype=np.float64) / 255.0
+    return opacity
+
+
+def _shift(value: float, given, offset: int | float) -> float:
+    """``value - offset``; exact for an integer bound and an integer offset (int64 ids)."""
+    if not offset:
+        return float(value)
+    if isinstance(offset, (int, np.integer)) and isinstance(given, (int, np.integer)) \
+            and float(given) == value:
+        return float(int(given) - int(offset))
+    return float(value) - float(offset)

@@ -45,7 +45,7 @@ class VolumeModel:
         matrix = np.eye(4)
         direction = np.asarray(self.grid.direction_matrix, dtype=np.float64)
         matrix[:3, :3] = direction * np.asarray(self.grid.spacing, dtype=np.float64)
-        matrix[:3, 3] = self.grid.origin
+        matrix[:3, 3] = first_point(self.grid)
         return matrix
 
     def world_from_index(self) -> np.ndarray:
@@ -56,6 +56,19 @@ class VolumeModel:
         """Axis-aligned world bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the box."""
         return box_world_bounds(self.world_from_index(),
                                 np.array(self.dimensions, dtype=np.float64) - 1.0)
+
+
+def first_point(grid: pyvista.ImageData) -> np.ndarray:
+    """Where an ImageData's first point lies: its origin moved by the extent's start.
+
+    VTK places point ``(i, j, k)`` of the extent at ``origin + direction @ (spacing *
+    (i, j, k))``, so a grid whose extent starts below or above 0 (``pyvista.Wavelet()``:
+    -10..10) does not start at its origin.
+    """
+    start = np.asarray(grid.extent, dtype=np.float64)[0::2]
+    direction = np.asarray(grid.direction_matrix, dtype=np.float64)
+    spacing = np.asarray(grid.spacing, dtype=np.float64)
+    return np.asarray(grid.origin, dtype=np.float64) + direction @ (spacing * start)
 
 
 def box_world_bounds(world_from_index: np.ndarray, upper) -> np.ndarray:
@@ -121,7 +134,7 @@ def _thicken_flat_axes(grid: pyvista.ImageData, values: np.ndarray):
     if not flat:
         return grid, values
     spacing = np.array(grid.spacing, dtype=np.float64)
-    origin = np.array(grid.origin, dtype=np.float64)
+    origin = first_point(grid)
     direction = np.asarray(grid.direction_matrix, dtype=np.float64)
     for axis in flat:
         values = np.repeat(values, 2, axis=axis)
@@ -261,27 +274,57 @@ def shift_value(value, offset: int | float) -> float:
     return float(value) - float(offset)
 
 
-def make_volume(data, scalars: str | None = None, *, cmap="magma", opacity="linear",
+def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear",
                 clim=None, opacity_unit_distance: float | None = None,
                 transfer: TransferFunction | None = None, transform=None,
-                nan_policy: str = "raise", name: str = "volume") -> VolumeModel:
-    """Validate ``data`` and bundle it with a transfer function into a :class:`VolumeModel`."""
+                nan_policy: str = "raise", name: str = "volume", n_colors: int = 256,
+                flip_scalars: bool = False, log_scale: bool = False,
+                categories: bool | int = False) -> VolumeModel:
+    """Validate ``data`` and bundle it with a transfer function into a :class:`VolumeModel`.
+
+    The transfer keywords mean what they mean in ``pyvista.Plotter.add_volume``: ``clim``
+    defaults to the data range, ``opacity_unit_distance`` to the grid's diagonal over its
+    mean number of points less one, ``categories`` sets ``n_colors`` to the number of
+    distinct values (``True``) or to the number given.
+    """
     grid, values, scalars, offset = as_image_data(data, scalars, nan_policy)
     if transfer is None:
         if clim is None:
-            lo, hi = float(values.min()), float(values.max())
-            clim = (lo, hi if hi > lo else lo + 1.0)
-        else:
-            clim = _shifted_clim(clim, offset)
+            clim = _data_range(values, offset)
+        if categories is True:
+            n_colors = max(int(np.unique(values).size), 2)
+        elif categories:
+            n_colors = int(categories)
         if opacity_unit_distance is None:
-            opacity_unit_distance = float(np.mean(np.abs(grid.spacing)))
-        transfer = TransferFunction.from_colormap(cmap, opacity, clim, opacity_unit_distance)
+            opacity_unit_distance = pyvista_unit_distance(grid)
+        transfer = TransferFunction.from_colormap(
+            cmap, opacity, clim, opacity_unit_distance, n_colors=n_colors,
+            flip_scalars=flip_scalars, log_scale=log_scale, value_offset=offset)
     elif offset:
         transfer = TransferFunction(table=transfer.table,
                                     clim=_shifted_clim(transfer.clim, offset))
     matrix = np.eye(4) if transform is None else checked_transform(transform)
     return VolumeModel(grid=grid, values=values, transfer=transfer, transform=matrix, name=name,
                        value_offset=offset)
+
+
+def pyvista_unit_distance(grid: pyvista.ImageData) -> float:
+    """PyVista's default ``opacity_unit_distance``: the diagonal over mean points less one."""
+    points = float(np.mean(grid.dimensions)) - 1.0
+    length = float(grid.length)
+    if points <= 0 or not length > 0:
+        return float(np.mean(np.abs(grid.spacing)))
+    return length / points
+
+
+def _data_range(values: np.ndarray, offset: int | float) -> tuple:
+    """The data's range in data units (integers kept exact), widened when constant."""
+    lo, hi = float(values.min()), float(values.max())
+    if hi <= lo:
+        hi = lo + 1.0
+    if isinstance(offset, (int, np.integer)) and offset and lo.is_integer() and hi.is_integer():
+        return int(offset) + int(lo), int(offset) + int(hi)
+    return lo + offset, hi + offset
 
 
 def _shifted_clim(clim, offset: int | float) -> tuple[float, float]:

@@ -14,7 +14,7 @@ import numpy as np
 import pyvista
 
 from ..core.errors import VolumeDataError
-from .volume import box_world_bounds, checked_transform
+from .volume import box_world_bounds, checked_transform, first_point
 
 #: Most materials a grid may hold (uint16 labels).
 MAX_MATERIALS = 65535
@@ -192,7 +192,7 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
         scalars = names[0]
     direction = np.asarray(data.direction_matrix, dtype=np.float64)
     spacing = np.asarray(data.spacing, dtype=np.float64)
-    origin = np.asarray(data.origin, dtype=np.float64)
+    origin = first_point(data)
     if scalars in data.cell_data:
         shape = tuple(max(int(n) - 1, 1) for n in data.dimensions)
         values = np.asarray(data.cell_data[scalars]).reshape(shape, order="F")

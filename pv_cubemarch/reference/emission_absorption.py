@@ -1,9 +1,9 @@
 """The emission/absorption CPU reference: what the right image of a volume is.
 
 :func:`render_emission_absorption` integrates the emission/absorption model along every
-pixel's ray with fine steps, trilinear sampling and the same transfer-function table as the
-GPU. It is vectorised over rays and compacts the active set as rays finish, so 256x256 takes
-seconds.
+pixel's ray with fine steps, trilinear sampling and colours derived from matplotlib on its
+own (:mod:`.transfer`), never from the renderer's table. It is vectorised over rays and
+compacts the active set as rays finish, so 256x256 takes seconds.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel
 from .lighting import light_grid, lit_emission
 from .rays import index_rays, trilinear
+from .transfer import medium as transfer_medium
 
 
 def render_emission_absorption(
@@ -127,7 +128,7 @@ def render_emission_absorption(
             if not inside.any():
                 continue
             pts = o_idx[active][inside] + d_idx[active][inside] * mid[inside, None]
-            rgb, sig = v.transfer.lookup(trilinear(v.values, pts))
+            rgb, sig = transfer_medium(v, trilinear(v.values, pts))
             if grids is not None:
                 medium = lit_through[index]
                 if medium is not v:  # the member's index points in the group's grid

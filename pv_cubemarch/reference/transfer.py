@@ -1,0 +1,111 @@
+"""The colour and extinction a scalar should get, derived on its own from matplotlib.
+
+This is the CPU reference's transfer function. It reads what the user asked for (the
+``spec`` a :class:`~pv_cubemarch.TransferFunction` keeps: colormap, opacity, ``clim`` in data
+units, ``n_colors``, ``flip_scalars``, ``log_scale``) and derives colours from matplotlib's
+colormap on the normalised scalar, following what VTK does with the transfer functions
+PyVista's ``add_volume`` gives it: ``n_colors`` points evenly spaced over ``clim``, each
+with the lookup-table colour of its value, the opacity curve's value capped at 0.998,
+both linear in between and clamped outside; an opacity ``a`` over the unit distance ``u``
+is the extinction ``-ln(1 - a) / u``.
+
+It imports nothing of pv_cubemarch (a test checks that), so the renderer's table is never
+its own oracle.
+"""
+
+from __future__ import annotations
+
+import matplotlib
+import matplotlib.colors
+import numpy as np
+import pyvista  # PyVista's own opacity presets are the definition of their names
+
+#: PyVista's ``to_opacity_tf(max_clip=0.998)``.
+OPACITY_CLIP = 0.998
+
+
+def colormap_samples(cmap, n: int, flip: bool) -> np.ndarray:
+    """``(n, 3)`` colours: a matplotlib colormap at ``n`` evenly spaced points of [0, 1]."""
+    if isinstance(cmap, np.ndarray) and cmap.ndim == 2:      # a lookup table's own colours
+        return np.asarray(cmap, dtype=np.float64)[:, :3]
+    if isinstance(cmap, str):
+        colormap = matplotlib.colormaps[cmap]
+    elif isinstance(cmap, matplotlib.colors.Colormap):
+        colormap = cmap
+    else:
+        colormap = matplotlib.colors.ListedColormap(matplotlib.colors.to_rgba_array(list(cmap)))
+    if flip:
+        colormap = colormap.reversed()
+    return np.asarray(colormap(np.linspace(0.0, 1.0, n)), dtype=np.float64)[:, :3]
+
+
+def opacity_samples(opacity, n: int) -> np.ndarray:
+    """``(n,)`` opacities in [0, 1] at ``n`` evenly spaced points over ``clim``."""
+    if isinstance(opacity, str):
+        return np.asarray(pyvista.opacity_transfer_function(opacity, n), np.float64) / 255.0
+    values = np.atleast_1d(np.asarray(opacity, dtype=np.float64))
+    if values.size == 1:
+        return np.full(n, float(values[0]))
+    if values.size == n:
+        return values
+    # a curve of another length is resampled as PyVista's add_volume resamples it
+    lut = pyvista.LookupTable(n_values=n)
+    lut.apply_opacity(values)
+    return np.asarray(lut.values[:, 3], np.float64) / 255.0
+
+
+def point_colors(spec) -> np.ndarray:
+    """The colour of each of the ``n_colors`` points over ``clim`` (VTK's lookup-table index)."""
+    n = int(spec.n_colors)
+    samples = colormap_samples(spec.cmap, n, spec.flip_scalars)
+    lo, hi = (float(v) for v in spec.clim)
+    positions = np.linspace(lo, hi, n)
+    if spec.log_scale:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (np.log10(positions) - np.log10(lo)) / (np.log10(hi) - np.log10(lo))
+    else:
+        t = (positions - lo) / (hi - lo)
+    index = np.clip(np.floor(np.nan_to_num(t) * n), 0, n - 1).astype(np.int64)
+    return samples[index]
+
+
+def colors_and_extinction(spec, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(rgb, sigma)`` of scalars ``data`` in data units: what the image should show."""
+    n = int(spec.n_colors)
+    lo, hi = (float(v) for v in spec.clim)
+    data = np.asarray(data, dtype=np.float64)
+    x = np.clip((data - lo) / (hi - lo), 0.0, 1.0) * (n - 1)
+    below = np.minimum(np.floor(x).astype(np.int64), n - 2)
+    w = x - below
+    colors = point_colors(spec)
+    rgb = colors[below] * (1.0 - w)[..., None] + colors[below + 1] * w[..., None]
+    alphas = np.minimum(opacity_samples(spec.opacity, n), OPACITY_CLIP)
+    alpha = alphas[below] * (1.0 - w) + alphas[below + 1] * w
+    sigma = -np.log1p(-alpha) / float(spec.opacity_unit_distance)
+    return rgb, sigma
+
+
+def table_lookup(table: np.ndarray, clim, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(rgb, sigma)`` from a table given as is (rows evenly over ``clim``, linear between)."""
+    table = np.asarray(table, dtype=np.float64)
+    n = table.shape[0]
+    lo, hi = (float(v) for v in clim)
+    x = np.clip((np.asarray(values, dtype=np.float64) - lo) / (hi - lo), 0.0, 1.0) * (n - 1)
+    below = np.minimum(np.floor(x).astype(np.int64), n - 2)
+    w = (x - below)[..., None]
+    rows = table[below] * (1.0 - w) + table[below + 1] * w
+    return rows[..., :3], rows[..., 3]
+
+
+def medium(volume, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(rgb, sigma)`` of a volume's stored ``values`` (its data minus ``value_offset``).
+
+    From what the user asked for when the volume keeps it; a table the user gave as is
+    is its own definition.
+    """
+    transfer = volume.transfer
+    if transfer.spec is None:
+        return table_lookup(transfer.table, transfer.clim, values)
+    offset = volume.value_offset
+    data = np.asarray(values, dtype=np.float64) + (float(offset) if offset else 0.0)
+    return colors_and_extinction(transfer.spec, data)

@@ -1,0 +1,139 @@
+"""``pyvista.Plotter.add_volume``'s keywords, taken with PyVista's meaning.
+
+Its aliases (``rng``, ``colormap``), its data arguments (``scalars`` as an array, a numpy
+volume's ``resolution``), its scalar bar, and a clear refusal, naming what to use, of the
+keywords no technique here draws yet.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyvista
+
+from ..core.errors import VolumeDataError
+
+#: PyVista's aliases of add_volume's keywords (``add_mesh``'s ``rng`` and ``colormap``).
+ALIASES = {"rng": "clim", "colormap": "cmap"}
+#: Keywords PyVista takes that a technique here does not draw, and what to do instead.
+REFUSED = {
+    "mapper": "pv_cubemarch draws with its own marchers: choose one with technique= "
+              "('vtk', 'direct', 'cubemap' or 'auto')",
+    "multi_colors": "add each block of a MultiBlock with its own cmap (pv_cubemarch "
+                    "draws one grid per call)",
+}
+
+
+def resolve_aliases(kwargs: dict, given: dict) -> dict:
+    """Move PyVista's alias keywords of ``kwargs`` onto their names in ``given``.
+
+    ``given`` maps add_volume's own keywords to their values (``None``: not given). Any
+    keyword left over is refused with what to use instead.
+    """
+    out = dict(given)
+    for key in list(kwargs):
+        if key in ALIASES:
+            target = ALIASES[key]
+            if out.get(target) is not None:
+                raise TypeError(f"add_volume got both {key}= and {target}= ({key} is "
+                                f"PyVista's alias of {target}); pass one.")
+            out[target] = kwargs.pop(key)
+    for key in list(kwargs):
+        if key in REFUSED:
+            raise TypeError(f"add_volume does not take {key}=: {REFUSED[key]}.")
+    if kwargs:
+        raise TypeError(f"add_volume got unexpected keyword argument(s) {sorted(kwargs)}; see "
+                        "help(pv_cubemarch.add_volume) for the keywords it takes (PyVista's "
+                        "add_volume keywords, and the techniques' options).")
+    return out
+
+
+def volume_input(volume, scalars, resolution, preference: str = "point"):
+    """``(volume, scalars name)`` with PyVista's ``scalars`` array and ``resolution`` applied.
+
+    A numpy volume with ``resolution`` becomes an ImageData of that spacing; ``scalars``
+    given as an array is attached to a shallow copy of the grid (points, or cells when it
+    has one value per cell, or ``preference`` decides when both fit).
+    """
+    if resolution is not None:
+        spacing = np.asarray(resolution, dtype=np.float64)
+        if spacing.shape != (3,) or not np.isfinite(spacing).all() or (spacing <= 0).any():
+            raise VolumeDataError(f"resolution must be three positive spacings, got "
+                                  f"{resolution!r}.")
+        if not isinstance(volume, np.ndarray):
+            raise VolumeDataError("resolution= sets the spacing of a numpy volume; a grid "
+                                  "carries its own (set grid.spacing).")
+        if volume.ndim != 3:
+            raise VolumeDataError(f"A numpy volume must be 3D (x, y, z), got shape "
+                                  f"{volume.shape}.")
+        grid = pyvista.ImageData(dimensions=volume.shape, spacing=tuple(spacing))
+        grid.point_data["values"] = volume.ravel(order="F")
+        volume = grid
+        scalars = scalars if scalars is not None else "values"
+    if scalars is None or isinstance(scalars, str):
+        return volume, scalars
+    array = np.asarray(scalars)
+    if isinstance(volume, np.ndarray):
+        raise VolumeDataError("scalars= as an array needs a grid to sit on; pass the array "
+                              "itself as the volume.")
+    if not isinstance(volume, pyvista.DataSet):
+        volume = pyvista.wrap(volume)
+    grid = volume.copy(deep=False)
+    fits_points = array.shape[0] == grid.n_points
+    fits_cells = array.shape[0] == grid.n_cells
+    if not (fits_points or fits_cells):
+        raise VolumeDataError(f"scalars has {array.shape[0]} values; the grid has "
+                              f"{grid.n_points} points and {grid.n_cells} cells.")
+    on_cells = fits_cells and (not fits_points or preference == "cell")
+    (grid.cell_data if on_cells else grid.point_data)["Data"] = array
+    return grid, "Data"
+
+
+def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
+    """A mapper (never drawn) whose lookup table is the volume's colours over its ``clim``.
+
+    ``plotter.add_scalar_bar`` reads ``plotter.mapper``'s lookup table; this one holds the
+    volume's colormap, opacity and range in data units, so a scalar bar added with the
+    volume or afterwards shows what is drawn.
+    """
+    spec = model.transfer.spec
+    mapper = pyvista.DataSetMapper()
+    lut = pyvista.LookupTable()
+    if spec is None:   # a table given as is: its rows over its clim
+        table = np.asarray(model.transfer.table, dtype=np.float64)
+        alpha = -np.expm1(-table[:, 3])
+        lut.values = np.column_stack([table[:, :3], np.clip(alpha, 0, 1)]) * 255.0
+        offset = float(model.value_offset) if model.value_offset else 0.0
+        lut.scalar_range = tuple(float(v) + offset for v in model.transfer.clim)
+    else:
+        from pyvista.plotting.colors import get_cmap_safe
+
+        if isinstance(spec.cmap, np.ndarray):
+            lut.values = np.column_stack([spec.cmap, spec.opacity]) * 255.0
+        else:
+            cmap = get_cmap_safe(list(spec.cmap) if isinstance(spec.cmap, tuple) else spec.cmap)
+            lut.apply_cmap(cmap.reversed() if spec.flip_scalars else cmap, spec.n_colors)
+        lut.scalar_range = spec.clim
+        lut.log_scale = spec.log_scale
+    mapper.lookup_table = lut
+    mapper.scalar_range = lut.scalar_range
+    return mapper
+
+
+def add_scalar_bar(plotter, model, title: str, show: bool | None, args: dict | None,
+                   annotations: dict | None) -> None:
+    """Make the volume ``plotter.mapper`` (for ``add_scalar_bar``) and add its bar if shown.
+
+    ``show`` ``None`` follows the theme (``pyvista.global_theme.show_scalar_bar``), as
+    ``add_volume`` does.
+    """
+    mapper = scalar_bar_mapper(model)
+    if annotations:
+        mapper.lookup_table.annotations = dict(annotations)
+    plotter.mapper = mapper
+    if show is None:
+        show = bool(plotter.theme.show_scalar_bar)
+    if show:
+        options = dict(args or {})
+        options.setdefault("title", title)
+        options.setdefault("mapper", mapper)
+        plotter.add_scalar_bar(**options)
