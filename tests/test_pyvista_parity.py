@@ -18,9 +18,9 @@ at face_size 256 and 512): its floor is 21 dB on those, 45 dB on smooth data.
 
 catches (each seen failing): the colormap mapped over [0, 1] instead of ``clim``
 (``lut.scalar_range = (0, 1)`` in ``TransferFunction.from_colormap``, the defect that drew
-an MRI solid yellow): 8.6-19.6 dB on every dataset but micro; the extent's start ignored
-(``first_point`` returning ``grid.origin``): wavelet 15.4 dB, ct 14.7 dB; PyVista's default
-``opacity_unit_distance`` replaced by the mean spacing: uniform 30.4 dB, wavelet 32.2 dB.
+an MRI solid yellow): 10.8-26.5 dB, every dataset and technique; the extent's start ignored
+(``first_point`` returning ``grid.origin``): wavelet 14.3 dB, ct 16.9-17.2 dB; PyVista's
+default ``opacity_unit_distance`` replaced by the mean spacing: 28.1-38.0 dB (vtk, direct).
 A background-only image gives 12.6-18.9 dB, below every floor (checked in the test).
 """
 
@@ -143,7 +143,7 @@ def test_every_technique_draws_what_pyvista_draws(pyvista_images, name):
 def test_default_colormap_follows_the_theme_as_pyvista(monkeypatch):
     """``cmap`` left out: PyVista's theme colormap, in both (viridis here, not magma).
 
-    catches: a fixed default colormap (``cmap='magma'`` in add_volume: seen 21.8 dB).
+    catches: a fixed default colormap (``cmap = 'magma'`` in ``_lookup_table``: seen to fail).
     """
     monkeypatch.setattr(pv.global_theme, "cmap", "viridis")
     grid = examples.load_uniform()
@@ -165,8 +165,9 @@ def test_transfer_functions_are_pyvistas(keywords):
 
     Both checked against VTK's functions, never against each other. Colours within 1/255
     (PyVista's table is 8-bit), opacities within 1/255 (of the per-unit-distance opacity).
-    catches: ``lut.scalar_range = (0, 1)`` in from_colormap (colours off by up to 0.9);
-    the reference's ``point_colors`` ignoring ``log_scale`` (0.6 off).
+    catches: ``lut.scalar_range = (0, 1)`` in from_colormap; the reference's
+    ``point_colors`` ignoring ``log_scale`` (uint16-log fails); the table's extinction
+    interpolated between the 16 colours themselves (no ``_refined``: 0.38 of opacity off).
     """
     from pv_cubemarch.reference.transfer import medium
 
@@ -254,3 +255,77 @@ def test_scalars_array_and_resolution():
     actor = pl.cubemarch.add_volume(grid, scalars=values.ravel(order="F"))
     assert actor.cubemarch.model.transfer.spec.clim == (0.0, 119.0)
     pl.close()
+
+
+def shown_plotter(technique, size, **extra):
+    pl = pv.Plotter(off_screen=True, window_size=size)
+    pl.set_background("black")
+    options = {} if technique == "cubemap" else dict(step_scale=0.25)
+    pl.cubemarch.add_volume(examples.load_uniform(), technique=technique, **options, **extra)
+    return pl
+
+
+@pytest.mark.parametrize("technique, extra", [
+    ("vtk", {}), ("direct", {}), ("direct", dict(downsample=2)), ("cubemap", {}),
+    ("auto", {}),
+], ids=["vtk", "direct", "direct-downsample", "cubemap", "auto"])
+def test_screenshot_scale_is_a_larger_window(technique, extra):
+    """``screenshot(scale=2)`` equals the same view in a window twice the size.
+
+    VTK renders the large image in tiles: the renderer then reports the whole image's size
+    while each pass draws one tile of the window.
+    catches: ``drawn_viewport`` returning the renderer's own origin and size (seamed
+    tiles: 17.9-20.1 dB).
+    Measured: 95.7-101.8 dB.
+    """
+    small = shown_plotter(technique, (120, 90), **extra)
+    tiled = small.screenshot(scale=2)
+    position = small.camera_position
+    small.close()
+    large = shown_plotter(technique, (240, 180), **extra)
+    large.camera_position = position
+    whole = large.screenshot()
+    large.close()
+    assert tiled.shape == whole.shape == (180, 240, 3)
+    assert psnr(tiled, whole) >= 45.0, psnr(tiled, whole)
+
+
+@pytest.mark.parametrize("technique", TECHNIQUES)
+def test_render_image_and_screenshot_share_pyvistas_default_camera(technique):
+    """With no camera set, ``render_image`` shows PyVista's default (isometric) view, as
+    ``screenshot`` and ``show`` do, whichever is called first.
+
+    catches: render_frame without PyVista's first-render camera (``_on_first_render_request``):
+    the view down z, 239-241 levels off.
+    """
+    first = shown_plotter(technique, (120, 90))
+    ours = cm.render_image(first)
+    shot = first.screenshot()
+    first.close()
+    second = shown_plotter(technique, (120, 90))
+    shot_first = second.screenshot()
+    ours_after = cm.render_image(second)
+    position = second.camera_position
+    second.close()
+    direction = np.array(position[0]) - position[1]
+    np.testing.assert_allclose(direction / np.linalg.norm(direction), np.ones(3) / np.sqrt(3),
+                               atol=1e-9)
+    for a, b in ((ours, shot), (shot_first, ours_after), (ours, shot_first)):
+        assert np.abs(a.astype(int) - b).max() <= 1
+
+
+@pytest.mark.parametrize("technique", TECHNIQUES)
+def test_window_resized_off_screen(technique):
+    """``window_size`` changed after a first frame: the next frame is the larger window's."""
+    pl = shown_plotter(technique, (100, 80))
+    cm.render_image(pl)
+    position = pl.camera_position
+    pl.window_size = (160, 120)
+    resized = cm.render_image(pl)
+    pl.close()
+    fresh = shown_plotter(technique, (160, 120))
+    fresh.camera_position = position
+    expected = cm.render_image(fresh)
+    fresh.close()
+    assert resized.shape == (120, 160, 3)
+    assert psnr(resized, expected) >= 45.0

@@ -47,10 +47,15 @@ def render_frame(plotter: pyvista.Plotter) -> None:
     silently) is drawn again by the ``plotter.cubemarch`` component.
     """
     window = _open_window(plotter)
+    first_render = getattr(plotter, "_on_first_render_request", None)
+    if first_render is not None:   # PyVista's default camera, as show() and screenshot() set it
+        first_render()
     snippets = tuple(s for b in _bindings_of(plotter) for s in b.recipe.snippet_names)
     with watch_shader_errors(snippets):
         with collecting_frame_errors() as errors:
             window.Render()
+    if first_render is not None:
+        plotter._rendered = True   # drawn: PyVista's screenshot() may read it
     raise_frame_errors(errors)
 
 

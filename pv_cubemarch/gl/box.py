@@ -20,13 +20,35 @@ def numpy_matrix(matrix) -> np.ndarray:
     return np.array([[matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
 
 
+def drawn_viewport(renderer) -> tuple[int, int, int, int]:
+    """``(x, y, width, height)`` in window pixels of what the renderer draws this pass.
+
+    The renderer's own origin and size, except while VTK renders a large image in tiles
+    (``screenshot(scale=N)``): then the renderer reports the whole image's size while each
+    pass draws one tile of the window, with the camera's window centre moved to that tile.
+    """
+    window = renderer.GetRenderWindow()
+    if window is None or tuple(window.GetTileScale()) == (1, 1):
+        return (*(int(v) for v in renderer.GetOrigin()), *(int(v) for v in renderer.GetSize()))
+    # the tile covers [t0, t2] x [t1, t3] of the whole image and fills the window
+    t0, t1, t2, t3 = window.GetTileViewport()
+    v0, v1, v2, v3 = renderer.GetViewport()
+    width, height = window.GetActualSize()
+
+    def pixel(value, low, high, size):
+        return int(round((min(max(value, low), high) - low) / (high - low) * size))
+
+    x, y = pixel(v0, t0, t2, width), pixel(v1, t1, t3, height)
+    return x, y, pixel(v2, t0, t2, width) - x, pixel(v3, t1, t3, height) - y
+
+
 def camera_matrices(renderer) -> tuple[np.ndarray, np.ndarray]:
     """The renderer's view and projection matrices (world to view, view to clip).
 
     Made once per camera state and viewport, however many volumes and passes ask.
     """
     camera = renderer.GetActiveCamera()
-    width, height = renderer.GetSize()
+    width, height = drawn_viewport(renderer)[2:]
     key = (camera.GetAddressAsString("vtkObject"), camera.GetMTime(), width, height)
     cached = renderer.__dict__.get("_cubemarch_camera")
     if cached is not None and cached[0] == key:
@@ -135,4 +157,4 @@ def bind_camera(target, renderer, world_from_texture: Callable[[], np.ndarray]) 
     target.set_uniform("cm_inverseProjection",
                        lambda: np.linalg.inv(camera_matrices(renderer)[1]))
     target.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
-    target.set_uniform("cm_viewport", lambda: (*renderer.GetOrigin(), *renderer.GetSize()))
+    target.set_uniform("cm_viewport", lambda: drawn_viewport(renderer))

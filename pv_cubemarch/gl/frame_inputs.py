@@ -17,6 +17,7 @@ import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
 from ..core.frame_errors import observe
+from .box import drawn_viewport
 
 _GL_READ_FRAMEBUFFER = 0x8CA8
 #: ``GetObjectName()`` of props that only stand in for a volume's bounds (they draw nothing).
@@ -51,7 +52,7 @@ class SceneDepth:
 
     def ensure(self, window) -> vtkTextureObject:
         """The texture holding this frame's depth (or colour), copied if not yet."""
-        width, height = self.renderer.GetSize()
+        x0, y0, width, height = drawn_viewport(self.renderer)
         if self.gl_object is None or self._size != (width, height) or self._window is not window:
             self.release()
             self.gl_object = vtkTextureObject()
@@ -66,7 +67,6 @@ class SceneDepth:
             self._stale = True
         if not (self._stale or self.each_use):
             return self.gl_object
-        x0, y0 = self.renderer.GetOrigin()
         # Read from the framebuffer VTK draws this frame into (another may be bound for
         # reading between renderers).
         state = window.GetState()

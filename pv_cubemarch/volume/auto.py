@@ -12,7 +12,7 @@ import vtk
 
 from ..core.frame_errors import observe
 from ..core.registry import Technique, register_technique
-from ..gl.box import camera_matrices
+from ..gl.box import camera_matrices, drawn_viewport
 from ..reference.emission_absorption import render_emission_absorption
 from .cubemap.lod import cube_corners
 from .cubemap.technique import build_cubemap_actor
@@ -125,7 +125,7 @@ class AutoBinding(VolumeBinding):
         else:
             view, projection = camera_matrices(self.renderer)
             pixels = projected_pixels(projection @ view @ frame.world_from_local,
-                                      self.renderer.GetSize())
+                                      drawn_viewport(self.renderer)[2:])
             choice = classify(bin(frame.face_mask).count("1"), frame.lod.level_size, pixels)
         self.choice = choice
         self.choices[choice] += 1

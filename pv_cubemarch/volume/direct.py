@@ -16,7 +16,7 @@ import vtk
 from ..core.frame_errors import observe
 from ..core.registry import Sweep, Technique, register_technique
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, box_actor
+from ..gl.box import bind_camera, box_actor, drawn_viewport
 from ..gl.frame_inputs import FramebufferDepth, SceneDepth, frame_inputs
 from ..gl.overlay import scene_overlay
 from ..gl.passes import RenderToTexturePass
@@ -196,7 +196,7 @@ def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
     overlay = scene_overlay(plotter)
 
     def low_size():
-        width, height = main.GetSize()
+        width, height = drawn_viewport(main)[2:]
         return (-(-width // downsample), -(-height // downsample))
 
     low_pass = RenderToTexturePass(overlay.renderer, None, size=low_size,

@@ -24,7 +24,7 @@ import pyvista
 
 from ...core.registry import Sweep, Technique, register_technique
 from ...gl.bindings import ShaderBindings
-from ...gl.box import bind_camera, box_actor, camera_matrices
+from ...gl.box import bind_camera, box_actor, camera_matrices, drawn_viewport
 from ...gl.frame_inputs import FramebufferDepth, frame_inputs
 from ...gl.overlay import scene_overlay
 from ...gl.passes import RenderToTexturePass
@@ -99,7 +99,7 @@ class CubeFrame:
         if self.culled:
             return False
         corners = project_corners(self.world_from_local, clip_from_world,
-                                  self.renderer.GetSize())
+                                  drawn_viewport(self.renderer)[2:])
         size = int(self.options.face_size)
         if corners is None:  # a corner behind the eye: unbounded projected size
             self.lod = LodChoice(float("inf"), float("inf"), self.max_samples, float(size), 0,
