@@ -196,8 +196,12 @@ def add_volume(
     render : bool
         Render once the volume is added, if the plotter is already shown.
     blending : str
-        ``'composite'`` (emission/absorption); PyVista's other blend modes are not drawn
-        yet and raise an error that says so.
+        ``'composite'`` (emission/absorption, default), ``'maximum'`` (maximum-intensity
+        projection: the largest value along each ray, drawn with its colour and opacity) or
+        ``'minimum'`` (the smallest), as VTK draws them, in every technique (no lights, no
+        joint groups; empty-space skipping and early termination are off, every sample
+        counts). PyVista's ``'average'`` and ``'additive'`` are not drawn yet and raise an
+        error that says so.
     shade : bool
         ``False``; gradient shading is not drawn yet (``lights=`` lights the medium by its
         own transmittance instead).
@@ -229,10 +233,6 @@ def add_volume(
     """
     named = resolve_aliases(kwargs, {"clim": clim, "cmap": cmap})
     clim, cmap = named["clim"], named["cmap"]
-    if blending != "composite":
-        raise ValueError(f"blending={blending!r} is not drawn yet: pv_cubemarch composites "
-                         "emission/absorption (blending='composite'); use PyVista's own "
-                         "plotter.add_volume for other blend modes.")
     if shade:
         raise ValueError("shade=True (gradient shading) is not drawn yet; lights= lights the "
                          "medium by its transmittance toward each light instead.")
@@ -246,8 +246,12 @@ def add_volume(
         max_samples=max_samples, upscale=upscale, sample_factor=sample_factor,
         occlusion_sharpness=occlusion_sharpness).items() if value is not None}
     options = chosen.make_options(given)
-    shading = Shading(stop_opacity, bool(skip_empty), light_map_size, ambient)
+    shading = Shading(stop_opacity, bool(skip_empty), light_map_size, ambient, blending)
     shading.check()
+    if blending != "composite" and (isinstance(volume, VolumeGroup) or lights is not None):
+        raise ValueError(f"blending={blending!r} draws one value per ray (its colour and "
+                         "opacity); it takes no lights and no jointly marched volumes. Use "
+                         "blending='composite' for those.")
     if isinstance(volume, (VolumeModel, VolumeGroup)):
         model = volume
     else:
@@ -268,6 +272,7 @@ def add_volume(
         plotter.renderer, data, source, int(light_map_size), float(ambient))
     binding = chosen.build(plotter, data, options, shading, light_map)
     binding.light_map = light_map
+    binding.blending = blending
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     actor.SetPickable(bool(pickable))
     component.track(binding)

@@ -137,6 +137,14 @@ def test_references_never_reach_gl():
     assert reached == []
 
 
+def test_reference_transfer_imports_nothing_of_the_renderer():
+    """The reference's colours share no code with the renderer's table (its oracle).
+
+    catches: ``from ..models.transfer import ...`` in reference/transfer.py.
+    """
+    assert graph()["pv_cubemarch.reference.transfer"] == set()
+
+
 def test_no_import_hidden_in_a_function():
     hidden = [f"{module_name(p)}:{line} imports {target}" for p in PACKAGE.rglob("*.py")
               for target, line, top in imports_of(p) if not top]

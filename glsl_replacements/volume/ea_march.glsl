@@ -1,6 +1,7 @@
 // Emission/absorption marching, shared by every path that draws a volume this way.
-// The caller provides   float cm_sampleScalar(vec3 texturePosition)   (a data value) and the
-// declarations of ea_declarations (cm_transfer, cm_composite, cm_stopOpacity); with
+// The caller provides   float cm_sampleScalar(vec3 texturePosition)   (a data value), the
+// declarations of ea_declarations (cm_transfer, cm_composite, cm_stopOpacity) and a blend
+// mode (blend_composite, blend_maximum ...: cm_blendStart, cm_blend, cm_blendResult); with
 // CM_LIGHTS, also   vec3 cm_lighting(vec3 texturePosition)   (light_sample), which scales
 // the emitted colour by the light reaching the sample.
 //
@@ -79,9 +80,9 @@ float cm_dominantTexels(vec3 span, vec3 dims)
   return max(texels.x, max(texels.y, texels.z));
 }
 
-// Composite the piece from a to b (texture coordinates, worldLength world units) into rgba
-// in `steps` equal steps (fractional: the last one is cut at b). False once the ray is
-// opaque enough to stop.
+// Blend the piece from a to b (texture coordinates, worldLength world units) into the ray's
+// state in `steps` equal steps (fractional: the last one is cut at b). False once the blend
+// mode stops the ray (composite: opaque enough).
 bool cm_marchPiece(inout vec4 rgba, vec3 a, vec3 b, float worldLength, float steps)
 {
   vec3 stepVector = (b - a) / steps;
@@ -105,8 +106,7 @@ bool cm_marchPiece(inout vec4 rgba, vec3 a, vec3 b, float worldLength, float ste
 #endif
       float fraction = min(1.0, steps - t);
       vec3 middle = a + stepVector * (t + 0.5 * fraction);
-      cm_composite(rgba, cm_emission(middle), worldStep * fraction);
-      if (rgba.a > cm_stopOpacity)
+      if (!cm_blend(rgba, middle, worldStep * fraction))
       {
         return false;
       }
@@ -158,16 +158,16 @@ void cm_marchJoint(inout vec4 rgba, vec3 entry, vec3 exit, float worldLength,
 // premultiplied rgba (rgb emitted colour, a opacity).
 vec4 cm_march(vec3 entry, vec3 exit, float worldLength)
 {
-  vec4 rgba = vec4(0.0);
+  vec4 rgba = cm_blendStart();
   float dominant = cm_dominantTexels(exit - entry, cm_dims);
   if (!(worldLength > 0.0) || !(dominant > 0.0))
   {
-    return rgba;
+    return vec4(0.0);
   }
 #ifdef CM_JOINT
   cm_marchJoint(rgba, entry, exit, worldLength, dominant);
 #else
   cm_marchPiece(rgba, entry, exit, worldLength, max(dominant / cm_stepScale, 1e-6));
 #endif
-  return rgba;
+  return cm_blendResult(rgba);
 }

@@ -42,9 +42,10 @@ REFINED_ROWS = 4096
 class TransferSpec:
     """What a transfer function was asked to be, in the data's own units.
 
-    ``colors`` and ``alphas`` are the colour map and opacity curve sampled at ``n_colors``
-    evenly spaced points in [0, 1] (after ``flip_scalars``), as given; ``clim`` is in data
-    units (before any value offset). The CPU reference reads this, not the table.
+    ``cmap`` and ``opacity`` are as the user gave them (a lookup table: its colours and
+    opacities as arrays); ``clim`` is in the units of the volume's stored values, the data
+    minus ``value_offset`` (so ids near 2**64 stay apart). The CPU reference reads this,
+    not the table.
     """
 
     cmap: object
@@ -54,6 +55,12 @@ class TransferSpec:
     flip_scalars: bool
     log_scale: bool
     opacity_unit_distance: float
+    value_offset: int | float = 0
+
+    @property
+    def data_clim(self) -> tuple[float, float]:
+        """``clim`` in the data's own units (floats: for display)."""
+        return tuple(float(v) + float(self.value_offset) for v in self.clim)
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,17 +131,24 @@ class TransferFunction:
         lo, hi = checked_clim(clim)
         if log_scale and lo <= 0:
             lo = sys.float_info.min
+        # in the stored values' units, exact for integer bounds and offsets (uint64 ids
+        # near 2**64 are one float apart in data units)
+        raw = (-clim, clim) if np.ndim(clim) == 0 else tuple(clim)
+        shifted = (_shift(lo, raw[0], value_offset), _shift(hi, raw[1], value_offset))
+        if not shifted[1] > shifted[0]:
+            raise VolumeDataError(f"clim must be two finite increasing numbers, got {clim!r}.")
         if opacity_unit_distance <= 0 or not np.isfinite(opacity_unit_distance):
             raise VolumeDataError(
                 f"opacity_unit_distance must be a positive length, got {opacity_unit_distance}."
             )
         lut = _lookup_table(cmap, opacity, n_colors, flip_scalars)
         n = lut.n_values
-        lut.scalar_range = (lo, hi)
+        # a linear map is the same over the shifted range; a logarithmic one needs the data's
+        lut.scalar_range = (lo, hi) if log_scale else shifted
         lut.log_scale = bool(log_scale)
         # PyVista's to_color_tf: a point at each of n values over clim, coloured by the
         # lookup table's own mapping of that value (which is where log_scale acts).
-        positions = np.linspace(lo, hi, n)
+        positions = np.linspace(*lut.scalar_range, n)
         rgb = np.array([lut.map_value(float(p), opacity=False) for p in positions])
         if isinstance(cmap, pyvista.LookupTable) or isinstance(opacity, str) or np.ndim(
                 opacity) == 0:
@@ -149,11 +163,9 @@ class TransferFunction:
         table = np.column_stack([rgb, sigma]).astype(np.float32)
         spec = TransferSpec(
             cmap=_spec_cmap(cmap, lut), opacity=_spec_opacity(cmap, opacity, lut),
-            clim=(lo, hi), n_colors=n, flip_scalars=bool(flip_scalars),
-            log_scale=bool(log_scale), opacity_unit_distance=float(opacity_unit_distance))
-        raw = (clim, clim) if np.ndim(clim) == 0 else tuple(clim)
-        shifted = (_shift(lo, -raw[0] if np.ndim(clim) == 0 else raw[0], value_offset),
-                   _shift(hi, raw[1], value_offset))
+            clim=shifted, n_colors=n, flip_scalars=bool(flip_scalars),
+            log_scale=bool(log_scale), opacity_unit_distance=float(opacity_unit_distance),
+            value_offset=value_offset)
         return cls(table=table, clim=shifted, spec=spec)
 
     @property
@@ -193,7 +205,11 @@ def _refined(rgb: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def checked_clim(clim) -> tuple[float, float]:
-    """``clim`` as two finite increasing floats (one number ``c``: ``(-c, c)``), or an error."""
+    """``clim`` as two finite non-decreasing floats (one number ``c``: ``(-c, c)``).
+
+    Equal floats are let through: two integer bounds a float cannot tell apart (uint64
+    near 2**64) are ordered exactly once the volume's offset is taken off.
+    """
     if np.ndim(clim) == 0:
         try:
             clim = (-float(clim), float(clim))
@@ -204,7 +220,7 @@ def checked_clim(clim) -> tuple[float, float]:
     except (TypeError, ValueError):
         raise VolumeDataError(f"clim must be two finite increasing numbers, got {clim!r}.") \
             from None
-    if not np.isfinite([lo, hi]).all() or hi <= lo:
+    if not np.isfinite([lo, hi]).all() or hi < lo:
         raise VolumeDataError(f"clim must be two finite increasing numbers, got {tuple(clim)}.")
     return lo, hi
 

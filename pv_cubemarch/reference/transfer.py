@@ -1,13 +1,13 @@
 """The colour and extinction a scalar should get, derived on its own from matplotlib.
 
 This is the CPU reference's transfer function. It reads what the user asked for (the
-``spec`` a :class:`~pv_cubemarch.TransferFunction` keeps: colormap, opacity, ``clim`` in data
-units, ``n_colors``, ``flip_scalars``, ``log_scale``) and derives colours from matplotlib's
-colormap on the normalised scalar, following what VTK does with the transfer functions
-PyVista's ``add_volume`` gives it: ``n_colors`` points evenly spaced over ``clim``, each
-with the lookup-table colour of its value, the opacity curve's value capped at 0.998,
-both linear in between and clamped outside; an opacity ``a`` over the unit distance ``u``
-is the extinction ``-ln(1 - a) / u``.
+``spec`` a :class:`~pv_cubemarch.TransferFunction` keeps: colormap, opacity, ``clim`` in
+data units less the volume's offset, ``n_colors``, ``flip_scalars``, ``log_scale``) and
+derives colours from matplotlib's colormap on the normalised scalar, following what VTK
+does with the transfer functions PyVista's ``add_volume`` gives it: ``n_colors`` points
+evenly spaced over ``clim``, each with the lookup-table colour of its value, the opacity
+curve's value capped at 0.998, both linear in between and clamped outside; an opacity
+``a`` over the unit distance ``u`` is the extinction ``-ln(1 - a) / u``.
 
 It imports nothing of pv_cubemarch (a test checks that), so the renderer's table is never
 its own oracle.
@@ -60,7 +60,9 @@ def point_colors(spec) -> np.ndarray:
     samples = colormap_samples(spec.cmap, n, spec.flip_scalars)
     lo, hi = (float(v) for v in spec.clim)
     positions = np.linspace(lo, hi, n)
-    if spec.log_scale:
+    if spec.log_scale:   # of the data's own values
+        offset = float(spec.value_offset)
+        lo, hi, positions = lo + offset, hi + offset, positions + offset
         with np.errstate(divide="ignore", invalid="ignore"):
             t = (np.log10(positions) - np.log10(lo)) / (np.log10(hi) - np.log10(lo))
     else:
@@ -70,7 +72,7 @@ def point_colors(spec) -> np.ndarray:
 
 
 def colors_and_extinction(spec, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(rgb, sigma)`` of scalars ``data`` in data units: what the image should show."""
+    """``(rgb, sigma)`` of scalars ``data`` (``spec.clim``'s units): what should be drawn."""
     n = int(spec.n_colors)
     lo, hi = (float(v) for v in spec.clim)
     data = np.asarray(data, dtype=np.float64)
@@ -106,6 +108,4 @@ def medium(volume, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     transfer = volume.transfer
     if transfer.spec is None:
         return table_lookup(transfer.table, transfer.clim, values)
-    offset = volume.value_offset
-    data = np.asarray(values, dtype=np.float64) + (float(offset) if offset else 0.0)
-    return colors_and_extinction(transfer.spec, data)
+    return colors_and_extinction(transfer.spec, values)

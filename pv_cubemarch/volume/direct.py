@@ -24,11 +24,11 @@ from ..gl.shaders import Replacement, ShaderRecipe
 from ..reference.emission_absorption import render_emission_absorption
 from .march import (
     DECLARATION_SNIPPETS,
-    MARCH_SNIPPETS,
     SCREEN_DECLARATIONS,
     VolumeBinding,
     VolumeData,
     bind_sampling,
+    march_snippets,
     world_from_texture,
 )
 from .options import STEP_SCALES, DirectOptions
@@ -38,14 +38,14 @@ from .options import STEP_SCALES, DirectOptions
 DEPTH_SHARPNESS = 20.0
 
 
-def direct_recipe(defines: dict, lit: bool = False,
-                  sampling: str = "volume_sample") -> ShaderRecipe:
+def direct_recipe(defines: dict, lit: bool = False, sampling: str = "volume_sample",
+                  blending: str = "composite") -> ShaderRecipe:
     """The polydata-shader replacements of the direct marcher."""
     return ShaderRecipe(
         replacements=[
             Replacement("//VTK::Color::Dec",
                         (*DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
-                         *MARCH_SNIPPETS, *(("light_sample",) if lit else ()),
+                         *march_snippets(blending), *(("light_sample",) if lit else ()),
                          "screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_direct_fragment", keep_tag="before"),
@@ -117,7 +117,8 @@ class DirectBinding(VolumeBinding):
         else:
             self.bindings.uniforms.pop("cm_depthSamples", None)
         self.recipe = direct_recipe(dict(self._defines, CM_DEPTH_MULTISAMPLED=multisampled),
-                                    lit=self._lit, sampling=self._sampling)
+                                    lit=self._lit, sampling=self._sampling,
+                                    blending=self.blending)
         self.bindings.recipe = self.recipe
         for actor in self.drawn:
             self.recipe.apply(actor.GetShaderProperty())
@@ -144,7 +145,7 @@ def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=No
     if downsample == 1:
         bindings = ShaderBindings(actor.GetMapper(), renderer)
         sampling, defines = bind_sampling(bindings, data, step_scale, shading.stop_opacity,
-                                          shading.skip_empty)
+                                          shading.skip_empty, blending=shading.blending)
         if light_map is not None:
             light_map.bind(bindings)
             defines.update(light_map.defines)
@@ -152,6 +153,7 @@ def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=No
         binding = DirectBinding(model, data, bindings, None, step_scale, shading.stop_opacity,
                                 window=plotter.ren_win, lit=light_map is not None,
                                 sampling=sampling, defines=defines)
+        binding.blending = shading.blending
         binding.drawn = [actor]
         binding.renderer = renderer
         binding.follow_multisampling()
@@ -202,7 +204,7 @@ def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
     low_pass = RenderToTexturePass(overlay.renderer, None, size=low_size,
                                    targets=("rgba16f", "r32f"))
     sampling, defines = bind_sampling(low_pass, data, step_scale, shading.stop_opacity,
-                                      shading.skip_empty)
+                                      shading.skip_empty, blending=shading.blending)
     low_pass.add_texture("cm_sceneDepth", overlay.depth)
     bind_camera(low_pass, main, lambda: world_from_texture(model))
     lit = ()
@@ -212,7 +214,8 @@ def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
         lit = ("light_sample",)
     low_pass.set_recipe(ShaderRecipe(
         standalone=("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
-                    *MARCH_SNIPPETS, *lit, "screen_ray", "ea_reduced_main"),
+                    *march_snippets(shading.blending), *lit, "screen_ray",
+                    "ea_reduced_main"),
         defines=defines))
     return overlay, low_pass
 

@@ -30,8 +30,18 @@ STEP_BLOCKS = 4096
 MAX_STEPS = STEP_BLOCK * STEP_BLOCKS
 #: What every marching shader declares first: the transfer lookup, the one slab test.
 DECLARATION_SNIPPETS = ("ea_declarations", "slab")
-#: The marcher itself (after the sampling snippet and the ray set-up's declarations).
-MARCH_SNIPPETS = ("ea_march",)
+#: Blend modes (PyVista's ``blending=``): each is one GLSL snippet defining how a sample
+#: enters the ray's state and what the ray leaves (blend_*.glsl), and one CPU reference.
+BLEND_MODES = ("composite", "maximum", "minimum")
+
+
+def march_snippets(blending: str = "composite") -> tuple[str, ...]:
+    """The marcher with its blend mode (after the sampling and ray set-up snippets)."""
+    return (f"blend_{blending}", "ea_march")
+
+
+#: The marcher as the light map (and every composite pass) includes it.
+MARCH_SNIPPETS = march_snippets("composite")
 #: What a screen-space ray set-up declares: the camera, then the frame's opaque depth.
 SCREEN_DECLARATIONS = ("camera_declarations", "ea_direct_declarations")
 
@@ -132,15 +142,22 @@ def march_defines(model, skipping: bool) -> dict:
 
 
 def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: float,
-                  skip_empty: bool, sample_data: bool = True) -> tuple[str, dict]:
+                  skip_empty: bool, sample_data: bool = True,
+                  blending: str = "composite") -> tuple[str, dict]:
     """Give ``target`` (bindings or a pass) what the shared marcher reads.
 
     Returns the GLSL snippet that samples the medium (``volume_sample`` for one volume,
     ``joint_sample`` for a group) and the feature switches. Skipping is compiled in only
     when asked for and some brick is empty. ``sample_data=False`` leaves the data texture
-    out (VTK's mapper samples its own copy).
+    out (VTK's mapper samples its own copy). A blend mode other than ``'composite'`` reads
+    every sample (a skipped brick may hold the ray's extreme) and the opacity per unit
+    distance.
     """
     model = data.model
+    if blending != "composite":
+        skip_empty = False
+        spec = getattr(model.transfer, "spec", None)
+        target.set_uniform("cm_opacityUnit", 1.0 if spec is None else spec.opacity_unit_distance)
     target.set_uniform("cm_stopOpacity", stop_opacity)
     target.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
     target.set_uniform("cm_stepScale", step_scale)
@@ -190,6 +207,7 @@ class VolumeBinding(DrawnBinding):
         self.extra_release: list = []
         self.targets: list = [bindings]
         self.downsample = 1
+        self.blending = "composite"
 
     @property
     def skips_empty(self) -> bool:

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from ..core.options import positive_number, whole_number
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
-from .march import MAX_STEPS, most_texels
+from .march import BLEND_MODES, MAX_STEPS, most_texels
 
 #: Default finest face size ``S_0`` of the cube map (texels per face edge at MIP level 0).
 DEFAULT_FACE_SIZE = 256
@@ -44,9 +44,15 @@ class Shading:
     skip_empty: bool = True
     light_map_size: int = DEFAULT_LIGHT_MAP_SIZE
     ambient: float = DEFAULT_AMBIENT
+    blending: str = "composite"
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
+        if self.blending not in BLEND_MODES:
+            later = " ('average' and 'additive' are not drawn yet)" if self.blending in (
+                "average", "additive") else ""
+            raise ValueError(f"blending must be one of {BLEND_MODES}, got "
+                             f"{self.blending!r}{later}.")
         positive_number("stop_opacity", self.stop_opacity, 0.0, 1.0)
         whole_number("light_map_size", self.light_map_size, 2, 128)
         positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)

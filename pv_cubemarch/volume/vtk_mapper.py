@@ -21,17 +21,17 @@ from ..models.volume import VolumeModel
 from ..reference.emission_absorption import render_emission_absorption
 from .march import (
     DECLARATION_SNIPPETS,
-    MARCH_SNIPPETS,
     SCREEN_DECLARATIONS,
     VolumeBinding,
     VolumeData,
     bind_sampling,
+    march_snippets,
     world_from_texture,
 )
 from .options import STEP_SCALES, MarchOptions
 
 
-def vtk_mapper_recipe(defines: dict, lit: bool) -> ShaderRecipe:
+def vtk_mapper_recipe(defines: dict, lit: bool, blending: str = "composite") -> ShaderRecipe:
     """The shader replacements of the VTK-mapper path.
 
     VTK's mapper draws the box and copies the opaque depth; the box's clip position and each
@@ -42,7 +42,8 @@ def vtk_mapper_recipe(defines: dict, lit: bool) -> ShaderRecipe:
         replacements=[
             Replacement("//VTK::Base::Dec", DECLARATION_SNIPPETS, keep_tag="after"),
             Replacement("//VTK::ComputeColor::Dec",
-                        ("ea_vtk_declarations", *SCREEN_DECLARATIONS, *MARCH_SNIPPETS,
+                        ("ea_vtk_declarations", *SCREEN_DECLARATIONS,
+                         *march_snippets(blending),
                          *(("light_sample",) if lit else ()), "screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Shading::Init", "ea_vtk_ray_init"),
@@ -92,11 +93,12 @@ def build_vtk_actor(plotter, data: VolumeData, options, shading, light_map=None)
 
     bindings.set_uniform("cm_clipFromIndex", clip_from_index)
     _, defines = bind_sampling(bindings, data, step_scale, shading.stop_opacity,
-                               shading.skip_empty, sample_data=False)
+                               shading.skip_empty, sample_data=False,
+                               blending=shading.blending)
     if light_map is not None:
         light_map.bind(bindings)
         defines.update(light_map.defines)
-    recipe = vtk_mapper_recipe(defines, lit=light_map is not None)
+    recipe = vtk_mapper_recipe(defines, lit=light_map is not None, blending=shading.blending)
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
     binding = VolumeBinding(model, data, bindings, recipe, step_scale, shading.stop_opacity)

@@ -33,11 +33,11 @@ from ...models.volume import VolumeModel
 from ...reference.emission_absorption import render_emission_absorption
 from ..march import (
     DECLARATION_SNIPPETS,
-    MARCH_SNIPPETS,
     SCREEN_DECLARATIONS,
     VolumeBinding,
     VolumeData,
     bind_sampling,
+    march_snippets,
     world_from_texture,
 )
 from ..options import CubeMapOptions, default_max_samples
@@ -136,9 +136,9 @@ def _outside_frustum(clip_from_local: np.ndarray) -> bool:
     return False
 
 
-def _pass_snippets(lit: bool, sampling: str) -> tuple[str, ...]:
+def _pass_snippets(lit: bool, sampling: str, blending: str) -> tuple[str, ...]:
     return ("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
-            *MARCH_SNIPPETS, *(("light_sample",) if lit else ()), "screen_ray",
+            *march_snippets(blending), *(("light_sample",) if lit else ()), "screen_ray",
             "cube_faces", "cube_march_main")
 
 
@@ -173,7 +173,7 @@ def build_cubemap_actor(plotter, data: VolumeData, options: CubeMapOptions, shad
                                     targets=CUBE_TARGETS, run_when=frame.update,
                                     grow_only=True)
     sampling, defines = bind_sampling(cube_pass, data, 1.0, shading.stop_opacity,
-                                      shading.skip_empty)
+                                      shading.skip_empty, blending=shading.blending)
     cube_pass.set_uniform("cm_stepScale", lambda: frame.step_scale)
     cube_pass.add_texture("cm_sceneDepth", FramebufferDepth())
     cube_pass.set_uniform("cm_viewFromTexture",
@@ -185,7 +185,7 @@ def build_cubemap_actor(plotter, data: VolumeData, options: CubeMapOptions, shad
     if lit:
         light_map.bind(cube_pass)
         defines.update(light_map.defines)
-    cube_pass.set_recipe(ShaderRecipe(standalone=_pass_snippets(lit, sampling),
+    cube_pass.set_recipe(ShaderRecipe(standalone=_pass_snippets(lit, sampling, shading.blending),
                                       defines=defines))
 
     actor = box_actor([n - 1.0 for n in model.dimensions], model.world_from_index())

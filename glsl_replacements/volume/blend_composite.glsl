@@ -1,0 +1,20 @@
+// Blending 'composite': emission/absorption, front to back, with early ray termination.
+// A blend mode defines the ray's running state, how a sample enters it (false: stop the ray)
+// and the premultiplied rgba it leaves; the marcher (ea_march) calls these three.
+vec4 cm_emission(vec3 texturePosition);   // defined by ea_march
+
+vec4 cm_blendStart()
+{
+  return vec4(0.0);
+}
+
+bool cm_blend(inout vec4 state, vec3 texturePosition, float dt)
+{
+  cm_composite(state, cm_emission(texturePosition), dt);
+  return !(state.a > cm_stopOpacity);
+}
+
+vec4 cm_blendResult(vec4 state)
+{
+  return state;
+}
