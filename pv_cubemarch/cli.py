@@ -25,6 +25,7 @@ from .scene.io import load_scene
 from .surfaces.options import ROOTS
 from .surfaces.options import TRAVERSALS as SURFACE_TRAVERSALS
 from .views.app import WINDOW_MODES, serve
+from .volume.march import BLEND_MODES
 from .volume.options import Shading
 from .voxels.options import MODES, SHADINGS, TRAVERSALS, VoxelOptions
 
@@ -78,6 +79,10 @@ def build_parser() -> argparse.ArgumentParser:
                              "upsampling")
     render.add_argument("--no-skip-empty", action="store_true",
                         help="march empty bricks too (for comparisons)")
+    render.add_argument("--blending", choices=BLEND_MODES,
+                        help="how every volume's samples combine along a ray: composite "
+                             "(emission/absorption, default), maximum or minimum intensity "
+                             "projection, as PyVista's add_volume(blending=)")
     cube = render.add_argument_group("cube map (--technique cubemap or auto)")
     cube.add_argument("--face-size", type=int, help="largest cube-map face, texels per edge "
                       "(a power of two; default 256)")
@@ -173,6 +178,9 @@ def build_parser() -> argparse.ArgumentParser:
                           help="scene file (default: the shipped datasets/smoke_scene.usda)")
     tradeoff.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
     tradeoff.add_argument("--frames", type=int, default=3, help="timed frames per setting (>= 3)")
+    tradeoff.add_argument("--blending", nargs="+", choices=BLEND_MODES, default=["composite"],
+                          help="blend modes to measure, each against its CPU reference and "
+                               "PyVista's own add_volume (default: composite)")
     tradeoff.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     tradeoff.add_argument("--plot", help="write the error-against-time plot (PNG) here")
     tradeoff.add_argument("--no-stock", action="store_true",
@@ -296,6 +304,7 @@ def _render(args) -> int:
     chosen = {"step_scale": args.step_scale, "stop_opacity": args.stop_opacity,
               "downsample": args.downsample,
               "skip_empty": False if args.no_skip_empty else None,
+              "blending": args.blending,
               "face_size": args.face_size, "max_samples": args.max_samples,
               "upscale": args.upscale, "sample_factor": args.sample_factor,
               "occlusion_sharpness": args.occlusion_sharpness, "lights": args.lights,
@@ -468,7 +477,7 @@ def _bench(args) -> int:
     if args.bench_command == "resolution":
         return _bench_resolution(args, scene, scene_path)
     results = bench.run_tradeoff(args.technique, scene, size=args.size, frames=args.frames,
-                                 include_stock=not args.no_stock)
+                                 include_stock=not args.no_stock, blending=args.blending)
     print(f"scene {scene_path}, {args.size[0]}x{args.size[1]}, median of {args.frames} frames; "
           "error against the CPU reference (0.1 voxel steps)")
     print(bench.format_table(results))

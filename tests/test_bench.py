@@ -73,6 +73,26 @@ def test_bench_cli(tmp_path, capsys):
     assert json.loads(out.read_text())["meta"]["technique"] == ["pyvista"]
 
 
+def test_tradeoff_measures_each_blend_mode_against_its_reference_and_pyvista():
+    """Rows per blend mode, each against that mode's CPU reference, and against PyVista.
+
+    catches: every mode measured against the composite reference (``_reference`` ignoring
+    ``mode``): the best maximum row at 28.1 dB.
+    """
+    scene = cm.load_scene(SCENE, progress_bar=False)
+    results = bench.run_tradeoff("direct", scene, size=(64, 48), frames=3,
+                                 blending=("composite", "maximum"))
+    modes = [r.parameters["blending"] for r in results]
+    assert modes.count("maximum") == modes.count("composite") > 1
+    for mode in ("composite", "maximum"):
+        rows = [r for r in results if r.parameters["blending"] == mode]
+        ours = [r.errors["psnr"] for r in rows if r.technique != "pyvista"]
+        assert max(ours) > 45, (mode, ours)
+        assert all(r.extra["psnr_vs_pyvista"] > 20 for r in rows)
+        assert any(r.pareto for r in rows)
+    assert "maximum" in bench.format_table(results)
+
+
 def test_bad_bench_arguments():
     scene = cm.load_scene(SCENE, progress_bar=False)
     with pytest.raises(ValueError, match="Unknown technique"):

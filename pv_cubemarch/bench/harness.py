@@ -25,6 +25,7 @@ from ..core.registry import describe_setting, techniques
 from ..core.rendering import offscreen_plotter, read_depth, read_pixels, render_frame
 from ..models.volume import VolumeModel
 from ..reference.emission_absorption import render_emission_absorption
+from ..reference.projections import render_intensity_projection
 from ..scene.model import Scene
 from ..testing import compare_images
 
@@ -80,7 +81,9 @@ def _build_stock(plotter, volume: VolumeModel, setting):
     grid.point_data["values"] = volume.values.ravel(order="F")
     actor = plotter.add_volume(grid, scalars="values", cmap=lut, clim=transfer.clim,
                                opacity_unit_distance=unit, mapper="gpu", shade=False,
-                               show_scalar_bar=False)
+                               show_scalar_bar=False,
+                               blending=setting.get("blending", "composite"))
+    actor.prop.interpolation_type = "linear"   # as every technique here samples
     mapper = actor.mapper
     mapper.SetAutoAdjustSampleDistances(False)
     mapper.SetLockSampleDistanceToInputSpacing(False)
@@ -177,7 +180,8 @@ def time_frames_side_by_side(plotters: dict, frames: int = 3, warmup: int = 2,
 
 def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[int] = (640, 480),
                  frames: int = 3, include_stock: bool = True, reference_step: float = 0.1,
-                 progress_bar: bool | None = None) -> list[TradeoffResult]:
+                 progress_bar: bool | None = None,
+                 blending: Sequence[str] = ("composite",)) -> list[TradeoffResult]:
     """Sweep ``technique``'s settings on ``scene``'s first volume; return one row per setting.
 
     Parameters
@@ -199,6 +203,11 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
         Step of the CPU reference, in voxels.
     progress_bar : bool, optional
         Show progress over the settings being set up; by default only on a terminal.
+    blending : sequence of str
+        Blend modes to measure (``'composite'``, ``'maximum'``, ``'minimum'``): every row
+        once per mode, against that mode's CPU reference, and against PyVista's own
+        ``add_volume`` of the mode at its finest setting (``extra['psnr_vs_pyvista']``, with
+        ``include_stock``). The Pareto front is marked per mode.
     """
     available = sweeps()
     chosen = [technique] if isinstance(technique, str) else list(technique)
@@ -214,13 +223,14 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
     volume = scene.volumes[0]
     camera = scene.camera or scene.default_camera(size[0] / size[1])
     color, distance = opaque_layer(scene, camera, size)
-    # One reference for the run: every volume technique draws the same right image.
-    reference = available[chosen[0]].reference(
-        volume, camera, size, step_voxels=reference_step, opaque_depth=distance,
-        opaque_color=color, near=camera.clipping_range[0] if camera.clipping_range else None)
-    runs = [(available[name], s) for name in chosen for s in available[name].settings]
+    near = camera.clipping_range[0] if camera.clipping_range else None
+    references = {mode: _reference(mode, available[chosen[0]], volume, camera, size,
+                                   reference_step, distance, color, near) for mode in blending}
+    runs = [(available[name], dict(s, blending=mode)) for mode in blending
+            for name in chosen for s in available[name].settings]
     if include_stock and "pyvista" not in chosen:
-        runs += [(available["pyvista"], s) for s in available["pyvista"].settings]
+        runs += [(available["pyvista"], dict(s, blending=mode)) for mode in blending
+                 for s in available["pyvista"].settings]
     plotters = {}
     results = []
     try:
@@ -231,15 +241,32 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
             sweep.build(plotter, volume, dict(setting))
             camera.apply_to(plotter.camera)
         times = time_frames_side_by_side(plotters, frames)
+        images = {index: read_pixels(plotters[index]) for index in plotters}
+        stock = {setting["blending"]: images[index] for index, (sweep, setting)
+                 in enumerate(runs) if sweep.technique == "pyvista"}   # the last: finest
         for index, (sweep, setting) in enumerate(runs):
-            errors = compare_images(read_pixels(plotters[index]), reference).as_dict()
-            results.append(TradeoffResult(sweep.technique, sweep.describe(setting),
-                                          dict(setting), times[index], errors))
+            mode = setting["blending"]
+            errors = compare_images(images[index], references[mode]).as_dict()
+            extra = {} if mode not in stock else {
+                "psnr_vs_pyvista": compare_images(images[index], stock[mode]).psnr}
+            label = sweep.describe({k: v for k, v in setting.items() if k != "blending"})
+            results.append(TradeoffResult(sweep.technique, label, dict(setting), times[index],
+                                          errors, extra=extra))
     finally:
         for plotter in plotters.values():
             plotter.close()
-    mark_pareto(results)
+    for mode in blending:
+        mark_pareto([r for r in results if r.parameters.get("blending") == mode])
     return results
+
+
+def _reference(mode, sweep, volume, camera, size, step, distance, color, near):
+    """The right image of ``mode``: the technique's reference, or the projections'."""
+    if mode == "composite":
+        return sweep.reference(volume, camera, size, step_voxels=step, opaque_depth=distance,
+                               opaque_color=color, near=near)
+    return render_intensity_projection(volume, camera, size, mode, step_voxels=step,
+                                       opaque_depth=distance, opaque_color=color, near=near)
 
 
 def mark_pareto(results: list[TradeoffResult]) -> None:
@@ -254,14 +281,18 @@ def mark_pareto(results: list[TradeoffResult]) -> None:
 def format_table(results: list[TradeoffResult]) -> str:
     """A plain-text table, times also as ratios to the fastest row of the same run."""
     fastest = min(r.median_ms for r in results)
-    header = (f"{'technique':<10} {'setting':<24} {'median ms':>10} {'x fastest':>9} "
-              f"{'PSNR dB':>8} {'SSIM':>7} {'max err':>8} {'pareto':>6}")
+    header = (f"{'technique':<10} {'blending':<9} {'setting':<24} {'median ms':>10} "
+              f"{'x fastest':>9} {'PSNR dB':>8} {'SSIM':>7} {'max err':>8} {'vs PyVista':>10} "
+              f"{'pareto':>6}")
     lines = [header, "-" * len(header)]
     for r in results:
         e = r.errors
-        lines.append(f"{r.technique:<10} {r.setting:<24} {r.median_ms:>10.1f} "
+        versus = r.extra.get("psnr_vs_pyvista")
+        shown = "" if versus is None else f"{versus:.2f}"
+        mode = r.parameters.get("blending", "composite")
+        lines.append(f"{r.technique:<10} {mode:<9} {r.setting:<24} {r.median_ms:>10.1f} "
                      f"{r.median_ms / fastest:>9.2f} {e['psnr']:>8.2f} {e['ssim']:>7.4f} "
-                     f"{e['max_abs']:>8.0f} {'*' if r.pareto else '':>6}")
+                     f"{e['max_abs']:>8.0f} {shown:>10} {'*' if r.pareto else '':>6}")
     return "\n".join(lines)
 
 
@@ -270,7 +301,7 @@ def write_json(results: list[TradeoffResult], path, meta: dict) -> None:
     payload = {"meta": meta, "results": [
         {"technique": r.technique, "setting": r.setting, "parameters": r.parameters,
          "frame_ms": r.frame_ms, "median_ms": r.median_ms, "errors": r.errors,
-         "pareto": r.pareto} for r in results]}
+         "pareto": r.pareto, **r.extra} for r in results]}
     Path(path).write_text(json.dumps(payload, indent=2))
 
 

@@ -23,14 +23,22 @@ def render_intensity_projection(volume, camera: Camera, size: Sequence[int] = (2
                                 blending: str = "maximum",
                                 background: Sequence[float] = (0.0, 0.0, 0.0),
                                 step_voxels: float = 0.1,
-                                near: float | None = None) -> np.ndarray:
-    """The ``blending`` projection of ``volume`` (a VolumeModel): ``(h, w, 3)`` floats."""
+                                near: float | None = None,
+                                opaque_depth: np.ndarray | None = None,
+                                opaque_color: np.ndarray | None = None) -> np.ndarray:
+    """The ``blending`` projection of ``volume`` (a VolumeModel): ``(h, w, 3)`` floats.
+
+    ``opaque_depth`` / ``opaque_color``: per-pixel distance to opaque meshes and their
+    colour; rays stop there, the projection is drawn over that colour.
+    """
     reduce, start = REDUCTIONS[blending]
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
     origins, directions = origins.reshape(-1, 3), directions.reshape(-1, 3)
     o_idx, d_idx, t0, t1 = index_rays(volume, origins, directions)
     t0 = np.maximum(t0, 0.0)
+    if opaque_depth is not None:
+        t1 = np.minimum(t1, np.asarray(opaque_depth, dtype=np.float64).reshape(-1))
     if near is not None:
         forward = camera.basis()[2]
         t0 = np.maximum(t0, near / np.maximum(directions @ forward, 1e-12))
@@ -51,5 +59,7 @@ def render_intensity_projection(volume, camera: Camera, size: Sequence[int] = (2
     rgb, sigma = medium(volume, np.where(hit, extreme, 0.0))
     unit = volume.transfer.spec.opacity_unit_distance if volume.transfer.spec else 1.0
     alpha = np.where(hit, -np.expm1(-sigma * unit), 0.0)
-    image = rgb * alpha[:, None] + (1.0 - alpha[:, None]) * np.asarray(background, float)
+    behind = np.asarray(background, float) if opaque_color is None else np.asarray(
+        opaque_color, dtype=np.float64).reshape(-1, 3)
+    image = rgb * alpha[:, None] + (1.0 - alpha[:, None]) * behind
     return image.reshape(height, width, 3)

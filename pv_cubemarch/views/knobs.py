@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..core.registry import techniques
+from ..volume.march import BLEND_MODES
 
 #: The choice of an option left unset (``None``): the technique picks its value.
 AUTO = "auto"
@@ -53,6 +54,8 @@ def volume_knobs() -> tuple[Knob, ...]:
                                                               2048),
              techniques=("cubemap", "auto"), help="samples along the box diagonal",
              optional=True),
+        Knob("blending", "blending", "select", choices=BLEND_MODES,
+             help="composite, or the largest / smallest value along each ray"),
         Knob("lights", "lights", "select", choices=("none", "scene")),
         Knob("ambient", "ambient", "slider", 0.0, 1.0, 0.05),
     )

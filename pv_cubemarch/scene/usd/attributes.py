@@ -26,6 +26,7 @@ VOLUME_OPTIONS = (
     ("sampleFactor", "sample_factor", float),
     ("occlusionSharpness", "occlusion_sharpness", float), ("lights", "lights", str),
     ("lightMapSize", "light_map_size", int), ("ambient", "ambient", float),
+    ("blending", "blending", str),
 )
 
 #: ``cubemarch:*`` attributes of a voxels Volume prim and the ``add_voxels`` options they set.

@@ -175,7 +175,7 @@ def _check_volume_options(name: str, found: dict, options: dict) -> None:
         technique.make_options({k: v for k, v in options.items()
                                 if k in specific_option_names("volume")})
         Shading(**{k: options[k] for k in ("stop_opacity", "skip_empty", "light_map_size",
-                                           "ambient") if k in options}).check()
+                                           "ambient", "blending") if k in options}).check()
     except ValueError as exc:
         raise options_error(name, found, "volume", exc) from exc
     if options.get("lights", "scene") not in ("scene", "none"):
