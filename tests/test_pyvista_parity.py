@@ -96,11 +96,12 @@ def floor(technique: str, sharp: bool) -> float:
     return 45.0
 
 
-def pyvista_image(grid, keywords):
+def pyvista_image(grid, keywords, blending="composite", with_camera=False):
     """PyVista's own add_volume, linear interpolation, a fine sample distance; its camera."""
     pl = pv.Plotter(off_screen=True, window_size=SIZE)
     pl.set_background("black")
-    actor = pl.add_volume(grid, mapper="gpu", show_scalar_bar=False, **keywords)
+    actor = pl.add_volume(grid, mapper="gpu", show_scalar_bar=False, blending=blending,
+                          **keywords)
     actor.prop.interpolation_type = "linear"
     actor.mapper.SetAutoAdjustSampleDistances(False)
     actor.mapper.SetSampleDistance(0.1 * min(grid.spacing))
@@ -108,8 +109,9 @@ def pyvista_image(grid, keywords):
     pl.reset_camera(bounds=grid.bounds)
     image = pl.screenshot()
     position = pl.camera_position
+    camera = cm.Camera.from_pyvista(pl.camera)
     pl.close()
-    return image, position
+    return (image, position, camera) if with_camera else (image, position)
 
 
 def our_image(grid, keywords, technique, position):
@@ -352,19 +354,7 @@ def test_intensity_projections_draw_what_pyvista_draws(name, blending):
     """
     make, keywords, _ = CASES[name]
     grid = make()
-    pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    pl.set_background("black")
-    actor = pl.add_volume(grid, mapper="gpu", show_scalar_bar=False, blending=blending,
-                          **keywords)
-    actor.prop.interpolation_type = "linear"
-    actor.mapper.SetAutoAdjustSampleDistances(False)
-    actor.mapper.SetSampleDistance(0.1 * min(grid.spacing))
-    pl.camera_position = "iso"
-    pl.reset_camera(bounds=grid.bounds)
-    reference = pl.screenshot()
-    position = pl.camera_position
-    camera = cm.Camera.from_pyvista(pl.camera)
-    pl.close()
+    reference, position, camera = pyvista_image(grid, keywords, blending, with_camera=True)
     background = psnr(np.zeros_like(reference), reference)
     cpu = cm.render_intensity_projection(cm.make_volume(grid, **keywords), camera, SIZE,
                                          blending)

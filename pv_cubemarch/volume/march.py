@@ -30,14 +30,18 @@ STEP_BLOCKS = 4096
 MAX_STEPS = STEP_BLOCK * STEP_BLOCKS
 #: What every marching shader declares first: the transfer lookup, the one slab test.
 DECLARATION_SNIPPETS = ("ea_declarations", "slab")
-#: Blend modes (PyVista's ``blending=``): each is one GLSL snippet defining how a sample
-#: enters the ray's state and what the ray leaves (blend_*.glsl), and one CPU reference.
-BLEND_MODES = ("composite", "maximum", "minimum")
+#: Blend modes (PyVista's ``blending=``) and their GLSL: each mode is one snippet defining
+#: how a sample enters the ray's state and what the ray leaves (blend_*.glsl), with one
+#: CPU reference; the projections share how their one value is drawn.
+BLEND_SNIPPETS = {"composite": ("blend_composite",),
+                  "maximum": ("blend_projection", "blend_maximum"),
+                  "minimum": ("blend_projection", "blend_minimum")}
+BLEND_MODES = tuple(BLEND_SNIPPETS)
 
 
 def march_snippets(blending: str = "composite") -> tuple[str, ...]:
     """The marcher with its blend mode (after the sampling and ray set-up snippets)."""
-    return (f"blend_{blending}", "ea_march")
+    return (*BLEND_SNIPPETS[blending], "ea_march")
 
 
 #: The marcher as the light map (and every composite pass) includes it.
