@@ -72,6 +72,7 @@ def add_volume(
     pickable: bool = True,
     render: bool = True,
     blending: str = "composite",
+    interpolation: str = "linear",
     shade: bool = False,
     **kwargs,
 ) -> pyvista.Prop3D:
@@ -202,6 +203,10 @@ def add_volume(
         joint groups; empty-space skipping and early termination are off, every sample
         counts). PyVista's ``'average'`` and ``'additive'`` are not drawn yet and raise an
         error that says so.
+    interpolation : str
+        How values are read between grid points: ``'linear'`` (trilinear, default) or
+        ``'nearest'`` (the nearest point: PyVista's default, its
+        ``actor.prop.interpolation_type``), in every technique and the CPU reference.
     shade : bool
         ``False``; gradient shading is not drawn yet (``lights=`` lights the medium by its
         own transmittance instead).
@@ -253,6 +258,9 @@ def add_volume(
                          "opacity); it takes no lights and no jointly marched volumes. Use "
                          "blending='composite' for those.")
     if isinstance(volume, (VolumeModel, VolumeGroup)):
+        if interpolation != "linear":
+            raise ValueError("interpolation goes with raw data; a VolumeModel carries its own "
+                             "(make_volume(..., interpolation=...)).")
         model = volume
     else:
         volume, scalars = volume_input(volume, scalars, resolution, preference)
@@ -260,7 +268,7 @@ def add_volume(
                             opacity_unit_distance=opacity_unit_distance, transform=transform,
                             nan_policy=nan_policy, name=name or "volume", n_colors=n_colors,
                             flip_scalars=flip_scalars, log_scale=log_scale,
-                            categories=categories)
+                            categories=categories, interpolation=interpolation)
     if isinstance(model, VolumeGroup) and not chosen.groups:
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")

@@ -11,6 +11,8 @@ from ..core.errors import VolumeDataError
 from .transfer import TransferFunction
 
 NAN_POLICIES = ("raise", "zero")
+#: How values are read between grid points (VTK's volume property interpolation types).
+INTERPOLATIONS = ("linear", "nearest")
 #: The largest finite float32: volumes are drawn (and referenced) in float32.
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 
@@ -21,6 +23,9 @@ class VolumeModel:
 
     ``values`` is a float32 array indexed ``[i, j, k]`` (x, y, z) over the grid's points;
     ``transform`` maps the grid's own coordinates to world coordinates.
+
+    ``interpolation`` is how the values are read between points: ``'linear'`` (trilinear)
+    or ``'nearest'`` (the nearest point, PyVista's default for volumes).
 
     ``value_offset`` is what was subtracted from the data so that float32 keeps apart
     values that are close together but far from 0 (e.g. int64 ``2**40 + k``): a point's
@@ -34,6 +39,7 @@ class VolumeModel:
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     name: str = "volume"
     value_offset: int | float = 0
+    interpolation: str = "linear"
 
     @property
     def dimensions(self) -> tuple[int, int, int]:
@@ -279,7 +285,7 @@ def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear"
                 transfer: TransferFunction | None = None, transform=None,
                 nan_policy: str = "raise", name: str = "volume", n_colors: int = 256,
                 flip_scalars: bool = False, log_scale: bool = False,
-                categories: bool | int = False) -> VolumeModel:
+                categories: bool | int = False, interpolation: str = "linear") -> VolumeModel:
     """Validate ``data`` and bundle it with a transfer function into a :class:`VolumeModel`.
 
     The transfer keywords mean what they mean in ``pyvista.Plotter.add_volume``: ``clim``
@@ -287,6 +293,9 @@ def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear"
     mean number of points less one, ``categories`` sets ``n_colors`` to the number of
     distinct values (``True``) or to the number given.
     """
+    if interpolation not in INTERPOLATIONS:
+        raise VolumeDataError(f"interpolation must be one of {INTERPOLATIONS}, got "
+                              f"{interpolation!r}.")
     grid, values, scalars, offset = as_image_data(data, scalars, nan_policy)
     if transfer is None:
         if clim is None:
@@ -305,7 +314,7 @@ def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear"
                                     clim=_shifted_clim(transfer.clim, offset))
     matrix = np.eye(4) if transform is None else checked_transform(transform)
     return VolumeModel(grid=grid, values=values, transfer=transfer, transform=matrix, name=name,
-                       value_offset=offset)
+                       value_offset=offset, interpolation=interpolation)
 
 
 def pyvista_unit_distance(grid: pyvista.ImageData) -> float:

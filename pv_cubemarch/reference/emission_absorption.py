@@ -16,7 +16,7 @@ from ..core.camera import Camera
 from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel
 from .lighting import light_grid, lit_emission
-from .rays import index_rays, trilinear
+from .rays import index_rays, sample
 from .transfer import medium as transfer_medium
 
 
@@ -128,7 +128,7 @@ def render_emission_absorption(
             if not inside.any():
                 continue
             pts = o_idx[active][inside] + d_idx[active][inside] * mid[inside, None]
-            rgb, sig = transfer_medium(v, trilinear(v.values, pts))
+            rgb, sig = transfer_medium(v, sample(v, pts))
             if grids is not None:
                 medium = lit_through[index]
                 if medium is not v:  # the member's index points in the group's grid

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..models.group import VolumeGroup
 from ..models.lights import VolumeLight
-from .rays import ray_box_interval, trilinear
+from .rays import ray_box_interval, sample, trilinear
 from .transfer import medium as transfer_medium
 
 
@@ -55,7 +55,7 @@ def transmittance_toward(medium, points_index: np.ndarray, light: VolumeLight,
 def extinction_at(medium, points_index: np.ndarray) -> np.ndarray:
     """Extinction of ``medium`` (a volume, or a group: its members' sum) at index points."""
     if not isinstance(medium, VolumeGroup):
-        return transfer_medium(medium, trilinear(medium.values, points_index))[1]
+        return transfer_medium(medium, sample(medium, points_index))[1]
     world_from_group = medium.world_from_index()
     sigma = np.zeros(len(points_index))
     for member in medium.members:
@@ -64,8 +64,7 @@ def extinction_at(medium, points_index: np.ndarray) -> np.ndarray:
         upper = np.array(member.dimensions, dtype=np.float64) - 1.0
         inside = np.all((local >= 0.0) & (local <= upper), axis=1)
         if inside.any():
-            sigma[inside] += transfer_medium(member, trilinear(member.values,
-                                                               local[inside]))[1]
+            sigma[inside] += transfer_medium(member, sample(member, local[inside]))[1]
     return sigma
 
 

@@ -1,6 +1,7 @@
 """Maximum- and minimum-intensity projections on the CPU: the right image of those blend modes.
 
-The extreme scalar along each pixel's ray (fine steps, trilinear sampling) is drawn with the
+The extreme scalar along each pixel's ray (fine steps, sampled as the volume's
+``interpolation`` says) is drawn with the
 colour and the opacity per unit distance that :mod:`.transfer` derives for it, over the
 background, as VTK's ``MAXIMUM_INTENSITY_BLEND`` and ``MINIMUM_INTENSITY_BLEND`` draw it.
 """
@@ -12,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..core.camera import Camera
-from .rays import index_rays, trilinear
+from .rays import index_rays, sample
 from .transfer import medium
 
 #: The reduction each blend mode applies along a ray.
@@ -51,7 +52,7 @@ def render_intensity_projection(volume, camera: Camera, size: Sequence[int] = (2
         end = np.minimum(t + step, t1[active])
         middle = 0.5 * (t + end)
         points = o_idx[active] + d_idx[active] * middle[:, None]
-        extreme[active] = reduce(extreme[active], trilinear(volume.values, points))
+        extreme[active] = reduce(extreme[active], sample(volume, points))
         t = end
         keep = t < t1[active]
         active, t = active[keep], t[keep]

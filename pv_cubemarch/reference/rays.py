@@ -51,6 +51,20 @@ def trilinear(values: np.ndarray, points: np.ndarray) -> np.ndarray:
     return c0 * (1 - fz) + c1 * fz
 
 
+def nearest(values: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``values[i, j, k]`` of the point nearest each continuous index (n, 3), clamped."""
+    dims = np.array(values.shape)
+    index = np.clip(np.floor(np.asarray(points) + 0.5), 0, dims - 1).astype(np.int64)
+    return values[index[:, 0], index[:, 1], index[:, 2]]
+
+
+def sample(volume, points: np.ndarray) -> np.ndarray:
+    """A volume's stored values at index points, as its ``interpolation`` reads them."""
+    if getattr(volume, "interpolation", "linear") == "nearest":
+        return nearest(volume.values, points)
+    return trilinear(volume.values, points)
+
+
 def mesh_depth(mesh, camera: Camera, size: Sequence[int], chunk: int = 4096) -> np.ndarray:
     """Distance along each pixel's ray to the nearest triangle of ``mesh`` (``inf`` on a miss).
 

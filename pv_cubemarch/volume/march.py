@@ -69,7 +69,8 @@ class VolumeData:
     def __init__(self, model: VolumeModel | VolumeGroup):
         self.model = model
         self.members = model.members if isinstance(model, VolumeGroup) else [model]
-        self.values = [Texture(m.values, kind="3d", interpolate=True) for m in self.members]
+        self.values = [Texture(m.values, kind="3d", interpolate=m.interpolation == "linear")
+                       for m in self.members]
         self.tables = [Texture(m.transfer.table.reshape(1, -1, 4), kind="2d")
                        for m in self.members]
         self._bricks: Texture | None = None

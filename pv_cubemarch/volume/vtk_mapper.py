@@ -77,7 +77,10 @@ def build_vtk_actor(plotter, data: VolumeData, options, shading, light_map=None)
     mapper.SetUseJittering(False)
     mapper.SetSampleDistance(step_scale)  # index units; VTK's own loop never runs
     prop = vtk.vtkVolumeProperty()
-    prop.SetInterpolationTypeToLinear()
+    if model.interpolation == "nearest":
+        prop.SetInterpolationTypeToNearest()
+    else:
+        prop.SetInterpolationTypeToLinear()
     prop.ShadeOff()
     actor = pyvista.Volume()
     actor.SetMapper(mapper)
