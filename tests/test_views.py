@@ -552,3 +552,29 @@ def test_a_scenes_joint_volumes_are_one_item(plotter_factory):
     session.set("volume", "stop_opacity", 0.8)
     assert len(session.plotter.renderer.actors) == actors
     assert session.holds_all_of(session.plotter)
+
+
+def test_blending_knob_adopts_and_switches_the_mode():
+    """A volume added with ``blending='maximum'`` is adopted with it; the knob draws the
+    other mode exactly as adding the volume with it does.
+
+    catches: adoption leaving ``blending`` out (the knob reads 'composite').
+    """
+    from pyvista import examples
+
+    def image_of(**options):
+        pl = pyvista.Plotter(off_screen=True, window_size=(120, 90))
+        pl.cubemarch.add_volume(examples.load_uniform(), **options)
+        image = cm.render_image(pl)
+        return pl, image
+
+    pl, projected = image_of(blending="maximum")
+    session = TuningSession(None, pl)
+    assert session.value("volume", "blending") == "maximum"
+    session.set("volume", "blending", "composite")
+    switched = cm.render_image(pl)
+    pl.close()
+    fresh, composite = image_of()
+    fresh.close()
+    assert np.abs(switched.astype(int) - composite).max() <= 1
+    assert np.abs(projected.astype(int) - composite).max() > 20

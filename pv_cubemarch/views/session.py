@@ -135,6 +135,8 @@ class TuningSession:
                     if hasattr(binding, option) and (option in reader.option_names
                                                      or option == "stop_opacity"):
                         options[option] = getattr(binding, option)
+                if getattr(binding, "blending", "composite") != "composite":
+                    options["blending"] = binding.blending
             label = name if names.count(name) == 1 else f"{name} (renderer {index})"
             self.items[label] = TunedItem(kind, model, options, name, index, binding)
 
