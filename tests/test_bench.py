@@ -115,7 +115,10 @@ def test_resolution_bench_rows_and_table(tmp_path):
         if row.technique == "scene only":
             assert row.errors is None
         elif row.technique in ("cubemap", "direct"):
-            assert row.errors["psnr"] > 30, row  # tiny frames: the LOD is coarse
+            # tiny frames: the LOD is coarse. 28: the shipped scene's colours are now mapped
+            # over its clim (0, 0.7), brighter than the [0, 1] mapping drew them, and the
+            # cube map of 4 volumes at 96x54 measured 29.2 dB (30 before the colour fix)
+            assert row.errors["psnr"] > 28, row
     cube = [r for r in rows if r.technique == "cubemap"]
     assert all(r.memory["cube_map"] > 0 for r in cube)
     table = bench_resolution.format_resolution_table(rows)
