@@ -70,7 +70,8 @@ def _add_with(technique: str) -> Builder:
 def _build_stock(plotter, volume: VolumeModel, setting):
     """PyVista's own ``add_volume`` given the same colours, opacities and sample distance."""
     transfer = volume.transfer
-    unit = 1.0
+    # the user's unit distance: the projections draw the opacity at it as it is
+    unit = transfer.spec.opacity_unit_distance if transfer.spec is not None else 1.0
     opacity = -np.expm1(-transfer.table[:, 3].astype(np.float64) * unit)
     # A ready lookup table: pyvista 0.49's add_volume scales a float opacity *array* to
     # almost nothing, so colours and opacities go in as the table VTK will use.
