@@ -434,3 +434,18 @@ def test_nearest_interpolation_draws_pyvistas_default(name):
         least = {"reference": 45.0, "cubemap": 28.0}.get(what, 42.0)
         assert least > background + 1.0
         assert value >= least, (name, measured, f"background {background:.1f}")
+
+
+def test_show_with_screenshot_writes_what_render_image_draws(tmp_path):
+    """``pl.show(screenshot=path)`` saves our rendering at PyVista's default camera."""
+    import PIL.Image
+
+    path = tmp_path / "shown.png"
+    pl = shown_plotter("direct", (120, 90))
+    pl.show(screenshot=str(path), auto_close=False)
+    drawn = cm.render_image(pl)
+    pl.close()
+    saved = np.asarray(PIL.Image.open(path))[..., :3]
+    assert saved.shape == drawn.shape
+    assert np.abs(saved.astype(int) - drawn).max() <= 1
+    assert saved.std() > 3
