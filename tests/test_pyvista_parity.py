@@ -449,3 +449,41 @@ def test_show_with_screenshot_writes_what_render_image_draws(tmp_path):
     assert saved.shape == drawn.shape
     assert np.abs(saved.astype(int) - drawn).max() <= 1
     assert saved.std() > 3
+
+
+def test_voxels_draw_what_threshold_and_add_mesh_draw():
+    """A label grid on ``pv.Wavelet()``'s extent (-10..10) against PyVista's ``threshold`` +
+    ``add_mesh(categories=True)`` of the same cells and colours, both unlit.
+
+    The voxels' rays are exact at each pixel centre and the mesh is rasterised, so the two
+    differ only along the outlines. Measured: 29.6 dB, 1.2 % of the pixels more than 30
+    levels off; the background alone 12.3 dB. catches: the extent's start ignored
+    (``first_point`` returning ``grid.origin``): the ball drawn 10 units off, 11.2 dB.
+    """
+    wavelet = pv.Wavelet()
+    centres = wavelet.point_data_to_cell_data().cell_centers().points
+    inside = np.linalg.norm(centres, axis=1) < 8.5
+    labels = np.where(inside, 1 + (centres[:, 0] > 0) + (centres[:, 1] > 1), 0)
+    grid = pv.ImageData(dimensions=wavelet.dimensions, spacing=wavelet.spacing,
+                        origin=wavelet.origin)
+    grid.SetExtent(wavelet.GetExtent())
+    grid.cell_data["labels"] = labels.astype(np.uint8)
+    colors = ["tomato", "gold", "steelblue"]
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels", categories=True,
+                cmap=colors, lighting=False, show_scalar_bar=False)
+    pl.camera_position = "iso"
+    pl.reset_camera(bounds=grid.bounds)
+    reference = pl.screenshot()
+    position = pl.camera_position
+    pl.close()
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    pl.cubemarch.add_voxels(grid, "labels", palette=["black", *colors], shading="unlit")
+    pl.camera_position = position
+    image = cm.render_image(pl)
+    pl.close()
+    off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
+    assert psnr(np.zeros_like(reference), reference) < 20.0
+    assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)
