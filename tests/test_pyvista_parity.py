@@ -96,13 +96,17 @@ def floor(technique: str, sharp: bool) -> float:
     return 45.0
 
 
-def pyvista_image(grid, keywords, blending="composite", with_camera=False):
-    """PyVista's own add_volume, linear interpolation, a fine sample distance; its camera."""
+def pyvista_image(grid, keywords, blending="composite", with_camera=False, linear=True):
+    """PyVista's own add_volume, a fine sample distance, linear interpolation (or PyVista's
+    default, nearest, with ``linear=False``); its image and camera."""
     pl = pv.Plotter(off_screen=True, window_size=SIZE)
     pl.set_background("black")
     actor = pl.add_volume(grid, mapper="gpu", show_scalar_bar=False, blending=blending,
                           **keywords)
-    actor.prop.interpolation_type = "linear"
+    if linear:
+        actor.prop.interpolation_type = "linear"
+    else:
+        assert actor.prop.interpolation_type == "nearest"   # PyVista's default, left so
     actor.mapper.SetAutoAdjustSampleDistances(False)
     actor.mapper.SetSampleDistance(0.1 * min(grid.spacing))
     pl.camera_position = "iso"
@@ -405,18 +409,8 @@ def test_nearest_interpolation_draws_pyvistas_default(name):
     """
     make, keywords, _ = CASES[name]
     grid = make()
-    pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    pl.set_background("black")
-    actor = pl.add_volume(grid, mapper="gpu", show_scalar_bar=False, **keywords)
-    assert actor.prop.interpolation_type == "nearest"   # PyVista's default, left as it is
-    actor.mapper.SetAutoAdjustSampleDistances(False)
-    actor.mapper.SetSampleDistance(0.1 * min(grid.spacing))
-    pl.camera_position = "iso"
-    pl.reset_camera(bounds=grid.bounds)
-    reference = pl.screenshot()
-    position = pl.camera_position
-    camera = cm.Camera.from_pyvista(pl.camera)
-    pl.close()
+    reference, position, camera = pyvista_image(grid, keywords, with_camera=True,
+                                                linear=False)
     background = psnr(np.zeros_like(reference), reference)
     model = cm.make_volume(grid, interpolation="nearest", **keywords)
     cpu = cm.render_emission_absorption(model, camera, SIZE, step_voxels=0.1)
@@ -451,6 +445,26 @@ def test_show_with_screenshot_writes_what_render_image_draws(tmp_path):
     assert saved.std() > 3
 
 
+def theirs_and_ours(add_theirs, add_ours, bounds):
+    """PyVista's image of what ``add_theirs`` adds (isometric view of ``bounds``), and ours
+    of what ``add_ours`` adds at the same camera."""
+    images, position = [], None
+    for add in (add_theirs, add_ours):
+        pl = pv.Plotter(off_screen=True, window_size=SIZE)
+        pl.set_background("black")
+        add(pl)
+        if position is None:
+            pl.camera_position = "iso"
+            pl.reset_camera(bounds=bounds)
+            images.append(pl.screenshot())
+            position = pl.camera_position
+        else:
+            pl.camera_position = position
+            images.append(cm.render_image(pl))
+        pl.close()
+    return images
+
+
 def test_voxels_draw_what_threshold_and_add_mesh_draw():
     """A label grid on ``pv.Wavelet()``'s extent (-10..10) against PyVista's ``threshold`` +
     ``add_mesh(categories=True)`` of the same cells and colours, both unlit.
@@ -469,21 +483,13 @@ def test_voxels_draw_what_threshold_and_add_mesh_draw():
     grid.SetExtent(wavelet.GetExtent())
     grid.cell_data["labels"] = labels.astype(np.uint8)
     colors = ["tomato", "gold", "steelblue"]
-    pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    pl.set_background("black")
-    pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels", categories=True,
-                cmap=colors, lighting=False, show_scalar_bar=False)
-    pl.camera_position = "iso"
-    pl.reset_camera(bounds=grid.bounds)
-    reference = pl.screenshot()
-    position = pl.camera_position
-    pl.close()
-    pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    pl.set_background("black")
-    pl.cubemarch.add_voxels(grid, "labels", palette=["black", *colors], shading="unlit")
-    pl.camera_position = position
-    image = cm.render_image(pl)
-    pl.close()
+    reference, image = theirs_and_ours(
+        lambda pl: pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels",
+                               categories=True, cmap=colors, lighting=False,
+                               show_scalar_bar=False),
+        lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=["black", *colors],
+                                           shading="unlit"),
+        grid.bounds)
     off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
     assert psnr(np.zeros_like(reference), reference) < 20.0
     assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)
@@ -504,20 +510,11 @@ def test_surface_draws_what_contour_draws():
     points = grid.points
     grid.point_data["f"] = (np.linalg.norm((points - grid.center) * [1, 1.3, 0.8], axis=1)
                             + 1.5 * np.sin(points[:, 0] / 2))
-    pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    pl.set_background("black")
-    pl.add_mesh(grid.contour([7.0], scalars="f"), color="tan", lighting=False)
-    pl.camera_position = "iso"
-    pl.reset_camera(bounds=grid.bounds)
-    reference = pl.screenshot()
-    position = pl.camera_position
-    pl.close()
-    pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    pl.set_background("black")
-    pl.cubemarch.add_surface(grid, isovalue=7.0, scalars="f", color="tan", shading="unlit")
-    pl.camera_position = position
-    image = cm.render_image(pl)
-    pl.close()
+    reference, image = theirs_and_ours(
+        lambda pl: pl.add_mesh(grid.contour([7.0], scalars="f"), color="tan", lighting=False),
+        lambda pl: pl.cubemarch.add_surface(grid, isovalue=7.0, scalars="f", color="tan",
+                                            shading="unlit"),
+        grid.bounds)
     off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
     assert psnr(np.zeros_like(reference), reference) < 20.0
     assert psnr(image, reference) >= 30.0 and off <= 0.01, (psnr(image, reference), off)
