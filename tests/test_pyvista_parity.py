@@ -32,6 +32,7 @@ import pyvista as pv
 from pyvista import examples
 
 import pv_cubemarch as cm
+from pv_cubemarch.core.frame_errors import collecting_frame_errors
 
 SIZE = (160, 120)
 TECHNIQUES = ("vtk", "direct", "cubemap", "auto")
@@ -157,40 +158,69 @@ def test_default_colormap_follows_the_theme_as_pyvista(monkeypatch):
     assert psnr(our_image(grid, {}, "vtk", position), reference) >= 45.0
 
 
-@pytest.mark.parametrize("keywords", [
-    dict(clim=(0, 255), cmap="viridis"),
-    dict(clim=(-1000, 3000), cmap="bone", opacity="sigmoid"),
-    dict(clim=(-8, 8), cmap="coolwarm", flip_scalars=True, opacity=[1, 0.5, 0, 0.5, 1]),
-    dict(clim=(1e-12, 3e-12), cmap="magma", n_colors=16, opacity="geom"),
-    dict(clim=(1e12, 5e12), cmap="plasma", opacity=0.3),
-    dict(clim=(1, 65535), cmap="gray", log_scale=True, opacity="linear_r"),
-], ids=["mri-0-255", "ct-hu", "signed-flipped", "tiny-16-colors", "huge", "uint16-log"])
-def test_transfer_functions_are_pyvistas(keywords):
+def _lookup_table_case():
+    lut = pv.LookupTable("viridis", n_values=16, scalar_range=(5, 10))
+    lut.log_scale = True
+    return dict(cmap=lut), None, (5, 10)
+
+
+def _ids_case():
+    ids = (2**40 + np.arange(27)).reshape(3, 3, 3)   # int64 ids float32 cannot tell apart
+    return dict(cmap="tab20", clim=(2**40, 2**40 + 26), opacity="linear"), ids, None
+
+
+TRANSFER_CASES = {
+    "mri-0-255": lambda: (dict(clim=(0, 255), cmap="viridis"), None, None),
+    "ct-hu": lambda: (dict(clim=(-1000, 3000), cmap="bone", opacity="sigmoid"), None, None),
+    "signed-flipped": lambda: (dict(clim=(-8, 8), cmap="coolwarm", flip_scalars=True,
+                                    opacity=[1, 0.5, 0, 0.5, 1]), None, None),
+    "tiny-16-colors": lambda: (dict(clim=(1e-12, 3e-12), cmap="magma", n_colors=16,
+                                    opacity="geom"), None, None),
+    "huge": lambda: (dict(clim=(1e12, 5e12), cmap="plasma", opacity=0.3), None, None),
+    "uint16-log": lambda: (dict(clim=(1, 65535), cmap="gray", log_scale=True,
+                                opacity="linear_r"), None, None),
+    "byte-curve": lambda: (dict(clim=(0, 100), cmap="inferno", opacity=[0, 50, 255]),
+                           None, None),
+    "one-colour": lambda: (dict(clim=(0, 1), cmap="viridis", n_colors=1, opacity=0.5),
+                           None, None),
+    "lookup-table-own-range-and-log": _lookup_table_case,
+    "int64-ids-offset": _ids_case,
+}
+
+
+@pytest.mark.parametrize("case", TRANSFER_CASES)
+def test_transfer_functions_are_pyvistas(case):
     """Our table and the CPU reference's colours equal the transfer functions PyVista gives
     VTK (``actor.prop``'s colour and opacity functions), at values across and beyond clim.
 
     Both checked against VTK's functions, never against each other. Colours within 1/255
     (PyVista's table is 8-bit), opacities within 1/255 (of the per-unit-distance opacity).
+    The ids case stores its data shifted (``value_offset`` = 2**40), so the table and the
+    reference are read in shifted units and VTK's functions in the data's.
     catches: ``lut.scalar_range = (0, 1)`` in from_colormap; the reference's
     ``point_colors`` ignoring ``log_scale`` (uint16-log fails); the table's extinction
-    interpolated between the 16 colours themselves (no ``_refined``: 0.38 of opacity off).
+    interpolated between the 16 colours themselves (no ``_refined``: 0.38 of opacity off);
+    a lookup table's own range and log scale replaced by the data's (0.87 off); a curve
+    above 1 refused instead of read as bytes; ``_shift`` subtracting the offset twice.
     """
     from pv_cubemarch.reference.transfer import medium
 
+    keywords, data, span = TRANSFER_CASES[case]()
+    data = np.zeros((3, 3, 3)) if data is None else data
     grid = pv.ImageData(dimensions=(3, 3, 3))
-    grid.point_data["v"] = np.zeros(27)
+    grid.point_data["v"] = data.ravel(order="F")
     pl = pv.Plotter(off_screen=True)
     actor = pl.add_volume(grid, scalars="v", show_scalar_bar=False, opacity_unit_distance=2.0,
                           **keywords)
     color_tf = actor.prop.GetRGBTransferFunction(0)
     opacity_tf = actor.prop.GetScalarOpacity(0)
-    lo, hi = keywords["clim"]
-    values = np.concatenate([np.linspace(lo, hi, 997), [lo - (hi - lo), hi + (hi - lo)]])
-    expected_rgb = np.array([color_tf.GetColor(v) for v in values])
-    expected_alpha = np.array([opacity_tf.GetValue(v) for v in values])
+    lo, hi = span or keywords["clim"]
+    offsets = np.concatenate([np.linspace(0, hi - lo, 997), [-(hi - lo), 2 * (hi - lo)]])
+    expected_rgb = np.array([color_tf.GetColor(lo + v) for v in offsets])
+    expected_alpha = np.array([opacity_tf.GetValue(lo + v) for v in offsets])
     pl.close()
-    model = cm.make_volume(np.zeros((3, 3, 3)), opacity_unit_distance=2.0, **keywords)
-    shifted = values - float(model.value_offset)
+    model = cm.make_volume(data, opacity_unit_distance=2.0, **keywords)
+    shifted = (lo - model.value_offset) + offsets   # exact: an int minus an int, then floats
     for what, (rgb, sigma) in (("table", model.transfer.lookup(shifted)),
                                ("reference", medium(model, shifted))):
         alpha = -np.expm1(-np.asarray(sigma, np.float64) * 2.0)
@@ -518,3 +548,53 @@ def test_surface_draws_what_contour_draws():
     off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
     assert psnr(np.zeros_like(reference), reference) < 20.0
     assert psnr(image, reference) >= 30.0 and off <= 0.01, (psnr(image, reference), off)
+
+
+@pytest.mark.parametrize("technique", ["cubemap", "auto"])
+def test_screenshot_scale_with_subplots_raises_nothing(technique):
+    """Tiles that miss a subplot draw none of it: the cube map's LOD must not fail there.
+
+    catches: ``drawn_viewport`` giving a zero-sized viewport for such a tile (the LOD's
+    corners non-finite: ``ValueError: corners_px must be 8 finite window positions``).
+    """
+    def plotter(size):
+        pl = pv.Plotter(off_screen=True, window_size=size, shape=(1, 2))
+        pl.set_background("black")
+        for column in range(2):
+            pl.subplot(0, column)
+            pl.cubemarch.add_volume(examples.load_uniform(), technique=technique)
+        return pl
+
+    small = plotter((80, 40))
+    cm.render_image(small)
+    positions = [small.renderers[i].camera_position for i in range(2)]
+    with collecting_frame_errors() as errors:
+        tiled = small.screenshot(scale=3)
+    small.close()
+    assert errors == []
+    large = plotter((240, 120))
+    for index, position in enumerate(positions):
+        large.renderers[index].camera_position = position
+    whole = cm.render_image(large)
+    large.close()
+    assert psnr(tiled, whole) >= 45.0
+
+
+def test_cell_scalars_array_warns_that_it_is_averaged():
+    """A ``scalars`` array with one value per cell is drawn per point, and says so."""
+    grid = pv.ImageData(dimensions=(5, 5, 5))
+    pl = pv.Plotter(off_screen=True)
+    with pytest.warns(UserWarning, match="one value per cell"):
+        pl.cubemarch.add_volume(grid, scalars=np.arange(64.0))
+    for keyword in ("diffuse", "specular", "specular_power", "culling"):
+        with pytest.raises(TypeError, match="does not take"):
+            pl.cubemarch.add_volume(grid, scalars=np.arange(125.0), **{keyword: 0.5})
+    pl.close()
+
+
+def test_equal_clim_is_one_unit_wide_as_a_constant_range():
+    """``clim=(v, v)`` (the range of constant data) is taken, one unit wide, not refused."""
+    model = cm.make_volume(np.full((4, 4, 4), 3.0), clim=(3, 3))
+    assert model.transfer.spec.clim == (3.0, 4.0)
+    with pytest.raises(cm.VolumeDataError, match="increasing"):
+        cm.make_volume(np.full((4, 4, 4), 3.0), clim=(3, 2))

@@ -39,7 +39,8 @@ def drawn_viewport(renderer) -> tuple[int, int, int, int]:
         return int(round((min(max(value, low), high) - low) / (high - low) * size))
 
     x, y = pixel(v0, t0, t2, width), pixel(v1, t1, t3, height)
-    return x, y, pixel(v2, t0, t2, width) - x, pixel(v3, t1, t3, height) - y
+    # a tile outside the renderer draws none of it: one pixel keeps matrices finite
+    return (x, y, max(1, pixel(v2, t0, t2, width) - x), max(1, pixel(v3, t1, t3, height) - y))
 
 
 def camera_matrices(renderer) -> tuple[np.ndarray, np.ndarray]:

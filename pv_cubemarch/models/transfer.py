@@ -101,7 +101,8 @@ class TransferFunction:
         ----------
         cmap : str, sequence, matplotlib colormap or pyvista.LookupTable, optional
             A colormap name (PyVista's theme colormap by default), a list of colours, or a
-            ready lookup table (its colours and opacities are used, ``opacity`` is not).
+            ready lookup table (its colours, opacities, range and log scale are used, as
+            PyVista uses them; ``opacity``, ``clim`` and ``log_scale`` are not).
         opacity : str, float or sequence of float
             A PyVista opacity preset (``'linear'``, ``'sigmoid'``, ``'geom'`` ...), a constant,
             or values in [0, 1] resampled over ``clim``.
@@ -128,6 +129,8 @@ class TransferFunction:
         >>> tf.spec.n_colors, tf.table.shape  # rows refined so opacity interpolates as VTK's
         (256, (4081, 4))
         """
+        if isinstance(cmap, pyvista.LookupTable):   # as PyVista: the table's own range and scale
+            clim, log_scale = tuple(cmap.scalar_range), bool(cmap.log_scale)
         lo, hi = checked_clim(clim)
         if log_scale and lo <= 0:
             lo = sys.float_info.min
@@ -135,8 +138,10 @@ class TransferFunction:
         # near 2**64 are one float apart in data units)
         raw = (-clim, clim) if np.ndim(clim) == 0 else tuple(clim)
         shifted = (_shift(lo, raw[0], value_offset), _shift(hi, raw[1], value_offset))
-        if not shifted[1] > shifted[0]:
+        if shifted[1] < shifted[0]:
             raise VolumeDataError(f"clim must be two finite increasing numbers, got {clim!r}.")
+        if shifted[1] == shifted[0]:   # (v, v), e.g. the range of constant data: one unit wide
+            shifted, hi = (shifted[0], shifted[0] + 1.0), lo + 1.0
         if opacity_unit_distance <= 0 or not np.isfinite(opacity_unit_distance):
             raise VolumeDataError(
                 f"opacity_unit_distance must be a positive length, got {opacity_unit_distance}."
@@ -156,6 +161,8 @@ class TransferFunction:
         else:   # a curve in [0, 1], kept at full precision (not as the table's bytes)
             alpha = _resampled(opacity, n)
         alpha = np.minimum(alpha, MAX_OPACITY)
+        if n == 1:   # one colour and opacity everywhere: two equal rows
+            rgb, alpha = np.repeat(rgb, 2, axis=0), np.repeat(alpha, 2)
         rgb, alpha = _refined(rgb, alpha)
         with np.errstate(over="ignore", divide="ignore"):
             sigma = -np.log1p(-alpha) / float(opacity_unit_distance)
@@ -235,8 +242,8 @@ def _lookup_table(cmap, opacity, n_colors, flip_scalars) -> pyvista.LookupTable:
         n = int(n_colors)
     except (TypeError, ValueError):
         raise VolumeDataError(f"n_colors must be an integer, got {n_colors!r}.") from None
-    if not 2 <= n <= MAX_COLORS:
-        raise VolumeDataError(f"n_colors must be 2 to {MAX_COLORS}, got {n_colors!r}.")
+    if not 1 <= n <= MAX_COLORS:
+        raise VolumeDataError(f"n_colors must be 1 to {MAX_COLORS}, got {n_colors!r}.")
     from pyvista.plotting.colors import get_cmap_safe
 
     if cmap is None:
@@ -265,12 +272,18 @@ def _lookup_table(cmap, opacity, n_colors, flip_scalars) -> pyvista.LookupTable:
 def _resampled(opacity, n: int) -> np.ndarray:
     """Opacity values in [0, 1] at ``n`` points, a curve resampled as PyVista resamples it.
 
+    A curve with values above 1 is read as bytes (0..255), as PyVista reads it.
+
     An array of exactly ``n`` values is taken as it is (PyVista 0.49 would read such an
     array as bytes, 0..255, and draw it almost transparent).
     """
     values = np.atleast_1d(np.asarray(opacity, dtype=np.float64))
-    if values.ndim != 1 or not np.isfinite(values).all() or values.min() < 0 or values.max() > 1:
-        raise VolumeDataError("opacity values must be finite numbers in [0, 1].")
+    if values.ndim != 1 or not np.isfinite(values).all() or values.min() < 0 or \
+            values.max() > 255:
+        raise VolumeDataError("opacity values must be finite numbers in [0, 1] (or bytes, "
+                              "0 to 255, as PyVista also takes them).")
+    if values.max() > 1:   # bytes, as PyVista reads a curve above 1
+        values = values / 255.0
     if values.size == 1:
         return np.full(n, values[0])
     if values.size == n:

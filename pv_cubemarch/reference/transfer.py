@@ -44,6 +44,8 @@ def opacity_samples(opacity, n: int) -> np.ndarray:
     if isinstance(opacity, str):
         return np.asarray(pyvista.opacity_transfer_function(opacity, n), np.float64) / 255.0
     values = np.atleast_1d(np.asarray(opacity, dtype=np.float64))
+    if values.max() > 1:   # a curve of bytes, as PyVista reads one above 1
+        values = values / 255.0
     if values.size == 1:
         return np.full(n, float(values[0]))
     if values.size == n:
@@ -76,6 +78,10 @@ def colors_and_extinction(spec, data: np.ndarray) -> tuple[np.ndarray, np.ndarra
     n = int(spec.n_colors)
     lo, hi = (float(v) for v in spec.clim)
     data = np.asarray(data, dtype=np.float64)
+    if n == 1:   # one point: its colour and opacity everywhere
+        rgb = np.broadcast_to(point_colors(spec)[0], data.shape + (3,))
+        alpha = min(float(opacity_samples(spec.opacity, 1)[0]), OPACITY_CLIP)
+        return rgb, np.full(data.shape, -np.log1p(-alpha) / float(spec.opacity_unit_distance))
     x = np.clip((data - lo) / (hi - lo), 0.0, 1.0) * (n - 1)
     below = np.minimum(np.floor(x).astype(np.int64), n - 2)
     w = x - below

@@ -7,6 +7,8 @@ keywords no technique here draws yet.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pyvista
 
@@ -20,6 +22,13 @@ REFUSED = {
               "('vtk', 'direct', 'cubemap' or 'auto')",
     "multi_colors": "add each block of a MultiBlock with its own cmap (pv_cubemarch "
                     "draws one grid per call)",
+    "diffuse": "gradient shading (shade=True) is not drawn yet; lights= lights the medium "
+               "by its transmittance toward each light",
+    "specular": "gradient shading (shade=True) is not drawn yet; lights= lights the medium "
+                "by its transmittance toward each light",
+    "specular_power": "gradient shading (shade=True) is not drawn yet; lights= lights the "
+                      "medium by its transmittance toward each light",
+    "culling": "a volume draws the faces of its box it needs itself; leave culling out",
 }
 
 
@@ -84,6 +93,10 @@ def volume_input(volume, scalars, resolution, preference: str = "point"):
         raise VolumeDataError(f"scalars has {array.shape[0]} values; the grid has "
                               f"{grid.n_points} points and {grid.n_cells} cells.")
     on_cells = fits_cells and (not fits_points or preference == "cell")
+    if on_cells:
+        warnings.warn("scalars has one value per cell: it is averaged onto the points and "
+                      "drawn interpolated (PyVista draws such an array cell by cell); pass "
+                      "point values for the exact picture.", stacklevel=3)
     (grid.cell_data if on_cells else grid.point_data)["Data"] = array
     return grid, "Data"
 
