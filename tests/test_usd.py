@@ -264,3 +264,21 @@ def test_unknown_scene_suffix(tmp_path):
     (tmp_path / "x.abc").write_text("")
     with pytest.raises(cm.SceneLoadError, match="unknown scene type"):
         cm.load_scene(tmp_path / "x.abc")
+
+
+def test_volume_interpolation_and_blending_attributes(tmp_path):
+    """``cubemarch:interpolation`` and ``cubemarch:blending`` reach the volume as authored."""
+    np.save(tmp_path / "d.npy", np.random.default_rng(0).random((4, 4, 4)))
+    path = write_field_stage(tmp_path, "./d.npy")
+    stage = Usd.Stage.Open(str(path))
+    prim = stage.GetPrimAtPath("/Vol")
+    prim.CreateAttribute("cubemarch:interpolation", Sdf.ValueTypeNames.String).Set("nearest")
+    prim.CreateAttribute("cubemarch:blending", Sdf.ValueTypeNames.String).Set("maximum")
+    stage.GetRootLayer().Save()
+    scene = cm.load_scene(path)
+    assert scene.volumes[0].interpolation == "nearest"
+    assert [options["blending"] for options in scene.volume_options.values()] == ["maximum"]
+    prim.GetAttribute("cubemarch:interpolation").Set("cubic")
+    stage.GetRootLayer().Save()
+    with pytest.warns(cm.SceneWarning, match="interpolation must be one of"):
+        assert cm.load_scene(path).volumes == []   # the prim is skipped, saying why

@@ -63,7 +63,7 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
         _surface(ctx, prim, name, field_prim, grid)
         return
     attrs = {key: attr(prim, f"cubemarch:{key}") for key in
-             ("cmap", "opacity", "clim", "opacityUnitDistance",
+             ("cmap", "opacity", "clim", "opacityUnitDistance", "interpolation",
               *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))}
     found = authored(prim, name, VOLUME_OPTIONS)
     options = {option: value for option, value in found.values()}
@@ -78,6 +78,7 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
             grid, cmap=attrs["cmap"] or "magma", opacity=opacity or "linear",
             clim=tuple(attrs["clim"]) if attrs["clim"] is not None else None,
             opacity_unit_distance=attrs["opacityUnitDistance"],
+            interpolation=str(attrs["interpolation"] or "linear"),
             transform=placement(grid, ctx.world_matrix(prim)), name=name)
     except VolumeDataError as exc:
         raise VolumeDataError(f"Volume {name} (field {field_prim.GetPath()}): {exc}") from exc
