@@ -53,7 +53,7 @@ SURFACE_OPTIONS = (
 )
 
 #: Volume attributes that a voxels Volume prim must not carry.
-VOLUME_ONLY = tuple(key for key in ("opacity", "clim", "opacityUnitDistance",
+VOLUME_ONLY = tuple(key for key in ("opacity", "clim", "opacityUnitDistance", "interpolation",
                                     *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))
                     if key != "technique" and key not in {k for k, _, _ in VOXEL_OPTIONS})
 
