@@ -73,21 +73,38 @@ def point_colors(spec) -> np.ndarray:
     return samples[index]
 
 
+def point_values(spec) -> tuple[np.ndarray, np.ndarray]:
+    """The colour and capped opacity of each of the ``n_colors`` points over ``clim``.
+
+    Derived once per spec (the references ask at every step of every ray).
+    """
+    cached = _POINTS.get(id(spec))
+    if cached is None or cached[0] is not spec:
+        alphas = np.minimum(opacity_samples(spec.opacity, int(spec.n_colors)), OPACITY_CLIP)
+        cached = (spec, point_colors(spec), alphas)
+        if len(_POINTS) > 64:
+            _POINTS.clear()
+        _POINTS[id(spec)] = cached
+    return cached[1], cached[2]
+
+
+#: ``id(spec) -> (spec, colours, opacities)``; the spec is kept so an id is never reused.
+_POINTS: dict = {}
+
+
 def colors_and_extinction(spec, data: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(rgb, sigma)`` of scalars ``data`` (``spec.clim``'s units): what should be drawn."""
     n = int(spec.n_colors)
     lo, hi = (float(v) for v in spec.clim)
     data = np.asarray(data, dtype=np.float64)
+    colors, alphas = point_values(spec)
     if n == 1:   # one point: its colour and opacity everywhere
-        rgb = np.broadcast_to(point_colors(spec)[0], data.shape + (3,))
-        alpha = min(float(opacity_samples(spec.opacity, 1)[0]), OPACITY_CLIP)
-        return rgb, np.full(data.shape, -np.log1p(-alpha) / float(spec.opacity_unit_distance))
+        rgb = np.broadcast_to(colors[0], data.shape + (3,))
+        return rgb, np.full(data.shape, -np.log1p(-alphas[0]) / float(spec.opacity_unit_distance))
     x = np.clip((data - lo) / (hi - lo), 0.0, 1.0) * (n - 1)
     below = np.minimum(np.floor(x).astype(np.int64), n - 2)
     w = x - below
-    colors = point_colors(spec)
     rgb = colors[below] * (1.0 - w)[..., None] + colors[below + 1] * w[..., None]
-    alphas = np.minimum(opacity_samples(spec.opacity, n), OPACITY_CLIP)
     alpha = alphas[below] * (1.0 - w) + alphas[below + 1] * w
     sigma = -np.log1p(-alpha) / float(spec.opacity_unit_distance)
     return rgb, sigma
