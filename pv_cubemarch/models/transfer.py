@@ -137,7 +137,8 @@ class TransferFunction:
         # in the stored values' units, exact for integer bounds and offsets (uint64 ids
         # near 2**64 are one float apart in data units)
         raw = (-clim, clim) if np.ndim(clim) == 0 else tuple(clim)
-        shifted = (_shift(lo, raw[0], value_offset), _shift(hi, raw[1], value_offset))
+        shifted = tuple(shift_value(given if float(given) == bound else bound, value_offset)
+                        for bound, given in zip((lo, hi), raw, strict=True))
         if shifted[1] < shifted[0]:
             raise VolumeDataError(f"clim must be two finite increasing numbers, got {clim!r}.")
         if shifted[1] == shifted[0]:   # (v, v), e.g. the range of constant data: one unit wide
@@ -306,11 +307,8 @@ def _spec_opacity(cmap, opacity, lut: pyvista.LookupTable):
     return opacity
 
 
-def _shift(value: float, given, offset: int | float) -> float:
-    """``value - offset``; exact for an integer bound and an integer offset (int64 ids)."""
-    if not offset:
-        return float(value)
-    if isinstance(offset, (int, np.integer)) and isinstance(given, (int, np.integer)) \
-            and float(given) == value:
-        return float(int(given) - int(offset))
+def shift_value(value, offset: int | float) -> float:
+    """A data value (e.g. a clim bound) in the units of a volume's shifted ``values``."""
+    if isinstance(offset, (int, np.integer)) and isinstance(value, (int, np.integer)):
+        return float(int(value) - int(offset))
     return float(value) - float(offset)

@@ -8,7 +8,7 @@ import numpy as np
 import pyvista
 
 from ..core.errors import VolumeDataError
-from .transfer import TransferFunction
+from .transfer import TransferFunction, shift_value
 
 NAN_POLICIES = ("raise", "zero")
 #: How values are read between grid points (VTK's volume property interpolation types).
@@ -271,13 +271,6 @@ def _minus(array: np.ndarray, offset: int | float) -> np.ndarray:
         return ((high - (offset >> 32)).astype(np.float64) * 2.0**32
                 + (low - (offset & 0xFFFFFFFF)).astype(np.float64))
     return np.asarray(array, dtype=np.float64) - float(offset)
-
-
-def shift_value(value, offset: int | float) -> float:
-    """A data value (e.g. a clim bound) in the units of a volume's shifted ``values``."""
-    if isinstance(offset, (int, np.integer)) and isinstance(value, (int, np.integer)):
-        return float(int(value) - int(offset))
-    return float(value) - float(offset)
 
 
 def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear",
