@@ -26,7 +26,12 @@ from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cub
 from .volume.light_map import LightMap
 from .volume.march import VolumeData
 from .volume.options import DEFAULT_STOP_OPACITY, Shading
-from .volume.pyvista_keywords import add_scalar_bar, resolve_aliases, volume_input
+from .volume.pyvista_keywords import (
+    add_scalar_bar,
+    isosurface_levels,
+    resolve_aliases,
+    volume_input,
+)
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
 from .voxels.indexed import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
@@ -72,6 +77,7 @@ def add_volume(
     pickable: bool = True,
     render: bool = True,
     blending: str = "composite",
+    isosurfaces=None,
     interpolation: str = "linear",
     shade: bool = False,
     **kwargs,
@@ -197,12 +203,19 @@ def add_volume(
     render : bool
         Render once the volume is added, if the plotter is already shown.
     blending : str
-        ``'composite'`` (emission/absorption, default), ``'maximum'`` (maximum-intensity
-        projection: the largest value along each ray, drawn with its colour and opacity) or
-        ``'minimum'`` (the smallest), as VTK draws them, in every technique (no lights, no
-        joint groups; empty-space skipping and early termination are off, every sample
-        counts). PyVista's ``'average'`` and ``'additive'`` are not drawn yet and raise an
-        error that says so.
+        How the samples along a ray make its colour, as VTK draws each mode, in every
+        technique: ``'composite'`` (emission/absorption, default); ``'maximum'`` /
+        ``'minimum'`` (the largest / smallest value along the ray, drawn with its colour
+        and its opacity); ``'average'`` (the mean of the samples' values, each normalised
+        over the data's range and weighted by its opacity, as an opaque grey level);
+        ``'additive'`` (their sum along the ray per ``opacity_unit_distance``, grey,
+        clamped to white); ``'isosurface'`` (the levels of ``isosurfaces`` as surfaces with
+        their colour and opacity). The modes other than composite take no lights and no
+        joint groups, and read every sample (no empty-space skipping).
+    isosurfaces : sequence of float or int, optional
+        The levels ``blending='isosurface'`` draws, in data units; an int ``n`` takes ``n``
+        levels spread over the data's range, as :meth:`pyvista.DataSetFilters.contour`
+        does.
     interpolation : str
         How values are read between grid points: ``'linear'`` (trilinear, default) or
         ``'nearest'`` (the nearest point: PyVista's default, its
@@ -251,12 +264,12 @@ def add_volume(
         max_samples=max_samples, upscale=upscale, sample_factor=sample_factor,
         occlusion_sharpness=occlusion_sharpness).items() if value is not None}
     options = chosen.make_options(given)
-    shading = Shading(stop_opacity, bool(skip_empty), light_map_size, ambient, blending)
-    shading.check()
+    Shading(stop_opacity, bool(skip_empty), light_map_size, ambient, blending,
+            (0.0,) if blending == "isosurface" and isosurfaces is not None else ()).check()
     if blending != "composite" and (isinstance(volume, VolumeGroup) or lights is not None):
-        raise ValueError(f"blending={blending!r} draws one value per ray (its colour and "
-                         "opacity); it takes no lights and no jointly marched volumes. Use "
-                         "blending='composite' for those.")
+        raise ValueError(f"blending={blending!r} reads the samples along a ray without "
+                         "attenuating them; it takes no lights and no jointly marched "
+                         "volumes. Use blending='composite' for those.")
     if isinstance(volume, (VolumeModel, VolumeGroup)):
         if interpolation != "linear":
             raise ValueError("interpolation goes with raw data; a VolumeModel carries its own "
@@ -273,6 +286,9 @@ def add_volume(
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
     options.check_model(model)
+    shading = Shading(stop_opacity, bool(skip_empty), light_map_size, ambient, blending,
+                      isosurface_levels(isosurfaces, model))
+    shading.check()
     component = plotter.cubemarch  # created now: it follows frames and frees on close
     source = light_source(lights, plotter.renderer)
     data = VolumeData(model)

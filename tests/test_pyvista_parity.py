@@ -29,10 +29,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
+import vtk
 from pyvista import examples
 
 import pv_cubemarch as cm
 from pv_cubemarch.core.frame_errors import collecting_frame_errors
+from pv_cubemarch.volume.pyvista_keywords import isosurface_levels
 
 SIZE = (160, 120)
 TECHNIQUES = ("vtk", "direct", "cubemap", "auto")
@@ -97,13 +99,22 @@ def floor(technique: str, sharp: bool) -> float:
     return 45.0
 
 
-def pyvista_image(grid, keywords, blending="composite", with_camera=False, linear=True):
+def pyvista_image(grid, keywords, blending="composite", with_camera=False, linear=True,
+                  isosurfaces=()):
     """PyVista's own add_volume, a fine sample distance, linear interpolation (or PyVista's
-    default, nearest, with ``linear=False``); its image and camera."""
+    default, nearest, with ``linear=False``); its image and camera. ``'isosurface'``, which
+    PyVista does not name, is set on VTK's mapper and volume property."""
     pl = pv.Plotter(off_screen=True, window_size=SIZE)
     pl.set_background("black")
-    actor = pl.add_volume(grid, mapper="gpu", show_scalar_bar=False, blending=blending,
+    actor = pl.add_volume(grid, mapper="gpu", show_scalar_bar=False,
+                          blending="composite" if blending == "isosurface" else blending,
                           **keywords)
+    if blending == "isosurface":
+        actor.mapper.SetBlendMode(vtk.vtkVolumeMapper.ISOSURFACE_BLEND)
+        levels = actor.prop.GetIsoSurfaceValues()
+        levels.SetNumberOfContours(len(isosurfaces))
+        for index, level in enumerate(isosurfaces):
+            levels.SetValue(index, level)
     if linear:
         actor.prop.interpolation_type = "linear"
     else:
@@ -367,58 +378,124 @@ def test_window_resized_off_screen(technique):
     assert psnr(resized, expected) >= 45.0
 
 
-#: name, blend mode: datasets whose projections are not the background alone
-PROJECTIONS = [("uniform", "maximum"), ("wavelet", "maximum"), ("wavelet", "minimum"),
-               ("ct", "maximum"), ("zmap", "maximum"), ("zmap", "minimum")]
+#: name, blend mode: datasets whose blends are not the background alone
+BLENDS = [("uniform", "maximum"), ("wavelet", "maximum"), ("wavelet", "minimum"),
+          ("ct", "maximum"), ("zmap", "maximum"), ("zmap", "minimum"),
+          ("ct", "average"), ("ct", "additive"), ("wavelet", "isosurface"),
+          ("zmap", "isosurface")]
+#: Floors per blend mode: (reference, vtk and direct, cube map and auto).
+BLEND_FLOORS = {"maximum": (45.0, 45.0, 30.0), "minimum": (45.0, 45.0, 30.0),
+                "average": (45.0, 45.0, 30.0), "additive": (45.0, 45.0, 30.0),
+                "isosurface": (33.0, 36.0, 26.0)}
 
 
-@pytest.mark.parametrize("name, blending", PROJECTIONS, ids=[f"{n}-{b}" for n, b in PROJECTIONS])
-def test_intensity_projections_draw_what_pyvista_draws(name, blending):
-    """``blending='maximum'`` / ``'minimum'``: every technique and the CPU reference against
-    PyVista's own projection of the same data.
+def interior_levels(grid, count=3):
+    """``count`` levels evenly inside the data's range (data units)."""
+    low, high = grid.get_data_range()
+    return tuple(float(v) for v in np.linspace(low, high, count + 2)[1:-1])
 
-    Measured: reference 47.1-69.8 dB against PyVista; vtk and direct 47.4-73.6 dB; the cube
-    map 35.5-61.5 dB (its texels resampled on screen; 'auto' takes it for the small uniform
-    grid). Floors 45 dB, and 30 dB for the cube map and auto; the background alone gives
-    13.7-24.6 dB.
+
+@pytest.mark.parametrize("name, blending", BLENDS, ids=[f"{n}-{b}" for n, b in BLENDS])
+def test_blend_modes_draw_what_pyvista_draws(name, blending):
+    """Every ``blending`` mode: every technique and the CPU reference against PyVista's
+    (VTK's) own drawing of the same data and mode.
+
+    Measured (llvmpipe, 160x120), against PyVista: maximum/minimum: reference 47.1-69.8 dB,
+    vtk and direct 47.4-73.6, the cube map 35.5-61.5 ('auto' takes it for the small uniform
+    grid); average/additive (grey levels): reference and vtk/direct/auto 50.7-77.5, cube
+    map 36.5-72.7; isosurface (three levels inside the range; each crossing is taken at a
+    sample, so silhouettes move by a step): reference 35.4-120, vtk/direct 39.4-120, cube
+    map and auto 29.2-43.1. The background alone gives 6.1-24.6 dB, below every floor.
     catches: the blend mode ignored (composite drawn: ``march_snippets`` returning
     blend_composite), 14.4-32.4 dB, every case; the opacity per unit distance left out of
-    the result (``alpha = emission.a`` in blend_maximum.glsl), every maximum case (vtk
-    25.5-31.4 dB).
+    a projection (``alpha = emission.a`` in blend_projection.glsl), every maximum case (vtk
+    25.5-31.4 dB); average normalised over clim instead of the data's range
+    (``cm_dataRange`` bound to ``transfer.clim``): ct-average vtk 39.2 dB; average drawn
+    as additive (its snippet swapped in BLEND_SNIPPETS): ct-average 14.1 dB; additive
+    without the step over the unit distance (``* dt / cm_opacityUnit`` dropped): ct vtk
+    26.5 dB; levels crossed upward only (the downward test of blend_isosurface.glsl
+    made false): wavelet vtk 25.5 dB, zmap 29.8 dB.
     """
     make, keywords, _ = CASES[name]
     grid = make()
-    reference, position, camera = pyvista_image(grid, keywords, blending, with_camera=True)
+    levels = interior_levels(grid) if blending == "isosurface" else ()
+    reference, position, camera = pyvista_image(grid, keywords, blending, with_camera=True,
+                                                isosurfaces=levels)
     background = psnr(np.zeros_like(reference), reference)
-    cpu = cm.render_intensity_projection(cm.make_volume(grid, **keywords), camera, SIZE,
-                                         blending)
+    model = cm.make_volume(grid, **keywords)
+    cpu = cm.render_blended(model, camera, SIZE, blending,
+                            isosurfaces=[v - model.value_offset for v in levels])
     cpu = np.round(np.clip(cpu, 0.0, 1.0) * 255.0)
     measured = {"reference": psnr(cpu, reference)}
+    iso = dict(isosurfaces=levels) if levels else {}
     for technique in TECHNIQUES:
         pl = pv.Plotter(off_screen=True, window_size=SIZE)
         pl.set_background("black")
         fine = {} if technique == "cubemap" else dict(step_scale=0.1)
         pl.cubemarch.add_volume(grid, technique=technique, blending=blending, **fine,
-                                **keywords)
+                                **iso, **keywords)
         pl.camera_position = position
         measured[technique] = psnr(cm.render_image(pl), reference)
         pl.close()
+    floors = BLEND_FLOORS[blending]
     for what, value in measured.items():
-        least = 30.0 if what in ("cubemap", "auto") else 45.0
+        least = floors[0] if what == "reference" else floors[
+            2 if what in ("cubemap", "auto") else 1]
         assert least > background + 1.0
         assert value >= least, (name, blending, measured, f"background {background:.1f}")
 
 
+def test_isosurface_levels_in_data_units_on_shifted_data():
+    """``isosurfaces=`` are data values, also where the data are stored shifted (int64 ids
+    near 2**40): the level between two ids is drawn, as with data at 0.
+
+    catches: the levels bound unshifted (``isosurface_levels`` returning the data values):
+    nothing crossed, the image is the background.
+    """
+    values = np.zeros((9, 9, 9), dtype=np.int64)
+    values[2:7, 2:7, 2:7] = 1
+    drawn = []
+    for offset in (0, 2**40):
+        pl = pv.Plotter(off_screen=True, window_size=(64, 64))
+        pl.set_background("black")
+        pl.cubemarch.add_volume(values + offset, blending="isosurface", clim=(offset,
+                                offset + 1), isosurfaces=[offset + 0.5], opacity=[1, 1],
+                                step_scale=0.25)
+        pl.camera_position = "iso"
+        drawn.append(cm.render_image(pl).astype(float))
+        pl.close()
+    assert drawn[0].max() > 100                      # the level is drawn
+    assert np.abs(drawn[0] - drawn[1]).max() <= 2    # the same, 2**40 higher
+
+
+def test_isosurfaces_count_spreads_levels_as_contour():
+    """An int ``isosurfaces=n`` takes ``n`` levels from the data's least to its largest
+    value, as ``contour`` does."""
+    grid = pv.Wavelet()
+    model = cm.make_volume(grid)
+    low, high = grid.get_data_range()
+    levels = isosurface_levels(3, model)
+    assert np.allclose(np.array(levels) + model.value_offset, [low, (low + high) / 2, high],
+                       rtol=1e-6)
+
+
 def test_blend_modes_refused_clearly():
-    """PyVista's modes not drawn yet, and modes with lights or joint groups, say so."""
+    """Unknown modes, isosurfaces without their mode (or the mode without them), and modes
+    with lights or joint groups say what to do."""
     pl = pv.Plotter(off_screen=True)
     grid = examples.load_uniform()
-    with pytest.raises(ValueError, match="not drawn yet"):
-        pl.cubemarch.add_volume(grid, blending="average")
     with pytest.raises(ValueError, match="blending must be one of"):
         pl.cubemarch.add_volume(grid, blending="over")
     with pytest.raises(ValueError, match="no lights"):
         pl.cubemarch.add_volume(grid, blending="maximum", lights="scene")
+    with pytest.raises(ValueError, match="isosurfaces="):
+        pl.cubemarch.add_volume(grid, blending="isosurface")
+    with pytest.raises(ValueError, match="blending='isosurface'"):
+        pl.cubemarch.add_volume(grid, isosurfaces=[100])
+    with pytest.raises(ValueError, match="finite numbers"):
+        pl.cubemarch.add_volume(grid, blending="isosurface", isosurfaces=[np.nan])
+    with pytest.raises(ValueError, match="numbers"):
+        pl.cubemarch.add_volume(grid, blending="isosurface", isosurfaces=["a"])
     pl.close()
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pyvista
+import vtk
 
 from ..api import add_volume
 from ..core.camera import Camera
@@ -25,7 +26,7 @@ from ..core.registry import describe_setting, techniques
 from ..core.rendering import offscreen_plotter, read_depth, read_pixels, render_frame
 from ..models.volume import VolumeModel
 from ..reference.emission_absorption import render_emission_absorption
-from ..reference.projections import render_intensity_projection
+from ..reference.projections import render_blended
 from ..scene.model import Scene
 from ..testing import compare_images
 
@@ -80,10 +81,18 @@ def _build_stock(plotter, volume: VolumeModel, setting):
     lut.scalar_range = transfer.clim
     grid = volume.grid.copy()
     grid.point_data["values"] = volume.values.ravel(order="F")
+    blending = setting.get("blending", "composite")
     actor = plotter.add_volume(grid, scalars="values", cmap=lut, clim=transfer.clim,
                                opacity_unit_distance=unit, mapper="gpu", shade=False,
                                show_scalar_bar=False,
-                               blending=setting.get("blending", "composite"))
+                               blending="composite" if blending == "isosurface" else blending)
+    if blending == "isosurface":   # VTK has the mode; PyVista does not name it
+        actor.mapper.SetBlendMode(vtk.vtkVolumeMapper.ISOSURFACE_BLEND)
+        levels = actor.prop.GetIsoSurfaceValues()
+        stored = _stored_levels(volume, setting["isosurfaces"])
+        levels.SetNumberOfContours(len(stored))
+        for index, level in enumerate(stored):
+            levels.SetValue(index, level)
     actor.prop.interpolation_type = "linear"   # as every technique here samples
     mapper = actor.mapper
     mapper.SetAutoAdjustSampleDistances(False)
@@ -91,6 +100,24 @@ def _build_stock(plotter, volume: VolumeModel, setting):
     mapper.SetSampleDistance(setting["step_scale"] * float(np.min(volume.grid.spacing)))
     actor.user_matrix = np.asarray(volume.transform)
     return actor
+
+
+def _stored_levels(volume: VolumeModel, levels) -> list[float]:
+    """Isosurface levels (data units) in the volume's stored units."""
+    return [float(v) - float(volume.value_offset) for v in levels]
+
+
+def blend_setting(mode: str, volume: VolumeModel) -> dict:
+    """What a bench row of blend ``mode`` adds to its setting.
+
+    The mode, and for 'isosurface' three levels evenly inside the data's range (data units).
+    """
+    if mode != "isosurface":
+        return {"blending": mode}
+    finite = volume.values[np.isfinite(volume.values)]
+    inside = np.linspace(float(finite.min()), float(finite.max()), 5)[1:-1]
+    return {"blending": mode,
+            "isosurfaces": tuple(float(v) + float(volume.value_offset) for v in inside)}
 
 
 def sweeps() -> dict[str, BenchSweep]:
@@ -205,7 +232,8 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
     progress_bar : bool, optional
         Show progress over the settings being set up; by default only on a terminal.
     blending : sequence of str
-        Blend modes to measure (``'composite'``, ``'maximum'``, ``'minimum'``): every row
+        Blend modes to measure (any of ``BLEND_MODES``; 'isosurface' at three levels inside
+        the data's range, :func:`blend_setting`): every row
         once per mode, against that mode's CPU reference, and against PyVista's own
         ``add_volume`` of the mode at its finest setting (``extra['psnr_vs_pyvista']``, with
         ``include_stock``). The Pareto front is marked per mode.
@@ -225,12 +253,13 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
     camera = scene.camera or scene.default_camera(size[0] / size[1])
     color, distance = opaque_layer(scene, camera, size)
     near = camera.clipping_range[0] if camera.clipping_range else None
-    references = {mode: _reference(mode, available[chosen[0]], volume, camera, size,
+    modes = {mode: blend_setting(mode, volume) for mode in blending}
+    references = {mode: _reference(modes[mode], available[chosen[0]], volume, camera, size,
                                    reference_step, distance, color, near) for mode in blending}
-    runs = [(available[name], dict(s, blending=mode)) for mode in blending
+    runs = [(available[name], dict(s, **modes[mode])) for mode in blending
             for name in chosen for s in available[name].settings]
     if include_stock and "pyvista" not in chosen:
-        runs += [(available["pyvista"], dict(s, blending=mode)) for mode in blending
+        runs += [(available["pyvista"], dict(s, **modes[mode])) for mode in blending
                  for s in available["pyvista"].settings]
     plotters = {}
     results = []
@@ -250,7 +279,8 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
             errors = compare_images(images[index], references[mode]).as_dict()
             extra = {} if mode not in stock else {
                 "psnr_vs_pyvista": compare_images(images[index], stock[mode]).psnr}
-            label = sweep.describe({k: v for k, v in setting.items() if k != "blending"})
+            label = sweep.describe({k: v for k, v in setting.items()
+                                    if k not in ("blending", "isosurfaces")})
             results.append(TradeoffResult(sweep.technique, label, dict(setting), times[index],
                                           errors, extra=extra))
     finally:
@@ -261,13 +291,19 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
     return results
 
 
-def _reference(mode, sweep, volume, camera, size, step, distance, color, near):
-    """The right image of ``mode``: the technique's reference, or the projections'."""
-    if mode == "composite":
+def _reference(blend: dict, sweep, volume, camera, size, step, distance, color, near):
+    """The right image of a blend setting.
+
+    The technique's reference for composite, else the blend modes'
+    (:func:`~pv_cubemarch.reference.projections.render_blended`).
+    """
+    if blend["blending"] == "composite":
         return sweep.reference(volume, camera, size, step_voxels=step, opaque_depth=distance,
                                opaque_color=color, near=near)
-    return render_intensity_projection(volume, camera, size, mode, step_voxels=step,
-                                       opaque_depth=distance, opaque_color=color, near=near)
+    levels = _stored_levels(volume, blend.get("isosurfaces", ()))
+    return render_blended(volume, camera, size, blend["blending"], isosurfaces=levels,
+                          step_voxels=step, opaque_depth=distance, opaque_color=color,
+                          near=near)
 
 
 def mark_pareto(results: list[TradeoffResult]) -> None:
@@ -282,7 +318,7 @@ def mark_pareto(results: list[TradeoffResult]) -> None:
 def format_table(results: list[TradeoffResult]) -> str:
     """A plain-text table, times also as ratios to the fastest row of the same run."""
     fastest = min(r.median_ms for r in results)
-    header = (f"{'technique':<10} {'blending':<9} {'setting':<24} {'median ms':>10} "
+    header = (f"{'technique':<10} {'blending':<10} {'setting':<24} {'median ms':>10} "
               f"{'x fastest':>9} {'PSNR dB':>8} {'SSIM':>7} {'max err':>8} {'vs PyVista':>10} "
               f"{'pareto':>6}")
     lines = [header, "-" * len(header)]
@@ -291,7 +327,7 @@ def format_table(results: list[TradeoffResult]) -> str:
         versus = r.extra.get("psnr_vs_pyvista")
         shown = "" if versus is None else f"{versus:.2f}"
         mode = r.parameters.get("blending", "composite")
-        lines.append(f"{r.technique:<10} {mode:<9} {r.setting:<24} {r.median_ms:>10.1f} "
+        lines.append(f"{r.technique:<10} {mode:<10} {r.setting:<24} {r.median_ms:>10.1f} "
                      f"{r.median_ms / fastest:>9.2f} {e['psnr']:>8.2f} {e['ssim']:>7.4f} "
                      f"{e['max_abs']:>8.0f} {shown:>10} {'*' if r.pareto else '':>6}")
     return "\n".join(lines)

@@ -20,8 +20,15 @@ UniformValue = float | int | tuple | list | np.ndarray
 UniformSource = UniformValue | Callable[[], UniformValue]
 
 
+class FloatArray(tuple):
+    """A uniform ``float name[N]`` (a plain tuple of 2-4 numbers is a vec2-vec4)."""
+
+
 def set_uniform(program, name: str, value: Any) -> None:
     """Set a float/vec/mat4 (or int) uniform on a ``vtkShaderProgram`` by its value's shape."""
+    if isinstance(value, FloatArray):
+        program.SetUniform1fv(name, len(value), [float(v) for v in value])
+        return
     if isinstance(value, (bool, int, np.integer)):
         program.SetUniformi(name, int(value))
         return

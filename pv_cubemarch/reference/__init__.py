@@ -8,11 +8,11 @@ traversal (first voxel, face and depth per pixel) and the faces' ambient occlusi
 """
 
 from .emission_absorption import render_emission_absorption
-from .projections import render_intensity_projection
+from .projections import render_blended
 from .rays import chord_lengths, mesh_depth, ray_box_interval, trilinear
 from .voxels import VoxelHits, id_colors, occlusion_factor, render_voxels, trace_voxels
 
 __all__ = ["VoxelHits", "chord_lengths", "id_colors", "mesh_depth", "occlusion_factor",
-           "ray_box_interval", "render_emission_absorption", "render_intensity_projection",
+           "ray_box_interval", "render_emission_absorption", "render_blended",
            "render_voxels", "trace_voxels",
            "trilinear"]

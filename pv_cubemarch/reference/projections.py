@@ -1,9 +1,17 @@
-"""Maximum- and minimum-intensity projections on the CPU: the right image of those blend modes.
+"""The blend modes other than composite, on the CPU: the right image of each.
 
-The extreme scalar along each pixel's ray (fine steps, sampled as the volume's
-``interpolation`` says) is drawn with the
-colour and the opacity per unit distance that :mod:`.transfer` derives for it, over the
-background, as VTK's ``MAXIMUM_INTENSITY_BLEND`` and ``MINIMUM_INTENSITY_BLEND`` draw it.
+Each pixel's ray is walked in fine steps (sampled as the volume's ``interpolation`` says);
+a mode is one small class that takes the samples of every step and leaves each ray's
+premultiplied colour, as VTK's volume mapper defines the mode:
+
+- ``maximum`` / ``minimum``: the extreme value along the ray, drawn with the colour and
+  the opacity per unit distance that :mod:`.transfer` derives for it;
+- ``average``: the mean over the samples of opacity x value normalised over the data's
+  range, an opaque grey level (no sample: the background);
+- ``additive``: the sum of opacity x normalised value x step / ``opacity_unit_distance``,
+  an opaque grey level clamped to 1;
+- ``isosurface``: each level the ray crosses between two samples, with that level's colour
+  and opacity, composited front to back.
 """
 
 from __future__ import annotations
@@ -16,23 +24,123 @@ from ..core.camera import Camera
 from .rays import index_rays, sample
 from .transfer import medium
 
-#: The reduction each blend mode applies along a ray.
-REDUCTIONS = {"maximum": (np.maximum, -np.inf), "minimum": (np.minimum, np.inf)}
+
+def _opacity(volume, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Colour and opacity per unit distance (the opacity curve's own value) of ``values``."""
+    rgb, sigma = medium(volume, values)
+    return rgb, -np.expm1(-sigma * _unit(volume))
 
 
-def render_intensity_projection(volume, camera: Camera, size: Sequence[int] = (256, 256),
-                                blending: str = "maximum",
-                                background: Sequence[float] = (0.0, 0.0, 0.0),
-                                step_voxels: float = 0.1,
-                                near: float | None = None,
-                                opaque_depth: np.ndarray | None = None,
-                                opaque_color: np.ndarray | None = None) -> np.ndarray:
-    """The ``blending`` projection of ``volume`` (a VolumeModel): ``(h, w, 3)`` floats.
+def _unit(volume) -> float:
+    """The opacity unit distance the user gave (1 for a bare table)."""
+    return volume.transfer.spec.opacity_unit_distance if volume.transfer.spec else 1.0
 
+
+class _Extreme:
+    """``maximum`` / ``minimum``: the extreme value, drawn with its colour and opacity."""
+
+    def __init__(self, volume, count: int, largest: bool):
+        self.volume, self.largest = volume, largest
+        self.extreme = np.full(count, -np.inf if largest else np.inf)
+
+    def add(self, rays, values, lengths):
+        reduce = np.maximum if self.largest else np.minimum
+        self.extreme[rays] = reduce(self.extreme[rays], values)
+
+    def finish(self):
+        hit = np.isfinite(self.extreme)
+        rgb, alpha = _opacity(self.volume, np.where(hit, self.extreme, 0.0))
+        alpha = np.where(hit, alpha, 0.0)
+        return rgb * alpha[:, None], alpha
+
+
+class _Weighted:
+    """``average`` / ``additive``: opacity-weighted values normalised over the data's range."""
+
+    def __init__(self, volume, count: int, additive: bool):
+        self.volume, self.additive = volume, additive
+        finite = volume.values[np.isfinite(volume.values)]
+        self.low = float(finite.min()) if finite.size else 0.0
+        self.width = float(finite.max()) - self.low if finite.size else 0.0
+        self.total = np.zeros(count)
+        self.samples = np.zeros(count)
+
+    def add(self, rays, values, lengths):
+        _, alpha = _opacity(self.volume, values)
+        level = (values - self.low) / self.width if self.width > 0 else np.zeros_like(values)
+        weight = lengths / _unit(self.volume) if self.additive else 1.0
+        self.total[rays] += alpha * level * weight
+        self.samples[rays] += 1.0
+
+    def finish(self):
+        if self.additive:
+            grey, drawn = self.total, self.samples > 0
+        else:
+            grey = self.total / np.maximum(self.samples, 1.0)
+            drawn = self.samples > 0
+        alpha = drawn.astype(np.float64)
+        return np.clip(grey, 0.0, 1.0)[:, None] * alpha[:, None] * np.ones(3), alpha
+
+
+class _Isosurfaces:
+    """``isosurface``: the levels crossed between samples, composited front to back."""
+
+    def __init__(self, volume, count: int, levels: Sequence[float]):
+        self.volume = volume
+        self.levels = np.sort(np.asarray(levels, dtype=np.float64))
+        self.previous = np.full(count, np.nan)
+        self.rgb = np.zeros((count, 3))
+        self.alpha = np.zeros(count)
+        self.level_rgb, self.level_alpha = _opacity(volume, self.levels)
+
+    def add(self, rays, values, lengths):
+        before = self.previous[rays]
+        up, down = values > before, values < before   # False where there is no `before`
+        count = len(self.levels)
+        for i in range(count):
+            for going, index in ((up, i), (down, count - 1 - i)):
+                level = self.levels[index]
+                if going is up:
+                    crossed = up & (before < level) & (level < values)
+                else:
+                    crossed = down & (level <= before) & (values < level)
+                where = rays[crossed]
+                weight = (1.0 - self.alpha[where]) * self.level_alpha[index]
+                self.rgb[where] += weight[:, None] * self.level_rgb[index]
+                self.alpha[where] += weight
+        self.previous[rays] = values
+
+    def finish(self):
+        return self.rgb, self.alpha
+
+
+def blend_accumulator(volume, count: int, blending: str, isosurfaces=()):
+    """The state of ``count`` rays under ``blending`` (``add`` per step, then ``finish``)."""
+    if blending in ("maximum", "minimum"):
+        return _Extreme(volume, count, blending == "maximum")
+    if blending in ("average", "additive"):
+        return _Weighted(volume, count, blending == "additive")
+    if blending == "isosurface":
+        if not len(isosurfaces):
+            raise ValueError("blending='isosurface' needs its levels: pass isosurfaces=.")
+        return _Isosurfaces(volume, count, isosurfaces)
+    raise ValueError(f"blending={blending!r} has no reference here; composite is "
+                     "render_emission_absorption.")
+
+
+def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
+                   blending: str = "maximum", isosurfaces: Sequence[float] = (),
+                   background: Sequence[float] = (0.0, 0.0, 0.0),
+                   step_voxels: float = 0.1,
+                   near: float | None = None,
+                   opaque_depth: np.ndarray | None = None,
+                   opaque_color: np.ndarray | None = None) -> np.ndarray:
+    """The ``blending`` image of ``volume`` (a VolumeModel): ``(h, w, 3)`` floats.
+
+    ``isosurfaces``: the levels of ``'isosurface'``, in the volume's stored units.
     ``opaque_depth`` / ``opaque_color``: per-pixel distance to opaque meshes and their
-    colour; rays stop there, the projection is drawn over that colour.
+    colour; rays stop there, the blend is drawn over that colour.
     """
-    reduce, start = REDUCTIONS[blending]
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
     origins, directions = origins.reshape(-1, 3), directions.reshape(-1, 3)
@@ -45,22 +153,19 @@ def render_intensity_projection(volume, camera: Camera, size: Sequence[int] = (2
         t0 = np.maximum(t0, near / np.maximum(directions @ forward, 1e-12))
     step = float(step_voxels) * float(np.linalg.norm(volume.world_from_index()[:3, :3],
                                                      axis=0).min())
-    extreme = np.full(len(origins), start)
+    state = blend_accumulator(volume, len(origins), blending, isosurfaces)
     active = np.nonzero(t1 > t0)[0]
     t = t0[active].copy()
     while active.size:
         end = np.minimum(t + step, t1[active])
         middle = 0.5 * (t + end)
         points = o_idx[active] + d_idx[active] * middle[:, None]
-        extreme[active] = reduce(extreme[active], sample(volume, points))
+        state.add(active, sample(volume, points), end - t)
         t = end
         keep = t < t1[active]
         active, t = active[keep], t[keep]
-    hit = np.isfinite(extreme)
-    rgb, sigma = medium(volume, np.where(hit, extreme, 0.0))
-    unit = volume.transfer.spec.opacity_unit_distance if volume.transfer.spec else 1.0
-    alpha = np.where(hit, -np.expm1(-sigma * unit), 0.0)
+    rgb, alpha = state.finish()
     behind = np.asarray(background, float) if opaque_color is None else np.asarray(
         opaque_color, dtype=np.float64).reshape(-1, 3)
-    image = rgb * alpha[:, None] + (1.0 - alpha[:, None]) * behind
+    image = rgb + (1.0 - alpha[:, None]) * behind
     return image.reshape(height, width, 3)

@@ -145,7 +145,7 @@ def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=No
     if downsample == 1:
         bindings = ShaderBindings(actor.GetMapper(), renderer)
         sampling, defines = bind_sampling(bindings, data, step_scale, shading.stop_opacity,
-                                          shading.skip_empty, blending=shading.blending)
+                                          shading.skip_empty, blend=shading.blend)
         if light_map is not None:
             light_map.bind(bindings)
             defines.update(light_map.defines)
@@ -204,7 +204,7 @@ def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
     low_pass = RenderToTexturePass(overlay.renderer, None, size=low_size,
                                    targets=("rgba16f", "r32f"))
     sampling, defines = bind_sampling(low_pass, data, step_scale, shading.stop_opacity,
-                                      shading.skip_empty, blending=shading.blending)
+                                      shading.skip_empty, blend=shading.blend)
     low_pass.add_texture("cm_sceneDepth", overlay.depth)
     bind_camera(low_pass, main, lambda: world_from_texture(model))
     lit = ()

@@ -10,9 +10,11 @@ differ only in how a ray is set up and where its result goes.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..gl.bindings import ShaderBindings
+from ..gl.bindings import FloatArray, ShaderBindings
 from ..gl.box import place_box
 from ..gl.drawn import DrawnBinding
 from ..gl.overlay import place_bounds_proxy
@@ -30,13 +32,31 @@ STEP_BLOCKS = 4096
 MAX_STEPS = STEP_BLOCK * STEP_BLOCKS
 #: What every marching shader declares first: the transfer lookup, the one slab test.
 DECLARATION_SNIPPETS = ("ea_declarations", "slab")
-#: Blend modes (PyVista's ``blending=``) and their GLSL: each mode is one snippet defining
-#: how a sample enters the ray's state and what the ray leaves (blend_*.glsl), with one
-#: CPU reference; the projections share how their one value is drawn.
+#: Blend modes (PyVista's ``blending=``, and VTK's ``'isosurface'``) and their GLSL: each
+#: mode is one snippet defining how a sample enters the ray's state and what the ray leaves
+#: (blend_*.glsl), with one CPU reference (:mod:`pv_cubemarch.reference.projections`); the
+#: modes other than composite share the opacity per unit distance, the projections how
+#: their one value is drawn, average and additive their weighted grey level.
 BLEND_SNIPPETS = {"composite": ("blend_composite",),
-                  "maximum": ("blend_projection", "blend_maximum"),
-                  "minimum": ("blend_projection", "blend_minimum")}
+                  "maximum": ("blend_opacity", "blend_projection", "blend_maximum"),
+                  "minimum": ("blend_opacity", "blend_projection", "blend_minimum"),
+                  "average": ("blend_opacity", "blend_intensity", "blend_average"),
+                  "additive": ("blend_opacity", "blend_intensity", "blend_additive"),
+                  "isosurface": ("blend_opacity", "blend_isosurface")}
 BLEND_MODES = tuple(BLEND_SNIPPETS)
+#: Most levels ``blending='isosurface'`` draws at once (a uniform array of the marcher).
+MAX_ISOSURFACES = 32
+
+
+@dataclass(frozen=True)
+class Blend:
+    """How samples along a ray make its colour: the mode, and the levels of 'isosurface'.
+
+    ``isosurfaces`` are in the volume's stored units (data less its ``value_offset``).
+    """
+
+    mode: str = "composite"
+    isosurfaces: tuple[float, ...] = ()
 
 
 def march_snippets(blending: str = "composite") -> tuple[str, ...]:
@@ -116,6 +136,19 @@ class VolumeData:
             self._bricks.set_data(rebuilt)
 
     @property
+    def value_range(self) -> tuple[float, float]:
+        """The smallest and largest finite value of the data (stored units), as VTK's range.
+
+        'average' and 'additive' normalise each sample over it; read at every draw, so it
+        follows :meth:`set_values`.
+        """
+        values = self.model.values
+        finite = values[np.isfinite(values)] if not np.isfinite(values).all() else values
+        if finite.size == 0:
+            return 0.0, 0.0
+        return float(finite.min()), float(finite.max())
+
+    @property
     def nbytes(self) -> int:
         """GPU bytes of the data, tables and bricks."""
         textures = self.values + self.tables + ([self._bricks] if self._bricks else [])
@@ -148,21 +181,28 @@ def march_defines(model, skipping: bool) -> dict:
 
 def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: float,
                   skip_empty: bool, sample_data: bool = True,
-                  blending: str = "composite") -> tuple[str, dict]:
+                  blend: Blend = Blend()) -> tuple[str, dict]:
     """Give ``target`` (bindings or a pass) what the shared marcher reads.
 
     Returns the GLSL snippet that samples the medium (``volume_sample`` for one volume,
     ``joint_sample`` for a group) and the feature switches. Skipping is compiled in only
     when asked for and some brick is empty. ``sample_data=False`` leaves the data texture
     out (VTK's mapper samples its own copy). A blend mode other than ``'composite'`` reads
-    every sample (a skipped brick may hold the ray's extreme) and the opacity per unit
-    distance.
+    every sample (a skipped brick may hold the ray's extreme, or a level's crossing) and
+    the opacity per unit distance; 'average' and 'additive' the data's range,
+    'isosurface' its levels.
     """
     model = data.model
-    if blending != "composite":
+    extra = {}
+    if blend.mode != "composite":
         skip_empty = False
         spec = getattr(model.transfer, "spec", None)
         target.set_uniform("cm_opacityUnit", 1.0 if spec is None else spec.opacity_unit_distance)
+    if blend.mode in ("average", "additive"):
+        target.set_uniform("cm_dataRange", lambda: data.value_range)
+    if blend.mode == "isosurface":
+        target.set_uniform("cm_isoValues", FloatArray(sorted(blend.isosurfaces)))
+        extra["CM_ISO_COUNT"] = len(blend.isosurfaces)
     target.set_uniform("cm_stopOpacity", stop_opacity)
     target.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
     target.set_uniform("cm_stepScale", step_scale)
@@ -180,7 +220,7 @@ def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: flo
                 world_from_texture(m)) @ group_to_world())
             target.set_uniform(f"cm_memberDims{index}",
                                tuple(float(n) for n in member.dimensions))
-        return "joint_sample", march_defines(model, False)
+        return "joint_sample", {**march_defines(model, False), **extra}
     target.add_texture("cm_transferTable", data.tables[0])
     target.set_uniform("cm_clim", model.transfer.clim)
     if sample_data:
@@ -190,7 +230,7 @@ def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: flo
         target.add_texture("cm_brickExtinction", bricks)
         target.set_uniform("cm_brickCount", tuple(float(n) for n in bricks.array.shape))
         target.set_uniform("cm_brickSize", float(DEFAULT_BRICK_SIZE))
-    return "volume_sample", march_defines(model, bricks is not None)
+    return "volume_sample", {**march_defines(model, bricks is not None), **extra}
 
 
 class VolumeBinding(DrawnBinding):

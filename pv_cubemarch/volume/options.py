@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from ..core.options import positive_number, whole_number
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
-from .march import BLEND_MODES, MAX_STEPS, most_texels
+from .march import BLEND_MODES, MAX_ISOSURFACES, MAX_STEPS, Blend, most_texels
 
 #: Default finest face size ``S_0`` of the cube map (texels per face edge at MIP level 0).
 DEFAULT_FACE_SIZE = 256
@@ -45,17 +45,29 @@ class Shading:
     light_map_size: int = DEFAULT_LIGHT_MAP_SIZE
     ambient: float = DEFAULT_AMBIENT
     blending: str = "composite"
+    isosurfaces: tuple[float, ...] = ()
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
         if self.blending not in BLEND_MODES:
-            later = " ('average' and 'additive' are not drawn yet)" if self.blending in (
-                "average", "additive") else ""
-            raise ValueError(f"blending must be one of {BLEND_MODES}, got "
-                             f"{self.blending!r}{later}.")
+            raise ValueError(f"blending must be one of {BLEND_MODES}, got {self.blending!r}.")
+        if self.blending == "isosurface" and not self.isosurfaces:
+            raise ValueError("blending='isosurface' draws the levels given as isosurfaces=; "
+                             "pass one or more values, e.g. isosurfaces=[100, 300].")
+        if self.isosurfaces and self.blending != "isosurface":
+            raise ValueError("isosurfaces= are the levels blending='isosurface' draws; pass "
+                             "that blending with them, or leave them out.")
+        if len(self.isosurfaces) > MAX_ISOSURFACES:
+            raise ValueError(f"isosurfaces: at most {MAX_ISOSURFACES} levels, got "
+                             f"{len(self.isosurfaces)}.")
         positive_number("stop_opacity", self.stop_opacity, 0.0, 1.0)
         whole_number("light_map_size", self.light_map_size, 2, 128)
         positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)
+
+    @property
+    def blend(self) -> Blend:
+        """The blend mode and its levels, as the marcher binds them."""
+        return Blend(self.blending, tuple(self.isosurfaces))
 
 
 @dataclass(frozen=True)

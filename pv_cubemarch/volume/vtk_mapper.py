@@ -97,7 +97,7 @@ def build_vtk_actor(plotter, data: VolumeData, options, shading, light_map=None)
     bindings.set_uniform("cm_clipFromIndex", clip_from_index)
     _, defines = bind_sampling(bindings, data, step_scale, shading.stop_opacity,
                                shading.skip_empty, sample_data=False,
-                               blending=shading.blending)
+                               blend=shading.blend)
     if light_map is not None:
         light_map.bind(bindings)
         defines.update(light_map.defines)

@@ -173,7 +173,7 @@ def build_cubemap_actor(plotter, data: VolumeData, options: CubeMapOptions, shad
                                     targets=CUBE_TARGETS, run_when=frame.update,
                                     grow_only=True)
     sampling, defines = bind_sampling(cube_pass, data, 1.0, shading.stop_opacity,
-                                      shading.skip_empty, blending=shading.blending)
+                                      shading.skip_empty, blend=shading.blend)
     cube_pass.set_uniform("cm_stepScale", lambda: frame.step_scale)
     cube_pass.add_texture("cm_sceneDepth", FramebufferDepth())
     cube_pass.set_uniform("cm_viewFromTexture",

@@ -1,0 +1,19 @@
+// Blending 'average': the mean of the opacity-weighted normalised values along the ray
+// (state.x their sum, state.y how many), as a grey level; a ray that read no sample
+// leaves the background.
+vec4 cm_blendStart()
+{
+  return vec4(0.0);
+}
+
+bool cm_blend(inout vec4 state, vec3 texturePosition, float dt)
+{
+  state.x += cm_weightedValue(cm_sampleScalar(texturePosition));
+  state.y += 1.0;
+  return true;
+}
+
+vec4 cm_blendResult(vec4 state)
+{
+  return state.y > 0.0 ? cm_greyResult(state.x / state.y) : vec4(0.0);
+}
