@@ -25,7 +25,7 @@ from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its 
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.light_map import LightMap
 from .volume.march import VolumeData
-from .volume.options import DEFAULT_STOP_OPACITY, Shading
+from .volume.options import DEFAULT_STOP_OPACITY, INTERPOLATION, Shading
 from .volume.pyvista_keywords import (
     add_scalar_bar,
     isosurface_levels,
@@ -78,7 +78,7 @@ def add_volume(
     render: bool = True,
     blending: str = "composite",
     isosurfaces=None,
-    interpolation: str = "linear",
+    interpolation: str | None = None,
     shade: bool = False,
     **kwargs,
 ) -> pyvista.Prop3D:
@@ -216,10 +216,11 @@ def add_volume(
         The levels ``blending='isosurface'`` draws, in data units; an int ``n`` takes ``n``
         levels spread over the data's range, as :meth:`pyvista.DataSetFilters.contour`
         does.
-    interpolation : str
-        How values are read between grid points: ``'linear'`` (trilinear, default) or
-        ``'nearest'`` (the nearest point: PyVista's default, its
-        ``actor.prop.interpolation_type``), in every technique and the CPU reference.
+    interpolation : str, optional
+        How values are read between grid points: ``'linear'`` (trilinear; the default for
+        raw data, a VolumeModel keeps its own) or ``'nearest'`` (the nearest point:
+        PyVista's default, its ``actor.prop.interpolation_type``), in every technique and
+        the CPU reference.
     shade : bool
         ``False``; gradient shading is not drawn yet (``lights=`` lights the medium by its
         own transmittance instead).
@@ -271,17 +272,18 @@ def add_volume(
                          "attenuating them; it takes no lights and no jointly marched "
                          "volumes. Use blending='composite' for those.")
     if isinstance(volume, (VolumeModel, VolumeGroup)):
-        if interpolation != "linear":
-            raise ValueError("interpolation goes with raw data; a VolumeModel carries its own "
-                             "(make_volume(..., interpolation=...)).")
         model = volume
+        if interpolation is not None and interpolation != getattr(model, "interpolation",
+                                                                   interpolation):
+            INTERPOLATION.check(interpolation)
+            model = dataclasses.replace(model, interpolation=interpolation)
     else:
         volume, scalars = volume_input(volume, scalars, resolution, preference)
         model = make_volume(volume, scalars, cmap=cmap, opacity=opacity, clim=clim,
                             opacity_unit_distance=opacity_unit_distance, transform=transform,
                             nan_policy=nan_policy, name=name or "volume", n_colors=n_colors,
                             flip_scalars=flip_scalars, log_scale=log_scale,
-                            categories=categories, interpolation=interpolation)
+                            categories=categories, interpolation=interpolation or "linear")
     if isinstance(model, VolumeGroup) and not chosen.groups:
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
@@ -297,6 +299,7 @@ def add_volume(
     binding = chosen.build(plotter, data, options, shading, light_map)
     binding.light_map = light_map
     binding.blending = blending
+    binding.isosurfaces = isosurfaces   # as given (data units, or a count)
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     actor.SetPickable(bool(pickable))
     component.track(binding)

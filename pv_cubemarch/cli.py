@@ -17,17 +17,16 @@ from .bench import surfaces as bench_surfaces
 from .bench import voxels as bench_voxels
 from .bench import world as bench_world
 from .bench.voxels import ROWS as VOXEL_ROWS
+from .core.declared import KINDS, declared, option
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, specific_option_names, techniques
 from .models.voxels import VoxelModel
 from .scene.io import load_scene
-from .surfaces.options import ROOTS
-from .surfaces.options import TRAVERSALS as SURFACE_TRAVERSALS
 from .views.app import WINDOW_MODES, serve
 from .volume.march import BLEND_MODES
 from .volume.options import Shading
-from .voxels.options import MODES, SHADINGS, TRAVERSALS, VoxelOptions
+from .voxels.options import VoxelOptions
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -54,6 +53,62 @@ def _face_sizes(text: str) -> list[int]:
             f"face sizes must look like 128,64 (or 'none'), got {text!r}") from None
 
 
+#: Argument groups of the option flags, by kind.
+FLAG_GROUPS = {
+    "volume": "volumes (every volume of the scene)",
+    "voxels": 'voxels (--technique voxels, or Volume prims with cubemarch:technique = '
+              '"voxels")',
+    "surface": 'surfaces (--isovalue on a grid file, or Volume prims with '
+               'cubemarch:technique = "surface")'}
+
+
+def add_option_flags(parser: argparse.ArgumentParser) -> dict[str, argparse.Action]:
+    """A flag for every declared option that has one (:mod:`pv_cubemarch.core.declared`).
+
+    A flag several kinds declare (``--ambient``, ``--shading`` ...) is added once and
+    goes to each of them; its help lists each meaning. Returns the actions by flag.
+    """
+    actions: dict[str, argparse.Action] = {}
+    for kind in KINDS:
+        group = parser.add_argument_group(FLAG_GROUPS[kind])
+        for item in declared(kind):
+            if item.flag is None:
+                continue
+            where = f"{kind}" + (f" ({', '.join(item.techniques)})" if item.techniques
+                                 else "")
+            default = "" if item.default is None else f"; default {item.default}"
+            text = f"{where}: {item.doc}{default}"
+            if item.flag in actions:   # one flag, every kind's choices (each checks its own)
+                shared = actions[item.flag]
+                shared.help += f"; {text}"
+                if shared.choices and item.choices:
+                    shared.choices = tuple(dict.fromkeys((*shared.choices, *item.choices)))
+                continue
+            settings: dict = {"dest": item.dest, "default": None, "help": text}
+            if item.name == "technique" and kind == "volume":
+                settings["choices"] = [t.name for t in _techniques()]
+                settings["help"] = "how every volume is drawn: " + "; ".join(
+                    f"{t.name}: {t.summary}" for t in _techniques()) + \
+                    ". With voxels every volume must hold integer labels"
+            elif item.type is bool:
+                settings["action"] = argparse.BooleanOptionalAction
+            elif item.type is tuple:
+                settings.update(type=float, nargs=2 if item.name == "clim" else "+")
+            elif item.choices:
+                settings["choices"] = item.choices
+            else:
+                settings["type"] = {int: int, float: float}.get(item.type, str)
+            actions[item.flag] = group.add_argument(item.flag, **settings)
+    return actions
+
+
+def given_options(args, kind: str) -> dict:
+    """The options of ``kind`` given on the command line (their flags' values)."""
+    return {item.name: getattr(args, item.dest) for item in declared(kind)
+            if item.flag is not None and item.name != "technique"
+            and getattr(args, item.dest, None) is not None}
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for tests and documentation)."""
     parser = argparse.ArgumentParser(prog="pv-cubemarch", description=__doc__)
@@ -64,85 +119,12 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--out", "-o", required=True, help="output PNG path")
     render.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
     render.add_argument("--camera", help="name (prim path) of the scene camera to use")
-    render.add_argument("--step-scale", type=float,
-                        help="ray step as a fraction of a voxel, for every volume (and voxel "
-                             "grids with --traversal fixed)")
-    render.add_argument("--technique", choices=[t.name for t in _techniques()],
-                        help="how every volume is drawn: " + "; ".join(
-                            f"{t.name}: {t.summary}" for t in _techniques())
-                        + ". With voxels every volume must hold integer labels; a volume "
-                          "technique leaves the scene's voxel grids as they are")
-    render.add_argument("--stop-opacity", type=float,
-                        help="early ray termination threshold for every volume")
-    render.add_argument("--downsample", type=int,
-                        help="with --technique direct: march at 1/N resolution, depth-aware "
-                             "upsampling")
-    render.add_argument("--no-skip-empty", action="store_true",
-                        help="march empty bricks too (for comparisons)")
-    render.add_argument("--blending", choices=BLEND_MODES,
-                        help="how every volume's samples combine along a ray: composite "
-                             "(emission/absorption, default), maximum or minimum intensity "
-                             "projection, as PyVista's add_volume(blending=)")
-    cube = render.add_argument_group("cube map (--technique cubemap or auto)")
-    cube.add_argument("--face-size", type=int, help="largest cube-map face, texels per edge "
-                      "(a power of two; default 256)")
-    cube.add_argument("--max-samples", type=int, help="most samples along the box diagonal")
-    cube.add_argument("--upscale", type=float, help="screen pixels per cube-map texel (k_u)")
-    cube.add_argument("--sample-factor", type=float,
-                      help="samples per cube-map texel along the diagonal (k_c)")
-    cube.add_argument("--occlusion-sharpness", type=float,
-                      help="k_z of the bilateral depth filter against meshes (default 0.5)")
-    lit = render.add_argument_group("lighting (every technique)")
-    lit.add_argument("--lights", choices=("scene", "none"),
-                     help="light the volumes with the scene's lights (at most 4), or not")
-    lit.add_argument("--light-map-size", type=int, help="light-map points per axis (2-128)")
-    lit.add_argument("--ambient", type=float, help="share of the emission no light modulates")
-    vox = render.add_argument_group(
-        'voxels (--technique voxels, or Volume prims with cubemarch:technique = "voxels")')
-    vox.add_argument("--traversal", choices=TRAVERSALS,
-                     help="dda: exact, every voxel a ray crosses; fixed: steps of --step-scale "
-                          "voxels (the seed's baseline, misses thin voxels)")
-    vox.add_argument("--mip-levels", type=int,
-                     help="occupancy mipmap levels (0-12) the DDA skips empty space with "
-                          "(default: the levels that pay off on the grid's labels)")
-    vox.add_argument("--distance-field", type=int,
-                     help="the DDA's neighbour distance field: 0 (off, default) or its "
-                          "largest radius 1-3")
-    vox.add_argument("--shading", choices=SHADINGS,
-                     help="unlit palette colours, or lit by the scene's lights (flat: Lambert; "
-                          "blinn: plus a highlight)")
-    vox.add_argument("--mode", choices=MODES,
-                     help="color (default); id: each voxel's index + 1 as 24-bit RGB; "
-                          "face: the face each ray entered its voxel through")
-    vox.add_argument("--specular", type=float, help="highlight weight (0-1) with blinn")
-    vox.add_argument("--specular-power", type=float, help="highlight exponent with blinn")
-    vox.add_argument("--ambient-occlusion", action="store_true", default=None,
-                     help="darken each face's corners by the voxels beside them")
-    vox.add_argument("--occlusion-strength", type=float,
-                     help="darkening of a fully occluded corner (0-1, default 0.5)")
-    vox.add_argument("--proxy", choices=("bricks", "box"),
-                     help="what starts the rays: the filled bricks' faces (default) or the "
-                          "grid's box")
-    vox.add_argument("--lod", action="store_true", default=None,
-                     help="level of detail: coarser cells where voxels are under a pixel")
-    vox.add_argument("--lod-bias", type=float, help="levels added to the level of detail")
-    vox.add_argument("--chunk-size", type=int,
-                     help="draw each voxel grid in chunks of this edge (a voxel world)")
-    surf = render.add_argument_group(
-        'surfaces (--isovalue on a grid file, or Volume prims with cubemarch:technique = '
-        '"surface"; --shading, --ambient, --specular and --specular-power apply too)')
-    surf.add_argument("--isovalue", type=float,
-                      help="draw a grid file's field as its implicit surface at this level "
-                           "(003: a quadratic B-spline through its samples)")
-    surf.add_argument("--surface-technique", choices=[t.name for t in techniques("surface")],
-                      help="; ".join(f"{t.name}: {t.summary}" for t in techniques("surface")))
-    surf.add_argument("--surface-traversal", choices=SURFACE_TRAVERSALS,
-                      help="with active: index (one ray per pixel through bricks of active "
-                           "cells, default) or cell_boxes (the seed's boxes)")
-    surf.add_argument("--steps", type=int, help="samples along the domain's diagonal (M)")
-    surf.add_argument("--refine-steps", type=int, help="bisections of the first sign change")
-    surf.add_argument("--root", choices=ROOTS,
-                      help="march (the seed's) or exact (Bernstein subdivision: no root missed)")
+    add_option_flags(render)
+    render.add_argument("--chunk-size", type=int,
+                        help="draw each voxel grid in chunks of this edge (a voxel world)")
+    render.add_argument("--isovalue", type=float,
+                        help="draw a grid file's field as its implicit surface at this level "
+                             "(003: a quadratic B-spline through its samples)")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
     info.add_argument("scene", nargs="?", help="scene file to describe")
@@ -301,22 +283,7 @@ def _warn(flag: str, what: str) -> None:
 def _render(args) -> int:
     progress_bar = False if args.no_progress else None
     as_voxels = args.technique in {t.name for t in techniques("voxels")}
-    chosen = {"step_scale": args.step_scale, "stop_opacity": args.stop_opacity,
-              "downsample": args.downsample,
-              "skip_empty": False if args.no_skip_empty else None,
-              "blending": args.blending,
-              "face_size": args.face_size, "max_samples": args.max_samples,
-              "upscale": args.upscale, "sample_factor": args.sample_factor,
-              "occlusion_sharpness": args.occlusion_sharpness, "lights": args.lights,
-              "light_map_size": args.light_map_size, "ambient": args.ambient,
-              "traversal": args.traversal, "mip_levels": args.mip_levels,
-              "distance_field": args.distance_field,
-              "shading": args.shading, "mode": args.mode, "specular": args.specular,
-              "specular_power": args.specular_power,
-              "ambient_occlusion": args.ambient_occlusion,
-              "occlusion_strength": args.occlusion_strength, "proxy": args.proxy,
-              "lod": args.lod, "lod_bias": args.lod_bias}
-    given = {k: v for k, v in chosen.items() if v is not None}
+    given = {**given_options(args, "volume"), **given_options(args, "voxels")}
     if given.get("lights") == "none":
         given["lights"] = None
     reads = {f.name for f in dataclasses.fields(VoxelOptions)}
@@ -377,7 +344,7 @@ def _volume_options(scene, args, given: dict, as_voxels: bool) -> None:
                     n for n in given if n in specific]:
                 _warn(name, "this scene (it has no volumes)")
         return
-    common = {f.name for f in dataclasses.fields(Shading)} | {"lights"}
+    common = {o.name for o in declared("volume") if not o.techniques} - {"technique"}
     given = {k: v for k, v in given.items() if k in specific | common}
     if args.technique:
         given["technique"] = args.technique
@@ -398,8 +365,10 @@ def _volume_options(scene, args, given: dict, as_voxels: bool) -> None:
                 options[name] = value
 
 
-#: Flags of the voxel group that surfaces read too.
-SHARED_SHADING = ("shading", "ambient", "specular", "specular_power")
+def _shared_with_voxels() -> set[str]:
+    """Surface options whose flag the voxel options declare too (``--shading`` ...)."""
+    flags = {o.flag for o in declared("voxels")}
+    return {o.name for o in declared("surface") if o.flag in flags}
 
 
 def _surface_options(scene, args, given: dict) -> None:
@@ -408,17 +377,14 @@ def _surface_options(scene, args, given: dict) -> None:
     The surface flags go to every surface (a warning when the scene has none); the shading
     flags given go to them too.
     """
-    flags = {"technique": args.surface_technique, "traversal": args.surface_traversal,
-             "steps": args.steps, "refine_steps": args.refine_steps, "root": args.root}
-    flags = {k: v for k, v in flags.items() if v is not None}
+    flags = given_options(args, "surface")
+    if args.surface_technique is not None:
+        flags["technique"] = args.surface_technique
     if not scene.surfaces:
-        for name in flags:
-            _warn("surface_" + name if name in ("technique", "traversal") else name,
-                  "this scene (it has no surfaces: give a grid file --isovalue)")
+        for name in [n for n in flags if n not in _shared_with_voxels()]:
+            _warn(option("surface", name).dest, "this scene (it has no surfaces: give a grid "
+                                                "file --isovalue)")
         return
-    # Of the other flags only the shading ones: --traversal, --step-scale … are voxels' and
-    # volumes' (a surface's own are --surface-traversal, --steps …).
-    flags.update({k: v for k, v in given.items() if k in SHARED_SHADING})
     for surface in scene.surfaces:
         scene.surface_options.setdefault(surface.name, {}).update(flags)
 
@@ -434,7 +400,7 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
     voxel_only = reads - specific_option_names("volume") \
         - {f.name for f in dataclasses.fields(Shading)}
     if not scene.voxels:
-        surfaces_read = set(SHARED_SHADING) if scene.surfaces else set()
+        surfaces_read = _shared_with_voxels() if scene.surfaces else set()
         for name in given:
             if name in voxel_only and name not in surfaces_read:
                 _warn(name, "this scene (it has no voxel grids)")

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import pyvista
 
-from ..core.options import positive_number, whole_number
+from ..core.declared import AUTO, Control, Option, blinn_terms, declare
 from ..models.surface import ACTIVE_TESTS
 
 ROOTS = ("march", "exact")
@@ -28,6 +28,48 @@ MAX_STEPS = 25_000
 INDEX_ITERATIONS_PER_CELL = 4
 #: Most bisection steps refining a bracketed root (float32 halves it 24 times at most).
 MAX_REFINE_STEPS = 40
+
+
+ACTIVE = ("active",)
+#: Every option of the surface techniques, declared once (:mod:`pv_cubemarch.core.declared`).
+(TECHNIQUE, STEPS, REFINE_STEPS, ROOT, TRAVERSAL, ACTIVE_TEST, ACTIVE_SAMPLES, COLOR, SHADING,
+ AMBIENT, SPECULAR, SPECULAR_POWER, COLOR_BY_OPTION, CMAP, CLIM) = declare(
+    Option("technique", "surface", str, "active", "active (only the cells the surface can "
+           "cross) or full (every cell)", choices=("active", "full"),
+           usd="surfaceTechnique", cli="--surface-technique", control=Control("select")),
+    Option("steps", "surface", int, 500, "samples along the domain's diagonal (M)", low=1,
+           high=MAX_STEPS, control=Control("slider", "steps (M)", 10, 5000, 10,
+                                           help="samples along the diagonal")),
+    Option("refine_steps", "surface", int, 10, "bisections of the first sign change", low=0,
+           high=MAX_REFINE_STEPS, control=Control("select", "refine steps",
+                                                  choices=(0, 5, 10, 20, 40))),
+    Option("root", "surface", str, "march", "march (sampled) or exact (the cell polynomial's "
+           "first root)", choices=ROOTS, control=Control("select")),
+    Option("traversal", "surface", str, "index", "through the active cells' brick index, "
+           "or a box per cell", ACTIVE, choices=TRAVERSALS, usd="surfaceTraversal",
+           cli="--surface-traversal", control=Control("select", "traversal")),
+    Option("active_test", "surface", str, "bernstein", "which cells are active: bernstein "
+           "(exact) or sample (a lattice per cell)", ACTIVE, choices=ACTIVE_TESTS,
+           control=Control("select", "active test")),
+    Option("active_samples", "surface", int, 4, "lattice points per cell edge of "
+           "active_test='sample'", ACTIVE, low=2, high=64,
+           control=Control("select", "active samples", choices=(2, 3, 4, 8))),
+    Option("color", "surface", str, "white", "the surface's colour", cli="--surface-color",
+           usd_type="color3f",
+           without={"knob": "any colour PyVista names; set in Python, the CLI or USD"}),
+    Option("shading", "surface", str, "blinn", "unlit, flat, blinn or normals (view-space "
+           "normals as colours)", choices=SHADINGS, control=Control("select")),
+    *blinn_terms("surface"),
+    Option("color_by", "surface", str, None, "colour by the mean curvature or a second "
+           "field, through cmap", choices=COLOR_BY, optional=True,
+           control=Control("select", "colour by", choices=(AUTO, *COLOR_BY))),
+    Option("cmap", "surface", str, "viridis", "colormap of color_by", cli="--surface-cmap",
+           without={"knob": "any matplotlib colormap name; set in Python, the CLI or USD"}),
+    Option("clim", "surface", tuple, None, "the range of color_by the colormap spans",
+           optional=True, cli="--surface-clim", usd="surfaceClim",
+           without={"knob": "two numbers in the data's units; set in Python, the CLI or "
+                            "USD"}),
+)
 
 
 @dataclass(frozen=True)
@@ -56,42 +98,32 @@ class SurfaceOptions:
     side: a ball filling the domain's narrowest way sits at half the range).
     """
 
-    steps: int = 500
-    refine_steps: int = 10
-    root: str = "march"
-    traversal: str = "index"
-    active_test: str = "bernstein"
-    active_samples: int = 4
-    color: object = "white"
-    shading: str = "blinn"
-    ambient: float = 0.2
-    specular: float = 0.3
-    specular_power: float = 30.0
-    color_by: str | None = None
-    cmap: str = "viridis"
-    clim: tuple[float, float] | None = None
+    steps: int = STEPS.field()
+    refine_steps: int = REFINE_STEPS.field()
+    root: str = ROOT.field()
+    traversal: str = TRAVERSAL.field()
+    active_test: str = ACTIVE_TEST.field()
+    active_samples: int = ACTIVE_SAMPLES.field()
+    color: object = COLOR.field()
+    shading: str = SHADING.field()
+    ambient: float = AMBIENT.field()
+    specular: float = SPECULAR.field()
+    specular_power: float = SPECULAR_POWER.field()
+    color_by: str | None = COLOR_BY_OPTION.field()
+    cmap: str = CMAP.field()
+    clim: tuple[float, float] | None = CLIM.field()
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
-        whole_number("steps", self.steps, 1, MAX_STEPS)
-        whole_number("refine_steps", self.refine_steps, 0, MAX_REFINE_STEPS)
-        if self.root not in ROOTS:
-            raise ValueError(f"root must be one of {ROOTS}, got {self.root!r}.")
-        if self.traversal not in TRAVERSALS:
-            raise ValueError(f"traversal must be one of {TRAVERSALS}, got {self.traversal!r}.")
-        if self.active_test not in ACTIVE_TESTS:
-            raise ValueError(f"active_test must be one of {ACTIVE_TESTS}, got "
-                             f"{self.active_test!r}.")
-        whole_number("active_samples", self.active_samples, 2, 64)
-        if self.shading not in SHADINGS:
-            raise ValueError(f"shading must be one of {SHADINGS}, got {self.shading!r}.")
+        for item in (STEPS, REFINE_STEPS, ROOT, TRAVERSAL, ACTIVE_TEST, ACTIVE_SAMPLES,
+                     SHADING):
+            item.check(getattr(self, item.name))
         try:
             pyvista.Color(self.color)
         except ValueError as error:
             raise ValueError(f"color={self.color!r} is not a colour: {error}") from None
-        positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)
-        positive_number("specular", self.specular, 0.0, 1.0, closed_low=True)
-        positive_number("specular_power", self.specular_power, 0.0, 1e4)
+        for item in (AMBIENT, SPECULAR, SPECULAR_POWER):
+            item.check(getattr(self, item.name))
         if self.color_by is not None and self.color_by not in COLOR_BY:
             raise ValueError(f"color_by must be None, one of {COLOR_BY} or a field's values, "
                              f"got {self.color_by!r}.")

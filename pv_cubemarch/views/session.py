@@ -17,6 +17,7 @@ import pyvista
 from ..api import add_surface, add_volume, add_voxels
 from ..bench.harness import opaque_layer
 from ..core.camera import Camera
+from ..core.declared import declared
 from ..core.registry import get_technique, specific_option_names, techniques
 from ..core.rendering import render_image
 from ..models.group import overlap_groups
@@ -25,7 +26,6 @@ from ..models.voxels import VoxelModel
 from ..models.world import VoxelWorld
 from ..scene.model import Scene
 from ..testing import compare_images
-from ..volume.options import Shading
 from .knobs import Knob, surface_knobs, volume_knobs, voxel_knobs
 
 #: The kinds of items, in panel order.
@@ -137,6 +137,8 @@ class TuningSession:
                         options[option] = getattr(binding, option)
                 if getattr(binding, "blending", "composite") != "composite":
                     options["blending"] = binding.blending
+                if getattr(binding, "isosurfaces", None) is not None:
+                    options["isosurfaces"] = binding.isosurfaces
             label = name if names.count(name) == 1 else f"{name} (renderer {index})"
             self.items[label] = TunedItem(kind, model, options, name, index, binding)
 
@@ -215,6 +217,8 @@ class TuningSession:
                 else:
                     item.options[name] = None if name == "lights" and value == "none" \
                         else value
+                    if kind == "volume":
+                        _settle_isosurfaces(item.options, name)
                 self._add(item)
         except Exception:       # refused (ValueError, or TypeError for a wrong type)
             for item, model, options, shift in done:   # back as it was
@@ -312,8 +316,7 @@ LISTED_MATERIALS = 64
 #: Each kind's default technique.
 DEFAULT_TECHNIQUE = {"volume": "vtk", "voxels": "voxels", "surface": "active"}
 #: Defaults of knobs that are not fields of a technique's options dataclass.
-_OTHER_DEFAULTS = {"lights": "none", "lod": False, "mip_levels": None,
-                   **{f.name: f.default for f in dataclasses.fields(Shading)}}
+_OTHER_DEFAULTS = {"lights": "none"}   # as the knob shows it
 
 
 def adoptable_actors(plotter: pyvista.Plotter) -> list[tuple[str, object, int]]:
@@ -334,6 +337,25 @@ def _fields(options) -> dict:
             if value is not None}
 
 
+#: The levels a volume switched to blending='isosurface' gets (three inside its range).
+DEFAULT_ISOSURFACES = 5
+
+
+def _settle_isosurfaces(options: dict, changed: str) -> None:
+    """Keep a volume's blend mode and its levels together as the knobs change either.
+
+    Levels set turn the mode to 'isosurface'; the mode without levels gets
+    :data:`DEFAULT_ISOSURFACES`; another mode drops them.
+    """
+    if changed == "isosurfaces" and options.get("isosurfaces") is not None:
+        options["blending"] = "isosurface"
+    if options.get("blending") == "isosurface":
+        if options.get("isosurfaces") is None:
+            options["isosurfaces"] = DEFAULT_ISOSURFACES
+    else:
+        options.pop("isosurfaces", None)
+
+
 def _default(kind: str, technique: str | None, name: str):
     """An option's default for a technique (from its options dataclass), or ``None``."""
     if name == "technique":
@@ -344,4 +366,7 @@ def _default(kind: str, technique: str | None, name: str):
         defaults = {f.name: f.default for f in dataclasses.fields(reader.options)}
         if name in defaults:
             return defaults[name]
-    return _OTHER_DEFAULTS.get(name)
+    if name in _OTHER_DEFAULTS:
+        return _OTHER_DEFAULTS[name]
+    known = {item.name: item.default for item in declared(kind)}
+    return known.get(name)

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..core.options import positive_number, whole_number
+from ..core.declared import AUTO, Control, Option, check_declared, declare
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
+from ..models.volume import INTERPOLATIONS
 from .march import BLEND_MODES, MAX_ISOSURFACES, MAX_STEPS, Blend, most_texels
 
 #: Default finest face size ``S_0`` of the cube map (texels per face edge at MIP level 0).
@@ -36,21 +37,83 @@ def default_max_samples(model) -> int:
     return max(1, 2 * (max(model.dimensions) - 1))
 
 
+MARCHERS = ("vtk", "direct", "auto")
+CUBE_MAPS = ("cubemap", "auto")
+#: Every option of the volume techniques, declared once (:mod:`pv_cubemarch.core.declared`).
+TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMPLES, UPSCALE, \
+    SAMPLE_FACTOR, OCCLUSION_SHARPNESS, BLENDING, ISOSURFACES, INTERPOLATION, LIGHTS, \
+    LIGHT_MAP_SIZE, AMBIENT = declare(
+        Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
+               control=Control("select")),
+        Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
+               "ray's dominant axis", MARCHERS, low=0.0, high=1e3, closed_low=False,
+               control=Control("slider", "step (texels)", 0.05, 2.0, 0.05,
+                               help="smaller: finer, slower")),
+        Option("stop_opacity", "volume", float, DEFAULT_STOP_OPACITY, "opacity at which a "
+               "ray stops (early termination)", low=0.0, high=1.0, closed_low=False,
+               control=Control("slider", "stop opacity", 0.5, 1.0, 0.01,
+                               help="early ray termination")),
+        Option("skip_empty", "volume", bool, True, "step over bricks whose data the "
+               "transfer function makes transparent", control=Control("switch",
+                                                                      "skip empty")),
+        Option("downsample", "volume", int, 1, "march at 1/N of the viewport, then upsample",
+               ("direct",), low=1, high=64,
+               control=Control("select", choices=(1, 2, 4),
+                               help="march at 1/N of the viewport")),
+        Option("face_size", "volume", int, DEFAULT_FACE_SIZE, "texels per edge of the "
+               "cube map's finest face (a power of two)", CUBE_MAPS, low=1, high=4096,
+               control=Control("select", "cube-map face", choices=(64, 128, 256, 512, 1024),
+                               help="texels per face edge")),
+        Option("max_samples", "volume", int, None, "most samples along the box diagonal "
+               "(default two per texel)", CUBE_MAPS, low=1, optional=True,
+               control=Control("select", choices=(AUTO, 64, 128, 256, 512, 1024, 2048),
+                               help="samples along the box diagonal")),
+        Option("upscale", "volume", float, 1.0, "screen pixels per cube-map texel", CUBE_MAPS,
+               low=0.0, closed_low=False, control=Control("slider", "upscale", 0.5, 4.0,
+                                                          0.25)),
+        Option("sample_factor", "volume", float, 1.0, "samples per texel of the cube map's "
+               "level of detail", CUBE_MAPS, low=0.0, closed_low=False,
+               control=Control("slider", "sample factor", 0.25, 4.0, 0.25)),
+        Option("occlusion_sharpness", "volume", float, DEFAULT_OCCLUSION_SHARPNESS, "k_z of "
+               "the cube map's bilateral depth filter, per texel of depth", CUBE_MAPS,
+               low=0.0, control=Control("slider", "occlusion sharpness", 0.0, 4.0, 0.25)),
+        Option("blending", "volume", str, "composite", "how the samples along a ray make "
+               "its colour, as VTK's blend modes", choices=BLEND_MODES,
+               control=Control("select", help="composite, projections, grey averages or "
+                               "sums, isosurfaces")),
+        Option("isosurfaces", "volume", tuple, None, "levels (data units), or their count "
+               "over the data's range, that blending='isosurface' draws", optional=True,
+               control=Control("select", "isosurfaces (count)", choices=(AUTO, 1, 2, 3, 5,
+                                                                         8))),
+        Option("interpolation", "volume", str, None, "how values are read between points "
+               "(default: linear)", choices=INTERPOLATIONS, optional=True, model=True,
+               control=Control("select", choices=(AUTO, *INTERPOLATIONS))),
+        Option("lights", "volume", str, None, "light the medium by the scene's lights "
+               "(its transmittance toward each)", choices=("scene", "none"), optional=True,
+               control=Control("select", choices=("none", "scene"))),
+        Option("light_map_size", "volume", int, DEFAULT_LIGHT_MAP_SIZE, "light-map points "
+               "per axis (with lights)", low=2, high=128,
+               control=Control("select", "light map", choices=(8, 16, 32, 64))),
+        Option("ambient", "volume", float, DEFAULT_AMBIENT, "share of the emission no light "
+               "modulates (with lights)", low=0.0, high=1.0,
+               control=Control("slider", "ambient", 0.0, 1.0, 0.05)),
+    )
+
+
 @dataclass(frozen=True)
 class Shading:
     """Options every volume technique reads: termination, skipping, lights."""
 
-    stop_opacity: float = DEFAULT_STOP_OPACITY
-    skip_empty: bool = True
-    light_map_size: int = DEFAULT_LIGHT_MAP_SIZE
-    ambient: float = DEFAULT_AMBIENT
-    blending: str = "composite"
-    isosurfaces: tuple[float, ...] = ()
+    stop_opacity: float = STOP_OPACITY.field()
+    skip_empty: bool = SKIP_EMPTY.field()
+    light_map_size: int = LIGHT_MAP_SIZE.field()
+    ambient: float = AMBIENT.field()
+    blending: str = BLENDING.field()
+    isosurfaces: tuple[float, ...] = ()   # in stored units (ISOSURFACES as add_volume reads)
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
-        if self.blending not in BLEND_MODES:
-            raise ValueError(f"blending must be one of {BLEND_MODES}, got {self.blending!r}.")
+        check_declared(self)
         if self.blending == "isosurface" and not self.isosurfaces:
             raise ValueError("blending='isosurface' draws the levels given as isosurfaces=; "
                              "pass one or more values, e.g. isosurfaces=[100, 300].")
@@ -60,9 +123,6 @@ class Shading:
         if len(self.isosurfaces) > MAX_ISOSURFACES:
             raise ValueError(f"isosurfaces: at most {MAX_ISOSURFACES} levels, got "
                              f"{len(self.isosurfaces)}.")
-        positive_number("stop_opacity", self.stop_opacity, 0.0, 1.0)
-        whole_number("light_map_size", self.light_map_size, 2, 128)
-        positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)
 
     @property
     def blend(self) -> Blend:
@@ -74,11 +134,11 @@ class Shading:
 class MarchOptions:
     """``technique='vtk'``: the step along the ray."""
 
-    step_scale: float = 0.5
+    step_scale: float = STEP_SCALE.field()
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
-        positive_number("step_scale", self.step_scale, 0.0, 1e3)
+        check_declared(self)
 
     def check_model(self, model) -> None:
         """Refuse a step that would ask a ray through ``model`` for more steps than it takes.
@@ -95,34 +155,25 @@ class MarchOptions:
 class DirectOptions(MarchOptions):
     """``technique='direct'``: the step, and the resolution the rays are marched at."""
 
-    downsample: int = 1
-
-    def check(self) -> None:
-        """Raise a clear error for a bad option."""
-        super().check()
-        whole_number("downsample", self.downsample, 1, 64)
+    downsample: int = DOWNSAMPLE.field()
 
 
 @dataclass(frozen=True)
 class CubeMapOptions:
     """``technique='cubemap'``: the cube map's size, samples, LOD and depth filter."""
 
-    face_size: int = DEFAULT_FACE_SIZE
-    max_samples: int | None = None
-    upscale: float = 1.0
-    sample_factor: float = 1.0
-    occlusion_sharpness: float = DEFAULT_OCCLUSION_SHARPNESS
+    face_size: int = FACE_SIZE.field()
+    max_samples: int | None = MAX_SAMPLES.field()
+    upscale: float = UPSCALE.field()
+    sample_factor: float = SAMPLE_FACTOR.field()
+    occlusion_sharpness: float = OCCLUSION_SHARPNESS.field()
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
-        size = whole_number("face_size", self.face_size, 1, 4096)
+        check_declared(self)
+        size = int(self.face_size)
         if size & (size - 1):
             raise ValueError(f"face_size must be a power of two from 1 to 4096, got {size}.")
-        if self.max_samples is not None:
-            whole_number("max_samples", self.max_samples, 1)
-        positive_number("upscale", self.upscale)
-        positive_number("sample_factor", self.sample_factor)
-        positive_number("occlusion_sharpness", self.occlusion_sharpness, closed_low=True)
 
     def check_model(self, model) -> None:
         """Refuse ``max_samples`` that would ask a ray for more steps than it takes."""
@@ -137,7 +188,7 @@ class CubeMapOptions:
 class AutoOptions(CubeMapOptions):
     """``technique='auto'``: the cube map's options and the direct marcher's step."""
 
-    step_scale: float = 0.5
+    step_scale: float = STEP_SCALE.field()
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""

@@ -6,7 +6,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..core.options import positive_number, whole_number
+from ..core.declared import AUTO, Control, Option, blinn_terms, check_declared, declare, option
+from ..core.options import positive_number
 from ..models.voxels import MAX_TEXTURE_SIZE
 
 TRAVERSALS = ("dda", "fixed")
@@ -21,6 +22,49 @@ MAX_MIP_LEVELS = 12
 LOD_LEVELS = 3
 #: Largest radius of the neighbour distance field (the seed's 1..3: 8, 124, 342 neighbours).
 MAX_DISTANCE_FIELD = 3
+
+
+DDA = ("voxels",)
+#: Every option of the voxel technique, declared once (:mod:`pv_cubemarch.core.declared`).
+(TRAVERSAL, VOXEL_STEP_SCALE, MIP_LEVELS, DISTANCE_FIELD, MODE, SHADING, AMBIENT, SPECULAR,
+ SPECULAR_POWER, AMBIENT_OCCLUSION, OCCLUSION_STRENGTH, PROXY, LOD, LOD_BIAS,
+ WORLD_TRAVERSAL) = declare(
+    Option("traversal", "voxels", str, "dda", "dda (exact: every voxel a ray crosses) or "
+           "fixed steps (may miss thin voxels)", choices=TRAVERSALS,
+           control=Control("select", help="dda is exact; fixed steps may miss thin voxels")),
+    Option("step_scale", "voxels", float, None, "the fixed traversal's step, in voxels "
+           "(default 0.1)", optional=True, low=1e-3, high=1e3,
+           control=Control("select", "fixed step (voxels)",
+                           choices=(AUTO, 0.05, 0.1, 0.25, 0.5, 1.0))),
+    Option("mip_levels", "voxels", int, None, "occupancy mipmap levels the DDA leaves empty "
+           "space by (default: those that pay off)", low=0, high=MAX_MIP_LEVELS,
+           optional=True, control=Control("select", "occupancy levels",
+                                          choices=(AUTO, *range(MAX_MIP_LEVELS + 1)))),
+    Option("distance_field", "voxels", int, 0, "largest radius of the neighbour distance "
+           "field (0: off)", low=0, high=MAX_DISTANCE_FIELD,
+           control=Control("select", "distance field", choices=(0, 1, 2, 3))),
+    Option("mode", "voxels", str, "color", "what a pixel shows: the colour, the voxel id, "
+           "the entered face", choices=MODES, control=Control("select")),
+    Option("shading", "voxels", str, "blinn", "unlit, flat (Lambert) or blinn (plus a "
+           "highlight), from the scene's lights", choices=SHADINGS,
+           control=Control("select")),
+    *blinn_terms("voxels"),
+    Option("ambient_occlusion", "voxels", bool, False, "darken each face near the voxels "
+           "around it", control=Control("switch", "ambient occlusion")),
+    Option("occlusion_strength", "voxels", float, 0.5, "how dark full occlusion is", low=0.0,
+           high=1.0, control=Control("slider", "occlusion strength", 0.0, 1.0, 0.05)),
+    Option("proxy", "voxels", str, "bricks", "the geometry whose pixels run the traversal",
+           choices=PROXIES, control=Control("select")),
+    Option("lod", "voxels", bool, False, "draw coarser occupancy cells far away",
+           control=Control("switch", "level of detail")),
+    Option("lod_bias", "voxels", float, 0.0, "levels added to the level of detail (with lod)",
+           low=-float(MAX_MIP_LEVELS), high=float(MAX_MIP_LEVELS),
+           control=Control("slider", "lod bias", -2.0, 2.0, 0.25)),
+    Option("world_traversal", "voxels", str, None, "chunked worlds: one traversal through "
+           "a chunk index, or a box per chunk (default: index where it fits)",
+           choices=WORLD_TRAVERSALS, optional=True,
+           control=Control("select", "world traversal", choices=(AUTO, *WORLD_TRAVERSALS))),
+)
 
 
 @dataclass(frozen=True)
@@ -62,44 +106,32 @@ class VoxelOptions:
     says why not), else ``'per_chunk'``.
     """
 
-    traversal: str = "dda"
-    step_scale: float | None = None
-    mip_levels: int | None = None
-    distance_field: int = 0
-    mode: str = "color"
-    shading: str = "blinn"
-    ambient: float = 0.2
-    specular: float = 0.3
-    specular_power: float = 30.0
-    ambient_occlusion: bool = False
-    occlusion_strength: float = 0.5
-    proxy: str = "bricks"
-    lod: bool = False
-    lod_bias: float = 0.0
-    world_traversal: str | None = None
+    traversal: str = TRAVERSAL.field()
+    step_scale: float | None = VOXEL_STEP_SCALE.field()
+    mip_levels: int | None = MIP_LEVELS.field()
+    distance_field: int = DISTANCE_FIELD.field()
+    mode: str = MODE.field()
+    shading: str = SHADING.field()
+    ambient: float = AMBIENT.field()
+    specular: float = SPECULAR.field()
+    specular_power: float = SPECULAR_POWER.field()
+    ambient_occlusion: bool = AMBIENT_OCCLUSION.field()
+    occlusion_strength: float = OCCLUSION_STRENGTH.field()
+    proxy: str = PROXY.field()
+    lod: bool = LOD.field()
+    lod_bias: float = LOD_BIAS.field()
+    world_traversal: str | None = WORLD_TRAVERSAL.field()
 
     def check(self) -> None:
-        """Raise a clear error for a bad option."""
-        if self.traversal not in TRAVERSALS:
-            raise ValueError(f"traversal must be one of {TRAVERSALS}, got {self.traversal!r}.")
-        if self.mode not in MODES:
-            raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}.")
-        if self.mip_levels is not None:
-            whole_number("mip_levels", self.mip_levels, 0, MAX_MIP_LEVELS)
-        whole_number("distance_field", self.distance_field, 0, MAX_DISTANCE_FIELD)
+        """Raise a clear error for a bad option (each alone, then how they go together)."""
+        for name in ("traversal", "mode", "mip_levels", "distance_field"):
+            option("voxels", name).check(getattr(self, name))
         for name in ("mip_levels", "distance_field"):
             if getattr(self, name) and self.traversal != "dda":
                 raise ValueError(f"{name} skips empty space in traversal='dda'; the fixed step "
                                  f"has none: pass {name}=0 with traversal='fixed'.")
-        if self.proxy not in PROXIES:
-            raise ValueError(f"proxy must be one of {PROXIES}, got {self.proxy!r}.")
-        if self.world_traversal is not None and self.world_traversal not in WORLD_TRAVERSALS:
-            raise ValueError(f"world_traversal must be one of {WORLD_TRAVERSALS} or None, got "
-                             f"{self.world_traversal!r}.")
-        if not isinstance(self.lod, (bool, np.bool_)):
-            raise ValueError(f"lod must be True or False, got {self.lod!r}.")
-        positive_number("lod_bias", self.lod_bias, -float(MAX_MIP_LEVELS),
-                        float(MAX_MIP_LEVELS), closed_low=True)
+        for name in ("proxy", "world_traversal", "lod", "lod_bias"):
+            option("voxels", name).check(getattr(self, name))
         if self.lod_bias and not self.lod:
             raise ValueError("lod_bias shifts the level of detail, which is off: pass "
                              "lod=True with it.")
@@ -110,16 +142,9 @@ class VoxelOptions:
         if self.lod and self.mode == "id":
             raise ValueError("mode='id' names the exact voxel of each pixel; lod draws "
                              "coarser cells: leave lod off with mode='id'.")
-        if self.shading not in SHADINGS:
-            raise ValueError(f"shading must be one of {SHADINGS}, got {self.shading!r}.")
-        positive_number("ambient", self.ambient, 0.0, 1.0, closed_low=True)
-        positive_number("specular", self.specular, 0.0, 1.0, closed_low=True)
-        positive_number("specular_power", self.specular_power, 0.0, 1e4)
-        if not isinstance(self.ambient_occlusion, (bool, np.bool_)):
-            raise ValueError(f"ambient_occlusion must be True or False, got "
-                             f"{self.ambient_occlusion!r}.")
-        positive_number("occlusion_strength", self.occlusion_strength, 0.0, 1.0,
-                        closed_low=True)
+        for name in ("shading", "ambient", "specular", "specular_power", "ambient_occlusion",
+                     "occlusion_strength"):
+            option("voxels", name).check(getattr(self, name))
         if self.ambient_occlusion and self.mode != "color":
             raise ValueError(f"ambient_occlusion darkens the colours of mode='color'; "
                              f"mode={self.mode!r} draws none: use mode='color', or leave "
@@ -135,6 +160,7 @@ class VoxelOptions:
             if float(self.step_scale) < 1e-3:
                 raise ValueError(f"step_scale={self.step_scale} would take over 1000 samples "
                                  "per voxel; use at least 0.001.")
+        check_declared(self)   # and nothing declared is left unchecked
 
     def check_model(self, model) -> None:
         """Refuse a grid no 3D texture holds, or whose ids 24-bit colour cannot hold."""

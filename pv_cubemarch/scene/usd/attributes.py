@@ -6,7 +6,11 @@ import re
 
 from pxr import Usd
 
+from ...core.declared import usd_table
 from ...core.errors import SceneLoadError
+from ...surfaces import options as _surface_options  # noqa: F401  (declares its options)
+from ...volume import options as _volume_options  # noqa: F401  (declares its options)
+from ...voxels import options as _voxel_options  # noqa: F401  (declares its options)
 
 
 def attr(prim, name: str, time=None):
@@ -17,40 +21,12 @@ def attr(prim, name: str, time=None):
     return attribute.Get(Usd.TimeCode.Default() if time is None else time)
 
 
-#: ``cubemarch:*`` attributes of a Volume prim and the ``add_volume`` options they set.
-VOLUME_OPTIONS = (
-    ("stepScale", "step_scale", float), ("technique", "technique", str),
-    ("stopOpacity", "stop_opacity", float), ("skipEmpty", "skip_empty", bool),
-    ("downsample", "downsample", int), ("faceSize", "face_size", int),
-    ("maxSamples", "max_samples", int), ("upscale", "upscale", float),
-    ("sampleFactor", "sample_factor", float),
-    ("occlusionSharpness", "occlusion_sharpness", float), ("lights", "lights", str),
-    ("lightMapSize", "light_map_size", int), ("ambient", "ambient", float),
-    ("blending", "blending", str),
-)
-
-#: ``cubemarch:*`` attributes of a voxels Volume prim and the ``add_voxels`` options they set.
-VOXEL_OPTIONS = (
-    ("traversal", "traversal", str), ("stepScale", "step_scale", float),
-    ("mipLevels", "mip_levels", int), ("distanceField", "distance_field", int),
-    ("mode", "mode", str), ("shading", "shading", str),
-    ("ambient", "ambient", float), ("specular", "specular", float),
-    ("specularPower", "specular_power", float),
-    ("ambientOcclusion", "ambient_occlusion", bool),
-    ("occlusionStrength", "occlusion_strength", float), ("proxy", "proxy", str),
-    ("lod", "lod", bool), ("lodBias", "lod_bias", float),
-)
-
-#: ``cubemarch:*`` attributes of a surface Volume prim and the ``add_surface`` options they
-#: set (with ``cubemarch:isovalue``, required, and ``cubemarch:color``, a color3f).
-SURFACE_OPTIONS = (
-    ("surfaceTechnique", "technique", str), ("surfaceTraversal", "traversal", str),
-    ("steps", "steps", int),
-    ("refineSteps", "refine_steps", int), ("root", "root", str),
-    ("activeTest", "active_test", str), ("activeSamples", "active_samples", int),
-    ("shading", "shading", str), ("ambient", "ambient", float),
-    ("specular", "specular", float), ("specularPower", "specular_power", float),
-)
+#: ``cubemarch:*`` attributes of each kind of Volume prim and the options they set, from
+#: the options' declarations (:func:`pv_cubemarch.core.declared.usd_table`).
+VOLUME_OPTIONS = usd_table("volume")
+VOXEL_OPTIONS = usd_table("voxels")
+#: (with ``cubemarch:isovalue``, required)
+SURFACE_OPTIONS = usd_table("surface")
 
 #: Volume attributes that a voxels Volume prim must not carry.
 VOLUME_ONLY = tuple(key for key in ("opacity", "clim", "opacityUnitDistance", "interpolation",
@@ -96,11 +72,19 @@ def converted(name: str, key: str, value, kind):
             if isinstance(value, (str, bool)) or float(value) != int(value):
                 raise ValueError
             return int(value)
+        if kind in (tuple, "color3f"):
+            if isinstance(value, (str, bool)):
+                raise TypeError
+            numbers = tuple(float(v) for v in value)
+            if kind == "color3f" and len(numbers) != 3:
+                raise ValueError
+            return numbers
         if isinstance(value, (str, bool)):
             raise TypeError
         return kind(value)
     except (TypeError, ValueError, OverflowError):
         expected = {str: "a string or token", int: "a whole number", float: "a number",
-                    bool: "a bool"}[kind]
+                    bool: "a bool", tuple: "an array of numbers (float[])",
+                    "color3f": "a color3f"}[kind]
         raise SceneLoadError(f"Volume {name}: cubemarch:{key} must be {expected}, got "
                              f"{value!r}.") from None

@@ -143,9 +143,6 @@ def _surface(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
     where = f"Volume {name} (field {field_prim.GetPath()})"
     found = authored(prim, name, SURFACE_OPTIONS)
     options = {option: value for option, value in found.values()}
-    color = attr(prim, "cubemarch:color")
-    if color is not None:
-        options["color"] = tuple(float(c) for c in color)
     try:
         get_technique("surface", options.get("technique", "active")).make_options(
             {k: v for k, v in options.items() if k != "technique"})
@@ -176,7 +173,8 @@ def _check_volume_options(name: str, found: dict, options: dict) -> None:
         technique.make_options({k: v for k, v in options.items()
                                 if k in specific_option_names("volume")})
         Shading(**{k: options[k] for k in ("stop_opacity", "skip_empty", "light_map_size",
-                                           "ambient", "blending") if k in options}).check()
+                                           "ambient", "blending") if k in options},
+                isosurfaces=(0.0,) if options.get("isosurfaces") else ()).check()
     except ValueError as exc:
         raise options_error(name, found, "volume", exc) from exc
     if options.get("lights", "scene") not in ("scene", "none"):

@@ -1,0 +1,215 @@
+"""Options declared once: what each is, and every channel that sets it.
+
+An :class:`Option` says an option's type, default, range or choices, one line of
+documentation, which techniques read it, and how each channel spells it: the Python
+keyword (its name), the ``pv-cubemarch render`` flag, the USD ``cubemarch:*`` attribute
+and the live view's control. The options dataclasses take their fields' defaults and
+checks from it; the CLI, the USD tables, the knobs and ``docs/options.md`` are generated
+from it, and a test fails when an option lacks a channel without saying why.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .options import positive_number, whole_number
+
+#: The kinds of technique, as the registry names them.
+KINDS = ("volume", "voxels", "surface")
+#: The channels besides Python: each option has one or says why not (``without``).
+CHANNELS = ("cli", "usd", "knob")
+#: The choice of an optional option left unset (``None``): the technique picks its value.
+AUTO = "auto"
+#: A channel's name derived from the option's (camelCase attribute, kebab-case flag).
+DERIVED = "derived"
+
+
+@dataclass(frozen=True)
+class Control:
+    """How the live view tunes an option: a slider over a range, a select, a switch."""
+
+    kind: str                       # 'slider', 'select' or 'switch'
+    label: str = ""
+    low: float = 0.0
+    high: float = 1.0
+    step: float = 0.1
+    choices: tuple = ()             # a select's; the option's own choices when empty
+    help: str = ""
+
+
+@dataclass(frozen=True)
+class Option:
+    """One option of ``add_volume``, ``add_voxels`` or ``add_surface``, for every channel.
+
+    ``type`` is ``float``, ``int``, ``bool``, ``str`` or ``tuple`` (of numbers);
+    ``optional``: ``None`` is a value (the technique decides). ``low`` / ``high`` bound a
+    number (``closed_low``: ``low`` itself allowed). ``usd`` / ``cli``: the attribute key
+    (after ``cubemarch:``) and the flag, :data:`DERIVED` from the name by default, ``None``
+    for none, with the reason in ``without``. ``model``: set on the data model where it is
+    made (its USD attribute read there), not on the technique's options. ``usd_type``:
+    how the attribute is read where it differs from ``type`` (``'color3f'``).
+    """
+
+    name: str
+    kind: str
+    type: type
+    default: object
+    doc: str
+    techniques: tuple[str, ...] = ()
+    choices: tuple = ()
+    low: float | None = None
+    high: float | None = None
+    closed_low: bool = True
+    optional: bool = False
+    usd: str | None = DERIVED
+    cli: str | None = DERIVED
+    control: Control | None = None
+    without: dict = field(default_factory=dict)
+    model: bool = False
+    usd_type: object = None
+
+    @property
+    def usd_key(self) -> str | None:
+        """The ``cubemarch:<key>`` attribute, or ``None``."""
+        if self.usd != DERIVED:
+            return self.usd
+        head, *rest = self.name.split("_")
+        return head + "".join(part.title() for part in rest)
+
+    @property
+    def flag(self) -> str | None:
+        """The ``pv-cubemarch render`` flag, or ``None``."""
+        return "--" + self.name.replace("_", "-") if self.cli == DERIVED else self.cli
+
+    @property
+    def dest(self) -> str | None:
+        """The attribute of the parsed arguments that holds the flag's value."""
+        return None if self.flag is None else self.flag[2:].replace("-", "_")
+
+    @property
+    def attribute_type(self):
+        """How the USD attribute is read: ``usd_type``, else ``type``."""
+        return self.usd_type or self.type
+
+    def reads(self, technique: str) -> bool:
+        """Whether ``technique`` reads this option."""
+        return not self.techniques or technique in self.techniques
+
+    def field(self):
+        """A dataclass field with this option's default (and the option as its metadata)."""
+        return dataclasses.field(default=self.default, metadata={"option": self})
+
+    def check(self, value) -> None:
+        """Raise a ValueError naming the option when ``value`` is not one it takes."""
+        if value is None and (self.optional or self.default is None):
+            return
+        if self.choices:
+            if value not in self.choices:
+                raise ValueError(f"{self.name} must be one of {self.choices}, got {value!r}.")
+        elif self.type is bool:
+            if not isinstance(value, (bool, np.bool_)):
+                raise ValueError(f"{self.name} must be True or False, got {value!r}.")
+        elif self.type is int:
+            whole_number(self.name, value, int(self.low if self.low is not None else 0),
+                         None if self.high is None else int(self.high))
+        elif self.type is float:
+            positive_number(self.name, value, -np.inf if self.low is None else self.low,
+                            np.inf if self.high is None else self.high, self.closed_low)
+
+    def describe_range(self) -> str:
+        """The values it takes, for tables and ``--help``."""
+        if self.choices:
+            return " / ".join(str(c) for c in self.choices)
+        if self.type in (int, float) and (self.low is not None or self.high is not None):
+            low = "-inf" if self.low is None else f"{self.low:g}"
+            high = "inf" if self.high is None else f"{self.high:g}"
+            return f"{'[' if self.closed_low else '('}{low}, {high}]"
+        return {bool: "True / False", tuple: "numbers"}.get(self.type, "")
+
+
+def blinn_terms(kind: str) -> tuple[Option, Option, Option]:
+    """``ambient``, ``specular``, ``specular_power`` of a kind's Blinn-Phong shading."""
+    return (
+        Option("ambient", kind, float, 0.2, "ambient term of the shading", low=0.0, high=1.0,
+               control=Control("slider", "ambient", 0.0, 1.0, 0.05)),
+        Option("specular", kind, float, 0.3, "highlight weight (blinn)", low=0.0, high=1.0,
+               control=Control("slider", "specular", 0.0, 1.0, 0.05)),
+        Option("specular_power", kind, float, 30.0, "highlight exponent (blinn)", low=0.0,
+               high=1e4, closed_low=False,
+               control=Control("slider", "specular power", 1.0, 200.0, 1.0)))
+
+
+_DECLARED: dict[tuple[str, str], Option] = {}
+
+
+def declare(*options: Option) -> tuple[Option, ...]:
+    """Register ``options`` (each kind's options module declares its own); returns them."""
+    for option in options:
+        if option.kind not in KINDS:
+            raise ValueError(f"Option {option.name!r}: kind must be one of {KINDS}.")
+        _DECLARED[(option.kind, option.name)] = option
+    return options
+
+
+def declared(kind: str | None = None) -> list[Option]:
+    """The declared options of ``kind`` (every kind by default), in declaration order."""
+    return [o for (k, _), o in _DECLARED.items() if kind is None or k == kind]
+
+
+def option(kind: str, name: str) -> Option:
+    """The declaration of option ``name`` of ``kind``."""
+    return _DECLARED[(kind, name)]
+
+
+def check_declared(options) -> None:
+    """Check every field of an options dataclass against its declaration."""
+    for item in dataclasses.fields(options):
+        declaration = item.metadata.get("option")
+        if declaration is not None:
+            declaration.check(getattr(options, item.name))
+
+
+def usd_table(kind: str) -> tuple[tuple[str, str, object], ...]:
+    """``(attribute key, option, type)`` of the options of ``kind`` a prim sets as options.
+
+    Options set on the data model (``model=True``) are read where the model is made.
+    """
+    return tuple((o.usd_key, o.name, o.attribute_type) for o in declared(kind)
+                 if o.usd_key is not None and not o.model)
+
+
+def options_markdown() -> str:
+    """``docs/options.md``: a table per kind of every declared option and its channels."""
+    titles = {"volume": "Volumes (`add_volume`)", "voxels": "Voxels (`add_voxels`)",
+              "surface": "Surfaces (`add_surface`)"}
+    lines = ["# Options", "",
+             "Generated from the options' declarations (`pv_cubemarch.core.declared`) by",
+             "`python -m pv_cubemarch.core.declared > docs/options.md`; a test fails when it",
+             "is out of date. Each option is a keyword of the Python function, a flag of",
+             "`pv-cubemarch render`, a `cubemarch:*` attribute of a USD Volume prim and a",
+             "control of the live view, or says why not.", ""]
+    for kind in KINDS:
+        lines += [f"## {titles[kind]}", "",
+                  "| option | default | values | techniques | CLI flag | USD attribute | "
+                  "live view | what |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for item in declared(kind):
+            usd = f"cubemarch:{item.usd_key}" if item.usd_key else None
+            knob = item.control.kind if item.control else None
+            shown = [f"`{value}`" if value else f"none: {item.without.get(name, '?')}"
+                     for name, value in (("cli", item.flag), ("usd", usd), ("knob", knob))]
+            lines.append(f"| `{item.name}` | `{item.default!r}` | {item.describe_range()} | "
+                         f"{', '.join(item.techniques) or 'all'} | {' | '.join(shown)} | "
+                         f"{item.doc} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":   # run as a script: the package's own copy holds the declarations
+    import pv_cubemarch.api  # noqa: F401  (every kind's options module declares its options)
+    from pv_cubemarch.core import declared as _package
+
+    print(_package.options_markdown(), end="")
