@@ -17,7 +17,7 @@ from .bench import surfaces as bench_surfaces
 from .bench import voxels as bench_voxels
 from .bench import world as bench_world
 from .bench.voxels import ROWS as VOXEL_ROWS
-from .core.declared import KINDS, declared, option
+from .core.declared import KINDS, declared, option, options_markdown
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, specific_option_names, techniques
@@ -126,6 +126,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="draw a grid file's field as its implicit surface at this level "
                              "(003: a quadratic B-spline through its samples)")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
+    commands.add_parser("options", help="print every option's table (docs/options.md): its "
+                                         "flag, USD attribute and live-view control")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
     info.add_argument("scene", nargs="?", help="scene file to describe")
     for command in (render, info):
@@ -259,6 +261,9 @@ def main(argv: list[str] | None = None) -> int:
             return _render(args)
         if args.command == "bench":
             return _bench(args)
+        if args.command == "options":
+            print(options_markdown(), end="")
+            return 0
         if args.command == "view":
             serve(args.scene or DEFAULT_SCENE, port=args.port, host=args.host, size=args.size,
                   window=args.window)

@@ -133,7 +133,7 @@ def test_every_control_is_a_knob():
 
 def test_options_table_in_the_docs_is_up_to_date():
     """``docs/options.md`` is what the declarations generate (regenerate it with
-    ``python -m pv_cubemarch.core.declared > docs/options.md``)."""
+    ``pv-cubemarch options > docs/options.md``)."""
     path = Path(__file__).resolve().parents[1] / "docs" / "options.md"
     assert path.read_text() == options_markdown()
 

@@ -187,7 +187,7 @@ def options_markdown() -> str:
               "surface": "Surfaces (`add_surface`)"}
     lines = ["# Options", "",
              "Generated from the options' declarations (`pv_cubemarch.core.declared`) by",
-             "`python -m pv_cubemarch.core.declared > docs/options.md`; a test fails when it",
+             "`pv-cubemarch options > docs/options.md`; a test fails when it",
              "is out of date. Each option is a keyword of the Python function, a flag of",
              "`pv-cubemarch render`, a `cubemarch:*` attribute of a USD Volume prim and a",
              "control of the live view, or says why not.", ""]
@@ -207,9 +207,3 @@ def options_markdown() -> str:
         lines.append("")
     return "\n".join(lines)
 
-
-if __name__ == "__main__":   # run as a script: the package's own copy holds the declarations
-    import pv_cubemarch.api  # noqa: F401  (every kind's options module declares its options)
-    from pv_cubemarch.core import declared as _package
-
-    print(_package.options_markdown(), end="")
