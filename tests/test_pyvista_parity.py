@@ -414,7 +414,7 @@ def test_blend_modes_draw_what_pyvista_draws(name, blending):
     as additive (its snippet swapped in BLEND_SNIPPETS): ct-average 14.1 dB; additive
     without the step over the unit distance (``* dt / cm_opacityUnit`` dropped): ct vtk
     26.5 dB; levels crossed upward only (the downward test of blend_isosurface.glsl
-    made false): wavelet vtk 25.5 dB, zmap 29.8 dB.
+    made false): wavelet vtk 21.3 dB, zmap 23.2 dB.
     """
     make, keywords, _ = CASES[name]
     grid = make()

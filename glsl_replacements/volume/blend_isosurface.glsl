@@ -1,15 +1,15 @@
 // Blending 'isosurface': each level of cm_isoValues the ray crosses between two samples is
 // a surface with the colour and the opacity (per unit distance, not accumulated) the
 // transfer function gives that level, composited front to back; samples between levels
-// add nothing, as VTK's ISOSURFACE_BLEND draws it.
+// add nothing, as VTK's ISOSURFACE_BLEND draws it. The ray keeps which interval between
+// levels its last sample lay in, so a sample costs one or two comparisons.
 uniform float cm_isoValues[CM_ISO_COUNT];   // ascending, in the stored units
 
-float cm_isoPrevious;   // the ray's last sample
-bool cm_isoStarted;     // whether it has one
+int cm_isoBelow;        // levels at or below the ray's last sample (-1: no sample yet)
 
 vec4 cm_blendStart()
 {
-  cm_isoStarted = false;
+  cm_isoBelow = -1;
   return vec4(0.0);
 }
 
@@ -22,27 +22,34 @@ void cm_isoHit(inout vec4 state, float level)
 bool cm_blend(inout vec4 state, vec3 texturePosition, float dt)
 {
   float scalar = cm_sampleScalar(texturePosition);
-  if (cm_isoStarted)
+  if (cm_isoBelow < 0)
   {
-    // Levels crossed in the order the ray meets them.
+    cm_isoBelow = 0;
     for (int i = 0; i < CM_ISO_COUNT; ++i)
     {
-      int up = i;
-      int down = CM_ISO_COUNT - 1 - i;
-      if (scalar > cm_isoPrevious && cm_isoPrevious < cm_isoValues[up] &&
-          cm_isoValues[up] < scalar)
-      {
-        cm_isoHit(state, cm_isoValues[up]);
-      }
-      if (scalar < cm_isoPrevious && cm_isoValues[down] <= cm_isoPrevious &&
-          scalar < cm_isoValues[down])
-      {
-        cm_isoHit(state, cm_isoValues[down]);
-      }
+      cm_isoBelow += cm_isoValues[i] <= scalar ? 1 : 0;
+    }
+    return true;
+  }
+  // Levels crossed since the last sample, in the order the ray meets them: up through
+  // those strictly below this sample, or down through those strictly above it.
+  for (int k = 0; k < CM_ISO_COUNT; ++k)
+  {
+    if (cm_isoBelow < CM_ISO_COUNT && scalar > cm_isoValues[cm_isoBelow])
+    {
+      cm_isoHit(state, cm_isoValues[cm_isoBelow]);
+      cm_isoBelow += 1;
+    }
+    else if (cm_isoBelow > 0 && scalar < cm_isoValues[cm_isoBelow - 1])
+    {
+      cm_isoHit(state, cm_isoValues[cm_isoBelow - 1]);
+      cm_isoBelow -= 1;
+    }
+    else
+    {
+      break;
     }
   }
-  cm_isoStarted = true;
-  cm_isoPrevious = scalar;
   return !(state.a > cm_stopOpacity);
 }
 
