@@ -49,7 +49,8 @@ lit = pv_cubemarch.offscreen_plotter(size)
 lit.set_background("black")
 sun = pv_cubemarch.VolumeLight("directional", direction=(-1.0, -1.0, -0.5))
 (lit_actor,) = pv_cubemarch.add_volumes(lit, [first, second], technique="cubemap",
-                                        lights=[sun], light_map_size=32, ambient=0.25)
+                                        lights=[sun], light_map_size=32,
+                                        light_map_ambient=0.25)
 lit.camera_position = pl.camera_position
 lit.renderer.ResetCameraClippingRange()
 lit_image = pv_cubemarch.render_image(lit)

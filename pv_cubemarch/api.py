@@ -68,7 +68,7 @@ def add_volume(
     occlusion_sharpness: float | None = None,
     lights=None,
     light_map_size: int = DEFAULT_LIGHT_MAP_SIZE,
-    ambient: float = DEFAULT_AMBIENT,
+    light_map_ambient: float = DEFAULT_AMBIENT,
     transform=None,
     user_matrix=None,
     nan_policy: str = "raise",
@@ -178,16 +178,18 @@ def add_volume(
         differ by ``1/k_z`` cube-map texels. 0 is plain bilinear filtering (halos at mesh
         edges).
     lights : None, 'scene', pyvista.Light or list of them
-        Light the medium: each sample's colour is scaled by ``ambient + (1 - ambient) *
-        sum(colour * intensity * transmittance toward the light)``, the transmittances kept
+        Light the medium: each sample's colour is scaled by ``light_map_ambient +
+        (1 - light_map_ambient) * sum(colour * intensity * transmittance toward the
+        light)``, the transmittances kept
         in a light map recomputed only when a light, the placement or the data change.
         ``'scene'`` takes the plotter's switched-on lights; at most 4. ``None``: unlit
         (the light-map pass does not exist).
     light_map_size : int
         Light-map points per axis (2 to 128): finer shadows for ``light_map_size**3 * 16``
         bytes and a longer light pass.
-    ambient : float
-        Share of the emission no light modulates, in [0, 1] (with ``lights``).
+    light_map_ambient : float
+        Share of the emission no light modulates, in [0, 1] (with ``lights``). Not VTK's
+        ``ambient`` of gradient shading, which PyVista's ``ambient=`` means.
     transform, user_matrix : array_like, optional
         4x4 matrix placing the grid in the world (``user_matrix`` is PyVista's name; give
         one of the two).
@@ -265,7 +267,7 @@ def add_volume(
         max_samples=max_samples, upscale=upscale, sample_factor=sample_factor,
         occlusion_sharpness=occlusion_sharpness).items() if value is not None}
     options = chosen.make_options(given)
-    Shading(stop_opacity, bool(skip_empty), light_map_size, ambient, blending,
+    Shading(stop_opacity, bool(skip_empty), light_map_size, light_map_ambient, blending,
             (0.0,) if blending == "isosurface" and isosurfaces is not None else ()).check()
     if blending != "composite" and (isinstance(volume, VolumeGroup) or lights is not None):
         raise ValueError(f"blending={blending!r} reads the samples along a ray without "
@@ -288,14 +290,15 @@ def add_volume(
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
     options.check_model(model)
-    shading = Shading(stop_opacity, bool(skip_empty), light_map_size, ambient, blending,
+    shading = Shading(stop_opacity, bool(skip_empty), light_map_size, light_map_ambient,
+                      blending,
                       isosurface_levels(isosurfaces, model))
     shading.check()
     component = plotter.cubemarch  # created now: it follows frames and frees on close
     source = light_source(lights, plotter.renderer)
     data = VolumeData(model)
     light_map = None if source is None else LightMap(
-        plotter.renderer, data, source, int(light_map_size), float(ambient))
+        plotter.renderer, data, source, int(light_map_size), float(light_map_ambient))
     binding = chosen.build(plotter, data, options, shading, light_map)
     binding.light_map = light_map
     binding.blending = blending

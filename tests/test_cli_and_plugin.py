@@ -85,11 +85,11 @@ def test_pyvista_read_usd_in_fresh_process():
      {"technique": "direct", "stop_opacity": 0.95, "skip_empty": False, "downsample": 2}),
     (["--technique", "cubemap", "--face-size", "64", "--max-samples", "50", "--upscale", "2",
       "--sample-factor", "1.5", "--occlusion-sharpness", "0.25", "--lights", "scene",
-      "--light-map-size", "16", "--ambient", "0.3"],
+      "--light-map-size", "16", "--light-map-ambient", "0.3"],
      # a stage's "scene" lights are its own: the one sun, intensity 3 scaled to 1
      {"technique": "cubemap", "face_size": 64, "max_samples": 50, "upscale": 2.0,
       "sample_factor": 1.5, "occlusion_sharpness": 0.25, "lights": "stage sun",
-      "light_map_size": 16, "ambient": 0.3}),
+      "light_map_size": 16, "light_map_ambient": 0.3}),
     (["--technique", "auto", "--lights", "none"], {"technique": "auto", "lights": None}),
 ], ids=["direct", "cubemap", "auto"])
 def test_render_options_reach_every_volume(tmp_path, monkeypatch, arguments, expected):
@@ -147,7 +147,7 @@ def test_usd_cubemap_options(tmp_path):
               "maxSamples": ("Int", 60), "upscale": ("Float", 2.0),
               "sampleFactor": ("Float", 1.5), "occlusionSharpness": ("Float", 0.25),
               "lights": ("String", "scene"), "lightMapSize": ("Int", 16),
-              "ambient": ("Float", 0.5)}
+              "lightMapAmbient": ("Float", 0.5)}
     for key, (kind, value) in values.items():
         prim.CreateAttribute(f"cubemarch:{key}", getattr(Sdf.ValueTypeNames, kind)).Set(value)
     path = tmp_path / "scene.usda"
@@ -157,7 +157,7 @@ def test_usd_cubemap_options(tmp_path):
     assert scene.volume_options["/World/Smoke"] == {
         "technique": "cubemap", "face_size": 128, "max_samples": 60, "upscale": 2.0,
         "sample_factor": 1.5, "occlusion_sharpness": 0.25, "lights": "scene",
-        "light_map_size": 16, "ambient": 0.5}
+        "light_map_size": 16, "light_map_ambient": 0.5}
     pl = cm.offscreen_plotter((64, 48))
     try:
         actor = scene.add_to(pl)["/World/Smoke"]
@@ -291,7 +291,7 @@ def test_voxel_flags_reach_voxel_grids_and_volume_flags_volumes(tmp_path, monkey
                  "--shading", "flat", "--mode", "color", "--specular", "0.5",
                  "--specular-power", "10", "--ambient", "0.3", "--face-size", "64",
                  "--no-progress"]) == 0
-    assert seen["volume"] == [{"step_scale": 0.25, "ambient": 0.3}]
+    assert seen["volume"] == [{"step_scale": 0.25}]   # --ambient is the voxels' (shading)
     assert seen["voxels"] == [{"step_scale": 0.25, "traversal": "fixed", "mip_levels": 0,
                                "shading": "flat", "mode": "color", "specular": 0.5,
                                "specular_power": 10.0, "ambient": 0.3}]

@@ -232,7 +232,7 @@ def test_light_grid_of_the_reference_matches_exact_transmittance(model):
     ({"face_size": 100}, "face_size"), ({"max_samples": 0}, "max_samples"),
     ({"upscale": 0}, "upscale"), ({"sample_factor": -1}, "sample_factor"),
     ({"occlusion_sharpness": -0.1}, "occlusion_sharpness"),
-    ({"light_map_size": 1}, "light_map_size"), ({"ambient": 2}, "ambient"),
+    ({"light_map_size": 1}, "light_map_size"), ({"light_map_ambient": 2}, "light_map_ambient"),
     ({"lights": "sun"}, "lights"), ({"downsample": 2}, "technique='direct'"),
 ])
 def test_bad_cubemap_parameters_name_the_argument(plotter_factory, model, kwargs, message):

@@ -42,7 +42,7 @@ CUBE_MAPS = ("cubemap", "auto")
 #: Every option of the volume techniques, declared once (:mod:`pv_cubemarch.core.declared`).
 TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMPLES, UPSCALE, \
     SAMPLE_FACTOR, OCCLUSION_SHARPNESS, BLENDING, ISOSURFACES, INTERPOLATION, LIGHTS, \
-    LIGHT_MAP_SIZE, AMBIENT = declare(
+    LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT = declare(
         Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
                control=Control("select")),
         Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
@@ -94,9 +94,9 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
         Option("light_map_size", "volume", int, DEFAULT_LIGHT_MAP_SIZE, "light-map points "
                "per axis (with lights)", low=2, high=128,
                control=Control("select", "light map", choices=(8, 16, 32, 64))),
-        Option("ambient", "volume", float, DEFAULT_AMBIENT, "share of the emission no light "
-               "modulates (with lights)", low=0.0, high=1.0,
-               control=Control("slider", "ambient", 0.0, 1.0, 0.05)),
+        Option("light_map_ambient", "volume", float, DEFAULT_AMBIENT, "share of the emission "
+               "no light modulates (with lights; not VTK's shading ambient)", low=0.0,
+               high=1.0, control=Control("slider", "light-map ambient", 0.0, 1.0, 0.05)),
     )
 
 
@@ -107,7 +107,7 @@ class Shading:
     stop_opacity: float = STOP_OPACITY.field()
     skip_empty: bool = SKIP_EMPTY.field()
     light_map_size: int = LIGHT_MAP_SIZE.field()
-    ambient: float = AMBIENT.field()
+    light_map_ambient: float = LIGHT_MAP_AMBIENT.field()
     blending: str = BLENDING.field()
     isosurfaces: tuple[float, ...] = ()   # in stored units (ISOSURFACES as add_volume reads)
 

@@ -12,8 +12,9 @@ Transfer functions are not part of USD: a ``Volume`` prim may carry ``cubemarch:
 options of :func:`pv_cubemarch.add_volume` in camel case (:data:`VOLUME_OPTIONS`):
 ``cubemarch:technique``, ``stepScale``, ``stopOpacity``, ``skipEmpty``, ``downsample``,
 ``faceSize``, ``maxSamples``, ``upscale``, ``sampleFactor``, ``occlusionSharpness``,
-``lights`` (``"scene"``: lit by the stage's lights, or ``"none"``), ``lightMapSize`` and
-``ambient``. The field
+``lights`` (``"scene"``: lit by the stage's lights, or ``"none"``), ``lightMapSize``,
+``lightMapAmbient``, ``blending``, ``isosurfaces`` (every option: ``docs/options.md``). The
+field
 prim a ``field:*`` relationship targets has an asset ``filePath`` (.vti/.vtk/.npy/.npz)
 and, for numpy files, optional ``cubemarch:origin`` and ``cubemarch:spacing``.
 

@@ -65,6 +65,11 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
     attrs = {key: attr(prim, f"cubemarch:{key}") for key in
              ("cmap", "opacity", "clim", "opacityUnitDistance", "interpolation",
               *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))}
+    if attr(prim, "cubemarch:ambient") is not None:
+        raise SceneLoadError(f"Volume {name}: cubemarch:ambient is the ambient term of "
+                             "gradient shading, which volumes do not draw yet; the share of "
+                             "the emission the light map leaves unlit is "
+                             "cubemarch:lightMapAmbient.")
     found = authored(prim, name, VOLUME_OPTIONS)
     options = {option: value for option, value in found.values()}
     _check_volume_options(name, found, options)
@@ -173,7 +178,7 @@ def _check_volume_options(name: str, found: dict, options: dict) -> None:
         technique.make_options({k: v for k, v in options.items()
                                 if k in specific_option_names("volume")})
         Shading(**{k: options[k] for k in ("stop_opacity", "skip_empty", "light_map_size",
-                                           "ambient", "blending") if k in options},
+                                           "light_map_ambient", "blending") if k in options},
                 isosurfaces=(0.0,) if options.get("isosurfaces") else ()).check()
     except ValueError as exc:
         raise options_error(name, found, "volume", exc) from exc
