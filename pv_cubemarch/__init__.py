@@ -38,7 +38,7 @@ from .models.surface import SplineField  # noqa: E402
 from .models.transfer import TransferFunction  # noqa: E402
 from .models.volume import VolumeModel, make_volume  # noqa: E402
 from .models.voxels import Palette, VoxelModel, make_voxels  # noqa: E402
-from .reference import render_blended, render_emission_absorption  # noqa: E402
+from .reference import ShadeSetup, render_blended, render_emission_absorption  # noqa: E402
 from .scene.io import load_scene  # noqa: E402
 from .scene.model import Scene, SceneLight, SceneMesh, SkippedPrim  # noqa: E402
 from .scene.openvdb.image import read_vdb  # noqa: E402
@@ -61,7 +61,7 @@ __all__ = [
     "add_surface", "add_volumes", "add_voxels", "SplineField", "make_field",
     "configure_offscreen", "make_voxels", "Palette", "VoxelModel", "gl_info",
     "load_scene", "make_volume", "read_vdb", "offscreen_plotter", "plugin",
-    "render_emission_absorption", "render_blended", "render_frame",
+    "render_emission_absorption", "render_blended", "render_frame", "ShadeSetup",
     "render_image", "widget",
     "live_view", "LiveView",
 ]

@@ -23,6 +23,7 @@ from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
+from .volume.gradient_shading import gradient_shading
 from .volume.light_map import LightMap
 from .volume.march import VolumeData
 from .volume.options import DEFAULT_STOP_OPACITY, INTERPOLATION, Shading
@@ -80,6 +81,10 @@ def add_volume(
     isosurfaces=None,
     interpolation: str | None = None,
     shade: bool = False,
+    ambient: float | None = None,
+    diffuse: float | None = None,
+    specular: float | None = None,
+    specular_power: float | None = None,
     **kwargs,
 ) -> pyvista.Prop3D:
     """Add a volume rendered with emission/absorption compositing; return its actor.
@@ -224,8 +229,13 @@ def add_volume(
         PyVista's default, its ``actor.prop.interpolation_type``), in every technique and
         the CPU reference.
     shade : bool
-        ``False``; gradient shading is not drawn yet (``lights=`` lights the medium by its
-        own transmittance instead).
+        Gradient shading, as VTK's volume mapper shades (``pl.add_volume(shade=True)``):
+        each sample lit by the renderer's switched-on lights on the data's gradient, with
+        ``ambient``, ``diffuse``, ``specular`` and ``specular_power``; composite blending,
+        one volume, no ``lights=`` (the light map's shadows are another lighting).
+    ambient, diffuse, specular, specular_power : float, optional
+        VTK's volume property terms with ``shade=True`` (defaults 0.1, 0.7, 0.2, 10, as
+        PyVista leaves them).
     **kwargs
         PyVista's aliases ``rng`` (``clim``) and ``colormap`` (``cmap``). Any other
         keyword raises a ``TypeError`` that says what to use instead.
@@ -254,9 +264,6 @@ def add_volume(
     """
     named = resolve_aliases(kwargs, {"clim": clim, "cmap": cmap})
     clim, cmap = named["clim"], named["cmap"]
-    if shade:
-        raise ValueError("shade=True (gradient shading) is not drawn yet; lights= lights the "
-                         "medium by its transmittance toward each light instead.")
     if user_matrix is not None:
         if transform is not None:
             raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")
@@ -290,9 +297,11 @@ def add_volume(
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
     options.check_model(model)
+    gradient = gradient_shading(plotter, model, shade, lights, blending,
+                                dict(ambient=ambient, diffuse=diffuse, specular=specular,
+                                     specular_power=specular_power))
     shading = Shading(stop_opacity, bool(skip_empty), light_map_size, light_map_ambient,
-                      blending,
-                      isosurface_levels(isosurfaces, model))
+                      blending, isosurface_levels(isosurfaces, model), gradient)
     shading.check()
     component = plotter.cubemarch  # created now: it follows frames and frees on close
     source = light_source(lights, plotter.renderer)

@@ -25,7 +25,6 @@ from .models.voxels import VoxelModel
 from .scene.io import load_scene
 from .views.app import WINDOW_MODES, serve
 from .volume.march import BLEND_MODES
-from .volume.options import Shading
 from .voxels.options import VoxelOptions
 
 
@@ -355,19 +354,33 @@ def _volume_options(scene, args, given: dict, as_voxels: bool) -> None:
         given["technique"] = args.technique
     for volume in scene.volumes:
         options = scene.volume_options.setdefault(volume.name, {})
+        shaded = given.get("shade", options.get("shade", False))
+        used = {k: v for k, v in given.items() if shaded or k not in SHADE_TERMS}
+        for name in given.keys() - used.keys():   # --ambient ... may be the voxels' too
+            if option("volume", name).flag not in _other_kinds_flags():
+                _warn(name, f"volume {volume.name!r} (shade is off: give --shade)")
         if args.technique:
             kept = get_technique("volume", args.technique).option_names
             for name in specific - set(kept):
                 options.pop(name, None)
-            options.update(given)
+            options.update(used)
             continue
         reads = get_technique("volume", options.get("technique", "vtk")).option_names
-        for name, value in given.items():
+        for name, value in used.items():
             if name in specific and name not in reads:
                 _warn(name, f"volume {volume.name!r} (technique="
                             f"{options.get('technique', 'vtk')!r})")
             else:
                 options[name] = value
+
+
+#: Volume options read only with shade=True (their flags may be the voxels' too).
+SHADE_TERMS = ("ambient", "diffuse", "specular", "specular_power")
+
+
+def _other_kinds_flags() -> set[str]:
+    """Flags the voxel and surface options declare."""
+    return {o.flag for kind in ("voxels", "surface") for o in declared(kind)}
 
 
 def _shared_with_voxels() -> set[str]:
@@ -402,8 +415,7 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
     (``--step-scale`` is read only with the fixed traversal).
     """
     reads = {f.name for f in dataclasses.fields(VoxelOptions)}
-    voxel_only = reads - specific_option_names("volume") \
-        - {f.name for f in dataclasses.fields(Shading)}
+    voxel_only = reads - {o.name for o in declared("volume")}
     if not scene.voxels:
         surfaces_read = _shared_with_voxels() if scene.surfaces else set()
         for name in given:

@@ -30,6 +30,10 @@ uniform mat4 cm_worldFromTexture;  // texture coordinates (texel centres at poin
 #ifdef CM_LIGHTS
 vec3 cm_lighting(vec3 texturePosition);   // defined by light_sample
 #endif
+#ifdef CM_SHADE
+vec3 cm_shade(vec3 texturePosition, vec3 color);   // defined by gradient_shading
+vec3 cm_rayWorld;              // the ray's unit direction in the world, for the shading
+#endif
 
 #ifndef CM_JOINT
 // Emitted colour and extinction of the medium at a texture position, before lighting.
@@ -46,6 +50,12 @@ vec4 cm_emission(vec3 texturePosition)
   vec4 emission = cm_unlitEmission(texturePosition);
 #ifdef CM_LIGHTS
   emission.rgb *= cm_lighting(texturePosition);
+#endif
+#ifdef CM_SHADE
+  if (emission.a > 0.0)
+  {
+    emission.rgb = cm_shade(texturePosition, emission.rgb);
+  }
 #endif
   return emission;
 }
@@ -159,6 +169,9 @@ void cm_marchJoint(inout vec4 rgba, vec3 entry, vec3 exit, float worldLength,
 vec4 cm_march(vec3 entry, vec3 exit, float worldLength)
 {
   vec4 rgba = cm_blendStart();
+#ifdef CM_SHADE
+  cm_rayWorld = normalize(mat3(cm_worldFromTexture) * (exit - entry));
+#endif
   float dominant = cm_dominantTexels(exit - entry, cm_dims);
   if (!(worldLength > 0.0) || !(dominant > 0.0))
   {

@@ -18,6 +18,7 @@ from ..models.volume import VolumeModel
 from .lighting import light_grid, lit_emission
 from .rays import index_rays, sample
 from .transfer import medium as transfer_medium
+from .volume_shading import ShadeSetup
 
 
 def render_emission_absorption(
@@ -33,6 +34,7 @@ def render_emission_absorption(
     lights: Sequence | None = None,
     ambient: float = 0.2,
     crop: Sequence[int] | None = None,
+    shade: ShadeSetup | None = None,
 ) -> np.ndarray:
     """Render ``volume`` as an emission/absorption medium, returning ``(h, w, 3)`` floats.
 
@@ -68,6 +70,9 @@ def render_emission_absorption(
     crop : sequence of int, optional
         ``(x, y, width, height)`` of a pixel window (from the top-left) of the ``size``
         image: only those rays are traced, e.g. to check a 4K frame on a few crops.
+    shade : ShadeSetup, optional
+        Gradient shading of each sample's colour, as VTK's ``shade=True``
+        (:mod:`pv_cubemarch.reference.volume_shading`).
     """
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
@@ -129,6 +134,8 @@ def render_emission_absorption(
                 continue
             pts = o_idx[active][inside] + d_idx[active][inside] * mid[inside, None]
             rgb, sig = transfer_medium(v, sample(v, pts))
+            if shade is not None:
+                rgb = shade.apply(v, pts, rgb, directions[active][inside])
             if grids is not None:
                 medium = lit_through[index]
                 if medium is not v:  # the member's index points in the group's grid

@@ -45,7 +45,8 @@ def direct_recipe(defines: dict, lit: bool = False, sampling: str = "volume_samp
         replacements=[
             Replacement("//VTK::Color::Dec",
                         (*DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
-                         *march_snippets(blending), *(("light_sample",) if lit else ()),
+                         *march_snippets(blending, defines),
+                         *(("light_sample",) if lit else ()),
                          "screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_direct_fragment", keep_tag="before"),
@@ -214,7 +215,7 @@ def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
         lit = ("light_sample",)
     low_pass.set_recipe(ShaderRecipe(
         standalone=("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
-                    *march_snippets(shading.blending), *lit, "screen_ray",
+                    *march_snippets(shading.blending, defines), *lit, "screen_ray",
                     "ea_reduced_main"),
         defines=defines))
     return overlay, low_pass

@@ -50,18 +50,24 @@ MAX_ISOSURFACES = 32
 
 @dataclass(frozen=True)
 class Blend:
-    """How samples along a ray make its colour: the mode, and the levels of 'isosurface'.
+    """How samples along a ray make its colour: mode, isosurface levels, gradient shading.
 
-    ``isosurfaces`` are in the volume's stored units (data less its ``value_offset``).
+    ``isosurfaces`` are in the volume's stored units (data less its ``value_offset``);
+    ``shade`` is a :class:`~pv_cubemarch.volume.gradient_shading.GradientShading`, or None.
     """
 
     mode: str = "composite"
     isosurfaces: tuple[float, ...] = ()
+    shade: object = None
 
 
-def march_snippets(blending: str = "composite") -> tuple[str, ...]:
-    """The marcher with its blend mode (after the sampling and ray set-up snippets)."""
-    return (*BLEND_SNIPPETS[blending], "ea_march")
+def march_snippets(blending: str = "composite", defines: dict | None = None) -> tuple[str, ...]:
+    """The marcher with its blend mode, and the gradient shading where the switches ask.
+
+    They come after the sampling and ray set-up snippets.
+    """
+    shaded = ("gradient_shading",) if (defines or {}).get("CM_SHADE") else ()
+    return (*BLEND_SNIPPETS[blending], "ea_march", *shaded)
 
 
 #: The marcher as the light map (and every composite pass) includes it.
@@ -203,6 +209,9 @@ def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: flo
     if blend.mode == "isosurface":
         target.set_uniform("cm_isoValues", FloatArray(sorted(blend.isosurfaces)))
         extra["CM_ISO_COUNT"] = len(blend.isosurfaces)
+    if blend.shade is not None:
+        blend.shade.bind(target)
+        extra.update(blend.shade.defines)
     target.set_uniform("cm_stopOpacity", stop_opacity)
     target.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
     target.set_uniform("cm_stepScale", step_scale)

@@ -42,7 +42,8 @@ CUBE_MAPS = ("cubemap", "auto")
 #: Every option of the volume techniques, declared once (:mod:`pv_cubemarch.core.declared`).
 TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMPLES, UPSCALE, \
     SAMPLE_FACTOR, OCCLUSION_SHARPNESS, BLENDING, ISOSURFACES, INTERPOLATION, LIGHTS, \
-    LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT = declare(
+    LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT, SHADE, AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER = \
+    declare(
         Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
                control=Control("select")),
         Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
@@ -97,6 +98,17 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
         Option("light_map_ambient", "volume", float, DEFAULT_AMBIENT, "share of the emission "
                "no light modulates (with lights; not VTK's shading ambient)", low=0.0,
                high=1.0, control=Control("slider", "light-map ambient", 0.0, 1.0, 0.05)),
+        Option("shade", "volume", bool, False, "gradient shading by the renderer's lights, "
+               "as VTK's volume mapper shades", control=Control("switch", "shade")),
+        Option("ambient", "volume", float, 0.1, "ambient term of the gradient shading",
+               low=0.0, high=1.0, control=Control("slider", "ambient", 0.0, 1.0, 0.05)),
+        Option("diffuse", "volume", float, 0.7, "diffuse term of the gradient shading",
+               low=0.0, high=1.0, control=Control("slider", "diffuse", 0.0, 1.0, 0.05)),
+        Option("specular", "volume", float, 0.2, "specular term of the gradient shading",
+               low=0.0, high=1.0, control=Control("slider", "specular", 0.0, 1.0, 0.05)),
+        Option("specular_power", "volume", float, 10.0, "specular exponent of the gradient "
+               "shading", low=0.0, high=128.0, closed_low=False,
+               control=Control("slider", "specular power", 1.0, 128.0, 1.0)),
     )
 
 
@@ -110,6 +122,7 @@ class Shading:
     light_map_ambient: float = LIGHT_MAP_AMBIENT.field()
     blending: str = BLENDING.field()
     isosurfaces: tuple[float, ...] = ()   # in stored units (ISOSURFACES as add_volume reads)
+    gradient: object = None               # GradientShading with shade=True
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
@@ -127,7 +140,7 @@ class Shading:
     @property
     def blend(self) -> Blend:
         """The blend mode and its levels, as the marcher binds them."""
-        return Blend(self.blending, tuple(self.isosurfaces))
+        return Blend(self.blending, tuple(self.isosurfaces), self.gradient)
 
 
 @dataclass(frozen=True)

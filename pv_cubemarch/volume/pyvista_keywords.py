@@ -23,15 +23,6 @@ REFUSED = {
               "('vtk', 'direct', 'cubemap' or 'auto')",
     "multi_colors": "add each block of a MultiBlock with its own cmap (pv_cubemarch "
                     "draws one grid per call)",
-    "ambient": "PyVista's ambient is the ambient term of gradient shading (shade=True), "
-               "which is not drawn yet; the share of the emission the light map (lights=) "
-               "leaves unlit is light_map_ambient",
-    "diffuse": "gradient shading (shade=True) is not drawn yet; lights= lights the medium "
-               "by its transmittance toward each light",
-    "specular": "gradient shading (shade=True) is not drawn yet; lights= lights the medium "
-                "by its transmittance toward each light",
-    "specular_power": "gradient shading (shade=True) is not drawn yet; lights= lights the "
-                      "medium by its transmittance toward each light",
     "culling": "a volume draws the faces of its box it needs itself; leave culling out",
 }
 

@@ -43,7 +43,7 @@ def vtk_mapper_recipe(defines: dict, lit: bool, blending: str = "composite") -> 
             Replacement("//VTK::Base::Dec", DECLARATION_SNIPPETS, keep_tag="after"),
             Replacement("//VTK::ComputeColor::Dec",
                         ("ea_vtk_declarations", *SCREEN_DECLARATIONS,
-                         *march_snippets(blending),
+                         *march_snippets(blending, defines),
                          *(("light_sample",) if lit else ()), "screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Shading::Init", "ea_vtk_ray_init"),

@@ -65,11 +65,6 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
     attrs = {key: attr(prim, f"cubemarch:{key}") for key in
              ("cmap", "opacity", "clim", "opacityUnitDistance", "interpolation",
               *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))}
-    if attr(prim, "cubemarch:ambient") is not None:
-        raise SceneLoadError(f"Volume {name}: cubemarch:ambient is the ambient term of "
-                             "gradient shading, which volumes do not draw yet; the share of "
-                             "the emission the light map leaves unlit is "
-                             "cubemarch:lightMapAmbient.")
     found = authored(prim, name, VOLUME_OPTIONS)
     options = {option: value for option, value in found.values()}
     _check_volume_options(name, found, options)

@@ -136,9 +136,9 @@ def _outside_frustum(clip_from_local: np.ndarray) -> bool:
     return False
 
 
-def _pass_snippets(lit: bool, sampling: str, blending: str) -> tuple[str, ...]:
+def _pass_snippets(lit: bool, sampling: str, blending: str, defines: dict) -> tuple[str, ...]:
     return ("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
-            *march_snippets(blending), *(("light_sample",) if lit else ()), "screen_ray",
+            *march_snippets(blending, defines), *(("light_sample",) if lit else ()), "screen_ray",
             "cube_faces", "cube_march_main")
 
 
@@ -185,8 +185,8 @@ def build_cubemap_actor(plotter, data: VolumeData, options: CubeMapOptions, shad
     if lit:
         light_map.bind(cube_pass)
         defines.update(light_map.defines)
-    cube_pass.set_recipe(ShaderRecipe(standalone=_pass_snippets(lit, sampling, shading.blending),
-                                      defines=defines))
+    cube_pass.set_recipe(ShaderRecipe(
+        standalone=_pass_snippets(lit, sampling, shading.blending, defines), defines=defines))
 
     actor = box_actor([n - 1.0 for n in model.dimensions], model.world_from_index())
     actor.GetProperty().LightingOff()  # VTK's lighting code would run for nothing
