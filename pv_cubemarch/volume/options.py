@@ -129,7 +129,9 @@ class Shading:
         check_declared(self)
         if self.blending == "isosurface" and not self.isosurfaces:
             raise ValueError("blending='isosurface' draws the levels given as isosurfaces=; "
-                             "pass one or more values, e.g. isosurfaces=[100, 300].")
+                             "pass one or more values, e.g. isosurfaces=[100, 300] "
+                             "(--isosurfaces 100 300 on the command line, "
+                             "cubemarch:isosurfaces in USD).")
         if self.isosurfaces and self.blending != "isosurface":
             raise ValueError("isosurfaces= are the levels blending='isosurface' draws; pass "
                              "that blending with them, or leave them out.")
