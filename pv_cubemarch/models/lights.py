@@ -21,6 +21,23 @@ DEFAULT_AMBIENT = 0.2
 DEFAULT_LIGHT_MAP_SIZE = 32
 
 
+def light_placement(light, camera=None) -> tuple[np.ndarray, np.ndarray]:
+    """A ``vtkLight``'s position and focal point in the world, now.
+
+    Headlights and camera lights follow ``camera`` (a ``vtkCamera``), as VTK places them.
+    """
+    position = np.array(light.GetPosition(), dtype=np.float64)
+    focal = np.array(light.GetFocalPoint(), dtype=np.float64)
+    if camera is not None and light.LightTypeIsHeadlight():
+        position = np.array(camera.GetPosition(), dtype=np.float64)
+        focal = np.array(camera.GetFocalPoint(), dtype=np.float64)
+    elif camera is not None and light.LightTypeIsCameraLight():
+        matrix = camera.GetCameraLightTransformMatrix()
+        position = np.array(matrix.MultiplyPoint((*position, 1.0))[:3])
+        focal = np.array(matrix.MultiplyPoint((*focal, 1.0))[:3])
+    return position, focal
+
+
 @dataclass(frozen=True)
 class VolumeLight:
     """A directional or point light as a volume sees it (world coordinates).
@@ -47,15 +64,7 @@ class VolumeLight:
 
         Headlights and camera lights follow ``camera`` (a ``vtkCamera``), as VTK places them.
         """
-        position = np.array(light.GetPosition(), dtype=np.float64)
-        focal = np.array(light.GetFocalPoint(), dtype=np.float64)
-        if camera is not None and light.LightTypeIsHeadlight():
-            position = np.array(camera.GetPosition(), dtype=np.float64)
-            focal = np.array(camera.GetFocalPoint(), dtype=np.float64)
-        elif camera is not None and light.LightTypeIsCameraLight():
-            matrix = camera.GetCameraLightTransformMatrix()
-            position = np.array(matrix.MultiplyPoint((*position, 1.0))[:3])
-            focal = np.array(matrix.MultiplyPoint((*focal, 1.0))[:3])
+        position, focal = light_placement(light, camera)
         color = tuple(float(c) for c in light.GetDiffuseColor())
         if light.GetPositional():
             return cls("point", position=tuple(position), color=color,

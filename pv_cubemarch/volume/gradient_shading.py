@@ -13,6 +13,7 @@ import numpy as np
 
 from ..core.declared import option
 from ..gl.bindings import FloatArray
+from ..models.lights import light_placement
 
 #: Most lights a shaded volume reads (VTK's light kit has five).
 MAX_SHADE_LIGHTS = 8
@@ -20,12 +21,12 @@ MAX_SHADE_LIGHTS = 8
 
 @dataclass(frozen=True)
 class ShadeMaterial:
-    """VTK's volume property terms: ambient, diffuse, specular, specular power."""
+    """VTK's volume property terms (their defaults are the options' declared ones)."""
 
-    ambient: float = 0.1
-    diffuse: float = 0.7
-    specular: float = 0.2
-    specular_power: float = 10.0
+    ambient: float
+    diffuse: float
+    specular: float
+    specular_power: float
 
 
 def _switched_on(renderer) -> list:
@@ -42,17 +43,9 @@ def _switched_on(renderer) -> list:
 def _travel(light, camera) -> np.ndarray:
     """The unit direction a light's rays travel in the world.
 
-    Headlights and camera lights follow the camera.
+    A positional light's too: toward its focal point.
     """
-    position = np.array(light.GetPosition(), dtype=np.float64)
-    focal = np.array(light.GetFocalPoint(), dtype=np.float64)
-    if light.LightTypeIsHeadlight():
-        position = np.array(camera.GetPosition(), dtype=np.float64)
-        focal = np.array(camera.GetFocalPoint(), dtype=np.float64)
-    elif light.LightTypeIsCameraLight():
-        matrix = camera.GetCameraLightTransformMatrix()
-        position = np.array(matrix.MultiplyPoint((*position, 1.0))[:3])
-        focal = np.array(matrix.MultiplyPoint((*focal, 1.0))[:3])
+    position, focal = light_placement(light, camera)
     direction = focal - position
     length = float(np.linalg.norm(direction))
     return direction / length if length > 0 else np.array([0.0, 0.0, -1.0])
@@ -155,5 +148,6 @@ def gradient_shading(plotter, model, shade: bool, lights, blending: str,
                          "shaded (add them one by one).")
     for name, value in given.items():
         option("volume", name).check(value)
-    material = ShadeMaterial(**{name: float(value) for name, value in given.items()})
+    material = ShadeMaterial(**{name: float(given.get(name, option("volume", name).default))
+                                for name in terms})
     return GradientShading(plotter.renderer, model, material)
