@@ -99,14 +99,13 @@ def floor(technique: str, sharp: bool) -> float:
     return 45.0
 
 
-def pyvista_image(grid, keywords, blending="composite", with_camera=False, linear=True,
-                  isosurfaces=()):
-    """PyVista's own add_volume, a fine sample distance, linear interpolation (or PyVista's
-    default, nearest, with ``linear=False``); its image and camera. ``'isosurface'``, which
-    PyVista does not name, is set on VTK's mapper and volume property."""
-    pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    pl.set_background("black")
-    actor = pl.add_volume(grid, mapper="gpu", show_scalar_bar=False,
+def pyvista_volume(pl, grid, keywords, blending="composite", linear=True, isosurfaces=(),
+                   shade=False):
+    """PyVista's own add_volume in ``pl``, a fine sample distance, linear interpolation (or
+    PyVista's default, nearest, with ``linear=False``); its image, camera position and
+    camera. ``'isosurface'``, which PyVista does not name, is set on VTK's mapper and
+    volume property."""
+    actor = pl.add_volume(grid, mapper="gpu", show_scalar_bar=False, shade=shade,
                           blending="composite" if blending == "isosurface" else blending,
                           **keywords)
     if blending == "isosurface":
@@ -123,9 +122,16 @@ def pyvista_image(grid, keywords, blending="composite", with_camera=False, linea
     actor.mapper.SetSampleDistance(0.1 * min(grid.spacing))
     pl.camera_position = "iso"
     pl.reset_camera(bounds=grid.bounds)
-    image = pl.screenshot()
-    position = pl.camera_position
-    camera = cm.Camera.from_pyvista(pl.camera)
+    return pl.screenshot(), pl.camera_position, cm.Camera.from_pyvista(pl.camera)
+
+
+def pyvista_image(grid, keywords, blending="composite", with_camera=False, linear=True,
+                  isosurfaces=()):
+    """:func:`pyvista_volume` in a plotter of its own, black behind; closed after."""
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    image, position, camera = pyvista_volume(pl, grid, keywords, blending, linear,
+                                             isosurfaces)
     pl.close()
     return (image, position, camera) if with_camera else (image, position)
 
@@ -754,15 +760,7 @@ def test_gradient_shading_draws_what_pyvista_draws(name):
     make, keywords, lighting = SHADED[name]
     grid = make()
     pl = lit_plotter(lighting)
-    actor = pl.add_volume(grid, mapper="gpu", show_scalar_bar=False, shade=True, **keywords)
-    actor.prop.interpolation_type = "linear"
-    actor.mapper.SetAutoAdjustSampleDistances(False)
-    actor.mapper.SetSampleDistance(0.1 * min(grid.spacing))
-    pl.camera_position = "iso"
-    pl.reset_camera(bounds=grid.bounds)
-    reference = pl.screenshot()
-    position = pl.camera_position
-    camera = cm.Camera.from_pyvista(pl.camera)
+    reference, position, camera = pyvista_volume(pl, grid, keywords, shade=True)
     setup = shade_setup(pl)
     pl.close()
     background = psnr(np.zeros_like(reference), reference)

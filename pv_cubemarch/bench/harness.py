@@ -24,6 +24,7 @@ from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.registry import describe_setting, techniques
 from ..core.rendering import offscreen_plotter, read_depth, read_pixels, render_frame
+from ..models.transfer import shift_value
 from ..models.volume import VolumeModel
 from ..reference.emission_absorption import render_emission_absorption
 from ..reference.projections import render_blended
@@ -104,7 +105,7 @@ def _build_stock(plotter, volume: VolumeModel, setting):
 
 def _stored_levels(volume: VolumeModel, levels) -> list[float]:
     """Isosurface levels (data units) in the volume's stored units."""
-    return [float(v) - float(volume.value_offset) for v in levels]
+    return [shift_value(v, volume.value_offset) for v in levels]
 
 
 def blend_setting(mode: str, volume: VolumeModel) -> dict:
