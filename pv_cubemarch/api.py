@@ -25,7 +25,7 @@ from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its 
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
 from .volume.light_map import LightMap
-from .volume.march import VolumeData
+from .volume.march import VolumeBinding, VolumeData
 from .volume.options import DEFAULT_STOP_OPACITY, INTERPOLATION, Shading
 from .volume.pyvista_keywords import (
     add_scalar_bar,
@@ -33,6 +33,7 @@ from .volume.pyvista_keywords import (
     resolve_aliases,
     volume_input,
 )
+from .volume.stand_in import stand_in_volume
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
 from .voxels.indexed import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
@@ -358,14 +359,20 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
     main = plotter.renderer
     binding.main_renderer = main
     drawn = binding.drawn
-    if len(drawn) == 1 and binding.renderer is main:
+    volume = isinstance(binding, VolumeBinding)
+    if len(drawn) == 1 and binding.renderer is main and (
+            not volume or isinstance(drawn[0], pyvista.Volume)):
         actor = drawn[0]
     else:
         for item in drawn:
-            if binding.renderer is not main and not binding.renderer.HasViewProp(item):
+            if not item.GetNumberOfConsumers():   # in no renderer yet
                 binding.renderer.AddActor(item)
-        actor = bounds_proxy(binding.model)
+                if binding.renderer is main:   # not named: the stand-in's removal frees it
+                    binding.extra_release.append(lambda item=item: main.RemoveActor(item))
+        actor = stand_in_volume(binding.model) if volume else bounds_proxy(binding.model)
         binding.bounds_proxy = actor
+    if volume:
+        binding.clip_source = actor.GetMapper()
     plotter.add_actor(actor, name=name, reset_camera=False)
     binding.actor = actor
     if getattr(actor, "cubemarch", None) is not binding:

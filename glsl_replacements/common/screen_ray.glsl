@@ -1,7 +1,8 @@
 // A screen pixel's ray through a box, shared by every screen-space technique. The ray runs
 // from the near plane (f = 0) to a given window depth (f = 1: the box's back face, or the far
 // plane); view z is linear in f for perspective and parallel projections alike. The box is
-// [lo, hi] in the space cm_textureFromView maps to. Needs camera_declarations and cm_slab.
+// [lo, hi] in the space cm_textureFromView maps to, less what clipping planes cut (with
+// CM_CLIP_PLANES). Needs camera_declarations, cm_slab (and clip_planes).
 bool cm_screenRayBox(vec2 ndc, float backDepth, float sceneDepth, vec3 lo, vec3 hi,
                      out vec3 entry, out vec3 exit, out vec3 entryView, out vec3 exitView)
 {
@@ -11,6 +12,9 @@ bool cm_screenRayBox(vec2 ndc, float backDepth, float sceneDepth, vec3 lo, vec3 
   vec3 a = (cm_textureFromView * vec4(nearView, 1.0)).xyz;
   vec3 b = (cm_textureFromView * vec4(backView, 1.0)).xyz;
   vec2 inBox = cm_slab(a, b - a, lo, hi);
+#ifdef CM_CLIP_PLANES
+  inBox = cm_clipInterval(a, b - a, inBox);
+#endif
   float f0 = max(0.0, inBox.x);
   float f1 = min(1.0, inBox.y);
   float dz = backView.z - nearView.z;

@@ -38,7 +38,12 @@ float cm_transmittanceToward(vec3 start, vec4 light)
       }
       float fraction = min(1.0, steps - t);
       vec3 middle = start + path * ((t + 0.5 * fraction) / steps);
+#ifdef CM_CLIP_PLANES
+      opticalDepth += cm_unlitEmission(middle).a * worldLength / steps * fraction
+                      * cm_clipKeeps(middle);   // a clipped medium casts no shadow
+#else
       opticalDepth += cm_unlitEmission(middle).a * worldLength / steps * fraction;
+#endif
       t += 1.0;
     }
   }

@@ -27,7 +27,8 @@ class FloatArray(tuple):
 def set_uniform(program, name: str, value: Any) -> None:
     """Set a float/vec/mat4 (or int) uniform on a ``vtkShaderProgram`` by its value's shape."""
     if isinstance(value, FloatArray):
-        program.SetUniform1fv(name, len(value), [float(v) for v in value])
+        if value:   # an empty array is a feature compiled out: nothing to set
+            program.SetUniform1fv(name, len(value), [float(v) for v in value])
         return
     if isinstance(value, (bool, int, np.integer)):
         program.SetUniformi(name, int(value))

@@ -16,7 +16,7 @@ from ..core.camera import Camera
 from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel
 from .lighting import light_grid, lit_emission
-from .rays import index_rays, sample
+from .rays import clip_interval, index_rays, sample
 from .transfer import medium as transfer_medium
 from .volume_shading import ShadeSetup
 
@@ -35,6 +35,7 @@ def render_emission_absorption(
     ambient: float = 0.2,
     crop: Sequence[int] | None = None,
     shade: ShadeSetup | None = None,
+    clip_planes: Sequence | None = None,
 ) -> np.ndarray:
     """Render ``volume`` as an emission/absorption medium, returning ``(h, w, 3)`` floats.
 
@@ -73,6 +74,9 @@ def render_emission_absorption(
     shade : ShadeSetup, optional
         Gradient shading of each sample's colour, as VTK's ``shade=True``
         (:mod:`pv_cubemarch.reference.volume_shading`).
+    clip_planes : sequence of (origin, normal), optional
+        World planes cutting the media: a plane keeps ``normal . (x - origin) >= 0``, as
+        VTK's volume mapper does (:func:`pv_cubemarch.reference.rays.clip_interval`).
     """
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
@@ -94,7 +98,7 @@ def render_emission_absorption(
             lit_through.append(item)
     grids = None
     if lights:
-        grids = {id(item): light_grid(item, lights) for item in items}
+        grids = {id(item): light_grid(item, lights, clip_planes=clip_planes) for item in items}
     origins = origins.reshape(-1, 3)
     directions = directions.reshape(-1, 3)
     n_rays = origins.shape[0]
@@ -113,6 +117,7 @@ def render_emission_absorption(
         _, _, forward = camera.basis()
         t0 = np.maximum(t0, near / np.maximum(directions @ forward, 1e-12))
     t1 = np.minimum(t1, t_stop)
+    t0, t1 = clip_interval(origins, directions, t0, t1, clip_planes)
 
     step = float(step_voxels) * min(float(np.linalg.norm(v.world_from_index()[:3, :3],
                                                           axis=0).min()) for v in volumes)

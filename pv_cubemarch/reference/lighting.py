@@ -13,12 +13,13 @@ from .transfer import medium as transfer_medium
 
 
 def transmittance_toward(medium, points_index: np.ndarray, light: VolumeLight,
-                         step_voxels: float = 0.25) -> np.ndarray:
+                         step_voxels: float = 0.25, clip_planes=None) -> np.ndarray:
     """Transmittance from each point (``medium``'s grid index coordinates) toward ``light``.
 
     ``medium`` is a :class:`VolumeModel`, or a :class:`~pv_cubemarch.VolumeGroup` whose
     members' extinctions add (index coordinates of its virtual grid). Marched with midpoint
     steps of ``step_voxels`` of the smallest voxel, up to the box or to a point light inside.
+    Where ``clip_planes`` (world ``(origin, normal)``) cut the medium, it absorbs nothing.
     """
     world_from_index = medium.world_from_index()
     index_from_world = np.linalg.inv(world_from_index)
@@ -45,11 +46,23 @@ def transmittance_toward(medium, points_index: np.ndarray, light: VolumeLight,
         end = np.minimum(t[active] + step, t_end[active])
         middle = 0.5 * (t[active] + end)
         sample = points[active] + toward_index[active] * middle[:, None]
-        depth[active] += extinction_at(medium, sample) * (end - t[active])
+        sigma = extinction_at(medium, sample)
+        if clip_planes:
+            sigma = sigma * kept(sample @ world_from_index[:3, :3].T + world_from_index[:3, 3],
+                                 clip_planes)
+        depth[active] += sigma * (end - t[active])
         t[active] = end
         keep = (end < t_end[active]) & (depth[active] < 30.0)
         active = active[keep]
     return np.exp(-depth)
+
+
+def kept(world_points: np.ndarray, planes) -> np.ndarray:
+    """1 where every plane keeps the world point (``normal . (x - origin) >= 0``), else 0."""
+    keep = np.ones(len(world_points), dtype=bool)
+    for origin, normal in planes:
+        keep &= (world_points - np.asarray(origin, float)) @ np.asarray(normal, float) >= 0
+    return keep.astype(np.float64)
 
 
 def extinction_at(medium, points_index: np.ndarray) -> np.ndarray:
@@ -69,7 +82,8 @@ def extinction_at(medium, points_index: np.ndarray) -> np.ndarray:
 
 
 def light_grid(volume, lights: Sequence[VolumeLight], spacing_voxels: float = 0.5,
-               max_points: int = 96, step_voxels: float = 0.25) -> np.ndarray:
+               max_points: int = 96, step_voxels: float = 0.25,
+               clip_planes=None) -> np.ndarray:
     """Transmittance toward each light on a fine grid over the volume's (or group's) box.
 
     Returns ``(n_lights, gx, gy, gz)``; grid points span index 0 to ``dims - 1`` per axis,
@@ -81,8 +95,8 @@ def light_grid(volume, lights: Sequence[VolumeLight], spacing_voxels: float = 0.
     counts = np.maximum(counts, 2)
     axes = [np.linspace(0.0, d - 1.0, c) for d, c in zip(dims, counts, strict=True)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    return np.stack([transmittance_toward(volume, grid, li, step_voxels).reshape(counts)
-                     for li in lights])
+    return np.stack([transmittance_toward(volume, grid, li, step_voxels,
+                                          clip_planes).reshape(counts) for li in lights])
 
 
 def lit_emission(volume, rgb: np.ndarray, points_index: np.ndarray,

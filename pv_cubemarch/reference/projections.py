@@ -21,7 +21,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..core.camera import Camera
-from .rays import index_rays, sample
+from .rays import clip_interval, index_rays, sample
 from .transfer import medium
 
 
@@ -134,12 +134,14 @@ def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
                    step_voxels: float = 0.1,
                    near: float | None = None,
                    opaque_depth: np.ndarray | None = None,
-                   opaque_color: np.ndarray | None = None) -> np.ndarray:
+                   opaque_color: np.ndarray | None = None,
+                   clip_planes: Sequence | None = None) -> np.ndarray:
     """The ``blending`` image of ``volume`` (a VolumeModel): ``(h, w, 3)`` floats.
 
     ``isosurfaces``: the levels of ``'isosurface'``, in the volume's stored units.
     ``opaque_depth`` / ``opaque_color``: per-pixel distance to opaque meshes and their
-    colour; rays stop there, the blend is drawn over that colour.
+    colour; rays stop there, the blend is drawn over that colour. ``clip_planes``: world
+    ``(origin, normal)`` pairs cutting the volume (see :func:`.rays.clip_interval`).
     """
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
@@ -151,6 +153,7 @@ def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
     if near is not None:
         forward = camera.basis()[2]
         t0 = np.maximum(t0, near / np.maximum(directions @ forward, 1e-12))
+    t0, t1 = clip_interval(origins, directions, t0, t1, clip_planes)
     step = float(step_voxels) * float(np.linalg.norm(volume.world_from_index()[:3, :3],
                                                      axis=0).min())
     state = blend_accumulator(volume, len(origins), blending, isosurfaces)

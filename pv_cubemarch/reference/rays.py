@@ -29,6 +29,26 @@ def ray_box_interval(origins, directions, lower, upper):
     return t_near.max(axis=-1), t_far.min(axis=-1)
 
 
+def clip_interval(origins, directions, t0, t1, planes):
+    """Cut each ray's ``[t0, t1]`` (world ``t``) to where every plane keeps it.
+
+    ``planes``: ``(origin, normal)`` pairs in world coordinates; a plane keeps the points
+    ``x`` with ``normal . (x - origin) >= 0``, as VTK's volume mapper does. The kept set is
+    convex, so one interval per ray stays (empty where ``t1 <= t0``).
+    """
+    t0, t1 = np.array(t0, dtype=np.float64), np.array(t1, dtype=np.float64)
+    for origin, normal in planes or ():
+        normal = np.asarray(normal, dtype=np.float64)
+        start = (origins - np.asarray(origin, dtype=np.float64)) @ normal
+        rate = directions @ normal
+        with np.errstate(divide="ignore", invalid="ignore"):
+            crossing = -start / rate
+        t0 = np.where(rate > 0, np.maximum(t0, crossing), t0)
+        t1 = np.where(rate < 0, np.minimum(t1, crossing), t1)
+        t1 = np.where((rate == 0) & (start < 0), -np.inf, t1)
+    return t0, t1
+
+
 def trilinear(values: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Sample ``values[i, j, k]`` at continuous indices ``points`` (n, 3), clamped to the grid."""
     dims = np.array(values.shape)

@@ -135,6 +135,11 @@ class AutoBinding(VolumeBinding):
     def follow_anchor(self) -> None:
         """Visibility follows the returned actor at each frame (in :meth:`_choose`)."""
 
+    def set_march_defines(self, changes: dict) -> None:
+        """Both paths' marchers (and the light map they share) take the switches."""
+        self.direct.set_march_defines(changes)
+        self.cubemap.set_march_defines(changes)
+
     @property
     def lod(self):
         """The cube map's last LOD choice."""

@@ -124,6 +124,12 @@ class DirectBinding(VolumeBinding):
         for actor in self.drawn:
             self.recipe.apply(actor.GetShaderProperty())
 
+    def set_march_defines(self, changes: dict) -> None:
+        """Compile the marchers again with these switches (kept for a multisampling change)."""
+        if self._defines is not None:
+            self._defines.update(changes)
+        super().set_march_defines(changes)
+
     def release(self) -> None:
         """Stop following the frame, then free (see ``VolumeBinding.release``)."""
         if self._tag is not None:

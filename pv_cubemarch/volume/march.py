@@ -10,19 +10,20 @@ differ only in how a ray is set up and where its result goes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..gl.bindings import FloatArray, ShaderBindings
 from ..gl.box import place_box
 from ..gl.drawn import DrawnBinding
-from ..gl.overlay import place_bounds_proxy
 from ..gl.shaders import ShaderRecipe
 from ..gl.textures import Texture
 from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel, checked_transform, checked_values
+from .clipping import ClipState
 from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
+from .stand_in import place_stand_in
 
 #: The marcher's loops (ea_march.glsl): blocks of STEP_BLOCK steps, at most STEP_BLOCKS
 #: blocks, so a ray (a piece of one in a joint group) takes up to MAX_STEPS steps while every
@@ -30,8 +31,9 @@ from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
 STEP_BLOCK = 4096
 STEP_BLOCKS = 4096
 MAX_STEPS = STEP_BLOCK * STEP_BLOCKS
-#: What every marching shader declares first: the transfer lookup, the one slab test.
-DECLARATION_SNIPPETS = ("ea_declarations", "slab")
+#: What every marching shader declares first: the transfer lookup, the one slab test, the
+#: clipping planes (compiled in only with ``CM_CLIP_PLANES``).
+DECLARATION_SNIPPETS = ("ea_declarations", "slab", "clip_planes")
 #: Blend modes (PyVista's ``blending=``, and VTK's ``'isosurface'``) and their GLSL: each
 #: mode is one snippet defining how a sample enters the ray's state and what the ray leaves
 #: (blend_*.glsl), with one CPU reference (:mod:`pv_cubemarch.reference.projections`); the
@@ -102,6 +104,7 @@ class VolumeData:
         self._bricks: Texture | None = None
         self._none_empty = False   # bricks were built and none was empty
         self.brick_builds = 0
+        self.clip = ClipState()    # the clipping planes every pass of the volume reads
 
     def bricks(self) -> Texture | None:
         """Per-brick largest extinction, built on first use; ``None`` when no brick is empty.
@@ -216,6 +219,8 @@ def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: flo
     target.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
     target.set_uniform("cm_stepScale", step_scale)
     target.set_uniform("cm_worldFromTexture", lambda: world_from_texture(model))
+    target.set_uniform("cm_clipPlanes", lambda: data.clip.uniform(world_from_texture(model)))
+    extra.update(data.clip.defines)
     if isinstance(model, VolumeGroup):
         # the table size of the group; each member's own table is bound below
         target.add_texture("cm_transferTable", data.tables[0])
@@ -262,6 +267,7 @@ class VolumeBinding(DrawnBinding):
         self.targets: list = [bindings]
         self.downsample = 1
         self.blending = "composite"
+        self.clip_source = None    # the mapper whose clipping planes cut the volume
 
     @property
     def skips_empty(self) -> bool:
@@ -323,10 +329,41 @@ class VolumeBinding(DrawnBinding):
         if self.light_map is not None:
             self.light_map.invalidate()
 
+    def follow_clipping(self) -> None:
+        """At each frame: take the clipping planes of the returned volume's mapper.
+
+        The marchers are compiled again only when the number of planes changes; the light
+        map is marched again when a plane moves.
+        """
+        count_changed, changed = self.data.clip.follow(self.clip_source)
+        if count_changed:
+            self.set_march_defines(self.data.clip.defines)
+        if changed and self.light_map is not None:
+            self.light_map.invalidate()
+
+    def set_march_defines(self, changes: dict) -> None:
+        """Compile the marchers (and the light map) again with these feature switches."""
+        passes = list(self.targets) + ([self.light_map.render_pass] if self.light_map else [])
+        for target in passes:
+            recipe = target.recipe
+            if recipe is None or "clip_planes" not in recipe.snippet_names or all(
+                    recipe.defines.get(key) == value for key, value in changes.items()):
+                continue
+            recipe = replace(recipe, defines={**recipe.defines, **changes})
+            if hasattr(target, "set_recipe"):
+                target.set_recipe(recipe)
+                continue
+            target.recipe = recipe
+            if target is self.bindings:
+                self.recipe = recipe
+            for actor in self.drawn:
+                if actor.GetMapper() is target.mapper:
+                    recipe.apply(actor.GetShaderProperty())
+
 
 def follow_placement(binding) -> None:
-    """After a volume moved: its bounds proxy and the plotter's clipping range follow."""
+    """After a volume moved: its stand-in and the plotter's clipping range follow."""
     if binding.bounds_proxy is not None:
-        place_bounds_proxy(binding.bounds_proxy, binding.model)
+        place_stand_in(binding.bounds_proxy, binding.model)
     if binding.main_renderer is not None:
         binding.main_renderer.ResetCameraClippingRange()

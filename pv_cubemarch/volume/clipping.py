@@ -1,0 +1,74 @@
+"""Volumetric clipping planes, read from the volume's mapper as PyVista and VTK set them.
+
+``pl.add_volume_clip_plane(vol)`` and ``vol.mapper.AddClippingPlane(plane)`` put
+``vtkPlane`` objects on the returned volume's mapper; a plane keeps the points ``x`` with
+``normal . (x - origin) >= 0`` (VTK's side). Every frame the volume reads them and its
+marchers cut each ray to the kept interval (``clip_planes.glsl``); the shaders carry the
+planes only while there are some, and the light map is marched again when they move.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..gl.bindings import FloatArray
+
+#: VTK's limit: a mapper takes at most six clipping planes.
+MAX_CLIP_PLANES = 6
+
+
+def world_planes(mapper) -> tuple[tuple[tuple[float, ...], tuple[float, ...]], ...]:
+    """The ``(origin, normal)`` of each clipping plane on ``mapper``, in world coordinates."""
+    collection = mapper.GetClippingPlanes() if mapper is not None else None
+    if collection is None:
+        return ()
+    planes = []
+    for index in range(collection.GetNumberOfItems()):
+        plane = collection.GetItem(index)
+        planes.append((tuple(plane.GetOrigin()), tuple(plane.GetNormal())))
+    if len(planes) > MAX_CLIP_PLANES:
+        raise ValueError(f"The volume's mapper holds {len(planes)} clipping planes; VTK and "
+                         f"pv_cubemarch take at most {MAX_CLIP_PLANES}. Remove some "
+                         "(mapper.RemoveClippingPlane).")
+    return tuple(planes)
+
+
+def texture_planes(planes, world_from_texture: np.ndarray) -> np.ndarray:
+    """``(n, 4)`` planes of texture space: ``p`` is kept where ``plane . (p, 1) >= 0``.
+
+    A world plane ``(normal, -normal . origin)`` pulled back through ``world_from_texture``
+    (in double precision: far from the origin its terms cancel), scaled to unit length so
+    the shader's single-precision sums stay in range.
+    """
+    rows = []
+    for origin, normal in planes:
+        normal = np.asarray(normal, dtype=np.float64)
+        world = np.append(normal, -normal @ np.asarray(origin, dtype=np.float64))
+        local = world @ np.asarray(world_from_texture, dtype=np.float64)
+        scale = np.linalg.norm(local[:3])
+        rows.append(local / scale if scale > 0 else local)
+    return np.asarray(rows, dtype=np.float64).reshape(-1, 4)
+
+
+class ClipState:
+    """One volume's clipping planes as its marchers read them (shared by all its passes)."""
+
+    def __init__(self):
+        self.planes: tuple = ()
+
+    def follow(self, mapper) -> tuple[bool, bool]:
+        """Read the planes of ``mapper``; return (count changed, any plane changed)."""
+        planes = world_planes(mapper)
+        count_changed = len(planes) != len(self.planes)
+        changed = planes != self.planes
+        self.planes = planes
+        return count_changed, changed
+
+    def uniform(self, world_from_texture: np.ndarray) -> FloatArray:
+        """The ``cm_clipPlanes`` floats (4 per plane)."""
+        return FloatArray(texture_planes(self.planes, world_from_texture).ravel())
+
+    @property
+    def defines(self) -> dict:
+        """The switch of the marchers: ``CM_CLIP_PLANES`` = the number of planes, or off."""
+        return {"CM_CLIP_PLANES": len(self.planes) or None}
