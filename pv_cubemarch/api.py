@@ -360,8 +360,7 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
     binding.main_renderer = main
     drawn = binding.drawn
     volume = isinstance(binding, VolumeBinding)
-    if len(drawn) == 1 and binding.renderer is main and (
-            not volume or isinstance(drawn[0], pyvista.Volume)):
+    if len(drawn) == 1 and binding.renderer is main and not volume:
         actor = drawn[0]
     else:
         for item in drawn:

@@ -77,8 +77,8 @@ class CubemarchComponent:
         translucent: dict = {}
         for item in self._tracked:
             item.follow_anchor()
-            if hasattr(item, "follow_clipping"):
-                item.follow_clipping()
+            if hasattr(item, "follow_returned_volume"):
+                item.follow_returned_volume()
             shown = bool(item.actor.GetVisibility())
             single_sample |= shown and item.needs_single_sample
             if shown and item.blends_in_main_renderer:

@@ -23,7 +23,7 @@ from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel, checked_transform, checked_values
 from .clipping import ClipState
 from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
-from .stand_in import place_stand_in
+from .stand_in import place_stand_in, stand_in_matrix
 
 #: The marcher's loops (ea_march.glsl): blocks of STEP_BLOCK steps, at most STEP_BLOCKS
 #: blocks, so a ray (a piece of one in a joint group) takes up to MAX_STEPS steps while every
@@ -328,6 +328,21 @@ class VolumeBinding(DrawnBinding):
             self.vtk_input.Modified()
         if self.light_map is not None:
             self.light_map.invalidate()
+
+    def follow_returned_volume(self) -> None:
+        """At each frame: what PyVista's calls set on the returned volume is drawn.
+
+        Its mapper's clipping planes, and its placement (``user_matrix``, ``position``,
+        ``orientation``, ``scale``), which moves the volume as :meth:`set_transform` does.
+        """
+        self.follow_clipping()
+        stand_in = self.bounds_proxy
+        if stand_in is None:
+            return
+        matrix = stand_in_matrix(stand_in)
+        placed = np.eye(4) if isinstance(self.model, VolumeGroup) else self.model.transform
+        if not np.allclose(matrix, placed, rtol=1e-12, atol=0.0):
+            self.set_transform(matrix)
 
     def follow_clipping(self) -> None:
         """At each frame: take the clipping planes of the returned volume's mapper.

@@ -15,6 +15,7 @@ import pyvista
 import vtk
 
 from ..gl.shaders import Replacement, ShaderRecipe
+from ..models.group import VolumeGroup
 
 _DRAWS_NOTHING = ShaderRecipe([Replacement("//VTK::ComputeClipPos::Impl",
                                            "stand_in_clip_position", stage="vertex",
@@ -41,13 +42,39 @@ def stand_in_volume(model) -> pyvista.Volume:
 
 
 def place_stand_in(volume, model) -> None:
-    """Span ``model``'s world bounds (at creation and after the volume moved)."""
-    bounds = np.asarray(model.world_bounds(), dtype=np.float64)
-    lower, upper = bounds[0::2], bounds[1::2]
-    extent = upper - lower
+    """Span ``model``'s box (at creation and after the volume moved).
+
+    A volume's stand-in holds the grid's own box (origin, direction and extent) and, as its
+    ``user_matrix``, the volume's ``transform``, as PyVista's volumes do: ``vol.user_matrix``
+    reads what ``add_volume(user_matrix=...)`` was given. A group's spans its world box.
+    """
+    if isinstance(model, VolumeGroup):
+        dataset_from_index, transform = model.world_from_index(), np.eye(4)
+    else:
+        dataset_from_index = model.dataset_from_index()
+        transform = np.asarray(model.transform, dtype=np.float64)
+    span = np.array(model.dimensions, dtype=np.float64) - 1.0
+    axes = dataset_from_index[:3, :3]
+    lengths = np.linalg.norm(axes, axis=0)
+    direction = axes / np.where(lengths > 0, lengths, 1.0)
+    extent = lengths * span
     # A flat grid keeps a sliver of thickness: VTK's mapper divides by the spacing.
     floor = max(float(extent.max()) * 1e-9, 1e-30)
     grid = volume.GetMapper().GetInput()
-    grid.SetOrigin(*lower)
+    grid.SetOrigin(*dataset_from_index[:3, 3])
     grid.SetSpacing(*np.maximum(extent, floor))
+    grid.SetDirectionMatrix(*direction.ravel())
     grid.Modified()
+    volume.SetPosition(0.0, 0.0, 0.0)
+    volume.SetOrientation(0.0, 0.0, 0.0)
+    volume.SetScale(1.0, 1.0, 1.0)
+    volume.SetOrigin(0.0, 0.0, 0.0)
+    matrix = vtk.vtkMatrix4x4()
+    matrix.DeepCopy(transform.ravel().tolist())
+    volume.SetUserMatrix(matrix)
+
+
+def stand_in_matrix(volume) -> np.ndarray:
+    """The stand-in's whole placement (``user_matrix`` with position, orientation, scale)."""
+    matrix = volume.GetMatrix()
+    return np.array([[matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
