@@ -33,6 +33,7 @@ from .volume.pyvista_keywords import (
     resolve_aliases,
     volume_input,
 )
+from .volume.returned_property import ReturnedProperty
 from .volume.stand_in import stand_in_volume
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
 from .voxels.indexed import build_indexed_world, why_not_indexed
@@ -315,6 +316,11 @@ def add_volume(
     binding.isosurfaces = isosurfaces   # as given (data units, or a count)
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     actor.SetPickable(bool(pickable))
+    spec = getattr(model.transfer, "spec", None)
+    binding.returned_property = ReturnedProperty(
+        binding, actor, blending, gradient,
+        1.0 if spec is None else float(spec.opacity_unit_distance),
+        getattr(model, "interpolation", "linear"))
     component.track(binding)
     if not isinstance(model, VolumeGroup):
         add_scalar_bar(plotter, model, scalars if isinstance(scalars, str) else model.name,

@@ -71,6 +71,14 @@ class Texture:
         self._dirty = True
         self._regions = []
 
+    def set_interpolation(self, linear: bool) -> None:
+        """Read between texels linearly or take the nearest, from the next draw (no upload)."""
+        self.interpolate = bool(linear)
+        if self.gl_object is not None and self.kind != "buffer":
+            mode = vtkTextureObject.Linear if self.interpolate else vtkTextureObject.Nearest
+            self.gl_object.SetMinificationFilter(mode)   # sent when it is next bound
+            self.gl_object.SetMagnificationFilter(mode)
+
     def invalidate(self) -> None:
         """Upload the whole texture again at the next draw (remade first, if rebuildable).
 

@@ -109,9 +109,9 @@ class GradientShading:
 
     def bind(self, target) -> None:
         """Give ``target`` (bindings or a pass) the material and, per draw, the lights."""
-        material = self.material
-        target.set_uniform("cm_shadeMaterial", (material.ambient, material.diffuse,
-                                                material.specular, material.specular_power))
+        target.set_uniform("cm_shadeMaterial", lambda: (
+            self.material.ambient, self.material.diffuse, self.material.specular,
+            self.material.specular_power))   # read per draw: vol.prop.ambient = ... follows
         target.set_uniform("cm_spacing", tuple(float(v) for v in np.linalg.norm(
             self.model.world_from_index()[:3, :3], axis=0)))
         target.set_uniform("cm_shadeLights", self.packed_lights)

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+import vtk
 
 from ..gl.bindings import FloatArray, ShaderBindings
 from ..gl.box import place_box
@@ -20,7 +21,7 @@ from ..gl.drawn import DrawnBinding
 from ..gl.shaders import ShaderRecipe
 from ..gl.textures import Texture
 from ..models.group import VolumeGroup
-from ..models.volume import VolumeModel, checked_transform, checked_values
+from ..models.volume import INTERPOLATIONS, VolumeModel, checked_transform, checked_values
 from .clipping import ClipState
 from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
 from .stand_in import place_stand_in, stand_in_matrix
@@ -268,6 +269,7 @@ class VolumeBinding(DrawnBinding):
         self.downsample = 1
         self.blending = "composite"
         self.clip_source = None    # the mapper whose clipping planes cut the volume
+        self.returned_property = None   # follows the returned volume's property
 
     @property
     def skips_empty(self) -> bool:
@@ -332,10 +334,14 @@ class VolumeBinding(DrawnBinding):
     def follow_returned_volume(self) -> None:
         """At each frame: what PyVista's calls set on the returned volume is drawn.
 
-        Its mapper's clipping planes, and its placement (``user_matrix``, ``position``,
-        ``orientation``, ``scale``), which moves the volume as :meth:`set_transform` does.
+        Its mapper's clipping planes, its property (see
+        :mod:`~pv_cubemarch.volume.returned_property`), and its placement (``user_matrix``,
+        ``position``, ``orientation``, ``scale``), which moves the volume as
+        :meth:`set_transform` does.
         """
         self.follow_clipping()
+        if self.returned_property is not None:
+            self.returned_property.follow()
         stand_in = self.bounds_proxy
         if stand_in is None:
             return
@@ -343,6 +349,23 @@ class VolumeBinding(DrawnBinding):
         placed = np.eye(4) if isinstance(self.model, VolumeGroup) else self.model.transform
         if not np.allclose(matrix, placed, rtol=1e-12, atol=0.0):
             self.set_transform(matrix)
+
+    def set_interpolation(self, interpolation: str) -> None:
+        """Read the data ``'linear'`` or ``'nearest'`` from the next frame (no upload)."""
+        if interpolation not in INTERPOLATIONS:
+            raise ValueError(f"interpolation must be one of {INTERPOLATIONS}, got "
+                             f"{interpolation!r}.")
+        for member in self.data.members:
+            member.interpolation = interpolation
+        for texture in self.data.values:
+            texture.set_interpolation(interpolation == "linear")
+        for actor in self.drawn:   # VTK's mapper samples its own copy of the data
+            if isinstance(actor, vtk.vtkVolume):
+                actor.GetProperty().SetInterpolationType(
+                    vtk.VTK_LINEAR_INTERPOLATION if interpolation == "linear"
+                    else vtk.VTK_NEAREST_INTERPOLATION)
+        if self.light_map is not None:
+            self.light_map.invalidate()
 
     def follow_clipping(self) -> None:
         """At each frame: take the clipping planes of the returned volume's mapper.

@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 import pyvista
 import vtk
+from pyvista.plotting.mapper import GPUVolumeRayCastMapper
+from pyvista.plotting.volume_property import VolumeProperty
 
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..models.group import VolumeGroup
@@ -31,11 +33,11 @@ def stand_in_volume(model) -> pyvista.Volume:
     scalars.SetNumberOfTuples(8)
     scalars.Fill(0.0)
     grid.GetPointData().SetScalars(scalars)
-    mapper = vtk.vtkOpenGLGPUVolumeRayCastMapper()
+    mapper = GPUVolumeRayCastMapper()   # PyVista's wrappers: vol.mapper.blend_mode ...
     mapper.SetInputData(grid)
     volume = pyvista.Volume()
     volume.SetMapper(mapper)
-    volume.SetProperty(vtk.vtkVolumeProperty())
+    volume.SetProperty(VolumeProperty())  # ... vol.prop.interpolation_type, as PyVista's
     _DRAWS_NOTHING.apply(volume.GetShaderProperty())
     place_stand_in(volume, model)
     return volume

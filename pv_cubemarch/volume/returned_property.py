@@ -1,0 +1,116 @@
+"""The returned volume's property and mapper, as PyVista users set them after ``add_volume``.
+
+The returned ``pyvista.Volume`` starts with what is drawn: ``vol.prop.interpolation_type``,
+``opacity_unit_distance``, ``shade`` and its terms, ``vol.mapper.blend_mode``. At each frame
+a change the marchers can follow is drawn (the interpolation; the terms of a shaded
+volume); any other is refused with an error that says which ``add_volume`` keyword draws
+it, and the property is put back to what is drawn, so no frame shows a setting it ignores.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import vtk
+
+#: VTK's blend mode of each ``blending=`` (what ``vol.mapper.GetBlendMode()`` reads).
+VTK_BLEND_MODES = {"composite": vtk.vtkVolumeMapper.COMPOSITE_BLEND,
+                   "maximum": vtk.vtkVolumeMapper.MAXIMUM_INTENSITY_BLEND,
+                   "minimum": vtk.vtkVolumeMapper.MINIMUM_INTENSITY_BLEND,
+                   "average": vtk.vtkVolumeMapper.AVERAGE_INTENSITY_BLEND,
+                   "additive": vtk.vtkVolumeMapper.ADDITIVE_BLEND,
+                   "isosurface": vtk.vtkVolumeMapper.ISOSURFACE_BLEND}
+#: VTK's interpolation types, by PyVista's names.
+INTERPOLATION_TYPES = {vtk.VTK_NEAREST_INTERPOLATION: "nearest",
+                       vtk.VTK_LINEAR_INTERPOLATION: "linear",
+                       vtk.VTK_CUBIC_INTERPOLATION: "cubic"}
+TERMS = ("ambient", "diffuse", "specular", "specular_power")
+#: What each refused setting is given as instead.
+INSTEAD = {
+    "opacity_unit_distance": "add_volume(..., opacity_unit_distance=...)",
+    "shade": "add_volume(..., shade=...)",
+    "blending": "add_volume(..., blending=...)",
+    "colors": "add_volume(..., cmap=..., clim=...) (pv_cubemarch draws its own transfer table)",
+    "opacities": "add_volume(..., opacity=...) (pv_cubemarch draws its own transfer table)",
+    "ambient": "add_volume(..., shade=True, ambient=...)",
+    "diffuse": "add_volume(..., shade=True, diffuse=...)",
+    "specular": "add_volume(..., shade=True, specular=...)",
+    "specular_power": "add_volume(..., shade=True, specular_power=...)",
+    "interpolation": "interpolation_type 'nearest' or 'linear'",
+}
+
+
+def _read(volume) -> dict:
+    """What the returned volume's property and mapper say now."""
+    prop = volume.GetProperty()
+    return {
+        "interpolation": INTERPOLATION_TYPES.get(prop.GetInterpolationType(), "cubic"),
+        "opacity_unit_distance": float(prop.GetScalarOpacityUnitDistance()),
+        "shade": bool(prop.GetShade()),
+        "ambient": float(prop.GetAmbient()),
+        "diffuse": float(prop.GetDiffuse()),
+        "specular": float(prop.GetSpecular()),
+        "specular_power": float(prop.GetSpecularPower()),
+        "blending": int(volume.GetMapper().GetBlendMode()),
+        "colors": int(prop.GetRGBTransferFunction().GetMTime()),
+        "opacities": int(prop.GetScalarOpacity().GetMTime()),
+    }
+
+
+def _write(volume, state: dict) -> None:
+    prop = volume.GetProperty()
+    prop.SetInterpolationType({v: k for k, v in INTERPOLATION_TYPES.items()}[
+        state["interpolation"]])
+    prop.SetScalarOpacityUnitDistance(state["opacity_unit_distance"])
+    prop.SetShade(int(state["shade"]))
+    prop.SetAmbient(state["ambient"])
+    prop.SetDiffuse(state["diffuse"])
+    prop.SetSpecular(state["specular"])
+    prop.SetSpecularPower(state["specular_power"])
+    volume.GetMapper().SetBlendMode(state["blending"])
+
+
+class ReturnedProperty:
+    """Follows the returned volume's property and mapper for one volume binding."""
+
+    def __init__(self, binding, volume, blending: str, shade, opacity_unit_distance: float,
+                 interpolation: str):
+        self.binding = binding
+        self.volume = volume
+        material = shade.material if shade is not None else None
+        state = _read(volume)
+        state.update(interpolation=interpolation, opacity_unit_distance=opacity_unit_distance,
+                     shade=shade is not None, blending=VTK_BLEND_MODES[blending])
+        if material is not None:
+            state.update({term: float(getattr(material, term)) for term in TERMS})
+        _write(volume, state)
+        self.shade = shade
+        self.state = _read(volume)
+
+    def follow(self) -> None:
+        """Draw what the user changed on the property, or refuse it (see the module)."""
+        now = _read(self.volume)
+        if now == self.state:
+            return
+        changed = [key for key in now if now[key] != self.state[key]]
+        followed = {"interpolation"} | (set(TERMS) if self.shade is not None else set())
+        refused = [key for key in changed if key not in followed or (
+            key == "interpolation" and now[key] == "cubic")]
+        if refused:
+            key = refused[0]
+            self._put_back(now)
+            raise ValueError(
+                f"The returned volume's {key} was changed after add_volume; pv_cubemarch "
+                f"does not draw that change (it takes {INSTEAD[key]}): add the volume again "
+                "with it. The property is set back to what is drawn.")
+        if "interpolation" in changed:
+            self.binding.set_interpolation(now["interpolation"])
+        if self.shade is not None and any(term in changed for term in TERMS):
+            self.shade.material = replace(self.shade.material,
+                                          **{term: now[term] for term in TERMS})
+        self.state = now
+
+    def _put_back(self, now: dict) -> None:
+        """Set the property back to what is drawn (a transfer function stays as edited)."""
+        _write(self.volume, self.state)
+        self.state = _read(self.volume)
