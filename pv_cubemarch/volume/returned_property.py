@@ -20,10 +20,9 @@ VTK_BLEND_MODES = {"composite": vtk.vtkVolumeMapper.COMPOSITE_BLEND,
                    "average": vtk.vtkVolumeMapper.AVERAGE_INTENSITY_BLEND,
                    "additive": vtk.vtkVolumeMapper.ADDITIVE_BLEND,
                    "isosurface": vtk.vtkVolumeMapper.ISOSURFACE_BLEND}
-#: VTK's interpolation types, by PyVista's names.
+#: VTK's interpolation types, by PyVista's names (VTK's volume property takes no other).
 INTERPOLATION_TYPES = {vtk.VTK_NEAREST_INTERPOLATION: "nearest",
-                       vtk.VTK_LINEAR_INTERPOLATION: "linear",
-                       vtk.VTK_CUBIC_INTERPOLATION: "cubic"}
+                       vtk.VTK_LINEAR_INTERPOLATION: "linear"}
 TERMS = ("ambient", "diffuse", "specular", "specular_power")
 #: What each refused setting is given as instead.
 INSTEAD = {
@@ -36,7 +35,6 @@ INSTEAD = {
     "diffuse": "add_volume(..., shade=True, diffuse=...)",
     "specular": "add_volume(..., shade=True, specular=...)",
     "specular_power": "add_volume(..., shade=True, specular_power=...)",
-    "interpolation": "interpolation_type 'nearest' or 'linear'",
 }
 
 
@@ -44,7 +42,7 @@ def _read(volume) -> dict:
     """What the returned volume's property and mapper say now."""
     prop = volume.GetProperty()
     return {
-        "interpolation": INTERPOLATION_TYPES.get(prop.GetInterpolationType(), "cubic"),
+        "interpolation": INTERPOLATION_TYPES[prop.GetInterpolationType()],
         "opacity_unit_distance": float(prop.GetScalarOpacityUnitDistance()),
         "shade": bool(prop.GetShade()),
         "ambient": float(prop.GetAmbient()),
@@ -94,8 +92,7 @@ class ReturnedProperty:
             return
         changed = [key for key in now if now[key] != self.state[key]]
         followed = {"interpolation"} | (set(TERMS) if self.shade is not None else set())
-        refused = [key for key in changed if key not in followed or (
-            key == "interpolation" and now[key] == "cubic")]
+        refused = [key for key in changed if key not in followed]
         if refused:
             key = refused[0]
             self._put_back(now)
