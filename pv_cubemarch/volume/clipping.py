@@ -1,15 +1,18 @@
-"""Volumetric clipping planes, read from the volume's mapper as PyVista and VTK set them.
+"""Volumetric clipping planes and crop box, read from the volume's mapper as VTK sets them.
 
 ``pl.add_volume_clip_plane(vol)`` and ``vol.mapper.AddClippingPlane(plane)`` put
 ``vtkPlane`` objects on the returned volume's mapper; a plane keeps the points ``x`` with
-``normal . (x - origin) >= 0`` (VTK's side). Every frame the volume reads them and its
-marchers cut each ray to the kept interval (``clip_planes.glsl``); the shaders carry the
-planes only while there are some, and the light map is marched again when they move.
+``normal . (x - origin) >= 0`` (VTK's side); ``mapper.SetCropping(True)`` with
+``SetCroppingRegionPlanes`` keeps a box of the data's coordinates. Every frame the volume
+reads them and its marchers cut each ray to the kept interval (``clip_planes.glsl``); the
+shaders carry the planes only while there are some, and the light map is marched again
+when they move.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import vtk
 
 from ..gl.bindings import FloatArray
 
@@ -30,6 +33,36 @@ def world_planes(mapper) -> tuple[tuple[tuple[float, ...], tuple[float, ...]], .
         raise ValueError(f"The volume's mapper holds {len(planes)} clipping planes; VTK and "
                          f"pv_cubemarch take at most {MAX_CLIP_PLANES}. Remove some "
                          "(mapper.RemoveClippingPlane).")
+    return tuple(planes)
+
+
+def crop_planes(mapper, transform) -> tuple[tuple[tuple[float, ...], tuple[float, ...]], ...]:
+    """The six world planes of the mapper's crop box (``SetCropping``), or none.
+
+    VTK's cropping region planes are in the data's coordinates (before the volume's
+    ``transform``); the default region flags keep the box between them, which is what is
+    drawn. Other flags keep a non-convex union of the 27 regions: refused.
+    """
+    if mapper is None or not mapper.GetCropping():
+        return ()
+    if mapper.GetCroppingRegionFlags() != vtk.VTK_CROP_SUBVOLUME:
+        raise ValueError(
+            f"The volume's mapper crops with region flags {mapper.GetCroppingRegionFlags():#x}"
+            "; pv_cubemarch draws only the sub-volume between the cropping planes "
+            "(mapper.SetCroppingRegionFlagsToSubVolume()), or use clipping planes.")
+    bounds = np.asarray(mapper.GetCroppingRegionPlanes(), dtype=np.float64)
+    matrix = np.asarray(transform, dtype=np.float64)
+    inverse_t = np.linalg.inv(matrix[:3, :3]).T
+    planes = []
+    for axis in range(3):
+        for side, sign in ((0, 1.0), (1, -1.0)):
+            origin = np.zeros(3)
+            origin[axis] = bounds[2 * axis + side]
+            normal = np.zeros(3)
+            normal[axis] = sign
+            world_normal = inverse_t @ normal
+            planes.append((tuple(matrix[:3, :3] @ origin + matrix[:3, 3]),
+                           tuple(world_normal / np.linalg.norm(world_normal))))
     return tuple(planes)
 
 
@@ -56,9 +89,13 @@ class ClipState:
     def __init__(self):
         self.planes: tuple = ()
 
-    def follow(self, mapper) -> tuple[bool, bool]:
-        """Read the planes of ``mapper``; return (count changed, any plane changed)."""
-        planes = world_planes(mapper)
+    def follow(self, mapper, transform=None) -> tuple[bool, bool]:
+        """Read the planes (and crop box) of ``mapper``; return (count changed, any changed).
+
+        ``transform``: the volume's placement of its data coordinates, where the crop box is.
+        """
+        planes = world_planes(mapper) + crop_planes(
+            mapper, np.eye(4) if transform is None else transform)
         count_changed = len(planes) != len(self.planes)
         changed = planes != self.planes
         self.planes = planes

@@ -373,7 +373,8 @@ class VolumeBinding(DrawnBinding):
         The marchers are compiled again only when the number of planes changes; the light
         map is marched again when a plane moves.
         """
-        count_changed, changed = self.data.clip.follow(self.clip_source)
+        count_changed, changed = self.data.clip.follow(
+            self.clip_source, getattr(self.model, "transform", None))
         if count_changed:
             self.set_march_defines(self.data.clip.defines)
         if changed and self.light_map is not None:
