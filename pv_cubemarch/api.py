@@ -88,7 +88,7 @@ def add_volume(
     specular: float | None = None,
     specular_power: float | None = None,
     **kwargs,
-) -> pyvista.Prop3D:
+) -> pyvista.Volume:
     """Add a volume rendered with emission/absorption compositing; return its actor.
 
     Parameters
@@ -247,13 +247,16 @@ def add_volume(
 
     Returns
     -------
-    pyvista.Prop3D
-        The actor the plotter knows (by ``name``): VTK's volume for ``'vtk'``, the box for
-        ``'direct'`` at full resolution, otherwise an invisible prop spanning the volume's
-        bounds that stands for it (the volume is drawn after the scene).
-        ``actor.cubemarch`` holds the model, the bindings and ``set_values`` /
-        ``set_transform``; ``plotter.remove_actor(actor)`` (or adding another actor under
-        the same name) removes the volume and frees it; hiding the actor hides it.
+    pyvista.Volume
+        The volume the plotter knows (by ``name``), in every technique a stand-in whose
+        VTK mapper draws nothing (the technique's own props draw), with PyVista's mapper
+        and property: ``pl.add_volume_clip_plane(actor)``, ``actor.mapper.AddClippingPlane``
+        and a crop box cut the volume; ``actor.prop.interpolation_type``, the shading
+        terms and ``actor.user_matrix`` / ``position`` set later are drawn; other changes
+        are refused at the next frame, by name. ``actor.cubemarch`` holds the model, the
+        bindings and ``set_values`` / ``set_transform``; ``plotter.remove_actor(actor)`` (or
+        adding another actor under the same name) removes the volume and frees it; hiding
+        the actor hides it.
 
     Examples
     --------
