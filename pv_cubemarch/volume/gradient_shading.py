@@ -65,8 +65,20 @@ class GradientShading:
         return {"CM_SHADE": True, "CM_SHADE_LIGHTS": MAX_SHADE_LIGHTS}
 
     def lights(self) -> list:
-        """The renderer's switched-on lights (at most :data:`MAX_SHADE_LIGHTS`)."""
-        return _switched_on(self.renderer)[:MAX_SHADE_LIGHTS]
+        """The renderer's switched-on lights (at most :data:`MAX_SHADE_LIGHTS`).
+
+        A positional (point or spot) light is refused: VTK shades with its position, cone
+        and attenuation, which these shaders do not model yet (drawn as a directional
+        light it was 30 dB off VTK's image).
+        """
+        lights = _switched_on(self.renderer)[:MAX_SHADE_LIGHTS]
+        if any(light.GetPositional() for light in lights):
+            raise ValueError("shade=True lights the volume with directional lights only (the "
+                             "light kit, headlights, camera and scene lights); this renderer "
+                             "has a positional light (light.positional = True). Make it "
+                             "directional, or use lights=[...] (the light map takes point "
+                             "lights).")
+        return lights
 
     def headlight_path(self) -> bool:
         """Whether VTK takes its single-headlight path: one light, a headlight, intensity 1."""
@@ -150,4 +162,6 @@ def gradient_shading(plotter, model, shade: bool, lights, blending: str,
         option("volume", name).check(value)
     material = ShadeMaterial(**{name: float(given.get(name, option("volume", name).default))
                                 for name in terms})
-    return GradientShading(plotter.renderer, model, material)
+    shading = GradientShading(plotter.renderer, model, material)
+    shading.lights()   # a positional light is refused now, and at any later frame
+    return shading
