@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pyvista
@@ -175,6 +175,21 @@ class TransferFunction:
             log_scale=bool(log_scale), opacity_unit_distance=float(opacity_unit_distance),
             value_offset=value_offset)
         return cls(table=table, clim=shifted, spec=spec)
+
+    def with_unit_distance(self, length: float) -> TransferFunction:
+        """The same colours and opacities over another ``opacity_unit_distance``.
+
+        Extinction is ``-ln(1 - o) / length``, so every row scales by ``old / length``.
+        """
+        length = float(length)
+        if not (length > 0 and np.isfinite(length)) or self.spec is None:
+            raise VolumeDataError(f"opacity_unit_distance must be a positive length (of a "
+                                  f"table built from a colormap), got {length!r}.")
+        table = self.table.astype(np.float64)
+        table[:, 3] = np.minimum(table[:, 3] * (self.spec.opacity_unit_distance / length),
+                                 MAX_EXTINCTION)
+        return TransferFunction(table=table.astype(np.float32), clim=self.clim,
+                                spec=replace(self.spec, opacity_unit_distance=length))
 
     @property
     def n_colors(self) -> int:

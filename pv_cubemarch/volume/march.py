@@ -145,6 +145,18 @@ class VolumeData:
             self.brick_builds += 1
             self._bricks.set_data(rebuilt)
 
+    def set_opacity_unit_distance(self, length: float) -> None:
+        """Draw one volume with its opacities over another length (the table goes up again).
+
+        The empty-space bricks stay: the marchers only ask whether a brick's extinction is
+        zero, and a zero extinction stays zero over any length.
+        """
+        if isinstance(self.model, VolumeGroup):
+            raise ValueError("Volumes marched jointly keep each member's "
+                             "opacity_unit_distance; add them again with new ones.")
+        self.model.transfer = self.model.transfer.with_unit_distance(length)
+        self.tables[0].set_data(self.model.transfer.table.reshape(1, -1, 4))
+
     @property
     def value_range(self) -> tuple[float, float]:
         """The smallest and largest finite value of the data (stored units), as VTK's range.
@@ -206,8 +218,8 @@ def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: flo
     extra = {}
     if blend.mode != "composite":
         skip_empty = False
-        spec = getattr(model.transfer, "spec", None)
-        target.set_uniform("cm_opacityUnit", 1.0 if spec is None else spec.opacity_unit_distance)
+        target.set_uniform("cm_opacityUnit", lambda: getattr(
+            getattr(model.transfer, "spec", None), "opacity_unit_distance", 1.0))
     if blend.mode in ("average", "additive"):
         target.set_uniform("cm_dataRange", lambda: data.value_range)
     if blend.mode == "isosurface":
@@ -364,6 +376,12 @@ class VolumeBinding(DrawnBinding):
                 actor.GetProperty().SetInterpolationType(
                     vtk.VTK_LINEAR_INTERPOLATION if interpolation == "linear"
                     else vtk.VTK_NEAREST_INTERPOLATION)
+        if self.light_map is not None:
+            self.light_map.invalidate()
+
+    def set_opacity_unit_distance(self, length: float) -> None:
+        """Opacities over another world length from the next frame (see VolumeData)."""
+        self.data.set_opacity_unit_distance(length)
         if self.light_map is not None:
             self.light_map.invalidate()
 

@@ -91,7 +91,8 @@ class ReturnedProperty:
         if now == self.state:
             return
         changed = [key for key in now if now[key] != self.state[key]]
-        followed = {"interpolation"} | (set(TERMS) if self.shade is not None else set())
+        followed = {"interpolation", "opacity_unit_distance"} | (
+            set(TERMS) if self.shade is not None else set())
         refused = [key for key in changed if key not in followed]
         if refused:
             key = refused[0]
@@ -102,6 +103,8 @@ class ReturnedProperty:
                 "with it. The property is set back to what is drawn.")
         if "interpolation" in changed:
             self.binding.set_interpolation(now["interpolation"])
+        if "opacity_unit_distance" in changed:
+            self.binding.set_opacity_unit_distance(now["opacity_unit_distance"])
         if self.shade is not None and any(term in changed for term in TERMS):
             self.shade.material = replace(self.shade.material,
                                           **{term: now[term] for term in TERMS})
