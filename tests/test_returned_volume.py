@@ -4,8 +4,7 @@ Every technique returns a ``pyvista.Volume`` (its mapper and property are PyVist
 wrappers). Set after adding, ``vol.prop.interpolation_type``, the shading terms,
 ``vol.user_matrix`` / ``position`` / ``orientation`` are drawn as PyVista draws its own
 volume set the same way, in the same run (``opacity_unit_distance`` too); a setting the
-marchers cannot follow is refused
-with an error that names the ``add_volume`` keyword to use.
+marchers cannot follow is refused with an error that names the ``add_volume`` keyword.
 
 Measured (160x120, llvmpipe): nearest after linear on big uint16 voxels: vtk, direct 40.2
 dB, cube map and auto (which picks it) 28.7 (left linear: 20.5 dB); a moved volume
@@ -150,8 +149,9 @@ def test_opacity_unit_distance_set_after_adding_is_drawn(technique, blending):
     """``vol.prop.opacity_unit_distance = 3`` after adding: PyVista's image with the same.
 
     catches (seen failing): the change not followed (``set_opacity_unit_distance`` not
-    called): composite 29.1 dB, additive 19.4 dB; the projections' unit bound once (a constant ``cm_opacityUnit``):
-    additive 32.0 dB. Measured: composite 54.2-55.2 dB, additive 55.8-56.1 dB.
+    called): composite 29.1 dB, additive 19.4 dB; the projections' unit bound once (a
+    constant ``cm_opacityUnit``): additive 32.0 dB. Measured: composite 54.2-55.2 dB,
+    additive 55.8-56.1 dB.
     """
     def thicker(vol):
         vol.prop.opacity_unit_distance = 3.0
