@@ -17,7 +17,7 @@ from .gl.overlay import bounds_proxy
 from .models.field_sources import color_values, make_field
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
-from .models.volume import VolumeModel, make_volume
+from .models.volume import VolumeModel, make_volume, with_transfer
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
@@ -47,13 +47,13 @@ def add_volume(
     scalars=None,
     *,
     cmap=None,
-    opacity="linear",
+    opacity=None,
     clim=None,
     opacity_unit_distance: float | None = None,
-    n_colors: int = 256,
-    flip_scalars: bool = False,
-    log_scale: bool = False,
-    categories: bool | int = False,
+    n_colors: int | None = None,
+    flip_scalars: bool | None = None,
+    log_scale: bool | None = None,
+    categories: bool | int | None = None,
     resolution=None,
     preference: str = "point",
     show_scalar_bar: bool = False,
@@ -105,9 +105,9 @@ def add_volume(
     cmap : str, sequence, matplotlib colormap or pyvista.LookupTable, optional
         Colormap of the emitted colour (PyVista's theme colormap by default); a lookup
         table brings its own colours and opacities. ``colormap=`` is an alias.
-    opacity : str, float or sequence of float
-        PyVista opacity preset (``'linear'``, ``'sigmoid'``, ``'geom'`` ...), a constant, or
-        values in [0, 1] over ``clim``: the fraction absorbed over
+    opacity : str, float or sequence of float, optional
+        PyVista opacity preset (``'linear'``, the default, ``'sigmoid'``, ``'geom'`` ...), a
+        constant, or values in [0, 1] over ``clim``: the fraction absorbed over
         ``opacity_unit_distance`` (capped at 0.998, as PyVista caps it).
     clim : float or sequence of float, optional
         Scalar range of the colormap and opacity, in the data's units (the data range by
@@ -115,15 +115,18 @@ def add_volume(
     opacity_unit_distance : float, optional
         World length that ``opacity`` refers to; as in PyVista, the grid's diagonal over
         its mean number of points less one by default.
-    n_colors : int
-        Colours of the colormap (rows of the transfer table, 2 to 16384).
-    flip_scalars : bool
-        Reverse the colormap.
-    log_scale : bool
+    n_colors : int, optional
+        Colours of the colormap (rows of the transfer table, 2 to 16384; 256 by default).
+    flip_scalars : bool, optional
+        Reverse the colormap (off by default).
+    log_scale : bool, optional
         Map colours over ``clim`` logarithmically (a lower bound at or below 0 becomes the
-        smallest positive float, as in PyVista).
-    categories : bool or int
+        smallest positive float, as in PyVista; off by default).
+    categories : bool or int, optional
         ``True``: as many colours as the data has distinct values; a number: that many.
+
+    Given with a :class:`VolumeModel`, the transfer keywords change its transfer function
+    (the others stay as it was made with); a keyword left out (``None``) keeps it.
     resolution : sequence of float, optional
         A numpy volume's spacing (unit spacing by default).
     preference : str
@@ -285,19 +288,29 @@ def add_volume(
         raise ValueError(f"blending={blending!r} reads the samples along a ray without "
                          "attenuating them; it takes no lights and no jointly marched "
                          "volumes. Use blending='composite' for those.")
+    transfer = {key: value for key, value in dict(
+        cmap=cmap, opacity=opacity, clim=clim, opacity_unit_distance=opacity_unit_distance,
+        n_colors=n_colors, flip_scalars=flip_scalars, log_scale=log_scale,
+        categories=categories).items() if value is not None}
     if isinstance(volume, (VolumeModel, VolumeGroup)):
         model = volume
+        if transfer and isinstance(model, VolumeGroup):
+            raise ValueError(f"{', '.join(transfer)}: volumes marched jointly keep each "
+                             "member's transfer function; give it to make_volume per member.")
+        if transfer:
+            model = with_transfer(model, **transfer)
         if interpolation is not None and interpolation != getattr(model, "interpolation",
                                                                    interpolation):
             INTERPOLATION.check(interpolation)
             model = dataclasses.replace(model, interpolation=interpolation)
     else:
         volume, scalars = volume_input(volume, scalars, resolution, preference)
-        model = make_volume(volume, scalars, cmap=cmap, opacity=opacity, clim=clim,
+        model = make_volume(volume, scalars, cmap=cmap, opacity=opacity or "linear", clim=clim,
                             opacity_unit_distance=opacity_unit_distance, transform=transform,
-                            nan_policy=nan_policy, name=name or "volume", n_colors=n_colors,
-                            flip_scalars=flip_scalars, log_scale=log_scale,
-                            categories=categories, interpolation=interpolation or "linear")
+                            nan_policy=nan_policy, name=name or "volume",
+                            n_colors=n_colors or 256, flip_scalars=bool(flip_scalars),
+                            log_scale=bool(log_scale), categories=categories or False,
+                            interpolation=interpolation or "linear")
     if isinstance(model, VolumeGroup) and not chosen.groups:
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")

@@ -89,6 +89,8 @@ def add_option_flags(parser: argparse.ArgumentParser) -> dict[str, argparse.Acti
                 settings["help"] = "how every volume is drawn: " + "; ".join(
                     f"{t.name}: {t.summary}" for t in _techniques()) + \
                     ". With voxels every volume must hold integer labels"
+            elif item.parse is not None:
+                settings["type"] = item.parse
             elif item.type is bool:
                 settings["action"] = argparse.BooleanOptionalAction
             elif item.type is tuple:

@@ -13,7 +13,7 @@ import pv_cubemarch as cm
 from pv_cubemarch import cli
 from pv_cubemarch.core.declared import AUTO, CHANNELS, KINDS, declared, options_markdown
 from pv_cubemarch.core.registry import techniques
-from pv_cubemarch.scene.usd.attributes import VOLUME_ONLY, usd_table
+from pv_cubemarch.scene.usd.attributes import SHARED_WITH_VOXELS, VOLUME_ONLY, usd_table
 from pv_cubemarch.views.knobs import surface_knobs, volume_knobs, voxel_knobs
 
 FUNCTIONS = {"volume": cm.add_volume, "voxels": cm.add_voxels, "surface": cm.add_surface}
@@ -112,7 +112,7 @@ def test_every_usd_attribute_is_read():
             if declaration.usd_key is None:
                 continue
             if declaration.model:
-                assert declaration.usd_key in VOLUME_ONLY
+                assert declaration.usd_key in VOLUME_ONLY + SHARED_WITH_VOXELS
             else:
                 assert table.get(declaration.usd_key) == declaration.name
 

@@ -50,7 +50,9 @@ class Option:
     (after ``cubemarch:``) and the flag, :data:`DERIVED` from the name by default, ``None``
     for none, with the reason in ``without``. ``model``: set on the data model where it is
     made (its USD attribute read there), not on the technique's options. ``usd_type``:
-    how the attribute is read where it differs from ``type`` (``'color3f'``).
+    how the attribute is read where it differs from ``type`` (``'color3f'``). ``parse``:
+    how the flag's word becomes the value where ``type`` does not say (a preset or a
+    number).
     """
 
     name: str
@@ -70,6 +72,7 @@ class Option:
     without: dict = field(default_factory=dict)
     model: bool = False
     usd_type: object = None
+    parse: object = None
 
     @property
     def usd_key(self) -> str | None:

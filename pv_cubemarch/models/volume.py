@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pyvista
@@ -308,6 +308,56 @@ def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear"
     matrix = np.eye(4) if transform is None else checked_transform(transform)
     return VolumeModel(grid=grid, values=values, transfer=transfer, transform=matrix, name=name,
                        value_offset=offset, interpolation=interpolation)
+
+
+#: ``add_volume``'s transfer keywords (what :func:`with_transfer` changes on a made volume).
+TRANSFER_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
+                     "flip_scalars", "log_scale", "categories")
+
+
+def with_transfer(model: VolumeModel, **changes) -> VolumeModel:
+    """``model`` with some transfer keywords changed, the others as it was made with.
+
+    So ``add_volume(model, cmap=...)`` (the CLI, USD and the live view give a made volume
+    their keywords this way) draws what it says instead of ignoring it.
+    """
+    unknown = set(changes) - set(TRANSFER_KEYWORDS)
+    if unknown:
+        raise ValueError(f"{sorted(unknown)} are not transfer keywords {TRANSFER_KEYWORDS}.")
+    spec = model.transfer.spec
+    if spec is None:
+        raise VolumeDataError(
+            f"Volume {model.name!r} carries a transfer table given as is, so "
+            f"{', '.join(sorted(changes))} cannot change it: make the volume from its data "
+            "with those keywords (make_volume(grid, cmap=..., ...)).")
+    keywords = dict(cmap=spec.cmap, opacity=spec.opacity, clim=_exact_data_clim(spec),
+                    opacity_unit_distance=spec.opacity_unit_distance, n_colors=spec.n_colors,
+                    flip_scalars=spec.flip_scalars, log_scale=spec.log_scale)
+    categories = changes.pop("categories", False)
+    keywords.update(changes)
+    if "clim" in changes and changes["clim"] is None:
+        keywords["clim"] = _data_range(model.values, model.value_offset)
+    if keywords["opacity_unit_distance"] is None:
+        keywords["opacity_unit_distance"] = pyvista_unit_distance(model.grid)
+    if categories is True:
+        keywords["n_colors"] = max(int(np.unique(model.values).size), 2)
+    elif categories:
+        keywords["n_colors"] = int(categories)
+    transfer = TransferFunction.from_colormap(
+        keywords["cmap"], keywords["opacity"], keywords["clim"],
+        keywords["opacity_unit_distance"], n_colors=keywords["n_colors"],
+        flip_scalars=keywords["flip_scalars"], log_scale=keywords["log_scale"],
+        value_offset=model.value_offset)
+    return replace(model, transfer=transfer)
+
+
+def _exact_data_clim(spec) -> tuple:
+    """A spec's ``clim`` in data units, integers kept exact (ids near 2**64)."""
+    offset = spec.value_offset
+    if isinstance(offset, (int, np.integer)) and offset and all(
+            float(v).is_integer() for v in spec.clim):
+        return tuple(int(offset) + int(v) for v in spec.clim)
+    return spec.data_clim
 
 
 def pyvista_unit_distance(grid: pyvista.ImageData) -> float:

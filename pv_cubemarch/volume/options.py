@@ -37,13 +37,29 @@ def default_max_samples(model) -> int:
     return max(1, 2 * (max(model.dimensions) - 1))
 
 
+def preset_or_number(word: str):
+    """An opacity flag's word: a number (a constant opacity), else a preset's name."""
+    try:
+        return float(word)
+    except ValueError:
+        return word
+
+
+#: Colormaps and opacity presets the live view offers (any name works elsewhere).
+KNOB_CMAPS = ("viridis", "magma", "inferno", "plasma", "cividis", "gray", "bone", "coolwarm",
+              "jet", "tab20")
+KNOB_OPACITIES = ("linear", "linear_r", "sigmoid", "sigmoid_r", "geom", "geom_r")
+#: Why a range or a length has no live-view control.
+NO_KNOB_UNITS = "a value in the data's own units: give it in Python, on the CLI or in USD"
+
 MARCHERS = ("vtk", "direct", "auto")
 CUBE_MAPS = ("cubemap", "auto")
 #: Every option of the volume techniques, declared once (:mod:`pv_cubemarch.core.declared`).
 TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMPLES, UPSCALE, \
     SAMPLE_FACTOR, OCCLUSION_SHARPNESS, BLENDING, ISOSURFACES, INTERPOLATION, LIGHTS, \
-    LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT, SHADE, AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER = \
-    declare(
+    LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT, SHADE, AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER, \
+    CMAP, OPACITY, CLIM, OPACITY_UNIT_DISTANCE, N_COLORS, FLIP_SCALARS, LOG_SCALE, \
+    CATEGORIES = declare(
         Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
                control=Control("select")),
         Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
@@ -109,6 +125,30 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
         Option("specular_power", "volume", float, 10.0, "specular exponent of the gradient "
                "shading", low=0.0, high=128.0, closed_low=False,
                control=Control("slider", "specular power", 1.0, 128.0, 1.0)),
+        # The transfer keywords: set on the volume's model where it is made (model=True).
+        Option("cmap", "volume", str, None, "colormap of the emitted colour (PyVista's "
+               "theme colormap by default)", optional=True, model=True,
+               control=Control("select", "colormap", choices=(AUTO, *KNOB_CMAPS))),
+        Option("opacity", "volume", str, "linear", "opacity preset, constant or curve over "
+               "clim (per opacity_unit_distance)", model=True, parse=preset_or_number,
+               control=Control("select", choices=KNOB_OPACITIES)),
+        Option("clim", "volume", tuple, None, "scalar range of the colormap and opacity, in "
+               "the data's units (the data range by default)", optional=True, model=True,
+               without={"knob": NO_KNOB_UNITS}),
+        Option("opacity_unit_distance", "volume", float, None, "world length the opacity "
+               "refers to (PyVista's default: the diagonal over mean points less one)",
+               low=0.0, closed_low=False, optional=True, model=True,
+               without={"knob": NO_KNOB_UNITS}),
+        Option("n_colors", "volume", int, 256, "colours of the colormap (rows of the "
+               "transfer table)", low=2, high=16384, model=True,
+               control=Control("select", "colours", choices=(2, 4, 8, 16, 64, 256, 1024))),
+        Option("flip_scalars", "volume", bool, False, "reverse the colormap", model=True,
+               control=Control("switch", "flip colormap")),
+        Option("log_scale", "volume", bool, False, "map colours over clim logarithmically",
+               model=True, control=Control("switch", "log scale")),
+        Option("categories", "volume", bool, False, "as many colours as the data has "
+               "distinct values (a number in Python: that many)", model=True,
+               control=Control("switch", "categories")),
     )
 
 

@@ -6,7 +6,7 @@ import re
 
 from pxr import Usd
 
-from ...core.declared import usd_table
+from ...core.declared import declared, usd_table
 from ...core.errors import SceneLoadError
 from ...surfaces import options as _surface_options  # noqa: F401  (declares its options)
 from ...volume import options as _volume_options  # noqa: F401  (declares its options)
@@ -28,10 +28,16 @@ VOXEL_OPTIONS = usd_table("voxels")
 #: (with ``cubemarch:isovalue``, required)
 SURFACE_OPTIONS = usd_table("surface")
 
+#: The volume model's attributes (the transfer keywords, the interpolation), read where the
+#: model is made: option name by attribute key, from the declarations.
+MODEL_ATTRIBUTES = {o.usd_key: o for o in declared("volume") if o.model and o.usd_key}
+#: Of those, what a voxels Volume prim reads too (the colormap of its palette).
+SHARED_WITH_VOXELS = ("cmap",)
 #: Volume attributes that a voxels Volume prim must not carry.
-VOLUME_ONLY = tuple(key for key in ("opacity", "clim", "opacityUnitDistance", "interpolation",
-                                    *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))
-                    if key != "technique" and key not in {k for k, _, _ in VOXEL_OPTIONS})
+VOLUME_ONLY = tuple(key for key in (*MODEL_ATTRIBUTES, *(usd_key for usd_key, _, _ in
+                                                          VOLUME_OPTIONS))
+                    if key != "technique" and key not in SHARED_WITH_VOXELS
+                    and key not in {k for k, _, _ in VOXEL_OPTIONS})
 
 
 def options_error(name: str, authored_options: dict, kind: str,

@@ -21,6 +21,7 @@ from ...volume.options import Shading
 from ..grids import placement, read_grid
 from ..voxel_worlds import ChunkPrim
 from .attributes import (
+    MODEL_ATTRIBUTES,
     SURFACE_OPTIONS,
     VOLUME_ONLY,
     VOLUME_OPTIONS,
@@ -62,29 +63,42 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
     if surface:
         _surface(ctx, prim, name, field_prim, grid)
         return
-    attrs = {key: attr(prim, f"cubemarch:{key}") for key in
-             ("cmap", "opacity", "clim", "opacityUnitDistance", "interpolation",
-              *(usd_key for usd_key, _, _ in VOLUME_OPTIONS))}
+    transfer = _model_attributes(prim, name)
     found = authored(prim, name, VOLUME_OPTIONS)
     options = {option: value for option, value in found.values()}
     _check_volume_options(name, found, options)
     if options.get("lights") == "none":
         options["lights"] = None
-    opacity = attrs["opacity"]
-    if opacity is not None and not isinstance(opacity, str):
-        opacity = [float(v) for v in opacity]
     try:
         volume = make_volume(
-            grid, cmap=attrs["cmap"] or "magma", opacity=opacity or "linear",
-            clim=tuple(attrs["clim"]) if attrs["clim"] is not None else None,
-            opacity_unit_distance=attrs["opacityUnitDistance"],
-            interpolation=str(attrs["interpolation"] or "linear"),
-            transform=placement(grid, ctx.world_matrix(prim)), name=name)
+            grid, cmap=transfer.pop("cmap", "magma"), opacity=transfer.pop("opacity", "linear"),
+            **transfer, transform=placement(grid, ctx.world_matrix(prim)), name=name)
     except VolumeDataError as exc:
         raise VolumeDataError(f"Volume {name} (field {field_prim.GetPath()}): {exc}") from exc
     ctx.scene.volumes.append(volume)
     if options:
         ctx.scene.volume_options[name] = options
+
+def _model_attributes(prim, name: str) -> dict:
+    """The volume model's authored attributes as ``make_volume`` keywords, each checked."""
+    found = {}
+    for key, declaration in MODEL_ATTRIBUTES.items():
+        value = attr(prim, f"cubemarch:{key}")
+        if value is None:
+            continue
+        if declaration.type is tuple:
+            value = tuple(float(v) for v in value)
+        elif declaration.name == "opacity" and not isinstance(value, str):
+            value = float(value) if np.ndim(value) == 0 else [float(v) for v in value]
+        elif declaration.type in (int, float, bool):
+            value = declaration.type(value)
+        try:
+            declaration.check(value)
+        except ValueError as exc:
+            raise SceneLoadError(f"Volume {name}: cubemarch:{key} = {value!r}: {exc}") from exc
+        found[declaration.name] = value
+    return found
+
 
 def _voxels(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
     """A material grid from an integer field, with its palette and checked options."""
