@@ -25,7 +25,7 @@ from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its 
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
 from .volume.light_map import LightMap
-from .volume.march import VolumeBinding, VolumeData
+from .volume.march import VolumeBinding, VolumeData, VolumeSetup
 from .volume.options import DEFAULT_STOP_OPACITY, INTERPOLATION, Shading
 from .volume.pyvista_keywords import (
     add_scalar_bar,
@@ -326,7 +326,7 @@ def add_volume(
     data = VolumeData(model)
     light_map = None if source is None else LightMap(
         plotter.renderer, data, source, int(light_map_size), float(light_map_ambient))
-    binding = chosen.build(plotter, data, options, shading, light_map)
+    binding = chosen.build(plotter, data, VolumeSetup(options, shading, light_map))
     binding.light_map = light_map
     binding.blending = blending
     binding.isosurfaces = isosurfaces   # as given (data units, or a count)

@@ -42,11 +42,13 @@ class Technique:
         ``check()`` raising a clear error for a bad value and ``check_model(model)`` for
         a value the data cannot take (e.g. more steps than a ray can march).
     build : callable
-        ``build(plotter, data, options, shading, light_map)`` makes the technique's
-        actor(s) for one volume and returns its binding: ``drawn`` (the actors that draw
-        it), ``renderer`` (where they draw), ``needs_single_sample``,
-        ``blends_in_main_renderer``, ``follow_anchor()`` and ``release()`` (see
-        :class:`pv_cubemarch.volume.march.VolumeBinding`).
+        ``build(plotter, model, options)`` for every kind: makes the technique's actor(s)
+        and returns its binding: ``drawn`` (the actors that draw it), ``renderer`` (where
+        they draw), ``needs_single_sample``, ``blends_in_main_renderer``,
+        ``follow_anchor()`` and ``release()`` (see :class:`pv_cubemarch.gl.drawn.
+        DrawnBinding`). A volume's ``model`` is its GPU data and ``options`` a
+        :class:`~pv_cubemarch.volume.march.VolumeSetup` (technique options, shading,
+        light map); voxels and surfaces take their model and options dataclass.
     reference : callable
         The CPU reference that says what its right image is.
     sweep : Sweep, optional

@@ -17,7 +17,7 @@ from ..reference.emission_absorption import render_emission_absorption
 from .cubemap.lod import cube_corners
 from .cubemap.technique import build_cubemap_actor
 from .direct import build_direct_actor
-from .march import VolumeBinding, VolumeData, follow_placement
+from .march import VolumeBinding, VolumeData, VolumeSetup, follow_placement
 from .options import AutoOptions
 
 
@@ -166,11 +166,10 @@ class AutoBinding(VolumeBinding):
         follow_placement(self)
 
 
-def build_auto_actor(plotter, data: VolumeData, options: AutoOptions, shading,
-                     light_map=None):
+def build_auto_actor(plotter, data: VolumeData, setup: VolumeSetup):
     """Both paths of a ``technique='auto'`` volume, sharing its data; returns the binding."""
-    cube = build_cubemap_actor(plotter, data, options.cubemap, shading, light_map)
-    direct = build_direct_actor(plotter, data, options.direct, shading, light_map)
+    cube = build_cubemap_actor(plotter, data, setup.with_options(setup.options.cubemap))
+    direct = build_direct_actor(plotter, data, setup.with_options(setup.options.direct))
     cube.renderer.AddActor(cube.drawn[0])
     plotter.renderer.AddActor(direct.drawn[0])
     return AutoBinding(plotter, data, direct, cube)

@@ -27,6 +27,7 @@ from .march import (
     SCREEN_DECLARATIONS,
     VolumeBinding,
     VolumeData,
+    VolumeSetup,
     bind_sampling,
     march_snippets,
     world_from_texture,
@@ -138,13 +139,14 @@ class DirectBinding(VolumeBinding):
         super().release()
 
 
-def build_direct_actor(plotter, data: VolumeData, options, shading, light_map=None):
+def build_direct_actor(plotter, data: VolumeData, setup: VolumeSetup):
     """A box actor that marches the volume with the shared GLSL; returns its binding.
 
     With ``options.downsample`` > 1 the rays are marched by a full-screen pass at
     1/downsample of the viewport, and the box only upsamples the result with a
     depth-aware filter.
     """
+    options, shading, light_map = setup.options, setup.shading, setup.light_map
     model = data.model
     renderer = plotter.renderer
     actor = box_actor([n - 1.0 for n in model.dimensions], model.world_from_index())

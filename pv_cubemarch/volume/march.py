@@ -64,6 +64,25 @@ class Blend:
     shade: object = None
 
 
+@dataclass(frozen=True)
+class VolumeSetup:
+    """What a volume technique's builder takes with the plotter and the volume's data.
+
+    Every kind's builder is ``build(plotter, model, options)``; a volume's ``model`` is its
+    :class:`VolumeData` and its ``options`` this: the technique's options, the shading
+    every technique reads (:class:`~pv_cubemarch.volume.options.Shading`) and the light
+    map, if any.
+    """
+
+    options: object
+    shading: object
+    light_map: object = None
+
+    def with_options(self, options) -> VolumeSetup:
+        """The same set-up with another technique's options (``'auto'`` builds two)."""
+        return replace(self, options=options)
+
+
 def march_snippets(blending: str = "composite", defines: dict | None = None) -> tuple[str, ...]:
     """The marcher with its blend mode, and the gradient shading where the switches ask.
 

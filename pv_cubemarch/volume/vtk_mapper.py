@@ -24,6 +24,7 @@ from .march import (
     SCREEN_DECLARATIONS,
     VolumeBinding,
     VolumeData,
+    VolumeSetup,
     bind_sampling,
     march_snippets,
     world_from_texture,
@@ -56,8 +57,9 @@ def vtk_mapper_recipe(defines: dict, lit: bool, blending: str = "composite") -> 
     )
 
 
-def build_vtk_actor(plotter, data: VolumeData, options, shading, light_map=None):
+def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
     """A ``pyvista.Volume`` drawn by VTK's GPU mapper with our marcher; returns its binding."""
+    options, shading, light_map = setup.options, setup.shading, setup.light_map
     model: VolumeModel = data.model
     step_scale = options.step_scale
     # VTK's mapper gets the grid in index space (origin 0, spacing 1, no rotation) and the

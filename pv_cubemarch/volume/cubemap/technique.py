@@ -36,6 +36,7 @@ from ..march import (
     SCREEN_DECLARATIONS,
     VolumeBinding,
     VolumeData,
+    VolumeSetup,
     bind_sampling,
     march_snippets,
     world_from_texture,
@@ -159,9 +160,9 @@ def resample_recipe(occlusion: bool) -> ShaderRecipe:
     ], defines={"CM_DEPTH_FRAMEBUFFER": True, "CM_OCCLUSION": bool(occlusion)})
 
 
-def build_cubemap_actor(plotter, data: VolumeData, options: CubeMapOptions, shading,
-                        light_map=None):
+def build_cubemap_actor(plotter, data: VolumeData, setup: VolumeSetup):
     """The box actor of a cube-map volume, with its passes; returns its binding."""
+    options, shading, light_map = setup.options, setup.shading, setup.light_map
     model = data.model
     main = plotter.renderer
     overlay = scene_overlay(plotter)
