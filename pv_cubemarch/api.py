@@ -38,6 +38,7 @@ from .volume.stand_in import stand_in_volume
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
 from .voxels.indexed import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
+from .voxels.scalar_bar import add_voxel_scalar_bar, warn_translucent
 from .voxels.world import build_world
 
 
@@ -526,6 +527,9 @@ def add_voxels(
     chunk_size: int | None = None,
     transform=None,
     name: str | None = None,
+    show_scalar_bar: bool = False,
+    scalar_bar_args: dict | None = None,
+    annotations: dict | None = None,
 ) -> pyvista.Actor:
     """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal, 002).
 
@@ -629,6 +633,17 @@ def add_voxels(
         4x4 affine placement of the grid in the world.
     name : str, optional
         The actor's name in the plotter.
+    show_scalar_bar : bool
+        Add a scalar bar of the materials' colours, one block per material as PyVista's
+        ``categories=True`` shows (off by default); ``plotter.add_scalar_bar()`` adds one
+        afterwards either way.
+    scalar_bar_args : dict, optional
+        Keywords of ``plotter.add_scalar_bar`` (title, position, ...).
+    annotations : dict, optional
+        Material to name (``{1: "bone", 2: "liver"}``), shown on the scalar bar.
+
+    A material with an opacity between 0 and 1 is drawn opaque, with a warning
+    (translucent materials are not composited yet).
 
     Returns
     -------
@@ -662,6 +677,7 @@ def add_voxels(
     if isinstance(model, VoxelWorld) and chunk_size not in (None, model.chunk_size):
         raise ValueError(f"chunk_size={chunk_size} differs from the world's own "
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")
+    warn_translucent(model.palette, model.name)
     if isinstance(model, VoxelWorld) or chunk_size is not None or not fits_one_texture(
             model.dimensions, model.labels.dtype):
         if proxy is None:   # chunks: no brick shells by default (bench voxel-world)
@@ -669,13 +685,16 @@ def add_voxels(
         if not isinstance(model, VoxelWorld):
             model = VoxelWorld.from_model(
                 model, DEFAULT_CHUNK_SIZE if chunk_size is None else chunk_size)
-        return _add_world(plotter, model, options, name)
-    options.check_model(model)
-    component = plotter.cubemarch
-    binding = chosen.build(plotter, model, options)
-    actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
-    component.track(binding)
-    _frame(plotter)
+        actor = _add_world(plotter, model, options, name)
+    else:
+        options.check_model(model)
+        component = plotter.cubemarch
+        binding = chosen.build(plotter, model, options)
+        actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
+        component.track(binding)
+        _frame(plotter)
+    add_voxel_scalar_bar(plotter, model.palette, scalars or model.name, show_scalar_bar,
+                         scalar_bar_args, annotations)
     return actor
 
 
