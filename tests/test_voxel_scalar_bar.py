@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 import pyvista as pv
 
-
 COLORS = ["black", "tan", "steelblue", "crimson"]
 
 
