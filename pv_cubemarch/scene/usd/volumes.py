@@ -71,7 +71,7 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
         options["lights"] = None
     try:
         volume = make_volume(
-            grid, cmap=transfer.pop("cmap", "magma"), opacity=transfer.pop("opacity", "linear"),
+            grid, cmap=transfer.pop("cmap", None), opacity=transfer.pop("opacity", "linear"),
             **transfer, transform=placement(grid, ctx.world_matrix(prim)), name=name)
     except VolumeDataError as exc:
         raise VolumeDataError(f"Volume {name} (field {field_prim.GetPath()}): {exc}") from exc
