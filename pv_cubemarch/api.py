@@ -395,6 +395,8 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
         binding.bounds_proxy = actor
     if volume:
         binding.clip_source = actor.GetMapper()
+        for item in drawn:   # a picker returns the volume the plotter knows, not its parts
+            item.PickableOff()
     plotter.add_actor(actor, name=name, reset_camera=False)
     binding.actor = actor
     if getattr(actor, "cubemarch", None) is not binding:

@@ -164,6 +164,7 @@ def test_opacity_unit_distance_set_after_adding_is_drawn(technique, blending):
 @pytest.mark.parametrize(("change", "named"), [
     (lambda vol: setattr(vol.mapper, "blend_mode", "maximum"), "blending"),
     (lambda vol: setattr(vol.prop, "shade", True), "shade"),
+    (lambda vol: setattr(vol.mapper, "scalar_range", (0.0, 100.0)), "clim"),
     (lambda vol: vol.prop.apply_lookup_table(pv.LookupTable("jet")), "colors"),
 ])
 def test_a_change_not_drawn_is_refused_and_set_back(change, named):
@@ -182,6 +183,7 @@ def test_a_change_not_drawn_is_refused_and_set_back(change, named):
         cm.render_image(pl)
     assert vol.prop.opacity_unit_distance == unit and vol.mapper.blend_mode == "composite"
     assert vol.prop.interpolation_type == "linear" and not vol.prop.shade
+    assert vol.mapper.scalar_range == pytest.approx((40.0, 280.0))   # reads the clim
     assert np.array_equal(cm.render_image(pl), first)
     pl.close()
 

@@ -370,16 +370,15 @@ class VolumeBinding(DrawnBinding):
         ``position``, ``orientation``, ``scale``), which moves the volume as
         :meth:`set_transform` does.
         """
+        stand_in = self.bounds_proxy
+        if stand_in is not None:   # first: the crop box is placed with the volume
+            matrix = stand_in_matrix(stand_in)
+            placed = np.eye(4) if isinstance(self.model, VolumeGroup) else self.model.transform
+            if not np.allclose(matrix, placed, rtol=1e-12, atol=0.0):
+                self.set_transform(matrix)
         self.follow_clipping()
         if self.returned_property is not None:
             self.returned_property.follow()
-        stand_in = self.bounds_proxy
-        if stand_in is None:
-            return
-        matrix = stand_in_matrix(stand_in)
-        placed = np.eye(4) if isinstance(self.model, VolumeGroup) else self.model.transform
-        if not np.allclose(matrix, placed, rtol=1e-12, atol=0.0):
-            self.set_transform(matrix)
 
     def set_interpolation(self, interpolation: str) -> None:
         """Read the data ``'linear'`` or ``'nearest'`` from the next frame (no upload)."""

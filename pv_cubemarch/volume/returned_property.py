@@ -29,6 +29,7 @@ INSTEAD = {
     "opacity_unit_distance": "add_volume(..., opacity_unit_distance=...)",
     "shade": "add_volume(..., shade=...)",
     "blending": "add_volume(..., blending=...)",
+    "clim": "add_volume(..., clim=...)",
     "colors": "add_volume(..., cmap=..., clim=...) (pv_cubemarch draws its own transfer table)",
     "opacities": "add_volume(..., opacity=...) (pv_cubemarch draws its own transfer table)",
     "ambient": "add_volume(..., shade=True, ambient=...)",
@@ -50,6 +51,7 @@ def _read(volume) -> dict:
         "specular": float(prop.GetSpecular()),
         "specular_power": float(prop.GetSpecularPower()),
         "blending": int(volume.GetMapper().GetBlendMode()),
+        "clim": tuple(getattr(volume.GetMapper(), "scalar_range", None) or ()),
         "colors": int(prop.GetRGBTransferFunction().GetMTime()),
         "opacities": int(prop.GetScalarOpacity().GetMTime()),
     }
@@ -66,6 +68,8 @@ def _write(volume, state: dict) -> None:
     prop.SetSpecular(state["specular"])
     prop.SetSpecularPower(state["specular_power"])
     volume.GetMapper().SetBlendMode(state["blending"])
+    if state["clim"]:
+        volume.GetMapper().scalar_range = state["clim"]
 
 
 class ReturnedProperty:

@@ -18,6 +18,7 @@ from pyvista.plotting.volume_property import VolumeProperty
 
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..models.group import VolumeGroup
+from .pyvista_keywords import scalar_bar_mapper
 
 _DRAWS_NOTHING = ShaderRecipe([Replacement("//VTK::ComputeClipPos::Impl",
                                            "stand_in_clip_position", stage="vertex",
@@ -37,7 +38,14 @@ def stand_in_volume(model) -> pyvista.Volume:
     mapper.SetInputData(grid)
     volume = pyvista.Volume()
     volume.SetMapper(mapper)
-    volume.SetProperty(VolumeProperty())  # ... vol.prop.interpolation_type, as PyVista's
+    prop = VolumeProperty()               # ... vol.prop.interpolation_type, as PyVista's
+    volume.SetProperty(prop)
+    if not isinstance(model, VolumeGroup):   # vol.mapper.scalar_range reads the clim
+        mapper.lookup_table = scalar_bar_mapper(model).lookup_table
+        mapper.scalar_range = tuple(float(v) for v in mapper.lookup_table.scalar_range)
+    # Held from Python: PyVista's wrappers keep Python state (the mapper's lookup table and
+    # range), lost with the wrapper if only VTK held the object.
+    pyvista.set_new_attribute(volume, "_cubemarch_parts", (mapper, prop))
     _DRAWS_NOTHING.apply(volume.GetShaderProperty())
     place_stand_in(volume, model)
     return volume
