@@ -42,7 +42,8 @@ def crop_planes(mapper, transform) -> tuple[tuple[tuple[float, ...], tuple[float
     VTK's cropping region planes are in the data's coordinates (before the volume's
     ``transform``), axis-aligned there (a grid's direction matrix does not turn them; VTK's
     own crop of such a grid matched neither reading); the default region flags keep the box
-    between them, which is what is drawn. Other flags keep a non-convex union of the 27 regions: refused.
+    between them, which is what is drawn. Other flags keep a non-convex union of the 27
+    regions: refused.
     """
     if mapper is None or not mapper.GetCropping():
         return ()
