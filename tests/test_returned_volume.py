@@ -165,6 +165,7 @@ def test_opacity_unit_distance_set_after_adding_is_drawn(technique, blending):
     (lambda vol: setattr(vol.mapper, "blend_mode", "maximum"), "blending"),
     (lambda vol: setattr(vol.prop, "shade", True), "shade"),
     (lambda vol: setattr(vol.mapper, "scalar_range", (0.0, 100.0)), "clim"),
+    (lambda vol: setattr(vol.prop, "independent_components", False), "independent_components"),
     (lambda vol: vol.prop.apply_lookup_table(pv.LookupTable("jet")), "colors"),
 ])
 def test_a_change_not_drawn_is_refused_and_set_back(change, named):

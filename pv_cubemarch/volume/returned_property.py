@@ -30,6 +30,7 @@ INSTEAD = {
     "shade": "add_volume(..., shade=...)",
     "blending": "add_volume(..., blending=...)",
     "clim": "add_volume(..., clim=...)",
+    "independent_components": "one scalar per point (several components are not drawn yet)",
     "colors": "add_volume(..., cmap=..., clim=...) (pv_cubemarch draws its own transfer table)",
     "opacities": "add_volume(..., opacity=...) (pv_cubemarch draws its own transfer table)",
     "ambient": "add_volume(..., shade=True, ambient=...)",
@@ -52,6 +53,7 @@ def _read(volume) -> dict:
         "specular_power": float(prop.GetSpecularPower()),
         "blending": int(volume.GetMapper().GetBlendMode()),
         "clim": tuple(getattr(volume.GetMapper(), "scalar_range", None) or ()),
+        "independent_components": bool(prop.GetIndependentComponents()),
         "colors": int(prop.GetRGBTransferFunction().GetMTime()),
         "opacities": int(prop.GetScalarOpacity().GetMTime()),
     }
@@ -67,6 +69,7 @@ def _write(volume, state: dict) -> None:
     prop.SetDiffuse(state["diffuse"])
     prop.SetSpecular(state["specular"])
     prop.SetSpecularPower(state["specular_power"])
+    prop.SetIndependentComponents(int(state["independent_components"]))
     volume.GetMapper().SetBlendMode(state["blending"])
     if state["clim"]:
         volume.GetMapper().scalar_range = state["clim"]
