@@ -532,6 +532,8 @@ def add_voxels(
     show_scalar_bar: bool = False,
     scalar_bar_args: dict | None = None,
     annotations: dict | None = None,
+    cmap=None,
+    categories: bool = False,
 ) -> pyvista.Actor:
     """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal, 002).
 
@@ -643,6 +645,13 @@ def add_voxels(
         Keywords of ``plotter.add_scalar_bar`` (title, position, ...).
     annotations : dict, optional
         Material to name (``{1: "bone", 2: "liver"}``), shown on the scalar bar.
+    cmap : str or list, optional
+        PyVista's name for a colormap of the labels (``palette=`` takes one too; give one
+        of the two).
+    categories : bool
+        Colour the labels as PyVista's ``threshold`` + ``add_mesh(categories=True,
+        cmap=...)`` does: as many colours as distinct labels above 0, over their range
+        (labels with gaps get the colours PyVista gives them, not one per label number).
 
     A material with an opacity between 0 and 1 is drawn opaque, with a warning
     (translucent materials are not composited yet).
@@ -673,9 +682,17 @@ def add_voxels(
         if transform is not None:
             raise ValueError("transform goes with raw data; a VoxelModel or VoxelWorld carries "
                              "its own (set model.transform, or actor.cubemarch.set_transform).")
+        if cmap is not None or categories:
+            raise ValueError("cmap= and categories= colour raw labels; a VoxelModel or "
+                             "VoxelWorld carries its palette (make_voxels(..., palette=..., "
+                             "categories=True), or actor.cubemarch.set_material).")
     else:
+        if cmap is not None:
+            if palette is not None:
+                raise ValueError("give palette= or cmap= (PyVista's name), not both.")
+            palette = cmap
         model = make_voxels(grid, scalars, palette=palette, transform=transform,
-                            name=name or "voxels")
+                            name=name or "voxels", categories=bool(categories))
     if isinstance(model, VoxelWorld) and chunk_size not in (None, model.chunk_size):
         raise ValueError(f"chunk_size={chunk_size} differs from the world's own "
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")

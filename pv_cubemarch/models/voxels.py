@@ -211,12 +211,14 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
 
 
 def make_voxels(data, scalars: str | None = None, *, palette=None, transform=None,
-                name: str = "voxels") -> VoxelModel:
+                name: str = "voxels", categories: bool = False) -> VoxelModel:
     """Validate a material grid and bundle it with a palette into a :class:`VoxelModel`.
 
     ``data``: a 3D integer (or bool) numpy array indexed x, y, z (unit voxels from the
     origin), or a ``pyvista.ImageData`` whose cell data (one voxel per cell) or point data
-    (one voxel centred on each point, a spacing wide) holds the labels.
+    (one voxel centred on each point, a spacing wide) holds the labels. ``categories``:
+    ``palette`` is a colormap (name, or list of colours) mapped as PyVista's
+    ``add_mesh(categories=True)`` maps the drawn labels (see :func:`category_palette`).
     """
     if isinstance(data, pyvista.ImageData):
         values, grid_from_index = image_samples(data, scalars)
@@ -227,7 +229,8 @@ def make_voxels(data, scalars: str | None = None, *, palette=None, transform=Non
     matrix = np.eye(4) if transform is None else checked_transform(transform)
     if abs(np.linalg.det(grid_from_index[:3, :3])) < 1e-300:
         raise VolumeDataError("The grid's spacing must not be zero along any axis.")
-    chosen = Palette.make(palette, int(labels.max()) + 1)
+    chosen = category_palette(palette, labels) if categories else Palette.make(
+        palette, int(labels.max()) + 1)
     if int(labels.max()) >= chosen.n_materials:
         top = int(labels.max())
         raise VolumeDataError(f"Label {top} has no colour: the palette has "
@@ -235,6 +238,31 @@ def make_voxels(data, scalars: str | None = None, *, palette=None, transform=Non
                               f"{chosen.n_materials - 1}); pass one with at least {top + 1}.")
     return VoxelModel(labels=labels, palette=chosen, grid_from_index=grid_from_index,
                       transform=matrix, name=name)
+
+
+def category_palette(cmap, labels: np.ndarray) -> Palette:
+    """Each drawn label coloured as PyVista's ``add_mesh(categories=True)`` colours it.
+
+    PyVista makes a table of as many colours as the mesh has distinct values over their
+    range and maps each value into it: so label ``v`` takes colour ``floor((v - lo) /
+    (hi - lo) * n)`` of ``n`` colours of ``cmap`` (``lo``, ``hi``, ``n``: the smallest,
+    largest and number of distinct labels above 0, which ``threshold`` keeps).
+    """
+    if cmap is not None and not isinstance(cmap, (str, list, tuple)):
+        raise VolumeDataError("categories=True maps the labels through a colormap: give "
+                              "palette= a colormap name or a list of colours.")
+    present = np.unique(labels[labels > 0])
+    top = int(labels.max())
+    rgba = np.zeros((max(top + 1, 2), 4), np.float32)
+    if present.size:
+        lo, hi = float(present[0]), float(present[-1])
+        lut = pyvista.LookupTable(list(cmap) if isinstance(cmap, tuple) else (cmap or "tab10"),
+                                  n_values=max(int(present.size), 1))
+        lut.scalar_range = (lo, hi if hi > lo else lo + 1.0)
+        for value in present:
+            rgba[int(value), :3] = lut.map_value(float(value), opacity=False)
+            rgba[int(value), 3] = 1.0
+    return Palette(rgba)
 
 
 def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
