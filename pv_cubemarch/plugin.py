@@ -71,14 +71,12 @@ class CubemarchComponent:
             self._redrawing = False
 
     def _follow_scene(self, *_) -> None:
-        """Before a frame: drop removed volumes, follow visibility, planes, window settings."""
+        """Before a frame: drop removed volumes, follow the returned actors, window settings."""
         self.release_removed()
         single_sample = False
         translucent: dict = {}
         for item in self._tracked:
             item.follow_anchor()
-            if hasattr(item, "follow_returned_volume"):
-                item.follow_returned_volume()
             shown = bool(item.actor.GetVisibility())
             single_sample |= shown and item.needs_single_sample
             if shown and item.blends_in_main_renderer:

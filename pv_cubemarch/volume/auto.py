@@ -133,7 +133,8 @@ class AutoBinding(VolumeBinding):
         self.cube_actor.SetVisibility(self.shown and choice == "cubemap")
 
     def follow_anchor(self) -> None:
-        """Visibility follows the returned actor at each frame (in :meth:`_choose`)."""
+        """At each frame: what was set on the returned volume (visibility: :meth:`_choose`)."""
+        self.follow_returned_volume()
 
     def set_march_defines(self, changes: dict) -> None:
         """Both paths' marchers (and the light map they share) take the switches."""

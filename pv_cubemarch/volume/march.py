@@ -362,6 +362,11 @@ class VolumeBinding(DrawnBinding):
         if self.light_map is not None:
             self.light_map.invalidate()
 
+    def follow_anchor(self) -> None:
+        """At each frame: visibility, then what was set on the returned volume."""
+        super().follow_anchor()
+        self.follow_returned_volume()
+
     def follow_returned_volume(self) -> None:
         """At each frame: what PyVista's calls set on the returned volume is drawn.
 
