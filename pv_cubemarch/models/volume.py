@@ -291,17 +291,10 @@ def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear"
                               f"{interpolation!r}.")
     grid, values, scalars, offset = as_image_data(data, scalars, nan_policy)
     if transfer is None:
-        if clim is None:
-            clim = _data_range(values, offset)
-        if categories is True:
-            n_colors = max(int(np.unique(values).size), 2)
-        elif categories:
-            n_colors = int(categories)
-        if opacity_unit_distance is None:
-            opacity_unit_distance = pyvista_unit_distance(grid)
-        transfer = TransferFunction.from_colormap(
-            cmap, opacity, clim, opacity_unit_distance, n_colors=n_colors,
-            flip_scalars=flip_scalars, log_scale=log_scale, value_offset=offset)
+        transfer = _transfer(grid, values, offset, cmap=cmap, opacity=opacity, clim=clim,
+                             opacity_unit_distance=opacity_unit_distance, n_colors=n_colors,
+                             flip_scalars=flip_scalars, log_scale=log_scale,
+                             categories=categories)
     elif offset:
         transfer = TransferFunction(table=transfer.table,
                                     clim=_shifted_clim(transfer.clim, offset))
@@ -333,22 +326,25 @@ def with_transfer(model: VolumeModel, **changes) -> VolumeModel:
     keywords = dict(cmap=spec.cmap, opacity=spec.opacity, clim=_exact_data_clim(spec),
                     opacity_unit_distance=spec.opacity_unit_distance, n_colors=spec.n_colors,
                     flip_scalars=spec.flip_scalars, log_scale=spec.log_scale)
-    categories = changes.pop("categories", False)
     keywords.update(changes)
-    if "clim" in changes and changes["clim"] is None:
-        keywords["clim"] = _data_range(model.values, model.value_offset)
-    if keywords["opacity_unit_distance"] is None:
-        keywords["opacity_unit_distance"] = pyvista_unit_distance(model.grid)
+    return replace(model, transfer=_transfer(model.grid, model.values, model.value_offset,
+                                             **keywords))
+
+
+def _transfer(grid, values, offset, *, cmap, opacity, clim, opacity_unit_distance, n_colors,
+              flip_scalars, log_scale, categories=False) -> TransferFunction:
+    """The table PyVista's keywords make for these values, data-derived defaults included."""
+    if clim is None:
+        clim = _data_range(values, offset)
     if categories is True:
-        keywords["n_colors"] = max(int(np.unique(model.values).size), 2)
+        n_colors = max(int(np.unique(values).size), 2)
     elif categories:
-        keywords["n_colors"] = int(categories)
-    transfer = TransferFunction.from_colormap(
-        keywords["cmap"], keywords["opacity"], keywords["clim"],
-        keywords["opacity_unit_distance"], n_colors=keywords["n_colors"],
-        flip_scalars=keywords["flip_scalars"], log_scale=keywords["log_scale"],
-        value_offset=model.value_offset)
-    return replace(model, transfer=transfer)
+        n_colors = int(categories)
+    if opacity_unit_distance is None:
+        opacity_unit_distance = pyvista_unit_distance(grid)
+    return TransferFunction.from_colormap(
+        cmap, opacity, clim, opacity_unit_distance, n_colors=n_colors,
+        flip_scalars=flip_scalars, log_scale=log_scale, value_offset=offset)
 
 
 def _exact_data_clim(spec) -> tuple:
