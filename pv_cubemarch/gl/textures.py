@@ -75,9 +75,7 @@ class Texture:
         """Read between texels linearly or take the nearest, from the next draw (no upload)."""
         self.interpolate = bool(linear)
         if self.gl_object is not None and self.kind != "buffer":
-            mode = vtkTextureObject.Linear if self.interpolate else vtkTextureObject.Nearest
-            self.gl_object.SetMinificationFilter(mode)   # sent when it is next bound
-            self.gl_object.SetMagnificationFilter(mode)
+            self._set_filters(self.gl_object)   # sent when it is next bound
 
     def invalidate(self) -> None:
         """Upload the whole texture again at the next draw (remade first, if rebuildable).
@@ -181,9 +179,7 @@ class Texture:
                               "it in smaller pieces (add_voxels(..., chunk_size=128)) or "
                               "downsample it.")
         if self.kind != "buffer":
-            mode = vtkTextureObject.Linear if self.interpolate else vtkTextureObject.Nearest
-            texture.SetMinificationFilter(mode)
-            texture.SetMagnificationFilter(mode)
+            self._set_filters(texture)
             for setter in ("SetWrapS", "SetWrapT", "SetWrapR"):
                 getattr(texture, setter)(vtkTextureObject.ClampToEdge)
         self.gl_object, self._window, self._dirty = texture, window, False
@@ -193,6 +189,11 @@ class Texture:
         if self.rebuild is not None:
             self.array = None   # the GPU holds it; rebuilt if it must go up again
         return texture
+
+    def _set_filters(self, texture) -> None:
+        mode = vtkTextureObject.Linear if self.interpolate else vtkTextureObject.Nearest
+        texture.SetMinificationFilter(mode)
+        texture.SetMagnificationFilter(mode)
 
     def release(self) -> None:
         """Free the GL objects (safe to call twice, or with no context left)."""
