@@ -534,6 +534,10 @@ def add_voxels(
     annotations: dict | None = None,
     cmap=None,
     categories: bool = False,
+    show_edges: bool = False,
+    edge_color=None,
+    line_width: float | None = None,
+    edge_opacity: float | None = None,
 ) -> pyvista.Actor:
     """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal, 002).
 
@@ -652,6 +656,16 @@ def add_voxels(
         Colour the labels as PyVista's ``threshold`` + ``add_mesh(categories=True,
         cmap=...)`` does: as many colours as distinct labels above 0, over their range
         (labels with gaps get the colours PyVista gives them, not one per label number).
+    show_edges : bool
+        Outline every drawn face of every voxel, as ``threshold`` + ``add_mesh(...,
+        show_edges=True)`` draws the cells' edges (``traversal='dda'``, ``mode='color'``,
+        without ``lod``).
+    edge_color : ColorLike, optional
+        The edges' colour (the theme's ``edge_color`` by default).
+    line_width : float, optional
+        The edges' width in pixels (the theme's ``line_width``; as VTK, at least 1.1).
+    edge_opacity : float, optional
+        How much of the edge colour covers the face, 0-1 (the theme's ``edge_opacity``).
 
     A material with an opacity between 0 and 1 is drawn opaque, with a warning
     (translucent materials are not composited yet).
@@ -676,7 +690,9 @@ def add_voxels(
                             ambient=ambient, specular=specular, specular_power=specular_power,
                             ambient_occlusion=ambient_occlusion,
                             occlusion_strength=occlusion_strength, proxy=proxy, lod=lod,
-                            lod_bias=lod_bias, world_traversal=world_traversal)
+                            lod_bias=lod_bias, world_traversal=world_traversal,
+                            show_edges=show_edges, edge_color=edge_color,
+                            line_width=line_width, edge_opacity=edge_opacity)
     if isinstance(grid, (VoxelModel, VoxelWorld)):
         model = grid
         if transform is not None:

@@ -73,6 +73,7 @@ def test_bench_cli(tmp_path, capsys):
     assert json.loads(out.read_text())["meta"]["technique"] == ["pyvista"]
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_tradeoff_measures_each_blend_mode_against_its_reference_and_pyvista():
     """Rows per blend mode, each against that mode's CPU reference, and against PyVista.
 
@@ -237,6 +238,7 @@ def test_bench_voxel_large_is_exact_and_reports_bytes_per_voxel(tmp_path, capsys
     assert "per filled voxel" in capsys.readouterr().out
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_bench_voxel_edits_on_a_grid_and_a_world(tmp_path, capsys):
     # Small sizes: every edit's next frame exact against the CPU traversal of the edited
     # labels (one grid in id mode; the world's last frame in face mode), bytes reported.

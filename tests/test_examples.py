@@ -29,6 +29,7 @@ def test_example_runs(script, tmp_path):
 NOTEBOOKS = sorted((ROOT / "examples").glob("*.ipynb"))
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 @pytest.mark.parametrize("notebook", NOTEBOOKS, ids=[n.name for n in NOTEBOOKS])
 def test_notebook_runs_top_to_bottom(notebook, tmp_path):
     # catches a notebook that rots: every cell must run (the live view's included).

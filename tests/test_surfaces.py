@@ -519,6 +519,7 @@ def test_a_grid_of_many_blocks_and_partial_bricks_is_drawn_whole(plotter_factory
     assert hits.hit.mean() > 0.2 and wrong == 0 and off == 0, (wrong, off)
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 @pytest.mark.parametrize("drawing", DRAWINGS)
 def test_a_long_ray_through_active_cells_reaches_the_far_wall(plotter_factory, drawing):
     # 1500 x 2 x 2 cells: the plane z = 1 makes every cell along x active, and a wall in

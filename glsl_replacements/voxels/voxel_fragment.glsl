@@ -83,7 +83,20 @@
   // scales the colour before lighting, so the ambient + diffuse term, not the highlight.
   cm_color *= cm_voxelOcclusion(cm_voxel, cm_face, cm_a + (cm_b - cm_a) * cm_t);
 #endif
+#ifdef CM_EDGES
+  // The edges (voxel_edges.glsl) take the unlit colour and the diffuse term, not the
+  // highlight: the highlight is the shading of black.
+  float cm_edge = cm_edgeCoverage(cm_voxel, cm_face, cm_a + (cm_b - cm_a) * cm_t);
 #ifdef CM_LIGHTING
+  vec3 cm_towardEye = -normalize(cm_directionView);
+  vec3 cm_highlight = cm_shadeVoxel(vec3(0.0), cm_face, cm_hitView, cm_towardEye);
+  cm_color = cm_shadeVoxel(cm_color, cm_face, cm_hitView, cm_towardEye);
+  cm_color = clamp(mix(cm_color - cm_highlight, cm_edgeColor, cm_edge) + cm_highlight,
+                   0.0, 1.0);
+#else
+  cm_color = mix(cm_color, cm_edgeColor, cm_edge);
+#endif
+#elif defined(CM_LIGHTING)
   cm_color = cm_shadeVoxel(cm_color, cm_face, cm_hitView, -normalize(cm_directionView));
 #endif
   fragOutput0 = vec4(cm_color, 1.0);

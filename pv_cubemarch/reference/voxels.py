@@ -57,6 +57,7 @@ from ..core.camera import Camera
 from ..models.lights import VolumeLight
 from .rays import ray_box_interval
 from .shading import blinn_phong
+from .voxel_edges import edge_coverage
 
 
 @dataclass
@@ -350,6 +351,10 @@ def render_voxels(
     specular_power: float = 30.0,
     ambient_occlusion: bool = False,
     occlusion_strength: float = 0.5,
+    show_edges: bool = False,
+    edge_color: Sequence[float] = (0.0, 0.0, 0.0),
+    line_width: float = 1.0,
+    edge_opacity: float = 1.0,
 ) -> np.ndarray:
     """Render a labelled grid: each pixel the (lit) colour of the voxel it sees.
 
@@ -378,6 +383,15 @@ def render_voxels(
         (plus the unoccluded highlight).
     occlusion_strength : float
         How dark a fully occluded corner gets (0-1): ``ao = 1 - occlusion_strength`` there.
+    show_edges : bool
+        Outline every hit face as VTK draws a mesh's edges
+        (:func:`~pv_cubemarch.reference.voxel_edges.edge_coverage`).
+    edge_color : sequence of float
+        The edges' RGB (floats).
+    line_width : float
+        The edges' width in pixels (drawn at least 1.1 wide, as VTK).
+    edge_opacity : float
+        The share of the edge colour on a fully covered pixel.
 
     Returns
     -------
@@ -413,6 +427,19 @@ def render_voxels(
         normals = face_normals(hits.face[hit], world_from_index, toward_eye)
         color = blinn_phong(color * occlusion[:, None], normals, points, toward_eye, lights,
                             shading, ambient, specular, specular_power)
+        if show_edges:   # the highlight alone: the shading of black
+            highlight = np.clip(blinn_phong(np.zeros_like(color), normals, points, toward_eye,
+                                            lights, shading, ambient, specular,
+                                            specular_power), 0.0, 1.0)
+    if show_edges:
+        cover = edge_coverage(hits, world_from_index, camera, (width, height), line_width,
+                              edge_opacity)[hit][:, None]
+        edge = np.asarray(edge_color, dtype=np.float64)
+        if shading == "unlit":
+            color = color * (1.0 - cover) + edge * cover
+        else:
+            shaded = np.clip(color, 0.0, 1.0)
+            color = (shaded - highlight) * (1.0 - cover) + edge * cover + highlight
     image[hit] = np.clip(color, 0.0, 1.0)
     return image
 

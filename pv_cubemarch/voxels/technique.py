@@ -18,7 +18,7 @@ import pyvista
 from ..core.camera import Camera
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, box_actor
+from ..gl.box import bind_camera, box_actor, camera_matrices
 from ..gl.drawn import DrawnBinding
 from ..gl.face_depth import FaceDepthPass
 from ..gl.lights import bind_scene_lights
@@ -68,7 +68,8 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                     ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
                      *(("voxel_chunk_index",) if chunk_shift else ()), *skipping, traversal,
                      *(("blinn_phong", "voxel_shading") if lit else ()),
-                     *(("voxel_occlusion",) if occlusion else ())), keep_tag="after"),
+                     *(("voxel_occlusion",) if occlusion else ()),
+                     *(("voxel_edges",) if options.show_edges else ())), keep_tag="after"),
         Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
@@ -80,7 +81,8 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                 "CM_SHELL_LEVEL": shell_level, "CM_LOD": lod, "CM_OCCLUDERS": occluders,
                 "CM_CHUNK_INDEX": chunk_shift,
                 "CM_DISTANCE_FIELD": options.distance_field or None,
-                "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion})
+                "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion,
+                "CM_EDGES": options.show_edges})
 
 
 def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
@@ -112,6 +114,18 @@ def bind_grid(bindings: ShaderBindings, renderer, model, options: VoxelOptions) 
     if options.mode == "color" and options.ambient_occlusion:
         bindings.set_uniform("cm_occlusionStrength", float(options.occlusion_strength))
     bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
+    if options.show_edges:
+        bind_edges(bindings, renderer, model, options)
+
+
+def bind_edges(bindings: ShaderBindings, renderer, model, options: VoxelOptions) -> None:
+    """The edges' style and the index-to-view matrix their window distances need."""
+    color, half_width, opacity = options.edge_style
+    bindings.set_uniform("cm_viewFromTexture", lambda: camera_matrices(renderer)[0]
+                         @ model.world_from_index())
+    bindings.set_uniform("cm_edgeColor", color)
+    bindings.set_uniform("cm_edgeHalfWidth", half_width)
+    bindings.set_uniform("cm_edgeOpacity", opacity)
 
 
 def bind_labels(bindings: ShaderBindings, model: VoxelModel, options: VoxelOptions,
