@@ -141,6 +141,18 @@ class AutoBinding(VolumeBinding):
         self.direct.set_march_defines(changes)
         self.cubemap.set_march_defines(changes)
 
+    def set_blending(self, blending: str) -> None:
+        """Both paths composite by another blend mode (see ``VolumeBinding.set_blending``)."""
+        self.direct.set_blending(blending)
+        self.cubemap.set_blending(blending)
+        self.blending = blending
+
+    def set_shade(self, shading) -> None:
+        """Both paths shade, or not (see ``VolumeBinding.set_shade``)."""
+        for path in (self.direct, self.cubemap):
+            path.blending = self.blending
+            path.set_shade(shading)
+
     @property
     def lod(self):
         """The cube map's last LOD choice."""

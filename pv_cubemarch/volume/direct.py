@@ -125,11 +125,16 @@ class DirectBinding(VolumeBinding):
         for actor in self.drawn:
             self.recipe.apply(actor.GetShaderProperty())
 
-    def set_march_defines(self, changes: dict) -> None:
-        """Compile the marchers again with these switches (kept for a multisampling change)."""
-        if self._defines is not None:
-            self._defines.update(changes)
-        super().set_march_defines(changes)
+    def recompile_marchers(self, change, light_map: bool = True) -> None:
+        """Compile the marchers again (see ``VolumeBinding``), switches kept.
+
+        A multisampling change builds its shader from them.
+        """
+        super().recompile_marchers(change, light_map)
+        recipe = self.bindings.recipe
+        if self.downsample == 1 and recipe is not None:
+            self._defines = {key: value for key, value in recipe.defines.items()
+                             if key != "CM_DEPTH_MULTISAMPLED"}
 
     def release(self) -> None:
         """Stop following the frame, then free (see ``VolumeBinding.release``)."""

@@ -23,6 +23,7 @@ from ..gl.textures import Texture
 from ..models.group import VolumeGroup
 from ..models.volume import INTERPOLATIONS, VolumeModel, checked_transform, checked_values
 from .clipping import ClipState
+from .gradient_shading import MAX_SHADE_LIGHTS
 from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
 from .stand_in import place_stand_in, stand_in_matrix
 
@@ -220,6 +221,57 @@ def march_defines(model, skipping: bool) -> dict:
     return defines
 
 
+def bind_blend(target, data: VolumeData, blend: Blend) -> dict:
+    """Give ``target`` what its blend mode reads; returns the mode's feature switches.
+
+    The modes other than composite read the opacity per unit distance; 'average' and
+    'additive' the data's range, 'isosurface' its levels.
+    """
+    model = data.model
+    if blend.mode != "composite":
+        target.set_uniform("cm_opacityUnit", lambda: getattr(
+            getattr(model.transfer, "spec", None), "opacity_unit_distance", 1.0))
+    if blend.mode in ("average", "additive"):
+        target.set_uniform("cm_dataRange", lambda: data.value_range)
+    if blend.mode == "isosurface":
+        target.set_uniform("cm_isoValues", FloatArray(sorted(blend.isosurfaces)))
+        return {"CM_ISO_COUNT": len(blend.isosurfaces)}
+    return {}
+
+
+def swap_blend(recipe: ShaderRecipe, old: str, new: str) -> ShaderRecipe:
+    """``recipe`` with blend mode ``old``'s snippets replaced by ``new``'s."""
+    before, after = BLEND_SNIPPETS[old], BLEND_SNIPPETS[new]
+
+    def swapped(snippet):
+        names = (snippet,) if isinstance(snippet, str) else tuple(snippet)
+        for start in range(len(names) - len(before) + 1):
+            if names[start:start + len(before)] == before:
+                return (*names[:start], *after, *names[start + len(before):])
+        return snippet
+
+    return replace(recipe, standalone=None if recipe.standalone is None else swapped(
+        recipe.standalone), replacements=[replace(r, snippet=swapped(r.snippet))
+                                          for r in recipe.replacements])
+
+
+def with_gradient_shading(recipe: ShaderRecipe, shaded: bool) -> ShaderRecipe:
+    """``recipe`` with the gradient shading snippet after the marcher, or without it."""
+    def edited(snippet):
+        names = (snippet,) if isinstance(snippet, str) else tuple(snippet)
+        if "ea_march" not in names:
+            return snippet
+        names = tuple(name for name in names if name != "gradient_shading")
+        if shaded:
+            at = names.index("ea_march") + 1
+            names = (*names[:at], "gradient_shading", *names[at:])
+        return names
+
+    return replace(recipe, standalone=None if recipe.standalone is None else edited(
+        recipe.standalone), replacements=[replace(r, snippet=edited(r.snippet))
+                                          for r in recipe.replacements])
+
+
 def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: float,
                   skip_empty: bool, sample_data: bool = True,
                   blend: Blend = Blend()) -> tuple[str, dict]:
@@ -234,16 +286,9 @@ def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: flo
     'isosurface' its levels.
     """
     model = data.model
-    extra = {}
+    extra = bind_blend(target, data, blend)
     if blend.mode != "composite":
         skip_empty = False
-        target.set_uniform("cm_opacityUnit", lambda: getattr(
-            getattr(model.transfer, "spec", None), "opacity_unit_distance", 1.0))
-    if blend.mode in ("average", "additive"):
-        target.set_uniform("cm_dataRange", lambda: data.value_range)
-    if blend.mode == "isosurface":
-        target.set_uniform("cm_isoValues", FloatArray(sorted(blend.isosurfaces)))
-        extra["CM_ISO_COUNT"] = len(blend.isosurfaces)
     if blend.shade is not None:
         blend.shade.bind(target)
         extra.update(blend.shade.defines)
@@ -304,8 +349,9 @@ class VolumeBinding(DrawnBinding):
 
     @property
     def skips_empty(self) -> bool:
-        """Whether the marching shaders step over empty bricks (a brick texture is bound)."""
-        return any("cm_brickExtinction" in t.textures for t in self.targets)
+        """Whether the marching shaders step over empty bricks (compiled with skipping)."""
+        return any(t.recipe is not None and bool(t.recipe.defines.get("CM_SKIP_EMPTY"))
+                   for t in self.targets)
 
     @property
     def brick_builds(self) -> int:
@@ -423,13 +469,86 @@ class VolumeBinding(DrawnBinding):
 
     def set_march_defines(self, changes: dict) -> None:
         """Compile the marchers (and the light map) again with these feature switches."""
-        passes = list(self.targets) + ([self.light_map.render_pass] if self.light_map else [])
+        def changed(target, recipe):
+            if all(recipe.defines.get(key) == value for key, value in changes.items()):
+                return None
+            return replace(recipe, defines={**recipe.defines, **changes})
+        self.recompile_marchers(changed)
+
+    def set_blending(self, blending: str) -> None:
+        """Composite the samples by another blend mode from the next frame (no upload).
+
+        The marchers are compiled again with the mode's snippets and read its uniforms;
+        empty-space skipping (composite only) comes back with composite where it was on.
+        Volumes with lights or gradient shading, volumes marched jointly and
+        ``'isosurface'`` (which needs its levels) are refused: add the volume again.
+        """
+        old = self.blending
+        if blending == old:
+            return
+        if blending not in BLEND_MODES or blending == "isosurface" or old == "isosurface":
+            raise ValueError(f"blending={blending!r} cannot replace blending={old!r} on a "
+                             "drawn volume; add the volume again with add_volume(..., "
+                             "blending=..., isosurfaces=...).")
+        why = ("it is lit" if self.light_map is not None else "it is shaded"
+               if getattr(self.returned_property, "shade", None) is not None else
+               "it is marched jointly" if isinstance(self.model, VolumeGroup) else None)
+        if why is not None and blending != "composite":
+            raise ValueError(f"blending={blending!r} reads the samples without attenuating "
+                             f"them, and {why}: add the volume again without lights, shade "
+                             "or joint volumes to use it.")
+        mode = Blend(blending)
+
+        def swapped(target, recipe):
+            bind_blend(target, self.data, mode)
+            skip = blending == "composite" and "cm_brickExtinction" in target.textures
+            recipe = swap_blend(recipe, old, blending)
+            return replace(recipe, defines={**recipe.defines, "CM_SKIP_EMPTY": skip})
+        self.recompile_marchers(swapped, light_map=False)
+        self.blending = blending
+
+    def set_shade(self, shading) -> None:
+        """Shade by ``shading`` from the next frame, or not (None), as ``add_volume(shade=)``.
+
+        ``shading``: a :class:`~pv_cubemarch.volume.gradient_shading.GradientShading`, the
+        renderer's lights on the gradient.
+
+        Refused, as ``add_volume`` refuses it, for lit volumes (the light map), blend modes
+        other than composite and volumes marched jointly.
+        """
+        if shading is not None:
+            why = ("it is lit by lights= (the light map)" if self.light_map is not None else
+                   f"it is drawn with blending={self.blending!r}"
+                   if self.blending != "composite" else "it is marched jointly"
+                   if isinstance(self.model, VolumeGroup) else None)
+            if why is not None:
+                raise ValueError(f"shade=True shades one composite volume by the renderer's "
+                                 f"lights, and {why}: add the volume again to shade it.")
+            shading.lights()   # a positional light is refused now
+
+        def shaded(target, recipe):
+            if shading is not None:
+                shading.bind(target)
+            defines = {**recipe.defines, "CM_SHADE": shading is not None,
+                       "CM_SHADE_LIGHTS": None if shading is None else MAX_SHADE_LIGHTS}
+            return replace(with_gradient_shading(recipe, shading is not None),
+                           defines=defines)
+        self.recompile_marchers(shaded, light_map=False)
+
+    def recompile_marchers(self, change, light_map: bool = True) -> None:
+        """Compile every marcher again with ``change(target, recipe)`` (None: unchanged).
+
+        ``light_map``: the light map's pass too.
+        """
+        passes = list(self.targets) + (
+            [self.light_map.render_pass] if self.light_map and light_map else [])
         for target in passes:
             recipe = target.recipe
-            if recipe is None or "clip_planes" not in recipe.snippet_names or all(
-                    recipe.defines.get(key) == value for key, value in changes.items()):
+            if recipe is None or "clip_planes" not in recipe.snippet_names:
                 continue
-            recipe = replace(recipe, defines={**recipe.defines, **changes})
+            recipe = change(target, recipe)
+            if recipe is None:
+                continue
             if hasattr(target, "set_recipe"):
                 target.set_recipe(recipe)
                 continue

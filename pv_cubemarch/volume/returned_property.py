@@ -2,9 +2,11 @@
 
 The returned ``pyvista.Volume`` starts with what is drawn: ``vol.prop.interpolation_type``,
 ``opacity_unit_distance``, ``shade`` and its terms, ``vol.mapper.blend_mode``. At each frame
-a change the marchers can follow is drawn (the interpolation; the terms of a shaded
-volume); any other is refused with an error that says which ``add_volume`` keyword draws
-it, and the property is put back to what is drawn, so no frame shows a setting it ignores.
+a change the marchers can follow is drawn (the interpolation, the opacity unit distance,
+the blend mode, shading on or off, the shading terms); any other, or a pair the marchers do
+not draw together (shade with a projection), is refused with an error that says which
+``add_volume`` keyword draws it, and the property is put back to what is drawn, so no
+frame shows a setting it ignores.
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ from dataclasses import replace
 
 import vtk
 
+from .gradient_shading import GradientShading, ShadeMaterial
+
 #: VTK's blend mode of each ``blending=`` (what ``vol.mapper.GetBlendMode()`` reads).
 VTK_BLEND_MODES = {"composite": vtk.vtkVolumeMapper.COMPOSITE_BLEND,
                    "maximum": vtk.vtkVolumeMapper.MAXIMUM_INTENSITY_BLEND,
@@ -20,6 +24,7 @@ VTK_BLEND_MODES = {"composite": vtk.vtkVolumeMapper.COMPOSITE_BLEND,
                    "average": vtk.vtkVolumeMapper.AVERAGE_INTENSITY_BLEND,
                    "additive": vtk.vtkVolumeMapper.ADDITIVE_BLEND,
                    "isosurface": vtk.vtkVolumeMapper.ISOSURFACE_BLEND}
+BLEND_NAMES = {mode: name for name, mode in VTK_BLEND_MODES.items()}
 #: VTK's interpolation types, by PyVista's names (VTK's volume property takes no other).
 INTERPOLATION_TYPES = {vtk.VTK_NEAREST_INTERPOLATION: "nearest",
                        vtk.VTK_LINEAR_INTERPOLATION: "linear"}
@@ -27,8 +32,6 @@ TERMS = ("ambient", "diffuse", "specular", "specular_power")
 #: What each refused setting is given as instead.
 INSTEAD = {
     "opacity_unit_distance": "add_volume(..., opacity_unit_distance=...)",
-    "shade": "add_volume(..., shade=...)",
-    "blending": "add_volume(..., blending=...)",
     "clim": "add_volume(..., clim=...)",
     "independent_components": "one scalar per point (several components are not drawn yet)",
     "colors": "add_volume(..., cmap=..., clim=...) (pv_cubemarch draws its own transfer table)",
@@ -98,8 +101,8 @@ class ReturnedProperty:
         if now == self.state:
             return
         changed = [key for key in now if now[key] != self.state[key]]
-        followed = {"interpolation", "opacity_unit_distance"} | (
-            set(TERMS) if self.shade is not None else set())
+        followed = {"interpolation", "opacity_unit_distance", "blending", "shade"} | (
+            set(TERMS) if self.shade is not None or now["shade"] else set())
         refused = [key for key in changed if key not in followed]
         if refused:
             key = refused[0]
@@ -108,6 +111,25 @@ class ReturnedProperty:
                 f"The returned volume's {key} was changed after add_volume; pv_cubemarch "
                 f"does not draw that change (it takes {INSTEAD[key]}): add the volume again "
                 "with it. The property is set back to what is drawn.")
+        if now["shade"] and now["blending"] != VTK_BLEND_MODES["composite"]:
+            self._put_back(now)
+            raise ValueError("The returned volume was set to shade with blend_mode="
+                             f"{BLEND_NAMES[now['blending']]!r}; shade=True shades composite "
+                             "blending only. The property is set back to what is drawn.")
+        try:
+            if "shade" in changed and not now["shade"]:   # off first: then any mode
+                self.binding.set_shade(None)
+                self.shade = None
+            if "blending" in changed:
+                self.binding.set_blending(BLEND_NAMES[now["blending"]])
+            if "shade" in changed and now["shade"]:
+                shading = GradientShading(self.binding.main_renderer, self.binding.model,
+                                          ShadeMaterial(**{t: now[t] for t in TERMS}))
+                self.binding.set_shade(shading)
+                self.shade = shading
+        except ValueError:
+            self._put_back(now)
+            raise
         if "interpolation" in changed:
             self.binding.set_interpolation(now["interpolation"])
         if "opacity_unit_distance" in changed:
