@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import warnings
 
+import numpy as np
 import pyvista
 
 from .core.registry import get_technique
@@ -21,6 +22,12 @@ from .models.volume import VolumeModel, make_volume, with_transfer
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
+from .surfaces.levels import (
+    SurfaceLevels,
+    add_surface_scalar_bar,
+    level_lookup_table,
+    surface_levels,
+)
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
@@ -746,7 +753,7 @@ def add_surface(
     traversal: str = "index",
     active_test: str = "bernstein",
     active_samples: int = 4,
-    color="white",
+    color=None,
     shading: str = "blinn",
     ambient: float = 0.2,
     specular: float = 0.3,
@@ -757,6 +764,11 @@ def add_surface(
     cells=64,
     transform=None,
     name: str | None = None,
+    isosurfaces=None,
+    opacity: float = 1.0,
+    smooth_shading: bool | None = None,
+    show_scalar_bar: bool = False,
+    scalar_bar_args: dict | None = None,
 ) -> pyvista.Actor:
     """Draw the implicit surface f = 0 of a field, per pixel, from its cells' polynomials.
 
@@ -813,8 +825,9 @@ def add_surface(
         field at ``active_samples``³ points per cell changes sign; misses thin features).
     active_samples : int
         Points per axis per cell of ``active_test='sample'``.
-    color : ColorLike
-        The surface's colour.
+    color : ColorLike, optional
+        The surface's colour (white by default; with several ``isosurfaces``, each level's
+        colour through ``cmap`` by default, as PyVista colours a contour by its values).
     shading : str
         ``'blinn'`` (default), ``'flat'`` or ``'unlit'``: the scene's lights (up to 8) on the
         analytic normal, both sides lit; ``ambient``, ``specular``, ``specular_power`` as
@@ -839,12 +852,31 @@ def add_surface(
         4x4 placement of the field in the world.
     name : str, optional
         The actor's name in the plotter.
+    isosurfaces : int or sequence of float, optional
+        Several levels of sampled data (or of any field: offsets of its zero set), as
+        ``contour(isosurfaces=...)`` takes them: the values, or a count spread from the
+        samples' smallest to largest value. Each level is drawn opaque at its real depth,
+        so nested levels hide each other as PyVista's opaque contour does (give
+        ``isovalue`` or ``isosurfaces``, not both).
+    opacity : float
+        1 only: translucent surfaces are not composited yet, and are refused rather than
+        drawn opaque.
+    smooth_shading : bool, optional
+        ``True`` (or left out): the surface is lit with its exact normal, which is what
+        smooth shading approximates; ``False`` is refused (the surface has no facets).
+    show_scalar_bar : bool
+        Add a scalar bar of ``cmap`` over what colours the surface (``color_by``'s range,
+        or the levels'); ``plotter.add_scalar_bar()`` afterwards shows it either way.
+    scalar_bar_args : dict, optional
+        Keywords of ``plotter.add_scalar_bar`` (title, position, ...).
 
     Returns
     -------
     pyvista.Actor
         The surface's actor; ``actor.cubemarch`` holds the field (``model``), the active
-        cells (``cells``) and the GPU bytes (``nbytes``, against ``dense_bytes``).
+        cells (``cells``) and the GPU bytes (``nbytes``, against ``dense_bytes``). With
+        several ``isosurfaces``, an invisible actor standing for every level
+        (``actor.cubemarch.levels``, each level's binding, and ``values``).
 
     Examples
     --------
@@ -853,16 +885,37 @@ def add_surface(
     >>> pl = pv.Plotter(off_screen=True)
     >>> actor = cm.add_surface(pl, 0.8 - (x**2 + y**2 + z**2), isovalue=0.0)
     """
+    if opacity is None or float(opacity) != 1.0:
+        raise ValueError(f"opacity={opacity!r}: add_surface draws opaque surfaces only "
+                         "(translucent ones are not composited yet); leave opacity out, or "
+                         "draw pyvista's contour with add_mesh(opacity=...).")
+    if smooth_shading is not None and not smooth_shading:
+        raise ValueError("smooth_shading=False shades a mesh's facets flat; this surface is "
+                         "drawn from its polynomial with its exact normal and has no facets. "
+                         "Leave smooth_shading out (shading='flat' drops the highlight).")
+    if isosurfaces is not None and isovalue is not None:
+        raise ValueError("give isovalue= (one level) or isosurfaces= (several), not both.")
+    levels = None if isosurfaces is None else surface_levels(
+        isosurfaces, _samples_of(field, scalars))
     chosen = get_technique("surface", technique)
     colouring = color_by if color_by is None or isinstance(color_by, str) else "field"
+    if levels is not None and len(levels) > 1 and colouring is not None:
+        raise ValueError("color_by colours one surface; several isosurfaces are coloured "
+                         "by their levels through cmap (or all by color=).")
+    by_level = levels is not None and len(levels) > 1 and color is None
+    if show_scalar_bar and colouring is None and not by_level:
+        raise ValueError("show_scalar_bar shows what colours the surface through cmap; this "
+                         "one has one colour: pass color_by=, or several isosurfaces "
+                         "without color=.")
+    color = "white" if color is None else color
     options = chosen.make_options(dict(
         steps=steps, refine_steps=refine_steps, root=root, traversal=traversal,
         active_test=active_test,
         active_samples=active_samples, color=color, shading=shading, ambient=ambient,
         specular=specular, specular_power=specular_power, color_by=colouring, cmap=cmap,
         clim=None if clim is None else tuple(clim)))
-    model = make_field(field, isovalue, scalars, cells=cells, transform=transform,
-                       name=name or getattr(field, "name", "surface"))
+    model = make_field(field, isovalue if levels is None else levels[0], scalars, cells=cells,
+                       transform=transform, name=name or getattr(field, "name", "surface"))
     if colouring == "field" and not isinstance(color_by, str):   # values, not a name
         model = dataclasses.replace(model, color_values=color_values(color_by, model))
     options.check_model(model)
@@ -870,8 +923,38 @@ def add_surface(
     if low > 0.0 or high < 0.0:   # the field is a convex combination of its coefficients
         warnings.warn(f"The field has no zero (its coefficients lie in [{low:g}, {high:g}]): "
                       "nothing is drawn. Check the isovalue or the field's sign.", stacklevel=2)
-    binding = chosen.build(plotter, model, options)
+    table = None
+    if levels is not None and len(levels) > 1:
+        table = level_lookup_table(cmap, levels)
+        drawn = []
+        for level in levels:   # the field less the level: a B-spline keeps constants
+            shifted = dataclasses.replace(model, coefficients=model.coefficients
+                                          - (level - levels[0]))
+            chosen_color = tuple(float(v) for v in table.map_value(level, opacity=False)) \
+                if by_level else color
+            drawn.append(chosen.build(plotter, shifted,
+                                      dataclasses.replace(options, color=chosen_color)))
+        binding = SurfaceLevels(drawn, levels)
+    else:
+        binding = chosen.build(plotter, model, options)
+        if options.color_by:
+            table = pyvista.LookupTable(cmap)
+            table.scalar_range = options.color_range(model)
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     plotter.cubemarch.track(binding)
+    if table is not None:
+        add_surface_scalar_bar(plotter, table, scalars or (color_by if isinstance(
+            color_by, str) else model.name), show_scalar_bar, scalar_bar_args)
     _frame(plotter)
     return actor
+
+
+def _samples_of(field, scalars):
+    """The samples of an array or ImageData (for a count of isosurfaces), else None."""
+    if isinstance(field, np.ndarray):
+        return field
+    if isinstance(field, pyvista.ImageData):
+        names = list(field.cell_data.keys()) + list(field.point_data.keys())
+        if scalars is not None or names:
+            return np.asarray(field[scalars or names[0]])
+    return None

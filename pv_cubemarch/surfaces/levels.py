@@ -1,0 +1,118 @@
+"""Several levels of one field (``add_surface(isosurfaces=...)``), and the surface's bar.
+
+Each level is its own surface (the field less the level, exactly: a B-spline of a constant
+is that constant), drawn opaque at its real depth, so nested and crossing levels occlude
+each other as ``contour`` + ``add_mesh`` draws them; without a ``color`` each takes its
+value's colour through ``cmap`` over the levels' range, as PyVista colours a contour by its
+scalars.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyvista
+
+from ..gl.drawn import DrawnBinding
+from ..gl.overlay import place_bounds_proxy
+
+
+def surface_levels(isosurfaces, samples: np.ndarray | None) -> tuple[float, ...]:
+    """The levels ``isosurfaces=`` asks for, in the data's units.
+
+    A sequence of values, or a count ``n``: ``n`` levels from the samples' smallest to
+    largest value, as :meth:`pyvista.DataSetFilters.contour` spreads them (samples only).
+    """
+    if isinstance(isosurfaces, (int, np.integer)) and not isinstance(isosurfaces, bool):
+        if isosurfaces < 1:
+            raise ValueError(f"isosurfaces as a count must be at least 1, got {isosurfaces}.")
+        if samples is None:
+            raise ValueError("isosurfaces as a count spreads levels over the samples' range; "
+                             "this field has no samples (a mesh, a cloud or coefficients): "
+                             "give the levels as values.")
+        values = np.asarray(samples, dtype=np.float64)
+        values = values[np.isfinite(values)]
+        return tuple(float(v) for v in np.linspace(values.min(), values.max(),
+                                                   int(isosurfaces)))
+    try:
+        levels = [float(v) for v in np.atleast_1d(np.asarray(isosurfaces, dtype=object)).ravel()]
+    except (TypeError, ValueError):
+        raise ValueError(f"isosurfaces must be numbers (the data's values) or a count, got "
+                         f"{isosurfaces!r}.") from None
+    if not levels or not all(np.isfinite(levels)):
+        raise ValueError(f"isosurfaces must be one or more finite numbers, got "
+                         f"{isosurfaces!r}.")
+    return tuple(levels)
+
+
+def level_lookup_table(cmap, levels) -> pyvista.LookupTable:
+    """``cmap`` over the levels' range (one unit wide around a single level), as PyVista's."""
+    low, high = float(min(levels)), float(max(levels))
+    if high <= low:
+        low, high = low - 0.5, low + 0.5
+    table = pyvista.LookupTable(cmap)
+    table.scalar_range = (low, high)
+    return table
+
+
+class SurfaceLevels(DrawnBinding):
+    """Several levels' surfaces, returned as one actor: shown, hidden, moved and freed as one.
+
+    ``levels``: each level's :class:`~pv_cubemarch.surfaces.technique.SurfaceBinding`;
+    ``values``: the levels, in the data's units.
+    """
+
+    technique = "surface"
+    needs_single_sample = True
+
+    def __init__(self, levels: list, values):
+        first = levels[0]
+        super().__init__(first.model, first.bindings, first.recipe)
+        self.levels = list(levels)
+        self.values = tuple(float(v) for v in values)
+        self.drawn = [actor for level in self.levels for actor in level.drawn]
+        self.renderer = first.renderer
+        self.extra_release: list = []
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of every level."""
+        return sum(level.nbytes for level in self.levels)
+
+    @property
+    def cells(self) -> list:
+        """Each level's active cells (None for ``technique='full'``)."""
+        return [level.cells for level in self.levels]
+
+    def set_transform(self, transform) -> None:
+        """Move every level (see ``SurfaceBinding.set_transform``)."""
+        for level in self.levels:
+            level.set_transform(transform)
+        if self.bounds_proxy is not None:
+            place_bounds_proxy(self.bounds_proxy, self.model)
+        if self.main_renderer is not None:
+            self.main_renderer.ResetCameraClippingRange()
+
+    def release(self) -> None:
+        """Free every level (once), and take their actors out of the renderer."""
+        if self._released:
+            return
+        self._released = True
+        for level in self.levels:
+            level.release()
+        for release in self.extra_release:
+            release()
+        self.extra_release = []
+
+
+def add_surface_scalar_bar(plotter, table: pyvista.LookupTable, title: str, show: bool,
+                           args: dict | None) -> None:
+    """Make ``table`` ``plotter.mapper``'s (for ``add_scalar_bar``); add its bar if ``show``."""
+    mapper = pyvista.DataSetMapper()
+    mapper.lookup_table = table
+    mapper.scalar_range = table.scalar_range
+    plotter.mapper = mapper
+    if show:
+        options = dict(args or {})
+        options.setdefault("title", title)
+        options.setdefault("mapper", mapper)
+        plotter.add_scalar_bar(**options)
