@@ -94,7 +94,7 @@ def add_option_flags(parser: argparse.ArgumentParser) -> dict[str, argparse.Acti
             elif item.type is bool:
                 settings["action"] = argparse.BooleanOptionalAction
             elif item.type is tuple:
-                settings.update(type=float, nargs=2 if item.name == "clim" else "+")
+                settings.update(type=float, nargs="+")
             elif item.choices:
                 settings["choices"] = item.choices
             else:
@@ -104,10 +104,16 @@ def add_option_flags(parser: argparse.ArgumentParser) -> dict[str, argparse.Acti
 
 
 def given_options(args, kind: str) -> dict:
-    """The options of ``kind`` given on the command line (their flags' values)."""
-    return {item.name: getattr(args, item.dest) for item in declared(kind)
-            if item.flag is not None and item.name != "technique"
-            and getattr(args, item.dest, None) is not None}
+    """The options of ``kind`` given on the command line (their flags' values).
+
+    A numbers flag given one number passes that number (``--clim 3``: ``clim=3``, which a
+    volume reads as -3..3, as in Python).
+    """
+    given = {item.name: getattr(args, item.dest) for item in declared(kind)
+             if item.flag is not None and item.name != "technique"
+             and getattr(args, item.dest, None) is not None}
+    return {name: value[0] if isinstance(value, list) and len(value) == 1 else value
+            for name, value in given.items()}
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -133,6 +133,15 @@ def test_cli_flags_reach_the_transfer_function(tmp_path):
     default = np.asarray(Image.open(plain).convert("RGB")).astype(int)
     assert np.abs(got - expected).max() <= 2
     assert np.abs(got - default).mean() > 5.0
+    # one number, as Python's clim=c: -c..c
+    out = tmp_path / "symmetric.png"
+    assert main(["render", str(path), "-o", str(out), *common, "--clim", "250"]) == 0
+    scene = cm.load_scene(path)
+    scene.volume_options[scene.volumes[0].name] = dict(technique="direct", clim=250.0)
+    expected = scene.render(size=(64, 48)).astype(int)
+    got = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    assert np.abs(got - expected).max() <= 2 and np.abs(got - default).mean() > 2.0
+    assert main(["render", str(path), "-o", str(out), *common, "--clim", "1", "2", "3"]) != 0
 
 
 def test_live_view_knobs_reach_the_transfer_function(plotter_factory, tmp_path):
