@@ -3,7 +3,7 @@
 // distance (pixels, window space) to the nearest of the face's four edge lines, clamped to
 // [0, 1], times the edges' opacity; the unlit colour and diffuse term go to the edge colour
 // by it, the highlight stays.
-uniform mat4 cm_viewFromTexture;   // index space to view (the inverse of cm_textureFromView)
+uniform mat4 cm_clipFromTexture;   // index space to clip (made once per draw on the CPU)
 uniform vec3 cm_edgeColor;
 uniform float cm_edgeHalfWidth;    // half the drawn width, pixels
 uniform float cm_edgeOpacity;
@@ -13,9 +13,8 @@ uniform float cm_edgeOpacity;
 // window direction is the derivative of the projection, no second point needed).
 float cm_edgeDistance(vec3 point, int along)
 {
-  mat4 clipFromIndex = cm_projection * cm_viewFromTexture;
-  vec4 clip = clipFromIndex * vec4(point, 1.0);
-  vec4 toward = clipFromIndex[along];   // the axis' image, w = 0 in index space
+  vec4 clip = cm_clipFromTexture * vec4(point, 1.0);
+  vec4 toward = cm_clipFromTexture[along];   // the axis' image, w = 0 in index space
   vec2 halfSize = 0.5 * cm_viewport.zw;
   vec2 window = (clip.xy / clip.w + 1.0) * halfSize + cm_viewport.xy;
   vec2 direction = (toward.xy * clip.w - clip.xy * toward.w) * halfSize;

@@ -89,10 +89,13 @@
   float cm_edge = cm_edgeCoverage(cm_voxel, cm_face, cm_a + (cm_b - cm_a) * cm_t);
 #ifdef CM_LIGHTING
   vec3 cm_towardEye = -normalize(cm_directionView);
-  vec3 cm_highlight = cm_shadeVoxel(vec3(0.0), cm_face, cm_hitView, cm_towardEye);
   cm_color = cm_shadeVoxel(cm_color, cm_face, cm_hitView, cm_towardEye);
-  cm_color = clamp(mix(cm_color - cm_highlight, cm_edgeColor, cm_edge) + cm_highlight,
-                   0.0, 1.0);
+  if (cm_edge > 0.0)   // the highlight alone, only where an edge covers the pixel
+  {
+    vec3 cm_highlight = cm_shadeVoxel(vec3(0.0), cm_face, cm_hitView, cm_towardEye);
+    cm_color = clamp(mix(cm_color - cm_highlight, cm_edgeColor, cm_edge) + cm_highlight,
+                     0.0, 1.0);
+  }
 #else
   cm_color = mix(cm_color, cm_edgeColor, cm_edge);
 #endif

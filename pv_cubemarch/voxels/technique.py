@@ -119,10 +119,12 @@ def bind_grid(bindings: ShaderBindings, renderer, model, options: VoxelOptions) 
 
 
 def bind_edges(bindings: ShaderBindings, renderer, model, options: VoxelOptions) -> None:
-    """The edges' style and the index-to-view matrix their window distances need."""
+    """The edges' style and the index-to-clip matrix their window distances need."""
     color, half_width, opacity = options.edge_style
-    bindings.set_uniform("cm_viewFromTexture", lambda: camera_matrices(renderer)[0]
-                         @ model.world_from_index())
+    def clip_from_texture():
+        view, projection = camera_matrices(renderer)
+        return projection @ view @ model.world_from_index()
+    bindings.set_uniform("cm_clipFromTexture", clip_from_texture)
     bindings.set_uniform("cm_edgeColor", color)
     bindings.set_uniform("cm_edgeHalfWidth", half_width)
     bindings.set_uniform("cm_edgeOpacity", opacity)
