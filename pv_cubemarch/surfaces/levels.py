@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pyvista
 
+from ..core.options import is_count, level_values, spread_levels
 from ..gl.drawn import DrawnBinding
 from ..gl.overlay import place_bounds_proxy
 
@@ -22,26 +23,13 @@ def surface_levels(isosurfaces, samples: np.ndarray | None) -> tuple[float, ...]
     A sequence of values, or a count ``n``: ``n`` levels from the samples' smallest to
     largest value, as :meth:`pyvista.DataSetFilters.contour` spreads them (samples only).
     """
-    if isinstance(isosurfaces, (int, np.integer)) and not isinstance(isosurfaces, bool):
-        if isosurfaces < 1:
-            raise ValueError(f"isosurfaces as a count must be at least 1, got {isosurfaces}.")
+    if is_count(isosurfaces):
         if samples is None:
             raise ValueError("isosurfaces as a count spreads levels over the samples' range; "
                              "this field has no samples (a mesh, a cloud or coefficients): "
                              "give the levels as values.")
-        values = np.asarray(samples, dtype=np.float64)
-        values = values[np.isfinite(values)]
-        return tuple(float(v) for v in np.linspace(values.min(), values.max(),
-                                                   int(isosurfaces)))
-    try:
-        levels = [float(v) for v in np.atleast_1d(np.asarray(isosurfaces, dtype=object)).ravel()]
-    except (TypeError, ValueError):
-        raise ValueError(f"isosurfaces must be numbers (the data's values) or a count, got "
-                         f"{isosurfaces!r}.") from None
-    if not levels or not all(np.isfinite(levels)):
-        raise ValueError(f"isosurfaces must be one or more finite numbers, got "
-                         f"{isosurfaces!r}.")
-    return tuple(levels)
+        return spread_levels(isosurfaces, samples)
+    return tuple(float(v) for v in level_values(isosurfaces))
 
 
 def level_lookup_table(cmap, levels) -> pyvista.LookupTable:

@@ -13,6 +13,7 @@ import numpy as np
 import pyvista
 
 from ..core.errors import VolumeDataError
+from ..core.options import is_count, level_values, spread_levels
 from ..models.transfer import shift_value
 
 #: PyVista's aliases of add_volume's keywords (``add_mesh``'s ``rng`` and ``colormap``).
@@ -155,19 +156,7 @@ def isosurface_levels(isosurfaces, model) -> tuple[float, ...]:
     """
     if isosurfaces is None:
         return ()
-    if isinstance(isosurfaces, (int, np.integer)) and not isinstance(isosurfaces, bool):
-        if isosurfaces < 1:
-            raise ValueError(f"isosurfaces as a count must be at least 1, got {isosurfaces}.")
-        values = model.values[np.isfinite(model.values)]
-        return tuple(float(v) for v in np.linspace(values.min(), values.max(),
-                                                   int(isosurfaces)))
-    levels = list(np.atleast_1d(np.asarray(isosurfaces, dtype=object)).ravel())
-    try:
-        finite = [np.isfinite(float(v)) for v in levels]
-    except (TypeError, ValueError):
-        raise ValueError(f"isosurfaces must be numbers (data values) or a count, got "
-                         f"{isosurfaces!r}.") from None
-    if not levels or not all(finite):
-        raise ValueError(f"isosurfaces must be one or more finite numbers, got "
-                         f"{isosurfaces!r}.")
+    if is_count(isosurfaces):
+        return spread_levels(isosurfaces, model.values)
+    levels = level_values(isosurfaces)
     return tuple(shift_value(v, model.value_offset) for v in levels)
