@@ -13,6 +13,7 @@ import numpy as np
 import pyvista
 
 from ..core.options import is_count, level_values, spread_levels
+from ..core.scalar_bar import attach_scalar_bar
 from ..gl.drawn import DrawnBinding
 from ..gl.overlay import place_bounds_proxy
 
@@ -98,9 +99,4 @@ def add_surface_scalar_bar(plotter, table: pyvista.LookupTable, title: str, show
     mapper = pyvista.DataSetMapper()
     mapper.lookup_table = table
     mapper.scalar_range = table.scalar_range
-    plotter.mapper = mapper
-    if show:
-        options = dict(args or {})
-        options.setdefault("title", title)
-        options.setdefault("mapper", mapper)
-        plotter.add_scalar_bar(**options)
+    attach_scalar_bar(plotter, mapper, title, show, args)

@@ -14,6 +14,7 @@ import pyvista
 
 from ..core.errors import VolumeDataError
 from ..core.options import is_count, level_values, spread_levels
+from ..core.scalar_bar import attach_scalar_bar
 from ..models.transfer import shift_value
 
 #: PyVista's aliases of add_volume's keywords (``add_mesh``'s ``rng`` and ``colormap``).
@@ -138,14 +139,9 @@ def add_scalar_bar(plotter, model, title: str, show: bool | None, args: dict | N
     mapper = scalar_bar_mapper(model)
     if annotations:
         mapper.lookup_table.annotations = dict(annotations)
-    plotter.mapper = mapper
     if show is None:
         show = bool(plotter.theme.show_scalar_bar)
-    if show:
-        options = dict(args or {})
-        options.setdefault("title", title)
-        options.setdefault("mapper", mapper)
-        plotter.add_scalar_bar(**options)
+    attach_scalar_bar(plotter, mapper, title, show, args)
 
 
 def isosurface_levels(isosurfaces, model) -> tuple[float, ...]:

@@ -12,6 +12,8 @@ import warnings
 import numpy as np
 import pyvista
 
+from ..core.scalar_bar import attach_scalar_bar
+
 
 def palette_lookup_table(palette) -> pyvista.LookupTable:
     """Materials ``1..n-1`` as ``n-1`` colours over the range ``(1, n-1)``, opaque."""
@@ -35,13 +37,8 @@ def add_voxel_scalar_bar(plotter, palette, title: str, show: bool, args: dict | 
             raise ValueError(f"annotations name materials {unknown} the grid has no colour "
                              f"for (its materials are 1..{len(palette.rgba) - 1}).")
         mapper.lookup_table.annotations = {float(k): str(v) for k, v in annotations.items()}
-    plotter.mapper = mapper
-    if show:
-        options = dict(args or {})
-        options.setdefault("title", title)
-        options.setdefault("mapper", mapper)
-        options.setdefault("n_labels", min(len(palette.rgba) - 1, 10))
-        plotter.add_scalar_bar(**options)
+    attach_scalar_bar(plotter, mapper, title, show, args,
+                      n_labels=min(len(palette.rgba) - 1, 10))
 
 
 def warn_translucent(palette, name: str) -> None:
