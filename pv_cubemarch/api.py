@@ -36,6 +36,7 @@ from .volume.march import VolumeBinding, VolumeData, VolumeSetup
 from .volume.options import DEFAULT_STOP_OPACITY, INTERPOLATION, Shading
 from .volume.pyvista_keywords import (
     add_scalar_bar,
+    check_direct_color,
     isosurface_levels,
     resolve_aliases,
     volume_input,
@@ -109,7 +110,11 @@ def add_volume(
         :class:`VolumeGroup` of overlapping volumes marched jointly (see :func:`add_volumes`).
     scalars : str or numpy.ndarray, optional
         Name of the point (or cell) array to draw, or the values themselves (one per point
-        or per cell); the active scalars by default.
+        or per cell); the active scalars by default. An array of 4 uint8 components (a
+        numpy volume ``(x, y, z, 4)``) is an RGBA volume, as in PyVista: its first three
+        components are the colour, the fourth goes through ``opacity`` over ``clim`` (the
+        range of all four by default) per ``opacity_unit_distance`` (1 by default, what
+        VTK draws PyVista's RGBA volumes with); composite blending, no ``shade``.
     cmap : str, sequence, matplotlib colormap or pyvista.LookupTable, optional
         Colormap of the emitted colour (PyVista's theme colormap by default); a lookup
         table brings its own colours and opacities. ``colormap=`` is an alias.
@@ -323,6 +328,7 @@ def add_volume(
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
     options.check_model(model)
+    check_direct_color(model, blending, shade, cmap, lights)
     gradient = gradient_shading(plotter, model, shade, lights, blending,
                                 dict(ambient=ambient, diffuse=diffuse, specular=specular,
                                      specular_power=specular_power))
@@ -346,7 +352,7 @@ def add_volume(
         1.0 if spec is None else float(spec.opacity_unit_distance),
         getattr(model, "interpolation", "linear"))
     component.track(binding)
-    if not isinstance(model, VolumeGroup):
+    if not isinstance(model, VolumeGroup) and model.colors is None:   # RGBA: no bar
         add_scalar_bar(plotter, model, scalars if isinstance(scalars, str) else model.name,
                        show_scalar_bar, scalar_bar_args, annotations)
     _frame(plotter, reset_camera)

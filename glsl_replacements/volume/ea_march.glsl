@@ -1,5 +1,6 @@
 // Emission/absorption marching, shared by every path that draws a volume this way.
-// The caller provides   float cm_sampleScalar(vec3 texturePosition)   (a data value), the
+// The caller provides   float cm_sampleScalar(vec3 texturePosition)   (a data value; with
+// CM_DIRECT_COLOR also   vec4 cm_sampleDirect(vec3)   (colour, value)), the
 // declarations of ea_declarations (cm_transfer, cm_composite, cm_stopOpacity) and a blend
 // mode (blend_composite, blend_maximum ...: cm_blendStart, cm_blend, cm_blendResult); with
 // CM_LIGHTS, also   vec3 cm_lighting(vec3 texturePosition)   (light_sample), which scales
@@ -37,10 +38,16 @@ vec3 cm_rayWorld;              // the ray's unit direction in the world, for the
 
 #ifndef CM_JOINT
 // Emitted colour and extinction of the medium at a texture position, before lighting.
-// (With CM_JOINT, joint_sample defines it for several overlapping volumes.)
+// (With CM_JOINT, joint_sample defines it for several overlapping volumes.) A
+// direct-colour volume emits its own colour with the extinction of its alpha.
 vec4 cm_unlitEmission(vec3 texturePosition)
 {
+#ifdef CM_DIRECT_COLOR
+  vec4 direct = cm_sampleDirect(texturePosition);
+  return vec4(direct.rgb, cm_transfer(direct.a).a);
+#else
   return cm_transfer(cm_sampleScalar(texturePosition));
+#endif
 }
 #endif
 

@@ -41,6 +41,11 @@ class VolumeGroup:
         if len(sizes) != 1:
             raise ValueError("Overlapping volumes need transfer tables of the same size "
                              f"(n_colors), got {sorted(sizes)}.")
+        rgba = [m.name for m in members if getattr(m, "colors", None) is not None]
+        if rgba:
+            raise ValueError(f"RGBA volumes {rgba} cannot be marched jointly yet (a joint "
+                             "medium mixes the colours of its members' transfer functions): "
+                             "move them apart, or draw one component of each as scalars.")
         self.members = list(members)
         self.name = name or "+".join(m.name for m in members)
         bounds = np.array([m.world_bounds() for m in members])

@@ -31,6 +31,10 @@ class VolumeModel:
     values that are close together but far from 0 (e.g. int64 ``2**40 + k``): a point's
     data value is ``values + value_offset``, and ``transfer.clim`` is in the units of
     ``values``. It is 0 for data that float32 holds as it is.
+
+    ``colors`` is set for a direct-colour (RGBA) volume: a uint8 ``(nx, ny, nz, 4)`` array
+    whose first three components are the colour itself and whose fourth, also ``values``,
+    goes through the transfer function's opacity, as VTK draws 4 dependent components.
     """
 
     grid: pyvista.ImageData
@@ -40,6 +44,7 @@ class VolumeModel:
     name: str = "volume"
     value_offset: int | float = 0
     interpolation: str = "linear"
+    colors: np.ndarray | None = None
 
     @property
     def dimensions(self) -> tuple[int, int, int]:
@@ -90,15 +95,21 @@ def as_image_data(data, scalars: str | None = None, nan_policy: str = "raise"):
 
     Accepts a ``pyvista.ImageData`` / ``vtkImageData``, a uniform ``RectilinearGrid`` or a
     3D numpy array (indexed x, y, z, unit spacing). ``values`` is float32 data minus
-    ``value_offset`` (see :func:`checked_values`). Raises :class:`VolumeDataError` that
-    says what is wrong and what to do.
+    ``value_offset`` (see :func:`checked_values`), or, for an RGBA array (4 uint8
+    components; a numpy array ``(x, y, z, 4)``), the uint8 ``(nx, ny, nz, 4)`` colours.
+    Raises :class:`VolumeDataError` that says what is wrong and what to do.
     """
     if nan_policy not in NAN_POLICIES:
         raise VolumeDataError(f"nan_policy must be one of {NAN_POLICIES}, got {nan_policy!r}.")
     if isinstance(data, np.ndarray):
+        if data.ndim == 4 and is_rgba(data.reshape(-1, data.shape[-1])):
+            grid = pyvista.ImageData(dimensions=data.shape[:3])
+            grid, rgba = _thicken_flat_axes(grid, data)
+            return grid, np.ascontiguousarray(rgba), "values", 0
         if data.ndim != 3:
             raise VolumeDataError(
-                f"A numpy volume must be 3D (x, y, z), got an array of shape {data.shape}."
+                f"A numpy volume must be 3D (x, y, z), or 4D (x, y, z, 4) uint8 RGBA, got an "
+                f"array of shape {data.shape}."
             )
         values, offset = checked_values(data, "values", nan_policy)
         grid = pyvista.ImageData(dimensions=data.shape)
@@ -120,14 +131,25 @@ def as_image_data(data, scalars: str | None = None, nan_policy: str = "raise"):
                 f"{list(grid.point_data.keys()) + list(grid.cell_data.keys())}."
             )
     array = np.asarray(grid.point_data[scalars])
+    if array.ndim != 1 and is_rgba(array):
+        rgba = array.reshape(tuple(grid.dimensions) + (4,), order="F")
+        grid, rgba = _thicken_flat_axes(grid, rgba)
+        return grid, np.ascontiguousarray(rgba), scalars, 0
     if array.ndim != 1:
         raise VolumeDataError(
-            f"Array {scalars!r} has {array.shape[1]} components; pass a single-component array."
+            f"Array {scalars!r} has {array.shape[1]} components of {array.dtype}; pass a "
+            "single-component array, or 4 uint8 components (RGBA, PyVista's direct-colour "
+            "volume)."
         )
     values, offset = checked_values(array, scalars, nan_policy)
     values = values.reshape(tuple(grid.dimensions), order="F")
     grid, values = _thicken_flat_axes(grid, values)
     return grid, np.ascontiguousarray(values, dtype=np.float32), scalars, offset
+
+
+def is_rgba(array: np.ndarray) -> bool:
+    """Whether a point array is a direct-colour volume: 4 uint8 components, as PyVista takes."""
+    return array.ndim == 2 and array.shape[1] == 4 and array.dtype == np.uint8
 
 
 def _thicken_flat_axes(grid: pyvista.ImageData, values: np.ndarray):
@@ -290,6 +312,15 @@ def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear"
         raise VolumeDataError(f"interpolation must be one of {INTERPOLATIONS}, got "
                               f"{interpolation!r}.")
     grid, values, scalars, offset = as_image_data(data, scalars, nan_policy)
+    colors = None
+    if values.ndim == 4:   # RGBA: the colours as they are, the 4th component's opacity
+        colors, values = values, values[..., 3].astype(np.float32)
+        if clim is None:   # PyVista's range of the whole array, all four components
+            clim = _data_range(colors, 0)
+        if opacity_unit_distance is None:
+            # VTK reads an RGBA volume's unit distance from its 4th component, which
+            # PyVista leaves at 1 (its opacity_unit_distance sets the first one).
+            opacity_unit_distance = 1.0
     if transfer is None:
         transfer = _transfer(grid, values, offset, cmap=cmap, opacity=opacity, clim=clim,
                              opacity_unit_distance=opacity_unit_distance, n_colors=n_colors,
@@ -300,7 +331,7 @@ def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear"
                                     clim=_shifted_clim(transfer.clim, offset))
     matrix = np.eye(4) if transform is None else checked_transform(transform)
     return VolumeModel(grid=grid, values=values, transfer=transfer, transform=matrix, name=name,
-                       value_offset=offset, interpolation=interpolation)
+                       value_offset=offset, interpolation=interpolation, colors=colors)
 
 
 #: ``add_volume``'s transfer keywords (what :func:`with_transfer` changes on a made volume).

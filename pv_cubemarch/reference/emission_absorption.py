@@ -16,7 +16,7 @@ from ..core.camera import Camera
 from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel
 from .lighting import light_grid, lit_emission
-from .rays import clip_interval, index_rays, sample
+from .rays import clip_interval, index_rays, sample, sample_colors
 from .transfer import medium as transfer_medium
 from .volume_shading import ShadeSetup
 
@@ -139,6 +139,8 @@ def render_emission_absorption(
                 continue
             pts = o_idx[active][inside] + d_idx[active][inside] * mid[inside, None]
             rgb, sig = transfer_medium(v, sample(v, pts))
+            if getattr(v, "colors", None) is not None:   # RGBA: its own colour
+                rgb = sample_colors(v, pts)
             if shade is not None:
                 rgb = shade.apply(v, pts, rgb, directions[active][inside])
             if grids is not None:

@@ -85,6 +85,13 @@ def sample(volume, points: np.ndarray) -> np.ndarray:
     return trilinear(volume.values, points)
 
 
+def sample_colors(volume, points: np.ndarray) -> np.ndarray:
+    """A direct-colour (RGBA) volume's own colour at index points, each channel alone, in [0, 1]."""
+    colors = np.asarray(volume.colors, dtype=np.float64) / 255.0
+    read = nearest if getattr(volume, "interpolation", "linear") == "nearest" else trilinear
+    return np.stack([read(colors[..., c], points) for c in range(3)], axis=-1)
+
+
 def mesh_depth(mesh, camera: Camera, size: Sequence[int], chunk: int = 4096) -> np.ndarray:
     """Distance along each pixel's ray to the nearest triangle of ``mesh`` (``inf`` on a miss).
 

@@ -118,7 +118,9 @@ class VolumeData:
     def __init__(self, model: VolumeModel | VolumeGroup):
         self.model = model
         self.members = model.members if isinstance(model, VolumeGroup) else [model]
-        self.values = [Texture(m.values, kind="3d", interpolate=m.interpolation == "linear")
+        # An RGBA volume's texture is its uint8 colours, the opacity's value in alpha.
+        self.values = [Texture(m.values if getattr(m, "colors", None) is None else m.colors,
+                               kind="3d", interpolate=m.interpolation == "linear")
                        for m in self.members]
         self.tables = [Texture(m.transfer.table.reshape(1, -1, 4), kind="2d")
                        for m in self.members]
@@ -152,18 +154,32 @@ class VolumeData:
         if member is not None:
             raise ValueError(f"member is for volumes marched jointly; {self.model.name!r} is "
                              "a single volume.")
-        values, _ = checked_values(values, self.model.name, "raise",
-                                   offset=self.model.value_offset)
-        if values.shape != self.model.values.shape:
-            raise ValueError(f"values must keep the volume's shape {self.model.values.shape}, "
-                             f"got {values.shape}.")
-        self.model.values = np.ascontiguousarray(values, dtype=np.float32)
-        self.values[0].set_data(self.model.values)
+        if self.model.colors is not None:
+            self._set_colors(values)
+        else:
+            values, _ = checked_values(values, self.model.name, "raise",
+                                       offset=self.model.value_offset)
+            if values.shape != self.model.values.shape:
+                raise ValueError(f"values must keep the volume's shape "
+                                 f"{self.model.values.shape}, got {values.shape}.")
+            self.model.values = np.ascontiguousarray(values, dtype=np.float32)
+            self.values[0].set_data(self.model.values)
         if self._bricks is not None:
             rebuilt = brick_extinction(self.model.values, self.model.transfer,
                                        DEFAULT_BRICK_SIZE)
             self.brick_builds += 1
             self._bricks.set_data(rebuilt)
+
+    def _set_colors(self, rgba) -> None:
+        """Replace an RGBA volume's colours (uint8, its shape with 4 components)."""
+        rgba = np.asarray(rgba)
+        if rgba.shape != self.model.colors.shape or rgba.dtype != np.uint8:
+            raise ValueError(f"An RGBA volume's new values must be uint8 of shape "
+                             f"{self.model.colors.shape} (x, y, z, RGBA), got {rgba.dtype} "
+                             f"{rgba.shape}.")
+        self.model.colors = np.ascontiguousarray(rgba)
+        self.model.values = self.model.colors[..., 3].astype(np.float32)
+        self.values[0].set_data(self.model.colors)
 
     def set_opacity_unit_distance(self, length: float) -> None:
         """Draw one volume with its opacities over another length (the table goes up again).
@@ -202,6 +218,13 @@ class VolumeData:
             texture.release()
 
 
+def vtk_scalars(model: VolumeModel):
+    """The point array VTK's mapper uploads: the values, or an RGBA volume's 4 components."""
+    if model.colors is not None:
+        return model.colors.reshape(-1, 4, order="F")
+    return model.values.ravel(order="F")
+
+
 def most_texels(model) -> int:
     """Most texels a ray can cross along its dominant axis in one piece of its march.
 
@@ -215,7 +238,8 @@ def most_texels(model) -> int:
 def march_defines(model, skipping: bool) -> dict:
     """The feature switches every marching shader of ``model`` needs."""
     defines = {"CM_TABLE_SIZE": model.transfer.n_colors, "CM_STEP_BLOCK": STEP_BLOCK,
-               "CM_STEP_BLOCKS": STEP_BLOCKS, "CM_SKIP_EMPTY": bool(skipping)}
+               "CM_STEP_BLOCKS": STEP_BLOCKS, "CM_SKIP_EMPTY": bool(skipping),
+               "CM_DIRECT_COLOR": getattr(model, "colors", None) is not None}
     if isinstance(model, VolumeGroup):
         defines.update(CM_JOINT=True, CM_VOLUME_COUNT=len(model.members))
     return defines
@@ -403,7 +427,7 @@ class VolumeBinding(DrawnBinding):
         """
         self.data.set_values(values, member)
         if self.vtk_input is not None:
-            self.vtk_input.point_data["scalars"] = self.model.values.ravel(order="F")
+            self.vtk_input.point_data["scalars"] = vtk_scalars(self.model)
             self.vtk_input.Modified()
         if self.light_map is not None:
             self.light_map.invalidate()
@@ -492,7 +516,8 @@ class VolumeBinding(DrawnBinding):
                              "blending=..., isosurfaces=...).")
         why = ("it is lit" if self.light_map is not None else "it is shaded"
                if getattr(self.returned_property, "shade", None) is not None else
-               "it is marched jointly" if isinstance(self.model, VolumeGroup) else None)
+               "it is marched jointly" if isinstance(self.model, VolumeGroup) else
+               "it is an RGBA volume" if self.model.colors is not None else None)
         if why is not None and blending != "composite":
             raise ValueError(f"blending={blending!r} reads the samples without attenuating "
                              f"them, and {why}: add the volume again without lights, shade "
@@ -520,7 +545,8 @@ class VolumeBinding(DrawnBinding):
             why = ("it is lit by lights= (the light map)" if self.light_map is not None else
                    f"it is drawn with blending={self.blending!r}"
                    if self.blending != "composite" else "it is marched jointly"
-                   if isinstance(self.model, VolumeGroup) else None)
+                   if isinstance(self.model, VolumeGroup) else "it is an RGBA volume "
+                   "(no scalar has a gradient)" if self.model.colors is not None else None)
             if why is not None:
                 raise ValueError(f"shade=True shades one composite volume by the renderer's "
                                  f"lights, and {why}: add the volume again to shade it.")

@@ -98,6 +98,28 @@ def volume_input(volume, scalars, resolution, preference: str = "point"):
     return grid, "Data"
 
 
+def check_direct_color(model, blending: str, shade: bool, cmap, lights) -> None:
+    """Refuse, by name, what an RGBA (direct-colour) volume cannot draw.
+
+    Its colours are its own, so a ``cmap`` colours nothing (warned, as PyVista ignores it);
+    the blend modes other than composite and gradient shading read one scalar per sample,
+    which an RGBA volume does not have.
+    """
+    if getattr(model, "colors", None) is None:
+        return
+    if blending != "composite":
+        raise ValueError(f"blending={blending!r} draws one value per sample; an RGBA volume "
+                         "(4 uint8 components) has a colour instead: use "
+                         "blending='composite', or draw one component as scalars.")
+    if shade:
+        raise ValueError("shade=True lights the gradient of one scalar; an RGBA volume (4 "
+                         "uint8 components) has none: leave shade off (lights= lights it "
+                         "through itself).")
+    if cmap is not None:
+        warnings.warn("cmap colours nothing in an RGBA volume: its first three components "
+                      "are its colours (PyVista ignores cmap there too).", stacklevel=3)
+
+
 def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
     """A mapper (never drawn) whose lookup table is the volume's colours over its ``clim``.
 

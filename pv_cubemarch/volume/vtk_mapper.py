@@ -27,6 +27,7 @@ from .march import (
     VolumeSetup,
     bind_sampling,
     march_snippets,
+    vtk_scalars,
     world_from_texture,
 )
 from .options import STEP_SCALES, MarchOptions
@@ -70,7 +71,7 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
     # opaque depth through their inverses), so the clip position and the rays come from our
     # camera-relative matrices, made in double precision (vtk_mapper_recipe).
     grid = pyvista.ImageData(dimensions=model.dimensions)
-    grid.point_data["scalars"] = model.values.ravel(order="F")
+    grid.point_data["scalars"] = vtk_scalars(model)
     mapper = vtk.vtkOpenGLGPUVolumeRayCastMapper()
     mapper.SetInputData(grid)
     mapper.SetBlendModeToComposite()
@@ -84,6 +85,8 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
     else:
         prop.SetInterpolationTypeToLinear()
     prop.ShadeOff()
+    if model.colors is not None:   # VTK's 4 dependent components: its texture is RGBA
+        prop.IndependentComponentsOff()
     actor = pyvista.Volume()
     actor.SetMapper(mapper)
     actor.SetProperty(prop)
