@@ -15,6 +15,7 @@ import pyvista
 
 from .core.registry import get_technique
 from .gl.overlay import bounds_proxy
+from .models.channels import channel_count, make_channels
 from .models.field_sources import color_values, make_field
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
@@ -36,6 +37,7 @@ from .volume.march import VolumeBinding, VolumeData, VolumeSetup
 from .volume.options import DEFAULT_STOP_OPACITY, INTERPOLATION, Shading
 from .volume.pyvista_keywords import (
     add_scalar_bar,
+    check_channels,
     check_direct_color,
     isosurface_levels,
     resolve_aliases,
@@ -96,6 +98,8 @@ def add_volume(
     diffuse: float | None = None,
     specular: float | None = None,
     specular_power: float | None = None,
+    independent_components: bool | None = None,
+    channel_blending: str | None = None,
     **kwargs,
 ) -> pyvista.Volume:
     """Add a volume rendered with emission/absorption compositing; return its actor.
@@ -254,6 +258,20 @@ def add_volume(
     ambient, diffuse, specular, specular_power : float, optional
         VTK's volume property terms with ``shade=True`` (defaults 0.1, 0.7, 0.2, 10, as
         PyVista leaves them).
+    independent_components : bool, optional
+        How a multi-component array is drawn, as VTK's volume property names it: 2 to 4
+        components are independent channels (microscopy), each with its own ``cmap``,
+        ``opacity``, ``clim``, ``opacity_unit_distance``, ``n_colors``, ``flip_scalars``
+        and ``log_scale`` (a list with one per channel, or one value for all; a colour
+        name as a channel's ``cmap`` ramps from black to it; each channel's own range is
+        its default ``clim``). 4 uint8 components are RGBA unless this is ``True``.
+        Channels are marched as joint members (``technique='vtk'`` draws them with the
+        direct marcher, the same GLSL).
+    channel_blending : str, optional
+        How the channels mix: ``'composite'`` (default: one medium, their extinctions add,
+        the colour is their extinction-weighted mean, the continuous form of VTK's
+        independent components) or ``'additive'`` (each channel drawn as if alone, their
+        light added, as napari adds channels; no ``lights`` or ``shade``).
     **kwargs
         PyVista's aliases ``rng`` (``clim``) and ``colormap`` (``cmap``). Any other
         keyword raises a ``TypeError`` that says what to use instead.
@@ -318,17 +336,22 @@ def add_volume(
             model = dataclasses.replace(model, interpolation=interpolation)
     else:
         volume, scalars = volume_input(volume, scalars, resolution, preference)
-        model = make_volume(volume, scalars, cmap=cmap, opacity=opacity or "linear", clim=clim,
-                            opacity_unit_distance=opacity_unit_distance, transform=transform,
-                            nan_policy=nan_policy, name=name or "volume",
-                            n_colors=n_colors or 256, flip_scalars=bool(flip_scalars),
-                            log_scale=bool(log_scale), categories=categories or False,
-                            interpolation=interpolation or "linear")
+        model = _data_model(volume, scalars, independent_components, channel_blending,
+                            dict(cmap=cmap, opacity=opacity, clim=clim,
+                                 opacity_unit_distance=opacity_unit_distance,
+                                 n_colors=n_colors, flip_scalars=flip_scalars,
+                                 log_scale=log_scale, categories=categories),
+                            transform=transform, nan_policy=nan_policy,
+                            name=name or "volume", interpolation=interpolation or "linear")
+    if getattr(model, "channel_mix", None) is not None and not chosen.groups:
+        chosen = get_technique("volume", "direct")   # VTK's mapper marches one texture
+        options = chosen.make_options(given)
     if isinstance(model, VolumeGroup) and not chosen.groups:
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
     options.check_model(model)
     check_direct_color(model, blending, shade, cmap, lights)
+    check_channels(model, blending, shade, lights)
     gradient = gradient_shading(plotter, model, shade, lights, blending,
                                 dict(ambient=ambient, diffuse=diffuse, specular=specular,
                                      specular_power=specular_power))
@@ -359,6 +382,31 @@ def add_volume(
     if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
         plotter.render()
     return actor
+
+
+def _data_model(volume, scalars, independent_components, channel_blending, transfer: dict,
+                **placement):
+    """The model of raw data: one volume, an RGBA volume, or a channel volume (a group).
+
+    ``transfer`` holds add_volume's transfer keywords as given (``None``: the default).
+    """
+    keywords = dict(transfer, opacity=transfer["opacity"] or "linear",
+                    n_colors=transfer["n_colors"] or 256,
+                    categories=transfer["categories"] or False)
+    count = channel_count(volume, scalars, independent_components)
+    if count:
+        for flag in ("flip_scalars", "log_scale"):   # one each, or one for all
+            if not isinstance(keywords[flag], (list, tuple)):
+                keywords[flag] = bool(keywords[flag])
+        return make_channels(volume, scalars or volume.active_scalars_name, count,
+                             make_volume, channel_mix=channel_blending or "composite",
+                             **keywords, **placement)
+    if channel_blending is not None:
+        raise ValueError("channel_blending mixes the channels of a volume with 2 to 4 "
+                         "components; this one has a single component.")
+    keywords.update(flip_scalars=bool(keywords["flip_scalars"]),
+                    log_scale=bool(keywords["log_scale"]))
+    return make_volume(volume, scalars, **keywords, **placement)
 
 
 def _frame(plotter: pyvista.Plotter, reset_camera: bool | None = None) -> None:

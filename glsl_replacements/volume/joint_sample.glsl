@@ -29,19 +29,50 @@ uniform mat4 cm_memberFromGroup3;    // group texture coordinates to its own
 uniform vec3 cm_memberDims3;         // its points along x, y, z
 #endif
 
-void cm_addMember(inout vec4 sum, sampler3D volume, sampler2D table, vec2 clim,
-                  mat4 fromGroup, vec3 dims, vec3 groupPosition)
+// A member's emission (rgb, extinction) at a group position: nothing outside its box of
+// texel centres.
+vec4 cm_memberEmission(sampler3D volume, sampler2D table, vec2 clim, mat4 fromGroup,
+                       vec3 dims, vec3 groupPosition)
 {
   vec3 position = (fromGroup * vec4(groupPosition, 1.0)).xyz;
   vec3 lo = 0.5 / dims;
   if (any(lessThan(position, lo)) || any(greaterThan(position, 1.0 - lo)))
   {
-    return;
+    return vec4(0.0);
   }
-  vec4 emission = cm_transferLookup(table, clim, texture(volume, position).r);
+  return cm_transferLookup(table, clim, texture(volume, position).r);
+}
+
+void cm_addMember(inout vec4 sum, sampler3D volume, sampler2D table, vec2 clim,
+                  mat4 fromGroup, vec3 dims, vec3 groupPosition)
+{
+  vec4 emission = cm_memberEmission(volume, table, clim, fromGroup, dims, groupPosition);
   sum.rgb += emission.a * emission.rgb;
   sum.a += emission.a;
 }
+
+#ifdef CM_CHANNELS_ADDITIVE
+// Every member's own emission, one per column (unused columns: nothing), for channels
+// that add their light (blend_channels_additive).
+void cm_channelEmissions(vec3 texturePosition, out mat4 emissions)
+{
+  emissions = mat4(0.0);
+  emissions[0] = cm_memberEmission(cm_member0, cm_memberTable0, cm_memberClim0,
+                                   cm_memberFromGroup0, cm_memberDims0, texturePosition);
+#if CM_VOLUME_COUNT > 1
+  emissions[1] = cm_memberEmission(cm_member1, cm_memberTable1, cm_memberClim1,
+                                   cm_memberFromGroup1, cm_memberDims1, texturePosition);
+#endif
+#if CM_VOLUME_COUNT > 2
+  emissions[2] = cm_memberEmission(cm_member2, cm_memberTable2, cm_memberClim2,
+                                   cm_memberFromGroup2, cm_memberDims2, texturePosition);
+#endif
+#if CM_VOLUME_COUNT > 3
+  emissions[3] = cm_memberEmission(cm_member3, cm_memberTable3, cm_memberClim3,
+                                   cm_memberFromGroup3, cm_memberDims3, texturePosition);
+#endif
+}
+#endif
 
 vec4 cm_unlitEmission(vec3 texturePosition)
 {

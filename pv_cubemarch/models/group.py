@@ -29,10 +29,13 @@ class VolumeGroup:
     box take millions of steps. The march cuts each ray where it enters or leaves a member's
     box and steps every piece on the finest grid over it (this grid or a member's own,
     ``ea_march.glsl``), so a member finer than the grid is still stepped at its own spacing.
-    Each member keeps its own data, transfer function and placement.
+    Each member keeps its own data, transfer function and placement. The channels of one
+    multi-component volume are such a group too, co-located (``channel_mix`` says how they
+    mix, :mod:`.channels`).
     """
 
-    def __init__(self, members: list[VolumeModel], name: str | None = None):
+    def __init__(self, members: list[VolumeModel], name: str | None = None,
+                 channel_mix: str | None = None):
         if not 2 <= len(members) <= MAX_GROUP_MEMBERS:
             raise ValueError(f"A joint group holds 2 to {MAX_GROUP_MEMBERS} volumes, got "
                              f"{len(members)}; split the scene or keep fewer volumes "
@@ -47,6 +50,9 @@ class VolumeGroup:
                              "medium mixes the colours of its members' transfer functions): "
                              "move them apart, or draw one component of each as scalars.")
         self.members = list(members)
+        #: A channel volume's mixing ('composite' or 'additive'; models/channels.py), or
+        #: None for volumes that merely overlap (marched as one medium).
+        self.channel_mix = channel_mix
         self.name = name or "+".join(m.name for m in members)
         bounds = np.array([m.world_bounds() for m in members])
         self.lower = bounds[:, 0::2].min(axis=0)

@@ -15,6 +15,7 @@ import numpy as np
 from ..core.camera import Camera
 from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel
+from .channels import render_additive_channels
 from .lighting import light_grid, lit_emission
 from .rays import clip_interval, index_rays, sample, sample_colors
 from .transfer import medium as transfer_medium
@@ -78,6 +79,12 @@ def render_emission_absorption(
         World planes cutting the media: a plane keeps ``normal . (x - origin) >= 0``, as
         VTK's volume mapper does (:func:`pv_cubemarch.reference.rays.clip_interval`).
     """
+    if isinstance(volume, VolumeGroup) and volume.channel_mix == "additive":
+        return render_additive_channels(
+            volume, render_emission_absorption, camera, size, background, opaque_color,
+            step_voxels=step_voxels,
+            opaque_depth=opaque_depth, near=near, min_transmittance=min_transmittance,
+            crop=crop, clip_planes=clip_planes)
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
     if crop is not None:

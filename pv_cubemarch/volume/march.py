@@ -89,8 +89,12 @@ def march_snippets(blending: str = "composite", defines: dict | None = None) -> 
 
     They come after the sampling and ray set-up snippets.
     """
-    shaded = ("gradient_shading",) if (defines or {}).get("CM_SHADE") else ()
-    return (*BLEND_SNIPPETS[blending], "ea_march", *shaded)
+    defines = defines or {}
+    shaded = ("gradient_shading",) if defines.get("CM_SHADE") else ()
+    blend = BLEND_SNIPPETS[blending]
+    if defines.get("CM_CHANNELS_ADDITIVE"):   # a channel volume's additive channels
+        blend = ("blend_channels_additive",)
+    return (*blend, "ea_march", *shaded)
 
 
 #: The marcher as the light map (and every composite pass) includes it.
@@ -241,7 +245,8 @@ def march_defines(model, skipping: bool) -> dict:
                "CM_STEP_BLOCKS": STEP_BLOCKS, "CM_SKIP_EMPTY": bool(skipping),
                "CM_DIRECT_COLOR": getattr(model, "colors", None) is not None}
     if isinstance(model, VolumeGroup):
-        defines.update(CM_JOINT=True, CM_VOLUME_COUNT=len(model.members))
+        defines.update(CM_JOINT=True, CM_VOLUME_COUNT=len(model.members),
+                       CM_CHANNELS_ADDITIVE=model.channel_mix == "additive")
     return defines
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..core.declared import AUTO, Control, Option, check_declared, declare
+from ..models.channels import CHANNEL_MIXES
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
 from ..models.volume import INTERPOLATIONS
 from .march import BLEND_MODES, MAX_ISOSURFACES, MAX_STEPS, Blend, most_texels
@@ -52,6 +53,10 @@ KNOB_OPACITIES = ("linear", "linear_r", "sigmoid", "sigmoid_r", "geom", "geom_r"
 #: Why a range or a length has no live-view control.
 NO_KNOB_UNITS = "a value in the data's own units: give it in Python, on the CLI or in USD"
 
+#: Why the channel keywords have no CLI flag, USD attribute or knob yet.
+NO_CHANNELS_IN_SCENES = ("scenes (files, USD) load one-component volumes and RGBA; a channel "
+                         "volume is made in Python (add_volume with a 2-4 component array)")
+
 MARCHERS = ("vtk", "direct", "auto")
 CUBE_MAPS = ("cubemap", "auto")
 #: Every option of the volume techniques, declared once (:mod:`pv_cubemarch.core.declared`).
@@ -59,7 +64,7 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
     SAMPLE_FACTOR, OCCLUSION_SHARPNESS, BLENDING, ISOSURFACES, INTERPOLATION, LIGHTS, \
     LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT, SHADE, AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER, \
     CMAP, OPACITY, CLIM, OPACITY_UNIT_DISTANCE, N_COLORS, FLIP_SCALARS, LOG_SCALE, \
-    CATEGORIES = declare(
+    CATEGORIES, INDEPENDENT_COMPONENTS, CHANNEL_BLENDING = declare(
         Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
                control=Control("select")),
         Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
@@ -149,6 +154,17 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
         Option("categories", "volume", bool, False, "as many colours as the data has "
                "distinct values (a number in Python: that many)", model=True,
                control=Control("switch", "categories")),
+        # How a multi-component array is drawn: RGBA or channels (models/channels.py).
+        Option("independent_components", "volume", bool, None, "2 to 4 components as "
+               "channels, each its own transfer function (4 uint8: RGBA unless True)",
+               optional=True, model=True, usd=None, cli=None,
+               without=dict(usd=NO_CHANNELS_IN_SCENES, cli=NO_CHANNELS_IN_SCENES,
+                            knob=NO_CHANNELS_IN_SCENES)),
+        Option("channel_blending", "volume", str, None, "how a channel volume's channels "
+               "mix: one medium, or each alone with their light added", optional=True,
+               choices=CHANNEL_MIXES, model=True, usd=None, cli=None,
+               without=dict(usd=NO_CHANNELS_IN_SCENES, cli=NO_CHANNELS_IN_SCENES,
+                            knob=NO_CHANNELS_IN_SCENES)),
     )
 
 

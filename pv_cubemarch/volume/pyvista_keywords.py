@@ -120,6 +120,25 @@ def check_direct_color(model, blending: str, shade: bool, cmap, lights) -> None:
                       "are its colours (PyVista ignores cmap there too).", stacklevel=3)
 
 
+def check_channels(model, blending: str, shade: bool, lights) -> None:
+    """Refuse, by name, what a channel volume cannot draw.
+
+    Its channels are marched jointly, so composite blending only; channels that add their
+    light are each their own medium, which no light map or gradient shading models.
+    """
+    mix = getattr(model, "channel_mix", None)
+    if mix is None:
+        return
+    if blending != "composite":
+        raise ValueError(f"blending={blending!r} reads one value per sample; a volume of "
+                         f"{len(model.members)} channels mixes its channels by "
+                         "channel_blending ('composite' or 'additive'): leave blending out.")
+    if mix == "additive" and (shade or lights is not None):
+        raise ValueError(f"channel_blending='additive' draws each channel as if alone; "
+                         f"{'shade' if shade else 'lights'}= lights one medium: use "
+                         "channel_blending='composite' to light the channels.")
+
+
 def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
     """A mapper (never drawn) whose lookup table is the volume's colours over its ``clim``.
 

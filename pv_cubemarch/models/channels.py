@@ -1,0 +1,121 @@
+"""Multi-channel volumes (microscopy): 2 to 4 components, each with its own transfer function.
+
+A channel volume is a :class:`~pv_cubemarch.models.group.VolumeGroup` of co-located members,
+one per component, so every marcher of joint groups draws it: ``'composite'`` mixes the
+channels as one medium (their extinctions add, the emission is their extinction-weighted
+mean: the continuous form of VTK's independent components), ``'additive'`` draws each
+channel as if alone and adds their light (napari's additive channels). Numpy only.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyvista
+
+from ..core.errors import VolumeDataError
+from .group import MAX_GROUP_MEMBERS, VolumeGroup
+from .volume import is_rgba
+
+#: How the channels of one volume mix (``channel_blending=``).
+CHANNEL_MIXES = ("composite", "additive")
+#: The per-channel keywords: each takes one value for every channel, or a list of one each.
+CHANNEL_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
+                    "flip_scalars", "log_scale")
+
+
+def channel_count(grid, scalars: str | None, independent_components: bool | None) -> int:
+    """How many independent channels ``grid``'s array ``scalars`` draws as (0: one scalar).
+
+    2 to 4 components are channels, except 4 uint8 components, which are RGBA (as PyVista
+    draws them) unless ``independent_components=True``. ``False`` asks for RGBA and is
+    refused for any other array.
+    """
+    if not isinstance(grid, pyvista.DataSet):
+        if isinstance(grid, np.ndarray) or grid is None:
+            return 0
+        grid = pyvista.wrap(grid)
+    name = scalars if scalars is not None else grid.active_scalars_name
+    if name is None or (name not in grid.point_data and name not in grid.cell_data):
+        return 0
+    array = np.asarray(grid.point_data[name] if name in grid.point_data
+                       else grid.cell_data[name])
+    if array.ndim != 2:
+        if independent_components:
+            raise VolumeDataError(f"independent_components=True draws each component of "
+                                  f"{name!r} as a channel; it has one component.")
+        return 0
+    count = int(array.shape[1])
+    if independent_components is False:
+        if not is_rgba(array):
+            raise VolumeDataError(f"independent_components=False draws 4 uint8 components as "
+                                  f"RGBA; {name!r} has {count} components of {array.dtype}.")
+        return 0
+    if is_rgba(array) and not independent_components:
+        return 0
+    if not 2 <= count <= MAX_GROUP_MEMBERS:
+        raise VolumeDataError(f"Array {name!r} has {count} components; a volume draws 1, 2 "
+                              f"to {MAX_GROUP_MEMBERS} channels, or 4 uint8 (RGBA): pick "
+                              "components, e.g. scalars=grid[name][:, :4].")
+    return count
+
+
+def per_channel(keyword: str, value, count: int) -> list:
+    """``value`` for each of ``count`` channels: a list of ``count`` items is one each.
+
+    Except where a list of plain numbers is itself one value: a ``clim`` pair (with two
+    channels) and an ``opacity`` curve are the same for every channel.
+    """
+    if not isinstance(value, (list, tuple)) or len(value) != count:
+        return [value] * count
+    numbers = all(isinstance(v, (int, float, np.number)) for v in value)
+    if numbers and (keyword == "opacity" or (keyword == "clim" and count == 2)):
+        return [value] * count
+    return list(value)
+
+
+def channel_cmap(cmap):
+    """One channel's colormap: a colour name that is no colormap ramps from black to it."""
+    if not isinstance(cmap, str):
+        return cmap
+    import matplotlib
+    from matplotlib.colors import LinearSegmentedColormap, is_color_like
+
+    if cmap in matplotlib.colormaps or not is_color_like(cmap):
+        return cmap
+    return LinearSegmentedColormap.from_list(f"black-{cmap}", ["black", cmap])
+
+
+def make_channels(grid, scalars: str, count: int, make_member, channel_mix: str = "composite",
+                  name: str = "volume", **keywords) -> VolumeGroup:
+    """A channel volume: one member per component of ``grid[scalars]``, co-located.
+
+    ``make_member(member_grid, member_scalars, name=..., **channel_keywords)`` makes each
+    member (:func:`pv_cubemarch.make_volume`); ``keywords`` are the transfer keywords, each
+    one value or one per channel (:func:`per_channel`), and the others, the same for all.
+    """
+    if channel_mix not in CHANNEL_MIXES:
+        raise ValueError(f"channel_blending must be one of {CHANNEL_MIXES}, got "
+                         f"{channel_mix!r}.")
+    if not isinstance(grid, pyvista.DataSet):
+        grid = pyvista.wrap(grid)
+    if scalars not in grid.point_data:
+        grid = grid.cell_data_to_point_data(pass_cell_data=False)
+    array = np.asarray(grid.point_data[scalars])
+    channels = {key: per_channel(key, keywords.pop(key), count)
+                for key in CHANNEL_KEYWORDS if key in keywords}
+    channels["cmap"] = [channel_cmap(c) for c in channels.get("cmap", [None] * count)]
+    members = []
+    for index in range(count):
+        member_grid = grid.copy(deep=False)
+        member_grid.clear_data()
+        label = f"{scalars}[{index}]"
+        member_grid.point_data[label] = np.ascontiguousarray(array[:, index])
+        mine = {key: values[index] for key, values in channels.items()}
+        members.append(make_member(member_grid, label, name=label,
+                                   **mine, **keywords))
+    return VolumeGroup(members, name=name, channel_mix=channel_mix)
+
+
+def is_channels(model) -> bool:
+    """Whether ``model`` is a channel volume (a group of co-located channels)."""
+    return isinstance(model, VolumeGroup) and model.channel_mix is not None
