@@ -773,9 +773,9 @@ def add_voxels(
     if isinstance(model, VoxelWorld) and chunk_size not in (None, model.chunk_size):
         raise ValueError(f"chunk_size={chunk_size} differs from the world's own "
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")
-    warn_translucent(model.palette, model.name)
     if isinstance(model, VoxelWorld) or chunk_size is not None or not fits_one_texture(
             model.dimensions, model.labels.dtype):
+        warn_translucent(model.palette, model.name, "a chunked world")
         if proxy is None:   # chunks: no brick shells by default (bench voxel-world)
             options = dataclasses.replace(options, proxy="box")
         if not isinstance(model, VoxelWorld):
@@ -786,6 +786,9 @@ def add_voxels(
         options.check_model(model)
         component = plotter.cubemarch
         binding = chosen.build(plotter, model, options)
+        if not binding.composites:
+            warn_translucent(model.palette, model.name, f"mode={options.mode!r}"
+                             if options.mode != "color" else "level of detail (lod)")
         actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
         component.track(binding)
         _frame(plotter)

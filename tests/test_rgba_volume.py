@@ -154,10 +154,12 @@ def test_what_rgba_cannot_draw_is_refused():
         cm.add_volume(pl, grid, scalars="rgba", cmap="magma")
     three = grid.copy()
     three["rgb"] = grid["rgba"][:, :3]
+    # Other multi-component arrays are channels (tests/test_volume_channels.py), not RGBA.
+    assert len(cm.add_volume(pl, three, scalars="rgb").cubemarch.model.members) == 3
+    floats = cm.add_volume(pl, three, scalars=grid["rgba"].astype(np.float32))
+    assert len(floats.cubemarch.model.members) == 4
     with pytest.raises(VolumeDataError, match="4 uint8 components"):
-        cm.add_volume(pl, three, scalars="rgb")
-    with pytest.raises(VolumeDataError, match="4 uint8 components"):
-        cm.add_volume(pl, three, scalars=grid["rgba"].astype(np.float32))
+        cm.make_volume(three, "rgb")
     a = cm.make_volume(grid, "rgba", name="a")
     b = cm.make_volume(grid, "rgba", name="b")
     with pytest.raises(ValueError, match="cannot be marched jointly"):

@@ -41,11 +41,11 @@ def add_voxel_scalar_bar(plotter, palette, title: str, show: bool, args: dict | 
                       n_labels=min(len(palette.rgba) - 1, 10))
 
 
-def warn_translucent(palette, name: str) -> None:
-    """Say so when a palette asks for translucent materials: they are drawn opaque."""
+def warn_translucent(palette, name: str, why: str) -> None:
+    """Say so when translucent materials are drawn opaque (``why``: what draws them so)."""
     alpha = np.asarray(palette.rgba)[1:, 3]
     translucent = np.nonzero((alpha > 0) & (alpha < 1))[0] + 1
     if translucent.size:
         warnings.warn(f"Voxels {name!r}: materials {translucent.tolist()[:8]} have an "
-                      "opacity between 0 and 1; they are drawn opaque (translucent materials "
-                      "are not composited yet; opacity 0 hides one).", stacklevel=3)
+                      f"opacity between 0 and 1; {why} draws them opaque (a single grid in "
+                      "mode='color' composites them; opacity 0 hides one).", stacklevel=3)

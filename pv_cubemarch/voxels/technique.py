@@ -40,6 +40,7 @@ from ..models.voxels import (
 )
 from ..reference.voxels import render_voxels, trace_voxels
 from . import editing
+from .layers import TranslucentLayers, opaque_palette, translucent_materials
 from .occluders import WorldOccluders
 from .options import VoxelOptions, drawn_level
 from .proxy import ShellStart
@@ -204,6 +205,10 @@ class VoxelBinding(DrawnBinding):
         self.drawn_bounds: tuple[np.ndarray, np.ndarray] | None = None
         #: Whether that box follows the filled voxels (edits grow it), or is the grid's.
         self.box_follows_voxels = False
+        #: The translucent materials' actor while some are drawn (single grids, colour).
+        self.layers: TranslucentLayers | None = None
+        #: Whether this grid may draw translucent materials (a world's chunk may not).
+        self.composites = False
 
     @property
     def palette(self):
@@ -215,7 +220,8 @@ class VoxelBinding(DrawnBinding):
         """GPU bytes: labels (with levels), palette, distance field, shell and its pass."""
         return (self.labels.nbytes + self.palette_texture.nbytes
                 + sum(t.nbytes for t in self.skipping)
-                + (self.shell.nbytes if self.shell is not None else 0))
+                + (self.shell.nbytes if self.shell is not None else 0)
+                + (self.layers.nbytes if self.layers is not None else 0))
 
     @property
     def uploaded_bytes(self) -> int:
@@ -237,7 +243,40 @@ class VoxelBinding(DrawnBinding):
         Only the palette, a few bytes per material, goes to the GPU again.
         """
         self.model.palette.set_color(material, color, opacity)
-        self.palette_texture.set_data(self.model.palette.rgba.reshape(1, -1, 4))
+        self.follow_palette()
+
+    def follow_palette(self) -> None:
+        """The palette changed: the opaque actor's copy, and the translucent layers.
+
+        The layer actor is made when a material first turns translucent and goes when
+        none is left.
+        """
+        rgba = self.model.palette.rgba
+        if not self.composites:
+            self.palette_texture.set_data(rgba.reshape(1, -1, 4))
+            return
+        self.palette_texture.set_data(opaque_palette(rgba).reshape(1, -1, 4))
+        wanted = translucent_materials(rgba).size > 0
+        if wanted and self.layers is None:
+            self.layers = TranslucentLayers(self, self.renderer, bind_grid)
+            self.layers.actor.SetVisibility(self.shown)
+        elif self.layers is not None and not wanted:
+            self.layers.release()
+            self.layers = None
+        elif self.layers is not None:
+            self.layers.set_palette(rgba)
+
+    def follow_anchor(self) -> None:
+        """At each frame: the drawn actors and the layers follow the returned actor."""
+        super().follow_anchor()
+        if self.layers is not None:
+            self.layers.actor.SetVisibility(self.shown)
+
+    def follow_placement(self) -> None:
+        """After the grid moved: its actors follow."""
+        super().follow_placement()
+        if self.layers is not None:
+            self.layers.place(self.model.world_from_index())
 
     def set_voxels(self, where, material: int) -> None:
         """Set voxels to ``material`` (0 empties them); shown at the next frame.
@@ -312,6 +351,9 @@ class VoxelBinding(DrawnBinding):
         for actor in self.drawn:   # a world's chunk: its actor stands behind the world's
             if actor is not self.actor and self.renderer is not None:
                 self.renderer.RemoveActor(actor)
+        if self.layers is not None:
+            self.layers.release()
+            self.layers = None
         self.labels.release()
         self.palette_texture.release()
 
@@ -381,6 +423,11 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     binding.box_follows_voxels = options.proxy == "bricks" or occluders is not None
     binding.drawn = [actor]
     binding.renderer = renderer
+    # A single grid in colour composites its translucent materials (a world's chunks, the
+    # id and face modes and level of detail draw them opaque: add_voxels warns).
+    binding.composites = shared_depth is None and occluders is None and \
+        options.mode == "color" and not (options.lod and options.mip_levels)
+    binding.follow_palette()
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
 

@@ -1,0 +1,105 @@
+// Translucent materials: the layer actor's fragment (voxel_layer_declarations says what
+// it draws), after VTK's lighting, which it replaces.
+{
+  vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and index space
+  cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
+  vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
+  float cm_start = max(cm_inBox.x, cm_near);
+  vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
+  // The opaque depth as a view depth: the ray's parameter is the view depth (pixel_ray).
+  float cm_opaque = -cm_viewPoint(cm_pixel * 2.0 - 1.0,
+                                  texture(cm_sceneDepth, cm_pixel).r).z;
+  // A hair past the box's exit or the opaque depth: the last face (on the grid's side, or
+  // on an opaque voxel) is found by the traversal, which ends there (leaving the grid, an
+  // opaque material), not lost to rounding.
+  float cm_end = min(cm_inBox.y, cm_opaque) * (1.0 + 1e-4);
+  if (!(cm_end > cm_start))
+  {
+    discard;
+  }
+  vec3 cm_towardEye = -normalize(cm_directionView);
+  ivec3 cm_dims = ivec3(cm_gridDims);
+  vec3 cm_a = cm_origin + cm_direction * cm_start;
+  vec3 cm_d = cm_direction * (cm_end - cm_start);   // t in [0, 1] spans start..end
+  vec3 cm_moving = step(vec3(1e-30), abs(cm_d));
+  vec3 cm_inverse = cm_moving / mix(vec3(1.0), cm_d, cm_moving);
+  vec3 cm_never = 1e30 * (1.0 - cm_moving);
+  vec3 cm_forward = step(vec3(0.0), cm_d);
+  ivec3 cm_ahead = ivec3(cm_forward);
+  ivec3 cm_voxel = clamp(ivec3(floor(cm_a)), ivec3(0), cm_dims - 1);
+  vec4 cm_held = vec4(0.0);
+  float cm_first = -1.0;   // the view depth of the first layer
+  int cm_current = cm_layerMaterial(cm_voxel);
+  if (cm_inBox.x >= cm_start && cm_current != 0)   // entered through the box's face
+  {
+    vec3 cm_safe = mix(vec3(1.0), cm_direction, step(vec3(1e-30), abs(cm_direction)));
+    vec3 cm_enter = mix(vec3(-1e30), min(-cm_origin / cm_safe,
+                                         (cm_gridDims - cm_origin) / cm_safe),
+                        step(vec3(1e-30), abs(cm_direction)));
+    int cm_axis = (cm_enter.x >= cm_enter.y && cm_enter.x >= cm_enter.z) ? 0
+                  : (cm_enter.y >= cm_enter.z ? 1 : 2);
+    if (cm_current < 0)   // an opaque voxel first: the opaque actor draws it
+    {
+      discard;
+    }
+    cm_addLayer(cm_held, cm_current, 2 * cm_axis + (cm_direction[cm_axis] > 0.0 ? 1 : 0),
+                cm_originView + cm_directionView * cm_start, cm_towardEye);
+    cm_first = cm_start;
+  }
+  else if (cm_current < 0)
+  {
+    discard;
+  }
+  int cm_count = cm_dims.x + cm_dims.y + cm_dims.z + 3;   // no ray crosses more voxels
+  for (int cm_i = 0; cm_i < cm_count && cm_held.a < 0.999; ++cm_i)
+  {
+    // Leave the voxel through its nearest forward boundary, x before y before z on a tie.
+    vec3 cm_exits = (vec3(cm_voxel + cm_ahead) - cm_a) * cm_inverse + cm_never;
+    int cm_axis = (cm_exits.x <= cm_exits.y && cm_exits.x <= cm_exits.z) ? 0
+                  : (cm_exits.y <= cm_exits.z ? 1 : 2);
+    float cm_t = min(cm_exits.x, min(cm_exits.y, cm_exits.z));
+    if (cm_t > 1.0)
+    {
+      break;   // the opaque depth or the box's exit comes first
+    }
+    ivec3 cm_next = cm_voxel;
+    cm_next[cm_axis] += 2 * cm_ahead[cm_axis] - 1;
+    bool cm_out = any(lessThan(cm_next, ivec3(0))) || any(greaterThanEqual(cm_next, cm_dims));
+    int cm_material = cm_out ? 0 : cm_layerMaterial(cm_next);
+    if (cm_material != cm_current)
+    {
+      float cm_depth = mix(cm_start, cm_end, cm_t);
+      vec3 cm_hitView = cm_originView + cm_directionView * cm_depth;
+      int cm_face = 2 * cm_axis + cm_ahead[cm_axis];
+      if (cm_first < 0.0 && (cm_current > 0 || cm_material > 0))
+      {
+        cm_first = cm_depth;
+      }
+      if (cm_current > 0)   // the face of the material left
+      {
+        cm_addLayer(cm_held, cm_current, cm_face, cm_hitView, cm_towardEye);
+      }
+      if (cm_material < 0)   // an opaque material: drawn already, behind
+      {
+        break;
+      }
+      if (cm_material > 0)   // the face of the material entered
+      {
+        cm_addLayer(cm_held, cm_material, cm_face, cm_hitView, cm_towardEye);
+      }
+      cm_current = cm_material;
+    }
+    if (cm_out)
+    {
+      break;
+    }
+    cm_voxel = cm_next;
+  }
+  if (!(cm_held.a > 0.0))
+  {
+    discard;
+  }
+  fragOutput0 = vec4(cm_held.rgb / cm_held.a, cm_held.a);
+  vec4 cm_clip = cm_projection * vec4(cm_originView + cm_directionView * cm_first, 1.0);
+  gl_FragDepth = clamp(cm_clip.z / cm_clip.w * 0.5 + 0.5, 0.0, 1.0);
+}

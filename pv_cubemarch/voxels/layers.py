@@ -1,0 +1,95 @@
+"""Translucent materials of a material grid: a second box actor, in the translucent pass.
+
+The grid's opaque actor draws its opaque materials (and writes their depth) with the
+translucent ones hidden; this actor then marches every pixel's ray from the box or the near
+plane to the frame's opaque depth and composites, front to back, the faces of the
+translucent materials it crosses (``voxel_layers.glsl``), each material a closed surface
+as PyVista draws ``threshold`` + ``add_mesh(opacity=...)`` per label. It exists only while
+some drawn material is translucent.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..gl.bindings import ShaderBindings
+from ..gl.box import box_actor, place_box
+from ..gl.frame_inputs import frame_inputs
+from ..gl.shaders import Replacement, ShaderRecipe
+from ..gl.textures import Texture
+
+
+def translucent_materials(rgba: np.ndarray) -> np.ndarray:
+    """The materials (ids above 0) whose opacity is strictly between 0 and 1."""
+    alpha = np.asarray(rgba)[1:, 3]
+    return np.nonzero((alpha > 0.0) & (alpha < 1.0))[0] + 1
+
+
+def opaque_palette(rgba: np.ndarray) -> np.ndarray:
+    """The palette the opaque actor draws: translucent materials hidden (opacity 0)."""
+    out = np.array(rgba, dtype=np.float32, copy=True)
+    alpha = out[:, 3]
+    alpha[(alpha > 0.0) & (alpha < 1.0)] = 0.0
+    return out
+
+
+def layers_recipe(options, level_axes: tuple[int, int]) -> ShaderRecipe:
+    """The layer actor's replacements: the grid's declarations, lights, and the layers."""
+    lit = options.shading != "unlit"
+    return ShaderRecipe(replacements=[
+        Replacement("//VTK::Color::Dec",
+                    ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
+                     *(("blinn_phong", "voxel_shading") if lit else ()),
+                     "voxel_layer_declarations"), keep_tag="after"),
+        Replacement("//VTK::Light::Impl", "voxel_layers", keep_tag="before"),
+        Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
+                    keep_tag="before"),
+    ], defines={"CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn",
+                "CM_MIP_LEVELS": options.mip_levels or None,
+                "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
+                "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None})
+
+
+class TranslucentLayers:
+    """The layer actor of one grid: its bindings, the full palette, the frame's depth."""
+
+    def __init__(self, binding, renderer, bind_grid):
+        model, options = binding.model, binding.options
+        self.actor = box_actor(list(model.dimensions), model.world_from_index(),
+                               margin=0.01 * max(model.dimensions))
+        self.actor.GetProperty().LightingOff()
+        self.actor.PickableOff()
+        self.renderer = renderer
+        self.palette = Texture(model.palette.rgba.reshape(1, -1, 4), kind="2d",
+                               interpolate=False)
+        bindings = ShaderBindings(self.actor.GetMapper(), renderer)
+        bindings.add_texture("cm_labels", binding.labels)   # the opaque actor's, shared
+        bindings.add_texture("cm_palette", self.palette, owned=True)
+        bindings.add_texture("cm_sceneDepth", frame_inputs(renderer).depth)
+        bind_grid(bindings, renderer, model, replace(options, show_edges=False, lod=False,
+                                                     ambient_occlusion=False))
+        recipe = layers_recipe(options, binding.level_axes)
+        bindings.recipe = recipe
+        recipe.apply(self.actor.GetShaderProperty())
+        self.bindings = bindings
+        renderer.AddActor(self.actor)
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of its own (the labels are the opaque actor's)."""
+        return self.palette.nbytes
+
+    def set_palette(self, rgba: np.ndarray) -> None:
+        """The palette changed: the layers read its new colours and opacities."""
+        self.palette.set_data(np.asarray(rgba).reshape(1, -1, 4))
+
+    def place(self, world_from_index: np.ndarray) -> None:
+        """The grid moved."""
+        place_box(self.actor, world_from_index)
+
+    def release(self) -> None:
+        """Leave the renderer and free the palette and observers."""
+        self.renderer.RemoveActor(self.actor)
+        self.bindings.release()

@@ -1,0 +1,175 @@
+"""Translucent voxel materials, composited front to back (not drawn opaque in silence).
+
+Each translucent material is a closed surface, as PyVista draws ``threshold`` +
+``add_mesh(opacity=...)`` per label: where a ray's label changes, the face of the material
+it leaves and then of the one it enters are composited. Oracles: the CPU reference
+(:mod:`pv_cubemarch.reference.voxel_layers`: every grid plane's crossing, sorted, no
+traversal), and PyVista's own depth-peeled meshes of the same cells, in the same run.
+
+Measured (160x120, llvmpipe): the GPU against the reference 66.7 dB (unlit, a translucent
+block around an opaque core), within 3/255 on a rotated, mirrored grid, lit; against
+PyVista's depth-peeled meshes (unlit): 58.7 dB (drawn opaque instead: 20.9 dB).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyvista as pv
+from conftest import light_with_sun_and_lamp, rotated_mirrored_placement, set_camera
+from test_pyvista_parity import psnr
+
+import pv_cubemarch as cm
+from pv_cubemarch.reference.voxel_layers import render_voxel_layers
+from pv_cubemarch.reference.voxels import render_voxels
+
+SIZE = (160, 120)
+
+
+def nested_labels() -> np.ndarray:
+    """A translucent block (1) holding an opaque core (2) that touches it, a translucent
+    slab (3) apart, and a hidden material (4) inside the block."""
+    labels = np.zeros((12, 10, 8), np.uint8)
+    labels[2:10, 2:8, 2:6] = 1
+    labels[5:7, 4:6, 3:5] = 2
+    labels[3, 3, 3] = 4
+    labels[0:12, 0:2, 0:1] = 3
+    return labels
+
+
+PALETTE = {1: ("tomato", 0.4), 2: "steelblue", 3: ("gold", 0.25), 4: ("white", 0.0)}
+
+
+def palette_rgba() -> np.ndarray:
+    return cm.make_voxels(nested_labels(), palette=PALETTE).palette.rgba
+
+
+@pytest.mark.parametrize(("shading", "placement", "near_cut"), [
+    ("unlit", None, False),
+    ("blinn", "rotated", False),
+    ("flat", None, True),
+])
+def test_translucent_materials_match_the_reference(plotter_factory, shading, placement,
+                                                   near_cut):
+    """The GPU's layers against the plane-crossing reference, pixel by pixel.
+
+    catches (seen failing): the face of the material left not composited (only entries:
+    0.25 off, every case); the opaque actor drawing the full palette (translucent drawn
+    opaque under the layers: 0.75 off); the layers' ray ending exactly at the box's exit or
+    the opaque depth (the last face lost to rounding on 1.7-3.1 % of the pixels: 0.19 off).
+    """
+    labels = nested_labels()
+    pl = plotter_factory(SIZE)
+    pl.set_background("black")
+    light_with_sun_and_lamp(pl)
+    transform = rotated_mirrored_placement() if placement else None
+    actor = cm.add_voxels(pl, labels, palette=PALETTE, shading=shading, transform=transform)
+    model = actor.cubemarch.model
+    centre = model.world_from_index() @ np.array([6.0, 5.0, 4.0, 1.0])
+    distance = 6.0 if near_cut else 30.0
+    camera = set_camera(pl, tuple(centre[:3] + distance * np.array([0.7, 0.55, 0.45])),
+                        focal=tuple(centre[:3]))
+    image = cm.render_image(pl).astype(float) / 255.0
+    lights = [cm.VolumeLight.from_pyvista(li, pl.camera) for li in pl.renderer.GetLights()]
+    expected = render_voxel_layers(model.labels, model.world_from_index(), model.palette.rgba,
+                                   camera, SIZE, near=pl.camera.clipping_range[0],
+                                   lights=lights, shading=shading)
+    opaque = palette_rgba().copy()
+    opaque[1:, 3] = np.where(opaque[1:, 3] > 0, 1.0, 0.0)
+    drawn_opaque = render_voxels(model.labels, model.world_from_index(), opaque, camera,
+                                 SIZE, near=pl.camera.clipping_range[0], lights=lights,
+                                 shading=shading)
+    assert np.abs(drawn_opaque - expected).max() > 0.2   # translucency shows here
+    close = np.abs(image - expected).max(axis=2) <= 3.0 / 255.0
+    assert close.mean() >= 0.995, (close.mean(), np.abs(image - expected).max())
+    assert actor.cubemarch.layers is not None
+
+
+def test_opaque_references_agree():
+    # The plane-crossing reference draws an opaque grid as the traversal reference does.
+    labels = nested_labels()
+    rgba = palette_rgba().copy()
+    rgba[1:, 3] = np.where(rgba[1:, 3] > 0, 1.0, 0.0)
+    camera = cm.Camera((30.0, 25.0, 20.0), (6.0, 5.0, 4.0), (0.0, 0.0, 1.0), 30.0)
+    a = render_voxels(labels, np.eye(4), rgba, camera, SIZE)
+    b = render_voxel_layers(labels, np.eye(4), rgba, camera, SIZE)
+    assert np.abs(a - b).max() < 1e-9
+
+
+def test_translucent_materials_draw_what_depth_peeled_meshes_draw():
+    """Against PyVista: one ``threshold`` + ``add_mesh(opacity=...)`` per material, unlit,
+    with depth peeling, same camera; ours drawn opaque scores far lower.
+
+    catches (seen failing): translucent materials drawn opaque (20.9 dB).
+    """
+    labels = nested_labels()
+    grid = pv.ImageData(dimensions=np.array(labels.shape) + 1)
+    grid.cell_data["labels"] = labels.ravel(order="F")
+    colours = {1: ("tomato", 0.4), 2: ("steelblue", 1.0), 3: ("gold", 0.25)}
+    position = [(30.0, 25.0, 20.0), (6.0, 5.0, 4.0), (0.0, 0.0, 1.0)]
+
+    def shot(add):
+        pl = pv.Plotter(off_screen=True, window_size=SIZE)
+        pl.set_background("black")
+        add(pl)
+        pl.camera_position = position
+        image = cm.render_image(pl)
+        pl.close()
+        return image
+
+    def theirs(pl):
+        pl.ren_win.SetMultiSamples(0)   # peeling draws nothing multisampled (llvmpipe, EGL)
+        pl.enable_depth_peeling(number_of_peels=50, occlusion_ratio=0.0)
+        for label, (colour, opacity) in colours.items():
+            pl.add_mesh(grid.threshold([label, label], scalars="labels"), color=colour,
+                        opacity=opacity, lighting=False)
+
+    reference = shot(theirs)
+    ours = shot(lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=PALETTE,
+                                                   shading="unlit"))
+    opaque = {k: (v if isinstance(v, str) else (v[0], 1.0 if v[1] > 0 else 0.0))
+              for k, v in PALETTE.items()}
+    plain = shot(lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=opaque,
+                                                    shading="unlit"))
+    assert psnr(ours, reference) >= 50.0, psnr(ours, reference)
+    assert psnr(plain, reference) < 30.0
+
+
+def test_where_translucent_materials_are_drawn_opaque_it_is_said():
+    # A chunked world, the id and face modes and level of detail draw them opaque: warned.
+    labels = nested_labels()
+    pl = pv.Plotter(off_screen=True)
+    for options in (dict(chunk_size=4), dict(mode="face"), dict(lod=True, mip_levels=2)):
+        with pytest.warns(UserWarning, match="draws them opaque"):
+            actor = cm.add_voxels(pl, labels, palette=PALETTE, **options)
+        assert getattr(actor.cubemarch, "layers", None) is None
+        pl.remove_actor(actor)
+    pl.close()
+
+
+def test_a_material_turning_translucent_and_back(plotter_factory):
+    # set_material makes the layer actor when a material turns translucent, and drops it
+    # when none is left; the image follows (the reference of each palette).
+    labels = nested_labels()
+    pl = plotter_factory(SIZE)
+    pl.set_background("black")
+    actor = cm.add_voxels(pl, labels, palette={1: "tomato", 2: "steelblue", 3: "gold"},
+                          shading="unlit")
+    camera = set_camera(pl, (30.0, 25.0, 20.0), focal=(6.0, 5.0, 4.0))
+    binding = actor.cubemarch
+    assert binding.layers is None
+    binding.set_material(1, opacity=0.3)
+    assert binding.layers is not None
+    image = cm.render_image(pl).astype(float) / 255.0
+    model = binding.model
+    expected = render_voxel_layers(model.labels, model.world_from_index(), model.palette.rgba,
+                                   camera, SIZE, near=pl.camera.clipping_range[0])
+    assert (np.abs(image - expected).max(axis=2) <= 3.0 / 255.0).mean() >= 0.995
+    binding.set_material(1, opacity=1.0)
+    assert binding.layers is None
+    image = cm.render_image(pl).astype(float) / 255.0
+    expected = render_voxels(model.labels, model.world_from_index(), model.palette.rgba,
+                             camera, SIZE, near=pl.camera.clipping_range[0])
+    assert (np.abs(image - expected).max(axis=2) <= 3.0 / 255.0).mean() >= 0.995
+    actor.SetVisibility(False)
+    assert cm.render_image(pl).max() == 0
