@@ -14,6 +14,7 @@ from .bench import harness as bench
 from .bench import large as bench_large
 from .bench import resolution as bench_resolution
 from .bench import surfaces as bench_surfaces
+from .bench import voxel_layers as bench_layers
 from .bench import voxels as bench_voxels
 from .bench import world as bench_world
 from .bench.voxels import ROWS as VOXEL_ROWS
@@ -246,6 +247,14 @@ def build_parser() -> argparse.ArgumentParser:
                           help="comma-separated among " + ", ".join(bench_surfaces.SHAPES))
     surfaces.add_argument("--frames", type=int, default=3, help="timed frames per row")
     surfaces.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    layers = bench_commands.add_parser(
+        "voxel-layers", help="translucent voxel materials against PyVista's depth-peeled "
+                             "meshes of the same cells")
+    layers.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
+    layers.add_argument("--grids", type=_face_sizes, default=[64, 128],
+                        help="voxels per side, comma-separated (default 64,128)")
+    layers.add_argument("--frames", type=int, default=3, help="timed frames per row")
+    layers.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     world = bench_commands.add_parser(
         "voxel-world", help="chunked voxel worlds against one grid (the seed's Tables 3/4)")
     world.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
@@ -448,6 +457,14 @@ def _bench(args) -> int:
         return _bench_voxel_edits(args)
     if args.bench_command == "voxel-world":
         return _bench_voxel_world(args)
+    if args.bench_command == "voxel-layers":
+        rows = bench_layers.run_layers(args.size, args.grids, args.frames)
+        print(f"median of {args.frames} frames at {args.size[0]}x{args.size[1]}, rows drawn "
+              "in turn; x ours: over our row on the same grid; PSNR and wrong (> 10/255): "
+              "against the plane-crossing CPU reference")
+        print(bench_layers.format_layer_table(rows))
+        _write_rows(args.json_path, rows, size=list(args.size), grids=list(args.grids))
+        return 0
     if args.bench_command == "surfaces":
         return _bench_surfaces(args)
     if args.bench_command == "voxel-large":

@@ -284,3 +284,22 @@ def test_bench_surfaces_rows_and_errors(tmp_path, capsys):
     # Normals: every surface row's against the reference (8-bit colours: ~0.3 degrees).
     assert rows["active exact"]["extra"]["normal_degrees"][1] < 1.0
     assert "normal_degrees" not in rows["contour 1/cell"]["extra"]
+
+
+def test_bench_voxel_layers_rows_and_exactness(tmp_path, capsys):
+    # Translucent materials: our row within a few pixels of the plane-crossing reference,
+    # PyVista's depth-peeled meshes behind it and unpeeled meshes further (order-dependent
+    # blending); the CLI prints the table and writes the JSON.
+    from pv_cubemarch.bench import voxel_layers as bench_layers
+
+    rows = bench_layers.run_layers((96, 72), grids=(16,), frames=2)
+    by_row = {r.row: r for r in rows}
+    assert set(by_row) == set(bench_layers.ROWS)
+    ours = by_row[bench_layers.ROWS[0]]
+    assert ours.wrong_percent < 0.5 and ours.psnr_db > 38.0
+    assert by_row[bench_layers.ROWS[2]].psnr_db < ours.psnr_db
+    assert "x ours" in bench_layers.format_layer_table(rows)
+    path = tmp_path / "layers.json"
+    assert main(["bench", "voxel-layers", "--size", "64x48", "--grids", "12", "--frames", "1",
+                 "--json", str(path)]) == 0
+    assert json.loads(path.read_text())["rows"] and "depth peeling" in capsys.readouterr().out

@@ -15,7 +15,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..core.camera import Camera
-from .rays import ray_box_interval
 from .shading import blinn_phong
 from .voxels import _check_labels, _index_rays, face_normals
 
@@ -39,8 +38,9 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
     origins, directions = origins.reshape(-1, 3), directions.reshape(-1, 3)
     o, d = _index_rays(origins, directions, world_from_index, labels.shape)
     shape = np.array(labels.shape)
-    t0, _ = ray_box_interval(o, d, np.zeros(3), shape.astype(np.float64))
-    t_start = np.maximum(t0, 0.0)
+    # Crossings start at the eye or the near plane; the box needs no test (every plane
+    # lies within it), which rounding at its faces would cut.
+    t_start = np.zeros(len(o))
     if near is not None:
         _, _, forward = camera.basis()
         t_start = np.maximum(t_start, near / np.maximum(directions @ forward, 1e-12))
@@ -57,8 +57,7 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
         for plane in range(int(shape[axis]) + 1):
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (plane - o[:, axis]) / d[:, axis]
-            # Every plane lies within the grid: a crossing is one whose other coordinates
-            # fall inside it (no test against the box's exit, which rounding would cut).
+            # A crossing of a plane is one whose other coordinates fall inside the grid.
             crossing = moving & (t >= t_start)
             point = o + np.where(crossing, t, 0.0)[:, None] * d
             cell = np.floor(point[:, others]).astype(np.int64)

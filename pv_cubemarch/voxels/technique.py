@@ -10,6 +10,7 @@ changes without touching the labels.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -260,6 +261,13 @@ class VoxelBinding(DrawnBinding):
         if wanted and self.layers is None:
             self.layers = TranslucentLayers(self, self.renderer, bind_grid)
             self.layers.actor.SetVisibility(self.shown)
+            extras = [name for name in ("show_edges", "ambient_occlusion")
+                      if getattr(self.options, name)]
+            if extras:
+                warnings.warn(f"Voxels {self.model.name!r}: {' and '.join(extras)} "
+                              f"{'is' if len(extras) == 1 else 'are'} drawn on the opaque "
+                              "materials only; the translucent ones are plain faces.",
+                              stacklevel=3)
         elif self.layers is not None and not wanted:
             self.layers.release()
             self.layers = None

@@ -1,0 +1,144 @@
+"""``pv-cubemarch bench voxel-layers``: translucent voxel materials against PyVista's paths.
+
+A segmentation-like scene (a translucent shell around a translucent organ and an opaque
+core, a translucent slab beside them) at a few sizes. Rows, drawn in turn in one run: our
+grid (the opaque actor and the translucent layers), PyVista's ``threshold`` +
+``add_mesh(opacity=...)`` per material with depth peeling (what a PyVista user draws to
+see through labels), and the same meshes without peeling (order-dependent blending).
+Each image is compared with the plane-crossing CPU reference
+(:func:`~pv_cubemarch.reference.voxel_layers.render_voxel_layers`): PSNR and the share of
+pixels more than 10/255 off.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pyvista
+
+from ..api import add_voxels
+from ..core.camera import Camera
+from ..core.progress import progress
+from ..core.rendering import offscreen_plotter, read_pixels, render_frame
+from ..reference.voxel_layers import render_voxel_layers
+from .harness import time_frames_side_by_side
+
+#: Material: (colour, opacity): the shell, the organ, the core, the slab.
+MATERIALS = {1: ("lightsteelblue", 0.2), 2: ("tomato", 0.5), 3: ("gold", 1.0),
+             4: ("seagreen", 0.35)}
+BACKGROUND = (0.0, 0.0, 0.0)
+#: A pixel is wrong when a channel differs from the reference by more than this (0-1).
+WRONG = 10.0 / 255.0
+ROWS = ("voxels (layers)", "pyvista meshes, depth peeling", "pyvista meshes, no peeling")
+
+
+@dataclass
+class LayerRow:
+    """One grid size and row: frame times, setup, and its error against the reference."""
+
+    scene: str
+    row: str
+    frame_ms: list[float]
+    setup_ms: float
+    psnr_db: float
+    wrong_percent: float
+
+    @property
+    def median_ms(self) -> float:
+        """The median frame time."""
+        return float(np.median(self.frame_ms))
+
+
+def layered_labels(n: int) -> np.ndarray:
+    """The scene on an ``n``^3 grid (labels 1-4, see :data:`MATERIALS`)."""
+    x, y, z = np.ogrid[0:n, 0:n, 0:n]
+    c = (n - 1) / 2.0
+    r = np.sqrt((x - c) ** 2 + (y - c) ** 2 + (z - c) ** 2) / n
+    labels = np.zeros((n, n, n), np.uint8)
+    labels[(r < 0.42) & (r > 0.36)] = 1
+    labels[np.sqrt((x - c * 0.8) ** 2 + (y - c) ** 2 + ((z - c) * 1.4) ** 2) / n < 0.22] = 2
+    labels[r < 0.08] = 3
+    labels[: n // 6, : n // 2, :] = 4
+    return labels
+
+
+def _grid(labels: np.ndarray) -> pyvista.ImageData:
+    grid = pyvista.ImageData(dimensions=np.array(labels.shape) + 1)
+    grid.cell_data["labels"] = labels.ravel(order="F")
+    return grid
+
+
+def _ours(plotter, labels) -> None:
+    add_voxels(plotter, _grid(labels), "labels", palette=MATERIALS, shading="unlit")
+
+
+def _meshes(plotter, labels, peel: bool) -> None:
+    if peel:
+        plotter.enable_depth_peeling(number_of_peels=50, occlusion_ratio=0.0)
+    grid = _grid(labels)
+    for label, (colour, opacity) in MATERIALS.items():
+        plotter.add_mesh(grid.threshold([label, label], scalars="labels"),
+                         color=colour, opacity=opacity, lighting=False)
+
+
+ADD = {ROWS[0]: _ours, ROWS[1]: lambda pl, labels: _meshes(pl, labels, True),
+       ROWS[2]: lambda pl, labels: _meshes(pl, labels, False)}
+
+
+def run_layers(size: Sequence[int] = (640, 480), grids: Sequence[int] = (64, 128),
+               frames: int = 3, progress_bar: bool | None = None) -> list[LayerRow]:
+    """Every row on every grid size, frames drawn in turn; errors against the reference."""
+    size = tuple(int(v) for v in size)
+    results = []
+    for n in progress(list(grids), desc="bench voxel-layers", enabled=progress_bar):
+        labels = layered_labels(int(n))
+        camera = Camera(position=(n * 1.9, -n * 0.9, n * 1.5), focal_point=(n / 2,) * 3,
+                        view_up=(0.0, 0.0, 1.0), view_angle=30.0)
+        plotters, setup = {}, {}
+        try:
+            for row in ROWS:
+                pl = offscreen_plotter(size)
+                pl.ren_win.SetMultiSamples(0)   # peeling draws nothing multisampled here
+                pl.set_background(BACKGROUND)
+                start = time.perf_counter()
+                ADD[row](pl, labels)
+                camera.apply_to(pl.camera)
+                pl.renderer.ResetCameraClippingRange()
+                render_frame(pl)
+                setup[row] = (time.perf_counter() - start) * 1e3
+                plotters[row] = pl
+            times = time_frames_side_by_side(plotters, frames, warmup=0)
+            shot = plotters[ROWS[0]]
+            rgba = np.zeros((5, 4))
+            for label, (colour, opacity) in MATERIALS.items():
+                rgba[label] = (*pyvista.Color(colour).float_rgb, opacity)
+            reference = render_voxel_layers(labels, np.eye(4), rgba,
+                                            Camera.from_pyvista(shot.camera), size,
+                                            background=BACKGROUND,
+                                            near=shot.camera.clipping_range[0])
+            for row in ROWS:
+                image = read_pixels(plotters[row]).astype(float) / 255.0
+                error = float(np.mean((image - reference) ** 2))
+                wrong = np.abs(image - reference).max(axis=-1) > WRONG
+                results.append(LayerRow(f"{n}^3", row, times[row], setup[row],
+                                        10 * np.log10(1.0 / max(error, 1e-12)),
+                                        100.0 * float(wrong.mean())))
+        finally:
+            for pl in plotters.values():
+                pl.close()
+    return results
+
+
+def format_layer_table(results: list[LayerRow]) -> str:
+    """The rows as a text table, each row's time over our row's on the same grid."""
+    lines = [f"{'grid':>6} {'row':<31} {'frame ms':>9} {'x ours':>7} {'setup ms':>9} "
+             f"{'PSNR dB':>8} {'wrong %':>8}"]
+    ours = {r.scene: r.median_ms for r in results if r.row == ROWS[0]}
+    for r in results:
+        lines.append(f"{r.scene:>6} {r.row:<31} {r.median_ms:9.1f} "
+                     f"{r.median_ms / max(ours[r.scene], 1e-9):7.2f} {r.setup_ms:9.0f} "
+                     f"{r.psnr_db:8.1f} {r.wrong_percent:8.2f}")
+    return "\n".join(lines)
