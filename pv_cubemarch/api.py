@@ -826,6 +826,7 @@ def add_surface(
     smooth_shading: bool | None = None,
     show_scalar_bar: bool = False,
     scalar_bar_args: dict | None = None,
+    annotations: dict | None = None,
 ) -> pyvista.Actor:
     """Draw the implicit surface f = 0 of a field, per pixel, from its cells' polynomials.
 
@@ -926,6 +927,8 @@ def add_surface(
         or the levels'); ``plotter.add_scalar_bar()`` afterwards shows it either way.
     scalar_bar_args : dict, optional
         Keywords of ``plotter.add_scalar_bar`` (title, position, ...).
+    annotations : dict, optional
+        Value to label, shown on the scalar bar (as ``add_mesh(annotations=)``).
 
     Returns
     -------
@@ -1000,8 +1003,14 @@ def add_surface(
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     plotter.cubemarch.track(binding)
     if table is not None:
+        if annotations:
+            table.annotations = {float(k): str(v) for k, v in annotations.items()}
         add_surface_scalar_bar(plotter, table, scalars or (color_by if isinstance(
             color_by, str) else model.name), show_scalar_bar, scalar_bar_args)
+    elif annotations:
+        raise ValueError("annotations label the scalar bar of what colours the surface "
+                         "through cmap; this one has one colour: pass color_by=, or "
+                         "several isosurfaces without color=.")
     _frame(plotter)
     return actor
 

@@ -66,8 +66,10 @@ def test_a_count_spreads_levels_as_contour_and_one_actor_stands_for_them():
         np.linspace(values.min(), values.max(), 3))
     pl = pv.Plotter(off_screen=True, window_size=(120, 90))
     pl.cubemarch.add_surface(grid, isosurfaces=LEVELS, scalars="f", show_scalar_bar=True,
-                             cmap="plasma")
-    assert pl.scalar_bar.GetLookupTable().GetRange() == pytest.approx((-5.0, 5.0))
+                             cmap="plasma", annotations={0: "zero"})
+    table = pl.scalar_bar.GetLookupTable()
+    assert table.GetRange() == pytest.approx((-5.0, 5.0))
+    assert table.GetNumberOfAnnotatedValues() == 1 and table.GetAnnotation(0) == "zero"
     pl.close()
     pl = pv.Plotter(off_screen=True, window_size=(120, 90))
     pl.set_background("black")
@@ -100,6 +102,8 @@ def test_surface_keywords_refused_clearly():
         pl.cubemarch.add_surface(grid, isosurfaces=LEVELS, scalars="f", color_by="curvature")
     with pytest.raises(ValueError, match="one colour"):
         pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", show_scalar_bar=True)
+    with pytest.raises(ValueError, match="one colour"):
+        pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", annotations={0: "zero"})
     with pytest.raises(ValueError, match="no samples"):
         pl.cubemarch.add_surface(pv.Sphere(), isosurfaces=3)
     with pytest.raises(ValueError, match="finite numbers"):

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import pyvista
 
-from ..core.declared import AUTO, Control, Option, blinn_terms, declare
+from ..core.declared import AUTO, Control, Option, blinn_terms, declare, scalar_bar_terms
 from ..models.surface import ACTIVE_TESTS
 
 ROOTS = ("march", "exact")
@@ -70,6 +70,8 @@ ACTIVE = ("active",)
            without={"knob": "two numbers in the data's units; set in Python, the CLI or "
                             "USD"}),
 )
+#: The scalar bar's keywords, as every kind declares them.
+declare(*scalar_bar_terms("surface"))
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..core.declared import AUTO, Control, Option, check_declared, declare
+from ..core.declared import AUTO, Control, Option, check_declared, declare, scalar_bar_terms
 from ..models.channels import CHANNEL_MIXES
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
 from ..models.volume import INTERPOLATIONS
@@ -166,6 +166,8 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
                without=dict(usd=NO_CHANNELS_IN_SCENES, cli=NO_CHANNELS_IN_SCENES,
                             knob=NO_CHANNELS_IN_SCENES)),
     )
+#: The scalar bar's keywords, as every kind declares them.
+declare(*scalar_bar_terms("volume"))
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pyvista
 
-from ..core.declared import AUTO, Control, Option, blinn_terms, check_declared, declare, option
+from ..core.declared import (
+    AUTO,
+    Control,
+    Option,
+    blinn_terms,
+    check_declared,
+    declare,
+    option,
+    scalar_bar_terms,
+)
 from ..core.options import positive_number
 from ..models.voxels import MAX_TEXTURE_SIZE
 
@@ -77,6 +86,8 @@ DDA = ("voxels",)
            "face (default: the theme's)", optional=True, low=0.0, high=1.0,
            control=Control("slider", "edge opacity", 0.0, 1.0, 0.05)),
 )
+#: The scalar bar's keywords, as every kind declares them.
+declare(*scalar_bar_terms("voxels"))
 #: VTK draws a surface's edges at least this wide (pixels), whatever smaller line_width is
 #: asked: measured on its images (line_width 0.5 and 1 draw alike, the coverage at 0.5
 #: pixel from the line 0.55, at 1 pixel 0.05; from 1.5 up the width asked).
