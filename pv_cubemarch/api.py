@@ -254,7 +254,9 @@ def add_volume(
         Gradient shading, as VTK's volume mapper shades (``pl.add_volume(shade=True)``):
         each sample lit by the renderer's switched-on lights on the data's gradient, with
         ``ambient``, ``diffuse``, ``specular`` and ``specular_power``; composite blending,
-        one volume, no ``lights=`` (the light map's shadows are another lighting).
+        one volume, no ``lights=`` (the light map's shadows are another lighting). With
+        ``blending='isosurface'`` each level is shaded by the gradient at the sample that
+        crossed it, as VTK shades its isosurface mode.
     ambient, diffuse, specular, specular_power : float, optional
         VTK's volume property terms with ``shade=True`` (defaults 0.1, 0.7, 0.2, 10, as
         PyVista leaves them).

@@ -6,6 +6,9 @@
 uniform float cm_isoValues[CM_ISO_COUNT];   // ascending, in the stored units
 
 int cm_isoBelow;        // levels at or below the ray's last sample (-1: no sample yet)
+#ifdef CM_SHADE
+vec3 cm_shade(vec3 texturePosition, vec3 color);   // gradient_shading, after ea_march
+#endif
 
 vec4 cm_blendStart()
 {
@@ -13,10 +16,16 @@ vec4 cm_blendStart()
   return vec4(0.0);
 }
 
-void cm_isoHit(inout vec4 state, float level)
+// A level crossed: its colour (shaded, with CM_SHADE, by the gradient at the sample that
+// crossed it, as VTK shades an isosurface) and its opacity.
+void cm_isoHit(inout vec4 state, float level, vec3 texturePosition)
 {
   float alpha = cm_opacityAt(level);
-  state += (1.0 - state.a) * alpha * vec4(cm_transfer(level).rgb, 1.0);
+  vec3 color = cm_transfer(level).rgb;
+#ifdef CM_SHADE
+  color = cm_shade(texturePosition, color);
+#endif
+  state += (1.0 - state.a) * alpha * vec4(color, 1.0);
 }
 
 bool cm_blend(inout vec4 state, vec3 texturePosition, float dt)
@@ -37,12 +46,12 @@ bool cm_blend(inout vec4 state, vec3 texturePosition, float dt)
   {
     if (cm_isoBelow < CM_ISO_COUNT && scalar > cm_isoValues[cm_isoBelow])
     {
-      cm_isoHit(state, cm_isoValues[cm_isoBelow]);
+      cm_isoHit(state, cm_isoValues[cm_isoBelow], texturePosition);
       cm_isoBelow += 1;
     }
     else if (cm_isoBelow > 0 && scalar < cm_isoValues[cm_isoBelow - 1])
     {
-      cm_isoHit(state, cm_isoValues[cm_isoBelow - 1]);
+      cm_isoHit(state, cm_isoValues[cm_isoBelow - 1], texturePosition);
       cm_isoBelow -= 1;
     }
     else

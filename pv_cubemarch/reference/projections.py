@@ -43,7 +43,7 @@ class _Extreme:
         self.volume, self.largest = volume, largest
         self.extreme = np.full(count, -np.inf if largest else np.inf)
 
-    def add(self, rays, values, lengths):
+    def add(self, rays, values, lengths, points=None):
         reduce = np.maximum if self.largest else np.minimum
         self.extreme[rays] = reduce(self.extreme[rays], values)
 
@@ -65,7 +65,7 @@ class _Weighted:
         self.total = np.zeros(count)
         self.samples = np.zeros(count)
 
-    def add(self, rays, values, lengths):
+    def add(self, rays, values, lengths, points=None):
         _, alpha = _opacity(self.volume, values)
         level = (values - self.low) / self.width if self.width > 0 else np.zeros_like(values)
         weight = lengths / _unit(self.volume) if self.additive else 1.0
@@ -85,15 +85,17 @@ class _Weighted:
 class _Isosurfaces:
     """``isosurface``: the levels crossed between samples, composited front to back."""
 
-    def __init__(self, volume, count: int, levels: Sequence[float]):
+    def __init__(self, volume, count: int, levels: Sequence[float], shade=None,
+                 directions=None):
         self.volume = volume
+        self.shade, self.directions = shade, directions   # shading, with each ray's way
         self.levels = np.sort(np.asarray(levels, dtype=np.float64))
         self.previous = np.full(count, np.nan)
         self.rgb = np.zeros((count, 3))
         self.alpha = np.zeros(count)
         self.level_rgb, self.level_alpha = _opacity(volume, self.levels)
 
-    def add(self, rays, values, lengths):
+    def add(self, rays, values, lengths, points=None):
         before = self.previous[rays]
         up, down = values > before, values < before   # False where there is no `before`
         count = len(self.levels)
@@ -106,7 +108,11 @@ class _Isosurfaces:
                     crossed = down & (level <= before) & (values < level)
                 where = rays[crossed]
                 weight = (1.0 - self.alpha[where]) * self.level_alpha[index]
-                self.rgb[where] += weight[:, None] * self.level_rgb[index]
+                color = np.broadcast_to(self.level_rgb[index], (len(where), 3))
+                if self.shade is not None:   # by the gradient at the sample that crossed
+                    color = self.shade.apply(self.volume, points[crossed], color,
+                                             self.directions[where])
+                self.rgb[where] += weight[:, None] * color
                 self.alpha[where] += weight
         self.previous[rays] = values
 
@@ -114,8 +120,13 @@ class _Isosurfaces:
         return self.rgb, self.alpha
 
 
-def blend_accumulator(volume, count: int, blending: str, isosurfaces=()):
-    """The state of ``count`` rays under ``blending`` (``add`` per step, then ``finish``)."""
+def blend_accumulator(volume, count: int, blending: str, isosurfaces=(), shade=None,
+                      directions=None):
+    """The state of ``count`` rays under ``blending`` (``add`` per step, then ``finish``).
+
+    ``shade`` (a :class:`~.volume_shading.ShadeSetup`, with each ray's unit world
+    ``directions``) shades the isosurfaces.
+    """
     if blending in ("maximum", "minimum"):
         return _Extreme(volume, count, blending == "maximum")
     if blending in ("average", "additive"):
@@ -123,7 +134,7 @@ def blend_accumulator(volume, count: int, blending: str, isosurfaces=()):
     if blending == "isosurface":
         if not len(isosurfaces):
             raise ValueError("blending='isosurface' needs its levels: pass isosurfaces=.")
-        return _Isosurfaces(volume, count, isosurfaces)
+        return _Isosurfaces(volume, count, isosurfaces, shade, directions)
     raise ValueError(f"blending={blending!r} has no reference here; composite is "
                      "render_emission_absorption.")
 
@@ -135,13 +146,15 @@ def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
                    near: float | None = None,
                    opaque_depth: np.ndarray | None = None,
                    opaque_color: np.ndarray | None = None,
-                   clip_planes: Sequence | None = None) -> np.ndarray:
+                   clip_planes: Sequence | None = None, shade=None) -> np.ndarray:
     """The ``blending`` image of ``volume`` (a VolumeModel): ``(h, w, 3)`` floats.
 
     ``isosurfaces``: the levels of ``'isosurface'``, in the volume's stored units.
     ``opaque_depth`` / ``opaque_color``: per-pixel distance to opaque meshes and their
     colour; rays stop there, the blend is drawn over that colour. ``clip_planes``: world
     ``(origin, normal)`` pairs cutting the volume (see :func:`.rays.clip_interval`).
+    ``shade``: a :class:`~.volume_shading.ShadeSetup` shading the isosurfaces, as VTK's
+    ``shade=True`` shades them.
     """
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
@@ -156,14 +169,18 @@ def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
     t0, t1 = clip_interval(origins, directions, t0, t1, clip_planes)
     step = float(step_voxels) * float(np.linalg.norm(volume.world_from_index()[:3, :3],
                                                      axis=0).min())
-    state = blend_accumulator(volume, len(origins), blending, isosurfaces)
+    if shade is not None and blending != "isosurface":
+        raise ValueError(f"shade shades blending='isosurface' here; blending={blending!r} "
+                         "is drawn unshaded (composite: render_emission_absorption).")
+    unit = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    state = blend_accumulator(volume, len(origins), blending, isosurfaces, shade, unit)
     active = np.nonzero(t1 > t0)[0]
     t = t0[active].copy()
     while active.size:
         end = np.minimum(t + step, t1[active])
         middle = 0.5 * (t + end)
         points = o_idx[active] + d_idx[active] * middle[:, None]
-        state.add(active, sample(volume, points), end - t)
+        state.add(active, sample(volume, points), end - t, points)
         t = end
         keep = t < t1[active]
         active, t = active[keep], t[keep]

@@ -134,6 +134,10 @@ class GradientShading:
         target.set_uniform("cm_shadeNormal", self.normal_matrix)
 
 
+#: The blend modes gradient shading lights (VTK shades these two).
+SHADED_BLENDS = ("composite", "isosurface")
+
+
 def gradient_shading(plotter, model, shade: bool, lights, blending: str,
                      terms: dict) -> GradientShading | None:
     """The shading ``add_volume(shade=...)`` asks for, its terms checked; None unshaded.
@@ -152,9 +156,10 @@ def gradient_shading(plotter, model, shade: bool, lights, blending: str,
         raise ValueError("shade=True lights each sample by the renderer's lights on the "
                          "data's gradient; lights= is the light map's shadowed lighting. "
                          "Use one of the two.")
-    if blending != "composite":
-        raise ValueError(f"shade=True shades composite blending; blending={blending!r} "
-                         "draws unshaded values. Leave shade out, or use 'composite'.")
+    if blending not in SHADED_BLENDS:
+        raise ValueError(f"shade=True shades composite and isosurface blending; "
+                         f"blending={blending!r} draws unshaded values. Leave shade out, or "
+                         "use 'composite' or 'isosurface'.")
     if isinstance(getattr(model, "members", None), list):
         raise ValueError("shade=True shades one volume; volumes marched jointly are not "
                          "shaded (add them one by one).")

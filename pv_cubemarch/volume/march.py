@@ -549,7 +549,7 @@ class VolumeBinding(DrawnBinding):
         if shading is not None:
             why = ("it is lit by lights= (the light map)" if self.light_map is not None else
                    f"it is drawn with blending={self.blending!r}"
-                   if self.blending != "composite" else "it is marched jointly"
+                   if self.blending not in ("composite", "isosurface") else "it is marched jointly"
                    if isinstance(self.model, VolumeGroup) else "it is an RGBA volume "
                    "(no scalar has a gradient)" if self.model.colors is not None else None)
             if why is not None:
