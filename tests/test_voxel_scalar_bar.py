@@ -6,6 +6,8 @@ that colour); PyVista's own ``categories=True`` bar shows one block per category
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -50,13 +52,19 @@ def test_scalar_bar_afterwards_and_bad_annotations():
     pl.close()
 
 
-def test_translucent_materials_are_said_to_be_drawn_opaque():
-    """Not drawn opaque in silence: a warning names the materials.
+def test_translucent_materials_are_said_to_be_drawn_opaque_where_they_are():
+    """Not drawn opaque in silence: where a grid cannot composite them (a chunked world), a
+    warning names the materials; a single grid composites them and says nothing
+    (tests/test_voxel_translucent.py).
 
     catches (seen failing): ``warn_translucent`` not called from ``add_voxels``.
     """
     pl = pv.Plotter(off_screen=True)
-    with pytest.warns(UserWarning, match=r"materials \[2\].*drawn opaque"):
-        pl.cubemarch.add_voxels(labels(), palette={1: "tan", 2: ("steelblue", 0.4),
-                                                   3: "crimson"})
+    palette = {1: "tan", 2: ("steelblue", 0.4), 3: "crimson"}
+    with pytest.warns(UserWarning, match=r"materials \[2\].*draws them opaque"):
+        pl.cubemarch.add_voxels(labels(), palette=palette, chunk_size=4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        actor = pl.cubemarch.add_voxels(labels(), palette=palette)
+    assert actor.cubemarch.layers is not None
     pl.close()
