@@ -732,8 +732,12 @@ def shade_setup(pl) -> cm.ShadeSetup:
             position = matrix[:3, :3] @ position + matrix[:3, 3]
             focal = matrix[:3, :3] @ focal + matrix[:3, 3]
         travel = (focal - position) / np.linalg.norm(focal - position)
-        lights.append((travel, np.array(light.GetDiffuseColor()) * light.GetIntensity(),
-                       np.array(light.GetSpecularColor()) * light.GetIntensity()))
+        entry = (travel, np.array(light.GetDiffuseColor()) * light.GetIntensity(),
+                 np.array(light.GetSpecularColor()) * light.GetIntensity())
+        if light.GetPositional():   # VTK's position, attenuation, cone and exponent
+            entry += (position, light.GetAttenuationValues(), light.GetConeAngle(),
+                      light.GetExponent())
+        lights.append(entry)
     view = pv.array_from_vtkmatrix(camera.GetViewTransformMatrix())[:3, :3]
     headlight = len(lights) == 1 and pl.renderer.lights[0].LightTypeIsHeadlight() \
         and pl.renderer.lights[0].GetIntensity() == 1.0
@@ -829,6 +833,58 @@ def test_shaded_isosurfaces_draw_what_vtk_draws(name):
 
 
 SHADED_ISO_FLOORS = {"reference": 40.0, "vtk": 40.0, "direct": 40.0, "cubemap": 30.0}
+
+
+POSITIONAL = {"spot": dict(cone_angle=25.0, exponent=3.0, attenuation_values=(1, 0, 0)),
+              "point": dict(cone_angle=180.0, exponent=1.0,
+                            attenuation_values=(0.5, 0.02, 0.0005))}
+
+
+@pytest.mark.parametrize("name", POSITIONAL)
+def test_positional_lights_shade_as_vtk_shades(name):
+    """``shade=True`` under a positional light (a spot of 25 degrees, a point light with
+    attenuation): its light travels from its position, weighted by VTK's attenuation and
+    cone, as VTK's mapper shades.
+
+    Measured: spot: reference 53.2 dB, vtk 52.0, direct 52.2, cube map 49.7; point: 57.1,
+    57.6, 57.5, 51.2; the same light made directional 31.3-31.4 dB. catches (seen
+    failing): the light's position ignored in the GLSL (drawn as a directional light along
+    its axis), both cases; the cone ignored on the spot (42.3-42.5 dB).
+    """
+    grid = pv.Wavelet()
+    keywords = dict(cmap="viridis", opacity="sigmoid")
+
+    def plotter(positional=True):
+        pl = pv.Plotter(off_screen=True, window_size=SIZE, lighting="none")
+        pl.set_background("black")
+        light = pv.Light(position=(25, -5, 12), focal_point=(0, 0, 0),
+                         light_type="scene light")
+        light.positional = positional
+        for key, value in POSITIONAL[name].items():
+            setattr(light, key, value)
+        pl.add_light(light)
+        return pl
+
+    pl = plotter()
+    reference, position, camera = pyvista_volume(pl, grid, keywords, shade=True)
+    setup = shade_setup(pl)
+    pl.close()
+    cpu = cm.render_emission_absorption(cm.make_volume(grid, **keywords), camera, SIZE,
+                                        shade=setup)
+    measured = {"reference": psnr(np.round(np.clip(cpu, 0, 1) * 255.0), reference)}
+    for technique in ("vtk", "direct", "cubemap", "directional"):
+        pl = plotter(technique != "directional")
+        fine = {} if technique == "cubemap" else dict(step_scale=0.1)
+        chosen = "vtk" if technique == "directional" else technique
+        pl.cubemarch.add_volume(grid, technique=chosen, shade=True, **fine, **keywords)
+        pl.camera_position = position
+        measured[technique] = psnr(cm.render_image(pl), reference)
+        pl.close()
+    directional = measured.pop("directional")
+    for what, value in measured.items():
+        least = 40.0 if what == "cubemap" else 45.0
+        assert least > directional + 1.0, (what, directional)
+        assert value >= least, (name, measured, f"directional {directional:.1f}")
 
 
 def test_shading_keywords_refused_clearly():

@@ -5,10 +5,15 @@
 // is clamped to [0, 1] and the opacity is left as it is. Two paths, as VTK's: one
 // headlight of intensity 1 lights the sample from the eye; any other set of lights uses
 // VTK's normal transform (cm_shadeNormal) and per-light directions of travel, in world
-// coordinates here (VTK works in view coordinates; the dot products are the same).
+// coordinates here (VTK works in view coordinates; the dot products are the same). A
+// positional light's travel runs from it to the sample, scaled by VTK's attenuation
+// 1 / (a + b d + c d^2) and, as a spot (cone angle up to 90 degrees), by the cone's
+// pow(cos, exponent), nothing outside it; its highlight is two-sided too, as VTK's.
 uniform vec3 cm_spacing;          // world length of one point step along each axis
 uniform mat3 cm_shadeNormal;      // gradient to the normal VTK shades with (world)
-uniform float cm_shadeLights[CM_SHADE_LIGHTS * 9];  // per light: travel, diffuse, specular
+// Per light (CM_SHADE_FLOATS each): travel (a spot's axis), diffuse, specular, position
+// (world), attenuation, cone angle (degrees), exponent, positional (1) or not (0).
+uniform float cm_shadeLights[CM_SHADE_LIGHTS * CM_SHADE_FLOATS];
 uniform vec3 cm_shadeAmbient;     // the lights' ambient colours times intensities, summed
 uniform vec4 cm_shadeMaterial;    // ambient, diffuse, specular, specular power
 uniform int cm_shadeLightCount;   // switched-on lights (<= CM_SHADE_LIGHTS)
@@ -19,8 +24,13 @@ uniform int cm_twoSided;          // the renderer's two-sided lighting
 
 vec3 cm_shadeVector(int light, int part)
 {
-  int at = light * 9 + part * 3;
+  int at = light * CM_SHADE_FLOATS + part * 3;
   return vec3(cm_shadeLights[at], cm_shadeLights[at + 1], cm_shadeLights[at + 2]);
+}
+
+float cm_shadeNumber(int light, int index)
+{
+  return cm_shadeLights[light * CM_SHADE_FLOATS + index];
 }
 
 vec3 cm_gradient(vec3 p)
@@ -71,6 +81,25 @@ vec3 cm_shade(vec3 p, vec3 color)
         break;
       }
       vec3 travel = cm_shadeVector(i, 0);
+      float attenuation = 1.0;
+      bool positional = cm_shadeNumber(i, 17) > 0.5;
+      if (positional)
+      {
+        vec3 away = (cm_worldFromTexture * vec4(p, 1.0)).xyz - cm_shadeVector(i, 3);
+        float distance = length(away);
+        vec3 axis = travel;
+        travel = distance > 0.0 ? away / distance : axis;
+        vec3 falloff = cm_shadeVector(i, 4);
+        attenuation = 1.0 / (falloff.x + falloff.y * distance
+                             + falloff.z * distance * distance);
+        float cone = cm_shadeNumber(i, 15);
+        if (cone <= 90.0)
+        {
+          float along = dot(travel, axis);
+          attenuation = along >= cos(radians(cone))
+                        ? attenuation * pow(along, cm_shadeNumber(i, 16)) : 0.0;
+        }
+      }
       float d = dot(n, travel);
       if (cm_twoSided == 1 && d < 0.0)
       {
@@ -78,11 +107,15 @@ vec3 cm_shade(vec3 p, vec3 color)
       }
       if (d > 0.0)
       {
-        diffuse += d * cm_shadeVector(i, 1);
+        diffuse += max(0.0, attenuation * d) * cm_shadeVector(i, 1);
         float rho = dot(cm_rayWorld, normalize(2.0 * d * n - travel));
+        if (positional && cm_twoSided == 1 && rho < 0.0)
+        {
+          rho = -rho;
+        }
         if (rho > 0.0)
         {
-          specular += pow(rho, power) * cm_shadeVector(i, 2);
+          specular += attenuation * pow(rho, power) * cm_shadeVector(i, 2);
         }
       }
     }

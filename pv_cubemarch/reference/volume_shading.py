@@ -22,7 +22,11 @@ class ShadeSetup:
     """What gradient shading needs: the material, the lights, the camera's rotation.
 
     ``lights``: per switched-on light, ``(direction of travel, diffuse colour x intensity,
-    specular colour x intensity)`` in world coordinates. ``view_rotation``: the camera's
+    specular colour x intensity)`` in world coordinates, and for a positional light also
+    ``(position, attenuation (a, b, c), cone angle in degrees, exponent)``: its light
+    travels from the position to the sample, scaled by ``1 / (a + b d + c d^2)`` and, for
+    a cone up to 90 degrees, by ``cos ** exponent`` inside the cone (nothing outside), its
+    highlight two-sided too, as VTK shades it. ``view_rotation``: the camera's
     world-to-view 3x3. ``headlight``: VTK's path for one headlight of intensity 1.
     """
 
@@ -70,19 +74,28 @@ class ShadeSetup:
         normal = np.where(lit[:, None], normal / np.where(length > 0, length, 1.0), 0.0)
         diffuse = np.zeros_like(rgb)
         shine = np.zeros_like(rgb)
-        for travel, light_diffuse, light_specular in self.lights:
-            travel = np.asarray(travel, dtype=np.float64)
-            facing = normal @ travel
+        world = points @ volume.world_from_index()[:3, :3].T + volume.world_from_index()[:3, 3]
+        for light in self.lights:
+            travel, light_diffuse, light_specular = (np.asarray(v, dtype=np.float64)
+                                                     for v in light[:3])
+            travel = np.broadcast_to(travel, normal.shape)
+            weight = np.ones(len(normal))
+            positional = len(light) > 3
+            if positional:
+                travel, weight = _point_light(world, travel[0], *light[3:])
+            facing = np.sum(normal * travel, axis=1)
             if self.two_sided:
                 facing = np.abs(facing)
             on = lit & (facing > 0)
-            diffuse[on] += facing[on, None] * np.asarray(light_diffuse)
+            diffuse[on] += np.maximum(weight[on] * facing[on], 0.0)[:, None] * light_diffuse
             mirror = 2.0 * facing[:, None] * normal - travel
             mirror /= np.maximum(np.linalg.norm(mirror, axis=1, keepdims=True), 1e-300)
             rho = np.sum(directions * mirror, axis=1)
+            if positional and self.two_sided:
+                rho = np.abs(rho)
             glint = on & (rho > 0)
-            shine[glint] += (rho[glint] ** self.specular_power)[:, None] * np.asarray(
-                light_specular)
+            shine[glint] += (weight[glint] * rho[glint] ** self.specular_power)[:, None] \
+                * light_specular
         shaded = self.ambient * np.asarray(self.ambient_light) + self.diffuse * diffuse * rgb \
             + self.specular * shine
         return np.clip(shaded, 0.0, 1.0)
@@ -104,3 +117,19 @@ class ShadeSetup:
             + self.specular * (np.maximum(rho[on], 0.0) ** self.specular_power)[:, None] \
             * np.asarray(light_specular)
         return np.clip(shaded, 0.0, 1.0)
+
+
+def _point_light(world: np.ndarray, axis: np.ndarray, position, attenuation, cone: float,
+                 exponent: float) -> tuple[np.ndarray, np.ndarray]:
+    """A positional light's unit travel to each sample and its weight there (VTK's)."""
+    away = world - np.asarray(position, dtype=np.float64)
+    distance = np.linalg.norm(away, axis=1)
+    travel = np.where(distance[:, None] > 0, away / np.maximum(distance, 1e-300)[:, None],
+                      axis)
+    a, b, c = (float(v) for v in attenuation)
+    weight = 1.0 / (a + b * distance + c * distance**2)
+    if cone <= 90.0:
+        along = travel @ np.asarray(axis, dtype=np.float64)
+        inside = along >= np.cos(np.radians(cone))
+        weight = np.where(inside, weight * np.abs(along) ** exponent, 0.0)
+    return travel, weight

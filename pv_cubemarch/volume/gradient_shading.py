@@ -17,6 +17,8 @@ from ..models.lights import light_placement
 
 #: Most lights a shaded volume reads (VTK's light kit has five).
 MAX_SHADE_LIGHTS = 8
+#: Floats per light in ``cm_shadeLights`` (gradient_shading.glsl says which).
+SHADE_FLOATS = 18
 
 
 @dataclass(frozen=True)
@@ -62,23 +64,15 @@ class GradientShading:
     @property
     def defines(self) -> dict:
         """The shader's switches."""
-        return {"CM_SHADE": True, "CM_SHADE_LIGHTS": MAX_SHADE_LIGHTS}
+        return {"CM_SHADE": True, "CM_SHADE_LIGHTS": MAX_SHADE_LIGHTS,
+                "CM_SHADE_FLOATS": SHADE_FLOATS}
 
     def lights(self) -> list:
         """The renderer's switched-on lights (at most :data:`MAX_SHADE_LIGHTS`).
 
-        A positional (point or spot) light is refused: VTK shades with its position, cone
-        and attenuation, which these shaders do not model yet (drawn as a directional
-        light it was 30 dB off VTK's image).
+        Positional (point and spot) lights included.
         """
-        lights = _switched_on(self.renderer)[:MAX_SHADE_LIGHTS]
-        if any(light.GetPositional() for light in lights):
-            raise ValueError("shade=True lights the volume with directional lights only (the "
-                             "light kit, headlights, camera and scene lights); this renderer "
-                             "has a positional light (light.positional = True). Make it "
-                             "directional, or use lights=[...] (the light map takes point "
-                             "lights).")
-        return lights
+        return _switched_on(self.renderer)[:MAX_SHADE_LIGHTS]
 
     def headlight_path(self) -> bool:
         """Whether VTK takes its single-headlight path: one light, a headlight, intensity 1."""
@@ -87,14 +81,21 @@ class GradientShading:
             float(lights[0].GetIntensity()) == 1.0
 
     def packed_lights(self) -> FloatArray:
-        """Per light: the direction of travel, diffuse and specular colour x intensity."""
+        """Per light: its direction of travel, diffuse and specular colour x intensity.
+
+        And a positional light's world position, attenuation, cone angle and exponent.
+        """
         camera = self.renderer.GetActiveCamera()
-        packed = np.zeros((MAX_SHADE_LIGHTS, 9))
+        packed = np.zeros((MAX_SHADE_LIGHTS, SHADE_FLOATS))
         for index, light in enumerate(self.lights()):
             intensity = float(light.GetIntensity())
             packed[index, :3] = _travel(light, camera)
             packed[index, 3:6] = np.asarray(light.GetDiffuseColor()) * intensity
-            packed[index, 6:] = np.asarray(light.GetSpecularColor()) * intensity
+            packed[index, 6:9] = np.asarray(light.GetSpecularColor()) * intensity
+            if light.GetPositional():
+                packed[index, 9:12] = light_placement(light, camera)[0]
+                packed[index, 12:15] = light.GetAttenuationValues()
+                packed[index, 15:] = (light.GetConeAngle(), light.GetExponent(), 1.0)
         return FloatArray(packed.ravel())
 
     def ambient_light(self) -> tuple:
@@ -168,5 +169,4 @@ def gradient_shading(plotter, model, shade: bool, lights, blending: str,
     material = ShadeMaterial(**{name: float(given.get(name, option("volume", name).default))
                                 for name in terms})
     shading = GradientShading(plotter.renderer, model, material)
-    shading.lights()   # a positional light is refused now, and at any later frame
     return shading

@@ -555,7 +555,6 @@ class VolumeBinding(DrawnBinding):
             if why is not None:
                 raise ValueError(f"shade=True shades one composite volume by the renderer's "
                                  f"lights, and {why}: add the volume again to shade it.")
-            shading.lights()   # a positional light is refused now
 
         def shaded(target, recipe):
             if shading is not None:
