@@ -266,7 +266,8 @@ def add_volume(
         ``opacity``, ``clim``, ``opacity_unit_distance``, ``n_colors``, ``flip_scalars``
         and ``log_scale`` (a list with one per channel, or one value for all; a colour
         name as a channel's ``cmap`` ramps from black to it; each channel's own range is
-        its default ``clim``). 4 uint8 components are RGBA unless this is ``True``.
+        its default ``clim``; without ``cmap`` the channels ramp from black to green,
+        magenta, cyan and yellow). 4 uint8 components are RGBA unless this is ``True``.
         Channels are marched as joint members (``technique='vtk'`` draws them with the
         direct marcher, the same GLSL).
     channel_blending : str, optional

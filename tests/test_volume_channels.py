@@ -171,6 +171,11 @@ def test_per_channel_keywords():
     # 'magenta' ramps from black: its first row is black, its last magenta.
     table = second.transfer.table
     assert np.allclose(table[0, :3], 0.0) and np.allclose(table[-1, :3], (1.0, 0.0, 1.0))
+    # Without cmap the channels are green and magenta ramps, not one colormap twice.
+    default = cm.add_volume(pl, grid, scalars="ch", technique="direct").cubemarch.model
+    ends = [member.transfer.table[-1, :3] for member in default.members]
+    assert np.allclose(ends[0], (0.0, 128 / 255, 0.0), atol=0.01)
+    assert np.allclose(ends[1], (1.0, 0.0, 1.0))
     pl.close()
 
 

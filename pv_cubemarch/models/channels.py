@@ -18,6 +18,8 @@ from .volume import is_rgba
 
 #: How the channels of one volume mix (``channel_blending=``).
 CHANNEL_MIXES = ("composite", "additive")
+#: Each channel's colour when no cmap is given: a ramp from black (napari's first four).
+CHANNEL_COLOURS = ("green", "magenta", "cyan", "yellow")
 #: The per-channel keywords: each takes one value for every channel, or a list of one each.
 CHANNEL_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
                     "flip_scalars", "log_scale")
@@ -103,7 +105,9 @@ def make_channels(grid, scalars: str, count: int, make_member, channel_mix: str 
     array = np.asarray(grid.point_data[scalars])
     channels = {key: per_channel(key, keywords.pop(key), count)
                 for key in CHANNEL_KEYWORDS if key in keywords}
-    channels["cmap"] = [channel_cmap(c) for c in channels.get("cmap", [None] * count)]
+    given = channels.get("cmap", [None] * count)
+    channels["cmap"] = [channel_cmap(CHANNEL_COLOURS[i] if c is None else c)
+                        for i, c in enumerate(given)]
     members = []
     for index in range(count):
         member_grid = grid.copy(deep=False)
