@@ -176,3 +176,19 @@ def light_with_sun_and_lamp(pl) -> None:
                      positional=True)
     point.cone_angle = 180.0
     pl.add_light(point)
+
+
+def draw_at(add, size, position, background="black"):
+    """``add(pl)``'s image, the actor it returns and the camera, seen from ``position``."""
+    import pyvista as pv
+
+    import pv_cubemarch as cm
+
+    pl = pv.Plotter(off_screen=True, window_size=size)
+    pl.set_background(background)
+    actor = add(pl)
+    pl.camera_position = position
+    image = cm.render_image(pl)
+    camera = cm.Camera.from_pyvista(pl.camera)
+    pl.close()
+    return image, actor, camera

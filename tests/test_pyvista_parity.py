@@ -770,21 +770,31 @@ def test_gradient_shading_draws_what_pyvista_draws(name):
     background = psnr(np.zeros_like(reference), reference)
     cpu = cm.render_emission_absorption(cm.make_volume(grid, **keywords), camera, SIZE,
                                         shade=setup)
-    measured = {"reference": psnr(np.round(np.clip(cpu, 0, 1) * 255.0), reference)}
-    for technique in ("vtk", "direct", "cubemap", "unshaded"):
-        pl = lit_plotter(lighting)
-        fine = {} if technique == "cubemap" else dict(step_scale=0.1)
-        chosen = "vtk" if technique == "unshaded" else technique
-        pl.cubemarch.add_volume(grid, technique=chosen, shade=technique != "unshaded",
-                                **fine, **keywords)
-        pl.camera_position = position
-        measured[technique] = psnr(cm.render_image(pl), reference)
-        pl.close()
-    unshaded = measured.pop("unshaded")
+    measured = {"reference": psnr(np.round(np.clip(cpu, 0, 1) * 255.0), reference),
+                **shaded_techniques(lambda _: lit_plotter(lighting), grid, position,
+                                    reference, keywords, baseline=False)}
+    unshaded = measured.pop("baseline")
     for what, value in measured.items():
         least = 45.0 if what == "cubemap" else 50.0
         assert least > max(background, unshaded) + 1.0
         assert value >= least, (name, measured, f"unshaded {unshaded:.1f}")
+
+
+def shaded_techniques(make_plotter, grid, position, reference, keywords, baseline) -> dict:
+    """PSNR against ``reference`` of vtk, direct and the cube map with ``shade=True`` (and of
+    the ``baseline`` row: ``make_plotter(False)`` with shade as ``baseline`` says), each
+    in its own ``make_plotter(True)`` plotter at ``position``."""
+    measured = {}
+    for technique in ("vtk", "direct", "cubemap", "baseline"):
+        pl = make_plotter(technique != "baseline")
+        fine = {} if technique == "cubemap" else dict(step_scale=0.1)
+        chosen = "vtk" if technique == "baseline" else technique
+        shade = baseline if technique == "baseline" else True
+        pl.cubemarch.add_volume(grid, technique=chosen, shade=shade, **fine, **keywords)
+        pl.camera_position = position
+        measured[technique] = psnr(cm.render_image(pl), reference)
+        pl.close()
+    return measured
 
 
 SHADED_ISO = {"wavelet-kit": (pv.Wavelet, {}, "light kit"),
@@ -814,18 +824,11 @@ def test_shaded_isosurfaces_draw_what_vtk_draws(name):
     stored = [v - model.value_offset for v in levels]
     cpu = cm.render_blended(model, camera, SIZE, "isosurface", isosurfaces=stored,
                             shade=setup)
-    measured = {"reference": psnr(np.round(np.clip(cpu, 0, 1) * 255.0), reference)}
-    for technique in ("vtk", "direct", "cubemap", "unshaded"):
-        pl = lit_plotter(lighting)
-        fine = {} if technique == "cubemap" else dict(step_scale=0.1)
-        chosen = "vtk" if technique == "unshaded" else technique
-        pl.cubemarch.add_volume(grid, technique=chosen, blending="isosurface",
-                                isosurfaces=levels, shade=technique != "unshaded",
-                                **fine, **keywords)
-        pl.camera_position = position
-        measured[technique] = psnr(cm.render_image(pl), reference)
-        pl.close()
-    unshaded = measured.pop("unshaded")
+    measured = {"reference": psnr(np.round(np.clip(cpu, 0, 1) * 255.0), reference),
+                **shaded_techniques(lambda _: lit_plotter(lighting), grid, position,
+                                    reference, dict(keywords, blending="isosurface",
+                                                    isosurfaces=levels), baseline=False)}
+    unshaded = measured.pop("baseline")
     for what, value in measured.items():
         least = SHADED_ISO_FLOORS[what]
         assert least > unshaded + 1.0, (what, unshaded)
@@ -871,16 +874,10 @@ def test_positional_lights_shade_as_vtk_shades(name):
     pl.close()
     cpu = cm.render_emission_absorption(cm.make_volume(grid, **keywords), camera, SIZE,
                                         shade=setup)
-    measured = {"reference": psnr(np.round(np.clip(cpu, 0, 1) * 255.0), reference)}
-    for technique in ("vtk", "direct", "cubemap", "directional"):
-        pl = plotter(technique != "directional")
-        fine = {} if technique == "cubemap" else dict(step_scale=0.1)
-        chosen = "vtk" if technique == "directional" else technique
-        pl.cubemarch.add_volume(grid, technique=chosen, shade=True, **fine, **keywords)
-        pl.camera_position = position
-        measured[technique] = psnr(cm.render_image(pl), reference)
-        pl.close()
-    directional = measured.pop("directional")
+    measured = {"reference": psnr(np.round(np.clip(cpu, 0, 1) * 255.0), reference),
+                **shaded_techniques(plotter, grid, position, reference, keywords,
+                                    baseline=True)}
+    directional = measured.pop("baseline")
     for what, value in measured.items():
         least = 40.0 if what == "cubemap" else 45.0
         assert least > directional + 1.0, (what, directional)

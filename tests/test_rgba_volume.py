@@ -24,7 +24,7 @@ import matplotlib
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import assert_close_to_reference
+from conftest import assert_close_to_reference, draw_at
 
 import pv_cubemarch as cm
 from pv_cubemarch.core.camera import Camera
@@ -47,15 +47,8 @@ def wavelet_rgba(alpha_top: int = 255) -> pv.ImageData:
 
 
 def draw(add):
-    """``add(pl)``'s image and its plotter's camera, at POSITION."""
-    pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    pl.set_background("black")
-    actor = add(pl)
-    pl.camera_position = POSITION
-    image = cm.render_image(pl)
-    camera = Camera.from_pyvista(pl.camera)
-    pl.close()
-    return image, actor, camera
+    """``add(pl)``'s image, actor and camera at POSITION."""
+    return draw_at(add, SIZE, POSITION)
 
 
 @pytest.fixture(scope="module")

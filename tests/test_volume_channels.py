@@ -18,11 +18,10 @@ import numpy as np
 import pytest
 import pyvista as pv
 import vtk
-from conftest import assert_close_to_reference
+from conftest import assert_close_to_reference, draw_at
 from matplotlib.colors import LinearSegmentedColormap
 
 import pv_cubemarch as cm
-from pv_cubemarch.core.camera import Camera
 from pv_cubemarch.core.errors import VolumeDataError
 from pv_cubemarch.models.channels import per_channel
 from pv_cubemarch.reference.emission_absorption import render_emission_absorption
@@ -50,14 +49,8 @@ def ramp(colour: str):
 
 
 def draw(add):
-    pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    pl.set_background("black")
-    actor = add(pl)
-    pl.camera_position = POSITION
-    image = cm.render_image(pl)
-    camera = Camera.from_pyvista(pl.camera)
-    pl.close()
-    return image, actor, camera
+    """``add(pl)``'s image, actor and camera at POSITION."""
+    return draw_at(add, SIZE, POSITION)
 
 
 def fine(mapper) -> None:
