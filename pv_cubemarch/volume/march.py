@@ -23,7 +23,6 @@ from ..gl.textures import Texture
 from ..models.group import VolumeGroup
 from ..models.volume import INTERPOLATIONS, VolumeModel, checked_transform, checked_values
 from .clipping import ClipState
-from .gradient_shading import MAX_SHADE_LIGHTS
 from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
 from .stand_in import place_stand_in, stand_in_matrix
 
@@ -559,8 +558,9 @@ class VolumeBinding(DrawnBinding):
         def shaded(target, recipe):
             if shading is not None:
                 shading.bind(target)
-            defines = {**recipe.defines, "CM_SHADE": shading is not None,
-                       "CM_SHADE_LIGHTS": None if shading is None else MAX_SHADE_LIGHTS}
+            switches = dict.fromkeys(("CM_SHADE", "CM_SHADE_LIGHTS", "CM_SHADE_FLOATS"))
+            defines = {**recipe.defines, **switches,
+                       **(shading.defines if shading is not None else {})}
             return replace(with_gradient_shading(recipe, shading is not None),
                            defines=defines)
         self.recompile_marchers(shaded, light_map=False)
