@@ -263,8 +263,9 @@ def add_volume(
     independent_components : bool, optional
         How a multi-component array is drawn, as VTK's volume property names it: 2 to 4
         components are independent channels (microscopy), each with its own ``cmap``,
-        ``opacity``, ``clim``, ``opacity_unit_distance``, ``n_colors``, ``flip_scalars``
-        and ``log_scale`` (a list with one per channel, or one value for all; a colour
+        ``opacity``, ``clim``, ``opacity_unit_distance``, ``flip_scalars`` and
+        ``log_scale`` (a list with one per channel, or one value for all; one ``n_colors``
+        for every channel and no ``categories``, as the channels share one table size; a colour
         name as a channel's ``cmap`` ramps from black to it; each channel's own range is
         its default ``clim``; without ``cmap`` the channels ramp from black to green,
         magenta, cyan and yellow). 4 uint8 components are RGBA unless this is ``True``.
@@ -378,7 +379,12 @@ def add_volume(
         1.0 if spec is None else float(spec.opacity_unit_distance),
         getattr(model, "interpolation", "linear"))
     component.track(binding)
-    if not isinstance(model, VolumeGroup) and model.colors is None:   # RGBA: no bar
+    if show_scalar_bar and (isinstance(model, VolumeGroup) or model.colors is not None):
+        warnings.warn("show_scalar_bar: an RGBA volume, a channel volume or volumes marched "
+                      "jointly have no one colormap to show; no bar is added (add one per "
+                      "channel with plotter.add_scalar_bar(mapper=...) if needed).",
+                      stacklevel=2)
+    elif not isinstance(model, VolumeGroup) and model.colors is None:
         add_scalar_bar(plotter, model, scalars if isinstance(scalars, str) else model.name,
                        show_scalar_bar, scalar_bar_args, annotations)
     _frame(plotter, reset_camera)

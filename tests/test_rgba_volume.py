@@ -181,3 +181,20 @@ def test_lit_rgba_volume_matches_the_lit_reference():
     errors = assert_close_to_reference(image, reference, 40.0, background=(0, 0, 0))
     from pv_cubemarch.testing import compare_images
     assert compare_images(image, unlit).psnr < errors.psnr - 6
+
+
+def test_a_flat_rgba_grid_is_a_sheet():
+    # A 1-point axis is drawn one voxel thick, as for scalars (found by review: a
+    # TypeError from the 4-D shape handed to the grid). Its colour is the data's.
+    grid = pv.ImageData(dimensions=(16, 16, 1))
+    grid["rgba"] = np.tile(np.array([200, 100, 50, 255], np.uint8), (grid.n_points, 1))
+    image, actor, _ = draw_at(lambda pl: cm.add_volume(pl, grid, scalars="rgba",
+                                                       technique="direct"),
+                              (80, 80), [(7.5, 7.5, 40), (7.5, 7.5, 0), (0, 1, 0)])
+    assert actor.cubemarch.model.colors.shape == (16, 16, 2, 4)
+    centre = image[40, 40].astype(float)
+    assert centre[0] > centre[1] > centre[2] > 0
+    pl = pv.Plotter(off_screen=True)
+    assert cm.add_volume(pl, np.zeros((1, 1, 1, 4), np.uint8)).cubemarch.model.colors.shape \
+        == (2, 2, 2, 4)
+    pl.close()

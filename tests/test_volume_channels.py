@@ -188,6 +188,12 @@ def test_channel_values_change_and_what_is_refused():
         cm.add_volume(pl, grid, scalars="ch", channel_blending="additive", lights="scene")
     with pytest.raises(ValueError, match="single component"):
         cm.add_volume(pl, pv.Wavelet(), channel_blending="additive")
+    with pytest.raises(ValueError, match="share one table size"):
+        cm.add_volume(pl, grid, scalars="ch", n_colors=[256, 64])
+    with pytest.raises(ValueError, match="categories"):
+        cm.add_volume(pl, grid, scalars="ch", categories=True)
+    with pytest.warns(UserWarning, match="no one colormap"):
+        cm.add_volume(pl, grid, scalars="ch", show_scalar_bar=True, technique="direct")
     with pytest.raises(ValueError, match="channel_blending must be one of"):
         cm.add_volume(pl, grid, scalars="ch", channel_blending="max")
     five = grid.copy()

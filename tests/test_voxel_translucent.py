@@ -173,3 +173,60 @@ def test_a_material_turning_translucent_and_back(plotter_factory):
     assert (np.abs(image - expected).max(axis=2) <= 3.0 / 255.0).mean() >= 0.995
     actor.SetVisibility(False)
     assert cm.render_image(pl).max() == 0
+
+
+@pytest.mark.parametrize("shape, index", [((1, 2), (0, 1)), ((2, 1), (0, 0))])
+def test_translucent_materials_in_a_subplot(shape, index):
+    # A subplot off the window's lower-left corner draws the same picture as a plotter of
+    # its own. catches (found by review, seen failing): the layers drawn under VTK's
+    # order-independent translucency, which draws the pass into a viewport-sized buffer
+    # (only the opaque material left: 3180 pixels off).
+    labels = nested_labels()
+    position = [(30.0, 25.0, 20.0), (6.0, 5.0, 4.0), (0.0, 0.0, 1.0)]
+    alone = pv.Plotter(off_screen=True, window_size=SIZE)
+    alone.set_background("black")
+    cm.add_voxels(alone, labels, palette=PALETTE, shading="unlit")
+    alone.camera_position = position
+    expected = cm.render_image(alone).astype(int)
+    alone.close()
+    width, height = SIZE[0] * shape[1], SIZE[1] * shape[0]
+    pl = pv.Plotter(off_screen=True, window_size=(width, height), shape=shape)
+    pl.set_background("black")
+    pl.subplot(*index)
+    cm.add_voxels(pl, labels, palette=PALETTE, shading="unlit")
+    pl.camera_position = position
+    image = cm.render_image(pl).astype(int)
+    pl.close()
+    rows = slice(0, SIZE[1]) if shape[0] == 1 else slice(0, SIZE[1])
+    cols = slice(SIZE[0] * index[1], SIZE[0] * (index[1] + 1))
+    part = image[rows, cols]
+    assert (np.abs(part - expected).max(axis=2) > 20).mean() < 0.005
+
+
+def test_the_camera_inside_against_an_opaque_core(plotter_factory):
+    # Inside the translucent block, facing the opaque core that touches it: the layer's
+    # depth is where its ray starts, so the depth test keeps it. catches (found by review,
+    # seen failing): the depth of the first face written, equal to the core's (speckles).
+    labels = nested_labels()
+    pl = plotter_factory(SIZE)
+    pl.set_background("black")
+    actor = cm.add_voxels(pl, labels, palette=PALETTE, shading="unlit")
+    camera = set_camera(pl, (4.3, 4.6, 3.7), focal=(6.0, 5.0, 4.0))
+    pl.camera.clipping_range = (0.3, 20.0)
+    camera = cm.Camera.from_pyvista(pl.camera)
+    image = cm.render_image(pl).astype(float) / 255.0
+    model = actor.cubemarch.model
+    expected = render_voxel_layers(model.labels, model.world_from_index(), model.palette.rgba,
+                                   camera, SIZE, near=0.3)
+    assert (np.abs(image - expected).max(axis=2) <= 3.0 / 255.0).mean() >= 0.995
+
+
+def test_depth_peeling_is_said_to_drop_faces():
+    # Under VTK's depth peeling the layers lose their faces in front of opaque voxels: a
+    # warning says so and how to draw them.
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.enable_depth_peeling()
+    cm.add_voxels(pl, nested_labels(), palette=PALETTE)
+    with pytest.warns(UserWarning, match="depth peeling"):
+        cm.render_image(pl)
+    pl.close()

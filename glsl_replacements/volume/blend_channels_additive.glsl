@@ -20,8 +20,11 @@ bool cm_blend(inout vec4 state, vec3 texturePosition, float dt)
   cm_channelTransmittance -= weight;
   vec4 t = cm_channelTransmittance;
   state.a = 1.0 - t.x * t.y * t.z * t.w;
-  // Until every channel is opaque enough.
-  return any(greaterThan(t, vec4(1.0 - cm_stopOpacity)));
+  // Until every channel is opaque enough (the unused ones, whose transmittance stays 1,
+  // left out).
+  vec4 used = vec4(1.0, float(CM_VOLUME_COUNT > 1), float(CM_VOLUME_COUNT > 2),
+                   float(CM_VOLUME_COUNT > 3));
+  return any(greaterThan(t * used, vec4(1.0 - cm_stopOpacity)));
 }
 
 vec4 cm_blendResult(vec4 state)

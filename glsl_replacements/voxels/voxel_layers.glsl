@@ -50,6 +50,12 @@
   {
     discard;
   }
+  else if (cm_current > 0)
+  {
+    // Inside a translucent material (the near plane cuts it): its depth is the start's,
+    // never the depth of an opaque face behind it (the depth test would flip a coin).
+    cm_first = cm_start;
+  }
   int cm_count = cm_dims.x + cm_dims.y + cm_dims.z + 3;   // no ray crosses more voxels
   for (int cm_i = 0; cm_i < cm_count && cm_held.a < 0.999; ++cm_i)
   {

@@ -22,7 +22,7 @@ CHANNEL_MIXES = ("composite", "additive")
 CHANNEL_COLOURS = ("green", "magenta", "cyan", "yellow")
 #: The per-channel keywords: each takes one value for every channel, or a list of one each.
 CHANNEL_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
-                    "flip_scalars", "log_scale")
+                    "flip_scalars", "log_scale")   # n_colors: one for all (one table size)
 
 
 def channel_count(grid, scalars: str | None, independent_components: bool | None) -> int:
@@ -103,8 +103,15 @@ def make_channels(grid, scalars: str, count: int, make_member, channel_mix: str 
     if scalars not in grid.point_data:
         grid = grid.cell_data_to_point_data(pass_cell_data=False)
     array = np.asarray(grid.point_data[scalars])
+    if keywords.get("categories"):
+        raise ValueError("categories= sizes one volume's colours by its distinct values; the "
+                         "channels of a volume share one table size: give n_colors= (one "
+                         "number for every channel) instead.")
     channels = {key: per_channel(key, keywords.pop(key), count)
                 for key in CHANNEL_KEYWORDS if key in keywords}
+    if len(set(channels.get("n_colors", [None]))) > 1:
+        raise ValueError(f"n_colors={channels['n_colors']}: the channels of a volume share "
+                         "one table size (one marcher reads them all); give one number.")
     given = channels.get("cmap", [None] * count)
     channels["cmap"] = [channel_cmap(CHANNEL_COLOURS[i] if c is None else c)
                         for i, c in enumerate(given)]

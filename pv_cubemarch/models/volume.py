@@ -167,7 +167,7 @@ def _thicken_flat_axes(grid: pyvista.ImageData, values: np.ndarray):
     for axis in flat:
         values = np.repeat(values, 2, axis=axis)
         origin = origin - direction[:, axis] * spacing[axis] / 2.0
-    thick = image_data(values.shape, spacing, origin)
+    thick = image_data(values.shape[:3], spacing, origin)   # RGBA: 4 components after
     thick.direction_matrix = direction
     return thick, values
 

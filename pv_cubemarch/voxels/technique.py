@@ -210,6 +210,15 @@ class VoxelBinding(DrawnBinding):
         self.layers: TranslucentLayers | None = None
         #: Whether this grid may draw translucent materials (a world's chunk may not).
         self.composites = False
+        self._peeling_said = False
+
+    @property
+    def blends_in_main_renderer(self) -> bool:
+        """Whether its translucent layers draw in the renderer's translucent pass.
+
+        VTK's order-independent translucency, which moves the viewport, stays off there.
+        """
+        return self.layers is not None
 
     @property
     def palette(self):
@@ -275,10 +284,21 @@ class VoxelBinding(DrawnBinding):
             self.layers.set_palette(rgba)
 
     def follow_anchor(self) -> None:
-        """At each frame: the drawn actors and the layers follow the returned actor."""
+        """At each frame: the drawn actors and the layers follow the returned actor.
+
+        Under VTK's depth peeling the layers lose their faces in front of opaque voxels
+        (its peels test the box's depth, not the layers'): said once.
+        """
         super().follow_anchor()
-        if self.layers is not None:
-            self.layers.actor.SetVisibility(self.shown)
+        if self.layers is None:
+            return
+        self.layers.actor.SetVisibility(self.shown)
+        if self.shown and not self._peeling_said and self.renderer.GetUseDepthPeeling():
+            self._peeling_said = True
+            warnings.warn(f"Voxels {self.model.name!r}: depth peeling is on, and it drops "
+                          "the translucent materials' faces in front of opaque voxels; "
+                          "turn it off (plotter.disable_depth_peeling()) to draw them.",
+                          stacklevel=2)
 
     def follow_placement(self) -> None:
         """After the grid moved: its actors follow."""
