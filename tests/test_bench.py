@@ -168,6 +168,7 @@ def test_crop_windows_cover_the_volume():
     assert x <= px[0] <= x + 64 and y <= px[1] <= y + 64
 
 
+@pytest.mark.slow   # long (6-20 s): its own CI step (pytest -m slow)
 def test_bench_voxels_rows_and_exactness(tmp_path):
     # Small scenes: every row runs, ours are exact, the fixed step and PyVista's volume miss.
     from pv_cubemarch.bench import voxels as bench_voxels

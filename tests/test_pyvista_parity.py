@@ -745,6 +745,7 @@ def shade_setup(pl) -> cm.ShadeSetup:
                          two_sided=bool(pl.renderer.GetTwoSidedLighting()))
 
 
+@pytest.mark.slow   # long (6-20 s): its own CI step (pytest -m slow)
 @pytest.mark.parametrize("name", SHADED)
 def test_gradient_shading_draws_what_pyvista_draws(name):
     """``shade=True`` (with ``ambient``, ``diffuse``, ``specular``, ``specular_power`` at
@@ -801,6 +802,7 @@ SHADED_ISO = {"wavelet-kit": (pv.Wavelet, {}, "light kit"),
               "ball-headlight": (shading_ball, dict(cmap="magma"), "headlight")}
 
 
+@pytest.mark.slow   # long (8-15 s): its own CI step (pytest -m slow)
 @pytest.mark.parametrize("name", SHADED_ISO)
 def test_shaded_isosurfaces_draw_what_vtk_draws(name):
     """``blending='isosurface', shade=True``: each level's colour shaded by the gradient at
@@ -843,6 +845,7 @@ POSITIONAL = {"spot": dict(cone_angle=25.0, exponent=3.0, attenuation_values=(1,
                             attenuation_values=(0.5, 0.02, 0.0005))}
 
 
+@pytest.mark.slow   # long (8-15 s): its own CI step (pytest -m slow)
 @pytest.mark.parametrize("name", POSITIONAL)
 def test_positional_lights_shade_as_vtk_shades(name):
     """``shade=True`` under a positional light (a spot of 25 degrees, a point light with

@@ -69,6 +69,7 @@ def test_switching_technique_leaves_out_options_it_does_not_read(session):
                   - scene_drawn(technique="direct", step_scale=0.25)).max() <= 2
 
 
+@pytest.mark.slow   # long (6-20 s): its own CI step (pytest -m slow)
 def test_error_against_the_cpu_reference_grows_with_the_step(session):
     fine = session.reference_error()
     session.set("volume", "technique", "direct")
@@ -228,6 +229,7 @@ print(json.dumps([fake_tpv.CALLS, shown, ours]))
 """
 
 
+@pytest.mark.slow   # long (6-20 s): its own CI step (pytest -m slow)
 def test_other_plotters_keep_trame_pyvistas_views(tmp_path):
     # catches: our registration replaced by trame-pyvista's import (our plotters then shown
     # by vtk.js), and plotters without our actors shown otherwise than without us (another

@@ -111,7 +111,9 @@ def pyvista_summed():
     return np.minimum(images[0] + images[1], 255).astype(np.uint8)
 
 
-@pytest.mark.parametrize("technique", ["vtk", "direct", "cubemap", "auto"])
+@pytest.mark.parametrize("technique", [
+    pytest.param("vtk", marks=pytest.mark.slow), "direct", "cubemap",
+    pytest.param("auto", marks=pytest.mark.slow)])   # vtk and auto march as direct does
 def test_composite_channels_match_vtk_independent_components(technique, vtk_independent):
     # Breaks seen failing: the channels added instead of one medium (27.8 dB); one cmap for
     # both channels, the second channel's colour ignored (13.2 dB).
