@@ -15,7 +15,7 @@ import pyvista
 
 from .core.registry import get_technique
 from .gl.overlay import bounds_proxy
-from .models.channels import channel_count, make_channels
+from .models.channels import channel_count, is_channels, make_channels
 from .models.field_sources import color_values, make_field
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
@@ -347,14 +347,14 @@ def add_volume(
                                  log_scale=log_scale, categories=categories),
                             transform=transform, nan_policy=nan_policy,
                             name=name or "volume", interpolation=interpolation or "linear")
-    if getattr(model, "channel_mix", None) is not None and not chosen.groups:
+    if is_channels(model) and not chosen.groups:
         chosen = get_technique("volume", "direct")   # VTK's mapper marches one texture
         options = chosen.make_options(given)
     if isinstance(model, VolumeGroup) and not chosen.groups:
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
     options.check_model(model)
-    check_direct_color(model, blending, shade, cmap, lights)
+    check_direct_color(model, blending, shade, cmap)
     check_channels(model, blending, shade, lights)
     gradient = gradient_shading(plotter, model, shade, lights, blending,
                                 dict(ambient=ambient, diffuse=diffuse, specular=specular,

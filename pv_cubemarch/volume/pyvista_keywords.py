@@ -15,6 +15,7 @@ import pyvista
 from ..core.errors import VolumeDataError
 from ..core.options import is_count, level_values, spread_levels
 from ..core.scalar_bar import attach_scalar_bar
+from ..models.channels import is_channels
 from ..models.transfer import shift_value
 
 #: PyVista's aliases of add_volume's keywords (``add_mesh``'s ``rng`` and ``colormap``).
@@ -98,7 +99,7 @@ def volume_input(volume, scalars, resolution, preference: str = "point"):
     return grid, "Data"
 
 
-def check_direct_color(model, blending: str, shade: bool, cmap, lights) -> None:
+def check_direct_color(model, blending: str, shade: bool, cmap) -> None:
     """Refuse, by name, what an RGBA (direct-colour) volume cannot draw.
 
     Its colours are its own, so a ``cmap`` colours nothing (warned, as PyVista ignores it);
@@ -126,9 +127,9 @@ def check_channels(model, blending: str, shade: bool, lights) -> None:
     Its channels are marched jointly, so composite blending only; channels that add their
     light are each their own medium, which no light map or gradient shading models.
     """
-    mix = getattr(model, "channel_mix", None)
-    if mix is None:
+    if not is_channels(model):
         return
+    mix = model.channel_mix
     if blending != "composite":
         raise ValueError(f"blending={blending!r} reads one value per sample; a volume of "
                          f"{len(model.members)} channels mixes its channels by "
