@@ -41,3 +41,15 @@ int cm_visibleMaterial(ivec3 voxel)
   int material = cm_label(voxel);
   return material != 0 && cm_shown(material) ? material : 0;
 }
+
+// The face of the grid box a ray (index space) enters through, as voxel faces are numbered
+// (2 * axis + 1 moving +axis): the axis whose slab it enters last, ties to the lowest axis
+// (as the CPU reference).
+int cm_boxEntryFace(vec3 origin, vec3 direction)
+{
+  vec3 moving = step(vec3(1e-30), abs(direction));
+  vec3 safe = mix(vec3(1.0), direction, moving);
+  vec3 enter = mix(vec3(-1e30), min(-origin / safe, (cm_gridDims - origin) / safe), moving);
+  int axis = (enter.x >= enter.y && enter.x >= enter.z) ? 0 : (enter.y >= enter.z ? 1 : 2);
+  return 2 * axis + (direction[axis] > 0.0 ? 1 : 0);
+}

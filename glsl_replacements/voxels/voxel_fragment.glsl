@@ -42,19 +42,8 @@
   }
   vec3 cm_a = cm_origin + cm_direction * cm_start;
   vec3 cm_b = cm_origin + cm_direction * cm_inBox.y;
-  // The face of the grid box the ray enters through (-1 when it starts inside the box):
-  // the axis whose slab it enters last, ties to the lowest axis (as the CPU reference).
-  int cm_face = -1;
-  if (cm_inBox.x >= cm_start)
-  {
-    vec3 cm_moving = step(vec3(1e-30), abs(cm_direction));
-    vec3 cm_safe = mix(vec3(1.0), cm_direction, cm_moving);
-    vec3 cm_enter = mix(vec3(-1e30), min(-cm_origin / cm_safe, (cm_gridDims - cm_origin)
-                                                                 / cm_safe), cm_moving);
-    int cm_axis = (cm_enter.x >= cm_enter.y && cm_enter.x >= cm_enter.z) ? 0
-                  : (cm_enter.y >= cm_enter.z ? 1 : 2);
-    cm_face = 2 * cm_axis + (cm_direction[cm_axis] > 0.0 ? 1 : 0);
-  }
+  // The face of the grid box the ray enters through (-1 when it starts inside the box).
+  int cm_face = cm_inBox.x >= cm_start ? cm_boxEntryFace(cm_origin, cm_direction) : -1;
   ivec3 cm_voxel;
   float cm_t;
 #ifdef CM_LOD

@@ -32,17 +32,11 @@
   int cm_current = cm_layerMaterial(cm_voxel);
   if (cm_inBox.x >= cm_start && cm_current != 0)   // entered through the box's face
   {
-    vec3 cm_safe = mix(vec3(1.0), cm_direction, step(vec3(1e-30), abs(cm_direction)));
-    vec3 cm_enter = mix(vec3(-1e30), min(-cm_origin / cm_safe,
-                                         (cm_gridDims - cm_origin) / cm_safe),
-                        step(vec3(1e-30), abs(cm_direction)));
-    int cm_axis = (cm_enter.x >= cm_enter.y && cm_enter.x >= cm_enter.z) ? 0
-                  : (cm_enter.y >= cm_enter.z ? 1 : 2);
     if (cm_current < 0)   // an opaque voxel first: the opaque actor draws it
     {
       discard;
     }
-    cm_addLayer(cm_held, cm_current, 2 * cm_axis + (cm_direction[cm_axis] > 0.0 ? 1 : 0),
+    cm_addLayer(cm_held, cm_current, cm_boxEntryFace(cm_origin, cm_direction),
                 cm_originView + cm_directionView * cm_start, cm_towardEye);
     cm_first = cm_start;
   }
