@@ -926,8 +926,11 @@ def add_surface(
         so nested levels hide each other as PyVista's opaque contour does (give
         ``isovalue`` or ``isosurfaces``, not both).
     opacity : float
-        1 only: translucent surfaces are not composited yet, and are refused rather than
-        drawn opaque.
+        1 (default) is opaque. Below 1, every crossing of the surface along a pixel's ray,
+        up to the opaque scene behind, is composited front to back, each lit and covering
+        ``opacity`` of what lies behind: what PyVista draws for ``contour`` +
+        ``add_mesh(opacity=...)`` under depth peeling with enough peels, in one pass
+        (``technique='active'``, ``traversal='index'``).
     smooth_shading : bool, optional
         ``True`` (or left out): the surface is lit with its exact normal, which is what
         smooth shading approximates; ``False`` is refused (the surface has no facets).
@@ -954,10 +957,8 @@ def add_surface(
     >>> pl = pv.Plotter(off_screen=True)
     >>> actor = cm.add_surface(pl, 0.8 - (x**2 + y**2 + z**2), isovalue=0.0)
     """
-    if opacity is None or float(opacity) != 1.0:
-        raise ValueError(f"opacity={opacity!r}: add_surface draws opaque surfaces only "
-                         "(translucent ones are not composited yet); leave opacity out, or "
-                         "draw pyvista's contour with add_mesh(opacity=...).")
+    if opacity is None:
+        raise ValueError("opacity=None: give a number in [0, 1] (1, the default, is opaque).")
     if smooth_shading is not None and not smooth_shading:
         raise ValueError("smooth_shading=False shades a mesh's facets flat; this surface is "
                          "drawn from its polynomial with its exact normal and has no facets. "
@@ -972,6 +973,11 @@ def add_surface(
         raise ValueError("color_by colours one surface; several isosurfaces are coloured "
                          "by their levels through cmap (or all by color=).")
     by_level = levels is not None and len(levels) > 1 and color is None
+    if levels is not None and len(levels) > 1 and float(opacity) < 1.0:
+        raise ValueError(f"opacity={opacity:g} with {len(levels)} isosurfaces: each level is "
+                         "its own actor, and nested translucent levels need one ray through "
+                         "all of them, which is not built yet. Draw one level translucent, or "
+                         "pyvista's contour(...) with add_mesh(opacity=...) and depth peeling.")
     if show_scalar_bar and colouring is None and not by_level:
         raise ValueError("show_scalar_bar shows what colours the surface through cmap; this "
                          "one has one colour: pass color_by=, or several isosurfaces "
@@ -982,7 +988,7 @@ def add_surface(
         active_test=active_test,
         active_samples=active_samples, color=color, shading=shading, ambient=ambient,
         specular=specular, specular_power=specular_power, color_by=colouring, cmap=cmap,
-        clim=None if clim is None else tuple(clim)))
+        clim=None if clim is None else tuple(clim), opacity=opacity))
     model = make_field(field, isovalue if levels is None else levels[0], scalars, cells=cells,
                        transform=transform, name=name or getattr(field, "name", "surface"))
     if colouring == "field" and not isinstance(color_by, str):   # values, not a name

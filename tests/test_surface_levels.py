@@ -92,8 +92,18 @@ def test_a_count_spreads_levels_as_contour_and_one_actor_stands_for_them():
 def test_surface_keywords_refused_clearly():
     grid = sheets()
     pl = pv.Plotter(off_screen=True)
-    with pytest.raises(ValueError, match="opacity=0.5"):
-        pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", opacity=0.5)
+    with pytest.raises(ValueError, match="opacity=0.5 with 3 isosurfaces"):
+        pl.cubemarch.add_surface(grid, isosurfaces=LEVELS, scalars="f", opacity=0.5)
+    with pytest.raises(ValueError, match="traversal='cell_boxes' keeps only"):
+        pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", opacity=0.5,
+                                 traversal="cell_boxes")
+    with pytest.raises(ValueError, match="technique='full' keeps only"):
+        pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", opacity=0.5,
+                                 technique="full")
+    with pytest.raises(ValueError, match="opacity"):
+        pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", opacity=1.5)
+    with pytest.raises(ValueError, match="opacity=None"):
+        pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", opacity=None)
     with pytest.raises(ValueError, match="has no facets"):
         pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", smooth_shading=False)
     with pytest.raises(ValueError, match="not both"):

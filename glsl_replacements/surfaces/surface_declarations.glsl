@@ -19,6 +19,10 @@ uniform mat3 cm_normalFromIndex;   // cell-space normals to view space (inverse 
 // losing far hits past about 4200 samples, 15 iterations each). Inner loops are written
 // out so the budget goes to samples.
 vec3 cm_beta[9];
+// After a root is found: the fraction of the segment marched just past it (its bracket's
+// far end, where the field has changed sign), from where the translucent layers look for
+// the next root.
+float cm_rootPast = 0.0;
 
 // Whether a root lies between two field values: they differ in sign, or one is 0. Signs are
 // compared, never multiplied: a product of two small values underflows to 0 in float32

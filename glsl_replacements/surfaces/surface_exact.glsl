@@ -167,5 +167,6 @@ float cm_exactRoot(vec3 a, vec3 b)
       s1 = s;
     }
   }
+  cm_rootPast = s1;
   return 0.5 * (s0 + s1);
 }

@@ -11,6 +11,7 @@ float cm_marchCell(vec3 a, vec3 b)
   float f0 = cm_field(a);
   if (f0 == 0.0)
   {
+    cm_rootPast = 0.0;
     return 0.0;
   }
   for (int k = 1; k <= count; ++k)
@@ -33,6 +34,7 @@ float cm_marchCell(vec3 a, vec3 b)
           s1 = s;
         }
       }
+      cm_rootPast = s1;
       return f1 == 0.0 && cm_refineSteps == 0 ? s1 : 0.5 * (s0 + s1);
     }
     s0 = s1;

@@ -4,7 +4,8 @@
 // active cell is left in one step; in a stored brick the ray steps cell by cell, and each active cell it meets is loaded and marched from where
 // the ray enters it to where it leaves (cm_marchCell, or cm_exactRoot), in the order the ray
 // meets them: the first root found is the nearest, and the traversal stops there. Returns
-// the fraction of a..b at the hit (-1: none) and the hit's cell.
+// the fraction of a..b at the hit (-1: none) and the hit's cell (and in cm_rootPast the
+// fraction just past the root).
 // As voxel_dda.glsl: each step leaves a block [low, high) through its nearest boundary, x
 // before y before z on a tie; an axis the ray does not move along is never crossed. The
 // cheap stepping runs in the inner loop; the march (the costly part: llvmpipe runs a
@@ -116,6 +117,7 @@ float cm_traverse(vec3 a, vec3 b, out ivec3 cell)
 #endif
     if (s >= 0.0)
     {
+      cm_rootPast = mix(entry, exit, cm_rootPast);   // as a fraction of a..b
       return mix(entry, exit, s);
     }
     passing = true;

@@ -7,6 +7,8 @@ its own state and ``release()``.
 
 from __future__ import annotations
 
+import warnings
+
 from .bindings import ShaderBindings
 from .box import place_box
 from .shaders import ShaderRecipe
@@ -34,6 +36,7 @@ class DrawnBinding:
         self.bounds_proxy = None
         self.light_map = None
         self._released = False
+        self._peeling_said = False
 
     @property
     def name(self) -> str:
@@ -53,6 +56,19 @@ class DrawnBinding:
         for actor in self.drawn:
             if actor is not self.actor:
                 actor.SetVisibility(shown)
+
+    def say_depth_peeling(self, what: str) -> None:
+        """Warn once, if the renderer peels depth, that its peels drop ``what``.
+
+        VTK's peels test each fragment's raster depth (the box's back face), not the depth
+        the fragment writes, against the opaque depth: what a box composites in front of
+        an opaque prop behind its back face is lost.
+        """
+        if self.shown and not self._peeling_said and self.renderer.GetUseDepthPeeling():
+            self._peeling_said = True
+            warnings.warn(f"{self.name!r}: depth peeling is on, and it drops {what}; turn "
+                          "it off (plotter.disable_depth_peeling()) to draw them.",
+                          stacklevel=3)
 
     def follow_placement(self) -> None:
         """After the model moved: its box actor follows, and the near and far planes."""

@@ -41,6 +41,8 @@ FLAT_TOLERANCE = 1e-2
 #: Sample intervals after the first sign change within which a return of the sign, with the
 #: field that close to 0 between, makes the root a near-double one (ambiguous).
 PAIR_BRACKETS = 2
+#: Most roots along one ray a translucent surface composites.
+MAX_LAYERS = 256
 
 
 @dataclass
@@ -62,12 +64,15 @@ class SurfaceHits:
 
 def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
                   size: Sequence[int], near: float = 0.0,
-                  crop: tuple[int, int, int, int] | None = None) -> SurfaceHits:
+                  crop: tuple[int, int, int, int] | None = None,
+                  start: np.ndarray | None = None) -> SurfaceHits:
     """The first root of ``field`` along each pixel's ray, within the ``active`` cells.
 
     ``active``: ``(n, 3)`` cells that may hold a zero (e.g.
     :func:`~pv_cubemarch.models.surface.active_cells` with ``'bernstein'``: exact); the
     others are passed through. ``crop``: ``(x, y, width, height)`` of the pixels to trace.
+    ``start``: per traced pixel (``(height, width)``), the distance along its ray from
+    which to look (``inf``: not at all), to find the roots after one already found.
     """
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
@@ -82,7 +87,9 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
     o = (origins - centre) @ index_from_world[:3, :3].T + dims / 2
     d = directions @ index_from_world[:3, :3].T
     forward = np.asarray(camera.basis()[2])
-    start = np.maximum(near / np.maximum(directions @ forward, 1e-300), 0.0)
+    start = np.maximum(near / np.maximum(directions @ forward, 1e-300), 0.0) \
+        if start is None else np.maximum(near / np.maximum(directions @ forward, 1e-300),
+                                         np.maximum(np.asarray(start, np.float64).ravel(), 0))
     enter, leave = ray_box_interval(o, d, np.zeros(3), dims)
     t = np.maximum(enter, start)
     n = len(o)
@@ -217,8 +224,11 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
                    ambient: float = 0.2, specular: float = 0.3,
                    specular_power: float = 30.0, color_by: str | None = None,
                    lookup_table: np.ndarray | None = None,
-                   clim: Sequence[float] = (0.0, 1.0)) -> np.ndarray:
+                   clim: Sequence[float] = (0.0, 1.0), opacity: float = 1.0) -> np.ndarray:
     """Render the surface f = 0: each pixel its first root's (lit) colour, both sides lit.
+
+    ``opacity`` below 1: every root along the ray, each covering ``opacity`` of what lies
+    behind, composited front to back over ``background`` (up to :data:`MAX_LAYERS`).
 
     The normal at the hit faces the eye (open surfaces show their back lit as their front);
     lighting as :func:`~pv_cubemarch.reference.shading.blinn_phong`. ``color_by``:
@@ -228,25 +238,50 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
     """
     if shading not in ("unlit", "flat", "blinn"):
         raise ValueError(f"shading must be 'unlit', 'flat' or 'blinn', got {shading!r}.")
+    if not 0.0 <= opacity <= 1.0:
+        raise ValueError(f"opacity must lie in [0, 1], got {opacity!r}.")
     width, height = (int(v) for v in size)
-    hits = trace_surface(field, active_cells(field), camera, (width, height), near=near)
+    active = active_cells(field)
     image = np.empty((height, width, 3))
     image[...] = np.asarray(background, dtype=np.float64)
-    hit = hits.hit
-    _, directions = camera.rays((width, height))
-    toward_eye = -directions[hit]
-    normals = hits.normal[hit]
-    normals = np.where(np.sum(normals * toward_eye, axis=1, keepdims=True) < 0, -normals,
-                       normals)
-    base = np.broadcast_to(np.asarray(color, dtype=np.float64), normals.shape)
-    if color_by is not None:
-        local = (hits.point[hit] - field.world_from_index()[:3, 3]) @ np.linalg.inv(
-            field.world_from_index()[:3, :3]).T
-        values = (field.mean_curvature_at_cells(local) if color_by == "curvature" else
-                  field.at_cells(local, field.color_values))
-        table = np.asarray(lookup_table, dtype=np.float64)
-        place = np.clip((values - clim[0]) / (clim[1] - clim[0]), 0.0, 1.0)
-        base = table[np.floor(place * (len(table) - 1) + 0.5).astype(int)]
-    image[hit] = np.clip(blinn_phong(base, normals, hits.point[hit], toward_eye, lights,
-                                     shading, ambient, specular, specular_power), 0.0, 1.0)
-    return image
+
+    def shade(hits: SurfaceHits) -> np.ndarray:
+        """The (lit) colour of each hit pixel."""
+        hit = hits.hit
+        _, directions = camera.rays((width, height))
+        toward_eye = -directions[hit]
+        normals = hits.normal[hit]
+        normals = np.where(np.sum(normals * toward_eye, axis=1, keepdims=True) < 0,
+                           -normals, normals)
+        base = np.broadcast_to(np.asarray(color, dtype=np.float64), normals.shape)
+        if color_by is not None:
+            local = (hits.point[hit] - field.world_from_index()[:3, 3]) @ np.linalg.inv(
+                field.world_from_index()[:3, :3]).T
+            values = (field.mean_curvature_at_cells(local) if color_by == "curvature" else
+                      field.at_cells(local, field.color_values))
+            table = np.asarray(lookup_table, dtype=np.float64)
+            place = np.clip((values - clim[0]) / (clim[1] - clim[0]), 0.0, 1.0)
+            base = table[np.floor(place * (len(table) - 1) + 0.5).astype(int)]
+        return np.clip(blinn_phong(base, normals, hits.point[hit], toward_eye, lights,
+                                   shading, ambient, specular, specular_power), 0.0, 1.0)
+
+    if opacity >= 1.0:
+        hits = trace_surface(field, active, camera, (width, height), near=near)
+        image[hits.hit] = shade(hits)
+        return image
+    # Translucent: every root along the ray, front to back, each covering `opacity`; the
+    # next looked for a millionth of a cell past the last (roots are found to 1e-9).
+    cell = float(np.linalg.norm(field.world_from_index()[:3, :3], axis=0).min())
+    held = np.zeros((height, width, 3))
+    cover = np.zeros((height, width))
+    start = np.zeros((height, width))
+    for _ in range(MAX_LAYERS):
+        hits = trace_surface(field, active, camera, (width, height), near=near, start=start)
+        hit = hits.hit
+        if not hit.any():
+            break
+        weight = (1.0 - cover[hit]) * opacity
+        held[hit] += weight[:, None] * shade(hits)
+        cover[hit] += weight
+        start = np.where(hit, hits.depth + 1e-6 * cell, np.inf)
+    return held + (1.0 - cover)[..., None] * image

@@ -33,7 +33,7 @@ MAX_REFINE_STEPS = 40
 ACTIVE = ("active",)
 #: Every option of the surface techniques, declared once (:mod:`pv_cubemarch.core.declared`).
 (TECHNIQUE, STEPS, REFINE_STEPS, ROOT, TRAVERSAL, ACTIVE_TEST, ACTIVE_SAMPLES, COLOR, SHADING,
- AMBIENT, SPECULAR, SPECULAR_POWER, COLOR_BY_OPTION, CMAP, CLIM) = declare(
+ AMBIENT, SPECULAR, SPECULAR_POWER, COLOR_BY_OPTION, CMAP, CLIM, OPACITY) = declare(
     Option("technique", "surface", str, "active", "active (only the cells the surface can "
            "cross) or full (every cell)", choices=("active", "full"),
            usd="surfaceTechnique", cli="--surface-technique", control=Control("select")),
@@ -69,6 +69,10 @@ ACTIVE = ("active",)
            optional=True, cli="--surface-clim", usd="surfaceClim",
            without={"knob": "two numbers in the data's units; set in Python, the CLI or "
                             "USD"}),
+    Option("opacity", "surface", float, 1.0, "below 1, every crossing along the ray is "
+           "composited front to back, each covering this much (traversal='index')", ACTIVE,
+           low=0.0, high=1.0, cli="--surface-opacity", usd="surfaceOpacity",
+           control=Control("slider", "opacity", 0.0, 1.0, 0.05)),
 )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("surface"))
@@ -98,6 +102,9 @@ class SurfaceOptions:
     the model's ``color_values``), through ``cmap`` over ``clim`` (by default the second
     field's coefficients' range, or for curvature plus and minus 4 / the domain's smallest
     side: a ball filling the domain's narrowest way sits at half the range).
+    ``opacity``: below 1, every crossing along a pixel's ray up to the opaque scene is
+    composited front to back, each lit and covering ``opacity`` of what lies behind
+    (``traversal='index'``).
     """
 
     steps: int = STEPS.field()
@@ -114,6 +121,7 @@ class SurfaceOptions:
     color_by: str | None = COLOR_BY_OPTION.field()
     cmap: str = CMAP.field()
     clim: tuple[float, float] | None = CLIM.field()
+    opacity: float = OPACITY.field()
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
@@ -124,7 +132,7 @@ class SurfaceOptions:
             pyvista.Color(self.color)
         except ValueError as error:
             raise ValueError(f"color={self.color!r} is not a colour: {error}") from None
-        for item in (AMBIENT, SPECULAR, SPECULAR_POWER):
+        for item in (AMBIENT, SPECULAR, SPECULAR_POWER, OPACITY):
             item.check(getattr(self, item.name))
         if self.color_by is not None and self.color_by not in COLOR_BY:
             raise ValueError(f"color_by must be None, one of {COLOR_BY} or a field's values, "
@@ -160,6 +168,11 @@ class SurfaceOptions:
         """``(256, 3)`` float colours of ``cmap``, low to high."""
         return np.asarray(pyvista.LookupTable(self.cmap, n_values=256).values[:, :3],
                           dtype=np.float64) / 255.0
+
+    @property
+    def translucent(self) -> bool:
+        """Whether the surface is drawn translucent (every crossing composited)."""
+        return float(self.opacity) < 1.0
 
     @property
     def rgb(self) -> tuple[float, float, float]:

@@ -29,6 +29,7 @@ from ..core.registry import Technique, register_technique
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, box_actor, place_box
 from ..gl.drawn import DrawnBinding
+from ..gl.frame_inputs import frame_inputs
 from ..gl.lights import bind_scene_lights
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
@@ -58,6 +59,9 @@ STORAGE = {"index": "surface_bricks", "cell_boxes": "surface_records",
            "full": "surface_records"}
 FRAGMENT = {"index": "surface_traverse_fragment", "cell_boxes": "surface_cell_boxes_fragment",
             "full": "surface_full_fragment"}
+#: Most crossings a translucent surface's ray composites (each covering ``opacity`` of what
+#: lies behind: 64 of opacity 0.1 leave 0.1 % of the background).
+MAX_LAYERS = 64
 
 
 def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
@@ -79,12 +83,18 @@ def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
         first, floats, values = cell_layout(technique, options)
         defines.update(CM_CELL_FLOATS=floats, CM_FIRST_COEFFICIENT=first,
                        CM_COLOR_VALUES=values)
+    layers = options.translucent
+    if layers:
+        defines["CM_MAX_LAYERS"] = MAX_LAYERS
+    body = ("surface_layers_fragment",) if layers else (FRAGMENT[how], "surface_hit")
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
                     ("camera_declarations", "slab", "pixel_ray", "surface_declarations",
                      STORAGE[how], *root, *cells, *(("blinn_phong",) if lit else ()),
-                     *(("surface_color",) if options.color_by else ())), keep_tag="after"),
-        Replacement("//VTK::Light::Impl", (FRAGMENT[how], "surface_hit"), keep_tag="before"),
+                     *(("surface_color",) if options.color_by else ()), "surface_shade_hit",
+                     *(("surface_layer_declarations",) if layers else ())),
+                    keep_tag="after"),
+        Replacement("//VTK::Light::Impl", body, keep_tag="before"),
         Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
                     keep_tag="before"),
     ], defines=defines)
@@ -143,6 +153,11 @@ class SurfaceBinding(DrawnBinding):
         self.bricks = bricks
 
     @property
+    def blends_in_main_renderer(self) -> bool:
+        """A translucent surface draws in the renderer's translucent pass (OIT off there)."""
+        return self.options.translucent
+
+    @property
     def nbytes(self) -> int:
         """GPU bytes: the textures and the drawn geometry (points, triangles)."""
         polydata = self.drawn[0].GetMapper().GetInput()
@@ -153,6 +168,13 @@ class SurfaceBinding(DrawnBinding):
     def dense_bytes(self) -> int:
         """What the seed's dense layout takes: 27 floats per cell of the grid."""
         return 27 * 4 * int(np.prod(self.model.dimensions))
+
+    def follow_anchor(self) -> None:
+        """At each frame: follow the returned actor; say what depth peeling drops."""
+        super().follow_anchor()
+        if self.options.translucent:
+            self.say_depth_peeling("the translucent surface's crossings in front of opaque "
+                                   "props behind its domain")
 
     def set_transform(self, transform) -> None:
         """Move the surface: ``transform`` is its new 4x4 placement in the world."""
@@ -209,6 +231,10 @@ def _index_bricks(field: SplineField, options: SurfaceOptions,
             return surface_bricks(field, cells, colors=options.color_by == "field")
         except MemoryError as error:
             why = str(error)
+    if options.translucent:
+        raise ValueError(f"opacity={options.opacity:g}: a translucent surface is drawn by "
+                         f"traversal='index', and a grid of {dims} cells is beyond it ({why}). "
+                         "Resample the field coarser, or leave opacity out.")
     warnings.warn(f"A grid of {dims} cells is beyond traversal='index' ({why}): drawn with "
                   "traversal='cell_boxes'.", stacklevel=4)
     return None
@@ -240,6 +266,12 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
     """The actor of ``field``'s surface drawn by ``technique``; returns its binding."""
     renderer = plotter.renderer
     how = drawing(technique, options)
+    if options.translucent and how != "index":
+        used = f"technique={technique!r}" if how == "full" else f"traversal={how!r}"
+        raise ValueError(f"opacity={options.opacity:g}: a translucent surface composites every "
+                         "crossing along one ray per pixel, as traversal='index' of "
+                         f"technique='active' (the defaults) marches it; {used} keeps only "
+                         "the nearest hit. Leave it out, or leave opacity out.")
     cells = None if how == "full" else active_cells(field, options.active_test,
                                                      options.active_samples)
     bricks = _index_bricks(field, options, cells) if how == "index" else None
@@ -247,8 +279,9 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
         options = dataclasses.replace(options, traversal="cell_boxes")
         how = "cell_boxes"
     actor = _cell_boxes_actor(field, cells) if how == "cell_boxes" else _domain_actor(field)
-    actor.ForceTranslucentOff()
-    actor.ForceOpaqueOn()
+    if not options.translucent:   # else the translucent pass, after every opaque prop
+        actor.ForceTranslucentOff()
+        actor.ForceOpaqueOn()
     actor.GetProperty().LightingOff()
     mapper = actor.GetMapper()
     mapper.ScalarVisibilityOff()
@@ -261,6 +294,9 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
     bindings.set_uniform("cm_surfaceColor", options.rgb)
     bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
     bind_camera(bindings, renderer, field.world_from_index)
+    if options.translucent:
+        bindings.add_texture("cm_sceneDepth", frame_inputs(renderer).depth)
+        bindings.set_uniform("cm_opacity", float(options.opacity))
     if options.shading != "unlit":   # the lights, and the normals' map to view space
         bind_scene_lights(bindings, renderer, field.world_from_index)
         bindings.set_uniform("cm_ambient", float(options.ambient))

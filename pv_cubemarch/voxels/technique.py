@@ -210,7 +210,6 @@ class VoxelBinding(DrawnBinding):
         self.layers: TranslucentLayers | None = None
         #: Whether this grid may draw translucent materials (a world's chunk may not).
         self.composites = False
-        self._peeling_said = False
 
     @property
     def blends_in_main_renderer(self) -> bool:
@@ -293,12 +292,7 @@ class VoxelBinding(DrawnBinding):
         if self.layers is None:
             return
         self.layers.actor.SetVisibility(self.shown)
-        if self.shown and not self._peeling_said and self.renderer.GetUseDepthPeeling():
-            self._peeling_said = True
-            warnings.warn(f"Voxels {self.model.name!r}: depth peeling is on, and it drops "
-                          "the translucent materials' faces in front of opaque voxels; "
-                          "turn it off (plotter.disable_depth_peeling()) to draw them.",
-                          stacklevel=2)
+        self.say_depth_peeling("the translucent materials' faces in front of opaque voxels")
 
     def follow_placement(self) -> None:
         """After the grid moved: its actors follow."""
