@@ -15,11 +15,16 @@ import pyvista
 
 from .core.registry import get_technique
 from .gl.overlay import bounds_proxy
-from .models.channels import channel_count, is_channels, make_channels
+from .models.channels import (
+    is_channels,
+    make_data_model,
+    with_channel_mix,
+    with_channel_transfer,
+)
 from .models.field_sources import color_values, make_field
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
-from .models.volume import VolumeModel, make_volume, with_transfer
+from .models.volume import VolumeModel, with_transfer
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
@@ -329,18 +334,21 @@ def add_volume(
         categories=categories).items() if value is not None}
     if isinstance(volume, (VolumeModel, VolumeGroup)):
         model = volume
-        if transfer and isinstance(model, VolumeGroup):
+        if transfer and isinstance(model, VolumeGroup) and not is_channels(model):
             raise ValueError(f"{', '.join(transfer)}: volumes marched jointly keep each "
                              "member's transfer function; give it to make_volume per member.")
         if transfer:
-            model = with_transfer(model, **transfer)
+            model = (with_channel_transfer(model, **transfer) if is_channels(model)
+                     else with_transfer(model, **transfer))
+        if channel_blending is not None:
+            model = with_channel_mix(model, channel_blending)
         if interpolation is not None and interpolation != getattr(model, "interpolation",
                                                                    interpolation):
             INTERPOLATION.check(interpolation)
             model = dataclasses.replace(model, interpolation=interpolation)
     else:
         volume, scalars = volume_input(volume, scalars, resolution, preference)
-        model = _data_model(volume, scalars, independent_components, channel_blending,
+        model = make_data_model(volume, scalars, independent_components, channel_blending,
                             dict(cmap=cmap, opacity=opacity, clim=clim,
                                  opacity_unit_distance=opacity_unit_distance,
                                  n_colors=n_colors, flip_scalars=flip_scalars,
@@ -391,31 +399,6 @@ def add_volume(
     if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
         plotter.render()
     return actor
-
-
-def _data_model(volume, scalars, independent_components, channel_blending, transfer: dict,
-                **placement):
-    """The model of raw data: one volume, an RGBA volume, or a channel volume (a group).
-
-    ``transfer`` holds add_volume's transfer keywords as given (``None``: the default).
-    """
-    keywords = dict(transfer, opacity=transfer["opacity"] or "linear",
-                    n_colors=transfer["n_colors"] or 256,
-                    categories=transfer["categories"] or False)
-    count = channel_count(volume, scalars, independent_components)
-    if count:
-        for flag in ("flip_scalars", "log_scale"):   # one each, or one for all
-            if not isinstance(keywords[flag], (list, tuple)):
-                keywords[flag] = bool(keywords[flag])
-        return make_channels(volume, scalars or volume.active_scalars_name, count,
-                             make_volume, channel_mix=channel_blending or "composite",
-                             **keywords, **placement)
-    if channel_blending is not None:
-        raise ValueError("channel_blending mixes the channels of a volume with 2 to 4 "
-                         "components; this one has a single component.")
-    keywords.update(flip_scalars=bool(keywords["flip_scalars"]),
-                    log_scale=bool(keywords["log_scale"]))
-    return make_volume(volume, scalars, **keywords, **placement)
 
 
 def _frame(plotter: pyvista.Plotter, reset_camera: bool | None = None) -> None:

@@ -210,3 +210,53 @@ def test_channel_values_change_and_what_is_refused():
                          technique="direct")
     assert len(four.cubemarch.model.members) == 4
     pl.close()
+
+
+def test_channel_volumes_from_files_usd_and_the_command_line(tmp_path, vtk_independent,
+                                                             pyvista_summed):
+    """A ``.vti`` of two uint16 channels is a channel volume in every channel: a grid scene
+    (drawn as VTK's independent components), a USD Volume whose field is that file with
+    ``cubemarch:channelBlending = "additive"`` (PyVista's channels summed), and
+    ``pv-cubemarch render --channel-blending additive`` (the CPU reference at the CLI's
+    camera); the scene's block (``to_multiblock``) gives the two components back.
+
+    catches (seen failing): the grid scene made with ``make_volume`` (the 2 components
+    refused); ``channel_blending`` dropped from the USD model attributes (composite: 26.2
+    dB against the summed images); the CLI's flag dropped (``with_channel_mix`` not
+    called: 26.8 dB against the reference).
+    """
+    from conftest import write_voxel_stage
+    from PIL import Image
+
+    from pv_cubemarch.cli import main
+    from pv_cubemarch.models.channels import is_channels, with_channel_mix
+    path = tmp_path / "cells.vti"
+    microscopy().save(path)
+    scene = cm.load_scene(path)
+    (volume,) = scene.volumes
+    assert is_channels(volume) and "2 channels (composite)" in scene.summary()
+    block = scene.to_multiblock()[volume.name]
+    assert np.array_equal(block["ch"], microscopy()["ch"])
+    scene.background = BLACK
+    image, _, _ = draw(lambda pl: scene.add_to(pl))
+    assert_close_to_reference(image, vtk_independent, 32.0, background=BLACK)
+    stage = write_voxel_stage(tmp_path, None, technique="direct", file_name="cells.vti",
+                              translate=(0.0, 0.0, 0.0), rotate_y=0.0, attrs={
+                                  "cubemarch:channelBlending": ("Token", "additive")})
+    staged = cm.load_scene(stage)
+    assert staged.volumes[0].channel_mix == "additive"
+    staged.background = BLACK
+    staged.cameras.clear()   # PyVista's view angle, as the oracle's
+    image, _, _ = draw(lambda pl: staged.add_to(pl))
+    assert_close_to_reference(image, pyvista_summed, 45.0, background=BLACK)
+    out = tmp_path / "additive.png"
+    assert main(["render", str(path), "--channel-blending", "additive", "-o", str(out),
+                 "--size", "200x160", "--no-progress"]) == 0
+    camera = scene.default_camera(200 / 160)
+    reference = render_emission_absorption(with_channel_mix(volume, "additive"), camera,
+                                           SIZE, background=pv.Color(
+                                               cm.load_scene(path).background).float_rgb,
+                                           step_voxels=0.25)
+    drawn = np.asarray(Image.open(out))[..., :3]
+    assert_close_to_reference(drawn, reference, 40.0,
+                              background=pv.Color(cm.load_scene(path).background).float_rgb)

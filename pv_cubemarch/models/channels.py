@@ -14,7 +14,7 @@ import pyvista
 
 from ..core.errors import VolumeDataError
 from .group import MAX_GROUP_MEMBERS, VolumeGroup
-from .volume import is_rgba
+from .volume import is_rgba, make_volume, with_transfer
 
 #: How the channels of one volume mix (``channel_blending=``).
 CHANNEL_MIXES = ("composite", "additive")
@@ -95,9 +95,7 @@ def make_channels(grid, scalars: str, count: int, make_member, channel_mix: str 
     member (:func:`pv_cubemarch.make_volume`); ``keywords`` are the transfer keywords, each
     one value or one per channel (:func:`per_channel`), and the others, the same for all.
     """
-    if channel_mix not in CHANNEL_MIXES:
-        raise ValueError(f"channel_blending must be one of {CHANNEL_MIXES}, got "
-                         f"{channel_mix!r}.")
+    _check_mix(channel_mix)
     if not isinstance(grid, pyvista.DataSet):
         grid = pyvista.wrap(grid)
     if scalars not in grid.point_data:
@@ -130,3 +128,75 @@ def make_channels(grid, scalars: str, count: int, make_member, channel_mix: str 
 def is_channels(model) -> bool:
     """Whether ``model`` is a channel volume (a group of co-located channels)."""
     return isinstance(model, VolumeGroup) and model.channel_mix is not None
+
+
+def make_data_model(volume, scalars, independent_components, channel_blending,
+                    transfer: dict, **placement):
+    """The model of raw data: one volume, an RGBA volume, or a channel volume (a group).
+
+    ``transfer`` holds add_volume's transfer keywords as given (``None``: the default);
+    ``placement``: ``make_volume``'s other keywords (``transform``, ``name`` ...).
+    """
+    keywords = dict(transfer, opacity=transfer.get("opacity") or "linear",
+                    n_colors=transfer.get("n_colors") or 256,
+                    categories=transfer.get("categories") or False)
+    for key in ("cmap", "clim", "opacity_unit_distance", "flip_scalars", "log_scale"):
+        keywords.setdefault(key, None)
+    count = channel_count(volume, scalars, independent_components)
+    if count:
+        for flag in ("flip_scalars", "log_scale"):   # one each, or one for all
+            if not isinstance(keywords[flag], (list, tuple)):
+                keywords[flag] = bool(keywords[flag])
+        return make_channels(volume, scalars or volume.active_scalars_name, count,
+                             make_volume, channel_mix=channel_blending or "composite",
+                             **keywords, **placement)
+    if channel_blending is not None:
+        raise ValueError("channel_blending mixes the channels of a volume with 2 to 4 "
+                         "components; this one has a single component.")
+    keywords.update(flip_scalars=bool(keywords["flip_scalars"]),
+                    log_scale=bool(keywords["log_scale"]))
+    return make_volume(volume, scalars, **keywords, **placement)
+
+
+def with_channel_transfer(group: VolumeGroup, **changes) -> VolumeGroup:
+    """A channel volume with some transfer keywords changed.
+
+    Each keyword is one value for every channel, or a list of one each (as
+    :func:`make_channels` takes them).
+    """
+    count = len(group.members)
+    if len(set(per_channel("n_colors", changes.get("n_colors"), count))) > 1:
+        raise ValueError(f"n_colors={changes['n_colors']}: the channels of a volume share "
+                         "one table size (one marcher reads them all); give one number.")
+    each = {key: per_channel(key, value, count) for key, value in changes.items()}
+    if "cmap" in each:
+        each["cmap"] = [channel_cmap(c) for c in each["cmap"]]
+    members = [with_transfer(member, **{key: values[index] for key, values in each.items()})
+               for index, member in enumerate(group.members)]
+    return VolumeGroup(members, name=group.name, channel_mix=group.channel_mix)
+
+
+def _check_mix(channel_mix: str) -> None:
+    if channel_mix not in CHANNEL_MIXES:
+        raise ValueError(f"channel_blending must be one of {CHANNEL_MIXES}, got "
+                         f"{channel_mix!r}.")
+
+
+def with_channel_mix(model, channel_mix: str) -> VolumeGroup:
+    """A channel volume mixing its channels as ``channel_mix`` says (refused for others)."""
+    _check_mix(channel_mix)
+    if not is_channels(model):
+        raise ValueError("channel_blending mixes the channels of a volume with 2 to 4 "
+                         f"components; {model.name!r} is not such a volume.")
+    return VolumeGroup(model.members, name=model.name, channel_mix=channel_mix)
+
+
+def channel_grid(group: VolumeGroup) -> pyvista.ImageData:
+    """A channel volume's grid with its channels as one array of components, as read."""
+    first = group.members[0]
+    grid = first.grid.copy(deep=False)
+    grid.clear_data()
+    name = first.name.rsplit("[", 1)[0]
+    grid.point_data[name] = np.column_stack([np.asarray(m.grid.point_data[m.name])
+                                             for m in group.members])
+    return grid

@@ -14,8 +14,8 @@ import numpy as np
 import pyvista
 
 from ..core.errors import SceneLoadError, VolumeDataError
+from ..models.channels import make_data_model
 from ..models.field_sources import make_field
-from ..models.volume import make_volume
 from ..models.voxels import make_voxels
 from .model import Scene
 from .openvdb import VdbFormatError
@@ -131,8 +131,8 @@ def load_grid_scene(path: str | Path, as_voxels: bool = False,
     Returns
     -------
     Scene
-        One volume, voxel grid or surface named after the file, no camera (the default
-        view).
+        One volume (an array of 2 to 4 components: a channel volume; 4 uint8: RGBA),
+        voxel grid or surface named after the file, no camera (the default view).
     """
     path = Path(path)
     if not path.is_file():
@@ -150,7 +150,8 @@ def load_grid_scene(path: str | Path, as_voxels: bool = False,
             scene.surfaces.append(make_field(grid, float(isovalue), transform=placement(grid),
                                              name=path.name))
         else:
-            scene.volumes.append(make_volume(grid, transform=placement(grid), name=path.name))
+            scene.volumes.append(make_data_model(grid, None, None, None, {},
+                                                 transform=placement(grid), name=path.name))
     except VolumeDataError as exc:
         raise VolumeDataError(f"{where}: {exc}") from exc
     return scene

@@ -16,6 +16,7 @@ from ..core.camera import Camera
 from ..core.errors import SceneWarning
 from ..core.progress import progress
 from ..core.rendering import offscreen_plotter, render_image
+from ..models.channels import channel_grid, is_channels
 from ..models.group import overlap_groups
 from ..models.lights import VolumeLight
 from ..models.surface import SplineField
@@ -95,7 +96,11 @@ class Scene:
         lines += [f"  {m.name}: {m.mesh.n_points} points, {m.mesh.n_cells} faces"
                   for m in self.meshes]
         lines.append(f"volumes: {len(self.volumes)}")
-        lines += [f"  {v.name}: {'x'.join(map(str, v.dimensions))} points" for v in self.volumes]
+        lines += [f"  {v.name}: " + (f"{len(v.members)} channels ({v.channel_mix}) of "
+                                     f"{'x'.join(map(str, v.members[0].dimensions))} points"
+                                     if is_channels(v) else
+                                     f"{'x'.join(map(str, v.dimensions))} points")
+                  for v in self.volumes]
         lines.append(f"voxel grids: {len(self.voxels)}")
         lines += [f"  {g.name}: {'x'.join(map(str, g.dimensions))} voxels, "
                   + (f"labels up to {int(g.labels.max())}" if isinstance(g, VoxelModel) else
@@ -127,9 +132,10 @@ class Scene:
         for m in self.meshes:
             blocks[m.name] = m.mesh
         for v in self.volumes:
-            grid = v.grid.copy()
-            if not np.allclose(v.transform, np.eye(4)):
-                grid = grid.transform(v.transform, inplace=False)
+            grid = channel_grid(v) if is_channels(v) else v.grid.copy()
+            transform = v.members[0].transform if is_channels(v) else v.transform
+            if not np.allclose(transform, np.eye(4)):
+                grid = grid.transform(transform, inplace=False)
             blocks[v.name] = grid
         for g in self.voxels:
             if isinstance(g, VoxelModel):
@@ -159,8 +165,10 @@ class Scene:
             except (ValueError, TypeError, IndexError, OSError) as exc:   # drawn without it
                 self._report(m.name, f"could not be drawn ({type(exc).__name__}: {exc})")
         self._add_lights(plotter)
-        # Volumes whose boxes overlap are marched jointly, with the first one's options.
-        groups = overlap_groups(self.volumes)
+        # Volumes whose boxes overlap are marched jointly, with the first one's options; a
+        # channel volume (already a group of its channels) is drawn as it is.
+        groups = overlap_groups([v for v in self.volumes if not is_channels(v)]) + [
+            [v] for v in self.volumes if is_channels(v)]
         for group in progress(groups, desc="uploading volumes", enabled=progress_bar):
             options = self.volume_options.get(group[0].name, {})
             if options.get("lights") == "scene" and self.usd_lighting:

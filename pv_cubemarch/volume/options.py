@@ -54,8 +54,9 @@ KNOB_OPACITIES = ("linear", "linear_r", "sigmoid", "sigmoid_r", "geom", "geom_r"
 NO_KNOB_UNITS = "a value in the data's own units: give it in Python, on the CLI or in USD"
 
 #: Why the channel keywords have no CLI flag, USD attribute or knob yet.
-NO_CHANNELS_IN_SCENES = ("scenes (files, USD) load one-component volumes and RGBA; a channel "
-                         "volume is made in Python (add_volume with a 2-4 component array)")
+COMPONENTS_WHEN_READ = ("decided when the data are read: a grid file's 2-4 components are "
+                        "channels, 4 uint8 RGBA; set cubemarch:independentComponents in USD "
+                        "or independent_components= in Python to choose")
 
 MARCHERS = ("vtk", "direct", "auto")
 CUBE_MAPS = ("cubemap", "auto")
@@ -157,14 +158,12 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
         # How a multi-component array is drawn: RGBA or channels (models/channels.py).
         Option("independent_components", "volume", bool, None, "2 to 4 components as "
                "channels, each its own transfer function (4 uint8: RGBA unless True)",
-               optional=True, model=True, usd=None, cli=None,
-               without=dict(usd=NO_CHANNELS_IN_SCENES, cli=NO_CHANNELS_IN_SCENES,
-                            knob=NO_CHANNELS_IN_SCENES)),
+               optional=True, model=True, cli=None,
+               without=dict(cli=COMPONENTS_WHEN_READ, knob=COMPONENTS_WHEN_READ)),
         Option("channel_blending", "volume", str, None, "how a channel volume's channels "
                "mix: one medium, or each alone with their light added", optional=True,
-               choices=CHANNEL_MIXES, model=True, usd=None, cli=None,
-               without=dict(usd=NO_CHANNELS_IN_SCENES, cli=NO_CHANNELS_IN_SCENES,
-                            knob=NO_CHANNELS_IN_SCENES)),
+               choices=CHANNEL_MIXES, model=True,
+               control=Control("select", "channels", choices=(AUTO, *CHANNEL_MIXES))),
     )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("volume"))

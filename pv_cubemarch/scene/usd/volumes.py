@@ -14,8 +14,8 @@ from pxr import UsdVol
 from ...api import voxel_options
 from ...core.errors import SceneLoadError, VolumeDataError
 from ...core.registry import get_technique, specific_option_names
+from ...models.channels import make_data_model
 from ...models.field_sources import make_field
-from ...models.volume import make_volume
 from ...models.voxels import Palette, make_voxels
 from ...volume.options import Shading
 from ..grids import placement, read_grid
@@ -69,10 +69,12 @@ def read_volume(ctx: StageContext, prim, name: str) -> None:
     _check_volume_options(name, found, options)
     if options.get("lights") == "none":
         options["lights"] = None
+    data = {key: transfer.pop(key, None) for key in ("independent_components",
+                                                      "channel_blending")}
     try:
-        volume = make_volume(
-            grid, cmap=transfer.pop("cmap", None), opacity=transfer.pop("opacity", "linear"),
-            **transfer, transform=placement(grid, ctx.world_matrix(prim)), name=name)
+        volume = make_data_model(
+            grid, None, data["independent_components"], data["channel_blending"], transfer,
+            transform=placement(grid, ctx.world_matrix(prim)), name=name)
     except VolumeDataError as exc:
         raise VolumeDataError(f"Volume {name} (field {field_prim.GetPath()}): {exc}") from exc
     ctx.scene.volumes.append(volume)
