@@ -35,6 +35,7 @@ from .surfaces.levels import (
     surface_levels,
 )
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
+from .volume.clipping import clip_plane_list
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
 from .volume.light_map import LightMap
@@ -105,6 +106,7 @@ def add_volume(
     specular_power: float | None = None,
     independent_components: bool | None = None,
     channel_blending: str | None = None,
+    clip_planes=None,
     **kwargs,
 ) -> pyvista.Volume:
     """Add a volume rendered with emission/absorption compositing; return its actor.
@@ -281,6 +283,11 @@ def add_volume(
         the colour is their extinction-weighted mean, the continuous form of VTK's
         independent components) or ``'additive'`` (each channel drawn as if alone, their
         light added, as napari adds channels; no ``lights`` or ``shade``).
+    clip_planes : sequence of float, optional
+        Planes that cut the volume, six numbers each: a point on the plane, then its
+        normal, which points to the side kept (VTK's); put on the returned volume's mapper,
+        as ``vol.mapper.AddClippingPlane`` and ``plotter.add_volume_clip_plane`` put them
+        (at most 6). For scenes: ``--clip-planes`` and ``cubemarch:clipPlanes``.
     **kwargs
         PyVista's aliases ``rng`` (``clim``) and ``colormap`` (``cmap``). Any other
         keyword raises a ``TypeError`` that says what to use instead.
@@ -395,6 +402,8 @@ def add_volume(
     elif not isinstance(model, VolumeGroup) and model.colors is None:
         add_scalar_bar(plotter, model, scalars if isinstance(scalars, str) else model.name,
                        show_scalar_bar, scalar_bar_args, annotations)
+    for plane in clip_plane_list(clip_planes):
+        actor.mapper.AddClippingPlane(plane)
     _frame(plotter, reset_camera)
     if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
         plotter.render()

@@ -580,3 +580,35 @@ def test_blending_knob_adopts_and_switches_the_mode():
     fresh.close()
     assert np.abs(switched.astype(int) - composite).max() <= 1
     assert np.abs(projected.astype(int) - composite).max() > 20
+
+
+def test_channel_and_surface_opacity_knobs_draw_as_their_options_do(tmp_path,
+                                                                    plotter_factory):
+    # The channels knob re-mixes a channel volume loaded from a grid file; the surface's
+    # opacity knob makes it translucent. Each frame against the scene drawn with the option
+    # given when it is added. catches: channel_blending stored but not handed to add_volume
+    # for a made channel volume (the composite frame kept).
+    grid = pyvista.ImageData(dimensions=(12, 10, 8), spacing=(1.0, 1.2, 0.8))
+    p = grid.points
+    grid["ch"] = np.column_stack([p[:, 0] * 10.0, 100.0 - p[:, 1] * 5.0]).astype(np.float32)
+    path = tmp_path / "two.vti"
+    grid.save(path)
+    session = TuningSession(cm.load_scene(path), plotter_factory(SIZE))
+    before = cm.render_image(session.plotter).astype(int)
+    session.set("volume", "channel_blending", "additive")
+    after = cm.render_image(session.plotter).astype(int)
+    scene = cm.load_scene(path)
+    scene.volume_options[scene.volumes[0].name] = {"channel_blending": "additive"}
+    assert np.abs(after - scene.render(size=SIZE).astype(int)).max() <= 2
+    assert np.abs(after - before).mean() > 1.0
+    pl = plotter_factory(SIZE)
+    x, y, z = np.mgrid[-1:1:10j, -1:1:10j, -1:1:10j]
+    cm.add_surface(pl, x * x + y * y + z * z, isovalue=0.5, name="ball")
+    session = TuningSession.from_plotter(pl)
+    session.set("surface", "opacity", 0.4)
+    assert pl.renderer.actors["ball"].cubemarch.options.opacity == 0.4
+    drawn = cm.render_image(pl).astype(int)
+    expected = plotter_factory(SIZE)
+    cm.add_surface(expected, x * x + y * y + z * z, isovalue=0.5, opacity=0.4, name="ball")
+    expected.camera_position = pl.camera_position
+    assert np.abs(drawn - cm.render_image(expected).astype(int)).max() <= 2

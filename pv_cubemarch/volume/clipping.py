@@ -20,6 +20,37 @@ from ..gl.bindings import FloatArray
 MAX_CLIP_PLANES = 6
 
 
+def clip_plane_list(numbers) -> list:
+    """``vtkPlane`` objects from six numbers each, checked.
+
+    Each plane is a point, then the normal to the side kept; at most
+    :data:`MAX_CLIP_PLANES`, finite, normals not zero.
+    """
+    if numbers is None:
+        return []
+    try:
+        values = np.asarray(numbers, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise ValueError(f"clip_planes must be numbers, six a plane (a point, then the "
+                         f"normal to the side kept), got {numbers!r}.") from None
+    if values.size == 0 or values.size % 6 or values.size > 6 * MAX_CLIP_PLANES:
+        raise ValueError(f"clip_planes takes six numbers a plane (a point, then the normal to "
+                         f"the side kept), 1 to {MAX_CLIP_PLANES} planes; got "
+                         f"{values.size} numbers.")
+    planes = []
+    for origin, normal in values.reshape(-1, 2, 3):
+        if not (np.isfinite(origin).all() and np.isfinite(normal).all()
+                and np.linalg.norm(normal) > 0):
+            raise ValueError(f"clip_planes: the plane at {origin.tolist()} with normal "
+                             f"{normal.tolist()} needs finite numbers and a normal that is "
+                             "not zero.")
+        plane = vtk.vtkPlane()
+        plane.SetOrigin(*origin)
+        plane.SetNormal(*normal)
+        planes.append(plane)
+    return planes
+
+
 def world_planes(mapper) -> tuple[tuple[tuple[float, ...], tuple[float, ...]], ...]:
     """The ``(origin, normal)`` of each clipping plane on ``mapper``, in world coordinates."""
     collection = mapper.GetClippingPlanes() if mapper is not None else None

@@ -65,7 +65,7 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
     SAMPLE_FACTOR, OCCLUSION_SHARPNESS, BLENDING, ISOSURFACES, INTERPOLATION, LIGHTS, \
     LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT, SHADE, AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER, \
     CMAP, OPACITY, CLIM, OPACITY_UNIT_DISTANCE, N_COLORS, FLIP_SCALARS, LOG_SCALE, \
-    CATEGORIES, INDEPENDENT_COMPONENTS, CHANNEL_BLENDING = declare(
+    CATEGORIES, INDEPENDENT_COMPONENTS, CHANNEL_BLENDING, CLIP_PLANES = declare(
         Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
                control=Control("select")),
         Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
@@ -164,6 +164,10 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
                "mix: one medium, or each alone with their light added", optional=True,
                choices=CHANNEL_MIXES, model=True,
                control=Control("select", "channels", choices=(AUTO, *CHANNEL_MIXES))),
+        Option("clip_planes", "volume", tuple, None, "planes that cut the volume, six "
+               "numbers each: a point, then the normal to the side kept", optional=True,
+               without={"knob": "a plane is moved with PyVista's clip-plane widget "
+                                "(plotter.add_volume_clip_plane) in Python"}),
     )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("volume"))
