@@ -14,7 +14,7 @@ import pytest
 import pyvista as pv
 from conftest import set_camera
 from test_pyvista_parity import psnr
-from test_surfaces import blob, plotter
+from test_surfaces import blob, plotter, view_blob
 
 import pv_cubemarch as cm
 from pv_cubemarch.models.surface import SplineField
@@ -114,12 +114,7 @@ def test_translucent_surface_matches_the_reference(plotter_factory, root, parall
     pl.add_light(light)
     cm.add_surface(pl, field, color="tan", shading="blinn", steps=200, refine_steps=30,
                    root=root, opacity=0.4)
-    camera = set_camera(pl, (16.0, -8.0, 12.0), focal=(6.0, 5.0, 4.0), up=(0, 0, 1))
-    if parallel:
-        pl.camera.parallel_projection = True
-        pl.camera.parallel_scale = 5.0
-        pl.renderer.ResetCameraClippingRange()
-        camera = cm.Camera.from_pyvista(pl.camera)
+    camera = view_blob(pl, parallel)
     image = cm.render_image(pl).astype(float) / 255.0
     lights = [cm.VolumeLight.from_pyvista(li, pl.camera) for li in pl.renderer.GetLights()]
     keywords = dict(color=pv.Color("tan").float_rgb, near=pl.camera.clipping_range[0],

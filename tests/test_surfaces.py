@@ -73,6 +73,17 @@ def against_reference(pl, field, camera, size=SIZE, depth_tolerance=1e-3, cells=
     return int(wrong.sum()), int(off.sum()), hits
 
 
+def view_blob(pl, parallel=False):
+    """Look at :func:`blob` from its usual corner (parallel: a scale of 5); the Camera."""
+    camera = set_camera(pl, (16.0, -8.0, 12.0), focal=(6.0, 5.0, 4.0), up=(0, 0, 1))
+    if parallel:
+        pl.camera.parallel_projection = True
+        pl.camera.parallel_scale = 5.0
+        pl.renderer.ResetCameraClippingRange()
+        camera = cm.Camera.from_pyvista(pl.camera)
+    return camera
+
+
 def blob(cells=(12, 10, 8), seed=5):
     """A smooth random field: a sphere's plus low-amplitude noise coefficients."""
     rng = np.random.default_rng(seed)
@@ -90,12 +101,7 @@ def test_first_roots_match_the_reference(plotter_factory, drawing, root, paralle
     pl = plotter(plotter_factory)
     cm.add_surface(pl, field, **DRAWINGS[drawing], root=root, shading="unlit", steps=50,
                    refine_steps=30)
-    camera = set_camera(pl, (16.0, -8.0, 12.0), focal=(6.0, 5.0, 4.0), up=(0, 0, 1))
-    if parallel:
-        pl.camera.parallel_projection = True
-        pl.camera.parallel_scale = 5.0
-        pl.renderer.ResetCameraClippingRange()
-        camera = cm.Camera.from_pyvista(pl.camera)
+    camera = view_blob(pl, parallel)
     wrong, off, hits = against_reference(pl, field, camera)
     assert hits.hit.mean() > 0.2
     # The march is not exact: two roots closer than a step may be missed (1 pixel seen).
