@@ -34,6 +34,7 @@ from .surfaces.levels import (
     level_lookup_table,
     surface_levels,
 )
+from .surfaces.technique import build_translucent_levels
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.clipping import clip_plane_list
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
@@ -922,7 +923,11 @@ def add_surface(
         up to the opaque scene behind, is composited front to back, each lit and covering
         ``opacity`` of what lies behind: what PyVista draws for ``contour`` +
         ``add_mesh(opacity=...)`` under depth peeling with enough peels, in one pass
-        (``technique='active'``, ``traversal='index'``).
+        (``technique='active'``, ``traversal='index'``). With several ``isosurfaces``
+        (up to 8, ``root='march'``) every crossing of every level is composited in depth
+        order. Other translucent props (meshes, volumes, other translucent surfaces) are
+        blended whole before or after it, in the order they draw, as VTK blends
+        translucent props without depth peeling.
     smooth_shading : bool, optional
         ``True`` (or left out): the surface is lit with its exact normal, which is what
         smooth shading approximates; ``False`` is refused (the surface has no facets).
@@ -949,8 +954,13 @@ def add_surface(
     >>> pl = pv.Plotter(off_screen=True)
     >>> actor = cm.add_surface(pl, 0.8 - (x**2 + y**2 + z**2), isovalue=0.0)
     """
-    if opacity is None:
-        raise ValueError("opacity=None: give a number in [0, 1] (1, the default, is opaque).")
+    try:
+        if opacity is None or isinstance(opacity, (bool, str)):
+            raise TypeError
+        opacity = float(opacity)
+    except (TypeError, ValueError):
+        raise ValueError(f"opacity={opacity!r}: give a number in [0, 1] (1, the default, is "
+                         "opaque).") from None
     if smooth_shading is not None and not smooth_shading:
         raise ValueError("smooth_shading=False shades a mesh's facets flat; this surface is "
                          "drawn from its polynomial with its exact normal and has no facets. "
@@ -965,11 +975,6 @@ def add_surface(
         raise ValueError("color_by colours one surface; several isosurfaces are coloured "
                          "by their levels through cmap (or all by color=).")
     by_level = levels is not None and len(levels) > 1 and color is None
-    if levels is not None and len(levels) > 1 and float(opacity) < 1.0:
-        raise ValueError(f"opacity={opacity:g} with {len(levels)} isosurfaces: each level is "
-                         "its own actor, and nested translucent levels need one ray through "
-                         "all of them, which is not built yet. Draw one level translucent, or "
-                         "pyvista's contour(...) with add_mesh(opacity=...) and depth peeling.")
     if show_scalar_bar and colouring is None and not by_level:
         raise ValueError("show_scalar_bar shows what colours the surface through cmap; this "
                          "one has one colour: pass color_by=, or several isosurfaces "
@@ -993,14 +998,23 @@ def add_surface(
     table = None
     if levels is not None and len(levels) > 1:
         table = level_lookup_table(cmap, levels)
+        colours = [tuple(float(v) for v in table.map_value(level, opacity=False))
+                   if by_level else options.rgb for level in levels]
+    if table is not None and options.translucent:   # every level in one pass
+        if technique != "active":
+            raise ValueError(f"opacity={opacity:g} with {len(levels)} isosurfaces: they are "
+                             "composited along one ray per pixel by technique='active'; "
+                             f"technique={technique!r} keeps only the nearest hit.")
+        binding = build_translucent_levels(plotter, model, options,
+                                           [v - levels[0] for v in levels], colours)
+        binding.values = tuple(float(v) for v in levels)
+    elif table is not None:
         drawn = []
-        for level in levels:   # the field less the level: a B-spline keeps constants
+        for level, colour in zip(levels, colours, strict=True):   # B-splines keep constants
             shifted = dataclasses.replace(model, coefficients=model.coefficients
                                           - (level - levels[0]))
-            chosen_color = tuple(float(v) for v in table.map_value(level, opacity=False)) \
-                if by_level else color
             drawn.append(chosen.build(plotter, shifted,
-                                      dataclasses.replace(options, color=chosen_color)))
+                                      dataclasses.replace(options, color=colour)))
         binding = SurfaceLevels(drawn, levels)
     else:
         binding = chosen.build(plotter, model, options)

@@ -92,8 +92,14 @@ def test_a_count_spreads_levels_as_contour_and_one_actor_stands_for_them():
 def test_surface_keywords_refused_clearly():
     grid = sheets()
     pl = pv.Plotter(off_screen=True)
-    with pytest.raises(ValueError, match="opacity=0.5 with 3 isosurfaces"):
-        pl.cubemarch.add_surface(grid, isosurfaces=LEVELS, scalars="f", opacity=0.5)
+    with pytest.raises(ValueError, match="root='exact' solves one level"):
+        pl.cubemarch.add_surface(grid, isosurfaces=LEVELS, scalars="f", opacity=0.5,
+                                 root="exact")
+    with pytest.raises(ValueError, match="9 translucent isosurfaces"):
+        pl.cubemarch.add_surface(grid, isosurfaces=9, scalars="f", opacity=0.5)
+    with pytest.raises(ValueError, match="technique='full' keeps only"):
+        pl.cubemarch.add_surface(grid, isosurfaces=LEVELS, scalars="f", opacity=0.5,
+                                 technique="full")
     with pytest.raises(ValueError, match="traversal='cell_boxes' keeps only"):
         pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", opacity=0.5,
                                  traversal="cell_boxes")
@@ -102,8 +108,9 @@ def test_surface_keywords_refused_clearly():
                                  technique="full")
     with pytest.raises(ValueError, match="opacity"):
         pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", opacity=1.5)
-    with pytest.raises(ValueError, match="opacity=None"):
-        pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", opacity=None)
+    for bad in (None, "0.5", True, [0.5]):   # catches: a string kept (its errors then fail)
+        with pytest.raises(ValueError, match="give a number in"):
+            pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", opacity=bad)
     with pytest.raises(ValueError, match="has no facets"):
         pl.cubemarch.add_surface(grid, isovalue=0.0, scalars="f", smooth_shading=False)
     with pytest.raises(ValueError, match="not both"):

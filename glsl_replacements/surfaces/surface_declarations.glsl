@@ -38,6 +38,60 @@ bool cm_sameSide(float f0, float f1)
   return (f0 > 0.0 && f1 > 0.0) || (f0 < 0.0 && f1 < 0.0);
 }
 
+// The level sets drawn: f = 0 alone, or (CM_LEVELS, several translucent isosurfaces in
+// one pass) f = cm_levels[k] for each k. cm_crossedLevel says which level lies between
+// two field values (the one nearest the first: the ray meets it first), or -1; written out
+// per level, as no function evaluated per sample may loop (see cm_beta).
+int cm_rootLevel = 0;   // the level of the last root found
+#ifdef CM_LEVELS
+uniform float cm_levels[CM_LEVELS];
+uniform float cm_levelColors[3 * CM_LEVELS];   // each level's RGB
+#define CM_TRY_LEVEL(k) if (cm_brackets(f0 - cm_levels[k], f1 - cm_levels[k]) \
+    && abs(cm_levels[k] - f0) < nearest) { nearest = abs(cm_levels[k] - f0); level = k; }
+
+float cm_levelValue(int level)
+{
+  return cm_levels[level];
+}
+
+int cm_crossedLevel(float f0, float f1)
+{
+  int level = -1;
+  float nearest = 1e38;
+  CM_TRY_LEVEL(0)
+  CM_TRY_LEVEL(1)
+#if CM_LEVELS > 2
+  CM_TRY_LEVEL(2)
+#endif
+#if CM_LEVELS > 3
+  CM_TRY_LEVEL(3)
+#endif
+#if CM_LEVELS > 4
+  CM_TRY_LEVEL(4)
+#endif
+#if CM_LEVELS > 5
+  CM_TRY_LEVEL(5)
+#endif
+#if CM_LEVELS > 6
+  CM_TRY_LEVEL(6)
+#endif
+#if CM_LEVELS > 7
+  CM_TRY_LEVEL(7)
+#endif
+  return level;
+}
+#else
+float cm_levelValue(int level)
+{
+  return 0.0;
+}
+
+int cm_crossedLevel(float f0, float f1)
+{
+  return cm_brackets(f0, f1) ? 0 : -1;
+}
+#endif
+
 vec3 cm_basis(float u)
 {
   return vec3((1.0 - u) * (1.0 - u), 2.0 * u * (1.0 - u), u * u);

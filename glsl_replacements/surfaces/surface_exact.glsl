@@ -167,6 +167,6 @@ float cm_exactRoot(vec3 a, vec3 b)
       s1 = s;
     }
   }
-  cm_rootPast = s1;
+  cm_rootPast = s1 + (s1 - s0);   // a bracket past: f may be 0 at s1 itself
   return 0.5 * (s0 + s1);
 }

@@ -1,6 +1,6 @@
 // Translucent surface (surface_layer_declarations says what it draws): each crossing up to
 // the opaque depth, found by the active cells' traversal from just past the one before
-// (cm_rootPast, or 1e-4 cell further), composited front to back until the ray is opaque
+// (cm_rootPast, or cm_nudge further), composited front to back until the ray is opaque
 // or CM_MAX_LAYERS crossings are taken. One block of main: cm_ names.
   vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and cell space
   vec2 cm_span;
@@ -14,7 +14,14 @@
                                   texture(cm_sceneDepth, cm_pixel).r).z;
   float cm_end = min(cm_span.y, cm_opaque);
   float cm_from = cm_span.x;
-  float cm_nudge = 1e-4 / max(length(cm_direction), 1e-30);   // 1e-4 cell along the ray
+  // The least step past a root (beyond its bracket, cm_rootPast), in ray units: 1e-4 cell,
+  // or 2e-6 of the larger of the distances from the grid's origin and along the ray, in
+  // cells: float32 rounding (6e-8 of them, and the cells' polynomials meeting at a face)
+  // could otherwise put the restart before the root just found, finding it again (seen: a
+  // far camera drawing a translucent ball opaque). Two crossings closer than that are one.
+  float cm_cellsPerUnit = max(length(cm_direction), 1e-30);
+  float cm_reach = max(length(cm_origin), cm_span.y * cm_cellsPerUnit);   // cells
+  float cm_nudge = max(1e-4, 2e-6 * cm_reach) / cm_cellsPerUnit;
   vec4 cm_held = vec4(0.0);
   float cm_first = -1.0;   // the view depth of the first crossing
   for (int cm_layer = 0; cm_layer < CM_MAX_LAYERS && cm_held.a < 0.999 && cm_end > cm_from;

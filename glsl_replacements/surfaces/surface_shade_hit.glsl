@@ -11,6 +11,10 @@
 vec3 cm_hitAlbedo(CM_HIT_CELL cell, vec3 local)
 {
   vec3 albedo = cm_surfaceColor;
+#ifdef CM_LEVELS
+  albedo = vec3(cm_levelColors[3 * cm_rootLevel], cm_levelColors[3 * cm_rootLevel + 1],
+                cm_levelColors[3 * cm_rootLevel + 2]);
+#endif
 #ifdef CM_COLOR_BY_CURVATURE
   albedo = cm_colorOf(cm_meanCurvature(local));
 #endif

@@ -61,8 +61,8 @@ class DrawnBinding:
         """Warn once, if the renderer peels depth, that its peels drop ``what``.
 
         VTK's peels test each fragment's raster depth (the box's back face), not the depth
-        the fragment writes, against the opaque depth: what a box composites in front of
-        an opaque prop behind its back face is lost.
+        the fragment writes, against the opaque depth: wherever an opaque prop lies nearer
+        than the box's back face, what the box composites there is lost.
         """
         if self.shown and not self._peeling_said and self.renderer.GetUseDepthPeeling():
             self._peeling_said = True

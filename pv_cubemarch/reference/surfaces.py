@@ -19,7 +19,7 @@ of ``-gradient`` (pointing out).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -224,11 +224,15 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
                    ambient: float = 0.2, specular: float = 0.3,
                    specular_power: float = 30.0, color_by: str | None = None,
                    lookup_table: np.ndarray | None = None,
-                   clim: Sequence[float] = (0.0, 1.0), opacity: float = 1.0) -> np.ndarray:
+                   clim: Sequence[float] = (0.0, 1.0), opacity: float = 1.0,
+                   levels: Sequence[float] | None = None,
+                   level_colors: Sequence[Sequence[float]] | None = None) -> np.ndarray:
     """Render the surface f = 0: each pixel its first root's (lit) colour, both sides lit.
 
     ``opacity`` below 1: every root along the ray, each covering ``opacity`` of what lies
     behind, composited front to back over ``background`` (up to :data:`MAX_LAYERS`).
+    ``levels``: draw the level sets f = each of them instead of f = 0 (``level_colors``
+    one RGB each, else ``color``), every root of every level composited in depth order.
 
     The normal at the hit faces the eye (open surfaces show their back lit as their front);
     lighting as :func:`~pv_cubemarch.reference.shading.blinn_phong`. ``color_by``:
@@ -245,7 +249,7 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
     image = np.empty((height, width, 3))
     image[...] = np.asarray(background, dtype=np.float64)
 
-    def shade(hits: SurfaceHits) -> np.ndarray:
+    def shade(hits: SurfaceHits, colour) -> np.ndarray:
         """The (lit) colour of each hit pixel."""
         hit = hits.hit
         _, directions = camera.rays((width, height))
@@ -253,7 +257,7 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
         normals = hits.normal[hit]
         normals = np.where(np.sum(normals * toward_eye, axis=1, keepdims=True) < 0,
                            -normals, normals)
-        base = np.broadcast_to(np.asarray(color, dtype=np.float64), normals.shape)
+        base = np.broadcast_to(np.asarray(colour, dtype=np.float64), normals.shape)
         if color_by is not None:
             local = (hits.point[hit] - field.world_from_index()[:3, 3]) @ np.linalg.inv(
                 field.world_from_index()[:3, :3]).T
@@ -265,23 +269,42 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
         return np.clip(blinn_phong(base, normals, hits.point[hit], toward_eye, lights,
                                    shading, ambient, specular, specular_power), 0.0, 1.0)
 
-    if opacity >= 1.0:
+    if opacity >= 1.0 and levels is None:
         hits = trace_surface(field, active, camera, (width, height), near=near)
-        image[hits.hit] = shade(hits)
+        image[hits.hit] = shade(hits, color)
         return image
-    # Translucent: every root along the ray, front to back, each covering `opacity`; the
-    # next looked for a millionth of a cell past the last (roots are found to 1e-9).
+    # Every root of every level along the ray, sorted by depth and composited front to
+    # back, each covering `opacity`; the next root of a level looked for a millionth of a
+    # cell past its last (roots are found to 1e-9).
     cell = float(np.linalg.norm(field.world_from_index()[:3, :3], axis=0).min())
+    offsets = (0.0,) if levels is None else tuple(float(v) for v in levels)
+    colours = [color] * len(offsets) if level_colors is None else list(level_colors)
+    depths, shades = [], []
+    for offset, colour in zip(offsets, colours, strict=True):
+        level = replace(field, coefficients=field.coefficients - offset)
+        cells = active if levels is None else active_cells(level)
+        start = np.zeros((height, width))
+        for _ in range(MAX_LAYERS):
+            hits = trace_surface(level, cells, camera, (width, height), near=near,
+                                 start=start)
+            hit = hits.hit
+            if not hit.any():
+                break
+            depths.append(np.where(hit, hits.depth, np.inf))
+            shade_here = np.zeros((height, width, 3))
+            shade_here[hit] = shade(hits, colour)
+            shades.append(shade_here)
+            start = np.where(hit, hits.depth + 1e-6 * cell, np.inf)
     held = np.zeros((height, width, 3))
     cover = np.zeros((height, width))
-    start = np.zeros((height, width))
-    for _ in range(MAX_LAYERS):
-        hits = trace_surface(field, active, camera, (width, height), near=near, start=start)
-        hit = hits.hit
-        if not hit.any():
-            break
-        weight = (1.0 - cover[hit]) * opacity
-        held[hit] += weight[:, None] * shade(hits)
-        cover[hit] += weight
-        start = np.where(hit, hits.depth + 1e-6 * cell, np.inf)
+    if depths:
+        depth, colour = np.stack(depths), np.stack(shades)
+        order = np.argsort(depth, axis=0)
+        depth = np.take_along_axis(depth, order, axis=0)
+        colour = np.take_along_axis(colour, order[..., None], axis=0)
+        for layer in range(len(depth)):
+            hit = np.isfinite(depth[layer])
+            weight = (1.0 - cover[hit]) * opacity
+            held[hit] += weight[:, None] * colour[layer][hit]
+            cover[hit] += weight
     return held + (1.0 - cover)[..., None] * image

@@ -26,7 +26,7 @@ import pyvista
 import vtk
 
 from ..core.registry import Technique, register_technique
-from ..gl.bindings import ShaderBindings
+from ..gl.bindings import FloatArray, ShaderBindings
 from ..gl.box import bind_camera, box_actor, place_box
 from ..gl.drawn import DrawnBinding
 from ..gl.frame_inputs import frame_inputs
@@ -59,13 +59,19 @@ STORAGE = {"index": "surface_bricks", "cell_boxes": "surface_records",
            "full": "surface_records"}
 FRAGMENT = {"index": "surface_traverse_fragment", "cell_boxes": "surface_cell_boxes_fragment",
             "full": "surface_full_fragment"}
-#: Most crossings a translucent surface's ray composites (each covering ``opacity`` of what
-#: lies behind: 64 of opacity 0.1 leave 0.1 % of the background).
-MAX_LAYERS = 64
+#: Most crossings a translucent surface's ray composites (the ray also stops once 99.9 % is
+#: covered: 256 crossings of opacity 0.027 cover that much; the loop budget still bounds
+#: a fragment's traversal).
+MAX_LAYERS = 256
+#: Most translucent levels one pass draws (each sample tests every level, written out).
+MAX_TRANSLUCENT_LEVELS = 8
 
 
-def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
-    """The replacements of ``technique`` (``'active'`` or ``'full'``) with ``options``."""
+def surface_recipe(options: SurfaceOptions, technique: str, levels: int = 1) -> ShaderRecipe:
+    """The replacements of ``technique`` (``'active'`` or ``'full'``) with ``options``.
+
+    ``levels`` above 1: that many translucent level sets of the field in one pass.
+    """
     lit = options.shading in ("flat", "blinn")
     how = drawing(technique, options)
     exact = options.root == "exact"
@@ -86,6 +92,7 @@ def surface_recipe(options: SurfaceOptions, technique: str) -> ShaderRecipe:
     layers = options.translucent
     if layers:
         defines["CM_MAX_LAYERS"] = MAX_LAYERS
+        defines["CM_LEVELS"] = levels if levels > 1 else None
     body = ("surface_layers_fragment",) if layers else (FRAGMENT[how], "surface_hit")
     return ShaderRecipe(replacements=[
         Replacement("//VTK::Color::Dec",
@@ -173,8 +180,8 @@ class SurfaceBinding(DrawnBinding):
         """At each frame: follow the returned actor; say what depth peeling drops."""
         super().follow_anchor()
         if self.options.translucent:
-            self.say_depth_peeling("the translucent surface's crossings in front of opaque "
-                                   "props behind its domain")
+            self.say_depth_peeling("the translucent surface wherever an opaque prop lies "
+                                   "nearer than the back of its domain box (inside it)")
 
     def set_transform(self, transform) -> None:
         """Move the surface: ``transform`` is its new 4x4 placement in the world."""
@@ -261,9 +268,14 @@ def _bind_cells(bindings: ShaderBindings, field: SplineField, options: SurfaceOp
                                              kind="buffer"), owned=True)
 
 
-def _build(plotter, field: SplineField, options: SurfaceOptions,
-           technique: str) -> SurfaceBinding:
-    """The actor of ``field``'s surface drawn by ``technique``; returns its binding."""
+def _build(plotter, field: SplineField, options: SurfaceOptions, technique: str,
+           offsets: tuple[float, ...] = (0.0,),
+           colors: tuple | None = None) -> SurfaceBinding:
+    """The actor of ``field``'s surface drawn by ``technique``; returns its binding.
+
+    ``offsets``: the levels of the field drawn (translucent, in one pass, when several),
+    ``colors`` one RGB each.
+    """
     renderer = plotter.renderer
     how = drawing(technique, options)
     if options.translucent and how != "index":
@@ -274,6 +286,11 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
                          "the nearest hit. Leave it out, or leave opacity out.")
     cells = None if how == "full" else active_cells(field, options.active_test,
                                                      options.active_samples)
+    if len(offsets) > 1:   # every level's cells, x fastest as active_cells orders them
+        cells = np.unique(np.concatenate([active_cells(
+            dataclasses.replace(field, coefficients=field.coefficients - offset),
+            options.active_test, options.active_samples) for offset in offsets]), axis=0)
+        cells = cells[np.lexsort(cells.T)]
     bricks = _index_bricks(field, options, cells) if how == "index" else None
     if how == "index" and bricks is None:
         options = dataclasses.replace(options, traversal="cell_boxes")
@@ -297,6 +314,9 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
     if options.translucent:
         bindings.add_texture("cm_sceneDepth", frame_inputs(renderer).depth)
         bindings.set_uniform("cm_opacity", float(options.opacity))
+    if len(offsets) > 1:
+        bindings.set_uniform("cm_levels", FloatArray(offsets))
+        bindings.set_uniform("cm_levelColors", FloatArray(np.ravel(colors)))
     if options.shading != "unlit":   # the lights, and the normals' map to view space
         bind_scene_lights(bindings, renderer, field.world_from_index)
         bindings.set_uniform("cm_ambient", float(options.ambient))
@@ -309,7 +329,7 @@ def _build(plotter, field: SplineField, options: SurfaceOptions,
         bindings.set_uniform("cm_colorRange", options.color_range(field))
         bindings.set_uniform("cm_indexFromWorld",
                              lambda: np.linalg.inv(field.world_from_index()[:3, :3]))
-    recipe = surface_recipe(options, technique)
+    recipe = surface_recipe(options, technique, len(offsets))
     bindings.recipe = recipe
     recipe.apply(actor.GetShaderProperty())
     binding = SurfaceBinding(field, bindings, recipe, options, cells, bricks)
@@ -335,6 +355,26 @@ def build_full(plotter, field: SplineField, options: SurfaceOptions) -> SurfaceB
                          "technique='full' (the seed's march through the whole domain) "
                          "does not: use technique='active' with it.")
     return _build(plotter, field, options, "full")
+
+
+def build_translucent_levels(plotter, field: SplineField, options: SurfaceOptions,
+                             offsets, colors) -> SurfaceBinding:
+    """Several translucent levels of ``field`` in one pass.
+
+    ``offsets``: the levels from its zero, ``colors`` one RGB each; every crossing of any
+    level is composited along one ray per pixel, in depth order whatever its level.
+    """
+    if not options.translucent:
+        raise ValueError("several levels in one pass are translucent levels: give opacity "
+                         "below 1, or draw each level as its own surface.")
+    if not 2 <= len(offsets) <= MAX_TRANSLUCENT_LEVELS:
+        raise ValueError(f"{len(offsets)} translucent isosurfaces: one pass draws 2 to "
+                         f"{MAX_TRANSLUCENT_LEVELS}; give fewer levels.")
+    if options.root != "march":
+        raise ValueError("root='exact' solves one level's polynomial; several translucent "
+                         "isosurfaces are marched (root='march'): leave root out.")
+    return _build(plotter, field, options, "active", tuple(float(v) for v in offsets),
+                  tuple(tuple(float(c) for c in rgb) for rgb in colors))
 
 
 register_technique(Technique(
