@@ -13,6 +13,7 @@ from .bench import edits as bench_edits
 from .bench import harness as bench
 from .bench import large as bench_large
 from .bench import resolution as bench_resolution
+from .bench import surface_layers as bench_surface_layers
 from .bench import surfaces as bench_surfaces
 from .bench import voxel_layers as bench_layers
 from .bench import voxels as bench_voxels
@@ -255,6 +256,18 @@ def build_parser() -> argparse.ArgumentParser:
                         help="voxels per side, comma-separated (default 64,128)")
     layers.add_argument("--frames", type=int, default=3, help="timed frames per row")
     layers.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    surface_layers = bench_commands.add_parser(
+        "surface-layers", help="translucent surfaces against PyVista's depth-peeled contours "
+                               "of the same field")
+    surface_layers.add_argument("--size", type=_size, default=(480, 360),
+                                help="WxH (default 480x360)")
+    surface_layers.add_argument("--grids", type=_face_sizes, default=[32, 64],
+                                help="cells per side, comma-separated (default 32,64)")
+    surface_layers.add_argument("--shapes", default=",".join(bench_surface_layers.SHAPES),
+                                help="comma-separated among "
+                                     + ", ".join(bench_surface_layers.SHAPES))
+    surface_layers.add_argument("--frames", type=int, default=3, help="timed frames per row")
+    surface_layers.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     world = bench_commands.add_parser(
         "voxel-world", help="chunked voxel worlds against one grid (the seed's Tables 3/4)")
     world.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
@@ -467,6 +480,16 @@ def _bench(args) -> int:
         return 0
     if args.bench_command == "surfaces":
         return _bench_surfaces(args)
+    if args.bench_command == "surface-layers":
+        shapes = [s.strip() for s in args.shapes.split(",") if s.strip()]
+        rows = bench_surface_layers.run_surface_layers(args.size, args.grids, shapes,
+                                                       args.frames)
+        print(f"median of {args.frames} frames at {args.size[0]}x{args.size[1]}, rows drawn "
+              "in turn; x ours: over our row on the same shape and grid; PSNR and wrong "
+              "(> 10/255): against the CPU reference compositing every root")
+        print(bench_layers.format_layer_table(rows, bench_surface_layers.OURS))
+        _write_rows(args.json_path, rows, size=list(args.size), grids=list(args.grids))
+        return 0
     if args.bench_command == "voxel-large":
         result = bench_large.run_large(args.size, args.scale, args.frames,
                                        reference=not args.no_reference, scene=args.scene,

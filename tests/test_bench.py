@@ -304,3 +304,25 @@ def test_bench_voxel_layers_rows_and_exactness(tmp_path, capsys):
     assert main(["bench", "voxel-layers", "--size", "64x48", "--grids", "12", "--frames", "1",
                  "--json", str(path)]) == 0
     assert json.loads(path.read_text())["rows"] and "depth peeling" in capsys.readouterr().out
+
+
+def test_bench_surface_layers_rows_and_accuracy(tmp_path, capsys):
+    # Translucent surfaces: our row within a few pixels of the CPU reference compositing
+    # every root, PyVista's coarsest depth-peeled contour further off; the CLI prints the
+    # table and writes the JSON. catches: the reference drawn opaque (``opacity`` not
+    # passed to render_surface): our row far off it.
+    from pv_cubemarch.bench import surface_layers as bench_surface_layers
+    from pv_cubemarch.bench import voxel_layers as bench_layers
+
+    rows = bench_surface_layers.run_surface_layers((96, 72), grids=(16,), shapes=("blobs",),
+                                                   frames=1)
+    by_row = {r.row: r for r in rows}
+    assert set(by_row) == set(bench_surface_layers.ROWS)
+    ours = by_row[bench_surface_layers.OURS]
+    assert ours.wrong_percent < 0.5 and ours.psnr_db > 40.0, ours
+    assert by_row["contour 1/cell, depth peeling"].psnr_db < ours.psnr_db
+    assert "x ours" in bench_layers.format_layer_table(rows, bench_surface_layers.OURS)
+    path = tmp_path / "surface_layers.json"
+    assert main(["bench", "surface-layers", "--size", "64x48", "--grids", "12", "--shapes",
+                 "blobs", "--frames", "1", "--json", str(path)]) == 0
+    assert json.loads(path.read_text())["rows"] and "depth peeling" in capsys.readouterr().out

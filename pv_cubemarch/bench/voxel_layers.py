@@ -132,13 +132,14 @@ def run_layers(size: Sequence[int] = (640, 480), grids: Sequence[int] = (64, 128
     return results
 
 
-def format_layer_table(results: list[LayerRow]) -> str:
-    """The rows as a text table, each row's time over our row's on the same grid."""
-    lines = [f"{'grid':>6} {'row':<31} {'frame ms':>9} {'x ours':>7} {'setup ms':>9} "
+def format_layer_table(results: list[LayerRow], ours_row: str = ROWS[0]) -> str:
+    """The rows as a text table, each row's time over ``ours_row``'s on the same scene."""
+    width = max(len(r.scene) for r in results)
+    lines = [f"{'grid':>{width}} {'row':<31} {'frame ms':>9} {'x ours':>7} {'setup ms':>9} "
              f"{'PSNR dB':>8} {'wrong %':>8}"]
-    ours = {r.scene: r.median_ms for r in results if r.row == ROWS[0]}
+    ours = {r.scene: r.median_ms for r in results if r.row == ours_row}
     for r in results:
-        lines.append(f"{r.scene:>6} {r.row:<31} {r.median_ms:9.1f} "
+        lines.append(f"{r.scene:>{width}} {r.row:<31} {r.median_ms:9.1f} "
                      f"{r.median_ms / max(ours[r.scene], 1e-9):7.2f} {r.setup_ms:9.0f} "
                      f"{r.psnr_db:8.1f} {r.wrong_percent:8.2f}")
     return "\n".join(lines)
