@@ -154,6 +154,10 @@ def test_per_channel_keywords():
     assert per_channel("opacity", ["linear", "sigmoid"], 2) == ["linear", "sigmoid"]
     assert per_channel("cmap", ["red", "blue"], 2) == ["red", "blue"]
     assert per_channel("cmap", "viridis", 3) == ["viridis"] * 3
+    # An array clim, one pair a row; an RGB colour for all (catches: the array taken as
+    # one value, the colour's three numbers split over three channels).
+    assert per_channel("clim", np.array([[0, 10], [5, 6]]), 2) == [[0, 10], [5, 6]]
+    assert per_channel("cmap", (1.0, 0.0, 0.0), 3) == [(1.0, 0.0, 0.0)] * 3
     grid = microscopy()
     pl = pv.Plotter(off_screen=True)
     actor = cm.add_volume(pl, grid, scalars="ch", clim=[(0, 4000), (0, 1000)],
@@ -163,6 +167,13 @@ def test_per_channel_keywords():
     assert first.transfer.spec.data_clim == (0, 4000)
     assert second.transfer.spec.data_clim == (0, 1000)
     assert first.transfer.spec.opacity == "linear" and second.transfer.spec.opacity == "sigmoid"
+    # RGB tuples ramp from black as names do; a (2, 2) array of clims, one row each.
+    rgb = cm.add_volume(pl, grid, scalars="ch", cmap=[(0.0, 1.0, 0.0), (1.0, 0.0, 1.0)],
+                        clim=np.array([[0, 4000], [0, 1000]]), technique="direct")
+    tuples = rgb.cubemarch.model.members
+    assert np.allclose(tuples[1].transfer.table[-1, :3], (1.0, 0.0, 1.0))
+    assert np.allclose(tuples[0].transfer.table[0, :3], 0.0)
+    assert tuples[1].transfer.spec.data_clim == (0, 1000)
     # 'magenta' ramps from black: its first row is black, its last magenta.
     table = second.transfer.table
     assert np.allclose(table[0, :3], 0.0) and np.allclose(table[-1, :3], (1.0, 0.0, 1.0))

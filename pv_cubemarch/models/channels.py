@@ -65,24 +65,33 @@ def per_channel(keyword: str, value, count: int) -> list:
     """``value`` for each of ``count`` channels: a list of ``count`` items is one each.
 
     Except where a list of plain numbers is itself one value: a ``clim`` pair (with two
-    channels) and an ``opacity`` curve are the same for every channel.
+    channels), an ``opacity`` curve and an RGB ``cmap`` colour are the same for every
+    channel. An array is its list (``clim`` as a ``(count, 2)`` array: one pair each).
     """
+    if isinstance(value, np.ndarray) and value.ndim >= 1:   # a (count, 2) clim array...
+        value = value.tolist()
     if not isinstance(value, (list, tuple)) or len(value) != count:
         return [value] * count
     numbers = all(isinstance(v, (int, float, np.number)) for v in value)
-    if numbers and (keyword == "opacity" or (keyword == "clim" and count == 2)):
-        return [value] * count
+    if numbers and (keyword in ("opacity", "cmap") or (keyword == "clim" and count == 2)):
+        return [value] * count   # one curve, one pair, one RGB colour
     return list(value)
 
 
 def channel_cmap(cmap):
-    """One channel's colormap: a colour name that is no colormap ramps from black to it."""
-    if not isinstance(cmap, str):
-        return cmap
+    """One channel's colormap: a colour ramps from black to it.
+
+    The colour is a name that is no colormap, or an RGB(A) tuple of 0-1 floats.
+    """
     import matplotlib
     from matplotlib.colors import LinearSegmentedColormap, is_color_like
 
-    if cmap in matplotlib.colormaps or not is_color_like(cmap):
+    if isinstance(cmap, str):
+        if cmap in matplotlib.colormaps or not is_color_like(cmap):
+            return cmap
+    elif not (isinstance(cmap, (tuple, list)) and len(cmap) in (3, 4)
+              and all(isinstance(v, (int, float, np.number)) for v in cmap)
+              and is_color_like(tuple(cmap))):
         return cmap
     return LinearSegmentedColormap.from_list(f"black-{cmap}", ["black", cmap])
 
