@@ -36,7 +36,7 @@ from .surfaces.levels import (
 )
 from .surfaces.technique import build_translucent_levels
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
-from .volume.clipping import clip_plane_list
+from .volume.clipping import clip_plane_list, set_crop_box
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
 from .volume.light_map import LightMap
@@ -108,6 +108,7 @@ def add_volume(
     independent_components: bool | None = None,
     channel_blending: str | None = None,
     clip_planes=None,
+    crop_box=None,
     **kwargs,
 ) -> pyvista.Volume:
     """Add a volume rendered with emission/absorption compositing; return its actor.
@@ -289,6 +290,11 @@ def add_volume(
         normal, which points to the side kept (VTK's); put on the returned volume's mapper,
         as ``vol.mapper.AddClippingPlane`` and ``plotter.add_volume_clip_plane`` put them
         (at most 6). For scenes: ``--clip-planes`` and ``cubemarch:clipPlanes``.
+    crop_box : sequence of float, optional
+        ``(xmin, xmax, ymin, ymax, zmin, zmax)`` kept, in the data's coordinates (before
+        ``transform``): the mapper's cropping planes, as ``vol.mapper.SetCropping(True)``
+        and ``SetCroppingRegionPlanes`` set them. For scenes: ``--crop-box`` and
+        ``cubemarch:cropBox``.
     **kwargs
         PyVista's aliases ``rng`` (``clim``) and ``colormap`` (``cmap``). Any other
         keyword raises a ``TypeError`` that says what to use instead.
@@ -405,6 +411,8 @@ def add_volume(
                        show_scalar_bar, scalar_bar_args, annotations)
     for plane in clip_plane_list(clip_planes):
         actor.mapper.AddClippingPlane(plane)
+    if crop_box is not None:
+        set_crop_box(actor.mapper, crop_box)
     _frame(plotter, reset_camera)
     if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
         plotter.render()

@@ -283,21 +283,26 @@ def vtk_crop_region(region, grid):
     return planes
 
 
-@pytest.fixture(scope="module")
-def pyvista_cropped():
-    grid = pv.Wavelet()
-    pl = plotter()
+def pyvista_crop(grid, position=POSITION, background="black"):
+    """PyVista's volume cropped to REGION by its mapper: its image and camera."""
+    pl = plotter(background)
     actor = pl.add_volume(grid, show_scalar_bar=False, **KEYWORDS)
     actor.prop.interpolation_type = "linear"
     actor.mapper.SetAutoAdjustSampleDistances(False)
     actor.mapper.SetSampleDistance(0.1)
     actor.mapper.SetCropping(True)
     actor.mapper.SetCroppingRegionPlanes(*vtk_crop_region(REGION, grid))
-    pl.camera_position = POSITION
+    pl.camera_position = position
     image = cm.render_image(pl)
     camera = cm.Camera.from_pyvista(pl.camera)
     pl.close()
-    return grid, image, camera
+    return image, camera
+
+
+@pytest.fixture(scope="module")
+def pyvista_cropped():
+    grid = pv.Wavelet()
+    return grid, *pyvista_crop(grid)
 
 
 @pytest.mark.parametrize("technique", TECHNIQUES)
@@ -426,3 +431,50 @@ def test_clip_planes_from_python_usd_and_the_command_line(wavelet_clipped, tmp_p
         cm.add_volume(pv.Plotter(off_screen=True), grid, clip_planes=[1, 2, 3])
     with pytest.raises(ValueError, match="not zero"):
         cm.add_volume(pv.Plotter(off_screen=True), grid, clip_planes=[0, 0, 0, 0, 0, 0])
+
+
+def test_crop_box_from_python_usd_and_the_command_line(pyvista_cropped, tmp_path):
+    """``crop_box=``, ``cubemarch:cropBox`` and ``--crop-box`` crop as VTK's mapper does.
+
+    catches (seen failing): the box not set on the mapper (the uncropped image).
+    """
+    from conftest import write_voxel_stage
+    from PIL import Image
+
+    from pv_cubemarch.cli import main
+    grid, reference, _ = pyvista_cropped
+    pl = plotter()
+    pl.cubemarch.add_volume(grid, technique="direct", step_scale=0.1, crop_box=REGION,
+                            **KEYWORDS)
+    pl.camera_position = POSITION
+    assert psnr(cm.render_image(pl), reference) >= 45.0
+    pl.close()
+    path = tmp_path / "wavelet.vti"
+    grid.save(path)
+    stage = write_voxel_stage(tmp_path, None, technique="direct", file_name="wavelet.vti",
+                              translate=(0.0, 0.0, 0.0), rotate_y=0.0, attrs={
+                                  "cubemarch:cropBox": ("FloatArray", list(REGION)),
+                                  "cubemarch:stepScale": ("Float", 0.1),
+                                  "cubemarch:cmap": ("Token", "viridis"),
+                                  "cubemarch:clim": ("FloatArray", [40.0, 280.0])})
+    scene = cm.load_scene(stage)
+    scene.cameras.clear()   # PyVista's view angle, as the oracle's
+    scene.background = (0.0, 0.0, 0.0)
+    pl = plotter()
+    scene.add_to(pl)
+    pl.camera_position = POSITION
+    assert psnr(cm.render_image(pl), reference) >= 45.0
+    pl.close()
+    grid_scene = cm.load_scene(path)
+    camera = grid_scene.default_camera(SIZE[0] / SIZE[1])
+    theirs, _ = pyvista_crop(grid, [camera.position, camera.focal_point, camera.view_up],
+                             grid_scene.background)
+    out = tmp_path / "cli.png"
+    assert main(["render", str(path), "--technique", "direct", "--step-scale", "0.1",
+                 "--cmap", "viridis", "--clim", "40", "280", "--crop-box",
+                 *map(str, REGION), "-o", str(out), "--size", "160x120",
+                 "--no-progress"]) == 0
+    assert psnr(np.asarray(Image.open(out))[..., :3], theirs) >= 45.0
+    for bad in ([0, 1, 2], [5, 0, 0, 1, 0, 1], "box"):
+        with pytest.raises(ValueError, match="crop_box takes six"):
+            cm.add_volume(pv.Plotter(off_screen=True), grid, crop_box=bad)

@@ -51,6 +51,21 @@ def clip_plane_list(numbers) -> list:
     return planes
 
 
+def set_crop_box(mapper, box) -> None:
+    """Crop ``mapper``'s volume to ``box`` (six numbers, the data's coordinates), checked."""
+    try:
+        values = np.asarray(box, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        values = np.zeros(0)
+    if values.size != 6 or not np.isfinite(values).all() or np.any(values[1::2] <= values[::2]):
+        raise ValueError(f"crop_box takes six finite numbers, (xmin, xmax, ymin, ymax, zmin, "
+                         f"zmax) in the data's coordinates, each min below its max; got "
+                         f"{box!r}.")
+    mapper.SetCropping(True)
+    mapper.SetCroppingRegionPlanes(*values)
+    mapper.SetCroppingRegionFlagsToSubVolume()
+
+
 def world_planes(mapper) -> tuple[tuple[tuple[float, ...], tuple[float, ...]], ...]:
     """The ``(origin, normal)`` of each clipping plane on ``mapper``, in world coordinates."""
     collection = mapper.GetClippingPlanes() if mapper is not None else None

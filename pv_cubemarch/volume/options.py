@@ -65,7 +65,7 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
     SAMPLE_FACTOR, OCCLUSION_SHARPNESS, BLENDING, ISOSURFACES, INTERPOLATION, LIGHTS, \
     LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT, SHADE, AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER, \
     CMAP, OPACITY, CLIM, OPACITY_UNIT_DISTANCE, N_COLORS, FLIP_SCALARS, LOG_SCALE, \
-    CATEGORIES, INDEPENDENT_COMPONENTS, CHANNEL_BLENDING, CLIP_PLANES = declare(
+    CATEGORIES, INDEPENDENT_COMPONENTS, CHANNEL_BLENDING, CLIP_PLANES, CROP_BOX = declare(
         Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
                control=Control("select")),
         Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
@@ -168,6 +168,11 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
                "numbers each: a point, then the normal to the side kept", optional=True,
                without={"knob": "a plane is moved with PyVista's clip-plane widget "
                                 "(plotter.add_volume_clip_plane) in Python"}),
+        Option("crop_box", "volume", tuple, None, "the box kept, in the data's coordinates "
+               "(xmin, xmax, ymin, ymax, zmin, zmax), as the mapper's cropping planes",
+               optional=True,
+               without={"knob": "six numbers in the data's units; set in Python, the CLI or "
+                                "USD (mapper.SetCroppingRegionPlanes moves it)"}),
     )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("volume"))
