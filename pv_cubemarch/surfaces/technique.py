@@ -27,7 +27,7 @@ import vtk
 
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import FloatArray, ShaderBindings
-from ..gl.box import bind_camera, box_actor, place_box
+from ..gl.box import bind_camera, box_actor, faces_for_peeling, place_box
 from ..gl.drawn import DrawnBinding
 from ..gl.frame_inputs import frame_inputs
 from ..gl.lights import bind_scene_lights
@@ -179,9 +179,11 @@ class SurfaceBinding(DrawnBinding):
     def follow_anchor(self) -> None:
         """At each frame: follow the returned actor; say what depth peeling drops."""
         super().follow_anchor()
-        if self.options.translucent:
+        if self.options.translucent and faces_for_peeling(
+                self.drawn[0], self.renderer, self.model.world_from_index()) == "back":
             self.say_depth_peeling("the translucent surface wherever an opaque prop lies "
-                                   "nearer than the back of its domain box (inside it)")
+                                   "inside its domain box, while the camera or the near "
+                                   "plane is inside the box")
 
     def set_transform(self, transform) -> None:
         """Move the surface: ``transform`` is its new 4x4 placement in the world."""

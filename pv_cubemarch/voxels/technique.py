@@ -19,7 +19,7 @@ import pyvista
 from ..core.camera import Camera
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, box_actor, camera_matrices
+from ..gl.box import bind_camera, box_actor, camera_matrices, faces_for_peeling
 from ..gl.drawn import DrawnBinding
 from ..gl.face_depth import FaceDepthPass
 from ..gl.lights import bind_scene_lights
@@ -292,7 +292,11 @@ class VoxelBinding(DrawnBinding):
         if self.layers is None:
             return
         self.layers.actor.SetVisibility(self.shown)
-        self.say_depth_peeling("the translucent materials' faces in front of opaque voxels")
+        if faces_for_peeling(self.layers.actor, self.renderer,
+                             self.model.world_from_index()) == "back":
+            self.say_depth_peeling("the translucent materials' faces in front of opaque "
+                                   "voxels, while the camera or the near plane is inside "
+                                   "the grid's box")
 
     def follow_placement(self) -> None:
         """After the grid moved: its actors follow."""
