@@ -18,6 +18,7 @@ from .bench import surfaces as bench_surfaces
 from .bench import voxel_layers as bench_layers
 from .bench import voxels as bench_voxels
 from .bench import world as bench_world
+from .bench.layer_rows import format_layer_table
 from .bench.voxels import ROWS as VOXEL_ROWS
 from .core.declared import KINDS, declared, option, options_markdown
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
@@ -475,7 +476,7 @@ def _bench(args) -> int:
         print(f"median of {args.frames} frames at {args.size[0]}x{args.size[1]}, rows drawn "
               "in turn; x ours: over our row on the same grid; PSNR and wrong (> 10/255): "
               "against the plane-crossing CPU reference")
-        print(bench_layers.format_layer_table(rows))
+        print(format_layer_table(rows, bench_layers.ROWS[0]))
         _write_rows(args.json_path, rows, size=list(args.size), grids=list(args.grids))
         return 0
     if args.bench_command == "surfaces":
@@ -487,7 +488,7 @@ def _bench(args) -> int:
         print(f"median of {args.frames} frames at {args.size[0]}x{args.size[1]}, rows drawn "
               "in turn; x ours: over our row on the same shape and grid; PSNR and wrong "
               "(> 10/255): against the CPU reference compositing every root")
-        print(bench_layers.format_layer_table(rows, bench_surface_layers.OURS))
+        print(format_layer_table(rows, bench_surface_layers.OURS))
         _write_rows(args.json_path, rows, size=list(args.size), grids=list(args.grids))
         return 0
     if args.bench_command == "voxel-large":

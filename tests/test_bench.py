@@ -13,6 +13,7 @@ import pv_cubemarch as cm
 from pv_cubemarch.bench import harness as bench
 from pv_cubemarch.bench import resolution as bench_resolution
 from pv_cubemarch.bench import surfaces as bench_surfaces
+from pv_cubemarch.bench.layer_rows import format_layer_table
 from pv_cubemarch.cli import main
 
 
@@ -299,7 +300,7 @@ def test_bench_voxel_layers_rows_and_exactness(tmp_path, capsys):
     ours = by_row[bench_layers.ROWS[0]]
     assert ours.wrong_percent < 0.5 and ours.psnr_db > 38.0
     assert by_row[bench_layers.ROWS[2]].psnr_db < ours.psnr_db
-    assert "x ours" in bench_layers.format_layer_table(rows)
+    assert "x ours" in format_layer_table(rows, bench_layers.ROWS[0])
     path = tmp_path / "layers.json"
     assert main(["bench", "voxel-layers", "--size", "64x48", "--grids", "12", "--frames", "1",
                  "--json", str(path)]) == 0
@@ -312,7 +313,6 @@ def test_bench_surface_layers_rows_and_accuracy(tmp_path, capsys):
     # table and writes the JSON. catches: the reference drawn opaque (``opacity`` not
     # passed to render_surface): our row far off it.
     from pv_cubemarch.bench import surface_layers as bench_surface_layers
-    from pv_cubemarch.bench import voxel_layers as bench_layers
 
     rows = bench_surface_layers.run_surface_layers((96, 72), grids=(16,), shapes=("blobs",),
                                                    frames=1)
@@ -321,7 +321,7 @@ def test_bench_surface_layers_rows_and_accuracy(tmp_path, capsys):
     ours = by_row[bench_surface_layers.OURS]
     assert ours.wrong_percent < 0.5 and ours.psnr_db > 40.0, ours
     assert by_row["contour 1/cell, depth peeling"].psnr_db < ours.psnr_db
-    assert "x ours" in bench_layers.format_layer_table(rows, bench_surface_layers.OURS)
+    assert "x ours" in format_layer_table(rows, bench_surface_layers.OURS)
     path = tmp_path / "surface_layers.json"
     assert main(["bench", "surface-layers", "--size", "64x48", "--grids", "12", "--shapes",
                  "blobs", "--frames", "1", "--json", str(path)]) == 0

@@ -14,6 +14,8 @@ grid's own frame before the volume's ``transform``: world axes, not a direction 
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -382,30 +384,19 @@ def test_crop_box_moves_with_a_placement_set_after_adding(technique):
     assert psnr(image, reference) >= (42.0 if technique in ("cubemap", "auto") else 45.0)
 
 
-def test_clip_planes_from_python_usd_and_the_command_line(wavelet_clipped, tmp_path):
-    """``clip_planes=`` (six numbers a plane), ``cubemarch:clipPlanes`` and
-    ``--clip-planes`` cut the volume as PyVista's planes on its mapper do.
-
-    catches (seen failing): the planes not put on the mapper (``clip_plane_list`` given
-    nothing): the unclipped image, 15.8 dB; a plane's point and normal swapped: 16.5 dB.
-    """
+def usd_and_cli_images(tmp_path, grid, attribute: str, numbers) -> tuple:
+    """``grid`` drawn through a USD stage with ``cubemarch:<attribute>`` (at POSITION, on
+    black) and through ``pv-cubemarch render`` with its flag (at the grid scene's default
+    camera): both images, that camera and the scene's background."""
     from conftest import write_voxel_stage
     from PIL import Image
 
     from pv_cubemarch.cli import main
-    grid, reference, _ = wavelet_clipped
-    numbers = [v for origin, normal in PLANES for v in (*origin, *normal)]
-    pl = plotter()
-    pl.cubemarch.add_volume(grid, technique="direct", step_scale=0.1, clip_planes=numbers,
-                            **KEYWORDS)
-    pl.camera_position = POSITION
-    assert psnr(cm.render_image(pl), reference) >= 45.0
-    pl.close()
     path = tmp_path / "wavelet.vti"
     grid.save(path)
     stage = write_voxel_stage(tmp_path, None, technique="direct", file_name="wavelet.vti",
                               translate=(0.0, 0.0, 0.0), rotate_y=0.0, attrs={
-                                  "cubemarch:clipPlanes": ("FloatArray", numbers),
+                                  f"cubemarch:{attribute}": ("FloatArray", list(numbers)),
                                   "cubemarch:stepScale": ("Float", 0.1),
                                   "cubemarch:cmap": ("Token", "viridis"),
                                   "cubemarch:clim": ("FloatArray", [40.0, 280.0])})
@@ -415,18 +406,40 @@ def test_clip_planes_from_python_usd_and_the_command_line(wavelet_clipped, tmp_p
     pl = plotter()
     scene.add_to(pl)
     pl.camera_position = POSITION
-    assert psnr(cm.render_image(pl), reference) >= 45.0
+    staged = cm.render_image(pl)
     pl.close()
     grid_scene = cm.load_scene(path)
     camera = grid_scene.default_camera(SIZE[0] / SIZE[1])
-    theirs, _ = pyvista_clipped(grid, PLANES, position=[
-        camera.position, camera.focal_point, camera.view_up], background=grid_scene.background)
+    flag = "--" + re.sub("([A-Z])", lambda m: "-" + m.group(1).lower(), attribute)
     out = tmp_path / "cli.png"
     assert main(["render", str(path), "--technique", "direct", "--step-scale", "0.1",
-                 "--cmap", "viridis", "--clim", "40", "280", "--clip-planes",
-                 *map(str, numbers), "-o", str(out), "--size", "160x120",
-                 "--no-progress"]) == 0
-    assert psnr(np.asarray(Image.open(out))[..., :3], theirs) >= 45.0
+                 "--cmap", "viridis", "--clim", "40", "280", flag, *map(str, numbers),
+                 "-o", str(out), "--size", "160x120", "--no-progress"]) == 0
+    drawn = np.asarray(Image.open(out))[..., :3]
+    return staged, drawn, [camera.position, camera.focal_point, camera.view_up], \
+        grid_scene.background
+
+
+def test_clip_planes_from_python_usd_and_the_command_line(wavelet_clipped, tmp_path):
+    """``clip_planes=`` (six numbers a plane), ``cubemarch:clipPlanes`` and
+    ``--clip-planes`` cut the volume as PyVista's planes on its mapper do.
+
+    catches (seen failing): the planes not put on the mapper (``clip_plane_list`` given
+    nothing): the unclipped image, 15.8 dB; a plane's point and normal swapped: 16.5 dB.
+    """
+    grid, reference, _ = wavelet_clipped
+    numbers = [v for origin, normal in PLANES for v in (*origin, *normal)]
+    pl = plotter()
+    pl.cubemarch.add_volume(grid, technique="direct", step_scale=0.1, clip_planes=numbers,
+                            **KEYWORDS)
+    pl.camera_position = POSITION
+    assert psnr(cm.render_image(pl), reference) >= 45.0
+    pl.close()
+    staged, drawn, position, background = usd_and_cli_images(tmp_path, grid, "clipPlanes",
+                                                             numbers)
+    assert psnr(staged, reference) >= 45.0
+    theirs, _ = pyvista_clipped(grid, PLANES, position=position, background=background)
+    assert psnr(drawn, theirs) >= 45.0
     with pytest.raises(ValueError, match="six numbers a plane"):
         cm.add_volume(pv.Plotter(off_screen=True), grid, clip_planes=[1, 2, 3])
     with pytest.raises(ValueError, match="not zero"):
@@ -438,10 +451,6 @@ def test_crop_box_from_python_usd_and_the_command_line(pyvista_cropped, tmp_path
 
     catches (seen failing): the box not set on the mapper (the uncropped image).
     """
-    from conftest import write_voxel_stage
-    from PIL import Image
-
-    from pv_cubemarch.cli import main
     grid, reference, _ = pyvista_cropped
     pl = plotter()
     pl.cubemarch.add_volume(grid, technique="direct", step_scale=0.1, crop_box=REGION,
@@ -449,32 +458,11 @@ def test_crop_box_from_python_usd_and_the_command_line(pyvista_cropped, tmp_path
     pl.camera_position = POSITION
     assert psnr(cm.render_image(pl), reference) >= 45.0
     pl.close()
-    path = tmp_path / "wavelet.vti"
-    grid.save(path)
-    stage = write_voxel_stage(tmp_path, None, technique="direct", file_name="wavelet.vti",
-                              translate=(0.0, 0.0, 0.0), rotate_y=0.0, attrs={
-                                  "cubemarch:cropBox": ("FloatArray", list(REGION)),
-                                  "cubemarch:stepScale": ("Float", 0.1),
-                                  "cubemarch:cmap": ("Token", "viridis"),
-                                  "cubemarch:clim": ("FloatArray", [40.0, 280.0])})
-    scene = cm.load_scene(stage)
-    scene.cameras.clear()   # PyVista's view angle, as the oracle's
-    scene.background = (0.0, 0.0, 0.0)
-    pl = plotter()
-    scene.add_to(pl)
-    pl.camera_position = POSITION
-    assert psnr(cm.render_image(pl), reference) >= 45.0
-    pl.close()
-    grid_scene = cm.load_scene(path)
-    camera = grid_scene.default_camera(SIZE[0] / SIZE[1])
-    theirs, _ = pyvista_crop(grid, [camera.position, camera.focal_point, camera.view_up],
-                             grid_scene.background)
-    out = tmp_path / "cli.png"
-    assert main(["render", str(path), "--technique", "direct", "--step-scale", "0.1",
-                 "--cmap", "viridis", "--clim", "40", "280", "--crop-box",
-                 *map(str, REGION), "-o", str(out), "--size", "160x120",
-                 "--no-progress"]) == 0
-    assert psnr(np.asarray(Image.open(out))[..., :3], theirs) >= 45.0
+    staged, drawn, position, background = usd_and_cli_images(tmp_path, grid, "cropBox",
+                                                             REGION)
+    assert psnr(staged, reference) >= 45.0
+    theirs, _ = pyvista_crop(grid, position, background)
+    assert psnr(drawn, theirs) >= 45.0
     for bad in ([0, 1, 2], [5, 0, 0, 1, 0, 1], "box"):
         with pytest.raises(ValueError, match="crop_box takes six"):
             cm.add_volume(pv.Plotter(off_screen=True), grid, crop_box=bad)

@@ -12,7 +12,6 @@ more than 10/255 off.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -20,11 +19,9 @@ import numpy as np
 from ..api import add_surface
 from ..core.camera import Camera
 from ..core.progress import progress
-from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..reference.surfaces import render_surface
-from .harness import time_frames_side_by_side
+from .layer_rows import LayerRow, draw_rows
 from .surfaces import _samples, shape_field
-from .voxel_layers import WRONG, LayerRow
 
 SHAPES = ("blobs", "holey sphere")
 #: Each crossing's opacity.
@@ -65,32 +62,12 @@ def run_surface_layers(size: Sequence[int] = (480, 360), grids: Sequence[int] = 
     cases = [(shape, int(n)) for shape in shapes for n in grids]
     for shape, n in progress(cases, desc="bench surface-layers", enabled=progress_bar):
         surface = shape_field(shape, n)
-        camera = _camera(surface)
-        plotters, setup = {}, {}
-        try:
-            for row in ROWS:
-                pl = offscreen_plotter(size)
-                pl.ren_win.SetMultiSamples(0)   # peeling draws nothing multisampled here
-                pl.set_background("black")
-                start = time.perf_counter()
-                _add(pl, surface, row)
-                camera.apply_to(pl.camera)
-                pl.renderer.ResetCameraClippingRange()
-                render_frame(pl)
-                setup[row] = (time.perf_counter() - start) * 1e3
-                plotters[row] = pl
-            times = time_frames_side_by_side(plotters, frames, warmup=0)
-            shot = plotters[OURS]
-            reference = render_surface(surface, Camera.from_pyvista(shot.camera), size,
-                                       near=shot.camera.clipping_range[0], opacity=OPACITY)
-            for row in ROWS:
-                image = read_pixels(plotters[row]).astype(float) / 255.0
-                error = float(np.mean((image - reference) ** 2))
-                wrong = np.abs(image - reference).max(axis=-1) > WRONG
-                results.append(LayerRow(f"{shape} {n}^3", row, times[row], setup[row],
-                                        10 * np.log10(1.0 / max(error, 1e-12)),
-                                        100.0 * float(wrong.mean())))
-        finally:
-            for pl in plotters.values():
-                pl.close()
+
+        def reference(pl, surface=surface):
+            return render_surface(surface, Camera.from_pyvista(pl.camera), size,
+                                  near=pl.camera.clipping_range[0], opacity=OPACITY)
+        rows = {row: (lambda pl, row=row, surface=surface: _add(pl, surface, row))
+                for row in ROWS}
+        results += draw_rows(f"{shape} {n}^3", rows, size, _camera(surface), frames,
+                             reference)
     return results

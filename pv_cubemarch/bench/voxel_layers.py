@@ -12,9 +12,7 @@ pixels more than 10/255 off.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import pyvista
@@ -22,34 +20,14 @@ import pyvista
 from ..api import add_voxels
 from ..core.camera import Camera
 from ..core.progress import progress
-from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..reference.voxel_layers import render_voxel_layers
-from .harness import time_frames_side_by_side
+from .layer_rows import LayerRow, draw_rows
 
 #: Material: (colour, opacity): the shell, the organ, the core, the slab.
 MATERIALS = {1: ("lightsteelblue", 0.2), 2: ("tomato", 0.5), 3: ("gold", 1.0),
              4: ("seagreen", 0.35)}
 BACKGROUND = (0.0, 0.0, 0.0)
-#: A pixel is wrong when a channel differs from the reference by more than this (0-1).
-WRONG = 10.0 / 255.0
 ROWS = ("voxels (layers)", "pyvista meshes, depth peeling", "pyvista meshes, no peeling")
-
-
-@dataclass
-class LayerRow:
-    """One grid size and row: frame times, setup, and its error against the reference."""
-
-    scene: str
-    row: str
-    frame_ms: list[float]
-    setup_ms: float
-    psnr_db: float
-    wrong_percent: float
-
-    @property
-    def median_ms(self) -> float:
-        """The median frame time."""
-        return float(np.median(self.frame_ms))
 
 
 def layered_labels(n: int) -> np.ndarray:
@@ -93,53 +71,18 @@ def run_layers(size: Sequence[int] = (640, 480), grids: Sequence[int] = (64, 128
     """Every row on every grid size, frames drawn in turn; errors against the reference."""
     size = tuple(int(v) for v in size)
     results = []
+    rgba = np.zeros((5, 4))
+    for label, (colour, opacity) in MATERIALS.items():
+        rgba[label] = (*pyvista.Color(colour).float_rgb, opacity)
     for n in progress(list(grids), desc="bench voxel-layers", enabled=progress_bar):
         labels = layered_labels(int(n))
         camera = Camera(position=(n * 1.9, -n * 0.9, n * 1.5), focal_point=(n / 2,) * 3,
                         view_up=(0.0, 0.0, 1.0), view_angle=30.0)
-        plotters, setup = {}, {}
-        try:
-            for row in ROWS:
-                pl = offscreen_plotter(size)
-                pl.ren_win.SetMultiSamples(0)   # peeling draws nothing multisampled here
-                pl.set_background(BACKGROUND)
-                start = time.perf_counter()
-                ADD[row](pl, labels)
-                camera.apply_to(pl.camera)
-                pl.renderer.ResetCameraClippingRange()
-                render_frame(pl)
-                setup[row] = (time.perf_counter() - start) * 1e3
-                plotters[row] = pl
-            times = time_frames_side_by_side(plotters, frames, warmup=0)
-            shot = plotters[ROWS[0]]
-            rgba = np.zeros((5, 4))
-            for label, (colour, opacity) in MATERIALS.items():
-                rgba[label] = (*pyvista.Color(colour).float_rgb, opacity)
-            reference = render_voxel_layers(labels, np.eye(4), rgba,
-                                            Camera.from_pyvista(shot.camera), size,
-                                            background=BACKGROUND,
-                                            near=shot.camera.clipping_range[0])
-            for row in ROWS:
-                image = read_pixels(plotters[row]).astype(float) / 255.0
-                error = float(np.mean((image - reference) ** 2))
-                wrong = np.abs(image - reference).max(axis=-1) > WRONG
-                results.append(LayerRow(f"{n}^3", row, times[row], setup[row],
-                                        10 * np.log10(1.0 / max(error, 1e-12)),
-                                        100.0 * float(wrong.mean())))
-        finally:
-            for pl in plotters.values():
-                pl.close()
+
+        def reference(pl, labels=labels):
+            return render_voxel_layers(labels, np.eye(4), rgba, Camera.from_pyvista(pl.camera),
+                                       size, background=BACKGROUND,
+                                       near=pl.camera.clipping_range[0])
+        rows = {row: (lambda pl, row=row, labels=labels: ADD[row](pl, labels)) for row in ROWS}
+        results += draw_rows(f"{n}^3", rows, size, camera, frames, reference, BACKGROUND)
     return results
-
-
-def format_layer_table(results: list[LayerRow], ours_row: str = ROWS[0]) -> str:
-    """The rows as a text table, each row's time over ``ours_row``'s on the same scene."""
-    width = max(len(r.scene) for r in results)
-    lines = [f"{'grid':>{width}} {'row':<31} {'frame ms':>9} {'x ours':>7} {'setup ms':>9} "
-             f"{'PSNR dB':>8} {'wrong %':>8}"]
-    ours = {r.scene: r.median_ms for r in results if r.row == ours_row}
-    for r in results:
-        lines.append(f"{r.scene:>{width}} {r.row:<31} {r.median_ms:9.1f} "
-                     f"{r.median_ms / max(ours[r.scene], 1e-9):7.2f} {r.setup_ms:9.0f} "
-                     f"{r.psnr_db:8.1f} {r.wrong_percent:8.2f}")
-    return "\n".join(lines)
