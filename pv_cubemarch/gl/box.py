@@ -108,9 +108,11 @@ def cull(actor, world_from_index: np.ndarray, faces: str) -> None:
     """Draw only the box's ``faces`` (``'back'`` or ``'front'``) under this placement."""
     mirrored = bool(np.linalg.det(np.asarray(world_from_index)[:3, :3]) < 0)
     cull_front = mirrored != (faces == "back")
-    if bool(actor.GetProperty().GetFrontfaceCulling()) != cull_front:
-        actor.GetProperty().SetFrontfaceCulling(cull_front)
-        actor.GetProperty().SetBackfaceCulling(not cull_front)
+    prop = actor.GetProperty()
+    if (bool(prop.GetFrontfaceCulling()), bool(prop.GetBackfaceCulling())) != (
+            cull_front, not cull_front):   # set only on a change (no new modified time)
+        prop.SetFrontfaceCulling(cull_front)
+        prop.SetBackfaceCulling(not cull_front)
 
 
 def quads_polydata(points: np.ndarray, quads: np.ndarray) -> pyvista.PolyData:
