@@ -407,7 +407,8 @@ def add_volume(
                       "channel with plotter.add_scalar_bar(mapper=...) if needed).",
                       stacklevel=2)
     elif not isinstance(model, VolumeGroup) and model.colors is None:
-        add_scalar_bar(plotter, model, scalars if isinstance(scalars, str) else model.name,
+        add_scalar_bar(plotter, actor, model,
+                       scalars if isinstance(scalars, str) else model.name,
                        show_scalar_bar, scalar_bar_args, annotations)
     for plane in clip_plane_list(clip_planes):
         actor.mapper.AddClippingPlane(plane)
@@ -738,8 +739,9 @@ def add_voxels(
     edge_opacity : float, optional
         How much of the edge colour covers the face, 0-1 (the theme's ``edge_opacity``).
 
-    A material with an opacity between 0 and 1 is drawn opaque, with a warning
-    (translucent materials are not composited yet).
+    A material with an opacity between 0 and 1 is composited front to back, as PyVista
+    draws ``threshold`` + ``add_mesh(opacity=...)`` per label under depth peeling; chunked
+    worlds, ``lod`` and ``mode='id'``/``'face'`` draw it opaque, with a warning.
 
     Returns
     -------
@@ -802,7 +804,7 @@ def add_voxels(
         actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
         component.track(binding)
         _frame(plotter)
-    add_voxel_scalar_bar(plotter, model.palette, scalars or model.name, show_scalar_bar,
+    add_voxel_scalar_bar(plotter, actor, model.palette, scalars or model.name, show_scalar_bar,
                          scalar_bar_args, annotations)
     return actor
 
@@ -1034,7 +1036,7 @@ def add_surface(
     if table is not None:
         if annotations:
             table.annotations = {float(k): str(v) for k, v in annotations.items()}
-        add_surface_scalar_bar(plotter, table, scalars or (color_by if isinstance(
+        add_surface_scalar_bar(plotter, actor, table, scalars or (color_by if isinstance(
             color_by, str) else model.name), show_scalar_bar, scalar_bar_args)
     elif annotations:
         raise ValueError("annotations label the scalar bar of what colours the surface "

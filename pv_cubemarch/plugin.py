@@ -15,6 +15,7 @@ from PIL import Image
 from .api import add_surface, add_volume, add_voxels
 from .core.frame_errors import observe
 from .core.rendering import render_frame, render_image
+from .core.scalar_bar import drop_scalar_bar_mapper
 from .gl.frame_inputs import MultisamplePolicy, release_frame_inputs
 from .scene.io import load_scene
 from .scene.openvdb.image import read_vdb
@@ -46,6 +47,7 @@ class CubemarchComponent:
         self._observers: list = []
         self._multisampling = None
         self._user_oit: dict = {}
+        self._bar_mappers: list = []   # (renderer, actor, mapper, keywords): bar and actor
         if self._window is not None:
             self._multisampling = MultisamplePolicy(self._window)
             self._observers = [
@@ -99,6 +101,9 @@ class CubemarchComponent:
         for item in gone:
             item.release()
             self._tracked.remove(item)
+        for held in [h for h in self._bar_mappers if not h[0].HasViewProp(h[1])]:
+            self._bar_mappers.remove(held)
+            drop_scalar_bar_mapper(self._plotter, held[2])
         in_use = {id(item.main_renderer) for item in self._tracked}
         for renderer in {id(item.main_renderer): item.main_renderer for item in gone}.values():
             if id(renderer) not in in_use:
@@ -149,6 +154,23 @@ class CubemarchComponent:
         self.release_removed()
         return removed
 
+    def follow_scalar_bar(self, actor, mapper, show: bool = False, args=None) -> None:
+        """Take ``mapper`` off the scalar bars when ``actor`` leaves the active renderer.
+
+        PyVista's ``remove_actor`` takes an actor's bar (when no other actor holds it) by
+        the actor's mapper; ours colour through a mapper of their own, followed here.
+        ``show`` and ``args`` (the keywords the bar was added with) are kept for
+        :meth:`scalar_bar_keywords`.
+        """
+        keywords = {"show_scalar_bar": bool(show)}
+        if show and args:
+            keywords["scalar_bar_args"] = dict(args)
+        self._bar_mappers.append((self._plotter.renderer, actor, mapper, keywords))
+
+    def scalar_bar_keywords(self, actor) -> dict:
+        """The scalar-bar keywords ``actor`` was added with (the live view adds it so again)."""
+        return next((dict(held[3]) for held in self._bar_mappers if held[1] is actor), {})
+
     def track(self, item) -> None:
         """Keep ``item`` (with ``bindings`` and ``release()``) until its actor leaves."""
         self.release_removed()  # an actor of the same name may just have been replaced
@@ -175,6 +197,7 @@ class CubemarchComponent:
         for renderer in {id(i.main_renderer): i.main_renderer for i in self._tracked}.values():
             release_frame_inputs(renderer)
         self._tracked.clear()
+        self._bar_mappers.clear()
         if self._multisampling is not None:
             self._multisampling.restore()
         for subject, tag in self._observers:

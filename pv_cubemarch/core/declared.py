@@ -147,16 +147,15 @@ def blinn_terms(kind: str) -> tuple[Option, Option, Option]:
 
 #: Why a scalar bar's keywords given as dicts have no flag, attribute or knob.
 NO_DICT_CHANNEL = "a dict of keywords (PyVista's): give it in Python"
-#: Why the scalar bar has no knob.
-NO_BAR_KNOB = ("a scalar bar is the plotter's, not the drawn item's: it stays when the live "
-               "view draws the item again; add or remove it in Python")
 
 
 def scalar_bar_terms(kind: str) -> tuple[Option, Option, Option]:
     """``show_scalar_bar``, ``scalar_bar_args``, ``annotations``: a kind's scalar bar."""
     return (
         Option("show_scalar_bar", kind, bool, False, "add a scalar bar of what colours it "
-               "(off by default, unlike PyVista)", without={"knob": NO_BAR_KNOB}),
+               "(off by default, unlike PyVista)",
+               control=Control("switch", "scalar bar",
+                               help="the bar leaves with the item, as PyVista's does")),
         Option("scalar_bar_args", kind, dict, None, "keywords of plotter.add_scalar_bar",
                optional=True, usd=None, cli=None,
                without={"usd": NO_DICT_CHANNEL, "cli": NO_DICT_CHANNEL,

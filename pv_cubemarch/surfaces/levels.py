@@ -93,10 +93,10 @@ class SurfaceLevels(DrawnBinding):
         self.extra_release = []
 
 
-def add_surface_scalar_bar(plotter, table: pyvista.LookupTable, title: str, show: bool,
-                           args: dict | None) -> None:
+def add_surface_scalar_bar(plotter, actor, table: pyvista.LookupTable, title: str,
+                           show: bool, args: dict | None) -> None:
     """Make ``table`` ``plotter.mapper``'s (for ``add_scalar_bar``); add its bar if ``show``."""
     mapper = pyvista.DataSetMapper()
     mapper.lookup_table = table
     mapper.scalar_range = table.scalar_range
-    attach_scalar_bar(plotter, mapper, title, show, args)
+    attach_scalar_bar(plotter, actor, mapper, title, show, args)

@@ -139,6 +139,7 @@ class TuningSession:
                     options["blending"] = binding.blending
                 if getattr(binding, "isosurfaces", None) is not None:
                     options["isosurfaces"] = binding.isosurfaces
+            options.update(plotter.cubemarch.scalar_bar_keywords(actor))
             label = name if names.count(name) == 1 else f"{name} (renderer {index})"
             self.items[label] = TunedItem(kind, model, options, name, index, binding)
 

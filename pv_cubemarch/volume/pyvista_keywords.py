@@ -171,8 +171,8 @@ def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
     return mapper
 
 
-def add_scalar_bar(plotter, model, title: str, show: bool | None, args: dict | None,
-                   annotations: dict | None) -> None:
+def add_scalar_bar(plotter, actor, model, title: str, show: bool | None,
+                   args: dict | None, annotations: dict | None) -> None:
     """Make the volume ``plotter.mapper`` (for ``add_scalar_bar``) and add its bar if shown.
 
     ``show`` ``None`` follows the theme (``pyvista.global_theme.show_scalar_bar``), as
@@ -183,7 +183,7 @@ def add_scalar_bar(plotter, model, title: str, show: bool | None, args: dict | N
         mapper.lookup_table.annotations = dict(annotations)
     if show is None:
         show = bool(plotter.theme.show_scalar_bar)
-    attach_scalar_bar(plotter, mapper, title, show, args)
+    attach_scalar_bar(plotter, actor, mapper, title, show, args)
 
 
 def isosurface_levels(isosurfaces, model) -> tuple[float, ...]:

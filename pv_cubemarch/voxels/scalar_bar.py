@@ -26,7 +26,7 @@ def palette_lookup_table(palette) -> pyvista.LookupTable:
     return lut
 
 
-def add_voxel_scalar_bar(plotter, palette, title: str, show: bool, args: dict | None,
+def add_voxel_scalar_bar(plotter, actor, palette, title: str, show: bool, args: dict | None,
                          annotations: dict | None) -> None:
     """Make the grid's lookup table ``plotter.mapper``'s and add its bar when ``show``."""
     mapper = pyvista.DataSetMapper()
@@ -37,7 +37,7 @@ def add_voxel_scalar_bar(plotter, palette, title: str, show: bool, args: dict | 
             raise ValueError(f"annotations name materials {unknown} the grid has no colour "
                              f"for (its materials are 1..{len(palette.rgba) - 1}).")
         mapper.lookup_table.annotations = {float(k): str(v) for k, v in annotations.items()}
-    attach_scalar_bar(plotter, mapper, title, show, args,
+    attach_scalar_bar(plotter, actor, mapper, title, show, args,
                       n_labels=min(len(palette.rgba) - 1, 10))
 
 
