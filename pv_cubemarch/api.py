@@ -48,6 +48,7 @@ from .volume.pyvista_keywords import (
     check_direct_color,
     isosurface_levels,
     resolve_aliases,
+    set_average_range,
     volume_input,
 )
 from .volume.returned_property import ReturnedProperty
@@ -109,6 +110,7 @@ def add_volume(
     channel_blending: str | None = None,
     clip_planes=None,
     crop_box=None,
+    average_range=None,
     **kwargs,
 ) -> pyvista.Volume:
     """Add a volume rendered with emission/absorption compositing; return its actor.
@@ -295,6 +297,11 @@ def add_volume(
         ``transform``): the mapper's cropping planes, as ``vol.mapper.SetCropping(True)``
         and ``SetCroppingRegionPlanes`` set them. For scenes: ``--crop-box`` and
         ``cubemarch:cropBox``.
+    average_range : sequence of float, optional
+        ``(low, high)`` in the data's units: ``blending='average'`` averages only the
+        samples in it (air left out of a CT's mean), as VTK's
+        ``vol.mapper.SetAverageIPScalarRange`` (which it sets, and which is followed at
+        each frame). For scenes: ``--average-range`` and ``cubemarch:averageRange``.
     **kwargs
         PyVista's aliases ``rng`` (``clim``) and ``colormap`` (``cmap``). Any other
         keyword raises a ``TypeError`` that says what to use instead.
@@ -414,6 +421,8 @@ def add_volume(
         actor.mapper.AddClippingPlane(plane)
     if crop_box is not None:
         set_crop_box(actor.mapper, crop_box)
+    if average_range is not None:
+        set_average_range(actor.mapper, average_range, blending)
     _frame(plotter, reset_camera)
     if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
         plotter.render()
@@ -467,6 +476,7 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
         binding.bounds_proxy = actor
     if volume:
         binding.clip_source = actor.GetMapper()
+        binding.data.range_source = actor.GetMapper()
         for item in drawn:   # a picker returns the volume the plotter knows, not its parts
             item.PickableOff()
     plotter.add_actor(actor, name=name, reset_camera=False)

@@ -384,10 +384,11 @@ def test_crop_box_moves_with_a_placement_set_after_adding(technique):
     assert psnr(image, reference) >= (42.0 if technique in ("cubemap", "auto") else 45.0)
 
 
-def usd_and_cli_images(tmp_path, grid, attribute: str, numbers) -> tuple:
+def usd_and_cli_images(tmp_path, grid, attribute: str, numbers, blending=None) -> tuple:
     """``grid`` drawn through a USD stage with ``cubemarch:<attribute>`` (at POSITION, on
     black) and through ``pv-cubemarch render`` with its flag (at the grid scene's default
-    camera): both images, that camera and the scene's background."""
+    camera), with ``blending`` if given: both images, that camera and the scene's
+    background."""
     from conftest import write_voxel_stage
     from PIL import Image
 
@@ -399,7 +400,9 @@ def usd_and_cli_images(tmp_path, grid, attribute: str, numbers) -> tuple:
                                   f"cubemarch:{attribute}": ("FloatArray", list(numbers)),
                                   "cubemarch:stepScale": ("Float", 0.1),
                                   "cubemarch:cmap": ("Token", "viridis"),
-                                  "cubemarch:clim": ("FloatArray", [40.0, 280.0])})
+                                  "cubemarch:clim": ("FloatArray", [40.0, 280.0]),
+                                  **({"cubemarch:blending": ("Token", blending)}
+                                     if blending else {})})
     scene = cm.load_scene(stage)
     scene.cameras.clear()   # PyVista's view angle, as the oracle's
     scene.background = (0.0, 0.0, 0.0)
@@ -414,7 +417,8 @@ def usd_and_cli_images(tmp_path, grid, attribute: str, numbers) -> tuple:
     out = tmp_path / "cli.png"
     assert main(["render", str(path), "--technique", "direct", "--step-scale", "0.1",
                  "--cmap", "viridis", "--clim", "40", "280", flag, *map(str, numbers),
-                 "-o", str(out), "--size", "160x120", "--no-progress"]) == 0
+                 *(("--blending", blending) if blending else ()), "-o", str(out),
+                 "--size", "160x120", "--no-progress"]) == 0
     drawn = np.asarray(Image.open(out))[..., :3]
     return staged, drawn, [camera.position, camera.focal_point, camera.view_up], \
         grid_scene.background

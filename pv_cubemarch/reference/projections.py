@@ -7,7 +7,9 @@ premultiplied colour, as VTK's volume mapper defines the mode:
 - ``maximum`` / ``minimum``: the extreme value along the ray, drawn with the colour and
   the opacity per unit distance that :mod:`.transfer` derives for it;
 - ``average``: the mean over the samples of opacity x value normalised over the data's
-  range, an opaque grey level (no sample: the background);
+  range, an opaque grey level (no sample: the background); with an ``average_range``
+  (data units) only the samples whose value lies in it count, as VTK's
+  ``AverageIPScalarRange``;
 - ``additive``: the sum of opacity x normalised value x step / ``opacity_unit_distance``,
   an opaque grey level clamped to 1;
 - ``isosurface``: each level the ray crosses between two samples, with that level's colour
@@ -57,8 +59,11 @@ class _Extreme:
 class _Weighted:
     """``average`` / ``additive``: opacity-weighted values normalised over the data's range."""
 
-    def __init__(self, volume, count: int, additive: bool):
+    def __init__(self, volume, count: int, additive: bool, kept=None):
         self.volume, self.additive = volume, additive
+        offset = float(getattr(volume, "value_offset", 0))   # stored = data - offset
+        self.kept = (-np.inf, np.inf) if kept is None else tuple(float(v) - offset
+                                                                 for v in kept)
         finite = volume.values[np.isfinite(volume.values)]
         self.low = float(finite.min()) if finite.size else 0.0
         self.width = float(finite.max()) - self.low if finite.size else 0.0
@@ -66,6 +71,9 @@ class _Weighted:
         self.samples = np.zeros(count)
 
     def add(self, rays, values, lengths, points=None):
+        inside = (values >= self.kept[0]) & (values <= self.kept[1])
+        rays, values, lengths = rays[inside], values[inside], np.broadcast_to(
+            lengths, inside.shape)[inside]
         _, alpha = _opacity(self.volume, values)
         level = (values - self.low) / self.width if self.width > 0 else np.zeros_like(values)
         weight = lengths / _unit(self.volume) if self.additive else 1.0
@@ -121,7 +129,7 @@ class _Isosurfaces:
 
 
 def blend_accumulator(volume, count: int, blending: str, isosurfaces=(), shade=None,
-                      directions=None):
+                      directions=None, average_range=None):
     """The state of ``count`` rays under ``blending`` (``add`` per step, then ``finish``).
 
     ``shade`` (a :class:`~.volume_shading.ShadeSetup`, with each ray's unit world
@@ -130,7 +138,8 @@ def blend_accumulator(volume, count: int, blending: str, isosurfaces=(), shade=N
     if blending in ("maximum", "minimum"):
         return _Extreme(volume, count, blending == "maximum")
     if blending in ("average", "additive"):
-        return _Weighted(volume, count, blending == "additive")
+        return _Weighted(volume, count, blending == "additive",
+                         average_range if blending == "average" else None)
     if blending == "isosurface":
         if not len(isosurfaces):
             raise ValueError("blending='isosurface' needs its levels: pass isosurfaces=.")
@@ -146,7 +155,8 @@ def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
                    near: float | None = None,
                    opaque_depth: np.ndarray | None = None,
                    opaque_color: np.ndarray | None = None,
-                   clip_planes: Sequence | None = None, shade=None) -> np.ndarray:
+                   clip_planes: Sequence | None = None, shade=None,
+                   average_range: Sequence[float] | None = None) -> np.ndarray:
     """The ``blending`` image of ``volume`` (a VolumeModel): ``(h, w, 3)`` floats.
 
     ``isosurfaces``: the levels of ``'isosurface'``, in the volume's stored units.
@@ -154,7 +164,8 @@ def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
     colour; rays stop there, the blend is drawn over that colour. ``clip_planes``: world
     ``(origin, normal)`` pairs cutting the volume (see :func:`.rays.clip_interval`).
     ``shade``: a :class:`~.volume_shading.ShadeSetup` shading the isosurfaces, as VTK's
-    ``shade=True`` shades them.
+    ``shade=True`` shades them. ``average_range``: the values (data units) ``'average'``
+    takes.
     """
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
@@ -173,7 +184,8 @@ def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
         raise ValueError(f"shade shades blending='isosurface' here; blending={blending!r} "
                          "is drawn unshaded (composite: render_emission_absorption).")
     unit = directions / np.linalg.norm(directions, axis=1, keepdims=True)
-    state = blend_accumulator(volume, len(origins), blending, isosurfaces, shade, unit)
+    state = blend_accumulator(volume, len(origins), blending, isosurfaces, shade, unit,
+                              average_range)
     active = np.nonzero(t1 > t0)[0]
     t = t0[active].copy()
     while active.size:

@@ -32,6 +32,8 @@ from .stand_in import place_stand_in, stand_in_matrix
 STEP_BLOCK = 4096
 STEP_BLOCKS = 4096
 MAX_STEPS = STEP_BLOCK * STEP_BLOCKS
+#: The widest average range a float32 uniform holds (VTK's unset range is +-1e38).
+FLOAT_LIMIT = 1e38
 #: What every marching shader declares first: the transfer lookup, the one slab test, the
 #: clipping planes (compiled in only with ``CM_CLIP_PLANES``).
 DECLARATION_SNIPPETS = ("ea_declarations", "slab", "clip_planes")
@@ -131,6 +133,7 @@ class VolumeData:
         self._none_empty = False   # bricks were built and none was empty
         self.brick_builds = 0
         self.clip = ClipState()    # the clipping planes every pass of the volume reads
+        self.range_source = None   # the mapper whose AverageIPScalarRange 'average' reads
 
     def bricks(self) -> Texture | None:
         """Per-brick largest extinction, built on first use; ``None`` when no brick is empty.
@@ -197,6 +200,19 @@ class VolumeData:
         self.tables[0].set_data(self.model.transfer.table.reshape(1, -1, 4))
 
     @property
+    def average_range(self) -> tuple[float, float]:
+        """The values (stored units) 'average' takes: the returned mapper's range, as VTK's.
+
+        ``vol.mapper.SetAverageIPScalarRange(low, high)`` in data units (``add_volume(...,
+        average_range=)`` sets it); read at every draw. Unset: every value (VTK's default).
+        """
+        if self.range_source is None:
+            return -FLOAT_LIMIT, FLOAT_LIMIT
+        low, high = sorted(self.range_source.GetAverageIPScalarRange())
+        offset = float(getattr(self.model, "value_offset", 0))
+        return (max(low - offset, -FLOAT_LIMIT), min(high - offset, FLOAT_LIMIT))
+
+    @property
     def value_range(self) -> tuple[float, float]:
         """The smallest and largest finite value of the data (stored units), as VTK's range.
 
@@ -261,6 +277,8 @@ def bind_blend(target, data: VolumeData, blend: Blend) -> dict:
             getattr(model.transfer, "spec", None), "opacity_unit_distance", 1.0))
     if blend.mode in ("average", "additive"):
         target.set_uniform("cm_dataRange", lambda: data.value_range)
+    if blend.mode == "average":
+        target.set_uniform("cm_averageRange", lambda: data.average_range)
     if blend.mode == "isosurface":
         target.set_uniform("cm_isoValues", FloatArray(sorted(blend.isosurfaces)))
         return {"CM_ISO_COUNT": len(blend.isosurfaces)}

@@ -65,7 +65,8 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
     SAMPLE_FACTOR, OCCLUSION_SHARPNESS, BLENDING, ISOSURFACES, INTERPOLATION, LIGHTS, \
     LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT, SHADE, AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER, \
     CMAP, OPACITY, CLIM, OPACITY_UNIT_DISTANCE, N_COLORS, FLIP_SCALARS, LOG_SCALE, \
-    CATEGORIES, INDEPENDENT_COMPONENTS, CHANNEL_BLENDING, CLIP_PLANES, CROP_BOX = declare(
+    CATEGORIES, INDEPENDENT_COMPONENTS, CHANNEL_BLENDING, CLIP_PLANES, CROP_BOX, \
+    AVERAGE_RANGE = declare(
         Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
                control=Control("select")),
         Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
@@ -173,6 +174,9 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
                optional=True,
                without={"knob": "six numbers in the data's units; set in Python, the CLI or "
                                 "USD (mapper.SetCroppingRegionPlanes moves it)"}),
+        Option("average_range", "volume", tuple, None, "the values (data units) that "
+               "blending='average' averages, as VTK's AverageIPScalarRange", optional=True,
+               without={"knob": NO_KNOB_UNITS}),
     )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("volume"))

@@ -198,3 +198,22 @@ def isosurface_levels(isosurfaces, model) -> tuple[float, ...]:
         return spread_levels(isosurfaces, model.values)
     levels = level_values(isosurfaces)
     return tuple(shift_value(v, model.value_offset) for v in levels)
+
+
+def set_average_range(mapper, value, blending: str) -> None:
+    """Put ``average_range`` (two numbers, data units) on ``mapper``, as VTK keeps it.
+
+    Only ``blending='average'`` reads it (a warning says so for another mode; it stays on
+    the mapper, as in VTK, for a later switch to 'average').
+    """
+    try:
+        low, high = (float(v) for v in np.asarray(value, dtype=np.float64).ravel())
+    except (TypeError, ValueError):
+        low = high = np.nan
+    if not (np.isfinite(low) and np.isfinite(high)) or low > high:
+        raise ValueError(f"average_range takes two finite numbers (low, high), low not above "
+                         f"high, in the data's units; got {value!r}.")
+    if blending != "average":
+        warnings.warn(f"average_range is read by blending='average' only; this volume is "
+                      f"drawn with blending={blending!r}.", stacklevel=3)
+    mapper.SetAverageIPScalarRange(low, high)
