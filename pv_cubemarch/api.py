@@ -129,7 +129,8 @@ def add_volume(
         numpy volume ``(x, y, z, 4)``) is an RGBA volume, as in PyVista: its first three
         components are the colour, the fourth goes through ``opacity`` over ``clim`` (the
         range of all four by default) per ``opacity_unit_distance`` (1 by default, what
-        VTK draws PyVista's RGBA volumes with); composite blending, no ``shade``.
+        VTK draws PyVista's RGBA volumes with); blending 'composite', or 'maximum' /
+        'minimum' (the sample of extreme alpha, with its colour, as VTK); no ``shade``.
     cmap : str, sequence, matplotlib colormap or pyvista.LookupTable, optional
         Colormap of the emitted colour (PyVista's theme colormap by default); a lookup
         table brings its own colours and opacities. ``colormap=`` is an alias.

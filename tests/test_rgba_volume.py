@@ -140,7 +140,7 @@ def test_what_rgba_cannot_draw_is_refused():
     grid = wavelet_rgba()
     pl = pv.Plotter(off_screen=True)
     with pytest.raises(ValueError, match="blending='composite'"):
-        cm.add_volume(pl, grid, scalars="rgba", blending="maximum")
+        cm.add_volume(pl, grid, scalars="rgba", blending="average")
     with pytest.raises(ValueError, match="shade=True"):
         cm.add_volume(pl, grid, scalars="rgba", shade=True)
     with pytest.warns(UserWarning, match="cmap colours nothing"):
@@ -161,7 +161,7 @@ def test_what_rgba_cannot_draw_is_refused():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         with pytest.raises(ValueError, match="RGBA"):
-            actor.cubemarch.set_blending("maximum")
+            actor.cubemarch.set_blending("additive")
     pl.close()
 
 

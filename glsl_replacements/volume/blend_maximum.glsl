@@ -1,13 +1,11 @@
-// Blending 'maximum' (maximum-intensity projection): the largest scalar along the ray
-// (drawn by blend_projection's cm_blendResult).
+// Blending 'maximum' (maximum-intensity projection): the largest value along the ray (an
+// RGBA volume: the largest alpha, with its colour), drawn by blend_projection.
 vec4 cm_blendStart()
 {
   return vec4(-3.0e38, 0.0, 0.0, 0.0);
 }
 
-bool cm_blend(inout vec4 state, vec3 texturePosition, float dt)
+bool cm_beyond(float value, float held)
 {
-  state.x = max(state.x, cm_sampleScalar(texturePosition));
-  state.y = 1.0;
-  return true;
+  return value > held;
 }

@@ -5,7 +5,8 @@ a mode is one small class that takes the samples of every step and leaves each r
 premultiplied colour, as VTK's volume mapper defines the mode:
 
 - ``maximum`` / ``minimum``: the extreme value along the ray, drawn with the colour and
-  the opacity per unit distance that :mod:`.transfer` derives for it;
+  the opacity per unit distance that :mod:`.transfer` derives for it (an RGBA volume: the
+  extreme alpha, with the colour of the sample that holds it);
 - ``average``: the mean over the samples of opacity x value normalised over the data's
   range, an opaque grey level (no sample: the background); with an ``average_range``
   (data units) only the samples whose value lies in it count, as VTK's
@@ -23,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..core.camera import Camera
-from .rays import clip_interval, index_rays, sample
+from .rays import clip_interval, index_rays, sample, sample_colors
 from .transfer import medium
 
 
@@ -39,19 +40,30 @@ def _unit(volume) -> float:
 
 
 class _Extreme:
-    """``maximum`` / ``minimum``: the extreme value, drawn with its colour and opacity."""
+    """``maximum`` / ``minimum``: the extreme value, drawn with its colour and opacity.
+
+    An RGBA volume's value is its alpha; the ray keeps the colour of the sample that holds
+    the extreme (the first of equals along the ray, as VTK keeps it).
+    """
 
     def __init__(self, volume, count: int, largest: bool):
         self.volume, self.largest = volume, largest
         self.extreme = np.full(count, -np.inf if largest else np.inf)
+        self.colors = np.zeros((count, 3)) if getattr(volume, "colors", None) is not None \
+            else None
 
     def add(self, rays, values, lengths, points=None):
-        reduce = np.maximum if self.largest else np.minimum
-        self.extreme[rays] = reduce(self.extreme[rays], values)
+        held = self.extreme[rays]
+        beyond = values > held if self.largest else values < held
+        self.extreme[rays[beyond]] = values[beyond]
+        if self.colors is not None:
+            self.colors[rays[beyond]] = sample_colors(self.volume, points[beyond])
 
     def finish(self):
         hit = np.isfinite(self.extreme)
         rgb, alpha = _opacity(self.volume, np.where(hit, self.extreme, 0.0))
+        if self.colors is not None:
+            rgb = self.colors
         alpha = np.where(hit, alpha, 0.0)
         return rgb * alpha[:, None], alpha
 

@@ -23,6 +23,7 @@ from ..gl.textures import Texture
 from ..models.group import VolumeGroup
 from ..models.volume import INTERPOLATIONS, VolumeModel, checked_transform, checked_values
 from .clipping import ClipState
+from .pyvista_keywords import DIRECT_COLOR_BLENDING
 from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
 from .stand_in import place_stand_in, stand_in_matrix
 
@@ -539,7 +540,9 @@ class VolumeBinding(DrawnBinding):
         why = ("it is lit" if self.light_map is not None else "it is shaded"
                if getattr(self.returned_property, "shade", None) is not None else
                "it is marched jointly" if isinstance(self.model, VolumeGroup) else
-               "it is an RGBA volume" if self.model.colors is not None else None)
+               "it is an RGBA volume (VTK draws its red component alone, in grey)"
+               if self.model.colors is not None and blending not in DIRECT_COLOR_BLENDING
+               else None)
         if why is not None and blending != "composite":
             raise ValueError(f"blending={blending!r} reads the samples without attenuating "
                              f"them, and {why}: add the volume again without lights, shade "

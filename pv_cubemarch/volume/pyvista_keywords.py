@@ -99,19 +99,26 @@ def volume_input(volume, scalars, resolution, preference: str = "point"):
     return grid, "Data"
 
 
+#: The modes an RGBA volume is drawn in: by its alpha, each sample with its own colour (the
+#: others read one scalar; VTK draws an RGBA volume's red component alone there, in grey).
+DIRECT_COLOR_BLENDING = ("composite", "maximum", "minimum")
+
+
 def check_direct_color(model, blending: str, shade: bool, cmap) -> None:
     """Refuse, by name, what an RGBA (direct-colour) volume cannot draw.
 
-    Its colours are its own, so a ``cmap`` colours nothing (warned, as PyVista ignores it);
-    the blend modes other than composite and gradient shading read one scalar per sample,
-    which an RGBA volume does not have.
+    Its colours are its own, so a ``cmap`` colours nothing (warned, as PyVista ignores it).
+    'maximum' and 'minimum' keep the sample of extreme alpha with its colour, as VTK does;
+    'average' and 'additive' read one scalar per sample (VTK draws the red component alone,
+    in grey), 'isosurface' needs levels of one, and gradient shading one scalar's gradient.
     """
     if getattr(model, "colors", None) is None:
         return
-    if blending != "composite":
+    if blending not in DIRECT_COLOR_BLENDING:
         raise ValueError(f"blending={blending!r} draws one value per sample; an RGBA volume "
-                         "(4 uint8 components) has a colour instead: use "
-                         "blending='composite', or draw one component as scalars.")
+                         "(4 uint8 components) has a colour instead (VTK draws its red "
+                         "component alone, in grey): use blending='composite', 'maximum' "
+                         "or 'minimum', or draw one component as scalars.")
     if shade:
         raise ValueError("shade=True lights the gradient of one scalar; an RGBA volume (4 "
                          "uint8 components) has none: leave shade off (lights= lights it "
