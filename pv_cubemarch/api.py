@@ -334,6 +334,8 @@ def add_volume(
     """
     named = resolve_aliases(kwargs, {"clim": clim, "cmap": cmap})
     clim, cmap = named["clim"], named["cmap"]
+    if isinstance(blending, str):
+        blending = blending.lower()   # PyVista takes 'MAXIMUM' too
     if user_matrix is not None:
         if transform is not None:
             raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")

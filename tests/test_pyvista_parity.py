@@ -298,6 +298,29 @@ def test_pyvista_keywords_taken_or_refused_clearly():
     pl.close()
 
 
+def test_falsy_and_array_keywords_keep_their_meaning():
+    """``opacity=0`` draws nothing and a numpy opacity curve is a curve, as in PyVista;
+    ``blending='MAXIMUM'`` is 'maximum' (found by a reviewer trying them as a user would).
+
+    catches (seen failing): ``opacity or 'linear'`` (0 drew the linear ramp, an image 12.4
+    dB from PyVista's blank one; a numpy array raised "truth value ... ambiguous").
+    """
+    grid = pv.Wavelet()
+    for opacity in (0, 0.0):
+        pl = pv.Plotter(off_screen=True, window_size=(80, 60))
+        pl.set_background("black")
+        pl.cubemarch.add_volume(grid, opacity=opacity)
+        assert cm.render_image(pl).max() == 0
+        pl.close()
+    pl = pv.Plotter(off_screen=True, window_size=(80, 60))
+    curve = np.linspace(0.0, 1.0, 10)
+    from_array = pl.cubemarch.add_volume(grid, opacity=curve).cubemarch.model.transfer
+    from_list = pl.cubemarch.add_volume(grid, opacity=list(curve)).cubemarch.model.transfer
+    np.testing.assert_array_equal(from_array.table, from_list.table)
+    assert pl.cubemarch.add_volume(grid, blending="MAXIMUM").cubemarch.blending == "maximum"
+    pl.close()
+
+
 def test_scalars_array_and_resolution():
     """``scalars`` as an array and a numpy volume's ``resolution`` mean what PyVista means."""
     values = np.arange(4 * 5 * 6, dtype=np.float64).reshape(4, 5, 6)

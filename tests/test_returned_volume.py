@@ -110,6 +110,57 @@ def test_placement_set_after_adding_is_drawn(technique):
     assert psnr(image, reference) >= 44.0
 
 
+SCALING = np.array([[2.2, 0.0, 0.0, 1.0], [0.0, 1.8, 0.0, -2.0], [0.0, 0.0, 2.0, 0.5],
+                    [0.0, 0.0, 0.0, 1.0]])
+FAR = [(80, 60, 70), (0, 0, 0), (0, 0, 1)]
+
+
+@pytest.mark.parametrize("technique", TECHNIQUES)
+def test_a_scaling_placement_keeps_the_opacity_of_the_data(technique):
+    """A placement that scales, given (``user_matrix=``) or set after adding
+    (``vol.scale``): PyVista's image. VTK measures ``opacity_unit_distance`` in the data's
+    own frame, so a volume drawn twice as large is as opaque as before, not twice as much;
+    the CPU reference measures its lengths there too.
+
+    catches (seen failing; found by a reviewer trying ``user_matrix=diag(1.5)``): lengths
+    measured in the world (``medium_from_texture`` returning ``world_from_texture``):
+    28.4-28.5 dB given, 30.0 set after; the reference's lengths in the world
+    (``data_per_world`` returning 1): 28.7 dB. Measured: given 53.2-54.2 dB, set after
+    53.7-54.7 dB, the reference 50.5 dB.
+    """
+    def draw_far(add, change):
+        pl = pv.Plotter(off_screen=True, window_size=SIZE)
+        pl.set_background("black")
+        vol = add(pl)
+        pl.camera_position = FAR
+        cm.render_image(pl)
+        change(vol)
+        image = cm.render_image(pl)
+        camera = cm.Camera.from_pyvista(pl.camera)
+        pl.close()
+        return image, vol, camera
+
+    fine = {} if technique == "cubemap" else dict(step_scale=0.1)
+    given = dict(KEYWORDS, user_matrix=SCALING)
+    reference, _, _ = draw_far(lambda pl: pyvista_add(pl, given), lambda vol: None)
+    image, vol, camera = draw_far(lambda pl: pl.cubemarch.add_volume(
+        pv.Wavelet(), technique=technique, **fine, **given), lambda vol: None)
+    assert psnr(image, reference) >= (45.0 if technique in ("cubemap", "auto") else 48.0)
+    if technique == "direct":
+        from pv_cubemarch.reference.emission_absorption import render_emission_absorption
+        from pv_cubemarch.testing import to_uint8
+        cpu = to_uint8(render_emission_absorption(vol.cubemarch.model, camera, SIZE,
+                                                  step_voxels=0.25))
+        assert psnr(image, cpu) >= 45.0
+
+    def scale(vol):
+        vol.scale = (2.0, 2.0, 1.6)
+    reference, _, _ = draw_far(lambda pl: pyvista_add(pl, KEYWORDS), scale)
+    image, _, _ = draw_far(lambda pl: pl.cubemarch.add_volume(
+        pv.Wavelet(), technique=technique, **fine, **KEYWORDS), scale)
+    assert psnr(image, reference) >= (45.0 if technique in ("cubemap", "auto") else 48.0)
+
+
 def test_user_matrix_reads_back_what_add_volume_was_given():
     """``vol.user_matrix`` is the placement given, as in PyVista (not the index placement),
     and ``vol.bounds`` the world bounds of the placed grid.

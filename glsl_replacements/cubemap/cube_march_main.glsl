@@ -40,7 +40,7 @@ void main()
   vec4 rgba = vec4(0.0);
   if (cm_screenRay(ndc.xy, min(backDepth, 1.0), sceneDepth, entry, exit, entryView, exitView))
   {
-    rgba = cm_march(entry, exit, length(mat3(cm_worldFromTexture) * (exit - entry)));
+    rgba = cm_march(entry, exit, cm_mediumLength(exit - entry));
   }
   gl_FragData[0] = rgba;
   float sceneDistance = -cm_viewPoint(ndc.xy, sceneDepth).z;

@@ -19,7 +19,17 @@ vec4 cm_transfer(float scalar)
   return cm_transferLookup(cm_transferTable, cm_clim, scalar);
 }
 
-// Composite one segment of length dt (world units) front to back into premultiplied rgba.
+// The length of a texture-space path through the medium, in the data's own units (the
+// grid's frame before the actor's placement: VTK measures opacity_unit_distance there, so
+// a scaling user_matrix keeps the volume's look).
+uniform mat4 cm_mediumFromTexture;
+
+float cm_mediumLength(vec3 path)
+{
+  return length(mat3(cm_mediumFromTexture) * path);
+}
+
+// Composite one segment of length dt (data units) front to back into premultiplied rgba.
 void cm_composite(inout vec4 rgba, vec4 emission_extinction, float dt)
 {
   float alpha = 1.0 - exp(-emission_extinction.a * dt);

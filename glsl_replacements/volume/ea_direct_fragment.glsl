@@ -9,7 +9,7 @@
     discard;
   }
   vec4 cm_rgba = cm_march(cm_entry, cm_exit,
-                          length(mat3(cm_worldFromTexture) * (cm_exit - cm_entry)));
+                          cm_mediumLength(cm_exit - cm_entry));
   if (!(cm_rgba.a > 0.0))
   {
     discard;

@@ -97,13 +97,13 @@ float cm_dominantTexels(vec3 span, vec3 dims)
   return max(texels.x, max(texels.y, texels.z));
 }
 
-// Blend the piece from a to b (texture coordinates, worldLength world units) into the ray's
-// state in `steps` equal steps (fractional: the last one is cut at b). False once the blend
+// Blend the piece from a to b (texture coordinates, mediumLength data units long:
+// cm_mediumLength) into the ray's state in `steps` equal steps (fractional: the last one is cut at b). False once the blend
 // mode stops the ray (composite: opaque enough).
-bool cm_marchPiece(inout vec4 rgba, vec3 a, vec3 b, float worldLength, float steps)
+bool cm_marchPiece(inout vec4 rgba, vec3 a, vec3 b, float mediumLength, float steps)
 {
   vec3 stepVector = (b - a) / steps;
-  float worldStep = worldLength / steps;
+  float mediumStep = mediumLength / steps;
   float t = 0.0;
   for (int block = 0; block < CM_STEP_BLOCKS; ++block)
   {
@@ -123,7 +123,7 @@ bool cm_marchPiece(inout vec4 rgba, vec3 a, vec3 b, float worldLength, float ste
 #endif
       float fraction = min(1.0, steps - t);
       vec3 middle = a + stepVector * (t + 0.5 * fraction);
-      if (!cm_blend(rgba, middle, worldStep * fraction))
+      if (!cm_blend(rgba, middle, mediumStep * fraction))
       {
         return false;
       }
@@ -136,7 +136,7 @@ bool cm_marchPiece(inout vec4 rgba, vec3 a, vec3 b, float worldLength, float ste
 #ifdef CM_JOINT
 // A joint group's ray, piece by piece between the members' box boundaries (joint_sample's
 // cm_memberSpans gives where each member's box starts and ends along the ray).
-void cm_marchJoint(inout vec4 rgba, vec3 entry, vec3 exit, float worldLength,
+void cm_marchJoint(inout vec4 rgba, vec3 entry, vec3 exit, float mediumLength,
                    float groupTexels)
 {
   vec4 enter, leave, texels;
@@ -157,7 +157,7 @@ void cm_marchJoint(inout vec4 rgba, vec3 entry, vec3 exit, float worldLength,
       float finest = max(groupTexels, max(max(own.x, own.y), max(own.z, own.w)));
       float steps = max(finest * (f1 - f0) / cm_stepScale, 1e-6);
       if (!cm_marchPiece(rgba, mix(entry, exit, f0), mix(entry, exit, f1),
-                         worldLength * (f1 - f0), steps))
+                         mediumLength * (f1 - f0), steps))
       {
         return;
       }
@@ -171,23 +171,23 @@ void cm_marchJoint(inout vec4 rgba, vec3 entry, vec3 exit, float worldLength,
 }
 #endif
 
-// March from entry to exit (texture coordinates) over worldLength world units and return
+// March from entry to exit (texture coordinates), mediumLength data units apart, and return
 // premultiplied rgba (rgb emitted colour, a opacity).
-vec4 cm_march(vec3 entry, vec3 exit, float worldLength)
+vec4 cm_march(vec3 entry, vec3 exit, float mediumLength)
 {
   vec4 rgba = cm_blendStart();
 #ifdef CM_SHADE
   cm_rayWorld = normalize(mat3(cm_worldFromTexture) * (exit - entry));
 #endif
   float dominant = cm_dominantTexels(exit - entry, cm_dims);
-  if (!(worldLength > 0.0) || !(dominant > 0.0))
+  if (!(mediumLength > 0.0) || !(dominant > 0.0))
   {
     return vec4(0.0);
   }
 #ifdef CM_JOINT
-  cm_marchJoint(rgba, entry, exit, worldLength, dominant);
+  cm_marchJoint(rgba, entry, exit, mediumLength, dominant);
 #else
-  cm_marchPiece(rgba, entry, exit, worldLength, max(dominant / cm_stepScale, 1e-6));
+  cm_marchPiece(rgba, entry, exit, mediumLength, max(dominant / cm_stepScale, 1e-6));
 #endif
   return cm_blendResult(rgba);
 }

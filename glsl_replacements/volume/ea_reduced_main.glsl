@@ -8,7 +8,7 @@ void main()
   vec4 rgba = vec4(0.0);
   if (cm_screenRay(texCoord * 2.0 - 1.0, 1.0, sceneDepth, entry, exit, entryView, exitView))
   {
-    rgba = cm_march(entry, exit, length(mat3(cm_worldFromTexture) * (exit - entry)));
+    rgba = cm_march(entry, exit, cm_mediumLength(exit - entry));
   }
   gl_FragData[0] = rgba;
   gl_FragData[1] = vec4(cm_viewPoint(texCoord * 2.0 - 1.0, sceneDepth).z, 0.0, 0.0, 1.0);

@@ -14,7 +14,7 @@
                    cm_exitView))
   {
     g_fragColor = cm_march(cm_entry, cm_exit,
-                           length(mat3(cm_worldFromTexture) * (cm_exit - cm_entry)));
+                           cm_mediumLength(cm_exit - cm_entry));
   }
   g_exit = true;
 }

@@ -19,8 +19,8 @@ float cm_transmittanceToward(vec3 start, vec4 light)
   vec3 path = span * stop;
   vec3 texels = abs(path) * cm_dims;
   float dominant = max(texels.x, max(texels.y, texels.z));
-  float worldLength = length(mat3(cm_worldFromTexture) * path);
-  if (!(dominant > 0.0) || !(worldLength > 0.0))
+  float mediumLength = cm_mediumLength(path);
+  if (!(dominant > 0.0) || !(mediumLength > 0.0))
   {
     return 1.0;
   }
@@ -39,10 +39,10 @@ float cm_transmittanceToward(vec3 start, vec4 light)
       float fraction = min(1.0, steps - t);
       vec3 middle = start + path * ((t + 0.5 * fraction) / steps);
 #ifdef CM_CLIP_PLANES
-      opticalDepth += cm_unlitEmission(middle).a * worldLength / steps * fraction
+      opticalDepth += cm_unlitEmission(middle).a * mediumLength / steps * fraction
                       * cm_clipKeeps(middle);   // a clipped medium casts no shadow
 #else
-      opticalDepth += cm_unlitEmission(middle).a * worldLength / steps * fraction;
+      opticalDepth += cm_unlitEmission(middle).a * mediumLength / steps * fraction;
 #endif
       t += 1.0;
     }

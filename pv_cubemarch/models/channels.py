@@ -146,9 +146,9 @@ def make_data_model(volume, scalars, independent_components, channel_blending,
     ``transfer`` holds add_volume's transfer keywords as given (``None``: the default);
     ``placement``: ``make_volume``'s other keywords (``transform``, ``name`` ...).
     """
-    keywords = dict(transfer, opacity=transfer.get("opacity") or "linear",
-                    n_colors=transfer.get("n_colors") or 256,
-                    categories=transfer.get("categories") or False)
+    defaults = dict(opacity="linear", n_colors=256, categories=False)
+    keywords = dict(transfer, **{key: default if transfer.get(key) is None else
+                                 transfer[key] for key, default in defaults.items()})
     for key in ("cmap", "clim", "opacity_unit_distance", "flip_scalars", "log_scale"):
         keywords.setdefault(key, None)
     count = channel_count(volume, scalars, independent_components)

@@ -4,8 +4,10 @@ The table is built the way PyVista builds a volume's transfer functions
 (``LookupTable.to_color_tf`` / ``to_opacity_tf``): ``n_colors`` points spaced evenly over
 ``clim``, each with the lookup table's colour at that value (linear or logarithmic mapping)
 and its opacity (capped at PyVista's 0.998), linear in between. Each row holds linear RGB
-emission colour and the extinction coefficient sigma (per world unit): a sample of length
-``dt`` has opacity ``1 - exp(-sigma * dt)`` whatever the step (VTK's opacity correction).
+emission colour and the extinction coefficient sigma (per unit length of the data: in the
+grid's own frame, before its placement, as VTK measures ``opacity_unit_distance``): a
+sample of length ``dt`` has opacity ``1 - exp(-sigma * dt)`` whatever the step (VTK's
+opacity correction).
 
 What the user asked for is kept beside the table (:class:`TransferSpec`), so the CPU
 reference can derive the right colours on its own, from matplotlib, without this table.

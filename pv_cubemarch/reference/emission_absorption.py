@@ -17,7 +17,7 @@ from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel
 from .channels import render_additive_channels
 from .lighting import light_grid, lit_emission
-from .rays import clip_interval, index_rays, sample, sample_colors
+from .rays import clip_interval, data_per_world, index_rays, sample, sample_colors
 from .transfer import medium as transfer_medium
 from .volume_shading import ShadeSetup
 
@@ -117,6 +117,7 @@ def render_emission_absorption(
         opaque_depth, dtype=np.float64).reshape(n_rays)
 
     rays = [index_rays(v, origins, directions) for v in volumes]
+    scales = [data_per_world(item, directions) for item in lit_through]
     t0 = np.min([r[2] for r in rays], axis=0)
     t1 = np.max([r[3] for r in rays], axis=0)
     t0 = np.maximum(t0, 0.0)
@@ -157,6 +158,7 @@ def render_emission_absorption(
                         @ v.world_from_index()
                     pts = pts @ group_from_member[:3, :3].T + group_from_member[:3, 3]
                 rgb = lit_emission(medium, rgb, pts, lights, grids[id(medium)], ambient)
+            sig = sig * scales[index][active][inside]   # per world unit of this ray
             sigma[inside] += sig
             emitted[inside] += sig[:, None] * rgb
         with np.errstate(invalid="ignore", divide="ignore"):

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..models.group import VolumeGroup
 from ..models.lights import VolumeLight
-from .rays import ray_box_interval, sample, trilinear
+from .rays import data_per_world, ray_box_interval, sample, trilinear
 from .transfer import medium as transfer_medium
 
 
@@ -39,6 +39,7 @@ def transmittance_toward(medium, points_index: np.ndarray, light: VolumeLight,
     t_end = np.clip(np.minimum(t_exit, distance), 0.0, None)
     voxel = np.linalg.norm(world_from_index[:3, :3], axis=0)
     step = float(step_voxels) * float(voxel.min())
+    scale = data_per_world(medium, toward)   # data units per world unit of the path
     depth = np.zeros(len(points))
     t = np.zeros(len(points))
     active = np.nonzero(t_end > 0)[0]
@@ -50,7 +51,7 @@ def transmittance_toward(medium, points_index: np.ndarray, light: VolumeLight,
         if clip_planes:
             sigma = sigma * kept(sample @ world_from_index[:3, :3].T + world_from_index[:3, 3],
                                  clip_planes)
-        depth[active] += sigma * (end - t[active])
+        depth[active] += sigma * (end - t[active]) * scale[active]
         t[active] = end
         keep = (end < t_end[active]) & (depth[active] < 30.0)
         active = active[keep]

@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..core.camera import Camera
-from .rays import clip_interval, index_rays, sample, sample_colors
+from .rays import clip_interval, data_per_world, index_rays, sample, sample_colors
 from .transfer import medium
 
 
@@ -198,13 +198,14 @@ def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
     unit = directions / np.linalg.norm(directions, axis=1, keepdims=True)
     state = blend_accumulator(volume, len(origins), blending, isosurfaces, shade, unit,
                               average_range)
+    scale = data_per_world(volume, directions)   # lengths in the data's own units
     active = np.nonzero(t1 > t0)[0]
     t = t0[active].copy()
     while active.size:
         end = np.minimum(t + step, t1[active])
         middle = 0.5 * (t + end)
         points = o_idx[active] + d_idx[active] * middle[:, None]
-        state.add(active, sample(volume, points), end - t, points)
+        state.add(active, sample(volume, points), (end - t) * scale[active], points)
         t = end
         keep = t < t1[active]
         active, t = active[keep], t[keep]

@@ -142,6 +142,22 @@ def chord_lengths(volume, camera: Camera, size: Sequence[int]) -> np.ndarray:
     return np.clip(t1 - np.maximum(t0, 0.0), 0.0, None).reshape(height, width)
 
 
+def data_per_world(medium, directions: np.ndarray) -> np.ndarray:
+    """Data units per world unit along each world direction, for a medium's lengths.
+
+    A volume's lengths are measured in its grid's own frame, before its placement (its
+    ``transform``), as VTK measures ``opacity_unit_distance``; a joint group (no one
+    placement) in the world.
+    """
+    directions = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    transform = getattr(medium, "transform", None)
+    if transform is None:
+        return np.ones(len(directions))
+    linear = np.linalg.inv(np.asarray(transform, dtype=np.float64))[:3, :3]
+    return np.linalg.norm(directions @ linear.T, axis=1) / np.maximum(
+        np.linalg.norm(directions, axis=1), 1e-300)
+
+
 def index_rays(volume, origins, directions):
     """Rays in ``volume``'s index space and their interval inside its box (world ``t``)."""
     index_from_world = np.linalg.inv(volume.world_from_index())

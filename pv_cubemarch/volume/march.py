@@ -114,6 +114,19 @@ def world_from_texture(model: VolumeModel | VolumeGroup) -> np.ndarray:
     return model.world_from_index() @ index_from_texture
 
 
+def medium_from_texture(model: VolumeModel | VolumeGroup) -> np.ndarray:
+    """4x4 from texture coordinates to the frame the medium's lengths are measured in.
+
+    A volume's own grid frame, before its placement (``transform`` / ``user_matrix``), as
+    VTK measures ``opacity_unit_distance`` in the data's coordinates; a joint group's
+    members each have their own, so a group is measured in the world.
+    """
+    if isinstance(model, VolumeGroup):
+        return world_from_texture(model)
+    return np.linalg.inv(np.asarray(model.transform, dtype=np.float64)) @ \
+        world_from_texture(model)
+
+
 class VolumeData:
     """The GPU copies of a volume's data (or of each member of a group), uploaded once.
 
@@ -343,6 +356,7 @@ def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: flo
     target.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
     target.set_uniform("cm_stepScale", step_scale)
     target.set_uniform("cm_worldFromTexture", lambda: world_from_texture(model))
+    target.set_uniform("cm_mediumFromTexture", lambda: medium_from_texture(model))
     target.set_uniform("cm_clipPlanes", lambda: data.clip.uniform(world_from_texture(model)))
     extra.update(data.clip.defines)
     if isinstance(model, VolumeGroup):
