@@ -43,6 +43,11 @@ class SceneOverlay:
         self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start, 1.0)
 
     def _on_start(self, *_):
+        # The main renderer's camera may have been replaced (link_views, a camera shared
+        # between subplots): the overlay draws with the one the passes read.
+        camera = self.main.GetActiveCamera()
+        if self.renderer.GetActiveCamera() is not camera:
+            self.renderer.SetActiveCamera(camera)
         if any(self.users.values()):
             self.depth.ensure(self.window)
         self._sort_far_to_near()
