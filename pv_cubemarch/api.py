@@ -372,6 +372,8 @@ def add_volume(
             model = dataclasses.replace(model, interpolation=interpolation)
     else:
         volume, scalars = volume_input(volume, scalars, resolution, preference)
+        if scalars is None and isinstance(volume, pyvista.DataSet):
+            scalars = volume.active_scalars_name   # the bar's title, as PyVista's
         model = make_data_model(volume, scalars, independent_components, channel_blending,
                             dict(cmap=cmap, opacity=opacity, clim=clim,
                                  opacity_unit_distance=opacity_unit_distance,

@@ -44,9 +44,11 @@ class SceneOverlay:
 
     def _on_start(self, *_):
         # The main renderer's camera may have been replaced (link_views, a camera shared
-        # between subplots): the overlay draws with the one the passes read.
+        # between subplots): the overlay draws with the one the passes read. (A tiled
+        # screenshot swaps in cameras of its own and puts them back: left to it.)
         camera = self.main.GetActiveCamera()
-        if self.renderer.GetActiveCamera() is not camera:
+        if self.renderer.GetActiveCamera() is not camera and \
+                tuple(self.window.GetTileScale()) == (1, 1):
             self.renderer.SetActiveCamera(camera)
         if any(self.users.values()):
             self.depth.ensure(self.window)

@@ -171,6 +171,7 @@ def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
         else:
             cmap = get_cmap_safe(list(spec.cmap) if isinstance(spec.cmap, tuple) else spec.cmap)
             lut.apply_cmap(cmap.reversed() if spec.flip_scalars else cmap, spec.n_colors)
+            lut.apply_opacity(spec.opacity)   # PyVista's bar fades with the opacity too
         lut.scalar_range = spec.data_clim
         lut.log_scale = spec.log_scale
     mapper.lookup_table = lut
