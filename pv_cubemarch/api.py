@@ -928,8 +928,9 @@ def add_surface(
     cmap : str
         The colormap of ``color_by`` (256 entries).
     clim : sequence of float, optional
-        The values at the colormap's ends (by default the second field's range, or
-        plus and minus 4 / the domain's smallest side for curvature).
+        The values at the colormap's ends: of ``color_by`` (by default the second field's
+        range, or plus and minus 4 / the domain's smallest side for curvature), or of the
+        ``isosurfaces`` coloured by value (by default their range, as PyVista's contour).
     cells : int or sequence of int
         A mesh's or point cloud's resolution: cells along its longest side (64), or (a
         mesh) three counts; two more on every side keep the surface inside the domain.
@@ -1022,7 +1023,7 @@ def add_surface(
                       "nothing is drawn. Check the isovalue or the field's sign.", stacklevel=2)
     table = None
     if levels is not None and len(levels) > 1:
-        table = level_lookup_table(cmap, levels)
+        table = level_lookup_table(cmap, levels, options.clim)
         colours = [tuple(float(v) for v in table.map_value(level, opacity=False))
                    if by_level else options.rgb for level in levels]
     if table is not None and options.translucent:   # every level in one pass

@@ -28,10 +28,13 @@ def sheets() -> pv.ImageData:
     return grid
 
 
-@pytest.mark.parametrize("style", [dict(cmap="viridis"), dict(color="tan")])
+@pytest.mark.parametrize("style", [dict(cmap="viridis"), dict(color="tan"),
+                                   dict(cmap="coolwarm", clim=(-40.0, 8.0))])
 def test_levels_draw_what_contour_draws(style):
-    """Three levels, coloured by value through ``cmap`` (as PyVista colours a contour by
-    its scalars) or all ``color``, against ``contour(LEVELS)`` + ``add_mesh``.
+    """Three levels, coloured by value through ``cmap`` over their range or over ``clim``
+    (as PyVista colours a contour by its scalars), or all ``color``, against
+    ``contour(LEVELS)`` + ``add_mesh``. (``clim`` seen ignored, found by a reviewer: the
+    levels' own range used, 15.7 dB.)
 
     Measured: 25.7 dB both (0.013-0.024 of the pixels more than 30 levels off; the
     B-spline and marching cubes end a fraction of a cell apart at the domain's faces);

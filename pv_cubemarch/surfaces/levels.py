@@ -33,9 +33,13 @@ def surface_levels(isosurfaces, samples: np.ndarray | None) -> tuple[float, ...]
     return tuple(float(v) for v in level_values(isosurfaces))
 
 
-def level_lookup_table(cmap, levels) -> pyvista.LookupTable:
-    """``cmap`` over the levels' range (one unit wide around a single level), as PyVista's."""
-    low, high = float(min(levels)), float(max(levels))
+def level_lookup_table(cmap, levels, clim=None) -> pyvista.LookupTable:
+    """``cmap`` over ``clim`` (by default the levels' range), as PyVista colours a contour.
+
+    A single level's default range is one unit wide around it.
+    """
+    low, high = (float(min(levels)), float(max(levels))) if clim is None else (
+        float(clim[0]), float(clim[1]))
     if high <= low:
         low, high = low - 0.5, low + 0.5
     table = pyvista.LookupTable(cmap)

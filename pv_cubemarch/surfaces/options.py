@@ -65,7 +65,8 @@ ACTIVE = ("active",)
            control=Control("select", "colour by", choices=(AUTO, *COLOR_BY))),
     Option("cmap", "surface", str, "viridis", "colormap of color_by", cli="--surface-cmap",
            without={"knob": "any matplotlib colormap name; set in Python, the CLI or USD"}),
-    Option("clim", "surface", tuple, None, "the range of color_by the colormap spans",
+    Option("clim", "surface", tuple, None, "the range of color_by (or of isosurfaces coloured "
+           "by value) the colormap spans",
            optional=True, cli="--surface-clim", usd="surfaceClim",
            without={"knob": "two numbers in the data's units; set in Python, the CLI or "
                             "USD"}),
