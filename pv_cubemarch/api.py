@@ -13,6 +13,9 @@ import warnings
 import numpy as np
 import pyvista
 
+from .core.mesh_keywords import SURFACE as SURFACE_REFUSED
+from .core.mesh_keywords import VOXELS as VOXEL_REFUSED
+from .core.mesh_keywords import refuse_mesh_keywords, shading_for_lighting
 from .core.registry import get_technique
 from .gl.overlay import bounds_proxy
 from .models.channels import (
@@ -625,6 +628,12 @@ def add_voxels(
     edge_color=None,
     line_width: float | None = None,
     edge_opacity: float | None = None,
+    clim=None,
+    n_colors: int | None = None,
+    flip_scalars: bool = False,
+    opacity: float | None = None,
+    lighting: bool | None = None,
+    **kwargs,
 ) -> pyvista.Actor:
     """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal, 002).
 
@@ -737,12 +746,28 @@ def add_voxels(
     annotations : dict, optional
         Material to name (``{1: "bone", 2: "liver"}``), shown on the scalar bar.
     cmap : str or list, optional
-        PyVista's name for a colormap of the labels (``palette=`` takes one too; give one
-        of the two).
+        A colormap over the drawn labels' range, as ``threshold`` + ``add_mesh(cmap=...)``
+        colours the cells (``palette=`` instead gives one colour per material number; give
+        one of the two).
     categories : bool
         Colour the labels as PyVista's ``threshold`` + ``add_mesh(categories=True,
         cmap=...)`` does: as many colours as distinct labels above 0, over their range
         (labels with gaps get the colours PyVista gives them, not one per label number).
+    clim : sequence of float, optional
+        With ``cmap``: the label values at the colormap's ends (the drawn labels' range by
+        default), as ``add_mesh(clim=)``.
+    n_colors : int, optional
+        With ``cmap``: how many colours the colormap is cut into (256), as ``add_mesh``.
+    flip_scalars : bool
+        With ``cmap``: the colormap reversed, as ``add_mesh(flip_scalars=True)``.
+    opacity : float, optional
+        Every material's opacity (0-1), as ``add_mesh(opacity=)``: translucent materials
+        are composited front to back (per material: ``palette={label: (colour, opacity)}``
+        or ``actor.cubemarch.set_material``).
+    lighting : bool, optional
+        PyVista's name: ``False`` draws the voxels unlit (``shading='unlit'``).
+    **kwargs
+        Other ``add_mesh`` keywords are refused by name, with what to use instead.
     show_edges : bool
         Outline every drawn face of every voxel, as ``threshold`` + ``add_mesh(...,
         show_edges=True)`` draws the cells' edges (``traversal='dda'``, ``mode='color'``,
@@ -772,6 +797,8 @@ def add_voxels(
     >>> pl = pv.Plotter(off_screen=True)
     >>> actor = cm.add_voxels(pl, labels, palette=["black", "tan", "steelblue"])
     """
+    refuse_mesh_keywords("add_voxels", kwargs, VOXEL_REFUSED)
+    shading = shading_for_lighting(lighting, shading)
     chosen = get_technique("voxels", "voxels")
     options = voxel_options(traversal=traversal, step_scale=step_scale, mip_levels=mip_levels,
                             distance_field=distance_field, mode=mode, shading=shading,
@@ -786,17 +813,18 @@ def add_voxels(
         if transform is not None:
             raise ValueError("transform goes with raw data; a VoxelModel or VoxelWorld carries "
                              "its own (set model.transform, or actor.cubemarch.set_transform).")
-        if cmap is not None or categories:
-            raise ValueError("cmap= and categories= colour raw labels; a VoxelModel or "
-                             "VoxelWorld carries its palette (make_voxels(..., palette=..., "
+        colouring = [key for key, value in dict(
+            cmap=cmap, categories=categories or None, clim=clim, n_colors=n_colors,
+            flip_scalars=flip_scalars or None, opacity=opacity).items() if value is not None]
+        if colouring:
+            raise ValueError(f"{', '.join(colouring)}: these colour raw labels; a VoxelModel "
+                             "or VoxelWorld carries its palette (make_voxels(..., palette=..., "
                              "categories=True), or actor.cubemarch.set_material).")
     else:
-        if cmap is not None:
-            if palette is not None:
-                raise ValueError("give palette= or cmap= (PyVista's name), not both.")
-            palette = cmap
         model = make_voxels(grid, scalars, palette=palette, transform=transform,
-                            name=name or "voxels", categories=bool(categories))
+                            name=name or "voxels", categories=bool(categories), cmap=cmap,
+                            clim=clim, n_colors=n_colors, flip_scalars=flip_scalars,
+                            opacity=opacity)
     if isinstance(model, VoxelWorld) and chunk_size not in (None, model.chunk_size):
         raise ValueError(f"chunk_size={chunk_size} differs from the world's own "
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")
@@ -854,6 +882,8 @@ def add_surface(
     show_scalar_bar: bool = False,
     scalar_bar_args: dict | None = None,
     annotations: dict | None = None,
+    lighting: bool | None = None,
+    **kwargs,
 ) -> pyvista.Actor:
     """Draw the implicit surface f = 0 of a field, per pixel, from its cells' polynomials.
 
@@ -964,6 +994,10 @@ def add_surface(
         Keywords of ``plotter.add_scalar_bar`` (title, position, ...).
     annotations : dict, optional
         Value to label, shown on the scalar bar (as ``add_mesh(annotations=)``).
+    lighting : bool, optional
+        PyVista's name: ``False`` draws the surface unlit (``shading='unlit'``).
+    **kwargs
+        Other ``add_mesh`` keywords are refused by name, with what to use instead.
 
     Returns
     -------
@@ -980,6 +1014,8 @@ def add_surface(
     >>> pl = pv.Plotter(off_screen=True)
     >>> actor = cm.add_surface(pl, 0.8 - (x**2 + y**2 + z**2), isovalue=0.0)
     """
+    refuse_mesh_keywords("add_surface", kwargs, SURFACE_REFUSED)
+    shading = shading_for_lighting(lighting, shading)
     try:
         if opacity is None or isinstance(opacity, (bool, str)):
             raise TypeError

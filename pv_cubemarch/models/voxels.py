@@ -23,8 +23,9 @@ MAX_MATERIALS = 65535
 class Palette:
     """Per-material colour and opacity: row ``m`` is material ``m`` (row 0, empty, unused).
 
-    Opacity 0 hides a material (its voxels are traversed as empty); any other opacity draws
-    it opaque. Changing the palette re-uploads only this small table, never the labels.
+    Opacity 0 hides a material (its voxels are traversed as empty); below 1 it is drawn
+    translucent, composited front to back. Changing the palette re-uploads only this small
+    table, never the labels.
     """
 
     def __init__(self, rgba: np.ndarray):
@@ -98,6 +99,22 @@ class Palette:
                 raise ValueError(f"opacity must be in [0, 1], got {opacity}.")
             self.rgba[material, 3] = float(opacity)
         self.version += 1
+
+    def with_opacity(self, opacity) -> Palette:
+        """A copy with every material's opacity scaled by ``opacity`` (0-1).
+
+        As ``add_mesh(opacity=)`` makes a whole mesh translucent.
+        """
+        try:
+            value = float(opacity)
+        except (TypeError, ValueError):
+            raise ValueError(f"opacity must be a number in [0, 1], got {opacity!r}.") from None
+        if isinstance(opacity, (bool, str)) or not 0.0 <= value <= 1.0:
+            raise ValueError(f"opacity must be a number in [0, 1], got {opacity!r} (per "
+                             "material: palette={label: (colour, opacity)}).")
+        rgba = self.rgba.copy()
+        rgba[1:, 3] *= value
+        return Palette(rgba)
 
     @property
     def visible(self) -> np.ndarray:
@@ -211,15 +228,30 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
 
 
 def make_voxels(data, scalars: str | None = None, *, palette=None, transform=None,
-                name: str = "voxels", categories: bool = False) -> VoxelModel:
+                name: str = "voxels", categories: bool = False, cmap=None, clim=None,
+                n_colors: int | None = None, flip_scalars: bool = False,
+                opacity: float | None = None) -> VoxelModel:
     """Validate a material grid and bundle it with a palette into a :class:`VoxelModel`.
 
     ``data``: a 3D integer (or bool) numpy array indexed x, y, z (unit voxels from the
     origin), or a ``pyvista.ImageData`` whose cell data (one voxel per cell) or point data
-    (one voxel centred on each point, a spacing wide) holds the labels. ``categories``:
-    ``palette`` is a colormap (name, or list of colours) mapped as PyVista's
+    (one voxel centred on each point, a spacing wide) holds the labels. ``palette``: one
+    colour per material number (:meth:`Palette.make`). ``cmap`` (PyVista's name, instead
+    of ``palette``): a colormap over the drawn labels' range, as ``threshold`` +
+    ``add_mesh(cmap=...)`` colours the cells, with its ``clim``, ``n_colors`` and
+    ``flip_scalars`` (:func:`range_palette`). ``categories``: the colormap mapped as
     ``add_mesh(categories=True)`` maps the drawn labels (see :func:`category_palette`).
+    ``opacity``: every material's opacity, as ``add_mesh(opacity=)``.
     """
+    if cmap is not None and palette is not None:
+        raise ValueError("give palette= or cmap= (PyVista's name), not both.")
+    mapping = [key for key, value in dict(clim=clim, n_colors=n_colors,
+                                          flip_scalars=flip_scalars or None).items()
+               if value is not None]
+    if mapping and (cmap is None or categories):
+        raise ValueError(f"{', '.join(mapping)} shape how cmap= spans the drawn labels; give "
+                         "cmap= (without categories=True), or colour each material with "
+                         "palette=.")
     if isinstance(data, pyvista.ImageData):
         values, grid_from_index = image_samples(data, scalars)
         labels = checked_labels(values, scalars or "labels")
@@ -229,8 +261,14 @@ def make_voxels(data, scalars: str | None = None, *, palette=None, transform=Non
     matrix = np.eye(4) if transform is None else checked_transform(transform)
     if abs(np.linalg.det(grid_from_index[:3, :3])) < 1e-300:
         raise VolumeDataError("The grid's spacing must not be zero along any axis.")
-    chosen = category_palette(palette, labels) if categories else Palette.make(
-        palette, int(labels.max()) + 1)
+    if categories:
+        chosen = category_palette(palette if cmap is None else cmap, labels)
+    elif cmap is not None:
+        chosen = range_palette(cmap, labels, clim, n_colors or 256, flip_scalars)
+    else:
+        chosen = Palette.make(palette, int(labels.max()) + 1)
+    if opacity is not None:
+        chosen = chosen.with_opacity(opacity)
     if int(labels.max()) >= chosen.n_materials:
         top = int(labels.max())
         raise VolumeDataError(f"Label {top} has no colour: the palette has "
@@ -238,6 +276,48 @@ def make_voxels(data, scalars: str | None = None, *, palette=None, transform=Non
                               f"{chosen.n_materials - 1}); pass one with at least {top + 1}.")
     return VoxelModel(labels=labels, palette=chosen, grid_from_index=grid_from_index,
                       transform=matrix, name=name)
+
+
+def range_palette(cmap, labels: np.ndarray, clim=None, n_colors: int = 256,
+                  flip_scalars: bool = False) -> Palette:
+    """Each drawn label coloured as ``threshold`` + ``add_mesh(cmap=...)`` colours it.
+
+    PyVista maps the cells' values through ``n_colors`` colours of ``cmap`` (reversed with
+    ``flip_scalars``) over ``clim``, by default their range: the smallest to the largest
+    label above 0 (what ``threshold`` keeps).
+    """
+    present = np.unique(labels[labels > 0])
+    rgba = np.zeros((max(int(labels.max()) + 1, 2), 4), np.float32)
+    if present.size:
+        from pyvista.plotting.colors import get_cmap_safe
+
+        try:
+            colormap = get_cmap_safe(list(cmap) if isinstance(cmap, tuple) else cmap)
+            count = int(n_colors)
+            if count < 1 or count != n_colors:
+                raise ValueError(f"n_colors must be a whole number >= 1, got {n_colors!r}")
+            lut = pyvista.LookupTable()
+            lut.apply_cmap(colormap.reversed() if flip_scalars else colormap, count)
+        except (ValueError, TypeError) as error:
+            raise VolumeDataError(f"cmap={cmap!r}, n_colors={n_colors!r}: {error}") from error
+        lo, hi = (float(present[0]), float(present[-1])) if clim is None else \
+            _checked_clim(clim)
+        lut.scalar_range = (lo, hi if hi > lo else lo + 1.0)
+        for value in present:
+            rgba[int(value), :3] = lut.map_value(float(value), opacity=False)
+            rgba[int(value), 3] = 1.0
+    return Palette(rgba)
+
+
+def _checked_clim(clim) -> tuple[float, float]:
+    """``clim`` as two finite numbers, low <= high, or a clear error."""
+    try:
+        low, high = (float(v) for v in clim)
+    except (TypeError, ValueError):
+        raise VolumeDataError(f"clim must be two numbers (low, high), got {clim!r}.") from None
+    if not (np.isfinite(low) and np.isfinite(high) and low <= high):
+        raise VolumeDataError(f"clim must be two finite numbers, low <= high, got {clim!r}.")
+    return low, high
 
 
 def category_palette(cmap, labels: np.ndarray) -> Palette:
