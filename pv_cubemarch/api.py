@@ -13,6 +13,7 @@ import warnings
 import numpy as np
 import pyvista
 
+from .core.errors import VolumeDataError
 from .core.mesh_keywords import SURFACE as SURFACE_REFUSED
 from .core.mesh_keywords import VOXELS as VOXEL_REFUSED
 from .core.mesh_keywords import refuse_mesh_keywords, shading_for_lighting
@@ -114,6 +115,7 @@ def add_volume(
     clip_planes=None,
     crop_box=None,
     average_range=None,
+    multi_colors: bool = False,
     **kwargs,
 ) -> pyvista.Volume:
     """Add a volume rendered with emission/absorption compositing; return its actor.
@@ -122,10 +124,12 @@ def add_volume(
     ----------
     plotter : pyvista.Plotter
         The plotter to draw in.
-    volume : pyvista.ImageData, numpy.ndarray, VolumeModel or VolumeGroup
+    volume : pyvista.ImageData, pyvista.MultiBlock, numpy.ndarray, VolumeModel or VolumeGroup
         Scalars on a uniform grid (a numpy array is indexed x, y, z with unit spacing), a
         :class:`VolumeModel` that already carries its transfer function and placement, or a
         :class:`VolumeGroup` of overlapping volumes marched jointly (see :func:`add_volumes`).
+        A MultiBlock adds each block as its own volume (named ``name-index``) and returns
+        the list of their actors, as PyVista does.
     scalars : str or numpy.ndarray, optional
         Name of the point (or cell) array to draw, or the values themselves (one per point
         or per cell); the active scalars by default. An array of 4 uint8 components (a
@@ -306,6 +310,9 @@ def add_volume(
         samples in it (air left out of a CT's mean), as VTK's
         ``vol.mapper.SetAverageIPScalarRange`` (which it sets, and which is followed at
         each frame). For scenes: ``--average-range`` and ``cubemarch:averageRange``.
+    multi_colors : bool
+        With a MultiBlock: each block takes the next of PyVista's colormaps ('Reds',
+        'Greens', 'Blues', 'Greys', 'Oranges', 'Purples') instead of ``cmap``.
     **kwargs
         PyVista's aliases ``rng`` (``clim``) and ``colormap`` (``cmap``). Any other
         keyword raises a ``TypeError`` that says what to use instead.
@@ -335,6 +342,13 @@ def add_volume(
     >>> actor = pv_cubemarch.add_volume(pl, density, cmap="inferno", step_scale=0.5)
     >>> image = pv_cubemarch.render_image(pl)  # doctest: +SKIP
     """
+    if isinstance(volume, pyvista.MultiBlock):
+        given = {key: value for key, value in locals().items()
+                 if key not in ("plotter", "volume", "kwargs", "multi_colors")}
+        return _add_blocks(plotter, volume, multi_colors, {**given, **kwargs})
+    if multi_colors:
+        raise ValueError("multi_colors colours the blocks of a MultiBlock; this volume is "
+                         "one grid: give cmap= instead.")
     named = resolve_aliases(kwargs, {"clim": clim, "cmap": cmap})
     clim, cmap = named["clim"], named["cmap"]
     if isinstance(blending, str):
@@ -520,6 +534,26 @@ def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str |
         actor = build_world(plotter, world, options)
     _frame(plotter)
     return actor
+
+
+#: The colormaps PyVista gives a MultiBlock's blocks in turn with ``multi_colors=True``.
+MULTI_COLORS = ("Reds", "Greens", "Blues", "Greys", "Oranges", "Purples")
+
+
+def _add_blocks(plotter: pyvista.Plotter, blocks, multi_colors: bool, keywords: dict) -> list:
+    """Each block of a MultiBlock added as its own volume, as PyVista's add_volume does."""
+    actors = []
+    base = keywords.pop("name", None) or "volume"
+    for index, block in enumerate(blocks):
+        if block is None:
+            continue
+        own = dict(keywords, name=f"{base}-{index}")
+        if multi_colors:
+            own["cmap"] = MULTI_COLORS[len(actors) % len(MULTI_COLORS)]
+        actors.append(add_volume(plotter, block, **own))
+    if not actors:
+        raise VolumeDataError("The MultiBlock holds no block to draw.")
+    return actors
 
 
 def add_volumes(plotter: pyvista.Plotter, volumes, **options) -> list:

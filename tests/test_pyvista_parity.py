@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 import pyvista as pv
 import vtk
+from conftest import draw_at
 from pyvista import examples
 
 import pv_cubemarch as cm
@@ -715,6 +716,32 @@ def test_add_mesh_keywords_taken_or_refused_by_name():
     with pytest.raises(TypeError, match="unexpected keyword"):
         pl.cubemarch.add_surface(field, isovalue=0.0, not_a_keyword=1)
     pl.close()
+
+
+@pytest.mark.parametrize("technique", ("vtk", "direct", "cubemap"))
+def test_multiblock_adds_each_block_as_pyvista(technique):
+    """A MultiBlock adds each block as its own volume and returns their actors; with
+    ``multi_colors=True`` each takes the next of PyVista's colormaps (found by a reviewer:
+    an ``AttributeError`` from inside). Measured: vtk 55.8 dB, direct 55.4, cube map
+    50.5. catches (seen failing): the colormaps not cycled (every block viridis): 17.0 dB.
+    """
+    moved = pv.Wavelet()
+    moved.origin = (25.0, 0.0, 0.0)
+    blocks = pv.MultiBlock([pv.Wavelet(), None, moved])
+    position = [(60, 80, 60), (12, 0, 0), (0, 0, 1)]
+
+    def theirs(pl):
+        for vol in pl.add_volume(blocks, mapper="gpu", multi_colors=True,
+                                 show_scalar_bar=False):
+            vol.prop.interpolation_type = "linear"
+            vol.mapper.SetAutoAdjustSampleDistances(False)
+            vol.mapper.SetSampleDistance(0.1)
+
+    reference = draw_at(theirs, (200, 120), position)[0]
+    image, actors, _ = draw_at(lambda pl: pl.cubemarch.add_volume(
+        blocks, technique=technique, multi_colors=True), (200, 120), position)
+    assert [actor.cubemarch.model.name for actor in actors] == ["volume-0", "volume-2"]
+    assert psnr(image, reference) >= (45.0 if technique == "cubemap" else 50.0)
 
 
 def test_surface_draws_what_contour_draws():

@@ -24,8 +24,6 @@ ALIASES = {"rng": "clim", "colormap": "cmap"}
 REFUSED = {
     "mapper": "pv_cubemarch draws with its own marchers: choose one with technique= "
               "('vtk', 'direct', 'cubemap' or 'auto')",
-    "multi_colors": "add each block of a MultiBlock with its own cmap (pv_cubemarch "
-                    "draws one grid per call)",
     "culling": "a volume draws the faces of its box it needs itself; leave culling out",
 }
 
