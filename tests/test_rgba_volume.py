@@ -153,10 +153,6 @@ def test_what_rgba_cannot_draw_is_refused():
     assert len(floats.cubemarch.model.members) == 4
     with pytest.raises(VolumeDataError, match="4 uint8 components"):
         cm.make_volume(three, "rgb")
-    a = cm.make_volume(grid, "rgba", name="a")
-    b = cm.make_volume(grid, "rgba", name="b")
-    with pytest.raises(ValueError, match="cannot be marched jointly"):
-        cm.add_volumes(pl, [a, b])
     actor = cm.add_volume(pl, grid, scalars="rgba", technique="direct")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -198,3 +194,86 @@ def test_a_flat_rgba_grid_is_a_sheet():
     assert cm.add_volume(pl, np.zeros((1, 1, 1, 4), np.uint8)).cubemarch.model.colors.shape \
         == (2, 2, 2, 4)
     pl.close()
+
+
+def rgba_blob(origin, cmap, spacing=(1.0, 1.0, 1.0)) -> pv.ImageData:
+    """A Gaussian bump of alpha (0..255) coloured by ``cmap`` over a pattern in x and y."""
+    grid = pv.ImageData(dimensions=(24, 22, 20), spacing=spacing, origin=origin)
+    points = grid.points
+    t = np.exp(-np.sum((points - np.asarray(grid.center)) ** 2, axis=1) / (2 * 6.0**2))
+    t = (t - t.min()) / np.ptp(t)
+    hue = 0.5 + 0.45 * np.sin(0.3 * points[:, 0]) * np.cos(0.25 * points[:, 1])
+    rgb = (matplotlib.colormaps[cmap](hue)[:, :3] * 255).astype(np.uint8)
+    grid["rgba"] = np.column_stack([rgb, np.round(t * 255).astype(np.uint8)])
+    return grid
+
+
+def vtk_multi_volume(grids, unit, size, position) -> np.ndarray:
+    """VTK's own multi-volume (one GPU mapper, one ``vtkMultiVolume``) of RGBA grids."""
+    import vtk
+
+    pl = pv.Plotter(off_screen=True, window_size=size)
+    pl.set_background("black")
+    mapper = vtk.vtkGPUVolumeRayCastMapper()
+    mapper.SetAutoAdjustSampleDistances(False)
+    mapper.SetSampleDistance(0.1)
+    multi = vtk.vtkMultiVolume()
+    multi.SetMapper(mapper)
+    held = []
+    for port, grid in enumerate(grids):
+        mapper.SetInputDataObject(port, grid)
+        prop = vtk.vtkVolumeProperty()
+        prop.IndependentComponentsOff()
+        prop.SetInterpolationTypeToLinear()
+        ramp = vtk.vtkPiecewiseFunction()
+        ramp.AddPoint(0, 0.0)
+        ramp.AddPoint(255, 1.0)
+        prop.SetScalarOpacity(ramp)
+        for component in range(4):
+            prop.SetScalarOpacityUnitDistance(component, unit)
+        volume = vtk.vtkVolume()
+        volume.SetProperty(prop)
+        multi.SetVolume(volume, port)
+        held.append((prop, ramp, volume))
+    pl.renderer.AddVolume(multi)
+    pl.camera_position = position
+    image = pl.screenshot()
+    pl.close()
+    return image
+
+
+@pytest.mark.parametrize("technique", ("direct", "cubemap"))
+def test_overlapping_rgba_volumes_are_marched_jointly(technique):
+    # Two overlapping RGBA volumes (one anisotropic), and an RGBA volume overlapping a
+    # scalar one, are one medium (each member its own colour, the extinction of its
+    # alpha), as VTK's vtkMultiVolume draws two RGBA inputs. Measured: 43.9 dB against VTK
+    # (the background 11.5), 56.2 and 55.7 dB against the CPU reference. Breaks seen
+    # failing: the members not marked direct (CM_DIRECT_MEMBERS left out: the red component
+    # read as the value through the table): 11.5 dB; the table's colour emitted instead of
+    # the member's own: 16.1 dB.
+    from pv_cubemarch.reference.emission_absorption import render_emission_absorption
+    from pv_cubemarch.testing import to_uint8
+
+    first = rgba_blob((-12, -11, -10), "turbo")
+    second = rgba_blob((-2, -6, -4), "cool", (1.1, 0.9, 1.0))
+    size, position = (200, 160), [(60, 45, 50), (2, -2, 0), (0, 0, 1)]
+    a = cm.make_volume(first, "rgba", name="a", opacity_unit_distance=4.0)
+    b = cm.make_volume(second, "rgba", name="b", opacity_unit_distance=4.0)
+    image, actors, camera = draw_at(lambda pl: cm.add_volumes(pl, [a, b], technique=technique),
+                                    size, position)
+    assert len(actors) == 1   # one joint group
+    assert_close_to_reference(image, vtk_multi_volume([first, second], 4.0, size, position),
+                              40.0, background=(0, 0, 0))
+    reference = to_uint8(render_emission_absorption(actors[0].cubemarch.model, camera, size,
+                                                    step_voxels=0.25))
+    assert_close_to_reference(image, reference, 50.0, background=(0, 0, 0))
+    scalar = cm.make_volume(pv.Wavelet(), cmap="magma", clim=(40, 280), name="c",
+                            opacity_unit_distance=6.0)
+    image, actors, camera = draw_at(lambda pl: cm.add_volumes(pl, [a, scalar],
+                                                              technique=technique),
+                                    size, position)
+    reference = to_uint8(render_emission_absorption(actors[0].cubemarch.model, camera, size,
+                                                    step_voxels=0.25))
+    assert_close_to_reference(image, reference, 50.0, background=(0, 0, 0))
+    with pytest.raises(ValueError, match="RGBA volume marched jointly"):
+        actors[0].cubemarch.set_values(np.zeros((24, 22, 20, 4), np.uint8), member="a")

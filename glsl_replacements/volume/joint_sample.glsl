@@ -29,10 +29,16 @@ uniform mat4 cm_memberFromGroup3;    // group texture coordinates to its own
 uniform vec3 cm_memberDims3;         // its points along x, y, z
 #endif
 
+// Bit i of CM_DIRECT_MEMBERS: member i is an RGBA volume (uint8 colours, the opacity's
+// value in alpha), which emits its own colour with the extinction of its alpha.
+#ifndef CM_DIRECT_MEMBERS
+#define CM_DIRECT_MEMBERS 0
+#endif
+
 // A member's emission (rgb, extinction) at a group position: nothing outside its box of
 // texel centres.
 vec4 cm_memberEmission(sampler3D volume, sampler2D table, vec2 clim, mat4 fromGroup,
-                       vec3 dims, vec3 groupPosition)
+                       vec3 dims, vec3 groupPosition, int member)
 {
   vec3 position = (fromGroup * vec4(groupPosition, 1.0)).xyz;
   vec3 lo = 0.5 / dims;
@@ -40,13 +46,19 @@ vec4 cm_memberEmission(sampler3D volume, sampler2D table, vec2 clim, mat4 fromGr
   {
     return vec4(0.0);
   }
-  return cm_transferLookup(table, clim, texture(volume, position).r);
+  vec4 texel = texture(volume, position);
+  if ((CM_DIRECT_MEMBERS & (1 << member)) != 0)
+  {
+    return vec4(texel.rgb, cm_transferLookup(table, clim, texel.a * 255.0).a);
+  }
+  return cm_transferLookup(table, clim, texel.r);
 }
 
 void cm_addMember(inout vec4 sum, sampler3D volume, sampler2D table, vec2 clim,
-                  mat4 fromGroup, vec3 dims, vec3 groupPosition)
+                  mat4 fromGroup, vec3 dims, vec3 groupPosition, int member)
 {
-  vec4 emission = cm_memberEmission(volume, table, clim, fromGroup, dims, groupPosition);
+  vec4 emission = cm_memberEmission(volume, table, clim, fromGroup, dims, groupPosition,
+                                    member);
   sum.rgb += emission.a * emission.rgb;
   sum.a += emission.a;
 }
@@ -58,18 +70,18 @@ void cm_channelEmissions(vec3 texturePosition, out mat4 emissions)
 {
   emissions = mat4(0.0);
   emissions[0] = cm_memberEmission(cm_member0, cm_memberTable0, cm_memberClim0,
-                                   cm_memberFromGroup0, cm_memberDims0, texturePosition);
+                                   cm_memberFromGroup0, cm_memberDims0, texturePosition, 0);
 #if CM_VOLUME_COUNT > 1
   emissions[1] = cm_memberEmission(cm_member1, cm_memberTable1, cm_memberClim1,
-                                   cm_memberFromGroup1, cm_memberDims1, texturePosition);
+                                   cm_memberFromGroup1, cm_memberDims1, texturePosition, 1);
 #endif
 #if CM_VOLUME_COUNT > 2
   emissions[2] = cm_memberEmission(cm_member2, cm_memberTable2, cm_memberClim2,
-                                   cm_memberFromGroup2, cm_memberDims2, texturePosition);
+                                   cm_memberFromGroup2, cm_memberDims2, texturePosition, 2);
 #endif
 #if CM_VOLUME_COUNT > 3
   emissions[3] = cm_memberEmission(cm_member3, cm_memberTable3, cm_memberClim3,
-                                   cm_memberFromGroup3, cm_memberDims3, texturePosition);
+                                   cm_memberFromGroup3, cm_memberDims3, texturePosition, 3);
 #endif
 }
 #endif
@@ -78,18 +90,18 @@ vec4 cm_unlitEmission(vec3 texturePosition)
 {
   vec4 sum = vec4(0.0);
   cm_addMember(sum, cm_member0, cm_memberTable0, cm_memberClim0, cm_memberFromGroup0,
-               cm_memberDims0, texturePosition);
+               cm_memberDims0, texturePosition, 0);
 #if CM_VOLUME_COUNT > 1
   cm_addMember(sum, cm_member1, cm_memberTable1, cm_memberClim1, cm_memberFromGroup1,
-               cm_memberDims1, texturePosition);
+               cm_memberDims1, texturePosition, 1);
 #endif
 #if CM_VOLUME_COUNT > 2
   cm_addMember(sum, cm_member2, cm_memberTable2, cm_memberClim2, cm_memberFromGroup2,
-               cm_memberDims2, texturePosition);
+               cm_memberDims2, texturePosition, 2);
 #endif
 #if CM_VOLUME_COUNT > 3
   cm_addMember(sum, cm_member3, cm_memberTable3, cm_memberClim3, cm_memberFromGroup3,
-               cm_memberDims3, texturePosition);
+               cm_memberDims3, texturePosition, 3);
 #endif
   return vec4(sum.a > 0.0 ? sum.rgb / sum.a : vec3(0.0), sum.a);
 }

@@ -44,11 +44,6 @@ class VolumeGroup:
         if len(sizes) != 1:
             raise ValueError("Overlapping volumes need transfer tables of the same size "
                              f"(n_colors), got {sorted(sizes)}.")
-        rgba = [m.name for m in members if getattr(m, "colors", None) is not None]
-        if rgba:
-            raise ValueError(f"RGBA volumes {rgba} cannot be marched jointly yet (a joint "
-                             "medium mixes the colours of its members' transfer functions): "
-                             "move them apart, or draw one component of each as scalars.")
         self.members = list(members)
         #: A channel volume's mixing ('composite' or 'additive'; models/channels.py), or
         #: None for volumes that merely overlap (marched as one medium).
@@ -91,6 +86,9 @@ class VolumeGroup:
                              f"got {member!r}.")
         index = names.index(member)
         target = self.members[index]
+        if getattr(target, "colors", None) is not None:
+            raise ValueError(f"{target.name!r} is an RGBA volume marched jointly; its colours "
+                             "change by adding the volumes again (pv_cubemarch.add_volumes).")
         values, _ = checked_values(values, target.name, "raise", offset=target.value_offset)
         if values.shape != target.values.shape:
             raise ValueError(f"values must keep {target.name!r}'s shape {target.values.shape}, "

@@ -274,8 +274,11 @@ def march_defines(model, skipping: bool) -> dict:
                "CM_STEP_BLOCKS": STEP_BLOCKS, "CM_SKIP_EMPTY": bool(skipping),
                "CM_DIRECT_COLOR": getattr(model, "colors", None) is not None}
     if isinstance(model, VolumeGroup):
+        direct = sum(1 << i for i, m in enumerate(model.members)
+                     if getattr(m, "colors", None) is not None)
         defines.update(CM_JOINT=True, CM_VOLUME_COUNT=len(model.members),
-                       CM_CHANNELS_ADDITIVE=model.channel_mix == "additive")
+                       CM_CHANNELS_ADDITIVE=model.channel_mix == "additive",
+                       CM_DIRECT_MEMBERS=direct or None)
     return defines
 
 
