@@ -18,6 +18,9 @@ from ..core.frame_errors import observe
 from .frame_inputs import PROXY_NAME, frame_inputs
 from .shaders import Replacement, ShaderRecipe
 
+#: OpenGL's blend factors (GL_ONE, GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA).
+ONE, SRC_ALPHA, ONE_MINUS_SRC_ALPHA = 1, 0x0302, 0x0303
+
 
 class SceneOverlay:
     """The overlay renderer of one plotter and the opaque depth copied at its start."""
@@ -53,6 +56,12 @@ class SceneOverlay:
         if any(self.users.values()):
             self.depth.ensure(self.window)
         self._sort_far_to_near()
+        # The overlay's volumes blend straight alpha over the frame: colour by alpha, and
+        # the frame's alpha as "over" (a + (1 - a) dst), as VTK's own translucent pass does,
+        # whatever blending the main renderer's passes left (a transparent background's
+        # alpha was squared).
+        self.window.GetState().vtkglBlendFuncSeparate(SRC_ALPHA, ONE_MINUS_SRC_ALPHA, ONE,
+                                                      ONE_MINUS_SRC_ALPHA)
 
     def _sort_far_to_near(self) -> None:
         """Draw the overlay's volumes farthest first, so nearer ones composite over them."""
