@@ -349,6 +349,7 @@ def add_volume(
     if multi_colors:
         raise ValueError("multi_colors colours the blocks of a MultiBlock; this volume is "
                          "one grid: give cmap= instead.")
+    bar_title = None
     named = resolve_aliases(kwargs, {"clim": clim, "cmap": cmap})
     clim, cmap = named["clim"], named["cmap"]
     if isinstance(blending, str):
@@ -390,7 +391,7 @@ def add_volume(
     else:
         volume, scalars = volume_input(volume, scalars, resolution, preference)
         if scalars is None and isinstance(volume, pyvista.DataSet):
-            scalars = volume.active_scalars_name   # the bar's title, as PyVista's
+            bar_title = volume.active_scalars_name   # as PyVista titles its bar
         model = make_data_model(volume, scalars, independent_components, channel_blending,
                             dict(cmap=cmap, opacity=opacity, clim=clim,
                                  opacity_unit_distance=opacity_unit_distance,
@@ -437,7 +438,7 @@ def add_volume(
                       stacklevel=2)
     elif not isinstance(model, VolumeGroup) and model.colors is None:
         add_scalar_bar(plotter, actor, model,
-                       scalars if isinstance(scalars, str) else model.name,
+                       scalars if isinstance(scalars, str) else bar_title or model.name,
                        show_scalar_bar, scalar_bar_args, annotations)
     for plane in clip_plane_list(clip_planes):
         actor.mapper.AddClippingPlane(plane)
@@ -543,11 +544,13 @@ MULTI_COLORS = ("Reds", "Greens", "Blues", "Greys", "Oranges", "Purples")
 def _add_blocks(plotter: pyvista.Plotter, blocks, multi_colors: bool, keywords: dict) -> list:
     """Each block of a MultiBlock added as its own volume, as PyVista's add_volume does."""
     actors = []
-    base = keywords.pop("name", None) or "volume"
+    base = keywords.pop("name", None)
     for index, block in enumerate(blocks):
         if block is None:
             continue
-        own = dict(keywords, name=f"{base}-{index}")
+        # PyVista's names: name-index, or (no name) ones no other actor holds
+        own = dict(keywords, name=f"{base}-{index}" if base is not None else _unused_name(
+            plotter, f"volume-{index}"))
         if multi_colors:
             own["cmap"] = MULTI_COLORS[len(actors) % len(MULTI_COLORS)]
         actors.append(add_volume(plotter, block, **own))

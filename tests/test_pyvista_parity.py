@@ -341,6 +341,14 @@ def test_scalar_bar_is_titled_and_faded_as_pyvistas():
         table = np.asarray(pl.scalar_bars["RTData"].GetLookupTable().GetTable())
         np.testing.assert_allclose(table, expected, atol=1)
         pl.close()
+    # A curve of exactly n_colors values in [0, 1] is drawn as given; its bar shows it so
+    # (PyVista reads it as 0..255 and fades its bar away). By hand: alpha = 255 * curve.
+    curve = np.linspace(0.0, 1.0, 16)
+    pl = pv.Plotter(off_screen=True)
+    pl.cubemarch.add_volume(grid, opacity=curve, n_colors=16, show_scalar_bar=True)
+    table = np.asarray(pl.scalar_bars["RTData"].GetLookupTable().GetTable())
+    np.testing.assert_allclose(table[:, 3], np.round(curve * 255), atol=1)
+    pl.close()
 
 
 def test_scalars_array_and_resolution():
@@ -742,6 +750,14 @@ def test_multiblock_adds_each_block_as_pyvista(technique):
         blocks, technique=technique, multi_colors=True), (200, 120), position)
     assert [actor.cubemarch.model.name for actor in actors] == ["volume-0", "volume-2"]
     assert psnr(image, reference) >= (45.0 if technique == "cubemap" else 50.0)
+    # A second MultiBlock without a name keeps the first one's blocks (found by a reviewer:
+    # both were named volume-0 and volume-2, the second replaced the first).
+    pl = pv.Plotter(off_screen=True)
+    first = pl.cubemarch.add_volume(blocks, technique=technique)
+    second = pl.cubemarch.add_volume(blocks, technique=technique)
+    held = list(pl.actors.values())
+    assert all(any(actor is other for other in held) for actor in (*first, *second))
+    pl.close()
 
 
 def test_surface_draws_what_contour_draws():

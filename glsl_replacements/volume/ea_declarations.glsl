@@ -1,6 +1,6 @@
 // Emission/absorption: declarations shared by every shader that composites a volume.
 // cm_transferTable is a (CM_TABLE_SIZE x 1) RGBA float texture: rgb emission colour and
-// extinction sigma per world unit in alpha; the CPU reference reads the same table.
+// extinction sigma per data unit (cm_mediumLength) in alpha.
 uniform sampler2D cm_transferTable;
 uniform vec2 cm_clim;              // scalar values of the first and last table rows
 uniform float cm_stopOpacity;      // early ray termination once opacity exceeds this

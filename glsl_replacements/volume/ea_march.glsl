@@ -9,8 +9,9 @@
 // Texel-spaced ("half-adaptive") sampling: one step spans cm_stepScale texels along the
 // ray's dominant texture axis; steps are constant along a ray, each sample is read at the
 // middle of its segment, the last segment is cut at the exit, and its opacity uses its real
-// world length. With CM_SKIP_EMPTY, bricks whose data range maps to zero extinction are
-// stepped over whole: a brick is read once, its exit found by a slab test.
+// length in data units (cm_mediumLength). With CM_SKIP_EMPTY, bricks whose data range maps
+// to zero extinction are stepped over whole: a brick is read once, its exit found by a
+// slab test.
 //
 // Any number of steps: a ray (or, in a joint group, each piece of it) is marched in blocks
 // of CM_STEP_BLOCK steps, at most CM_STEP_BLOCKS blocks; both loops have constant bounds, so

@@ -61,6 +61,13 @@ class VolumeGroup:
         self.spacing = extent / (np.array(self.shape) - 1.0)
         self.transfer = members[0].transfer  # the table size, shared by every member
 
+    def shared_transform(self) -> np.ndarray | None:
+        """The placement every member shares (a channel volume's), or None if they differ."""
+        first = np.asarray(self.members[0].transform, dtype=np.float64)
+        same = all(np.array_equal(np.asarray(m.transform, dtype=np.float64), first)
+                   for m in self.members[1:])
+        return first if same else None
+
     @property
     def dimensions(self) -> tuple[int, int, int]:
         """Points of the virtual grid along x, y, z."""

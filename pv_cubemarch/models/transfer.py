@@ -26,10 +26,10 @@ from ..core.errors import VolumeDataError
 
 #: PyVista's ``to_opacity_tf(max_clip=0.998)``: the most opacity a table row may have.
 MAX_OPACITY = 0.998
-#: Largest extinction per world unit in a table. A tiny ``opacity_unit_distance`` (say
+#: Largest extinction per data unit in a table. A tiny ``opacity_unit_distance`` (say
 #: 1e-300) would overflow float32 to infinity, which the GPU's filtering and the
 #: reference's interpolation turn into NaN (0 * inf): capped here, a sample is still opaque
-#: over any step longer than 1e-28 world units, and sums of four volumes' extinctions and
+#: over any step longer than 1e-28 data units, and sums of four volumes' extinctions and
 #: their products with colours stay finite in float32.
 MAX_EXTINCTION = 1e30
 #: Most colours of a colormap (``n_colors``).
@@ -72,7 +72,7 @@ class TransferFunction:
     Parameters
     ----------
     table : numpy.ndarray
-        ``(n, 4)`` float32: RGB in [0, 1] and extinction per world unit, rows at values
+        ``(n, 4)`` float32: RGB in [0, 1] and extinction per data unit, rows at values
         spaced evenly over ``clim``.
     clim : tuple of float
         Scalar values of the first and last row, in the units of the volume's stored
@@ -209,7 +209,7 @@ class TransferFunction:
         return rows[..., :3], rows[..., 3]
 
     def max_extinction(self) -> float:
-        """The largest extinction in the table (per world unit)."""
+        """The largest extinction in the table (per data unit)."""
         return float(self.table[:, 3].max())
 
 

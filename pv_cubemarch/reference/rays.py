@@ -146,11 +146,12 @@ def data_per_world(medium, directions: np.ndarray) -> np.ndarray:
     """Data units per world unit along each world direction, for a medium's lengths.
 
     A volume's lengths are measured in its grid's own frame, before its placement (its
-    ``transform``), as VTK measures ``opacity_unit_distance``; a joint group (no one
-    placement) in the world.
+    ``transform``), as VTK measures ``opacity_unit_distance``; a joint group's before the
+    placement its members share (a channel volume's), else in the world.
     """
     directions = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
-    transform = getattr(medium, "transform", None)
+    transform = medium.shared_transform() if hasattr(medium, "shared_transform") else \
+        getattr(medium, "transform", None)
     if transform is None:
         return np.ones(len(directions))
     linear = np.linalg.inv(np.asarray(transform, dtype=np.float64))[:3, :3]

@@ -118,13 +118,15 @@ def medium_from_texture(model: VolumeModel | VolumeGroup) -> np.ndarray:
     """4x4 from texture coordinates to the frame the medium's lengths are measured in.
 
     A volume's own grid frame, before its placement (``transform`` / ``user_matrix``), as
-    VTK measures ``opacity_unit_distance`` in the data's coordinates; a joint group's
-    members each have their own, so a group is measured in the world.
+    VTK measures ``opacity_unit_distance`` in the data's coordinates; a group whose members
+    share one placement (a channel volume) is measured before it, one whose members are
+    placed apart in the world.
     """
-    if isinstance(model, VolumeGroup):
+    transform = model.shared_transform() if isinstance(model, VolumeGroup) else \
+        np.asarray(model.transform, dtype=np.float64)
+    if transform is None:
         return world_from_texture(model)
-    return np.linalg.inv(np.asarray(model.transform, dtype=np.float64)) @ \
-        world_from_texture(model)
+    return np.linalg.inv(transform) @ world_from_texture(model)
 
 
 class VolumeData:

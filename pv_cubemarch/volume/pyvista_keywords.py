@@ -145,6 +145,22 @@ def check_channels(model, blending: str, shade: bool, lights) -> None:
                          "channel_blending='composite' to light the channels.")
 
 
+def _fade_with_opacity(lut: pyvista.LookupTable, opacity, n_colors: int) -> None:
+    """The bar's alpha from the opacity, as PyVista's volume bar fades.
+
+    A curve of exactly ``n_colors`` values in [0, 1] is drawn as given, so the bar shows it
+    as given too (PyVista would read it as 0..255 and fade the bar away).
+    """
+    curve = None if isinstance(opacity, str) else np.asarray(opacity, dtype=np.float64)
+    if curve is not None and curve.ndim == 1 and len(curve) == n_colors and \
+            curve.size and curve.min() >= 0.0 and curve.max() <= 1.0:
+        values = np.array(lut.values)
+        values[:, 3] = np.round(curve * 255.0)
+        lut.values = values
+    else:
+        lut.apply_opacity(opacity)
+
+
 def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
     """A mapper (never drawn) whose lookup table is the volume's colours over its ``clim``.
 
@@ -169,7 +185,7 @@ def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
         else:
             cmap = get_cmap_safe(list(spec.cmap) if isinstance(spec.cmap, tuple) else spec.cmap)
             lut.apply_cmap(cmap.reversed() if spec.flip_scalars else cmap, spec.n_colors)
-            lut.apply_opacity(spec.opacity)   # PyVista's bar fades with the opacity too
+            _fade_with_opacity(lut, spec.opacity, spec.n_colors)
         lut.scalar_range = spec.data_clim
         lut.log_scale = spec.log_scale
     mapper.lookup_table = lut
