@@ -343,6 +343,7 @@ def add_volume(
     >>> image = pv_cubemarch.render_image(pl)  # doctest: +SKIP
     """
     if isinstance(volume, pyvista.MultiBlock):
+        _checked_name(name)
         given = {key: value for key, value in locals().items()
                  if key not in ("plotter", "volume", "kwargs", "multi_colors")}
         return _add_blocks(plotter, volume, multi_colors, {**given, **kwargs})
@@ -350,6 +351,7 @@ def add_volume(
         raise ValueError("multi_colors colours the blocks of a MultiBlock; this volume is "
                          "one grid: give cmap= instead.")
     bar_title = None
+    _checked_name(name)
     named = resolve_aliases(kwargs, {"clim": clim, "cmap": cmap})
     clim, cmap = named["clim"], named["cmap"]
     if isinstance(blending, str):
@@ -474,6 +476,14 @@ def _unused_name(plotter: pyvista.Plotter, base: str) -> str:
     while f"{base}-{number}" in taken:
         number += 1
     return f"{base}-{number}"
+
+
+def _checked_name(name):
+    """``name`` (an actor's name in the plotter) as given, or a clear error."""
+    if name is not None and not isinstance(name, str):
+        raise TypeError(f"name must be a string (the actor's name in the plotter), got "
+                        f"{name!r}.")
+    return name
 
 
 def _place(plotter: pyvista.Plotter, binding, name: str):
@@ -835,6 +845,7 @@ def add_voxels(
     >>> actor = cm.add_voxels(pl, labels, palette=["black", "tan", "steelblue"])
     """
     refuse_mesh_keywords("add_voxels", kwargs, VOXEL_REFUSED)
+    _checked_name(name)
     shading = shading_for_lighting(lighting, shading)
     chosen = get_technique("voxels", "voxels")
     options = voxel_options(traversal=traversal, step_scale=step_scale, mip_levels=mip_levels,
@@ -1052,6 +1063,7 @@ def add_surface(
     >>> actor = cm.add_surface(pl, 0.8 - (x**2 + y**2 + z**2), isovalue=0.0)
     """
     refuse_mesh_keywords("add_surface", kwargs, SURFACE_REFUSED)
+    _checked_name(name)
     shading = shading_for_lighting(lighting, shading)
     try:
         if opacity is None or isinstance(opacity, (bool, str)):

@@ -102,3 +102,46 @@ def test_remove_frees_gpu_resources(plotter_factory):
     assert pl.cubemarch.remove(actor)
     assert texture.gl_object is None and pl.cubemarch.memory == {}
     assert actor not in pl.renderer.actors.values()
+
+
+def _labels():
+    labels = np.zeros((4, 4, 4), np.uint8)
+    labels[1:3, 1:3, 1:3] = 1
+    return labels
+
+
+def _ball():
+    return 0.8 - np.sum(np.mgrid[-1:1:12j, -1:1:12j, -1:1:12j] ** 2, axis=0)
+
+
+@pytest.mark.parametrize("add, error, message", [
+    (lambda pl: pl.cubemarch.add_surface(pv.Sphere(), cells=0), cm.VolumeDataError,
+     "cells must be a whole number"),
+    (lambda pl: pl.cubemarch.add_surface(_ball(), isovalue=float("nan")),
+     cm.VolumeDataError, "isovalue must be a finite number"),
+    (lambda pl: pl.cubemarch.add_volume(pv.Wavelet(), opacity=[]), cm.VolumeDataError,
+     "opacity is an empty curve"),
+    (lambda pl: pl.cubemarch.add_volume(pv.Wavelet(), name=123), TypeError,
+     "name must be a string"),
+    (lambda pl: pl.cubemarch.add_voxels(_labels(), name=5), TypeError,
+     "name must be a string"),
+    (lambda pl: pl.cubemarch.add_voxels(_labels(), palette=[]), cm.VolumeDataError,
+     "palette is empty"),
+    (lambda pl: pl.cubemarch.add_voxels(_labels(), palette=["black", "notacolor"]),
+     ValueError, "'notacolor' of material 1 is not a colour"),
+    (lambda pl: pl.cubemarch.add_voxels(_labels()).cubemarch.set_material(
+        1, color="notacolor"), ValueError, "is not a colour"),
+    (lambda pl: pl.cubemarch.add_volume(pv.Wavelet(), transform=np.full((4, 4), np.nan)),
+     cm.VolumeDataError, "transform must be finite; it holds 16 NaN"),
+], ids=["cells=0", "isovalue=nan", "opacity=[]", "name=123", "voxels name", "palette=[]",
+        "palette colour", "set_material colour", "nan transform"])
+def test_bad_keywords_name_the_argument_and_the_fix(add, error, message):
+    # Each was a misleading error or none (issue 25's list): cells=0 drew with 1 cell in
+    # silence; isovalue=nan blamed the coefficients; opacity=[] raised numpy's
+    # "zero-size array"; name=123 an AttributeError; palette=[] a broadcast error; a bad
+    # colour pyvista's message naming no material; a NaN transform "got shape (4, 4)".
+    # Breaks seen failing: each check removed (the old message returns).
+    pl = pv.Plotter(off_screen=True)
+    with pytest.raises(error, match=message):
+        add(pl)
+    pl.close()

@@ -111,6 +111,10 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     """
     if isinstance(data, (str, Path)):
         data = pyvista.read(data)
+    _check_cells(cells)
+    if isovalue is not None and not (isinstance(isovalue, (int, float, np.number))
+                                     and np.isfinite(isovalue)):
+        raise VolumeDataError(f"isovalue must be a finite number, got {isovalue!r}.")
     if isinstance(data, SplineField):   # a copy: the caller's field stays as it was
         field = replace(data, coefficients=data.coefficients - float(isovalue or 0.0))
     elif isinstance(data, tuple) and len(data) == 2:   # (points, normals)
@@ -129,6 +133,16 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     if transform is not None:
         field.transform = checked_transform(transform)
     return field
+
+
+def _check_cells(cells) -> None:
+    """``cells``: a whole number >= 1, or three of them (a clear error otherwise)."""
+    counts = np.atleast_1d(np.asarray(cells, dtype=object))
+    whole = all(isinstance(c, (int, np.integer)) and not isinstance(c, bool) and c >= 1
+                for c in counts)
+    if counts.ndim != 1 or len(counts) not in (1, 3) or not whole:
+        raise VolumeDataError(f"cells must be a whole number >= 1 (cells along the longest "
+                              f"side) or three of them, got {cells!r}.")
 
 
 def _sampled_field(data, isovalue: float | None, scalars: str | None,

@@ -296,6 +296,9 @@ def _resampled(opacity, n: int) -> np.ndarray:
     array as bytes, 0..255, and draw it almost transparent).
     """
     values = np.atleast_1d(np.asarray(opacity, dtype=np.float64))
+    if values.size == 0:
+        raise VolumeDataError("opacity is an empty curve: give at least one value in [0, 1] "
+                              "(or a name: 'linear', 'sigmoid', ...).")
     if values.ndim != 1 or not np.isfinite(values).all() or values.min() < 0 or \
             values.max() > 255:
         raise VolumeDataError("opacity values must be finite numbers in [0, 1] (or bytes, "

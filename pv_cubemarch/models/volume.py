@@ -420,9 +420,16 @@ def _shifted_clim(clim, offset: int | float) -> tuple[float, float]:
 
 def checked_transform(transform) -> np.ndarray:
     """``transform`` as a float64 4x4 placement, or a clear error."""
-    matrix = np.asarray(transform, dtype=np.float64)
-    if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
-        raise VolumeDataError(f"transform must be a finite 4x4 matrix, got shape {matrix.shape}.")
+    try:
+        matrix = np.asarray(transform, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise VolumeDataError(f"transform must be a 4x4 matrix of numbers, got "
+                              f"{transform!r}.") from None
+    if matrix.shape != (4, 4):
+        raise VolumeDataError(f"transform must be a 4x4 matrix, got shape {matrix.shape}.")
+    if not np.isfinite(matrix).all():
+        raise VolumeDataError(f"transform must be finite; it holds "
+                              f"{int((~np.isfinite(matrix)).sum())} NaN or infinite entries.")
     if not np.allclose(matrix[3], (0.0, 0.0, 0.0, 1.0), rtol=0.0, atol=1e-12):
         raise VolumeDataError(
             f"transform must be affine: its last row must be (0, 0, 0, 1), got "

@@ -20,6 +20,16 @@ from .volume import box_world_bounds, checked_transform, first_point
 MAX_MATERIALS = 65535
 
 
+def _material_color(color, material) -> tuple:
+    """``color`` (anything ``pyvista.Color`` takes) as RGB floats, or an error naming it."""
+    try:
+        return pyvista.Color(color).float_rgb
+    except (ValueError, TypeError):
+        raise ValueError(f"color {color!r} of material {material} is not a colour: give a "
+                         "name ('tomato'), a hex string ('#ff6347') or an RGB sequence."
+                         ) from None
+
+
 class Palette:
     """Per-material colour and opacity: row ``m`` is material ``m`` (row 0, empty, unused).
 
@@ -61,13 +71,17 @@ class Palette:
             rgba = np.vstack([np.zeros((1, 4), np.float32), colors])
             rgba[1:, 3] = 1.0
             return cls(rgba)
+        if isinstance(palette, (dict, list, tuple, np.ndarray)) and len(palette) == 0:
+            raise VolumeDataError("palette is empty: give a colour per material (entry 0, "
+                                  "empty, is unused), a {material: colour} dict or a "
+                                  "colormap name.")
         if isinstance(palette, dict):
             rgba = np.zeros((max(n, max(int(k) for k in palette) + 1), 4), np.float32)
             for material, entry in palette.items():
                 # (colour, opacity) pairs have two items; a colour has one (a name) or 3-4
                 pair = isinstance(entry, (tuple, list)) and len(entry) == 2
                 color, opacity = entry if pair else (entry, 1.0)
-                rgba[int(material), :3] = pyvista.Color(color).float_rgb
+                rgba[int(material), :3] = _material_color(color, material)
                 rgba[int(material), 3] = float(opacity)
             return cls(rgba)
         array = np.asarray(palette)
@@ -76,7 +90,7 @@ class Palette:
             rgba[:, :array.shape[1]] = array
             rgba[0, 3] = 0.0
             return cls(rgba)
-        colors = [pyvista.Color(c).float_rgb for c in palette]
+        colors = [_material_color(c, m) for m, c in enumerate(palette)]
         rgba = np.ones((len(colors), 4), np.float32)
         rgba[:, :3] = colors
         rgba[0, 3] = 0.0
@@ -93,7 +107,7 @@ class Palette:
         if not 0 < material < self.n_materials:
             raise ValueError(f"material must be in 1..{self.n_materials - 1}, got {material}.")
         if color is not None:
-            self.rgba[material, :3] = pyvista.Color(color).float_rgb
+            self.rgba[material, :3] = _material_color(color, material)
         if opacity is not None:
             if not 0.0 <= float(opacity) <= 1.0:
                 raise ValueError(f"opacity must be in [0, 1], got {opacity}.")
