@@ -631,6 +631,19 @@ def theirs_and_ours(add_theirs, add_ours, bounds):
     return images
 
 
+def wavelet_label_grid(label_of) -> pv.ImageData:
+    """Labels on ``pv.Wavelet()``'s cells (extent -10..10): ``label_of(centres)`` inside a
+    ball of radius 8.5, 0 outside."""
+    wavelet = pv.Wavelet()
+    centres = wavelet.point_data_to_cell_data().cell_centers().points
+    labels = np.where(np.linalg.norm(centres, axis=1) < 8.5, label_of(centres), 0)
+    grid = pv.ImageData(dimensions=wavelet.dimensions, spacing=wavelet.spacing,
+                        origin=wavelet.origin)
+    grid.SetExtent(wavelet.GetExtent())
+    grid.cell_data["labels"] = labels.astype(np.uint8)
+    return grid
+
+
 def test_voxels_draw_what_threshold_and_add_mesh_draw():
     """A label grid on ``pv.Wavelet()``'s extent (-10..10) against PyVista's ``threshold`` +
     ``add_mesh(categories=True)`` of the same cells and colours, both unlit.
@@ -640,14 +653,7 @@ def test_voxels_draw_what_threshold_and_add_mesh_draw():
     levels off; the background alone 12.3 dB. catches: the extent's start ignored
     (``first_point`` returning ``grid.origin``): the ball drawn 10 units off, 11.2 dB.
     """
-    wavelet = pv.Wavelet()
-    centres = wavelet.point_data_to_cell_data().cell_centers().points
-    inside = np.linalg.norm(centres, axis=1) < 8.5
-    labels = np.where(inside, 1 + (centres[:, 0] > 0) + (centres[:, 1] > 1), 0)
-    grid = pv.ImageData(dimensions=wavelet.dimensions, spacing=wavelet.spacing,
-                        origin=wavelet.origin)
-    grid.SetExtent(wavelet.GetExtent())
-    grid.cell_data["labels"] = labels.astype(np.uint8)
+    grid = wavelet_label_grid(lambda c: 1 + (c[:, 0] > 0) + (c[:, 1] > 1))
     colors = ["tomato", "gold", "steelblue"]
     reference, image = theirs_and_ours(
         lambda pl: pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels",
@@ -674,14 +680,8 @@ def test_voxel_cmap_spans_the_drawn_labels_as_add_mesh(style):
     27.3 dB, 7.4 % off; ``clim``, ``n_colors`` or ``flip_scalars`` not passed on to the
     palette: 22.0, 17.9, 19.1 dB.
     """
-    wavelet = pv.Wavelet()
-    centres = wavelet.point_data_to_cell_data().cell_centers().points
-    sector = np.floor((np.arctan2(centres[:, 1], centres[:, 0]) + np.pi) / (2 * np.pi) * 7)
-    labels = np.where(np.linalg.norm(centres, axis=1) < 8.5, 3 + np.minimum(sector, 6), 0)
-    grid = pv.ImageData(dimensions=wavelet.dimensions, spacing=wavelet.spacing,
-                        origin=wavelet.origin)
-    grid.SetExtent(wavelet.GetExtent())
-    grid.cell_data["labels"] = labels.astype(np.uint8)
+    grid = wavelet_label_grid(lambda c: 3 + np.minimum(np.floor(
+        (np.arctan2(c[:, 1], c[:, 0]) + np.pi) / (2 * np.pi) * 7), 6))
     reference, image = theirs_and_ours(
         lambda pl: pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels",
                                cmap="viridis", show_scalar_bar=False,
@@ -1129,15 +1129,8 @@ def test_voxel_categories_colour_labels_with_gaps_as_pyvista():
     catches (seen failing): the palette made one colour per label number
     (``Palette.make`` in place of ``category_palette``): 26.0 dB, and the colours.
     """
-    wavelet = pv.Wavelet()
-    centres = wavelet.point_data_to_cell_data().cell_centers().points
-    inside = np.linalg.norm(centres, axis=1) < 8.5
-    labels = np.where(inside, np.where(centres[:, 0] > 0, 9, np.where(centres[:, 1] > 1, 5, 2)),
-                      0)
-    grid = pv.ImageData(dimensions=wavelet.dimensions, spacing=wavelet.spacing,
-                        origin=wavelet.origin)
-    grid.SetExtent(wavelet.GetExtent())
-    grid.cell_data["labels"] = labels.astype(np.uint8)
+    grid = wavelet_label_grid(lambda c: np.where(c[:, 0] > 0, 9,
+                                                 np.where(c[:, 1] > 1, 5, 2)))
     reference, image = theirs_and_ours(
         lambda pl: pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels",
                                categories=True, cmap="tab10", lighting=False,

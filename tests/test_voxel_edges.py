@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import pyvista as pv
 from conftest import light_with_sun_and_lamp, rotated_mirrored_placement, set_camera
-from test_pyvista_parity import psnr, theirs_and_ours
+from test_pyvista_parity import psnr, theirs_and_ours, wavelet_label_grid
 from test_voxels import plotter, random_labels
 
 import pv_cubemarch as cm
@@ -67,15 +67,7 @@ def test_edges_match_the_reference(plotter_factory, shading, parallel, style):
 
 
 def wavelet_labels() -> pv.ImageData:
-    wavelet = pv.Wavelet()
-    centres = wavelet.point_data_to_cell_data().cell_centers().points
-    inside = np.linalg.norm(centres, axis=1) < 8.5
-    grid = pv.ImageData(dimensions=wavelet.dimensions, spacing=wavelet.spacing,
-                        origin=wavelet.origin)
-    grid.SetExtent(wavelet.GetExtent())
-    labels = np.where(inside, 1 + (centres[:, 0] > 0) + (centres[:, 1] > 1), 0)
-    grid.cell_data["labels"] = labels.astype(np.uint8)
-    return grid
+    return wavelet_label_grid(lambda c: 1 + (c[:, 0] > 0) + (c[:, 1] > 1))
 
 
 @pytest.mark.parametrize(("style", "least"), [
