@@ -168,7 +168,8 @@ def test_every_technique_draws_what_pyvista_draws(pyvista_images, name):
 def test_default_colormap_follows_the_theme_as_pyvista(monkeypatch):
     """``cmap`` left out: PyVista's theme colormap, in both (viridis here, not magma).
 
-    catches: a fixed default colormap (``cmap = 'magma'`` in ``_lookup_table``: seen to fail).
+    catches: a fixed default colormap (``cmap = 'magma'`` in ``pyvista_lookup_table``:
+    seen to fail).
     """
     monkeypatch.setattr(pv.global_theme, "cmap", "viridis")
     grid = examples.load_uniform()

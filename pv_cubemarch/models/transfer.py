@@ -149,7 +149,7 @@ class TransferFunction:
             raise VolumeDataError(
                 f"opacity_unit_distance must be a positive length, got {opacity_unit_distance}."
             )
-        lut = _lookup_table(cmap, opacity, n_colors, flip_scalars)
+        lut = pyvista_lookup_table(cmap, opacity, n_colors, flip_scalars)
         n = lut.n_values
         # a linear map is the same over the shifted range; a logarithmic one needs the data's
         lut.scalar_range = (lo, hi) if log_scale else shifted
@@ -250,8 +250,11 @@ def checked_clim(clim) -> tuple[float, float]:
     return lo, hi
 
 
-def _lookup_table(cmap, opacity, n_colors, flip_scalars) -> pyvista.LookupTable:
-    """PyVista's lookup table for these settings, as ``add_volume`` makes it."""
+def pyvista_lookup_table(cmap, opacity, n_colors, flip_scalars) -> pyvista.LookupTable:
+    """PyVista's lookup table for these settings, as ``add_volume`` makes it.
+
+    The transfer function and the volume's scalar bar are both made from it.
+    """
     if isinstance(cmap, pyvista.LookupTable):
         lut = pyvista.LookupTable()
         lut.DeepCopy(cmap)

@@ -16,7 +16,7 @@ from ..core.errors import VolumeDataError
 from ..core.options import is_count, level_values, spread_levels
 from ..core.scalar_bar import attach_scalar_bar
 from ..models.channels import is_channels
-from ..models.transfer import shift_value
+from ..models.transfer import pyvista_lookup_table, shift_value
 
 #: PyVista's aliases of add_volume's keywords (``add_mesh``'s ``rng`` and ``colormap``).
 ALIASES = {"rng": "clim", "colormap": "cmap"}
@@ -145,22 +145,6 @@ def check_channels(model, blending: str, shade: bool, lights) -> None:
                          "channel_blending='composite' to light the channels.")
 
 
-def _fade_with_opacity(lut: pyvista.LookupTable, opacity, n_colors: int) -> None:
-    """The bar's alpha from the opacity, as PyVista's volume bar fades.
-
-    A curve of exactly ``n_colors`` values in [0, 1] is drawn as given, so the bar shows it
-    as given too (PyVista would read it as 0..255 and fade the bar away).
-    """
-    curve = None if isinstance(opacity, str) else np.asarray(opacity, dtype=np.float64)
-    if curve is not None and curve.ndim == 1 and len(curve) == n_colors and \
-            curve.size and curve.min() >= 0.0 and curve.max() <= 1.0:
-        values = np.array(lut.values)
-        values[:, 3] = np.round(curve * 255.0)
-        lut.values = values
-    else:
-        lut.apply_opacity(opacity)
-
-
 def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
     """A mapper (never drawn) whose lookup table is the volume's colours over its ``clim``.
 
@@ -170,22 +154,20 @@ def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
     """
     spec = model.transfer.spec
     mapper = pyvista.DataSetMapper()
-    lut = pyvista.LookupTable()
     if spec is None:   # a table given as is: its rows over its clim
+        lut = pyvista.LookupTable()
         table = np.asarray(model.transfer.table, dtype=np.float64)
         alpha = -np.expm1(-table[:, 3])
         lut.values = np.column_stack([table[:, :3], np.clip(alpha, 0, 1)]) * 255.0
         offset = float(model.value_offset) if model.value_offset else 0.0
         lut.scalar_range = tuple(float(v) + offset for v in model.transfer.clim)
     else:
-        from pyvista.plotting.colors import get_cmap_safe
-
         if isinstance(spec.cmap, np.ndarray):
+            lut = pyvista.LookupTable()
             lut.values = np.column_stack([spec.cmap, spec.opacity]) * 255.0
-        else:
-            cmap = get_cmap_safe(list(spec.cmap) if isinstance(spec.cmap, tuple) else spec.cmap)
-            lut.apply_cmap(cmap.reversed() if spec.flip_scalars else cmap, spec.n_colors)
-            _fade_with_opacity(lut, spec.opacity, spec.n_colors)
+        else:   # the transfer function's own table: the bar fades as the volume is drawn
+            lut = pyvista_lookup_table(spec.cmap, spec.opacity, spec.n_colors,
+                                       spec.flip_scalars)
         lut.scalar_range = spec.data_clim
         lut.log_scale = spec.log_scale
     mapper.lookup_table = lut
