@@ -342,8 +342,8 @@ def add_volume(
     >>> actor = pv_cubemarch.add_volume(pl, density, cmap="inferno", step_scale=0.5)
     >>> image = pv_cubemarch.render_image(pl)  # doctest: +SKIP
     """
+    _checked_name(name)
     if isinstance(volume, pyvista.MultiBlock):
-        _checked_name(name)
         given = {key: value for key, value in locals().items()
                  if key not in ("plotter", "volume", "kwargs", "multi_colors")}
         return _add_blocks(plotter, volume, multi_colors, {**given, **kwargs})
@@ -351,7 +351,6 @@ def add_volume(
         raise ValueError("multi_colors colours the blocks of a MultiBlock; this volume is "
                          "one grid: give cmap= instead.")
     bar_title = None
-    _checked_name(name)
     named = resolve_aliases(kwargs, {"clim": clim, "cmap": cmap})
     clim, cmap = named["clim"], named["cmap"]
     if isinstance(blending, str):

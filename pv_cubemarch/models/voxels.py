@@ -314,13 +314,21 @@ def range_palette(cmap, labels: np.ndarray, clim=None, n_colors: int = 256,
             lut.apply_cmap(colormap.reversed() if flip_scalars else colormap, count)
         except (ValueError, TypeError) as error:
             raise VolumeDataError(f"cmap={cmap!r}, n_colors={n_colors!r}: {error}") from error
-        lo, hi = (float(present[0]), float(present[-1])) if clim is None else \
-            _checked_clim(clim)
-        lut.scalar_range = (lo, hi if hi > lo else lo + 1.0)
-        for value in present:
-            rgba[int(value), :3] = lut.map_value(float(value), opacity=False)
-            rgba[int(value), 3] = 1.0
+        _colour_labels(rgba, lut, present, None if clim is None else _checked_clim(clim))
     return Palette(rgba)
+
+
+def _colour_labels(rgba: np.ndarray, lut: pyvista.LookupTable, present: np.ndarray,
+                   clim=None) -> None:
+    """Row ``v`` of ``rgba``: label ``v``'s colour through ``lut`` over ``clim``, opaque.
+
+    ``clim`` is by default the present labels' range (one unit wide for a single label).
+    """
+    lo, hi = (float(present[0]), float(present[-1])) if clim is None else clim
+    lut.scalar_range = (lo, hi if hi > lo else lo + 1.0)
+    for value in present:
+        rgba[int(value), :3] = lut.map_value(float(value), opacity=False)
+        rgba[int(value), 3] = 1.0
 
 
 def _checked_clim(clim) -> tuple[float, float]:
@@ -349,13 +357,9 @@ def category_palette(cmap, labels: np.ndarray) -> Palette:
     top = int(labels.max())
     rgba = np.zeros((max(top + 1, 2), 4), np.float32)
     if present.size:
-        lo, hi = float(present[0]), float(present[-1])
         lut = pyvista.LookupTable(list(cmap) if isinstance(cmap, tuple) else (cmap or "tab10"),
                                   n_values=max(int(present.size), 1))
-        lut.scalar_range = (lo, hi if hi > lo else lo + 1.0)
-        for value in present:
-            rgba[int(value), :3] = lut.map_value(float(value), opacity=False)
-            rgba[int(value), 3] = 1.0
+        _colour_labels(rgba, lut, present)
     return Palette(rgba)
 
 
