@@ -99,8 +99,8 @@ float cm_dominantTexels(vec3 span, vec3 dims)
 }
 
 // Blend the piece from a to b (texture coordinates, mediumLength data units long:
-// cm_mediumLength) into the ray's state in `steps` equal steps (fractional: the last one is cut at b). False once the blend
-// mode stops the ray (composite: opaque enough).
+// cm_mediumLength) into the ray's state in `steps` equal steps (fractional: the last one
+// is cut at b). False once the blend mode stops the ray (composite: opaque enough).
 bool cm_marchPiece(inout vec4 rgba, vec3 a, vec3 b, float mediumLength, float steps)
 {
   vec3 stepVector = (b - a) / steps;

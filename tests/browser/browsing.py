@@ -34,7 +34,7 @@ QUIET = 1.5    # seconds without a new frame before one counts (VTK re-sends a s
 
 def keep_screenshot(page, tmp_path: Path, name: str) -> None:
     """Screenshot the page into ``tmp_path``, and into ``$PV_CUBEMARCH_SCREENSHOTS`` if set
-    (``PV_CUBEMARCH_SCREENSHOTS=docs/images pytest tests/browser`` refreshes the README's)."""
+    (``PV_CUBEMARCH_SCREENSHOTS=docs/images pytest tests/browser`` refreshes the guide's)."""
     shot = tmp_path / name
     page.screenshot(path=str(shot))
     if os.environ.get("PV_CUBEMARCH_SCREENSHOTS"):
