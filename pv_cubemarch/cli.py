@@ -155,7 +155,9 @@ def build_parser() -> argparse.ArgumentParser:
                                                "datasets/smoke_scene.usda)")
     view.add_argument("--port", type=int, default=8080, help="port (default 8080)")
     view.add_argument("--host", default="127.0.0.1",
-                      help="address to listen on (default 127.0.0.1: this machine only)")
+                      help="address to listen on (default 127.0.0.1: this machine only; "
+                           "any other address warns: the view is then reachable by anyone "
+                           "holding its URL, which carries a fresh secret)")
     view.add_argument("--size", type=_size, default=(800, 600),
                       help="view size WxH (default 800x600)")
     view.add_argument("--window", choices=WINDOW_MODES, default="auto",

@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,33 @@ BACKGROUND = (0.1, 0.1, 0.12)
 #: PyVista's theme (as pyvista's add_volume does), so the tests fix the theme's.
 #: test_pyvista_parity.py checks the default against PyVista's own under another theme cmap.
 pv.global_theme.cmap = "magma"
+
+
+SYSTEM_PYTHON = "/usr/bin/python3"
+VDB_MAKER = Path(__file__).resolve().parent / "tools" / "vdb_reference.py"
+MISSING_REFERENCE = (
+    f"{SYSTEM_PYTHON} cannot import pyopenvdb, the reference library the OpenVDB tests "
+    "compare with: install Debian's python3-openvdb (apt-get install python3-openvdb; "
+    "tools/setup.sh does it when run as root)")
+
+
+def has_pyopenvdb() -> bool:
+    """Whether the system python has libopenvdb's bindings (the reader's oracle)."""
+    try:
+        return subprocess.run([SYSTEM_PYTHON, "-c", "import pyopenvdb"], timeout=60,
+                              capture_output=True).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+
+
+@pytest.fixture(scope="session")
+def ref_dir(tmp_path_factory):
+    """Reference files written by OpenVDB itself, with what OpenVDB reads back from them."""
+    assert has_pyopenvdb(), MISSING_REFERENCE   # a failure, never a skip
+    out = tmp_path_factory.mktemp("vdb")
+    subprocess.run([SYSTEM_PYTHON, str(VDB_MAKER), "write", str(out)], check=True,
+                   timeout=600)
+    return out
 
 
 def pytest_collection_modifyitems(config, items):

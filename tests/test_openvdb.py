@@ -11,14 +11,15 @@ import shutil
 import struct
 import subprocess
 import time
-import uuid
 import zlib
 from pathlib import Path
 
 import numpy as np
 import pytest
 import pyvista as pv
+from conftest import MISSING_REFERENCE, has_pyopenvdb
 from PIL import Image
+from tools.vdb_writer import random_leaves, write_vdb
 
 import pv_cubemarch as cm
 import pv_cubemarch.scene.openvdb as vf
@@ -28,29 +29,6 @@ from pv_cubemarch.scene.openvdb import records, tree
 HERE = Path(__file__).resolve().parent
 SYSTEM_PYTHON = "/usr/bin/python3"
 MAKER = HERE / "tools" / "vdb_reference.py"
-
-
-def _has_pyopenvdb():
-    try:
-        return subprocess.run([SYSTEM_PYTHON, "-c", "import pyopenvdb"], timeout=60,
-                              capture_output=True).returncode == 0
-    except (OSError, subprocess.TimeoutExpired):
-        return False
-
-
-MISSING_REFERENCE = (
-    f"{SYSTEM_PYTHON} cannot import pyopenvdb, the reference library these tests compare "
-    "with: install Debian's python3-openvdb (apt-get install python3-openvdb; "
-    "tools/setup.sh does it when run as root)")
-
-
-@pytest.fixture(scope="session")
-def ref_dir(tmp_path_factory):
-    """Reference files written by OpenVDB itself, with what OpenVDB reads back from them."""
-    assert _has_pyopenvdb(), MISSING_REFERENCE   # a failure, never a skip
-    out = tmp_path_factory.mktemp("vdb")
-    subprocess.run([SYSTEM_PYTHON, str(MAKER), "write", str(out)], check=True, timeout=600)
-    return out
 
 
 def _dump(path, regions=()):
@@ -215,123 +193,6 @@ def _timed(fn, *args):
 # ---------------------------------------------------------------- minimal writer
 
 
-def _string(s):
-    b = s.encode()
-    return struct.pack("<I", len(b)) + b
-
-
-def _chunk(raw, compression, force_raw=False):
-    """Encode one value array the way OpenVDB's writeData does."""
-    if compression & records.COMPRESS_BLOSC:
-        packed = tree.blosc.compress(raw, typesize=4, clevel=9, shuffle=tree.blosc.SHUFFLE,
-                                   cname="lz4")
-    elif compression & records.COMPRESS_ZIP:
-        packed = zlib.compress(raw)
-    else:
-        return raw
-    if force_raw or len(packed) >= len(raw):
-        return struct.pack("<q", -len(raw)) + raw
-    return struct.pack("<q", len(packed)) + packed
-
-
-def _values_block(values, active, background, compression, dtype, force_raw=False):
-    """Per-node metadata byte, inactive value and value chunk for one node."""
-    if not compression & records.COMPRESS_ACTIVE_MASK:
-        return bytes([records.NO_MASK_AND_ALL_VALS]) + _chunk(values.astype(dtype).tobytes(),
-                                                        compression, force_raw)
-    inactive = np.unique(values[~active])
-    head = b""
-    if inactive.size == 0 or (inactive.size == 1 and inactive[0] == background):
-        mode = records.NO_MASK_OR_INACTIVE_VALS
-    elif inactive.size == 1 and inactive[0] == -background:
-        mode = records.NO_MASK_AND_MINUS_BG
-    elif inactive.size == 1:
-        mode = records.NO_MASK_AND_ONE_INACTIVE_VAL
-        head = np.array(inactive[0], dtype).tobytes()
-    else:
-        mode = records.NO_MASK_AND_ALL_VALS
-    stored = values if mode == records.NO_MASK_AND_ALL_VALS else values[active]
-    return bytes([mode]) + head + _chunk(stored.astype(dtype).tobytes(), compression,
-                                         force_raw)
-
-
-def _mask_bytes(bits):
-    return np.packbits(bits, bitorder="little").tobytes()
-
-
-def _grid_body(grid):
-    """Compression flags, metadata, transform, topology and buffers of one grid."""
-    comp, bg, dtype = grid["compression"], grid["background"], grid["dtype"]
-    name = grid["name"].encode()
-    out = [struct.pack("<I", comp), struct.pack("<I", 2), _string("class"),
-           _string("string"), struct.pack("<I", 10), b"fog volume", _string("name"),
-           _string("string"), struct.pack("<I", len(name)), name]
-    out += [_string(grid["map"][0]), np.asarray(grid["map"][1], "<f8").tobytes()]
-    out += [struct.pack("<i", 1), np.array(bg, dtype).tobytes()]
-    leaves = grid["leaves"]  # {origin: (values (512,), active (512,) bool)}
-    tops = sorted({tuple(np.array(o) & ~4095) for o in leaves})
-    out.append(struct.pack("<II", 0, len(tops)))
-    buffers = []
-    for top in tops:
-        out.append(struct.pack("<3i", *top))
-        mids = sorted({tuple(np.array(o) & ~127) for o in leaves
-                       if tuple(np.array(o) & ~4095) == top})
-        out.append(_internal(top, mids, 5, 7, grid))
-        for mid in mids:
-            kids = sorted(o for o in leaves if tuple(np.array(o) & ~127) == mid)
-            out.append(_internal(mid, kids, 4, 3, grid))
-            for o in kids:
-                values, active = leaves[o]
-                out.append(_mask_bytes(active))
-                buffers += [_mask_bytes(active),
-                            _values_block(values, active, bg, comp, dtype,
-                                          force_raw=o[0] % 16 == 8)]
-    return b"".join(out + buffers)
-
-
-def _internal(origin, children, log2, child_log2, grid):
-    """Masks and (all-background, inactive) tile values of an internal node."""
-    n = 1 << (3 * log2)
-    child = np.zeros(n, bool)
-    for c in children:
-        x, y, z = ((np.array(c) - origin) >> child_log2)
-        child[(x << (2 * log2)) + (y << log2) + z] = True
-    values = np.full(n, grid["background"], grid["dtype"])
-    return (_mask_bytes(child) + _mask_bytes(np.zeros(n, bool))
-            + _values_block(values, np.zeros(n, bool), grid["background"],
-                            grid["compression"], grid["dtype"]))
-
-
-def write_vdb(path, grids, has_offsets=True, version=224):
-    """Write a file (version 222-224) of float/double/int grids without tiles."""
-    out = bytearray(struct.pack("<qIIIB", records.MAGIC, version, 10, 0, int(has_offsets)))
-    out += str(uuid.uuid4()).encode() + struct.pack("<I", 0) + struct.pack("<i", len(grids))
-    for n, grid in enumerate(grids):
-        out += _string(f"{grid['name']}\x1e{n}") + _string(grid["type"]) + _string("")
-        body = _grid_body(grid)
-        start = len(out) + 24
-        out += struct.pack("<3q", *((start, start, start + len(body)) if has_offsets
-                                    else (0, 0, 0)))
-        out += body
-    Path(path).write_bytes(bytes(out))
-
-
-def _random_leaves(rng, dtype, background, count=12, inactive="bg"):
-    leaves = {}
-    for _ in range(count):
-        o = tuple(int(v) * 8 for v in rng.integers(-6, 6, 3))
-        active = rng.random(512) < 0.6
-        values = (rng.random(512) * 100 - 50).astype(dtype)
-        if inactive == "bg":
-            values[~active] = background
-        elif inactive == "one":
-            values[~active] = 3
-        elif inactive == "minus":
-            values[~active] = -background
-        leaves[o] = (values, active)
-    return leaves
-
-
 def _expected(leaves, background, dtype):
     coords = np.concatenate([np.array(o) + np.argwhere(a.reshape(8, 8, 8))
                              for o, (v, a) in leaves.items()])
@@ -384,10 +245,10 @@ def _check_writer_case(tmp_path, case, has_offsets, version=224):
     vtype, dtype, comp, map_key, inactive = case
     rng = np.random.default_rng(zlib.crc32(repr(case).encode()))
     background = np.array(2, dtype)
-    leaves = _random_leaves(rng, dtype, background, inactive=inactive)
+    leaves = random_leaves(rng, dtype, background, inactive=inactive)
     grid = {"name": "g", "type": f"Tree_{vtype}_5_4_3", "dtype": dtype, "compression": comp,
             "background": background, "map": MAPS[map_key], "leaves": leaves}
-    other = dict(grid, name="g", leaves=_random_leaves(rng, dtype, background, count=3))
+    other = dict(grid, name="g", leaves=random_leaves(rng, dtype, background, count=3))
     path = tmp_path / "w.vdb"
     write_vdb(path, [other, grid], has_offsets=has_offsets, version=version)
     lo, expected = _expected(leaves, background, dtype)
@@ -396,7 +257,7 @@ def _check_writer_case(tmp_path, case, has_offsets, version=224):
     np.testing.assert_array_equal(got.values, expected)
     assert vf.list_grids(path)[1].compression == comp
     if vtype == "float":
-        assert _has_pyopenvdb(), MISSING_REFERENCE
+        assert has_pyopenvdb(), MISSING_REFERENCE
         ref = _dump(path)  # the reference library reads our writer's file
         n = _ref_index(ref, "g", 1)
         np.testing.assert_array_equal(ref[f"g{n}_values"], expected)
@@ -523,7 +384,7 @@ def test_cli_renders_a_vdb_file(ref_dir, tmp_path):
 
 def _openvdb_writes(path, code: str) -> None:
     """Run ``code`` (with ``v`` = pyopenvdb and ``path``) under the reference library."""
-    assert _has_pyopenvdb(), MISSING_REFERENCE
+    assert has_pyopenvdb(), MISSING_REFERENCE
     subprocess.run([SYSTEM_PYTHON, "-c", f"import pyopenvdb as v\npath = {str(path)!r}\n"
                     + code], check=True, timeout=120)
 

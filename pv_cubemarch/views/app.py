@@ -9,16 +9,21 @@ trame, trame-vtk and trame-vuetify are the optional ``jupyter`` extra; without t
 
 from __future__ import annotations
 
+import asyncio
 import importlib.util
 import os
+import socket
+import subprocess
 import sys
 import tempfile
+import webbrowser
 
 import pyvista
 
 from ..core.rendering import offscreen_plotter
 from ..scene.io import load_scene
 from ..scene.model import Scene
+from .guard import guard, warn_if_exposed, with_token
 from .knobs import AUTO, Knob
 from .session import TuningSession
 
@@ -58,7 +63,8 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     Returns
     -------
     tuple
-        ``(server, layout, session)``.
+        ``(server, layout, session)``; only a page holding ``layout.cubemarch_token``
+        (in its URL, as ``layout.url`` and the iframe give it) may connect.
     """
     if get_server is None:
         raise ImportError(f"pv_cubemarch's live view needs trame: {INSTALL}.")
@@ -85,7 +91,11 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     for kind in session.kinds():
         for knob in session.knobs(kind):
             _bind(server, session, kind, knob)
+    token = guard(server)
     layout = _layout(server, session, plotter, size, show_panel)
+    layout.cubemarch_token = token
+    page = layout.iframe_builder
+    layout.iframe_builder = lambda lay: {**page(lay), "src": with_token(page(lay)["src"], token)}
 
     @ctrl.set("measure_error")
     def measure_error():
@@ -213,15 +223,32 @@ def serve(scene: Scene | str, port: int = 8080, host: str = "127.0.0.1",
     desktop window (``'app'``, pywebview) or the default browser (``'browser'``).
     """
     mode = window_mode(window)
-    server, _, _ = build_app(scene, size)
-    if mode == "app":
-        print("pv-cubemarch view: opening a desktop window (pywebview, on a port of its own "
-              "choosing: --port is not used)", flush=True)
-    else:
-        print(f"pv-cubemarch view: http://{host}:{port}/", flush=True)
-    server.start(port=port, host=host, open_browser=mode == "browser",
-                 exec_mode="desktop" if mode == "app" else "main",
+    server, layout, _ = build_app(scene, size)
+    warn_if_exposed(host)
+    shown = host if host not in ("0.0.0.0", "::", "") else socket.gethostname()
+    url = with_token(f"http://{shown}:{port}/", layout.cubemarch_token)
+    print(f"pv-cubemarch view: {url}", flush=True)
+    if mode == "browser":
+        server.controller.on_server_ready.add(lambda **_: webbrowser.open(url))
+    elif mode == "app":
+        server.controller.on_server_ready.add(lambda **_: _open_window(server, url))
+    server.start(port=port, host=host, open_browser=False, exec_mode="main",
                  show_connection_info=False, timeout=0)
+
+
+def _open_window(server, url: str) -> None:
+    """Open the page in a desktop window of its own process; stop the server when it closes.
+
+    trame's own desktop mode opens its page without the secret, so it is not used.
+    """
+    window = subprocess.Popen([sys.executable, "-m", "pv_cubemarch.views.window", url])
+
+    async def stop_when_closed():
+        while window.poll() is None:
+            await asyncio.sleep(0.5)
+        await server.stop()
+
+    asyncio.get_event_loop().create_task(stop_when_closed())
 
 
 #: What ``pv-cubemarch view --window`` accepts.

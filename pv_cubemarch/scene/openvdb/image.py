@@ -21,9 +21,16 @@ from .records import VdbFormatError, VdbGrid
 INDEX_TO_WORLD = "index_to_world"
 
 
+#: Value types a volume, voxel grid or surface can draw (one number per voxel).
+SCALAR_TYPES = ("float", "double", "int32", "int64", "bool")
+
+
 def choose_grid(path: str | Path, name: str | None = None, index: int | None = None
                 ) -> tuple[str, int, list[str]]:
-    """The grid to draw (``name``, else ``density``, else the first) and the other names."""
+    """The grid to draw (``name``, else ``density``, else the first) and the other names.
+
+    A grid of vectors is refused here, before any of its voxels is read.
+    """
     infos = list_grids(path)
     if not infos:
         raise VdbFormatError(f"{str(path)!r} holds no grids.")
@@ -37,12 +44,18 @@ def choose_grid(path: str | Path, name: str | None = None, index: int | None = N
         raise VdbFormatError(f"{str(path)!r} has {len(same)} grid(s) named {chosen!r}; "
                              f"fieldIndex {index} is not one of them.")
     others = [n for n in names if n != chosen]
-    return chosen, 0 if index is None else int(index), others
+    number = 0 if index is None else int(index)
+    if same[number].value_type not in SCALAR_TYPES:
+        raise VdbFormatError(
+            f"grid {chosen!r} holds {same[number].value_type} vectors; a volume, voxel grid "
+            f"or surface needs a scalar grid ({', '.join(SCALAR_TYPES)}): choose one with "
+            f"fieldName / grid= (the file's grids: {sorted(set(names))})")
+    return chosen, number, others
 
 
 def vdb_image(path: str | Path, name: str | None = None, index: int | None = None,
               cells: bool = False, region=None, stride: int = 1,
-              margin: int = 0) -> pyvista.ImageData:
+              margin: int = 0, max_bytes: int | None = None) -> pyvista.ImageData:
     """One grid of a ``.vdb`` file as an ImageData (values in ``point_data[name]``).
 
     Parameters
@@ -61,6 +74,8 @@ def vdb_image(path: str | Path, name: str | None = None, index: int | None = Non
     margin : int
         Samples of what lies outside the active box (the background, mostly) to add on
         every side: a surface whose inside fills the active box closes there.
+    max_bytes : int, optional
+        The read's memory budget (see :func:`~pv_cubemarch.scene.openvdb.read_grid`).
 
     Returns
     -------
@@ -69,12 +84,13 @@ def vdb_image(path: str | Path, name: str | None = None, index: int | None = Non
         ``field_data["index_to_world"]`` when the map shears.
     """
     chosen, number, _ = choose_grid(path, name, index)
-    grid = read_grid(path, chosen, number, region=region, stride=stride)
+    grid = read_grid(path, chosen, number, region=region, stride=stride, max_bytes=max_bytes)
     if margin and region is None:
         low = np.array(grid.origin_index) - margin * stride
         high = np.array(grid.origin_index) + (np.array(grid.values.shape[:3]) - 1 + margin) \
             * stride
-        grid = read_grid(path, chosen, number, region=(tuple(low), tuple(high)), stride=stride)
+        grid = read_grid(path, chosen, number, region=(tuple(low), tuple(high)), stride=stride,
+                         max_bytes=max_bytes)
     return grid_image(grid, cells)
 
 
@@ -112,7 +128,8 @@ def grid_image(grid: VdbGrid, cells: bool = False) -> pyvista.ImageData:
 
 
 def read_vdb(path: str | Path, grid: str | None = None, index: int | None = None,
-             region=None, stride: int = 1) -> pyvista.ImageData | pyvista.StructuredGrid:
+             region=None, stride: int = 1, max_bytes: int | None = None
+             ) -> pyvista.ImageData | pyvista.StructuredGrid:
     """Read one grid of an OpenVDB file as PyVista data in its world space.
 
     This is what ``pyvista.read("x.vdb")`` returns; the values sit on the points (voxel
@@ -131,6 +148,9 @@ def read_vdb(path: str | Path, grid: str | None = None, index: int | None = None
         grid's active bounding box: for grids too large for memory.
     stride : int
         Keep every ``stride``-th voxel along each axis: a coarser copy of a large grid.
+    max_bytes : int, optional
+        Refuse (with :class:`~pv_cubemarch.scene.openvdb.VdbFormatError`) a read that needs
+        more memory than this; by default ``PV_CUBEMARCH_VDB_MAX_BYTES``, else 1 GiB.
 
     Returns
     -------
@@ -143,7 +163,7 @@ def read_vdb(path: str | Path, grid: str | None = None, index: int | None = None
     >>> import pv_cubemarch
     >>> smoke = pv_cubemarch.read_vdb("smoke.vdb", stride=2)  # doctest: +SKIP
     """
-    image = vdb_image(path, grid, index, region=region, stride=stride)
+    image = vdb_image(path, grid, index, region=region, stride=stride, max_bytes=max_bytes)
     if INDEX_TO_WORLD not in image.field_data:
         return image
     matrix = np.asarray(image.field_data[INDEX_TO_WORLD]).reshape(4, 4)

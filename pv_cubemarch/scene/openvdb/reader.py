@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import mmap
-import struct
+import os
 
 import numpy as np
 
@@ -15,26 +15,51 @@ from .records import (
     VdbFormatError,
     VdbGrid,
     VdbGridInfo,
-    parse_tree_type,
     read_descriptor,
     read_header,
 )
-from .tree import Codec, Tree, leaf_arrays, read_leaves, read_root, skip_tree
+from .tree import (
+    BUDGET_ENV,
+    Budget,
+    Codec,
+    Tree,
+    leaf_arrays,
+    read_leaves,
+    read_root,
+    skip_tree,
+    tree_layout,
+)
+
+#: Smallest grid descriptor and grid header: three strings, three offsets, the
+#: compression flags, an empty metadata map and a map name.
+_SMALLEST_GRID = 3 * 4 + 3 * 8 + 4 + 4 + 4
 
 
-def _read_descriptors(buf: Buf) -> tuple[Header, list[Descriptor]]:
+def default_max_bytes() -> int:
+    """The memory budget of a read: ``PV_CUBEMARCH_VDB_MAX_BYTES`` or 1 GiB."""
+    value = os.environ.get(BUDGET_ENV, "")
+    try:
+        return int(float(value)) if value.strip() else 2**30
+    except ValueError:
+        raise VdbFormatError(f"{BUDGET_ENV}={value!r} is not a number of bytes; set it to "
+                             "e.g. 4e9 or unset it") from None
+
+
+def _read_descriptors(buf: Buf, max_bytes: int | None = None
+                      ) -> tuple[Header, list[Descriptor]]:
     """Read the header and every grid descriptor of a file."""
     header = read_header(buf)
-    count = struct.unpack("<i", buf.take(4))[0]
+    count = buf.count("<i", _SMALLEST_GRID, "grid count")
     seen: dict = {}
     out = []
     for _ in range(count):
         desc = read_descriptor(buf, header, seen)
         out.append(desc)
         if header.has_offsets:
-            buf.pos = desc.end_pos
+            buf.seek(desc.end_pos, "grid end offset", desc.tree_pos)
         elif not desc.info.instance_parent:
-            skip_tree(buf, desc, header)
+            limit = default_max_bytes() if max_bytes is None else max_bytes
+            skip_tree(buf, desc, header, Budget(desc.info.name, limit))
             desc.end_pos = buf.pos
     return header, out
 
@@ -98,10 +123,10 @@ def _active_bbox(tree: Tree, origins: np.ndarray, masks: np.ndarray):
             lows.append((o[:, axis] + lo).min())
             highs.append((o[:, axis] + hi).max())
         lows, highs = [np.array(lows)], [np.array(highs)]
-    for o, size, _v, a in tree.big_tiles:
-        if a:
-            lows.append(o)
-            highs.append(o + size - 1)
+    for origins_, size, _values, active in tree.big_tiles:
+        if active.any():
+            lows.append(origins_[active].min(axis=0))
+            highs.append(origins_[active].max(axis=0) + size - 1)
     if tree.small_origins:
         so = np.concatenate(tree.small_origins)[np.concatenate(tree.small_active)]
         if len(so):
@@ -165,24 +190,25 @@ def _tile_slice(o: int, size: int, lo: int, count: int, stride: int) -> slice | 
 
 
 def _paint_big_tiles(dense: np.ndarray, tree: Tree, lo: np.ndarray, stride: int) -> None:
-    """Fill the dense array with tiles larger than a leaf."""
-    for o, size, value, _a in tree.big_tiles:
-        sl = tuple(_tile_slice(int(o[a]), size, int(lo[a]), dense.shape[a], stride)
-                   for a in range(3))
-        if None not in sl:
-            dense[sl] = value
+    """Fill the dense array with tiles larger than a leaf (only those that reach it)."""
+    hi = lo + (np.array(dense.shape[:3]) - 1) * stride
+    for origins, size, values, _active in tree.big_tiles:
+        near = np.flatnonzero(((origins + size - 1 >= lo) & (origins <= hi)).all(axis=1))
+        for t in near:
+            sl = tuple(_tile_slice(int(origins[t, a]), size, int(lo[a]), dense.shape[a],
+                                   stride) for a in range(3))
+            if None not in sl:
+                dense[sl] = values[t]
 
 
-def _check_size(info: VdbGridInfo, codec: Codec, shape: tuple, max_voxels: int) -> None:
-    """Refuse dense boxes with more than ``max_voxels`` voxels."""
-    voxels = int(np.prod(np.array(shape, dtype=object)))
-    if voxels > max_voxels:
-        nbytes = voxels * codec.out.itemsize * codec.comps
-        raise VdbFormatError(
-            f"grid '{info.name}': the dense box of shape {tuple(shape)} has {voxels} "
-            f"voxels ({nbytes} bytes), more than max_voxels={max_voxels}; pass "
-            "region=((i0, j0, k0), (i1, j1, k1)) to read a sub-box, stride=N to "
-            "subsample, or a larger max_voxels")
+def _spend_dense(codec: Codec, shape: tuple, padded: tuple, leaves: int) -> None:
+    """Account for the dense box (and its padded copy) and the wanted leaves' values."""
+    item = codec.out.itemsize * codec.comps
+    nbytes = int(np.prod(np.array(padded, dtype=object))) * item
+    if tuple(padded) != tuple(shape):
+        nbytes += int(np.prod(np.array(shape, dtype=object))) * item
+    codec.budget.spend(nbytes, f"a dense box of shape {tuple(shape)}")
+    codec.budget.spend(3 * leaves * codec.item * 512, f"the values of {leaves} leaves")
 
 
 # ------------------------------------------------------------------------- public
@@ -235,8 +261,12 @@ def _leaf_wanted(origins: np.ndarray, dim: int, lo: np.ndarray, shape: tuple,
 
 
 def read_grid(path, name: str | None = None, index: int = 0,
-              region=None, stride: int = 1, max_voxels: int = 2**28) -> VdbGrid:
+              region=None, stride: int = 1, max_bytes: int | None = None) -> VdbGrid:
     """Read one grid of a ``.vdb`` file into a dense numpy array.
+
+    Every byte of the file is checked before it is trusted: a damaged or hostile file
+    raises :class:`VdbFormatError` (naming the offset and the field), never another
+    error, and a read never allocates more than ``max_bytes``.
 
     Parameters
     ----------
@@ -251,8 +281,9 @@ def read_grid(path, name: str | None = None, index: int = 0,
         voxel bounding box of the tree (active tiles included).
     stride : int, default 1
         Keep every ``stride``-th voxel along each axis, starting at the box minimum.
-    max_voxels : int, default 2**28
-        Refuse to allocate dense arrays with more voxels than this.
+    max_bytes : int, optional
+        The memory budget of the read (the tree, the leaves read and the dense array);
+        by default the environment variable ``PV_CUBEMARCH_VDB_MAX_BYTES``, else 1 GiB.
 
     Returns
     -------
@@ -262,20 +293,22 @@ def read_grid(path, name: str | None = None, index: int = 0,
     Raises
     ------
     VdbFormatError
-        If the file is malformed, uses an unsupported feature, or the box is too big.
+        If the file is malformed, uses an unsupported feature, or the read needs more
+        than ``max_bytes``.
     """
     if int(stride) < 1:
         raise VdbFormatError(f"stride must be a positive integer, got {stride}")
     stride = int(stride)
+    limit = default_max_bytes() if max_bytes is None else int(max_bytes)
     with _OpenFile(path) as buf:
-        header, descs = _read_descriptors(buf)
+        header, descs = _read_descriptors(buf, limit)
         desc = _select(descs, name, index)
         return _read_selected(buf, header, desc, _tree_source(descs, desc), region, stride,
-                              max_voxels)
+                              Budget(desc.info.name, limit))
 
 
 def _read_selected(buf: Buf, header: Header, desc: Descriptor, source: Descriptor,
-                   region, stride: int, max_voxels: int) -> VdbGrid:
+                   region, stride: int, budget: Budget) -> VdbGrid:
     """Decode the tree of ``source`` for the grid described by ``desc``."""
     info = desc.info
     if info.index_to_world is None:
@@ -283,33 +316,36 @@ def _read_selected(buf: Buf, header: Header, desc: Descriptor, source: Descripto
             f"grid '{info.name}' uses a {info.map_type} transform; only linear maps "
             f"({', '.join(MAP_SIZES)}) are supported: resample the grid to a linear "
             "transform in OpenVDB first")
-    codec = Codec(source.info, header.version)
-    _value_type, dims = parse_tree_type(source.info.tree_type)
-    if len(dims) < 2:
-        raise VdbFormatError(f"grid '{info.name}': unsupported tree type {info.tree_type}")
-    buf.pos = source.tree_pos
+    codec = Codec(source.info, header.version, budget)
+    dims = tree_layout(source.info)
+    buf.seek(source.tree_pos, "grid topology")
     tree = read_root(buf, codec, dims)
     origins, masks = leaf_arrays(tree, codec)
     lo, shape = _box(region, _active_bbox(tree, origins, masks), stride)
-    _check_size(info, codec, shape, max_voxels)
+    plo, pshape = _padded(lo, shape, stride, tree.leaf_dim)
     wanted = _leaf_wanted(origins, tree.leaf_dim, lo, shape, stride)
-    leaf_values = read_leaves(buf, codec, masks, wanted)
-    dense = _dense(tree, codec, lo, shape, stride, origins[wanted], leaf_values)
+    _spend_dense(codec, shape, pshape, int(wanted.sum()))
+    leaf_values = read_leaves(buf, codec, tree, masks, wanted)
+    dense = _dense(tree, codec, lo, shape, stride, plo, pshape, origins[wanted],
+                   leaf_values)
     return VdbGrid(info=info, values=dense, origin_index=tuple(int(v) for v in lo),
                    stride=stride, background=tree.background,
                    stats={"modes": dict(codec.modes), "leaves": len(origins)})
 
 
+def _padded(lo: np.ndarray, shape: tuple, stride: int, dim: int) -> tuple:
+    """The box grown to whole leaves (stride 1 only: leaves then scatter as blocks)."""
+    if stride != 1 or not all(shape):
+        return lo, shape
+    plo = lo // dim * dim
+    return plo, tuple(int(v) for v in -(-(lo + np.array(shape) - plo) // dim) * dim)
+
+
 def _dense(tree: Tree, codec: Codec, lo: np.ndarray, shape: tuple, stride: int,
-           leaf_origins: np.ndarray, leaf_values: np.ndarray | None) -> np.ndarray:
-    """Allocate the dense array and fill it (padded to whole leaves when stride is 1)."""
-    tail = codec.shape(1)[1:]
-    plo, pshape = lo, shape
-    if stride == 1 and all(shape):
-        dim = tree.leaf_dim
-        plo = lo // dim * dim
-        pshape = tuple(int(v) for v in -(-(lo + np.array(shape) - plo) // dim) * dim)
-    dense = np.empty(pshape + tail, dtype=codec.out)
+           plo: np.ndarray, pshape: tuple, leaf_origins: np.ndarray,
+           leaf_values: np.ndarray | None) -> np.ndarray:
+    """Allocate the (padded) dense array, fill it and cut it to the box."""
+    dense = np.empty(pshape + codec.shape(1)[1:], dtype=codec.out)
     dense[...] = tree.background
     _fill_dense(dense, tree, plo, stride, leaf_origins, leaf_values)
     if pshape == shape:

@@ -65,7 +65,24 @@ INSTALL_BLOSC = (
 
 
 class VdbFormatError(ValueError):
-    """A ``.vdb`` file could not be read; the message says why and what to do."""
+    """A ``.vdb`` file could not be read; the message says why and what to do.
+
+    ``offset`` and ``field`` say where in the file and what was being read, when the
+    cause is the file's bytes (``None`` otherwise).
+    """
+
+    def __init__(self, message: str, offset: int | None = None,
+                 field: str | None = None) -> None:
+        super().__init__(message)
+        self.offset = offset
+        self.field = field
+
+
+def corrupt(offset: int, field: str, problem: str) -> VdbFormatError:
+    """The error for damaged bytes: where they are, what they should have been."""
+    return VdbFormatError(
+        f"corrupt OpenVDB file at offset {offset} ({field}): {problem}; the file is "
+        "damaged or not written by OpenVDB: re-export or re-download it", offset, field)
 
 
 @dataclass
@@ -157,53 +174,80 @@ class VdbGrid:
 
 
 class Buf:
-    """Cursor over the bytes of a file (an mmap or bytes object)."""
+    """Cursor over the bytes of a file (an mmap or bytes object) that never leaves it.
 
-    def __init__(self, data, pos: int = 0) -> None:
+    Every read names the field it reads, so that a failure says where and what; with
+    ``trace`` (a list) each read is recorded as ``(offset, size, field)``.
+    """
+
+    def __init__(self, data, pos: int = 0, trace: list | None = None) -> None:
         self.data = data
         self.pos = pos
         self.size = len(data)
+        self.trace = trace
 
-    def take(self, n: int) -> bytes:
+    @property
+    def left(self) -> int:
+        """Bytes between the cursor and the end of the file."""
+        return self.size - self.pos
+
+    def seek(self, pos: int, field: str, lowest: int = 0) -> None:
+        """Move to ``pos``, which must lie in ``[lowest, size]`` (offsets only go forward)."""
+        if not lowest <= pos <= self.size:
+            raise corrupt(self.pos, field, f"offset {pos} lies outside [{lowest}, "
+                                           f"{self.size}] (the file has {self.size} bytes)")
+        self.pos = pos
+
+    def take(self, n: int, field: str = "data") -> bytes:
         """Return the next ``n`` bytes."""
-        end = self.pos + n
-        if n < 0 or end > self.size:
+        if n < 0 or n > self.size - self.pos:
             raise VdbFormatError(
-                f"file is truncated or corrupt: needed {n} bytes at offset {self.pos} but "
-                f"the file has {self.size} bytes; re-export or re-download the file")
-        out = self.data[self.pos:end]
-        self.pos = end
+                f"file is truncated or corrupt: needed {n} bytes at offset {self.pos} "
+                f"({field}) but the file has {self.size} bytes; re-export or re-download "
+                "the file", self.pos, field)
+        if self.trace is not None:
+            self.trace.append((self.pos, n, field))
+        out = self.data[self.pos:self.pos + n]
+        self.pos += n
         return out
 
-    def skip(self, n: int) -> None:
+    def skip(self, n: int, field: str = "data") -> None:
         """Advance by ``n`` bytes."""
-        if n < 0 or self.pos + n > self.size:
-            self.take(n)
+        if n < 0 or n > self.size - self.pos:
+            self.take(n, field)
+        if self.trace is not None:
+            self.trace.append((self.pos, n, field))
         self.pos += n
 
-    def unpack(self, fmt: str) -> tuple:
+    def unpack(self, fmt: str, field: str = "data") -> tuple:
         """Unpack a struct format at the cursor."""
-        return struct.unpack(fmt, self.take(struct.calcsize(fmt)))
+        return struct.unpack(fmt, self.take(struct.calcsize(fmt), field))
 
-    def u8(self) -> int:
+    def u8(self, field: str = "byte") -> int:
         """Read one unsigned byte."""
-        return self.take(1)[0]
+        return self.take(1, field)[0]
 
-    def u32(self) -> int:
+    def u32(self, field: str = "uint32") -> int:
         """Read an unsigned 32-bit integer."""
-        return self.unpack("<I")[0]
+        return self.unpack("<I", field)[0]
 
-    def i64(self) -> int:
+    def i64(self, field: str = "int64") -> int:
         """Read a signed 64-bit integer."""
-        return self.unpack("<q")[0]
+        return self.unpack("<q", field)[0]
 
-    def string(self) -> str:
+    def count(self, fmt: str, least: int, field: str) -> int:
+        """Read a count of items that take at least ``least`` bytes each; bound it."""
+        at = self.pos
+        n = self.unpack(fmt, field)[0]
+        if n < 0 or n * least > self.left:
+            raise corrupt(at, field, f"{n} items of at least {least} bytes each cannot "
+                                     f"fit in the {self.left} bytes left")
+        return n
+
+    def string(self, field: str = "string") -> str:
         """Read a string stored as uint32 length then bytes."""
-        n = self.u32()
-        if n > self.size:
-            raise VdbFormatError(
-                f"corrupt string length {n} at offset {self.pos - 4}; the file is damaged")
-        return self.take(n).decode("utf-8", "replace")
+        n = self.count("<I", 1, field + " length")
+        return self.take(n, field).decode("utf-8", "replace")
 
 
 def bits(raw: bytes, width: int = 0) -> np.ndarray:
@@ -237,7 +281,7 @@ def read_header(buf: Buf) -> Header:
             "not an OpenVDB file: the first 8 bytes are not the VDB magic number "
             "0x56444220; pass a .vdb file written by OpenVDB")
     buf.pos = 8
-    version = buf.u32()
+    version = buf.u32("file version")
     if version < MIN_VERSION:
         raise VdbFormatError(
             f"VDB file format version {version} is older than {MIN_VERSION} (OpenVDB < 2.0); "
@@ -248,9 +292,9 @@ def read_header(buf: Buf) -> Header:
             f"VDB file format version {version} is newer than this reader knows "
             f"({MIN_VERSION}-{MAX_VERSION}); re-save the file with OpenVDB 10-12 "
             "or update pv_cubemarch")
-    library = buf.unpack("<II")
-    has_offsets = buf.u8() != 0
-    uuid = buf.take(36).decode("ascii", "replace")
+    library = buf.unpack("<II", "library version")
+    has_offsets = buf.u8("has-grid-offsets flag") != 0
+    uuid = buf.take(36, "uuid").decode("ascii", "replace")
     metadata = _read_metadata(buf)
     return Header(version, library, has_offsets, uuid, metadata, buf.pos)
 
@@ -258,10 +302,10 @@ def read_header(buf: Buf) -> Header:
 def _read_metadata(buf: Buf) -> dict:
     """Read a metadata map; entries of unknown type are skipped by their size."""
     out = {}
-    for _ in range(buf.u32()):
-        name = buf.string()
-        type_name = buf.string()
-        payload = buf.take(buf.u32())
+    for _ in range(buf.count("<I", 12, "metadata count")):
+        name = buf.string("metadata name")
+        type_name = buf.string("metadata type")
+        payload = buf.take(buf.count("<I", 1, "metadata size"), f"metadata {name!r}")
         value = _decode_meta(type_name, payload)
         if value is not None:
             out[name] = value
@@ -281,12 +325,17 @@ def _decode_meta(type_name: str, payload: bytes):
 
 def _read_transform(buf: Buf) -> tuple[str, np.ndarray | None]:
     """Read a transform; return its map name and 4x4 index-to-world matrix."""
-    map_type = buf.string()
+    map_type = buf.string("transform map type")
     count = MAP_SIZES.get(map_type)
     if count is None:
         return map_type, None
-    d = np.array(buf.unpack(f"<{count}d"), dtype=np.float64)
-    return map_type, _map_matrix(map_type, d)
+    at = buf.pos
+    d = np.array(buf.unpack(f"<{count}d", f"{map_type} values"), dtype=np.float64)
+    matrix = _map_matrix(map_type, d)
+    if not np.isfinite(matrix).all() or abs(np.linalg.det(matrix[:3, :3])) < 1e-300:
+        raise corrupt(at, f"{map_type} values", "the index-to-world map is not finite or "
+                                                "not invertible (a zero or NaN scale)")
+    return map_type, matrix
 
 
 def _map_matrix(map_type: str, d: np.ndarray) -> np.ndarray:
@@ -315,6 +364,10 @@ class Descriptor:
     end_pos: int
 
 
+#: Node sizes (log2 of their side, root's children first) of the trees OpenVDB registers.
+TREE_LAYOUT = [5, 4, 3]
+
+
 def parse_tree_type(tree_type: str) -> tuple[str, list[int]]:
     """Split 'Tree_float_5_4_3' into ('float', [5, 4, 3])."""
     parts = tree_type.split("_")
@@ -328,18 +381,24 @@ def parse_tree_type(tree_type: str) -> tuple[str, list[int]]:
 
 def read_descriptor(buf: Buf, header: Header, seen: dict) -> Descriptor:
     """Read one grid descriptor and the grid's header (compression, metadata, transform)."""
-    unique = buf.string()
-    tree_type = buf.string()
+    unique = buf.string("grid name")
+    tree_type = buf.string("tree type")
     half = tree_type.endswith(HALF_SUFFIX)
     if half:
         tree_type = tree_type[: -len(HALF_SUFFIX)]
-    parent = buf.string()
-    grid_pos, _block_pos, end_pos = buf.unpack("<3q")
+    parent = buf.string("instance parent")
+    at = buf.pos
+    # the block offset (of the leaf buffers) is not used: OpenVDB reads them in sequence
+    grid_pos, _block_pos, end_pos = buf.unpack("<3q", "grid offsets")
     if header.has_offsets:
-        buf.pos = grid_pos
+        if not buf.pos <= grid_pos <= end_pos <= buf.size:
+            raise corrupt(at, "grid offsets", f"grid {grid_pos} and end {end_pos} must "
+                          f"follow the descriptor ({buf.pos}) in that order and lie inside "
+                          f"the file ({buf.size} bytes)")
+        buf.seek(grid_pos, "grid offset", buf.pos)
     else:
         grid_pos = buf.pos
-    compression = buf.u32()
+    compression = buf.u32("compression flags")
     metadata = _read_metadata(buf)
     map_type, matrix = _read_transform(buf)
     name = unique.split(NAME_SEPARATOR)[0]

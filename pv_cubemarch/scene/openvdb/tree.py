@@ -23,6 +23,7 @@ from .records import (
     MODES_WITH_VALUE,
     NO_MASK_AND_ALL_VALS,
     NO_MASK_OR_INACTIVE_VALS,
+    TREE_LAYOUT,
     VALUE_TYPES,
     Buf,
     Descriptor,
@@ -30,14 +31,48 @@ from .records import (
     VdbFormatError,
     VdbGridInfo,
     bits,
+    corrupt,
     parse_tree_type,
 )
+
+#: Environment variable that raises the default memory budget of a read, in bytes.
+BUDGET_ENV = "PV_CUBEMARCH_VDB_MAX_BYTES"
+
+
+class Budget:
+    """Bytes a read may allocate; exceeding it stops the read before the allocation."""
+
+    def __init__(self, name: str, limit: int) -> None:
+        self.name = name
+        self.limit = int(limit)
+        self.used = 0
+
+    def spend(self, nbytes: int, what: str) -> None:
+        """Account for ``nbytes`` more, or refuse with what to do instead."""
+        self.used += int(nbytes)
+        if self.used > self.limit:
+            raise VdbFormatError(
+                f"grid '{self.name}': reading it needs more than max_bytes={self.limit} "
+                f"bytes ({what}); pass region=((i0, j0, k0), (i1, j1, k1)) to read a "
+                f"sub-box, stride=N to subsample, or a larger max_bytes (for USD stages "
+                f"and the command line, set the environment variable {BUDGET_ENV})")
+
+
+def tree_layout(info: VdbGridInfo) -> list[int]:
+    """The node sizes of a grid's tree, refused unless OpenVDB registers that layout."""
+    _value_type, dims = parse_tree_type(info.tree_type)
+    if dims != TREE_LAYOUT:
+        raise VdbFormatError(
+            f"grid '{info.name}': tree type {info.tree_type!r} is not a layout OpenVDB "
+            f"registers (Tree_<type>_{'_'.join(map(str, TREE_LAYOUT))}); re-save the grid "
+            "with a standard OpenVDB grid type")
+    return dims
 
 
 class Codec:
     """Per-grid settings for decoding value arrays."""
 
-    def __init__(self, info: VdbGridInfo, version: int) -> None:
+    def __init__(self, info: VdbGridInfo, version: int, budget: Budget | None = None) -> None:
         if info.value_type not in VALUE_TYPES:
             raise VdbFormatError(
                 f"grid '{info.name}' has value type '{info.value_type}' "
@@ -60,6 +95,7 @@ class Codec:
         self.version = version
         self.background = None
         self.modes: dict = {}
+        self.budget = budget or Budget(info.name, 2**62)
 
     def shape(self, n: int) -> tuple:
         """Array shape of ``n`` values."""
@@ -73,38 +109,57 @@ class Codec:
         """OpenVDB's math::negative: logical not for bool, unary minus otherwise."""
         return np.logical_not(value) if self.is_bool else -value
 
-    def chunk(self, buf: Buf, count: int, decode: bool = True) -> bytes | None:
+    def chunk(self, buf: Buf, count: int, decode: bool = True,
+              field: str = "values") -> bytes | None:
         """Read (or skip) ``count`` stored values, decompressing them."""
         nbytes = count * self.stored_item
         if self.half and count == 0:
             return b""
         if not self.compression & (COMPRESS_ZIP | COMPRESS_BLOSC):
-            return buf.take(nbytes) if decode else buf.skip(nbytes)
-        size = buf.i64()
+            return buf.take(nbytes, field) if decode else buf.skip(nbytes, field)
+        at = buf.pos
+        size = buf.i64(field + " chunk size")
         if size <= 0:
             if -size != nbytes:
-                raise VdbFormatError(
-                    f"grid '{self.name}': expected a {nbytes}-byte chunk, found "
-                    f"{-size} bytes at offset {buf.pos - 8}; the file is corrupt")
-            return buf.take(nbytes) if decode else buf.skip(nbytes)
+                raise corrupt(at, field + " chunk size",
+                              f"a raw chunk of {-size} bytes where {nbytes} are stored")
+            return buf.take(nbytes, field) if decode else buf.skip(nbytes, field)
         if not decode:
-            return buf.skip(size)
-        return self._decompress(buf.take(size), nbytes)
+            return buf.skip(size, field + " chunk")
+        return self._decompress(buf.take(size, field + " chunk"), nbytes, at, field)
 
-    def _decompress(self, packed: bytes, nbytes: int) -> bytes:
-        """Decompress one zip or blosc chunk."""
+    def _decompress(self, packed: bytes, nbytes: int, at: int, field: str) -> bytes:
+        """Decompress one zip or blosc chunk into exactly ``nbytes``, never more."""
+        what = field + " chunk"
         if self.compression & COMPRESS_BLOSC:
             if blosc is None:
                 raise VdbFormatError(
                     f"grid '{self.name}' is compressed with blosc; {INSTALL_BLOSC}")
-            raw = blosc.decompress(packed)
+            packed = bytes(packed)
+            try:   # the header says how much it makes: check that before decompressing
+                valid = blosc.cbuffer_validate(packed)
+                made, stored, _block = blosc.get_cbuffer_sizes(packed) if valid else (-1, 0, 0)
+                if not valid or made != nbytes or stored > len(packed):
+                    raise corrupt(at, what, f"a blosc chunk that makes {made} bytes where "
+                                            f"{nbytes} are stored")
+                raw = blosc.decompress(packed)
+            except (blosc.error, ValueError, TypeError) as exc:
+                if isinstance(exc, VdbFormatError):
+                    raise
+                raise corrupt(at, what, f"blosc could not decompress it ({exc})") from exc
         else:
-            raw = zlib.decompress(packed)
-        if len(raw) < nbytes:
-            raise VdbFormatError(
-                f"grid '{self.name}': a compressed chunk holds {len(raw)} bytes, expected "
-                f"{nbytes}; the file is corrupt")
-        return raw[:nbytes]
+            inflate = zlib.decompressobj()
+            try:
+                raw = inflate.decompress(packed, max(nbytes, 1))   # 0 would mean no limit
+                extra = len(raw) > nbytes or bool(inflate.decompress(inflate.unconsumed_tail, 1))
+            except zlib.error as exc:
+                raise corrupt(at, what, f"zlib could not decompress it ({exc})") from exc
+            if extra:
+                raise corrupt(at, what, f"a zip chunk that makes more than {nbytes} bytes")
+        if len(raw) != nbytes:
+            raise corrupt(at, what, f"a compressed chunk that makes {len(raw)} bytes where "
+                                    f"{nbytes} are stored")
+        return raw
 
     def decode(self, raw: bytes, n: int) -> np.ndarray:
         """Turn stored bytes of ``n`` values into an array of the output dtype."""
@@ -114,21 +169,31 @@ class Codec:
         return arr.astype(self.out)
 
 
+def _mode(buf: Buf, field: str) -> int:
+    """Read a per-node metadata byte (how inactive values are stored): 0 to 6."""
+    at = buf.pos
+    mode = buf.u8(field)
+    if mode > NO_MASK_AND_ALL_VALS:
+        raise corrupt(at, field, f"per-node metadata byte {mode} is not one of OpenVDB's "
+                                 f"0-{NO_MASK_AND_ALL_VALS}")
+    return mode
+
+
 def _read_node_values(buf: Buf, codec: Codec, n: int, active: np.ndarray) -> np.ndarray:
     """Read the ``n`` compressed tile values of an internal node."""
-    mode = buf.u8()
+    mode = _mode(buf, "node metadata byte")
     codec.modes[mode] = codec.modes.get(mode, 0) + 1
     bg = codec.background
     val0 = bg if mode == NO_MASK_OR_INACTIVE_VALS else codec.negate(bg)
     val1 = bg
     if mode in MODES_WITH_VALUE:
-        val0 = codec.full_values(buf.take(codec.item), 1)[0]
+        val0 = codec.full_values(buf.take(codec.item, "node inactive value"), 1)[0]
         if mode == MASK_AND_TWO_INACTIVE_VALS:
-            val1 = codec.full_values(buf.take(codec.item), 1)[0]
-    select = bits(buf.take(n // 8)) if mode in MODES_WITH_MASK else None
+            val1 = codec.full_values(buf.take(codec.item, "node inactive value"), 1)[0]
+    select = bits(buf.take(n // 8, "node selection mask")) if mode in MODES_WITH_MASK else None
     stored = active if codec.mask_compressed and mode != NO_MASK_AND_ALL_VALS else None
     count = n if stored is None else int(stored.sum())
-    data = codec.decode(codec.chunk(buf, count), count)
+    data = codec.decode(codec.chunk(buf, count, field="node values"), count)
     if count == n:
         return data
     out = np.empty(codec.shape(n), dtype=codec.out)
@@ -147,7 +212,8 @@ def _read_node_values(buf: Buf, codec: Codec, n: int, active: np.ndarray) -> np.
 class Tree:
     background: np.ndarray
     leaf_dim: int
-    big_tiles: list = field(default_factory=list)  # (origin, dim, value, active)
+    #: tiles larger than a leaf, a group per node: (origins (n, 3), side, values, active)
+    big_tiles: list = field(default_factory=list)
     small_origins: list = field(default_factory=list)  # leaf-sized tiles
     small_values: list = field(default_factory=list)
     small_active: list = field(default_factory=list)
@@ -167,8 +233,8 @@ def _read_internal(buf: Buf, codec: Codec, tree: Tree, origin: np.ndarray,
     log2 = dims[0]
     n = 1 << (3 * log2)
     child_log2 = sum(dims[1:])
-    child_mask = bits(buf.take(n // 8))
-    active = bits(buf.take(n // 8))
+    child_mask = bits(buf.take(n // 8, "node child mask"))
+    active = bits(buf.take(n // 8, "node value mask"))
     values = _read_node_values(buf, codec, n, active)
     _collect_tiles(tree, codec, origin, log2, child_log2, child_mask, active, values,
                    bottom=len(dims) == 2)
@@ -176,7 +242,8 @@ def _read_internal(buf: Buf, codec: Codec, tree: Tree, origin: np.ndarray,
     child_origins = origin + (_node_coords(children, log2) << child_log2)
     if len(dims) == 2:
         leaf_bytes = (1 << (3 * dims[1])) // 8
-        tree.leaf_masks.append(buf.take(leaf_bytes * len(children)))
+        codec.budget.spend(9 * leaf_bytes * len(children) + 24 * len(children), "leaf masks")
+        tree.leaf_masks.append(buf.take(leaf_bytes * len(children), "leaf value masks"))
         tree.leaf_origins.append(child_origins)
         return
     for child_origin in child_origins:
@@ -193,36 +260,55 @@ def _collect_tiles(tree: Tree, codec: Codec, origin, log2, child_log2, child_mas
     idx = np.flatnonzero(keep)
     if not len(idx):
         return
+    codec.budget.spend(len(idx) * (25 + codec.out.itemsize * codec.comps), "tiles")
     origins = origin + (_node_coords(idx, log2) << child_log2)
     if bottom:
         tree.small_origins.append(origins)
         tree.small_values.append(values[idx])
         tree.small_active.append(active[idx])
         return
-    for o, v, a in zip(origins, values[idx], active[idx], strict=True):
-        tree.big_tiles.append((o, 1 << child_log2, v, bool(a)))
+    tree.big_tiles.append((origins, 1 << child_log2, values[idx], active[idx]))
 
 
 def read_root(buf: Buf, codec: Codec, dims: list[int]) -> Tree:
     """Read the tree topology: root tiles, internal nodes and leaf value masks."""
-    buffer_count = struct.unpack("<i", buf.take(4))[0]
+    at = buf.pos
+    buffer_count = struct.unpack("<i", buf.take(4, "buffer count"))[0]
     if buffer_count != 1:
         raise VdbFormatError(
-            f"grid '{codec.name}' has {buffer_count} buffers per leaf (multi-buffer trees "
-            "are no longer supported by OpenVDB); re-save it with a current OpenVDB")
-    background = codec.full_values(buf.take(codec.item), 1)[0]
+            f"grid '{codec.name}' has {buffer_count} buffers per leaf at offset {at} "
+            "(multi-buffer trees are no longer supported by OpenVDB); re-save it with a "
+            "current OpenVDB", at, "buffer count")
+    background = codec.full_values(buf.take(codec.item, "background"), 1)[0]
     codec.background = background
     tree = Tree(background=background, leaf_dim=1 << dims[-1])
-    num_tiles, num_children = buf.unpack("<II")
     child_dim = 1 << sum(dims)
     rec = np.dtype([("o", "<i4", (3,)), ("v", codec.full, (codec.comps,)), ("a", "u1")])
-    tiles = np.frombuffer(buf.take(rec.itemsize * num_tiles), dtype=rec)
-    for t in tiles:
-        value = t["v"].astype(codec.out)
-        tree.big_tiles.append((t["o"].astype(np.int64), child_dim,
-                               value[0] if codec.comps == 1 else value, bool(t["a"])))
+    at = buf.pos
+    num_tiles = buf.count("<I", rec.itemsize, "root tile count")
+    num_children = buf.count("<I", 12 + 2 * (1 << 3 * dims[0]) // 8, "root child count")
+    codec.budget.spend((num_tiles + num_children) * 64, "root tiles")
+    tiles = np.frombuffer(buf.take(rec.itemsize * num_tiles, "root tiles"), dtype=rec)
+    origins = tiles["o"].astype(np.int64)
+    if (origins % child_dim).any():
+        raise corrupt(at + 8, "root tiles", f"a root tile's origin is not a multiple of "
+                                            f"{child_dim}")
+    if num_tiles:
+        values = tiles["v"].astype(codec.out)
+        tree.big_tiles.append((origins, child_dim, values[:, 0] if codec.comps == 1
+                               else values, tiles["a"] != 0))
+    keys = {tuple(o) for o in origins.tolist()}
+    if len(keys) < num_tiles:
+        raise corrupt(at + 8, "root tiles", "two root tiles at the same origin")
     for _ in range(num_children):
-        origin = np.array(buf.unpack("<3i"), dtype=np.int64)
+        at = buf.pos
+        # OpenVDB places a child at its origin rounded down to the child grid, as here
+        origin = np.array(buf.unpack("<3i", "root child origin"), dtype=np.int64) \
+            & ~np.int64(child_dim - 1)
+        key = tuple(origin.tolist())
+        if key in keys:
+            raise corrupt(at, "root child origin", f"two root entries at {key}")
+        keys.add(key)
         _read_internal(buf, codec, tree, origin, dims)
     return tree
 
@@ -240,29 +326,38 @@ def leaf_arrays(tree: Tree, codec: Codec) -> tuple[np.ndarray, np.ndarray]:
 # --------------------------------------------------------------------- leaf buffers
 
 
-def read_leaves(buf: Buf, codec: Codec, masks: np.ndarray, wanted: np.ndarray,
-                 ) -> np.ndarray | None:
+def _leaf_mask(buf: Buf, mask: bytes, field: str) -> None:
+    """Read a leaf's buffer copy of its value mask: it must equal the topology's copy."""
+    at = buf.pos
+    if buf.take(len(mask), field) != mask:
+        raise corrupt(at, field, "a leaf's value mask differs from the copy stored with "
+                                 "the tree's topology")
+
+
+def read_leaves(buf: Buf, codec: Codec, tree: Tree, masks: np.ndarray, wanted: np.ndarray,
+                ) -> np.ndarray | None:
     """Read the leaf buffers; return values (N, voxels[, 3]) of the wanted leaves."""
-    if codec.is_bool:
-        return _read_bool_leaves(buf, masks)
     n, voxels = masks.shape
     mask_bytes = voxels // 8
+    raw_masks = b"".join(tree.leaf_masks)
+    if codec.is_bool:
+        return _read_bool_leaves(buf, masks, raw_masks, tree)
     counts = masks.sum(axis=1)
-    modes = np.full(n, NO_MASK_AND_ALL_VALS, np.int8)
+    modes = np.full(n, NO_MASK_AND_ALL_VALS, np.uint8)
     inactive_raw = {}
     select_raw = {}
     chunks = []
     for i in range(n):
-        buf.skip(mask_bytes)
-        mode = buf.u8()
+        _leaf_mask(buf, raw_masks[i * mask_bytes:(i + 1) * mask_bytes], "leaf value mask")
+        mode = _mode(buf, "leaf metadata byte")
         modes[i] = mode
         if mode in MODES_WITH_VALUE:
             nval = 2 if mode == MASK_AND_TWO_INACTIVE_VALS else 1
-            inactive_raw[i] = buf.take(codec.item * nval)
+            inactive_raw[i] = buf.take(codec.item * nval, "leaf inactive values")
         if mode in MODES_WITH_MASK:
-            select_raw[i] = buf.take(mask_bytes)
+            select_raw[i] = buf.take(mask_bytes, "leaf selection mask")
         count = int(counts[i]) if codec.mask_compressed and mode != 6 else voxels
-        raw = codec.chunk(buf, count, decode=bool(wanted[i]))
+        raw = codec.chunk(buf, count, decode=bool(wanted[i]), field="leaf values")
         if wanted[i]:
             chunks.append(raw)
     for mode, num in zip(*np.unique(modes, return_counts=True), strict=True):
@@ -330,23 +425,32 @@ def _inactive_values(codec: Codec, modes: np.ndarray, inactive_raw: dict):
     return val0, val1
 
 
-def _read_bool_leaves(buf: Buf, masks: np.ndarray) -> np.ndarray:
-    """Read bool leaf buffers: value mask, origin and a value bit mask per leaf."""
+def _read_bool_leaves(buf: Buf, masks: np.ndarray, raw_masks: bytes, tree: Tree
+                      ) -> np.ndarray:
+    """Read bool leaf buffers: value mask, origin and a value bit mask per leaf.
+
+    The buffer repeats the leaf's value mask and origin; both must equal the topology's.
+    """
     n, voxels = masks.shape
     mb = voxels // 8
-    rec = np.frombuffer(buf.take((2 * mb + 12) * n), np.uint8).reshape(n, 2 * mb + 12)
+    at = buf.pos
+    rec = np.frombuffer(buf.take((2 * mb + 12) * n, "bool leaf buffers"), np.uint8
+                        ).reshape(n, 2 * mb + 12)
+    topology = np.frombuffer(raw_masks, np.uint8).reshape(n, mb)
+    origins = np.concatenate(tree.leaf_origins) if n else np.zeros((0, 3), np.int64)
+    stored = rec[:, mb:mb + 12].copy().view("<i4").astype(np.int64)
+    for bad, what in ((rec[:, :mb] != topology, "value mask"),
+                      (stored != origins, "origin")):
+        rows = np.flatnonzero(bad.any(axis=1))
+        if len(rows):
+            raise corrupt(at + int(rows[0]) * (2 * mb + 12), f"bool leaf {what}",
+                          f"a leaf's {what} differs from the one stored with the topology")
     return bits(rec[:, mb + 12:].tobytes(), mb)
 
 
-def skip_tree(buf: Buf, desc: Descriptor, header: Header) -> None:
+def skip_tree(buf: Buf, desc: Descriptor, header: Header, budget: Budget) -> None:
     """Move past a grid's topology and buffers (files without grid offsets)."""
-    codec = Codec(desc.info, header.version)
-    _value_type, dims = parse_tree_type(desc.info.tree_type)
-    tree = read_root(buf, codec, dims)
+    codec = Codec(desc.info, header.version, budget)
+    tree = read_root(buf, codec, tree_layout(desc.info))
     _origins, masks = leaf_arrays(tree, codec)
-    read_leaves(buf, codec, masks, np.zeros(len(masks), bool))
-
-
-# -------------------------------------------------------------------------- dense
-
-
+    read_leaves(buf, codec, tree, masks, np.zeros(len(masks), bool))

@@ -1,0 +1,1 @@
+"""Helpers of the tests: reference writers and readers run outside the package."""
