@@ -465,3 +465,51 @@ def test_an_up_axis_other_than_y_or_z_is_reported(tmp_path):
     with pytest.warns(cm.SceneWarning, match="upAxis 'X'"):
         scene = cm.load_scene(path)
     assert scene.up_axis == "Y" and scene.render(size=(32, 24)).shape == (24, 32, 3)
+
+
+def _bomb_png(path, width=40000, height=40000):
+    """A small PNG whose header claims ``width`` x ``height`` (Pillow refuses it at open)."""
+    import struct
+    import zlib as _zlib
+    tmp = path.with_suffix(".small.png")
+    Image.fromarray(np.zeros((4, 4, 3), np.uint8)).save(tmp)
+    raw = bytearray(tmp.read_bytes())
+    raw[16:24] = struct.pack(">II", width, height)                 # IHDR width, height
+    raw[29:33] = struct.pack(">I", _zlib.crc32(bytes(raw[12:29])))  # and its CRC
+    path.write_bytes(bytes(raw))
+
+
+def test_a_decompression_bomb_is_a_warning_and_the_quad_still_draws(tmp_path):
+    # catches: Pillow's DecompressionBombError escaping (the whole render failed)
+    _bomb_png(tmp_path / "tex.png")
+    with pytest.warns(cm.SceneWarning, match="decompression bomb"):
+        image = render(quad_stage(tmp_path))
+    assert np.abs(image[100, 100] - image[3, 3]).sum() > 30       # the quad, untextured
+
+
+def test_a_texture_over_the_budget_is_reduced_kept_as_bytes_and_noted(tmp_path, monkeypatch):
+    # catches: textures decoded as float64 RGBA and copied (7.8 GB for an 8k texture) and
+    # an image over the budget kept whole. By hand: 6000 x 5000 at 4 bytes a texel is
+    # 120 MB; reduced 2x, 30 MB, still over 16 MiB; 3x: 2000 x 1667 x 4 = 13.3 MB.
+    import tracemalloc
+
+    from pv_cubemarch.scene import textures
+    monkeypatch.setenv(textures.TEXTURE_BYTES_ENV, str(16 << 20))
+    picture = np.zeros((5000, 6000, 3), np.uint8)
+    picture[:2500, :, 0] = 200                                     # top half red
+    Image.fromarray(picture).save(tmp_path / "big.png")
+    texture = TextureInput(file=str(tmp_path / "big.png"))
+    textures._decoded.cache_clear()
+    textures._values.cache_clear()
+    tracemalloc.start()
+    try:
+        image = base_color_image(texture, 1.0)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert image.shape == (5000 // 3 + 1, 2000, 4) and image.dtype == np.uint8
+    assert tuple(image[0, 0]) == (200, 0, 0, 255) and tuple(image[-1, -1]) == (0, 0, 0, 255)
+    # the kept bytes and the packed image (2 x 13.3 MB); one float64 RGBA copy is 107 MB
+    assert peak < 40 << 20, f"{peak / 2**20:.0f} MiB traced"
+    note = textures.texture_note(texture)
+    assert "6000x5000" in note and "2000x1667" in note and textures.TEXTURE_BYTES_ENV in note

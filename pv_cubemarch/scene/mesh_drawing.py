@@ -17,7 +17,7 @@ import vtk
 from ..gl.shaders import Replacement, ShaderRecipe
 from .materials import PrimvarInput, SurfaceMaterial, TextureInput
 from .parts import SceneMesh
-from .textures import base_color_image, normal_image, orm_image, texture_values
+from .textures import base_color_image, normal_image, orm_image, texture_note, texture_values
 
 _WRAP = {"repeat": "REPEAT", "clamp": "CLAMP_TO_EDGE", "mirror": "MIRRORED_REPEAT",
          "black": "CLAMP_TO_BORDER"}
@@ -106,7 +106,10 @@ def _resolved(material: SurfaceMaterial, textured: bool, mesh: pyvista.PolyData,
             try:
                 values = texture_values(value)
                 mean = values.reshape(-1, values.shape[-1]).mean(0) if not textured else None
-            except (OSError, ValueError) as exc:
+                note = texture_note(value)
+                if note:
+                    report(name, f"texture {value.file!r}: {note}")
+            except (OSError, ValueError) as exc:   # a TextureError too (a bomb, no memory)
                 report(name, f"texture {value.file!r} could not be read ({exc}); its "
                        "fallback or the default is used")
                 setattr(out, field_name, _constant(value.fallback, default))

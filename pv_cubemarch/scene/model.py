@@ -24,6 +24,7 @@ from ..models.volume import VolumeModel
 from ..models.voxels import VoxelModel
 from ..models.world import VoxelWorld
 from .lighting import add_scene_lights
+from .mesh_batches import batched
 from .mesh_drawing import add_scene_mesh
 from .parts import SceneLight, SceneMesh, SkippedPrim
 
@@ -159,11 +160,16 @@ class Scene:
         """
         actors = {}
         plotter.set_background(self.background)
-        for m in progress(self.meshes, desc="adding meshes", enabled=progress_bar):
+        # parts that draw alike are one actor (20 000 actors would take minutes to add)
+        for part, names in progress(batched(self.meshes), desc="adding meshes",
+                                    enabled=progress_bar):
             try:
-                actors[m.name] = add_scene_mesh(plotter, m, self._report)
-            except (ValueError, TypeError, IndexError, OSError) as exc:   # drawn without it
-                self._report(m.name, f"could not be drawn ({type(exc).__name__}: {exc})")
+                actor = add_scene_mesh(plotter, part, self._report)
+            except (ValueError, TypeError, IndexError, OSError, MemoryError) as exc:
+                for name in names:                 # drawn without them
+                    self._report(name, f"could not be drawn ({type(exc).__name__}: {exc})")
+                continue
+            actors.update(dict.fromkeys(names, actor))
         self._add_lights(plotter)
         # Volumes whose boxes overlap are marched jointly, with the first one's options; a
         # channel volume (already a group of its channels) is drawn as it is.
@@ -208,7 +214,10 @@ class Scene:
     def _report(self, path: str, reason: str) -> None:
         """Record what is drawn otherwise than authored (once per path and reason)."""
         entry = SkippedPrim(path, reason, problem=True)
-        if entry not in self.skipped:
+        reported = self.__dict__.setdefault(    # a set: 20 000 reports stay linear
+            "_reported", {(s.path, s.reason) for s in self.skipped if s.problem})
+        if (path, reason) not in reported:
+            reported.add((path, reason))
             self.skipped.append(entry)
             warnings.warn(f"{path}: {reason}", SceneWarning, stacklevel=3)
 

@@ -399,7 +399,14 @@ def read_descriptor(buf: Buf, header: Header, seen: dict) -> Descriptor:
     else:
         grid_pos = buf.pos
     compression = buf.u32("compression flags")
+    at = buf.pos
     metadata = _read_metadata(buf)
+    if "is_saved_as_half_float" in metadata and bool(metadata["is_saved_as_half_float"]) \
+            != half and tree_type.split("_")[1:2] in (["float"], ["double"], ["vec3s"],
+                                                       ["vec3d"]):
+        # OpenVDB decodes values as the metadata says, the tree type's suffix says otherwise
+        raise corrupt(at, "grid metadata", "is_saved_as_half_float disagrees with the tree "
+                                           f"type {tree_type + (HALF_SUFFIX if half else '')!r}")
     map_type, matrix = _read_transform(buf)
     name = unique.split(NAME_SEPARATOR)[0]
     index = seen.get(name, 0)

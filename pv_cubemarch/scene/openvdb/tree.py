@@ -137,15 +137,16 @@ class Codec:
                     f"grid '{self.name}' is compressed with blosc; {INSTALL_BLOSC}")
             packed = bytes(packed)
             try:   # the header says how much it makes: check that before decompressing
-                valid = blosc.cbuffer_validate(packed)
-                made, stored, _block = blosc.get_cbuffer_sizes(packed) if valid else (-1, 0, 0)
-                if not valid or made != nbytes or stored > len(packed):
+                if not blosc.cbuffer_validate(packed):
+                    raise corrupt(at, what, "a blosc chunk whose header is not valid")
+                made, stored, _block = blosc.get_cbuffer_sizes(packed)
+                if made != nbytes or stored > len(packed):
                     raise corrupt(at, what, f"a blosc chunk that makes {made} bytes where "
                                             f"{nbytes} are stored")
                 raw = blosc.decompress(packed)
-            except (blosc.error, ValueError, TypeError) as exc:
-                if isinstance(exc, VdbFormatError):
-                    raise
+            except VdbFormatError:
+                raise
+            except Exception as exc:  # noqa: BLE001 - blosc raises several kinds, all corrupt
                 raise corrupt(at, what, f"blosc could not decompress it ({exc})") from exc
         else:
             inflate = zlib.decompressobj()
@@ -300,15 +301,21 @@ def read_root(buf: Buf, codec: Codec, dims: list[int]) -> Tree:
     keys = {tuple(o) for o in origins.tolist()}
     if len(keys) < num_tiles:
         raise corrupt(at + 8, "root tiles", "two root tiles at the same origin")
+    last = (-2**63,) * 3
     for _ in range(num_children):
         at = buf.pos
-        # OpenVDB places a child at its origin rounded down to the child grid, as here
-        origin = np.array(buf.unpack("<3i", "root child origin"), dtype=np.int64) \
-            & ~np.int64(child_dim - 1)
+        origin = np.array(buf.unpack("<3i", "root child origin"), dtype=np.int64)
+        if (origin % child_dim).any():   # OpenVDB would file it where no lookup finds it
+            raise corrupt(at, "root child origin", f"{tuple(origin.tolist())} is not a "
+                                                   f"multiple of {child_dim}")
         key = tuple(origin.tolist())
-        if key in keys:
-            raise corrupt(at, "root child origin", f"two root entries at {key}")
+        if key in keys or key <= last:
+            # OpenVDB writes its root's children in coordinate order and reads their
+            # buffers in that order: any other order would pair leaves with other data
+            raise corrupt(at, "root child origin", f"a root child at {key} after one at "
+                                                   f"{last}, or on a tile")
         keys.add(key)
+        last = key
         _read_internal(buf, codec, tree, origin, dims)
     return tree
 

@@ -7,6 +7,8 @@ at :data:`CURVE_SAMPLES` points per segment; widths become the tubes' and sphere
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 import pyvista
 from pxr import UsdGeom
@@ -39,40 +41,56 @@ def read_primitive(ctx: StageContext, prim, type_name: str) -> list[SceneMesh]:
     axis = str(ctx.get(prim, "axis", "Z"))
     if axis not in _AXES:
         raise PrimError(f"axis is {axis!r}; it must be X, Y or Z")
-    if type_name == "Sphere":
-        mesh = pyvista.Sphere(radius=number("radius", 1.0), theta_resolution=48,
-                              phi_resolution=32)
-    elif type_name == "Cube":
-        size = number("size", 2.0)
-        mesh = pyvista.Cube(x_length=size, y_length=size, z_length=size).triangulate()
-    elif type_name == "Cylinder":
-        mesh = pyvista.Cylinder(direction=_AXES[axis], radius=number("radius", 1.0),
-                                height=number("height", 2.0), resolution=48)
-    elif type_name == "Cone":
-        mesh = pyvista.Cone(direction=_AXES[axis],
-                            radius=number("radius", 1.0), height=number("height", 2.0),
-                            resolution=48)
-    elif type_name == "Capsule":
-        mesh = pyvista.Capsule(direction=_AXES[axis], radius=number("radius", 0.5),
-                               cylinder_length=number("height", 1.0), resolution=32)
-    elif type_name == "Cylinder_1":
-        mesh = _frustum(axis, number("radiusBottom", 1.0), number("radiusTop", 1.0),
-                        number("height", 2.0))
-    elif type_name == "Capsule_1":
-        bottom, top = number("radiusBottom", 0.5), number("radiusTop", 0.5)
-        if bottom != top:
-            ctx.report(str(prim.GetPath()), "a capsule of two radii is drawn with their mean")
-        mesh = pyvista.Capsule(direction=_AXES[axis], radius=(bottom + top) / 2,
-                               cylinder_length=number("height", 1.0), resolution=32)
-    else:
-        normal = {"X": (1, 0, 0), "Y": (0, 1, 0), "Z": (0, 0, 1)}[axis]
-        mesh = pyvista.Plane(direction=normal, i_size=number("width", 2.0),
-                             j_size=number("length", 2.0), i_resolution=1, j_resolution=1)
-    mesh = mesh if isinstance(mesh, pyvista.PolyData) else mesh.extract_surface()
+    names = _PARAMETERS.get(type_name, ())
+    values = tuple(number(name, default) for name, default in names)
+    if type_name == "Capsule_1" and values[0] != values[1]:
+        ctx.report(str(prim.GetPath()), "a capsule of two radii is drawn with their mean")
+    # a copy of one mesh per shape and size: 20 000 cubes are built once, not 20 000 times
+    mesh = _primitive(type_name, axis, values).copy()
     part = SceneMesh(name=str(prim.GetPath()), mesh=mesh, material=_material_of(ctx, prim),
                      double_sided=bool(ctx.get(prim, "doubleSided", False)))
     _display_color(ctx, prim, part)
     return [part]
+
+
+#: The size attributes of each primitive, with USD's defaults.
+_PARAMETERS = {
+    "Sphere": (("radius", 1.0),), "Cube": (("size", 2.0),),
+    "Cylinder": (("radius", 1.0), ("height", 2.0)), "Cone": (("radius", 1.0), ("height", 2.0)),
+    "Capsule": (("radius", 0.5), ("height", 1.0)),
+    "Cylinder_1": (("radiusBottom", 1.0), ("radiusTop", 1.0), ("height", 2.0)),
+    "Capsule_1": (("radiusBottom", 0.5), ("radiusTop", 0.5), ("height", 1.0)),
+    "Plane": (("width", 2.0), ("length", 2.0)),
+}
+
+
+@lru_cache(maxsize=256)
+def _primitive(type_name: str, axis: str, values: tuple) -> pyvista.PolyData:
+    """The mesh of a primitive of these sizes (cached: do not change it, copy it)."""
+    if type_name == "Sphere":
+        mesh = pyvista.Sphere(radius=values[0], theta_resolution=48, phi_resolution=32)
+    elif type_name == "Cube":
+        mesh = pyvista.Cube(x_length=values[0], y_length=values[0],
+                            z_length=values[0]).triangulate()
+    elif type_name == "Cylinder":
+        mesh = pyvista.Cylinder(direction=_AXES[axis], radius=values[0], height=values[1],
+                                resolution=48)
+    elif type_name == "Cone":
+        mesh = pyvista.Cone(direction=_AXES[axis], radius=values[0], height=values[1],
+                            resolution=48)
+    elif type_name == "Capsule":
+        mesh = pyvista.Capsule(direction=_AXES[axis], radius=values[0],
+                               cylinder_length=values[1], resolution=32)
+    elif type_name == "Cylinder_1":
+        mesh = _frustum(axis, *values)
+    elif type_name == "Capsule_1":
+        mesh = pyvista.Capsule(direction=_AXES[axis], radius=(values[0] + values[1]) / 2,
+                               cylinder_length=values[2], resolution=32)
+    else:
+        normal = {"X": (1, 0, 0), "Y": (0, 1, 0), "Z": (0, 0, 1)}[axis]
+        mesh = pyvista.Plane(direction=normal, i_size=values[0], j_size=values[1],
+                             i_resolution=1, j_resolution=1)
+    return mesh if isinstance(mesh, pyvista.PolyData) else mesh.extract_surface()
 
 
 def _frustum(axis: str, bottom: float, top: float, height: float) -> pyvista.PolyData:
