@@ -24,6 +24,7 @@ from .core.errors import (  # noqa: E402
     SceneWarning,
     ShaderCompileError,
     VolumeDataError,
+    VolumeDataWarning,
 )
 from .core.offscreen import gl_info  # noqa: E402
 from .core.rendering import offscreen_plotter, render_frame, render_image  # noqa: E402
@@ -57,7 +58,8 @@ __all__ = [
     "RenderToTexturePass", "Replacement", "Scene", "SceneChangedError", "SceneLight",
     "SceneLoadError", "SceneMesh", "SceneWarning", "ShaderBindings",
     "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "Texture", "TransferFunction",
-    "VolumeDataError", "VolumeGroup", "VolumeLight", "VolumeModel", "add_volume",
+    "VolumeDataError", "VolumeDataWarning", "VolumeGroup", "VolumeLight", "VolumeModel",
+    "add_volume",
     "add_surface", "add_volumes", "add_voxels", "SplineField", "make_field",
     "configure_offscreen", "make_voxels", "Palette", "VoxelModel", "gl_info",
     "load_scene", "make_volume", "read_vdb", "offscreen_plotter", "plugin",

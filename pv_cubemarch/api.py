@@ -18,6 +18,7 @@ from .core.mesh_keywords import SURFACE as SURFACE_REFUSED
 from .core.mesh_keywords import VOXELS as VOXEL_REFUSED
 from .core.mesh_keywords import refuse_mesh_keywords, shading_for_lighting
 from .core.registry import get_technique
+from .core.rendering import open_window
 from .gl.overlay import bounds_proxy
 from .models.channels import (
     is_channels,
@@ -342,6 +343,7 @@ def add_volume(
     >>> actor = pv_cubemarch.add_volume(pl, density, cmap="inferno", step_scale=0.5)
     >>> image = pv_cubemarch.render_image(pl)  # doctest: +SKIP
     """
+    open_window(plotter)   # a closed plotter: PlotterClosedError, not a half-added actor
     _checked_name(name)
     if isinstance(volume, pyvista.MultiBlock):
         given = {key: value for key, value in locals().items()
@@ -597,6 +599,7 @@ def add_volumes(plotter: pyvista.Plotter, volumes, **options) -> list:
     >>> pl = pv.Plotter(off_screen=True)
     >>> actors = cm.add_volumes(pl, [a, b], technique="cubemap")  # doctest: +SKIP
     """
+    open_window(plotter)   # a closed plotter: PlotterClosedError, not a half-added actor
     actors = []
     for group in overlap_groups(list(volumes)):
         if len(group) == 1:
@@ -843,6 +846,7 @@ def add_voxels(
     >>> pl = pv.Plotter(off_screen=True)
     >>> actor = cm.add_voxels(pl, labels, palette=["black", "tan", "steelblue"])
     """
+    open_window(plotter)   # a closed plotter: PlotterClosedError, not a half-added actor
     refuse_mesh_keywords("add_voxels", kwargs, VOXEL_REFUSED)
     _checked_name(name)
     shading = shading_for_lighting(lighting, shading)
@@ -1061,6 +1065,7 @@ def add_surface(
     >>> pl = pv.Plotter(off_screen=True)
     >>> actor = cm.add_surface(pl, 0.8 - (x**2 + y**2 + z**2), isovalue=0.0)
     """
+    open_window(plotter)   # a closed plotter: PlotterClosedError, not a half-added actor
     refuse_mesh_keywords("add_surface", kwargs, SURFACE_REFUSED)
     _checked_name(name)
     shading = shading_for_lighting(lighting, shading)

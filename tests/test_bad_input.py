@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -110,6 +112,12 @@ def _labels():
     return labels
 
 
+def _flat_grid():
+    grid = pv.ImageData(dimensions=(5, 5, 5), spacing=(1, 0, 1))
+    grid.point_data["v"] = np.arange(125, dtype=np.float32)
+    return grid
+
+
 def _ball():
     return 0.8 - np.sum(np.mgrid[-1:1:12j, -1:1:12j, -1:1:12j] ** 2, axis=0)
 
@@ -133,15 +141,102 @@ def _ball():
         1, color="notacolor"), ValueError, "is not a colour"),
     (lambda pl: pl.cubemarch.add_volume(pv.Wavelet(), transform=np.full((4, 4), np.nan)),
      cm.VolumeDataError, "transform must be finite; it holds 16 NaN"),
+    (lambda pl: pl.cubemarch.add_volume(_flat_grid()), cm.VolumeDataError,
+     r"spacing must be three finite, non-zero numbers, got \(1.0, 0.0, 1.0\)"),
+    (lambda pl: pl.cubemarch.add_volume(pv.Wavelet(), cmap="viridiss"), cm.VolumeDataError,
+     r"cmap='viridiss' is not a colormap .*did you mean 'viridis'"),
+    (lambda pl: pl.cubemarch.add_voxels(_labels(), cmap="magmaa"), cm.VolumeDataError,
+     r"cmap='magmaa' is not a colormap .*did you mean 'magma'"),
+    (lambda pl: pl.cubemarch.add_voxels(_labels()).cubemarch.set_voxels(
+        (np.array([1, 9]), np.array([1, 1]), np.array([1, 2])), 0), IndexError,
+     r"index arrays .* inside the grid's shape \(4, 4, 4\)"),
 ], ids=["cells=0", "isovalue=nan", "opacity=[]", "name=123", "voxels name", "palette=[]",
-        "palette colour", "set_material colour", "nan transform"])
+        "palette colour", "set_material colour", "nan transform", "zero spacing",
+        "volume cmap", "voxels cmap", "index arrays"])
 def test_bad_keywords_name_the_argument_and_the_fix(add, error, message):
     # Each was a misleading error or none (issue 25's list): cells=0 drew with 1 cell in
     # silence; isovalue=nan blamed the coefficients; opacity=[] raised numpy's
     # "zero-size array"; name=123 an AttributeError; palette=[] a broadcast error; a bad
-    # colour pyvista's message naming no material; a NaN transform "got shape (4, 4)".
+    # colour pyvista's message naming no material; a NaN transform "got shape (4, 4)";
+    # zero spacing drew a flat grid in silence; an unknown cmap named no choices; index
+    # arrays in set_voxels gave numpy's "only 0-dimensional arrays can be converted".
     # Breaks seen failing: each check removed (the old message returns).
     pl = pv.Plotter(off_screen=True)
     with pytest.raises(error, match=message):
         add(pl)
     pl.close()
+
+
+def test_index_arrays_set_the_voxels_they_name(plotter_factory):
+    # numpy's (i's, j's, k's): the voxels they name and no others
+    actor = cm.add_voxels(plotter_factory((40, 40)), _labels())
+    actor.cubemarch.set_voxels((np.array([0, 3]), np.array([0, 2]), np.array([1, 3])), 1)
+    actor.cubemarch.set_voxels((np.array([1]), np.array([1]), np.array([1])), 0)
+    labels = actor.cubemarch.model.labels
+    assert labels[0, 0, 1] == 1 and labels[3, 2, 3] == 1 and labels[1, 1, 1] == 0
+    assert (labels == 1).sum() == 8 + 2 - 1
+
+
+def _closed_plotter_calls():
+    volume = np.exp(-np.sum(np.mgrid[-1:1:8j, -1:1:8j, -1:1:8j] ** 2, axis=0))
+    return {
+        "add_volume vtk": lambda pl, a: cm.add_volume(pl, volume),
+        "add_volume cubemap": lambda pl, a: cm.add_volume(pl, volume, technique="cubemap"),
+        "add_voxels": lambda pl, a: cm.add_voxels(pl, _labels()),
+        "add_surface": lambda pl, a: cm.add_surface(pl, _ball()),
+        "set_voxels": lambda pl, a: a["voxels"].cubemarch.set_voxels((1, 1, 1), 0),
+        "set_values": lambda pl, a: a["voxels"].cubemarch.set_values(_labels()),
+        "set_material": lambda pl, a: a["voxels"].cubemarch.set_material(1, color="red"),
+        "pick": lambda pl, a: a["voxels"].cubemarch.pick(10, 10),
+        "volume set_values": lambda pl, a: a["volume"].cubemarch.set_values(volume),
+    }
+
+
+@pytest.mark.parametrize("call", list(_closed_plotter_calls()))
+def test_a_closed_plotter_refuses_adds_edits_and_picks(call):
+    # catches: adds that "succeeded" on a closed plotter (the cube map's AttributeError in
+    # gl/overlay.py), edits that did nothing and a pick answering None as if nothing were
+    # hit (break seen failing: the open_window/needs_open_plotter checks removed)
+    pl = cm.offscreen_plotter((40, 40))
+    actors = {"voxels": cm.add_voxels(pl, _labels()),
+              "volume": cm.add_volume(pl, _ball(), technique="direct", clim=(-2, 1))}
+    cm.render_image(pl)
+    pl.close()
+    with pytest.raises(cm.PlotterClosedError, match="closed"):
+        _closed_plotter_calls()[call](pl, actors)
+
+
+@pytest.mark.parametrize("technique", ["vtk", "direct", "cubemap"])
+def test_a_volume_past_the_3d_texture_limit_is_refused(plotter_factory, technique):
+    # catches: 'vtk' drawing a blank image (VTK logs "Invalid texture dimensions" and
+    # draws nothing); by hand: 2100 points over 2048 needs every 2nd point
+    values = np.zeros((2100, 3, 3), np.float32)
+    values[::7] = 1.0
+    with pytest.raises(ValueError, match=r"\(2100, 3, 3\) points is over 2048 .* "
+                                         r"values\[::2, ::2, ::2\]"):
+        cm.add_volume(plotter_factory((40, 40)), values, technique=technique)
+
+
+def test_a_texture_gl_refuses_is_an_error_not_a_blank(plotter_factory):
+    # catches: GL_INVALID_VALUE after an upload left unread (the 65536-wide palette drew
+    # nothing); 70000 texels is past Mesa's 16384 and every GPU's 2D width limit
+    from pv_cubemarch.gl.textures import Texture
+    pl = plotter_factory((40, 40))
+    pl.add_mesh(pv.Sphere())
+    cm.render_image(pl)
+    texture = Texture(np.zeros((1, 70000, 4), np.float32), kind="2d")
+    pl.ren_win.MakeCurrent()
+    with pytest.raises(RuntimeError, match=r"GL refused a 2d texture of shape \(1, 70000, 4\) "
+                                           r"\(GL_INVALID_VALUE\)"):
+        texture.ensure(pl.ren_win)
+
+
+def test_a_constant_volume_warns_and_says_what_to_do(plotter_factory):
+    # catches: a constant volume drawn as nothing without a word
+    pl = plotter_factory((40, 40))
+    with pytest.warns(cm.VolumeDataWarning, match=r"constant \(every value is 7\).*clim="):
+        cm.add_volume(pl, np.full((4, 4, 4), 7.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cm.VolumeDataWarning)
+        cm.add_volume(pl, np.full((4, 4, 4), 7.0), clim=(0, 10), name="placed")
+        cm.add_volume(pl, np.arange(64.0).reshape(4, 4, 4), name="ramp")

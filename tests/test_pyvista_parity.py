@@ -668,6 +668,28 @@ def test_voxels_draw_what_threshold_and_add_mesh_draw():
     assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)
 
 
+def test_labels_past_16383_draw_what_threshold_and_add_mesh_draw():
+    """Labels 20000, 40000 and 65535 (uint16) against ``threshold`` + ``add_mesh``.
+
+    catches: the palette as one texture row 65536 texels wide, past GL's 2D width limit
+    (16384 on Mesa): GL_INVALID_VALUE, and the grid drew nothing at all (background only).
+    """
+    ids = np.array([0, 20000, 40000, 65535], np.uint16)
+    grid = wavelet_label_grid(lambda c: 1 + (c[:, 0] > 0) + (c[:, 1] > 1))
+    grid.cell_data["labels"] = ids[grid.cell_data["labels"]]
+    colors = ["tomato", "gold", "steelblue"]
+    reference, image = theirs_and_ours(
+        lambda pl: pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels",
+                               categories=True, cmap=colors, lighting=False,
+                               show_scalar_bar=False),
+        lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=dict(zip(ids[1:].tolist(),
+                                                                            colors)),
+                                           shading="unlit"),
+        grid.bounds)
+    off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
+    assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)
+
+
 @pytest.mark.parametrize("style", [{}, dict(clim=(0.0, 14.0)), dict(n_colors=3),
                                    dict(flip_scalars=True), dict(lighting=False)],
                          ids=["range", "clim", "n_colors", "flip", "lighting"])

@@ -5,7 +5,7 @@
 // empty).
 uniform sampler3D cm_labels;     // one texel per voxel, nearest
 uniform float cm_labelScale;     // 255 (uint8) or 65535 (uint16)
-uniform sampler2D cm_palette;    // (materials x 1) RGBA
+uniform sampler2D cm_palette;    // RGBA, material m at (m % width, m / width)
 uniform vec3 cm_gridDims;        // voxels along x, y, z
 uniform float cm_near;           // the near plane's view depth
 #ifdef CM_OCCLUDERS
@@ -28,11 +28,19 @@ int cm_label(ivec3 voxel)
 }
 #endif
 
+// A material's colour and opacity: the palette is wrapped into rows (a 1D texture as wide
+// as 65536 labels is past GL's width limit); entries past the last material are (0, 0, 0, 0).
+vec4 cm_paletteEntry(int material)
+{
+  int width = textureSize(cm_palette, 0).x;
+  return texelFetch(cm_palette, ivec2(material % width, material / width), 0);
+}
+
 // Whether a non-zero label is drawn: it has a palette entry of non-zero opacity.
 bool cm_shown(int material)
 {
-  return material < textureSize(cm_palette, 0).x
-         && texelFetch(cm_palette, ivec2(material, 0), 0).a > 0.0;
+  ivec2 size = textureSize(cm_palette, 0);
+  return material < size.x * size.y && cm_paletteEntry(material).a > 0.0;
 }
 
 // The material of a voxel, if it is drawn (0: empty or hidden).

@@ -66,7 +66,7 @@
   float cm_depth = mix(cm_start, cm_inBox.y, cm_t);   // the hit's view depth
   vec3 cm_hitView = cm_originView + cm_directionView * cm_depth;
 #if !defined(CM_VOXEL_ID) && !defined(CM_VOXEL_FACE)
-  vec3 cm_color = texelFetch(cm_palette, ivec2(cm_material, 0), 0).rgb;
+  vec3 cm_color = cm_paletteEntry(cm_material).rgb;
 #ifdef CM_OCCLUSION
   // The entered face's ambient occlusion (voxel_occlusion.glsl) at the index-space hit: it
   // scales the colour before lighting, so the ambient + diffuse term, not the highlight.

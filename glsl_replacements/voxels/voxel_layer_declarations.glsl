@@ -18,14 +18,14 @@ int cm_layerMaterial(ivec3 voxel)
   {
     return 0;
   }
-  return texelFetch(cm_palette, ivec2(material, 0), 0).a < 1.0 ? material : -1;
+  return cm_paletteEntry(material).a < 1.0 ? material : -1;
 }
 
 // One translucent face of `material` (entered through `face`, or its side facing the eye)
 // at view point `hitView`, composited under what the ray holds (premultiplied).
 void cm_addLayer(inout vec4 held, int material, int face, vec3 hitView, vec3 towardEye)
 {
-  vec4 rgba = texelFetch(cm_palette, ivec2(material, 0), 0);
+  vec4 rgba = cm_paletteEntry(material);
   vec3 color = rgba.rgb;
 #ifdef CM_LIGHTING
   color = cm_shadeVoxel(color, face, hitView, towardEye);

@@ -38,3 +38,7 @@ class SceneChangedError(CubemarchError, RuntimeError):
 
 class SceneWarning(UserWarning):
     """Part of a scene was left out or drawn approximately; ``scene.skipped`` says which and why."""
+
+
+class VolumeDataWarning(UserWarning):
+    """Data that draws, but likely not as meant (a constant volume: nothing shows)."""

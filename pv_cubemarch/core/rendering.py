@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pyvista
 import vtk
@@ -27,7 +29,7 @@ def _bindings_of(plotter) -> list:
     return component.bindings() if component is not None else []
 
 
-def _open_window(plotter: pyvista.Plotter):
+def open_window(plotter: pyvista.Plotter):
     """The plotter's render window, or :class:`PlotterClosedError` once it was closed."""
     window = getattr(plotter, "ren_win", None)
     if window is None:
@@ -35,6 +37,33 @@ def _open_window(plotter: pyvista.Plotter):
             "The plotter is closed (plotter.close() freed its window); nothing can be "
             "rendered or read from it. Make a new plotter and add the volumes again.")
     return window
+
+
+def check_open(renderer) -> None:
+    """Raise :class:`PlotterClosedError` once the plotter ``renderer`` belongs to is closed.
+
+    An actor outlives its plotter's ``close()``: its edits and picks would do nothing, or
+    answer as if nothing were there.
+    """
+    try:
+        plotter = getattr(renderer, "parent", None)    # PyVista's renderer: its plotter
+        closed = plotter is not None and getattr(plotter, "ren_win", None) is None
+    except ReferenceError:                               # the plotter itself is gone
+        closed = True
+    if closed:
+        raise PlotterClosedError(
+            "The plotter of this actor is closed (plotter.close() freed its window): its "
+            "edits, values and picks went with it. Make a new plotter and add the data "
+            "again.")
+
+
+def needs_open_plotter(method):
+    """Decorate an actor's edit or pick: :class:`PlotterClosedError` once its plotter closed."""
+    @functools.wraps(method)
+    def checked(self, *args, **kwargs):
+        check_open(getattr(self, "main_renderer", None) or self.renderer)
+        return method(self, *args, **kwargs)
+    return checked
 
 
 def render_frame(plotter: pyvista.Plotter) -> None:
@@ -46,7 +75,7 @@ def render_frame(plotter: pyvista.Plotter) -> None:
     A frame that VTK drew without our bindings (its volume mapper rebuilds its shader
     silently) is drawn again by the ``plotter.cubemarch`` component.
     """
-    window = _open_window(plotter)
+    window = open_window(plotter)
     first_render = getattr(plotter, "_on_first_render_request", None)
     if first_render is not None:   # PyVista's default camera, as show() and screenshot() set it
         first_render()
@@ -66,7 +95,7 @@ def render_image(plotter: pyvista.Plotter) -> np.ndarray:
 
 
 def _grab(plotter: pyvista.Plotter, depth: bool) -> np.ndarray:
-    window = _open_window(plotter)
+    window = open_window(plotter)
     grab = vtk.vtkWindowToImageFilter()
     grab.SetInput(window)
     if depth:

@@ -20,6 +20,12 @@ _VTK_TYPES = {np.dtype(np.float32): vtk.VTK_FLOAT, np.dtype(np.uint8): vtk.VTK_U
               np.dtype(np.uint16): vtk.VTK_UNSIGNED_SHORT}
 
 
+#: GL's error flags by code, for the messages.
+_GL_ERRORS = {0x500: "GL_INVALID_ENUM", 0x501: "GL_INVALID_VALUE",
+              0x502: "GL_INVALID_OPERATION", 0x505: "GL_OUT_OF_MEMORY",
+              0x506: "GL_INVALID_FRAMEBUFFER_OPERATION"}
+
+
 class Texture:
     """A numpy array that becomes a ``vtkTextureObject`` the first time it is drawn.
 
@@ -172,7 +178,15 @@ class Texture:
             ok = texture.CreateTextureBuffer(self.array.size, 1, vtk.VTK_FLOAT, buffer)
         if not ok:
             raise RuntimeError(f"Uploading a {self.kind} texture of shape {shape} failed.")
-        if GL_OUT_OF_MEMORY in pending_gl_errors():   # VTK said yes; the driver said no
+        errors = pending_gl_errors()
+        if errors and GL_OUT_OF_MEMORY not in errors:   # VTK said yes; GL said no
+            texture.ReleaseGraphicsResources(window)
+            names = ", ".join(_GL_ERRORS.get(code, hex(code)) for code in errors)
+            raise RuntimeError(f"GL refused a {self.kind} texture of shape {shape} ({names}): "
+                               "it is past this GL's limits (GL_MAX_TEXTURE_SIZE, "
+                               "GL_MAX_3D_TEXTURE_SIZE: pv-cubemarch info --gl); draw less "
+                               "of it or a coarser copy.")
+        if errors:   # VTK said yes; the driver has no room
             texture.ReleaseGraphicsResources(window)
             raise MemoryError(f"The GPU (or its driver) has no room for a {self.kind} texture "
                               f"of shape {shape} ({self.array.nbytes / 2**20:.0f} MiB): draw "

@@ -272,7 +272,7 @@ def pyvista_lookup_table(cmap, opacity, n_colors, flip_scalars) -> pyvista.Looku
     try:
         cmap_obj = get_cmap_safe(list(cmap) if isinstance(cmap, tuple) else cmap)
     except Exception as exc:
-        raise VolumeDataError(f"cmap {cmap!r} is not a colormap: {exc}") from exc
+        raise VolumeDataError(unknown_cmap(cmap, exc)) from exc
     if flip_scalars:
         cmap_obj = cmap_obj.reversed()
     lut = pyvista.LookupTable()
@@ -335,3 +335,17 @@ def shift_value(value, offset: int | float) -> float:
     if isinstance(offset, (int, np.integer)) and isinstance(value, (int, np.integer)):
         return float(int(value) - int(offset))
     return float(value) - float(offset)
+
+
+def unknown_cmap(cmap, error: Exception, argument: str = "cmap") -> str:
+    """What to say of a colormap PyVista does not know: the nearest names, and where to look."""
+    import difflib
+
+    import matplotlib
+
+    names = sorted(matplotlib.colormaps)
+    near = difflib.get_close_matches(str(cmap), names, n=4) if isinstance(cmap, str) else []
+    hint = f"did you mean {', '.join(map(repr, near))}? " if near else ""
+    return (f"{argument}={cmap!r} is not a colormap ({error}); {hint}give a name from "
+            "matplotlib.colormaps (e.g. 'viridis', 'magma', 'coolwarm'), colorcet's, or a list "
+            "of colours")

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pyvista
 
-from ..core.errors import VolumeDataError
+from ..core.errors import VolumeDataError, VolumeDataWarning
 from .transfer import TransferFunction, shift_value
 
 NAN_POLICIES = ("raise", "zero")
@@ -45,6 +46,9 @@ class VolumeModel:
     value_offset: int | float = 0
     interpolation: str = "linear"
     colors: np.ndarray | None = None
+
+    def __post_init__(self):
+        check_spacing(self.grid.spacing)
 
     @property
     def dimensions(self) -> tuple[int, int, int]:
@@ -170,6 +174,17 @@ def _thicken_flat_axes(grid: pyvista.ImageData, values: np.ndarray):
     thick = image_data(values.shape[:3], spacing, origin)   # RGBA: 4 components after
     thick.direction_matrix = direction
     return thick, values
+
+
+def check_spacing(spacing, name: str = "spacing") -> None:
+    """Refuse a grid spacing that is zero or not finite on some axis (a flat, lost grid)."""
+    spacing = np.asarray(spacing, dtype=np.float64)
+    if spacing.shape != (3,) or not np.isfinite(spacing).all() or (spacing == 0).any():
+        raise VolumeDataError(
+            f"{name} must be three finite, non-zero numbers, got "
+            f"{tuple(spacing.tolist()) if spacing.ndim == 1 else spacing}: a zero spacing "
+            "puts every point of that axis in one place; give the grid its real spacing "
+            "(e.g. grid.spacing = (1.0, 1.0, 1.0)).")
 
 
 def image_data(dimensions, spacing, origin) -> pyvista.ImageData:
@@ -367,6 +382,13 @@ def _transfer(grid, values, offset, *, cmap, opacity, clim, opacity_unit_distanc
     """The table PyVista's keywords make for these values, data-derived defaults included."""
     if clim is None:
         clim = _data_range(values, offset)
+        if values.size and float(values.min()) == float(values.max()):
+            warnings.warn(
+                f"the volume is constant (every value is {float(values.min()) + offset:g}): "
+                "clim from its range puts every sample at the first entry of the colormap "
+                f"and of opacity={opacity!r}, which draws nothing where that entry is 0; "
+                "pass clim=(low, high) around the value to draw it",
+                VolumeDataWarning, stacklevel=4)
     if categories is True:
         n_colors = max(int(np.unique(values).size), 2)
     elif categories:

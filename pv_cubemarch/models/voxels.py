@@ -14,10 +14,28 @@ import numpy as np
 import pyvista
 
 from ..core.errors import VolumeDataError
-from .volume import box_world_bounds, checked_transform, first_point
+from .transfer import unknown_cmap
+from .volume import box_world_bounds, check_spacing, checked_transform, first_point
 
 #: Most materials a grid may hold (uint16 labels).
 MAX_MATERIALS = 65535
+#: Palette entries per row of the palette texture: 65536 entries in one row would be
+#: wider than GL's 2D limit (16384 on Mesa), which draws nothing without an error.
+PALETTE_WIDTH = 4096
+
+
+def palette_texels(rgba: np.ndarray) -> np.ndarray:
+    """A palette ``(n, 4)`` as the texture the shaders read, wrapped into rows.
+
+    Rows of :data:`PALETTE_WIDTH` entries: material ``m`` at column ``m % width``, row
+    ``m // width``; zero past ``n``.
+    """
+    rgba = np.asarray(rgba, dtype=np.float32)
+    width = min(len(rgba), PALETTE_WIDTH)
+    rows = -(-len(rgba) // width)
+    out = np.zeros((rows * width, 4), np.float32)
+    out[:len(rgba)] = rgba
+    return out.reshape(rows, width, 4)
 
 
 def _material_color(color, material) -> tuple:
@@ -159,6 +177,10 @@ class VoxelModel(PlacedGrid):
     grid_from_index: np.ndarray = field(default_factory=lambda: np.eye(4))
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     name: str = "voxels"
+
+    def __post_init__(self):
+        check_spacing(np.linalg.norm(np.asarray(self.grid_from_index)[:3, :3], axis=0),
+                      "the grid's spacing")
 
     @property
     def dimensions(self) -> tuple[int, int, int]:
@@ -307,6 +329,9 @@ def range_palette(cmap, labels: np.ndarray, clim=None, n_colors: int = 256,
 
         try:
             colormap = get_cmap_safe(list(cmap) if isinstance(cmap, tuple) else cmap)
+        except (ValueError, TypeError) as error:
+            raise VolumeDataError(unknown_cmap(cmap, error)) from error
+        try:
             count = int(n_colors)
             if count < 1 or count != n_colors:
                 raise ValueError(f"n_colors must be a whole number >= 1, got {n_colors!r}")

@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import vtk
 
+from ..core.rendering import needs_open_plotter
 from ..gl.bindings import FloatArray, ShaderBindings
 from ..gl.box import place_box
 from ..gl.drawn import DrawnBinding
@@ -167,6 +168,7 @@ class VolumeData:
                 self._none_empty = True
         return self._bricks
 
+    @needs_open_plotter
     def set_values(self, values, member: str | None = None) -> None:
         """Replace the data of the volume (or of the group's ``member``), same shape."""
         if isinstance(self.model, VolumeGroup):
@@ -444,6 +446,7 @@ class VolumeBinding(DrawnBinding):
             self.light_map.release()
         self.data.release()
 
+    @needs_open_plotter
     def set_transform(self, transform) -> None:
         """Move the volume: ``transform`` is its new 4x4 placement in the world.
 
@@ -460,6 +463,7 @@ class VolumeBinding(DrawnBinding):
             place_box(actor, self.model.world_from_index(), culling=self.vtk_input is None)
         follow_placement(self)
 
+    @needs_open_plotter
     def set_values(self, values, member: str | None = None) -> None:
         """Replace the volume's data (same shape); its GPU copy and skip bricks follow.
 

@@ -83,8 +83,17 @@ def box_of(where, dimensions: Sequence[int]) -> tuple[Box, np.ndarray | None]:
                     for axis in range(3))
         return box, where[box]
     if not isinstance(where, tuple) or len(where) != 3:
-        raise ValueError("where must be an (i, j, k) index, a tuple of three slices or a "
-                         f"boolean mask of the grid's shape, got {where!r}.")
+        raise ValueError("where must be an (i, j, k) index, a tuple of three slices or of "
+                         "three index arrays, or a boolean mask of the grid's shape, got "
+                         f"{where!r}.")
+    if any(np.ndim(item) > 0 for item in where):   # numpy's (i's, j's, k's) index arrays
+        mask = np.zeros(dims, bool)
+        try:
+            mask[tuple(np.asarray(item, dtype=np.int64) for item in where)] = True
+        except (IndexError, ValueError, TypeError) as exc:
+            raise IndexError(f"where as index arrays (i's, j's, k's) must be integers of one "
+                             f"length inside the grid's shape {dims}: {exc}") from exc
+        return box_of(mask, dims)
     box = []
     for axis, (item, n) in enumerate(zip(where, dims, strict=True)):
         if isinstance(item, slice):

@@ -29,7 +29,13 @@ from ..models.chunk_pool import (
     world_filled_bounds,
 )
 from ..models.volume import checked_transform
-from ..models.voxels import MAX_TEXTURE_SIZE, atlas_updates, bounds_in_cells, filled_bounds
+from ..models.voxels import (
+    MAX_TEXTURE_SIZE,
+    atlas_updates,
+    bounds_in_cells,
+    filled_bounds,
+    palette_texels,
+)
 from ..models.world import VoxelWorld
 from .options import VoxelOptions, drawn_level
 from .technique import bind_grid, voxel_recipe
@@ -102,7 +108,7 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
         self.pool = Texture(self._pool_texels(), kind="3d", interpolate=False,
                             rebuild=self._pool_texels)
         self.index = Texture(self._index(), kind="3d", interpolate=False)
-        self.palette_texture = Texture(world.palette.rgba.reshape(1, -1, 4), kind="2d",
+        self.palette_texture = Texture(palette_texels(world.palette.rgba), kind="2d",
                                        interpolate=False)
         self._palette_seen = (world.palette, world.palette.version)
         self.drawn_bounds = bounds_in_cells(world_filled_bounds(world), drawn_level(options),
@@ -173,7 +179,7 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
         if palette is self._palette_seen[0] and palette.version == self._palette_seen[1]:
             return
         self._palette_seen = (palette, palette.version)
-        self.palette_texture.set_data(palette.rgba.reshape(1, -1, 4))
+        self.palette_texture.set_data(palette_texels(palette.rgba))
         self.index.set_data(self._index())
 
     def _write(self, box, values: np.ndarray) -> None:

@@ -19,6 +19,7 @@ from ..gl.box import box_actor, place_box
 from ..gl.frame_inputs import frame_inputs
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
+from ..models.voxels import palette_texels
 
 
 def translucent_materials(rgba: np.ndarray) -> np.ndarray:
@@ -62,7 +63,7 @@ class TranslucentLayers:
         self.actor.GetProperty().LightingOff()
         self.actor.PickableOff()
         self.renderer = renderer
-        self.palette = Texture(model.palette.rgba.reshape(1, -1, 4), kind="2d",
+        self.palette = Texture(palette_texels(model.palette.rgba), kind="2d",
                                interpolate=False)
         bindings = ShaderBindings(self.actor.GetMapper(), renderer)
         bindings.add_texture("cm_labels", binding.labels)   # the opaque actor's, shared
@@ -83,7 +84,7 @@ class TranslucentLayers:
 
     def set_palette(self, rgba: np.ndarray) -> None:
         """The palette changed: the layers read its new colours and opacities."""
-        self.palette.set_data(np.asarray(rgba).reshape(1, -1, 4))
+        self.palette.set_data(palette_texels(rgba))
 
     def place(self, world_from_index: np.ndarray) -> None:
         """The grid moved."""

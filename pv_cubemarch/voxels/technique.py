@@ -18,6 +18,7 @@ import pyvista
 
 from ..core.camera import Camera
 from ..core.registry import Technique, register_technique
+from ..core.rendering import needs_open_plotter
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, box_actor, camera_matrices, faces_for_peeling
 from ..gl.drawn import DrawnBinding
@@ -36,6 +37,7 @@ from ..models.voxels import (
     filled_bounds,
     level_atlas,
     occupancy_levels,
+    palette_texels,
     safe_radii,
     useful_levels,
 )
@@ -246,6 +248,7 @@ class VoxelBinding(DrawnBinding):
         """
         return [t for t in (self.labels, *self.skipping) if t.rebuild is not None]
 
+    @needs_open_plotter
     def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
         """Change a material's colour and/or opacity (0 hides it); the labels stay uploaded.
 
@@ -262,9 +265,9 @@ class VoxelBinding(DrawnBinding):
         """
         rgba = self.model.palette.rgba
         if not self.composites:
-            self.palette_texture.set_data(rgba.reshape(1, -1, 4))
+            self.palette_texture.set_data(palette_texels(rgba))
             return
-        self.palette_texture.set_data(opaque_palette(rgba).reshape(1, -1, 4))
+        self.palette_texture.set_data(palette_texels(opaque_palette(rgba)))
         wanted = translucent_materials(rgba).size > 0
         if wanted and self.layers is None:
             self.layers = TranslucentLayers(self, self.renderer, bind_grid)
@@ -304,6 +307,7 @@ class VoxelBinding(DrawnBinding):
         if self.layers is not None:
             self.layers.place(self.model.world_from_index())
 
+    @needs_open_plotter
     def set_voxels(self, where, material: int) -> None:
         """Set voxels to ``material`` (0 empties them); shown at the next frame.
 
@@ -318,14 +322,17 @@ class VoxelBinding(DrawnBinding):
         """
         editing.set_voxels(self, where, material)
 
+    @needs_open_plotter
     def fill_sphere(self, center, radius: float, material: int) -> None:
         """Set the voxels whose centre is within ``radius`` of ``center`` (index space)."""
         editing.fill_sphere(self, center, radius, material)
 
+    @needs_open_plotter
     def fill_box(self, lower, upper, material: int) -> None:
         """Set the voxels ``lower <= (i, j, k) < upper`` to ``material``."""
         editing.fill_box(self, lower, upper, material)
 
+    @needs_open_plotter
     def set_block(self, where, values) -> None:
         """Write the labels ``values`` into the box ``where`` (a tuple of three slices).
 
@@ -333,10 +340,12 @@ class VoxelBinding(DrawnBinding):
         """
         editing.set_block(self, where, values)
 
+    @needs_open_plotter
     def set_values(self, labels) -> None:
         """Replace every label (same shape; values within the palette); uploaded whole."""
         editing.set_values(self, labels)
 
+    @needs_open_plotter
     def pick(self, x: int, y: int) -> VoxelPick | None:
         """The voxel under pixel ``(x, y)``, or ``None`` where the grid shows nothing.
 
@@ -423,7 +432,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     actor.ForceTranslucentOff()
     actor.ForceOpaqueOn()
     actor.GetProperty().LightingOff()   # VTK's lighting code would run for nothing
-    palette = Texture(model.palette.rgba.reshape(1, -1, 4), kind="2d", interpolate=False)
+    palette = Texture(palette_texels(model.palette.rgba), kind="2d", interpolate=False)
     bindings = ShaderBindings(actor.GetMapper(), renderer)
     labels = bind_labels(bindings, model, options, levels)
     bindings.add_texture("cm_palette", palette)

@@ -25,12 +25,13 @@ import pyvista
 import vtk
 
 from ..core.frame_errors import observe
+from ..core.rendering import needs_open_plotter
 from ..gl.box import camera_matrices
 from ..gl.drawn import DrawnBinding
 from ..gl.face_depth import FaceDepthPass
 from ..gl.overlay import bounds_proxy
 from ..models.volume import checked_transform
-from ..models.voxels import occupied_bricks
+from ..models.voxels import occupied_bricks, palette_texels
 from ..models.world import VoxelWorld
 from . import editing
 from .occluders import WorldOccluders
@@ -251,11 +252,12 @@ class WorldBinding(WorldEditing):
         """Bytes of every chunk's labels, levels and distance field sent so far."""
         return sum(c.uploaded_bytes for c in self.chunks.values())
 
+    @needs_open_plotter
     def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
         """Change a material's colour and/or opacity (0 hides it) in every chunk."""
         self.model.palette.set_color(material, color, opacity)
         for chunk in self.chunks.values():
-            chunk.palette_texture.set_data(self.model.palette.rgba.reshape(1, -1, 4))
+            chunk.palette_texture.set_data(palette_texels(self.model.palette.rgba))
         self.occluders.rebuild()   # which bricks are solid depends on what is shown
 
     def _write(self, box, values: np.ndarray) -> None:

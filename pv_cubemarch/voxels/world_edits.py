@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.camera import Camera
+from ..core.rendering import needs_open_plotter
 from ..reference.rays import ray_box_interval
 from ..reference.voxels import trace_voxels
 from . import editing
@@ -24,6 +25,7 @@ class WorldEditing:
     ``renderer`` and ``_write(box, values)``.
     """
 
+    @needs_open_plotter
     def set_voxels(self, where, material: int) -> None:
         """Set voxels to ``material`` (0 empties them): an index, slices or world mask."""
         value = self._checked_material(material)
@@ -41,6 +43,7 @@ class WorldEditing:
         """The labels' type, or uint16 for a label above 255 (the world widens to it)."""
         return np.dtype(np.uint16) if value > 255 else self.model.dtype
 
+    @needs_open_plotter
     def fill_sphere(self, center, radius: float, material: int) -> None:
         """Set the voxels whose centre is within ``radius`` of ``center`` (world indices)."""
         value = self._checked_material(material)
@@ -51,10 +54,12 @@ class WorldEditing:
         block[local] = value
         self._write(box, block)
 
+    @needs_open_plotter
     def fill_box(self, lower, upper, material: int) -> None:
         """Set the voxels ``lower <= (i, j, k) < upper`` to ``material``."""
         self.set_voxels(editing.clipped_box(lower, upper, self.model.dimensions), material)
 
+    @needs_open_plotter
     def set_block(self, where, values) -> None:
         """Write the labels ``values`` into the box ``where`` (a tuple of three slices)."""
         box, mask = editing.box_of(where, self.model.dimensions)
@@ -67,6 +72,7 @@ class WorldEditing:
         if values.size:
             self._write(box, values)
 
+    @needs_open_plotter
     def set_values(self, labels) -> None:
         """Replace every label (the world's shape)."""
         labels = np.asarray(labels)
@@ -79,6 +85,7 @@ class WorldEditing:
         """``material`` if the palette has it (a world's labels widen to uint16 on need)."""
         return editing.check_material(material, np.uint16, self.model.palette)
 
+    @needs_open_plotter
     def pick(self, x: int, y: int) -> VoxelPick | None:
         """The voxel under pixel ``(x, y)`` (from the top-left), or ``None``.
 
