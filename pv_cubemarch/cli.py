@@ -13,6 +13,7 @@ from .bench import edits as bench_edits
 from .bench import harness as bench
 from .bench import large as bench_large
 from .bench import resolution as bench_resolution
+from .bench import soak as bench_soak
 from .bench import surface_layers as bench_surface_layers
 from .bench import surfaces as bench_surfaces
 from .bench import voxel_layers as bench_layers
@@ -222,6 +223,14 @@ def build_parser() -> argparse.ArgumentParser:
     edits.add_argument("--world", type=int, default=0, metavar="COUNT",
                        help="also edit a terrain of COUNT x COUNT chunks of --size^3 (e.g. 10)")
     edits.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    soak = bench_commands.add_parser(
+        "soak", help="memory per 100 frames of each technique under random cameras, edits "
+                     "and re-adds (flat: no leak)")
+    soak.add_argument("--frames", type=int, default=500, help="frames per technique")
+    soak.add_argument("--techniques", type=lambda t: [v.strip() for v in t.split(",")],
+                      default=None, help=f"comma list of {', '.join(bench_soak.TECHNIQUES)}")
+    soak.add_argument("--size", type=_size, default=(160, 120), help="WxH (default 160x120)")
+    soak.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     large = bench_commands.add_parser(
         "voxel-large", help="a sparse 2048x2048x512 label volume: chunks, bytes, exactness")
     large.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
@@ -467,6 +476,8 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
 
 
 def _bench(args) -> int:
+    if args.bench_command == "soak":
+        return _bench_soak(args)
     if args.bench_command == "voxels":
         return _bench_voxels(args)
     if args.bench_command == "voxel-edits":
@@ -571,6 +582,26 @@ def _bench_voxel_edits(args) -> int:
         Path(args.json_path).write_text(json.dumps({
             "edits": [vars(r) for r in edits], "automata": [vars(r) for r in automata],
             "size": args.size, "gl_renderer": gl_info()["renderer"]}, indent=1))
+        print(f"wrote {args.json_path}")
+    return 0
+
+
+def _bench_soak(args) -> int:
+    unknown = set(args.techniques or ()) - set(bench_soak.TECHNIQUES)
+    if unknown:
+        raise SystemExit(f"bench soak: unknown techniques {sorted(unknown)}; choose from "
+                         f"{', '.join(bench_soak.TECHNIQUES)}")
+    rows = bench_soak.run_soak(args.frames, args.techniques, args.size)
+    print(f"{args.frames} frames per technique at {args.size[0]}x{args.size[1]}, a random "
+          f"camera each frame, an edit every {bench_soak.EDIT_EVERY} frames, the actor removed "
+          f"and added again every {bench_soak.WINDOW}; resident MiB of this process after "
+          "each 100 frames (the slope leaves out the first 100)")
+    print(bench_soak.format_soak(rows))
+    if args.json_path:
+        Path(args.json_path).write_text(json.dumps({
+            "rows": [{**vars(r), "growth_mib_per_100": r.growth_mib_per_100} for r in rows],
+            "frames": args.frames, "size": list(args.size),
+            "gl_renderer": gl_info()["renderer"]}, indent=1))
         print(f"wrote {args.json_path}")
     return 0
 

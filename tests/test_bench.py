@@ -74,6 +74,24 @@ def test_bench_cli(tmp_path, capsys):
     assert json.loads(out.read_text())["meta"]["technique"] == ["pyvista"]
 
 
+def test_soak_reads_memory_each_window_and_gives_it_back(tmp_path, capsys, monkeypatch):
+    # catches: the soak reading nothing (an empty table), or a re-add that leaks the removed
+    # actor's GPU bytes (each window's GPU bytes must equal the first's: one actor held)
+    from pv_cubemarch.bench import soak
+    monkeypatch.setattr(soak, "WINDOW", 10)
+    out = tmp_path / "soak.json"
+    assert main(["bench", "soak", "--frames", "30", "--techniques", "volume direct,voxels",
+                 "--size", "48x36", "--json", str(out)]) == 0
+    assert "MiB/100 frames" in capsys.readouterr().out
+    rows = json.loads(out.read_text())["rows"]
+    assert [r["technique"] for r in rows] == ["volume direct", "voxels"]
+    for r in rows:
+        assert len(r["resident_mib"]) == 3 and min(r["resident_mib"]) > 0
+        assert r["gpu_bytes"][0] > 0 and len(set(r["gpu_bytes"])) == 1, r["gpu_bytes"]
+    with pytest.raises(SystemExit, match="unknown techniques"):
+        main(["bench", "soak", "--techniques", "nope"])
+
+
 @pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_tradeoff_measures_each_blend_mode_against_its_reference_and_pyvista():
     """Rows per blend mode, each against that mode's CPU reference, and against PyVista.

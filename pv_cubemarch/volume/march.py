@@ -168,7 +168,6 @@ class VolumeData:
                 self._none_empty = True
         return self._bricks
 
-    @needs_open_plotter
     def set_values(self, values, member: str | None = None) -> None:
         """Replace the data of the volume (or of the group's ``member``), same shape."""
         if isinstance(self.model, VolumeGroup):
