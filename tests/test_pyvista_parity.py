@@ -678,13 +678,12 @@ def test_labels_past_16383_draw_what_threshold_and_add_mesh_draw():
     grid = wavelet_label_grid(lambda c: 1 + (c[:, 0] > 0) + (c[:, 1] > 1))
     grid.cell_data["labels"] = ids[grid.cell_data["labels"]]
     colors = ["tomato", "gold", "steelblue"]
+    palette = dict(zip(ids[1:].tolist(), colors, strict=True))
     reference, image = theirs_and_ours(
         lambda pl: pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels",
                                categories=True, cmap=colors, lighting=False,
                                show_scalar_bar=False),
-        lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=dict(zip(ids[1:].tolist(),
-                                                                            colors)),
-                                           shading="unlit"),
+        lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=palette, shading="unlit"),
         grid.bounds)
     off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
     assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)

@@ -127,13 +127,13 @@ def test_numpy_rgba_and_new_values():
     actor.cubemarch.set_values(new)
     image = cm.render_image(pl)
     camera = Camera.from_pyvista(pl.camera)
+    with pytest.raises(ValueError, match="uint8 of shape"):
+        actor.cubemarch.set_values(new[..., :3])
     pl.close()
     model = actor.cubemarch.model
     assert model.colors is not None and (model.colors == new).all()
     reference = render_emission_absorption(model, camera, (120, 100), step_voxels=0.25)
     assert_close_to_reference(image, reference, 40.0, background=(0, 0, 0))
-    with pytest.raises(ValueError, match="uint8 of shape"):
-        actor.cubemarch.set_values(new[..., :3])
 
 
 def test_what_rgba_cannot_draw_is_refused():

@@ -1,12 +1,12 @@
 """The OpenVDB reader against a deterministic corpus of hostile files, beside libopenvdb.
 
-The corpus (``tests/tools/vdb_fuzz.py``): every field the reader reads in eight small
-seed files (the shipped smoke grid, files OpenVDB itself wrote, files of the test writer
-in zip, uncompressed and no-offset layouts; pyopenvdb cannot read its double grid) set to extreme and nearby values, each seed
-cut short at several places, and crafted bombs (a zip bomb, a blosc header claiming a
-gibibyte, a grid count of 2^31-1 whose end offset points back, far tiles, deep or
-unregistered tree layouts, a tile bomb). Each case is read by our reader in a worker
-under a memory cap and a time limit, and by libopenvdb (pyopenvdb) in another.
+The corpus (``tests/tools/vdb_fuzz.py``): every field the reader reads in eight small seed
+files (the shipped smoke grid, files OpenVDB itself wrote, files of the test writer in zip,
+uncompressed and no-offset layouts; pyopenvdb cannot read its double grid) set to extreme
+and nearby values, each seed cut short at several places, and crafted bombs (a zip bomb, a
+blosc header claiming a gibibyte, a grid count of 2^31-1 whose end offset points back, far
+tiles, deep or unregistered tree layouts, a tile bomb). Each case is read by our reader in a
+worker under a memory cap and a time limit, and by libopenvdb (pyopenvdb) in another.
 
 Held: no case hangs, crashes or raises anything but ``VdbFormatError``; no case traces
 more than the read's byte budget plus a small constant; and wherever both read a file,
@@ -28,6 +28,9 @@ from tools.vdb_writer import random_leaves, write_vdb
 import pv_cubemarch as cm
 import pv_cubemarch.scene.openvdb as vf
 from tools import vdb_fuzz
+
+#: About 40 s: CI runs it in the long tests' own step (pytest -m slow), beside the default run.
+pytestmark = pytest.mark.slow
 
 #: The byte budget each case is read with, and what the worker may trace beyond it.
 BUDGET = 32 << 20
