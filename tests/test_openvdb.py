@@ -120,6 +120,19 @@ def test_stride_and_region(ref_dir):
     assert (outside.values == full.background).all()
 
 
+def test_a_region_of_a_bool_grid_reads_only_its_leaves(ref_dir):
+    # catches: every bool leaf's values paired with the origins of the leaves in the box
+    # (numpy's "shape mismatch" for any box leaving a leaf out)
+    path = ref_dir / "bool_vec.vdb"
+    full = vf.read_grid(path, "mask")
+    lo = np.array(full.origin_index)
+    part = vf.read_grid(path, "mask", region=(tuple(lo + 3), tuple(lo + (22, 45, 30))))
+    np.testing.assert_array_equal(part.values, full.values[3:23, 3:46, 3:31])
+    assert part.values.any() and part.stats["leaves"] > 1
+    # and the box holds some leaves, not all: the fault needs both
+    assert full.values[3:23, 3:46, 3:31].sum() < full.values.sum()
+
+
 def test_too_large(ref_dir):
     with pytest.raises(vf.VdbFormatError, match="region=.*stride="):
         vf.read_grid(ref_dir / "root_tile.vdb")

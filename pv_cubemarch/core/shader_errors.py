@@ -50,6 +50,21 @@ def watch_shader_errors(snippets: tuple[str, ...] = ()):
     finally:
         window.RemoveObserver(tag)
     raise_for_shader_errors(messages, snippets)
+    raise_for_texture_errors(messages)
+
+
+def raise_for_texture_errors(messages: list[str]) -> None:
+    """Raise where VTK's own upload refused a texture (its volume mapper then draws nothing)."""
+    refused = next((m for m in messages if "Invalid texture dimensions" in m), None)
+    if refused is None:
+        return
+    shape = re.search(r"Invalid texture dimensions \[([^\]]*)\]", refused)
+    raise RuntimeError(
+        f"VTK's volume mapper could not make a 3D texture of "
+        f"{'[' + shape.group(1) + ']' if shape else 'this volume'} points: it is past this "
+        "GL's GL_MAX_3D_TEXTURE_SIZE (pv-cubemarch info --gl), and the volume would draw "
+        "nothing; pass a coarser copy (values[::2, ::2, ::2], or grid.extract_subset(extent, "
+        "rate=(2, 2, 2))) or a part of it")
 
 
 def raise_for_shader_errors(messages: list[str], snippets: tuple[str, ...]) -> None:

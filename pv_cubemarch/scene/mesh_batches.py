@@ -4,7 +4,9 @@ A stage of 20 000 prims would otherwise be 20 000 actors, each added under its n
 PyVista looks every name up among all actors: quadratic time). Parts with the same
 material, colour, shading and point/cell arrays draw the same merged or apart, so each such
 group becomes one mesh (a cell array says which part each cell came from). Translucent
-parts stay alone: their order of drawing matters.
+parts stay alone (their order of drawing matters), and so do parts whose material reads a
+primvar other than the colour (drawn as its mean over each part). A merged group is one
+actor: hiding or recolouring it acts on every part in it.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import numpy as np
 import pyvista
 import vtk
 
+from .materials import PrimvarInput
 from .parts import SceneMesh
 
 #: Parts appended at a time (one vtkAppendPolyData of thousands of inputs is slower).
@@ -30,8 +33,11 @@ def draw_key(part: SceneMesh) -> str | None:
     if part.opacity < 1.0 or not isinstance(opacity, (int, float)) or opacity < 1.0:
         return None
     mesh = part.mesh
-    if not isinstance(mesh, pyvista.PolyData):
-        return None
+    if not isinstance(mesh, pyvista.PolyData) or mesh.GetFieldData().GetNumberOfArrays():
+        return None   # constant primvars (field data) would keep the first part's alone
+    if material is not None and any(isinstance(getattr(material, f.name), PrimvarInput)
+                                    for f in fields(material) if f.name != "diffuse_color"):
+        return None   # a primvar read as metallic, roughness...: drawn as its mean per part
     look = tuple((f.name, getattr(part, f.name)) for f in fields(part)
                  if f.name not in ("name", "mesh"))
     arrays = tuple(_arrays(data) for data in (mesh.GetPointData(), mesh.GetCellData(),

@@ -44,8 +44,9 @@ def _reduction(size: tuple[int, int], texel_bytes: int, budget: int) -> int:
     """The least whole factor that brings an image within the budget and the GL limit."""
     width, height = size
     factor = 1
-    while (max(width, height) > MAX_TEXTURE_SIDE * factor
-           or -(-width // factor) * -(-height // factor) * texel_bytes > budget):
+    while factor < max(width, height) and (
+            max(width, height) > MAX_TEXTURE_SIDE * factor
+            or -(-width // factor) * -(-height // factor) * texel_bytes > budget):
         factor += 1
     return factor
 
@@ -72,8 +73,13 @@ def _decoded(file: str, data: bytes | None, stamp: int | None, budget: int
             note = None
             if factor > 1:
                 original = image.size
-                image = image.reduce(factor) if max(image.size) > MAX_TEXTURE_SIDE or \
-                    image.size[0] * image.size[1] * texel > budget else image
+                if image.mode in ("P", "PA"):       # reduce() averages colours, not indices
+                    image = image.convert("RGBA")
+                if max(image.size) > MAX_TEXTURE_SIDE or \
+                        image.size[0] * image.size[1] * texel > budget:
+                    image = image.reduce(factor) if not sixteen else image.resize(
+                        (-(-image.size[0] // factor), -(-image.size[1] // factor)),
+                        Image.Resampling.NEAREST)   # 16-bit modes: no reduce()
                 note = (f"a {original[0]}x{original[1]} texture is drawn at {image.size[0]}x"
                         f"{image.size[1]} (the GL limit of {MAX_TEXTURE_SIDE} texels a side "
                         f"and {budget} bytes per texture; {TEXTURE_BYTES_ENV} raises the "

@@ -11,10 +11,8 @@ from dataclasses import dataclass
 
 from ..core.declared import AUTO, Control, Option, check_declared, declare, scalar_bar_terms
 from ..models.channels import CHANNEL_MIXES
-from ..models.group import VolumeGroup
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
 from ..models.volume import INTERPOLATIONS
-from ..models.voxels import MAX_TEXTURE_SIZE
 from .march import BLEND_MODES, MAX_ISOSURFACES, MAX_STEPS, Blend, most_texels
 
 #: Default finest face size ``S_0`` of the cube map (texels per face edge at MIP level 0).
@@ -217,23 +215,6 @@ class Shading:
         return Blend(self.blending, tuple(self.isosurfaces), self.gradient)
 
 
-def refuse_past_texture_limit(model) -> None:
-    """Refuse a volume whose data no 3D texture holds (VTK's mapper would draw nothing).
-
-    Members of a group are textures of their own; a group's virtual grid is not uploaded.
-    """
-    grids = model.members if isinstance(model, VolumeGroup) else [model]
-    for grid in grids:
-        if max(grid.dimensions) > MAX_TEXTURE_SIZE:
-            step = -(-max(grid.dimensions) // MAX_TEXTURE_SIZE)
-            raise ValueError(
-                f"A volume of {tuple(int(n) for n in grid.dimensions)} points is over "
-                f"{MAX_TEXTURE_SIZE} on a side, the largest 3D texture assumed here (GL "
-                f"draws nothing past it, with no error): pass a coarser copy, e.g. "
-                f"values[::{step}, ::{step}, ::{step}] or grid.extract_subset(grid.extent, "
-                f"rate=({step}, {step}, {step})), or a part of it (crop the array).")
-
-
 @dataclass(frozen=True)
 class MarchOptions:
     """``technique='vtk'``: the step along the ray."""
@@ -250,7 +231,6 @@ class MarchOptions:
         The marcher takes any number of steps up to ``MAX_STEPS`` per ray (per piece of a
         ray in a joint group); beyond that the ray would be cut short, silently too light.
         """
-        refuse_past_texture_limit(model)
         texels = most_texels(model)
         refuse_more_steps(f"step_scale={self.step_scale:g}", texels / float(self.step_scale),
                           f"step_scale >= {texels / MAX_STEPS:.3g}")
@@ -282,7 +262,6 @@ class CubeMapOptions:
 
     def check_model(self, model) -> None:
         """Refuse ``max_samples`` that would ask a ray for more steps than it takes."""
-        refuse_past_texture_limit(model)
         samples = int(self.max_samples or default_max_samples(model))
         # The cube map steps (longest axis of the volume's own grid) / samples texels.
         steps = samples * most_texels(model) / max(max(model.dimensions) - 1, 1)

@@ -259,8 +259,8 @@ def _tile_bomb(nodes: int) -> bytes:
 # ---------------------------------------------------------------------- workers
 
 
-class _HangError(Exception):
-    pass
+class _HangError(BaseException):
+    """Raised by the alarm; not an Exception, so no ``except Exception`` in a reader hides it."""
 
 
 def _on_alarm(*_args):
@@ -281,6 +281,18 @@ def _read_ours(path: str, max_bytes: int) -> dict:
     out = {}
     for k, info in enumerate(vf.list_grids(path)):
         grid = vf.read_grid(path, info.name, info.index, max_bytes=max_bytes)
+        # a coarser copy and a part read as the whole read's slices (their own code paths)
+        if grid.values.size:
+            lo, shape = np.array(grid.origin_index), np.array(grid.values.shape[:3])
+            coarse = vf.read_grid(path, info.name, info.index, stride=2, max_bytes=max_bytes)
+            part = vf.read_grid(path, info.name, info.index, max_bytes=max_bytes,
+                                region=(tuple(lo + shape // 4), tuple(lo + shape // 2)))
+            a, b = shape // 4, shape // 2 + 1
+            for got, want in ((coarse.values, grid.values[::2, ::2, ::2]),
+                              (part.values, grid.values[a[0]:b[0], a[1]:b[1], a[2]:b[2]])):
+                if got.shape != want.shape or not np.array_equal(
+                        got, want, equal_nan=got.dtype.kind == "f"):
+                    raise AssertionError("a stride or region read differs from the whole")
         out[f"g{k}_name"] = np.array(info.name)
         out[f"g{k}_index"] = np.array(info.index)
         out[f"g{k}_values"] = grid.values

@@ -364,8 +364,10 @@ def _fill_dense(dense: np.ndarray, tree: Tree, lo: np.ndarray, stride: int,
     flat = dense.reshape((-1,) + dense.shape[3:])
     shape = dense.shape[:3]
     if tree.small_origins:
-        values = np.concatenate(tree.small_values)
-        _scatter_blocks(flat, shape, lo, stride, np.concatenate(tree.small_origins),
+        origins = np.concatenate(tree.small_origins)
+        near = _leaf_wanted(origins, tree.leaf_dim, lo, shape, stride)   # tiles in the box
+        values = np.concatenate(tree.small_values)[near]
+        _scatter_blocks(flat, shape, lo, stride, origins[near],
                         values.reshape((len(values), 1) + values.shape[1:]), tree.leaf_dim)
     if leaf_values is not None:
         _scatter_blocks(flat, shape, lo, stride, leaf_origins, leaf_values, tree.leaf_dim)

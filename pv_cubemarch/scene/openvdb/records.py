@@ -401,10 +401,10 @@ def read_descriptor(buf: Buf, header: Header, seen: dict) -> Descriptor:
     compression = buf.u32("compression flags")
     at = buf.pos
     metadata = _read_metadata(buf)
-    if "is_saved_as_half_float" in metadata and bool(metadata["is_saved_as_half_float"]) \
-            != half and tree_type.split("_")[1:2] in (["float"], ["double"], ["vec3s"],
-                                                       ["vec3d"]):
-        # OpenVDB decodes values as the metadata says, the tree type's suffix says otherwise
+    real = tree_type.split("_")[1:2] in (["float"], ["double"], ["vec3s"], ["vec3d"])
+    if real and bool(metadata.get("is_saved_as_half_float", False)) != half:
+        # OpenVDB decodes values as this metadata says (absent: full precision); the tree
+        # type's suffix saying otherwise is a damaged file, read two ways
         raise corrupt(at, "grid metadata", "is_saved_as_half_float disagrees with the tree "
                                            f"type {tree_type + (HALF_SUFFIX if half else '')!r}")
     map_type, matrix = _read_transform(buf)

@@ -288,7 +288,7 @@ def read_root(buf: Buf, codec: Codec, dims: list[int]) -> Tree:
     at = buf.pos
     num_tiles = buf.count("<I", rec.itemsize, "root tile count")
     num_children = buf.count("<I", 12 + 2 * (1 << 3 * dims[0]) // 8, "root child count")
-    codec.budget.spend((num_tiles + num_children) * 64, "root tiles")
+    codec.budget.spend((num_tiles + num_children) * 256, "root tiles")   # with their keys
     tiles = np.frombuffer(buf.take(rec.itemsize * num_tiles, "root tiles"), dtype=rec)
     origins = tiles["o"].astype(np.int64)
     if (origins % child_dim).any():
@@ -348,7 +348,8 @@ def read_leaves(buf: Buf, codec: Codec, tree: Tree, masks: np.ndarray, wanted: n
     mask_bytes = voxels // 8
     raw_masks = b"".join(tree.leaf_masks)
     if codec.is_bool:
-        return _read_bool_leaves(buf, masks, raw_masks, tree)
+        values = _read_bool_leaves(buf, masks, raw_masks, tree)
+        return values[wanted] if wanted.any() else None
     counts = masks.sum(axis=1)
     modes = np.full(n, NO_MASK_AND_ALL_VALS, np.uint8)
     inactive_raw = {}

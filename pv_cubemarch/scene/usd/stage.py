@@ -208,9 +208,8 @@ def placed(part: SceneMesh, matrix: np.ndarray) -> SceneMesh:
         return part
     mirrored = np.linalg.det(matrix[:3, :3]) < 0
     mesh = with_winding_reversed(part.mesh) if mirrored else part.mesh.copy()
-    points = mesh.points        # a view of the copy's points: moved in place
-    points[:] = points @ matrix[:3, :3].T + matrix[:3, 3]
-    mesh.GetPoints().Modified()
+    # in double precision: float32 points far from the origin would lose their shape
+    mesh.points = np.asarray(mesh.points, dtype=np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
     if "Normals" in mesh.point_data and not np.array_equal(matrix[:3, :3], np.eye(3)):
         mesh.point_data["Normals"] = turned_normals(mesh.point_data["Normals"], matrix)
         mesh.point_data.active_normals_name = "Normals"
