@@ -133,8 +133,9 @@ def test_plotter_show_in_a_notebook_streams_our_rendering(tmp_path):
         camera = eval(book.cells[1].outputs[0]["text"])     # noqa: S307 (our own print)
         outputs = str(book.cells[0].outputs)
         assert "vtk.js" in outputs                          # the client backend's warning
-        url = re.search(r'src="(http://localhost:\d+/[^"]*)"', outputs).group(1) \
-            .replace("&amp;", "&")
+        # the text/html iframe (text/plain shows the same widget cut short, without its secret)
+        url = next(u for u in re.findall(r'src="(http://localhost:\d+/[^"]*)"', outputs)
+                   if "secret=" in u).replace("&amp;", "&")
         browser = launch(driver)
         try:
             page = browser.new_page(viewport={"width": 900, "height": 700})
