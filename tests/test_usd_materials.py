@@ -513,3 +513,16 @@ def test_a_texture_over_the_budget_is_reduced_kept_as_bytes_and_noted(tmp_path, 
     assert peak < 40 << 20, f"{peak / 2**20:.0f} MiB traced"
     note = textures.texture_note(texture)
     assert "6000x5000" in note and "2000x1667" in note and textures.TEXTURE_BYTES_ENV in note
+
+
+def test_a_dome_texture_bomb_is_a_warning_and_the_rest_draws(tmp_path):
+    # catches: the dome image decoded with no bomb check and as float64 (an uncaught
+    # DecompressionBombError ended the render)
+    _bomb_png(tmp_path / "sky.png")
+    path = quad_stage(tmp_path, texture=None, lights=None)
+    stage = Usd.Stage.Open(str(path))
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateTextureFileAttr(Sdf.AssetPath("./sky.png"))
+    stage.GetRootLayer().Save()
+    with pytest.warns(cm.SceneWarning, match="decompression bomb"):
+        image = render(path)
+    assert np.abs(image[100, 100] - image[3, 3]).sum() > 30        # the quad is drawn

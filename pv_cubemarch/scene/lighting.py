@@ -16,10 +16,9 @@ from pathlib import Path
 import numpy as np
 import pyvista
 import vtk
-from PIL import Image
 
 from .parts import SceneLight
-from .textures import srgb_to_linear
+from .textures import srgb_to_linear, stored_texels, unit_rgba
 
 #: USD's latitude-longitude convention (longitude 0 on +z, +x a quarter turn on) from VTK's.
 _LATLONG_ROTATION = ((0.0, 0.0, -1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))
@@ -148,9 +147,11 @@ def _latlong(path: str) -> np.ndarray:
         return np.asarray(values, dtype=np.float64).reshape(height, width, -1)[..., :3]
     if Path(path).suffix.lower() == ".exr":
         raise ValueError("OpenEXR images are not read (VTK has no EXR reader)")
-    with Image.open(path) as picture:
-        rgb = np.asarray(picture.convert("RGB"), dtype=np.float64) / 255.0
-    return srgb_to_linear(rgb)[::-1]
+    # decoded as the textures are: within their byte budget and the GL limit, a
+    # decompression bomb a TextureError (a ValueError: the dome is reported, not drawn)
+    texels, _eight_bit, _note = stored_texels(path)
+    rgb = unit_rgba(texels)[..., :3]
+    return (srgb_to_linear(rgb) if texels.dtype == np.uint8 else rgb)[::-1]   # 8-bit: sRGB
 
 
 def _float_texture(rgb: np.ndarray) -> vtk.vtkTexture:

@@ -106,7 +106,7 @@ def _decoded(file: str, data: bytes | None, stamp: int | None, budget: int
     return texels, eight_bit, note
 
 
-def _unit_rgba(texels: np.ndarray) -> np.ndarray:
+def unit_rgba(texels: np.ndarray) -> np.ndarray:
     """Stored texels as float32 RGBA in [0, 1] (grey as (v, v, v, 1))."""
     if texels.dtype == np.uint8:
         return texels.astype(np.float32) / np.float32(255.0)
@@ -119,6 +119,11 @@ def _unit_rgba(texels: np.ndarray) -> np.ndarray:
 def _stored(texture: TextureInput) -> tuple[np.ndarray, bool, str | None]:
     stamp = None if texture.data is not None else os.stat(texture.file).st_mtime_ns
     return _decoded(texture.file, texture.data, stamp, texture_budget())
+
+
+def stored_texels(path: str) -> tuple[np.ndarray, bool, str | None]:
+    """An image file's texels as stored, whether 8-bit, and a note (see :func:`_decoded`)."""
+    return _decoded(str(path), None, os.stat(path).st_mtime_ns, texture_budget())
 
 
 def texture_note(texture: TextureInput) -> str | None:
@@ -152,7 +157,7 @@ def texture_values(texture: TextureInput) -> np.ndarray:
 def _values(file: str, data: bytes | None, stamp, color_space: str, scale: tuple,
             bias: tuple, channels: str) -> np.ndarray:
     texels, eight_bit, _note = _decoded(file, data, stamp, texture_budget())
-    rgba = _unit_rgba(texels)
+    rgba = unit_rgba(texels)
     if color_space == "sRGB" or color_space == "auto" and eight_bit:
         rgba[..., :3] = srgb_to_linear(rgba[..., :3])
     if scale != (1.0, 1.0, 1.0, 1.0) or bias != (0.0, 0.0, 0.0, 0.0):
