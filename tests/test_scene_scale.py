@@ -70,3 +70,21 @@ def test_translucent_parts_stay_apart(tmp_path):
                           progress_bar=False)
     batches = mesh_batches.batched(scene.meshes)
     assert sorted(len(names) for _, names in batches) == [1, 1, 1, 3]
+
+
+def test_shared_primitive_meshes_never_reach_a_part(tmp_path):
+    # catches: the cached cube handed on as a part's mesh (an edit of one scene's cube
+    # would change every later scene's), at the origin (no transform) or moved
+    stage = Usd.Stage.CreateNew(str(tmp_path / "two.usda"))
+    UsdGeom.Cube.Define(stage, "/Here").CreateSizeAttr(1.0)
+    moved = UsdGeom.Cube.Define(stage, "/There")
+    moved.CreateSizeAttr(1.0)
+    moved.AddTranslateOp().Set(Gf.Vec3d(5, 0, 0))
+    stage.GetRootLayer().Save()
+    first = cm.load_scene(tmp_path / "two.usda", progress_bar=False)
+    for part in first.meshes:
+        part.mesh.points[:] = 0.0                 # a user edits the scene's meshes
+    again = cm.load_scene(tmp_path / "two.usda", progress_bar=False)
+    bounds = {m.name: np.round(m.mesh.bounds, 6).tolist() for m in again.meshes}
+    assert bounds["/Here"] == [-0.5, 0.5, -0.5, 0.5, -0.5, 0.5]
+    assert bounds["/There"] == [4.5, 5.5, -0.5, 0.5, -0.5, 0.5]

@@ -45,8 +45,9 @@ def read_primitive(ctx: StageContext, prim, type_name: str) -> list[SceneMesh]:
     values = tuple(number(name, default) for name, default in names)
     if type_name == "Capsule_1" and values[0] != values[1]:
         ctx.report(str(prim.GetPath()), "a capsule of two radii is drawn with their mean")
-    # a copy of one mesh per shape and size: 20 000 cubes are built once, not 20 000 times
-    mesh = _primitive(type_name, axis, values).copy()
+    # one mesh per shape and size, shared: 20 000 cubes are built once, not 20 000 times;
+    # placed() copies it (is_template), so it is never changed or handed on
+    mesh = _primitive(type_name, axis, values)
     part = SceneMesh(name=str(prim.GetPath()), mesh=mesh, material=_material_of(ctx, prim),
                      double_sided=bool(ctx.get(prim, "doubleSided", False)))
     _display_color(ctx, prim, part)
@@ -64,9 +65,24 @@ _PARAMETERS = {
 }
 
 
+#: ``id`` of each cached primitive mesh (an evicted one's id reused means one more copy).
+_TEMPLATES: set[int] = set()
+
+
+def is_template(mesh) -> bool:
+    """Whether ``mesh`` is a cached primitive shared by many parts: copy it before use."""
+    return id(mesh) in _TEMPLATES
+
+
 @lru_cache(maxsize=256)
 def _primitive(type_name: str, axis: str, values: tuple) -> pyvista.PolyData:
-    """The mesh of a primitive of these sizes (cached: do not change it, copy it)."""
+    """The mesh of a primitive of these sizes (cached and shared: never change it)."""
+    mesh = _built_primitive(type_name, axis, values)
+    _TEMPLATES.add(id(mesh))
+    return mesh
+
+
+def _built_primitive(type_name: str, axis: str, values: tuple) -> pyvista.PolyData:
     if type_name == "Sphere":
         mesh = pyvista.Sphere(radius=values[0], theta_resolution=48, phi_resolution=32)
     elif type_name == "Cube":

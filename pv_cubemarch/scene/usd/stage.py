@@ -24,7 +24,7 @@ from .instancers import read_instancer
 from .lights import LIGHT_KINDS, read_camera, read_light
 from .meshes import read_mesh
 from .primvars import cofactor, with_winding_reversed
-from .shapes import PRIMITIVES, read_curves, read_points, read_primitive
+from .shapes import PRIMITIVES, is_template, read_curves, read_points, read_primitive
 from .volumes import is_field, read_volume
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
@@ -205,6 +205,8 @@ def placed(part: SceneMesh, matrix: np.ndarray) -> SceneMesh:
     facing out stays the front.
     """
     if np.allclose(matrix, np.eye(4)):
+        if is_template(part.mesh):      # a shared primitive: this part's own copy
+            part.mesh = part.mesh.copy()
         return part
     mirrored = np.linalg.det(matrix[:3, :3]) < 0
     mesh = with_winding_reversed(part.mesh) if mirrored else part.mesh.copy()
