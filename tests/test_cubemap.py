@@ -246,3 +246,29 @@ def test_non_cubic_grid_and_anisotropic_spacing(plotter_factory):
     pl, actor, camera, image = render(plotter_factory, model, (3.0, 2.0, 4.0))
     reference, _ = reference_for(model, camera, pl)
     assert compare_images(image, reference).psnr >= 42
+
+
+def test_a_cube_map_seen_from_afar_draws_without_vtk_errors():
+    # catches: a grow-only pass started with its drawn size instead of its textures' (VTK
+    # logged "FBO size does not match the size of its attachments!" at each run, about
+    # 1.5 times a frame in the soak)
+    import vtk
+
+    from pv_cubemarch.core.frame_errors import observe
+    messages: list[str] = []
+    window = vtk.vtkOutputWindow.GetInstance()
+    tag = observe(window, vtk.vtkCommand.ErrorEvent,
+                  lambda _c, _e, text: messages.append(str(text)), calldata=vtk.VTK_STRING)
+    pl = cm.offscreen_plotter((160, 120))
+    try:
+        x, y, z = np.mgrid[-1:1:24j, -1:1:24j, -1:1:24j]
+        cm.add_volume(pl, np.exp(-4 * (x * x + y * y + z * z)), technique="cubemap")
+        cm.render_image(pl)
+        for zoom in (0.05, 40.0, 0.5):
+            pl.camera.zoom(zoom)
+            image = cm.render_image(pl)
+    finally:
+        window.RemoveObserver(tag)
+        pl.close()
+    assert image.std() > 1
+    assert not [m for m in messages if "FBO size" in m], messages[:3]

@@ -167,7 +167,11 @@ class RenderToTexturePass:
             for index, target in enumerate(self.outputs):
                 self._fbo.AddColorAttachment(index, target)
             self._fbo.ActivateDrawBuffers(self.n_targets)
-            self._fbo.Start(*self.size)
+            # Start() wants the attachments' size (else VTK logs "FBO size does not match"
+            # each run); a grow-only pass then draws into its lower-left ``size`` only
+            self._fbo.Start(*self.allocated)
+            if tuple(self.size) != tuple(self.allocated):
+                state.vtkglViewport(0, 0, *self.size)
             program = window.GetShaderCache().ReadyShaderProgram(self._vertex, self._fragment, "")
             if program is None:
                 return
