@@ -13,6 +13,7 @@ from .bench import edits as bench_edits
 from .bench import harness as bench
 from .bench import large as bench_large
 from .bench import resolution as bench_resolution
+from .bench import scene_prims as bench_prims
 from .bench import soak as bench_soak
 from .bench import surface_layers as bench_surface_layers
 from .bench import surfaces as bench_surfaces
@@ -231,6 +232,14 @@ def build_parser() -> argparse.ArgumentParser:
                       default=None, help=f"comma list of {', '.join(bench_soak.TECHNIQUES)}")
     soak.add_argument("--size", type=_size, default=(160, 120), help="WxH (default 160x120)")
     soak.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    prims = bench_commands.add_parser(
+        "scene-prims", help="USD stages of many Cube prims: load and first-frame time, beside "
+                            "PyVista's one add_mesh per prim")
+    prims.add_argument("--counts", type=lambda t: [int(v) for v in t.split(",")],
+                       default=[500, 2000, 20000], help="prim counts (default 500,2000,20000)")
+    prims.add_argument("--pyvista-max", type=int, default=4000,
+                       help="largest count timed with PyVista's per-prim path (quadratic)")
+    prims.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     large = bench_commands.add_parser(
         "voxel-large", help="a sparse 2048x2048x512 label volume: chunks, bytes, exactness")
     large.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
@@ -478,6 +487,17 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
 def _bench(args) -> int:
     if args.bench_command == "soak":
         return _bench_soak(args)
+    if args.bench_command == "scene-prims":
+        rows = bench_prims.run_prims(args.counts, args.pyvista_max)
+        print("a stage of N Cube prims in two colours, 320x240; load: load_scene; first "
+              "frame: adding the meshes and drawing once")
+        print(bench_prims.format_prims(rows))
+        if args.json_path:
+            Path(args.json_path).write_text(json.dumps({
+                "rows": [vars(r) for r in rows], "gl_renderer": gl_info()["renderer"]},
+                indent=1))
+            print(f"wrote {args.json_path}")
+        return 0
     if args.bench_command == "voxels":
         return _bench_voxels(args)
     if args.bench_command == "voxel-edits":

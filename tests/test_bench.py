@@ -92,6 +92,17 @@ def test_soak_reads_memory_each_window_and_gives_it_back(tmp_path, capsys, monke
         main(["bench", "soak", "--techniques", "nope"])
 
 
+def test_scene_prims_times_ours_beside_pyvista(tmp_path, capsys):
+    # catches: the bench timing nothing, or our path back to one actor per prim (2 here)
+    out = tmp_path / "prims.json"
+    assert main(["bench", "scene-prims", "--counts", "40", "--json", str(out)]) == 0
+    assert "PyVista add_mesh per prim" in capsys.readouterr().out
+    rows = {r["path"]: r for r in json.loads(out.read_text())["rows"]}
+    ours = rows["pv_cubemarch load_scene + add_to"]
+    assert ours["prims"] == 40 and ours["actors"] == 2 and ours["first_frame_s"] > 0
+    assert rows["PyVista add_mesh per prim"]["actors"] == 40
+
+
 @pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_tradeoff_measures_each_blend_mode_against_its_reference_and_pyvista():
     """Rows per blend mode, each against that mode's CPU reference, and against PyVista.
