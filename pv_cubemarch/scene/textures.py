@@ -16,6 +16,7 @@ from functools import lru_cache
 import numpy as np
 from PIL import Image
 
+from ..core.budgets import budget_from_env
 from .materials import PrimvarInput, TextureInput
 
 _CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3}
@@ -33,11 +34,7 @@ class TextureError(ValueError):
 
 def texture_budget() -> int:
     """The bytes one decoded texture may keep (``PV_CUBEMARCH_TEXTURE_MAX_BYTES``, 64 MiB)."""
-    value = os.environ.get(TEXTURE_BYTES_ENV, "").strip()
-    try:
-        return int(float(value)) if value else DEFAULT_TEXTURE_BYTES
-    except ValueError:
-        raise TextureError(f"{TEXTURE_BYTES_ENV}={value!r} is not a number of bytes") from None
+    return max(budget_from_env(TEXTURE_BYTES_ENV, DEFAULT_TEXTURE_BYTES, TextureError), 4)
 
 
 def _reduction(size: tuple[int, int], texel_bytes: int, budget: int) -> int:
@@ -116,9 +113,13 @@ def unit_rgba(texels: np.ndarray) -> np.ndarray:
     return np.dstack([grey, grey, grey, np.ones_like(grey)])
 
 
+def _stamp(texture: TextureInput) -> int | None:
+    """What keys the caches besides the file name: its modification time (None for bytes)."""
+    return None if texture.data is not None else os.stat(texture.file).st_mtime_ns
+
+
 def _stored(texture: TextureInput) -> tuple[np.ndarray, bool, str | None]:
-    stamp = None if texture.data is not None else os.stat(texture.file).st_mtime_ns
-    return _decoded(texture.file, texture.data, stamp, texture_budget())
+    return _decoded(texture.file, texture.data, _stamp(texture), texture_budget())
 
 
 def stored_texels(path: str) -> tuple[np.ndarray, bool, str | None]:
@@ -148,8 +149,7 @@ def texture_values(texture: TextureInput) -> np.ndarray:
     float32; cached by file (and its modification time), colour space, scale, bias and
     channels: a texture a few materials share is decoded and converted once.
     """
-    stamp = None if texture.data is not None else os.stat(texture.file).st_mtime_ns
-    return _values(texture.file, texture.data, stamp, texture.color_space,
+    return _values(texture.file, texture.data, _stamp(texture), texture.color_space,
                    tuple(texture.scale), tuple(texture.bias), texture.channels)
 
 

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import mmap
-import os
 
 import numpy as np
 
+from ...core.budgets import budget_from_env
 from .records import (
     MAP_SIZES,
     Buf,
@@ -37,12 +37,7 @@ _SMALLEST_GRID = 3 * 4 + 3 * 8 + 4 + 4 + 4
 
 def default_max_bytes() -> int:
     """The memory budget of a read: ``PV_CUBEMARCH_VDB_MAX_BYTES`` or 1 GiB."""
-    value = os.environ.get(BUDGET_ENV, "")
-    try:
-        return int(float(value)) if value.strip() else 2**30
-    except ValueError:
-        raise VdbFormatError(f"{BUDGET_ENV}={value!r} is not a number of bytes; set it to "
-                             "e.g. 4e9 or unset it") from None
+    return budget_from_env(BUDGET_ENV, 2**30, VdbFormatError)
 
 
 def _read_descriptors(buf: Buf, max_bytes: int | None = None

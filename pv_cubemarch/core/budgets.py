@@ -1,0 +1,18 @@
+"""Byte budgets a user may raise through an environment variable (file reads, textures)."""
+
+from __future__ import annotations
+
+import os
+
+
+def budget_from_env(name: str, default: int, error: type[Exception]) -> int:
+    """The bytes in environment variable ``name`` (``4e9`` allowed), else ``default``.
+
+    A value that is not a number raises ``error`` naming the variable.
+    """
+    value = os.environ.get(name, "").strip()
+    try:
+        return int(float(value)) if value else int(default)
+    except ValueError:
+        raise error(f"{name}={value!r} is not a number of bytes; set it to e.g. 4e9 or "
+                    "unset it") from None
