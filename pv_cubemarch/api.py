@@ -180,11 +180,10 @@ def add_volume(
         ``'vtk'``: marched inside VTK's GPU volume mapper (it sets up the ray). ``'direct'``:
         the direct screen-space marcher on a box actor, one ray per pixel. ``'cubemap'``:
         one ray per texel of a cube map on the box's interior faces, resampled on screen,
-        so the cost stops growing with the viewport's resolution (000). ``'auto'``: each
+        so the cost stops growing with the viewport's resolution. ``'auto'``: each
         frame, the cube map when its visible texels are fewer than the volume's projected
-        pixels, else the direct marcher (000 section 3.4; ``actor.cubemarch.force`` pins
-        one, ``actor.cubemarch.choice`` tells which was drawn). All run the same marching
-        GLSL.
+        pixels, else the direct marcher (``actor.cubemarch.force`` pins one,
+        ``actor.cubemarch.choice`` tells which was drawn). All run the same marching GLSL.
     step_scale : float, optional
         ``'vtk'``, ``'direct'`` and ``'auto'``: step length in texels along the ray's
         dominant texture axis (texel-spaced sampling, 0.5 by default). Smaller is more
@@ -217,8 +216,8 @@ def add_volume(
         ``'cubemap'`` and ``'auto'`` (1 by default): samples per cube-map texel along the
         box diagonal (``k_c``). The LOD asks for ``k_c`` times the face's texels, capped by
         ``max_samples``, then sizes the face from the samples it got (``S = sqrt(3) N /
-        k_c``, 000 section 3.3): above 1, fewer texels and finer steps; below 1, more texels
-        and coarser steps.
+        k_c``): above 1, fewer texels and finer steps; below 1, more texels and coarser
+        steps.
     occlusion_sharpness : float, optional
         ``'cubemap'`` and ``'auto'`` (0.5 by default): ``k_z`` of the bilateral depth filter
         against opaque meshes: a cube texel stops counting for a pixel once their ray ends
@@ -684,7 +683,7 @@ def add_voxels(
     lighting: bool | None = None,
     **kwargs,
 ) -> pyvista.Actor:
-    """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal, 002).
+    """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal).
 
     Every pixel shows the first drawn voxel its ray meets, opaque, at its real depth (meshes
     and volumes occlude it and are occluded by it exactly), from one byte per voxel (two
@@ -707,9 +706,9 @@ def add_voxels(
         ``actor.cubemarch.set_material(m, color=..., opacity=...)`` changes one later
         without uploading the labels again.
     traversal : str
-        ``'dda'`` (default): exact, every voxel a ray crosses is visited. ``'fixed'``: the
-        seed's fixed step (``step_scale`` voxels along the dominant axis, 0.1 by default),
-        kept as the baseline: it steps over thin voxels and corners.
+        ``'dda'`` (default): exact, every voxel a ray crosses is visited. ``'fixed'``: a
+        fixed step (``step_scale`` voxels along the dominant axis, 0.1 by default), kept as
+        the baseline: it steps over thin voxels and corners.
     step_scale : float, optional
         ``traversal='fixed'`` only: the step in voxels. Cost grows as ``1 / step_scale``.
     mip_levels : int, optional
@@ -720,7 +719,7 @@ def add_voxels(
         descends a level on an occupied cell and climbs back when it leaves it. Exact
         whatever the number, for at most 1/7 more bytes.
     distance_field : int
-        ``traversal='dda'``: the seed's neighbour distance field, 0 (off, default) or its
+        ``traversal='dda'``: the neighbour distance field, 0 (off, default) or its
         largest radius 1-3: one more byte per voxel telling how large an empty cube
         surrounds it, which the ray leaves in one step. Exact whatever the radius.
     mode : str
@@ -746,9 +745,9 @@ def add_voxels(
         What starts the rays: ``'bricks'`` (default), the outer faces of the filled 2³
         bricks (4³ or 8³ for scattered content), so pixels that see none run nothing and
         rays start next to the voxels (the box instead on frames where the near plane
-        reaches them); ``'box'``, the grid's bounding box (the seed's set-up). Exact either
-        way; only the speed differs. By default ``'bricks'``, and ``'box'`` for a grid drawn
-        in chunks (a hundred chunks' shells cost more than they save: ``bench voxel-world``).
+        reaches them); ``'box'``, the grid's bounding box (every ray from the box). Exact
+        either way; only the speed differs. By default ``'bricks'``, and ``'box'`` for a grid
+        drawn in chunks (a hundred chunks' shells cost more than they save: ``bench voxel-world``).
     lod : bool
         Level of detail (off by default, as it is not exact): where a voxel is smaller than
         a pixel, rays stop at the coarsest occupancy level whose cells are no wider than a
@@ -938,8 +937,8 @@ def add_surface(
 ) -> pyvista.Actor:
     """Draw the implicit surface f = 0 of a field, per pixel, from its cells' polynomials.
 
-    The field is a uniform quadratic B-spline (the seed 003's): each cell's 27 coefficients
-    make a polynomial evaluated in the cell's own coordinates; with the default
+    The field is a uniform quadratic B-spline: each cell's 27 coefficients make a
+    polynomial evaluated in the cell's own coordinates; with the default
     ``technique='active'`` only the cells the surface can cross are stored and drawn, and
     each pixel's ray is marched only inside them. The hit's real depth is written, so
     meshes and other techniques occlude the surface and are occluded by it.
@@ -963,32 +962,33 @@ def add_surface(
     scalars : str, optional
         The ImageData array; the first cell (then point) array by default.
     technique : str
-        ``'active'`` (default): the seed's active cells. ``'full'``: the seed's baseline,
-        every ray marched through the whole domain with every cell's coefficients.
+        ``'active'`` (default): only the active cells (the cells the surface can cross).
+        ``'full'``: the baseline, every ray marched through the whole domain with every
+        cell's coefficients.
     steps : int
-        The seed's M: samples along the domain's diagonal (in cells); each cell crossed is
-        sampled every ``diagonal / steps`` from where the ray enters it and at its exit.
-        More steps miss fewer thin features and grazing hits, at a cost.
+        Samples along the domain's diagonal (in cells); each cell crossed is sampled every
+        ``diagonal / steps`` from where the ray enters it and at its exit. More steps miss
+        fewer thin features and grazing hits, at a cost.
     refine_steps : int
-        Bisections of the first sign change (the seed's 10): the depth error halves with
+        Bisections of the first sign change (10 by default): the depth error halves with
         each.
     root : str
-        ``'march'`` (default, the seed's: samples every ``diagonal / steps``, so two roots
-        closer than a step, a thin feature or a grazing ray, can be missed) or ``'exact'``
-        (the first root of each cell's degree-6 polynomial along the ray by Bernstein
-        subdivision, whatever ``steps``; ``technique='active'``).
+        ``'march'`` (default: samples every ``diagonal / steps``, so two roots closer than a
+        step, a thin feature or a grazing ray, can be missed) or ``'exact'`` (the first root
+        of each cell's degree-6 polynomial along the ray by Bernstein subdivision, whatever
+        ``steps``; ``technique='active'``).
     traversal : str
         How ``technique='active'`` reaches its cells. ``'index'`` (default): one ray per
         pixel steps through bricks of 4³ cells, skipping those without active cells, and
         marches the active cells it meets in order, stopping at the first root; the
-        bricks share their cells' coefficients (about 9 floats per active cell). ``'cell_boxes'``
-        (the seed's): every active cell's box is drawn and each of its fragments marches
-        that cell alone, the depth test keeping the nearest hit (27 floats and 12
-        triangles per active cell; every active cell on a ray is marched).
+        bricks share their cells' coefficients (about 9 floats per active cell).
+        ``'cell_boxes'``: every active cell's box is drawn and each of its fragments marches
+        that cell alone, the depth test keeping the nearest hit (27 floats and 12 triangles
+        per active cell; every active cell on a ray is marched).
     active_test : str
         ``'bernstein'`` (default, exact: a cell is kept when its Bernstein coefficients
-        change sign, so no crossed cell is ever left out) or ``'sample'`` (the seed's: the
-        field at ``active_samples``³ points per cell changes sign; misses thin features).
+        change sign, so no crossed cell is ever left out) or ``'sample'`` (the field at
+        ``active_samples ** 3`` points per cell changes sign; misses thin features).
     active_samples : int
         Points per axis per cell of ``active_test='sample'``.
     color : ColorLike, optional

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import shlex
 import sys
 import warnings
 from pathlib import Path
@@ -136,7 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="draw each voxel grid in chunks of this edge (a voxel world)")
     render.add_argument("--isovalue", type=float,
                         help="draw a grid file's field as its implicit surface at this level "
-                             "(003: a quadratic B-spline through its samples)")
+                             "(a quadratic B-spline through its samples)")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     commands.add_parser("options", help="print every option's table (docs/options.md): its "
                                          "flag, USD attribute and live-view control")
@@ -184,7 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
     tradeoff.add_argument("--no-stock", action="store_true",
                           help="leave out PyVista's stock add_volume rows")
     resolution = bench_commands.add_parser(
-        "resolution", help="Table 1 of 000: frame time of cube map, direct and stock PyVista "
+        "resolution", help="frame time of cube map, direct and stock PyVista "
                            "at 1080p, 1440p and 4K, with errors on crops")
     resolution.add_argument("--scene", default=None,
                             help="scene file (default: the shipped datasets/smoke_scene.usda)")
@@ -200,9 +201,9 @@ def build_parser() -> argparse.ArgumentParser:
                                  "with direct at comparable error (default 128,64; 'none')")
     resolution.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     voxels = bench_commands.add_parser(
-        "voxels", help="material grids (002): fixed step, DDA with occupancy levels and "
+        "voxels", help="material grids: fixed step, DDA with occupancy levels and "
                        "distance fields, PyVista's paths, timed side by side, wrong pixels "
-                       "against the CPU traversal, the seed's tables as ratios")
+                       "against the CPU traversal, the voxel report's measurements as ratios")
     voxels.add_argument("--sizes", type=_sizes, default=((1000, 1000), (400, 400)),
                         help="comma-separated WxH (default 1000x1000,400x400)")
     voxels.add_argument("--frames", type=int, default=3, help="timed frames per row")
@@ -257,14 +258,15 @@ def build_parser() -> argparse.ArgumentParser:
     large.add_argument("--json", dest="json_path", help="write the result as JSON here")
     surfaces = bench_commands.add_parser(
         "surfaces", help="polynomial surfaces against their reference and today's tools "
-                         "(the seed's Tables 1/2)")
+                         "(time against error)")
     surfaces.add_argument("--size", type=_size, default=(720, 720),
                           help="WxH (default 720x720)")
     surfaces.add_argument("--grids", type=_face_sizes, default=[32, 128],
                           help="cells per side, comma-separated (default 32,128; 512 takes "
                                "minutes and gigabytes)")
     surfaces.add_argument("--steps", type=_face_sizes, default=[50, 500, 5000],
-                          help="the seed's M values (default 50,500,5000)")
+                          help="samples along the domain's diagonal, comma-separated "
+                               "(default 50,500,5000)")
     surfaces.add_argument("--shapes", default=",".join(bench_surfaces.SHAPES),
                           help="comma-separated among " + ", ".join(bench_surfaces.SHAPES))
     surfaces.add_argument("--frames", type=int, default=3, help="timed frames per row")
@@ -290,7 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
     surface_layers.add_argument("--frames", type=int, default=3, help="timed frames per row")
     surface_layers.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     world = bench_commands.add_parser(
-        "voxel-world", help="chunked voxel worlds against one grid (the seed's Tables 3/4)")
+        "voxel-world", help="chunked voxel worlds against one grid")
     world.add_argument("--size", type=_size, default=(640, 480), help="WxH (default 640x480)")
     world.add_argument("--chunk", type=int, default=128, help="chunk edge (default 128)")
     world.add_argument("--count", type=int, default=10, help="chunks per side (default 10)")
@@ -310,7 +312,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "render":
             return _render(args)
         if args.command == "bench":
-            return _bench(args)
+            code = _bench(args)
+            _record_command(getattr(args, "json_path", None), argv)
+            return code
         if args.command == "options":
             print(options_markdown(), end="")
             return 0
@@ -323,6 +327,16 @@ def main(argv: list[str] | None = None) -> int:
         # OSError: a port in use, a file that cannot be read; ImportError: an extra missing
         print(f"pv-cubemarch: error: {exc}", file=sys.stderr)
         return 2
+
+
+def _record_command(path: str | None, argv: list[str] | None) -> None:
+    """Write into a bench's JSON the command that made it (the docs' tables quote it)."""
+    if not path or not Path(path).is_file():
+        return
+    payload = json.loads(Path(path).read_text())
+    words = sys.argv[1:] if argv is None else argv
+    payload["command"] = shlex.join(["pv-cubemarch", *words])
+    Path(path).write_text(json.dumps(payload, indent=1))
 
 
 def _techniques() -> list:

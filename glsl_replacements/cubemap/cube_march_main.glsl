@@ -1,10 +1,10 @@
-// Cube ray-marching pass (000 pass 2): one ray per texel of the visible interior faces,
+// Cube ray-marching pass (the cube map's pass 2): one ray per texel of the visible interior faces,
 // from the eye (or the near plane) through the texel's point on the face, cut by the opaque
 // depth found where that point projects on the screen (nearest sample). Target 0:
 // premultiplied rgba; target 1: the cube depth map of the bilateral filter, the distance
 // along the view axis where the ray stops (the nearer of the opaque depth and the face),
 // defined as the resampling pass defines it for a pixel. Faces outside the mask stay empty.
-uniform int cm_faceMask;           // bit i: interior face i faces the eye (equation 1)
+uniform int cm_faceMask;           // bit i: interior face i faces the eye (visible-face mask)
 uniform mat4 cm_viewFromTexture;   // volume texture coordinates to view
 
 void main()

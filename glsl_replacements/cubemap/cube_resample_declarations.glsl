@@ -1,5 +1,5 @@
-// Cube resampling pass (000 pass 3): declarations. The box's interior faces fetch the
-// marched texels by cube mapping, with the 2x2 bilateral depth filter of section 3.2.
+// Cube resampling pass (the cube map's pass 3): declarations. The box's interior faces fetch
+// the marched texels by cube mapping, with the 2x2 bilateral depth filter.
 uniform vec3 cm_dims;                 // texels (points) of the volume along x, y, z
 uniform sampler2D cm_cubeColor;       // premultiplied rgba per cube-map texel (atlas)
 uniform sampler2D cm_cubeDepth;       // view distance where each texel's ray stops

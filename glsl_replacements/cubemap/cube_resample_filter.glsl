@@ -1,4 +1,4 @@
-// The 2x2 bilateral filter of 000 section 3.2: the four texels bilinear sampling would use,
+// The 2x2 bilateral depth filter: the four texels bilinear sampling would use,
 // each weighted by bilinear weight * max(1 - k_z |z_pixel - z_cube| / texel, 0), where z is
 // the distance along the view axis at which the ray stops (opaque depth or the face).
 // Written without branches: llvmpipe runs both sides of a divergent branch.

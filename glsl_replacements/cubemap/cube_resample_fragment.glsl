@@ -1,4 +1,4 @@
-// Cube resampling pass (000 pass 3) on the box's interior (back) faces, after VTK's
+// Cube resampling pass (the cube map's pass 3) on the box's interior (back) faces, after VTK's
 // lighting, which it replaces: this pixel's result from the cube map, blended over the
 // scene by the translucent pass. Its ray stops at the nearer of the opaque depth and the
 // face; the camera inside the box or the near plane cutting it need no special case.

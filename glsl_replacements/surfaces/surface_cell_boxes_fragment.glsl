@@ -1,4 +1,4 @@
-// Active cells drawn as boxes (003, the seed's proposed method; traversal 'cell_boxes'):
+// Active cells drawn as boxes (traversal 'cell_boxes'):
 // each fragment of an active cell's back faces marches its pixel's ray within that cell
 // only, from where the ray enters it (or the near plane: the camera inside the cell) to
 // where it leaves; the depth test keeps the nearest hit of all cells along the ray. The

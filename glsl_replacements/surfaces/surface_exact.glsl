@@ -1,4 +1,4 @@
-// The exact root (root = 'exact', beyond the seed): inside a cell the field along the ray
+// The exact root (root = 'exact', beyond fixed steps): inside a cell the field along the ray
 // a..b is a polynomial of degree at most 6 in s; its 7 Bernstein coefficients come from 7
 // samples at s = k/6 through the inverse of the Bernstein basis there (exact fractions:
 // tests/test_surfaces.py derives them again). A polynomial whose coefficients all have one

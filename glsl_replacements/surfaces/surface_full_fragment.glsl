@@ -1,4 +1,4 @@
-// The whole domain (003, the seed's conventional ray marching, kept as the baseline): each
+// The whole domain (conventional ray marching, kept as the baseline): each
 // fragment of the domain box's back faces marches its pixel's ray from where it enters the
 // domain (or the near plane) to where it leaves, every cm_stepLength cell units, each sample
 // in its own cell's polynomial (dense: cell n's coefficients at 27 n, loaded when the ray

@@ -1,4 +1,4 @@
-// Per-cell records (the seed's layout: the cell boxes of traversal 'cell_boxes', and the
+// Per-cell records (one record per cell: the cell boxes of traversal 'cell_boxes', and the
 // dense cells of technique 'full'): cm_cells holds CM_CELL_FLOATS floats per cell: its
 // corner (i, j, k) first when the fragment finds its cell by number (the cell boxes), its
 // 27 Bernstein coefficients from CM_FIRST_COEFFICIENT on (a slowest, c fastest), and with

@@ -1,11 +1,11 @@
-// One traversal per pixel through the active cells (traversal 'index', beyond the seed's
-// boxes): Amanatides & Woo from a to b (cell space) over three levels, blocks of
+// One traversal per pixel through the active cells (traversal 'index', instead of a box per
+// cell): Amanatides & Woo from a to b (cell space) over three levels, blocks of
 // CM_BLOCK_SIZE cells, bricks of CM_BRICK_SIZE cells, and cells. A block or brick with no
-// active cell is left in one step; in a stored brick the ray steps cell by cell, and each active cell it meets is loaded and marched from where
-// the ray enters it to where it leaves (cm_marchCell, or cm_exactRoot), in the order the ray
-// meets them: the first root found is the nearest, and the traversal stops there. Returns
-// the fraction of a..b at the hit (-1: none) and the hit's cell (and in cm_rootPast the
-// fraction just past the root).
+// active cell is left in one step; in a stored brick the ray steps cell by cell, and each
+// active cell it meets is loaded and marched from where the ray enters it to where it
+// leaves (cm_marchCell, or cm_exactRoot), in the order the ray meets them: the first root
+// found is the nearest, and the traversal stops there. Returns the fraction of a..b at the
+// hit (-1: none) and the hit's cell (and in cm_rootPast the fraction just past the root).
 // As voxel_dda.glsl: each step leaves a block [low, high) through its nearest boundary, x
 // before y before z on a tie; an axis the ray does not move along is never crossed. The
 // cheap stepping runs in the inner loop; the march (the costly part: llvmpipe runs a

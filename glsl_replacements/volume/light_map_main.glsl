@@ -1,4 +1,4 @@
-// Light-map pass (000 pass 1): for each point of an L^3 grid over the volume, the
+// Light-map pass: for each point of an L^3 grid over the volume, the
 // transmittance toward each light, marched through the same transfer function (rgba =
 // lights 0..3), through one volume or a joint group (whose members shade each other).
 // Output: L slices of L x L stacked along y. Runs only when a light, the volume's placement

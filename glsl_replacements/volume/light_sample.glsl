@@ -1,4 +1,4 @@
-// Lit emission (000 pass 1, read side): the emitted colour of a sample is scaled by
+// Lit emission (the light map's read side): the emitted colour of a sample is scaled by
 //   ambient + (1 - ambient) * sum over lights of colour_i * transmittance_i(sample),
 // the transmittances read from the light map by trilinear interpolation. Needs cm_dims.
 uniform sampler2D cm_lightMap;   // L slices of L x L stacked along y; rgba = lights 0..3

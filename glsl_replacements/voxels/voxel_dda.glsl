@@ -1,4 +1,4 @@
-// Amanatides & Woo traversal of a material grid (002): from a to b (index space) to the first
+// Amanatides & Woo traversal of a material grid: from a to b (index space) to the first
 // drawn voxel. Returns its material (0: none), the voxel, the face it was entered through
 // (2 * axis + 1 when entered moving +axis, 2 * axis moving -axis; `face` comes in as the
 // face a enters the first voxel through, -1 when a is inside it) and the fraction t of a..b

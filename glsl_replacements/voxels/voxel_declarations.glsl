@@ -1,4 +1,4 @@
-// Material grids (002): declarations. Voxel (i, j, k) spans [i, i+1] x [j, j+1] x [k, k+1] of
+// Material grids: declarations. Voxel (i, j, k) spans [i, i+1] x [j, j+1] x [k, k+1] of
 // the grid's index space (cm_textureFromView maps view to it); its label is one texel of
 // cm_labels (uint8 or uint16 as a normalised texture, read back exactly with cm_labelScale);
 // a label's colour and opacity are one texel of cm_palette (opacity 0: hidden, traversed as

@@ -1,4 +1,4 @@
-// Fixed-step traversal of a material grid (the seed's baseline, kept to show what it misses):
+// Fixed-step traversal of a material grid (the baseline, kept to show what it misses):
 // samples every cm_voxelStep voxels along the ray's dominant axis, from a to b (index
 // space); the first sample inside a drawn voxel is the hit (its face is the box entry's for
 // the first voxel, else unknown: -1).

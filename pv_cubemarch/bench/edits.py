@@ -1,4 +1,4 @@
-"""Voxel edits and automata (002): edit latency and bytes uploaded, automaton steps per second.
+"""Voxel edits and automata: edit latency and bytes uploaded, automaton steps per second.
 
 ``pv-cubemarch bench voxel-edits``: on an FBM terrain grid, each edit (one voxel, a brush of
 32³, a whole replacement) is timed from the edit call to the end of the next frame (read

@@ -1,4 +1,4 @@
-"""Table 1 of 000 on this machine: frame time against viewport resolution, per technique.
+"""Frame time against viewport resolution, per technique, on this machine.
 
 :func:`run_resolution` draws three scenarios built from a scene (its volume alone, the
 volume with the scene's meshes, and several copies of the volume side by side) with the

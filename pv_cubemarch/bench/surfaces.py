@@ -1,12 +1,12 @@
-"""Polynomial surfaces (003, the seed's Tables 1 and 2): time against error, with anchors.
+"""Polynomial surfaces: time against error, with anchors.
 
 ``pv-cubemarch bench surfaces``: three shapes (PyVista's shipped ``nut.ply`` mesh by its
 signed distance, an analytic thin holey sphere, a sampled field of blobs) on grids of
-``N``³ cells, each drawn by the seed's full-domain march, by the active cells through their
-brick index (``active``) and as the seed's cell boxes (``boxes``), at several ``steps`` (M),
-by the exact root, and by the tools users have today: PyVista's contour (flying edges) of
-the field resampled at 1, 2 and 4 samples per cell, drawn as a mesh, and VTK's GPU
-isosurface blend mode at half-cell steps. Rows of a shape and grid are drawn in turn; a
+``N``³ cells, each drawn by the full-domain march, by the active cells through their brick
+index (``active``) and as cell boxes (``boxes``), at several ``steps``, by the exact root,
+and by the tools users have today: PyVista's contour (flying edges) of the field resampled
+at 1, 2 and 4 samples per cell, drawn as a mesh, and VTK's GPU isosurface blend mode at
+half-cell steps. Rows of a shape and grid are drawn in turn; a
 row that does not fit (the dense layout over :data:`MAX_DENSE_BYTES`, cell boxes past
 :data:`MAX_BOX_GRID` cells a side, resampling past :data:`MAX_CONTOUR_SAMPLES`) is listed
 as not run, with the reason. Per row: median frame time, preprocessing (build + first
@@ -41,7 +41,7 @@ SHAPES = ("nut", "holey sphere", "blobs")
 MAX_CONTOUR_SAMPLES = 513
 #: The full march's dense layout (27 floats a cell) is run up to this many bytes.
 MAX_DENSE_BYTES = 1 << 30
-#: The seed's cell boxes are drawn up to grids of this many cells a side.
+#: Cell boxes (traversal='cell_boxes') are drawn up to grids of this many cells a side.
 MAX_BOX_GRID = 128
 #: A row's frames stop once they add up to this (a frame of seconds varies little).
 ROW_BUDGET_MS = 20_000.0

@@ -1,6 +1,6 @@
 """``pv-cubemarch bench voxels``: material grids, our traversals against PyVista's paths.
 
-Builds the seed's scenes with fixed seeds and times, side by side in one run (frames drawn
+Builds the voxel report's scenes with fixed seeds and times, side by side in one run (frames drawn
 in turn), the fixed step, the DDA with 1-3 and the default occupancy levels and with
 distance fields 1-3, PyVista's thresholded cells
 (``add_mesh``, with and without ``extract_surface``) and PyVista's ``add_volume`` with
@@ -36,7 +36,7 @@ WRONG = 10.0 / 255.0
 
 
 def scenes(large: int = 256) -> dict[str, np.ndarray]:
-    """The seed's scenes, deterministic (labels 1..3).
+    """The voxel report's scenes, deterministic (labels 1..3).
 
     Empty grids (one voxel in the middle) of 128³ and ``large``³, a filled 128³ grid, a
     sphere of 128³ and ``large``³, sine-wave terrain, a torus, 1 % random fill and a
@@ -145,8 +145,8 @@ def _ours(plotter, labels, **options) -> MemoryProbe:
                     + (binding.shell.host_nbytes if binding.shell is not None else 0))
 
 
-#: Rows of our technique: the traversals on the grid's whole box (the seed's set-up, so
-#: they measure the traversal alone), then the defaults (the brick shell starts the rays).
+#: Rows of our technique: the traversals on the grid's whole box (so they measure the
+#: traversal alone), then the defaults (the brick shell starts the rays).
 ROWS: dict[str, Callable] = {
     "fixed 0.1": lambda pl, lab: _ours(pl, lab, traversal="fixed", step_scale=0.1,
                                        proxy="box"),
@@ -254,7 +254,7 @@ def run_voxels(sizes: Sequence[Sequence[int]] = ((1000, 1000), (400, 400)), fram
     frames : int
         Timed frames per row (the median is reported).
     large : int
-        Edge of the large empty and sphere grids (the seed's 256).
+        Edge of the large empty and sphere grids (the voxel report's 256).
     rows : sequence of str
         Rows of :data:`ROWS` to run.
     only : sequence of str, optional
@@ -295,7 +295,7 @@ def format_voxel_table(results: list[VoxelRow]) -> str:
     return "\n".join(lines)
 
 
-#: The seed's Tables 1, 2, 5 and 6 (M1 Pro, 1000x1000): (table, scene, row, seed ms).
+#: The voxel report's published frame times (M1 Pro, 1000x1000): (its table, scene, row, ms).
 SEED_TIMES = (
     [("1", scene, row, ms) for scene, fvta, fixed in
      (("sphere 128^3", 3, 10), ("waves 128x128x64", 4, 15), ("torus 128^3", 6, 17))
@@ -311,14 +311,14 @@ SEED_TIMES = (
 
 
 def seed_ratios(results: list[VoxelRow], size: tuple[int, int]) -> list[dict]:
-    """The seed's tables as speed-ups over plain DDA, the seed's and ours side by side.
+    """The voxel report's tables as speed-ups over plain DDA, the report's and ours side by side.
 
     Absolute times on a 16-core GPU and on llvmpipe do not compare; the speed-up of each
     row over the same scene's DDA does. Rows or scenes not run are left out.
     """
     ours = {(r.scene, r.row): r.median_ms for r in results if r.size == tuple(size)}
-    # Each table against its own DDA time (the seed's empty 256^3 is 19 ms in Table 2 and
-    # 22 ms in Tables 5 and 6).
+    # Each table against its own DDA time (the report's empty 256^3 is 19 ms in one table and
+    # 22 ms in the two others).
     seed = {(table, scene, row): ms for table, scene, row, ms in SEED_TIMES}
     out = []
     for table, scene, row, ms in SEED_TIMES:
@@ -332,7 +332,8 @@ def seed_ratios(results: list[VoxelRow], size: tuple[int, int]) -> list[dict]:
 
 def format_seed_ratios(results: list[VoxelRow], size: tuple[int, int]) -> str:
     """:func:`seed_ratios` as a table (speed-up over DDA: above 1 is faster)."""
-    lines = [f"the seed's tables at {size[0]}x{size[1]}: speed-up over DDA on the same scene",
+    lines = [f"the voxel report's tables at {size[0]}x{size[1]}: speed-up over DDA on the "
+             "same scene",
              f"{'table':<6} {'scene':<18} {'row':<12} {'seed':>7} {'ours':>7}", "-" * 54]
     for r in seed_ratios(results, size):
         lines.append(f"{r['table']:<6} {r['scene']:<18} {r['row']:<12} "
@@ -341,7 +342,7 @@ def format_seed_ratios(results: list[VoxelRow], size: tuple[int, int]) -> str:
 
 
 def write_voxel_json(results: list[VoxelRow], path, meta: dict) -> None:
-    """Every frame time and measure, and the seed's tables as ratios, for later comparison."""
+    """Every frame time and measure, and the voxel report's tables as ratios, for comparison."""
     rows = [dict(scene=r.scene, row=r.row, size=list(r.size), frame_ms=r.frame_ms,
                  setup_ms=r.setup_ms, gpu_bytes=r.gpu_bytes, host_bytes=r.host_bytes,
                  wrong_percent=r.wrong_percent, edge_pixels=r.edge_pixels) for r in results]

@@ -1,14 +1,15 @@
-"""Chunked voxel worlds (002, the seed's Tables 3 and 4): one grid against many chunks.
+"""Chunked voxel worlds: one grid against many chunks.
 
 ``pv-cubemarch bench voxel-world``: an FBM terrain as one grid of ``2 chunk``³ voxels and as
-``count x count`` chunks of ``chunk``³ (the seed: 256³ against 10 x 10 chunks of 128³), the
-same terrain with a long low valley across the diagonal (the seed's worst case, Terrain*),
-the chunked terrain seen from a camera standing on it (``inside``: with a row drawing only
-the chunks a pixel shows, so the cost of those behind the camera or hidden is measured), and
-``count x count`` empty chunks; each drawn with plain DDA, the default occupancy levels, the
-defaults and level of detail, frames drawn in turn as if the view turned. Per row: median
-frame time, setup, GPU/host bytes and the share of pixels showing another material than the
-CPU traversal of the whole grid (the level of detail's error; 0 for every other row).
+``count x count`` chunks of ``chunk``³ (the voxel report: 256³ against 10 x 10 chunks of
+128³), the same terrain with a long low valley across the diagonal (``terrain*``, a worst
+case), the chunked terrain seen from a camera standing on it (``inside``: with a row drawing
+only the chunks a pixel shows, so the cost of those behind the camera or hidden is
+measured), and ``count x count`` empty chunks; each drawn with plain DDA, the default
+occupancy levels, the defaults and level of detail, frames drawn in turn as if the view
+turned. Per row: median frame time, setup, GPU/host bytes and the share of pixels showing
+another material than the CPU traversal of the whole grid (the level of detail's error; 0
+for every other row).
 """
 
 from __future__ import annotations

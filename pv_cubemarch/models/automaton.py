@@ -1,4 +1,4 @@
-"""3D cellular automata (002): ``survival/birth/states/neighbourhood`` rules, in numpy.
+"""3D cellular automata: ``survival/birth/states/neighbourhood`` rules, in numpy.
 
 A cell's state is 0 (dead), ``states - 1`` (alive) or in between (dying: one less each
 step until 0). Each step counts every cell's alive neighbours (Moore: the 26 around it;
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 NEIGHBOURHOODS = {"M": "moore", "VN": "von_neumann", "N": "von_neumann"}
-#: Rules from the seed's figures and the usual catalogue (survival/birth/states/neighbours).
+#: Rules from the usual catalogue (survival/birth/states/neighbours).
 PRESETS = {
     "445": "4/4/5/M",
     "clouds": "13-26/13-14,17-19/2/M",
@@ -107,7 +107,7 @@ class VoxelAutomaton:
     dimensions : sequence of int
         Cells along x, y, z.
     rule : str or AutomatonRule
-        ``"survival/birth/states/M"`` (Moore) or ``.../VN`` (von Neumann), e.g. the seed's
+        ``"survival/birth/states/M"`` (Moore) or ``.../VN`` (von Neumann), e.g.
         ``"4/4/5/M"``, or a name of :data:`PRESETS` (``"clouds"``, ``"pyroclastic"`` ...).
     seed : int
         Seed of the random start.

@@ -1,4 +1,4 @@
-"""Where spline fields come from (003): samples, ImageData, watertight meshes.
+"""Where spline fields come from: samples, ImageData, watertight meshes.
 
 :func:`make_field` turns what a user passes into a
 :class:`~pv_cubemarch.models.surface.SplineField`. A mesh's field is its signed distance,

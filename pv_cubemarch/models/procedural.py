@@ -1,4 +1,4 @@
-"""Procedural material grids (002): signed-distance shapes and their combinations, FBM terrain.
+"""Procedural material grids: signed-distance shapes and their combinations, FBM terrain.
 
 Every generator is vectorised numpy and deterministic (noise takes a ``seed``); each returns
 labels ready for :func:`pv_cubemarch.add_voxels` (uint8, 0 = empty). Shapes are written in
@@ -157,7 +157,7 @@ def noise2(x: np.ndarray, y: np.ndarray, kind: str = "perlin", seed: int = 0) ->
 
 def fbm2(x: np.ndarray, y: np.ndarray, octaves: int = 5, hurst: float = 1.0,
          kind: str = "perlin", seed: int = 0) -> np.ndarray:
-    """Fractal Brownian motion, the seed's Listing 2, over :func:`noise2`.
+    """Fractal Brownian motion over :func:`noise2`.
 
     ``octaves`` layers, each at twice the frequency and ``G = 2^-hurst`` times the amplitude
     of the one before.

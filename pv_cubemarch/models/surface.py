@@ -1,14 +1,14 @@
-"""Implicit surfaces as uniform quadratic B-spline fields (003): f(x) = 0, positive inside.
+"""Implicit surfaces as uniform quadratic B-spline fields: f(x) = 0, positive inside.
 
 A field on ``N = (nx, ny, nz)`` cells holds ``(nx + 2, ny + 2, nz + 2)`` coefficients
-``c[a, b, c]`` (the seed's ``c_{ijk}``, ``i = a - 1`` from -1 to ``nx``); cell ``(i, j, k)``
+``c[a, b, c]`` (``c_{ijk}`` with ``i = a - 1`` from -1 to ``nx``); cell ``(i, j, k)``
 spans ``[i, i+1] x [j, j+1] x [k, k+1]`` of cell space and its field depends on the 27
 coefficients ``c[i:i+3, j:j+3, k:k+3]`` only. Per axis, at ``u`` in [0, 1] across the cell,
-``f = c[i] (1-u)^2 / 2 + c[i+1] (1/2 + u - u^2) + c[i+2] u^2 / 2`` (the seed's equation 2:
-the basis of coefficient ``i`` peaks at the centre of cell ``i``); in Bernstein form the
+``f = c[i] (1-u)^2 / 2 + c[i+1] (1/2 + u - u^2) + c[i+2] u^2 / 2`` (the quadratic B-spline
+basis: that of coefficient ``i`` peaks at the centre of cell ``i``); in Bernstein form the
 three are ``((c[i] + c[i+1]) / 2, c[i+1], (c[i+1] + c[i+2]) / 2)`` against ``(1-u)^2``,
-``2u(1-u)``, ``u^2``. Each cell is evaluated in these local coordinates: the seed's global
-powers ``x^p y^q z^r`` lose all precision in float32 (errors of 1e3 to 1e10 at 32³ to 512³).
+``2u(1-u)``, ``u^2``. Each cell is evaluated in these local coordinates: powers ``x^p y^q z^r``
+of global coordinates lose all precision in float32 (errors of 1e3 to 1e10 at 32³ to 512³).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from .voxels import PlacedGrid
 
 #: Per axis, the three coefficients of a cell to its three Bernstein coefficients.
 TO_BERNSTEIN = np.array([[0.5, 0.5, 0.0], [0.0, 1.0, 0.0], [0.0, 0.5, 0.5]])
-#: Active-cell tests: exact from the Bernstein coefficients, or the seed's sampling.
+#: Active-cell tests: exact from the Bernstein coefficients, or sampling the cell.
 ACTIVE_TESTS = ("bernstein", "sample")
 
 
@@ -225,7 +225,7 @@ def _spline_along(c: np.ndarray, axis: int, positions: np.ndarray) -> np.ndarray
     u = positions - cell
     shape = [1] * c.ndim
     shape[axis] = -1
-    weights = (0.5 * (1.0 - u) ** 2, 0.5 + u - u * u, 0.5 * u * u)   # the seed's equation 2
+    weights = (0.5 * (1.0 - u) ** 2, 0.5 + u - u * u, 0.5 * u * u)   # the quadratic B-spline basis
     return sum(w.reshape(shape) * np.take(c, cell + k, axis=axis)
                for k, w in enumerate(weights))
 
@@ -287,7 +287,7 @@ def active_cells(surface: SplineField, test: str = "bernstein", samples: int = 4
 
     ``'bernstein'``: a cell whose 27 Bernstein coefficients are all of one sign (none 0)
     cannot hold a zero (the field is their convex combination): exact, no crossed cell is
-    ever missed, a few uncrossed ones kept. ``'sample'``: the seed's test, the field at a
+    ever missed, a few uncrossed ones kept. ``'sample'``: the field at a
     ``samples``³ lattice over the cell (corners included) changes sign: its cost grows as
     ``samples``³, and it misses features thinner than the lattice's spacing.
     """

@@ -620,7 +620,7 @@ def useful_levels(grids: list[np.ndarray]) -> int:
 def safe_radii(labels: np.ndarray, radius: int) -> np.ndarray:
     """Per voxel, the largest ``r <= radius`` with an empty ``(2r+1)^3`` cube around it.
 
-    The seed's neighbour distance field (uint8; 0 at filled voxels and next to them): a ray
+    The neighbour distance field (uint8; 0 at filled voxels and next to them): a ray
     in that voxel may leave the whole cube in one step. Voxels outside the grid count as
     empty; any label counts as filled (hidden or not), so the field never changes with the
     palette.

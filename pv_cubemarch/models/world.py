@@ -1,4 +1,4 @@
-"""Voxel worlds (002): a label grid in chunks.
+"""Voxel worlds: a label grid in chunks.
 
 Empty chunks are not stored, uniform ones are one label each.
 """
@@ -13,7 +13,7 @@ import numpy as np
 from ..core.progress import progress
 from .voxels import Palette, PlacedGrid, VoxelModel, checked_labels
 
-#: Default chunk edge (the seed's): small enough that empty and uniform chunks take much of
+#: Default chunk edge (the voxel report's): small enough that empty and uniform chunks take much of
 #: a sparse volume, large enough that a hundred chunks cost little more than one grid.
 DEFAULT_CHUNK_SIZE = 128
 

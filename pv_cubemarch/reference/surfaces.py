@@ -1,4 +1,4 @@
-"""The implicit-surface CPU reference: the first root of f along every pixel's ray (003).
+"""The implicit-surface CPU reference: the first root of f along every pixel's ray.
 
 :func:`trace_surface` walks each ray through the field's cells in float64 (the voxel
 reference's traversal: crossings from the cell index, no drift); in each cell the surface

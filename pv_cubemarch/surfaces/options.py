@@ -12,7 +12,7 @@ from ..models.surface import ACTIVE_TESTS
 
 ROOTS = ("march", "exact")
 #: How ``technique='active'`` finds its active cells: one traversal per pixel through their
-#: brick index, or the seed's boxes (a fragment per cell).
+#: brick index, or their boxes (a fragment per cell).
 TRAVERSALS = ("index", "cell_boxes")
 COLOR_BY = ("curvature", "field")
 SHADINGS = ("unlit", "flat", "blinn", "normals")
@@ -20,7 +20,7 @@ SHADINGS = ("unlit", "flat", "blinn", "normals")
 #: its limiter is spent (65535 decrements; measured: about 32,000 iterations of our loops, a
 #: ray of more samples losing its far hits); this keeps under it with room.
 LOOP_BUDGET = 30_000
-#: Most steps along the domain's diagonal (the seed's M; 5000 in its tables): a ray of the
+#: Most steps along the domain's diagonal (the benchmarks go up to 5000): a ray of the
 #: full march takes at most this many samples, within LOOP_BUDGET.
 MAX_STEPS = 25_000
 #: Loop iterations of traversal='index' per cell a ray crosses: its moves and descents
@@ -83,17 +83,17 @@ declare(*scalar_bar_terms("surface"))
 class SurfaceOptions:
     """How a field's zero set is found along each pixel's ray and how it is shaded.
 
-    ``steps``: the seed's M, samples along the domain's diagonal (in cell units): each cell
-    crossed is sampled every ``diagonal / steps`` from where the ray enters it, its exit
-    included; ``refine_steps``: bisections on the first sign change (the seed's 10).
-    ``root``: ``'march'`` (the seed's) or ``'exact'`` (the first root of the cell's
-    degree-6 polynomial along the ray, by Bernstein subdivision: none missed at any
+    ``steps``: samples along the domain's diagonal (in cell units): each cell crossed is
+    sampled every ``diagonal / steps`` from where the ray enters it, its exit included;
+    ``refine_steps``: bisections on the first sign change (10 by default). ``root``:
+    ``'march'`` (default: samples at fixed steps) or ``'exact'`` (the first root of the
+    cell's degree-6 polynomial along the ray, by Bernstein subdivision: none missed at any
     ``steps``; ``technique='active'`` only). ``traversal`` (``technique='active'``):
     ``'index'`` (one ray per pixel through the active cells' bricks, stopping at the first
-    root) or ``'cell_boxes'`` (the seed's: each active cell's box drawn, a fragment marching
-    its own cell, the depth test keeping the nearest). ``active_test``: ``'bernstein'``
-    (exact: no crossed cell is ever left out) or ``'sample'`` (the seed's: a
-    ``active_samples``³ lattice per cell). ``color``: the surface's colour; ``shading``:
+    root) or ``'cell_boxes'`` (each active cell's box drawn, a fragment marching its own
+    cell, the depth test keeping the nearest). ``active_test``: ``'bernstein'``
+    (exact: no crossed cell is ever left out) or ``'sample'`` (a lattice of
+    ``active_samples ** 3`` points per cell). ``color``: the surface's colour; ``shading``:
     ``'unlit'``, ``'flat'`` (Lambert from the scene's lights) or ``'blinn'`` (plus a
     highlight), with ``ambient``, ``specular``, ``specular_power``; both sides are lit
     (open surfaces show their back); ``'normals'`` shows the view-space normal facing the

@@ -1,18 +1,18 @@
-"""Implicit surfaces drawn per pixel from their cells' polynomials (003).
+"""Implicit surfaces drawn per pixel from their cells' polynomials.
 
 ``'active'`` marches only the active cells, drawn one of two ways (``traversal``):
 
 - ``'index'`` (default): the domain's box, each pixel's ray traversing the active cells'
   brick index (``models/surface_bricks.py``) and marching each active cell it meets, in
   order, up to the first root: one fragment a pixel, its cells' coefficients shared.
-- ``'cell_boxes'`` (the seed's method): the back faces of the active cells' boxes (12
-  triangles a cell, sharing their corners), each fragment marching its ray inside its own
-  cell, found from the primitive's number (no per-vertex index: the seed's 7 floats on 36
-  vertices per cell become 12 triangles of shared corners); the cells' corners and 27
-  Bernstein coefficients in one texture buffer (the seed's SSBO).
+- ``'cell_boxes'``: the back faces of the active cells' boxes (12 triangles a cell,
+  sharing their corners), each fragment marching its ray inside its own cell, found from
+  the primitive's number (no per-vertex index: 12 triangles of shared corners, not 36
+  vertices of 7 floats per cell); the cells' corners and 27 Bernstein coefficients in one
+  texture buffer.
 
-``'full'`` (the seed's baseline): the domain's box, each ray marched through every cell,
-with every cell's coefficients. All write the hit's real depth: the depth test keeps the
+``'full'`` (the baseline): the domain's box, each ray marched through every cell, with
+every cell's coefficients. All write the hit's real depth: the depth test keeps the
 nearest hit, and meshes and other techniques occlude and are occluded.
 """
 
@@ -173,7 +173,7 @@ class SurfaceBinding(DrawnBinding):
 
     @property
     def dense_bytes(self) -> int:
-        """What the seed's dense layout takes: 27 floats per cell of the grid."""
+        """What a dense layout takes: 27 floats per cell of the grid."""
         return 27 * 4 * int(np.prod(self.model.dimensions))
 
     def follow_anchor(self) -> None:
@@ -342,19 +342,19 @@ def _build(plotter, field: SplineField, options: SurfaceOptions, technique: str,
 
 
 def build_active(plotter, field: SplineField, options: SurfaceOptions) -> SurfaceBinding:
-    """Only the active cells marched: through their index, or as boxes (the seed's)."""
+    """Only the active cells marched: through their index, or as boxes."""
     return _build(plotter, field, options, "active")
 
 
 def build_full(plotter, field: SplineField, options: SurfaceOptions) -> SurfaceBinding:
-    """The domain's box, each ray marched through the whole grid (the seed's baseline)."""
+    """The domain's box, each ray marched through the whole grid (the baseline)."""
     if options.traversal != "index":
         raise ValueError(f"traversal={options.traversal!r} chooses how technique='active' "
                          "finds its active cells; technique='full' marches every cell: "
                          "leave traversal out with it.")
     if options.root != "march":
         raise ValueError("root='exact' solves each cell's polynomial along the ray, which "
-                         "technique='full' (the seed's march through the whole domain) "
+                         "technique='full' (the march through the whole domain) "
                          "does not: use technique='active' with it.")
     return _build(plotter, field, options, "full")
 
@@ -382,9 +382,9 @@ def build_translucent_levels(plotter, field: SplineField, options: SurfaceOption
 register_technique(Technique(
     name="active", kind="surface", options=SurfaceOptions, build=build_active,
     reference=render_surface,
-    summary="f = 0 of a quadratic B-spline field, marched only in the cells it crosses (003)"))
+    summary="f = 0 of a quadratic B-spline field, marched only in the cells it crosses"))
 register_technique(Technique(
     name="full", kind="surface", options=SurfaceOptions, build=build_full,
     reference=render_surface,
-    summary="f = 0 of a quadratic B-spline field, marched through the whole domain (003's "
+    summary="f = 0 of a quadratic B-spline field, marched through the whole domain (the "
             "baseline)"))

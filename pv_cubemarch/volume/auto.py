@@ -1,6 +1,6 @@
-"""``technique='auto'``: per volume and frame, the cube map or direct marching (000 §3.4).
+"""``technique='auto'``: per volume and frame, the cube map or direct marching.
 
-:func:`classify` makes the paper's choice: the cube map when its visible texels are fewer
+:func:`classify` makes the cube-map paper's choice: the cube map when its visible texels are fewer
 than the pixels the volume covers, else every pixel marched directly. Both paths are built
 once and share the volume's data; the one not chosen is hidden for the frame.
 """

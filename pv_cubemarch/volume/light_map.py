@@ -1,4 +1,4 @@
-"""The light map (000 pass 1): transmittance toward each light on ``L^3`` points of a volume.
+"""The light map: transmittance toward each light on ``L^3`` points of a volume.
 
 One RGBA texel holds up to four lights; the pass runs only when a light, the volume's
 placement or its data change, and with no light it does not exist.

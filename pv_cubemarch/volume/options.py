@@ -17,7 +17,8 @@ from .march import BLEND_MODES, MAX_ISOSURFACES, MAX_STEPS, Blend, most_texels
 
 #: Default finest face size ``S_0`` of the cube map (texels per face edge at MIP level 0).
 DEFAULT_FACE_SIZE = 256
-#: Default ``k_z`` of the bilateral depth filter (000 uses 0.5), per cube-map texel of depth.
+#: Default ``k_z`` of the bilateral depth filter (the cube-map paper's), per cube-map texel of
+#: depth.
 DEFAULT_OCCLUSION_SHARPNESS = 0.5
 #: ``step_scale`` values of the speed/accuracy sweeps of the marching techniques.
 STEP_SCALES = (2.0, 1.0, 0.5, 0.25, 0.125)

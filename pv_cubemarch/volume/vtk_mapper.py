@@ -1,4 +1,4 @@
-"""Emission/absorption ray casting (004) inside VTK's GPU volume mapper (``technique='vtk'``).
+"""Emission/absorption ray casting inside VTK's GPU volume mapper (``technique='vtk'``).
 
 VTK's ``vtkOpenGLGPUVolumeRayCastMapper`` draws the volume's box and copies the opaque
 depth; the box's clip position and each fragment's ray (entry at the box or the near plane,

@@ -30,7 +30,7 @@ MAX_MIP_LEVELS = 12
 #: Fewest levels of detail a grid gets with ``lod`` (cells up to 8 voxels wide), where
 #: fewer levels would pay off for skipping alone.
 LOD_LEVELS = 3
-#: Largest radius of the neighbour distance field (the seed's 1..3: 8, 124, 342 neighbours).
+#: Largest radius of the neighbour distance field (1..3: 8, 124, 342 neighbours).
 MAX_DISTANCE_FIELD = 3
 
 
@@ -109,7 +109,7 @@ class VoxelOptions:
     the DDA uses to leave empty space in one step; ``None``: the levels that pay off on the
     grid's labels with the DDA (:func:`~pv_cubemarch.models.voxels.useful_levels`), none
     with the fixed step.
-    ``distance_field``: the seed's neighbour distance field (0 = off, 1-3 = its largest
+    ``distance_field``: the neighbour distance field (0 = off, 1-3 = its largest
     radius; one more byte per voxel): from a voxel whose surrounding cube is empty the ray
     leaves the cube in one step. Both are exact whatever their setting; they only change
     the speed. ``ambient_occlusion`` (``traversal='dda'``, mode ``'color'``, any shading):
@@ -123,8 +123,8 @@ class VoxelOptions:
     (:func:`~pv_cubemarch.models.voxels.choose_shell`), so pixels that see no filled brick
     run nothing and rays start next to the voxels; on frames where the near plane reaches
     them it falls back to ``'box'``: the grid's bounding box, every ray traversed from where
-    it enters the box or from the near plane (the seed's set-up, kept to measure the
-    traversal alone). Exact either way.
+    it enters the box or from the near plane (kept to measure the traversal alone). Exact
+    either way.
     ``world_traversal`` (grids drawn in chunks): ``'index'``, one box and one traversal over
     the whole world, stepping through a chunk index (empty chunks left in one step, stored
     ones read from a pool of slots); ``'per_chunk'``, a box per chunk, culled and ordered
@@ -278,7 +278,7 @@ class VoxelOptions:
 
     @property
     def step(self) -> float:
-        """The fixed traversal's step in voxels (the seed's 1/10 of a voxel by default)."""
+        """The fixed traversal's step in voxels (1/10 of a voxel by default)."""
         return float(self.step_scale) if self.step_scale is not None else 0.1
 
 

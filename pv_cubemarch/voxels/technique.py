@@ -1,4 +1,4 @@
-"""Material grids on a box actor: Amanatides & Woo traversal in the fragment shader (002).
+"""Material grids on a box actor: Amanatides & Woo traversal in the fragment shader.
 
 The box's back faces are drawn in the opaque pass; each fragment rebuilds its ray from the
 near plane (camera-relative matrices made in double precision, so far grids stay exact),
@@ -470,4 +470,4 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
 register_technique(Technique(
     name="voxels", kind="voxels", options=VoxelOptions, build=build_voxel_actor,
     reference=render_voxels,
-    summary="a material grid drawn exactly by Amanatides & Woo traversal (002)"))
+    summary="a material grid drawn exactly by Amanatides & Woo traversal"))

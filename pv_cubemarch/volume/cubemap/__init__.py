@@ -1,1 +1,1 @@
-"""Cube-map imposter marching (000): the formulas (``lod``) and the passes (``technique``)."""
+"""Cube-map imposter marching: the formulas (``lod``) and the passes (``technique``)."""

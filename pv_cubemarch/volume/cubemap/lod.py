@@ -1,6 +1,6 @@
-"""Cube-map imposter bookkeeping from 000 (sections 3.1 and 3.3), as plain numpy.
+"""Cube-map imposter bookkeeping (visible faces, level of detail), as plain numpy.
 
-The visible-face mask (equation 1) says which interior faces of the volume's cube the eye
+The visible-face mask says which interior faces of the volume's cube the eye
 can see, so only those are marched; the adaptive LOD turns the cube's projected size into a
 cube-map resolution, a sample count and a MIP level, under the user's caps. The passes of
 the cube-map technique use these per volume and per frame; they are kept apart here so the
@@ -30,7 +30,7 @@ def cube_corners() -> np.ndarray:
 def visible_face_mask(eye_local) -> int:
     """Bit ``i`` set when interior face ``i`` (order of :data:`FACES`) faces the eye.
 
-    Equation 1 of 000: the face at +1 on an axis is seen from its inner side when the eye's
+    The face at +1 on an axis is seen from its inner side when the eye's
     coordinate is below 1, the face at -1 when it is above -1. An eye inside sees all six.
     """
     eye = np.asarray(eye_local, dtype=np.float64)
@@ -56,7 +56,7 @@ class LodChoice:
 
 def choose_lod(corners_px, max_samples: int, finest_size: int, upscale: float = 1.0,
                sample_factor: float = 1.0) -> LodChoice:
-    """Section 3.3 of 000: cube-map size, sample count and MIP level from projected corners.
+    """The adaptive LOD: cube-map size, sample count and MIP level from projected corners.
 
     Parameters
     ----------

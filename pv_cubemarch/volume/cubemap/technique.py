@@ -1,4 +1,4 @@
-"""Cube-map imposter marching (000): ray marching once per texel of the box's interior faces.
+"""Cube-map imposter marching: ray marching once per texel of the box's interior faces.
 
 Three passes per volume and frame, each in its own GLSL file:
 
@@ -7,13 +7,13 @@ Three passes per volume and frame, each in its own GLSL file:
 2. cube ray marching (``cube_march_main.glsl``): a full-screen pass over a 3 x 2 atlas of
    the six interior faces at this frame's level size ``S``, run at the start of the scene
    overlay, after every opaque prop was drawn, so each texel's ray stops at the opaque depth
-   under its projection; faces the eye cannot see (equation 1) are not marched, and a volume
-   outside the view frustum is not marched at all;
+   under its projection; faces the eye cannot see (the visible-face mask) are not marched,
+   and a volume outside the view frustum is not marched at all;
 3. cube resampling (``cube_resample_*.glsl``): the box's back faces, drawn by the overlay,
    fetch their pixel's result by cube mapping through the 2x2 bilateral depth filter.
 
-The marching cost depends on ``S`` and the sample count, which the adaptive LOD (section
-3.3, :mod:`pv_cubemarch.volume.cubemap.lod`) derives from the volume's projected size under the
+The marching cost depends on ``S`` and the sample count, which the adaptive LOD
+(:mod:`pv_cubemarch.volume.cubemap.lod`) derives from the volume's projected size under the
 user's caps, not on the viewport's resolution.
 """
 
@@ -292,4 +292,4 @@ register_technique(Technique(
                 + [{"max_samples": n} for n in (32, 64, 256)]
                 + [{"upscale": k} for k in (2.0, 4.0)]
                 + [{"sample_factor": k} for k in (0.5, 2.0)], _describe),
-    summary="one ray per texel of a cube map on the box's interior faces (000)"))
+    summary="one ray per texel of a cube map on the box's interior faces"))

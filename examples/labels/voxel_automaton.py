@@ -1,19 +1,20 @@
-"""A 3D cellular automaton stepping every frame, uploading only the box that changed.
+"""
+A 3D cellular automaton, uploading only what changed
+====================================================
 
-Run: python examples/voxel_automaton.py [out.png] [--rule pyroclastic] [--steps 20]
-
-The seed's rules (survival/birth/states/neighbourhood, e.g. "4/4/5/M", or a preset:
-445, clouds, pyroclastic, amoeba, builder, crystal) stepped in numpy by
-pv_cubemarch.models.automaton.VoxelAutomaton; after each step `actor.cubemarch.set_block`
-sends the changed box to the GPU and the frame is drawn. Cells are coloured by state
-(alive bright, dying darker). Writes the first and the last frame side by side.
+Survival/birth/states/neighbourhood rules (``"4/4/5/M"``, or a preset: 445, clouds,
+pyroclastic, amoeba, builder, crystal) stepped in numpy by
+``pv_cubemarch.models.automaton.VoxelAutomaton``; after each step
+``actor.cubemarch.set_block`` sends only the changed box to the GPU and the frame is drawn.
+Cells are coloured by state (alive bright, dying darker); the first and the last frame are
+shown side by side.
 """
 
 import sys
 import time
 
+import matplotlib.pyplot as plt
 import numpy as np
-from PIL import Image
 
 import pv_cubemarch
 from pv_cubemarch.models.automaton import VoxelAutomaton
@@ -24,7 +25,6 @@ def option(name: str, default: str) -> str:
     return sys.argv[sys.argv.index(name) + 1] if name in sys.argv else default
 
 
-out = next((a for a in sys.argv[1:] if a.endswith(".png")), "voxel_automaton.png")
 automaton = VoxelAutomaton((64, 64, 64), rule=option("--rule", "pyroclastic"), seed=2)
 states = automaton.rule.states
 palette = np.array([[0.0, 0.0, 0.0]] + [[0.25 + 0.75 * s / (states - 1), 0.35 * s / states,
@@ -44,7 +44,11 @@ for _ in range(steps):
         actor.cubemarch.set_block(box, automaton.state[box])
     last = pv_cubemarch.render_image(pl)
 elapsed = time.perf_counter() - start
-Image.fromarray(np.concatenate([first, last], axis=1)).save(out)
-print(f"wrote {out}: {steps} steps of {option('--rule', 'pyroclastic')} at 64^3, "
+pl.close()
+plt.imshow(np.concatenate([first, last], axis=1))
+plt.axis("off")
+plt.title("the first and the last step")
+plt.show()
+print(f"{steps} steps of {option('--rule', 'pyroclastic')} at 64^3, "
       f"{1e3 * elapsed / steps:.0f} ms per step + upload + frame, "
       f"{int((automaton.state > 0).sum()):,} cells alive or dying")

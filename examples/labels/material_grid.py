@@ -1,21 +1,18 @@
-"""A segmentation-like label grid (three materials) drawn exactly by DDA traversal.
-
-Run: python examples/voxel_labels.py [out.png]
-
-Grains (material 1) in a matrix (material 2) with pores (material 3), cut open by hiding the
-matrix, next to a mesh that crosses the grid: every pixel shows the first voxel its ray meets,
-lit by the scene's lights with ambient occlusion in the creases.
 """
+A material grid: grains, matrix and pores
+=========================================
 
-import sys
+Grains (material 1) in a matrix (material 2) with pores (material 3), cut open by hiding
+the matrix, next to a mesh that crosses the grid: every pixel shows the first voxel its ray
+meets, lit by the scene's lights with ambient occlusion in the creases. The labels are a
+numpy array indexed x, y, z; 0 is empty.
+"""
 
 import numpy as np
 import pyvista as pv
-from PIL import Image
 
 import pv_cubemarch
 
-out = sys.argv[1] if len(sys.argv) > 1 else "voxel_labels.png"
 rng = np.random.default_rng(0)
 n = 64
 x, y, z = np.mgrid[0:n, 0:n, 0:n]
@@ -26,7 +23,7 @@ for center in rng.uniform(8, n - 8, size=(40, 3)):           # grains
 labels[rng.random(labels.shape) < 0.002] = 3                 # isolated pores: one voxel each
 labels[:, :, 48:] = 0                                        # an open top
 
-pl = pv_cubemarch.offscreen_plotter((800, 600))
+pl = pv.Plotter(window_size=(800, 600))
 pl.set_background("white")
 actor = pv_cubemarch.add_voxels(pl, labels, palette=["black", "goldenrod", "slategray", "crimson"],
                                 ambient_occlusion=True)   # darker creases between grains
@@ -35,6 +32,5 @@ pl.add_mesh(pv.Cylinder(center=(32, 32, 24), direction=(1, 1, 0), radius=4, heig
             color="teal")
 pl.camera_position = [(150, -60, 120), (32, 32, 24), (0, 0, 1)]
 pl.renderer.ResetCameraClippingRange()
-image = pv_cubemarch.render_image(pl)
-Image.fromarray(image).save(out)
-print("wrote", out, f"({actor.cubemarch.nbytes:,} GPU bytes for {labels.size:,} voxels)")
+print(f"({actor.cubemarch.nbytes:,} GPU bytes for {labels.size:,} voxels)")
+pl.show()

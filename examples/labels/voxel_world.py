@@ -1,17 +1,15 @@
-"""A voxel world: an FBM terrain in chunks, level of detail, and a digger that carves it.
-
-Run: python examples/voxel_world.py [out.png]
-
-A 512 x 512 x 64 terrain drawn in chunks of 32 (`add_voxels(..., chunk_size=32)`): chunks
-of air cost nothing, chunks of solid rock are one label each, and one traversal runs over
-the chunk index for the whole world, so chunks hidden behind nearer hills are never read.
-`lod=True` draws distant terrain from coarser occupancy levels where a voxel is smaller
-than a pixel. A digger carves a trench through three chunks (`fill_box`), a ball
-where the middle pixel's voxel is (`pick`, then `fill_sphere`) and hides the grass
-(`set_material`); each edit is in the next frame.
 """
+A chunked voxel world with edits and level of detail
+====================================================
 
-import sys
+A 512 x 512 x 64 terrain drawn in chunks of 32 (``add_voxels(..., chunk_size=32)``):
+chunks of air cost nothing, chunks of solid rock are one label each, and one traversal
+runs over the chunk index for the whole world, so chunks hidden behind nearer hills are
+never read. ``lod=True`` draws distant terrain from coarser occupancy levels where a voxel
+is smaller than a pixel. A digger carves a trench through three chunks (``fill_box``), a
+ball where the middle pixel's voxel is (``pick``, then ``fill_sphere``) and hides the grass
+(``set_material``); each edit is in the next frame.
+"""
 
 import numpy as np
 import pyvista as pv
@@ -22,7 +20,7 @@ from pv_cubemarch.models.procedural import terrain
 labels = terrain((512, 512, 64), feature_size=128.0, seed=7)    # grass, dirt, bedrock
 palette = ["black", "forestgreen", "saddlebrown", "dimgray"]
 
-pl = pv.Plotter(off_screen=True, window_size=(800, 500))
+pl = pv.Plotter(window_size=(800, 500))
 actor = pv_cubemarch.add_voxels(pl, labels, palette=palette, chunk_size=32, lod=True)
 world = actor.cubemarch
 print(f"{len(world.model.stored)} stored and {len(world.model.uniform)} uniform chunks, "
@@ -39,6 +37,4 @@ if picked is not None:
     world.fill_sphere(np.add(picked.index, 0.5), 24.0, 0)
     print(f"carved around voxel {picked.index} (material {picked.material})")
 world.set_material(1, opacity=0.0)                              # hide the grass
-out = sys.argv[1] if len(sys.argv) > 1 else "voxel_world.png"
-pl.screenshot(out)
-print(f"wrote {out}")
+pl.show()

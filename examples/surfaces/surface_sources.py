@@ -1,20 +1,22 @@
-"""Implicit surfaces from each field source: samples, a mesh, coefficients, a point cloud.
-
-Run: python examples/surface_sources.py [out.png]
+"""
+Implicit surfaces from samples, a mesh, coefficients and points
+===============================================================
 
 Four surfaces side by side, each drawn per pixel from its quadratic B-spline field
-(`pv_cubemarch.add_surface`, the seed 003's active cells):
+(``pv_cubemarch.add_surface``), marching only the cells the surface crosses:
 
 - a sampled field (a CT-like volume of smooth blobs) with an isovalue;
-- PyVista's shipped `nut.ply` mesh, by its signed distance on 48 cells along its longest side;
+- PyVista's shipped ``nut.ply`` mesh, by its signed distance on 48 cells along its longest
+  side;
 - raw coefficients: a torus-like field written down by hand, 12 + 2 per axis;
 - a point cloud with outward normals (points on an ellipsoid), fitted by sparse least
   squares on 24 cells, coloured by its mean curvature.
 
-The field object stays on `actor.cubemarch.model`: it can be evaluated on the CPU and saved.
+The field object stays on ``actor.cubemarch.model``: it can be evaluated on the CPU and
+saved.
 """
 
-import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +26,7 @@ from pyvista import examples
 import pv_cubemarch
 from pv_cubemarch import SplineField
 
-out = sys.argv[1] if len(sys.argv) > 1 else "surface_sources.png"
-pl = pv.Plotter(off_screen=True, window_size=(1100, 360))
+pl = pv.Plotter(window_size=(1100, 360))
 
 # 1. Samples and an isovalue: the inside is where the data exceed it.
 x, y, z = np.mgrid[-1:1:40j, -1:1:40j, -1:1:40j]
@@ -66,7 +67,6 @@ cloud = pv_cubemarch.add_surface(pl, (points, normals), cells=24, color_by="curv
 pl.camera_position = [(0.0, -7.0, 3.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
 pl.reset_camera()
 pl.camera.zoom(1.7)
-pl.screenshot(out)
 for name, actor in [("samples", samples), ("mesh", mesh), ("coefficients", torus),
                     ("point cloud", cloud)]:
     binding = actor.cubemarch
@@ -74,5 +74,7 @@ for name, actor in [("samples", samples), ("mesh", mesh), ("coefficients", torus
           f"{binding.nbytes / 1e3:.0f} kB on the GPU (dense: {binding.dense_bytes / 1e3:.0f} kB)")
 field = samples.cubemarch.model
 print("field at the first blob's centre:", float(field(np.array([[-3.3, 0.0, 0.0]]))[0]))
-field.save(Path(out).with_suffix(".npz"))
-print(f"wrote {out} and {Path(out).with_suffix('.npz')}")
+with tempfile.TemporaryDirectory() as folder:
+    field.save(Path(folder) / "blobs.npz")
+    print("saved and read back:", pv_cubemarch.SplineField.load(Path(folder) / "blobs.npz"))
+pl.show()

@@ -1,0 +1,237 @@
+"""Pages the docs build writes from the code and the measurements, never by hand.
+
+- ``_generated/cli.md``: every ``pv-cubemarch`` command's help, from the CLI's own parser;
+- ``_generated/bench_<name>.md``: a table per measured run in ``bench_results/<name>.json``
+  (what ``pv-cubemarch bench <name> --json`` writes), with the run's machine and settings;
+- ``_generated/<name>.png``: error against time, for the ``bench tradeoff`` runs.
+
+Run by ``conf.py`` at every build; ``python docs/_scripts/generate_pages.py`` runs it alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+#: Columns of a bench's table: (header, key path in a result row, format). A bench not
+#: listed gets every scalar field of its rows, in the order the bench wrote them.
+COLUMNS = {
+    "resolution": [
+        ("scenario", "scenario", "{}"), ("technique", "technique", "{}"),
+        ("size", "size", "{}"), ("median ms", "median_ms", "{:.1f}"),
+        ("PSNR dB (crops)", "errors.psnr", "{:.1f}"), ("max err", "errors.max_abs", "{:.0f}"),
+        ("cube map MB", "memory.cube_map", "MB"), ("depth map MB", "memory.cube_depth_map", "MB"),
+    ],
+    "tradeoff": [
+        ("technique", "technique", "{}"), ("blending", "parameters.blending", "{}"),
+        ("setting", "setting", "{}"),
+        ("median ms", "median_ms", "{:.1f}"), ("x fastest", "ratio", "{:.2f}"),
+        ("PSNR dB", "errors.psnr", "{:.2f}"), ("SSIM", "errors.ssim", "{:.4f}"),
+        ("max err", "errors.max_abs", "{:.0f}"), ("vs PyVista dB", "psnr_vs_pyvista", "{:.2f}"),
+        ("Pareto", "pareto", "{}"),
+    ],
+}
+#: Row fields never shown: per-frame lists and the parameters already named by 'setting'.
+HIDDEN = {"frame_ms", "parameters", "frames_ms", "times_ms"}
+
+
+def generate_all(docs: Path) -> list[Path]:
+    """Write every generated page under ``docs/_generated``; return the paths written."""
+    out = docs / "_generated"
+    out.mkdir(exist_ok=True)
+    written = [_write(out / "cli.md", cli_markdown())]
+    for path in sorted((docs / "bench_results").glob("*.json")):
+        name = path.stem
+        written.append(_write(out / f"bench_{name}.md", bench_markdown(name, path)))
+        payload = json.loads(path.read_text())
+        if _bench_of(payload, name) == "tradeoff":
+            written.append(plot_tradeoff(payload, out / f"{name}.png"))
+    return written
+
+
+def _bench_of(payload: dict, name: str) -> str:
+    words = payload.get("command", "").split()
+    return words[words.index("bench") + 1] if "bench" in words[:-1] else name
+
+
+def plot_tradeoff(payload: dict, path: Path) -> Path:
+    """Error (RMS, 8-bit levels, from PSNR) against median frame time, the front joined."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in payload["results"] if r["errors"]["psnr"] != float("inf")]
+
+    def rms(row):
+        return 255.0 * 10 ** (-row["errors"]["psnr"] / 20.0)
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
+    for technique in dict.fromkeys(r["technique"] for r in rows):
+        mine = [r for r in rows if r["technique"] == technique]
+        ax.scatter([r["median_ms"] for r in mine], [rms(r) for r in mine], label=technique)
+    front = sorted((r for r in rows if r["pareto"]), key=lambda r: r["median_ms"])
+    ax.plot([r["median_ms"] for r in front], [rms(r) for r in front], "k--", lw=0.8,
+            label="Pareto front")
+    ax.set_xlabel("median frame time (ms)")
+    ax.set_ylabel("RMS error against the CPU reference (8-bit levels)")
+    ax.set_yscale("log")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def _write(path: Path, text: str) -> Path:
+    # rewritten only when changed, so Sphinx does not rebuild every page each time
+    if not path.exists() or path.read_text() != text:
+        path.write_text(text)
+    return path
+
+
+def cli_markdown() -> str:
+    """Every command's ``--help``, walking the parser's sub-commands."""
+    from pv_cubemarch.cli import build_parser
+
+    lines = ["<!-- generated from pv_cubemarch.cli.build_parser by the docs build -->", ""]
+    for name, parser in _commands(build_parser(), "pv-cubemarch"):
+        lines += [f"## `{name}`", "", "```text", parser.format_help().rstrip(), "```", ""]
+    return "\n".join(lines)
+
+
+def _commands(parser: argparse.ArgumentParser, name: str):
+    yield name, parser
+    for action in parser._actions:  # argparse keeps sub-commands only here
+        if isinstance(action, argparse._SubParsersAction):
+            for sub_name, sub in action.choices.items():
+                yield from _commands(sub, f"{name} {sub_name}")
+
+
+def bench_markdown(name: str, path: Path) -> str:
+    """A markdown table of one bench JSON, headed by what was run and where."""
+    payload = json.loads(path.read_text())
+    meta = payload.get("meta") or {k: v for k, v in payload.items()
+                                    if k not in ("rows", "results", "command")}
+    rows = [_with_median(r) for r in payload.get("results", payload.get("rows", []))]
+    command = payload.get("command", f"pv-cubemarch bench {name}")
+    if not isinstance(rows, list) or not rows:
+        raise ValueError(f"{path}: no 'results' rows to tabulate")
+    columns = COLUMNS.get(_bench_of(payload, name)) or _scalar_columns(rows)
+    fastest = min((r["median_ms"] for r in rows if "median_ms" in r), default=None)
+    head = [f"<!-- generated from docs/bench_results/{path.name} by the docs build -->", ""]
+    described = ", ".join(f"{k}: {_plain(v)}" for k, v in meta.items()
+                          if k != "frames" and
+                          (not isinstance(v, (dict, list)) or k in ("size", "technique")))
+    head += [f"*Measured by `{_shown_command(command)}`; {described}.*", ""]
+    table = ["| " + " | ".join(h for h, _, _ in columns) + " |",
+             "|" + "---|" * len(columns)]
+    for row in rows:
+        cells = []
+        for _, key, fmt in columns:
+            value = fastest and row["median_ms"] / fastest if key == "ratio" else _get(row, key)
+            cells.append(_cell(value, fmt))
+        table.append("| " + " | ".join(cells) + " |")
+    return "\n".join(head + table + _paper_tables(payload)) + "\n"
+
+
+def _with_median(row: dict) -> dict:
+    # benches that keep every frame's time: the median is what the tables compare
+    if "median_ms" not in row and isinstance(row.get("frame_ms"), list) and row["frame_ms"]:
+        times = sorted(row["frame_ms"])
+        middle = len(times) // 2
+        median = times[middle] if len(times) % 2 else (times[middle - 1] + times[middle]) / 2
+        row = {**row, "median_ms": median}
+    return row
+
+
+def _paper_tables(payload: dict) -> list[str]:
+    """The published speed-ups beside ours, where a bench reproduces a paper's tables."""
+    tables = payload.get("seed_tables") or {}
+    lines = []
+    for size, rows in tables.items():
+        lines += ["", f"*Speed-ups over the DDA at {size}: the paper's (its own machine) "
+                  "beside ours.*", "", "| scene | row | paper | ours |", "|---|---|---|---|"]
+        lines += [f"| {r['scene']} | {r['row']} | {_cell(r['seed_speedup'], '{:.2f}')} | "
+                  f"{_cell(r['our_speedup'], '{:.2f}')} |" for r in rows]
+    return lines
+
+
+def _shown_command(command: str) -> str:
+    # the run's own paths (where it wrote its JSON and plot) say nothing to a reader
+    words = command.split()
+    return " ".join(Path(w).name if "/" in w else w for w in words)
+
+
+def _scalar_columns(rows: list[dict]) -> list[tuple[str, str, str]]:
+    keys: dict[str, None] = {}
+    for row in rows[:1]:
+        for key, value in _flatten(row):
+            if isinstance(value, str):
+                keys.setdefault(key)
+    if any("median_ms" in row for row in rows):
+        keys.setdefault("median_ms")
+    for row in rows:
+        for key, _value in _flatten(row):
+            if key.split(".")[0] not in HIDDEN:
+                keys.setdefault(key)
+    columns = []
+    for key in keys:
+        if key.endswith("_bytes"):
+            columns.append((key[:-6].replace("_", " ") + " MB", key, "MB"))
+        else:
+            columns.append((key.replace("_", " "), key, "{:.1f}" if key == "median_ms" else "{}"))
+    return columns
+
+
+def _flatten(row: dict, prefix: str = ""):
+    for key, value in row.items():
+        if isinstance(value, dict):
+            yield from _flatten(value, f"{prefix}{key}.")
+        elif not isinstance(value, list) or _is_size(value):
+            yield f"{prefix}{key}", value
+
+
+def _is_size(value) -> bool:
+    return isinstance(value, list) and len(value) in (2, 3) and all(
+        isinstance(v, int) for v in value)
+
+
+def _get(row: dict, key: str):
+    for part in key.split("."):
+        if not isinstance(row, dict) or part not in row:
+            return None
+        row = row[part]
+    return row
+
+
+def _cell(value, fmt: str) -> str:
+    if value is None:
+        return "-"
+    if _is_size(value):
+        return "x".join(str(v) for v in value)
+    if value is True:
+        return "*"
+    if value is False:
+        return ""
+    if fmt == "MB" and not isinstance(value, (int, float)):
+        return "-"
+    if fmt == "MB":
+        return f"{value / 2**20:.1f}"
+    if isinstance(value, float) and fmt == "{}":
+        return f"{value:.4g}"
+    return fmt.format(value).replace("|", "\\|")
+
+
+def _plain(value) -> str:
+    if isinstance(value, list):
+        return "x".join(str(v) for v in value) if all(isinstance(v, int) for v in value) \
+            else ", ".join(str(v) for v in value)
+    text = str(value)
+    return Path(text).name if text.startswith("/") else text
+
+
+if __name__ == "__main__":
+    for written in generate_all(Path(__file__).resolve().parents[1]):
+        print("wrote", written)
