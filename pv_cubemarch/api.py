@@ -41,12 +41,12 @@ from .surfaces.levels import (
 )
 from .surfaces.technique import build_translucent_levels
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
+from .volume.binding import VolumeBinding, VolumeData, VolumeSetup
 from .volume.clipping import clip_plane_list, set_crop_box
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
 from .volume.light_map import LightMap
-from .volume.march import VolumeBinding, VolumeData, VolumeSetup
-from .volume.options import DEFAULT_STOP_OPACITY, INTERPOLATION, Shading
+from .volume.options import DEFAULT_STOP_OPACITY, INTERPOLATION, CommonVolumeOptions
 from .volume.pyvista_keywords import (
     add_scalar_bar,
     check_channels,
@@ -59,10 +59,10 @@ from .volume.pyvista_keywords import (
 from .volume.returned_property import ReturnedProperty
 from .volume.stand_in import stand_in_volume
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
-from .voxels.indexed import build_indexed_world, why_not_indexed
+from .voxels.indexed_world import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
+from .voxels.per_chunk_world import build_world
 from .voxels.scalar_bar import add_voxel_scalar_bar, warn_translucent
-from .voxels.world import build_world
 
 
 def add_volume(
@@ -366,8 +366,9 @@ def add_volume(
         max_samples=max_samples, upscale=upscale, sample_factor=sample_factor,
         occlusion_sharpness=occlusion_sharpness).items() if value is not None}
     options = chosen.make_options(given)
-    Shading(stop_opacity, bool(skip_empty), light_map_size, light_map_ambient, blending,
-            (0.0,) if blending == "isosurface" and isosurfaces is not None else ()).check()
+    CommonVolumeOptions(stop_opacity, bool(skip_empty), light_map_size, light_map_ambient,
+                        blending, (0.0,) if blending == "isosurface" and isosurfaces is not None
+                        else ()).check()
     if blending != "composite" and (isinstance(volume, VolumeGroup) or lights is not None):
         raise ValueError(f"blending={blending!r} reads the samples along a ray without "
                          "attenuating them; it takes no lights and no jointly marched "
@@ -413,8 +414,9 @@ def add_volume(
     gradient = gradient_shading(plotter, model, shade, lights, blending,
                                 dict(ambient=ambient, diffuse=diffuse, specular=specular,
                                      specular_power=specular_power))
-    shading = Shading(stop_opacity, bool(skip_empty), light_map_size, light_map_ambient,
-                      blending, isosurface_levels(isosurfaces, model), gradient)
+    shading = CommonVolumeOptions(stop_opacity, bool(skip_empty), light_map_size,
+                                  light_map_ambient, blending,
+                                  isosurface_levels(isosurfaces, model), gradient)
     shading.check()
     component = plotter.cubemarch  # created now: it follows frames and frees on close
     source = light_source(lights, plotter.renderer)
@@ -775,8 +777,8 @@ def add_voxels(
         label one byte); grids over 2048 voxels on a side (the largest 3D texture here) or
         over 512 MiB of labels are chunked by 128 without asking. A chunked grid's
         ``actor.cubemarch`` is an
-        :class:`~pv_cubemarch.voxels.indexed.IndexedWorldBinding` (the world's box) or,
-        per chunk, a :class:`~pv_cubemarch.voxels.world.WorldBinding` (an invisible
+        :class:`~pv_cubemarch.voxels.indexed_world.IndexedWorldBinding` (the world's box) or,
+        per chunk, a :class:`~pv_cubemarch.voxels.per_chunk_world.WorldBinding` (an invisible
         actor standing for all chunks); both take edits, ``pick`` and ``set_material`` in
         world voxel indices (``mode='id'`` only with ``'index'``). A
         :class:`~pv_cubemarch.models.world.VoxelWorld` (e.g. chunks placed by hand with

@@ -30,7 +30,7 @@ from .core.registry import get_technique, specific_option_names, techniques
 from .models.voxels import VoxelModel
 from .scene.io import load_scene
 from .views.app import WINDOW_MODES, serve
-from .volume.march import BLEND_MODES
+from .volume.binding import BLEND_MODES
 from .voxels.options import VoxelOptions
 
 

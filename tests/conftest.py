@@ -134,7 +134,7 @@ def assert_close_to_reference(image, reference, min_psnr, background=BACKGROUND,
     volume that is not drawn at all can never pass (catches: floors such as 15 dB that a
     blank frame meets).
     """
-    from pv_cubemarch.testing import compare_images, to_uint8
+    from pv_cubemarch.image_metrics import compare_images, to_uint8
 
     errors = compare_images(image, reference)
     blank = np.broadcast_to(to_uint8(np.asarray(background, dtype=float)), image.shape)

@@ -15,9 +15,9 @@ from PIL import Image
 
 from pv_cubemarch.cli import build_parser, main
 from pv_cubemarch.core.registry import techniques
+from pv_cubemarch.image_metrics import to_uint8
 from pv_cubemarch.reference.voxels import id_colors, trace_voxels
 from pv_cubemarch.scene.io import load_scene
-from pv_cubemarch.testing import to_uint8
 
 
 def test_render_command_writes_png(tmp_path, capsys):

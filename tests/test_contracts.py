@@ -42,7 +42,7 @@ import pyvista as pv
 from conftest import BACKGROUND, blob_grid, set_camera, technique_options
 
 import pv_cubemarch as cm
-from pv_cubemarch.testing import compare_images, to_uint8
+from pv_cubemarch.image_metrics import compare_images, to_uint8
 
 TECHNIQUES = ["vtk", "direct", "cubemap", "auto"]
 BG = np.asarray(BACKGROUND, dtype=np.float64)

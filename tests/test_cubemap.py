@@ -8,9 +8,9 @@ import pyvista as pv
 from conftest import BACKGROUND, assert_close_to_reference, blob_grid, set_camera
 
 import pv_cubemarch as cm
+from pv_cubemarch.image_metrics import compare_images, to_uint8
 from pv_cubemarch.models.lights import VolumeLight
 from pv_cubemarch.reference import lighting as reference_lighting
-from pv_cubemarch.testing import compare_images, to_uint8
 from pv_cubemarch.volume.cubemap.lod import visible_face_mask
 from pv_cubemarch.volume.cubemap.technique import world_from_local
 

@@ -140,10 +140,10 @@ def test_options_table_in_the_docs_is_up_to_date():
 
 def test_declared_checks_name_the_option():
     """A value out of a declared range or choice is refused naming the option."""
-    from pv_cubemarch.volume.options import CubeMapOptions, Shading
+    from pv_cubemarch.volume.options import CommonVolumeOptions, CubeMapOptions
     with pytest.raises(ValueError, match="upscale must be in"):
         CubeMapOptions(upscale=0.0).check()
     with pytest.raises(ValueError, match="skip_empty must be True or False"):
-        Shading(skip_empty="yes").check()
+        CommonVolumeOptions(skip_empty="yes").check()
     with pytest.raises(ValueError, match="blending must be one of"):
-        Shading(blending="over").check()
+        CommonVolumeOptions(blending="over").check()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import importlib
 import inspect
 import json
@@ -18,7 +19,19 @@ from pv_cubemarch.core.declared import declared
 sys.path.insert(0, str(ROOT / "docs" / "_scripts"))
 import generate_pages  # noqa: E402
 
-EXAMPLES = "\n".join(p.read_text() for p in sorted((ROOT / "examples").rglob("*.py")))
+def _keywords_used(paths) -> set[str]:
+    """Keyword arguments of every call in ``paths``, and the keys of dict(...) calls."""
+    used = set()
+    for path in paths:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.keyword) and node.arg:
+                used.add(node.arg)
+            if isinstance(node, ast.Dict):
+                used |= {k.value for k in node.keys if isinstance(k, ast.Constant)}
+    return used
+
+
+EXAMPLE_KEYWORDS = _keywords_used(sorted((ROOT / "examples").rglob("*.py")))
 #: A paper's numbering: section, table, figure, equation, listing, or the seed documents'
 #: file numbers used as names.
 PAPER_NUMBERING = re.compile(
@@ -29,10 +42,9 @@ PAPER_NUMBERING = re.compile(
 
 @pytest.mark.parametrize("kind", ["volume", "voxels", "surface"])
 def test_every_declared_option_appears_in_an_example(kind):
-    # catches: an option added without a gallery example using it (seen failing with
-    # 'step_scale=' removed from examples/volumes/speed_knobs.py's settings and the others)
-    missing = [o.name for o in declared(kind)
-               if not re.search(rf"\b{o.name}\s*=|[\"']{o.name}[\"']\s*:", EXAMPLES)]
+    # catches: an option added without a gallery example passing it (seen failing with
+    # max_samples=32 turned into face_size=32 in examples/volumes/speed_knobs.py)
+    missing = [o.name for o in declared(kind) if o.name not in EXAMPLE_KEYWORDS]
     assert not missing, f"declared {kind} options no example uses: {missing}"
 
 
@@ -80,10 +92,25 @@ def test_bench_tables_are_generated_not_pasted():
     # generate_pages.py writes from docs/bench_results/*.json)
     pasted = {}
     for page in [*(ROOT / "docs").glob("*.md"), ROOT / "README.md"]:
-        for block in re.findall(r"```[a-z]*\n(.*?)```", page.read_text(), re.S):
-            if re.search(r"median ms|PSNR dB|wrong %|ms/frame", block):
+        for block in fenced_blocks(page.read_text()):
+            if re.search(r"median ms|PSNR dB|wrong %|ms/frame|frame ms|latency ms", block):
                 pasted[page.name] = block.splitlines()[0]
     assert not pasted, pasted
+
+
+def fenced_blocks(text: str) -> list[str]:
+    """The bodies of the ``` blocks of a Markdown page (directives included)."""
+    blocks, body = [], None
+    for line in text.splitlines():
+        if line.startswith("```"):
+            if body is None:
+                body = []
+            else:
+                blocks.append("\n".join(body))
+                body = None
+        elif body is not None:
+            body.append(line)
+    return blocks
 
 
 def test_bench_json_becomes_a_table_of_its_rows(tmp_path):

@@ -8,7 +8,7 @@ import pyvista as pv
 from conftest import BACKGROUND, assert_close_to_reference, blob_grid, set_camera, technique_options
 
 import pv_cubemarch as cm
-from pv_cubemarch.testing import compare_images, to_uint8
+from pv_cubemarch.image_metrics import compare_images, to_uint8
 
 # Accuracy contract of the VTK-mapper path at its default step (0.5 voxel) against the
 # reference at 0.1 voxel: PSNR >= 45 dB and no channel off by more than 4 levels of 255.

@@ -14,7 +14,7 @@ import pyvista as pv
 from conftest import BACKGROUND, assert_close_to_reference, blob_grid, set_camera, technique_options
 
 import pv_cubemarch as cm
-from pv_cubemarch.testing import to_uint8
+from pv_cubemarch.image_metrics import to_uint8
 
 TECHNIQUES = ["vtk", "direct", "cubemap"]
 SIZE = (48, 48)

@@ -19,7 +19,7 @@ from conftest import set_camera
 
 import pv_cubemarch as cm
 from pv_cubemarch.gl.frame_inputs import frame_inputs
-from pv_cubemarch.testing import compare_images
+from pv_cubemarch.image_metrics import compare_images
 
 SIZE = (96, 64)
 

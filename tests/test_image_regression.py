@@ -8,7 +8,7 @@ from conftest import BASELINES, SCENE, blob_grid, set_camera
 from PIL import Image
 
 import pv_cubemarch as cm
-from pv_cubemarch.testing import assert_images_close, compare_images, images_match
+from pv_cubemarch.image_metrics import assert_images_close, compare_images, images_match
 
 
 def render_scene():

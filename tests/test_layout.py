@@ -3,7 +3,7 @@
 Catches: a module importing another that imports it back (hoisting
 ``from .cubemap import CubeMapOptions`` into the old ``emission_absorption.py`` made one),
 an import hidden inside a function to dodge a cycle, and the CPU references reaching GL
-code. Seen to fail: adding ``from ..volume.march import VolumeData`` to
+code. Seen to fail: adding ``from ..volume.binding import VolumeData`` to
 ``reference/rays.py`` fails the reference test and the package-cycle test.
 """
 
@@ -16,7 +16,7 @@ from conftest import ROOT
 
 PACKAGE = ROOT / "pv_cubemarch"
 #: Subpackages and top-level modules from the bottom up: each imports only those before it.
-LAYERS = ("core", "testing", "models", "reference", "gl", "volume", "voxels", "surfaces", "api",
+LAYERS = ("core", "image_metrics", "models", "reference", "gl", "volume", "voxels", "surfaces", "api",
           "scene", "bench", "views", "plugin", "cli", "__init__")
 
 

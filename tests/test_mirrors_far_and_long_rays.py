@@ -14,7 +14,7 @@ from conftest import BACKGROUND, blob_grid, set_camera, technique_options
 
 import pv_cubemarch as cm
 from pv_cubemarch import VolumeGroup, add_volumes
-from pv_cubemarch.testing import compare_images, to_uint8
+from pv_cubemarch.image_metrics import compare_images, to_uint8
 
 SIZE = (48, 48)
 ALL_TECHNIQUES = ["vtk", "direct", "cubemap", "auto"]

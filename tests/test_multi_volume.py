@@ -10,8 +10,8 @@ from conftest import BACKGROUND, assert_close_to_reference, blob_grid, set_camer
 
 import pv_cubemarch as cm
 from pv_cubemarch import VolumeGroup, add_volumes
+from pv_cubemarch.image_metrics import compare_images
 from pv_cubemarch.models.group import overlap_groups
-from pv_cubemarch.testing import compare_images
 from pv_cubemarch.volume.auto import classify, projected_pixels
 
 SIZE = (96, 96)

@@ -8,7 +8,7 @@ import pyvista as pv
 from conftest import BACKGROUND, set_camera
 
 import pv_cubemarch as cm
-from pv_cubemarch.testing import compare_images, to_uint8
+from pv_cubemarch.image_metrics import compare_images, to_uint8
 
 SIZE = (96, 96)
 GREEN = (0.2, 0.8, 0.3)

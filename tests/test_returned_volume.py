@@ -147,8 +147,8 @@ def test_a_scaling_placement_keeps_the_opacity_of_the_data(technique):
         pv.Wavelet(), technique=technique, **fine, **given), lambda vol: None)
     assert psnr(image, reference) >= (45.0 if technique in ("cubemap", "auto") else 48.0)
     if technique == "direct":
+        from pv_cubemarch.image_metrics import to_uint8
         from pv_cubemarch.reference.emission_absorption import render_emission_absorption
-        from pv_cubemarch.testing import to_uint8
         cpu = to_uint8(render_emission_absorption(vol.cubemarch.model, camera, SIZE,
                                                   step_voxels=0.25))
         assert psnr(image, cpu) >= 45.0
@@ -171,8 +171,8 @@ def test_a_scaled_channel_volume_keeps_the_look_of_its_data():
     (``shared_transform`` ignored in ``medium_from_texture``): 31.7 dB. Measured: 46.9 dB,
     the background 10.1 dB.
     """
+    from pv_cubemarch.image_metrics import to_uint8
     from pv_cubemarch.reference.emission_absorption import render_emission_absorption
-    from pv_cubemarch.testing import to_uint8
 
     grid = pv.Wavelet()
     values = grid["RTData"]

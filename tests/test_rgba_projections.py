@@ -28,8 +28,8 @@ import pyvista as pv
 from conftest import assert_close_to_reference, draw_at
 
 import pv_cubemarch as cm
+from pv_cubemarch.image_metrics import to_uint8
 from pv_cubemarch.reference.projections import render_blended
-from pv_cubemarch.testing import to_uint8
 
 SIZE = (240, 200)
 TECHNIQUES = ("vtk", "direct", "cubemap", "auto")

@@ -175,7 +175,7 @@ def test_lit_rgba_volume_matches_the_lit_reference():
     unlit = render_emission_absorption(actor.cubemarch.model, camera, SIZE,
                                        step_voxels=0.25)
     errors = assert_close_to_reference(image, reference, 40.0, background=(0, 0, 0))
-    from pv_cubemarch.testing import compare_images
+    from pv_cubemarch.image_metrics import compare_images
     assert compare_images(image, unlit).psnr < errors.psnr - 6
 
 
@@ -251,8 +251,8 @@ def test_overlapping_rgba_volumes_are_marched_jointly(technique):
     # failing: the members not marked direct (CM_DIRECT_MEMBERS left out: the red component
     # read as the value through the table): 11.5 dB; the table's colour emitted instead of
     # the member's own: 16.1 dB.
+    from pv_cubemarch.image_metrics import to_uint8
     from pv_cubemarch.reference.emission_absorption import render_emission_absorption
-    from pv_cubemarch.testing import to_uint8
 
     first = rgba_blob((-12, -11, -10), "turbo")
     second = rgba_blob((-2, -6, -4), "cool", (1.1, 0.9, 1.0))

@@ -12,8 +12,8 @@ import pyvista as pv
 from conftest import BACKGROUND, ROOT
 
 import pv_cubemarch as cm
+from pv_cubemarch.image_metrics import compare_images, to_uint8
 from pv_cubemarch.reference import chord_lengths
-from pv_cubemarch.testing import compare_images, to_uint8
 
 TECHNIQUES = ["vtk", "direct", "cubemap"]
 

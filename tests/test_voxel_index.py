@@ -23,7 +23,7 @@ from pv_cubemarch.models.chunk_pool import chunk_index, chunk_shift, pool_layout
 from pv_cubemarch.models.voxels import make_voxels
 from pv_cubemarch.models.world import VoxelWorld
 from pv_cubemarch.reference.voxels import face_colors, trace_voxels
-from pv_cubemarch.voxels.indexed import IndexedWorldBinding, why_not_indexed
+from pv_cubemarch.voxels.indexed_world import IndexedWorldBinding, why_not_indexed
 from pv_cubemarch.voxels.options import VoxelOptions
 
 

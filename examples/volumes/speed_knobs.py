@@ -16,7 +16,7 @@ import numpy as np
 import pyvista as pv
 
 import pv_cubemarch
-from pv_cubemarch.testing import compare_images
+from pv_cubemarch.image_metrics import compare_images
 
 size = (240, 180)
 x, y, z = np.mgrid[-1:1:64j, -1:1:64j, -1:1:64j]

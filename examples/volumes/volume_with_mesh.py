@@ -12,8 +12,8 @@ import numpy as np
 import pyvista as pv
 
 import pv_cubemarch
+from pv_cubemarch.image_metrics import compare_images, to_uint8
 from pv_cubemarch.reference import mesh_depth
-from pv_cubemarch.testing import compare_images, to_uint8
 
 size = (320, 240)
 x, y, z = np.mgrid[-1:1:48j, -1:1:48j, -1:1:48j]

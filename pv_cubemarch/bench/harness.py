@@ -24,12 +24,12 @@ from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.registry import describe_setting, techniques
 from ..core.rendering import offscreen_plotter, read_depth, read_pixels, render_frame
+from ..image_metrics import compare_images
 from ..models.transfer import shift_value
 from ..models.volume import VolumeModel
 from ..reference.emission_absorption import render_emission_absorption
 from ..reference.projections import render_blended
 from ..scene.model import Scene
-from ..testing import compare_images
 
 Builder = Callable[[pyvista.Plotter, VolumeModel, dict], object]
 

@@ -24,7 +24,7 @@ from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..models.procedural import terrain
 from ..models.world import VoxelWorld
 from ..reference.voxels import trace_voxels
-from ..voxels.indexed import IndexedWorldBinding
+from ..voxels.indexed_world import IndexedWorldBinding
 
 SHAPE = (2048, 2048, 512)
 PALETTE = np.array([[0, 0, 0], [0.9, 0.1, 0.1], [0.1, 0.7, 0.1], [0.1, 0.2, 0.9],

@@ -24,9 +24,9 @@ import vtk
 from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.rendering import read_pixels
+from ..image_metrics import compare_images
 from ..reference.emission_absorption import render_emission_absorption
 from ..scene.model import Scene
-from ..testing import compare_images
 from .harness import (
     _bench_plotter,
     _build_stock,

@@ -45,9 +45,9 @@ class Technique:
         ``build(plotter, model, options)`` for every kind: makes the technique's actor(s)
         and returns its binding: ``drawn`` (the actors that draw it), ``renderer`` (where
         they draw), ``needs_single_sample``, ``blends_in_main_renderer``,
-        ``follow_anchor()`` and ``release()`` (see :class:`pv_cubemarch.gl.drawn.
+        ``follow_anchor()`` and ``release()`` (see :class:`pv_cubemarch.gl.handle.
         DrawnBinding`). A volume's ``model`` is its GPU data and ``options`` a
-        :class:`~pv_cubemarch.volume.march.VolumeSetup` (technique options, shading,
+        :class:`~pv_cubemarch.volume.binding.VolumeSetup` (technique options, shading,
         light map); voxels and surfaces take their model and options dataclass.
     reference : callable
         The CPU reference that says what its right image is.

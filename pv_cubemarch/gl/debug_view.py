@@ -7,7 +7,7 @@ import pyvista
 import vtk
 
 from .bindings import ShaderBindings
-from .drawn import DrawnBinding
+from .handle import DrawnBinding
 from .shaders import Replacement, ShaderRecipe
 from .textures import Texture
 

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.gl_limits import MAX_TEXTURE_SIZE
 from . import voxels as grids
 from .voxels import (
-    MAX_TEXTURE_SIZE,
     atlas_layout,
     atlas_levels,
     filled_bounds,

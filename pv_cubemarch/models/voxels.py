@@ -14,6 +14,7 @@ import numpy as np
 import pyvista
 
 from ..core.errors import VolumeDataError
+from ..core.gl_limits import MAX_GRID_BYTES, MAX_TEXTURE_SIZE
 from .transfer import unknown_cmap
 from .volume import box_world_bounds, check_spacing, checked_transform, first_point
 
@@ -462,14 +463,6 @@ def grown_by_one(mask: np.ndarray) -> np.ndarray:
         spread[tuple(ahead)] |= grown[tuple(behind)]
         grown = spread
     return grown
-
-
-#: Largest 3D texture edge assumed (GL_MAX_3D_TEXTURE_SIZE on llvmpipe and many GPUs).
-MAX_TEXTURE_SIZE = 2048
-#: Most label bytes drawn as one grid: beyond, a grid is drawn in chunks. Its level atlas
-#: is up to 1.5x the labels and its upload makes one more copy; llvmpipe here refused 3D
-#: textures over about 1.8 GB (GL_OUT_OF_MEMORY, which VTK's upload does not report).
-MAX_GRID_BYTES = 512 * 2**20
 
 
 def fits_one_texture(dimensions: Sequence[int], dtype) -> bool:

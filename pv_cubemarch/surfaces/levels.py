@@ -14,7 +14,7 @@ import pyvista
 
 from ..core.options import is_count, level_values, spread_levels
 from ..core.scalar_bar import attach_scalar_bar
-from ..gl.drawn import DrawnBinding
+from ..gl.handle import DrawnBinding
 from ..gl.overlay import place_bounds_proxy
 
 

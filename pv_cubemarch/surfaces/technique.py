@@ -25,18 +25,18 @@ import numpy as np
 import pyvista
 import vtk
 
+from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import FloatArray, ShaderBindings
 from ..gl.box import bind_camera, box_actor, faces_for_peeling, place_box
-from ..gl.drawn import DrawnBinding
 from ..gl.frame_inputs import frame_inputs
+from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.surface import SplineField, active_cells
 from ..models.surface_bricks import BLOCK_SIZE, BRICK_SIZE, SurfaceBricks, surface_bricks
 from ..models.volume import checked_transform
-from ..models.voxels import MAX_TEXTURE_SIZE
 from ..reference.surfaces import render_surface
 from .options import LOOP_BUDGET, SurfaceOptions
 

@@ -20,12 +20,12 @@ from ..core.camera import Camera
 from ..core.declared import declared
 from ..core.registry import get_technique, specific_option_names, techniques
 from ..core.rendering import render_image
+from ..image_metrics import compare_images
 from ..models.group import overlap_groups
 from ..models.surface import SplineField
 from ..models.voxels import VoxelModel
 from ..models.world import VoxelWorld
 from ..scene.model import Scene
-from ..testing import compare_images
 from .knobs import Knob, surface_knobs, volume_knobs, voxel_knobs
 
 #: The kinds of items, in panel order.

@@ -14,10 +14,10 @@ from ..core.frame_errors import observe
 from ..core.registry import Technique, register_technique
 from ..gl.box import camera_matrices, drawn_viewport
 from ..reference.emission_absorption import render_emission_absorption
+from .binding import VolumeBinding, VolumeData, VolumeSetup, follow_placement
 from .cubemap.lod import cube_corners
 from .cubemap.technique import build_cubemap_actor
 from .direct import build_direct_actor
-from .march import VolumeBinding, VolumeData, VolumeSetup, follow_placement
 from .options import AutoOptions
 
 

@@ -22,7 +22,7 @@ from ..gl.overlay import scene_overlay
 from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..reference.emission_absorption import render_emission_absorption
-from .march import (
+from .binding import (
     DECLARATION_SNIPPETS,
     SCREEN_DECLARATIONS,
     VolumeBinding,

@@ -12,7 +12,7 @@ from ..core.errors import SceneChangedError
 from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import ShaderRecipe
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, LightSource, VolumeLight
-from .march import (
+from .binding import (
     DECLARATION_SNIPPETS,
     MARCH_SNIPPETS,
     VolumeData,

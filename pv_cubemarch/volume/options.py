@@ -13,7 +13,7 @@ from ..core.declared import AUTO, Control, Option, check_declared, declare, scal
 from ..models.channels import CHANNEL_MIXES
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
 from ..models.volume import INTERPOLATIONS
-from .march import BLEND_MODES, MAX_ISOSURFACES, MAX_STEPS, Blend, most_texels
+from .binding import BLEND_MODES, MAX_ISOSURFACES, MAX_STEPS, Blend, most_texels
 
 #: Default finest face size ``S_0`` of the cube map (texels per face edge at MIP level 0).
 DEFAULT_FACE_SIZE = 256
@@ -184,7 +184,7 @@ declare(*scalar_bar_terms("volume"))
 
 
 @dataclass(frozen=True)
-class Shading:
+class CommonVolumeOptions:
     """Options every volume technique reads: termination, skipping, lights."""
 
     stop_opacity: float = STOP_OPACITY.field()

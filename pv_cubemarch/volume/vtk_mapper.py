@@ -19,7 +19,7 @@ from ..gl.box import bind_camera, camera_matrices, place_box
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..models.volume import VolumeModel
 from ..reference.emission_absorption import render_emission_absorption
-from .march import (
+from .binding import (
     DECLARATION_SNIPPETS,
     SCREEN_DECLARATIONS,
     VolumeBinding,

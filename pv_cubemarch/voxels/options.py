@@ -17,8 +17,8 @@ from ..core.declared import (
     option,
     scalar_bar_terms,
 )
+from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..core.options import positive_number
-from ..models.voxels import MAX_TEXTURE_SIZE
 
 TRAVERSALS = ("dda", "fixed")
 MODES = ("color", "id", "face")
@@ -128,8 +128,8 @@ class VoxelOptions:
     ``world_traversal`` (grids drawn in chunks): ``'index'``, one box and one traversal over
     the whole world, stepping through a chunk index (empty chunks left in one step, stored
     ones read from a pool of slots); ``'per_chunk'``, a box per chunk, culled and ordered
-    (:mod:`pv_cubemarch.voxels.world`); ``None``: ``'index'`` where its pool fits one
-    texture and the options allow it (:func:`pv_cubemarch.voxels.indexed.why_not_indexed`
+    (:mod:`pv_cubemarch.voxels.per_chunk_world`); ``None``: ``'index'`` where its pool fits one
+    texture and the options allow it (:func:`pv_cubemarch.voxels.indexed_world.why_not_indexed`
     says why not), else ``'per_chunk'``.
     """
 

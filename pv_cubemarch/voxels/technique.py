@@ -17,18 +17,18 @@ import numpy as np
 import pyvista
 
 from ..core.camera import Camera
+from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..core.registry import Technique, register_technique
 from ..core.rendering import needs_open_plotter
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, box_actor, camera_matrices, faces_for_peeling
-from ..gl.drawn import DrawnBinding
 from ..gl.face_depth import FaceDepthPass
+from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.volume import checked_transform
 from ..models.voxels import (
-    MAX_TEXTURE_SIZE,
     VoxelModel,
     atlas_layout,
     atlas_levels,

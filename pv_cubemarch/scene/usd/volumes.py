@@ -17,7 +17,7 @@ from ...core.registry import get_technique, specific_option_names
 from ...models.channels import make_data_model
 from ...models.field_sources import make_field
 from ...models.voxels import Palette, make_voxels
-from ...volume.options import Shading
+from ...volume.options import CommonVolumeOptions
 from ..grids import placement, read_grid
 from ..voxel_worlds import ChunkPrim
 from .attributes import (
@@ -188,9 +188,9 @@ def _check_volume_options(name: str, found: dict, options: dict) -> None:
         technique = get_technique("volume", options.get("technique", "vtk"))
         technique.make_options({k: v for k, v in options.items()
                                 if k in specific_option_names("volume")})
-        Shading(**{k: options[k] for k in ("stop_opacity", "skip_empty", "light_map_size",
-                                           "light_map_ambient", "blending") if k in options},
-                isosurfaces=(0.0,) if options.get("isosurfaces") else ()).check()
+        common = ("stop_opacity", "skip_empty", "light_map_size", "light_map_ambient", "blending")
+        CommonVolumeOptions(**{k: options[k] for k in common if k in options},
+                            isosurfaces=(0.0,) if options.get("isosurfaces") else ()).check()
     except ValueError as exc:
         raise options_error(name, found, "volume", exc) from exc
     if options.get("lights", "scene") not in ("scene", "none"):

@@ -31,7 +31,7 @@ from ...gl.passes import RenderToTexturePass
 from ...gl.shaders import Replacement, ShaderRecipe
 from ...models.volume import VolumeModel
 from ...reference.emission_absorption import render_emission_absorption
-from ..march import (
+from ..binding import (
     DECLARATION_SNIPPETS,
     SCREEN_DECLARATIONS,
     VolumeBinding,

@@ -18,7 +18,7 @@ import vtk
 from ..core.rendering import needs_open_plotter
 from ..gl.bindings import FloatArray, ShaderBindings
 from ..gl.box import place_box
-from ..gl.drawn import DrawnBinding
+from ..gl.handle import DrawnBinding
 from ..gl.shaders import ShaderRecipe
 from ..gl.textures import Texture
 from ..models.group import VolumeGroup
@@ -74,7 +74,7 @@ class VolumeSetup:
 
     Every kind's builder is ``build(plotter, model, options)``; a volume's ``model`` is its
     :class:`VolumeData` and its ``options`` this: the technique's options, the shading
-    every technique reads (:class:`~pv_cubemarch.volume.options.Shading`) and the light
+    every technique reads (:class:`~pv_cubemarch.volume.options.CommonVolumeOptions`) and the light
     map, if any.
     """
 

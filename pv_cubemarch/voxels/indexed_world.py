@@ -15,9 +15,10 @@ from dataclasses import replace
 import numpy as np
 import pyvista
 
+from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..gl.bindings import ShaderBindings
 from ..gl.box import box_actor, box_polydata
-from ..gl.drawn import DrawnBinding
+from ..gl.handle import DrawnBinding
 from ..gl.textures import Texture
 from ..models.chunk_pool import (
     PoolLayout,
@@ -30,7 +31,6 @@ from ..models.chunk_pool import (
 )
 from ..models.volume import checked_transform
 from ..models.voxels import (
-    MAX_TEXTURE_SIZE,
     atlas_updates,
     bounds_in_cells,
     filled_bounds,

@@ -27,8 +27,8 @@ import vtk
 from ..core.frame_errors import observe
 from ..core.rendering import needs_open_plotter
 from ..gl.box import camera_matrices
-from ..gl.drawn import DrawnBinding
 from ..gl.face_depth import FaceDepthPass
+from ..gl.handle import DrawnBinding
 from ..gl.overlay import bounds_proxy
 from ..models.volume import checked_transform
 from ..models.voxels import occupied_bricks, palette_texels
