@@ -19,6 +19,7 @@ from pv_cubemarch.core.declared import declared
 sys.path.insert(0, str(ROOT / "docs" / "_scripts"))
 import generate_pages  # noqa: E402
 
+
 def _keywords_used(paths) -> set[str]:
     """Keyword arguments of every call in ``paths``, and the keys of dict(...) calls."""
     used = set()

@@ -179,7 +179,7 @@ def test_grids_that_need_another_atlas_layout_or_none(plotter_factory):
     # is drawn in chunks instead of drawing nothing.
     # catches (seen to fail): the slab always along z (the tall grid refused; before the
     # layout was checked, drawn blank: no texture made).
-    from pv_cubemarch.models.voxels import atlas_layout
+    from pv_cubemarch.models.voxel_levels import atlas_layout
 
     assert atlas_layout((16, 16, 1400), 2)[0] != 2
     assert atlas_layout((1400, 1400, 1400), 1) is None

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import pv_cubemarch as cm
-from pv_cubemarch.models.voxels import occupancy_levels, representative_levels
+from pv_cubemarch.models.voxel_levels import occupancy_levels, representative_levels
 from pv_cubemarch.reference.voxels import trace_voxels
 
 SIZE = (96, 72)

@@ -11,7 +11,7 @@ from conftest import set_camera
 from test_voxels import EDGE, SIZE, plotter, random_labels, wrong_pixels
 
 import pv_cubemarch as cm
-from pv_cubemarch.models.voxels import PROXY_MARGIN, brick_shell, face_rectangles
+from pv_cubemarch.models.voxel_shell import PROXY_MARGIN, brick_shell, face_rectangles
 from pv_cubemarch.reference.voxels import face_colors, trace_voxels
 
 
@@ -70,7 +70,7 @@ def test_brick_shell_closes_around_the_filled_bricks():
         assert np.allclose(area, exposed_area(labels, brick)), (shape, area)
         # Outward: half a voxel out of each face's centre is outside every filled brick,
         # half a voxel in is inside one.
-        bricks = cm.models.voxels.occupied_bricks(labels, brick)
+        bricks = cm.models.voxel_shell.occupied_bricks(labels, brick)
         centre = faces.mean(axis=1)
         unit = normal / np.linalg.norm(normal, axis=1, keepdims=True)
         for sign, filled in ((1.0, False), (-1.0, True)):
@@ -149,7 +149,7 @@ def test_scattered_content_takes_coarser_bricks_or_none(plotter_factory, monkeyp
     # A sphere's shell fits the face budget at the finest level; a 1 % random fill makes
     # a face per scattered brick and takes coarser bricks. With no level within the
     # budget, the grid draws without a shell, still exactly.
-    from pv_cubemarch.models import voxels as models
+    from pv_cubemarch.models import voxel_shell as models
 
     x, y, z = np.mgrid[0:48, 0:48, 0:48]
     ball = ((x - 24) ** 2 + (y - 24) ** 2 + (z - 24) ** 2 < 15 ** 2).astype(np.uint8)

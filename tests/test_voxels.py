@@ -345,7 +345,7 @@ def test_shading_from_the_scene_lights_matches_the_reference(plotter_factory, sh
 def test_occupancy_levels_are_conservative():
     # Every filled voxel's cell is marked at every level, and a cell is marked only when
     # a voxel under it is filled (checked against a direct scan of each cell).
-    from pv_cubemarch.models.voxels import occupancy_levels
+    from pv_cubemarch.models.voxel_levels import occupancy_levels
 
     labels = random_labels((13, 9, 6), 0.05, seed=12)
     for level, grid in enumerate(occupancy_levels(labels, 3), start=1):
@@ -402,7 +402,7 @@ def test_skipping_structures_leave_the_host_and_come_back_from_the_labels(plotte
 def test_level_atlas_holds_the_labels_and_every_level_apart():
     # The labels and each level cut back out of the atlas equal the labels and the level
     # built alone, and no two share a texel (counted by marking each one's box).
-    from pv_cubemarch.models.voxels import level_atlas, occupancy_levels
+    from pv_cubemarch.models.voxel_levels import level_atlas, occupancy_levels
 
     for shape in ((37, 21, 9), (1, 1, 1), (5, 300, 2)):
         labels = random_labels(shape, 0.02, seed=14).astype(np.uint16) * 300
@@ -432,7 +432,7 @@ def test_default_levels_follow_the_empty_share(plotter_factory):
 def test_distance_field_is_the_largest_empty_cube():
     # Checked against a direct scan of the cube around every voxel (outside counts empty).
     # catches: a dilation that spreads along one axis only (cubes become slabs).
-    from pv_cubemarch.models.voxels import safe_radii
+    from pv_cubemarch.models.voxel_levels import safe_radii
 
     labels = random_labels((11, 7, 5), 0.03, seed=15)
     radii = safe_radii(labels, 3)

@@ -1,7 +1,7 @@
 """A world's stored chunks as slots of one 3D texture, found through a chunk index.
 
 For a world drawn by one traversal (``world_traversal='index'``): every stored chunk's
-labels and occupancy levels (its :class:`~pv_cubemarch.models.voxels.LevelAtlas`, the chunk
+labels and occupancy levels (its :class:`~pv_cubemarch.models.voxel_levels.LevelAtlas`, the chunk
 padded to ``chunk_size``³) fill one slot of a pool texture; a small index texture holds, per
 chunk, where to look: nothing, one label, or a slot. Empty and uniform chunks take no slot,
 so the pool holds only what is stored. The index is the occupancy level of whole chunks:
@@ -16,13 +16,7 @@ import numpy as np
 
 from ..core.gl_limits import MAX_TEXTURE_SIZE
 from . import voxels as grids
-from .voxels import (
-    atlas_layout,
-    atlas_levels,
-    filled_bounds,
-    level_atlas,
-    level_origin,
-)
+from .voxel_levels import atlas_layout, atlas_levels, filled_bounds, level_atlas, level_origin
 from .world import VoxelWorld
 
 
@@ -38,7 +32,7 @@ class PoolLayout:
 
     Slot ``s`` sits at ``(s % gx, (s // gx) % gy, s // (gx * gy))`` blocks, the formula the
     shader computes; within it the chunk's level atlas (``levels`` occupancy levels along
-    ``slab_axis`` / ``row_axis``, as :func:`~pv_cubemarch.models.voxels.level_origin` says).
+    ``slab_axis`` / ``row_axis``, as :func:`~pv_cubemarch.models.voxel_levels.level_origin` says).
     """
 
     chunk_size: int

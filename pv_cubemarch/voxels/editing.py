@@ -16,7 +16,7 @@ import numpy as np
 from ..core.errors import VolumeDataError
 from ..gl.box import box_polydata
 from ..models.procedural import sphere
-from ..models.voxels import (
+from ..models.voxel_levels import (
     atlas_updates,
     bounds_in_cells,
     filled_bounds,

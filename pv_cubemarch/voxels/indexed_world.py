@@ -30,12 +30,8 @@ from ..models.chunk_pool import (
     world_filled_bounds,
 )
 from ..models.volume import checked_transform
-from ..models.voxels import (
-    atlas_updates,
-    bounds_in_cells,
-    filled_bounds,
-    palette_texels,
-)
+from ..models.voxel_levels import atlas_updates, bounds_in_cells, filled_bounds
+from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
 from .options import VoxelOptions, drawn_level
 from .technique import bind_grid, voxel_recipe

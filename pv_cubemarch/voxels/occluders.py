@@ -5,7 +5,7 @@ nearest face of the solid bricks (standing a little inside them) is a depth past
 chunk can show anything: each chunk's rays end there, and a chunk hidden behind nearer
 terrain discards its pixels after one texture read instead of traversing. The faces are
 those of the whole world's solid bricks merged into rectangles
-(:func:`~pv_cubemarch.models.voxels.shell_faces`), drawn only when the view changed.
+(:func:`~pv_cubemarch.models.voxel_shell.shell_faces`), drawn only when the view changed.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 
 from ..gl.box import place_box, quads_polydata
 from ..gl.face_depth import FaceDepthPass
-from ..models.voxels import PROXY_MARGIN, shell_faces
+from ..models.voxel_shell import PROXY_MARGIN, shell_faces
 from ..models.world import VoxelWorld
 from .proxy import face_depth_actor
 

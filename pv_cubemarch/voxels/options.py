@@ -107,7 +107,7 @@ class VoxelOptions:
     Blinn-Phong highlight), with ``ambient``, ``specular`` and ``specular_power``.
     ``mip_levels``: occupancy mipmap levels (0-12; a level's cells are ``2^L`` voxels wide)
     the DDA uses to leave empty space in one step; ``None``: the levels that pay off on the
-    grid's labels with the DDA (:func:`~pv_cubemarch.models.voxels.useful_levels`), none
+    grid's labels with the DDA (:func:`~pv_cubemarch.models.voxel_levels.useful_levels`), none
     with the fixed step.
     ``distance_field``: the neighbour distance field (0 = off, 1-3 = its largest
     radius; one more byte per voxel): from a voxel whose surrounding cube is empty the ray
@@ -120,7 +120,7 @@ class VoxelOptions:
     diffuse term (not the highlight).
     ``proxy``: the geometry whose pixels run the traversal. ``'bricks'`` (default): the
     outer faces of the filled 2³, 4³ or 8³ bricks
-    (:func:`~pv_cubemarch.models.voxels.choose_shell`), so pixels that see no filled brick
+    (:func:`~pv_cubemarch.models.voxel_shell.choose_shell`), so pixels that see no filled brick
     run nothing and rays start next to the voxels; on frames where the near plane reaches
     them it falls back to ``'box'``: the grid's bounding box, every ray traversed from where
     it enters the box or from the near plane (kept to measure the traversal alone). Exact
@@ -266,7 +266,7 @@ class VoxelOptions:
         """These options with ``mip_levels`` settled when it is None.
 
         ``useful_levels``: how many of the ``candidates`` levels pay off on the grid's labels
-        (:func:`~pv_cubemarch.models.voxels.useful_levels`); with ``lod``, at least
+        (:func:`~pv_cubemarch.models.voxel_levels.useful_levels`); with ``lod``, at least
         :data:`LOD_LEVELS` of them (levels of detail even where skipping would not pay).
         """
         if self.mip_levels is not None:

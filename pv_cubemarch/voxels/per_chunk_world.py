@@ -31,7 +31,8 @@ from ..gl.face_depth import FaceDepthPass
 from ..gl.handle import DrawnBinding
 from ..gl.overlay import bounds_proxy
 from ..models.volume import checked_transform
-from ..models.voxels import occupied_bricks, palette_texels
+from ..models.voxel_shell import occupied_bricks
+from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
 from . import editing
 from .occluders import WorldOccluders

@@ -1,6 +1,6 @@
 """Where a grid's rays start: at the brick shell, or where they enter the grid's box.
 
-The brick shell (:func:`~pv_cubemarch.models.voxels.choose_shell`) closes around every
+The brick shell (:func:`~pv_cubemarch.models.voxel_shell.choose_shell`) closes around every
 filled voxel. At the start of a frame whose view changed a depth pass (:class:`FaceDepthPass`) draws
 its front faces: per pixel, the view depth where the ray first meets it. The grid's box then
 traverses each pixel's ray from there (every voxel before it is empty) and skips pixels that
@@ -19,16 +19,16 @@ from ..gl.bindings import ShaderBindings
 from ..gl.box import camera_matrices, near_plane_reaches, place_box, quads_polydata
 from ..gl.face_depth import FaceDepthPass
 from ..gl.shaders import Replacement, ShaderRecipe
-from ..models.voxels import (
+from ..models.voxel_levels import filled_bounds
+from ..models.voxel_shell import (
     PROXY_MARGIN,
     BrickShell,
-    VoxelModel,
     brick_bounds,
     brick_faces,
     choose_shell,
-    filled_bounds,
     occupied_bricks,
 )
+from ..models.voxels import VoxelModel
 
 #: How far (voxels) from the filled voxels' box the near plane must stay for the shell:
 #: beyond the shell's faces, which stand PROXY_MARGIN off the voxels.

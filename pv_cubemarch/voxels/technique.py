@@ -28,19 +28,18 @@ from ..gl.lights import bind_scene_lights
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.volume import checked_transform
-from ..models.voxels import (
-    VoxelModel,
+from ..models.voxel_levels import (
     atlas_layout,
     atlas_levels,
     bounds_in_cells,
-    choose_shell,
     filled_bounds,
     level_atlas,
     occupancy_levels,
-    palette_texels,
     safe_radii,
     useful_levels,
 )
+from ..models.voxel_shell import choose_shell
+from ..models.voxels import VoxelModel, palette_texels
 from ..reference.voxels import render_voxels, trace_voxels
 from . import editing
 from .layers import TranslucentLayers, opaque_palette, translucent_materials
@@ -139,7 +138,7 @@ def bind_labels(bindings: ShaderBindings, model: VoxelModel, options: VoxelOptio
     """Bind the labels, with their occupancy levels beside them when ``mip_levels`` asks.
 
     ``levels``: the grid's occupancy levels (at least ``options.mip_levels`` of them). With
-    levels, ``cm_labels`` is their :class:`~pv_cubemarch.models.voxels.LevelAtlas` (one fetch
+    levels, ``cm_labels`` is their :class:`~pv_cubemarch.models.voxel_levels.LevelAtlas` (one fetch
     reads any level; with ``lod`` the levels hold representative labels); its host copy goes
     once uploaded and is remade from the labels, which the host keeps, only if a new window
     needs it. Without, it is the labels themselves.
