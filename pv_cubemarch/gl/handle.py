@@ -9,12 +9,45 @@ from __future__ import annotations
 
 import warnings
 
+from ..core.rendering import needs_open_plotter
+from ..models.volume import checked_transform
 from .bindings import ShaderBindings
 from .box import place_box
 from .shaders import ShaderRecipe
 
 
-class DrawnBinding:
+class Placement:
+    """Moving what an ``actor.cubemarch`` draws: one ``set_transform`` for every technique.
+
+    A technique says only what follows a new placement (:meth:`place`) and, if it cannot
+    move alone, why (:meth:`check_movable`).
+    """
+
+    main_renderer = None
+
+    @needs_open_plotter
+    def set_transform(self, transform) -> None:
+        """Move what it draws: ``transform`` is its new 4x4 placement in the world.
+
+        What it draws follows at once (passes that depend on the placement run again at the
+        next frame); nothing is uploaded again.
+        """
+        placement = checked_transform(transform)
+        self.check_movable()
+        self.model.transform = placement
+        self.place(placement)
+        if self.main_renderer is not None:
+            self.main_renderer.ResetCameraClippingRange()
+
+    def check_movable(self) -> None:
+        """Raise ``ValueError`` if this drawing cannot move alone (the default: it can)."""
+
+    def place(self, transform) -> None:
+        """Follow the model's new placement ``transform``: by default, the box actor."""
+        place_box(self.drawn[0], self.model.world_from_index())
+
+
+class DrawnBinding(Placement):
     """The drawn side of a technique's per-actor state."""
 
     technique = "technique"
@@ -70,11 +103,6 @@ class DrawnBinding:
                           "it off (plotter.disable_depth_peeling()) to draw them.",
                           stacklevel=3)
 
-    def follow_placement(self) -> None:
-        """After the model moved: its box actor follows, and the near and far planes."""
-        place_box(self.drawn[0], self.model.world_from_index())
-        if self.main_renderer is not None:
-            self.main_renderer.ResetCameraClippingRange()
 
     def begin_release(self) -> bool:
         """Mark the binding released and free its bindings; False if it already was."""

@@ -76,14 +76,12 @@ class SurfaceLevels(DrawnBinding):
         """Each level's active cells (None for ``technique='full'``)."""
         return [level.cells for level in self.levels]
 
-    def set_transform(self, transform) -> None:
-        """Move every level (see ``SurfaceBinding.set_transform``)."""
+    def place(self, transform) -> None:
+        """Every level follows, and the stand-in the camera resets by."""
         for level in self.levels:
             level.set_transform(transform)
         if self.bounds_proxy is not None:
             place_bounds_proxy(self.bounds_proxy, self.model)
-        if self.main_renderer is not None:
-            self.main_renderer.ResetCameraClippingRange()
 
     def release(self) -> None:
         """Free every level (once), and take their actors out of the renderer."""

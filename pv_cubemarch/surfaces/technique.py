@@ -36,7 +36,6 @@ from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
 from ..models.surface import SplineField, active_cells
 from ..models.surface_bricks import BLOCK_SIZE, BRICK_SIZE, SurfaceBricks, surface_bricks
-from ..models.volume import checked_transform
 from ..reference.surfaces import render_surface
 from .options import LOOP_BUDGET, SurfaceOptions
 
@@ -184,11 +183,6 @@ class SurfaceBinding(DrawnBinding):
             self.say_depth_peeling("the translucent surface wherever an opaque prop lies "
                                    "inside its domain box, while the camera or the near "
                                    "plane is inside the box")
-
-    def set_transform(self, transform) -> None:
-        """Move the surface: ``transform`` is its new 4x4 placement in the world."""
-        self.model.transform = checked_transform(transform)
-        self.follow_placement()
 
     def release(self) -> None:
         """Free the textures and the observers (once)."""

@@ -172,10 +172,10 @@ class AutoBinding(VolumeBinding):
         """All GPU bytes of the volume."""
         return sum(self.memory.values())
 
-    def set_transform(self, transform) -> None:
-        """Move the volume (both paths follow; see ``VolumeBinding.set_transform``)."""
-        self.direct.set_transform(transform)   # places the model, and the direct box
-        self.cubemap.set_transform(transform)  # the cube box (culling too) and its frame
+    def place(self, transform) -> None:
+        """Both paths follow: the direct box, the cube box (culling too) and its frame."""
+        self.direct.set_transform(transform)
+        self.cubemap.set_transform(transform)
         follow_placement(self)
 
 

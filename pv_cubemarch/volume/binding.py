@@ -22,7 +22,7 @@ from ..gl.handle import DrawnBinding
 from ..gl.shaders import ShaderRecipe
 from ..gl.textures import Texture
 from ..models.group import VolumeGroup
-from ..models.volume import INTERPOLATIONS, VolumeModel, checked_transform, checked_values
+from ..models.volume import INTERPOLATIONS, VolumeModel, checked_values
 from .clipping import ClipState
 from .pyvista_keywords import DIRECT_COLOR_BLENDING
 from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
@@ -445,17 +445,14 @@ class VolumeBinding(DrawnBinding):
             self.light_map.release()
         self.data.release()
 
-    @needs_open_plotter
-    def set_transform(self, transform) -> None:
-        """Move the volume: ``transform`` is its new 4x4 placement in the world.
-
-        The actor follows at once and the light map is marched again at the next frame;
-        nothing is uploaded again. Volumes marched jointly cannot move one by one.
-        """
+    def check_movable(self) -> None:
+        """Volumes marched jointly cannot move one by one."""
         if isinstance(self.model, VolumeGroup):
             raise ValueError("Volumes marched jointly cannot move one by one; add them again "
                              "with their new transforms (pv_cubemarch.add_volumes).")
-        self.model.transform = checked_transform(transform)
+
+    def place(self, transform) -> None:
+        """The boxes follow (the light map is marched again at the next frame)."""
         for actor in self.drawn:
             # VTK's input grid and the boxes all span index space; a mirroring placement
             # turns a box inside out, so its culling is chosen again.

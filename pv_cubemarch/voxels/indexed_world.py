@@ -29,7 +29,6 @@ from ..models.chunk_pool import (
     slot_texels,
     world_filled_bounds,
 )
-from ..models.volume import checked_transform
 from ..models.voxel_levels import atlas_updates, bounds_in_cells, filled_bounds
 from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
@@ -273,11 +272,6 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
         if tuple(np.concatenate(grown)) != tuple(np.concatenate(self.drawn_bounds)):
             self.drawn_bounds = grown
             self._place_box()
-
-    def set_transform(self, transform) -> None:
-        """Move the world: ``transform`` is its new 4x4 placement."""
-        self.model.transform = checked_transform(transform)
-        self.follow_placement()
 
     def release(self) -> None:
         """Free the textures (once)."""

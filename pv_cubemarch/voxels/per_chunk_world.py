@@ -28,9 +28,8 @@ from ..core.frame_errors import observe
 from ..core.rendering import needs_open_plotter
 from ..gl.box import camera_matrices
 from ..gl.face_depth import FaceDepthPass
-from ..gl.handle import DrawnBinding
+from ..gl.handle import DrawnBinding, Placement
 from ..gl.overlay import bounds_proxy
-from ..models.volume import checked_transform
 from ..models.voxel_shell import occupied_bricks
 from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
@@ -41,7 +40,7 @@ from .technique import VoxelBinding, build_voxel_actor
 from .world_edits import WorldEditing
 
 
-class WorldBinding(WorldEditing):
+class WorldBinding(WorldEditing, Placement):
     """What ``actor.cubemarch`` holds for a world: the world, its chunks, their passes.
 
     Edits take world voxel indices, as a single grid's do (:class:`VoxelBinding`).
@@ -277,9 +276,8 @@ class WorldBinding(WorldEditing):
         self._culled_for = None
         self.occluders.edit(box)
 
-    def set_transform(self, transform) -> None:
-        """Move the world: ``transform`` is its new 4x4 placement."""
-        self.model.transform = checked_transform(transform)
+    def place(self, transform) -> None:
+        """Every chunk follows the world, and the solid faces that end its rays."""
         for chunk in self.chunks.values():
             chunk.set_transform(transform)
         self.occluders.place()

@@ -27,7 +27,6 @@ from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..gl.textures import Texture
-from ..models.volume import checked_transform
 from ..models.voxel_levels import (
     atlas_layout,
     atlas_levels,
@@ -300,9 +299,11 @@ class VoxelBinding(DrawnBinding):
                                    "voxels, while the camera or the near plane is inside "
                                    "the grid's box")
 
-    def follow_placement(self) -> None:
-        """After the grid moved: its actors follow."""
-        super().follow_placement()
+    def place(self, transform) -> None:
+        """The box, the brick shell and the translucent layers follow the grid."""
+        if self.shell is not None:
+            self.shell.place()
+        super().place(transform)
         if self.layers is not None:
             self.layers.place(self.model.world_from_index())
 
@@ -368,13 +369,6 @@ class VoxelBinding(DrawnBinding):
         point = origins[int(y), int(x)] + directions[int(y), int(x)] * depth
         return VoxelPick(tuple(int(v) for v in hits.index[0, 0]), int(hits.material[0, 0]),
                          int(hits.face[0, 0]), depth, tuple(float(v) for v in point))
-
-    def set_transform(self, transform) -> None:
-        """Move the grid: ``transform`` is its new 4x4 placement in the world."""
-        self.model.transform = checked_transform(transform)
-        if self.shell is not None:
-            self.shell.place()
-        self.follow_placement()
 
     def release(self) -> None:
         """Free the textures and observers (once)."""

@@ -232,9 +232,9 @@ class CubeMapBinding(VolumeBinding):
         self.light_map = light_map
         self.targets = [bindings, cube_pass]
 
-    def set_transform(self, transform) -> None:
-        """Move the volume (see ``VolumeBinding.set_transform``); culling and LOD follow."""
-        super().set_transform(transform)
+    def place(self, transform) -> None:
+        """The box follows, and the frame's culling and level of detail."""
+        super().place(transform)
         self.frame.place()
 
     def follow_occluders(self) -> None:
