@@ -38,7 +38,7 @@ void main()
   float sceneDepth = onScreen ? cm_sceneDepthAt(pixel) : 1.0;
   vec3 entry, exit, entryView, exitView;
   vec4 rgba = vec4(0.0);
-  if (cm_screenRay(ndc.xy, min(backDepth, 1.0), sceneDepth, entry, exit, entryView, exitView))
+  if (cm_screenRay(ndc.xy, sceneDepth, entry, exit, entryView, exitView))
   {
     rgba = cm_march(entry, exit, cm_mediumLength(exit - entry));
   }

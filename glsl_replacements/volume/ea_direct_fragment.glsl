@@ -3,7 +3,7 @@
 {
   vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
   vec3 cm_entry, cm_exit, cm_entryView, cm_exitView;
-  if (!cm_screenRay(cm_pixel * 2.0 - 1.0, gl_FragCoord.z, cm_sceneDepthAt(cm_pixel),
+  if (!cm_screenRay(cm_pixel * 2.0 - 1.0, cm_sceneDepthAt(cm_pixel),
                     cm_entry, cm_exit, cm_entryView, cm_exitView))
   {
     discard;

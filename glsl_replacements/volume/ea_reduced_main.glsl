@@ -6,7 +6,7 @@ void main()
   float sceneDepth = texture(cm_sceneDepth, texCoord).r;
   vec3 entry, exit, entryView, exitView;
   vec4 rgba = vec4(0.0);
-  if (cm_screenRay(texCoord * 2.0 - 1.0, 1.0, sceneDepth, entry, exit, entryView, exitView))
+  if (cm_screenRay(texCoord * 2.0 - 1.0, sceneDepth, entry, exit, entryView, exitView))
   {
     rgba = cm_march(entry, exit, cm_mediumLength(exit - entry));
   }

@@ -4,7 +4,7 @@
   vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
   float cm_depth = texture(cm_sceneDepth, cm_pixel).r;
   vec3 cm_entry, cm_exit, cm_entryView, cm_exitView;
-  if (!cm_screenRay(cm_pixel * 2.0 - 1.0, gl_FragCoord.z, cm_depth,
+  if (!cm_screenRay(cm_pixel * 2.0 - 1.0, cm_depth,
                     cm_entry, cm_exit, cm_entryView, cm_exitView))
   {
     discard;

@@ -10,7 +10,7 @@
                            (gl_FragCoord.xy - in_windowLowerLeftCorner) * in_inverseWindowSize).r;
   vec3 cm_entry, cm_exit, cm_entryView, cm_exitView;
   g_fragColor = vec4(0.0);
-  if (cm_screenRay(cm_pixel * 2.0 - 1.0, 1.0, cm_depth, cm_entry, cm_exit, cm_entryView,
+  if (cm_screenRay(cm_pixel * 2.0 - 1.0, cm_depth, cm_entry, cm_exit, cm_entryView,
                    cm_exitView))
   {
     g_fragColor = cm_march(cm_entry, cm_exit,

@@ -48,7 +48,7 @@ def direct_recipe(defines: dict, lit: bool = False, sampling: str = "volume_samp
                         (*DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
                          *march_snippets(blending, defines),
                          *(("light_sample",) if lit else ()),
-                         "screen_ray"),
+                         "pixel_ray", "screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_direct_fragment", keep_tag="before"),
             Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
@@ -68,7 +68,7 @@ def upsample_recipe() -> ShaderRecipe:
         replacements=[
             Replacement("//VTK::Color::Dec",
                         (*SCREEN_DECLARATIONS, "ea_upsample_declarations", "slab",
-                         "screen_ray"),
+                         "pixel_ray", "screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Light::Impl", "ea_upsample_fragment", keep_tag="before"),
             Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
@@ -228,7 +228,7 @@ def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
         lit = ("light_sample",)
     low_pass.set_recipe(ShaderRecipe(
         standalone=("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
-                    *march_snippets(shading.blending, defines), *lit, "screen_ray",
+                    *march_snippets(shading.blending, defines), *lit, "pixel_ray", "screen_ray",
                     "ea_reduced_main"),
         defines=defines))
     return overlay, low_pass

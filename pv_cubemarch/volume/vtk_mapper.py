@@ -46,7 +46,7 @@ def vtk_mapper_recipe(defines: dict, lit: bool, blending: str = "composite") -> 
             Replacement("//VTK::ComputeColor::Dec",
                         ("ea_vtk_declarations", *SCREEN_DECLARATIONS,
                          *march_snippets(blending, defines),
-                         *(("light_sample",) if lit else ()), "screen_ray"),
+                         *(("light_sample",) if lit else ()), "pixel_ray", "screen_ray"),
                         keep_tag="after"),
             Replacement("//VTK::Shading::Init", "ea_vtk_ray_init"),
             Replacement("//VTK::Base::Dec", "ea_vtk_vertex_declarations", stage="vertex",

@@ -139,8 +139,8 @@ def _outside_frustum(clip_from_local: np.ndarray) -> bool:
 
 def _pass_snippets(lit: bool, sampling: str, blending: str, defines: dict) -> tuple[str, ...]:
     return ("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
-            *march_snippets(blending, defines), *(("light_sample",) if lit else ()), "screen_ray",
-            "cube_faces", "cube_march_main")
+            *march_snippets(blending, defines), *(("light_sample",) if lit else ()),
+            "pixel_ray", "screen_ray", "cube_faces", "cube_march_main")
 
 
 def resample_recipe(occlusion: bool) -> ShaderRecipe:
