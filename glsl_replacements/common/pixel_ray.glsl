@@ -1,3 +1,4 @@
+// requires: camera_declarations
 // A pixel's ray straight from the projection's entries, with no inverse projection of a
 // depth value (which loses digits near a box's edges): in view space it starts at the eye
 // (perspective) or on the eye plane (parallel) and runs along view -z scaled so that its

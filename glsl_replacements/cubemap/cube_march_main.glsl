@@ -1,3 +1,4 @@
+// requires: camera_declarations, cube_faces, ea_declarations, ea_direct_declarations, ea_march, screen_ray
 // Cube ray-marching pass (the cube map's pass 2): one ray per texel of the visible interior faces,
 // from the eye (or the near plane) through the texel's point on the face, cut by the opaque
 // depth found where that point projects on the screen (nearest sample). Target 0:

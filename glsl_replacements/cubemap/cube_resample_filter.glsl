@@ -1,3 +1,4 @@
+// requires: cube_faces
 // The 2x2 bilateral depth filter: the four texels bilinear sampling would use,
 // each weighted by bilinear weight * max(1 - k_z |z_pixel - z_cube| / texel, 0), where z is
 // the distance along the view axis at which the ray stops (opaque depth or the face).

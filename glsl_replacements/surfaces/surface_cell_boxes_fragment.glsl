@@ -1,3 +1,4 @@
+// requires: pixel_ray, slab, surface_records
 // Active cells drawn as boxes (traversal 'cell_boxes'):
 // each fragment of an active cell's back faces marches its pixel's ray within that cell
 // only, from where the ray enters it (or the near plane: the camera inside the cell) to

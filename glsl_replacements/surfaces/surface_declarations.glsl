@@ -1,3 +1,4 @@
+// requires: pixel_ray, slab
 // Polynomial surfaces: declarations. Cell (i, j, k) spans [i, i+1] x [j, j+1] x [k, k+1]
 // of cell space (cm_textureFromView maps view to it); its field is the quadratic tensor
 // Bernstein polynomial sum beta[a][b][c] B_a(u) B_b(v) B_c(w) in cell-local (u, v, w) in

@@ -1,3 +1,4 @@
+// requires: surface_declarations, surface_records
 // Dense coefficients (technique 'full'): the field at any cell-space point, from the cell it
 // lies in (clamped into the grid), whose coefficients are loaded when the point changes cell.
 ivec3 cm_loadedCell = ivec3(-1);

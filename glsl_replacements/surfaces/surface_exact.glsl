@@ -1,3 +1,4 @@
+// requires: surface_declarations
 // The exact root (root = 'exact', beyond fixed steps): inside a cell the field along the ray
 // a..b is a polynomial of degree at most 6 in s; its 7 Bernstein coefficients come from 7
 // samples at s = k/6 through the inverse of the Bernstein basis there (exact fractions:

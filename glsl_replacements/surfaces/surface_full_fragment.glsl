@@ -1,3 +1,4 @@
+// requires: surface_declarations, surface_dense
 // The whole domain (conventional ray marching, kept as the baseline): each
 // fragment of the domain box's back faces marches its pixel's ray from where it enters the
 // domain (or the near plane) to where it leaves, every cm_stepLength cell units, each sample

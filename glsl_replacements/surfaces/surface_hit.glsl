@@ -1,3 +1,4 @@
+// requires: surface_shade_hit
   // The hit (cm_depth along the view ray, cm_local in the loaded cell cm_hitCell), opaque:
   // its colour (surface_shade_hit.glsl) and its real depth, so meshes and other techniques
   // occlude exactly.

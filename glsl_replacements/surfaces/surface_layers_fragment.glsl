@@ -1,3 +1,4 @@
+// requires: camera_declarations, surface_declarations, surface_shade_hit, surface_traverse
 // Translucent surface (surface_layer_declarations says what it draws): each crossing up to
 // the opaque depth, found by the active cells' traversal from just past the one before
 // (cm_rootPast, or cm_nudge further), composited front to back until the ray is opaque

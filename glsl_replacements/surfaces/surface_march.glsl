@@ -1,3 +1,4 @@
+// requires: surface_declarations
 // The fixed-step march inside one loaded cell: from local a to b (cm_stepLength cell units
 // apart, from a, the exit b sampled last however short the last interval), the first
 // interval whose ends differ in sign (or end on 0; with CM_LEVELS: lie on two sides of a

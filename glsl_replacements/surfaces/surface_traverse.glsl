@@ -1,3 +1,4 @@
+// requires: surface_bricks
 // One traversal per pixel through the active cells (traversal 'index', instead of a box per
 // cell): Amanatides & Woo from a to b (cell space) over three levels, blocks of
 // CM_BLOCK_SIZE cells, bricks of CM_BRICK_SIZE cells, and cells. A block or brick with no

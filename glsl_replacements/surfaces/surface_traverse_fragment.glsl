@@ -1,3 +1,4 @@
+// requires: surface_declarations, surface_traverse
 // Active cells through their index (traversal 'index'): each fragment of the domain box's
 // back faces traverses its pixel's ray from where it enters the domain (or the near plane:
 // the camera inside the domain or an active cell) to where it leaves (cm_traverse), and

@@ -1,3 +1,4 @@
+// requires: blend_intensity
 // Blending 'additive': the opacity-weighted normalised values summed along the ray, each
 // times its length over opacity_unit_distance (a path integral), as a grey level clamped
 // to 1; every ray that crosses the volume leaves it, zero included.

@@ -1,3 +1,4 @@
+// requires: blend_intensity
 // Blending 'average': the mean of the opacity-weighted normalised values along the ray
 // (state.x their sum, state.y how many), as a grey level; a ray that read no sample
 // leaves the background. Samples outside cm_averageRange (the mapper's

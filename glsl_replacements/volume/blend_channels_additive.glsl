@@ -1,3 +1,4 @@
+// requires: joint_sample
 // Channels that add their light (a channel volume's channel_blending='additive'): each
 // channel is composited front to back as if it were alone, with its own transmittance,
 // and the channels' light is summed (clamped to white); what lies behind is seen through

@@ -1,3 +1,4 @@
+// requires: ea_declarations, ea_march
 // Blending 'composite': emission/absorption, front to back, with early ray termination.
 // A blend mode defines the ray's running state, how a sample enters it (false: stop the ray)
 // and the premultiplied rgba it leaves; the marcher (ea_march) calls these three.

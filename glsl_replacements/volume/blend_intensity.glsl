@@ -1,3 +1,4 @@
+// requires: blend_opacity
 // What 'average' and 'additive' share: a sample's value normalised over the data's range
 // (not clim), weighted by its opacity; the ray leaves a grey level, opaque, as VTK draws
 // these modes (the colour map is not read).

@@ -1,3 +1,4 @@
+// requires: blend_opacity, ea_declarations
 // Blending 'isosurface': each level of cm_isoValues the ray crosses between two samples is
 // a surface with the colour and the opacity (per unit distance, not accumulated) the
 // transfer function gives that level, composited front to back; samples between levels

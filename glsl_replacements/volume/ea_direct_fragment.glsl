@@ -1,3 +1,4 @@
+// requires: ea_declarations, ea_direct_declarations, ea_march, screen_ray
 // Direct screen-space marcher on a box actor: the ray, the march and the output colour
 // (after VTK's lighting, which it replaces).
 {

@@ -1,3 +1,4 @@
+// requires: camera_declarations, ea_declarations, ea_march, screen_ray
 // Reduced-resolution emission/absorption pass: one ray per texel of a target 1/k of the
 // viewport, up to the far plane or the opaque depth. Target 0: premultiplied rgba;
 // target 1: view z where the ray stops (the key of the depth-aware upsampling).

@@ -1,3 +1,4 @@
+// requires: camera_declarations, ea_upsample_declarations, screen_ray
 // Depth-aware upsampling of the reduced-resolution pass on the box's back faces (after
 // VTK's lighting, which it replaces): composites the low-resolution result over the scene.
 {

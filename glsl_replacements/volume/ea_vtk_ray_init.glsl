@@ -1,3 +1,4 @@
+// requires: ea_declarations, ea_march, screen_ray
 // Emission/absorption in VTK's volume mapper (the shading-init tag). The ray is set up here,
 // not by VTK: from the fragment's window position through the camera-relative matrices the
 // direct marcher uses (made in double precision on the CPU), from the near plane to the box

@@ -1,3 +1,4 @@
+// requires: ea_declarations, slab
 // Several overlapping volumes marched as one medium (CM_JOINT, up to 4 members): a sample
 // of the group's box adds the extinction of every member whose box of texel centres holds
 // it, and emits their extinction-weighted mean colour, the model of the CPU reference.

@@ -1,3 +1,4 @@
+// requires: ea_declarations, slab
 // Light-map pass: for each point of an L^3 grid over the volume, the
 // transmittance toward each light, marched through the same transfer function (rgba =
 // lights 0..3), through one volume or a joint group (whose members shade each other).

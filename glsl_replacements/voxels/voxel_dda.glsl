@@ -1,3 +1,4 @@
+// requires: voxel_declarations
 // Amanatides & Woo traversal of a material grid: from a to b (index space) to the first
 // drawn voxel. Returns its material (0: none), the voxel, the face it was entered through
 // (2 * axis + 1 when entered moving +axis, 2 * axis moving -axis; `face` comes in as the

@@ -1,3 +1,4 @@
+// requires: voxel_declarations
 // Fixed-step traversal of a material grid (the baseline, kept to show what it misses):
 // samples every cm_voxelStep voxels along the ray's dominant axis, from a to b (index
 // space); the first sample inside a drawn voxel is the hit (its face is the box entry's for

@@ -1,3 +1,4 @@
+// requires: pixel_ray, slab, voxel_declarations
 // Material grid on its box actor (opaque pass, back faces; after VTK's lighting, which it
 // replaces): this pixel's ray (pixel_ray.glsl) through the grid's box (cm_slab), from the
 // box, the near plane or the brick shell (its depth pass), traversed to the first drawn

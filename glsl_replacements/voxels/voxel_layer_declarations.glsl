@@ -1,3 +1,4 @@
+// requires: voxel_declarations
 // Translucent materials of a material grid: the box's second actor, drawn in the translucent
 // pass once every opaque prop (the grid's own opaque materials included) has written its
 // depth. Each material is a closed translucent surface, as PyVista draws one

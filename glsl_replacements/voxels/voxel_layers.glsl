@@ -1,3 +1,4 @@
+// requires: camera_declarations, pixel_ray, slab, voxel_declarations, voxel_layer_declarations
 // Translucent materials: the layer actor's fragment (voxel_layer_declarations says what
 // it draws), after VTK's lighting, which it replaces.
 {

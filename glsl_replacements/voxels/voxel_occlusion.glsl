@@ -1,3 +1,4 @@
+// requires: voxel_declarations
 // Ambient occlusion of a voxel hit (CM_OCCLUSION): per-vertex voxel AO, the CPU reference's
 // formula (pv_cubemarch.reference.voxels.occlusion_factor). The layer is the voxel on the
 // viewer's side of the entered face (face 2 * axis + 1, entered moving +axis: voxel - e_axis;

@@ -53,6 +53,33 @@ def snippet_source(name: str) -> str:
     return text
 
 
+@cache
+def snippet_requirements(name: str) -> tuple[str, ...]:
+    """The snippets ``name`` declares it needs: its ``// requires: a, b`` header lines."""
+    needed: list[str] = []
+    for line in snippet_source(name).splitlines():
+        if not line.startswith("//"):
+            break
+        head, _, rest = line[2:].strip().partition(":")
+        if head == "requires":
+            needed += [part.strip() for part in rest.split(",") if part.strip()]
+    unknown = [n for n in needed if n not in _snippet_paths()]
+    if unknown:
+        raise ValueError(f"GLSL snippet {name!r} requires unknown snippet(s) {unknown}.")
+    return tuple(needed)
+
+
+def check_requirements(stages: dict[str, tuple[str, ...]]) -> None:
+    """Raise ``ValueError`` naming a snippet whose required snippets its stage lacks."""
+    for stage, names in stages.items():
+        for name in names:
+            missing = [n for n in snippet_requirements(name) if n not in names]
+            if missing:
+                raise ValueError(f"GLSL snippet {name!r} requires {missing} in the {stage} "
+                                 f"shader, which has only {list(names)}; add them to the "
+                                 "recipe before it.")
+
+
 def define_lines(defines: dict[str, object]) -> str:
     """``#define`` lines for the enabled features (``False``/``None`` values are left out)."""
     lines = []
@@ -113,8 +140,18 @@ class ShaderRecipe:
             parts.append(replacement.tag)
         return "\n".join(parts) + "\n"
 
+    def check(self) -> None:
+        """Raise ``ValueError`` if a snippet's declared requirements are not in its stage."""
+        stages: dict[str, tuple[str, ...]] = {}
+        for item in self.replacements:
+            stages[item.stage] = stages.get(item.stage, ()) + _names(item.snippet)
+        if self.standalone:
+            stages["standalone"] = _names(self.standalone)
+        check_requirements(stages)
+
     def apply(self, shader_property) -> None:
         """Install the replacements on a ``vtkShaderProperty`` (actor or volume)."""
+        self.check()
         shader_property.ClearAllShaderReplacements()
         for index, item in enumerate(self.replacements):
             code = self.code_for(item, first=index == 0)
@@ -133,6 +170,7 @@ class ShaderRecipe:
         """
         if not self.standalone:
             raise ValueError("This recipe has no standalone fragment snippet.")
+        self.check()
         names = _names(self.standalone)
         header, _, rest = snippet_source(names[0]).partition("\n")
         if header.strip() != "//VTK::System::Dec":
