@@ -8,8 +8,14 @@ import pytest
 import pyvista as pv
 
 import pv_cubemarch as cm
+from pv_cubemarch.core.registry import techniques
 
 ROOT = Path(__file__).resolve().parents[1]
+#: Every volume technique the registry holds: tests take their lists from it, so a new
+#: technique is tested by every test that loops over techniques.
+VOLUME_TECHNIQUES = tuple(t.name for t in techniques("volume"))
+#: Those that march rays themselves (not 'auto', which picks one of them per frame).
+MARCHING_TECHNIQUES = tuple(t.name for t in techniques("volume") if not t.chooses_among)
 BASELINES = Path(__file__).resolve().parent / "baselines"
 SCENE = ROOT / "datasets" / "smoke_scene.usda"
 BACKGROUND = (0.1, 0.1, 0.12)

@@ -15,13 +15,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
+from conftest import VOLUME_TECHNIQUES
 from test_pyvista_parity import synthetic_ct
 from test_volume_clipping import usd_and_cli_images
 
 import pv_cubemarch as cm
 
 SIZE = (160, 120)
-TECHNIQUES = ("vtk", "direct", "cubemap", "auto")
+TECHNIQUES = VOLUME_TECHNIQUES
 KEYWORDS = dict(cmap="bone", clim=(-200, 1500), opacity="sigmoid")
 #: air left out; bone only
 RANGES = ((-500.0, 3000.0), (300.0, 3000.0))

@@ -7,6 +7,7 @@ import warnings
 import numpy as np
 import pytest
 import pyvista as pv
+from conftest import MARCHING_TECHNIQUES
 
 import pv_cubemarch as cm
 
@@ -206,7 +207,7 @@ def test_a_closed_plotter_refuses_adds_edits_and_picks(call):
         _closed_plotter_calls()[call](pl, actors)
 
 
-@pytest.mark.parametrize("technique", ["vtk", "direct", "cubemap"])
+@pytest.mark.parametrize("technique", MARCHING_TECHNIQUES)
 def test_a_volume_past_the_3d_texture_limit_is_an_error_not_a_blank(plotter_factory,
                                                                      technique):
     # catches: 'vtk' drawing a blank image (VTK logs "Invalid texture dimensions" and

@@ -39,12 +39,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import BACKGROUND, blob_grid, set_camera, technique_options
+from conftest import BACKGROUND, VOLUME_TECHNIQUES, blob_grid, set_camera, technique_options
 
 import pv_cubemarch as cm
 from pv_cubemarch.image_metrics import compare_images, to_uint8
 
-TECHNIQUES = ["vtk", "direct", "cubemap", "auto"]
+TECHNIQUES = VOLUME_TECHNIQUES
 BG = np.asarray(BACKGROUND, dtype=np.float64)
 
 MIN_PSNR = 45.0

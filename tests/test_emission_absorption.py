@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import BACKGROUND, assert_close_to_reference, blob_grid, set_camera, technique_options
+from conftest import (
+    BACKGROUND,
+    MARCHING_TECHNIQUES,
+    assert_close_to_reference,
+    blob_grid,
+    set_camera,
+    technique_options,
+)
 
 import pv_cubemarch as cm
 from pv_cubemarch.image_metrics import compare_images, to_uint8
@@ -16,7 +23,7 @@ MIN_PSNR = 45.0
 MAX_LEVELS = 4
 
 
-TECHNIQUES = ["vtk", "direct", "cubemap"]
+TECHNIQUES = MARCHING_TECHNIQUES
 
 
 def gpu_and_reference(pl, model, size, camera, step_scale=0.5, technique="vtk", **ref):

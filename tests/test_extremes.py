@@ -11,12 +11,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import BACKGROUND, assert_close_to_reference, blob_grid, set_camera, technique_options
+from conftest import (
+    BACKGROUND,
+    MARCHING_TECHNIQUES,
+    assert_close_to_reference,
+    blob_grid,
+    set_camera,
+    technique_options,
+)
 
 import pv_cubemarch as cm
 from pv_cubemarch.image_metrics import to_uint8
 
-TECHNIQUES = ["vtk", "direct", "cubemap"]
+TECHNIQUES = MARCHING_TECHNIQUES
 SIZE = (48, 48)
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import set_camera
+from conftest import VOLUME_TECHNIQUES, set_camera
 
 import pv_cubemarch as cm
 from pv_cubemarch.gl.frame_inputs import frame_inputs
@@ -81,7 +81,7 @@ def test_window_settings_come_back_after_the_last_volume(plotter_factory):
     assert pl.renderer.GetUseOIT() and pl.ren_win.GetMultiSamples() == 4
 
 
-@pytest.mark.parametrize("technique", ["vtk", "direct", "cubemap", "auto"])
+@pytest.mark.parametrize("technique", VOLUME_TECHNIQUES)
 def test_remove_actor_removes_and_releases(plotter_factory, technique):
     # catches: remove_actor returning True while the cube map stays drawn, and every
     # technique staying tracked (its textures and observers alive).

@@ -10,14 +10,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import BACKGROUND, blob_grid, set_camera, technique_options
+from conftest import (
+    BACKGROUND,
+    MARCHING_TECHNIQUES,
+    VOLUME_TECHNIQUES,
+    blob_grid,
+    set_camera,
+    technique_options,
+)
 
 import pv_cubemarch as cm
 from pv_cubemarch import VolumeGroup, add_volumes
 from pv_cubemarch.image_metrics import compare_images, to_uint8
 
 SIZE = (48, 48)
-ALL_TECHNIQUES = ["vtk", "direct", "cubemap", "auto"]
+ALL_TECHNIQUES = VOLUME_TECHNIQUES
 
 
 def drawn(image) -> float:
@@ -139,7 +146,7 @@ def constant_medium(n=48):
     return cm.make_volume(grid, transfer=transfer)
 
 
-@pytest.mark.parametrize("technique", ["vtk", "direct", "cubemap"])
+@pytest.mark.parametrize("technique", MARCHING_TECHNIQUES)
 def test_long_rays_are_marched_to_the_end(plotter_factory, technique):
     # Catches: a marcher loop bounded at 16384 steps. step_scale 0.002 on 47 texels is
     # 23500 steps along z; cut at 16384 the chord absorbs 1 - 0.5**(16384/23500) = 0.38
@@ -250,7 +257,7 @@ def test_refuses_a_step_no_ray_can_take(plotter_factory):
 
 
 @pytest.mark.parametrize("offset", [1e6, 1e7], ids=["1e6", "1e7"])
-@pytest.mark.parametrize("technique", ["vtk", "direct", "cubemap"])
+@pytest.mark.parametrize("technique", MARCHING_TECHNIQUES)
 def test_far_away_volume_matches_reference(plotter_factory, technique, offset):
     # Catches: VTK's mapper fed a grid whose points sit 1e6 from the origin (float32
     # vertex positions and texture coordinates: 39 dB at 1e6, 21 dB at 1e7 before the
@@ -278,7 +285,7 @@ def test_far_away_volume_matches_reference(plotter_factory, technique, offset):
     assert actor.cubemarch.model is model
 
 
-@pytest.mark.parametrize("technique", ["vtk", "direct", "cubemap"])
+@pytest.mark.parametrize("technique", MARCHING_TECHNIQUES)
 def test_far_away_volume_cut_by_a_mesh(plotter_factory, technique):
     # Catches: VTK's mapper ending each ray at the opaque depth through its float32 inverse
     # matrices (inverse projection, model-view and volume matrices holding 1e6-sized

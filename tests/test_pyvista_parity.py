@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 import pyvista as pv
 import vtk
-from conftest import draw_at
+from conftest import MARCHING_TECHNIQUES, VOLUME_TECHNIQUES, draw_at
 from pyvista import examples
 
 import pv_cubemarch as cm
@@ -38,7 +38,7 @@ from pv_cubemarch.core.frame_errors import collecting_frame_errors
 from pv_cubemarch.volume.pyvista_keywords import isosurface_levels
 
 SIZE = (160, 120)
-TECHNIQUES = ("vtk", "direct", "cubemap", "auto")
+TECHNIQUES = VOLUME_TECHNIQUES
 EXAMPLES = examples.__path__[0]
 
 
@@ -748,7 +748,7 @@ def test_add_mesh_keywords_taken_or_refused_by_name():
     pl.close()
 
 
-@pytest.mark.parametrize("technique", ("vtk", "direct", "cubemap"))
+@pytest.mark.parametrize("technique", MARCHING_TECHNIQUES)
 def test_multiblock_adds_each_block_as_pyvista(technique):
     """A MultiBlock adds each block as its own volume and returns their actors; with
     ``multi_colors=True`` each takes the next of PyVista's colormaps (found by a reviewer:

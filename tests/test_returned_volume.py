@@ -19,11 +19,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
+from conftest import MARCHING_TECHNIQUES, VOLUME_TECHNIQUES
 
 import pv_cubemarch as cm
 
 SIZE = (160, 120)
-TECHNIQUES = ("vtk", "direct", "cubemap", "auto")
+TECHNIQUES = VOLUME_TECHNIQUES
 KEYWORDS = dict(cmap="viridis", opacity="linear", clim=(40, 280))
 POSITION = [(40, 30, 35), (0, 0, 0), (0, 0, 1)]
 MOVE = np.array([[0.8, -0.6, 0.0, 3.0], [0.6, 0.8, 0.0, -2.0], [0.0, 0.0, 1.2, 1.0],
@@ -214,7 +215,7 @@ def test_user_matrix_reads_back_what_add_volume_was_given():
         pl.close()
 
 
-@pytest.mark.parametrize("technique", ("vtk", "direct", "cubemap"))
+@pytest.mark.parametrize("technique", MARCHING_TECHNIQUES)
 def test_shading_terms_set_after_adding_are_drawn(technique):
     """A shaded volume's ``vol.prop.specular`` and ``specular_power`` changed: PyVista's image
     with the same change.

@@ -25,14 +25,14 @@ import matplotlib
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import assert_close_to_reference, draw_at
+from conftest import VOLUME_TECHNIQUES, assert_close_to_reference, draw_at
 
 import pv_cubemarch as cm
 from pv_cubemarch.image_metrics import to_uint8
 from pv_cubemarch.reference.projections import render_blended
 
 SIZE = (240, 200)
-TECHNIQUES = ("vtk", "direct", "cubemap", "auto")
+TECHNIQUES = VOLUME_TECHNIQUES
 #: An oblique view for 'maximum'; for 'minimum' one along z, where each ray's least alpha
 #: lies inside the grid (seen obliquely, rays near the silhouette keep a value at a face,
 #: where every marcher's first sample lands elsewhere).

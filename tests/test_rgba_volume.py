@@ -24,7 +24,7 @@ import matplotlib
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import assert_close_to_reference, draw_at
+from conftest import VOLUME_TECHNIQUES, assert_close_to_reference, draw_at
 
 import pv_cubemarch as cm
 from pv_cubemarch.core.camera import Camera
@@ -32,7 +32,7 @@ from pv_cubemarch.core.errors import VolumeDataError
 from pv_cubemarch.reference.emission_absorption import render_emission_absorption
 
 SIZE = (240, 200)
-TECHNIQUES = ("vtk", "direct", "cubemap", "auto")
+TECHNIQUES = VOLUME_TECHNIQUES
 POSITION = [(60, 40, 50), (0, 0, 0), (0, 0, 1)]
 
 

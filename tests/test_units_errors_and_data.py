@@ -9,13 +9,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import BACKGROUND, ROOT
+from conftest import BACKGROUND, MARCHING_TECHNIQUES, ROOT
 
 import pv_cubemarch as cm
 from pv_cubemarch.image_metrics import compare_images, to_uint8
 from pv_cubemarch.reference import chord_lengths
 
-TECHNIQUES = ["vtk", "direct", "cubemap"]
+TECHNIQUES = MARCHING_TECHNIQUES
 
 
 def background_psnr(reference: np.ndarray) -> float:

@@ -20,11 +20,12 @@ import numpy as np
 import pytest
 import pyvista as pv
 import vtk
+from conftest import MARCHING_TECHNIQUES, VOLUME_TECHNIQUES
 
 import pv_cubemarch as cm
 
 SIZE = (160, 120)
-TECHNIQUES = ("vtk", "direct", "cubemap", "auto")
+TECHNIQUES = VOLUME_TECHNIQUES
 KEYWORDS = dict(cmap="viridis", opacity="linear", clim=(40, 280))
 POSITION = [(40, 30, 35), (0, 0, 0), (0, 0, 1)]
 PLANES = (((1.0, 0.0, 0.0), (1.0, 0.3, 0.2)), ((0.0, 4.0, 0.0), (0.0, -1.0, 0.0)))
@@ -162,7 +163,7 @@ def test_add_volume_clip_plane_works_and_follows_the_plane(moved_plane_reference
     assert min(seen) >= (42.0 if technique in ("cubemap", "auto") else 45.0), seen
 
 
-@pytest.mark.parametrize("technique", ("vtk", "direct", "cubemap"))
+@pytest.mark.parametrize("technique", MARCHING_TECHNIQUES)
 def test_axis_parallel_rays_and_a_far_volume(technique):
     """A plane parallel to the view rays (parallel projection: the ``rate == 0`` branch) on a
     CT placed 1e7 mm from the origin, in Hounsfield units, against the CPU reference.

@@ -67,6 +67,9 @@ class Technique:
     sweep: Sweep | None = None
     summary: str = ""
     groups: bool = True
+    #: For a technique that picks one of others per frame (``'auto'``): those it picks
+    #: among; it marches nothing of its own.
+    chooses_among: tuple[str, ...] = ()
 
     @property
     def option_names(self) -> tuple[str, ...]:

@@ -190,5 +190,5 @@ def build_auto_actor(plotter, data: VolumeData, setup: VolumeSetup):
 
 register_technique(Technique(
     name="auto", kind="volume", options=AutoOptions, build=build_auto_actor,
-    reference=render_emission_absorption,
+    reference=render_emission_absorption, chooses_among=("cubemap", "direct"),
     summary="per frame, the cube map or the direct marcher, whichever marches fewer rays"))
