@@ -181,5 +181,24 @@ class ShaderRecipe:
         return "\n".join(parts)
 
 
+def box_recipe(declarations: tuple[str, ...], fragment: str | tuple[str, ...],
+               defines: dict | None = None, vertex: tuple[str, ...] = ("ea_box_vertex",),
+               vertex_declarations: tuple[str, ...] = ()) -> ShaderRecipe:
+    """The shader of a box actor that marches its pixels: every technique's skeleton.
+
+    ``declarations`` go before VTK's colour declarations, ``fragment`` runs where VTK's
+    lighting would (after the fragment's own colour), and the box's vertex code places it;
+    ``vertex_declarations`` add to the vertex stage's.
+    """
+    replacements = [Replacement("//VTK::Color::Dec", tuple(declarations), keep_tag="after"),
+                    Replacement("//VTK::Light::Impl", fragment, keep_tag="before")]
+    if vertex_declarations:
+        replacements.append(Replacement("//VTK::PositionVC::Dec", tuple(vertex_declarations),
+                                        stage="vertex", keep_tag="after"))
+    replacements.append(Replacement("//VTK::PositionVC::Impl", tuple(vertex), stage="vertex",
+                                    keep_tag="before"))
+    return ShaderRecipe(replacements, defines=dict(defines or {}))
+
+
 def _names(snippet: str | tuple[str, ...]) -> tuple[str, ...]:
     return (snippet,) if isinstance(snippet, str) else tuple(snippet)

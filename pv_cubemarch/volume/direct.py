@@ -20,7 +20,7 @@ from ..gl.box import bind_camera, box_actor, drawn_viewport
 from ..gl.frame_inputs import FramebufferDepth, SceneDepth, frame_inputs
 from ..gl.overlay import scene_overlay
 from ..gl.passes import RenderToTexturePass
-from ..gl.shaders import Replacement, ShaderRecipe
+from ..gl.shaders import ShaderRecipe, box_recipe
 from ..reference.emission_absorption import render_emission_absorption
 from .binding import (
     DECLARATION_SNIPPETS,
@@ -42,20 +42,10 @@ DEPTH_SHARPNESS = 20.0
 def direct_recipe(defines: dict, lit: bool = False, sampling: str = "volume_sample",
                   blending: str = "composite") -> ShaderRecipe:
     """The polydata-shader replacements of the direct marcher."""
-    return ShaderRecipe(
-        replacements=[
-            Replacement("//VTK::Color::Dec",
-                        (*DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
-                         *march_snippets(blending, defines),
-                         *(("light_sample",) if lit else ()),
-                         "pixel_ray", "screen_ray"),
-                        keep_tag="after"),
-            Replacement("//VTK::Light::Impl", "ea_direct_fragment", keep_tag="before"),
-            Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
-                        keep_tag="before"),
-        ],
-        defines=defines,
-    )
+    return box_recipe(
+        (*DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
+         *march_snippets(blending, defines), *(("light_sample",) if lit else ()),
+         "pixel_ray", "screen_ray"), "ea_direct_fragment", defines=defines)
 
 
 def upsample_recipe() -> ShaderRecipe:
@@ -64,17 +54,8 @@ def upsample_recipe() -> ShaderRecipe:
     The box marches nothing: it finds its pixel's ray (for the depth the filter compares)
     and filters the low-resolution result, so no sampling or marching code is compiled in.
     """
-    return ShaderRecipe(
-        replacements=[
-            Replacement("//VTK::Color::Dec",
-                        (*SCREEN_DECLARATIONS, "ea_upsample_declarations", "slab",
-                         "pixel_ray", "screen_ray"),
-                        keep_tag="after"),
-            Replacement("//VTK::Light::Impl", "ea_upsample_fragment", keep_tag="before"),
-            Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
-                        keep_tag="before"),
-        ],
-    )
+    return box_recipe((*SCREEN_DECLARATIONS, "ea_upsample_declarations", "slab", "pixel_ray",
+                       "screen_ray"), "ea_upsample_fragment")
 
 
 class DirectBinding(VolumeBinding):

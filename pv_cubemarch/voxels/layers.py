@@ -17,7 +17,7 @@ import numpy as np
 from ..gl.bindings import ShaderBindings
 from ..gl.box import box_actor, place_box
 from ..gl.frame_inputs import frame_inputs
-from ..gl.shaders import Replacement, ShaderRecipe
+from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
 from ..models.voxels import palette_texels
 
@@ -39,18 +39,14 @@ def opaque_palette(rgba: np.ndarray) -> np.ndarray:
 def layers_recipe(options, level_axes: tuple[int, int]) -> ShaderRecipe:
     """The layer actor's replacements: the grid's declarations, lights, and the layers."""
     lit = options.shading != "unlit"
-    return ShaderRecipe(replacements=[
-        Replacement("//VTK::Color::Dec",
-                    ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
-                     *(("blinn_phong", "voxel_shading") if lit else ()),
-                     "voxel_layer_declarations"), keep_tag="after"),
-        Replacement("//VTK::Light::Impl", "voxel_layers", keep_tag="before"),
-        Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
-                    keep_tag="before"),
-    ], defines={"CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn",
-                "CM_MIP_LEVELS": options.mip_levels or None,
-                "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
-                "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None})
+    return box_recipe(
+        ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
+         *(("blinn_phong", "voxel_shading") if lit else ()), "voxel_layer_declarations"),
+        "voxel_layers",
+        defines={"CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn",
+                 "CM_MIP_LEVELS": options.mip_levels or None,
+                 "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
+                 "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None})
 
 
 class TranslucentLayers:

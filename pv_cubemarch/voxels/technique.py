@@ -25,7 +25,7 @@ from ..gl.box import bind_camera, box_actor, camera_matrices, faces_for_peeling
 from ..gl.face_depth import FaceDepthPass
 from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
-from ..gl.shaders import Replacement, ShaderRecipe
+from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
 from ..models.voxel_levels import (
     atlas_layout,
@@ -65,26 +65,22 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
         ("voxel_distance",) if options.distance_field else ()) + (
         ("voxel_lod",) if lod else ())
     occlusion = options.mode == "color" and options.ambient_occlusion
-    return ShaderRecipe(replacements=[
-        Replacement("//VTK::Color::Dec",
-                    ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
-                     *(("voxel_chunk_index",) if chunk_shift else ()), *skipping, traversal,
-                     *(("blinn_phong", "voxel_shading") if lit else ()),
-                     *(("voxel_occlusion",) if occlusion else ()),
-                     *(("voxel_edges",) if options.show_edges else ())), keep_tag="after"),
-        Replacement("//VTK::Light::Impl", "voxel_fragment", keep_tag="before"),
-        Replacement("//VTK::PositionVC::Impl", "ea_box_vertex", stage="vertex",
-                    keep_tag="before"),
-    ], defines={"CM_VOXEL_ID": options.mode == "id", "CM_VOXEL_FACE": options.mode == "face",
-                "CM_LIGHTING": lit,
-                "CM_MIP_LEVELS": options.mip_levels or None,
-                "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
-                "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None,
-                "CM_SHELL_LEVEL": shell_level, "CM_LOD": lod, "CM_OCCLUDERS": occluders,
-                "CM_CHUNK_INDEX": chunk_shift,
-                "CM_DISTANCE_FIELD": options.distance_field or None,
-                "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion,
-                "CM_EDGES": options.show_edges})
+    return box_recipe(
+        ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
+         *(("voxel_chunk_index",) if chunk_shift else ()), *skipping, traversal,
+         *(("blinn_phong", "voxel_shading") if lit else ()),
+         *(("voxel_occlusion",) if occlusion else ()),
+         *(("voxel_edges",) if options.show_edges else ())), "voxel_fragment",
+        defines={"CM_VOXEL_ID": options.mode == "id", "CM_VOXEL_FACE": options.mode == "face",
+                 "CM_LIGHTING": lit,
+                 "CM_MIP_LEVELS": options.mip_levels or None,
+                 "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
+                 "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None,
+                 "CM_SHELL_LEVEL": shell_level, "CM_LOD": lod, "CM_OCCLUDERS": occluders,
+                 "CM_CHUNK_INDEX": chunk_shift,
+                 "CM_DISTANCE_FIELD": options.distance_field or None,
+                 "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion,
+                 "CM_EDGES": options.show_edges})
 
 
 def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,

@@ -28,7 +28,7 @@ from ...gl.box import bind_camera, box_actor, camera_matrices, drawn_viewport
 from ...gl.frame_inputs import FramebufferDepth, frame_inputs
 from ...gl.overlay import scene_overlay
 from ...gl.passes import RenderToTexturePass
-from ...gl.shaders import Replacement, ShaderRecipe
+from ...gl.shaders import ShaderRecipe, box_recipe
 from ...models.volume import VolumeModel
 from ...reference.emission_absorption import render_emission_absorption
 from ..binding import (
@@ -148,16 +148,12 @@ def resample_recipe(occlusion: bool) -> ShaderRecipe:
 
     ``occlusion`` compiles the bilateral depth filter in (the scene has opaque props).
     """
-    return ShaderRecipe(replacements=[
-        Replacement("//VTK::Color::Dec",
-                    (*SCREEN_DECLARATIONS, "cube_resample_declarations", "cube_faces",
-                     "cube_resample_filter"), keep_tag="after"),
-        Replacement("//VTK::Light::Impl", "cube_resample_fragment", keep_tag="before"),
-        Replacement("//VTK::PositionVC::Dec", "cube_resample_vertex_declarations",
-                    stage="vertex", keep_tag="after"),
-        Replacement("//VTK::PositionVC::Impl", ("cube_resample_vertex", "ea_box_vertex"),
-                    stage="vertex", keep_tag="before"),
-    ], defines={"CM_DEPTH_FRAMEBUFFER": True, "CM_OCCLUSION": bool(occlusion)})
+    return box_recipe(
+        (*SCREEN_DECLARATIONS, "cube_resample_declarations", "cube_faces",
+         "cube_resample_filter"), "cube_resample_fragment",
+        defines={"CM_DEPTH_FRAMEBUFFER": True, "CM_OCCLUSION": bool(occlusion)},
+        vertex=("cube_resample_vertex", "ea_box_vertex"),
+        vertex_declarations=("cube_resample_vertex_declarations",))
 
 
 def build_cubemap_actor(plotter, data: VolumeData, setup: VolumeSetup):
