@@ -128,6 +128,12 @@ class ShaderBindings:
                              self._on_volume_drawn)),
         ]
 
+    def install(self, recipe: ShaderRecipe, *actors) -> None:
+        """Draw ``actors`` with ``recipe`` from the next frame (its shaders compile then)."""
+        self.recipe = recipe
+        for actor in actors:
+            recipe.apply(actor.GetShaderProperty())
+
     def add_texture(self, sampler: str, texture: Texture, owned: bool = False) -> Texture:
         """Bind ``texture`` to the GLSL sampler ``sampler`` at every draw.
 

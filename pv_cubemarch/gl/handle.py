@@ -71,6 +71,11 @@ class DrawnBinding(Placement):
         self._released = False
         self._peeling_said = False
 
+    def recompile(self, recipe: ShaderRecipe) -> None:
+        """Draw with ``recipe`` from the next frame: a feature switched in or out."""
+        self.recipe = recipe
+        self.bindings.install(recipe, *self.drawn)
+
     @property
     def name(self) -> str:
         """The model's name."""

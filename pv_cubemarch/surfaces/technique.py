@@ -320,8 +320,7 @@ def _build(plotter, field: SplineField, options: SurfaceOptions, technique: str,
         bindings.set_uniform("cm_indexFromWorld",
                              lambda: np.linalg.inv(field.world_from_index()[:3, :3]))
     recipe = surface_recipe(options, technique, len(offsets))
-    bindings.recipe = recipe
-    recipe.apply(actor.GetShaderProperty())
+    bindings.install(recipe, actor)
     binding = SurfaceBinding(field, bindings, recipe, options, cells, bricks)
     binding.drawn = [actor]
     binding.renderer = renderer

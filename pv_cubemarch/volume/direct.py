@@ -99,12 +99,9 @@ class DirectBinding(VolumeBinding):
                 .GetSamples())))
         else:
             self.bindings.uniforms.pop("cm_depthSamples", None)
-        self.recipe = direct_recipe(dict(self._defines, CM_DEPTH_MULTISAMPLED=multisampled),
-                                    lit=self._lit, sampling=self._sampling,
-                                    blending=self.blending)
-        self.bindings.recipe = self.recipe
-        for actor in self.drawn:
-            self.recipe.apply(actor.GetShaderProperty())
+        self.recompile(direct_recipe(dict(self._defines, CM_DEPTH_MULTISAMPLED=multisampled),
+                                     lit=self._lit, sampling=self._sampling,
+                                     blending=self.blending))
 
     def recompile_marchers(self, change, light_map: bool = True) -> None:
         """Compile the marchers again (see ``VolumeBinding``), switches kept.
@@ -169,8 +166,7 @@ def build_direct_actor(plotter, data: VolumeData, setup: VolumeSetup):
                              SceneDepth(overlay.renderer, color=True, each_use=True), owned=True)
         bind_camera(bindings, renderer, lambda: world_from_texture(model))
         recipe = upsample_recipe()
-        bindings.recipe = recipe
-        recipe.apply(actor.GetShaderProperty())
+        bindings.install(recipe, actor)
         binding = DirectBinding(model, data, bindings, recipe, step_scale,
                                 shading.stop_opacity)
         binding.drawn = [actor]

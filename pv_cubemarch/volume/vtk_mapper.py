@@ -107,8 +107,7 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
         light_map.bind(bindings)
         defines.update(light_map.defines)
     recipe = vtk_mapper_recipe(defines, lit=light_map is not None, blending=shading.blending)
-    bindings.recipe = recipe
-    recipe.apply(actor.GetShaderProperty())
+    bindings.install(recipe, actor)
     binding = VolumeBinding(model, data, bindings, recipe, step_scale, shading.stop_opacity)
     binding.technique = "vtk"
     binding.vtk_input = grid

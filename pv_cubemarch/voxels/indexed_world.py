@@ -306,7 +306,7 @@ def build_indexed_world(plotter, world: VoxelWorld,
     layout = binding.layout
     recipe = voxel_recipe(options, None, (layout.slab_axis, layout.row_axis),
                           chunk_shift=chunk_shift(world.chunk_size))
-    bindings.recipe = binding.recipe = recipe
-    recipe.apply(actor.GetShaderProperty())
+    binding.recipe = recipe
+    bindings.install(recipe, actor)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding

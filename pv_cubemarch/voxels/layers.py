@@ -68,8 +68,7 @@ class TranslucentLayers:
         bind_grid(bindings, renderer, model, replace(options, show_edges=False, lod=False,
                                                      ambient_occlusion=False))
         recipe = layers_recipe(options, binding.level_axes)
-        bindings.recipe = recipe
-        recipe.apply(self.actor.GetShaderProperty())
+        bindings.install(recipe, self.actor)
         self.bindings = bindings
         renderer.AddActor(self.actor)
 

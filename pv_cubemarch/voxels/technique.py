@@ -435,8 +435,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
         bindings.set_uniform("cm_useOccluders", lambda: occluders.use)
     recipe = voxel_recipe(options, shell.level if shell is not None else None, layout[:2],
                           occluders is not None)
-    bindings.recipe = recipe
-    recipe.apply(actor.GetShaderProperty())
+    bindings.install(recipe, actor)
     binding = VoxelBinding(model, bindings, recipe, labels, palette, options)
     binding.skipping = skipping
     binding.shell = shell

@@ -199,8 +199,7 @@ def build_cubemap_actor(plotter, data: VolumeData, setup: VolumeSetup):
     bindings.set_uniform("cm_texelWorld", lambda: frame.texel_world)
     bind_camera(bindings, main, lambda: world_from_texture(model))
     recipe = resample_recipe(frame_inputs(main).has_opaque_props())
-    bindings.recipe = recipe
-    recipe.apply(actor.GetShaderProperty())
+    bindings.install(recipe, actor)
     binding = CubeMapBinding(model, data, bindings, recipe, frame, cube_pass, light_map,
                              shading.stop_opacity)
     binding.drawn = [actor]
@@ -237,10 +236,7 @@ class CubeMapBinding(VolumeBinding):
         """Compile the depth filter in or out when opaque props appear or leave the scene."""
         wanted = frame_inputs(self.frame.renderer).has_opaque_props()
         if bool(self.recipe.defines.get("CM_OCCLUSION")) != wanted:
-            self.recipe = resample_recipe(wanted)
-            self.bindings.recipe = self.recipe
-            for actor in self.drawn:
-                self.recipe.apply(actor.GetShaderProperty())
+            self.recompile(resample_recipe(wanted))
 
     @property
     def lod(self) -> LodChoice:
