@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 [ -x .venv/bin/python ] || bash tools/setup.sh
-.venv/bin/python -m pip install -q -e ".[docs]"
+PYTHONWARNINGS="ignore:Editable installation" .venv/bin/python -m pip install -q -e ".[docs]"
 rm -rf docs/_build docs/auto_examples docs/_generated/api
 .venv/bin/python -m sphinx -W --keep-going -b html docs docs/_build/html "$@"
 echo "docs: open docs/_build/html/index.html"

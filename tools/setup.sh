@@ -21,5 +21,8 @@ fi
 PYTHON=${PYTHON:-python3}
 [ -x .venv/bin/python ] || "$PYTHON" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip
-.venv/bin/python -m pip install -q -e ".[test]"
+# setuptools says, on every editable install of a project whose package maps a folder
+# (glsl_replacements/ -> pv_cubemarch.glsl_replacements), that folders named like the
+# package may shadow it: information about editable installs, not a problem of ours
+PYTHONWARNINGS="ignore:Editable installation" .venv/bin/python -m pip install -q -e ".[test]"
 echo "setup: done ($(.venv/bin/python -c 'import pv_cubemarch, vtk; print("vtk", vtk.vtkVersion.GetVTKVersion())'))"
