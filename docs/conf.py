@@ -18,6 +18,7 @@ import pv_cubemarch
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE / "_scripts"))
 
+from gallery_scraper import OpenPlotterScraper  # noqa: E402
 from generate_pages import generate_all  # noqa: E402
 
 generate_all(HERE)
@@ -81,10 +82,13 @@ sphinx_gallery_conf = {
     "gallery_dirs": ["auto_examples"],
     # every script runs (not only plot_*); the quick subset is CI's fast build
     "filename_pattern": r"(quickstart|segmentation|material_grid)\.py$" if QUICK else r"\.py$",
-    "image_scrapers": (pyvista.Scraper(), "matplotlib"),
+    "image_scrapers": (OpenPlotterScraper(), "matplotlib"),
     "download_all_examples": False,
     "remove_config_comments": True,
     "within_subsection_order": "FileNameSortKey",
+    # by what users do, most common first
+    "subsection_order": ["../examples/volumes", "../examples/labels", "../examples/surfaces",
+                         "../examples/scenes", "../examples/live", "../examples/benchmarks"],
     "reset_modules": ("matplotlib",),
     "show_memory": False,
     "abort_on_example_error": True,

@@ -173,3 +173,15 @@ def test_readme_examples_run(tmp_path):
                             text=True, timeout=300)
     assert result.returncode == 0, result.stderr[-3000:]
     assert "VoxelPick(" in result.stdout
+
+
+def test_front_page_example_runs(tmp_path):
+    # catches: the docs' first example rotting (a colormap that is not installed, a
+    # keyword renamed)
+    import subprocess
+
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "index.md").read_text(), re.S)
+    script = "import pyvista as pv\npv.OFF_SCREEN = True\n" + blocks[0]
+    result = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True,
+                            text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-3000:]

@@ -19,7 +19,7 @@ QUICK_SCRIPTS = {"quickstart.py", "material_grid.py"}
 #: Runs one example as sphinx-gallery does (pyvista.BUILDING_GALLERY keeps shown plotters
 #: open), then grabs every plotter still open and every matplotlib figure.
 DRIVER = """
-import json, runpy, sys
+import json, sys
 import numpy as np
 import pyvista as pv
 pv.OFF_SCREEN = True
@@ -36,7 +36,9 @@ def show(self, *args, **kwargs):
     images.append(np.asarray(self.screenshot(return_img=True)))
     return original(self, *args, **kwargs)
 pv.Plotter.show = show
-runpy.run_path(sys.argv[1], run_name="__main__")
+# as sphinx-gallery runs it: no __file__ (an example finds its data through the package)
+source = open(sys.argv[1]).read()
+exec(compile(source, sys.argv[1], "exec"), {"__name__": "__main__"})
 for plotter in list(_ALL_PLOTTERS.values()):
     if getattr(plotter, "render_window", None) is not None:
         images.append(np.asarray(plotter.screenshot(return_img=True)))

@@ -33,7 +33,7 @@ COLUMNS = {
     ],
 }
 #: Row fields never shown: per-frame lists and the parameters already named by 'setting'.
-HIDDEN = {"frame_ms", "parameters", "frames_ms", "times_ms"}
+HIDDEN = {"parameters"}
 
 
 def generate_all(docs: Path) -> list[Path]:
@@ -112,14 +112,20 @@ def _commands(parser: argparse.ArgumentParser, name: str):
 def bench_markdown(name: str, path: Path) -> str:
     """A markdown table of one bench JSON, headed by what was run and where."""
     payload = json.loads(path.read_text())
-    meta = payload.get("meta") or {k: v for k, v in payload.items()
-                                    if k not in ("rows", "results", "command")}
-    rows = [_with_median(r) for r in payload.get("results", payload.get("rows", []))]
+    rows = payload.get("results", payload.get("rows"))
+    if rows is None:   # a bench of one measurement writes it as the payload itself
+        rows = [{k: v for k, v in payload.items() if k not in ("command", "gl_renderer")}]
+        meta = {"gl_renderer": payload.get("gl_renderer", "?")}
+    else:
+        meta = payload.get("meta") or {k: v for k, v in payload.items()
+                                        if k not in ("rows", "results", "command")}
+    rows = [_with_median(r) for r in rows]
     command = payload.get("command", f"pv-cubemarch bench {name}")
     if not isinstance(rows, list) or not rows:
         raise ValueError(f"{path}: no 'results' rows to tabulate")
     columns = COLUMNS.get(_bench_of(payload, name)) or _scalar_columns(rows)
-    fastest = min((r["median_ms"] for r in rows if "median_ms" in r), default=None)
+    fastest = min((r["median_ms"] for r in rows if r.get("median_ms") is not None),
+                  default=None)
     head = [f"<!-- generated from docs/bench_results/{path.name} by the docs build -->", ""]
     described = ", ".join(f"{k}: {_plain(v)}" for k, v in meta.items()
                           if k != "frames" and
@@ -130,7 +136,11 @@ def bench_markdown(name: str, path: Path) -> str:
     for row in rows:
         cells = []
         for _, key, fmt in columns:
-            value = fastest and row["median_ms"] / fastest if key == "ratio" else _get(row, key)
+            if key == "ratio":
+                value = (row["median_ms"] / fastest
+                         if fastest and row.get("median_ms") is not None else None)
+            else:
+                value = _get(row, key)
             cells.append(_cell(value, fmt))
         table.append("| " + " | ".join(cells) + " |")
     return "\n".join(head + table + _paper_tables(payload)) + "\n"

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import pv_cubemarch
 from pv_cubemarch.bench.harness import format_table, run_tradeoff
 
-DATA = Path(__file__).resolve().parents[2] / "datasets"
+DATA = Path(pv_cubemarch.__file__).resolve().parents[1] / "datasets"   # in the clone
 scene = pv_cubemarch.load_scene(DATA / "smoke_scene.usda")
 rows = run_tradeoff(["direct", "cubemap", "pyvista"], scene, size=(320, 240), frames=3,
                     progress_bar=False)

@@ -18,7 +18,7 @@ import pyvista as pv
 import pv_cubemarch
 from pv_cubemarch.scene.openvdb import list_grids
 
-DATA = Path(__file__).resolve().parents[2] / "datasets"
+DATA = Path(pv_cubemarch.__file__).resolve().parents[1] / "datasets"   # in the clone
 
 for info in list_grids(DATA / "mixed_smoke.vdb"):
     print(f"{info.name}: {info.value_type}, half={info.stored_as_half}, "

@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt
 
 import pv_cubemarch
 
-DATA = Path(__file__).resolve().parents[2] / "datasets"
+DATA = Path(pv_cubemarch.__file__).resolve().parents[1] / "datasets"   # in the clone
 
 scene = pv_cubemarch.load_scene(DATA / "smoke_scene.usda")
 print(scene.summary())
