@@ -40,7 +40,8 @@ def generate_all(docs: Path) -> list[Path]:
     """Write every generated page under ``docs/_generated``; return the paths written."""
     out = docs / "_generated"
     out.mkdir(exist_ok=True)
-    written = [_write(out / "cli.md", cli_markdown())]
+    written = [_write(out / "cli.md", cli_markdown()),
+               _write(out / "bench_commands.md", commands_markdown(docs / "bench_results"))]
     for path in sorted((docs / "bench_results").glob("*.json")):
         name = path.stem
         written.append(_write(out / f"bench_{name}.md", bench_markdown(name, path)))
@@ -91,6 +92,25 @@ def _write(path: Path, text: str) -> Path:
     return path
 
 
+def commands_markdown(results: Path) -> str:
+    """The command that remakes each committed measurement, into the file the docs read."""
+    lines = ["```bash"]
+    for path in sorted(results.glob("*.json")):
+        command = json.loads(path.read_text()).get("command", f"pv-cubemarch bench {path.stem}")
+        words = [w for w in command.split()]
+        if "--json" in words:
+            at = words.index("--json")
+            del words[at:at + 2]
+        words = [w for w in words if not w.startswith("/")]
+        plot = [i for i, w in enumerate(words) if w == "--plot"]
+        for i in reversed(plot):
+            del words[i:i + 1]
+        words[0] = ".venv/bin/" + words[0]
+        lines.append(" ".join(words) + f" --json docs/bench_results/{path.name}")
+    lines += ["bash tools/build_docs.sh", "```"]
+    return "\n".join(lines) + "\n"
+
+
 def cli_markdown() -> str:
     """Every command's ``--help``, walking the parser's sub-commands."""
     from pv_cubemarch.cli import build_parser
@@ -119,7 +139,7 @@ def bench_markdown(name: str, path: Path) -> str:
     else:
         meta = payload.get("meta") or {k: v for k, v in payload.items()
                                         if k not in ("rows", "results", "command")}
-    rows = [_with_median(r) for r in rows]
+    rows = [_labelled(_with_median(r)) for r in rows]
     command = payload.get("command", f"pv-cubemarch bench {name}")
     if not isinstance(rows, list) or not rows:
         raise ValueError(f"{path}: no 'results' rows to tabulate")
@@ -144,6 +164,20 @@ def bench_markdown(name: str, path: Path) -> str:
             cells.append(_cell(value, fmt))
         table.append("| " + " | ".join(cells) + " |")
     return "\n".join(head + table + _paper_tables(payload)) + "\n"
+
+
+def _labelled(row: dict) -> dict:
+    """A sweep row's setting as the technique's registration names it today."""
+    from pv_cubemarch.core.registry import _REGISTRY
+
+    technique = _REGISTRY.get(("volume", row.get("technique")))
+    if technique is None or technique.sweep is None or "parameters" not in row:
+        return row
+    setting = {k: v for k, v in row["parameters"].items() if k != "blending"}
+    try:
+        return {**row, "setting": technique.sweep.describe(setting)}
+    except KeyError:   # a row outside the sweep (another bench's): keep its own label
+        return row
 
 
 def _with_median(row: dict) -> dict:

@@ -213,7 +213,7 @@ def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
 
 def _describe(setting: dict) -> str:
     down = setting.get("downsample", 1)
-    return f"step_scale={setting['step_scale']}" + (f", down={down}" if down > 1 else "")
+    return f"step_scale={setting['step_scale']}" + (f", downsample={down}" if down > 1 else "")
 
 
 register_technique(Technique(

@@ -270,10 +270,10 @@ class CubeMapBinding(VolumeBinding):
 
 
 def _describe(setting: dict) -> str:
-    parts = [f"S0={setting.get('face_size', 256)}"]
-    for key, label in (("max_samples", "N_max"), ("upscale", "k_u"), ("sample_factor", "k_c")):
+    parts = [f"face_size={setting.get('face_size', 256)}"]
+    for key in ("max_samples", "upscale", "sample_factor"):
         if key in setting:
-            parts.append(f"{label}={setting[key]:g}")
+            parts.append(f"{key}={setting[key]:g}")
     return ", ".join(parts)
 
 
