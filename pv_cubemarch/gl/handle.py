@@ -68,6 +68,9 @@ class DrawnBinding(Placement):
         self.main_renderer = None  # the plotter's renderer
         self.bounds_proxy = None
         self.light_map = None
+        #: Calls that undo what building it added elsewhere (passes, overlay actors),
+        #: run once at release after its own resources.
+        self.extra_release: list = []
         self._released = False
         self._peeling_said = False
 
@@ -109,10 +112,16 @@ class DrawnBinding(Placement):
                           stacklevel=3)
 
 
-    def begin_release(self) -> bool:
-        """Mark the binding released and free its bindings; False if it already was."""
+    def release(self) -> None:
+        """Free what it holds on the GPU and its observers, then ``extra_release``; once."""
         if self._released:
-            return False
+            return
         self._released = True
+        self.release_resources()
+        for release in self.extra_release:
+            release()
+        self.extra_release = []
+
+    def release_resources(self) -> None:
+        """Free the technique's own resources: by default its bindings' textures and hooks."""
         self.bindings.release()
-        return True

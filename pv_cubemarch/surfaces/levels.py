@@ -64,7 +64,6 @@ class SurfaceLevels(DrawnBinding):
         self.values = tuple(float(v) for v in values)
         self.drawn = [actor for level in self.levels for actor in level.drawn]
         self.renderer = first.renderer
-        self.extra_release: list = []
 
     @property
     def nbytes(self) -> int:
@@ -83,16 +82,10 @@ class SurfaceLevels(DrawnBinding):
         if self.bounds_proxy is not None:
             place_bounds_proxy(self.bounds_proxy, self.model)
 
-    def release(self) -> None:
-        """Free every level (once), and take their actors out of the renderer."""
-        if self._released:
-            return
-        self._released = True
+    def release_resources(self) -> None:
+        """Every level frees its own (their actors leave the renderer by extra_release)."""
         for level in self.levels:
             level.release()
-        for release in self.extra_release:
-            release()
-        self.extra_release = []
 
 
 def add_surface_scalar_bar(plotter, actor, table: pyvista.LookupTable, title: str,

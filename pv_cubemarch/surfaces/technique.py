@@ -178,10 +178,6 @@ class SurfaceBinding(DrawnBinding):
                                    "inside its domain box, while the camera or the near "
                                    "plane is inside the box")
 
-    def release(self) -> None:
-        """Free the textures and the observers (once)."""
-        self.begin_release()
-
 
 def _domain_actor(field: SplineField) -> pyvista.Actor:
     """The back faces of the domain's box (a hair larger: no grazing pixel lost)."""

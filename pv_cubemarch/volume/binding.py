@@ -407,7 +407,6 @@ class VolumeBinding(DrawnBinding):
         self.step_scale = step_scale
         self.stop_opacity = stop_opacity
         self.vtk_input = None      # VTK's mapper path: the ImageData it reads
-        self.extra_release: list = []
         self.targets: list = [bindings]
         self.downsample = 1
         self.blending = "composite"
@@ -432,15 +431,9 @@ class VolumeBinding(DrawnBinding):
             sum(t.nbytes for t in self.bindings.textures.values())
         return data + (self.light_map.nbytes if self.light_map else 0)
 
-    def release(self) -> None:
-        """Free our GPU resources and observers (and any pass or overlay renderer); once."""
-        if self._released:
-            return
-        self._released = True
-        self.bindings.release()
-        for release in self.extra_release:
-            release()
-        self.extra_release = []
+    def release_resources(self) -> None:
+        """The bindings, the light map and the data's textures."""
+        super().release_resources()
         if self.light_map is not None:
             self.light_map.release()
         self.data.release()

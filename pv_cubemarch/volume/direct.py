@@ -114,12 +114,12 @@ class DirectBinding(VolumeBinding):
             self._defines = {key: value for key, value in recipe.defines.items()
                              if key != "CM_DEPTH_MULTISAMPLED"}
 
-    def release(self) -> None:
-        """Stop following the frame, then free (see ``VolumeBinding.release``)."""
+    def release_resources(self) -> None:
+        """Stop following the frame, then free what a volume holds."""
         if self._tag is not None:
             self.bindings.renderer.RemoveObserver(self._tag)
             self._tag = None
-        super().release()
+        super().release_resources()
 
 
 def build_direct_actor(plotter, data: VolumeData, setup: VolumeSetup):

@@ -273,11 +273,11 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
             self.drawn_bounds = grown
             self._place_box()
 
-    def release(self) -> None:
-        """Free the textures (once)."""
-        if self.begin_release():
-            for texture in (self.pool, self.index, self.palette_texture):
-                texture.release()
+    def release_resources(self) -> None:
+        """The bindings, and the chunk pool, chunk index and palette textures."""
+        super().release_resources()
+        for texture in (self.pool, self.index, self.palette_texture):
+            texture.release()
 
 
 def build_indexed_world(plotter, world: VoxelWorld,

@@ -348,11 +348,8 @@ class WorldPasses(DrawnBinding):
         return self.world.occluders.nbytes + (self.world.depth.nbytes if self.world.depth
                                               else 0)
 
-    def release(self) -> None:
-        """Free the passes (the chunks are tracked and freed on their own)."""
-        if self._released:
-            return
-        self._released = True
+    def release_resources(self) -> None:
+        """The world's shared passes (the chunks are tracked and freed on their own)."""
         self.world.release_passes()
 
 

@@ -366,10 +366,9 @@ class VoxelBinding(DrawnBinding):
         return VoxelPick(tuple(int(v) for v in hits.index[0, 0]), int(hits.material[0, 0]),
                          int(hits.face[0, 0]), depth, tuple(float(v) for v in point))
 
-    def release(self) -> None:
-        """Free the textures and observers (once)."""
-        if not self.begin_release():
-            return
+    def release_resources(self) -> None:
+        """The bindings, the brick shell, the layers and the label and palette textures."""
+        super().release_resources()
         if self.shell is not None:
             self.shell.release()
         for actor in self.drawn:   # a world's chunk: its actor stands behind the world's
