@@ -130,27 +130,50 @@ def _commands(parser: argparse.ArgumentParser, name: str):
 
 
 def bench_markdown(name: str, path: Path) -> str:
-    """A markdown table of one bench JSON, headed by what was run and where."""
+    """Markdown tables of one bench JSON, headed by what was run and where."""
     payload = json.loads(path.read_text())
-    rows = payload.get("results", payload.get("rows"))
-    if rows is None:   # a bench of one measurement writes it as the payload itself
-        rows = [{k: v for k, v in payload.items() if k not in ("command", "gl_renderer")}]
+    tables = _row_sets(payload)
+    if not tables:
+        raise ValueError(f"{path}: no rows to tabulate")
+    listed = {key for key, _ in tables} | {"rows", "results", "command", "meta"}
+    meta = payload.get("meta") or {k: v for k, v in payload.items() if k not in listed}
+    if len(tables) == 1 and tables[0][0] is None and "results" not in payload \
+            and "rows" not in payload:
         meta = {"gl_renderer": payload.get("gl_renderer", "?")}
-    else:
-        meta = payload.get("meta") or {k: v for k, v in payload.items()
-                                        if k not in ("rows", "results", "command")}
-    rows = [_labelled(_with_median(r)) for r in rows]
     command = payload.get("command", f"pv-cubemarch bench {name}")
-    if not isinstance(rows, list) or not rows:
-        raise ValueError(f"{path}: no 'results' rows to tabulate")
-    columns = COLUMNS.get(_bench_of(payload, name)) or _scalar_columns(rows)
-    fastest = min((r["median_ms"] for r in rows if r.get("median_ms") is not None),
-                  default=None)
     head = [f"<!-- generated from docs/bench_results/{path.name} by the docs build -->", ""]
     described = ", ".join(f"{k}: {_plain(v)}" for k, v in meta.items()
                           if k != "frames" and
                           (not isinstance(v, (dict, list)) or k in ("size", "technique")))
     head += [f"*Measured by `{_shown_command(command)}`; {described}.*", ""]
+    body = []
+    for title, rows in tables:
+        rows = [_labelled(_with_median(r)) for r in rows]
+        if title is not None:
+            body += [f"*{title.replace('_', ' ')}:*", ""]
+        body += _table(rows, COLUMNS.get(_bench_of(payload, name)) or _scalar_columns(rows))
+        body.append("")
+    return "\n".join(head + body[:-1] + _paper_tables(payload)) + "\n"
+
+
+def _row_sets(payload: dict) -> list[tuple[str | None, list[dict]]]:
+    """The row lists of a bench's JSON: its results, else each list of records in it.
+
+    A bench of one measurement writes it as the payload itself: that is the one row.
+    """
+    rows = payload.get("results", payload.get("rows"))
+    if isinstance(rows, list) and rows:
+        return [(None, rows)]
+    sets = [(key, value) for key, value in payload.items() if key != "seed_tables"
+            and isinstance(value, list) and value and all(isinstance(v, dict) for v in value)]
+    if sets:
+        return sets
+    return [(None, [{k: v for k, v in payload.items() if k not in ("command", "gl_renderer")}])]
+
+
+def _table(rows: list[dict], columns) -> list[str]:
+    fastest = min((r["median_ms"] for r in rows if r.get("median_ms") is not None),
+                  default=None)
     table = ["| " + " | ".join(h for h, _, _ in columns) + " |",
              "|" + "---|" * len(columns)]
     for row in rows:
@@ -163,7 +186,7 @@ def bench_markdown(name: str, path: Path) -> str:
                 value = _get(row, key)
             cells.append(_cell(value, fmt))
         table.append("| " + " | ".join(cells) + " |")
-    return "\n".join(head + table + _paper_tables(payload)) + "\n"
+    return table
 
 
 def _labelled(row: dict) -> dict:
@@ -197,8 +220,13 @@ def _paper_tables(payload: dict) -> list[str]:
     for size, rows in tables.items():
         lines += ["", f"*Speed-ups over the DDA at {size}: the paper's (its own machine) "
                   "beside ours.*", "", "| scene | row | paper | ours |", "|---|---|---|---|"]
-        lines += [f"| {r['scene']} | {r['row']} | {_cell(r['seed_speedup'], '{:.2f}')} | "
-                  f"{_cell(r['our_speedup'], '{:.2f}')} |" for r in rows]
+        merged: dict[tuple, list] = {}
+        for r in rows:   # a scene the paper measured in several tables: its values joined
+            merged.setdefault((r["scene"], r["row"]), []).append(r)
+        for (scene, row), same in merged.items():
+            paper = " / ".join(dict.fromkeys(_cell(r["seed_speedup"], "{:.2f}") for r in same))
+            lines.append(f"| {scene} | {row} | {paper} | "
+                         f"{_cell(same[0]['our_speedup'], '{:.2f}')} |")
     return lines
 
 
@@ -223,7 +251,10 @@ def _scalar_columns(rows: list[dict]) -> list[tuple[str, str, str]]:
     columns = []
     for key in keys:
         if key.endswith("_bytes"):
-            columns.append((key[:-6].replace("_", " ") + " MB", key, "MB"))
+            values = [v for r in rows if isinstance(v := _get(r, key), (int, float))]
+            small = values and max(values) < 16 * 2**20
+            columns.append((key[:-6].replace("_", " ") + (" bytes" if small else " MB"), key,
+                            "{:,}" if small else "MB"))
         else:
             columns.append((key.replace("_", " "), key, "{:.1f}" if key == "median_ms" else "{}"))
     return columns

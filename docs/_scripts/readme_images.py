@@ -31,7 +31,7 @@ def labels() -> np.ndarray:
     pl.set_background("white")
     frog = examples.load_frog_tissues()
     ids, counts = np.unique(frog["MetaImage"], return_counts=True)
-    actor = pv_cubemarch.add_voxels(pl, frog, cmap="tab20", categories=True,
+    actor = pv_cubemarch.add_voxels(pl, frog, cmap="turbo", categories=True,
                                     ambient_occlusion=True)
     actor.cubemarch.set_material(int(ids[1:][np.argmax(counts[1:])]), opacity=0.0)
     pl.camera_position = "yx"

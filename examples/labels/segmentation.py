@@ -23,7 +23,7 @@ print(f"{ids.size} labels; the largest, id {largest}, has {counts.max():,} voxel
 
 pl = pv.Plotter(window_size=(800, 560))
 pl.set_background("white")
-actor = pv_cubemarch.add_voxels(pl, tissues, cmap="tab20", categories=True,
+actor = pv_cubemarch.add_voxels(pl, tissues, cmap="turbo", categories=True,
                                 shading="blinn", ambient_occlusion=True)
 voxels = actor.cubemarch
 voxels.set_material(largest, opacity=0.0)              # hide the largest tissue
@@ -36,8 +36,8 @@ pl.camera.zoom(1.3)
 # a legend of the ten largest labels still shown, in the colours they are drawn with
 rgba = voxels.model.palette.rgba
 shown = [int(i) for i in ids[np.argsort(counts)[::-1]] if rgba[i, 3] > 0][:10]
-pl.add_legend([[f"id {i}", rgba[i, :3]] for i in shown], bcolor="white", size=(0.16, 0.42),
-              loc="center right")
+pl.add_legend([[f"id {i}", rgba[i, :3]] for i in shown], bcolor="white", size=(0.14, 0.36),
+              loc="upper right")
 
 # what is under the middle of the image
 picked = voxels.pick(400, 280)

@@ -44,11 +44,13 @@ variants = [
     ("cell boxes, sample test", dict(traversal="cell_boxes", active_test="sample",
                                      active_samples=4)),
     ("curvature", dict(color_by="curvature", cmap="coolwarm", clim=(-0.2, 0.2),
-                       show_scalar_bar=True, scalar_bar_args={"title": "curvature"},
+                       show_scalar_bar=True,
+                       scalar_bar_args={"title": "curvature", "n_labels": 3, "fmt": "%.1f",
+                                        "position_x": 0.1, "width": 0.8},
                        annotations={0.0: "flat"})),
     ("opacity=0.5", dict(opacity=0.5, color="teal", shading="flat")),
 ]
-pl = pv.Plotter(shape=(1, 5), window_size=(1400, 300), border=False)
+pl = pv.Plotter(shape=(1, 5), window_size=(1500, 340), border=False)
 pl.set_background("white")
 for column, (title, options) in enumerate(variants):
     pl.subplot(0, column)
