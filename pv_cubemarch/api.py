@@ -683,6 +683,7 @@ def add_voxels(
     flip_scalars: bool = False,
     opacity: float | None = None,
     lighting: bool | None = None,
+    background: int = 0,
     **kwargs,
 ) -> pyvista.Actor:
     """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal).
@@ -696,16 +697,24 @@ def add_voxels(
     plotter : pyvista.Plotter
         The plotter to draw in.
     grid : numpy.ndarray, pyvista.ImageData, VoxelModel or VoxelWorld
-        Integer labels, 0 = empty: a 3D array indexed x, y, z (unit voxels from the
-        origin), or an ImageData whose cell data (one voxel per cell) or point data (one
-        voxel centred on each point) holds them; or a world of chunks.
+        Integer labels, 0 (or ``background``) = empty: a 3D array indexed x, y, z (unit
+        voxels from the origin), or an ImageData whose cell data (one voxel per cell) or
+        point data (one voxel centred on each point) holds them; or a world of chunks. Any
+        integer type and any ids (a segmentation's uint32 or uint64 cell ids, negative
+        ids): ids beyond 0..65535 are compacted to dense rows on upload (1, 2 or 4 bytes a
+        voxel: up to 255, 65535, 16.7 million distinct ids), and every per-label
+        property is one entry of a table by id (``actor.cubemarch.set_label_color``,
+        ``hide_labels``, ``show_selected_labels``, ``highlight_labels``).
     scalars : str, optional
         The ImageData array of labels; the first cell (then point) array by default.
-    palette : str, list, dict, array or Palette, optional
-        Colour (and opacity) per material: a matplotlib colormap name, a list of colours
-        (entry ``m`` for material ``m``), ``{material: colour}`` or ``{material: (colour,
-        opacity)}``, an ``(n, 3|4)`` array. Opacity 0 hides a material;
-        ``actor.cubemarch.set_material(m, color=..., opacity=...)`` changes one later
+    palette : str, list, dict, callable, array or Palette, optional
+        Colour (and opacity) per label id: by default tab10/tab20 up to 20 labels and
+        beyond, a colour hashed from each id (the same in every run, chunk and grid;
+        neighbouring ids differ); a matplotlib colormap name (its colours in the order of
+        the ids), ``{id: colour}`` or ``{id: (colour, opacity)}`` (ids left out are
+        hidden), a function of the id returning either; a list of colours (entry ``m`` for
+        label ``m``) or an ``(n, 3|4)`` array for labels 0..65535. Opacity 0 hides a label;
+        ``actor.cubemarch.set_label_color(ids, color=..., opacity=...)`` changes any later
         without uploading the labels again.
     traversal : str
         ``'dda'`` (default): exact, every voxel a ray crosses is visited. ``'fixed'``: a
@@ -816,6 +825,8 @@ def add_voxels(
         or ``actor.cubemarch.set_material``).
     lighting : bool, optional
         PyVista's name: ``False`` draws the voxels unlit (``shading='unlit'``).
+    background : int
+        The label id drawn as empty (0).
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
     show_edges : bool
@@ -867,7 +878,8 @@ def add_voxels(
                              "its own (set model.transform, or actor.cubemarch.set_transform).")
         colouring = [key for key, value in dict(
             cmap=cmap, categories=categories or None, clim=clim, n_colors=n_colors,
-            flip_scalars=flip_scalars or None, opacity=opacity).items() if value is not None]
+            flip_scalars=flip_scalars or None, opacity=opacity,
+            background=None if background == 0 else background).items() if value is not None]
         if colouring:
             raise ValueError(f"{', '.join(colouring)}: these colour raw labels; a VoxelModel "
                              "or VoxelWorld carries its palette (make_voxels(..., palette=..., "
@@ -876,7 +888,7 @@ def add_voxels(
         model = make_voxels(grid, scalars, palette=palette, transform=transform,
                             name=name or "voxels", categories=bool(categories), cmap=cmap,
                             clim=clim, n_colors=n_colors, flip_scalars=flip_scalars,
-                            opacity=opacity)
+                            opacity=opacity, background=background)
     if isinstance(model, VoxelWorld) and chunk_size not in (None, model.chunk_size):
         raise ValueError(f"chunk_size={chunk_size} differs from the world's own "
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")

@@ -253,8 +253,8 @@ def test_bad_labels_get_clear_errors(plotter_factory):
         cm.add_voxels(pl, np.full((2, 2, 2), 0.5))
     with pytest.raises(cm.VolumeDataError, match="NaN"):
         cm.add_voxels(pl, np.full((2, 2, 2), np.nan))
-    with pytest.raises(cm.VolumeDataError, match="negative"):
-        cm.add_voxels(pl, -np.ones((2, 2, 2), int))
+    with pytest.raises(cm.VolumeDataError, match="beyond 2\\^53"):
+        cm.add_voxels(pl, np.full((2, 2, 2), 2.0**60))
     with pytest.raises(cm.VolumeDataError, match="no colour"):
         cm.add_voxels(pl, np.full((2, 2, 2), 5), palette=["black", "red"])
     with pytest.raises(ValueError, match="step_scale is for traversal='fixed'"):

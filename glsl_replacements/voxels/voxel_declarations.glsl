@@ -1,10 +1,11 @@
 // Material grids: declarations. Voxel (i, j, k) spans [i, i+1] x [j, j+1] x [k, k+1] of
 // the grid's index space (cm_textureFromView maps view to it); its label is one texel of
-// cm_labels (uint8 or uint16 as a normalised texture, read back exactly with cm_labelScale);
+// cm_labels (a row of the per-label tables: uint8 or uint16 as a normalised texture, read
+// back exactly with cm_labelScale; wider rows as float32, scale 1);
 // a label's colour and opacity are one texel of cm_palette (opacity 0: hidden, traversed as
 // empty).
 uniform sampler3D cm_labels;     // one texel per voxel, nearest
-uniform float cm_labelScale;     // 255 (uint8) or 65535 (uint16)
+uniform float cm_labelScale;     // 255 (uint8), 65535 (uint16) or 1 (float32 rows)
 uniform sampler2D cm_palette;    // RGBA, material m at (m % width, m / width)
 uniform vec3 cm_gridDims;        // voxels along x, y, z
 uniform float cm_near;           // the near plane's view depth

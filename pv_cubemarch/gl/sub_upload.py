@@ -1,4 +1,4 @@
-"""GL calls VTK's Python wrapping lacks: partial 3D uploads, error flags, float readback.
+"""GL calls VTK's Python wrapping lacks: partial 2D and 3D uploads, error flags, float readback.
 
 The function is looked up by ``ctypes`` through the window system whose context is current
 (OSMesa, EGL or GLX: the one VTK renders with) and called while VTK has the context current
@@ -14,7 +14,10 @@ from functools import cache
 import numpy as np
 
 GL_TEXTURE_3D = 0x806F
+GL_TEXTURE_2D = 0x0DE1
 GL_RED = 0x1903
+#: Pixel formats by components (red, red-green, RGB, RGBA).
+GL_FORMATS = {1: GL_RED, 2: 0x8227, 3: 0x1907, 4: 0x1908}
 GL_UNPACK_ALIGNMENT = 0x0CF5
 #: Unpack state a tight block needs at 0 (VTK may leave row lengths set from its uploads).
 GL_UNPACK_ZEROED = (0x0CF2, 0x0CF3, 0x0CF4, 0x806E, 0x806D)   # row length, skips, height
@@ -24,6 +27,9 @@ GL_TYPES = {np.dtype(np.uint8): 0x1401, np.dtype(np.uint16): 0x1403,
 _SUB_IMAGE = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int,
                               ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int,
                               ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)
+_SUB_IMAGE_2D = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                                 ctypes.c_int, ctypes.c_int, ctypes.c_uint, ctypes.c_uint,
+                                 ctypes.c_void_p)
 _PIXEL_STORE = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int)
 _GET_ERROR = ctypes.CFUNCTYPE(ctypes.c_uint)
 _READ_PIXELS = ctypes.CFUNCTYPE(None, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int,
@@ -60,11 +66,11 @@ def _system(library: str, current: str, lookup: str):
     get.restype = ctypes.c_void_p
     get.argtypes = [ctypes.c_char_p]
     sub, store, error = get(b"glTexSubImage3D"), get(b"glPixelStorei"), get(b"glGetError")
-    read = get(b"glReadPixels")
-    if not (sub and store and error and read):
+    read, sub_2d = get(b"glReadPixels"), get(b"glTexSubImage2D")
+    if not (sub and store and error and read and sub_2d):
         return None
     return is_current, (_SUB_IMAGE(sub), _PIXEL_STORE(store), _GET_ERROR(error),
-                        _READ_PIXELS(read))
+                        _READ_PIXELS(read), _SUB_IMAGE_2D(sub_2d))
 
 
 def _gl_functions() -> tuple | None:
@@ -98,6 +104,26 @@ def sub_image_3d(origin: tuple[int, int, int], block: np.ndarray) -> None:
     sub(GL_TEXTURE_3D, 0, int(origin[0]), int(origin[1]), int(origin[2]), block.shape[0],
         block.shape[1], block.shape[2], GL_RED, GL_TYPES[np.dtype(block.dtype)],
         data.ctypes.data)
+    store(GL_UNPACK_ALIGNMENT, 4)
+
+
+def sub_image_2d(origin: tuple[int, int], block: np.ndarray) -> None:
+    """Upload ``block`` ``(rows, columns[, components])`` at ``origin`` ``(column, row)``.
+
+    Into the texture bound to ``GL_TEXTURE_2D``, its context current.
+    """
+    functions = _gl_functions()
+    if functions is None:
+        raise RuntimeError("No current OpenGL context with glTexSubImage2D; upload the "
+                           "whole texture.")
+    store, sub = functions[1], functions[4]
+    data = np.ascontiguousarray(block)
+    components = 1 if data.ndim == 2 else int(data.shape[2])
+    store(GL_UNPACK_ALIGNMENT, 1)
+    for name in GL_UNPACK_ZEROED:
+        store(name, 0)
+    sub(GL_TEXTURE_2D, 0, int(origin[0]), int(origin[1]), data.shape[1], data.shape[0],
+        GL_FORMATS[components], GL_TYPES[np.dtype(data.dtype)], data.ctypes.data)
     store(GL_UNPACK_ALIGNMENT, 4)
 
 

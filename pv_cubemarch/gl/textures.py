@@ -12,6 +12,7 @@ from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLVertexBufferObject, vtkTextu
 from .sub_upload import (
     GL_OUT_OF_MEMORY,
     pending_gl_errors,
+    sub_image_2d,
     sub_image_3d,
     sub_image_available,
 )
@@ -57,7 +58,7 @@ class Texture:
         self.upload_count = 0
         #: Bytes sent to the GPU so far (whole uploads and regions).
         self.uploaded_bytes = 0
-        self._regions: list[tuple[tuple[int, int, int], np.ndarray]] = []
+        self._regions: list[tuple[tuple[int, ...], np.ndarray]] = []
         self._layout = None   # (dtype, components) of the texture object's last upload
         self.rebuild = rebuild
         self.set_data(array)
@@ -94,20 +95,26 @@ class Texture:
         self._regions = []
 
     def update_region(self, origin, block: np.ndarray) -> None:
-        """Replace the texels ``block`` (3D, one component) from ``origin`` on.
+        """Replace the texels ``block`` from ``origin`` on.
 
-        Uploaded at the next draw as that region alone (``glTexSubImage3D``), or the whole
-        texture where partial uploads are not reachable. The host copy, if held, follows.
+        3D textures of one component: ``block`` ``(x, y, z)`` at ``origin`` ``(i, j, k)``;
+        2D textures: ``block`` ``(rows, columns[, components])`` at ``origin`` ``(row,
+        column)``, as the array indexes. Uploaded at the next draw as that region alone
+        (``glTexSubImage2D/3D``), or the whole texture where partial uploads are not
+        reachable. The host copy, if held, follows.
         """
         block = np.asarray(block)
         origin = tuple(int(v) for v in origin)
-        if self.kind != "3d" or block.ndim != 3 or len(self._shape) != 3:
-            raise ValueError("update_region takes a 3D block of a one-component 3D texture.")
-        if any(o < 0 or o + n > m for o, n, m in zip(origin, block.shape, self._shape,
-                                                    strict=True)):
+        spatial = {"2d": 2, "3d": 3}.get(self.kind)
+        if spatial is None or len(origin) != spatial or block.shape[spatial:] != tuple(
+                self._shape[spatial:]) or (self.kind == "3d" and len(self._shape) != 3):
+            raise ValueError("update_region takes a 2D block of a 2D texture (its components) "
+                             "or a 3D block of a one-component 3D texture.")
+        if any(o < 0 or o + n > m
+               for o, n, m in zip(origin, block.shape, self._shape, strict=False)):
             raise ValueError(f"A block of {block.shape} at {origin} leaves the texture "
                              f"{self._shape}.")
-        region = tuple(slice(o, o + n) for o, n in zip(origin, block.shape, strict=True))
+        region = tuple(slice(o, o + n) for o, n in zip(origin, block.shape, strict=False))
         if self.array is not None:
             self.array[region] = block
         if self.gl_object is None or self._dirty:
@@ -141,7 +148,10 @@ class Texture:
                 if self._regions:
                     self.gl_object.Bind()
                 for origin, block in self._regions:
-                    sub_image_3d(origin, block)
+                    if self.kind == "3d":
+                        sub_image_3d(origin, block)
+                    else:   # GL's origin is (x, y): (column, row)
+                        sub_image_2d((origin[1], origin[0]), block)
                     self.uploaded_bytes += int(block.nbytes)
                 self._regions = []
                 return self.gl_object

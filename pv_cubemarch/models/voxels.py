@@ -15,6 +15,8 @@ import pyvista
 
 from ..core.errors import VolumeDataError
 from ..core.gl_limits import MAX_GRID_BYTES, MAX_TEXTURE_SIZE
+from .label_colors import check_by_id, colors_by_id, hashed_colors
+from .label_ids import LabelIds, label_rows
 from .transfer import unknown_cmap
 from .volume import box_world_bounds, check_spacing, checked_transform, first_point
 
@@ -62,23 +64,46 @@ class Palette:
                                   f"{rgba.shape}.")
         if not np.isfinite(rgba).all() or rgba.min() < 0 or rgba.max() > 1:
             raise VolumeDataError("Palette colours and opacities must be in [0, 1].")
+        #: What is drawn: the colours and opacities below, hidden rows at opacity 0,
+        #: highlighted ones in the highlight colour.
         self.rgba = np.ascontiguousarray(rgba)
         self.version = 0   # bumped at each change, so the GPU copy follows
+        self._base: np.ndarray | None = None   # the rows' own colours, once some are hidden
+        self._hidden: np.ndarray | None = None
+        self._highlighted: np.ndarray | None = None
+        self._highlight = np.ones(3, np.float32)
+        self._changes: list[np.ndarray] | None = []   # rows changed; None: all of them
 
     @classmethod
-    def make(cls, palette, n_materials: int) -> Palette:
+    def make(cls, palette, n_materials: int, ids: LabelIds | None = None) -> Palette:
         """A palette for labels ``1..n_materials - 1`` from what a user may pass.
 
-        ``palette``: ``None`` (a qualitative colormap), a matplotlib colormap name, a list of
-        colours (entry ``m`` for material ``m``; entry 0 is ignored), a dict ``{material:
-        colour}`` or ``{material: (colour, opacity)}`` (materials left out are hidden), an
-        ``(n, 3)`` or ``(n, 4)`` array, or a :class:`Palette`.
+        ``palette``: ``None`` (tab10 or tab20 up to 20 labels, beyond them colours hashed
+        from each id, :func:`~pv_cubemarch.models.label_colors.hashed_colors`), a
+        matplotlib colormap name (its colours in the order of the ids), a list of colours
+        (entry ``m`` for material ``m``; entry 0 is ignored), a dict ``{id: colour}`` or
+        ``{id: (colour, opacity)}`` (ids left out are hidden), a function of the id
+        returning either, an ``(n, 3)`` or ``(n, 4)`` array, or a :class:`Palette`.
+        ``ids``: which id each row stands for (compacted labels); lists and arrays are by
+        row and need the identity table.
         """
         if isinstance(palette, Palette):
             return palette
         n = max(int(n_materials), 2)
+        compacted = ids is not None and not ids.identity
+        if compacted:
+            check_by_id(palette)
+        if (palette is None and n > 21) or (compacted and (
+                isinstance(palette, dict) or callable(palette))):
+            labels = ids.ids if ids is not None else np.arange(1, n)
+            rgba = np.zeros((max(labels.size + 1, 2), 4), np.float32)
+            rgba[1:labels.size + 1] = hashed_colors(labels) if palette is None else \
+                colors_by_id(palette, labels)[1:]
+            return cls(rgba)
+        if callable(palette) and not isinstance(palette, str):
+            return cls(colors_by_id(palette, np.arange(1, n)))
         if palette is None or isinstance(palette, str):
-            name = palette or ("tab10" if n <= 11 else "tab20" if n <= 21 else "turbo")
+            name = palette or ("tab10" if n <= 11 else "tab20")
             try:
                 lut = pyvista.LookupTable(name, n_values=max(n - 1, 1))
             except Exception as error:
@@ -123,13 +148,93 @@ class Palette:
         material = int(material)
         if not 0 < material < self.n_materials:
             raise ValueError(f"material must be in 1..{self.n_materials - 1}, got {material}.")
+        self.set_rows(np.array([material]), color, opacity)
+
+    def set_rows(self, rows: np.ndarray, color=None, opacity=None) -> None:
+        """Change the colour and/or opacity of ``rows`` (0 hides).
+
+        ``color``: one colour for all, or an ``(n, 3)`` array of RGB in [0, 1];
+        ``opacity``: one number or one per row.
+        """
+        rows = np.asarray(rows, dtype=np.int64).ravel()
+        own = self.rgba if self._base is None else self._base
         if color is not None:
-            self.rgba[material, :3] = _material_color(color, material)
+            array = np.asarray(color) if not isinstance(color, str) else None
+            if array is not None and array.ndim == 2:
+                if array.shape != (rows.size, 3) or not np.isfinite(array).all() or \
+                        array.min() < 0 or array.max() > 1:
+                    raise ValueError(f"color must be one colour or an ({rows.size}, 3) array "
+                                     f"of RGB in [0, 1], got shape {array.shape}.")
+                own[rows, :3] = array
+            else:
+                own[rows, :3] = _material_color(color, rows[0] if rows.size == 1 else "these")
         if opacity is not None:
-            if not 0.0 <= float(opacity) <= 1.0:
-                raise ValueError(f"opacity must be in [0, 1], got {opacity}.")
-            self.rgba[material, 3] = float(opacity)
+            values = np.asarray(opacity, dtype=np.float64)
+            if values.ndim > 1 or (values.ndim == 1 and values.size != rows.size) or \
+                    not np.isfinite(values).all() or values.min() < 0 or values.max() > 1:
+                raise ValueError(f"opacity must be in [0, 1], one value or one per label, got "
+                                 f"{opacity!r}.")
+            own[rows, 3] = values
+        self._redraw(rows)
+
+    def set_hidden(self, rows: np.ndarray, hidden: bool = True) -> None:
+        """Hide ``rows`` (traversed as empty) or show them again with their own opacity."""
+        self._keep_state()
+        self._hidden[np.asarray(rows, dtype=np.int64)] = bool(hidden)
+        self._redraw(rows)
+
+    def set_highlighted(self, rows: np.ndarray, highlighted: bool = True, color=None) -> None:
+        """Draw ``rows`` in the highlight colour (``color``, white by default), or not."""
+        self._keep_state()
+        if color is not None:
+            self._highlight = np.asarray(_material_color(color, "highlight"), np.float32)
+            rows = np.union1d(np.asarray(rows, dtype=np.int64), np.flatnonzero(
+                self._highlighted))   # those already highlighted take the new colour too
+        self._highlighted[np.asarray(rows, dtype=np.int64)] = bool(highlighted)
+        self._redraw(rows)
+
+    @property
+    def hidden(self) -> np.ndarray:
+        """Per row: hidden by :meth:`set_hidden` (its own opacity kept)."""
+        if self._hidden is None:
+            return np.zeros(self.n_materials, bool)
+        return self._hidden.copy()
+
+    @property
+    def highlighted(self) -> np.ndarray:
+        """Per row: highlighted by :meth:`set_highlighted`."""
+        if self._highlighted is None:
+            return np.zeros(self.n_materials, bool)
+        return self._highlighted.copy()
+
+    def _keep_state(self) -> None:
+        """From the first hide or highlight on, keep the rows' own colours beside."""
+        if self._base is None:
+            self._base = self.rgba.copy()
+            self._hidden = np.zeros(self.n_materials, bool)
+            self._highlighted = np.zeros(self.n_materials, bool)
+
+    def _redraw(self, rows) -> None:
+        """What ``rows`` draw, from their own colour, hidden and highlighted states."""
+        rows = np.asarray(rows, dtype=np.int64).ravel()
+        if self._base is not None:
+            drawn = self._base[rows].copy()
+            drawn[self._highlighted[rows], :3] = self._highlight
+            drawn[self._hidden[rows], 3] = 0.0
+            self.rgba[rows] = drawn
+        self.rgba[0] = 0.0
+        if self._changes is not None:
+            self._changes.append(rows)
+            if sum(r.size for r in self._changes) > self.n_materials:
+                self._changes = None   # more than a whole table: send it whole
         self.version += 1
+
+    def take_changes(self) -> np.ndarray | None:
+        """The rows changed since the last call (sorted, unique); ``None``: all of them."""
+        changes, self._changes = self._changes, []
+        if changes is None:
+            return None
+        return np.unique(np.concatenate(changes)) if changes else np.zeros(0, np.int64)
 
     def with_opacity(self, opacity) -> Palette:
         """A copy with every material's opacity scaled by ``opacity`` (0-1).
@@ -174,8 +279,13 @@ class VoxelModel(PlacedGrid):
     grid_from_index: np.ndarray = field(default_factory=lambda: np.eye(4))
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     name: str = "voxels"
+    #: Which label id each row of ``labels`` and of the palette stands for (by default the
+    #: identity: rows are the ids).
+    ids: LabelIds | None = None
 
     def __post_init__(self):
+        if self.ids is None:
+            self.ids = LabelIds(None, 0, self.labels.dtype, n_rows=self.palette.n_materials)
         check_spacing(np.linalg.norm(np.asarray(self.grid_from_index)[:3, :3], axis=0),
                       "the grid's spacing")
 
@@ -191,11 +301,16 @@ class VoxelModel(PlacedGrid):
 
     @property
     def dtype(self) -> np.dtype:
-        """The labels' type (uint8 or uint16), as a world's."""
+        """The rows' type (uint8, uint16, or uint32 beyond 65536 labels), as a world's."""
         return self.labels.dtype
 
-def checked_labels(array, name: str = "labels") -> np.ndarray:
-    """Integer labels as uint8 (or uint16 above 255), or a clear error naming ``name``."""
+    @property
+    def n_labels(self) -> int:
+        """Label ids other than the background the grid's tables hold."""
+        return self.ids.n_labels if not self.ids.identity else self.palette.n_materials - 1
+
+def label_values(array, name: str = "labels") -> np.ndarray:
+    """Integer labels as an integer array (bools as uint8), or a clear error naming ``name``."""
     array = np.asarray(array)
     if array.ndim != 3:
         raise VolumeDataError(f"{name} must be a 3D array (x, y, z), got shape {array.shape}.")
@@ -205,23 +320,37 @@ def checked_labels(array, name: str = "labels") -> np.ndarray:
         return array.astype(np.uint8)
     if array.dtype.kind == "f":
         if not np.isfinite(array).all():
-            raise VolumeDataError(f"{name} holds NaN or infinite values; material labels are "
-                                  "whole numbers (0 = empty).")
+            raise VolumeDataError(f"{name} holds NaN or infinite values; labels are whole "
+                                  "numbers (0 = empty).")
         if not np.array_equal(array, np.round(array)):
             raise VolumeDataError(f"{name} holds non-integer values (e.g. "
-                                  f"{array[array != np.round(array)].flat[0].item()!r}); material "
-                                  "labels are whole numbers: round or label the data first.")
-    elif array.dtype.kind not in "iu":
-        raise VolumeDataError(f"{name} has dtype {array.dtype}; material labels are integers.")
+                                  f"{array[array != np.round(array)].flat[0].item()!r}); labels "
+                                  "are whole numbers: round or label the data first.")
+        if np.abs(array).max() >= 2**53:
+            raise VolumeDataError(f"{name} holds float labels beyond 2^53, where floats skip "
+                                  "whole numbers: store the ids as int64 or uint64.")
+        return array.astype(np.int64)
+    if array.dtype.kind not in "iu":
+        raise VolumeDataError(f"{name} has dtype {array.dtype}; labels are integers.")
+    return array
+
+
+def checked_labels(array, name: str = "labels") -> np.ndarray:
+    """Material labels 0..65535 as uint8 (or uint16 above 255), or a clear error.
+
+    For what keeps its ids as rows (a world's chunks); :func:`make_voxels` takes any ids.
+    """
+    array = label_values(array, name)
     low, high = array.min(), array.max()
     if low < 0:
-        raise VolumeDataError(f"{name} holds negative labels (down to {low}); labels are "
-                              "0 (empty) or positive material ids.")
+        raise VolumeDataError(f"{name} holds negative labels (down to {low}); a world's "
+                              "labels are 0 (empty) or positive material ids.")
     if high > MAX_MATERIALS:
-        raise VolumeDataError(f"{name} holds labels up to {high}; at most {MAX_MATERIALS} "
-                              "materials fit (uint16).")
+        raise VolumeDataError(f"{name} holds labels up to {high}; a world's chunks hold at "
+                              f"most {MAX_MATERIALS} materials (uint16).")
     dtype = np.uint8 if high <= 255 else np.uint16
     return np.ascontiguousarray(array.astype(dtype))   # a copy: edits leave the input be
+
 
 def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndarray,
                                                                          np.ndarray]:
@@ -260,7 +389,7 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
 def make_voxels(data, scalars: str | None = None, *, palette=None, transform=None,
                 name: str = "voxels", categories: bool = False, cmap=None, clim=None,
                 n_colors: int | None = None, flip_scalars: bool = False,
-                opacity: float | None = None) -> VoxelModel:
+                opacity: float | None = None, background: int = 0) -> VoxelModel:
     """Validate a material grid and bundle it with a palette into a :class:`VoxelModel`.
 
     ``data``: a 3D integer (or bool) numpy array indexed x, y, z (unit voxels from the
@@ -271,7 +400,10 @@ def make_voxels(data, scalars: str | None = None, *, palette=None, transform=Non
     ``add_mesh(cmap=...)`` colours the cells, with its ``clim``, ``n_colors`` and
     ``flip_scalars`` (:func:`range_palette`). ``categories``: the colormap mapped as
     ``add_mesh(categories=True)`` maps the drawn labels (see :func:`category_palette`).
-    ``opacity``: every material's opacity, as ``add_mesh(opacity=)``.
+    ``opacity``: every material's opacity, as ``add_mesh(opacity=)``. ``background``: the
+    id drawn as empty (0). Ids of any integer type and value are taken: non-negative ones up
+    to 65535 with background 0 are stored as they are, others compacted to dense rows
+    (:mod:`~pv_cubemarch.models.label_ids`).
     """
     if cmap is not None and palette is not None:
         raise ValueError("give palette= or cmap= (PyVista's name), not both.")
@@ -284,19 +416,20 @@ def make_voxels(data, scalars: str | None = None, *, palette=None, transform=Non
                          "palette=.")
     if isinstance(data, pyvista.ImageData):
         values, grid_from_index = image_samples(data, scalars)
-        labels = checked_labels(values, scalars or "labels")
+        labels, ids = label_rows(label_values(values, scalars or "labels"), background,
+                                 scalars or "labels")
     else:
         grid_from_index = np.eye(4)
-        labels = checked_labels(data)
+        labels, ids = label_rows(label_values(data), background)
     matrix = np.eye(4) if transform is None else checked_transform(transform)
     if abs(np.linalg.det(grid_from_index[:3, :3])) < 1e-300:
         raise VolumeDataError("The grid's spacing must not be zero along any axis.")
     if categories:
-        chosen = category_palette(palette if cmap is None else cmap, labels)
+        chosen = category_palette(palette if cmap is None else cmap, labels, ids)
     elif cmap is not None:
-        chosen = range_palette(cmap, labels, clim, n_colors or 256, flip_scalars)
+        chosen = range_palette(cmap, labels, clim, n_colors or 256, flip_scalars, ids)
     else:
-        chosen = Palette.make(palette, int(labels.max()) + 1)
+        chosen = Palette.make(palette, int(labels.max()) + 1, ids)
     if opacity is not None:
         chosen = chosen.with_opacity(opacity)
     if int(labels.max()) >= chosen.n_materials:
@@ -304,19 +437,37 @@ def make_voxels(data, scalars: str | None = None, *, palette=None, transform=Non
         raise VolumeDataError(f"Label {top} has no colour: the palette has "
                               f"{chosen.n_materials} entries (materials 0.."
                               f"{chosen.n_materials - 1}); pass one with at least {top + 1}.")
+    if ids.identity:
+        ids.identity_rows = chosen.n_materials
     return VoxelModel(labels=labels, palette=chosen, grid_from_index=grid_from_index,
-                      transform=matrix, name=name)
+                      transform=matrix, name=name, ids=ids)
+
+def _present(labels: np.ndarray, ids: LabelIds | None) -> tuple[np.ndarray, np.ndarray]:
+    """The drawn labels' rows and ids (what ``threshold`` keeps), ids ascending."""
+    if ids is None or ids.identity:
+        rows = np.unique(labels[labels > 0])
+        return rows, rows
+    order = np.argsort(ids.ids, kind="stable")
+    return order + 1, ids.ids[order]
+
+
+def _table(labels: np.ndarray, ids: LabelIds | None) -> np.ndarray:
+    """An empty RGBA table with a row per row of ``labels``' tables."""
+    if ids is None or ids.identity:
+        return np.zeros((max(int(labels.max()) + 1, 2), 4), np.float32)
+    return np.zeros((max(ids.n_rows, 2), 4), np.float32)
+
 
 def range_palette(cmap, labels: np.ndarray, clim=None, n_colors: int = 256,
-                  flip_scalars: bool = False) -> Palette:
+                  flip_scalars: bool = False, ids: LabelIds | None = None) -> Palette:
     """Each drawn label coloured as ``threshold`` + ``add_mesh(cmap=...)`` colours it.
 
     PyVista maps the cells' values through ``n_colors`` colours of ``cmap`` (reversed with
     ``flip_scalars``) over ``clim``, by default their range: the smallest to the largest
-    label above 0 (what ``threshold`` keeps).
+    drawn label id (what ``threshold`` keeps). ``ids``: the id of each row.
     """
-    present = np.unique(labels[labels > 0])
-    rgba = np.zeros((max(int(labels.max()) + 1, 2), 4), np.float32)
+    rows, present = _present(labels, ids)
+    rgba = _table(labels, ids)
     if present.size:
         from pyvista.plotting.colors import get_cmap_safe
 
@@ -332,20 +483,24 @@ def range_palette(cmap, labels: np.ndarray, clim=None, n_colors: int = 256,
             lut.apply_cmap(colormap.reversed() if flip_scalars else colormap, count)
         except (ValueError, TypeError) as error:
             raise VolumeDataError(f"cmap={cmap!r}, n_colors={n_colors!r}: {error}") from error
-        _colour_labels(rgba, lut, present, None if clim is None else _checked_clim(clim))
+        _colour_labels(rgba, lut, rows, present, None if clim is None else _checked_clim(clim))
     return Palette(rgba)
 
-def _colour_labels(rgba: np.ndarray, lut: pyvista.LookupTable, present: np.ndarray,
-                   clim=None) -> None:
-    """Row ``v`` of ``rgba``: label ``v``'s colour through ``lut`` over ``clim``, opaque.
+def _colour_labels(rgba: np.ndarray, lut: pyvista.LookupTable, rows: np.ndarray,
+                   present: np.ndarray, clim=None) -> None:
+    """Row ``rows[k]`` of ``rgba``: id ``present[k]``'s colour through ``lut``, opaque.
 
-    ``clim`` is by default the present labels' range (one unit wide for a single label).
+    ``clim`` is by default the present ids' range (one unit wide for a single id). VTK maps
+    the values (as doubles, as it maps a mesh's cell data) to the 8-bit colours it draws.
     """
+    from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+
     lo, hi = (float(present[0]), float(present[-1])) if clim is None else clim
     lut.scalar_range = (lo, hi if hi > lo else lo + 1.0)
-    for value in present:
-        rgba[int(value), :3] = lut.map_value(float(value), opacity=False)
-        rgba[int(value), 3] = 1.0
+    values = numpy_to_vtk(np.asarray(present, dtype=np.float64), deep=True)
+    mapped = vtk_to_numpy(lut.MapScalars(values, 0, -1)).reshape(-1, 4)
+    rgba[rows, :3] = mapped[:, :3].astype(np.float32) / 255.0
+    rgba[rows, 3] = 1.0
 
 def _checked_clim(clim) -> tuple[float, float]:
     """``clim`` as two finite numbers, low <= high, or a clear error."""
@@ -357,24 +512,23 @@ def _checked_clim(clim) -> tuple[float, float]:
         raise VolumeDataError(f"clim must be two finite numbers, low <= high, got {clim!r}.")
     return low, high
 
-def category_palette(cmap, labels: np.ndarray) -> Palette:
+def category_palette(cmap, labels: np.ndarray, ids: LabelIds | None = None) -> Palette:
     """Each drawn label coloured as PyVista's ``add_mesh(categories=True)`` colours it.
 
     PyVista makes a table of as many colours as the mesh has distinct values over their
-    range and maps each value into it: so label ``v`` takes colour ``floor((v - lo) /
+    range and maps each value into it: so id ``v`` takes colour ``floor((v - lo) /
     (hi - lo) * n)`` of ``n`` colours of ``cmap`` (``lo``, ``hi``, ``n``: the smallest,
-    largest and number of distinct labels above 0, which ``threshold`` keeps).
+    largest and number of distinct drawn ids, which ``threshold`` keeps).
     """
     if cmap is not None and not isinstance(cmap, (str, list, tuple)):
         raise VolumeDataError("categories=True maps the labels through a colormap: give "
                               "palette= a colormap name or a list of colours.")
-    present = np.unique(labels[labels > 0])
-    top = int(labels.max())
-    rgba = np.zeros((max(top + 1, 2), 4), np.float32)
+    rows, present = _present(labels, ids)
+    rgba = _table(labels, ids)
     if present.size:
         lut = pyvista.LookupTable(list(cmap) if isinstance(cmap, tuple) else (cmap or "tab10"),
                                   n_values=max(int(present.size), 1))
-        _colour_labels(rgba, lut, present)
+        _colour_labels(rgba, lut, rows, present)
     return Palette(rgba)
 
 def fits_one_texture(dimensions: Sequence[int], dtype) -> bool:

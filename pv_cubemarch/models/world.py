@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.progress import progress
+from .label_ids import LabelIds
 from .voxels import Palette, PlacedGrid, VoxelModel, checked_labels
 
 #: Default chunk edge (the voxel report's): small enough that empty and uniform chunks take much of
@@ -37,6 +38,21 @@ class VoxelWorld(PlacedGrid):
     name: str = "voxels"
     #: The labels' type, the same for every stored chunk: ``'uint8'`` or ``'uint16'``.
     label_type: str = "uint8"
+    #: Which label id each row stands for (a compacted grid's; by default rows are ids).
+    label_ids: LabelIds | None = None
+
+    @property
+    def n_labels(self) -> int:
+        """Label ids other than the background the world's tables hold."""
+        ids = self.ids
+        return ids.n_labels if not ids.identity else self.palette.n_materials - 1
+
+    @property
+    def ids(self) -> LabelIds:
+        """The id table: the grid's, or the identity over the palette's rows."""
+        if self.label_ids is None or self.label_ids.identity:
+            return LabelIds(None, 0, self.label_type, n_rows=self.palette.n_materials)
+        return self.label_ids
 
     @classmethod
     def from_model(cls, model: VoxelModel, chunk_size: int = DEFAULT_CHUNK_SIZE) -> VoxelWorld:
@@ -44,9 +60,13 @@ class VoxelWorld(PlacedGrid):
         size = int(chunk_size)
         if size < 1:
             raise ValueError(f"chunk_size must be at least 1, got {chunk_size!r}.")
+        if model.labels.dtype.itemsize > 2:
+            raise ValueError(f"{model.name!r} holds {model.n_labels} label ids; a grid drawn "
+                             "in chunks holds at most 65535 (draw it whole, within 2048 "
+                             "voxels a side and 512 MiB of rows, or split the ids).")
         world = cls(model.dimensions, size, model.palette, grid_from_index=model.grid_from_index,
                     transform=model.transform, name=model.name,
-                    label_type=str(model.labels.dtype))
+                    label_type=str(model.labels.dtype), label_ids=model.ids)
         counts = [-(-n // size) for n in model.dimensions]
         for key in np.ndindex(*counts):
             world._keep(key, model.labels[tuple(slice(k * size, (k + 1) * size) for k in key)])

@@ -31,8 +31,25 @@ WHOLE_UPLOAD_SHARE = 0.5
 
 
 def checked_material(binding, material) -> int:
-    """``material`` as an int the grid's labels and palette hold, or a clear error."""
+    """``material`` as the row the grid's labels and palette hold, or a clear error.
+
+    A grid whose ids were compacted takes its own ids (the background empties); an id it
+    does not hold is refused, as its rows are fixed when the grid is made.
+    """
+    ids = binding.model.ids
+    if not ids.identity:
+        return int(compacted_rows(ids, material, "material")[0])
     return check_material(material, binding.model.labels.dtype, binding.model.palette)
+
+
+def compacted_rows(ids, values, name: str) -> np.ndarray:
+    """Rows of label ids of a compacted grid, or an error saying what can be written."""
+    try:
+        return ids.rows_of(values, name)
+    except ValueError as error:
+        raise ValueError(f"{error} This grid's ids were compacted when it was made: edits "
+                         f"write its own ids or the background ({ids.background}); make the "
+                         "grid again (add_voxels) to add new ids.") from None
 
 
 def check_material(material, dtype, palette) -> int:
@@ -51,9 +68,14 @@ def check_material(material, dtype, palette) -> int:
     return value
 
 
-def checked_labels_for(binding, values: np.ndarray) -> None:
-    """Refuse labels the palette has no colour for, or the grid's type cannot hold."""
+def checked_labels_for(binding, values: np.ndarray) -> np.ndarray:
+    """The rows to write for ``values``; labels the grid cannot hold are refused."""
+    ids = binding.model.ids
+    if not ids.identity:
+        return compacted_rows(ids, values, "values").reshape(values.shape).astype(
+            binding.model.labels.dtype)
     check_labels(values, binding.model.labels.dtype, binding.model.palette)
+    return values
 
 
 def check_labels(values: np.ndarray, dtype, palette) -> None:
@@ -173,7 +195,7 @@ def set_block(binding, where: tuple, values: np.ndarray) -> None:
     if mask is not None or values.shape != shape:
         raise ValueError(f"set_block needs a tuple of slices and values of its shape {shape}, "
                          f"got values of {values.shape}.")
-    checked_labels_for(binding, values)
+    values = checked_labels_for(binding, values)
     if not values.size:
         return
     binding.model.labels[box] = values
@@ -187,7 +209,7 @@ def set_values(binding, labels: np.ndarray) -> None:
     if labels.shape != model.labels.shape:
         raise ValueError(f"set_values needs labels of the grid's shape {model.labels.shape}, "
                          f"got {labels.shape}.")
-    checked_labels_for(binding, labels)
+    labels = checked_labels_for(binding, labels)
     model.labels[...] = labels
     refresh(binding, tuple(slice(0, n) for n in model.labels.shape))
 

@@ -32,6 +32,7 @@ from ..models.chunk_pool import (
 from ..models.voxel_levels import atlas_updates, bounds_in_cells, filled_bounds
 from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
+from .label_state import LabelState
 from .options import VoxelOptions, drawn_level
 from .technique import bind_grid, voxel_recipe
 from .world_edits import WorldEditing
@@ -79,7 +80,7 @@ def _layout(world: VoxelWorld, options: VoxelOptions, slots: int) -> PoolLayout 
     return pool_layout(world.chunk_size, inside, slots, world.dtype.itemsize)
 
 
-class IndexedWorldBinding(WorldEditing, DrawnBinding):
+class IndexedWorldBinding(LabelState, WorldEditing, DrawnBinding):
     """What ``actor.cubemarch`` holds for a world drawn by one traversal.
 
     Edits, brushes, ``pick`` and ``set_material`` take world voxel indices; an edit uploads
@@ -166,6 +167,11 @@ class IndexedWorldBinding(WorldEditing, DrawnBinding):
         The index changes where a chunk of one label is hidden or shown; the pool stays.
         """
         self.model.palette.set_color(material, color, opacity)
+        self._follow_palette()
+
+    def follow_palette_rows(self) -> None:
+        """Per-label changes: the palette and the chunk index go up whole."""
+        self.model.palette.take_changes()
         self._follow_palette()
 
     def _follow_palette(self) -> None:

@@ -20,6 +20,7 @@ from ..gl.frame_inputs import frame_inputs
 from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
 from ..models.voxels import palette_texels
+from .label_state import upload_palette_rows
 
 
 def translucent_materials(rgba: np.ndarray) -> np.ndarray:
@@ -77,9 +78,9 @@ class TranslucentLayers:
         """GPU bytes of its own (the labels are the opaque actor's)."""
         return self.palette.nbytes
 
-    def set_palette(self, rgba: np.ndarray) -> None:
-        """The palette changed: the layers read its new colours and opacities."""
-        self.palette.set_data(palette_texels(rgba))
+    def set_palette(self, rgba: np.ndarray, rows: np.ndarray | None = None) -> None:
+        """The palette changed (``rows`` of it, or all): the layers read the new entries."""
+        upload_palette_rows(self.palette, rgba, rows)
 
     def place(self, world_from_index: np.ndarray) -> None:
         """The grid moved."""

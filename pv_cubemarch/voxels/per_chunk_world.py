@@ -34,13 +34,14 @@ from ..models.voxel_shell import occupied_bricks
 from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
 from . import editing
+from .label_state import LabelState
 from .occluders import WorldOccluders
 from .options import VoxelOptions
 from .technique import VoxelBinding, build_voxel_actor
 from .world_edits import WorldEditing
 
 
-class WorldBinding(WorldEditing, Placement):
+class WorldBinding(LabelState, WorldEditing, Placement):
     """What ``actor.cubemarch`` holds for a world: the world, its chunks, their passes.
 
     Edits take world voxel indices, as a single grid's do (:class:`VoxelBinding`).
@@ -256,6 +257,11 @@ class WorldBinding(WorldEditing, Placement):
     def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
         """Change a material's colour and/or opacity (0 hides it) in every chunk."""
         self.model.palette.set_color(material, color, opacity)
+        self.follow_palette_rows()
+
+    def follow_palette_rows(self) -> None:
+        """The palette goes to every chunk whole; the occluders follow what is shown."""
+        self.model.palette.take_changes()
         for chunk in self.chunks.values():
             chunk.palette_texture.set_data(palette_texels(self.model.palette.rgba))
         self.occluders.rebuild()   # which bricks are solid depends on what is shown

@@ -41,6 +41,7 @@ from ..models.voxel_shell import choose_shell
 from ..models.voxels import VoxelModel, palette_texels
 from ..reference.voxels import render_voxels, trace_voxels
 from . import editing
+from .label_state import LabelState, upload_palette_rows
 from .layers import TranslucentLayers, opaque_palette, translucent_materials
 from .occluders import WorldOccluders
 from .options import VoxelOptions, drawn_level
@@ -92,13 +93,23 @@ def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
     bindings.set_uniform("cm_specularPower", float(options.specular_power))
 
 
+def label_scale(dtype) -> float:
+    """What a label texel read is multiplied by to give its row back.
+
+    8- and 16-bit rows are normalised textures (255, 65535); wider rows go up as float32
+    (1), exact to 2^24.
+    """
+    dtype = np.dtype(dtype)
+    return float(np.iinfo(dtype).max) if dtype.itemsize <= 2 else 1.0
+
+
 def bind_grid(bindings: ShaderBindings, renderer, model, options: VoxelOptions) -> None:
     """The uniforms every traversal of a grid (or world) reads: sizes, camera, lights, LOD.
 
     ``model``: a placed grid or world (``dimensions``, ``world_from_index``, ``dtype``);
     the label scale is read at each draw, as a world's labels may widen to uint16.
     """
-    bindings.set_uniform("cm_labelScale", lambda: float(np.iinfo(model.dtype).max))
+    bindings.set_uniform("cm_labelScale", lambda: label_scale(model.dtype))
     bindings.set_uniform("cm_gridDims", tuple(float(n) for n in model.dimensions))
     if options.traversal == "fixed":
         bindings.set_uniform("cm_voxelStep", options.step)
@@ -164,10 +175,12 @@ def bind_distance_field(bindings: ShaderBindings, model: VoxelModel,
 
 @dataclass(frozen=True)
 class VoxelPick:
-    """What a pixel shows: its voxel, material, entry face, depth and world point.
+    """What a pixel shows: its voxel, label id, entry face, depth and world point.
 
-    ``face``: ``2 * axis + 1`` when the ray entered moving +axis, ``2 * axis`` moving -axis,
-    -1 when it starts inside the voxel; ``depth``: the distance along the ray.
+    ``label``: the id the user's labels hold there; ``material``: its row of the per-label
+    tables (the id itself unless the ids were compacted). ``face``: ``2 * axis + 1`` when the
+    ray entered moving +axis, ``2 * axis`` moving -axis, -1 when it starts inside the voxel;
+    ``depth``: the distance along the ray.
     """
 
     index: tuple[int, int, int]
@@ -175,9 +188,14 @@ class VoxelPick:
     face: int
     depth: float
     point: tuple[float, float, float]
+    label: int | None = None
+
+    def __post_init__(self):
+        if self.label is None:
+            object.__setattr__(self, "label", self.material)
 
 
-class VoxelBinding(DrawnBinding):
+class VoxelBinding(LabelState, DrawnBinding):
     """What ``actor.cubemarch`` holds for a material grid: model, textures, bindings."""
 
     technique = "voxels"
@@ -251,17 +269,23 @@ class VoxelBinding(DrawnBinding):
         self.model.palette.set_color(material, color, opacity)
         self.follow_palette()
 
-    def follow_palette(self) -> None:
+    def follow_palette_rows(self) -> None:
+        """The rows the palette says changed go to the GPU (:class:`LabelState`)."""
+        self.follow_palette()
+
+    def follow_palette(self, whole: bool = False) -> None:
         """The palette changed: the opaque actor's copy, and the translucent layers.
 
-        The layer actor is made when a material first turns translucent and goes when
-        none is left.
+        Only the changed entries go up (the whole table with ``whole``). The layer actor
+        is made when a material first turns translucent and goes when none is left.
         """
+        rows = self.model.palette.take_changes()
+        rows = None if whole else rows
         rgba = self.model.palette.rgba
         if not self.composites:
-            self.palette_texture.set_data(palette_texels(rgba))
+            upload_palette_rows(self.palette_texture, rgba, rows)
             return
-        self.palette_texture.set_data(palette_texels(opaque_palette(rgba)))
+        upload_palette_rows(self.palette_texture, opaque_palette(rgba), rows)
         wanted = translucent_materials(rgba).size > 0
         if wanted and self.layers is None:
             self.layers = TranslucentLayers(self, self.renderer, bind_grid)
@@ -277,7 +301,7 @@ class VoxelBinding(DrawnBinding):
             self.layers.release()
             self.layers = None
         elif self.layers is not None:
-            self.layers.set_palette(rgba)
+            self.layers.set_palette(rgba, rows)
 
     def follow_anchor(self) -> None:
         """At each frame: the drawn actors and the layers follow the returned actor.
@@ -363,8 +387,10 @@ class VoxelBinding(DrawnBinding):
         origins, directions = camera.rays((width, height))
         depth = float(hits.depth[0, 0])
         point = origins[int(y), int(x)] + directions[int(y), int(x)] * depth
-        return VoxelPick(tuple(int(v) for v in hits.index[0, 0]), int(hits.material[0, 0]),
-                         int(hits.face[0, 0]), depth, tuple(float(v) for v in point))
+        row = int(hits.material[0, 0])
+        return VoxelPick(tuple(int(v) for v in hits.index[0, 0]), row,
+                         int(hits.face[0, 0]), depth, tuple(float(v) for v in point),
+                         self.model.ids.id_of(row))
 
     def release_resources(self) -> None:
         """The bindings, the brick shell, the layers and the label and palette textures."""
@@ -449,7 +475,7 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     # id and face modes and level of detail draw them opaque: add_voxels warns).
     binding.composites = shared_depth is None and occluders is None and \
         options.mode == "color" and not (options.lod and options.mip_levels)
-    binding.follow_palette()
+    binding.follow_palette(whole=True)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
 

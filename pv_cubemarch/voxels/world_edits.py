@@ -68,7 +68,11 @@ class WorldEditing:
         if mask is not None or values.shape != shape:
             raise ValueError(f"set_block needs a tuple of slices and values of its shape "
                              f"{shape}, got values of {values.shape}.")
-        editing.check_labels(values, np.uint16, self.model.palette)
+        ids = self.model.ids
+        if ids.identity:
+            editing.check_labels(values, np.uint16, self.model.palette)
+        else:
+            values = editing.compacted_rows(ids, values, "values").reshape(values.shape)
         if values.size:
             self._write(box, values)
 
@@ -82,7 +86,9 @@ class WorldEditing:
         self.set_block(tuple(slice(0, n) for n in self.model.dimensions), labels)
 
     def _checked_material(self, material) -> int:
-        """``material`` if the palette has it (a world's labels widen to uint16 on need)."""
+        """``material``'s row if the palette has it (a world's labels widen to uint16)."""
+        if not self.model.ids.identity:
+            return int(editing.compacted_rows(self.model.ids, material, "material")[0])
         return editing.check_material(material, np.uint16, self.model.palette)
 
     @needs_open_plotter
@@ -125,6 +131,7 @@ class WorldEditing:
                     d).max()
                 index = np.clip(np.floor(inside).astype(int), start,
                                 start + np.array(shape) - 1)
-            return VoxelPick(tuple(int(v) for v in index), int(hits.material[0, 0]),
-                             int(hits.face[0, 0]), depth, tuple(float(v) for v in point))
+            row = int(hits.material[0, 0])
+            return VoxelPick(tuple(int(v) for v in index), row, int(hits.face[0, 0]), depth,
+                             tuple(float(v) for v in point), self.model.ids.id_of(row))
         return None

@@ -1,0 +1,264 @@
+"""Label ids of any integer type, stored on the GPU as dense rows of a per-id table.
+
+A segmentation's ids (uint32 cell ids, uint64 connectome segments, negative grain ids) are
+compacted on upload: row 0 is the background, rows ``1..n`` the present ids, sorted. The
+grid the GPU reads holds rows (1, 2 or 4 bytes a voxel, whatever the ids' width), and every
+per-label property (colour, opacity, hidden, highlighted) is one entry of a table indexed by
+row, so changing it never touches the labels. Grids of small non-negative ids with
+background 0 keep their ids as rows (the identity table): palettes indexed by material
+number read as before.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.errors import VolumeDataError
+from ..core.progress import progress
+
+#: Largest id an identity table holds (ids stored as uint16).
+IDENTITY_MAX = 65535
+
+#: Most distinct ids a grid may hold: rows are read from a float32 texture, exact to 2^24.
+MAX_IDS = 2**24 - 1
+
+#: Voxels per slab when ids are compacted (bounds the temporary memory to a few slabs).
+SLAB_VOXELS = 1 << 24
+
+
+def row_type(n_rows: int) -> np.dtype:
+    """The narrowest unsigned type whose values reach row ``n_rows - 1``."""
+    if n_rows <= 256:
+        return np.dtype(np.uint8)
+    if n_rows <= 65536:
+        return np.dtype(np.uint16)
+    return np.dtype(np.uint32)
+
+
+class LabelIds:
+    """Which label id each row of a grid's tables stands for.
+
+    Parameters
+    ----------
+    ids : numpy.ndarray or None
+        The present ids other than the background, one per row from 1 on (sorted when made
+        by :func:`compact_labels`; edits may append). ``None``: the identity table (row ``m``
+        is id ``m``, background 0).
+    background : int
+        The id drawn as empty (row 0).
+    dtype : numpy.dtype
+        The ids' type as the user gave them (what :meth:`ids_of` returns).
+    """
+
+    def __init__(self, ids: np.ndarray | None = None, background: int = 0,
+                 dtype=np.uint16, n_rows: int | None = None):
+        self.dtype = np.dtype(dtype)
+        self.background = background
+        self._ids = None if ids is None else np.asarray(ids, dtype=self.dtype).ravel()
+        #: For the identity table: its rows (the palette's length, which may exceed the ids).
+        self.identity_rows = n_rows
+        self._sorted: tuple[np.ndarray, np.ndarray] | None = None
+
+    @property
+    def identity(self) -> bool:
+        """Whether rows are the ids themselves (non-negative ids, background 0)."""
+        return self._ids is None
+
+    @property
+    def ids(self) -> np.ndarray:
+        """The id of each row from 1 on (for the identity table: ``1..n_rows - 1``)."""
+        if self._ids is None:
+            return np.arange(1, self.n_rows, dtype=np.int64)
+        return self._ids
+
+    @property
+    def n_rows(self) -> int:
+        """Rows of the per-label tables, background included."""
+        if self._ids is None:
+            return int(self.identity_rows or 2)
+        return int(self._ids.size) + 1
+
+    @property
+    def n_labels(self) -> int:
+        """Ids other than the background."""
+        return self.n_rows - 1
+
+    def ids_of(self, rows) -> np.ndarray:
+        """The ids of ``rows`` (row 0: the background), in the ids' own type."""
+        rows = np.asarray(rows, dtype=np.int64)
+        if self._ids is None:
+            return rows.astype(self.dtype if self.dtype.kind in "iu" else np.int64)
+        table = np.concatenate([np.array([self.background], self.dtype), self._ids])
+        return table[rows]
+
+    def id_of(self, row: int):
+        """One row's id, as a Python int."""
+        return int(self.ids_of([int(row)])[0])
+
+    def rows_of(self, ids, name: str = "ids") -> np.ndarray:
+        """The rows of ``ids``; an id the grid does not hold is an error naming it."""
+        values = _as_ids(ids, name)
+        if self._ids is None:
+            bad = (values < 0) | (values >= self.n_rows)
+            if bad.any():
+                raise ValueError(f"{name}: label {values[bad][0]} is not in the grid (its "
+                                 f"labels are 0..{self.n_rows - 1}).")
+            return values.astype(np.int64)
+        rows, found = self._lookup(values)
+        if not found.all():
+            missing = values[~found][0]
+            raise ValueError(f"{name}: label {missing} is not in the grid ({self.n_labels} "
+                             "labels; actor.cubemarch.label_ids lists them).")
+        return rows
+
+    def has(self, ids) -> np.ndarray:
+        """Per id: whether the grid holds it (the background counts)."""
+        values = _as_ids(ids, "ids")
+        if self._ids is None:
+            return (values >= 0) & (values < self.n_rows)
+        return self._lookup(values)[1]
+
+    def _lookup(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rows of ``values`` and whether each was found (searchsorted on a sorted copy)."""
+        if self._sorted is None:
+            table = np.concatenate([np.array([self.background], self.dtype), self._ids])
+            order = np.argsort(table, kind="stable")
+            self._sorted = (table[order], order)
+        keys, order = self._sorted
+        values, fits = _fitted(values, keys.dtype)
+        at = np.clip(np.searchsorted(keys, values), 0, len(keys) - 1)
+        return order[at].astype(np.int64), fits & (keys[at] == values)
+
+    def append(self, ids) -> np.ndarray:
+        """Give new ids rows at the end (an edit wrote them); returns their rows."""
+        if self._ids is None:
+            raise ValueError("an identity table grows with its palette, not by append.")
+        values, fits = _fitted(_as_ids(ids, "ids"), self.dtype)
+        if not fits.all():
+            raise ValueError(f"label {_as_ids(ids, 'ids')[~fits][0]} does not fit this "
+                             f"grid's {self.dtype} ids.")
+        values = np.unique(values)
+        values = values[~self.has(values)]
+        if self.n_rows + values.size > MAX_IDS + 1:
+            raise VolumeDataError(f"a grid holds at most {MAX_IDS} distinct labels.")
+        start = self.n_rows
+        self._ids = np.concatenate([self._ids, values])
+        self._sorted = None
+        return np.arange(start, start + values.size)
+
+
+def _as_ids(ids, name: str) -> np.ndarray:
+    """``ids`` (an int, a sequence, an array) as a 1D integer array, or an error naming it.
+
+    Python ints keep their value whatever it is: int64 where all fit, else uint64.
+    """
+    if isinstance(ids, np.ndarray) and ids.dtype.kind in "iu":
+        return ids.ravel()
+    items = np.asarray(ids, dtype=object).ravel()
+    try:
+        values = [_whole(v) for v in items]
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} must be integer label ids, got {ids!r}.") from None
+    if all(-2**63 <= v < 2**63 for v in values):
+        return np.asarray(values, dtype=np.int64)
+    if all(0 <= v < 2**64 for v in values):
+        return np.asarray(values, dtype=np.uint64)
+    return np.asarray(values, dtype=object)   # past either type: matched one by one
+
+
+def _whole(value) -> int:
+    """One id as a Python int; bools and non-integer numbers are refused."""
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(value)
+    if isinstance(value, (float, np.floating)):
+        if not float(value).is_integer():
+            raise ValueError(value)
+        return int(value)
+    return int(np.asarray(value).item()) if isinstance(value, np.generic) else int(value)
+
+
+def _fitted(values: np.ndarray, dtype) -> tuple[np.ndarray, np.ndarray]:
+    """``values`` cast to ``dtype``, and per value whether it fits (one that does not is no id)."""
+    dtype = np.dtype(dtype)
+    if values.dtype.kind == "O":
+        info = np.iinfo(dtype)
+        fits = np.array([info.min <= v <= info.max for v in values], dtype=bool)
+        return np.array([v if ok else 0 for v, ok in zip(values, fits, strict=True)],
+                        dtype=dtype), fits
+    if np.can_cast(values.dtype, dtype):
+        return values.astype(dtype), np.ones(values.shape, bool)
+    info, own = np.iinfo(dtype), np.iinfo(values.dtype)
+    fits = np.ones(values.shape, bool)
+    if own.min < info.min:
+        fits &= values >= info.min
+    if own.max > info.max:
+        fits &= values <= info.max
+    return np.where(fits, values, 0).astype(dtype), fits
+
+
+def compact_labels(values: np.ndarray, background: int = 0,
+                   name: str = "labels") -> tuple[np.ndarray, LabelIds]:
+    """Label ids of any integer type as dense rows, and the table of which id each row is.
+
+    Distinct ids are found slab by slab (never a sort of the whole grid), then each slab's
+    ids are turned into rows by binary search: memory beyond the input is the rows (1-4
+    bytes a voxel) and one slab's temporaries. Rows keep the order of the ids.
+    """
+    values = np.asarray(values)
+    if values.dtype.kind not in "iu":
+        raise VolumeDataError(f"{name} has dtype {values.dtype}; label ids are integers.")
+    background = _checked_background(background, values.dtype, name)
+    flat = values.reshape(-1, order="A") if values.flags.forc else values.ravel()
+    slabs = range(0, flat.size, SLAB_VOXELS)
+    found = []
+    for start in progress(slabs, desc=f"{name}: finding ids", enabled=None
+                          if flat.size > 4 * SLAB_VOXELS else False):
+        found.append(np.unique(flat[start:start + SLAB_VOXELS]))
+    present = np.unique(np.concatenate(found)) if len(found) > 1 else found[0]
+    present = present[present != background]
+    if present.size > MAX_IDS:
+        raise VolumeDataError(f"{name} holds {present.size} distinct labels; at most {MAX_IDS} "
+                              "are drawn (their rows are read exactly from a float32 texture).")
+    dtype = row_type(present.size + 1)
+    table = np.concatenate([np.array([background], values.dtype), present])
+    order = np.argsort(table, kind="stable")
+    keys = table[order]
+    rows = np.empty(values.shape, dtype=dtype, order="F" if values.flags.f_contiguous
+                    and not values.flags.c_contiguous else "C")
+    out = rows.reshape(-1, order="A") if rows.flags.forc else rows.ravel()
+    for start in progress(slabs, desc=f"{name}: compacting ids", enabled=None
+                          if flat.size > 4 * SLAB_VOXELS else False):
+        part = flat[start:start + SLAB_VOXELS]
+        out[start:start + part.size] = order[np.searchsorted(keys, part)]
+    return rows, LabelIds(present, background, values.dtype)
+
+
+def _checked_background(background, dtype: np.dtype, name: str):
+    """``background`` as an int the ids' type holds, or an error naming it."""
+    if isinstance(background, (bool, np.bool_)) or not isinstance(
+            background, (int, np.integer)):
+        raise ValueError(f"background must be an integer label id, got {background!r}.")
+    info = np.iinfo(dtype)
+    if not info.min <= int(background) <= info.max:
+        raise ValueError(f"background={background} is outside {name}'s {dtype} range "
+                         f"[{info.min}, {info.max}].")
+    return dtype.type(int(background))
+
+
+def label_rows(values: np.ndarray, background: int = 0,
+               name: str = "labels") -> tuple[np.ndarray, LabelIds]:
+    """Rows and their id table for integer labels: the ids themselves when they can be.
+
+    Non-negative ids up to :data:`IDENTITY_MAX` with background 0 are their own rows
+    (uint8 up to 255, else uint16, as material grids always were); anything else
+    (wider types with large ids, negative ids, another background) is compacted.
+    """
+    values = np.asarray(values)
+    if values.dtype.kind == "b":
+        values = values.astype(np.uint8)
+    low, high = values.min(), values.max()
+    if int(background) == 0 and low >= 0 and high <= IDENTITY_MAX:
+        dtype = np.uint8 if high <= 255 else np.uint16
+        ids = LabelIds(None, 0, values.dtype, n_rows=int(high) + 1)
+        return np.ascontiguousarray(values.astype(dtype)), ids
+    return compact_labels(values, background, name)

@@ -1,0 +1,324 @@
+"""Segmentations: label ids of every integer type and value, drawn exactly and restyled by id.
+
+The expected images come from :func:`pv_cubemarch.reference.label_ids.trace_ids`, which
+makes the ids dense with its own ``np.unique`` (nothing of the renderer's compaction), and
+from colours the test itself picks per id; never from the renderer's tables.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import pv_cubemarch as cm
+from pv_cubemarch.models.label_colors import hashed_colors
+from pv_cubemarch.models.label_ids import label_rows
+from pv_cubemarch.reference.label_ids import trace_ids
+from pv_cubemarch.reference.voxels import id_colors
+from pv_cubemarch.voxels.label_state import palette_runs
+
+SIZE = (120, 100)
+SHAPE = (24, 20, 16)
+
+
+def plotter(size=SIZE):
+    pl = cm.offscreen_plotter(size)
+    pl.disable_anti_aliasing()
+    pl.ren_win.SetMultiSamples(0)   # an id is a pixel's, never a blend of two
+    pl.set_background("black")
+    return pl
+
+
+def aim(pl, eye=(40.0, 30.0, 35.0), focal=(12.0, 10.0, 8.0)):
+    pl.camera.position = eye
+    pl.camera.focal_point = focal
+    pl.renderer.ResetCameraClippingRange()
+    return cm.Camera.from_pyvista(pl.camera)
+
+
+def scattered(ids, fill=0.3, seed=3, background=0, shape=SHAPE):
+    """A grid of ``ids`` at random voxels (``fill`` of them), the rest ``background``."""
+    rng = np.random.default_rng(seed)
+    ids = np.asarray(ids)
+    values = rng.choice(ids, shape)
+    return np.where(rng.random(shape) < fill, values, ids.dtype.type(background))
+
+
+def wrong_ids(pl, actor, labels, camera, shown=None, background=0):
+    """Pixels whose voxel (``mode='id'``) differs from the reference traversal's, and hits."""
+    image = cm.render_image(pl).astype(int)
+    hits, hit = trace_ids(labels, actor.cubemarch.model.world_from_index(), camera, SIZE,
+                          near=pl.camera.clipping_range[0], shown=shown,
+                          background=background)
+    expected = id_colors(hits, labels.shape).astype(int)
+    return int(np.any(image != expected, axis=-1).sum()), int(hit.sum()), hits, hit
+
+
+U64 = np.uint64
+CASES = {
+    # name: (ids, dtype, background)
+    "uint32 scattered": (np.random.default_rng(0).choice(2**32 - 1, 400, replace=False) + 1,
+                         np.uint32, 0),
+    "uint64 near 2^40": (2**40 + np.random.default_rng(1).choice(10**7, 300, replace=False),
+                         np.uint64, 0),
+    "uint64 extremes": ([1, 2**32 - 1, 2**63, 2**64 - 2, 2**64 - 1], np.uint64, 0),
+    "int32 negative": ([-2**31, -7, -1, 5, 2**31 - 1], np.int32, 0),
+    "int64 background -1": ([0, 3, -2**62, 2**62], np.int64, -1),
+    "one id 2^32-1": ([2**32 - 1], np.uint32, 0),
+    "uint8 identity": ([1, 2, 7], np.uint8, 0),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_every_id_type_is_drawn_voxel_exactly(case):
+    """Every id width and sign, against the reference traversal, then coloured by a dict.
+
+    catches (seen failing): rows read at 255x their value for 4-byte rows (label_scale
+    returning iinfo.max for uint32: every uint32 case draws nothing past row 0); rows off
+    by one in compaction (searchsorted into the table without the background: 2000+ wrong
+    pixels); the background compacted as a label (int64 background -1 drawn).
+    """
+    ids, dtype, background = CASES[case]
+    ids = np.asarray(ids, dtype=dtype)
+    labels = scattered(ids[ids != background], background=background).astype(dtype)
+    labels[0, 0, 0] = background   # the background is present too
+    pl = plotter()
+    actor = cm.add_voxels(pl, labels, mode="id", background=background)
+    camera = aim(pl)
+    wrong, hit, hits, seen = wrong_ids(pl, actor, labels, camera, background=background)
+    assert hit > 1000 and wrong == 0, (wrong, hit)
+    pl.close()
+    # colours from the test's own table, keyed by id: the pixels show the hit id's colour
+    rng = np.random.default_rng(5)
+    present = [int(v) for v in np.unique(labels) if v != background]
+    colours = {v: rng.integers(0, 256, 3) / 255.0 for v in present}
+    pl = plotter()
+    cm.add_voxels(pl, labels, palette={k: tuple(v) for k, v in colours.items()},
+                  shading="unlit", background=background)
+    aim(pl)
+    image = cm.render_image(pl).astype(int)
+    expected = np.zeros(image.shape, int)
+    for value, colour in colours.items():
+        expected[seen & (hits.material == value)] = np.round(colour * 255)
+    assert np.abs(image - expected).max() <= 1
+    pl.close()
+
+
+def test_only_background_draws_nothing_without_error():
+    # 0 only, and a background of 7 in a grid of 7s: nothing drawn, no error
+    for labels, background in ((np.zeros(SHAPE, np.uint64), 0),
+                               (np.full(SHAPE, 7, np.int16), 7)):
+        pl = plotter()
+        actor = cm.add_voxels(pl, labels, background=background)
+        aim(pl)
+        assert actor.cubemarch.n_labels == (0 if background else 1)   # palette rows
+        assert not cm.render_image(pl).any()
+        pl.close()
+
+
+def test_a_million_ids_in_a_small_grid():
+    """10^6 distinct uint64 ids, not sorted in the grid: 4-byte rows, exact, picked by id.
+
+    catches (seen failing): a palette as wide as the ids (one row of 10^6 texels, past
+    GL's limit: nothing drawn).
+    """
+    shape = (100, 100, 100)
+    rng = np.random.default_rng(3)
+    labels = rng.permutation(np.arange(1, 10**6 + 1, dtype=np.uint64) * 4099 + 2**33)
+    labels = labels.reshape(shape)
+    labels[:, :, :3] = 0
+    pl = plotter()
+    actor = cm.add_voxels(pl, labels, mode="id")
+    model = actor.cubemarch.model
+    assert model.labels.dtype == np.uint32 and actor.cubemarch.n_labels == 970000
+    camera = aim(pl, (-60.0, 150.0, -50.0), (50.0, 50.0, 50.0))
+    image = cm.render_image(pl).astype(int)
+    hits, hit = trace_ids(labels, model.world_from_index(), camera, SIZE,
+                          near=pl.camera.clipping_range[0])
+    assert hit.sum() > 5000
+    assert not np.any(image != id_colors(hits, shape).astype(int), axis=-1).any()
+    y, x = np.argwhere(hit)[len(np.argwhere(hit)) // 2]
+    picked = actor.cubemarch.pick(int(x), int(y))
+    assert picked.label == int(hits.material[y, x]) == int(labels[picked.index])
+    pl.close()
+
+
+def test_storage_follows_the_number_of_ids_not_their_width():
+    """uint64 ids cost 1, 2 or 4 bytes a voxel by how many there are, never 8.
+
+    catches: the ids uploaded as they are (uint64 converted to float32: 4 bytes for 300
+    ids, and wrong ids beyond 2^24).
+    """
+    few = scattered(2**40 + np.arange(200, dtype=np.uint64)).astype(np.uint64)
+    some = scattered(2**50 + np.arange(300, dtype=np.uint64)).astype(np.uint64)
+    many = np.arange(70000, dtype=np.uint64).reshape(70, 100, 10) + 2**60
+    for labels, itemsize in ((few, 1), (some, 2), (many, 4)):
+        pl = plotter()
+        actor = cm.add_voxels(pl, labels, mip_levels=0, distance_field=0, proxy="box")
+        assert actor.cubemarch.labels.nbytes == labels.size * itemsize
+        pl.close()
+
+
+def test_label_state_changes_are_drawn_and_send_only_their_entries():
+    """Hide, show only some, recolour, highlight, by id: the next frame is the reference's,
+    the labels are never uploaded again, and the palette upload is a few entries.
+
+    catches (seen failing): the whole palette re-uploaded at each change (4800 bytes for
+    one id); hidden ids still drawn (the opaque palette not following); show_labels()
+    leaving the ids hidden by show_selected_labels.
+    """
+    ids = (2**40 + np.random.default_rng(2).choice(10**6, 300, replace=False)).astype(U64)
+    labels = scattered(ids).astype(np.uint64)
+    pl = plotter()
+    actor = cm.add_voxels(pl, labels, mode="id")
+    binding = actor.cubemarch
+    camera = aim(pl)
+    assert wrong_ids(pl, actor, labels, camera)[0] == 0
+    labels_sent = binding.uploaded_bytes
+    palette_sent = binding.palette_texture.uploaded_bytes
+    binding.hide_labels(int(ids[7]))
+    wrong, _, hits, seen = wrong_ids(pl, actor, labels, camera, shown=np.delete(ids, 7))
+    assert wrong == 0
+    assert binding.palette_texture.uploaded_bytes - palette_sent == 16   # one RGBA float
+    binding.show_selected_labels(ids[:5])
+    assert wrong_ids(pl, actor, labels, camera, shown=ids[:5])[0] == 0
+    assert set(binding.hidden_labels.tolist()) == set(ids[5:].tolist())
+    binding.show_labels()
+    assert wrong_ids(pl, actor, labels, camera)[0] == 0
+    assert binding.uploaded_bytes == labels_sent
+    assert binding.palette_texture.uploaded_bytes - palette_sent < 300 * 16 * 3
+    pl.close()
+
+
+def test_recolour_and_highlight_by_id_in_colour():
+    # catches (seen failing): highlight drawn in the id's own colour (rows not redrawn)
+    ids = np.array([-5, 3, 2**40], dtype=np.int64)
+    labels = scattered(ids).astype(np.int64)
+    pl = plotter()
+    actor = cm.add_voxels(pl, labels, palette={-5: "red", 3: "lime", 2**40: "blue"},
+                          shading="unlit")
+    camera = aim(pl)
+    hits, seen = trace_ids(labels, actor.cubemarch.model.world_from_index(), camera, SIZE,
+                           near=pl.camera.clipping_range[0])
+
+    def colours(table):
+        out = np.zeros((*SIZE[::-1], 3), int)
+        for value, rgb in table.items():
+            out[seen & (hits.material == value)] = rgb
+        return out
+
+    red, lime, blue, white = (255, 0, 0), (0, 255, 0), (0, 0, 255), (255, 255, 255)
+    assert np.array_equal(cm.render_image(pl), colours({-5: red, 3: lime, 2**40: blue}))
+    actor.cubemarch.set_label_color([3, 2**40], np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 1.0]]))
+    assert np.array_equal(cm.render_image(pl),
+                          colours({-5: red, 3: (255, 255, 0), 2**40: (0, 255, 255)}))
+    actor.cubemarch.highlight_labels(-5)
+    assert np.array_equal(cm.render_image(pl),
+                          colours({-5: white, 3: (255, 255, 0), 2**40: (0, 255, 255)}))
+    actor.cubemarch.clear_highlight()
+    assert np.array_equal(cm.render_image(pl),
+                          colours({-5: red, 3: (255, 255, 0), 2**40: (0, 255, 255)}))
+    pl.close()
+
+
+def test_a_translucent_id_is_composited_as_peeled_meshes():
+    """One uint64 id at opacity 0.4 inside another: against PyVista's depth-peeled
+    ``threshold`` + ``add_mesh`` of the two, unlit.
+
+    catches: per-id opacity lost on compacted grids (drawn opaque: far below 40 dB).
+    """
+    outer, inner = 2**40 + 11, 2**63 + 5
+    labels = np.zeros((16, 16, 16), np.uint64)
+    labels[2:14, 2:14, 2:14] = outer
+    labels[5:11, 5:11, 5:11] = inner
+    labels[2:14, 2:14, 2:6] = 0   # an open side: the inner box seen through the outer
+    grid = pv.ImageData(dimensions=np.array(labels.shape) + 1)
+    grid.cell_data["labels"] = labels.ravel(order="F")
+    position = [(40.0, 30.0, -25.0), (8.0, 8.0, 8.0), (0.0, 0.0, 1.0)]
+
+    def shot(add):
+        pl = pv.Plotter(off_screen=True, window_size=SIZE)
+        pl.set_background("black")
+        add(pl)
+        pl.camera_position = position
+        image = cm.render_image(pl)
+        pl.close()
+        return image
+
+    def theirs(pl):
+        pl.ren_win.SetMultiSamples(0)
+        pl.enable_depth_peeling(number_of_peels=50, occlusion_ratio=0.0)
+        for value, colour, opacity in ((outer, "tomato", 0.4), (inner, "steelblue", 1.0)):
+            pl.add_mesh(grid.threshold([float(value), float(value)], scalars="labels"),
+                        color=colour, opacity=opacity, lighting=False)
+
+    palette = {outer: ("tomato", 0.4), inner: "steelblue"}
+    reference = shot(theirs)
+    ours = shot(lambda pl: pl.cubemarch.add_voxels(labels, palette=palette, shading="unlit"))
+    opaque = shot(lambda pl: pl.cubemarch.add_voxels(labels, palette={
+        outer: "tomato", inner: "steelblue"}, shading="unlit"))
+    from test_pyvista_parity import psnr
+    assert psnr(ours, reference) >= 40.0, psnr(ours, reference)
+    assert psnr(opaque, reference) < 30.0
+
+
+def test_edits_write_ids_and_refuse_new_ones():
+    ids = np.array([2**40, 2**41, 2**42], dtype=np.uint64)
+    labels = scattered(ids).astype(np.uint64)
+    pl = plotter()
+    actor = cm.add_voxels(pl, labels, mode="id")
+    camera = aim(pl)
+    actor.cubemarch.fill_box((0, 0, 0), (10, 10, 10), 2**41)
+    labels[:10, :10, :10] = 2**41
+    assert wrong_ids(pl, actor, labels, camera)[0] == 0
+    with pytest.raises(ValueError, match="compacted when it was made"):
+        actor.cubemarch.set_voxels((1, 1, 1), 2**43)
+    pl.close()
+
+
+def test_hashed_colours_are_stable_and_differ_between_neighbours():
+    # by hand: the hash depends on the id alone, not on the grid or on which ids are present
+    first = hashed_colors(np.array([41, 42, 2**40], np.uint64))
+    again = hashed_colors(np.array([2**40, 42], np.uint64))
+    assert np.array_equal(first[2], again[0]) and np.array_equal(first[1], again[1])
+    neighbours = hashed_colors(np.arange(1, 10001))
+    step = np.abs(np.diff(neighbours[:, :3], axis=0)).max(axis=1)
+    assert (step > 0.05).mean() > 0.95
+    assert neighbours[:, :3].max(axis=1).min() >= 0.69   # none near black
+    # signed ids hash their 64-bit pattern: -1 is 2^64 - 1
+    assert np.array_equal(hashed_colors(np.array([-1], np.int64)),
+                          hashed_colors(np.array([2**64 - 1], np.uint64)))
+
+
+def test_palette_runs_by_hand():
+    # width 8: rows 1, 2, 3 one span; 30 in another texture row; 9 and 15 apart by 6
+    assert palette_runs([1, 2, 3, 30], width=8, gap=2) == [(0, 1, 4), (3, 6, 7)]
+    assert palette_runs([9, 15], width=8, gap=2) == [(1, 1, 2), (1, 7, 8)]
+    assert palette_runs([9, 15], width=8, gap=8) == [(1, 1, 8)]
+    assert palette_runs([], width=8) == []
+
+
+def test_clear_errors_for_ids():
+    labels = scattered(np.array([2**40, 2**41], np.uint64)).astype(np.uint64)
+    pl = plotter()
+    actor = cm.add_voxels(pl, labels)
+    with pytest.raises(ValueError, match="label 5 is not in the grid"):
+        actor.cubemarch.hide_labels([2**40, 5])
+    with pytest.raises(ValueError, match="background"):
+        actor.cubemarch.hide_labels(0)
+    with pytest.raises(cm.VolumeDataError, match="compacted"):
+        cm.add_voxels(pl, labels, palette=["red", "blue", "green"])
+    with pytest.raises(ValueError, match="outside"):
+        cm.add_voxels(pl, labels.astype(np.uint8), background=-1)
+    with pytest.raises(ValueError, match="integer label ids"):
+        actor.cubemarch.set_label_color(["a"], "red")
+    pl.close()
+
+
+def test_identity_grids_keep_their_rows():
+    # labels 0..65535 with background 0 are their own rows (palettes by material number)
+    rows, ids = label_rows(np.array([[[0, 3, 300]]], np.int64))
+    assert ids.identity and rows.dtype == np.uint16 and rows.tolist() == [[[0, 3, 300]]]
+    rows, ids = label_rows(np.array([[[0, 3, 70000]]], np.int64))
+    assert not ids.identity and rows.tolist() == [[[0, 1, 2]]]
