@@ -74,10 +74,8 @@ CASES = {
 def test_every_id_type_is_drawn_voxel_exactly(case):
     """Every id width and sign, against the reference traversal, then coloured by a dict.
 
-    catches (seen failing): rows read at 255x their value for 4-byte rows (label_scale
-    returning iinfo.max for uint32: every uint32 case draws nothing past row 0); rows off
-    by one in compaction (searchsorted into the table without the background: 2000+ wrong
-    pixels); the background compacted as a label (int64 background -1 drawn).
+    catches (seen failing): 4-byte rows read times iinfo.max (label_scale for uint32); rows
+    off by one in compaction (searchsorted into the ids without the background row).
     """
     ids, dtype, background = CASES[case]
     ids = np.asarray(ids, dtype=dtype)
@@ -106,7 +104,8 @@ def test_every_id_type_is_drawn_voxel_exactly(case):
 
 
 def test_only_background_draws_nothing_without_error():
-    # 0 only, and a background of 7 in a grid of 7s: nothing drawn, no error
+    # 0 only, and a background of 7 in a grid of 7s: nothing drawn, no error.
+    # catches (seen failing): the background compacted as a label.
     for labels, background in ((np.zeros(SHAPE, np.uint64), 0),
                                (np.full(SHAPE, 7, np.int16), 7)):
         pl = plotter()
@@ -121,7 +120,7 @@ def test_a_million_ids_in_a_small_grid():
     """10^6 distinct uint64 ids, not sorted in the grid: 4-byte rows, exact, picked by id.
 
     catches (seen failing): a palette as wide as the ids (one row of 10^6 texels, past
-    GL's limit: nothing drawn).
+    GL's 2D limit).
     """
     shape = (100, 100, 100)
     rng = np.random.default_rng(3)
@@ -147,8 +146,7 @@ def test_a_million_ids_in_a_small_grid():
 def test_storage_follows_the_number_of_ids_not_their_width():
     """uint64 ids cost 1, 2 or 4 bytes a voxel by how many there are, never 8.
 
-    catches: the ids uploaded as they are (uint64 converted to float32: 4 bytes for 300
-    ids, and wrong ids beyond 2^24).
+    catches: the ids uploaded as they are (uint64 converted to float32: 4 bytes a voxel).
     """
     few = scattered(2**40 + np.arange(200, dtype=np.uint64)).astype(np.uint64)
     some = scattered(2**50 + np.arange(300, dtype=np.uint64)).astype(np.uint64)
@@ -226,7 +224,7 @@ def test_a_translucent_id_is_composited_as_peeled_meshes():
     """One uint64 id at opacity 0.4 inside another: against PyVista's depth-peeled
     ``threshold`` + ``add_mesh`` of the two, unlit.
 
-    catches: per-id opacity lost on compacted grids (drawn opaque: far below 40 dB).
+    catches (seen failing): per-id opacity lost from a dict on compacted ids (20.5 dB).
     """
     outer, inner = 2**40 + 11, 2**63 + 5
     labels = np.zeros((16, 16, 16), np.uint64)
@@ -322,3 +320,26 @@ def test_identity_grids_keep_their_rows():
     assert ids.identity and rows.dtype == np.uint16 and rows.tolist() == [[[0, 3, 300]]]
     rows, ids = label_rows(np.array([[[0, 3, 70000]]], np.int64))
     assert not ids.identity and rows.tolist() == [[[0, 1, 2]]]
+
+
+def test_the_live_view_lists_and_hides_label_ids():
+    """The session's label knob lists a uint64 grid's ids (past 2^53 as strings) and hides
+    one: the frame is the reference traversal without it.
+
+    catches (seen failing): the knob listing palette rows 1..n instead of the ids.
+    """
+    from pv_cubemarch.views.session import TuningSession
+
+    ids = np.array([2**40 + 1, 2**40 + 9, 2**60 + 3], dtype=np.uint64)
+    labels = scattered(ids).astype(np.uint64)
+    pl = plotter()
+    actor = cm.add_voxels(pl, labels, mode="id", name="cells")
+    camera = aim(pl)
+    session = TuningSession.from_plotter(pl)
+    listed = session.value("voxels", "materials")
+    assert listed == [2**40 + 1, 2**40 + 9, str(2**60 + 3)]
+    session.set("voxels", "materials", [2**40 + 1, str(2**60 + 3)])
+    assert wrong_ids(pl, actor, labels, camera, shown=ids[[0, 2]])[0] == 0
+    session.set("voxels", "materials", listed)
+    assert wrong_ids(pl, actor, labels, camera)[0] == 0
+    pl.close()

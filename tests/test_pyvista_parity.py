@@ -1173,3 +1173,44 @@ def test_voxel_categories_colour_labels_with_gaps_as_pyvista():
                                    theirs.mapper.lookup_table.map_value(label, opacity=False),
                                    atol=1 / 255)
     pl.close()
+
+
+@pytest.mark.parametrize("dtype", [np.uint32, np.uint64, np.int64])
+def test_segmentation_ids_colour_as_threshold_and_categories(dtype):
+    """Cell ids far apart (near 2^31 or 2^40, one negative for int64) with
+    ``categories=True, cmap='tab10'`` against ``threshold`` + ``add_mesh(categories=True)``
+    of the same cells, both unlit; each id's colour against PyVista's own mapper.
+
+    catches (seen failing, all three): ids compacted but mapped by their row, not by the
+    id values' positions over their range.
+    """
+    base = 2**31 if dtype == np.uint32 else 2**40
+    values = np.array([base + 3, base + 900, base + 70000], dtype=np.float64)
+    if dtype == np.int64:
+        values[0] = -(2.0**40)
+    grid = wavelet_label_grid(lambda c: np.where(c[:, 0] > 0, 2, np.where(c[:, 1] > 1, 1, 0)))
+    index = np.asarray(grid.cell_data["labels"]).astype(int)
+    ball = wavelet_label_grid(lambda c: np.ones(len(c)))
+    inside = np.asarray(ball.cell_data["labels"]) > 0
+    ids = np.where(inside, values.astype(dtype)[index], 0).astype(dtype)
+    grid.cell_data["labels"] = ids
+    kept = grid.threshold(0.5, scalars="labels") if dtype != np.int64 else \
+        grid.extract_cells(np.flatnonzero(ids != 0))
+    reference, image = theirs_and_ours(
+        lambda pl: pl.add_mesh(kept, scalars="labels", categories=True, cmap="tab10",
+                               lighting=False, show_scalar_bar=False),
+        lambda pl: pl.cubemarch.add_voxels(grid, "labels", cmap="tab10", categories=True,
+                                           shading="unlit"),
+        grid.bounds)
+    off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
+    assert psnr(np.zeros_like(reference), reference) < 20.0
+    assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)
+    pl = pv.Plotter(off_screen=True)
+    theirs = pl.add_mesh(kept, scalars="labels", categories=True, cmap="tab10")
+    ours = pl.cubemarch.add_voxels(grid, "labels", cmap="tab10", categories=True)
+    rows = ours.cubemarch.model.ids.rows_of(values.astype(dtype))
+    for value, row in zip(values, rows, strict=True):
+        np.testing.assert_allclose(ours.cubemarch.model.palette.rgba[row, :3],
+                                   theirs.mapper.lookup_table.map_value(value, opacity=False),
+                                   atol=1 / 255)
+    pl.close()

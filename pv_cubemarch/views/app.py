@@ -166,7 +166,8 @@ def _typed(knob: Knob, value):
     if knob.control == "switch":
         return value.lower() == "true" if isinstance(value, str) else bool(value)
     if knob.control == "multiselect":
-        return sorted(next((c for c in knob.choices if str(c) == str(v)), v) for v in value)
+        return sorted((next((c for c in knob.choices if str(c) == str(v)), v) for v in value),
+                      key=lambda c: int(c))   # label ids; past 2^53 as strings
     if knob.control == "slider":
         return float(value) if isinstance(knob.step, float) and knob.step % 1 else \
             int(round(float(value)))

@@ -67,8 +67,9 @@ def volume_knobs() -> tuple[Knob, ...]:
 def voxel_knobs(materials: tuple[int, ...] = ()) -> tuple[Knob, ...]:
     """Voxel DDA blocks: their options, and the materials shown."""
     return (*declared_knobs("voxels"),
-            Knob("materials", "materials shown", "multiselect", choices=tuple(materials),
-                 help="a hidden material's voxels are traversed as empty"))
+            Knob("materials", "labels shown", "multiselect", choices=tuple(materials),
+                 help="label ids shown (the first 64 listed); a hidden label is traversed "
+                      "as empty"))
 
 
 def surface_knobs(isovalue_range: tuple[float, float] = (-1.0, 1.0)) -> tuple[Knob, ...]:

@@ -184,8 +184,7 @@ class TuningSession:
         item = self._of(kind)[0]
         if kind == "voxels" and name == "materials":     # shown in any grid
             return [m for m in self._materials() if any(
-                m < len(grid.model.palette.visible) and grid.model.palette.visible[m]
-                for grid in self._of("voxels"))]
+                _shown_in(grid.model, m) for grid in self._of("voxels"))]
         if name in item.options:
             value = item.options[name]
             return "none" if name == "lights" and value is None else value
@@ -201,7 +200,7 @@ class TuningSession:
         ``materials`` (the materials shown) changes only the palettes, a few bytes each.
         """
         if kind == "voxels" and name == "materials":
-            self._show_materials({int(m) for m in value})
+            self._show_materials(set(value))
             self.draw()
             return self.draw()
         done = []
@@ -259,30 +258,42 @@ class TuningSession:
             near=camera.clipping_range[0] if camera.clipping_range else None)
         return compare_images(render_image(self.plotter), reference).as_dict()
 
-    def _materials(self) -> tuple[int, ...]:
-        """The materials of the voxel grids' palettes (at most :data:`LISTED_MATERIALS`)."""
-        rows = max((len(item.model.palette.rgba) for item in self._of("voxels")), default=1)
-        return tuple(range(1, min(rows, LISTED_MATERIALS + 1)))
+    def _materials(self) -> tuple:
+        """The label ids of the voxel grids (at most :data:`LISTED_MATERIALS`, ascending).
 
-    def _show_materials(self, shown: set[int]) -> None:
-        """Hide the listed materials taken out of ``shown``, show those put in, in every grid.
-
-        Only the change from the knob's value counts: a material shown in one grid and
-        hidden (by its palette) in another stays so until the knob itself moves it.
+        Ids past 2^53 are listed as strings: a browser's numbers would round them.
         """
-        unknown = shown - set(self._materials())
+        found: set[int] = set()
+        for item in self._of("voxels"):
+            ids = item.model.ids
+            rows = ids.ids if not ids.identity else np.arange(1, item.model.palette.n_materials)
+            found.update(int(v) for v in rows[:LISTED_MATERIALS])
+        listed = sorted(found)[:LISTED_MATERIALS]
+        return tuple(v if abs(v) < 2**53 else str(v) for v in listed)
+
+    def _show_materials(self, shown: set) -> None:
+        """Hide the listed ids taken out of ``shown``, show those put in, in every grid.
+
+        Only the change from the knob's value counts: an id shown in one grid and hidden
+        (by its palette) in another stays so until the knob itself moves it.
+        """
+        shown = {int(m) for m in shown}
+        listed = {int(m) for m in self._materials()}
+        unknown = shown - listed
         if unknown:
             raise ValueError(f"materials {sorted(unknown)} are not in the voxel palettes "
-                             f"(materials 1-{max(self._materials(), default=0)})")
-        before = set(self.value("voxels", "materials"))
+                             f"(listed: {len(listed)} label ids)")
+        before = {int(m) for m in self.value("voxels", "materials")}
         for name, item in self.items.items():
             if item.kind != "voxels":
                 continue
-            binding, loaded = item.binding, self._opacities[name]
-            rows = len(item.model.palette.rgba)
+            binding, loaded, ids = item.binding, self._opacities[name], item.model.ids
             for material in sorted((before - shown) | (shown - before)):
-                if material < rows:     # only the palette's few bytes go to the GPU
-                    binding.set_material(material, opacity=(float(loaded[material]) or 1.0)
+                if not ids.has([material])[0] or material == ids.background:
+                    continue
+                row = int(ids.rows_of([material])[0])
+                if row < len(loaded):     # only the palette's few bytes go to the GPU
+                    binding.set_material(material, opacity=(float(loaded[row]) or 1.0)
                                          if material in shown else 0.0)
 
     def _of(self, kind: str) -> list[TunedItem]:
@@ -314,6 +325,15 @@ class TuningSession:
 
 #: Materials listed by the ``materials`` knob (the first of a larger palette).
 LISTED_MATERIALS = 64
+
+
+def _shown_in(model, label) -> bool:
+    """Whether grid ``model`` holds label id ``label`` and draws it."""
+    ids, label = model.ids, int(label)
+    if label == ids.background or not ids.has([label])[0]:
+        return False
+    row = int(ids.rows_of([label])[0])
+    return row < model.palette.n_materials and bool(model.palette.visible[row])
 #: Each kind's default technique.
 DEFAULT_TECHNIQUE = {"volume": "vtk", "voxels": "voxels", "surface": "active"}
 #: Defaults of knobs that are not fields of a technique's options dataclass.

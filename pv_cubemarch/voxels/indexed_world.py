@@ -166,7 +166,7 @@ class IndexedWorldBinding(LabelState, WorldEditing, DrawnBinding):
 
         The index changes where a chunk of one label is hidden or shown; the pool stays.
         """
-        self.model.palette.set_color(material, color, opacity)
+        self.model.palette.set_color(self.material_row(material), color, opacity)
         self._follow_palette()
 
     def follow_palette_rows(self) -> None:

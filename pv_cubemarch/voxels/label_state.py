@@ -77,6 +77,12 @@ class LabelState:
         """
         return int(self.model.n_labels)
 
+    def material_row(self, material) -> int:
+        """The palette row of label id ``material`` (the id itself unless compacted)."""
+        if self.model.ids.identity:
+            return material
+        return int(self._rows(material, "material")[0])
+
     def _rows(self, labels, name: str = "labels") -> np.ndarray:
         rows = self.model.ids.rows_of(labels, name)
         if (rows == 0).any():

@@ -256,7 +256,7 @@ class WorldBinding(LabelState, WorldEditing, Placement):
     @needs_open_plotter
     def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
         """Change a material's colour and/or opacity (0 hides it) in every chunk."""
-        self.model.palette.set_color(material, color, opacity)
+        self.model.palette.set_color(self.material_row(material), color, opacity)
         self.follow_palette_rows()
 
     def follow_palette_rows(self) -> None:

@@ -266,7 +266,7 @@ class VoxelBinding(LabelState, DrawnBinding):
 
         Only the palette, a few bytes per material, goes to the GPU again.
         """
-        self.model.palette.set_color(material, color, opacity)
+        self.model.palette.set_color(self.material_row(material), color, opacity)
         self.follow_palette()
 
     def follow_palette_rows(self) -> None:
