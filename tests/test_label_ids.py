@@ -45,12 +45,12 @@ def scattered(ids, fill=0.3, seed=3, background=0, shape=SHAPE):
     return np.where(rng.random(shape) < fill, values, ids.dtype.type(background))
 
 
-def wrong_ids(pl, actor, labels, camera, shown=None, background=0):
+def wrong_ids(pl, actor, labels, camera, shown=None, background=0, near=None):
     """Pixels whose voxel (``mode='id'``) differs from the reference traversal's, and hits."""
     image = cm.render_image(pl).astype(int)
     hits, hit = trace_ids(labels, actor.cubemarch.model.world_from_index(), camera, SIZE,
-                          near=pl.camera.clipping_range[0], shown=shown,
-                          background=background)
+                          near=pl.camera.clipping_range[0] if near is None else near,
+                          shown=shown, background=background)
     expected = id_colors(hits, labels.shape).astype(int)
     return int(np.any(image != expected, axis=-1).sum()), int(hit.sum()), hits, hit
 
@@ -342,4 +342,58 @@ def test_the_live_view_lists_and_hides_label_ids():
     assert wrong_ids(pl, actor, labels, camera, shown=ids[[0, 2]])[0] == 0
     session.set("voxels", "materials", listed)
     assert wrong_ids(pl, actor, labels, camera)[0] == 0
+    pl.close()
+
+
+def test_usd_and_openvdb_bring_wide_ids(tmp_path):
+    """uint64 ids from a USD stage's numpy field and int64 ids from an OpenVDB grid (with a
+    non-zero background), drawn voxel-exactly; a per-number USD palette is refused.
+
+    catches (seen failing): the USD palette rebuilt by label number over compacted rows
+    (made for 2^40 + 1 rows: a MemoryError), and the VDB background drawn as a label.
+    """
+    from conftest import write_voxel_stage
+    from tools.vdb_writer import write_vdb
+
+    from pv_cubemarch.scene.openvdb.image import vdb_image
+
+    ids = np.array([2**40 + 1, 2**40 + 9, 2**62], dtype=np.uint64)
+    labels = scattered(ids, shape=(12, 10, 8)).astype(np.uint64)
+    path = write_voxel_stage(tmp_path, labels, attrs={"cubemarch:mode": ("Token", "id")})
+    scene = cm.load_scene(path)
+    scene.background = (0.0, 0.0, 0.0)
+    pl = plotter()
+    scene.add_to(pl)
+    actor = next(a for a in pl.actors.values() if hasattr(a, "cubemarch"))
+    camera = scene.cameras["/Cam"]
+    wrong, hit, _, _ = wrong_ids(pl, actor, labels, camera, near=camera.clipping_range[0])
+    assert hit > 500 and wrong == 0
+    pl.close()
+    stage = write_voxel_stage(tmp_path, labels, stage_name="palette.usda", attrs={
+        "cubemarch:palette": ("Color3fArray", [(0, 0, 0), (1, 0, 0)])})
+    with pytest.warns(UserWarning, match="one entry per label number"):
+        refused = cm.load_scene(stage)
+    assert refused.voxels == [] and len(refused.skipped) == 1   # skipped, and said
+    # OpenVDB: an int64 grid, background 5 (its inactive voxels), ids near 2^40 and below 0
+    rng = np.random.default_rng(4)
+    choices = np.array([2**40 + 3, 2**40 + 77, -2**35, 5], dtype=np.int64)
+    leaves = {}
+    for origin in [(0, 0, 0), (8, 0, 0), (0, 8, 8)]:
+        active = rng.random(512) < 0.5
+        values = rng.choice(choices, 512)
+        values[~active] = 5
+        leaves[origin] = (values, active)
+    write_vdb(tmp_path / "ids.vdb", [{
+        "name": "ids", "type": "Tree_int64_5_4_3", "dtype": "<i8", "compression": 0,
+        "background": np.array(5, "<i8"), "leaves": leaves,
+        "map": ("UniformScaleMap", [1.0] * 6 + [1.0] * 3 + [1.0] * 3 + [1.0] * 3)}])
+    image = vdb_image(tmp_path / "ids.vdb", cells=True)
+    values = np.asarray(image.cell_data["ids"]).reshape(
+        [n - 1 for n in image.dimensions], order="F")
+    pl = plotter()
+    actor = cm.add_voxels(pl, image, mode="id", background=5)
+    assert actor.cubemarch.n_labels == 3
+    camera = aim(pl, (-20.0, 30.0, -25.0), (8.0, 8.0, 8.0))
+    wrong, hit, _, _ = wrong_ids(pl, actor, values, camera, background=5)
+    assert hit > 500 and wrong == 0
     pl.close()

@@ -132,7 +132,10 @@ def _voxels(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
             'cubemarch:technique = "voxels" draws'
         raise VolumeDataError(f"{where}: {exc} ({why} as integer material labels, "
                               "0 = empty.)") from exc
-    model.palette = _palette(prim, name, where, int(model.labels.max()))
+    if model.ids.identity:
+        model.palette = _palette(prim, name, where, int(model.labels.max()))
+    else:
+        model.palette = _id_palette(prim, name, model)
     world = attr(prim, "cubemarch:world")
     if world is not None:
         key = attr(prim, "cubemarch:chunk")
@@ -207,6 +210,29 @@ def _field_array(field_prim, grid) -> str | None:
 def is_field(prim) -> bool:
     """A field prim (anything with a ``filePath``, e.g. ``OpenVDBAsset``)."""
     return bool(prim.GetAttribute("filePath"))
+
+
+def _id_palette(prim, name: str, model) -> Palette:
+    """The palette of a grid whose ids were compacted: hashed, or a colormap over the ids.
+
+    ``cubemarch:palette`` and ``cubemarch:paletteOpacity`` give one entry per label number
+    and cannot reach ids past 65535 or negative ones: refused, saying what to use.
+    """
+    by_row = [key for key in ("cubemarch:palette", "cubemarch:paletteOpacity")
+              if attr(prim, key) is not None]
+    if by_row:
+        raise SceneLoadError(f"Volume {name}: {', '.join(by_row)} give one entry per label "
+                             f"number, but its {model.n_labels} ids reach past 0..65535 (or "
+                             "are negative): use cubemarch:cmap (a colormap over the ids) or "
+                             "leave it out (colours hashed from each id).")
+    cmap = attr(prim, "cubemarch:cmap")
+    if cmap is not None and not isinstance(cmap, str):
+        raise SceneLoadError(f"Volume {name}: cubemarch:cmap must be a colormap name "
+                             f"(string or token), got {cmap!r}.")
+    try:
+        return Palette.make(None if cmap is None else str(cmap), model.ids.n_rows, model.ids)
+    except VolumeDataError as exc:
+        raise SceneLoadError(f"Volume {name}: cubemarch:cmap = {cmap!r}: {exc}") from exc
 
 
 def _palette(prim, name: str, where: str, top: int) -> Palette:
