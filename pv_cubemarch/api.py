@@ -708,8 +708,8 @@ def add_voxels(
     scalars : str, optional
         The ImageData array of labels; the first cell (then point) array by default.
     palette : str, list, dict, callable, array or Palette, optional
-        Colour (and opacity) per label id: by default tab10/tab20 up to 20 labels and
-        beyond, a colour hashed from each id (the same in every run, chunk and grid;
+        Colour (and opacity) per label id: by default tab10/tab20 for up to 20 labels in
+        0..65535, else a colour hashed from each id (the same in every run, chunk and grid;
         neighbouring ids differ); a matplotlib colormap name (its colours in the order of
         the ids), ``{id: colour}`` or ``{id: (colour, opacity)}`` (ids left out are
         hidden), a function of the id returning either; a list of colours (entry ``m`` for

@@ -27,7 +27,7 @@ from .core.declared import KINDS, declared, option, options_markdown
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, specific_option_names, techniques
-from .models.voxels import VoxelModel
+from .models.voxels import VoxelModel, count_labels, label_legend
 from .scene.io import load_scene
 from .views.app import WINDOW_MODES, serve
 from .volume.binding import BLEND_MODES
@@ -720,6 +720,8 @@ def _info(args) -> int:
                 "source": s.source, "up_axis": s.up_axis, "meters_per_unit": s.meters_per_unit,
                 "meshes": [m.name for m in s.meshes], "volumes": [v.name for v in s.volumes],
                 "voxels": [g.name for g in s.voxels],
+                "labels": {g.name: {"count": count_labels(g), "legend": label_legend(g, 64)}
+                           for g in s.voxels},
                 "surfaces": [f.name for f in s.surfaces], "time": s.time,
                 "cameras": list(s.cameras), "lights": [li.name for li in s.lights],
                 "skipped": [{"path": k.path, "reason": k.reason} for k in s.skipped]}

@@ -349,8 +349,8 @@ def test_usd_and_openvdb_bring_wide_ids(tmp_path):
     """uint64 ids from a USD stage's numpy field and int64 ids from an OpenVDB grid (with a
     non-zero background), drawn voxel-exactly; a per-number USD palette is refused.
 
-    catches (seen failing): the USD palette rebuilt by label number over compacted rows
-    (made for 2^40 + 1 rows: a MemoryError), and the VDB background drawn as a label.
+    catches (seen failing): the USD per-number palette applied to compacted rows (no
+    refusal), and the VDB background kept as a label.
     """
     from conftest import write_voxel_stage
     from tools.vdb_writer import write_vdb
@@ -397,3 +397,22 @@ def test_usd_and_openvdb_bring_wide_ids(tmp_path):
     wrong, hit, _, _ = wrong_ids(pl, actor, values, camera, background=5)
     assert hit > 500 and wrong == 0
     pl.close()
+
+
+def test_info_gives_the_label_count_and_a_legend(tmp_path, capsys):
+    # catches (seen failing): the legend listing palette rows (1, 2, 3) in place of the ids
+    import json
+
+    from conftest import write_voxel_stage
+
+    from pv_cubemarch import cli
+
+    ids = np.array([2**40 + 1, 2**40 + 9, 2**62], dtype=np.uint64)
+    path = write_voxel_stage(tmp_path, scattered(ids, shape=(12, 10, 8)).astype(np.uint64))
+    assert cli.main(["info", str(path), "--json"]) == 0
+    labels = json.loads(capsys.readouterr().out)["scene"]["labels"]["/Vox"]
+    assert labels["count"] == 3 and [e["id"] for e in labels["legend"]] == ids.tolist()
+    assert cli.main(["info", str(path)]) == 0
+    text = capsys.readouterr().out
+    assert "3 label ids 1099511627777..4611686018427387904 (uint64)" in text
+    assert f"    {2**62}: #" in text

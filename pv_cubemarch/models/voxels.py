@@ -78,8 +78,9 @@ class Palette:
     def make(cls, palette, n_materials: int, ids: LabelIds | None = None) -> Palette:
         """A palette for labels ``1..n_materials - 1`` from what a user may pass.
 
-        ``palette``: ``None`` (tab10 or tab20 up to 20 labels, beyond them colours hashed
-        from each id, :func:`~pv_cubemarch.models.label_colors.hashed_colors`), a
+        ``palette``: ``None`` (tab10 or tab20 for up to 20 labels kept as rows; beyond them
+        and for compacted ids, colours hashed from each id,
+        :func:`~pv_cubemarch.models.label_colors.hashed_colors`), a
         matplotlib colormap name (its colours in the order of the ids), a list of colours
         (entry ``m`` for material ``m``; entry 0 is ignored), a dict ``{id: colour}`` or
         ``{id: (colour, opacity)}`` (ids left out are hidden), a function of the id
@@ -93,7 +94,7 @@ class Palette:
         compacted = ids is not None and not ids.identity
         if compacted:
             check_by_id(palette)
-        if (palette is None and n > 21) or (compacted and (
+        if (palette is None and (n > 21 or compacted)) or (compacted and (
                 isinstance(palette, dict) or callable(palette))):
             labels = ids.ids if ids is not None else np.arange(1, n)
             rgba = np.zeros((max(labels.size + 1, 2), 4), np.float32)
@@ -536,3 +537,47 @@ def fits_one_texture(dimensions: Sequence[int], dtype) -> bool:
     voxels = int(np.prod([int(n) for n in dimensions], dtype=np.int64))
     return (max(int(n) for n in dimensions) <= MAX_TEXTURE_SIZE
             and voxels * np.dtype(dtype).itemsize <= MAX_GRID_BYTES)
+
+
+def _listed_rows(model) -> np.ndarray:
+    """The rows a grid's legend lists: the labels present in a grid kept as rows, else all."""
+    if model.ids.identity and hasattr(model, "labels"):
+        present = np.unique(model.labels)
+        return present[present > 0].astype(np.int64)
+    return np.arange(1, model.n_labels + 1)
+
+
+def label_legend(model, limit: int = 10) -> list[dict]:
+    """The first ``limit`` label ids of a grid or world with their colour and opacity.
+
+    Each entry: ``{"id": int, "color": "#rrggbb", "opacity": float, "hidden": bool}``, in
+    the order of the grid's rows (ascending ids).
+    """
+    ids, palette = model.ids, model.palette
+    hidden = palette.hidden
+    legend = []
+    for row in _listed_rows(model)[:max(int(limit), 0)]:
+        if row >= palette.n_materials:
+            break
+        rgb = np.clip(np.round(palette.rgba[row, :3] * 255), 0, 255).astype(int)
+        legend.append({"id": ids.id_of(row), "color": "#{:02x}{:02x}{:02x}".format(*rgb),
+                       "opacity": float(palette.rgba[row, 3]), "hidden": bool(hidden[row])})
+    return legend
+
+
+def count_labels(model) -> int:
+    """Label ids other than the background a grid holds (a world kept as rows: its palette's)."""
+    return int(_listed_rows(model).size)
+
+
+def describe_labels(model) -> str:
+    """One line on a grid's label ids: how many, their range and type, bytes per voxel."""
+    ids = model.ids
+    count = count_labels(model)
+    if ids.identity:
+        return f"{count} labels, {np.dtype(model.dtype).itemsize} byte(s) a voxel"
+    values = ids.ids
+    low, high = (int(values.min()), int(values.max())) if values.size else (0, 0)
+    return (f"{count} label ids {low}..{high} ({ids.dtype}), background "
+            f"{int(ids.background)}, stored as {np.dtype(model.dtype).itemsize} "
+            "byte(s) a voxel")

@@ -21,7 +21,7 @@ from ..models.group import overlap_groups
 from ..models.lights import VolumeLight
 from ..models.surface import SplineField
 from ..models.volume import VolumeModel
-from ..models.voxels import VoxelModel
+from ..models.voxels import VoxelModel, count_labels, describe_labels, label_legend
 from ..models.world import VoxelWorld
 from .lighting import add_scene_lights
 from .mesh_batches import batched
@@ -29,6 +29,10 @@ from .mesh_drawing import add_scene_mesh
 from .parts import SceneLight, SceneMesh, SkippedPrim
 
 DEFAULT_BACKGROUND = (0.1, 0.1, 0.12)
+
+
+#: Label ids listed per voxel grid in a scene's summary.
+LEGEND_ENTRIES = 10
 
 
 @dataclass
@@ -103,10 +107,18 @@ class Scene:
                                      f"{'x'.join(map(str, v.dimensions))} points")
                   for v in self.volumes]
         lines.append(f"voxel grids: {len(self.voxels)}")
-        lines += [f"  {g.name}: {'x'.join(map(str, g.dimensions))} voxels, "
-                  + (f"labels up to {int(g.labels.max())}" if isinstance(g, VoxelModel) else
-                     f"{len(g.stored) + len(g.uniform)} chunks of {g.chunk_size}^3")
-                  for g in self.voxels]
+        for g in self.voxels:
+            lines.append(f"  {g.name}: {'x'.join(map(str, g.dimensions))} voxels, "
+                         + (f"labels up to {int(g.labels.max())}" if isinstance(
+                             g, VoxelModel) and g.ids.identity else
+                            f"{len(g.stored) + len(g.uniform)} chunks of {g.chunk_size}^3"
+                            if not isinstance(g, VoxelModel) else "compacted ids")
+                         + f"; {describe_labels(g)}")
+            legend = label_legend(g, LEGEND_ENTRIES)
+            lines += [f"    {e['id']}: {e['color']}" + (f", opacity {e['opacity']:g}"
+                      if e["opacity"] != 1.0 else "") for e in legend]
+            if count_labels(g) > len(legend):
+                lines.append(f"    ... {count_labels(g) - len(legend)} more")
         lines.append(f"surfaces: {len(self.surfaces)}")
         lines += [f"  {f.name}: {'x'.join(map(str, f.dimensions))} cells"
                   for f in self.surfaces]
