@@ -12,6 +12,7 @@ from pathlib import Path
 
 from .bench import edits as bench_edits
 from .bench import harness as bench
+from .bench import labels as bench_labels
 from .bench import large as bench_large
 from .bench import resolution as bench_resolution
 from .bench import scene_prims as bench_prims
@@ -241,6 +242,32 @@ def build_parser() -> argparse.ArgumentParser:
     prims.add_argument("--pyvista-max", type=int, default=4000,
                        help="largest count timed with PyVista's per-prim path (quadratic)")
     prims.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    labels = bench_commands.add_parser(
+        "labels", help="segmentations of many uint32/uint64 ids: ours against threshold + "
+                       "add_mesh, contour_labels and a volume ray cast; setup, frames, bytes, "
+                       "wrong ids, recolouring and hiding")
+    labels.add_argument("--size", type=_size, default=(1000, 1000),
+                        help="WxH (default 1000x1000)")
+    labels.add_argument("--scenes", default=",".join(bench_labels.SCENES),
+                        help=f"comma-separated, of {', '.join(bench_labels.SCENES)}")
+    labels.add_argument("--voxels", type=int, default=160,
+                        help="cells scene: voxels a side (default 160; the issue's 512 needs "
+                             "a larger machine for the PyVista rows)")
+    labels.add_argument("--cells", type=int, default=20000,
+                        help="cells scene: Voronoi cells (default 20000)")
+    labels.add_argument("--million-voxels", type=int, default=192,
+                        help="million scene: voxels a side (default 192)")
+    labels.add_argument("--million-sites", type=int, default=2_200_000,
+                        help="million scene: Voronoi sites (default 2.2M: about 10^6 cells "
+                             "inside its ball)")
+    labels.add_argument("--stride", type=int, default=2,
+                        help="frog scene: keep every n-th voxel (default 2)")
+    labels.add_argument("--frames", type=int, default=3, help="timed frames per row")
+    labels.add_argument("--no-reference", action="store_true",
+                        help="skip the CPU traversal (wrong-id pixels not counted)")
+    labels.add_argument("--no-pyvista", action="store_true",
+                        help="only our rows (the PyVista rows need ~1 KB a filled voxel)")
+    labels.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     large = bench_commands.add_parser(
         "voxel-large", help="a sparse 2048x2048x512 label volume: chunks, bytes, exactness")
     large.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
@@ -537,6 +564,20 @@ def _bench(args) -> int:
               "(> 10/255): against the CPU reference compositing every root")
         print(format_layer_table(rows, bench_surface_layers.OURS))
         _write_rows(args.json_path, rows, size=list(args.size), grids=list(args.grids))
+        return 0
+    if args.bench_command == "labels":
+        scenes = [s.strip() for s in args.scenes.split(",") if s.strip()]
+        rows = bench_labels.run_labels(
+            scenes, args.size, n=args.voxels, cells=args.cells, million=args.million_sites,
+            million_n=args.million_voxels, stride=args.stride, frames=args.frames,
+            reference=not args.no_reference, pyvista_rows=not args.no_pyvista)
+        print(f"{args.size[0]}x{args.size[1]}, median of {args.frames} frames; changes: ms "
+              "from the call to the finished next frame / KB uploaded; wrong: pixels whose "
+              "id differs from the CPU traversal's, away from voxel edges")
+        print(bench_labels.format_labels(rows))
+        _write_rows(args.json_path, rows, size=list(args.size), voxels=args.voxels,
+                    cells=args.cells, million_voxels=args.million_voxels,
+                    million_sites=args.million_sites, stride=args.stride)
         return 0
     if args.bench_command == "voxel-large":
         result = bench_large.run_large(args.size, args.scale, args.frames,

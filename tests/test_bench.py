@@ -355,3 +355,24 @@ def test_bench_surface_layers_rows_and_accuracy(tmp_path, capsys):
     assert main(["bench", "surface-layers", "--size", "64x48", "--grids", "12", "--shapes",
                  "blobs", "--frames", "1", "--json", str(path)]) == 0
     assert json.loads(path.read_text())["rows"] and "depth peeling" in capsys.readouterr().out
+
+
+def test_bench_labels_rows_exactness_and_change_bytes(tmp_path, capsys):
+    # Tiny scenes: our rows draw every id exactly, recolouring one id sends one palette
+    # entry (16 bytes), never the labels; the PyVista rows run beside them in the same run.
+    # catches: a recolour that re-uploads the labels (bytes over the grid's size), or a
+    # bench whose reference traversal is skipped (wrong ids reported as None).
+    path = tmp_path / "labels.json"
+    assert main(["bench", "labels", "--size", "96x80", "--voxels", "24", "--cells", "300",
+                 "--million-voxels", "24", "--million-sites", "4000", "--stride", "10",
+                 "--frames", "1", "--json", str(path)]) == 0
+    rows = json.loads(path.read_text())["rows"]
+    ours = [r for r in rows if r["row"].startswith("ours") and "255" not in r["row"]]
+    assert len(ours) == 9 and all(r["wrong_id_pixels"] == 0 and r["covered_pixels"] > 100
+                                  for r in ours)
+    assert all(r["changes"]["recolour 1"][1] == 16 for r in ours)
+    assert all(r["changes"]["hide half"][1] <= 16 * (r["ids"] + 1) for r in ours)
+    names = {r["row"] for r in rows}
+    assert {"threshold + add_mesh", "contour_labels + add_mesh",
+            "add_volume (fixed step 0.5)"} <= names
+    assert "recolour 1" in capsys.readouterr().out

@@ -1,0 +1,372 @@
+"""``pv-cubemarch bench labels``: segmentations of many ids against what PyVista users have.
+
+Scenes (fixed seeds): ``cells``, a Voronoi partition of an ``n``³ grid into ``cells`` cells
+with uint32 ids scattered over their range (a cell segmentation); ``million``, 10^6 uint64
+ids near 2^40 in a small grid (a fine watershed), and the same cells relabelled to 255 ids
+(the frame-time comparison); ``frog``, PyVista's frog tissue segmentation (uint8, the real
+file), subsampled by ``stride``. Rows: ours (default, and per option), ``threshold`` +
+``add_mesh`` (cells coloured by id), ``contour_labels`` (surface nets), and VTK's fixed-step
+volume ray cast of the labels. Measured in one run: setup to the first frame, later frames,
+host and GPU bytes, wrong-id pixels against the CPU traversal
+(:func:`~pv_cubemarch.reference.label_ids.trace_ids`), and the time and bytes to recolour
+1 / 1000 / all ids and to hide half of them.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyvista
+
+from ..api import add_voxels
+from ..core.camera import Camera
+from ..core.rendering import offscreen_plotter, read_pixels, render_frame
+from ..reference.label_ids import trace_ids
+from ..reference.voxels import id_colors
+
+#: Scenes by name: what they hold.
+SCENES = ("cells", "million", "frog")
+
+
+def voronoi_ids(n: int, cells: int, seed: int, ids: np.ndarray) -> np.ndarray:
+    """An ``n``³ grid split into the Voronoi cells of ``cells`` random seeds, cell k = ids[k]."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(seed)
+    sites = rng.random((cells, 3)) * n
+    centres = (np.stack(np.meshgrid(*[np.arange(n)] * 3, indexing="ij"), -1).reshape(-1, 3)
+               + 0.5)
+    owner = np.empty(len(centres), np.int64)
+    tree = cKDTree(sites)
+    step = 1 << 20
+    for start in range(0, len(centres), step):
+        owner[start:start + step] = tree.query(centres[start:start + step])[1]
+    labels = ids[owner].reshape(n, n, n)
+    # a background: outside a ball of radius 0.48 n (segmentations have empty space)
+    x, y, z = np.ogrid[:n, :n, :n]
+    outside = (x - n / 2 + 0.5) ** 2 + (y - n / 2 + 0.5) ** 2 + (z - n / 2 + 0.5) ** 2 > (
+        0.48 * n) ** 2
+    labels[outside] = 0
+    return labels
+
+
+def scene_labels(scene: str, n: int, cells: int, stride: int) -> np.ndarray:
+    """The labels of a scene (module docstring)."""
+    rng = np.random.default_rng(7)
+    if scene == "cells":
+        ids = (rng.choice(2**32 - 2, cells, replace=False) + 1).astype(np.uint32)
+        return voronoi_ids(n, cells, 11, ids)
+    if scene == "million":
+        ids = (2**40 + rng.choice(10**9, cells, replace=False)).astype(np.uint64)
+        return voronoi_ids(n, cells, 12, ids)
+    if scene == "frog":
+        from pyvista import examples
+
+        grid = pyvista.read(f"{examples.__path__[0]}/frog_tissues.vti")
+        values = np.asarray(grid.point_data[grid.array_names[0]]).reshape(
+            grid.dimensions, order="F")
+        return np.ascontiguousarray(values[::stride, ::stride, ::stride])
+    raise ValueError(f"scene must be one of {SCENES}, got {scene!r}.")
+
+
+def to_255(labels: np.ndarray) -> np.ndarray:
+    """The same cells with 255 ids (1..255 by rank), background kept: the frame comparison."""
+    values, rank = np.unique(labels, return_inverse=True)
+    rank = rank.reshape(labels.shape)
+    out = (rank % 255 + 1).astype(np.uint8)
+    out[labels == 0] = 0
+    return out
+
+
+@dataclass
+class LabelRow:
+    """One way of drawing one scene, and what it cost."""
+
+    scene: str
+    row: str
+    ids: int
+    voxels: int
+    setup_s: float | None
+    median_ms: float | None
+    host_bytes: int | None
+    gpu_bytes: int | None
+    label_bytes_per_voxel: float | None
+    wrong_id_pixels: int | None
+    covered_pixels: int | None
+    #: name -> (ms to the finished next frame, bytes uploaded)
+    changes: dict = field(default_factory=dict)
+    #: Why a row could not run (its tool refused the data), else empty.
+    note: str = ""
+
+
+def _camera(shape, pl) -> Camera:
+    n = np.asarray(shape, float)
+    camera = Camera(position=tuple(n * np.array([1.6, -0.7, 1.3])), focal_point=tuple(n / 2),
+                    view_up=(0, 0, 1), view_angle=35.0)
+    camera.apply_to(pl.camera)
+    pl.renderer.ResetCameraClippingRange()
+    return Camera.from_pyvista(pl.camera)
+
+
+def _frames(pl, frames: int) -> tuple[float, np.ndarray]:
+    times, image = [], None
+    for _ in range(frames):
+        pl.camera.Modified()
+        start = time.perf_counter()
+        render_frame(pl)
+        image = read_pixels(pl)
+        times.append((time.perf_counter() - start) * 1e3)
+    return float(np.median(times)), image
+
+
+def _timed(pl, change: Callable[[], int]) -> tuple[float, int]:
+    """Milliseconds from a change to the finished next frame, and the bytes it uploaded."""
+    start = time.perf_counter()
+    sent = change()
+    render_frame(pl)
+    read_pixels(pl)
+    return (time.perf_counter() - start) * 1e3, int(sent)
+
+
+def _plotter(size):
+    pl = offscreen_plotter(size)
+    pl.disable_anti_aliasing()
+    pl.ren_win.SetMultiSamples(0)
+    pl.set_background("black")
+    return pl
+
+
+def ours(scene: str, labels: np.ndarray, size, frames: int, reference, row: str = "ours",
+         **options) -> LabelRow:
+    """add_voxels with ``options``: setup, frames, bytes, exactness and per-label changes."""
+    pl = _plotter(size)
+    try:
+        start = time.perf_counter()
+        actor = add_voxels(pl, labels, mode="id", **options)
+        camera = _camera(labels.shape, pl)
+        render_frame(pl)
+        read_pixels(pl)
+        setup = time.perf_counter() - start
+        median, image = _frames(pl, frames)
+        binding = actor.cubemarch
+        wrong = covered = None
+        if reference is not None:
+            hits, hit = reference(camera, pl.camera.clipping_range[0])
+            expected = id_colors(hits, labels.shape)
+            wrong = int((np.any(image != expected, axis=-1) & ~hits.near_edge).sum())
+            covered = int(hit.sum())
+        model = binding.model
+        host = int(model.labels.nbytes + model.palette.rgba.nbytes
+                   + (model.ids.ids.nbytes if not model.ids.identity else 0))
+        gpu = int(binding.nbytes)
+        ids = model.ids.ids if not model.ids.identity else np.unique(labels[labels > 0])
+        rng = np.random.default_rng(0)
+        palette = binding.palette_texture
+
+        def recolour(count):
+            def change():
+                before = palette.uploaded_bytes + binding.uploaded_bytes
+                chosen = ids if count >= len(ids) else rng.choice(ids, count, replace=False)
+                binding.set_label_color(chosen, rng.random((len(chosen), 3)))
+                pl.ren_win.Render()   # the upload happens in the draw
+                return palette.uploaded_bytes + binding.uploaded_bytes - before
+            return change
+
+        changes = {}
+        for name, count in (("recolour 1", 1), ("recolour 1000", 1000),
+                            ("recolour all", len(ids))):
+            if count <= len(ids):
+                changes[name] = _timed(pl, recolour(count))
+
+        def hide_half():
+            before = palette.uploaded_bytes + binding.uploaded_bytes
+            binding.hide_labels(ids[::2])
+            pl.ren_win.Render()
+            return palette.uploaded_bytes + binding.uploaded_bytes - before
+
+        changes["hide half"] = _timed(pl, hide_half)
+        return LabelRow(scene, row, int(len(ids)), int(labels.size), setup, median, host, gpu,
+                        binding.labels.nbytes / labels.size, wrong, covered, changes)
+    finally:
+        pl.close()
+
+
+def _image(labels: np.ndarray) -> pyvista.ImageData:
+    grid = pyvista.ImageData(dimensions=np.array(labels.shape) + 1)
+    grid.cell_data["labels"] = labels.ravel(order="F")
+    return grid
+
+
+def _rank_colours(values: np.ndarray, present: np.ndarray) -> np.ndarray:
+    """Each value's rank among ``present`` (+1) as 24-bit RGB, for reading ids back."""
+    rank = np.searchsorted(present, values) + 1
+    return np.stack([rank & 255, (rank >> 8) & 255, (rank >> 16) & 255], -1).astype(np.uint8)
+
+
+def threshold_mesh(scene: str, labels: np.ndarray, size, frames: int, reference) -> LabelRow:
+    """PyVista's ``threshold`` + ``add_mesh``, each cell coloured by its id (as RGB, unlit)."""
+    present = np.unique(labels[labels > 0])
+    pl = _plotter(size)
+    try:
+        start = time.perf_counter()
+        mesh = _image(labels).threshold(0.5, scalars="labels")
+        cell_ids = np.asarray(mesh.cell_data["labels"])
+        mesh.cell_data["rgb"] = _rank_colours(cell_ids, present)
+        actor = pl.add_mesh(mesh, scalars="rgb", rgb=True, lighting=False,
+                            show_scalar_bar=False)
+        camera = _camera(labels.shape, pl)
+        render_frame(pl)
+        read_pixels(pl)
+        setup = time.perf_counter() - start
+        median, image = _frames(pl, frames)
+        wrong = covered = None
+        if reference is not None:
+            hits, hit = reference(camera, pl.camera.clipping_range[0])
+            expected = np.zeros(image.shape, np.uint8)
+            expected[hit] = _rank_colours(hits.material[hit], present)
+            wrong = int((np.any(image != expected, axis=-1) & ~hits.near_edge).sum())
+            covered = int(hit.sum())
+        host = int(mesh.actual_memory_size * 1024)
+        rng = np.random.default_rng(0)
+        colours = mesh.cell_data["rgb"]
+
+        def recolour(count):
+            def change():
+                chosen = present if count >= len(present) else rng.choice(present, count,
+                                                                          replace=False)
+                where = np.isin(cell_ids, chosen)
+                colours[where] = rng.integers(0, 256, (int(where.sum()), 3))
+                mesh.cell_data["rgb"] = colours
+                actor.mapper.Modified()
+                return colours.nbytes   # the mapper sends every cell's colour again
+            return change
+
+        changes = {}
+        for name, count in (("recolour 1", 1), ("recolour 1000", 1000),
+                            ("recolour all", len(present))):
+            if count <= len(present):
+                changes[name] = _timed(pl, recolour(count))
+
+        def hide_half():
+            kept = mesh.extract_cells(np.flatnonzero(~np.isin(cell_ids, present[::2])))
+            actor.mapper.SetInputData(kept)
+            return kept.actual_memory_size * 1024
+
+        changes["hide half"] = _timed(pl, hide_half)
+        return LabelRow(scene, "threshold + add_mesh", int(len(present)), int(labels.size),
+                        setup, median, host, None, None, wrong, covered, changes)
+    finally:
+        pl.close()
+
+
+def contour_mesh(scene: str, labels: np.ndarray, size, frames: int) -> LabelRow:
+    """PyVista's ``contour_labels`` (surface nets, smoothed as by default) + ``add_mesh``."""
+    pl = _plotter(size)
+    try:
+        start = time.perf_counter()
+        try:
+            surface = _image(labels).contour_labels(progress_bar=False)
+        except (OverflowError, ValueError, TypeError, MemoryError) as error:
+            return LabelRow(scene, "contour_labels + add_mesh", int(len(np.unique(labels)) - 1),
+                            int(labels.size), None, None, None, None, None,
+                            None, None, note=f"fails: {type(error).__name__}: "
+                            f"{str(error)[:60]}")
+        pl.add_mesh(surface, lighting=False, show_scalar_bar=False)
+        _camera(labels.shape, pl)
+        render_frame(pl)
+        read_pixels(pl)
+        setup = time.perf_counter() - start
+        median, _ = _frames(pl, frames)
+        return LabelRow(scene, "contour_labels + add_mesh", int(len(np.unique(labels)) - 1),
+                        int(labels.size), setup, median, int(surface.actual_memory_size * 1024),
+                        None, None, None, None)
+    finally:
+        pl.close()
+
+
+def volume_cast(scene: str, labels: np.ndarray, size, frames: int) -> LabelRow:
+    """VTK's GPU volume ray cast of the labels (nearest, a categorical table), fixed step."""
+    pl = _plotter(size)
+    try:
+        start = time.perf_counter()
+        grid = _image(labels.astype(np.float32))
+        actor = pl.add_volume(grid, scalars="labels", cmap="tab20", opacity="linear",
+                              mapper="gpu", show_scalar_bar=False)
+        actor.mapper.SetAutoAdjustSampleDistances(False)
+        actor.mapper.SetSampleDistance(0.5)
+        _camera(labels.shape, pl)
+        render_frame(pl)
+        read_pixels(pl)
+        setup = time.perf_counter() - start
+        median, _ = _frames(pl, frames)
+        return LabelRow(scene, "add_volume (fixed step 0.5)", int(len(np.unique(labels)) - 1),
+                        int(labels.size), setup, median, int(grid.actual_memory_size * 1024),
+                        int(labels.size * 4), 4.0, None, None)
+    finally:
+        pl.close()
+
+
+def run_labels(scenes: Sequence[str] = SCENES, size=(1000, 1000), n: int = 128,
+               cells: int = 20000, million: int = 10**6, million_n: int = 128,
+               stride: int = 2, frames: int = 3, reference: bool = True,
+               pyvista_rows: bool = True, contour_max_ids: int = 50000) -> list[LabelRow]:
+    """Every row of every scene, side by side in one run (module docstring)."""
+    rows = []
+    size = tuple(int(v) for v in size)
+    for scene in scenes:
+        count = million if scene == "million" else cells
+        labels = scene_labels(scene, million_n if scene == "million" else n, count, stride)
+        check = None
+        if reference:
+            traced = {}
+
+            def check(camera, near, labels=labels, traced=traced):
+                key = (camera.position, camera.focal_point, round(float(near), 9))
+                if key not in traced:   # rows of the same camera share one traversal
+                    traced[key] = trace_ids(labels, np.eye(4), camera, size, near=near)
+                return traced[key]
+        rows.append(ours(scene, labels, size, frames, check))
+        rows.append(ours(scene, labels, size, frames, check, row="ours, mip_levels=0",
+                         mip_levels=0))
+        rows.append(ours(scene, labels, size, frames, check, row="ours, proxy='box'",
+                         proxy="box"))
+        if scene == "million":
+            rows.append(ours(scene, to_255(labels), size, frames, None,
+                             row="ours, same cells as 255 ids"))
+        if pyvista_rows:
+            rows.append(threshold_mesh(scene, labels, size, frames, check))
+            if len(np.unique(labels)) - 1 <= contour_max_ids:
+                rows.append(contour_mesh(scene, labels, size, frames))
+            rows.append(volume_cast(scene, labels, size, frames))
+    return rows
+
+
+def _number(value) -> str:
+    return "-" if value is None else f"{value:.2f}"
+
+
+def format_labels(rows: list[LabelRow]) -> str:
+    """The rows as a text table, changes as ms / bytes."""
+    names = ("recolour 1", "recolour 1000", "recolour all", "hide half")
+    head = (f"{'scene':8} {'row':30} {'ids':>8} {'setup s':>8} {'frame ms':>9} "
+            f"{'host MB':>8} {'GPU MB':>7} {'B/vox':>6} {'wrong':>6} "
+            + " ".join(f"{n + ' ms/KB':>20}" for n in names))
+    lines = [head]
+
+    def mb(v):
+        return f"{v / 2**20:.1f}" if v is not None else "-"
+
+    for r in rows:
+        cells = [f"{r.changes[n][0]:.0f}/{r.changes[n][1] / 1024:.1f}" if n in r.changes
+                 else "-" for n in names]
+        lines.append(
+            f"{r.scene:8} {r.row:30} {r.ids:>8} {_number(r.setup_s):>8} "
+            f"{_number(r.median_ms):>9} "
+            f"{mb(r.host_bytes):>8} {mb(r.gpu_bytes):>7} "
+            f"{_number(r.label_bytes_per_voxel):>6} "
+            f"{r.wrong_id_pixels if r.wrong_id_pixels is not None else '-':>6} "
+            + " ".join(f"{c:>20}" for c in cells) + (f"  {r.note}" if r.note else ""))
+    return "\n".join(lines)
