@@ -34,17 +34,21 @@ from .gl.shaders import Replacement, ShaderRecipe  # noqa: E402
 from .gl.textures import Texture  # noqa: E402
 from .models.field_sources import make_field  # noqa: E402
 from .models.group import VolumeGroup  # noqa: E402
+from .models.label_colors import hashed_colors  # noqa: E402
+from .models.label_ids import LabelIds  # noqa: E402
 from .models.lights import VolumeLight  # noqa: E402
 from .models.surface import SplineField  # noqa: E402
 from .models.transfer import TransferFunction  # noqa: E402
 from .models.volume import VolumeModel, make_volume  # noqa: E402
 from .models.voxels import Palette, VoxelModel, make_voxels  # noqa: E402
 from .reference import ShadeSetup, render_blended, render_emission_absorption  # noqa: E402
+from .reference.label_ids import trace_ids  # noqa: E402
 from .scene.io import load_scene  # noqa: E402
 from .scene.model import Scene, SceneLight, SceneMesh, SkippedPrim  # noqa: E402
 from .scene.openvdb.image import read_vdb  # noqa: E402
 from .views.live import LiveView, live_view  # noqa: E402
 from .views.notebook import register_notebook_backends  # noqa: E402
+from .voxels.technique import VoxelBinding, VoxelPick  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -65,5 +69,6 @@ __all__ = [
     "load_scene", "make_volume", "read_vdb", "offscreen_plotter", "plugin",
     "render_emission_absorption", "render_blended", "render_frame", "ShadeSetup",
     "render_image", "widget",
-    "live_view", "LiveView",
+    "live_view", "LiveView", "LabelIds", "hashed_colors", "trace_ids", "VoxelBinding",
+    "VoxelPick",
 ]

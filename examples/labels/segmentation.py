@@ -26,8 +26,8 @@ pl.set_background("white")
 actor = pv_cubemarch.add_voxels(pl, tissues, cmap="turbo", categories=True,
                                 shading="blinn", ambient_occlusion=True)
 voxels = actor.cubemarch
-voxels.set_material(largest, opacity=0.0)              # hide the largest tissue
-voxels.set_material(int(ids[np.argsort(counts)[-2]]), color="gold")   # recolour the next
+voxels.hide_labels(largest)                            # hide the largest tissue
+voxels.set_label_color(int(ids[np.argsort(counts)[-2]]), "gold")   # recolour the next
 pl.camera_position = "yx"                              # a dorsal view, as PyVista's example
 pl.camera.Elevation(-35)
 pl.reset_camera()
@@ -35,14 +35,15 @@ pl.camera.zoom(1.3)
 
 # a legend of the ten largest labels still shown, in the colours they are drawn with
 rgba = voxels.model.palette.rgba
-shown = [int(i) for i in ids[np.argsort(counts)[::-1]] if rgba[i, 3] > 0][:10]
+hidden = set(voxels.hidden_labels.tolist())
+shown = [int(i) for i in ids[np.argsort(counts)[::-1]] if int(i) not in hidden][:10]
 pl.add_legend([[f"id {i}", rgba[i, :3]] for i in shown], bcolor="white", size=(0.14, 0.36),
               loc="upper right")
 
 # what is under the middle of the image
 picked = voxels.pick(400, 280)
 if picked is not None:
-    print(f"pixel (400, 280): id {picked.material}, voxel {picked.index}, face "
+    print(f"pixel (400, 280): id {picked.label}, voxel {picked.index}, face "
           f"{picked.face}, at {np.round(picked.point, 1)}")
     pl.add_mesh(pv.Sphere(radius=5, center=picked.point), color="red")
 print(f"{voxels.nbytes / 1e6:.1f} MB on the GPU for {tissues.n_cells:,} voxels")

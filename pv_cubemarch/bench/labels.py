@@ -122,13 +122,20 @@ def _frames(pl, frames: int) -> tuple[float, np.ndarray]:
     return float(np.median(times)), image
 
 
-def _timed(pl, change: Callable[[], int]) -> tuple[float, int]:
-    """Milliseconds from a change to the finished next frame, and the bytes it uploaded."""
+def _timed(pl, change: Callable[[], int | None], sent: Callable[[], int] | None = None
+           ) -> tuple[float, int]:
+    """Milliseconds from a change to the finished next frame, and the bytes it uploaded.
+
+    ``change`` returns the bytes it will send, or ``sent`` (a counter read before and after
+    the frame) tells them.
+    """
+    before = sent() if sent is not None else 0
     start = time.perf_counter()
-    sent = change()
+    estimate = change()
     render_frame(pl)
     read_pixels(pl)
-    return (time.perf_counter() - start) * 1e3, int(sent)
+    elapsed = (time.perf_counter() - start) * 1e3
+    return elapsed, int(sent() - before if sent is not None else estimate)
 
 
 def _plotter(size):
@@ -166,28 +173,19 @@ def ours(scene: str, labels: np.ndarray, size, frames: int, reference, row: str 
         rng = np.random.default_rng(0)
         palette = binding.palette_texture
 
-        def recolour(count):
-            def change():
-                before = palette.uploaded_bytes + binding.uploaded_bytes
-                chosen = ids if count >= len(ids) else rng.choice(ids, count, replace=False)
-                binding.set_label_color(chosen, rng.random((len(chosen), 3)))
-                pl.ren_win.Render()   # the upload happens in the draw
-                return palette.uploaded_bytes + binding.uploaded_bytes - before
-            return change
+        def sent():   # everything our textures send: palette, labels, levels
+            return palette.uploaded_bytes + binding.uploaded_bytes
 
         changes = {}
         for name, count in (("recolour 1", 1), ("recolour 1000", 1000),
                             ("recolour all", len(ids))):
             if count <= len(ids):
-                changes[name] = _timed(pl, recolour(count))
-
-        def hide_half():
-            before = palette.uploaded_bytes + binding.uploaded_bytes
-            binding.hide_labels(ids[::2])
-            pl.ren_win.Render()
-            return palette.uploaded_bytes + binding.uploaded_bytes - before
-
-        changes["hide half"] = _timed(pl, hide_half)
+                chosen = ids if count >= len(ids) else rng.choice(ids, count, replace=False)
+                colours = rng.random((len(chosen), 3))
+                changes[name] = _timed(
+                    pl, lambda chosen=chosen, colours=colours: binding.set_label_color(
+                        chosen, colours), sent)
+        changes["hide half"] = _timed(pl, lambda: binding.hide_labels(ids[::2]), sent)
         return LabelRow(scene, row, int(len(ids)), int(labels.size), setup, median, host, gpu,
                         binding.labels.nbytes / labels.size, wrong, covered, changes)
     finally:
@@ -234,9 +232,10 @@ def threshold_mesh(scene: str, labels: np.ndarray, size, frames: int, reference)
         colours = mesh.cell_data["rgb"]
 
         def recolour(count):
+            chosen = present if count >= len(present) else rng.choice(present, count,
+                                                                      replace=False)
+
             def change():
-                chosen = present if count >= len(present) else rng.choice(present, count,
-                                                                          replace=False)
                 where = np.isin(cell_ids, chosen)
                 colours[where] = rng.integers(0, 256, (int(where.sum()), 3))
                 mesh.cell_data["rgb"] = colours

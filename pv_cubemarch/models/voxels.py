@@ -27,6 +27,15 @@ MAX_MATERIALS = 65535
 #: wider than GL's 2D limit (16384 on Mesa), which draws nothing without an error.
 PALETTE_WIDTH = 4096
 
+def sorted_unique(values: np.ndarray) -> np.ndarray:
+    """``np.unique`` of integer rows, without sorting what is already strictly ascending."""
+    values = np.asarray(values, dtype=np.int64).ravel()
+    if values.size < 2 or bool(np.all(values[1:] > values[:-1])):
+        return values
+    values = np.sort(values)
+    return values[np.concatenate([[True], values[1:] != values[:-1]])]
+
+
 def palette_texels(rgba: np.ndarray) -> np.ndarray:
     """A palette ``(n, 4)`` as the texture the shaders read, wrapped into rows.
 
@@ -235,7 +244,7 @@ class Palette:
         changes, self._changes = self._changes, []
         if changes is None:
             return None
-        return np.unique(np.concatenate(changes)) if changes else np.zeros(0, np.int64)
+        return sorted_unique(np.concatenate(changes)) if changes else np.zeros(0, np.int64)
 
     def with_opacity(self, opacity) -> Palette:
         """A copy with every material's opacity scaled by ``opacity`` (0-1).

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..core.rendering import needs_open_plotter
 from ..gl.textures import Texture
-from ..models.voxels import PALETTE_WIDTH, palette_texels
+from ..models.voxels import PALETTE_WIDTH, palette_texels, sorted_unique
 
 #: Texels between two changed entries of a palette row below which one upload spans both.
 RUN_GAP = 32
@@ -27,7 +27,7 @@ def palette_runs(rows: np.ndarray, width: int = PALETTE_WIDTH,
 
     Entries less than ``gap`` apart in the same texture row share a span.
     """
-    rows = np.unique(np.asarray(rows, dtype=np.int64))
+    rows = sorted_unique(rows)
     if rows.size == 0:
         return []
     line, column = rows // width, rows % width
@@ -41,13 +41,14 @@ def palette_runs(rows: np.ndarray, width: int = PALETTE_WIDTH,
 def upload_palette_rows(texture: Texture, rgba: np.ndarray, rows: np.ndarray | None) -> None:
     """Send the palette entries ``rows`` of ``rgba`` (all of them for ``None``) to ``texture``.
 
-    Each span of :func:`palette_runs` goes up as one region; where the spans are many, or
-    the table's shape changed, the whole table goes.
+    Each span of :func:`palette_runs` goes up as one region; where the spans are many or
+    cover most of the table, or the table's shape changed, the whole table goes.
     """
     width = texture.array.shape[1] if texture.array is not None else None
     runs = palette_runs(rows, width) if rows is not None and width else None
     whole = (runs is None or len(runs) > MAX_RUNS
-             or texture.array.shape[0] * width < len(rgba))
+             or texture.array.shape[0] * width < len(rgba)
+             or 2 * sum(end - first for _, first, end in runs) > len(rgba))
     if whole:
         texture.set_data(palette_texels(rgba))
         return
