@@ -100,6 +100,8 @@ class LabelRow:
     changes: dict = field(default_factory=dict)
     #: Why a row could not run (its tool refused the data), else empty.
     note: str = ""
+    #: Bytes of labels, levels and distance field sent again by all the changes (ours).
+    labels_resent_bytes: int | None = None
 
 
 def _camera(shape, pl) -> Camera:
@@ -176,6 +178,7 @@ def ours(scene: str, labels: np.ndarray, size, frames: int, reference, row: str 
         def sent():   # everything our textures send: palette, labels, levels
             return palette.uploaded_bytes + binding.uploaded_bytes
 
+        labels_before = binding.uploaded_bytes
         changes = {}
         for name, count in (("recolour 1", 1), ("recolour 1000", 1000),
                             ("recolour all", len(ids))):
@@ -187,7 +190,8 @@ def ours(scene: str, labels: np.ndarray, size, frames: int, reference, row: str 
                         chosen, colours), sent)
         changes["hide half"] = _timed(pl, lambda: binding.hide_labels(ids[::2]), sent)
         return LabelRow(scene, row, int(len(ids)), int(labels.size), setup, median, host, gpu,
-                        binding.labels.nbytes / labels.size, wrong, covered, changes)
+                        binding.labels.nbytes / labels.size, wrong, covered, changes,
+                        labels_resent_bytes=int(binding.uploaded_bytes - labels_before))
     finally:
         pl.close()
 
