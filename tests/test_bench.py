@@ -370,9 +370,9 @@ def test_bench_labels_rows_exactness_and_change_bytes(tmp_path, capsys):
     ours = [r for r in rows if r["row"].startswith("ours") and "255" not in r["row"]]
     assert len(ours) == 9 and all(r["wrong_id_pixels"] == 0 and r["covered_pixels"] > 100
                                   for r in ours)
-    assert all(r["changes"]["recolour 1"][1] == 16 for r in ours)
+    assert all(r["changes"]["recolour 1"]["bytes"] == 16 for r in ours)
     assert all(r["labels_resent_bytes"] == 0 for r in ours)   # never the labels
-    assert all(r["changes"]["hide half"][1] <= r["changes"]["recolour all"][1] for r in ours)
+    assert all(r["changes"]["hide half"]["bytes"] <= r["changes"]["recolour all"]["bytes"] for r in ours)
     names = {r["row"] for r in rows}
     assert {"threshold + add_mesh", "contour_labels + add_mesh",
             "add_volume (fixed step 0.5)"} <= names

@@ -31,6 +31,22 @@ COLUMNS = {
         ("max err", "errors.max_abs", "{:.0f}"), ("vs PyVista dB", "psnr_vs_pyvista", "{:.2f}"),
         ("Pareto", "pareto", "{}"),
     ],
+    "labels": [
+        ("scene", "scene", "{}"), ("row", "row", "{}"), ("ids", "ids", "{:,}"),
+        ("setup s", "setup_s", "{:.2f}"), ("frame ms", "median_ms", "{:.1f}"),
+        ("host MB", "host_bytes", "MB"), ("GPU MB", "gpu_bytes", "MB"),
+        ("label B/voxel", "label_bytes_per_voxel", "{:.2f}"),
+        ("wrong ids", "wrong_id_pixels", "{}"),
+        ("1 id: ms", "changes.recolour 1.ms", "{:.0f}"),
+        ("1 id: B", "changes.recolour 1.bytes", "{:,}"),
+        ("1000: ms", "changes.recolour 1000.ms", "{:.0f}"),
+        ("1000: KB", "changes.recolour 1000.bytes", "KB"),
+        ("all: ms", "changes.recolour all.ms", "{:.0f}"),
+        ("all: KB", "changes.recolour all.bytes", "KB"),
+        ("hide half: ms", "changes.hide half.ms", "{:.0f}"),
+        ("hide half: KB", "changes.hide half.bytes", "KB"),
+        ("note", "note", "{}"),
+    ],
 }
 #: Row fields never shown: per-frame lists and the parameters already named by 'setting'.
 HIDDEN = {"parameters"}
@@ -294,6 +310,8 @@ def _cell(value, fmt: str) -> str:
         return "-"
     if fmt == "MB":
         return f"{value / 2**20:.1f}"
+    if fmt == "KB":
+        return f"{value / 2**10:.1f}"
     if isinstance(value, float) and fmt == "{}":
         return f"{value:.4g}"
     return fmt.format(value).replace("|", "\\|")

@@ -96,7 +96,7 @@ class LabelRow:
     label_bytes_per_voxel: float | None
     wrong_id_pixels: int | None
     covered_pixels: int | None
-    #: name -> (ms to the finished next frame, bytes uploaded)
+    #: name -> {"ms": to the finished next frame, "bytes": uploaded}
     changes: dict = field(default_factory=dict)
     #: Why a row could not run (its tool refused the data), else empty.
     note: str = ""
@@ -125,7 +125,7 @@ def _frames(pl, frames: int) -> tuple[float, np.ndarray]:
 
 
 def _timed(pl, change: Callable[[], int | None], sent: Callable[[], int] | None = None
-           ) -> tuple[float, int]:
+           ) -> dict:
     """Milliseconds from a change to the finished next frame, and the bytes it uploaded.
 
     ``change`` returns the bytes it will send, or ``sent`` (a counter read before and after
@@ -137,7 +137,7 @@ def _timed(pl, change: Callable[[], int | None], sent: Callable[[], int] | None 
     render_frame(pl)
     read_pixels(pl)
     elapsed = (time.perf_counter() - start) * 1e3
-    return elapsed, int(sent() - before if sent is not None else estimate)
+    return {"ms": elapsed, "bytes": int(sent() - before if sent is not None else estimate)}
 
 
 def _plotter(size):
@@ -363,7 +363,7 @@ def format_labels(rows: list[LabelRow]) -> str:
         return f"{v / 2**20:.1f}" if v is not None else "-"
 
     for r in rows:
-        cells = [f"{r.changes[n][0]:.0f}/{r.changes[n][1] / 1024:.1f}" if n in r.changes
+        cells = [f"{r.changes[n]['ms']:.0f}/{r.changes[n]['bytes'] / 1024:.1f}" if n in r.changes
                  else "-" for n in names]
         lines.append(
             f"{r.scene:8} {r.row:30} {r.ids:>8} {_number(r.setup_s):>8} "
