@@ -59,6 +59,7 @@ from .volume.pyvista_keywords import (
 from .volume.returned_property import ReturnedProperty
 from .volume.stand_in import stand_in_volume
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
+from .voxels.clipping import clip_count
 from .voxels.indexed_world import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
 from .voxels.per_chunk_world import build_world
@@ -684,6 +685,7 @@ def add_voxels(
     opacity: float | None = None,
     lighting: bool | None = None,
     background: int = 0,
+    clip_planes=None,
     **kwargs,
 ) -> pyvista.Actor:
     """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal).
@@ -827,6 +829,12 @@ def add_voxels(
         PyVista's name: ``False`` draws the voxels unlit (``shading='unlit'``).
     background : int
         The label id drawn as empty (0).
+    clip_planes : sequence of float, optional
+        Planes that cut the grid, six numbers each: a point, then the normal to the side
+        kept (1 to 6 planes, as ``add_volume(clip_planes=)``). Each ray is cut to the kept
+        part: a voxel the cut crosses is drawn on the plane (its label's colour there, as a
+        clipped solid shows its inside). ``actor.cubemarch.set_clip_planes`` moves them.
+        Grids drawn whole only (not in chunks).
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
     show_edges : bool
@@ -870,7 +878,8 @@ def add_voxels(
                             occlusion_strength=occlusion_strength, proxy=proxy, lod=lod,
                             lod_bias=lod_bias, world_traversal=world_traversal,
                             show_edges=show_edges, edge_color=edge_color,
-                            line_width=line_width, edge_opacity=edge_opacity)
+                            line_width=line_width, edge_opacity=edge_opacity,
+                            clip_planes=clip_planes)
     if isinstance(grid, (VoxelModel, VoxelWorld)):
         model = grid
         if transform is not None:
@@ -894,6 +903,10 @@ def add_voxels(
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")
     if isinstance(model, VoxelWorld) or chunk_size is not None or not fits_one_texture(
             model.dimensions, model.labels.dtype):
+        if clip_count(options):
+            raise ValueError("clip_planes cut a grid drawn whole; this one is drawn in chunks "
+                             "(chunk_size=, a VoxelWorld, or over 2048 voxels a side or 512 "
+                             "MiB of labels), which takes none yet: crop the labels instead.")
         warn_translucent(model.palette, model.name, "a chunked world")
         if proxy is None:   # chunks: no brick shells by default (bench voxel-world)
             options = dataclasses.replace(options, proxy="box")

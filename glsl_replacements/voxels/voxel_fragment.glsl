@@ -22,6 +22,12 @@
   vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and index space
   cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
   vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
+  float cm_boxEntry = cm_inBox.x;
+#ifdef CM_CLIP_PLANES
+  // The part of the ray the clip planes keep (clip_planes.glsl, index-space planes): a
+  // ray starting on a plane inside a filled voxel draws that voxel there.
+  cm_inBox = cm_clipInterval(cm_origin, cm_direction, cm_inBox);
+#endif
   // From the box or the near plane; with the brick shell, from where the ray meets it
   // (every voxel before that is empty), and not at all where it meets none.
   float cm_start = max(cm_inBox.x, cm_near);
@@ -44,7 +50,7 @@
   vec3 cm_a = cm_origin + cm_direction * cm_start;
   vec3 cm_b = cm_origin + cm_direction * cm_inBox.y;
   // The face of the grid box the ray enters through (-1 when it starts inside the box).
-  int cm_face = cm_inBox.x >= cm_start ? cm_boxEntryFace(cm_origin, cm_direction) : -1;
+  int cm_face = cm_boxEntry >= cm_start ? cm_boxEntryFace(cm_origin, cm_direction) : -1;
   ivec3 cm_voxel;
   float cm_t;
 #ifdef CM_LOD

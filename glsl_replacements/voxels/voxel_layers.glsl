@@ -5,6 +5,10 @@
   vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and index space
   cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
   vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
+  float cm_boxEntry = cm_inBox.x;
+#ifdef CM_CLIP_PLANES
+  cm_inBox = cm_clipInterval(cm_origin, cm_direction, cm_inBox);   // the kept part
+#endif
   float cm_start = max(cm_inBox.x, cm_near);
   vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;
   // The opaque depth as a view depth: the ray's parameter is the view depth (pixel_ray).
@@ -31,7 +35,7 @@
   vec4 cm_held = vec4(0.0);
   float cm_first = -1.0;   // the view depth of the first layer
   int cm_current = cm_layerMaterial(cm_voxel);
-  if (cm_inBox.x >= cm_start && cm_current != 0)   // entered through the box's face
+  if (cm_boxEntry >= cm_start && cm_current != 0)   // entered through the box's face
   {
     if (cm_current < 0)   // an opaque voxel first: the opaque actor draws it
     {

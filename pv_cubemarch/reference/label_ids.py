@@ -16,11 +16,13 @@ from .voxels import VoxelHits, trace_voxels
 
 def trace_ids(labels: np.ndarray, world_from_index: np.ndarray, camera: Camera,
               size: tuple[int, int], near: float | None = None, shown=None,
-              background: int = 0, crop: Sequence[int] | None = None) -> tuple[VoxelHits,
-                                                                               np.ndarray]:
+              background: int = 0, crop: Sequence[int] | None = None,
+              clip_planes: Sequence | None = None) -> tuple[VoxelHits, np.ndarray]:
     """The first drawn voxel along every pixel's ray, for ids of any value.
 
-    ``shown``: the ids drawn (default every id but ``background``). Returns the hits of
+    ``shown``: the ids drawn (default every id but ``background``); ``clip_planes``: world
+    ``(origin, normal)`` planes cutting the rays, as ``trace_voxels`` takes them. Returns
+    the hits of
     :func:`~pv_cubemarch.reference.voxels.trace_voxels` with ``material`` replaced by the
     hit voxel's id (in ``labels``' type; ``background`` on a miss), and the hit mask.
     """
@@ -33,7 +35,7 @@ def trace_ids(labels: np.ndarray, world_from_index: np.ndarray, camera: Camera,
         drawn &= np.isin(values.astype(object), wanted)
     visible = np.concatenate([[False], drawn])
     hits = trace_voxels(dense, world_from_index, camera, size, near=near, visible=visible,
-                        crop=crop)
+                        crop=crop, clip_planes=clip_planes)
     hit = hits.index[..., 0] >= 0
     ids = np.full(hit.shape, labels.dtype.type(background), dtype=labels.dtype)
     ids[hit] = values[hits.material[hit] - 1]

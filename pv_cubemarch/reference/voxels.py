@@ -146,6 +146,22 @@ def _drawn(labels: np.ndarray, visible: np.ndarray | None) -> np.ndarray:
     return table[labels]
 
 
+def _clipped(origins: np.ndarray, directions: np.ndarray, t0: np.ndarray, t1: np.ndarray,
+             planes) -> tuple[np.ndarray, np.ndarray]:
+    """``(t0, t1)`` narrowed to where every world plane keeps the rays (empty: t0 > t1)."""
+    t0, t1 = t0.copy(), t1.copy()
+    for origin, normal in planes or ():
+        normal = np.asarray(normal, dtype=np.float64)
+        start = (origins - np.asarray(origin, dtype=np.float64)) @ normal
+        rate = directions @ normal
+        with np.errstate(divide="ignore", invalid="ignore"):
+            crossing = -start / rate
+        t0 = np.where(rate > 0, np.maximum(t0, crossing), t0)
+        t1 = np.where(rate < 0, np.minimum(t1, crossing), t1)
+        t1 = np.where((rate == 0) & (start < 0), -np.inf, t1)
+    return t0, t1
+
+
 def _fraction_to_boundary(p: np.ndarray) -> np.ndarray:
     """Distance of each coordinate to the nearest integer (voxel boundary)."""
     return np.abs(p - np.rint(p))
@@ -160,6 +176,7 @@ def trace_voxels(
     visible: np.ndarray | None = None,
     tie_tolerance: float = 1e-4,
     crop: Sequence[int] | None = None,
+    clip_planes: Sequence | None = None,
 ) -> VoxelHits:
     """Find the first visible filled voxel along every pixel's ray (exact float64 traversal).
 
@@ -185,6 +202,9 @@ def trace_voxels(
     crop : sequence of int, optional
         ``(x, y, width, height)`` of a pixel window (from the top-left) of the ``size``
         image: only those rays are traced.
+    clip_planes : sequence of (origin, normal), optional
+        World planes keeping ``normal . (x - origin) >= 0``: each ray is cut to the part
+        all keep (a ray starting on a plane inside a filled voxel hits it there, face -1).
 
     Returns
     -------
@@ -207,7 +227,8 @@ def trace_voxels(
             hits = trace_voxels(labels[box],
                                 np.asarray(world_from_index, dtype=np.float64) @ shift, camera,
                                 size, near=near, visible=visible,
-                                tie_tolerance=tie_tolerance, crop=crop)
+                                tie_tolerance=tie_tolerance, crop=crop,
+                                clip_planes=clip_planes)
             seen = hits.material > 0
             hits.index[seen] += low
             hits.point[seen] += low
@@ -235,7 +256,8 @@ def trace_voxels(
 
     o_idx, d_idx = _index_rays(origins, directions, world_from_index, labels.shape)
     t0, t1 = ray_box_interval(o_idx, d_idx, np.zeros(3), shape.astype(np.float64))
-    t_start = np.maximum(t0, 0.0)
+    kept0, t1 = _clipped(origins, directions, t0, t1, clip_planes)
+    t_start = np.maximum(kept0, 0.0)
     if near is not None:
         _, _, forward = camera.basis()
         t_start = np.maximum(t_start, near / np.maximum(directions @ forward, 1e-12))
@@ -259,6 +281,7 @@ def trace_voxels(
     o = o_idx[ids]
     d = d_idx[ids]
     ts = t_start[ids]
+    te = t1[ids]   # where the kept part of the ray ends (the box's or a plane's exit)
     step = np.where(d > 0, 1, np.where(d < 0, -1, 0)).astype(np.int64)
     parallel = d == 0
     with np.errstate(divide="ignore"):
@@ -286,7 +309,8 @@ def trace_voxels(
                              -1)
 
     keep = ~hit
-    ids, o, d, ts, step, inv, idx, lin = (a[keep] for a in (ids, o, d, ts, step, inv, idx, lin))
+    ids, o, d, ts, te, step, inv, idx, lin = (
+        a[keep] for a in (ids, o, d, ts, te, step, inv, idx, lin))
     bound = idx + (step > 0)
     with np.errstate(invalid="ignore"):
         t_next = np.where(step == 0, np.inf, (bound - o) * inv)
@@ -301,7 +325,7 @@ def trace_voxels(
         moved = idx[rows, axis] + s
         idx[rows, axis] = moved
         lin += s * strides[axis]
-        out = (moved < 0) | (moved >= shape[axis])
+        out = (moved < 0) | (moved >= shape[axis]) | (t > te)
         # Does the ray pass near an edge as it crosses this boundary?
         dist = _fraction_to_boundary(o + t[:, None] * d)
         dist[rows, axis] = np.inf
@@ -317,8 +341,8 @@ def trace_voxels(
         done = hit | out
         if done.any():
             keep = ~done
-            ids, o, d, ts, step, inv, idx, lin, t_next = (
-                a[keep] for a in (ids, o, d, ts, step, inv, idx, lin, t_next))
+            ids, o, d, ts, te, step, inv, idx, lin, t_next = (
+                a[keep] for a in (ids, o, d, ts, te, step, inv, idx, lin, t_next))
     else:
         if ids.size:
             raise RuntimeError("voxel traversal did not finish; this is a bug.")

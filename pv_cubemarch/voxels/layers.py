@@ -20,6 +20,7 @@ from ..gl.frame_inputs import frame_inputs
 from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
 from ..models.voxels import palette_texels
+from .clipping import bind_clip_planes, clip_count
 from .label_state import upload_palette_rows
 
 
@@ -42,9 +43,11 @@ def layers_recipe(options, level_axes: tuple[int, int]) -> ShaderRecipe:
     lit = options.shading != "unlit"
     return box_recipe(
         ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
+         *(("clip_planes",) if clip_count(options) else ()),
          *(("blinn_phong", "voxel_shading") if lit else ()), "voxel_layer_declarations"),
         "voxel_layers",
         defines={"CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn",
+                 "CM_CLIP_PLANES": clip_count(options),
                  "CM_MIP_LEVELS": options.mip_levels or None,
                  "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
                  "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None})
@@ -68,6 +71,7 @@ class TranslucentLayers:
         bindings.add_texture("cm_sceneDepth", frame_inputs(renderer).depth)
         bind_grid(bindings, renderer, model, replace(options, show_edges=False, lod=False,
                                                      ambient_occlusion=False))
+        bind_clip_planes(bindings, model, lambda: binding.options.world_planes)
         recipe = layers_recipe(options, binding.level_axes)
         bindings.install(recipe, self.actor)
         self.bindings = bindings
@@ -81,6 +85,11 @@ class TranslucentLayers:
     def set_palette(self, rgba: np.ndarray, rows: np.ndarray | None = None) -> None:
         """The palette changed (``rows`` of it, or all): the layers read the new entries."""
         upload_palette_rows(self.palette, rgba, rows)
+
+    def follow_clip_planes(self, options, binding) -> None:
+        """The grid's clip planes changed in number: the layers' shaders are remade."""
+        self.bindings.install(layers_recipe(options, binding.level_axes), self.actor)
+        bind_clip_planes(self.bindings, binding.model, lambda: binding.options.world_planes)
 
     def place(self, world_from_index: np.ndarray) -> None:
         """The grid moved."""

@@ -19,6 +19,7 @@ from ..core.declared import (
 )
 from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..core.options import positive_number
+from ..volume.clipping import clip_plane_list
 
 TRAVERSALS = ("dda", "fixed")
 MODES = ("color", "id", "face")
@@ -38,7 +39,7 @@ DDA = ("voxels",)
 #: Every option of the voxel technique, declared once (:mod:`pv_cubemarch.core.declared`).
 (TRAVERSAL, VOXEL_STEP_SCALE, MIP_LEVELS, DISTANCE_FIELD, MODE, SHADING, AMBIENT, SPECULAR,
  SPECULAR_POWER, AMBIENT_OCCLUSION, OCCLUSION_STRENGTH, PROXY, LOD, LOD_BIAS,
- WORLD_TRAVERSAL, SHOW_EDGES, EDGE_COLOR, LINE_WIDTH, EDGE_OPACITY) = declare(
+ WORLD_TRAVERSAL, SHOW_EDGES, EDGE_COLOR, LINE_WIDTH, EDGE_OPACITY, CLIP_PLANES) = declare(
     Option("traversal", "voxels", str, "dda", "dda (exact: every voxel a ray crosses) or "
            "fixed steps (may miss thin voxels)", choices=TRAVERSALS,
            control=Control("select", help="dda is exact; fixed steps may miss thin voxels")),
@@ -85,6 +86,11 @@ DDA = ("voxels",)
     Option("edge_opacity", "voxels", float, None, "how much of the edges' colour covers a "
            "face (default: the theme's)", optional=True, low=0.0, high=1.0,
            control=Control("slider", "edge opacity", 0.0, 1.0, 0.05)),
+    Option("clip_planes", "voxels", tuple, None, "planes that cut the grid, six numbers "
+           "each: a point, then the normal to the side kept (a voxel the cut crosses is "
+           "drawn on the plane)", optional=True,
+           without={"knob": "six numbers a plane; set in Python, the CLI or USD "
+                            "(actor.cubemarch.set_clip_planes moves them)"}),
 )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("voxels"))
@@ -152,6 +158,7 @@ class VoxelOptions:
     edge_color: object = EDGE_COLOR.field()
     line_width: float | None = LINE_WIDTH.field()
     edge_opacity: float | None = EDGE_OPACITY.field()
+    clip_planes: tuple | None = CLIP_PLANES.field()
 
     def check(self) -> None:
         """Raise a clear error for a bad option (each alone, then how they go together)."""
@@ -192,7 +199,16 @@ class VoxelOptions:
                 raise ValueError(f"step_scale={self.step_scale} would take over 1000 samples "
                                  "per voxel; use at least 0.001.")
         self.check_edges()
+        option("voxels", "clip_planes").check(self.clip_planes)
+        if self.clip_planes is not None:
+            clip_plane_list(self.clip_planes)   # six finite numbers a plane, normals not 0
         check_declared(self)   # and nothing declared is left unchecked
+
+    @property
+    def world_planes(self) -> tuple:
+        """The clip planes as ``(origin, normal)`` pairs in world coordinates."""
+        return tuple((tuple(p.GetOrigin()), tuple(p.GetNormal()))
+                     for p in clip_plane_list(self.clip_planes))
 
     def check_edges(self) -> None:
         """Refuse edge options that no edge would show, or edges on what has no voxel faces."""

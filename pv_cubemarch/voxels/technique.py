@@ -41,6 +41,7 @@ from ..models.voxel_shell import choose_shell
 from ..models.voxels import VoxelModel, palette_texels
 from ..reference.voxels import render_voxels, trace_voxels
 from . import editing
+from .clipping import bind_clip_planes, clip_count
 from .label_state import LabelState, upload_palette_rows
 from .layers import TranslucentLayers, opaque_palette, translucent_materials
 from .occluders import WorldOccluders
@@ -68,6 +69,7 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
     occlusion = options.mode == "color" and options.ambient_occlusion
     return box_recipe(
         ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
+         *(("clip_planes",) if clip_count(options) else ()),
          *(("voxel_chunk_index",) if chunk_shift else ()), *skipping, traversal,
          *(("blinn_phong", "voxel_shading") if lit else ()),
          *(("voxel_occlusion",) if occlusion else ()),
@@ -79,6 +81,7 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                  "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None,
                  "CM_SHELL_LEVEL": shell_level, "CM_LOD": lod, "CM_OCCLUDERS": occluders,
                  "CM_CHUNK_INDEX": chunk_shift,
+                 "CM_CLIP_PLANES": clip_count(options),
                  "CM_DISTANCE_FIELD": options.distance_field or None,
                  "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion,
                  "CM_EDGES": options.show_edges})
@@ -224,6 +227,33 @@ class VoxelBinding(LabelState, DrawnBinding):
         self.layers: TranslucentLayers | None = None
         #: Whether this grid may draw translucent materials (a world's chunk may not).
         self.composites = False
+        #: What :func:`voxel_recipe` takes besides the options (shell level, level axes,
+        #: occluders), to remake the shaders when the clip planes' number changes.
+        self.recipe_args: tuple = (None, (2, 0), False)
+
+    @needs_open_plotter
+    def set_clip_planes(self, clip_planes) -> None:
+        """Cut the grid by planes, or by none (``None``); shown at the next frame.
+
+        ``clip_planes``: six numbers a plane, a point then the normal to the side kept (as
+        ``add_voxels(clip_planes=)``). Moving planes changes a uniform; another number of
+        planes remakes the shaders.
+
+        Examples
+        --------
+        >>> actor.cubemarch.set_clip_planes([10, 0, 0, 1, 0, 0])      # doctest: +SKIP
+        """
+        planes = None if clip_planes is None else tuple(
+            float(v) for v in np.asarray(clip_planes, dtype=np.float64).ravel())
+        options = replace(self.options, clip_planes=planes)
+        options.check()
+        remake = clip_count(options) != clip_count(self.options)
+        self.options = options
+        if remake:
+            self.recipe = voxel_recipe(options, *self.recipe_args)
+            self.bindings.install(self.recipe, self.actor)
+            if self.layers is not None:
+                self.layers.follow_clip_planes(options, self)
 
     @property
     def blends_in_main_renderer(self) -> bool:
@@ -458,10 +488,13 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     if occluders is not None:
         bindings.add_texture("cm_occluderDepth", occluders.depth)
         bindings.set_uniform("cm_useOccluders", lambda: occluders.use)
-    recipe = voxel_recipe(options, shell.level if shell is not None else None, layout[:2],
-                          occluders is not None)
+    recipe_args = (shell.level if shell is not None else None, layout[:2], occluders is not None)
+    recipe = voxel_recipe(options, *recipe_args)
     bindings.install(recipe, actor)
     binding = VoxelBinding(model, bindings, recipe, labels, palette, options)
+    binding.recipe_args = recipe_args
+    # the planes as the binding holds them now (set_clip_planes moves them)
+    bind_clip_planes(bindings, model, lambda: binding.options.world_planes)
     binding.skipping = skipping
     binding.shell = shell
     if shell is not None:
