@@ -150,3 +150,31 @@ def test_set_clip_planes_moves_adds_and_removes_planes():
     with pytest.raises(ValueError, match="drawn in chunks"):
         cm.add_voxels(pl, labels, chunk_size=8, clip_planes=(0, 0, 0, 1, 0, 0))
     pl.close()
+
+
+def test_usd_and_cli_take_the_clip_planes(tmp_path):
+    # catches: the USD attribute not reaching the options (the grid drawn whole)
+    from conftest import write_voxel_stage
+
+    from pv_cubemarch import cli
+
+    labels = grid_labels(4)[:12, :10, :8]
+    plane = [9.0, 0.0, 6.0, -1.0, 0.0, -0.5]
+    path = write_voxel_stage(tmp_path, labels, attrs={
+        "cubemarch:mode": ("Token", "id"), "cubemarch:clipPlanes": ("FloatArray", plane)})
+    scene = cm.load_scene(path)
+    assert scene.voxel_options["/Vox"]["clip_planes"] == tuple(plane)
+    scene.background = (0.0, 0.0, 0.0)
+    pl = plotter()
+    scene.add_to(pl)
+    image = cm.render_image(pl).astype(int)
+    camera = scene.cameras["/Cam"]
+    model = scene.voxels[0]
+    hits, hit = trace_ids(labels, model.world_from_index(), camera, SIZE,
+                          near=camera.clipping_range[0], clip_planes=[(plane[:3], plane[3:])])
+    assert hit.sum() > 300
+    assert (np.any(image != id_colors(hits, labels.shape), axis=-1) & ~hits.near_edge).sum() == 0
+    pl.close()
+    out = tmp_path / "cut.png"
+    assert cli.main(["render", str(path), "--out", str(out), "--size", "120x100",
+                     "--clip-planes", *map(str, plane)]) == 0 and out.exists()

@@ -3,7 +3,8 @@ A segmentation: a legend, hidden labels and picking
 ===================================================
 
 PyVista's shipped frog tissue segmentation (uint8 ids of 25 tissues; 0 is empty), drawn
-exactly, voxel by voxel: every pixel shows the first labelled voxel its ray meets. Labels
+exactly, voxel by voxel: every pixel shows the first labelled voxel its ray meets, here
+cut in half by a clip plane (a voxel the cut crosses is drawn on the plane). Labels
 are hidden or recoloured by changing only the palette (a few bytes per label go to the
 GPU; the labels stay uploaded), and ``pick`` returns the id, voxel and face under a pixel.
 The dataset carries no tissue names, so the legend names labels by id.
@@ -23,8 +24,10 @@ print(f"{ids.size} labels; the largest, id {largest}, has {counts.max():,} voxel
 
 pl = pv.Plotter(window_size=(800, 560))
 pl.set_background("white")
+# a clip plane through the body (z = 100, the side below kept): the cut shows the insides
 actor = pv_cubemarch.add_voxels(pl, tissues, cmap="turbo", categories=True,
-                                shading="blinn", ambient_occlusion=True)
+                                shading="blinn", ambient_occlusion=True,
+                                clip_planes=(0, 0, 100, 0, 0, -1))
 voxels = actor.cubemarch
 voxels.hide_labels(largest)                            # hide the largest tissue
 voxels.set_label_color(int(ids[np.argsort(counts)[-2]]), "gold")   # recolour the next
