@@ -679,6 +679,7 @@ def add_voxels(
     edge_color=None,
     line_width: float | None = None,
     edge_opacity: float | None = None,
+    edge_mode: str = "voxels",
     clim=None,
     n_colors: int | None = None,
     flip_scalars: bool = False,
@@ -847,6 +848,11 @@ def add_voxels(
         The edges' width in pixels (the theme's ``line_width``; as VTK, at least 1.1).
     edge_opacity : float, optional
         How much of the edge colour covers the face, 0-1 (the theme's ``edge_opacity``).
+    edge_mode : str
+        With ``show_edges``: ``'voxels'`` (default), every drawn face's outline;
+        ``'labels'``, only the boundaries between different labels: a face's edge where the
+        surface across it shows another label (or none), and where a clip plane cuts the
+        grid, the lines where the cut crosses from one label to another.
 
     A material with an opacity between 0 and 1 is composited front to back, as PyVista
     draws ``threshold`` + ``add_mesh(opacity=...)`` per label under depth peeling; chunked
@@ -879,7 +885,7 @@ def add_voxels(
                             lod_bias=lod_bias, world_traversal=world_traversal,
                             show_edges=show_edges, edge_color=edge_color,
                             line_width=line_width, edge_opacity=edge_opacity,
-                            clip_planes=clip_planes)
+                            edge_mode=edge_mode, clip_planes=clip_planes)
     if isinstance(grid, (VoxelModel, VoxelWorld)):
         model = grid
         if transform is not None:

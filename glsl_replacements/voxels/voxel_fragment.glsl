@@ -82,7 +82,12 @@
 #ifdef CM_EDGES
   // The edges (voxel_edges.glsl) take the unlit colour and the diffuse term, not the
   // highlight: the highlight is the shading of black.
+#ifdef CM_EDGE_LABELS
+  float cm_edge = cm_labelEdgeCoverage(cm_voxel, cm_face, cm_a + (cm_b - cm_a) * cm_t,
+                                       cm_material);
+#else
   float cm_edge = cm_edgeCoverage(cm_voxel, cm_face, cm_a + (cm_b - cm_a) * cm_t);
+#endif
 #ifdef CM_LIGHTING
   vec3 cm_towardEye = -normalize(cm_directionView);
   cm_color = cm_shadeVoxel(cm_color, cm_face, cm_hitView, cm_towardEye);

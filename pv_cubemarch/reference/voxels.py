@@ -57,7 +57,7 @@ from ..core.camera import Camera
 from ..models.lights import VolumeLight
 from .rays import ray_box_interval
 from .shading import blinn_phong
-from .voxel_edges import edge_coverage
+from .voxel_edges import edge_coverage, label_edge_coverage
 
 
 @dataclass
@@ -379,6 +379,8 @@ def render_voxels(
     edge_color: Sequence[float] = (0.0, 0.0, 0.0),
     line_width: float = 1.0,
     edge_opacity: float = 1.0,
+    edge_mode: str = "voxels",
+    clip_planes: Sequence | None = None,
 ) -> np.ndarray:
     """Render a labelled grid: each pixel the (lit) colour of the voxel it sees.
 
@@ -416,6 +418,11 @@ def render_voxels(
         The edges' width in pixels (drawn at least 1.1 wide, as VTK).
     edge_opacity : float
         The share of the edge colour on a fully covered pixel.
+    edge_mode : str
+        ``'voxels'``: every hit face's outline; ``'labels'``: only the edges between
+        different labels (:func:`~pv_cubemarch.reference.voxel_edges.label_edge_coverage`).
+    clip_planes : sequence of (origin, normal), optional
+        World planes cutting the rays, as :func:`trace_voxels` takes them.
 
     Returns
     -------
@@ -432,7 +439,7 @@ def render_voxels(
         raise ValueError(f"palette has {palette.shape[0]} rows but labels go up to "
                          f"{max_label}; give one RGBA row per material id.")
     hits = trace_voxels(labels, world_from_index, camera, size, near=near,
-                        visible=palette[:, 3] > 0)
+                        visible=palette[:, 3] > 0, clip_planes=clip_planes)
     width, height = (int(v) for v in size)
     image = np.empty((height, width, 3))
     image[...] = np.asarray(background, dtype=np.float64)
@@ -456,8 +463,14 @@ def render_voxels(
                                             lights, shading, ambient, specular,
                                             specular_power), 0.0, 1.0)
     if show_edges:
-        cover = edge_coverage(hits, world_from_index, camera, (width, height), line_width,
-                              edge_opacity)[hit][:, None]
+        if edge_mode == "labels":
+            drawn = np.where(_drawn(labels, palette[:, 3] > 0), labels, 0)
+            cover = label_edge_coverage(hits, drawn, world_from_index, camera,
+                                        (width, height), line_width, edge_opacity,
+                                        clip_planes)[hit][:, None]
+        else:
+            cover = edge_coverage(hits, world_from_index, camera, (width, height),
+                                  line_width, edge_opacity)[hit][:, None]
         edge = np.asarray(edge_color, dtype=np.float64)
         if shading == "unlit":
             color = color * (1.0 - cover) + edge * cover

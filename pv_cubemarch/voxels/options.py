@@ -26,6 +26,7 @@ MODES = ("color", "id", "face")
 SHADINGS = ("unlit", "flat", "blinn")
 PROXIES = ("bricks", "box")
 WORLD_TRAVERSALS = ("index", "per_chunk")
+EDGE_MODES = ("voxels", "labels")
 #: Most occupancy mipmap levels (cells of 2^12 voxels cover any grid a texture holds).
 MAX_MIP_LEVELS = 12
 #: Fewest levels of detail a grid gets with ``lod`` (cells up to 8 voxels wide), where
@@ -39,7 +40,8 @@ DDA = ("voxels",)
 #: Every option of the voxel technique, declared once (:mod:`pv_cubemarch.core.declared`).
 (TRAVERSAL, VOXEL_STEP_SCALE, MIP_LEVELS, DISTANCE_FIELD, MODE, SHADING, AMBIENT, SPECULAR,
  SPECULAR_POWER, AMBIENT_OCCLUSION, OCCLUSION_STRENGTH, PROXY, LOD, LOD_BIAS,
- WORLD_TRAVERSAL, SHOW_EDGES, EDGE_COLOR, LINE_WIDTH, EDGE_OPACITY, CLIP_PLANES) = declare(
+ WORLD_TRAVERSAL, SHOW_EDGES, EDGE_COLOR, LINE_WIDTH, EDGE_OPACITY, EDGE_MODE,
+ CLIP_PLANES) = declare(
     Option("traversal", "voxels", str, "dda", "dda (exact: every voxel a ray crosses) or "
            "fixed steps (may miss thin voxels)", choices=TRAVERSALS,
            control=Control("select", help="dda is exact; fixed steps may miss thin voxels")),
@@ -86,6 +88,10 @@ DDA = ("voxels",)
     Option("edge_opacity", "voxels", float, None, "how much of the edges' colour covers a "
            "face (default: the theme's)", optional=True, low=0.0, high=1.0,
            control=Control("slider", "edge opacity", 0.0, 1.0, 0.05)),
+    Option("edge_mode", "voxels", str, "voxels", "with show_edges: every voxel face's "
+           "outline, or only the boundaries between different labels (on faces and on a "
+           "clip plane's cut)", choices=EDGE_MODES,
+           control=Control("select", "edges drawn")),
     Option("clip_planes", "voxels", tuple, None, "planes that cut the grid, six numbers "
            "each: a point, then the normal to the side kept (a voxel the cut crosses is "
            "drawn on the plane)", optional=True,
@@ -158,6 +164,7 @@ class VoxelOptions:
     edge_color: object = EDGE_COLOR.field()
     line_width: float | None = LINE_WIDTH.field()
     edge_opacity: float | None = EDGE_OPACITY.field()
+    edge_mode: str = EDGE_MODE.field()
     clip_planes: tuple | None = CLIP_PLANES.field()
 
     def check(self) -> None:
@@ -212,7 +219,7 @@ class VoxelOptions:
 
     def check_edges(self) -> None:
         """Refuse edge options that no edge would show, or edges on what has no voxel faces."""
-        for name in ("show_edges", "line_width", "edge_opacity"):
+        for name in ("show_edges", "line_width", "edge_opacity", "edge_mode"):
             option("voxels", name).check(getattr(self, name))
         if self.edge_color is not None:
             try:
@@ -222,6 +229,8 @@ class VoxelOptions:
                                  f"{error}") from None
         given = [name for name in ("edge_color", "line_width", "edge_opacity")
                  if getattr(self, name) is not None]
+        if self.edge_mode != "voxels":
+            given.append("edge_mode")
         if not self.show_edges:
             if given:
                 raise ValueError(f"{given[0]} styles the edges, which are off: pass "

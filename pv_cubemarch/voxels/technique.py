@@ -84,7 +84,8 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                  "CM_CLIP_PLANES": clip_count(options),
                  "CM_DISTANCE_FIELD": options.distance_field or None,
                  "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion,
-                 "CM_EDGES": options.show_edges})
+                 "CM_EDGES": options.show_edges,
+                 "CM_EDGE_LABELS": options.show_edges and options.edge_mode == "labels"})
 
 
 def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
