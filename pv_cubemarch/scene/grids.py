@@ -1,4 +1,4 @@
-"""Grid files (.vti, .vtk, .npy, .npz): the data of USD volume fields, or a scene of their own.
+"""Grid files (.vti, .vtk, .nrrd, .mha, .npy, .npz, .vdb): USD volume fields' data, or scenes.
 
 A ``.npy``/``.npz`` array is indexed x, y, z. Read as a volume, its values sit on the
 points of an ImageData (``origin`` is the first point); read as material labels
@@ -21,8 +21,10 @@ from .model import Scene
 from .openvdb import VdbFormatError
 from .openvdb.image import INDEX_TO_WORLD, vdb_image
 
+#: Image files PyVista (VTK's readers) reads as an ImageData: VTK's own, NRRD, MetaImage.
+IMAGE_SUFFIXES = (".vti", ".vtk", ".nrrd", ".nhdr", ".mha", ".mhd")
 #: The grid files a USD field may name, and that ``load_scene`` reads as a scene of one grid.
-GRID_SUFFIXES = (".vti", ".vtk", ".npy", ".npz", ".vdb")
+GRID_SUFFIXES = (*IMAGE_SUFFIXES, ".npy", ".npz", ".vdb")
 
 
 def placement(grid, world: np.ndarray | None = None) -> np.ndarray | None:
@@ -79,7 +81,7 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
                              cells=cells, margin=margin)
         except VdbFormatError as exc:
             raise SceneLoadError(f"{where}: OpenVDB file {shown!r}: {exc}") from exc
-    if suffix in (".vti", ".vtk"):
+    if suffix in IMAGE_SUFFIXES:
         try:
             grid = pyvista.read(str(path))
         except Exception as exc:
