@@ -20,6 +20,7 @@ from .core.mesh_keywords import refuse_mesh_keywords, shading_for_lighting
 from .core.registry import get_technique
 from .core.rendering import open_window
 from .gl.overlay import bounds_proxy
+from .models.array_sources import is_array_source, world_from_array
 from .models.channels import (
     is_channels,
     make_data_model,
@@ -29,7 +30,7 @@ from .models.channels import (
 from .models.field_sources import color_values, make_field
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
-from .models.volume import VolumeModel, with_transfer
+from .models.volume import VolumeModel, checked_transform, with_transfer
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
@@ -646,6 +647,23 @@ def voxel_options(**given) -> VoxelOptions:
     return get_technique("voxels", "voxels").make_options(chosen)
 
 
+def _array_grid(source, chunk_size, background, palette, transform, name, colouring):
+    """A chunked array source as a numpy array (it fits one texture) or a world by chunks."""
+    shape = tuple(int(n) for n in source.shape)
+    whole = chunk_size is None and fits_one_texture(shape, np.uint16)
+    if whole:
+        return np.asarray(source[:, :, :])
+    given = [key for key, value in colouring.items() if value is not None]
+    if given:
+        raise ValueError(f"{', '.join(given)}: a chunked array too large for one texture is "
+                         "drawn by chunks, coloured by palette= (a dict or function of the "
+                         "id, or a colormap name).")
+    placement = {} if transform is None else {"transform": checked_transform(transform)}
+    # (a world's transform places its index space, as make_voxels places a numpy array)
+    return world_from_array(source, chunk_size or DEFAULT_CHUNK_SIZE, background, palette,
+                            name=name or "voxels", **placement)
+
+
 def add_voxels(
     plotter: pyvista.Plotter,
     grid,
@@ -886,6 +904,13 @@ def add_voxels(
                             show_edges=show_edges, edge_color=edge_color,
                             line_width=line_width, edge_opacity=edge_opacity,
                             edge_mode=edge_mode, clip_planes=clip_planes)
+    if is_array_source(grid):   # zarr, dask, h5py, memmap: whole if it fits, else by chunks
+        grid = _array_grid(grid, chunk_size, background, palette, transform, name,
+                           dict(cmap=cmap, categories=categories or None, clim=clim,
+                                n_colors=n_colors, flip_scalars=flip_scalars or None,
+                                opacity=opacity))
+        if isinstance(grid, VoxelWorld):   # its ids, palette and placement are in it now
+            background, transform = 0, None
     if isinstance(grid, (VoxelModel, VoxelWorld)):
         model = grid
         if transform is not None:

@@ -446,3 +446,49 @@ def test_a_metaimage_of_uint32_ids_loads_as_a_scene(tmp_path):
                      "--out", str(out), "--size", "96x80"]) == 0
     from PIL import Image
     assert np.asarray(Image.open(out))[..., :3].std() > 5   # something drawn
+
+
+class CountingSource:
+    """An array source that records the boxes read (zarr underneath)."""
+
+    def __init__(self, array):
+        self.array, self.shape, self.dtype, self.reads = array, array.shape, array.dtype, []
+
+    def __getitem__(self, box):
+        block = self.array[box]
+        self.reads.append(block.size)
+        return block
+
+
+def test_a_zarr_array_is_drawn_by_chunks_never_read_whole(tmp_path):
+    """uint64 ids in a zarr store drawn as a chunked world: exact, picked and hidden by id;
+    every read one chunk's box; too many ids for a world refused.
+
+    catches (seen failing): the second pass writing ids instead of rows (uint64 values
+    truncated into the world's uint16 chunks: wrong ids everywhere).
+    """
+    import zarr
+
+    rng = np.random.default_rng(0)
+    ids = (2**40 + rng.choice(10**6, 3000, replace=False)).astype(np.uint64)
+    labels = scattered(ids, fill=0.3, shape=(48, 40, 32)).astype(np.uint64)
+    store = zarr.create_array(store=str(tmp_path / "cells.zarr"), shape=labels.shape,
+                              chunks=(16, 16, 16), dtype="uint64")
+    store[...] = labels
+    source = CountingSource(zarr.open_array(str(tmp_path / "cells.zarr"), mode="r"))
+    pl = plotter()
+    actor = cm.add_voxels(pl, source, chunk_size=16, mode="id")
+    assert max(source.reads) <= 16**3 and len(source.reads) == 2 * 3 * 3 * 2
+    camera = aim(pl, (80.0, 70.0, 60.0), (24.0, 20.0, 16.0))
+    wrong, hit, hits, seen = wrong_ids(pl, actor, labels, camera)
+    assert hit > 2000 and wrong == 0
+    y, x = np.argwhere(seen)[len(np.argwhere(seen)) // 3]
+    assert actor.cubemarch.pick(int(x), int(y)).label == int(hits.material[y, x])
+    actor.cubemarch.hide_labels(ids[:1500])
+    assert wrong_ids(pl, actor, labels, camera, shown=ids[1500:])[0] == 0
+    many = zarr.create_array(store=str(tmp_path / "many.zarr"), shape=(48, 48, 32),
+                             chunks=(16, 16, 16), dtype="uint32")
+    many[...] = np.arange(48 * 48 * 32, dtype=np.uint32).reshape(48, 48, 32) + 70000
+    with pytest.raises(cm.VolumeDataError, match="at most 65535"):
+        cm.add_voxels(pl, many, chunk_size=16)
+    pl.close()

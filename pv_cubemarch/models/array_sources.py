@@ -1,0 +1,105 @@
+"""Label grids from chunked arrays (zarr, dask, h5py, memory maps), read a chunk at a time.
+
+Any object with ``shape``, ``dtype`` and numpy slicing is a source: it is never read whole.
+Ids that need compacting are read twice, chunk by chunk: once to find the ids present,
+once to write each chunk's rows into a :class:`~pv_cubemarch.models.world.VoxelWorld`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.errors import VolumeDataError
+from ..core.progress import progress
+from .label_ids import IDENTITY_MAX, LabelIds, _checked_background, distinct
+from .voxels import Palette
+from .world import VoxelWorld
+
+#: Most distinct ids a world holds: its chunks store 16-bit rows.
+WORLD_MAX_IDS = 65535
+
+
+def is_array_source(value) -> bool:
+    """Whether ``value`` is an array-like to read by slices (not a numpy array or a grid)."""
+    return (not isinstance(value, np.ndarray) and hasattr(value, "shape")
+            and hasattr(value, "dtype") and hasattr(value, "__getitem__")
+            and len(getattr(value, "shape", ())) == 3)
+
+
+def _boxes(shape, size: int):
+    counts = [-(-int(n) // size) for n in shape]
+    for key in np.ndindex(*counts):
+        yield key, tuple(slice(k * size, min((k + 1) * size, int(n)))
+                         for k, n in zip(key, shape, strict=True))
+
+
+def _read(source, box, name: str) -> np.ndarray:
+    """One box of the source as an integer numpy array, or a clear error."""
+    block = np.asarray(source[box])
+    if block.dtype.kind not in "iub":
+        raise VolumeDataError(f"{name} has dtype {block.dtype}; label ids are integers.")
+    return block.astype(np.uint8) if block.dtype.kind == "b" else block
+
+
+def world_from_array(source, chunk_size: int = 128, background: int = 0, palette=None,
+                     name: str = "voxels", progress_bar: bool | None = None,
+                     **placement) -> VoxelWorld:
+    """A chunked world of the labels in ``source``, read one chunk box at a time.
+
+    ``source``: a zarr array, a dask array, an h5py dataset, a ``numpy.memmap`` or any
+    object with ``shape`` (x, y, z), an integer ``dtype`` and slicing. Non-negative ids up
+    to 65535 with background 0 are their own rows (one read); other ids are compacted
+    across the whole source (two reads), at most 65535 of them. ``palette`` as
+    :func:`~pv_cubemarch.models.voxels.make_voxels` takes it (by id).
+    """
+    dtype = np.dtype(source.dtype)
+    if dtype.kind not in "iub":
+        raise VolumeDataError(f"{name} has dtype {dtype}; label ids are integers.")
+    shape = tuple(int(n) for n in source.shape)
+    size = int(chunk_size)
+    boxes = list(_boxes(shape, size))
+    ids = None
+    identity = dtype.kind == "b" or (dtype.kind == "u" and dtype.itemsize <= 2
+                                     and int(background) == 0)
+    if not identity:
+        background = _checked_background(background, dtype, name)
+        found = []
+        for _, box in progress(boxes, desc=f"{name}: finding ids", enabled=progress_bar):
+            values = distinct(_read(source, box, name).ravel())
+            found.append(values[values != background])
+        present = distinct(np.concatenate(found)) if found else np.zeros(0, dtype)
+        if int(background) == 0 and (present.size == 0 or (
+                present.min() >= 0 and present.max() <= IDENTITY_MAX)):
+            identity = True
+        elif present.size > WORLD_MAX_IDS:
+            raise VolumeDataError(f"{name} holds {present.size} distinct ids; a grid drawn in "
+                                  f"chunks holds at most {WORLD_MAX_IDS} (its chunks store "
+                                  "16-bit rows): read a region small enough to draw whole.")
+        else:
+            ids = LabelIds(present, background, dtype)
+    keys = np.concatenate([np.array([background], dtype), ids.ids]) if ids else None
+    order = np.argsort(keys, kind="stable") if ids else None
+    world = VoxelWorld(shape, size, Palette.make(None, 2), name=name, **placement)
+    for key, box in progress(boxes, desc=f"{name}: filling chunks", enabled=progress_bar):
+        block = _read(source, box, name)
+        if ids is None:
+            if block.size and (block.min() < 0 or block.max() > IDENTITY_MAX):
+                raise VolumeDataError(f"{name} changed while it was read (ids outside "
+                                      f"0..{IDENTITY_MAX} in {box}).")
+            rows = block.astype(np.uint16 if block.size and block.max() > 255 else np.uint8)
+        else:
+            sorted_keys = keys[order]
+            at = np.clip(np.searchsorted(sorted_keys, block), 0, len(keys) - 1)
+            if not np.array_equal(sorted_keys[at], block):
+                raise VolumeDataError(f"{name} changed while it was read (an id in {box} "
+                                      "was not there on the first pass).")
+            rows = order[at].astype(np.uint16 if len(keys) > 256 else np.uint8)
+        world._keep(key, rows)
+    if ids is not None:
+        world.label_ids = ids
+        world.palette = Palette.make(palette, ids.n_rows, ids)
+    else:
+        top = max([int(a.max()) for a in world.stored.values()]
+                  + list(world.uniform.values()) + [1])
+        world.palette = Palette.make(palette, top + 1)
+    return world
