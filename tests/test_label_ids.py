@@ -492,3 +492,17 @@ def test_a_zarr_array_is_drawn_by_chunks_never_read_whole(tmp_path):
     with pytest.raises(cm.VolumeDataError, match="at most 65535"):
         cm.add_voxels(pl, many, chunk_size=16)
     pl.close()
+
+
+def test_the_live_view_says_how_many_ids_it_lists():
+    # catches: the label knob silent about ids past the 64 listed
+    from pv_cubemarch.views.session import TuningSession
+
+    labels = np.arange(1, 201, dtype=np.uint32).reshape(10, 5, 4) + 2**31
+    pl = plotter()
+    cm.add_voxels(pl, labels, name="cells")
+    knob = next(k for k in TuningSession.from_plotter(pl).knobs("voxels")
+                if k.name == "materials")
+    assert knob.label == "labels shown (200 ids; the first 64 listed)"
+    assert len(knob.choices) == 64 and knob.choices[0] == 2**31 + 1
+    pl.close()

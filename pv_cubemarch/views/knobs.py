@@ -64,10 +64,17 @@ def volume_knobs() -> tuple[Knob, ...]:
     return tuple(declared_knobs("volume", technique=[t.name for t in techniques("volume")]))
 
 
-def voxel_knobs(materials: tuple[int, ...] = ()) -> tuple[Knob, ...]:
-    """Voxel DDA blocks: their options, and the materials shown."""
+def voxel_knobs(materials: tuple[int, ...] = (), total: int | None = None
+                ) -> tuple[Knob, ...]:
+    """Voxel DDA blocks: their options, and the label ids shown.
+
+    ``total``: how many ids the grids hold, said in the label when more than are listed.
+    """
+    listed = len(materials)
+    label = "labels shown" if total is None or total <= listed else \
+        f"labels shown ({total:,} ids; the first {listed} listed)"
     return (*declared_knobs("voxels"),
-            Knob("materials", "labels shown", "multiselect", choices=tuple(materials),
+            Knob("materials", label, "multiselect", choices=tuple(materials),
                  help="label ids shown (the first 64 listed); a hidden label is traversed "
                       "as empty"))
 

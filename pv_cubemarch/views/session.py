@@ -171,7 +171,7 @@ class TuningSession:
         if kind == "volume":
             return volume_knobs()
         if kind == "voxels":
-            return voxel_knobs(self._materials())
+            return voxel_knobs(self._materials(), self._label_count())
         coefficients = np.concatenate([item.model.coefficients.ravel() for item in
                                        self._of("surface")])
         spread = float(np.ptp(coefficients)) or 1.0
@@ -270,6 +270,16 @@ class TuningSession:
             found.update(int(v) for v in rows[:LISTED_MATERIALS])
         listed = sorted(found)[:LISTED_MATERIALS]
         return tuple(v if abs(v) < 2**53 else str(v) for v in listed)
+
+    def _label_count(self) -> int:
+        """How many distinct label ids the voxel grids hold together."""
+        every = [item.model.ids.ids if not item.model.ids.identity else
+                 np.arange(1, item.model.palette.n_materials) for item in self._of("voxels")]
+        if not every:
+            return 0
+        if len(every) == 1:
+            return int(every[0].size)
+        return len({int(v) for ids in every for v in ids.tolist()})
 
     def _show_materials(self, shown: set) -> None:
         """Hide the listed ids taken out of ``shown``, show those put in, in every grid.
