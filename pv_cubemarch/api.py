@@ -711,23 +711,27 @@ def add_voxels(
 
     Every pixel shows the first drawn voxel its ray meets, opaque, at its real depth (meshes
     and volumes occlude it and are occluded by it exactly), from one byte per voxel (two
-    above 255 materials).
+    above 255 label ids, four above 65535, whatever the ids' own type).
 
     Parameters
     ----------
     plotter : pyvista.Plotter
         The plotter to draw in.
-    grid : numpy.ndarray, pyvista.ImageData, VoxelModel or VoxelWorld
+    grid : numpy.ndarray, pyvista.ImageData, array-like, VoxelModel or VoxelWorld
         Integer labels, 0 (or ``background``) = empty: a 3D array indexed x, y, z (unit
         voxels from the origin), or an ImageData whose cell data (one voxel per cell) or
-        point data (one voxel centred on each point) holds them; or a world of chunks. Any
+        point data (one voxel centred on each point) holds them; a chunked array (zarr,
+        dask, h5py, ``numpy.memmap``: anything with ``shape``, ``dtype`` and slicing), read
+        whole when it fits one texture, else drawn in chunks read one at a time; or a
+        world of chunks. Any
         integer type and any ids (a segmentation's uint32 or uint64 cell ids, negative
         ids): ids beyond 0..65535 are compacted to dense rows on upload (1, 2 or 4 bytes a
         voxel: up to 255, 65535, 16.7 million distinct ids), and every per-label
         property is one entry of a table by id (``actor.cubemarch.set_label_color``,
         ``hide_labels``, ``show_selected_labels``, ``highlight_labels``).
     scalars : str, optional
-        The ImageData array of labels; the first cell (then point) array by default.
+        The ImageData array of labels; by default its active scalars, else the first cell
+        (then point) array.
     palette : str, list, dict, callable, array or Palette, optional
         Colour (and opacity) per label id: by default tab10/tab20 for up to 20 labels in
         0..65535, else a colour hashed from each id (the same in every run, chunk and grid;
@@ -879,8 +883,13 @@ def add_voxels(
     Returns
     -------
     pyvista.Actor
-        The grid's box actor; ``actor.cubemarch`` holds the model, the palette and
-        ``set_material`` / ``set_transform``.
+        The grid's box actor; ``actor.cubemarch`` (a
+        :class:`~pv_cubemarch.voxels.technique.VoxelBinding`) holds the model and its
+        palette, the per-label methods by id (``set_label_color``, ``hide_labels``,
+        ``show_labels``, ``show_selected_labels``, ``highlight_labels``,
+        ``clear_highlight``), ``pick``, ``set_clip_planes``, edits and ``set_transform``.
+        ``mode='id'`` images match :func:`~pv_cubemarch.reference.voxels.id_colors` on a
+        black background without anti-aliasing or multisampling.
 
     Examples
     --------
@@ -938,7 +947,7 @@ def add_voxels(
             raise ValueError("clip_planes cut a grid drawn whole; this one is drawn in chunks "
                              "(chunk_size=, a VoxelWorld, or over 2048 voxels a side or 512 "
                              "MiB of labels), which takes none yet: crop the labels instead.")
-        warn_translucent(model.palette, model.name, "a chunked world")
+        warn_translucent(model.palette, model.name, "a chunked world", model.ids)
         if proxy is None:   # chunks: no brick shells by default (bench voxel-world)
             options = dataclasses.replace(options, proxy="box")
         if not isinstance(model, VoxelWorld):
@@ -951,12 +960,13 @@ def add_voxels(
         binding = chosen.build(plotter, model, options)
         if not binding.composites:
             warn_translucent(model.palette, model.name, f"mode={options.mode!r}"
-                             if options.mode != "color" else "level of detail (lod)")
+                             if options.mode != "color" else "level of detail (lod)",
+                             model.ids)
         actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
         component.track(binding)
         _frame(plotter)
     add_voxel_scalar_bar(plotter, actor, model.palette, scalars or model.name, show_scalar_bar,
-                         scalar_bar_args, annotations)
+                         scalar_bar_args, annotations, model.ids)
     return actor
 
 

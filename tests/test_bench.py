@@ -372,7 +372,8 @@ def test_bench_labels_rows_exactness_and_change_bytes(tmp_path, capsys):
                                   for r in ours)
     assert all(r["changes"]["recolour 1"]["bytes"] == 16 for r in ours)
     assert all(r["labels_resent_bytes"] == 0 for r in ours)   # never the labels
-    assert all(r["changes"]["hide half"]["bytes"] <= r["changes"]["recolour all"]["bytes"] for r in ours)
+    assert all(r["changes"]["hide half"]["bytes"] <= r["changes"]["recolour all"]["bytes"]
+               for r in ours)
     names = {r["row"] for r in rows}
     assert {"threshold + add_mesh", "contour_labels + add_mesh",
             "add_volume (fixed step 0.5)"} <= names

@@ -178,3 +178,28 @@ def test_usd_and_cli_take_the_clip_planes(tmp_path):
     out = tmp_path / "cut.png"
     assert cli.main(["render", str(path), "--out", str(out), "--size", "120x100",
                      "--clip-planes", *map(str, plane)]) == 0 and out.exists()
+
+
+def test_a_plane_on_voxel_faces_draws_no_voxel_that_only_touches_it():
+    """A plane exactly on the faces between two layers: the layer beyond it is never drawn
+    (no stripes of it), a plane a thousandth of a voxel into it draws it.
+
+    catches (seen failing): the ray's end taken as is (float32 on the face: the red layer in
+    stripes, 815 pixels of it).
+    """
+    rng = np.random.default_rng(5)
+    labels = np.zeros((24, 20, 16), np.uint8)
+    labels[:, :, :5] = 1
+    labels[:, :, 5:] = 2 * (rng.random((24, 20, 11)) < 0.2)
+    reds = {}
+    for z in (5.0, 5.001, 4.999):
+        pl = plotter()
+        cm.add_voxels(pl, labels, palette={1: "red", 2: "blue"}, shading="unlit",
+                      clip_planes=(0, 0, z, 0, 0, 1))
+        pl.camera.position = (40.0, 30.0, 35.0)
+        pl.camera.focal_point = (12.0, 10.0, 8.0)
+        pl.renderer.ResetCameraClippingRange()
+        image = cm.render_image(pl).astype(int)
+        reds[z] = int(((image[..., 0] > 200) & (image[..., 2] < 50)).sum())
+        pl.close()
+    assert reds[5.0] == 0 and reds[5.001] == 0 and reds[4.999] > 1000, reds

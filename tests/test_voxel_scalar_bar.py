@@ -47,7 +47,7 @@ def test_scalar_bar_afterwards_and_bad_annotations():
     assert not pl.scalar_bars
     pl.add_scalar_bar()   # PyVista's call reads the grid's table
     assert len(pl.scalar_bars) == 1
-    with pytest.raises(ValueError, match=r"materials are 1\.\.3"):
+    with pytest.raises(ValueError, match=r"labels are 1\.\.3"):
         pl.cubemarch.add_voxels(labels(), palette=COLORS, annotations={7: "none such"})
     pl.close()
 
@@ -61,7 +61,7 @@ def test_translucent_materials_are_said_to_be_drawn_opaque_where_they_are():
     """
     pl = pv.Plotter(off_screen=True)
     palette = {1: "tan", 2: ("steelblue", 0.4), 3: "crimson"}
-    with pytest.warns(UserWarning, match=r"materials \[2\].*draws them opaque"):
+    with pytest.warns(UserWarning, match=r"labels \[2\].*draws them opaque"):
         pl.cubemarch.add_voxels(labels(), palette=palette, chunk_size=4)
     with warnings.catch_warnings():
         warnings.simplefilter("error")

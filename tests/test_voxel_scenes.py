@@ -215,7 +215,7 @@ def bad(**attrs):
 
 @pytest.mark.parametrize("labels, attrs, error, message", [
     (np.full((3, 3, 3), 0.5), {}, cm.VolumeDataError, r"/Vox .*non-integer"),
-    (-np.ones((3, 3, 3), np.int32), {}, cm.VolumeDataError, r"/Vox .*negative"),
+    (np.full((3, 3, 3), 2.0**60), {}, cm.VolumeDataError, r"/Vox .*beyond 2\^53"),
     (None, bad(traversal=("Token", "march")), cm.SceneLoadError,
      r"/Vox: cubemarch:traversal = 'march': traversal must be one of"),
     (None, bad(mipLevels=("Float", 2.5)), cm.SceneLoadError,
@@ -234,7 +234,7 @@ def bad(**attrs):
      "cubemarch:cmap = 'no-such-map'"),
     (None, bad(faceSize=("Int", 64), opacity=("String", "linear")), cm.SceneLoadError,
      r'cubemarch:opacity, cubemarch:faceSize do not apply to cubemarch:technique = "voxels"'),
-], ids=["non-integer", "negative", "traversal", "mip-not-whole", "mip-with-fixed",
+], ids=["non-integer", "float-past-2^53", "traversal", "mip-not-whole", "mip-with-fixed",
         "palette-short", "palette-range", "opacity-length", "palette-and-cmap", "cmap-name",
         "volume-attributes"])
 def test_bad_voxel_prims_get_errors_naming_prim_and_attribute(tmp_path, labels, attrs, error,

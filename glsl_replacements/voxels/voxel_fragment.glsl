@@ -26,7 +26,13 @@
 #ifdef CM_CLIP_PLANES
   // The part of the ray the clip planes keep (clip_planes.glsl, index-space planes): a
   // ray starting on a plane inside a filled voxel draws that voxel there.
+  vec2 cm_box = cm_inBox;
   cm_inBox = cm_clipInterval(cm_origin, cm_direction, cm_inBox);
+  // A plane on a voxel face: the voxel ahead of the ray's start is drawn, the one just
+  // past its end is not (as the CPU traversal); 1e-4 voxel keeps float32 from striping.
+  float cm_nudge = 1e-4 / max(length(cm_direction), 1e-30);
+  cm_inBox.x += cm_inBox.x > cm_box.x ? cm_nudge : 0.0;
+  cm_inBox.y -= cm_inBox.y < cm_box.y ? cm_nudge : 0.0;
 #endif
   // From the box or the near plane; with the brick shell, from where the ray meets it
   // (every voxel before that is empty), and not at all where it meets none.

@@ -7,7 +7,11 @@
   vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
   float cm_boxEntry = cm_inBox.x;
 #ifdef CM_CLIP_PLANES
+  vec2 cm_box = cm_inBox;
   cm_inBox = cm_clipInterval(cm_origin, cm_direction, cm_inBox);   // the kept part
+  float cm_nudge = 1e-4 / max(length(cm_direction), 1e-30);   // as voxel_fragment.glsl
+  cm_inBox.x += cm_inBox.x > cm_box.x ? cm_nudge : 0.0;
+  cm_inBox.y -= cm_inBox.y < cm_box.y ? cm_nudge : 0.0;
 #endif
   float cm_start = max(cm_inBox.x, cm_near);
   vec2 cm_pixel = (gl_FragCoord.xy - cm_viewport.xy) / cm_viewport.zw;

@@ -157,6 +157,8 @@ def _as_ids(ids, name: str) -> np.ndarray:
     """
     if isinstance(ids, np.ndarray) and ids.dtype.kind in "iu":
         return ids.ravel()
+    if isinstance(ids, (set, frozenset)):
+        ids = sorted(ids)
     items = np.asarray(ids, dtype=object).ravel()
     try:
         values = [_whole(v) for v in items]
@@ -171,7 +173,7 @@ def _as_ids(ids, name: str) -> np.ndarray:
 
 def _whole(value) -> int:
     """One id as a Python int; bools and non-integer numbers are refused."""
-    if isinstance(value, (bool, np.bool_)):
+    if isinstance(value, (bool, np.bool_, str, bytes)):
         raise TypeError(value)
     if isinstance(value, (float, np.floating)):
         if not float(value).is_integer():
@@ -274,8 +276,9 @@ def _checked_background(background, dtype: np.dtype, name: str):
         raise ValueError(f"background must be an integer label id, got {background!r}.")
     info = np.iinfo(dtype)
     if not info.min <= int(background) <= info.max:
-        raise ValueError(f"background={background} is outside {name}'s {dtype} range "
-                         f"[{info.min}, {info.max}].")
+        raise ValueError(f"background={background} is outside the range of {name} "
+                         f"({dtype}: {info.min}..{info.max}); give an id the labels' type "
+                         "holds (0 by default).")
     return dtype.type(int(background))
 
 

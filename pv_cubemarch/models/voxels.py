@@ -362,6 +362,13 @@ def checked_labels(array, name: str = "labels") -> np.ndarray:
     return np.ascontiguousarray(array.astype(dtype))   # a copy: edits leave the input be
 
 
+def _chosen_array(data: pyvista.ImageData) -> str:
+    """The array :func:`image_samples` takes when ``scalars`` is not given."""
+    names = list(data.cell_data.keys()) + list(data.point_data.keys())
+    active = data.active_scalars_name
+    return active if active in names else names[0]
+
+
 def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndarray,
                                                                          np.ndarray]:
     """An ImageData's array as one sample per cell, and the 4x4 placing those cells.
@@ -376,7 +383,8 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
         if not names:
             raise VolumeDataError("The grid has no arrays; add the values to cell_data or "
                                   "point_data.")
-        scalars = names[0]
+        active = data.active_scalars_name   # PyVista's choice, as add_mesh makes it
+        scalars = active if active in names else names[0]
     direction = np.asarray(data.direction_matrix, dtype=np.float64)
     spacing = np.asarray(data.spacing, dtype=np.float64)
     origin = first_point(data)
@@ -426,8 +434,9 @@ def make_voxels(data, scalars: str | None = None, *, palette=None, transform=Non
                          "palette=.")
     if isinstance(data, pyvista.ImageData):
         values, grid_from_index = image_samples(data, scalars)
-        labels, ids = label_rows(label_values(values, scalars or "labels"), background,
-                                 scalars or "labels")
+        shown = scalars or _chosen_array(data)
+        labels, ids = label_rows(label_values(values, f"array {shown!r}"), background,
+                                 f"array {shown!r}")
     else:
         grid_from_index = np.eye(4)
         labels, ids = label_rows(label_values(data), background)

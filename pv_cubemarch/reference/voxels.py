@@ -256,6 +256,7 @@ def trace_voxels(
 
     o_idx, d_idx = _index_rays(origins, directions, world_from_index, labels.shape)
     t0, t1 = ray_box_interval(o_idx, d_idx, np.zeros(3), shape.astype(np.float64))
+    box_t1 = t1
     kept0, t1 = _clipped(origins, directions, t0, t1, clip_planes)
     t_start = np.maximum(kept0, 0.0)
     if near is not None:
@@ -276,6 +277,10 @@ def trace_voxels(
     with np.errstate(invalid="ignore"):
         gap = (t_start - t1) * speed
     near_edge[~enter & np.isfinite(gap) & (gap <= tol)] = True
+    # A plane's exit near a voxel face: float32 may end the ray on the other side of it.
+    cut = enter & (t1 < box_t1)
+    ends = o_idx[cut] + t1[cut, None] * d_idx[cut]
+    near_edge[np.flatnonzero(cut)[_fraction_to_boundary(ends).min(axis=1) <= tol]] = True
 
     ids = np.nonzero(enter)[0]
     o = o_idx[ids]
@@ -325,7 +330,7 @@ def trace_voxels(
         moved = idx[rows, axis] + s
         idx[rows, axis] = moved
         lin += s * strides[axis]
-        out = (moved < 0) | (moved >= shape[axis]) | (t > te)
+        out = (moved < 0) | (moved >= shape[axis]) | (t >= te)   # entered at the end: not in
         # Does the ray pass near an edge as it crosses this boundary?
         dist = _fraction_to_boundary(o + t[:, None] * d)
         dist[rows, axis] = np.inf

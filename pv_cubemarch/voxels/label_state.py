@@ -9,6 +9,7 @@ they are.
 from __future__ import annotations
 
 import numpy as np
+import pyvista
 
 from ..core.rendering import needs_open_plotter
 from ..gl.textures import Texture
@@ -58,6 +59,66 @@ def upload_palette_rows(texture: Texture, rgba: np.ndarray, rows: np.ndarray | N
         texture.update_region((line, first), table[start + first:start + end][None])
 
 
+def label_colours(color, count: int, labels) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``color`` for ``count`` ids as ``(count, 3)`` RGB in [0, 1], and opacities if given.
+
+    One colour (a name, hex, 0-1 floats or 0-255 ints, RGB or RGBA) for all, or one per id:
+    a list of colours or an ``(n, 3|4)`` array (floats in [0, 1] or integers 0-255).
+    """
+    if color is None:
+        return None, None
+    try:
+        one = pyvista.Color(color)
+    except (ValueError, TypeError):
+        one = None
+    if one is not None:
+        rgb = np.tile(np.asarray(one.float_rgb, np.float64), (count, 1))
+        alpha = None if not _has_alpha(color) else np.full(count, one.float_rgba[3])
+        return rgb, alpha
+    if isinstance(color, np.ndarray) and color.ndim == 2 and color.shape[1] in (3, 4):
+        array = color.astype(np.float64) / (255.0 if color.dtype.kind in "iu" else 1.0)
+        if len(array) != count or not np.isfinite(array).all() or array.min() < 0 \
+                or array.max() > 1:
+            raise ValueError(f"color: an array gives one colour per label ({count} here), "
+                             "RGB or RGBA, floats in [0, 1] or integers 0-255; got shape "
+                             f"{color.shape} with values {array.min():g}..{array.max():g}.")
+        return array[:, :3], (array[:, 3] if array.shape[1] == 4 else None)
+    if isinstance(color, (list, tuple)) and len(color) == count:
+        try:
+            each = [pyvista.Color(c) for c in color]
+        except (ValueError, TypeError) as error:
+            raise ValueError(f"color: {error}") from None
+        return np.array([c.float_rgb for c in each]), None
+    raise ValueError(f"color {color!r} for labels {_shown(labels)} is not a colour: give a "
+                     "name ('tomato'), a hex string ('#ff6347'), RGB in [0, 1] or 0-255, or "
+                     f"one colour per label ({count} here).")
+
+
+def _has_alpha(color) -> bool:
+    if isinstance(color, str):
+        return color.startswith("#") and len(color) == 9
+    return hasattr(color, "__len__") and len(color) == 4
+
+
+def _shown(labels) -> str:
+    values = np.atleast_1d(np.asarray(labels, dtype=object)).ravel().tolist()
+    return str(values[:5])[:-1] + (", ...]" if len(values) > 5 else "]")
+
+
+def checked_opacities(opacity, count: int) -> np.ndarray:
+    """``opacity`` (one number or one per label) as floats in [0, 1], or an error naming it."""
+    try:
+        values = np.asarray(opacity, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"opacity must be a number in [0, 1] or one per label, got "
+                         f"{opacity!r}.") from None
+    if values.ndim > 1 or (values.ndim == 1 and values.size != count) or \
+            not np.isfinite(values).all() or values.min() < 0 or values.max() > 1:
+        raise ValueError(f"opacity must be in [0, 1], one value or one per label ({count} "
+                         f"here), got {opacity!r}.")
+    return values
+
+
 class LabelState:
     """Per-label methods of a grid's binding, by label id (what the user's array holds).
 
@@ -98,16 +159,20 @@ class LabelState:
     def set_label_color(self, labels, color=None, opacity=None) -> None:
         """Change the colour and/or opacity of one label id or many (0 hides).
 
-        ``color``: one colour (a name, hex or RGB) for all, or an ``(n, 3)`` array of RGB in
-        [0, 1], one per id; ``opacity``: one value or one per id. Only the changed entries
-        of the per-label table go to the GPU.
+        ``color``: one colour (a name, hex, RGB or RGBA) for all, or one per id (a list of
+        colours, an ``(n, 3|4)`` array of floats in [0, 1] or integers 0-255; an alpha
+        column sets the opacity); ``opacity``: one value or one per id. Only the changed
+        entries of the per-label table go to the GPU.
 
         Examples
         --------
         >>> actor.cubemarch.set_label_color([17, 2**40 + 3], "red")        # doctest: +SKIP
         >>> actor.cubemarch.set_label_color(ids, opacity=0.3)              # doctest: +SKIP
         """
-        self.model.palette.set_rows(self._rows(labels), color, opacity)
+        rows = self._rows(labels)
+        rgb, alpha = label_colours(color, rows.size, labels)
+        opacity = alpha if opacity is None else checked_opacities(opacity, rows.size)
+        self.model.palette.set_rows(rows, rgb, opacity)
         self.follow_palette_rows()
 
     @needs_open_plotter

@@ -26,26 +26,48 @@ def palette_lookup_table(palette) -> pyvista.LookupTable:
     return lut
 
 
+#: Compacted ids a scalar bar names one by one (its blocks are rows, not the ids' values).
+NAMED_IDS = 32
+
+
 def add_voxel_scalar_bar(plotter, actor, palette, title: str, show: bool, args: dict | None,
-                         annotations: dict | None) -> None:
-    """Make the grid's lookup table ``plotter.mapper``'s and add its bar when ``show``."""
+                         annotations: dict | None, ids=None) -> None:
+    """Make the grid's lookup table ``plotter.mapper``'s and add its bar when ``show``.
+
+    ``ids``: the grid's :class:`~pv_cubemarch.models.label_ids.LabelIds`. Compacted ids
+    are blocks by row, so the bar names them (up to :data:`NAMED_IDS`) instead of
+    numbering its blocks; ``annotations`` are by id either way.
+    """
     mapper = pyvista.DataSetMapper()
     mapper.lookup_table = palette_lookup_table(palette)
+    compacted = ids is not None and not ids.identity
     if annotations:
-        unknown = [key for key in annotations if not 0 < int(key) < len(palette.rgba)]
+        if compacted:
+            known = ids.has(list(annotations))
+            unknown = [key for key, ok in zip(annotations, known, strict=True) if not ok]
+        else:
+            unknown = [key for key in annotations if not 0 < int(key) < len(palette.rgba)]
         if unknown:
-            raise ValueError(f"annotations name materials {unknown} the grid has no colour "
-                             f"for (its materials are 1..{len(palette.rgba) - 1}).")
-        mapper.lookup_table.annotations = {float(k): str(v) for k, v in annotations.items()}
+            held = ("actor.cubemarch.label_ids lists its ids" if compacted
+                    else f"its labels are 1..{len(palette.rgba) - 1}")
+            raise ValueError(f"annotations name labels {unknown} the grid has no colour "
+                             f"for ({held}).")
+        rows = ids.rows_of(list(annotations)) if compacted else list(annotations)
+        mapper.lookup_table.annotations = {float(r): str(v) for r, v in
+                                           zip(rows, annotations.values(), strict=True)}
+    elif compacted and ids.n_labels <= NAMED_IDS:
+        mapper.lookup_table.annotations = {float(r): str(i) for r, i in
+                                           enumerate(ids.ids.tolist(), start=1)}
     attach_scalar_bar(plotter, actor, mapper, title, show, args,
-                      n_labels=min(len(palette.rgba) - 1, 10))
+                      n_labels=0 if compacted else min(len(palette.rgba) - 1, 10))
 
 
-def warn_translucent(palette, name: str, why: str) -> None:
-    """Say so when translucent materials are drawn opaque (``why``: what draws them so)."""
+def warn_translucent(palette, name: str, why: str, ids=None) -> None:
+    """Say so when translucent labels are drawn opaque (``why``: what draws them so)."""
     alpha = np.asarray(palette.rgba)[1:, 3]
     translucent = np.nonzero((alpha > 0) & (alpha < 1))[0] + 1
     if translucent.size:
-        warnings.warn(f"Voxels {name!r}: materials {translucent.tolist()[:8]} have an "
+        named = translucent if ids is None else ids.ids_of(translucent[:8])
+        warnings.warn(f"Voxels {name!r}: labels {[int(v) for v in named[:8]]} have an "
                       f"opacity between 0 and 1; {why} draws them opaque (a single grid in "
                       "mode='color' composites them; opacity 0 hides one).", stacklevel=3)

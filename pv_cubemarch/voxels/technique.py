@@ -244,8 +244,12 @@ class VoxelBinding(LabelState, DrawnBinding):
         --------
         >>> actor.cubemarch.set_clip_planes([10, 0, 0, 1, 0, 0])      # doctest: +SKIP
         """
-        planes = None if clip_planes is None else tuple(
-            float(v) for v in np.asarray(clip_planes, dtype=np.float64).ravel())
+        try:
+            values = [] if clip_planes is None else np.asarray(clip_planes, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"clip_planes must be numbers, six a plane (a point, then the "
+                             f"normal to the side kept), or None; got {clip_planes!r}.") from None
+        planes = tuple(float(v) for v in np.ravel(values)) or None   # [] clears them too
         options = replace(self.options, clip_planes=planes)
         options.check()
         remake = clip_count(options) != clip_count(self.options)
@@ -412,7 +416,8 @@ class VoxelBinding(LabelState, DrawnBinding):
         camera = Camera.from_pyvista(renderer.GetActiveCamera())
         hits = trace_voxels(self.model.labels, self.model.world_from_index(), camera,
                             (width, height), near=camera.clipping_range[0],
-                            visible=self.model.palette.visible, crop=(int(x), int(y), 1, 1))
+                            visible=self.model.palette.visible, crop=(int(x), int(y), 1, 1),
+                            clip_planes=self.options.world_planes)
         if hits.material[0, 0] == 0:
             return None
         origins, directions = camera.rays((width, height))
