@@ -185,7 +185,7 @@ def test_a_plane_on_voxel_faces_draws_no_voxel_that_only_touches_it():
     (no stripes of it), a plane a thousandth of a voxel into it draws it.
 
     catches (seen failing): the ray's end taken as is (float32 on the face: the red layer in
-    stripes, 815 pixels of it).
+    stripes: 403 pixels of it here).
     """
     rng = np.random.default_rng(5)
     labels = np.zeros((24, 20, 16), np.uint8)
