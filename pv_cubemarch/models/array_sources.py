@@ -11,12 +11,9 @@ import numpy as np
 
 from ..core.errors import VolumeDataError
 from ..core.progress import progress
-from .label_ids import IDENTITY_MAX, LabelIds, _checked_background, distinct
+from .label_ids import IDENTITY_MAX, MAX_IDS, LabelIds, _checked_background, distinct, row_type
 from .voxels import Palette
 from .world import VoxelWorld
-
-#: Most distinct ids a world holds: its chunks store 16-bit rows.
-WORLD_MAX_IDS = 65535
 
 
 def is_array_source(value) -> bool:
@@ -49,8 +46,8 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
     ``source``: a zarr array, a dask array, an h5py dataset, a ``numpy.memmap`` or any
     object with ``shape`` (x, y, z), an integer ``dtype`` and slicing. Non-negative ids up
     to 65535 with background 0 are their own rows (one read); other ids are compacted
-    across the whole source (two reads), at most 65535 of them. ``palette`` as
-    :func:`~pv_cubemarch.models.voxels.make_voxels` takes it (by id).
+    across the whole source (two reads): 1, 2 or 4 bytes a voxel by how many there are.
+    ``palette`` as :func:`~pv_cubemarch.models.voxels.make_voxels` takes it (by id).
     """
     dtype = np.dtype(source.dtype)
     if dtype.kind not in "iub":
@@ -71,10 +68,10 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
         if int(background) == 0 and (present.size == 0 or (
                 present.min() >= 0 and present.max() <= IDENTITY_MAX)):
             identity = True
-        elif present.size > WORLD_MAX_IDS:
-            raise VolumeDataError(f"{name} holds {present.size} distinct ids; a grid drawn in "
-                                  f"chunks holds at most {WORLD_MAX_IDS} (its chunks store "
-                                  "16-bit rows): read a region small enough to draw whole.")
+        elif present.size > MAX_IDS:
+            raise VolumeDataError(f"{name} holds {present.size} distinct ids; at most "
+                                  f"{MAX_IDS} are drawn (rows are read from float32 "
+                                  "textures, exact to 2^24).")
         else:
             ids = LabelIds(present, background, dtype)
     keys = np.concatenate([np.array([background], dtype), ids.ids]) if ids else None
@@ -93,7 +90,7 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
             if not np.array_equal(sorted_keys[at], block):
                 raise VolumeDataError(f"{name} changed while it was read (an id in {box} "
                                       "was not there on the first pass).")
-            rows = order[at].astype(np.uint16 if len(keys) > 256 else np.uint8)
+            rows = order[at].astype(row_type(len(keys)))
         world._keep(key, rows)
     if ids is not None:
         world.label_ids = ids

@@ -36,7 +36,8 @@ class VoxelWorld(PlacedGrid):
     grid_from_index: np.ndarray = field(default_factory=lambda: np.eye(4))
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     name: str = "voxels"
-    #: The labels' type, the same for every stored chunk: ``'uint8'`` or ``'uint16'``.
+    #: The labels' type, the same for every stored chunk: ``'uint8'`` or ``'uint16'``
+    #: (``'uint32'``: the rows of compacted ids past 65535, fixed when the world is made).
     label_type: str = "uint8"
     #: Which label id each row stands for (a compacted grid's; by default rows are ids).
     label_ids: LabelIds | None = None
@@ -60,10 +61,6 @@ class VoxelWorld(PlacedGrid):
         size = int(chunk_size)
         if size < 1:
             raise ValueError(f"chunk_size must be at least 1, got {chunk_size!r}.")
-        if model.labels.dtype.itemsize > 2:
-            raise ValueError(f"{model.name!r} holds {model.n_labels} label ids; a grid drawn "
-                             "in chunks holds at most 65535 (draw it whole, within 2048 "
-                             "voxels a side and 512 MiB of rows, or split the ids).")
         world = cls(model.dimensions, size, model.palette, grid_from_index=model.grid_from_index,
                     transform=model.transform, name=model.name,
                     label_type=str(model.labels.dtype), label_ids=model.ids)
@@ -255,16 +252,22 @@ class VoxelWorld(PlacedGrid):
         if key in self.stored or whole:
             labels = self.chunk_labels(key)
         else:
-            labels = np.full((1, 1, 1), self.uniform[key],
-                             np.uint8 if self.uniform[key] < 256 else np.uint16)
+            value = self.uniform[key]
+            labels = np.full((1, 1, 1), value, np.uint8 if value < 256 else
+                             np.uint16 if value < 65536 else np.uint32)
             local[:3, :3] = np.diag(shape)
         return VoxelModel(labels=labels, palette=self.palette,
                           grid_from_index=np.asarray(self.grid_from_index) @ local,
                           transform=self.transform, name=f"{self.name}{list(key)}")
 
     def drawn_labels(self) -> np.ndarray:
-        """Per label value the world's type holds: drawn (shown by the palette) or not."""
-        table = np.zeros(int(np.iinfo(self.dtype).max) + 1, bool)
+        """Per label value the world's type holds: drawn (shown by the palette) or not.
+
+        For 4-byte rows (compacted ids past 65535), per row of the palette.
+        """
+        size = int(np.iinfo(self.dtype).max) + 1 if self.dtype.itemsize <= 2 else max(
+            self.palette.n_materials, 2)
+        table = np.zeros(size, bool)
         visible = self.palette.visible[:len(table)]
         table[:len(visible)] = visible
         return table

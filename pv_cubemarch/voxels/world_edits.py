@@ -41,7 +41,8 @@ class WorldEditing:
 
     def _type_for(self, value: int) -> np.dtype:
         """The labels' type, or uint16 for a label above 255 (the world widens to it)."""
-        return np.dtype(np.uint16) if value > 255 else self.model.dtype
+        widens = value > 255 and self.model.dtype == np.uint8
+        return np.dtype(np.uint16) if widens else self.model.dtype
 
     @needs_open_plotter
     def fill_sphere(self, center, radius: float, material: int) -> None:
