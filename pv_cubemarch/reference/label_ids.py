@@ -31,8 +31,13 @@ def trace_ids(labels: np.ndarray, world_from_index: np.ndarray, camera: Camera,
     dense = dense.reshape(labels.shape) + 1   # 1..n: np.unique's ranks, 0 never used
     drawn = values != labels.dtype.type(background)
     if shown is not None:
-        wanted = np.asarray([int(v) for v in np.atleast_1d(shown)], dtype=object)
-        drawn &= np.isin(values.astype(object), wanted)
+        wanted = np.atleast_1d(np.asarray(shown))
+        if wanted.dtype.kind not in "iu" or not np.can_cast(wanted.dtype, values.dtype):
+            # Python ints of any size: keep those the labels' type holds, exactly
+            info = np.iinfo(values.dtype)
+            wanted = np.asarray([int(v) for v in wanted.ravel()
+                                 if info.min <= int(v) <= info.max], dtype=values.dtype)
+        drawn &= np.isin(values, wanted.astype(values.dtype))
     visible = np.concatenate([[False], drawn])
     hits = trace_voxels(dense, world_from_index, camera, size, near=near, visible=visible,
                         crop=crop, clip_planes=clip_planes)
