@@ -76,7 +76,9 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
             ids = LabelIds(present, background, dtype)
     keys = np.concatenate([np.array([background], dtype), ids.ids]) if ids else None
     order = np.argsort(keys, kind="stable") if ids else None
-    world = VoxelWorld(shape, size, Palette.make(None, 2), name=name, **placement)
+    rows_type = str(row_type(len(keys))) if ids else "uint8"   # fixed for compacted ids
+    world = VoxelWorld(shape, size, Palette.make(None, 2), name=name, label_type=rows_type,
+                       **placement)
     for key, box in progress(boxes, desc=f"{name}: filling chunks", enabled=progress_bar):
         block = _read(source, box, name)
         if ids is None:
