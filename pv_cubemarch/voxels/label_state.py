@@ -122,8 +122,13 @@ def checked_opacities(opacity, count: int) -> np.ndarray:
 class LabelState:
     """Per-label methods of a grid's binding, by label id (what the user's array holds).
 
-    The binding gives ``model`` (its ``palette`` and ``ids``) and ``follow_palette_rows``,
-    which sends the changed rows to the GPU.
+    A grid of compacted ids knows exactly the ids present; a grid of small ids kept as rows
+    (0..65535, background 0) knows every row of its palette, so there ``label_ids`` lists
+    1..n-1 and an id the palette covers but the grid lacks is accepted. Hiding is its own
+    state (``hidden_labels``, undone by ``show_labels``); an id at opacity 0 (left out of a
+    dict palette, or ``set_label_color(id, opacity=0)``) is not drawn either, and comes back
+    with an opacity above 0. The binding gives ``model`` (its ``palette`` and ``ids``) and
+    ``follow_palette_rows``, which sends the changed rows to the GPU.
     """
 
     @property
