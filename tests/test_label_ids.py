@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
+from conftest import draw_at
 
 import pv_cubemarch as cm
 from pv_cubemarch.models.label_colors import hashed_colors
@@ -236,13 +237,7 @@ def test_a_translucent_id_is_composited_as_peeled_meshes():
     position = [(40.0, 30.0, -25.0), (8.0, 8.0, 8.0), (0.0, 0.0, 1.0)]
 
     def shot(add):
-        pl = pv.Plotter(off_screen=True, window_size=SIZE)
-        pl.set_background("black")
-        add(pl)
-        pl.camera_position = position
-        image = cm.render_image(pl)
-        pl.close()
-        return image
+        return draw_at(add, SIZE, position)[0]
 
     def theirs(pl):
         pl.ren_win.SetMultiSamples(0)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
+from conftest import draw_at
 from test_pyvista_parity import psnr
 
 import pv_cubemarch as cm
@@ -98,13 +99,7 @@ def test_a_plane_on_voxel_boundaries_draws_what_threshold_and_clip_draw():
     colours = {1: "tomato", 2: "steelblue"}
 
     def shot(add):
-        pl = pv.Plotter(off_screen=True, window_size=SIZE)
-        pl.set_background("black")
-        add(pl)
-        pl.camera_position = position
-        image = cm.render_image(pl)
-        pl.close()
-        return image
+        return draw_at(add, SIZE, position)[0]
 
     def theirs(pl):
         kept = grid.threshold(0.5, scalars="labels").clip(normal=(-1, 0, 0),

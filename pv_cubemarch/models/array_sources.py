@@ -74,9 +74,7 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
                                   "textures, exact to 2^24).")
         else:
             ids = LabelIds(present, background, dtype)
-    keys = np.concatenate([np.array([background], dtype), ids.ids]) if ids else None
-    order = np.argsort(keys, kind="stable") if ids else None
-    rows_type = str(row_type(len(keys))) if ids else "uint8"   # fixed for compacted ids
+    rows_type = str(row_type(ids.n_rows)) if ids else "uint8"   # fixed for compacted ids
     world = VoxelWorld(shape, size, Palette.make(None, 2), name=name, label_type=rows_type,
                        **placement)
     for key, box in progress(boxes, desc=f"{name}: filling chunks", enabled=progress_bar):
@@ -87,12 +85,11 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
                                       f"0..{IDENTITY_MAX} in {box}).")
             rows = block.astype(np.uint16 if block.size and block.max() > 255 else np.uint8)
         else:
-            sorted_keys = keys[order]
-            at = np.clip(np.searchsorted(sorted_keys, block), 0, len(keys) - 1)
-            if not np.array_equal(sorted_keys[at], block):
+            rows, held = ids.lookup(block.ravel())
+            if not held.all():
                 raise VolumeDataError(f"{name} changed while it was read (an id in {box} "
                                       "was not there on the first pass).")
-            rows = order[at].astype(row_type(len(keys)))
+            rows = rows.astype(rows_type).reshape(block.shape)
         world._keep(key, rows)
     if ids is not None:
         world.label_ids = ids

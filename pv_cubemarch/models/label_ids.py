@@ -107,7 +107,7 @@ class LabelIds:
                 raise ValueError(f"{name}: label {values[bad][0]} is not in the grid (its "
                                  f"labels are 0..{self.n_rows - 1}).")
             return values.astype(np.int64)
-        rows, found = self._lookup(values)
+        rows, found = self.lookup(values)
         if not found.all():
             missing = values[~found][0]
             raise ValueError(f"{name}: label {missing} is not in the grid ({self.n_labels} "
@@ -119,10 +119,10 @@ class LabelIds:
         values = _as_ids(ids, "ids")
         if self._ids is None:
             return (values >= 0) & (values < self.n_rows)
-        return self._lookup(values)[1]
+        return self.lookup(values)[1]
 
-    def _lookup(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Rows of ``values`` and whether each was found (searchsorted on a sorted copy)."""
+    def lookup(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rows of integer ``values`` and whether each is held (background: row 0)."""
         if self._sorted is None:
             table = np.concatenate([np.array([self.background], self.dtype), self._ids])
             order = np.argsort(table, kind="stable")
@@ -131,23 +131,6 @@ class LabelIds:
         values, fits = _fitted(values, keys.dtype)
         at = np.clip(np.searchsorted(keys, values), 0, len(keys) - 1)
         return order[at].astype(np.int64), fits & (keys[at] == values)
-
-    def append(self, ids) -> np.ndarray:
-        """Give new ids rows at the end (an edit wrote them); returns their rows."""
-        if self._ids is None:
-            raise ValueError("an identity table grows with its palette, not by append.")
-        values, fits = _fitted(_as_ids(ids, "ids"), self.dtype)
-        if not fits.all():
-            raise ValueError(f"label {_as_ids(ids, 'ids')[~fits][0]} does not fit this "
-                             f"grid's {self.dtype} ids.")
-        values = np.unique(values)
-        values = values[~self.has(values)]
-        if self.n_rows + values.size > MAX_IDS + 1:
-            raise VolumeDataError(f"a grid holds at most {MAX_IDS} distinct labels.")
-        start = self.n_rows
-        self._ids = np.concatenate([self._ids, values])
-        self._sorted = None
-        return np.arange(start, start + values.size)
 
 
 def _as_ids(ids, name: str) -> np.ndarray:
@@ -201,6 +184,21 @@ def _fitted(values: np.ndarray, dtype) -> tuple[np.ndarray, np.ndarray]:
     return np.where(fits, values, 0).astype(dtype), fits
 
 
+def _check_count(count: int, name: str) -> None:
+    """Refuse more distinct ids than float32 rows read back exactly."""
+    if count > MAX_IDS:
+        raise VolumeDataError(f"{name} holds {count} distinct labels; at most {MAX_IDS} are "
+                              "drawn (their rows are read exactly from a float32 texture).")
+
+
+def sorted_unique(values: np.ndarray) -> np.ndarray:
+    """Distinct integer rows, ascending; no work where they already are (changed rows)."""
+    values = np.asarray(values, dtype=np.int64).ravel()
+    if values.size < 2 or bool(np.all(values[1:] > values[:-1])):
+        return values
+    return distinct(values)
+
+
 def distinct(values: np.ndarray) -> np.ndarray:
     """The sorted distinct values of a flat integer array, by the faster of two ways.
 
@@ -236,9 +234,7 @@ def compact_labels(values: np.ndarray, background: int = 0,
         found.append(distinct(flat[start:start + SLAB_VOXELS]))
     present = distinct(np.concatenate(found)) if len(found) > 1 else found[0]
     present = present[present != background]
-    if present.size > MAX_IDS:
-        raise VolumeDataError(f"{name} holds {present.size} distinct labels; at most {MAX_IDS} "
-                              "are drawn (their rows are read exactly from a float32 texture).")
+    _check_count(present.size, name)
     dtype = row_type(present.size + 1)
     table = np.concatenate([np.array([background], values.dtype), present])
     order = np.argsort(table, kind="stable")
@@ -270,9 +266,7 @@ def _compact_at_once(values: np.ndarray, flat: np.ndarray, background,
     where = int(np.searchsorted(table, background))
     has_background = where < table.size and table[where] == background
     present = np.delete(table, where) if has_background else table
-    if present.size > MAX_IDS:
-        raise VolumeDataError(f"{name} holds {present.size} distinct labels; at most {MAX_IDS} "
-                              "are drawn (their rows are read exactly from a float32 texture).")
+    _check_count(present.size, name)
     # rows: background 0, present ids 1.. in ascending order (the rank, past the background)
     row = np.arange(table.size) + 1
     if has_background:

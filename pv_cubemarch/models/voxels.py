@@ -16,7 +16,7 @@ import pyvista
 from ..core.errors import VolumeDataError
 from ..core.gl_limits import MAX_GRID_BYTES, MAX_TEXTURE_SIZE
 from .label_colors import check_by_id, colors_by_id, hashed_colors
-from .label_ids import LabelIds, label_rows
+from .label_ids import LabelIds, label_rows, sorted_unique
 from .transfer import unknown_cmap
 from .volume import box_world_bounds, check_spacing, checked_transform, first_point
 
@@ -26,15 +26,6 @@ MAX_MATERIALS = 65535
 #: Palette entries per row of the palette texture: 65536 entries in one row would be
 #: wider than GL's 2D limit (16384 on Mesa), which draws nothing without an error.
 PALETTE_WIDTH = 4096
-
-def sorted_unique(values: np.ndarray) -> np.ndarray:
-    """``np.unique`` of integer rows, without sorting what is already strictly ascending."""
-    values = np.asarray(values, dtype=np.int64).ravel()
-    if values.size < 2 or bool(np.all(values[1:] > values[:-1])):
-        return values
-    values = np.sort(values)
-    return values[np.concatenate([[True], values[1:] != values[:-1]])]
-
 
 def palette_texels(rgba: np.ndarray) -> np.ndarray:
     """A palette ``(n, 4)`` as the texture the shaders read, wrapped into rows.
@@ -179,7 +170,11 @@ class Palette:
             else:
                 own[rows, :3] = _material_color(color, rows[0] if rows.size == 1 else "these")
         if opacity is not None:
-            values = np.asarray(opacity, dtype=np.float64)
+            try:
+                values = np.asarray(opacity, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise ValueError(f"opacity must be a number in [0, 1] or one per label, got "
+                                 f"{opacity!r}.") from None
             if values.ndim > 1 or (values.ndim == 1 and values.size != rows.size) or \
                     not np.isfinite(values).all() or values.min() < 0 or values.max() > 1:
                 raise ValueError(f"opacity must be in [0, 1], one value or one per label, got "

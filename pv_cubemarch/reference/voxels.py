@@ -55,7 +55,7 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..models.lights import VolumeLight
-from .rays import ray_box_interval
+from .rays import clip_interval, ray_box_interval
 from .shading import blinn_phong
 from .voxel_edges import edge_coverage, label_edge_coverage
 
@@ -144,22 +144,6 @@ def _drawn(labels: np.ndarray, visible: np.ndarray | None) -> np.ndarray:
     table = table.copy()
     table[0] = False
     return table[labels]
-
-
-def _clipped(origins: np.ndarray, directions: np.ndarray, t0: np.ndarray, t1: np.ndarray,
-             planes) -> tuple[np.ndarray, np.ndarray]:
-    """``(t0, t1)`` narrowed to where every world plane keeps the rays (empty: t0 > t1)."""
-    t0, t1 = t0.copy(), t1.copy()
-    for origin, normal in planes or ():
-        normal = np.asarray(normal, dtype=np.float64)
-        start = (origins - np.asarray(origin, dtype=np.float64)) @ normal
-        rate = directions @ normal
-        with np.errstate(divide="ignore", invalid="ignore"):
-            crossing = -start / rate
-        t0 = np.where(rate > 0, np.maximum(t0, crossing), t0)
-        t1 = np.where(rate < 0, np.minimum(t1, crossing), t1)
-        t1 = np.where((rate == 0) & (start < 0), -np.inf, t1)
-    return t0, t1
 
 
 def _fraction_to_boundary(p: np.ndarray) -> np.ndarray:
@@ -257,7 +241,7 @@ def trace_voxels(
     o_idx, d_idx = _index_rays(origins, directions, world_from_index, labels.shape)
     t0, t1 = ray_box_interval(o_idx, d_idx, np.zeros(3), shape.astype(np.float64))
     box_t1 = t1
-    kept0, t1 = _clipped(origins, directions, t0, t1, clip_planes)
+    kept0, t1 = clip_interval(origins, directions, t0, t1, clip_planes)
     t_start = np.maximum(kept0, 0.0)
     if near is not None:
         _, _, forward = camera.basis()

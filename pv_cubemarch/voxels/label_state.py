@@ -13,7 +13,8 @@ import pyvista
 
 from ..core.rendering import needs_open_plotter
 from ..gl.textures import Texture
-from ..models.voxels import PALETTE_WIDTH, palette_texels, sorted_unique
+from ..models.label_ids import sorted_unique
+from ..models.voxels import PALETTE_WIDTH, palette_texels
 
 #: Texels between two changed entries of a palette row below which one upload spans both.
 RUN_GAP = 32
@@ -105,20 +106,6 @@ def _shown(labels) -> str:
     return str(values[:5])[:-1] + (", ...]" if len(values) > 5 else "]")
 
 
-def checked_opacities(opacity, count: int) -> np.ndarray:
-    """``opacity`` (one number or one per label) as floats in [0, 1], or an error naming it."""
-    try:
-        values = np.asarray(opacity, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"opacity must be a number in [0, 1] or one per label, got "
-                         f"{opacity!r}.") from None
-    if values.ndim > 1 or (values.ndim == 1 and values.size != count) or \
-            not np.isfinite(values).all() or values.min() < 0 or values.max() > 1:
-        raise ValueError(f"opacity must be in [0, 1], one value or one per label ({count} "
-                         f"here), got {opacity!r}.")
-    return values
-
-
 class LabelState:
     """Per-label methods of a grid's binding, by label id (what the user's array holds).
 
@@ -176,7 +163,7 @@ class LabelState:
         """
         rows = self._rows(labels)
         rgb, alpha = label_colours(color, rows.size, labels)
-        opacity = alpha if opacity is None else checked_opacities(opacity, rows.size)
+        opacity = alpha if opacity is None else opacity   # checked by the palette
         self.model.palette.set_rows(rows, rgb, opacity)
         self.follow_palette_rows()
 
