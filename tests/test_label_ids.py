@@ -309,6 +309,52 @@ def test_clear_errors_for_ids():
     pl.close()
 
 
+@pytest.mark.parametrize("coherent", [True, False])
+@pytest.mark.parametrize("slab", [None, 97])
+@pytest.mark.parametrize("order", ["C", "F"])
+def test_compaction_matches_numpy_unique_on_every_path(monkeypatch, coherent, slab, order):
+    """Rows from runs (coherent cells) and from sorts (scattered ids), in one slab or many,
+    C or Fortran order, equal the ranks ``np.unique`` gives, past a non-zero background.
+
+    catches (seen failing): a run's row taken from the run before it (heads off by one).
+    """
+    from pv_cubemarch.models import label_ids
+
+    if slab is not None:   # many slabs, not a multiple of the runs' length
+        monkeypatch.setattr(label_ids, "SLAB_VOXELS", slab)
+    rng = np.random.default_rng(5)
+    ids = (2**40 + rng.choice(10**6, 60, replace=False)).astype(np.int64)
+    if coherent:            # runs of 1-9 equal ids along the fastest axis, as cells make
+        lengths = rng.integers(1, 10, 3000)
+        flat = np.repeat(rng.choice(ids, lengths.size), lengths)[:18 * 14 * 11]
+    else:
+        flat = rng.choice(ids, 18 * 14 * 11)
+    flat[rng.random(flat.size) < 0.2] = 2**40 + 10**7          # the background
+    values = np.asarray(flat.reshape((18, 14, 11), order=order), order=order)
+    rows, table = label_ids.compact_labels(values, background=2**40 + 10**7)
+    present, rank = np.unique(values, return_inverse=True)
+    background_rank = int(np.searchsorted(present, 2**40 + 10**7))
+    expected = rank.reshape(values.shape) + 1
+    expected[expected - 1 == background_rank] = 0
+    expected[expected - 1 > background_rank] -= 1
+    assert np.array_equal(rows, expected)
+    assert table.ids.tolist() == [v for v in present.tolist() if v != 2**40 + 10**7]
+
+
+def test_block_occupancy_of_any_block_size_by_direct_scan():
+    # catches (seen failing): a block's strided slices started at the wrong offset (a
+    # filled voxel missed)
+    from pv_cubemarch.models.voxel_levels import block_any
+
+    mask = np.random.default_rng(2).random((13, 10, 7)) < 0.02
+    for block in (1, 2, 3, 4, 8):
+        got = block_any(mask, block)
+        assert got.shape == tuple(-(-n // block) for n in mask.shape)
+        for index in np.ndindex(got.shape):
+            cell = mask[tuple(slice(i * block, (i + 1) * block) for i in index)]
+            assert got[index] == cell.any(), (block, index)
+
+
 def test_identity_grids_keep_their_rows():
     # labels 0..65535 with background 0 are their own rows (palettes by material number)
     rows, ids = label_rows(np.array([[[0, 3, 300]]], np.int64))

@@ -401,6 +401,31 @@ def test_the_panel_hides_voxel_materials(plotter_factory):
         view.close()
 
 
+def test_the_panel_shows_a_legend_of_label_ids_and_their_colours(plotter_factory):
+    # catches (seen failing): the legend's state not refreshed when the labels knob hides
+    # one (its entry still shown), colours read from palette rows other than the id's, and
+    # ids past 2^53 sent as numbers (a browser rounds them). Expected colours: the test's
+    # own hex values, given as the palette.
+    ids = np.array([7, 2**40 + 3, 2**60 + 1], np.uint64)
+    labels = np.zeros((6, 5, 4), np.uint64)
+    labels[1:3], labels[3:5], labels[5] = ids
+    colours = {int(ids[0]): "#ff0000", int(ids[1]): "#00ff80", int(ids[2]): "#102030"}
+    pl = plotter_factory(SIZE)
+    cm.add_voxels(pl, labels, palette=colours, name="cells")
+    view = cm.live_view(pl)
+    state = view.server.state
+    try:
+        legend = state["label_legend"]
+        assert [e["id"] for e in legend] == [7, 2**40 + 3, str(2**60 + 1)]
+        assert [e["color"] for e in legend] == list(colours.values())
+        assert not any(e["hidden"] for e in legend)
+        state["voxels__materials"] = [7, str(2**60 + 1)]
+        state.flush()
+        assert [e["hidden"] for e in state["label_legend"]] == [False, True, False]
+    finally:
+        view.close()
+
+
 def test_the_technique_select_offers_auto_as_a_technique():
     # catches: "auto" read as an unset option for every knob (the volume technique 'auto'
     # then refused by the panel)

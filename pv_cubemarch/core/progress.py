@@ -15,5 +15,7 @@ def progress(iterable: Iterable | None = None, *, desc: str, total: int | None =
     """
     if enabled is None and total is None and hasattr(iterable, "__len__") and not len(iterable):
         enabled = False
+    if enabled is False and iterable is not None:
+        return iterable   # no bar object at all (tqdm's first one makes a process lock)
     return tqdm(iterable, desc=desc, total=total, disable=None if enabled is None else not enabled,
                 leave=False, unit="item")

@@ -15,6 +15,7 @@ from .sub_upload import (
     sub_image_2d,
     sub_image_3d,
     sub_image_available,
+    x_fastest,
 )
 
 _VTK_TYPES = {np.dtype(np.float32): vtk.VTK_FLOAT, np.dtype(np.uint8): vtk.VTK_UNSIGNED_CHAR,
@@ -177,7 +178,7 @@ class Texture:
             ok = texture.Create2DFromRaw(shape[1], shape[0], ncomp, vtk_type, data)
         elif self.kind == "3d":
             # VTK wants (z, y, x) C order, i.e. x fastest: Fortran order of (x, y, z).
-            data = np.ascontiguousarray(np.moveaxis(self.array, (0, 1, 2), (2, 1, 0)))
+            data = x_fastest(self.array)
             ok = texture.Create3DFromRaw(shape[0], shape[1], shape[2], ncomp, vtk_type, data)
         else:
             buffer = self._buffer or vtkOpenGLVertexBufferObject()

