@@ -60,7 +60,6 @@ from .volume.pyvista_keywords import (
 from .volume.returned_property import ReturnedProperty
 from .volume.stand_in import stand_in_volume
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
-from .voxels.clipping import clip_count
 from .voxels.indexed_world import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
 from .voxels.per_chunk_world import build_world
@@ -943,10 +942,6 @@ def add_voxels(
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")
     if isinstance(model, VoxelWorld) or chunk_size is not None or not fits_one_texture(
             model.dimensions, model.labels.dtype):
-        if clip_count(options):
-            raise ValueError("clip_planes cut a grid drawn whole; this one is drawn in chunks "
-                             "(chunk_size=, a VoxelWorld, or over 2048 voxels a side or 512 "
-                             "MiB of labels), which takes none yet: crop the labels instead.")
         warn_translucent(model.palette, model.name, "a chunked world", model.ids)
         if proxy is None:   # chunks: no brick shells by default (bench voxel-world)
             options = dataclasses.replace(options, proxy="box")

@@ -32,6 +32,7 @@ from ..models.chunk_pool import (
 from ..models.voxel_levels import atlas_updates, bounds_in_cells, filled_bounds
 from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
+from .clipping import ClipPlaneSetting, bind_clip_planes
 from .label_state import LabelState
 from .options import VoxelOptions, drawn_level
 from .technique import bind_grid, voxel_recipe
@@ -80,7 +81,7 @@ def _layout(world: VoxelWorld, options: VoxelOptions, slots: int) -> PoolLayout 
     return pool_layout(world.chunk_size, inside, slots, world.dtype.itemsize)
 
 
-class IndexedWorldBinding(LabelState, WorldEditing, DrawnBinding):
+class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, DrawnBinding):
     """What ``actor.cubemarch`` holds for a world drawn by one traversal.
 
     Edits, brushes, ``pick`` and ``set_material`` take world voxel indices; an edit uploads
@@ -279,6 +280,17 @@ class IndexedWorldBinding(LabelState, WorldEditing, DrawnBinding):
             self.drawn_bounds = grown
             self._place_box()
 
+    def _recipe(self):
+        """The traversal's shaders for the options now (labels through the chunk index)."""
+        return voxel_recipe(self.options, None, (self.layout.slab_axis, self.layout.row_axis),
+                            chunk_shift=chunk_shift(self.model.chunk_size))
+
+    def follow_clip_planes(self, remake: bool) -> None:
+        """Remake the shaders for another number of planes (moved ones: a uniform)."""
+        if remake:
+            self.recipe = self._recipe()
+            self.bindings.install(self.recipe, self.drawn[0])
+
     def release_resources(self) -> None:
         """The bindings, and the chunk pool, chunk index and palette textures."""
         super().release_resources()
@@ -309,10 +321,8 @@ def build_indexed_world(plotter, world: VoxelWorld,
     bindings.add_texture("cm_chunkIndex", binding.index)
     bindings.add_texture("cm_palette", binding.palette_texture)
     bind_grid(bindings, renderer, world, options)
-    layout = binding.layout
-    recipe = voxel_recipe(options, None, (layout.slab_axis, layout.row_axis),
-                          chunk_shift=chunk_shift(world.chunk_size))
-    binding.recipe = recipe
-    bindings.install(recipe, actor)
+    bind_clip_planes(bindings, world, lambda: binding.options.world_planes)
+    binding.recipe = binding._recipe()
+    bindings.install(binding.recipe, actor)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding

@@ -35,6 +35,9 @@ class WorldOccluders:
         self.depth = FaceDepthPass(renderer, self.actor, self.used)
         #: Whether the world is shown (set by its binding): a hidden world runs no pass.
         self.shown = lambda: True
+        #: Whether clip planes cut the world (set by its binding): its faces may be cut
+        #: away, so rays do not end at them.
+        self.clipped = lambda: False
         self.faces = 0
         self.active = False
         self.rebuild()
@@ -74,8 +77,8 @@ class WorldOccluders:
         return 1.0 if self.active else 0.0
 
     def used(self) -> bool:
-        """Whether this frame's rays end at the faces: the world shown, faces to draw."""
-        self.active = bool(self.shown() and self.faces)
+        """Whether this frame's rays end at the faces (shown, not clipped, faces to draw)."""
+        self.active = bool(self.shown() and self.faces and not self.clipped())
         return self.active
 
     @property

@@ -19,6 +19,7 @@ and actor.
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pyvista
@@ -34,6 +35,7 @@ from ..models.voxel_shell import occupied_bricks
 from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
 from . import editing
+from .clipping import ClipPlaneSetting
 from .label_state import LabelState
 from .occluders import WorldOccluders
 from .options import VoxelOptions
@@ -41,7 +43,7 @@ from .technique import VoxelBinding, build_voxel_actor
 from .world_edits import WorldEditing
 
 
-class WorldBinding(LabelState, WorldEditing, Placement):
+class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
     """What ``actor.cubemarch`` holds for a world: the world, its chunks, their passes.
 
     Edits take world voxel indices, as a single grid's do (:class:`VoxelBinding`).
@@ -62,6 +64,8 @@ class WorldBinding(LabelState, WorldEditing, Placement):
                       if options.proxy == "bricks" else None)
         self.occluders = WorldOccluders(world, renderer)
         self.occluders.shown = lambda: bool(anchor.GetVisibility())
+        # a clip plane may cut the solid faces away: rays must not end at them then
+        self.occluders.clipped = lambda: bool(self.options.world_planes)
         self.occluders.depth.read_back = True
         self.occluders.depth.on_frame = self._hide_hidden_chunks
         self._blocks: dict = {}   # per chunk key, its filled blocks (index-space boxes)
@@ -90,6 +94,12 @@ class WorldBinding(LabelState, WorldEditing, Placement):
         if self.depth is not None:
             self.depth.release()
         self.occluders.release()
+
+    def follow_clip_planes(self, remake: bool) -> None:
+        """Every chunk cut by the world's planes (chunks made later take them too)."""
+        for chunk in self.chunks.values():
+            chunk.options = replace(chunk.options, clip_planes=self.options.clip_planes)
+            chunk.follow_clip_planes(remake)
 
     def _shells_used(self) -> bool:
         """Each shell decides for its chunk; the shared pass draws if any uses it."""

@@ -41,7 +41,7 @@ from ..models.voxel_shell import choose_shell
 from ..models.voxels import VoxelModel, palette_texels
 from ..reference.voxels import render_voxels, trace_voxels
 from . import editing
-from .clipping import bind_clip_planes, clip_count
+from .clipping import ClipPlaneSetting, bind_clip_planes, clip_count
 from .label_state import LabelState, upload_palette_rows
 from .layers import TranslucentLayers, opaque_palette, translucent_materials
 from .occluders import WorldOccluders
@@ -199,7 +199,7 @@ class VoxelPick:
             object.__setattr__(self, "label", self.material)
 
 
-class VoxelBinding(LabelState, DrawnBinding):
+class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
     """What ``actor.cubemarch`` holds for a material grid: model, textures, bindings."""
 
     technique = "voxels"
@@ -232,33 +232,13 @@ class VoxelBinding(LabelState, DrawnBinding):
         #: occluders), to remake the shaders when the clip planes' number changes.
         self.recipe_args: tuple = (None, (2, 0), False)
 
-    @needs_open_plotter
-    def set_clip_planes(self, clip_planes) -> None:
-        """Cut the grid by planes, or by none (``None``); shown at the next frame.
-
-        ``clip_planes``: six numbers a plane, a point then the normal to the side kept (as
-        ``add_voxels(clip_planes=)``). Moving planes changes a uniform; another number of
-        planes remakes the shaders.
-
-        Examples
-        --------
-        >>> actor.cubemarch.set_clip_planes([10, 0, 0, 1, 0, 0])      # doctest: +SKIP
-        """
-        try:
-            values = [] if clip_planes is None else np.asarray(clip_planes, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"clip_planes must be numbers, six a plane (a point, then the "
-                             f"normal to the side kept), or None; got {clip_planes!r}.") from None
-        planes = tuple(float(v) for v in np.ravel(values)) or None   # [] clears them too
-        options = replace(self.options, clip_planes=planes)
-        options.check()
-        remake = clip_count(options) != clip_count(self.options)
-        self.options = options
+    def follow_clip_planes(self, remake: bool) -> None:
+        """Remake the shaders (and the translucent layers') for another number of planes."""
         if remake:
-            self.recipe = voxel_recipe(options, *self.recipe_args)
-            self.bindings.install(self.recipe, self.actor)
+            self.recipe = voxel_recipe(self.options, *self.recipe_args)
+            self.bindings.install(self.recipe, self.drawn[0])   # a chunk's, not its world's
             if self.layers is not None:
-                self.layers.follow_clip_planes(options, self)
+                self.layers.follow_clip_planes(self.options, self)
 
     @property
     def blends_in_main_renderer(self) -> bool:

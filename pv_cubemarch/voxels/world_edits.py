@@ -119,7 +119,8 @@ class WorldEditing:
             chunk = self.model.chunk_model(key)
             hits = trace_voxels(chunk.labels, chunk.world_from_index(), camera,
                                 (width, height), near=camera.clipping_range[0],
-                                visible=self.model.palette.visible, crop=(int(x), int(y), 1, 1))
+                                visible=self.model.palette.visible, crop=(int(x), int(y), 1, 1),
+                                clip_planes=self.options.world_planes)
             if hits.material[0, 0] == 0:
                 continue
             depth = float(hits.depth[0, 0])
