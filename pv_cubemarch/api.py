@@ -646,6 +646,17 @@ def voxel_options(**given) -> VoxelOptions:
     return get_technique("voxels", "voxels").make_options(chosen)
 
 
+def _numpy_by_chunks(grid, chunk_size, colouring: dict) -> bool:
+    """Whether a numpy array of labels is read into a world chunk by chunk.
+
+    So when it exceeds one texture even at a byte a voxel, no colouring keyword asks for
+    the whole grid's values (which :func:`make_voxels` reads), and no chunk size is given.
+    """
+    return (isinstance(grid, np.ndarray) and grid.ndim == 3 and grid.dtype.kind in "iu"
+            and chunk_size is None and not fits_one_texture(grid.shape, np.uint8)
+            and all(value is None for value in colouring.values()))
+
+
 def _array_grid(source, chunk_size, background, palette, transform, name, colouring):
     """A chunked array source as a numpy array (it fits one texture) or a world by chunks."""
     shape = tuple(int(n) for n in source.shape)
@@ -856,7 +867,7 @@ def add_voxels(
         kept (1 to 6 planes, as ``add_volume(clip_planes=)``). Each ray is cut to the kept
         part: a voxel the cut crosses is drawn on the plane (its label's colour there, as a
         clipped solid shows its inside). ``actor.cubemarch.set_clip_planes`` moves them.
-        Grids drawn whole only (not in chunks).
+        Grids drawn whole and worlds drawn in chunks alike.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
     show_edges : bool
@@ -912,11 +923,12 @@ def add_voxels(
                             show_edges=show_edges, edge_color=edge_color,
                             line_width=line_width, edge_opacity=edge_opacity,
                             edge_mode=edge_mode, clip_planes=clip_planes)
-    if is_array_source(grid):   # zarr, dask, h5py, memmap: whole if it fits, else by chunks
-        grid = _array_grid(grid, chunk_size, background, palette, transform, name,
-                           dict(cmap=cmap, categories=categories or None, clim=clim,
-                                n_colors=n_colors, flip_scalars=flip_scalars or None,
-                                opacity=opacity))
+    colouring = dict(cmap=cmap, categories=categories or None, clim=clim, n_colors=n_colors,
+                     flip_scalars=flip_scalars or None, opacity=opacity)
+    if is_array_source(grid) or _numpy_by_chunks(grid, chunk_size, colouring):
+        # zarr, dask, h5py, memmap: whole if it fits, else by chunks (numpy arrays too
+        # large for one texture too: no compacted copy of the whole grid)
+        grid = _array_grid(grid, chunk_size, background, palette, transform, name, colouring)
         if isinstance(grid, VoxelWorld):   # its ids, palette and placement are in it now
             background, transform = 0, None
     if isinstance(grid, (VoxelModel, VoxelWorld)):
@@ -925,9 +937,8 @@ def add_voxels(
             raise ValueError("transform goes with raw data; a VoxelModel or VoxelWorld carries "
                              "its own (set model.transform, or actor.cubemarch.set_transform).")
         colouring = [key for key, value in dict(
-            cmap=cmap, categories=categories or None, clim=clim, n_colors=n_colors,
-            flip_scalars=flip_scalars or None, opacity=opacity,
-            background=None if background == 0 else background).items() if value is not None]
+            colouring, background=None if background == 0 else background).items()
+            if value is not None]
         if colouring:
             raise ValueError(f"{', '.join(colouring)}: these colour raw labels; a VoxelModel "
                              "or VoxelWorld carries its palette (make_voxels(..., palette=..., "

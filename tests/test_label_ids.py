@@ -535,6 +535,39 @@ def test_a_zarr_array_is_drawn_by_chunks_never_read_whole(tmp_path):
     pl.close()
 
 
+def test_a_numpy_grid_over_one_texture_goes_by_chunks_without_a_whole_copy(monkeypatch):
+    """A numpy array of coherent uint64 ids larger than one texture (the limit lowered) is
+    read into a world chunk by chunk, never compacted whole: drawn exact, picked by id.
+
+    catches (seen failing): a run's row looked up from the run before it's id, and the whole
+    grid compacted first (compact_labels called).
+    """
+    from pv_cubemarch import api
+    from pv_cubemarch.models import label_ids
+
+    monkeypatch.setattr(api, "fits_one_texture", lambda shape, dtype: False)
+    monkeypatch.setattr(api, "DEFAULT_CHUNK_SIZE", 8)
+    rng = np.random.default_rng(8)
+    ids = (2**40 + rng.choice(10**6, 90, replace=False)).astype(np.uint64)[::-1].copy()
+    lengths = rng.integers(1, 12, 2000)
+    labels = np.repeat(rng.choice(ids, lengths.size), lengths)[:24 * 20 * 16].reshape(SHAPE)
+    labels[rng.random(SHAPE) < 0.4] = 0
+
+    def refused(*args, **kwargs):
+        raise AssertionError("the whole grid compacted")
+
+    monkeypatch.setattr(label_ids, "compact_labels", refused)
+    pl = plotter()
+    actor = cm.add_voxels(pl, labels, mode="id")
+    assert actor.cubemarch.model.stored   # a world of chunks
+    camera = aim(pl)
+    wrong, hit, hits, seen = wrong_ids(pl, actor, labels, camera)
+    assert hit > 2000 and wrong == 0
+    y, x = np.argwhere(seen)[len(np.argwhere(seen)) // 2]
+    assert actor.cubemarch.pick(int(x), int(y)).label == int(hits.material[y, x])
+    pl.close()
+
+
 def test_the_live_view_says_how_many_ids_it_lists():
     # catches: the label knob silent about ids past the 64 listed
     from pv_cubemarch.views.session import TuningSession

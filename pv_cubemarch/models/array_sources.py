@@ -11,7 +11,15 @@ import numpy as np
 
 from ..core.errors import VolumeDataError
 from ..core.progress import progress
-from .label_ids import IDENTITY_MAX, MAX_IDS, LabelIds, _checked_background, distinct, row_type
+from .label_ids import (
+    IDENTITY_MAX,
+    MAX_IDS,
+    LabelIds,
+    _checked_background,
+    distinct,
+    distinct_in_runs,
+    row_type,
+)
 from .voxels import Palette
 from .world import VoxelWorld
 
@@ -62,7 +70,7 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
         background = _checked_background(background, dtype, name)
         found = []
         for _, box in progress(boxes, desc=f"{name}: finding ids", enabled=progress_bar):
-            values = distinct(_read(source, box, name).ravel())
+            values = distinct_in_runs(_read(source, box, name).ravel())[0]
             found.append(values[values != background])
         present = distinct(np.concatenate(found)) if found else np.zeros(0, dtype)
         if int(background) == 0 and (present.size == 0 or (
@@ -85,11 +93,10 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
                                       f"0..{IDENTITY_MAX} in {box}).")
             rows = block.astype(np.uint16 if block.size and block.max() > 255 else np.uint8)
         else:
-            rows, held = ids.lookup(block.ravel())
-            if not held.all():
+            rows, held = ids.block_rows(block, rows_type)
+            if not held:
                 raise VolumeDataError(f"{name} changed while it was read (an id in {box} "
                                       "was not there on the first pass).")
-            rows = rows.astype(rows_type).reshape(block.shape)
         world._keep(key, rows)
     if ids is not None:
         world.label_ids = ids

@@ -121,13 +121,32 @@ class LabelIds:
             return (values >= 0) & (values < self.n_rows)
         return self.lookup(values)[1]
 
-    def lookup(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Rows of integer ``values`` and whether each is held (background: row 0)."""
+    def _sorted_table(self) -> tuple[np.ndarray, np.ndarray]:
+        """Background and ids sorted, and the row of each (made once)."""
         if self._sorted is None:
             table = np.concatenate([np.array([self.background], self.dtype), self._ids])
             order = np.argsort(table, kind="stable")
             self._sorted = (table[order], order)
-        keys, order = self._sorted
+        return self._sorted
+
+    def block_rows(self, block: np.ndarray, dtype) -> tuple[np.ndarray, bool]:
+        """Rows (``dtype``) of a block of a compacted grid's ids, and whether all are held.
+
+        One search per run of equal ids, as compaction does.
+        """
+        keys, order = self._sorted_table()
+        flat = block.reshape(-1, order="A") if block.flags.forc else block.ravel()
+        heads = run_heads(flat)
+        values, fits = _fitted(flat[heads], keys.dtype)
+        at = np.clip(np.searchsorted(keys, values), 0, len(keys) - 1)
+        held = bool(fits.all() and (keys[at] == values).all())
+        rows = np.repeat(order[at].astype(dtype), np.diff(np.append(heads, flat.size)))
+        return rows.reshape(block.shape, order="F" if block.flags.f_contiguous
+                            and not block.flags.c_contiguous else "C"), held
+
+    def lookup(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rows of integer ``values`` and whether each is held (background: row 0)."""
+        keys, order = self._sorted_table()
         values, fits = _fitted(values, keys.dtype)
         at = np.clip(np.searchsorted(keys, values), 0, len(keys) - 1)
         return order[at].astype(np.int64), fits & (keys[at] == values)
@@ -232,11 +251,12 @@ def compact_labels(values: np.ndarray, background: int = 0,
     for start in progress(slabs, desc=f"{name}: finding ids", enabled=None
                           if flat.size > 4 * SLAB_VOXELS else False):
         part = flat[start:start + SLAB_VOXELS]
-        heads = run_heads(part)
-        if len(slabs) == 1 and values.dtype.itemsize >= 4 and 2 * heads.size > part.size:
+        if len(slabs) == 1 and values.dtype.itemsize >= 4 and 2 * run_heads(
+                part).size > part.size:
             # incoherent ids in one slab: one sort gives the ids and the rows together
             return _compact_at_once(values, flat, background, name)
-        found.append(distinct(part[heads] if 2 * heads.size <= part.size else part))
+        present, heads = distinct_in_runs(part)
+        found.append(present)
     present = distinct(np.concatenate(found)) if len(found) > 1 else found[0]
     present = present[present != background]
     _check_count(present.size, name)
@@ -253,6 +273,15 @@ def compact_labels(values: np.ndarray, background: int = 0,
         out[start:start + part.size] = _rows_of_slab(part, keys, order, dtype,
                                                      heads if len(slabs) == 1 else None)
     return rows, LabelIds(present, background, values.dtype)
+
+
+def distinct_in_runs(part: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The sorted distinct values of a flat array, and :func:`run_heads` of it.
+
+    Found among the runs' first values when runs are long (a segmentation's cells).
+    """
+    heads = run_heads(part)
+    return distinct(part[heads] if 2 * heads.size <= part.size else part), heads
 
 
 def run_heads(part: np.ndarray) -> np.ndarray:
