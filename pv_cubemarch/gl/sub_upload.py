@@ -13,6 +13,8 @@ from functools import cache
 
 import numpy as np
 
+from ..core.array_copy import copy_tiled
+
 GL_TEXTURE_3D = 0x806F
 GL_TEXTURE_2D = 0x0DE1
 GL_RED = 0x1903
@@ -164,18 +166,15 @@ def read_red_floats(width: int, height: int) -> np.ndarray | None:
     return out
 
 
-def x_fastest(array: np.ndarray, block: int = 16) -> np.ndarray:
+def x_fastest(array: np.ndarray) -> np.ndarray:
     """A 3D ``(x, y, z, ...)`` array in VTK's upload order, x fastest (``(z, y, x)`` C order).
 
-    No copy when it already is (Fortran-ordered grids, as PyVista's); otherwise copied in
-    tiles of ``block`` along z and x, which keeps both sides in cache (1.7x faster than
-    one strided copy for 256³ uint16).
+    No copy when it already is (Fortran-ordered grids, as PyVista's, and level atlases);
+    otherwise copied by cubes (:func:`~pv_cubemarch.core.array_copy.copy_tiled`).
     """
     moved = np.moveaxis(array, (0, 1, 2), (2, 1, 0))
     if moved.flags.c_contiguous:
         return moved
     out = np.empty(moved.shape, moved.dtype)
-    for z in range(0, moved.shape[0], block):
-        for x in range(0, moved.shape[2], block):
-            out[z:z + block, :, x:x + block] = moved[z:z + block, :, x:x + block]
+    copy_tiled(out, moved)
     return out
