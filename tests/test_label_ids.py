@@ -588,7 +588,8 @@ def test_a_chunked_world_of_more_than_65535_ids(traversal, mode):
     the reference, hidden by id, edited and picked.
 
     catches (seen failing): world edits narrowing 4-byte rows to uint16 (the type a label
-    above 255 widened a uint8 world to).
+    above 255 widened a uint8 world to); per chunk, a palette table per chunk (every
+    recolour sent to each: 115,000 ids' table times the chunks).
     """
     rng = np.random.default_rng(0)
     shape = (64, 64, 48)
@@ -620,4 +621,13 @@ def test_a_chunked_world_of_more_than_65535_ids(traversal, mode):
     assert wrong() == 0
     picked = world.pick(60, 50)
     assert picked.label == int(labels[picked.index])
+    if traversal == "per_chunk":   # one palette for every chunk, changed entries only
+        palette = world.palette_texture
+        before, size = palette.uploaded_bytes, palette.nbytes
+        world.set_label_color(ids[5], "red")
+        cm.render_image(pl)
+        assert palette.uploaded_bytes - before == 16
+        assert sum(c.palette_texture is palette for c in world.chunks.values()) == len(
+            world.chunks) > 10
+        assert world.nbytes < sum(c.labels.nbytes for c in world.chunks.values()) + 3 * size
     pl.close()

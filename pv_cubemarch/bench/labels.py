@@ -288,16 +288,33 @@ def threshold_mesh(scene: str, labels: np.ndarray, size, frames: int, reference)
         pl.close()
 
 
-def contour_mesh(scene: str, labels: np.ndarray, size, frames: int) -> LabelRow:
-    """PyVista's ``contour_labels`` (surface nets, smoothed as by default) + ``add_mesh``."""
+def contour_mesh(scene: str, labels: np.ndarray, size, frames: int,
+                 boundary_style: str = "all") -> LabelRow:
+    """PyVista's ``contour_labels`` (surface nets, smoothed as by default) + ``add_mesh``.
+
+    ``'all'``: every label a closed surface (what hiding or making a label translucent
+    needs); ``'external'`` (PyVista's default): only the surface facing the background.
+    Ids VTK cannot take (its labels are C ints) are renumbered 1..n first, in the timing:
+    the step a user of these ids must add.
+    """
     pl = _plotter(size)
+    count = int(len(np.unique(labels)) - 1)
+    row = f"contour_labels('{boundary_style}') + add_mesh"
     try:
         start = time.perf_counter()
+        info = np.iinfo(np.int32)
+        renumbered = labels.min() < info.min or labels.max() > info.max
+        if renumbered:
+            _, ranks = np.unique(labels, return_inverse=True)
+            grid_values = ranks.reshape(labels.shape).astype(np.int32)
+            del ranks
+        else:
+            grid_values = labels
         try:
-            surface = _image(labels).contour_labels(progress_bar=False)
+            surface = _image(grid_values).contour_labels(boundary_style,
+                                                         progress_bar=False)
         except (OverflowError, ValueError, TypeError, MemoryError) as error:
-            return LabelRow(scene, "contour_labels + add_mesh", int(len(np.unique(labels)) - 1),
-                            int(labels.size), None, None, None, None, None,
+            return LabelRow(scene, row, count, int(labels.size), None, None, None, None, None,
                             None, None, note=f"fails: {type(error).__name__}: "
                             f"{str(error)[:60]}")
         pl.add_mesh(surface, lighting=False, show_scalar_bar=False)
@@ -306,9 +323,10 @@ def contour_mesh(scene: str, labels: np.ndarray, size, frames: int) -> LabelRow:
         read_pixels(pl)
         setup = time.perf_counter() - start
         median, _ = _frames(pl, frames)
-        return LabelRow(scene, "contour_labels + add_mesh", int(len(np.unique(labels)) - 1),
-                        int(labels.size), setup, median, int(surface.actual_memory_size * 1024),
-                        None, None, None, None)
+        return LabelRow(scene, row, count, int(labels.size), setup, median,
+                        int(surface.actual_memory_size * 1024), None, None, None, None,
+                        note="ids renumbered 1..n (VTK takes int labels)" if renumbered
+                        else "")
     finally:
         pl.close()
 
@@ -338,7 +356,7 @@ def volume_cast(scene: str, labels: np.ndarray, size, frames: int) -> LabelRow:
 def run_labels(scenes: Sequence[str] = SCENES, size=(1000, 1000), n: int = 128,
                cells: int = 20000, million: int = 10**6, million_n: int = 128,
                stride: int = 2, frames: int = 3, reference: bool = True,
-               pyvista_rows: bool = True, contour_max_ids: int = 50000) -> list[LabelRow]:
+               pyvista_rows: bool = True) -> list[LabelRow]:
     """Every row of every scene, side by side in one run (module docstring)."""
     rows = []
     size = tuple(int(v) for v in size)
@@ -364,8 +382,8 @@ def run_labels(scenes: Sequence[str] = SCENES, size=(1000, 1000), n: int = 128,
                              row="ours, same cells as 255 ids"))
         if pyvista_rows:
             rows.append(threshold_mesh(scene, labels, size, frames, check))
-            if len(np.unique(labels)) - 1 <= contour_max_ids:
-                rows.append(contour_mesh(scene, labels, size, frames))
+            for style in ("all", "external"):
+                rows.append(contour_mesh(scene, labels, size, frames, style))
             rows.append(volume_cast(scene, labels, size, frames))
     return rows
 

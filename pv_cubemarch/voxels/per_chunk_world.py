@@ -31,12 +31,13 @@ from ..gl.box import camera_matrices
 from ..gl.face_depth import FaceDepthPass
 from ..gl.handle import DrawnBinding, Placement
 from ..gl.overlay import bounds_proxy
+from ..gl.textures import Texture
 from ..models.voxel_shell import occupied_bricks
 from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
 from . import editing
 from .clipping import ClipPlaneSetting
-from .label_state import LabelState
+from .label_state import LabelState, upload_palette_rows
 from .occluders import WorldOccluders
 from .options import VoxelOptions
 from .technique import VoxelBinding, build_voxel_actor
@@ -59,6 +60,11 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         renderer = plotter.renderer
         self.renderer = renderer
         self.chunks: dict[tuple[int, int, int], VoxelBinding] = {}
+        #: One palette for every chunk: a change sends its entries once, not per chunk.
+        world.palette.take_changes()
+        self.palette_texture = Texture(palette_texels(world.palette.rgba), kind="2d",
+                                       interpolate=False)
+        self._palette_seen = world.palette
         self._parts = vtk.vtkAssembly()
         self.depth = (FaceDepthPass(renderer, self._parts, self._shells_used)
                       if options.proxy == "bricks" else None)
@@ -94,6 +100,7 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         if self.depth is not None:
             self.depth.release()
         self.occluders.release()
+        self.palette_texture.release()
 
     def follow_clip_planes(self, remake: bool) -> None:
         """Every chunk cut by the world's planes (chunks made later take them too)."""
@@ -115,10 +122,15 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
             self.plotter.cubemarch.untrack(old)
         if key not in self.model.stored and key not in self.model.uniform:
             return
+        if self.model.palette is not self._palette_seen:   # a palette set on the model
+            self._palette_seen = self.model.palette
+            self.model.palette.take_changes()
+            self.palette_texture.set_data(palette_texels(self.model.palette.rgba))
         model = self.model.chunk_model(key)
         self.options.check_model(model)
         binding = build_voxel_actor(self.plotter, model, self.options, shared_depth=self.depth,
-                                    occluders=self.occluders)
+                                    occluders=self.occluders,
+                                    palette_texture=self.palette_texture)
         self.renderer.AddActor(binding.drawn[0])
         binding.main_renderer = self.renderer
         binding.actor = self.anchor   # the chunk follows its visibility, leaves with it
@@ -254,7 +266,8 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
     @property
     def nbytes(self) -> int:
         """GPU bytes of every chunk and the occluders, the shared depth pass counted once."""
-        total = sum(c.nbytes for c in self.chunks.values()) + self.occluders.nbytes
+        total = (sum(c.nbytes for c in self.chunks.values()) + self.occluders.nbytes
+                 + self.palette_texture.nbytes)
         shells = sum(1 for c in self.chunks.values() if c.shell is not None)
         return total - max(shells - 1, 0) * (self.depth.nbytes if self.depth else 0)
 
@@ -270,10 +283,11 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         self.follow_palette_rows()
 
     def follow_palette_rows(self) -> None:
-        """The palette goes to every chunk whole; the occluders follow what is shown."""
-        self.model.palette.take_changes()
-        for chunk in self.chunks.values():
-            chunk.palette_texture.set_data(palette_texels(self.model.palette.rgba))
+        """Changed entries go to the chunks' one palette; the occluders follow what is shown."""
+        rows = self.model.palette.take_changes()
+        if self.model.palette is not self._palette_seen:
+            self._palette_seen, rows = self.model.palette, None   # another palette: whole
+        upload_palette_rows(self.palette_texture, self.model.palette.rgba, rows)
         self.occluders.rebuild()   # which bricks are solid depends on what is shown
 
     def _write(self, box, values: np.ndarray) -> None:

@@ -213,6 +213,8 @@ class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
         super().__init__(model, bindings, recipe)
         self.labels = labels
         self.palette_texture = palette
+        #: Whether the palette texture is this grid's own (a world's chunks share one).
+        self.owns_palette = True
         self.options = options
         #: The distance field's texture, when used (the levels live in ``labels``).
         self.skipping: list[Texture] = []
@@ -256,7 +258,7 @@ class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
     @property
     def nbytes(self) -> int:
         """GPU bytes: labels (with levels), palette, distance field, shell and its pass."""
-        return (self.labels.nbytes + self.palette_texture.nbytes
+        return (self.labels.nbytes + (self.palette_texture.nbytes if self.owns_palette else 0)
                 + sum(t.nbytes for t in self.skipping)
                 + (self.shell.nbytes if self.shell is not None else 0)
                 + (self.layers.nbytes if self.layers is not None else 0))
@@ -420,16 +422,20 @@ class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
             self.layers.release()
             self.layers = None
         self.labels.release()
-        self.palette_texture.release()
+        if self.owns_palette:
+            self.palette_texture.release()
 
 
 def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
                       shared_depth: FaceDepthPass | None = None,
-                      occluders: WorldOccluders | None = None) -> VoxelBinding:
+                      occluders: WorldOccluders | None = None,
+                      palette_texture: Texture | None = None) -> VoxelBinding:
     """The opaque box actor of a material grid; returns its binding.
 
     ``shared_depth``: a brick-shell depth pass shared with other grids (a world's chunks);
-    ``occluders``: the solid faces of the world the grid is a chunk of, where rays end.
+    ``occluders``: the solid faces of the world the grid is a chunk of, where rays end;
+    ``palette_texture``: a palette shared with other grids (a world's chunks: one table of
+    every id, kept current by the world, not one per chunk).
     """
     renderer = plotter.renderer
     levels = occupancy_levels(model.labels, options.candidate_levels(model.dimensions))
@@ -462,7 +468,8 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     actor.ForceTranslucentOff()
     actor.ForceOpaqueOn()
     actor.GetProperty().LightingOff()   # VTK's lighting code would run for nothing
-    palette = Texture(palette_texels(model.palette.rgba), kind="2d", interpolate=False)
+    palette = palette_texture or Texture(palette_texels(model.palette.rgba), kind="2d",
+                                         interpolate=False)
     bindings = ShaderBindings(actor.GetMapper(), renderer)
     labels = bind_labels(bindings, model, options, levels)
     bindings.add_texture("cm_palette", palette)
@@ -494,7 +501,9 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     # id and face modes and level of detail draw them opaque: add_voxels warns).
     binding.composites = shared_depth is None and occluders is None and \
         options.mode == "color" and not (options.lod and options.mip_levels)
-    binding.follow_palette(whole=True)
+    binding.owns_palette = palette_texture is None
+    if binding.owns_palette:
+        binding.follow_palette(whole=True)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
 
