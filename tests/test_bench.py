@@ -375,6 +375,31 @@ def test_bench_labels_rows_exactness_and_change_bytes(tmp_path, capsys):
     assert all(r["changes"]["hide half"]["bytes"] <= r["changes"]["recolour all"]["bytes"]
                for r in ours)
     names = {r["row"] for r in rows}
-    assert {"threshold + add_mesh", "contour_labels + add_mesh",
-            "add_volume (fixed step 0.5)"} <= names
+    assert {"threshold + add_mesh", "contour_labels('all') + add_mesh",
+            "contour_labels('external') + add_mesh", "add_volume (fixed step 0.5)"} <= names
+    renumbered = [r for r in rows if r["row"].startswith("contour") and r["scene"] == "cells"]
+    assert all(r["setup_s"] > 0 and "renumbered" in r["note"] for r in renumbered)
     assert "recolour 1" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("traversal", ["index", "per_chunk"])
+def test_bench_labels_measures_worlds_of_chunks(traversal):
+    # Grids over one texture are drawn as worlds: the bench's row reads their chunks' bytes
+    # and checks their ids by rank colours (exact), recolouring one id sends one entry.
+    # catches: the row reading a single grid's labels from a world (AttributeError), and a
+    # world whose recolour sends its whole palette (bytes over 16)
+    from pv_cubemarch.bench import labels as bench_labels
+    from pv_cubemarch.reference.label_ids import trace_ids
+
+    labels = bench_labels.scene_labels("cells", 40, 400, 1)
+    size = (96, 80)
+
+    def check(camera, near):
+        return trace_ids(labels, np.eye(4), camera, size, near=near)
+
+    row = bench_labels.ours("cells", labels, size, 1, check, chunk_size=16,
+                            world_traversal=traversal)
+    assert row.wrong_id_pixels == 0 and row.covered_pixels > 1000
+    assert row.changes["recolour 1"]["bytes"] == 16 and row.labels_resent_bytes == 0
+    # 2-byte rows where chunks are stored, plus levels and, in the pool, its slots' spare room
+    assert 1.0 <= row.label_bytes_per_voxel <= 6.0

@@ -33,7 +33,7 @@ from ..models.voxel_levels import atlas_updates, bounds_in_cells, filled_bounds
 from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
 from .clipping import ClipPlaneSetting, bind_clip_planes
-from .label_state import LabelState
+from .label_state import LabelState, upload_palette_rows
 from .options import VoxelOptions, drawn_level
 from .technique import bind_grid, voxel_recipe
 from .world_edits import WorldEditing
@@ -104,7 +104,8 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, DrawnBindi
         self.drawn = [actor]
         self.pool = Texture(self._pool_texels(), kind="3d", interpolate=False,
                             rebuild=self._pool_texels)
-        self.index = Texture(self._index(), kind="3d", interpolate=False)
+        self._index_sent = self._index()
+        self.index = Texture(self._index_sent, kind="3d", interpolate=False)
         self.palette_texture = Texture(palette_texels(world.palette.rgba), kind="2d",
                                        interpolate=False)
         self._palette_seen = (world.palette, world.palette.version)
@@ -171,18 +172,29 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, DrawnBindi
         self._follow_palette()
 
     def follow_palette_rows(self) -> None:
-        """Per-label changes: the palette and the chunk index go up whole."""
-        self.model.palette.take_changes()
-        self._follow_palette()
+        """Per-label changes: the changed palette entries, and the index if it changed."""
+        self._follow_palette(self.model.palette.take_changes())
 
-    def _follow_palette(self) -> None:
-        """Upload the palette, and the index it hides chunks in, if either changed."""
+    def _follow_palette(self, rows: np.ndarray | None = None) -> None:
+        """Upload the palette (its ``rows``, or whole) and the index if either changed.
+
+        The index changes only where a chunk of one label was hidden or shown.
+        """
         palette = self.model.palette
         if palette is self._palette_seen[0] and palette.version == self._palette_seen[1]:
             return
+        if palette is not self._palette_seen[0]:
+            rows = None   # another palette: whole
         self._palette_seen = (palette, palette.version)
-        self.palette_texture.set_data(palette_texels(palette.rgba))
-        self.index.set_data(self._index())
+        upload_palette_rows(self.palette_texture, palette.rgba, rows)
+        self._send_index()
+
+    def _send_index(self) -> None:
+        """The chunk index for the slots and palette now, uploaded if it changed."""
+        index = self._index()
+        if not np.array_equal(index, self._index_sent):
+            self.index.set_data(index)
+            self._index_sent = index
 
     def _write(self, box, values: np.ndarray) -> None:
         """Labels into the world; the touched texels of stored slots, new slots, the index.
@@ -217,7 +229,7 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, DrawnBindi
                             lambda level, s=slot: self.layout.level_origin(s, level)):
                         self.pool.update_region(origin, block)
         if changed:
-            self.index.set_data(self._index())
+            self._send_index()
         self._follow_palette()   # a palette set on the model directly
         self._grow_box(box, values)
 
@@ -263,7 +275,7 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, DrawnBindi
         self.slots = {key: slot for slot, key in enumerate(sorted(self.model.stored))}
         self.capacity = layout.capacity if self.slots else 0
         self.pool.set_data(self._pool_texels())
-        self.index.set_data(self._index())
+        self._send_index()
 
     def _grow_box(self, box, values: np.ndarray) -> None:
         """Grow the drawn box to the filled voxels just written (it never shrinks)."""
