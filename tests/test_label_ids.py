@@ -589,7 +589,8 @@ def test_a_chunked_world_of_more_than_65535_ids(traversal, mode):
 
     catches (seen failing): world edits narrowing 4-byte rows to uint16 (the type a label
     above 255 widened a uint8 world to); per chunk, a palette table per chunk (every
-    recolour sent to each: 115,000 ids' table times the chunks).
+    recolour sent to each: 115,000 ids' table times the chunks), and a recolour scanning
+    the whole world for its solid bricks (4 s a change at 1024³).
     """
     rng = np.random.default_rng(0)
     shape = (64, 64, 48)
@@ -624,9 +625,13 @@ def test_a_chunked_world_of_more_than_65535_ids(traversal, mode):
     if traversal == "per_chunk":   # one palette for every chunk, changed entries only
         palette = world.palette_texture
         before, size = palette.uploaded_bytes, palette.nbytes
+        rebuilt = []
+        world.occluders.rebuild = lambda: rebuilt.append(1)   # a scan of the whole world
         world.set_label_color(ids[5], "red")
         cm.render_image(pl)
-        assert palette.uploaded_bytes - before == 16
+        assert palette.uploaded_bytes - before == 16 and not rebuilt   # a colour: no scan
+        world.hide_labels(ids[5])
+        assert rebuilt == [1]   # what is shown changed: the solid bricks again
         assert sum(c.palette_texture is palette for c in world.chunks.values()) == len(
             world.chunks) > 10
         assert world.nbytes < sum(c.labels.nbytes for c in world.chunks.values()) + 3 * size

@@ -7,6 +7,9 @@ once to write each chunk's rows into a :class:`~pv_cubemarch.models.world.VoxelW
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from ..core.errors import VolumeDataError
@@ -66,12 +69,22 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
     ids = None
     identity = dtype.kind == "b" or (dtype.kind == "u" and dtype.itemsize <= 2
                                      and int(background) == 0)
+    threads = ThreadPoolExecutor(min(len(boxes), os.cpu_count() or 1) or 1)
+    within = None
     if not identity:
         background = _checked_background(background, dtype, name)
-        found = []
-        for _, box in progress(boxes, desc=f"{name}: finding ids", enabled=progress_bar):
-            values = distinct_in_runs(_read(source, box, name).ravel())[0]
-            found.append(values[values != background])
+
+        def find(box):   # the box's distinct ids, background included
+            return distinct_in_runs(_read(source, box, name).ravel())[0]
+
+        try:
+            within = list(progress(threads.map(find, [box for _, box in boxes]),
+                                   desc=f"{name}: finding ids", total=len(boxes),
+                                   enabled=progress_bar))
+        except BaseException:
+            threads.shutdown(cancel_futures=True)
+            raise
+        found = [values[values != background] for values in within]
         present = distinct(np.concatenate(found)) if found else np.zeros(0, dtype)
         if int(background) == 0 and (present.size == 0 or (
                 present.min() >= 0 and present.max() <= IDENTITY_MAX)):
@@ -85,19 +98,29 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
     rows_type = str(row_type(ids.n_rows)) if ids else "uint8"   # fixed for compacted ids
     world = VoxelWorld(shape, size, Palette.make(None, 2), name=name, label_type=rows_type,
                        **placement)
-    for key, box in progress(boxes, desc=f"{name}: filling chunks", enabled=progress_bar):
+
+    def fill(number):   # one box's rows (the world files them in order)
+        box = boxes[number][1]
         block = _read(source, box, name)
         if ids is None:
             if block.size and (block.min() < 0 or block.max() > IDENTITY_MAX):
                 raise VolumeDataError(f"{name} changed while it was read (ids outside "
                                       f"0..{IDENTITY_MAX} in {box}).")
-            rows = block.astype(np.uint16 if block.size and block.max() > 255 else np.uint8)
-        else:
-            rows, held = ids.block_rows(block, rows_type)
-            if not held:
-                raise VolumeDataError(f"{name} changed while it was read (an id in {box} "
-                                      "was not there on the first pass).")
-        world._keep(key, rows)
+            return block.astype(np.uint16 if block.size and block.max() > 255 else np.uint8)
+        rows, held = ids.block_rows(block, rows_type, within[number])
+        within[number] = None
+        if not held:
+            raise VolumeDataError(f"{name} changed while it was read (an id in {box} was "
+                                  "not there on the first pass).")
+        return rows
+
+    try:
+        for (key, _), rows in zip(boxes, progress(
+                threads.map(fill, range(len(boxes))), desc=f"{name}: filling chunks",
+                total=len(boxes), enabled=progress_bar), strict=True):
+            world._keep(key, rows, copy=False)
+    finally:
+        threads.shutdown(cancel_futures=True)
     if ids is not None:
         world.label_ids = ids
         world.palette = Palette.make(palette, ids.n_rows, ids)

@@ -174,8 +174,10 @@ def level_atlas(labels: np.ndarray, grids: list[np.ndarray]) -> LevelAtlas:
                          f"needs a texture over {MAX_TEXTURE_SIZE} texels on a side; use "
                          "mip_levels=0 (or fewer levels), or a smaller grid.")
     slab, row, shape = layout
-    # x fastest, as GL takes it: the upload then copies nothing more
-    atlas = LevelAtlas(np.zeros(shape, labels.dtype, order="F"), slab, row,
+    # x fastest, and 4-byte rows as the float32 GL reads them (exact to 2^24): the upload
+    # then converts and copies nothing more
+    texels = np.float32 if labels.dtype.itemsize > 2 else labels.dtype
+    atlas = LevelAtlas(np.zeros(shape, texels, order="F"), slab, row,
                        tuple(level_shapes(labels.shape, len(grids))))
     copy_tiled(atlas.level(0), labels)
     for number, grid in enumerate(grids, start=1):

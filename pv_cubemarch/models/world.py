@@ -69,10 +69,11 @@ class VoxelWorld(PlacedGrid):
             world._keep(key, model.labels[tuple(slice(k * size, (k + 1) * size) for k in key)])
         return world
 
-    def _keep(self, key, labels: np.ndarray) -> None:
+    def _keep(self, key, labels: np.ndarray, copy: bool = True) -> None:
         """File chunk ``key``'s labels: nothing when all 0, one label when all one, else a copy.
 
         Labels above 255 turn the world's (and its stored chunks') type to uint16.
+        ``copy=False``: ``labels`` is the world's to keep (no copy when of its type).
         """
         low, high = int(labels.min()), int(labels.max())
         self.stored.pop(key, None)
@@ -86,7 +87,7 @@ class VoxelWorld(PlacedGrid):
         if low == high:
             self.uniform[key] = high
         else:
-            self.stored[key] = np.array(labels, dtype=self.label_type)
+            self.stored[key] = np.array(labels, dtype=self.label_type, copy=copy or None)
 
     @classmethod
     def from_chunks(cls, chunks: dict, chunk_size: int, palette=None,

@@ -65,6 +65,7 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         self.palette_texture = Texture(palette_texels(world.palette.rgba), kind="2d",
                                        interpolate=False)
         self._palette_seen = world.palette
+        self._shown_seen = world.palette.visible   # what the occluders were made for
         self._parts = vtk.vtkAssembly()
         self.depth = (FaceDepthPass(renderer, self._parts, self._shells_used)
                       if options.proxy == "bricks" else None)
@@ -288,7 +289,10 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         if self.model.palette is not self._palette_seen:
             self._palette_seen, rows = self.model.palette, None   # another palette: whole
         upload_palette_rows(self.palette_texture, self.model.palette.rgba, rows)
-        self.occluders.rebuild()   # which bricks are solid depends on what is shown
+        shown = self.model.palette.visible
+        if not np.array_equal(shown, self._shown_seen):   # not for a colour: a full scan
+            self._shown_seen = shown
+            self.occluders.rebuild()   # which bricks are solid depends on what is shown
 
     def _write(self, box, values: np.ndarray) -> None:
         """Labels into the world; chunks that changed kind get new actors, others edits."""
