@@ -6,10 +6,16 @@
   cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
   vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
   float cm_boxEntry = cm_inBox.x;
+  // Where a clip plane cuts the ray inside a translucent material, the cut is a face of it
+  // (a clipped closed surface shows its cut, as PyVista's threshold + clip + add_mesh).
+  bool cm_cutStart = false;
+  bool cm_cutEnd = false;
 #ifdef CM_CLIP_PLANES
   vec2 cm_box = cm_inBox;
   cm_inBox = cm_clipInterval(cm_origin, cm_direction, cm_inBox);   // the kept part
   float cm_nudge = 1e-4 / max(length(cm_direction), 1e-30);   // as voxel_fragment.glsl
+  cm_cutStart = cm_inBox.x > cm_box.x && cm_inBox.x >= cm_near;
+  cm_cutEnd = cm_inBox.y < cm_box.y;
   cm_inBox.x += cm_inBox.x > cm_box.x ? cm_nudge : 0.0;
   cm_inBox.y -= cm_inBox.y < cm_box.y ? cm_nudge : 0.0;
 #endif
@@ -53,6 +59,12 @@
   {
     discard;
   }
+  else if (cm_current > 0 && cm_cutStart)   // the cut face of a translucent material
+  {
+    cm_addLayer(cm_held, cm_current, -1, cm_originView + cm_directionView * cm_start,
+                cm_towardEye);
+    cm_first = cm_start;
+  }
   else if (cm_current > 0)
   {
     // Inside a translucent material (the near plane cuts it): its depth is the start's,
@@ -69,7 +81,18 @@
     float cm_t = min(cm_exits.x, min(cm_exits.y, cm_exits.z));
     if (cm_t > 1.0)
     {
-      break;   // the opaque depth or the box's exit comes first
+      // the opaque depth, the box's exit or a clip plane comes first: a plane's cut
+      // through a translucent material is its last face
+      if (cm_cutEnd && cm_current > 0 && cm_inBox.y <= cm_opaque)
+      {
+        if (cm_first < 0.0)
+        {
+          cm_first = cm_inBox.y;
+        }
+        cm_addLayer(cm_held, cm_current, -1, cm_originView + cm_directionView * cm_inBox.y,
+                    cm_towardEye);
+      }
+      break;
     }
     ivec3 cm_next = cm_voxel;
     cm_next[cm_axis] += 2 * cm_ahead[cm_axis] - 1;

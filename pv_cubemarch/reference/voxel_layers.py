@@ -15,6 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..core.camera import Camera
+from .rays import clip_interval
 from .shading import blinn_phong
 from .voxels import _check_labels, _index_rays, face_normals
 
@@ -24,12 +25,16 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
                         background: Sequence[float] = (0.0, 0.0, 0.0),
                         near: float | None = None, lights: Sequence = (),
                         shading: str = "unlit", ambient: float = 0.2,
-                        specular: float = 0.3, specular_power: float = 30.0) -> np.ndarray:
+                        specular: float = 0.3, specular_power: float = 30.0,
+                        clip_planes: Sequence | None = None) -> np.ndarray:
     """``(h, w, 3)`` image of a grid whose materials may be translucent.
 
     Arguments as :func:`~pv_cubemarch.reference.voxels.render_voxels`; a material's palette
     opacity between 0 and 1 makes it translucent, 1 opaque, 0 hidden. A face is lit (with
     ``shading``) by its normal toward the eye, as VTK lights both sides of a surface.
+    ``clip_planes``: world ``(origin, normal)`` planes keeping ``normal . (x - origin) >=
+    0``; faces outside the kept part are dropped and where a plane cuts a material its cut
+    is one more face of it (lit facing the eye), as a clipped closed surface shows it.
     """
     labels = _check_labels(labels)
     palette = np.asarray(palette, dtype=np.float64)
@@ -50,6 +55,18 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
     padded = np.where(alpha[padded] > 0.0, padded, 0)      # hidden materials are empty
     ts, materials, faces = [], [], []
     rows = np.arange(len(o))
+    kept = (np.full(len(o), -np.inf), np.full(len(o), np.inf))
+    if clip_planes:
+        kept = clip_interval(origins, directions, kept[0], kept[1], clip_planes)
+        for t, side in ((kept[0], 1.0), (kept[1], -1.0)):   # the cuts, where inside
+            cut = np.isfinite(t) & (t >= t_start) & (kept[1] > kept[0])
+            inside = o + (np.where(cut, t, 0.0) + side * 1e-9)[:, None] * d
+            voxel = np.floor(inside).astype(np.int64)
+            cut &= np.all((voxel >= 0) & (voxel < shape), axis=1)
+            material = np.where(cut, padded[tuple((np.clip(voxel, -1, shape) + 1).T)], 0)
+            ts.append(np.where(cut & (material > 0), t, np.inf))
+            materials.append(material)
+            faces.append(np.full(len(o), -1))
     for axis in range(3):
         moving = d[:, axis] != 0.0
         sign = np.sign(d[:, axis]).astype(np.int64)
@@ -58,7 +75,7 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (plane - o[:, axis]) / d[:, axis]
             # A crossing of a plane is one whose other coordinates fall inside the grid.
-            crossing = moving & (t >= t_start)
+            crossing = moving & (t >= t_start) & (t >= kept[0]) & (t <= kept[1])
             point = o + np.where(crossing, t, 0.0)[:, None] * d
             cell = np.floor(point[:, others]).astype(np.int64)
             crossing &= (cell >= 0).all(axis=1) & (cell < shape[others]).all(axis=1)
@@ -74,7 +91,7 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
             for material in (left, entered):   # the face left first, then the one entered
                 ts.append(np.where(changes & (material > 0), t, np.inf))
                 materials.append(material)
-                faces.append(face)
+                faces.append(np.broadcast_to(face, (len(o),)))
     ts, materials, faces = np.stack(ts, 1), np.stack(materials, 1), np.stack(faces, 1)
     order = np.argsort(ts, axis=1, kind="stable")
     ts, materials = np.take_along_axis(ts, order, 1), np.take_along_axis(materials, order, 1)
