@@ -530,9 +530,16 @@ def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str |
         traversal = "index" if why_not_indexed(world, options) is None else "per_chunk"
     if traversal == "index":
         binding = build_indexed_world(plotter, world, options)
+        if not binding.composites:
+            warn_translucent(world.palette, world.name, f"mode={options.mode!r}"
+                             if options.mode != "color" else "level of detail (lod)",
+                             world.ids)
         actor = _place(plotter, binding, name or _unused_name(plotter, world.name))
         plotter.cubemarch.track(binding)
     else:
+        warn_translucent(world.palette, world.name, "a world drawn per chunk (chunk sizes "
+                         "that are no power of two, distance fields, brick shells, or "
+                         "chunks over one texture)", world.ids)
         if options.mode == "id":
             reason = why_not_indexed(world, options)
             raise ValueError("mode='id' writes a voxel's index within its grid; a world "
@@ -953,7 +960,6 @@ def add_voxels(
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")
     if isinstance(model, VoxelWorld) or chunk_size is not None or not fits_one_texture(
             model.dimensions, model.labels.dtype):
-        warn_translucent(model.palette, model.name, "a chunked world", model.ids)
         if proxy is None:   # chunks: no brick shells by default (bench voxel-world)
             options = dataclasses.replace(options, proxy="box")
         if not isinstance(model, VoxelWorld):

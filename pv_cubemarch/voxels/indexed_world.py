@@ -34,6 +34,7 @@ from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
 from .clipping import ClipPlaneSetting, bind_clip_planes
 from .label_state import LabelState, upload_palette_rows
+from .layers import LayerHost, TranslucentLayers
 from .options import VoxelOptions, drawn_level
 from .technique import bind_grid, voxel_recipe
 from .world_edits import WorldEditing
@@ -81,7 +82,8 @@ def _layout(world: VoxelWorld, options: VoxelOptions, slots: int) -> PoolLayout 
     return pool_layout(world.chunk_size, inside, slots, world.dtype.itemsize)
 
 
-class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, DrawnBinding):
+class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, LayerHost,
+                          DrawnBinding):
     """What ``actor.cubemarch`` holds for a world drawn by one traversal.
 
     Edits, brushes, ``pick`` and ``set_material`` take world voxel indices; an edit uploads
@@ -109,6 +111,9 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, DrawnBindi
         self.palette_texture = Texture(palette_texels(world.palette.rgba), kind="2d",
                                        interpolate=False)
         self._palette_seen = (world.palette, world.palette.version)
+        #: Translucent labels composited by a layer actor through the same chunk index
+        #: (colour mode, no level of detail); else drawn opaque, as warned.
+        self.composites = options.mode == "color" and not options.lod
         self.drawn_bounds = bounds_in_cells(world_filled_bounds(world), drawn_level(options),
                                             world.dimensions)
         self._place_box()
@@ -121,7 +126,8 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, DrawnBindi
     @property
     def nbytes(self) -> int:
         """GPU bytes: the pool of stored chunks, the chunk index and the palette."""
-        return self.pool.nbytes + self.index.nbytes + self.palette_texture.nbytes
+        return (self.pool.nbytes + self.index.nbytes + self.palette_texture.nbytes
+                + (self.layers.nbytes if self.layers is not None else 0))
 
     @property
     def uploaded_bytes(self) -> int:
@@ -186,7 +192,8 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, DrawnBindi
         if palette is not self._palette_seen[0]:
             rows = None   # another palette: whole
         self._palette_seen = (palette, palette.version)
-        upload_palette_rows(self.palette_texture, palette.rgba, rows)
+        upload_palette_rows(self.palette_texture, self.opaque_entries(palette.rgba), rows)
+        self.follow_layers(palette.rgba, rows)
         self._send_index()
 
     def _send_index(self) -> None:
@@ -303,9 +310,36 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, DrawnBindi
             self.recipe = self._recipe()
             self.bindings.install(self.recipe, self.drawn[0])
 
+    @property
+    def labels(self) -> Texture:
+        """The texture the traversal reads labels from: the chunk pool."""
+        return self.pool
+
+    @property
+    def level_axes(self) -> tuple[int, int]:
+        """The pool's slab and row axes (where each slot's levels sit)."""
+        return (self.layout.slab_axis, self.layout.row_axis)
+
+    def make_layers(self) -> TranslucentLayers:
+        """The layer actor: the layers' traversal through the same pool and chunk index."""
+        return TranslucentLayers(self, self.renderer, bind_grid, chunk_index=self.index,
+                                 chunk_shift=chunk_shift(self.model.chunk_size))
+
+    def place(self, transform) -> None:
+        """The box and the translucent layers follow the world."""
+        super().place(transform)
+        if self.layers is not None:
+            self.layers.place(self.model.world_from_index())
+
+    def follow_anchor(self) -> None:
+        """At each frame: the box and the layers follow the returned actor."""
+        super().follow_anchor()
+        self.follow_layers_anchor(self.model.world_from_index())
+
     def release_resources(self) -> None:
         """The bindings, and the chunk pool, chunk index and palette textures."""
         super().release_resources()
+        self.release_layers()
         for texture in (self.pool, self.index, self.palette_texture):
             texture.release()
 
@@ -336,5 +370,7 @@ def build_indexed_world(plotter, world: VoxelWorld,
     bind_clip_planes(bindings, world, lambda: binding.options.world_planes)
     binding.recipe = binding._recipe()
     bindings.install(binding.recipe, actor)
+    binding._palette_seen = (None, -1)   # translucent labels: the opaque palette, layers
+    binding._follow_palette()
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding

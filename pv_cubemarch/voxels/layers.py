@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..gl.bindings import ShaderBindings
-from ..gl.box import box_actor, place_box
+from ..gl.box import box_actor, faces_for_peeling, place_box
 from ..gl.frame_inputs import frame_inputs
 from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
@@ -38,26 +38,38 @@ def opaque_palette(rgba: np.ndarray) -> np.ndarray:
     return out
 
 
-def layers_recipe(options, level_axes: tuple[int, int]) -> ShaderRecipe:
-    """The layer actor's replacements: the grid's declarations, lights, and the layers."""
+def layers_recipe(options, level_axes: tuple[int, int],
+                  chunk_shift: int | None = None) -> ShaderRecipe:
+    """The layer actor's replacements: the grid's declarations, lights, and the layers.
+
+    ``chunk_shift``: a world drawn by one traversal, its labels read through its chunk
+    index (chunks of ``2^chunk_shift`` voxels).
+    """
     lit = options.shading != "unlit"
     return box_recipe(
         ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
          *(("clip_planes",) if clip_count(options) else ()),
+         *(("voxel_chunk_index",) if chunk_shift else ()),
          *(("blinn_phong", "voxel_shading") if lit else ()), "voxel_layer_declarations"),
         "voxel_layers",
         defines={"CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn",
-                 "CM_CLIP_PLANES": clip_count(options),
+                 "CM_CLIP_PLANES": clip_count(options), "CM_CHUNK_INDEX": chunk_shift,
                  "CM_MIP_LEVELS": options.mip_levels or None,
                  "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
                  "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None})
 
 
 class TranslucentLayers:
-    """The layer actor of one grid: its bindings, the full palette, the frame's depth."""
+    """The layer actor of one grid (or world): bindings, full palette, the frame's depth.
 
-    def __init__(self, binding, renderer, bind_grid):
+    ``chunk_index``: a world drawn by one traversal, whose labels (``binding.labels``, its
+    pool) are read through this index of chunks of ``2^chunk_shift`` voxels.
+    """
+
+    def __init__(self, binding, renderer, bind_grid, chunk_index: Texture | None = None,
+                 chunk_shift: int | None = None):
         model, options = binding.model, binding.options
+        self.chunk_shift = chunk_shift
         self.actor = box_actor(list(model.dimensions), model.world_from_index(),
                                margin=0.01 * max(model.dimensions))
         self.actor.GetProperty().LightingOff()
@@ -67,12 +79,14 @@ class TranslucentLayers:
                                interpolate=False)
         bindings = ShaderBindings(self.actor.GetMapper(), renderer)
         bindings.add_texture("cm_labels", binding.labels)   # the opaque actor's, shared
+        if chunk_index is not None:
+            bindings.add_texture("cm_chunkIndex", chunk_index)
         bindings.add_texture("cm_palette", self.palette, owned=True)
         bindings.add_texture("cm_sceneDepth", frame_inputs(renderer).depth)
         bind_grid(bindings, renderer, model, replace(options, show_edges=False, lod=False,
                                                      ambient_occlusion=False))
         bind_clip_planes(bindings, model, lambda: binding.options.world_planes)
-        recipe = layers_recipe(options, binding.level_axes)
+        recipe = layers_recipe(options, binding.level_axes, chunk_shift)
         bindings.install(recipe, self.actor)
         self.bindings = bindings
         renderer.AddActor(self.actor)
@@ -88,7 +102,8 @@ class TranslucentLayers:
 
     def follow_clip_planes(self, options, binding) -> None:
         """The grid's clip planes changed in number: the layers' shaders are remade."""
-        self.bindings.install(layers_recipe(options, binding.level_axes), self.actor)
+        self.bindings.install(layers_recipe(options, binding.level_axes, self.chunk_shift),
+                              self.actor)
         bind_clip_planes(self.bindings, binding.model, lambda: binding.options.world_planes)
 
     def place(self, world_from_index: np.ndarray) -> None:
@@ -99,3 +114,69 @@ class TranslucentLayers:
         """Leave the renderer and free the palette and observers."""
         self.renderer.RemoveActor(self.actor)
         self.bindings.release()
+
+
+class LayerHost:
+    """Translucent labels of a binding that draws them (a grid, or a world of one traversal).
+
+    Its opaque actor reads the palette with them hidden, and a layer actor
+    (:class:`TranslucentLayers`) exists while one is translucent. ``composites``: whether
+    it draws them so (else they are drawn opaque, as warned).
+    """
+
+    layers: TranslucentLayers | None = None
+    composites = False
+
+    def make_layers(self) -> TranslucentLayers:
+        """The layer actor for this binding."""
+        raise NotImplementedError
+
+    def opaque_entries(self, rgba: np.ndarray) -> np.ndarray:
+        """The palette the opaque actor reads (translucent labels hidden where composited)."""
+        return opaque_palette(rgba) if self.composites else rgba
+
+    def follow_layers(self, rgba: np.ndarray, rows: np.ndarray | None) -> bool:
+        """Make, update or drop the layer actor for the palette ``rgba``; True if made now.
+
+        ``rows``: the entries that changed (``None``: all).
+        """
+        if not self.composites:
+            return False
+        wanted = translucent_materials(rgba).size > 0
+        if wanted and self.layers is None:
+            self.layers = self.make_layers()
+            self.layers.actor.SetVisibility(self.shown)
+            return True
+        if self.layers is not None and not wanted:
+            self.release_layers()
+        elif self.layers is not None:
+            self.layers.set_palette(rgba, rows)
+        return False
+
+    @property
+    def blends_in_main_renderer(self) -> bool:
+        """Whether its translucent layers draw in the renderer's translucent pass.
+
+        VTK's order-independent translucency, which moves the viewport, stays off there.
+        """
+        return self.layers is not None
+
+    def follow_layers_anchor(self, world_from_index: np.ndarray) -> None:
+        """At each frame: the layers follow the returned actor's visibility.
+
+        Under VTK's depth peeling they lose their faces in front of opaque voxels (its
+        peels test the box's depth, not the layers'): said once.
+        """
+        if self.layers is None:
+            return
+        self.layers.actor.SetVisibility(self.shown)
+        if faces_for_peeling(self.layers.actor, self.renderer, world_from_index) == "back":
+            self.say_depth_peeling("the translucent materials' faces in front of opaque "
+                                   "voxels, while the camera or the near plane is inside "
+                                   "the grid's box")
+
+    def release_layers(self) -> None:
+        """Drop the layer actor, if any."""
+        if self.layers is not None:
+            self.layers.release()
+            self.layers = None

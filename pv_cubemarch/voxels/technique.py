@@ -21,7 +21,7 @@ from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..core.registry import Technique, register_technique
 from ..core.rendering import needs_open_plotter
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, box_actor, camera_matrices, faces_for_peeling
+from ..gl.box import bind_camera, box_actor, camera_matrices
 from ..gl.face_depth import FaceDepthPass
 from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
@@ -43,7 +43,7 @@ from ..reference.voxels import render_voxels, trace_voxels
 from . import editing
 from .clipping import ClipPlaneSetting, bind_clip_planes, clip_count
 from .label_state import LabelState, upload_palette_rows
-from .layers import TranslucentLayers, opaque_palette, translucent_materials
+from .layers import LayerHost, TranslucentLayers
 from .occluders import WorldOccluders
 from .options import VoxelOptions, drawn_level
 from .proxy import ShellStart
@@ -199,7 +199,7 @@ class VoxelPick:
             object.__setattr__(self, "label", self.material)
 
 
-class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
+class VoxelBinding(LabelState, ClipPlaneSetting, LayerHost, DrawnBinding):
     """What ``actor.cubemarch`` holds for a material grid: model, textures, bindings."""
 
     technique = "voxels"
@@ -226,10 +226,6 @@ class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
         self.drawn_bounds: tuple[np.ndarray, np.ndarray] | None = None
         #: Whether that box follows the filled voxels (edits grow it), or is the grid's.
         self.box_follows_voxels = False
-        #: The translucent materials' actor while some are drawn (single grids, colour).
-        self.layers: TranslucentLayers | None = None
-        #: Whether this grid may draw translucent materials (a world's chunk may not).
-        self.composites = False
         #: What :func:`voxel_recipe` takes besides the options (shell level, level axes,
         #: occluders), to remake the shaders when the clip planes' number changes.
         self.recipe_args: tuple = (None, (2, 0), False)
@@ -241,14 +237,6 @@ class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
             self.bindings.install(self.recipe, self.drawn[0])   # a chunk's, not its world's
             if self.layers is not None:
                 self.layers.follow_clip_planes(self.options, self)
-
-    @property
-    def blends_in_main_renderer(self) -> bool:
-        """Whether its translucent layers draw in the renderer's translucent pass.
-
-        VTK's order-independent translucency, which moves the viewport, stays off there.
-        """
-        return self.layers is not None
 
     @property
     def palette(self):
@@ -299,14 +287,8 @@ class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
         rows = self.model.palette.take_changes()
         rows = None if whole else rows
         rgba = self.model.palette.rgba
-        if not self.composites:
-            upload_palette_rows(self.palette_texture, rgba, rows)
-            return
-        upload_palette_rows(self.palette_texture, opaque_palette(rgba), rows)
-        wanted = translucent_materials(rgba).size > 0
-        if wanted and self.layers is None:
-            self.layers = TranslucentLayers(self, self.renderer, bind_grid)
-            self.layers.actor.SetVisibility(self.shown)
+        upload_palette_rows(self.palette_texture, self.opaque_entries(rgba), rows)
+        if self.follow_layers(rgba, rows):
             extras = [name for name in ("show_edges", "ambient_occlusion")
                       if getattr(self.options, name)]
             if extras:
@@ -314,11 +296,10 @@ class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
                               f"{'is' if len(extras) == 1 else 'are'} drawn on the opaque "
                               "materials only; the translucent ones are plain faces.",
                               stacklevel=3)
-        elif self.layers is not None and not wanted:
-            self.layers.release()
-            self.layers = None
-        elif self.layers is not None:
-            self.layers.set_palette(rgba, rows)
+
+    def make_layers(self) -> TranslucentLayers:
+        """The layer actor of this grid (:class:`LayerHost`)."""
+        return TranslucentLayers(self, self.renderer, bind_grid)
 
     def follow_anchor(self) -> None:
         """At each frame: the drawn actors and the layers follow the returned actor.
@@ -327,14 +308,7 @@ class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
         (its peels test the box's depth, not the layers'): said once.
         """
         super().follow_anchor()
-        if self.layers is None:
-            return
-        self.layers.actor.SetVisibility(self.shown)
-        if faces_for_peeling(self.layers.actor, self.renderer,
-                             self.model.world_from_index()) == "back":
-            self.say_depth_peeling("the translucent materials' faces in front of opaque "
-                                   "voxels, while the camera or the near plane is inside "
-                                   "the grid's box")
+        self.follow_layers_anchor(self.model.world_from_index())
 
     def place(self, transform) -> None:
         """The box, the brick shell and the translucent layers follow the grid."""
@@ -418,9 +392,7 @@ class VoxelBinding(LabelState, ClipPlaneSetting, DrawnBinding):
         for actor in self.drawn:   # a world's chunk: its actor stands behind the world's
             if actor is not self.actor and self.renderer is not None:
                 self.renderer.RemoveActor(actor)
-        if self.layers is not None:
-            self.layers.release()
-            self.layers = None
+        self.release_layers()
         self.labels.release()
         if self.owns_palette:
             self.palette_texture.release()
