@@ -7,6 +7,8 @@ from colours the test itself picks per id; never from the renderer's tables.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -494,10 +496,14 @@ class CountingSource:
 
     def __init__(self, array):
         self.array, self.shape, self.dtype, self.reads = array, array.shape, array.dtype, []
+        self.threads = set()
 
     def __getitem__(self, box):
+        import threading
+
         block = self.array[box]
         self.reads.append(block.size)
+        self.threads.add(threading.get_ident())
         return block
 
 
@@ -520,6 +526,9 @@ def test_a_zarr_array_is_drawn_by_chunks_never_read_whole(tmp_path):
     pl = plotter()
     actor = cm.add_voxels(pl, source, chunk_size=16, mode="id")
     assert max(source.reads) <= 16**3 and len(source.reads) == 2 * 3 * 3 * 2
+    assert len(source.threads) == 1   # a reader not known to be thread-safe: one thread
+    from pv_cubemarch.models.array_sources import reader_threads
+    assert reader_threads(source.array, 4) == min(4, os.cpu_count() or 1)   # zarr: several
     camera = aim(pl, (80.0, 70.0, 60.0), (24.0, 20.0, 16.0))
     wrong, hit, hits, seen = wrong_ids(pl, actor, labels, camera)
     assert hit > 2000 and wrong == 0

@@ -129,18 +129,23 @@ def _placed(plane, transform) -> tuple:
     return (*point[:3], *normal)
 
 
-def test_clipped_translucent_materials_draw_what_clipped_peeled_meshes_draw():
+@pytest.mark.parametrize("side", [-1.0, 1.0])
+def test_clipped_translucent_materials_draw_what_clipped_peeled_meshes_draw(side):
     """Against PyVista: ``threshold`` + ``clip`` per material (cut cells keep their cut
-    faces), depth-peeled, unlit; the uncut grid scores far lower.
+    faces), depth-peeled, unlit, a plane on voxel faces between two translucent labels,
+    seen from the side it keeps (x >= 6: the kept part ends at the plane) or cut away (x <=
+    6: it starts there); the uncut grid scores far lower.
 
-    catches (seen failing): the cut of a translucent material left open (no cap).
+    catches (seen failing): the cut of a translucent material left open (no cap), and the
+    ray's end reaching past a plane on voxel faces (the label beyond it drawn, twice).
     """
     labels = nested_labels()
+    labels[2:6, 2:8, 2:6] = 3   # the block's x < 6 half another translucent label
     grid = pv.ImageData(dimensions=np.array(labels.shape) + 1)
     grid.cell_data["labels"] = labels.ravel(order="F")
     colours = {1: ("tomato", 0.4), 2: ("steelblue", 1.0), 3: ("gold", 0.25)}
     position = [(30.0, 25.0, 20.0), (6.0, 5.0, 4.0), (0.0, 0.0, 1.0)]
-    plane = (6.0, 0.0, 0.0, -1.0, 0.0, 0.0)   # on voxel faces: x <= 6 kept
+    plane = (6.0, 0.0, 0.0, side, 0.0, 0.0)   # on voxel faces: side * (x - 6) >= 0 kept
 
     def shot(add):
         pl = pv.Plotter(off_screen=True, window_size=SIZE)
@@ -156,8 +161,9 @@ def test_clipped_translucent_materials_draw_what_clipped_peeled_meshes_draw():
         pl.enable_depth_peeling(number_of_peels=50, occlusion_ratio=0.0)
         for label, (colour, opacity) in colours.items():
             part = grid.threshold([label, label], scalars="labels").clip(
-                normal=(1, 0, 0), origin=(6, 0, 0), invert=True)
-            pl.add_mesh(part, color=colour, opacity=opacity, lighting=False)
+                normal=(-side, 0, 0), origin=(6, 0, 0), invert=True)
+            if part.n_cells:   # a label may lie wholly on the side cut away
+                pl.add_mesh(part, color=colour, opacity=opacity, lighting=False)
 
     reference = shot(theirs)
     ours = shot(lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=PALETTE,
@@ -249,7 +255,8 @@ def test_a_world_drawn_by_one_traversal_composites_translucent_labels(plotter_fa
 
     catches (seen failing): the layers' traversal not reading through the chunk index
     (labels read from the pool as a grid: nothing right), the opaque actor reading the
-    full palette (translucent labels drawn opaque under the layers), and no layers at all.
+    full palette (translucent labels drawn opaque under the layers), and the layers'
+    shaders not remade when set_clip_planes changes the number of planes.
     """
     labels = world_labels()
     pl = plotter_factory(SIZE)
@@ -278,6 +285,12 @@ def test_a_world_drawn_by_one_traversal_composites_translucent_labels(plotter_fa
 
     assert close_to_reference() >= 0.995
     world.set_material(3, color="cyan", opacity=0.6)
+    assert close_to_reference() >= 0.995
+    other = [(6.2, 5.0, 4.0, 0.8, 0.5, 0.3)] if planes is None else None   # added, removed
+    world.set_clip_planes(None if other is None else np.ravel(
+        [_placed(p, transform) for p in other]))
+    cut = None if other is None else [(q[:3], q[3:]) for q in (
+        _placed(p, transform) for p in other)]
     assert close_to_reference() >= 0.995
 
 

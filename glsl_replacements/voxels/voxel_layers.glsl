@@ -28,6 +28,10 @@
   // on an opaque voxel) is found by the traversal, which ends there (leaving the grid, an
   // opaque material), not lost to rounding.
   float cm_end = min(cm_inBox.y, cm_opaque) * (1.0 + 1e-4);
+  if (cm_cutEnd && cm_inBox.y <= cm_opaque)
+  {
+    cm_end = cm_inBox.y;   // a plane ends it: no face past the plane (its cut is the last)
+  }
   if (!(cm_end > cm_start))
   {
     discard;

@@ -49,6 +49,18 @@ def _read(source, box, name: str) -> np.ndarray:
     return block.astype(np.uint8) if block.dtype.kind == "b" else block
 
 
+#: Sources read on several threads at once: numpy arrays and memory maps, zarr and dask
+#: arrays (thread-safe reads); any other (h5py, netCDF, a reader of the user's) on one.
+THREADED_SOURCES = ("numpy", "zarr", "dask")
+
+
+def reader_threads(source, boxes: int) -> int:
+    """How many threads read ``source``'s ``boxes`` at once (one where unsafe)."""
+    module = type(source).__module__.split(".")[0]
+    safe = isinstance(source, np.ndarray) or module in THREADED_SOURCES
+    return max(1, min(boxes, os.cpu_count() or 1)) if safe else 1
+
+
 def world_from_array(source, chunk_size: int = 128, background: int = 0, palette=None,
                      name: str = "voxels", progress_bar: bool | None = None,
                      **placement) -> VoxelWorld:
@@ -57,9 +69,21 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
     ``source``: a zarr array, a dask array, an h5py dataset, a ``numpy.memmap`` or any
     object with ``shape`` (x, y, z), an integer ``dtype`` and slicing. Non-negative ids up
     to 65535 with background 0 are their own rows (one read); other ids are compacted
-    across the whole source (two reads): 1, 2 or 4 bytes a voxel by how many there are.
-    ``palette`` as :func:`~pv_cubemarch.models.voxels.make_voxels` takes it (by id).
+    across the whole source (two reads, each on several threads where the source allows:
+    :func:`reader_threads`): 1, 2 or 4 bytes a voxel by how many there are. ``palette`` as
+    :func:`~pv_cubemarch.models.voxels.make_voxels` takes it (by id).
     """
+    threads = ThreadPoolExecutor(reader_threads(source, 1 << 30))
+    try:
+        return _filled_world(threads, source, chunk_size, background, palette, name,
+                             progress_bar, placement)
+    finally:
+        threads.shutdown(cancel_futures=True)   # after an error too: no read left running
+
+
+def _filled_world(threads, source, chunk_size, background, palette, name, progress_bar,
+                  placement) -> VoxelWorld:
+    """:func:`world_from_array`, its reads on ``threads``."""
     dtype = np.dtype(source.dtype)
     if dtype.kind not in "iub":
         raise VolumeDataError(f"{name} has dtype {dtype}; label ids are integers.")
@@ -69,7 +93,6 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
     ids = None
     identity = dtype.kind == "b" or (dtype.kind == "u" and dtype.itemsize <= 2
                                      and int(background) == 0)
-    threads = ThreadPoolExecutor(min(len(boxes), os.cpu_count() or 1) or 1)
     within = None
     if not identity:
         background = _checked_background(background, dtype, name)
@@ -77,13 +100,9 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
         def find(box):   # the box's distinct ids, background included
             return distinct_in_runs(_read(source, box, name).ravel())[0]
 
-        try:
-            within = list(progress(threads.map(find, [box for _, box in boxes]),
-                                   desc=f"{name}: finding ids", total=len(boxes),
-                                   enabled=progress_bar))
-        except BaseException:
-            threads.shutdown(cancel_futures=True)
-            raise
+        within = list(progress(threads.map(find, [box for _, box in boxes]),
+                               desc=f"{name}: finding ids", total=len(boxes),
+                               enabled=progress_bar))
         found = [values[values != background] for values in within]
         present = distinct(np.concatenate(found)) if found else np.zeros(0, dtype)
         if int(background) == 0 and (present.size == 0 or (
@@ -95,6 +114,8 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
                                   "textures, exact to 2^24).")
         else:
             ids = LabelIds(present, background, dtype)
+    if ids is not None:
+        ids.lookup(np.zeros(0, dtype))   # its sorted table made once, not by every thread
     rows_type = str(row_type(ids.n_rows)) if ids else "uint8"   # fixed for compacted ids
     world = VoxelWorld(shape, size, Palette.make(None, 2), name=name, label_type=rows_type,
                        **placement)
@@ -114,13 +135,10 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
                                   "not there on the first pass).")
         return rows
 
-    try:
-        for (key, _), rows in zip(boxes, progress(
-                threads.map(fill, range(len(boxes))), desc=f"{name}: filling chunks",
-                total=len(boxes), enabled=progress_bar), strict=True):
-            world._keep(key, rows, copy=False)
-    finally:
-        threads.shutdown(cancel_futures=True)
+    for (key, _), rows in zip(boxes, progress(
+            threads.map(fill, range(len(boxes))), desc=f"{name}: filling chunks",
+            total=len(boxes), enabled=progress_bar), strict=True):
+        world._keep(key, rows, copy=False)
     if ids is not None:
         world.label_ids = ids
         world.palette = Palette.make(palette, ids.n_rows, ids)

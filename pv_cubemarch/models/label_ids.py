@@ -253,10 +253,11 @@ def compact_labels(values: np.ndarray, background: int = 0,
 
     Segmentations are coherent: a cell's voxels come in runs, so the distinct ids are found
     among the runs' first values and each run's row by one binary search, slab by slab on
-    every core (never a sort of the whole grid: 10x faster than a sort for a 256³ Voronoi
-    grid). Memory beyond the input is the rows (1-4 bytes a voxel), the runs' starts where
-    runs are long (at most a byte a voxel) and a few slabs' temporaries. Rows keep the
-    order of the ids.
+    every core (0.13 s against 0.6 s for one sort of a 256³ Voronoi grid of 30,000 uint32
+    ids); only a small grid of incoherent ids (no runs) is sorted whole, which gives its ids
+    and rows at once. Memory beyond the input is the rows (1-4 bytes a voxel), the runs'
+    starts where runs are long (at most a byte a voxel) and a few slabs' temporaries. Rows
+    keep the order of the ids.
     """
     values = np.asarray(values)
     if values.dtype.kind not in "iu":
@@ -335,7 +336,7 @@ def run_heads(part: np.ndarray) -> np.ndarray:
 
 def _compact_at_once(values: np.ndarray, flat: np.ndarray, background,
                      name: str) -> tuple[np.ndarray, LabelIds]:
-    """:func:`compact_labels` of a grid of one slab: one stable (radix) sort at once.
+    """:func:`compact_labels` of a small grid of incoherent ids: one stable sort at once.
 
     It gives the ids and every voxel's rank together: half the time of two passes for a
     million ids in 7 million voxels.

@@ -139,7 +139,9 @@ def atlas_layout(dimensions: Sequence[int], count: int) -> tuple[int, int, tuple
 
 @dataclass(frozen=True)
 class LevelAtlas:
-    """The labels and their occupancy levels ``1..n`` in one 3D texture of the labels' type.
+    """The labels and their occupancy levels ``1..n`` in one 3D texture.
+
+    Of the labels' type, or float32 for 4-byte rows (as GL reads them), x fastest.
 
     The traversal reads any level with one fetch of one texture (GLSL 1.50 indexes no
     sampler arrays, and llvmpipe runs both sides of a branch: a second texture would be

@@ -56,6 +56,7 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
     ts, materials, faces = [], [], []
     rows = np.arange(len(o))
     kept = (np.full(len(o), -np.inf), np.full(len(o), np.inf))
+    tolerance = 1e-7 / np.maximum(np.linalg.norm(d, axis=1), 1e-30)   # a 1e-7 voxel
     if clip_planes:
         kept = clip_interval(origins, directions, kept[0], kept[1], clip_planes)
         for t, side in ((kept[0], 1.0), (kept[1], -1.0)):   # the cuts, where inside
@@ -75,7 +76,9 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (plane - o[:, axis]) / d[:, axis]
             # A crossing of a plane is one whose other coordinates fall inside the grid.
-            crossing = moving & (t >= t_start) & (t >= kept[0]) & (t <= kept[1])
+            # a crossing on a plane itself is not kept (the plane's cut is the face there)
+            crossing = moving & (t >= t_start) & (t > kept[0] + tolerance) & (
+                t < kept[1] - tolerance)
             point = o + np.where(crossing, t, 0.0)[:, None] * d
             cell = np.floor(point[:, others]).astype(np.int64)
             crossing &= (cell >= 0).all(axis=1) & (cell < shape[others]).all(axis=1)

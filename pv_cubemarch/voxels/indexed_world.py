@@ -309,6 +309,8 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, LayerHost,
         if remake:
             self.recipe = self._recipe()
             self.bindings.install(self.recipe, self.drawn[0])
+            if self.layers is not None:
+                self.layers.follow_clip_planes(self.options, self)
 
     @property
     def labels(self) -> Texture:
