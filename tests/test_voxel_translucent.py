@@ -40,6 +40,17 @@ def nested_labels() -> np.ndarray:
 PALETTE = {1: ("tomato", 0.4), 2: "steelblue", 3: ("gold", 0.25), 4: ("white", 0.0)}
 
 
+def shot(add, position) -> np.ndarray:
+    """What ``add(plotter)`` draws on black, seen from the camera ``position``."""
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    add(pl)
+    pl.camera_position = position
+    image = cm.render_image(pl)
+    pl.close()
+    return image
+
+
 def palette_rgba() -> np.ndarray:
     return cm.make_voxels(nested_labels(), palette=PALETTE).palette.rgba
 
@@ -147,15 +158,6 @@ def test_clipped_translucent_materials_draw_what_clipped_peeled_meshes_draw(side
     position = [(30.0, 25.0, 20.0), (6.0, 5.0, 4.0), (0.0, 0.0, 1.0)]
     plane = (6.0, 0.0, 0.0, side, 0.0, 0.0)   # on voxel faces: side * (x - 6) >= 0 kept
 
-    def shot(add):
-        pl = pv.Plotter(off_screen=True, window_size=SIZE)
-        pl.set_background("black")
-        add(pl)
-        pl.camera_position = position
-        image = cm.render_image(pl)
-        pl.close()
-        return image
-
     def theirs(pl):
         pl.ren_win.SetMultiSamples(0)
         pl.enable_depth_peeling(number_of_peels=50, occlusion_ratio=0.0)
@@ -165,11 +167,11 @@ def test_clipped_translucent_materials_draw_what_clipped_peeled_meshes_draw(side
             if part.n_cells:   # a label may lie wholly on the side cut away
                 pl.add_mesh(part, color=colour, opacity=opacity, lighting=False)
 
-    reference = shot(theirs)
-    ours = shot(lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=PALETTE,
-                                                   shading="unlit", clip_planes=plane))
+    reference = shot(theirs, position)
+    ours = shot(lambda pl: pl.cubemarch.add_voxels(
+        grid, "labels", palette=PALETTE, shading="unlit", clip_planes=plane), position)
     whole = shot(lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=PALETTE,
-                                                    shading="unlit"))
+                                                    shading="unlit"), position)
     assert psnr(ours, reference) >= 40.0, psnr(ours, reference)
     assert psnr(whole, reference) < psnr(ours, reference) - 10.0
 
@@ -197,15 +199,6 @@ def test_translucent_materials_draw_what_depth_peeled_meshes_draw():
     colours = {1: ("tomato", 0.4), 2: ("steelblue", 1.0), 3: ("gold", 0.25)}
     position = [(30.0, 25.0, 20.0), (6.0, 5.0, 4.0), (0.0, 0.0, 1.0)]
 
-    def shot(add):
-        pl = pv.Plotter(off_screen=True, window_size=SIZE)
-        pl.set_background("black")
-        add(pl)
-        pl.camera_position = position
-        image = cm.render_image(pl)
-        pl.close()
-        return image
-
     def theirs(pl):
         pl.ren_win.SetMultiSamples(0)   # peeling draws nothing multisampled (llvmpipe, EGL)
         pl.enable_depth_peeling(number_of_peels=50, occlusion_ratio=0.0)
@@ -213,13 +206,13 @@ def test_translucent_materials_draw_what_depth_peeled_meshes_draw():
             pl.add_mesh(grid.threshold([label, label], scalars="labels"), color=colour,
                         opacity=opacity, lighting=False)
 
-    reference = shot(theirs)
+    reference = shot(theirs, position)
     ours = shot(lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=PALETTE,
-                                                   shading="unlit"))
+                                                   shading="unlit"), position)
     opaque = {k: (v if isinstance(v, str) else (v[0], 1.0 if v[1] > 0 else 0.0))
               for k, v in PALETTE.items()}
     plain = shot(lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=opaque,
-                                                    shading="unlit"))
+                                                    shading="unlit"), position)
     assert psnr(ours, reference) >= 50.0, psnr(ours, reference)
     assert psnr(plain, reference) < 30.0
 

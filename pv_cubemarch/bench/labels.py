@@ -23,6 +23,7 @@ import pyvista
 
 from ..api import add_voxels
 from ..core.camera import Camera
+from ..core.progress import progress
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..models.voxels import fits_one_texture
 from ..reference.label_ids import trace_ids
@@ -38,8 +39,6 @@ def voronoi_ids(n: int, cells: int, seed: int, ids: np.ndarray) -> np.ndarray:
     outside a ball of radius 0.48 n, as segmentations have.
     """
     from scipy.spatial import cKDTree
-
-    from ..core.progress import progress
 
     rng = np.random.default_rng(seed)
     sites = rng.random((cells, 3)) * n
