@@ -63,7 +63,7 @@ from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
 from .voxels.indexed_world import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
 from .voxels.per_chunk_world import build_world
-from .voxels.scalar_bar import add_voxel_scalar_bar, warn_translucent
+from .voxels.scalar_bar import add_voxel_scalar_bar
 
 
 def add_volume(
@@ -531,15 +531,11 @@ def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str |
     if traversal == "index":
         binding = build_indexed_world(plotter, world, options)
         if not binding.composites:
-            warn_translucent(world.palette, world.name, f"mode={options.mode!r}"
-                             if options.mode != "color" else "level of detail (lod)",
-                             world.ids)
+            binding.opaque_because = _opaque_because(options)
+            binding.say_drawn_opaque()
         actor = _place(plotter, binding, name or _unused_name(plotter, world.name))
         plotter.cubemarch.track(binding)
     else:
-        warn_translucent(world.palette, world.name, "a world drawn per chunk (chunk sizes "
-                         "that are no power of two, distance fields, brick shells, or "
-                         "chunks over one texture)", world.ids)
         if options.mode == "id":
             reason = why_not_indexed(world, options)
             raise ValueError("mode='id' writes a voxel's index within its grid; a world "
@@ -553,6 +549,10 @@ def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str |
                              "world_traversal='index' (a power-of-two chunk_size, no "
                              "distance_field, proxy='box').")
         actor = build_world(plotter, world, options)
+        reason = why_not_indexed(world, options)
+        actor.cubemarch.opaque_because = "world_traversal='per_chunk'" + (
+            f" (one traversal cannot draw it: {reason})" if reason else "")
+        actor.cubemarch.say_drawn_opaque()
     _frame(plotter)
     return actor
 
@@ -653,6 +653,11 @@ def voxel_options(**given) -> VoxelOptions:
     return get_technique("voxels", "voxels").make_options(chosen)
 
 
+def _opaque_because(options) -> str:
+    """Why a grid (or a world of one traversal) with ``options`` draws translucency opaque."""
+    return f"mode={options.mode!r}" if options.mode != "color" else "level of detail (lod)"
+
+
 def _numpy_by_chunks(grid, chunk_size, colouring: dict) -> bool:
     """Whether a numpy array of labels is read into a world chunk by chunk.
 
@@ -672,9 +677,11 @@ def _array_grid(source, chunk_size, background, palette, transform, name, colour
         return np.asarray(source[:, :, :])
     given = [key for key, value in colouring.items() if value is not None]
     if given:
-        raise ValueError(f"{', '.join(given)}: a chunked array too large for one texture is "
-                         "drawn by chunks, coloured by palette= (a dict or function of the "
-                         "id, or a colormap name).")
+        raise ValueError(f"{', '.join(given)}: a chunked array drawn by chunks (too large "
+                         "for one texture, or chunk_size= given) is read a chunk at a time, "
+                         "never whole, so its ids are coloured by palette= (a dict or "
+                         "function of the id, or a colormap name over the ids), not by "
+                         "their values' range.")
     placement = {} if transform is None else {"transform": checked_transform(transform)}
     # (a world's transform places its index space, as make_voxels places a numpy array)
     return world_from_array(source, chunk_size or DEFAULT_CHUNK_SIZE, background, palette,
@@ -971,9 +978,8 @@ def add_voxels(
         component = plotter.cubemarch
         binding = chosen.build(plotter, model, options)
         if not binding.composites:
-            warn_translucent(model.palette, model.name, f"mode={options.mode!r}"
-                             if options.mode != "color" else "level of detail (lod)",
-                             model.ids)
+            binding.opaque_because = _opaque_because(options)
+            binding.say_drawn_opaque()
         actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
         component.track(binding)
         _frame(plotter)

@@ -13,6 +13,8 @@ PyVista's depth-peeled meshes (unlit): 58.7 dB (drawn opaque instead: 20.9 dB).
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -227,6 +229,23 @@ def test_where_translucent_materials_are_drawn_opaque_it_is_said():
         with pytest.warns(UserWarning, match="draws them opaque"):
             actor = cm.add_voxels(pl, labels, palette=PALETTE, **options)
         assert getattr(actor.cubemarch, "layers", None) is None
+        pl.remove_actor(actor)
+    # turned translucent later (said once, and again after none was translucent)
+    # catches (seen failing): a label made translucent after add_voxels drawn opaque silently
+    opaque = {k: (v if isinstance(v, str) else (v[0], 1.0)) for k, v in PALETTE.items()}
+    for options in (dict(chunk_size=4, world_traversal="per_chunk"), dict(mode="face")):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            actor = cm.add_voxels(pl, labels, palette=opaque, **options)
+        with pytest.warns(UserWarning, match=r"labels \[1\].*draws them opaque"):
+            actor.cubemarch.set_label_color(1, opacity=0.3)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            actor.cubemarch.set_label_color(3, opacity=0.5)   # said already
+            actor.cubemarch.set_label_color([1, 3], opacity=1.0)
+        with pytest.warns(UserWarning, match="per_chunk" if "chunk_size" in options
+                          else "mode='face'"):
+            actor.cubemarch.set_material(3, opacity=0.2)
         pl.remove_actor(actor)
     pl.close()
 

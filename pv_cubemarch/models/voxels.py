@@ -574,7 +574,8 @@ def label_legend(model, limit: int = 10) -> list[dict]:
             break
         rgb = np.clip(np.round(palette.rgba[row, :3] * 255), 0, 255).astype(int)
         legend.append({"id": ids.id_of(row), "color": "#{:02x}{:02x}{:02x}".format(*rgb),
-                       "opacity": float(palette.rgba[row, 3]), "hidden": bool(hidden[row])})
+                       "opacity": round(float(palette.rgba[row, 3]), 6),
+                       "hidden": bool(hidden[row])})
     return legend
 
 

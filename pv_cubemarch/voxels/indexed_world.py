@@ -194,6 +194,7 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, LayerHost,
         self._palette_seen = (palette, palette.version)
         upload_palette_rows(self.palette_texture, self.opaque_entries(palette.rgba), rows)
         self.follow_layers(palette.rgba, rows)
+        self.say_drawn_opaque()
         self._send_index()
 
     def _send_index(self) -> None:

@@ -15,6 +15,7 @@ from ..core.rendering import needs_open_plotter
 from ..gl.textures import Texture
 from ..models.label_ids import sorted_unique
 from ..models.voxels import PALETTE_WIDTH, palette_texels
+from .scalar_bar import warn_translucent
 
 #: Texels between two changed entries of a palette row below which one upload spans both.
 RUN_GAP = 32
@@ -117,6 +118,24 @@ class LabelState:
     with an opacity above 0. The binding gives ``model`` (its ``palette`` and ``ids``) and
     ``follow_palette_rows``, which sends the changed rows to the GPU.
     """
+
+    #: Why this binding draws translucent labels opaque (``None``: it composites them).
+    opaque_because: str | None = None
+    _said_opaque = False
+
+    def say_drawn_opaque(self) -> None:
+        """Warn when labels turn translucent where this binding draws them opaque.
+
+        Once, until none is translucent again: at ``add_voxels`` and at any later change.
+        """
+        if self.opaque_because is None:
+            return
+        alpha = np.asarray(self.model.palette.rgba)[1:, 3]
+        some = bool(((alpha > 0) & (alpha < 1)).any())
+        if some and not self._said_opaque:
+            warn_translucent(self.model.palette, self.model.name, self.opaque_because,
+                             self.model.ids)
+        self._said_opaque = some
 
     @property
     def label_ids(self) -> np.ndarray:

@@ -289,6 +289,7 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         if self.model.palette is not self._palette_seen:
             self._palette_seen, rows = self.model.palette, None   # another palette: whole
         upload_palette_rows(self.palette_texture, self.model.palette.rgba, rows)
+        self.say_drawn_opaque()
         shown = self.model.palette.visible
         if not np.array_equal(shown, self._shown_seen):   # not for a colour: a full scan
             self._shown_seen = shown

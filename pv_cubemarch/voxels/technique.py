@@ -288,6 +288,7 @@ class VoxelBinding(LabelState, ClipPlaneSetting, LayerHost, DrawnBinding):
         rows = None if whole else rows
         rgba = self.model.palette.rgba
         upload_palette_rows(self.palette_texture, self.opaque_entries(rgba), rows)
+        self.say_drawn_opaque()
         if self.follow_layers(rgba, rows):
             extras = [name for name in ("show_edges", "ambient_occlusion")
                       if getattr(self.options, name)]
