@@ -7,12 +7,10 @@ once to write each chunk's rows into a :class:`~pv_cubemarch.models.world.VoxelW
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 
 from ..core.errors import VolumeDataError
+from ..core.parallel import core_pool
 from ..core.progress import progress
 from .label_ids import (
     IDENTITY_MAX,
@@ -54,11 +52,10 @@ def _read(source, box, name: str) -> np.ndarray:
 THREADED_SOURCES = ("numpy", "zarr", "dask")
 
 
-def reader_threads(source, boxes: int) -> int:
-    """How many threads read ``source``'s ``boxes`` at once (one where unsafe)."""
+def thread_safe(source) -> bool:
+    """Whether ``source`` may be read on several threads at once (:data:`THREADED_SOURCES`)."""
     module = type(source).__module__.split(".")[0]
-    safe = isinstance(source, np.ndarray) or module in THREADED_SOURCES
-    return max(1, min(boxes, os.cpu_count() or 1)) if safe else 1
+    return isinstance(source, np.ndarray) or module in THREADED_SOURCES
 
 
 def world_from_array(source, chunk_size: int = 128, background: int = 0, palette=None,
@@ -70,26 +67,23 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
     object with ``shape`` (x, y, z), an integer ``dtype`` and slicing. Non-negative ids up
     to 65535 with background 0 are their own rows (one read); other ids are compacted
     across the whole source (two reads, each on several threads where the source allows:
-    :func:`reader_threads`): 1, 2 or 4 bytes a voxel by how many there are. ``palette`` as
+    :func:`thread_safe`): 1, 2 or 4 bytes a voxel by how many there are. ``palette`` as
     :func:`~pv_cubemarch.models.voxels.make_voxels` takes it (by id).
     """
-    threads = ThreadPoolExecutor(reader_threads(source, 1 << 30))
-    try:
-        return _filled_world(threads, source, chunk_size, background, palette, name,
+    boxes = list(_boxes(tuple(int(n) for n in source.shape), int(chunk_size)))
+    with core_pool(len(boxes), most=1 if not thread_safe(source) else None) as threads:
+        return _filled_world(threads, source, boxes, chunk_size, background, palette, name,
                              progress_bar, placement)
-    finally:
-        threads.shutdown(cancel_futures=True)   # after an error too: no read left running
 
 
-def _filled_world(threads, source, chunk_size, background, palette, name, progress_bar,
-                  placement) -> VoxelWorld:
-    """:func:`world_from_array`, its reads on ``threads``."""
+def _filled_world(threads, source, boxes, chunk_size, background, palette, name,
+                  progress_bar, placement) -> VoxelWorld:
+    """:func:`world_from_array`, its ``boxes`` read on ``threads``."""
     dtype = np.dtype(source.dtype)
     if dtype.kind not in "iub":
         raise VolumeDataError(f"{name} has dtype {dtype}; label ids are integers.")
     shape = tuple(int(n) for n in source.shape)
     size = int(chunk_size)
-    boxes = list(_boxes(shape, size))
     ids = None
     identity = dtype.kind == "b" or (dtype.kind == "u" and dtype.itemsize <= 2
                                      and int(background) == 0)

@@ -11,12 +11,10 @@ number read as before.
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 
 from ..core.errors import VolumeDataError
+from ..core.parallel import core_pool
 from ..core.progress import progress
 
 #: Largest id an identity table holds (ids stored as uint16).
@@ -312,7 +310,7 @@ def each_slab(function, flat: np.ndarray, desc: str, bar: bool | None,
 
     if len(starts) == 1:
         return [one(0)]
-    with ThreadPoolExecutor(min(len(starts), os.cpu_count() or 1)) as pool:
+    with core_pool(len(starts)) as pool:
         return list(progress(pool.map(one, range(len(starts))), desc=desc,
                              total=len(starts), enabled=bar))
 

@@ -185,7 +185,7 @@ def choose_shell(labels: np.ndarray,
     the occupancy of bricks of ``2^l`` voxels).
     """
     for level in SHELL_LEVELS:
-        occupied = (levels[level - 1].astype(bool) if level <= len(levels)
+        occupied = (levels[level - 1].view(bool) if level <= len(levels)
                     else occupied_bricks(labels, 1 << level))
         shell = brick_shell(labels, 1 << level, max_faces=SHELL_FACE_BUDGET,
                             occupied=occupied)

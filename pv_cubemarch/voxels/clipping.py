@@ -28,7 +28,8 @@ def bind_clip_planes(bindings: ShaderBindings, model, planes) -> None:
 class ClipPlaneSetting:
     """``set_clip_planes`` for a grid or a world, the same for both.
 
-    It checks the planes; the binding's :meth:`follow_clip_planes` then draws with them.
+    It checks the planes; the binding gives ``options`` and ``follow_clip_planes(remake)``,
+    which draws with ``options``' planes (``remake``: their number changed).
     """
 
     @needs_open_plotter
@@ -54,7 +55,3 @@ class ClipPlaneSetting:
         remake = clip_count(options) != clip_count(self.options)
         self.options = options
         self.follow_clip_planes(remake)
-
-    def follow_clip_planes(self, remake: bool) -> None:
-        """Draw with ``self.options``' planes; ``remake``: their number changed."""
-        raise NotImplementedError

@@ -181,15 +181,17 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, LayerHost,
         """Per-label changes: the changed palette entries, and the index if it changed."""
         self._follow_palette(self.model.palette.take_changes())
 
-    def _follow_palette(self, rows: np.ndarray | None = None) -> None:
+    def _follow_palette(self, rows: np.ndarray | None = None, whole: bool = False) -> None:
         """Upload the palette (its ``rows``, or whole) and the index if either changed.
 
-        The index changes only where a chunk of one label was hidden or shown.
+        The index changes only where a chunk of one label was hidden or shown. ``whole``:
+        the palette as it is now, changed or not (at the start).
         """
         palette = self.model.palette
-        if palette is self._palette_seen[0] and palette.version == self._palette_seen[1]:
+        if not whole and palette is self._palette_seen[0] and \
+                palette.version == self._palette_seen[1]:
             return
-        if palette is not self._palette_seen[0]:
+        if whole or palette is not self._palette_seen[0]:
             rows = None   # another palette: whole
         self._palette_seen = (palette, palette.version)
         upload_palette_rows(self.palette_texture, self.opaque_entries(palette.rgba), rows)
@@ -373,7 +375,6 @@ def build_indexed_world(plotter, world: VoxelWorld,
     bind_clip_planes(bindings, world, lambda: binding.options.world_planes)
     binding.recipe = binding._recipe()
     bindings.install(binding.recipe, actor)
-    binding._palette_seen = (None, -1)   # translucent labels: the opaque palette, layers
-    binding._follow_palette()
+    binding._follow_palette(whole=True)   # translucent labels: the opaque palette, layers
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding

@@ -121,15 +121,12 @@ class LayerHost:
 
     Its opaque actor reads the palette with them hidden, and a layer actor
     (:class:`TranslucentLayers`) exists while one is translucent. ``composites``: whether
-    it draws them so (else they are drawn opaque, as warned).
+    it draws them so (else they are drawn opaque, as warned). The binding gives
+    ``make_layers()``, its layer actor.
     """
 
     layers: TranslucentLayers | None = None
     composites = False
-
-    def make_layers(self) -> TranslucentLayers:
-        """The layer actor for this binding."""
-        raise NotImplementedError
 
     def opaque_entries(self, rgba: np.ndarray) -> np.ndarray:
         """The palette the opaque actor reads (translucent labels hidden where composited)."""

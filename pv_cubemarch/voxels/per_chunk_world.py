@@ -124,9 +124,7 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         if key not in self.model.stored and key not in self.model.uniform:
             return
         if self.model.palette is not self._palette_seen:   # a palette set on the model
-            self._palette_seen = self.model.palette
-            self.model.palette.take_changes()
-            self.palette_texture.set_data(palette_texels(self.model.palette.rgba))
+            self.follow_palette_rows()
         model = self.model.chunk_model(key)
         self.options.check_model(model)
         binding = build_voxel_actor(self.plotter, model, self.options, shared_depth=self.depth,
