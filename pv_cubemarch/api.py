@@ -548,11 +548,10 @@ def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str |
                              "chunk borders, which a world drawn per chunk cannot: use "
                              "world_traversal='index' (a power-of-two chunk_size, no "
                              "distance_field, proxy='box').")
-        actor = build_world(plotter, world, options)
-        reason = why_not_indexed(world, options)
-        actor.cubemarch.opaque_because = "world_traversal='per_chunk'" + (
-            f" (one traversal cannot draw it: {reason})" if reason else "")
-        actor.cubemarch.say_drawn_opaque()
+        actor = build_world(plotter, world, options, name or _unused_name(plotter, world.name))
+        if not actor.cubemarch.composites:
+            actor.cubemarch.opaque_because = _opaque_because(options)
+            actor.cubemarch.say_drawn_opaque()
     _frame(plotter)
     return actor
 
@@ -654,7 +653,7 @@ def voxel_options(**given) -> VoxelOptions:
 
 
 def _opaque_because(options) -> str:
-    """Why a grid (or a world of one traversal) with ``options`` draws translucency opaque."""
+    """Why a grid (or a world) with ``options`` draws translucent labels opaque."""
     return f"mode={options.mode!r}" if options.mode != "color" else "level of detail (lod)"
 
 

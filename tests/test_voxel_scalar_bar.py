@@ -53,9 +53,9 @@ def test_scalar_bar_afterwards_and_bad_annotations():
 
 
 def test_translucent_materials_are_said_to_be_drawn_opaque_where_they_are():
-    """Not drawn opaque in silence: where a grid cannot composite them (a world drawn per
-    chunk), a warning names the materials; a single grid, or a world drawn by one
-    traversal, composites them and says nothing (tests/test_voxel_translucent.py).
+    """Not drawn opaque in silence: where a grid cannot composite them (mode='face'), a
+    warning names the materials; a single grid, or a world drawn either way, composites
+    them and says nothing (tests/test_voxel_translucent.py).
 
     catches (seen failing): ``warn_translucent`` not called from ``add_voxels``.
     """
@@ -63,10 +63,13 @@ def test_translucent_materials_are_said_to_be_drawn_opaque_where_they_are():
     palette = {1: "tan", 2: ("steelblue", 0.4), 3: "crimson"}
     with pytest.warns(UserWarning, match=r"labels \[2\].*draws them opaque"):
         pl.cubemarch.add_voxels(labels(), palette=palette, chunk_size=4,
-                                world_traversal="per_chunk")
+                                world_traversal="per_chunk", mode="face")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         actor = pl.cubemarch.add_voxels(labels(), palette=palette)
         world = pl.cubemarch.add_voxels(labels(), palette=palette, chunk_size=4)
+        per_chunk = pl.cubemarch.add_voxels(labels(), palette=palette, chunk_size=4,
+                                            world_traversal="per_chunk")
     assert actor.cubemarch.layers is not None and world.cubemarch.layers is not None
+    assert any(c.layers is not None for c in per_chunk.cubemarch.chunks.values())
     pl.close()

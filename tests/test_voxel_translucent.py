@@ -220,12 +220,13 @@ def test_translucent_materials_draw_what_depth_peeled_meshes_draw():
 
 
 def test_where_translucent_materials_are_drawn_opaque_it_is_said():
-    # A world drawn per chunk, the id and face modes and level of detail draw them opaque:
-    # warned.
+    # The id and face modes and level of detail draw them opaque (in a grid or a world drawn
+    # either way): warned.
     labels = nested_labels()
     pl = pv.Plotter(off_screen=True)
-    for options in (dict(chunk_size=4, world_traversal="per_chunk"), dict(mode="face"),
-                    dict(lod=True, mip_levels=2), dict(chunk_size=4, mode="face")):
+    for options in (dict(chunk_size=4, world_traversal="per_chunk", mode="face"),
+                    dict(mode="face"), dict(lod=True, mip_levels=2),
+                    dict(chunk_size=4, mode="face")):
         with pytest.warns(UserWarning, match="draws them opaque"):
             actor = cm.add_voxels(pl, labels, palette=PALETTE, **options)
         assert getattr(actor.cubemarch, "layers", None) is None
@@ -233,7 +234,8 @@ def test_where_translucent_materials_are_drawn_opaque_it_is_said():
     # turned translucent later (said once, and again after none was translucent)
     # catches (seen failing): a label made translucent after add_voxels drawn opaque silently
     opaque = {k: (v if isinstance(v, str) else (v[0], 1.0)) for k, v in PALETTE.items()}
-    for options in (dict(chunk_size=4, world_traversal="per_chunk"), dict(mode="face")):
+    for options in (dict(chunk_size=4, world_traversal="per_chunk", mode="face"),
+                    dict(mode="face")):
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             actor = cm.add_voxels(pl, labels, palette=opaque, **options)
@@ -243,8 +245,7 @@ def test_where_translucent_materials_are_drawn_opaque_it_is_said():
             warnings.simplefilter("error")
             actor.cubemarch.set_label_color(3, opacity=0.5)   # said already
             actor.cubemarch.set_label_color([1, 3], opacity=1.0)
-        with pytest.warns(UserWarning, match="per_chunk" if "chunk_size" in options
-                          else "mode='face'"):
+        with pytest.warns(UserWarning, match="mode='face'"):
             actor.cubemarch.set_material(3, opacity=0.2)
         pl.remove_actor(actor)
     pl.close()
@@ -258,17 +259,19 @@ def world_labels() -> np.ndarray:
     return labels
 
 
+@pytest.mark.parametrize("traversal", ["index", "per_chunk"])
 @pytest.mark.parametrize("planes", [None, [(6.2, 5.0, 4.0, -0.8, -0.5, -0.3)]])
-def test_a_world_drawn_by_one_traversal_composites_translucent_labels(plotter_factory,
-                                                                      planes):
-    """A world of chunks (one traversal) with translucent labels across chunk borders and
-    a uniform translucent chunk, lit, rotated and mirrored, cut or not: against the layer
-    reference of the whole grid; recolouring a translucent label follows.
+def test_a_world_composites_translucent_labels(plotter_factory, planes, traversal):
+    """A world of chunks (one traversal, or a box per chunk) with translucent labels across
+    chunk borders and a uniform translucent chunk, lit, rotated and mirrored, cut or not:
+    against the layer reference of the whole grid; recolouring a translucent label follows.
 
     catches (seen failing): the layers' traversal not reading through the chunk index
     (labels read from the pool as a grid: nothing right), the opaque actor reading the
     full palette (translucent labels drawn opaque under the layers), and the layers'
-    shaders not remade when set_clip_planes changes the number of planes.
+    shaders not remade when set_clip_planes changes the number of planes. Per chunk: a
+    label going on across a chunk border given a face there (0.87), a neighbour's face
+    drawn by both chunks (0.94), the chunks' layers not drawn far to near (0.87).
     """
     labels = world_labels()
     pl = plotter_factory(SIZE)
@@ -277,9 +280,15 @@ def test_a_world_drawn_by_one_traversal_composites_translucent_labels(plotter_fa
     transform = rotated_mirrored_placement()
     clip = None if planes is None else np.ravel([_placed(p, transform) for p in planes])
     actor = cm.add_voxels(pl, labels, palette=PALETTE, shading="blinn", transform=transform,
-                          chunk_size=4, world_traversal="index", clip_planes=clip)
+                          chunk_size=4, world_traversal=traversal, clip_planes=clip)
     world = actor.cubemarch
-    assert world.layers is not None and 3 in world.model.uniform.values()
+    assert 3 in world.model.uniform.values()
+    if traversal == "index":
+        assert world.layers is not None
+    else:   # layers only in the chunks holding a translucent label
+        assert {key for key, chunk in world.chunks.items() if chunk.layers is not None} == {
+            key for key, chunk in world.chunks.items()
+            if np.isin(world.model.chunk_labels(key), [1, 3]).any()}
     centre = world.model.world_from_index() @ np.array([6.0, 5.0, 4.0, 1.0])
     camera = set_camera(pl, tuple(centre[:3] + 30.0 * np.array([0.7, 0.55, 0.45])),
                         focal=tuple(centre[:3]))
@@ -303,6 +312,53 @@ def test_a_world_drawn_by_one_traversal_composites_translucent_labels(plotter_fa
         [_placed(p, transform) for p in other]))
     cut = None if other is None else [(q[:3], q[3:]) for q in (
         _placed(p, transform) for p in other)]
+    assert close_to_reference() >= 0.995
+
+
+def test_a_world_drawn_per_chunk_composites_past_solid_bricks_and_after_edits(
+        plotter_factory):
+    """Per chunk, with the world's occluders (chunks of 8): a translucent block filling whole
+    bricks before an opaque one, then a translucent label written across a chunk corner,
+    then a whole chunk emptied: against the layer reference of the world's labels each time.
+
+    catches (seen failing): translucent bricks counted solid by the occluders (the opaque
+    block behind them cut away: 0.85 of pixels close), the neighbours' aprons left as they
+    were after the edit (0.74), and layers kept on a chunk whose labels turned opaque.
+    """
+    labels = np.zeros((24, 16, 16), np.uint8)
+    labels[0:16, 0:16, 0:16] = 1
+    labels[16:24, 0:16, 0:8] = 2
+    pl = plotter_factory(SIZE)
+    pl.set_background("black")
+    actor = cm.add_voxels(pl, labels, palette={1: ("tomato", 0.35), 2: "steelblue",
+                                               3: ("gold", 0.5)},
+                          shading="unlit", chunk_size=8, world_traversal="per_chunk")
+    world = actor.cubemarch
+    camera = set_camera(pl, (-26.0, 24.0, 30.0), focal=(12.0, 8.0, 8.0))
+
+    def close_to_reference():
+        image = cm.render_image(pl).astype(float) / 255.0
+        expected = render_voxel_layers(world.model.labels_in(
+            tuple(slice(0, n) for n in labels.shape)), world.model.world_from_index(),
+            world.model.palette.rgba, camera, SIZE, near=pl.camera.clipping_range[0])
+        return (np.abs(image - expected).max(axis=2) <= 3.0 / 255.0).mean()
+
+    assert world.occluders.faces > 0   # the steelblue block's solid bricks
+    assert close_to_reference() >= 0.995
+    world.set_voxels((slice(13, 19), slice(5, 11), slice(7, 12)), 3)   # chunk corners
+    assert close_to_reference() >= 0.995
+    world.set_voxels((slice(0, 8), slice(8, 16), slice(8, 16)), 0)
+    assert world.chunks.get((0, 1, 1)) is None
+    world.set_voxels((slice(0, 8), slice(0, 8), slice(0, 8)), 2)   # opaque now
+    assert world.chunks[(0, 0, 0)].layers is None
+    assert close_to_reference() >= 0.995
+    world.set_label_color(3, opacity=1.0)   # the chunks of 3 but not 1 lose their layers
+    assert world.chunks[(2, 0, 1)].layers is None
+    assert world.chunks[(1, 0, 1)].layers is not None
+    assert close_to_reference() >= 0.995
+    world.set_label_color(1, opacity=1.0)   # none translucent: no layers left
+    assert all(chunk.layers is None for chunk in world.chunks.values())
+    assert world.chunk_layers.palette is None
     assert close_to_reference() >= 0.995
 
 

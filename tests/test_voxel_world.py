@@ -90,6 +90,21 @@ def test_grids_over_the_largest_texture_are_chunked(plotter_factory):
         cm.add_voxels(plotter(plotter_factory), labels, mode="id", world_traversal="per_chunk")
 
 
+@pytest.mark.parametrize("traversal", ["index", "per_chunk"])
+def test_a_world_takes_its_name_and_replaces_no_other_actor(plotter_factory, traversal):
+    # catches (found by review, seen failing): a world drawn per chunk added under its
+    # model's name whatever name= said, replacing (and releasing) a grid of that name
+    labels = random_labels((16, 12, 8), 0.3, seed=5).astype(np.uint8)
+    pl = plotter(plotter_factory)
+    grid = cm.add_voxels(pl, labels, palette=PALETTE)
+    world = cm.add_voxels(pl, labels, palette=PALETTE, chunk_size=4,
+                          world_traversal=traversal)
+    named = cm.add_voxels(pl, labels, palette=PALETTE, chunk_size=4,
+                          world_traversal=traversal, name="segmentation")
+    assert pl.actors["voxels"] is grid and not grid.cubemarch._released
+    assert world in pl.actors.values() and pl.actors["segmentation"] is named
+
+
 def test_removing_the_world_releases_its_chunks(plotter_factory):
     labels = random_labels((24, 20, 16), 0.05, seed=32).astype(np.uint8)
     labels[:16, :16, :8] = 2   # solid bricks: the occluders' pass runs

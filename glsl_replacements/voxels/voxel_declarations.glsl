@@ -22,6 +22,13 @@ uniform sampler2D cm_shellDepth; // per pixel, the view depth where the ray meet
 // voxel_chunk_index.glsl).
 #ifdef CM_CHUNK_INDEX
 int cm_label(ivec3 voxel);
+#elif defined(CM_LABEL_APRON)
+// A world's chunk as its translucent layers read it: one voxel of its neighbours around its
+// labels, so the voxels just past its box (-1 and cm_gridDims) are read too.
+int cm_label(ivec3 voxel)
+{
+  return int(texelFetch(cm_labels, voxel + 1, 0).r * cm_labelScale + 0.5);
+}
 #else
 int cm_label(ivec3 voxel)
 {

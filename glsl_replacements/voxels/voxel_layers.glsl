@@ -49,7 +49,19 @@
   vec4 cm_held = vec4(0.0);
   float cm_first = -1.0;   // the view depth of the first layer
   int cm_current = cm_layerMaterial(cm_voxel);
-  if (cm_boxEntry >= cm_start && cm_current != 0)   // entered through the box's face
+  bool cm_throughFace = cm_boxEntry >= cm_start;   // entered through the box's face
+#ifdef CM_LABEL_APRON
+  // A world's chunk: a material going on from the neighbour behind that face has no face
+  // there (each chunk draws the faces of its own voxels, so none is drawn twice).
+  if (cm_throughFace && cm_current > 0)
+  {
+    int cm_entry = cm_boxEntryFace(cm_origin, cm_direction);
+    ivec3 cm_before = cm_voxel;
+    cm_before[cm_entry / 2] -= 2 * (cm_entry - 2 * (cm_entry / 2)) - 1;
+    cm_throughFace = cm_layerMaterial(cm_before) != cm_current;
+  }
+#endif
+  if (cm_throughFace && cm_current != 0)
   {
     if (cm_current < 0)   // an opaque voxel first: the opaque actor draws it
     {
@@ -101,7 +113,11 @@
     ivec3 cm_next = cm_voxel;
     cm_next[cm_axis] += 2 * cm_ahead[cm_axis] - 1;
     bool cm_out = any(lessThan(cm_next, ivec3(0))) || any(greaterThanEqual(cm_next, cm_dims));
+#ifdef CM_LABEL_APRON
+    int cm_material = cm_layerMaterial(cm_next);   // past the box: the neighbour's voxel
+#else
     int cm_material = cm_out ? 0 : cm_layerMaterial(cm_next);
+#endif
     if (cm_material != cm_current)
     {
       float cm_depth = mix(cm_start, cm_end, cm_t);
@@ -119,8 +135,8 @@
       {
         break;
       }
-      if (cm_material > 0)   // the face of the material entered
-      {
+      if (cm_material > 0 && !cm_out)   // the face of the material entered (a
+      {                                   // neighbour chunk's is drawn by that chunk)
         cm_addLayer(cm_held, cm_material, cm_face, cm_hitView, cm_towardEye);
       }
       cm_current = cm_material;

@@ -261,30 +261,35 @@ class VoxelWorld(PlacedGrid):
                           grid_from_index=np.asarray(self.grid_from_index) @ local,
                           transform=self.transform, name=f"{self.name}{list(key)}")
 
-    def drawn_labels(self) -> np.ndarray:
+    def drawn_labels(self, opaque_only: bool = False) -> np.ndarray:
         """Per label value the world's type holds: drawn (shown by the palette) or not.
 
-        For 4-byte rows (compacted ids past 65535), per row of the palette.
+        For 4-byte rows (compacted ids past 65535), per row of the palette. ``opaque_only``:
+        translucent labels count as not drawn (they are composited apart).
         """
         size = int(np.iinfo(self.dtype).max) + 1 if self.dtype.itemsize <= 2 else max(
             self.palette.n_materials, 2)
         table = np.zeros(size, bool)
-        visible = self.palette.visible[:len(table)]
+        visible = self.palette.visible
+        if opaque_only:
+            visible = visible & (self.palette.rgba[:, 3] >= 1.0)
+        visible = visible[:len(table)]
         table[:len(visible)] = visible
         return table
 
-    def solid_bricks(self, brick: int) -> np.ndarray | None:
+    def solid_bricks(self, brick: int, opaque_only: bool = False) -> np.ndarray | None:
         """Per brick of ``brick``³ voxels, whether every voxel in it is drawn (shown label).
 
         A ray that reaches such a brick has hit a drawn voxel: the bricks' faces bound every
         ray's first hit (the world's occluders). Bricks cut by the grid's far sides count as
-        not solid. ``None`` when ``brick`` does not divide the chunk size.
+        not solid. ``None`` when ``brick`` does not divide the chunk size. ``opaque_only``:
+        as :meth:`drawn_labels`.
         """
         if self.chunk_size % brick:
             return None
         per_chunk = self.chunk_size // brick
         solid = np.zeros([-(-n // brick) for n in self.dimensions], bool)
-        shown = self.drawn_labels()
+        shown = self.drawn_labels(opaque_only)
         for key in set(self.stored) | set(self.uniform):
             origin, shape = self.chunk_box(key)
             cells = [n // brick for n in shape]   # whole bricks only
@@ -296,7 +301,8 @@ class VoxelWorld(PlacedGrid):
             solid[where] = _all_drawn(shown[self.stored[key]], brick, cells)
         return solid
 
-    def solid_bricks_in(self, brick: int, box) -> tuple[tuple[slice, ...], np.ndarray]:
+    def solid_bricks_in(self, brick: int, box, opaque_only: bool = False
+                        ) -> tuple[tuple[slice, ...], np.ndarray]:
         """The whole bricks a box of voxels touches, and which are solid.
 
         As :meth:`solid_bricks` finds them; the bricks are three slices of brick cells.
@@ -307,7 +313,8 @@ class VoxelWorld(PlacedGrid):
         if 0 in counts:
             return cells, np.zeros(counts, bool)
         region = tuple(slice(c.start * brick, c.stop * brick) for c in cells)
-        return cells, _all_drawn(self.drawn_labels()[self.labels_in(region)], brick, counts)
+        return cells, _all_drawn(self.drawn_labels(opaque_only)[self.labels_in(region)], brick,
+                                 counts)
 
     @property
     def nbytes(self) -> int:

@@ -334,12 +334,12 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, LayerHost,
         """The box and the translucent layers follow the world."""
         super().place(transform)
         if self.layers is not None:
-            self.layers.place(self.model.world_from_index())
+            self.layers.place()
 
     def follow_anchor(self) -> None:
         """At each frame: the box and the layers follow the returned actor."""
         super().follow_anchor()
-        self.follow_layers_anchor(self.model.world_from_index())
+        self.follow_layers_anchor()
 
     def release_resources(self) -> None:
         """The bindings, and the chunk pool, chunk index and palette textures."""

@@ -38,14 +38,16 @@ def opaque_palette(rgba: np.ndarray) -> np.ndarray:
     return out
 
 
-def layers_recipe(options, level_axes: tuple[int, int],
-                  chunk_shift: int | None = None) -> ShaderRecipe:
+def layers_recipe(options, level_axes: tuple[int, int], chunk_shift: int | None = None,
+                  apron: bool = False) -> ShaderRecipe:
     """The layer actor's replacements: the grid's declarations, lights, and the layers.
 
     ``chunk_shift``: a world drawn by one traversal, its labels read through its chunk
-    index (chunks of ``2^chunk_shift`` voxels).
+    index (chunks of ``2^chunk_shift`` voxels). ``apron``: a chunk of a world drawn per
+    chunk, its labels read from a copy with one voxel of its neighbours around them.
     """
     lit = options.shading != "unlit"
+    levels = options.mip_levels if not apron else None
     return box_recipe(
         ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
          *(("clip_planes",) if clip_count(options) else ()),
@@ -54,61 +56,69 @@ def layers_recipe(options, level_axes: tuple[int, int],
         "voxel_layers",
         defines={"CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn",
                  "CM_CLIP_PLANES": clip_count(options), "CM_CHUNK_INDEX": chunk_shift,
-                 "CM_MIP_LEVELS": options.mip_levels or None,
-                 "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
-                 "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None})
+                 "CM_LABEL_APRON": apron or None, "CM_MIP_LEVELS": levels or None,
+                 "CM_LEVEL_SLAB_AXIS": level_axes[0] if levels else None,
+                 "CM_LEVEL_ROW_AXIS": level_axes[1] if levels else None})
 
 
 class TranslucentLayers:
     """The layer actor of one grid (or world): bindings, full palette, the frame's depth.
 
     ``chunk_index``: a world drawn by one traversal, whose labels (``binding.labels``, its
-    pool) are read through this index of chunks of ``2^chunk_shift`` voxels.
+    pool) are read through this index of chunks of ``2^chunk_shift`` voxels. ``apron``: a
+    chunk of a world drawn per chunk (:class:`~.chunk_layers.ChunkApron`: its box and its
+    labels with one voxel of its neighbours), reading ``palette``, the world's full palette.
     """
 
     def __init__(self, binding, renderer, bind_grid, chunk_index: Texture | None = None,
-                 chunk_shift: int | None = None):
-        model, options = binding.model, binding.options
+                 chunk_shift: int | None = None, apron=None, palette: Texture | None = None):
+        options = binding.options
+        self.model = binding.model if apron is None else apron.region
         self.chunk_shift = chunk_shift
+        self.apron = apron
+        model = self.model
         self.actor = box_actor(list(model.dimensions), model.world_from_index(),
                                margin=0.01 * max(model.dimensions))
         self.actor.GetProperty().LightingOff()
         self.actor.PickableOff()
         self.renderer = renderer
-        self.palette = Texture(palette_texels(model.palette.rgba), kind="2d",
-                               interpolate=False)
+        self.owns_palette = palette is None
+        self.palette = palette or Texture(palette_texels(binding.model.palette.rgba),
+                                          kind="2d", interpolate=False)
         bindings = ShaderBindings(self.actor.GetMapper(), renderer)
-        bindings.add_texture("cm_labels", binding.labels)   # the opaque actor's, shared
+        # the opaque actor's labels, shared; a chunk's copy with its apron, its own
+        bindings.add_texture("cm_labels", binding.labels if apron is None else apron.texture,
+                             owned=apron is not None)
         if chunk_index is not None:
             bindings.add_texture("cm_chunkIndex", chunk_index)
-        bindings.add_texture("cm_palette", self.palette, owned=True)
+        bindings.add_texture("cm_palette", self.palette, owned=self.owns_palette)
         bindings.add_texture("cm_sceneDepth", frame_inputs(renderer).depth)
         bind_grid(bindings, renderer, model, replace(options, show_edges=False, lod=False,
                                                      ambient_occlusion=False))
-        bind_clip_planes(bindings, model, lambda: binding.options.world_planes)
-        recipe = layers_recipe(options, binding.level_axes, chunk_shift)
-        bindings.install(recipe, self.actor)
         self.bindings = bindings
+        self.follow_clip_planes(options, binding)
         renderer.AddActor(self.actor)
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes of its own (the labels are the opaque actor's)."""
-        return self.palette.nbytes
+        """GPU bytes of its own (the labels are the opaque actor's, but a chunk's apron)."""
+        return (self.palette.nbytes if self.owns_palette else 0) + (
+            self.apron.texture.nbytes if self.apron is not None else 0)
 
     def set_palette(self, rgba: np.ndarray, rows: np.ndarray | None = None) -> None:
         """The palette changed (``rows`` of it, or all): the layers read the new entries."""
-        upload_palette_rows(self.palette, rgba, rows)
+        if self.owns_palette:
+            upload_palette_rows(self.palette, rgba, rows)
 
     def follow_clip_planes(self, options, binding) -> None:
-        """The grid's clip planes changed in number: the layers' shaders are remade."""
-        self.bindings.install(layers_recipe(options, binding.level_axes, self.chunk_shift),
-                              self.actor)
-        bind_clip_planes(self.bindings, binding.model, lambda: binding.options.world_planes)
+        """The grid's clip planes changed in number: the layers' shaders are (re)made."""
+        self.bindings.install(layers_recipe(options, binding.level_axes, self.chunk_shift,
+                                            apron=self.apron is not None), self.actor)
+        bind_clip_planes(self.bindings, self.model, lambda: binding.options.world_planes)
 
-    def place(self, world_from_index: np.ndarray) -> None:
-        """The grid moved."""
-        place_box(self.actor, world_from_index)
+    def place(self) -> None:
+        """The grid moved: the box follows it."""
+        place_box(self.actor, self.model.world_from_index())
 
     def release(self) -> None:
         """Leave the renderer and free the palette and observers."""
@@ -158,7 +168,7 @@ class LayerHost:
         """
         return self.layers is not None
 
-    def follow_layers_anchor(self, world_from_index: np.ndarray) -> None:
+    def follow_layers_anchor(self) -> None:
         """At each frame: the layers follow the returned actor's visibility.
 
         Under VTK's depth peeling they lose their faces in front of opaque voxels (its
@@ -167,7 +177,8 @@ class LayerHost:
         if self.layers is None:
             return
         self.layers.actor.SetVisibility(self.shown)
-        if faces_for_peeling(self.layers.actor, self.renderer, world_from_index) == "back":
+        if faces_for_peeling(self.layers.actor, self.renderer,
+                             self.layers.model.world_from_index()) == "back":
             self.say_depth_peeling("the translucent materials' faces in front of opaque "
                                    "voxels, while the camera or the near plane is inside "
                                    "the grid's box")

@@ -25,9 +25,14 @@ OCCLUDER_FACE_BUDGET = 65536
 
 
 class WorldOccluders:
-    """The solid bricks' faces of ``world``, their depth pass, and whether it is used."""
+    """The solid bricks' faces of ``world``, their depth pass, and whether it is used.
 
-    def __init__(self, world: VoxelWorld, renderer, brick: int = OCCLUDER_BRICK):
+    ``opaque_only``: translucent labels are not solid (composited apart, behind which
+    the opaque voxels must still be drawn).
+    """
+
+    def __init__(self, world: VoxelWorld, renderer, brick: int = OCCLUDER_BRICK,
+                 opaque_only: bool = False):
         self.world = world
         self.renderer = renderer
         self.brick = brick
@@ -40,18 +45,20 @@ class WorldOccluders:
         self.clipped = lambda: False
         self.faces = 0
         self.active = False
+        #: Whether translucent labels count as not solid (a world compositing them).
+        self.opaque_only = opaque_only
         self.rebuild()
 
     def rebuild(self) -> None:
         """Faces from the world's labels and palette as they are now."""
-        self.solid = self.world.solid_bricks(self.brick)
+        self.solid = self.world.solid_bricks(self.brick, self.opaque_only)
         self._draw_faces()
 
     def edit(self, box) -> None:
         """Follow labels changed in ``box`` (three slices of world voxels)."""
         if self.solid is None:
             return
-        cells, solid = self.world.solid_bricks_in(self.brick, box)
+        cells, solid = self.world.solid_bricks_in(self.brick, box, self.opaque_only)
         if not solid.size or np.array_equal(solid, self.solid[cells]):
             return
         self.solid[cells] = solid

@@ -13,7 +13,8 @@ depth pass: the nearest shell face over all chunks is a safe start for every chu
 The world stands in the plotter as one invisible bounds actor; the chunks' actors follow its
 visibility and leave with it. Edits, picks and palette changes go through the world
 (:class:`WorldBinding`): an edit reaching an empty or uniform chunk gives it its own labels
-and actor.
+and actor. Translucent labels are composited by the layers of the chunks holding them
+(:mod:`.chunk_layers`).
 """
 
 from __future__ import annotations
@@ -36,8 +37,10 @@ from ..models.voxel_shell import occupied_bricks
 from ..models.voxels import palette_texels
 from ..models.world import VoxelWorld
 from . import editing
+from .chunk_layers import ChunkLayers
 from .clipping import ClipPlaneSetting
 from .label_state import LabelState, upload_palette_rows
+from .layers import opaque_palette
 from .occluders import WorldOccluders
 from .options import VoxelOptions
 from .technique import VoxelBinding, build_voxel_actor
@@ -60,16 +63,20 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         renderer = plotter.renderer
         self.renderer = renderer
         self.chunks: dict[tuple[int, int, int], VoxelBinding] = {}
-        #: One palette for every chunk: a change sends its entries once, not per chunk.
+        #: Whether translucent labels are composited (by each chunk's layers), else opaque.
+        self.composites = options.mode == "color" and not options.lod
+        self.chunk_layers = ChunkLayers(self)
+        #: One palette for every chunk: a change sends its entries once, not per chunk
+        #: (translucent labels hidden where composited).
         world.palette.take_changes()
-        self.palette_texture = Texture(palette_texels(world.palette.rgba), kind="2d",
+        self.palette_texture = Texture(palette_texels(self._opaque_entries()), kind="2d",
                                        interpolate=False)
         self._palette_seen = world.palette
-        self._shown_seen = world.palette.visible   # what the occluders were made for
+        self._shown_seen = self._solid_labels()   # what the occluders were made for
         self._parts = vtk.vtkAssembly()
         self.depth = (FaceDepthPass(renderer, self._parts, self._shells_used)
                       if options.proxy == "bricks" else None)
-        self.occluders = WorldOccluders(world, renderer)
+        self.occluders = WorldOccluders(world, renderer, opaque_only=self.composites)
         self.occluders.shown = lambda: bool(anchor.GetVisibility())
         # a clip plane may cut the solid faces away: rays must not end at them then
         self.occluders.clipped = lambda: bool(self.options.world_planes)
@@ -84,6 +91,8 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         try:
             for key in sorted(set(world.stored) | set(world.uniform)):
                 self._build_chunk(key)
+            if self.composites:
+                self.chunk_layers.follow(world.palette.rgba, None)
         except BaseException:
             self.discard()
             raise
@@ -98,6 +107,7 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
     def release_passes(self) -> None:
         """Free the shared passes and stop ordering (the chunks are freed on their own)."""
         self.renderer.RemoveObserver(self._order_tag)
+        self.chunk_layers.release()
         if self.depth is not None:
             self.depth.release()
         self.occluders.release()
@@ -108,6 +118,16 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         for chunk in self.chunks.values():
             chunk.options = replace(chunk.options, clip_planes=self.options.clip_planes)
             chunk.follow_clip_planes(remake)
+
+    def _opaque_entries(self) -> np.ndarray:
+        """The palette the chunks' opaque actors read (translucent hidden if composited)."""
+        rgba = self.model.palette.rgba
+        return opaque_palette(rgba) if self.composites else rgba
+
+    def _solid_labels(self) -> np.ndarray:
+        """Per row, whether it stops rays (shown; and opaque, where others are composited)."""
+        shown = self.model.palette.visible
+        return shown & (self.model.palette.rgba[:, 3] >= 1.0) if self.composites else shown
 
     def _shells_used(self) -> bool:
         """Each shell decides for its chunk; the shared pass draws if any uses it."""
@@ -150,7 +170,7 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         under a parallel projection). Reordered when the camera or the chunks change.
         """
         camera = self.renderer.GetActiveCamera()
-        key = (camera.GetMTime(), tuple(id(c) for c in self.chunks.values()))
+        key = (camera.GetMTime(), tuple((id(c), id(c.layers)) for c in self.chunks.values()))
         if key == self._ordered_for or len(self.chunks) < 2:
             return
         self._ordered_for = key
@@ -165,9 +185,13 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         props = self.renderer.GetViewProps()   # moved in the list: nothing released
         chunks = list(self.chunks.values())
         for index in np.argsort(-distance, kind="stable"):
-            actor = chunks[index].drawn[0]
-            props.RemoveItem(actor)
-            props.AddItem(actor)
+            # the layers too: each composites over the farther chunks' (the translucent
+            # pass draws in this order)
+            layers = chunks[index].layers
+            for actor in (chunks[index].drawn[0],
+                          *((layers.actor,) if layers is not None else ())):
+                props.RemoveItem(actor)
+                props.AddItem(actor)
 
     def _hide_hidden_chunks(self) -> None:
         """Leave out of this frame the chunks whose every pixel ends before its voxels.
@@ -265,8 +289,9 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
     @property
     def nbytes(self) -> int:
         """GPU bytes of every chunk and the occluders, the shared depth pass counted once."""
+        full = self.chunk_layers.palette   # the layers' palette, shared
         total = (sum(c.nbytes for c in self.chunks.values()) + self.occluders.nbytes
-                 + self.palette_texture.nbytes)
+                 + self.palette_texture.nbytes + (full.nbytes if full is not None else 0))
         shells = sum(1 for c in self.chunks.values() if c.shell is not None)
         return total - max(shells - 1, 0) * (self.depth.nbytes if self.depth else 0)
 
@@ -286,9 +311,11 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         rows = self.model.palette.take_changes()
         if self.model.palette is not self._palette_seen:
             self._palette_seen, rows = self.model.palette, None   # another palette: whole
-        upload_palette_rows(self.palette_texture, self.model.palette.rgba, rows)
+        upload_palette_rows(self.palette_texture, self._opaque_entries(), rows)
+        if self.composites:
+            self.chunk_layers.follow(self.model.palette.rgba, rows)
         self.say_drawn_opaque()
-        shown = self.model.palette.visible
+        shown = self._solid_labels()
         if not np.array_equal(shown, self._shown_seen):   # not for a colour: a full scan
             self._shown_seen = shown
             self.occluders.rebuild()   # which bricks are solid depends on what is shown
@@ -308,6 +335,7 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
             self._build_chunk(key)   # a chunk outside the box whose labels widened
         self._culled_for = None
         self.occluders.edit(box)
+        self.chunk_layers.edited(box, rebuilt)
 
     def place(self, transform) -> None:
         """Every chunk follows the world, and the solid faces that end its rays."""
@@ -386,14 +414,15 @@ class WorldPasses(DrawnBinding):
         self.world.release_passes()
 
 
-def build_world(plotter, world: VoxelWorld, options: VoxelOptions) -> pyvista.Actor:
+def build_world(plotter, world: VoxelWorld, options: VoxelOptions,
+                name: str | None = None) -> pyvista.Actor:
     """Draw ``world``'s chunks in ``plotter``; returns the actor that stands for them.
 
-    That actor is in the plotter (named after the world) before any chunk is tracked: a
-    tracked chunk whose anchor is not in the renderer counts as removed.
+    That actor is in the plotter (as ``name``, by default the world's) before any chunk
+    is tracked: a tracked chunk whose anchor is not in the renderer counts as removed.
     """
     proxy = bounds_proxy(world)
-    plotter.add_actor(proxy, name=world.name, reset_camera=False)
+    plotter.add_actor(proxy, name=name or world.name, reset_camera=False)
     try:
         binding = WorldBinding(plotter, world, options, proxy)
     except BaseException:

@@ -69,6 +69,6 @@ def warn_translucent(palette, name: str, why: str, ids=None) -> None:
     if translucent.size:
         named = translucent if ids is None else ids.ids_of(translucent[:8])
         warnings.warn(f"Voxels {name!r}: labels {[int(v) for v in named[:8]]} have an "
-                      f"opacity between 0 and 1; {why} draws them opaque (a grid, or a world "
-                      "drawn by one traversal, in mode='color' composites them; opacity 0 "
-                      "hides one).", stacklevel=3)
+                      f"opacity between 0 and 1; {why} draws them opaque (a grid or world in "
+                      "mode='color', without lod, composites them; opacity 0 hides one).",
+                      stacklevel=3)

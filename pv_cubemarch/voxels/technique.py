@@ -309,7 +309,7 @@ class VoxelBinding(LabelState, ClipPlaneSetting, LayerHost, DrawnBinding):
         (its peels test the box's depth, not the layers'): said once.
         """
         super().follow_anchor()
-        self.follow_layers_anchor(self.model.world_from_index())
+        self.follow_layers_anchor()
 
     def place(self, transform) -> None:
         """The box, the brick shell and the translucent layers follow the grid."""
@@ -317,7 +317,7 @@ class VoxelBinding(LabelState, ClipPlaneSetting, LayerHost, DrawnBinding):
             self.shell.place()
         super().place(transform)
         if self.layers is not None:
-            self.layers.place(self.model.world_from_index())
+            self.layers.place()
 
     @needs_open_plotter
     def set_voxels(self, where, material: int) -> None:
