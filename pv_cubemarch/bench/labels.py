@@ -9,7 +9,8 @@ file), subsampled by ``stride``. Rows: ours (default, and per option), ``thresho
 volume ray cast of the labels. Measured in one run: setup to the first frame, later frames,
 host and GPU bytes, wrong-id pixels against the CPU traversal
 (:func:`~pv_cubemarch.reference.label_ids.trace_ids`), and the time and bytes to recolour
-1 / 1000 / all ids and to hide half of them.
+1 / 1000 / all ids and to hide half of them. A small segmentation is drawn once by each
+tool first (:func:`warm_up`), so no row pays the process's first GL context and shaders.
 """
 
 from __future__ import annotations
@@ -368,6 +369,28 @@ def volume_cast(scene: str, labels: np.ndarray, size, frames: int) -> LabelRow:
         pl.close()
 
 
+def warm_up(size) -> None:
+    """Draw a small segmentation once with each tool before any timed row.
+
+    What a process pays once (the GL context, the first shaders, imports, thread pools)
+    would otherwise land in whichever row runs first.
+    """
+    labels = voronoi_ids(16, 20, 3, np.arange(1, 21, dtype=np.uint32) * 7919)
+    for draw in (lambda pl: add_voxels(pl, labels, lighting=False),
+                 lambda pl: pl.add_mesh(_image(labels).threshold(0.5, scalars="labels"),
+                                        lighting=False, show_scalar_bar=False),
+                 lambda pl: pl.add_mesh(_image(labels).contour_labels(progress_bar=False),
+                                        lighting=False, show_scalar_bar=False)):
+        pl = _plotter(size)
+        try:
+            draw(pl)
+            _camera(labels.shape, pl)
+            render_frame(pl)
+            read_pixels(pl)
+        finally:
+            pl.close()
+
+
 def run_labels(scenes: Sequence[str] = SCENES, size=(1000, 1000), n: int = 128,
                cells: int = 20000, million: int = 10**6, million_n: int = 128,
                stride: int = 2, frames: int = 3, reference: bool = True,
@@ -375,6 +398,7 @@ def run_labels(scenes: Sequence[str] = SCENES, size=(1000, 1000), n: int = 128,
     """Every row of every scene, side by side in one run (module docstring)."""
     rows = []
     size = tuple(int(v) for v in size)
+    warm_up(size)
     for scene in scenes:
         count = million if scene == "million" else cells
         labels = scene_labels(scene, million_n if scene == "million" else n, count, stride)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.array_copy import copy_tiled
+from ..core.parallel import core_pool
 from ..core.gl_limits import MAX_TEXTURE_SIZE
 
 
@@ -36,18 +37,51 @@ def block_any(mask: np.ndarray, block: int) -> np.ndarray:
     return mask
 
 
+#: Voxels from which the first occupancy level is found slab by slab on every core.
+THREADED_VOXELS = 1 << 22
+
+
 def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
     """Conservative occupancy mipmaps, levels ``1..levels`` (uint8 0/1).
 
     Level ``L`` marks, per cell of ``2^L`` voxels per axis, whether any voxel under it is
-    filled: a cell is empty only if every voxel under it is.
+    filled: a cell is empty only if every voxel under it is. The first level, which reads
+    every voxel, is found by slabs on every core for large grids.
     """
-    filled = np.asarray(labels) != 0
+    labels = np.asarray(labels)
     result = []
-    for _ in range(int(levels)):
-        filled = block_any(filled, 2)
+    for number in range(int(levels)):
+        filled = first_level(labels) if number == 0 else block_any(filled, 2)
         result.append(filled.view(np.uint8))
     return result
+
+
+def first_level(labels: np.ndarray) -> np.ndarray:
+    """Per cell of 2³ voxels, whether any is filled (non-zero).
+
+    Large grids by slabs two voxels thick or more across their slowest axis (the first in
+    C order, the last in Fortran order), on threads (numpy releases the GIL).
+    """
+    if labels.size < THREADED_VOXELS:
+        return block_any(labels != 0, 2)
+    axis = 2 if labels.flags.f_contiguous and not labels.flags.c_contiguous else 0
+    n = labels.shape[axis]
+    plane = labels.size // max(n, 1)
+    thick = max(2, (THREADED_VOXELS // max(plane, 1)) // 2 * 2)
+    shape = [-(-m // 2) for m in labels.shape]
+    out = np.empty(shape, bool)
+
+    def slab(start):
+        part = [slice(None)] * 3
+        cells = [slice(None)] * 3
+        part[axis] = slice(start, start + thick)
+        cells[axis] = slice(start // 2, -(-min(start + thick, n) // 2))
+        out[tuple(cells)] = block_any(labels[tuple(part)] != 0, 2)
+
+    starts = range(0, n, thick)
+    with core_pool(len(starts)) as pool:
+        list(pool.map(slab, starts))
+    return out
 
 def representative_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
     """Levels ``1..levels`` holding, per cell, a label that stands for the voxels under it.
@@ -179,9 +213,13 @@ def level_atlas(labels: np.ndarray, grids: list[np.ndarray]) -> LevelAtlas:
     # x fastest, and 4-byte rows as the float32 GL reads them (exact to 2^24): the upload
     # then converts and copies nothing more
     texels = np.float32 if labels.dtype.itemsize > 2 else labels.dtype
-    atlas = LevelAtlas(np.zeros(shape, texels, order="F"), slab, row,
+    atlas = LevelAtlas(np.empty(shape, texels, order="F"), slab, row,
                        tuple(level_shapes(labels.shape, len(grids))))
     copy_tiled(atlas.level(0), labels)
+    for axis in range(3):   # the texels around the levels (the labels fill their own)
+        past = [slice(None)] * 3
+        past[axis] = slice(labels.shape[axis], None)
+        atlas.texels[tuple(past)] = 0
     for number, grid in enumerate(grids, start=1):
         atlas.level(number)[...] = grid
     return atlas
