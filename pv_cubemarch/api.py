@@ -974,6 +974,10 @@ def add_voxels(
         actor = _add_world(plotter, model, options, name)
     else:
         options.check_model(model)
+        if world_traversal is not None:   # said, not ignored in silence
+            warnings.warn(f"world_traversal={world_traversal!r} is for grids drawn in chunks; "
+                          f"this grid of {tuple(model.dimensions)} voxels is drawn whole (give "
+                          "chunk_size= to draw it in chunks).", stacklevel=2)
         component = plotter.cubemarch
         binding = chosen.build(plotter, model, options)
         if not binding.composites:

@@ -105,6 +105,20 @@ def test_a_world_takes_its_name_and_replaces_no_other_actor(plotter_factory, tra
     assert world in pl.actors.values() and pl.actors["segmentation"] is named
 
 
+def test_world_traversal_on_a_grid_drawn_whole_is_said(plotter_factory):
+    # catches (seen failing): world_traversal silently ignored on a grid drawn whole
+    import warnings
+
+    labels = random_labels((16, 12, 8), 0.3, seed=5).astype(np.uint8)
+    pl = plotter(plotter_factory)
+    with pytest.warns(UserWarning, match=r"world_traversal='per_chunk' is for grids drawn "
+                      r"in chunks.*\(16, 12, 8\).*chunk_size="):
+        cm.add_voxels(pl, labels, palette=PALETTE, world_traversal="per_chunk")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cm.add_voxels(pl, labels, palette=PALETTE, world_traversal="per_chunk", chunk_size=4)
+
+
 def test_removing_the_world_releases_its_chunks(plotter_factory):
     labels = random_labels((24, 20, 16), 0.05, seed=32).astype(np.uint8)
     labels[:16, :16, :8] = 2   # solid bricks: the occluders' pass runs
