@@ -37,6 +37,8 @@ from .models.group import VolumeGroup  # noqa: E402
 from .models.label_colors import hashed_colors  # noqa: E402
 from .models.label_ids import LabelIds  # noqa: E402
 from .models.lights import VolumeLight  # noqa: E402
+from .models.multiscale import MultiscaleSource, multiscale_source  # noqa: E402
+from .models.pyramid import build_pyramid  # noqa: E402
 from .models.surface import SplineField  # noqa: E402
 from .models.transfer import TransferFunction  # noqa: E402
 from .models.volume import VolumeModel, make_volume  # noqa: E402
@@ -63,7 +65,7 @@ __all__ = [
     "SceneLoadError", "SceneMesh", "SceneWarning", "ShaderBindings",
     "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "Texture", "TransferFunction",
     "VolumeDataError", "VolumeDataWarning", "VolumeGroup", "VolumeLight", "VolumeModel",
-    "add_volume",
+    "add_volume", "build_pyramid", "MultiscaleSource", "multiscale_source",
     "add_surface", "add_volumes", "add_voxels", "SplineField", "make_field",
     "configure_offscreen", "make_voxels", "Palette", "VoxelModel", "gl_info",
     "load_scene", "make_volume", "read_vdb", "offscreen_plotter", "plugin",

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.array_copy import copy_tiled
-from ..core.parallel import core_pool
 from ..core.gl_limits import MAX_TEXTURE_SIZE
+from ..core.parallel import core_pool
 
 
 def block_any(mask: np.ndarray, block: int) -> np.ndarray:
@@ -50,8 +50,9 @@ def occupancy_levels(labels: np.ndarray, levels: int) -> list[np.ndarray]:
     """
     labels = np.asarray(labels)
     result = []
-    for number in range(int(levels)):
-        filled = first_level(labels) if number == 0 else block_any(filled, 2)
+    filled = None
+    for _ in range(int(levels)):
+        filled = first_level(labels) if filled is None else block_any(filled, 2)
         result.append(filled.view(np.uint8))
     return result
 

@@ -1,0 +1,219 @@
+"""Multiscale volumes: the levels of a pyramid, finest first, each read by boxes.
+
+A source is a zarr array, an OME-Zarr multiscale group (its ``multiscales`` metadata,
+validated by ``ome-zarr-models``, places each level), a dask array, a list of arrays
+finest first (as napari's multiscale data), or any object with ``shape``, ``dtype`` and
+slicing. Nothing is read until a box is asked for. Indices are ``(x, y, z)`` as everywhere
+in the project; OME-Zarr stores arrays ``(..., z, y, x)``, and a level's other axes (time,
+channel) are read at one index.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: OME-Zarr's names of the spatial axes, in the project's index order.
+SPACE = ("x", "y", "z")
+
+
+@dataclass(frozen=True)
+class Level:
+    """One level: its array, where its x, y, z axes lie in it, and its placement.
+
+    ``scale``: the physical step between neighbouring points along x, y, z; ``translation``:
+    the physical position of point ``(0, 0, 0)``. ``fixed``: the array's other axes and
+    the index each is read at.
+    """
+
+    array: object
+    shape: tuple[int, int, int]
+    scale: np.ndarray
+    translation: np.ndarray
+    axes: tuple[int, int, int] = (0, 1, 2)
+    fixed: dict = field(default_factory=dict)
+
+    def read(self, box) -> np.ndarray:
+        """The points in ``box`` (three slices of x, y, z, within the level) as ``(x, y, z)``.
+
+        One read of the array; a copy in the order the project indexes.
+        """
+        index = [slice(None)] * len(self.array.shape)
+        for axis, value in self.fixed.items():
+            index[axis] = int(value)
+        for spatial, axis in enumerate(self.axes):
+            index[axis] = box[spatial]
+        block = np.asarray(self.array[tuple(index)])
+        kept = [a for a in range(len(index)) if a not in self.fixed]   # in the array's order
+        return np.ascontiguousarray(np.transpose(block, [kept.index(a) for a in self.axes]))
+
+    def physical_from_index(self) -> np.ndarray:
+        """4x4 from this level's point indices to physical coordinates."""
+        matrix = np.eye(4)
+        matrix[:3, :3] = np.diag(self.scale)
+        matrix[:3, 3] = self.translation
+        return matrix
+
+
+@dataclass
+class MultiscaleSource:
+    """The levels of a volume, finest first, each with the same dtype."""
+
+    levels: list[Level]
+    name: str = "volume"
+
+    def __post_init__(self):
+        check_levels(self.levels)
+
+    @property
+    def dtype(self) -> np.dtype:
+        """The values' type (every level's)."""
+        return np.dtype(self.levels[0].array.dtype)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """Points along x, y, z of the finest level."""
+        return self.levels[0].shape
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the finest level (what reading it whole would take)."""
+        return int(np.prod(self.shape, dtype=np.int64)) * self.dtype.itemsize
+
+
+def check_levels(levels: Sequence[Level]) -> None:
+    """Refuse levels that do not form a pyramid, saying which and why."""
+    if not levels:
+        raise ValueError("A multiscale source needs at least one level.")
+    dtype = np.dtype(levels[0].array.dtype)
+    for number, level in enumerate(levels):
+        if np.dtype(level.array.dtype) != dtype:
+            raise ValueError(f"Level {number} holds {level.array.dtype}, level 0 {dtype}: every "
+                             "level of a pyramid must have the same dtype.")
+        if dtype.kind not in "iuf":
+            raise ValueError(f"Level {number} holds {dtype}; volumes are numbers (integers or "
+                             "floats).")
+        if min(level.shape) < 1:
+            raise ValueError(f"Level {number} has shape {level.shape} (x, y, z): empty.")
+        if not (np.all(np.isfinite(level.scale)) and np.all(level.scale > 0)
+                and np.all(np.isfinite(level.translation))):
+            raise ValueError(f"Level {number} has scale {list(level.scale)} and translation "
+                             f"{list(level.translation)}: scales must be finite and positive, "
+                             "translations finite.")
+        if number and any(n > m for n, m in zip(level.shape, levels[number - 1].shape,
+                                                 strict=True)):
+            raise ValueError(f"Level {number} ({level.shape}) is larger than level "
+                             f"{number - 1} ({levels[number - 1].shape}) along some axis: "
+                             "levels go finest first.")
+        if number and np.any(level.scale < levels[number - 1].scale):
+            raise ValueError(f"Level {number} has a finer scale ({list(level.scale)}) than "
+                             f"level {number - 1} ({list(levels[number - 1].scale)}): levels "
+                             "go finest first.")
+
+
+def _array_level(array, scale=(1.0, 1.0, 1.0), translation=(0.0, 0.0, 0.0)) -> Level:
+    """An array indexed ``(x, y, z)`` as a level (no metadata: unit spacing at the origin)."""
+    shape = tuple(int(n) for n in np.shape(array))
+    if len(shape) != 3:
+        raise ValueError(f"A volume array needs 3 axes (x, y, z), got shape {shape}; for "
+                         "OME-Zarr data give the multiscale group, whose axes say which is "
+                         "which.")
+    return Level(array, shape, np.asarray(scale, float), np.asarray(translation, float))
+
+
+def multiscale_source(source, *, time: int = 0, channel: int = 0,
+                      name: str | None = None) -> MultiscaleSource:
+    """``source`` as levels, finest first (module docstring); nothing read yet.
+
+    ``time`` and ``channel``: the index read along such axes of OME-Zarr data.
+    """
+    if isinstance(source, MultiscaleSource):
+        return source
+    if isinstance(source, str) or hasattr(source, "__fspath__"):
+        import zarr
+
+        source = zarr.open(str(source), mode="r")
+    if _is_zarr_group(source):
+        return _ome_source(source, time, channel, name)
+    if isinstance(source, (list, tuple)):
+        arrays = list(source)
+        if not arrays:
+            raise ValueError("A list of levels needs at least one array.")
+        base = np.asarray(np.shape(arrays[0]), float)
+        levels = []
+        for array in arrays:
+            shape = np.asarray(np.shape(array), float)
+            if shape.size != 3:
+                raise ValueError(f"Every level needs 3 axes (x, y, z), got {tuple(shape)}.")
+            step = base / shape   # each level spans the finest one's extent, cell centred
+            levels.append(_array_level(array, step, (step - 1.0) / 2.0))
+        return MultiscaleSource(levels, name or "volume")
+    if not all(hasattr(source, a) for a in ("shape", "dtype", "__getitem__")):
+        raise TypeError(f"A multiscale source is a zarr array or group, a dask or numpy array, "
+                        f"a list of arrays finest first, or an object with shape, dtype and "
+                        f"slicing; got {type(source).__name__}.")
+    return MultiscaleSource([_array_level(source)], name or "volume")
+
+
+def _is_zarr_group(value) -> bool:
+    return type(value).__module__.startswith("zarr") and type(value).__name__ == "Group"
+
+
+def _ome_source(group, time: int, channel: int, name: str | None) -> MultiscaleSource:
+    """An OME-Zarr image group's first multiscale, validated and placed by its metadata."""
+    import ome_zarr_models
+    from pydantic import ValidationError
+
+    try:
+        image = ome_zarr_models.open_ome_zarr(group)
+    except (ValidationError, ValueError, TypeError, KeyError, RuntimeError) as error:
+        raise ValueError(f"The zarr group {group.path or group.store!s} is not a valid OME-Zarr "
+                         f"image: {str(error).splitlines()[0]}") from error
+    attributes = getattr(image, "ome_attributes", None) or image.attributes
+    multiscales = getattr(attributes, "multiscales", None)
+    if not multiscales:
+        raise ValueError(f"The zarr group {group.path or group.store!s} holds no multiscales "
+                         "metadata (an OME-Zarr image, or give one array).")
+    scales = multiscales[0]
+    names = [axis.name for axis in scales.axes]
+    kinds = [axis.type for axis in scales.axes]
+    missing = [s for s in SPACE if s not in names]
+    if missing:
+        raise ValueError(f"The image's axes are {names}: a volume needs space axes x, y and z "
+                         f"({', '.join(missing)} missing).")
+    axes = tuple(names.index(s) for s in SPACE)
+    fixed = {}
+    for index, (axis_name, kind) in enumerate(zip(names, kinds, strict=True)):
+        if index in axes:
+            continue
+        fixed[index] = channel if kind == "channel" or axis_name == "c" else time
+    overall = _transforms(getattr(scales, "coordinateTransformations", None), len(names))
+    levels = []
+    for dataset in scales.datasets:
+        array = group[dataset.path]
+        for axis, value in fixed.items():
+            if not 0 <= value < array.shape[axis]:
+                raise ValueError(f"Index {value} along the image's {names[axis]!r} axis is "
+                                 f"outside its {array.shape[axis]} entries.")
+        scale, translation = _transforms(dataset.coordinateTransformations, len(names))
+        scale, translation = scale * overall[0], translation * overall[0] + overall[1]
+        levels.append(Level(array, tuple(int(array.shape[a]) for a in axes),
+                            scale[list(axes)], translation[list(axes)], axes, fixed))
+    return MultiscaleSource(levels, name or (scales.name or "volume"))
+
+
+def _transforms(transforms, ndim: int) -> tuple[np.ndarray, np.ndarray]:
+    """A scale and a translation per axis from OME-Zarr coordinate transformations."""
+    scale, translation = np.ones(ndim), np.zeros(ndim)
+    for transform in transforms or ():
+        kind = getattr(transform, "type", None)
+        if kind == "scale" and getattr(transform, "scale", None) is not None:
+            scale = scale * np.asarray(transform.scale, float)
+        elif kind == "translation" and getattr(transform, "translation", None) is not None:
+            translation = translation + np.asarray(transform.translation, float)
+        elif kind != "identity":
+            raise ValueError(f"OME-Zarr coordinate transformation {transform!r} is not "
+                             "supported (only scale, translation and identity values).")
+    return scale, translation

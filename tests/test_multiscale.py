@@ -1,0 +1,166 @@
+"""Multiscale sources (zarr, OME-Zarr 0.4 and 0.5, dask, lists of levels) and build_pyramid.
+
+Oracles: levels written by hand with zarr and JSON metadata (not by our writer), coarse
+levels computed here by reshaping numpy arrays (not by our downsampling).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import zarr
+
+import pv_cubemarch as cm
+from pv_cubemarch.models.multiscale import multiscale_source
+
+WHOLE = (slice(None),) * 3
+
+
+def _whole(level):
+    return level.read(tuple(slice(0, n) for n in level.shape))
+
+
+def _v04_image(path, shape_tczyx, scales, translations, axes=None):
+    """An OME-Zarr 0.4 image (zarr format 2) written by hand; returns the levels' data."""
+    group = zarr.open_group(str(path), mode="w", zarr_format=2)
+    rng = np.random.default_rng(3)
+    data, datasets = [], []
+    shape = list(shape_tczyx)
+    for number, (scale, translation) in enumerate(zip(scales, translations, strict=True)):
+        values = rng.integers(0, 60000, shape).astype(np.uint16)
+        group.create_array(str(number), data=values, chunks=[1, 1, 4, 4, 4])
+        data.append(values)
+        datasets.append({"path": str(number), "coordinateTransformations": [
+            {"type": "scale", "scale": scale}, {"type": "translation",
+                                                "translation": translation}]})
+        shape = shape[:2] + [-(-n // 2) for n in shape[2:]]
+    group.attrs["multiscales"] = [{
+        "version": "0.4", "name": "by hand", "datasets": datasets,
+        "axes": axes or [{"name": "t", "type": "time"}, {"name": "c", "type": "channel"},
+                         {"name": "z", "type": "space"}, {"name": "y", "type": "space"},
+                         {"name": "x", "type": "space"}]}]
+    return data
+
+
+def test_an_ome_zarr_04_image_is_placed_and_read_by_its_metadata(tmp_path):
+    # catches (seen failing): axes read in storage order (z, y, x) instead of x, y, z, and
+    # the time/channel index ignored
+    scales = [[1, 1, 2.5, 0.5, 0.25], [1, 1, 5.0, 1.0, 0.5]]
+    translations = [[0, 0, 10.0, -3.0, 7.0], [0, 0, 11.25, -2.75, 7.125]]
+    data = _v04_image(tmp_path / "image.zarr", (2, 3, 5, 6, 7), scales, translations)
+    source = multiscale_source(str(tmp_path / "image.zarr"), time=1, channel=2)
+    assert [level.shape for level in source.levels] == [(7, 6, 5), (4, 3, 3)]
+    fine, coarse = source.levels
+    np.testing.assert_array_equal(fine.scale, [0.25, 0.5, 2.5])
+    np.testing.assert_array_equal(fine.translation, [7.0, -3.0, 10.0])
+    np.testing.assert_array_equal(coarse.scale, [0.5, 1.0, 5.0])
+    np.testing.assert_array_equal(_whole(fine), data[0][1, 2].transpose(2, 1, 0))
+    np.testing.assert_array_equal(fine.read((slice(6, 7), slice(0, 2), slice(4, 5))),
+                                  data[0][1, 2, 4:5, 0:2, 6:7].transpose(2, 1, 0))
+    np.testing.assert_array_equal(_whole(coarse), data[1][1, 2].transpose(2, 1, 0))
+    physical = fine.physical_from_index() @ [6, 5, 4, 1]
+    np.testing.assert_allclose(physical[:3], [7.0 + 6 * 0.25, -3.0 + 5 * 0.5, 10.0 + 4 * 2.5])
+    assert source.name == "by hand" and source.dtype == np.uint16
+
+
+def test_a_pyramid_is_written_as_ome_zarr_05_with_independently_checked_levels(tmp_path):
+    # Odd sides (padded with their last plane), anisotropic scale, translation; mean
+    # rounded back to uint16. catches (seen failing): translations of coarse levels at
+    # the first point instead of the block centres, odd sides dropped.
+    rng = np.random.default_rng(0)
+    values = rng.integers(0, 65535, (37, 20, 9)).astype(np.uint16)
+    group = cm.build_pyramid(values, tmp_path / "p.ome.zarr", chunk_size=8,
+                             scale=(0.5, 1.0, 2.0), translation=(1.0, 2.0, 3.0),
+                             progress_bar=False)
+    attrs = json.loads((tmp_path / "p.ome.zarr" / "zarr.json").read_text())["attributes"]
+    assert attrs["ome"]["version"] == "0.5"
+    source = multiscale_source(group)
+    assert [level.shape for level in source.levels] == [(37, 20, 9), (19, 10, 5), (10, 5, 3),
+                                                        (5, 3, 2)]
+    np.testing.assert_array_equal(_whole(source.levels[0]), values)
+    padded = np.pad(values.astype(float), [(0, 1), (0, 0), (0, 1)], mode="edge")
+    mean = padded.reshape(19, 2, 10, 2, 5, 2).mean(axis=(1, 3, 5))
+    np.testing.assert_array_equal(_whole(source.levels[1]), np.round(mean).astype(np.uint16))
+    level = source.levels[2]
+    np.testing.assert_allclose(level.scale, [2.0, 4.0, 8.0])
+    # its first point is the centre of the finest level's first 4x4x4 block
+    np.testing.assert_allclose(level.translation, [1.0 + 1.5 * 0.5, 2.0 + 1.5, 3.0 + 1.5 * 2])
+    with pytest.raises(Exception, match="exist|overwrite|already"):
+        cm.build_pyramid(values, tmp_path / "p.ome.zarr", chunk_size=8, progress_bar=False)
+
+
+def test_label_pyramids_keep_the_most_frequent_id_of_each_block(tmp_path):
+    # catches (seen failing): a mean of ids (a coarse hit that is no label), 0 winning over
+    # a label that fills fewer than half a block
+    labels = np.zeros((8, 4, 4), np.uint32)
+    labels[0:2, 0:2, 0:2] = 7
+    labels[0, 0, 0] = 2**31 + 5            # one voxel of another id: 7 holds 7 of 8
+    labels[2, 0, 0] = 9                    # one labelled voxel among 7 empty ones: 9
+    labels[4:6, 0:2, 0:2] = [[[4, 5], [4, 5]], [[5, 4], [6, 6]]]   # a tie 4/5: the smaller
+    group = cm.build_pyramid(labels, tmp_path / "l.ome.zarr", chunk_size=4, method="mode",
+                             progress_bar=False)
+    coarse = _whole(multiscale_source(group).levels[1])
+    expected = np.zeros((4, 2, 2), np.uint32)
+    for index in np.ndindex(expected.shape):
+        block = labels[tuple(slice(2 * i, 2 * i + 2) for i in index)].ravel()
+        block = block[block != 0]
+        if block.size:
+            ids, counts = np.unique(block, return_counts=True)
+            expected[index] = ids[np.argmax(counts)]   # unique sorts: first max is smallest
+    np.testing.assert_array_equal(coarse, expected)
+    assert coarse[0, 0, 0] == 7 and coarse[1, 0, 0] == 9 and coarse[2, 0, 0] == 4
+
+
+def test_dask_arrays_and_lists_of_levels_are_sources():
+    da = pytest.importorskip("dask.array")
+    values = np.arange(6 * 5 * 4, dtype=np.float32).reshape(6, 5, 4)
+    source = multiscale_source(da.from_array(values, chunks=3))
+    np.testing.assert_array_equal(_whole(source.levels[0]), values)
+    # a list finest first (napari's multiscale): each level spans the finest one's extent
+    levels = multiscale_source([values, values[::2, ::2, ::2]]).levels
+    np.testing.assert_allclose(levels[1].scale, [6 / 3, 5 / 3, 4 / 2])
+    np.testing.assert_allclose(levels[1].translation, [0.5, 1 / 3, 0.5])
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda attrs: attrs["multiscales"][0].update(axes=[
+        {"name": "t", "type": "time"}, {"name": "c", "type": "channel"},
+        {"name": "z", "type": "space"}, {"name": "y", "type": "space"},
+        {"name": "q", "type": "space"}]), "not a valid OME-Zarr|x, y and z"),
+    (lambda attrs: attrs["multiscales"][0]["datasets"][0]["coordinateTransformations"][0]
+     .update(scale=[1, 1, -1, 1, 1]), "positive|not a valid"),
+    (lambda attrs: attrs.pop("multiscales"), "not a valid OME-Zarr|no multiscales"),
+])
+def test_hostile_metadata_is_refused_by_name(tmp_path, change, message):
+    path = tmp_path / "bad.zarr"
+    _v04_image(path, (1, 1, 4, 4, 4), [[1, 1, 1, 1, 1], [1, 1, 2, 2, 2]],
+               [[0] * 5, [0, 0, 0.5, 0.5, 0.5]])
+    group = zarr.open_group(str(path), mode="a", zarr_format=2)
+    attrs = dict(group.attrs)
+    change(attrs)
+    group.attrs.clear()
+    group.attrs.update(attrs)
+    with pytest.raises(ValueError, match=message):
+        multiscale_source(str(path))
+
+
+def test_levels_that_are_no_pyramid_and_bad_arguments_are_refused(tmp_path):
+    fine = np.zeros((8, 8, 8), np.uint16)
+    with pytest.raises(ValueError, match="same dtype"):
+        multiscale_source([fine, np.zeros((4, 4, 4), np.float32)])
+    with pytest.raises(ValueError, match="finest first"):
+        multiscale_source([np.zeros((4, 4, 4), np.uint16), fine])
+    with pytest.raises(ValueError, match="3 axes"):
+        multiscale_source(np.zeros((4, 4), np.uint16))
+    with pytest.raises(TypeError, match="multiscale source is"):
+        multiscale_source(42)
+    with pytest.raises(ValueError, match="method must be one of"):
+        cm.build_pyramid(fine, tmp_path / "a", method="median")
+    with pytest.raises(ValueError, match="chunk_size must be an even"):
+        cm.build_pyramid(fine, tmp_path / "a", chunk_size=7)
+    with pytest.raises(ValueError, match="label ids, which are integers"):
+        cm.build_pyramid(fine.astype(np.float32), tmp_path / "a", method="mode")
+    with pytest.raises(ValueError, match="scale must be three finite positive"):
+        cm.build_pyramid(fine, tmp_path / "a", scale=(1, 0, 1))
