@@ -118,6 +118,10 @@ def add_volume(
     crop_box=None,
     average_range=None,
     multi_colors: bool = False,
+    lod_bias: float | None = None,
+    gpu_bytes: int | None = None,
+    host_bytes: int | None = None,
+    brick_size: int | None = None,
     **kwargs,
 ) -> pyvista.Volume:
     """Add a volume rendered with emission/absorption compositing; return its actor.
@@ -126,10 +130,16 @@ def add_volume(
     ----------
     plotter : pyvista.Plotter
         The plotter to draw in.
-    volume : pyvista.ImageData, pyvista.MultiBlock, numpy.ndarray, VolumeModel or VolumeGroup
+    volume : pyvista.ImageData, MultiBlock, numpy.ndarray, VolumeModel, VolumeGroup, or zarr
         Scalars on a uniform grid (a numpy array is indexed x, y, z with unit spacing), a
         :class:`VolumeModel` that already carries its transfer function and placement, or a
         :class:`VolumeGroup` of overlapping volumes marched jointly (see :func:`add_volumes`).
+        A multiscale source (an OME-Zarr image group or its path, a zarr or dask array, a
+        list of arrays finest first, a :class:`MultiscaleSource`) is never read whole: its
+        bricks stream into a GPU pool as the view needs them (``lod_bias``, ``gpu_bytes``,
+        ``host_bytes``, ``brick_size``), drawn by the direct marcher with the transfer
+        keywords, ``step_scale``, ``stop_opacity``, ``interpolation`` and a placement;
+        ``clim`` defaults to its coarsest level's range.
         A MultiBlock adds each block as its own volume (named ``name-index``) and returns
         the list of their actors, as PyVista does.
     scalars : str or numpy.ndarray, optional
@@ -314,6 +324,18 @@ def add_volume(
     multi_colors : bool
         With a MultiBlock: each block takes the next of PyVista's colormaps ('Reds',
         'Greens', 'Blues', 'Greys', 'Oranges', 'Purples') instead of ``cmap``.
+    lod_bias : float, optional
+        Multiscale sources (0 by default): each sample reads the coarsest level whose point
+        spacing fits one pixel times ``2**lod_bias`` (``-30``: the finest everywhere, what
+        the in-memory render draws; ``1``: twice coarser, fewer bytes read).
+    gpu_bytes : int, optional
+        Multiscale sources: the brick pool's GPU budget (256 MiB by default; no more than
+        every brick of every level).
+    host_bytes : int, optional
+        Multiscale sources: the host cache of read bricks (2 GiB by default), least
+        recently used bricks forgotten first.
+    brick_size : int, optional
+        Multiscale sources: points along a brick's edge (32 by default).
     **kwargs
         PyVista's aliases ``rng`` (``clim``) and ``colormap`` (``cmap``). Any other
         keyword raises a ``TypeError`` that says what to use instead.
@@ -345,9 +367,21 @@ def add_volume(
     """
     open_window(plotter)   # a closed plotter: PlotterClosedError, not a half-added actor
     _checked_name(name)
+    paging = dict(lod_bias=lod_bias, gpu_bytes=gpu_bytes, host_bytes=host_bytes,
+                  brick_size=brick_size)
+    if is_multiscale_input(volume):
+        given = {key: value for key, value in locals().items()
+                 if key not in ("plotter", "volume", "kwargs", "paging")}
+        return _add_paged(plotter, volume, given, kwargs)
+    unused = [key for key, value in paging.items() if value is not None]
+    if unused:
+        raise ValueError(f"{', '.join(unused)}: for multiscale sources (an OME-Zarr group, a "
+                         "zarr or dask array, a list of levels), which are streamed by bricks; "
+                         f"this volume ({type(volume).__name__}) is drawn whole.")
     if isinstance(volume, pyvista.MultiBlock):
         given = {key: value for key, value in locals().items()
-                 if key not in ("plotter", "volume", "kwargs", "multi_colors")}
+                 if key not in ("plotter", "volume", "kwargs", "multi_colors", "paging",
+                                "unused", *paging)}
         return _add_blocks(plotter, volume, multi_colors, {**given, **kwargs})
     if multi_colors:
         raise ValueError("multi_colors colours the blocks of a MultiBlock; this volume is "
@@ -454,6 +488,89 @@ def add_volume(
     _frame(plotter, reset_camera)
     if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
         plotter.render()
+    return actor
+
+
+#: add_volume's keywords a multiscale source takes, and their defaults when left out.
+PAGED_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
+                  "flip_scalars", "log_scale", "technique", "step_scale", "stop_opacity",
+                  "transform", "user_matrix", "name", "reset_camera", "pickable", "render",
+                  "interpolation", "lod_bias", "gpu_bytes", "host_bytes", "brick_size",
+                  "blending", "skip_empty", "show_scalar_bar", "scalar_bar_args",
+                  "annotations", "preference", "light_map_size", "light_map_ambient",
+                  "nan_policy", "multi_colors")
+
+
+def is_multiscale_input(volume) -> bool:
+    """Whether ``add_volume`` streams ``volume`` by bricks (a source beyond memory)."""
+    from .models.multiscale import MultiscaleSource, _is_zarr_group
+
+    if isinstance(volume, MultiscaleSource) or _is_zarr_group(volume):
+        return True
+    if isinstance(volume, str) or hasattr(volume, "__fspath__"):
+        return str(volume).rstrip("/").endswith(".zarr")
+    if isinstance(volume, (list, tuple)):
+        return bool(volume) and all(is_array_source(v) or isinstance(v, np.ndarray)
+                                    for v in volume)
+    return is_array_source(volume)
+
+
+def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
+    """``add_volume`` for a multiscale source: the direct marcher reading a brick pool."""
+    from .models.multiscale import multiscale_source
+    from .volume.options import DirectOptions
+    from .volume.paged import (
+        BRICK_POINTS,
+        GPU_BYTES,
+        BrickPager,
+        PagedData,
+        PagedVolume,
+        build_paged_actor,
+        paged_transfer,
+    )
+
+    defaults = {key: value.default for key, value in __import__("inspect").signature(
+        add_volume).parameters.items()}
+    refused = sorted(key for key, value in {**given, **extra}.items()
+                     if key not in PAGED_KEYWORDS and value is not None
+                     and value != defaults.get(key))
+    if given["technique"] not in ("vtk", "direct", "auto"):
+        refused.insert(0, f"technique={given['technique']!r}")
+    if given["blending"] != "composite":
+        refused.append(f"blending={given['blending']!r}")
+    if refused:
+        raise ValueError(f"A multiscale source is drawn by the direct marcher reading a brick "
+                         f"pool (blending='composite'); {', '.join(refused)} "
+                         "cannot be used with it.")
+    transform = given["transform"] if given["user_matrix"] is None else given["user_matrix"]
+    interpolation = given["interpolation"] or "linear"
+    INTERPOLATION.check(interpolation)
+    source = multiscale_source(source, name=given["name"])
+    transfer = paged_transfer(source, given["cmap"], given["opacity"], given["clim"],
+                              given["opacity_unit_distance"], given["n_colors"],
+                              given["flip_scalars"], given["log_scale"])
+    model = PagedVolume(source, transfer, np.eye(4) if transform is None
+                        else checked_transform(transform), given["name"] or source.name,
+                        interpolation)
+    options = DirectOptions(**({} if given["step_scale"] is None
+                               else {"step_scale": given["step_scale"]}))
+    options.check_model(model)
+    shading = CommonVolumeOptions(given["stop_opacity"], False)
+    shading.check()
+    component = plotter.cubemarch
+    pager = BrickPager(model, plotter.renderer, given["brick_size"] or BRICK_POINTS,
+                       given["gpu_bytes"] or GPU_BYTES, given["host_bytes"],
+                       lod_bias=given["lod_bias"] or 0.0)
+    binding = build_paged_actor(plotter, PagedData(model, pager),
+                                VolumeSetup(options, shading, None))
+    binding.light_map = None
+    actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
+    actor.SetPickable(bool(given["pickable"]))
+    component.track(binding)
+    if given["show_scalar_bar"]:
+        add_scalar_bar(plotter, actor, model, model.name, True, given["scalar_bar_args"],
+                       given["annotations"])
+    _frame(plotter, given["reset_camera"])
     return actor
 
 

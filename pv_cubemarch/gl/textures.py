@@ -147,13 +147,18 @@ class Texture:
         if self.gl_object is not None and self._window is window and not self._dirty:
             try:
                 if self._regions:
-                    self.gl_object.Bind()
+                    # bound on a unit of its own: binding it on the active unit would take
+                    # that unit from the texture activated there (seen: a transfer table
+                    # read from a brick pool sub-uploaded after it, frames drawn dark)
+                    self.gl_object.Activate()
                 for origin, block in self._regions:
                     if self.kind == "3d":
                         sub_image_3d(origin, block)
                     else:   # GL's origin is (x, y): (column, row)
                         sub_image_2d((origin[1], origin[0]), block)
                     self.uploaded_bytes += int(block.nbytes)
+                if self._regions:
+                    self.gl_object.Deactivate()
                 self._regions = []
                 return self.gl_object
             except RuntimeError:   # no partial uploads with this context: upload it whole

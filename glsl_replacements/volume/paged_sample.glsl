@@ -1,0 +1,56 @@
+// A multiscale volume read through a brick pool: the data value at a texture position of the
+// finest level (texel centres on its points), from the coarsest level whose point spacing
+// still fits one pixel there (shifted by the LOD bias), or, where that level's brick is not
+// resident yet, from the nearest coarser one that is (the coarsest level always is: never a
+// hole). Each resident brick fills one slot of cm_pool with one point of its neighbours
+// around it, so a trilinear read inside the slot is the level's own. Defines the
+// cm_sampleScalar the marcher reads.
+uniform sampler3D cm_pool;         // slots of (brick + 2)^3 values, side by side
+uniform sampler3D cm_pageTable;    // per level and brick: its slot + 1, or 0 (not resident)
+uniform sampler2D cm_levelInfo;    // per level (row): the texels below
+uniform vec3 cm_poolSlots;         // slots along x, y, z
+uniform float cm_brickPoints;      // points along a brick's edge, apron left out
+uniform mat3 cm_pagedWorldFromPoint;   // finest-level point offsets to world lengths
+uniform vec3 cm_pagedEye;          // the eye in finest-level point coordinates
+uniform vec2 cm_lodFootprint;      // world length a pixel spans at distance d: d x + y
+
+// Row `level` of cm_levelInfo: (a, step), (b, 0), (points, 0), (table origin, 0), with
+// level point = finest point * a + b, and step the world length of one of its points.
+vec4 cm_levelTexel(int level, int column)
+{
+  return texelFetch(cm_levelInfo, ivec2(column, level), 0);
+}
+
+float cm_sampleScalar(vec3 texturePosition)
+{
+  vec3 finest = texturePosition * cm_levelTexel(0, 2).xyz - 0.5;
+  float pixel = length(cm_pagedWorldFromPoint * (finest - cm_pagedEye)) * cm_lodFootprint.x
+                + cm_lodFootprint.y;
+  int chosen = 0;
+  for (int level = CM_PAGED_LEVELS - 1; level > 0; --level)
+  {
+    if (cm_levelTexel(level, 0).w <= pixel)   // the coarsest whose points fit a pixel
+    {
+      chosen = level;
+      break;
+    }
+  }
+  for (int level = chosen; level < CM_PAGED_LEVELS; ++level)
+  {
+    vec3 points = cm_levelTexel(level, 2).xyz;
+    vec3 point = clamp(finest * cm_levelTexel(level, 0).xyz + cm_levelTexel(level, 1).xyz,
+                       vec3(0.0), points - 1.0);
+    vec3 brick = min(floor(point / cm_brickPoints), ceil(points / cm_brickPoints) - 1.0);
+    int slot = int(texelFetch(cm_pageTable, ivec3(cm_levelTexel(level, 3).xyz + brick), 0).r
+                   + 0.5) - 1;
+    if (slot >= 0)
+    {
+      ivec3 slots = ivec3(cm_poolSlots + 0.5);
+      ivec3 where = ivec3(slot % slots.x, (slot / slots.x) % slots.y, slot / (slots.x * slots.y));
+      float side = cm_brickPoints + 2.0;
+      vec3 texel = vec3(where) * side + 1.5 + (point - brick * cm_brickPoints);
+      return texture(cm_pool, texel / (cm_poolSlots * side)).r;
+    }
+  }
+  return 0.0;   // not reached: the coarsest level is resident
+}

@@ -1,0 +1,153 @@
+"""Bricks of a multiscale source, read in background threads into a host cache.
+
+A brick is ``brick³`` points of one level with one point of its neighbours around it (its
+apron, the level's edge repeated past its sides), so trilinear reads inside a brick never
+need another: ``(brick + 2)³`` values, float32. Requests come in priority order each frame;
+reads run on threads (zarr, dask and numpy release the GIL while decompressing) and land in
+the cache, which forgets the least recently used bricks beyond its byte budget. Nothing here
+blocks the caller: a frame takes what has arrived.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from .multiscale import MultiscaleSource
+
+#: Default host budget for read bricks (bytes).
+HOST_BYTES = 2 * 2**30
+#: Reads running at once by default.
+READ_THREADS = 4
+
+
+def brick_counts(shape, brick: int) -> tuple[int, int, int]:
+    """Bricks along x, y, z covering ``shape`` points (the last ones cut by the sides)."""
+    return tuple(-(-int(n) // int(brick)) for n in shape)
+
+
+def read_brick(source: MultiscaleSource, key, brick: int) -> np.ndarray:
+    """Brick ``key = (level, i, j, k)`` with its apron, float32 ``(brick + 2)³``."""
+    level = source.levels[key[0]]
+    lower = [int(i) * brick - 1 for i in key[1:]]
+    box = tuple(slice(max(a, 0), min(a + brick + 2, n))
+                for a, n in zip(lower, level.shape, strict=True))
+    values = level.read(box).astype(np.float32, copy=False)
+    pad = [(s.start - a, a + brick + 2 - s.stop) for s, a in zip(box, lower, strict=True)]
+    return np.pad(values, pad, mode="edge") if any(p for pair in pad for p in pair) \
+        else np.ascontiguousarray(values)
+
+
+class BrickCache:
+    """Read bricks of ``source`` (``brick`` points a side) within ``host_bytes``."""
+
+    def __init__(self, source: MultiscaleSource, brick: int = 32, host_bytes: int = HOST_BYTES,
+                 threads: int = READ_THREADS):
+        self.source = source
+        self.brick = int(brick)
+        self.host_bytes = int(host_bytes)
+        self.brick_bytes = (self.brick + 2) ** 3 * 4
+        if self.host_bytes < self.brick_bytes:
+            raise ValueError(f"host_bytes={host_bytes} holds no brick of {self.brick_bytes} "
+                             "bytes: give more.")
+        self._cache: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
+        self._reading: dict = {}
+        self._arrived: list = []
+        self._pool = ThreadPoolExecutor(max(1, int(threads)), thread_name_prefix="bricks")
+        self._changed = threading.Event()
+        #: Bytes read from the source so far, and bricks read.
+        self.bytes_read = 0
+        self.reads = 0
+        self.errors: list[BaseException] = []
+
+    @property
+    def capacity(self) -> int:
+        """Bricks the cache holds at most."""
+        return self.host_bytes // self.brick_bytes
+
+    @property
+    def pending(self) -> int:
+        """Bricks being read."""
+        with self._lock:
+            return len(self._reading)
+
+    @property
+    def nbytes(self) -> int:
+        """Host bytes of the bricks held."""
+        with self._lock:
+            return len(self._cache) * self.brick_bytes
+
+    def get(self, key) -> np.ndarray | None:
+        """Brick ``key`` if held (and now the most recently used), else None."""
+        with self._lock:
+            values = self._cache.get(key)
+            if values is not None:
+                self._cache.move_to_end(key)
+            return values
+
+    def request(self, keys) -> None:
+        """Read the bricks of ``keys`` not held or being read, in the order given.
+
+        Reads queued earlier and not started are dropped first: what the last frame wanted
+        comes before what an older one did. At most as many reads as the cache holds.
+        """
+        with self._lock:
+            for key, future in list(self._reading.items()):
+                if future.cancel():
+                    del self._reading[key]
+            room = self.capacity - len(self._reading)
+            for key in keys:
+                if room <= 0:
+                    break
+                if key in self._cache or key in self._reading:
+                    continue
+                self._reading[key] = self._pool.submit(self._read, key)
+                room -= 1
+
+    def _read(self, key) -> None:
+        try:
+            values = read_brick(self.source, key, self.brick)
+        except BaseException as error:   # kept for the caller, not lost in a thread
+            with self._lock:
+                self._reading.pop(key, None)
+                self.errors.append(error)
+            self._changed.set()
+            return
+        level = self.source.levels[key[0]]
+        with self._lock:
+            self._reading.pop(key, None)
+            self._cache[key] = values
+            self._cache.move_to_end(key)
+            while len(self._cache) > self.capacity:
+                self._cache.popitem(last=False)
+            self._arrived.append(key)
+            self.reads += 1
+            self.bytes_read += values.size * np.dtype(level.array.dtype).itemsize
+        self._changed.set()
+
+    def arrived(self) -> list:
+        """Keys read since the last call (some may have left the cache again)."""
+        with self._lock:
+            keys, self._arrived = self._arrived, []
+        self._changed.clear()
+        return keys
+
+    def wait(self, timeout: float) -> bool:
+        """Wait until a read ends (or ``timeout`` seconds); True if one did."""
+        return self._changed.wait(timeout)
+
+    def raise_errors(self) -> None:
+        """Raise the first error a read met (an unreadable chunk is said, not drawn empty)."""
+        with self._lock:
+            errors, self.errors = self.errors, []
+        if errors:
+            raise errors[0]
+
+    def close(self) -> None:
+        """Stop reading (reads not started are dropped)."""
+        self._pool.shutdown(wait=False, cancel_futures=True)
+

@@ -1,0 +1,473 @@
+"""Multiscale volumes beyond memory: bricks streamed into a GPU pool, level by footprint.
+
+The volume's levels (:mod:`~pv_cubemarch.models.multiscale`) are cut into bricks. A pool
+texture holds as many bricks (each with a one-point apron) as the GPU budget allows and a
+page table says, per level and brick, which slot holds it. At each frame the pager walks
+the bricks from the coarsest level down, keeping those in view whose nearest point needs
+that level or a finer one (the coarsest level whose point spacing fits one pixel there,
+shifted by ``lod_bias``), requests the missing ones from the host cache in that order
+(coarse first, near first; read in background threads), and uploads what has arrived into
+free or least recently used slots: a frame never waits for a read. The shader
+(``paged_sample.glsl``) reads each sample from its level's brick, or from the nearest
+coarser resident one: the coarsest level is loaded before the first frame and never
+evicted, so there is no hole. When nothing wanted is missing the image has converged.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyvista
+import vtk
+
+from ..core.frame_errors import observe
+from ..core.gl_limits import MAX_TEXTURE_SIZE
+from ..gl.bindings import ShaderBindings
+from ..gl.box import bind_camera, box_actor, camera_matrices
+from ..gl.textures import Texture
+from ..models.brick_cache import HOST_BYTES, BrickCache, brick_counts, read_brick
+from ..models.multiscale import MultiscaleSource
+from ..models.transfer import TransferFunction
+from .binding import VolumeSetup, march_defines, medium_from_texture, world_from_texture
+from .clipping import ClipState
+from .direct import DirectBinding
+
+#: Default GPU budget of the brick pool (bytes).
+GPU_BYTES = 256 * 2**20
+#: Default points along a brick's edge (its slot holds two more: the apron).
+BRICK_POINTS = 32
+#: Most brick bytes uploaded in one frame (the rest waits for the next frames).
+UPLOAD_BYTES_PER_FRAME = 64 * 2**20
+
+
+@dataclass(eq=False)
+class PagedVolume:
+    """A multiscale volume placed in the world with its transfer function; no data held.
+
+    Its index space is the finest level's points; ``transform`` places the physical frame
+    of the source's metadata in the world.
+    """
+
+    source: MultiscaleSource
+    transfer: TransferFunction
+    transform: np.ndarray = field(default_factory=lambda: np.eye(4))
+    name: str = "volume"
+    interpolation: str = "linear"
+    colors = None
+    value_offset = 0
+
+    @property
+    def dimensions(self) -> tuple[int, int, int]:
+        """Points along x, y, z of the finest level."""
+        return self.source.shape
+
+    def dataset_from_index(self) -> np.ndarray:
+        """4x4 from finest-level point indices to the source's physical coordinates."""
+        return self.source.levels[0].physical_from_index()
+
+    def world_from_index(self) -> np.ndarray:
+        """4x4 from finest-level point indices to world coordinates."""
+        return np.asarray(self.transform, float) @ self.dataset_from_index()
+
+    def world_bounds(self) -> np.ndarray:
+        """World bounds ``(xmin, xmax, ...)`` of the finest level's box."""
+        from ..models.volume import box_world_bounds
+
+        return box_world_bounds(self.world_from_index(), np.asarray(self.dimensions) - 1.0)
+
+
+def pool_slots(brick: int, gpu_bytes: int, most_bricks: int | None = None
+               ) -> tuple[int, int, int]:
+    """Slots along x, y, z of the largest pool within ``gpu_bytes`` and one texture.
+
+    No more than ``most_bricks`` (every brick of every level: a small source's pool holds
+    all of it and no more).
+    """
+    side = brick + 2
+    budget = int(gpu_bytes) // (side ** 3 * 4)
+    most = MAX_TEXTURE_SIZE // side
+    if budget < 1:
+        raise ValueError(f"gpu_bytes={gpu_bytes} holds no brick of {side ** 3 * 4} bytes "
+                         f"({brick}³ points and their apron): give more, or a smaller "
+                         "brick_size.")
+    want = budget if most_bricks is None else max(1, min(budget, int(most_bricks)))
+    x = min(most, int(np.ceil(want ** (1 / 3))))
+    y = min(most, int(np.ceil((want / x) ** 0.5)))
+    z = min(most, int(np.ceil(want / (x * y))))
+    if x * y * z > budget:   # rounded up past the budget: fewer along z (then y)
+        z = budget // (x * y)
+        if z < 1:
+            x, y, z = min(most, budget), max(1, min(most, budget // min(most, budget))), 1
+    return x, y, z
+
+
+class BrickPager:
+    """The pool, the page table and the per-frame choice of bricks (module docstring)."""
+
+    def __init__(self, model: PagedVolume, renderer, brick: int = BRICK_POINTS,
+                 gpu_bytes: int = GPU_BYTES, host_bytes: int | None = None,
+                 threads: int = 4, lod_bias: float = 0.0):
+        self.model = model
+        self.renderer = renderer
+        self.brick = int(brick)
+        self.lod_bias = float(lod_bias)
+        source = model.source
+        self.levels = source.levels
+        self.counts = [brick_counts(level.shape, self.brick) for level in self.levels]
+        self.slots = pool_slots(self.brick, gpu_bytes,
+                                sum(int(np.prod(c)) for c in self.counts))
+        self.capacity = int(np.prod(self.slots))
+        coarsest = len(self.levels) - 1
+        pinned = int(np.prod(self.counts[coarsest]))
+        if pinned > self.capacity:
+            raise ValueError(f"The coarsest level ({self.levels[coarsest].shape} points) needs "
+                             f"{pinned} bricks of {self.brick}³ and gpu_bytes holds "
+                             f"{self.capacity}: give more gpu_bytes, or a source with "
+                             "coarser levels (pv_cubemarch.build_pyramid).")
+        self.cache = BrickCache(source, self.brick,
+                                HOST_BYTES if host_bytes is None else host_bytes, threads)
+        # page tables of every level side by side along x (one texture: no sampler arrays)
+        self.table_origins = list(itertools.accumulate(
+            [0] + [c[0] for c in self.counts[:-1]]))
+        shape = (sum(c[0] for c in self.counts), max(c[1] for c in self.counts),
+                 max(c[2] for c in self.counts))
+        if max(shape) > MAX_TEXTURE_SIZE:
+            raise ValueError(f"The page table of {self.counts[0]} bricks at the finest level "
+                             f"is over {MAX_TEXTURE_SIZE} texels a side: give a larger "
+                             "brick_size.")
+        self.table = Texture(np.zeros(shape, np.float32), kind="3d", interpolate=False)
+        side = self.brick + 2
+        self.pool = Texture(np.zeros([n * side for n in self.slots], np.float32), kind="3d",
+                            interpolate=model.interpolation == "linear",
+                            rebuild=self._forget_pool)
+        self.info = Texture(self._level_info(), kind="2d", interpolate=False)
+        self.key_in: list = [None] * self.capacity
+        self.slot_of: dict = {}
+        self.last_used = np.full(self.capacity, -1, np.int64)
+        self.frame_number = 0
+        self.pinned = {(coarsest, *ijk) for ijk in np.ndindex(*self.counts[coarsest])}
+        #: Wanted bricks not resident after the last frame (0: converged).
+        self.missing = 0
+        #: Whether the last frame wanted more bricks than the pool holds.
+        self.over_budget = False
+        self.uploaded_bytes = 0
+        for key in sorted(self.pinned):   # before the first frame: never a hole
+            self._place(key, read_brick(source, key, self.brick))
+
+    def _level_info(self) -> np.ndarray:
+        """Per level: (a, world step), (b, 0), (points, 0), (table origin, 0)."""
+        finest = self.levels[0]
+        linear = self.model.world_from_index()[:3, :3]
+        info = np.zeros((len(self.levels), 4, 4), np.float32)
+        for number, level in enumerate(self.levels):
+            a = finest.scale / level.scale
+            b = (finest.translation - level.translation) / level.scale
+            step = float(np.max(np.linalg.norm(linear, axis=0) * level.scale / finest.scale))
+            info[number, 0] = (*a, step)
+            info[number, 1, :3] = b
+            info[number, 2, :3] = level.shape
+            info[number, 3, :3] = (self.table_origins[number], 0, 0)
+        return info
+
+    def _forget_pool(self) -> np.ndarray:
+        """A new window: the pool starts empty (bricks are placed again, the coarsest now)."""
+        self.key_in = [None] * self.capacity
+        self.slot_of = {}
+        self.table.set_data(np.zeros(self.table.array.shape, np.float32))
+        side = self.brick + 2
+        pool = np.zeros([n * side for n in self.slots], np.float32)
+        for slot, key in enumerate(sorted(self.pinned)):
+            self._write_slot(pool, slot, read_brick(self.model.source, key, self.brick))
+            self._mark(key, slot)
+        return pool
+
+    def _write_slot(self, pool: np.ndarray, slot: int, values: np.ndarray) -> None:
+        side = self.brick + 2
+        where = self._slot_origin(slot)
+        pool[tuple(slice(o, o + side) for o in where)] = values
+
+    def _slot_origin(self, slot: int) -> tuple[int, int, int]:
+        x, y, _ = self.slots
+        side = self.brick + 2
+        return (slot % x * side, slot // x % y * side, slot // (x * y) * side)
+
+    def _mark(self, key, slot: int) -> None:
+        self.key_in[slot] = key
+        self.slot_of[key] = slot
+        self.last_used[slot] = self.frame_number
+        level, *ijk = key
+        origin = [self.table_origins[level] + ijk[0], ijk[1], ijk[2]]
+        self.table.update_region(origin, np.full((1, 1, 1), slot + 1, np.float32))
+
+    def _place(self, key, values: np.ndarray, keep: set | None = None) -> bool:
+        """Put brick ``key`` in a free slot, or the least recently used one not kept."""
+        free = [s for s, k in enumerate(self.key_in) if k is None]
+        if free:
+            slot = free[0]
+        else:
+            order = np.argsort(self.last_used, kind="stable")
+            slot = next((int(s) for s in order if self.key_in[s] not in self.pinned
+                         and (keep is None or self.key_in[s] not in keep)), None)
+            if slot is None:
+                return False
+            old = self.key_in[slot]
+            del self.slot_of[old]
+            level, *ijk = old
+            self.table.update_region([self.table_origins[level] + ijk[0], ijk[1], ijk[2]],
+                                     np.zeros((1, 1, 1), np.float32))
+        self.pool.update_region(self._slot_origin(slot), values)
+        self.uploaded_bytes += values.nbytes
+        self._mark(key, slot)
+        return True
+
+    def footprint(self) -> tuple[float, float]:
+        """World length one pixel spans at distance d: ``d x + y`` (bias included)."""
+        camera = self.renderer.GetActiveCamera()
+        height = max(self.renderer.GetSize()[1], 1)
+        scale = 2.0 ** self.lod_bias
+        if camera.GetParallelProjection():
+            return 0.0, 2.0 * camera.GetParallelScale() / height * scale
+        return 2.0 * np.tan(np.radians(camera.GetViewAngle()) / 2.0) / height * scale, 0.0
+
+    def wanted(self) -> list:
+        """The bricks this view needs, coarse first and near first within a level."""
+        levels = self.levels
+        info = self.info.array if self.info.array is not None else self._level_info()
+        steps = info[:, 0, 3]
+        world_from_point = self.model.world_from_index()
+        linear = world_from_point[:3, :3]
+        stretch = float(np.linalg.svd(linear, compute_uv=False).min())   # a lower bound
+        eye_world = np.asarray(self.renderer.GetActiveCamera().GetPosition(), float)
+        eye = (np.linalg.inv(world_from_point) @ np.append(eye_world, 1.0))[:3]
+        view, projection = camera_matrices(self.renderer)
+        clip_from_point = projection @ view @ world_from_point
+        per_distance, constant = self.footprint()
+        coarsest = len(levels) - 1
+        keys = sorted(self.pinned)
+        candidates = np.array(list(np.ndindex(*self.counts[coarsest])), dtype=np.int64)
+        for number in range(coarsest, -1, -1):
+            if not len(candidates):
+                break
+            a, b = info[number, 0, :3].astype(float), info[number, 1, :3].astype(float)
+            # the bricks' boxes in finest points (one point of margin: the trilinear reads)
+            low = (candidates * self.brick - 1.0 - b) / a
+            high = ((candidates + 1) * self.brick + 1.0 - b) / a
+            shown = _in_view(low, high, clip_from_point)
+            candidates, low, high = candidates[shown], low[shown], high[shown]
+            nearest = np.linalg.norm(np.clip(eye, low, high) - eye, axis=1) * stretch
+            pixel = nearest * per_distance + constant
+            # the finest level any sample in the brick may choose
+            needed = np.zeros(len(candidates), np.int64)
+            for level in range(1, len(levels)):
+                needed[steps[level] <= pixel] = level
+            keep = needed <= number
+            order = np.argsort(nearest[keep], kind="stable")
+            if number < coarsest:
+                keys += [(number, *map(int, ijk)) for ijk in candidates[keep][order]]
+            if number == 0:
+                break
+            refine = needed < number
+            candidates = self._children(number, low[refine], high[refine], info)
+        return keys
+
+    def _children(self, number: int, low: np.ndarray, high: np.ndarray, info) -> np.ndarray:
+        """The bricks of level ``number - 1`` under boxes (finest points) of level ``number``."""
+        finer = number - 1
+        a, b = info[finer, 0, :3].astype(float), info[finer, 1, :3].astype(float)
+        counts = np.asarray(self.counts[finer])
+        first = np.clip(np.floor((low * a + b) / self.brick), 0, counts - 1).astype(np.int64)
+        last = np.clip(np.floor((high * a + b) / self.brick), 0, counts - 1).astype(np.int64)
+        found = set()
+        for lo, hi in zip(first, last, strict=True):
+            found.update(itertools.product(*(range(s, e + 1) for s, e in zip(lo, hi,
+                                                                               strict=True))))
+        return np.array(sorted(found), dtype=np.int64).reshape(-1, 3)
+
+    def frame(self, *_) -> None:
+        """At each frame's start: choose, request, and upload what has arrived."""
+        self.cache.raise_errors()
+        self.frame_number += 1
+        wanted = self.wanted()
+        self.over_budget = len(wanted) > self.capacity
+        wanted = wanted[:self.capacity]
+        keep = set(wanted)
+        for key in wanted:
+            slot = self.slot_of.get(key)
+            if slot is not None:
+                self.last_used[slot] = self.frame_number
+        absent = [key for key in wanted if key not in self.slot_of]
+        self.cache.request(absent)
+        self.cache.arrived()
+        sent = 0
+        for key in absent:
+            if sent >= UPLOAD_BYTES_PER_FRAME:
+                break
+            values = self.cache.get(key)
+            if values is not None and self._place(key, values, keep):
+                sent += values.nbytes
+        self.missing = sum(1 for key in wanted if key not in self.slot_of)
+
+    @property
+    def converged(self) -> bool:
+        """Whether every brick the last frame wanted (within the pool) was resident."""
+        return self.missing == 0
+
+    def stats(self) -> dict:
+        """Resident and requested bricks and the bytes they hold (for views and scripts)."""
+        return {"resident": sum(k is not None for k in self.key_in), "slots": self.capacity,
+                "missing": self.missing, "reading": self.cache.pending,
+                "over_budget": self.over_budget, "gpu_bytes": self.nbytes,
+                "host_bytes": self.cache.nbytes, "bytes_read": self.cache.bytes_read,
+                "uploaded_bytes": self.uploaded_bytes}
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of the pool, the page table and the level table."""
+        return self.pool.nbytes + self.table.nbytes + self.info.nbytes
+
+    def release(self) -> None:
+        """Stop reading; free the textures."""
+        self.cache.close()
+        for texture in (self.pool, self.table, self.info):
+            texture.release()
+
+
+def _in_view(low: np.ndarray, high: np.ndarray, clip_from_point: np.ndarray) -> np.ndarray:
+    """Which boxes (finest points, ``(n, 3)`` corners) are not wholly outside a frustum plane."""
+    corners = np.stack([np.where(np.array(pick)[None, :] == 0, low, high)
+                        for pick in itertools.product((0, 1), repeat=3)], axis=1)
+    clip = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2) \
+        @ clip_from_point.T
+    w = clip[..., 3]
+    outside = np.zeros(len(low), bool)
+    for axis in range(3):
+        outside |= (clip[..., axis] < -w).all(axis=1) | (clip[..., axis] > w).all(axis=1)
+    return ~outside
+
+
+class PagedData:
+    """What the marcher's bindings read of a paged volume: its tables, planes and pool."""
+
+    def __init__(self, model: PagedVolume, pager: BrickPager):
+        self.model = model
+        self.pager = pager
+        self.tables = [Texture(model.transfer.table.reshape(1, -1, 4), kind="2d")]
+        self.clip = ClipState()
+        self.brick_builds = 0
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of the pool, its tables and the transfer table."""
+        return self.pager.nbytes + self.tables[0].nbytes
+
+    def release(self) -> None:
+        """The transfer table and the pager's textures and reads."""
+        self.tables[0].release()
+        self.pager.release()
+
+
+class PagedBinding(DirectBinding):
+    """A paged volume on its box: the direct marcher reading the brick pool."""
+
+    @property
+    def pager(self) -> BrickPager:
+        """The pool, page table and reads of this volume."""
+        return self.data.pager
+
+    @property
+    def converged(self) -> bool:
+        """Whether the last frame had every brick it wanted."""
+        return self.data.pager.converged
+
+    def wait_for_bricks(self, timeout: float) -> bool:
+        """Wait until a requested brick arrives (or ``timeout`` s); True if one did."""
+        return self.data.pager.cache.wait(timeout)
+
+    def stats(self) -> dict:
+        """Resident, missing and read bricks and bytes (:meth:`BrickPager.stats`)."""
+        return self.data.pager.stats()
+
+    def release_resources(self) -> None:
+        """Stop the per-frame choice, then what a direct volume frees (the pager too)."""
+        if getattr(self, "_pager_tag", None) is not None:
+            self.bindings.renderer.RemoveObserver(self._pager_tag)
+            self._pager_tag = None
+        super().release_resources()
+
+
+def bind_paged_sampling(target, data: PagedData, step_scale: float,
+                        stop_opacity: float) -> dict:
+    """Give ``target`` what the marcher reads of a paged volume; returns its switches."""
+    model, pager = data.model, data.pager
+    target.set_uniform("cm_stopOpacity", stop_opacity)
+    target.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
+    target.set_uniform("cm_stepScale", step_scale)
+    target.set_uniform("cm_worldFromTexture", lambda: world_from_texture(model))
+    target.set_uniform("cm_mediumFromTexture", lambda: medium_from_texture(model))
+    target.set_uniform("cm_clipPlanes", lambda: data.clip.uniform(world_from_texture(model)))
+    target.add_texture("cm_transferTable", data.tables[0])
+    target.set_uniform("cm_clim", model.transfer.clim)
+    target.add_texture("cm_pool", pager.pool)
+    target.add_texture("cm_pageTable", pager.table)
+    target.add_texture("cm_levelInfo", pager.info)
+    target.set_uniform("cm_poolSlots", tuple(float(n) for n in pager.slots))
+    target.set_uniform("cm_brickPoints", float(pager.brick))
+    target.set_uniform("cm_pagedWorldFromPoint", lambda: model.world_from_index()[:3, :3])
+
+    def eye():
+        position = np.append(pager.renderer.GetActiveCamera().GetPosition(), 1.0)
+        return tuple((np.linalg.inv(model.world_from_index()) @ position)[:3])
+
+    target.set_uniform("cm_pagedEye", eye)
+    target.set_uniform("cm_lodFootprint", pager.footprint)
+    return {**march_defines(model, False), **data.clip.defines,
+            "CM_PAGED_LEVELS": len(pager.levels)}
+
+
+def build_paged_actor(plotter, data: PagedData, setup: VolumeSetup) -> PagedBinding:
+    """The direct marcher's box actor reading ``data``'s brick pool; returns its binding."""
+    options, shading = setup.options, setup.shading
+    model = data.model
+    renderer = plotter.renderer
+    actor = box_actor([n - 1.0 for n in model.dimensions], model.world_from_index())
+    step_scale = float(options.step_scale)
+    bindings = ShaderBindings(actor.GetMapper(), renderer)
+    defines = bind_paged_sampling(bindings, data, step_scale, shading.stop_opacity)
+    bind_camera(bindings, renderer, lambda: world_from_texture(model))
+    binding = PagedBinding(model, data, bindings, None, step_scale, shading.stop_opacity,
+                           window=plotter.ren_win, sampling="paged_sample", defines=defines)
+    binding.drawn = [actor]
+    binding.renderer = renderer
+    binding.follow_multisampling()
+    binding._tag = observe(renderer, vtk.vtkCommand.StartEvent,
+                           binding.follow_multisampling, 5.0)
+    binding._pager_tag = observe(renderer, vtk.vtkCommand.StartEvent, data.pager.frame, 4.0)
+    pyvista.set_new_attribute(actor, "cubemarch", binding)
+    return binding
+
+
+def paged_transfer(source: MultiscaleSource, cmap, opacity, clim, opacity_unit_distance,
+                   n_colors, flip_scalars, log_scale) -> TransferFunction:
+    """The transfer table for a multiscale source, with defaults it can afford.
+
+    ``clim`` defaults to the coarsest level's range (the finest would mean reading all of
+    it); ``opacity_unit_distance`` to PyVista's, the finest level's diagonal over its mean
+    number of points less one.
+    """
+    if clim is None:
+        coarsest = source.levels[-1]
+        values = coarsest.read(tuple(slice(0, n) for n in coarsest.shape))
+        low, high = float(np.nanmin(values)), float(np.nanmax(values))
+        clim = (low, high if high > low else low + 1.0)
+    if opacity_unit_distance is None:
+        finest = source.levels[0]
+        diagonal = float(np.linalg.norm((np.asarray(finest.shape) - 1) * finest.scale))
+        points = float(np.mean(finest.shape)) - 1.0
+        opacity_unit_distance = diagonal / points if points > 0 and diagonal > 0 else float(
+            np.mean(finest.scale))
+    return TransferFunction.from_colormap(cmap, "linear" if opacity is None else opacity, clim,
+                                          opacity_unit_distance, n_colors=n_colors or 256,
+                                          flip_scalars=bool(flip_scalars),
+                                          log_scale=bool(log_scale))
