@@ -116,13 +116,15 @@ def test_converged_finest_level_equals_the_in_memory_render(pyramid, camera):
 
 
 def test_paged_volume_matches_the_cpu_reference(pyramid):
-    # The independent oracle: the CPU reference of the finest level (read with zarr).
+    # The independent oracle: the CPU reference of the finest level (read with zarr);
+    # render_image(converge=True) waits for the bricks.
     grid = finest_grid(pyramid)
     pl = pv.Plotter(off_screen=True, window_size=SIZE)
     pl.set_background("black")
     actor = cm.add_volume(pl, str(pyramid), lod_bias=-30, brick_size=8, **KEYWORDS)
     view(pl)
-    image = converged(pl, actor)
+    image = cm.render_image(pl, converge=True)
+    assert actor.cubemarch.converged
     model = cm.make_volume(grid, **KEYWORDS)
     expected = cm.render_emission_absorption(model, cm.Camera.from_pyvista(pl.camera), SIZE,
                                              near=pl.camera.clipping_range[0])
@@ -175,6 +177,17 @@ def test_level_of_detail_reads_only_the_levels_its_pixels_need(pyramid):
     assert {key[0] for key in pager.slot_of} == {1, 2, 3}
     assert pager.cache.reads == len(pager.slot_of) - len(pager.pinned)   # nothing else
     assert psnr(image, in_memory(finest_grid(pyramid), distance=400.0)) >= 30.0
+    pl.close()
+
+
+def test_render_image_says_when_it_did_not_converge(pyramid):
+    # catches (seen failing): a timeout returning a coarse image in silence
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    actor = cm.add_volume(pl, str(pyramid), lod_bias=-30, brick_size=8, **KEYWORDS)
+    view(pl)
+    with pytest.warns(UserWarning, match=r"not converged after 0 s.*'missing': [1-9]"):
+        cm.render_image(pl, converge=True, timeout=0.0)
+    assert not actor.cubemarch.converged
     pl.close()
 
 

@@ -88,10 +88,41 @@ def render_frame(plotter: pyvista.Plotter) -> None:
     raise_frame_errors(errors)
 
 
-def render_image(plotter: pyvista.Plotter) -> np.ndarray:
-    """Render ``plotter`` and return its image as ``(height, width, 3)`` uint8."""
+def render_image(plotter: pyvista.Plotter, converge: bool = False,
+                 timeout: float = 60.0) -> np.ndarray:
+    """Render ``plotter`` and return its image as ``(height, width, 3)`` uint8.
+
+    ``converge``: render again until every volume streamed by bricks has all it wants for
+    this view (each frame draws what has arrived; between frames the bricks being read are
+    waited for), at most ``timeout`` seconds; past it, a warning says what was missing and
+    the last image is returned.
+    """
     render_frame(plotter)
+    if converge:
+        _converge(plotter, float(timeout))
     return read_pixels(plotter)
+
+
+def _converge(plotter: pyvista.Plotter, timeout: float) -> None:
+    """Frames until no streamed volume misses a brick (see :func:`render_image`)."""
+    import time
+    import warnings
+
+    deadline = time.perf_counter() + timeout
+    while True:
+        component = plotter.__dict__.get("_cubemarch_component")
+        streaming = [b for b in (component.tracked if component is not None else [])
+                     if b.shown and not getattr(b, "converged", True)]
+        if not streaming:
+            return
+        left = deadline - time.perf_counter()
+        if left <= 0:
+            warnings.warn(f"render_image(converge=True): not converged after {timeout:g} s "
+                          f"({'; '.join(str(b.stats()) for b in streaming)}); the image "
+                          "shows coarser levels where bricks are missing.", stacklevel=3)
+            return
+        streaming[0].wait_for_bricks(min(left, 0.5))
+        render_frame(plotter)
 
 
 def _grab(plotter: pyvista.Plotter, depth: bool) -> np.ndarray:
