@@ -14,6 +14,7 @@ from .bench import edits as bench_edits
 from .bench import harness as bench
 from .bench import labels as bench_labels
 from .bench import large as bench_large
+from .bench import outofcore as bench_outofcore
 from .bench import resolution as bench_resolution
 from .bench import scene_prims as bench_prims
 from .bench import soak as bench_soak
@@ -242,6 +243,24 @@ def build_parser() -> argparse.ArgumentParser:
     prims.add_argument("--pyvista-max", type=int, default=4000,
                        help="largest count timed with PyVista's per-prim path (quadratic)")
     prims.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    outofcore = bench_commands.add_parser(
+        "outofcore", help="multiscale volumes streamed by bricks (a procedural 2 TiB "
+                          "pyramid, a small one drawn whole too, the smoke as OME-Zarr): "
+                          "first frame, converged, bytes read, RSS, against the coarsest "
+                          "level only and the whole array in memory")
+    outofcore.add_argument("--size", type=_size, default=(320, 240), help="WxH (default "
+                           "320x240: every sample of a streamed volume reads a page table)")
+    outofcore.add_argument("--scenes", default=",".join(bench_outofcore.SCENES),
+                           help=f"comma-separated, of {', '.join(bench_outofcore.SCENES)}")
+    outofcore.add_argument("--views", default=",".join(bench_outofcore.VIEWS),
+                           help="comma-separated, of far, mid, close")
+    outofcore.add_argument("--shape", type=lambda t: tuple(int(v) for v in t.split("x")),
+                           default=(16384, 16384, 4096),
+                           help="the procedural scene's points, XxYxZ (default "
+                                "16384x16384x4096: 2 TiB of uint16)")
+    outofcore.add_argument("--timeout", type=float, default=120.0,
+                           help="seconds a row may take to converge")
+    outofcore.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     labels = bench_commands.add_parser(
         "labels", help="segmentations of many uint32/uint64 ids: ours against threshold + "
                        "add_mesh, contour_labels and a volume ray cast; setup, frames, bytes, "
@@ -564,6 +583,19 @@ def _bench(args) -> int:
               "(> 10/255): against the CPU reference compositing every root")
         print(format_layer_table(rows, bench_surface_layers.OURS))
         _write_rows(args.json_path, rows, size=list(args.size), grids=list(args.grids))
+        return 0
+    if args.bench_command == "outofcore":
+        rows = bench_outofcore.run_outofcore(
+            [s.strip() for s in args.scenes.split(",") if s.strip()],
+            [v.strip() for v in args.views.split(",") if v.strip()], args.size,
+            shape=args.shape, timeout=args.timeout)
+        print(f"{args.size[0]}x{args.size[1]}; first: add to the first frame; conv.: to the "
+              "frame with every wanted brick (within the pool); max ms: the longest frame "
+              "while bricks streamed; read: bytes read from the source; held: bytes of the "
+              "bricks in the pool at the end; RSS: peak growth of this process; PSNR: "
+              "against the whole array drawn in memory")
+        print(bench_outofcore.format_outofcore(rows))
+        _write_rows(args.json_path, rows, size=list(args.size), shape=list(args.shape))
         return 0
     if args.bench_command == "labels":
         scenes = [s.strip() for s in args.scenes.split(",") if s.strip()]

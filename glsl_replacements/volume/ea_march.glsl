@@ -172,6 +172,31 @@ void cm_marchJoint(inout vec4 rgba, vec3 entry, vec3 exit, float mediumLength,
 }
 #endif
 
+#ifdef CM_PAGED_LEVELS
+// A multiscale volume's ray (paged_sample), in pieces along which one level is chosen, each
+// stepped cm_stepScale points of that level: far pieces read coarse levels in few steps.
+void cm_marchPaged(inout vec4 rgba, vec3 entry, vec3 exit, float mediumLength)
+{
+  float f0 = 0.0;
+  for (int piece = 0; piece < 2 * CM_PAGED_LEVELS + 1; ++piece)
+  {
+    float f1 = cm_pagedLevelEnd(entry, exit, f0);
+    int level = cm_pagedLevelAt(mix(entry, exit, 0.5 * (f0 + f1)));
+    float steps = max(cm_pagedTexels(exit - entry, level) * (f1 - f0) / cm_stepScale, 1e-6);
+    if (!cm_marchPiece(rgba, mix(entry, exit, f0), mix(entry, exit, f1),
+                       mediumLength * (f1 - f0), steps))
+    {
+      return;
+    }
+    f0 = f1;
+    if (f0 >= 1.0)
+    {
+      return;
+    }
+  }
+}
+#endif
+
 // March from entry to exit (texture coordinates), mediumLength data units apart, and return
 // premultiplied rgba (rgb emitted colour, a opacity).
 vec4 cm_march(vec3 entry, vec3 exit, float mediumLength)
@@ -187,6 +212,8 @@ vec4 cm_march(vec3 entry, vec3 exit, float mediumLength)
   }
 #ifdef CM_JOINT
   cm_marchJoint(rgba, entry, exit, mediumLength, dominant);
+#elif defined(CM_PAGED_LEVELS)
+  cm_marchPaged(rgba, entry, exit, mediumLength);
 #else
   cm_marchPiece(rgba, entry, exit, mediumLength, max(dominant / cm_stepScale, 1e-6));
 #endif

@@ -54,3 +54,59 @@ float cm_sampleScalar(vec3 texturePosition)
   }
   return 0.0;   // not reached: the coarsest level is resident
 }
+
+// The level a sample at `texturePosition` reads first (the coarsest whose points fit a
+// pixel there), as cm_sampleScalar chooses it.
+int cm_pagedLevelAt(vec3 texturePosition)
+{
+  vec3 finest = texturePosition * cm_levelTexel(0, 2).xyz - 0.5;
+  float pixel = length(cm_pagedWorldFromPoint * (finest - cm_pagedEye)) * cm_lodFootprint.x
+                + cm_lodFootprint.y;
+  for (int level = CM_PAGED_LEVELS - 1; level > 0; --level)
+  {
+    if (cm_levelTexel(level, 0).w <= pixel)
+    {
+      return level;
+    }
+  }
+  return 0;
+}
+
+// Where, past f0, the ray entry + (exit - entry) f next crosses a distance from the eye at
+// which the chosen level changes (1 if nowhere before the exit). The distance is
+// |A + B f| (world lengths), so each level's threshold is met at most twice.
+float cm_pagedLevelEnd(vec3 entry, vec3 exit, float f0)
+{
+  if (!(cm_lodFootprint.x > 0.0))
+  {
+    return 1.0;   // parallel projection: one level along the whole ray
+  }
+  vec3 dims = cm_levelTexel(0, 2).xyz;
+  vec3 a = cm_pagedWorldFromPoint * (entry * dims - 0.5 - cm_pagedEye);
+  vec3 b = cm_pagedWorldFromPoint * ((exit - entry) * dims);
+  float bb = dot(b, b);
+  float ab = dot(a, b);
+  float aa = dot(a, a);
+  float end = 1.0;
+  for (int level = 1; level < CM_PAGED_LEVELS; ++level)
+  {
+    float reach = (cm_levelTexel(level, 0).w - cm_lodFootprint.y) / cm_lodFootprint.x;
+    float discriminant = ab * ab - bb * (aa - reach * reach);
+    if (bb > 0.0 && discriminant > 0.0)
+    {
+      float root = sqrt(discriminant);
+      float first = (-ab - root) / bb;
+      float second = (-ab + root) / bb;
+      end = first > f0 + 1e-6 ? min(end, first) : end;
+      end = second > f0 + 1e-6 ? min(end, second) : end;
+    }
+  }
+  return end;
+}
+
+// Points of level `level` a texture-space span crosses along its dominant axis.
+float cm_pagedTexels(vec3 span, int level)
+{
+  vec3 points = abs(span * cm_levelTexel(0, 2).xyz * cm_levelTexel(level, 0).xyz);
+  return max(points.x, max(points.y, points.z));
+}

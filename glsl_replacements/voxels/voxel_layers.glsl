@@ -4,6 +4,20 @@
 {
   vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and index space
   cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
+#ifdef CM_LABEL_APRON
+  // A ray lying in a chunk's border plane (an axis it does not move along, its origin on a
+  // border within rounding) is put on it exactly, so the chunks on either side decide
+  // alike: the one above draws it (boxes half-open below), not both or neither.
+  vec3 cm_still = vec3(lessThan(abs(cm_direction), vec3(1e-6) * length(cm_direction)));
+  vec3 cm_onBorder = cm_still * vec3(lessThan(abs(cm_origin), vec3(1e-4)))
+                     + cm_still * vec3(lessThan(abs(cm_origin - cm_gridDims), vec3(1e-4)));
+  cm_origin = mix(cm_origin, round(cm_origin), min(cm_onBorder, vec3(1.0)));
+  cm_direction *= 1.0 - cm_still;
+  if (dot(cm_still, vec3(greaterThanEqual(cm_origin, cm_gridDims))) > 0.0)
+  {
+    discard;
+  }
+#endif
   vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
   float cm_boxEntry = cm_inBox.x;
   // Where a clip plane cuts the ray inside a translucent material, the cut is a face of it
@@ -59,6 +73,11 @@
     ivec3 cm_before = cm_voxel;
     cm_before[cm_entry / 2] -= 2 * (cm_entry - 2 * (cm_entry / 2)) - 1;
     cm_throughFace = cm_layerMaterial(cm_before) != cm_current;
+#ifdef CM_CLIP_PLANES
+    // a plane on the box's face clips the neighbour away: this face is its cut
+    cm_throughFace = cm_throughFace
+                     || cm_clipKeeps(cm_origin + cm_direction * (cm_boxEntry - cm_nudge)) < 0.5;
+#endif
   }
 #endif
   if (cm_throughFace && cm_current != 0)
@@ -115,6 +134,13 @@
     bool cm_out = any(lessThan(cm_next, ivec3(0))) || any(greaterThanEqual(cm_next, cm_dims));
 #ifdef CM_LABEL_APRON
     int cm_material = cm_layerMaterial(cm_next);   // past the box: the neighbour's voxel
+#ifdef CM_CLIP_PLANES
+    if (cm_out && cm_clipKeeps(cm_origin + cm_direction * (mix(cm_start, cm_end, cm_t)
+                                                           + cm_nudge)) < 0.5)
+    {
+      cm_material = 0;   // a plane on the box's face clipped the neighbour away
+    }
+#endif
 #else
     int cm_material = cm_out ? 0 : cm_layerMaterial(cm_next);
 #endif

@@ -34,6 +34,7 @@ _SUB_IMAGE_2D = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.c_int
                                  ctypes.c_void_p)
 _PIXEL_STORE = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int)
 _GET_ERROR = ctypes.CFUNCTYPE(ctypes.c_uint)
+_GET_INTEGER = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.POINTER(ctypes.c_int))
 _READ_PIXELS = ctypes.CFUNCTYPE(None, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_int,
                                 ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)
 GL_FLOAT = 0x1406
@@ -69,10 +70,21 @@ def _system(library: str, current: str, lookup: str):
     get.argtypes = [ctypes.c_char_p]
     sub, store, error = get(b"glTexSubImage3D"), get(b"glPixelStorei"), get(b"glGetError")
     read, sub_2d = get(b"glReadPixels"), get(b"glTexSubImage2D")
-    if not (sub and store and error and read and sub_2d):
+    integer = get(b"glGetIntegerv")
+    if not (sub and store and error and read and sub_2d and integer):
         return None
     return is_current, (_SUB_IMAGE(sub), _PIXEL_STORE(store), _GET_ERROR(error),
-                        _READ_PIXELS(read), _SUB_IMAGE_2D(sub_2d))
+                        _READ_PIXELS(read), _SUB_IMAGE_2D(sub_2d), _GET_INTEGER(integer))
+
+
+def _unpack_alignment(functions) -> int:
+    """The context's GL_UNPACK_ALIGNMENT now, restored after our uploads.
+
+    VTK's whole uploads read rows with it (1: rows of any number of bytes).
+    """
+    value = ctypes.c_int(4)
+    functions[5](GL_UNPACK_ALIGNMENT, ctypes.byref(value))
+    return int(value.value)
 
 
 def _gl_functions() -> tuple | None:
@@ -100,13 +112,16 @@ def sub_image_3d(origin: tuple[int, int, int], block: np.ndarray) -> None:
                            "whole texture.")
     sub, store = functions[:2]
     data = x_fastest(block)
+    alignment = _unpack_alignment(functions)
     store(GL_UNPACK_ALIGNMENT, 1)
     for name in GL_UNPACK_ZEROED:
         store(name, 0)
     sub(GL_TEXTURE_3D, 0, int(origin[0]), int(origin[1]), int(origin[2]), block.shape[0],
         block.shape[1], block.shape[2], GL_RED, GL_TYPES[np.dtype(block.dtype)],
         data.ctypes.data)
-    store(GL_UNPACK_ALIGNMENT, 4)
+    # as it was (seen: 4 restored where VTK had 1, and a uint8 texture uploaded whole
+    # afterwards, rows of 6 bytes, read as rows of 8: garbled)
+    store(GL_UNPACK_ALIGNMENT, alignment)
 
 
 def sub_image_2d(origin: tuple[int, int], block: np.ndarray) -> None:
@@ -121,12 +136,13 @@ def sub_image_2d(origin: tuple[int, int], block: np.ndarray) -> None:
     store, sub = functions[1], functions[4]
     data = np.ascontiguousarray(block)
     components = 1 if data.ndim == 2 else int(data.shape[2])
+    alignment = _unpack_alignment(functions)
     store(GL_UNPACK_ALIGNMENT, 1)
     for name in GL_UNPACK_ZEROED:
         store(name, 0)
     sub(GL_TEXTURE_2D, 0, int(origin[0]), int(origin[1]), data.shape[1], data.shape[0],
         GL_FORMATS[components], GL_TYPES[np.dtype(data.dtype)], data.ctypes.data)
-    store(GL_UNPACK_ALIGNMENT, 4)
+    store(GL_UNPACK_ALIGNMENT, alignment)
 
 
 def pending_gl_errors() -> list[int]:

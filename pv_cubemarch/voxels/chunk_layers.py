@@ -79,6 +79,7 @@ class ChunkLayers:
         self.binding = binding
         self.palette: Texture | None = None
         self._rows: dict[tuple[int, int, int], np.ndarray] = {}
+        self._translucent = np.zeros(0, np.int64)   # the rows the layers were placed for
 
     def rows_in(self, keys) -> dict:
         """Per chunk key, the sorted rows its voxels hold (found once, kept until edited)."""
@@ -99,7 +100,11 @@ class ChunkLayers:
         return {k: self._rows[k] for k in keys}
 
     def follow(self, rgba: np.ndarray, rows: np.ndarray | None) -> None:
-        """The palette changed (``rows`` of it, or all): layers made, updated or dropped."""
+        """The palette changed (``rows`` of it, or all): layers made, updated or dropped.
+
+        Which chunks hold layers is decided again only when the translucent labels changed
+        (a colour alone sends its entries and nothing more).
+        """
         translucent = translucent_materials(rgba)
         if not translucent.size:
             self.release()
@@ -108,17 +113,21 @@ class ChunkLayers:
             self.palette = Texture(palette_texels(rgba), kind="2d", interpolate=False)
         else:
             upload_palette_rows(self.palette, rgba, rows)
-        self.place_layers(translucent)
+        if not np.array_equal(translucent, self._translucent):
+            self._translucent = translucent
+            self.place_layers()
 
-    def place_layers(self, translucent: np.ndarray | None = None) -> None:
-        """A layer actor for each chunk holding a ``translucent`` row; none for the others."""
-        if translucent is None:
-            translucent = translucent_materials(self.binding.model.palette.rgba)
+    def place_layers(self, keys=None) -> None:
+        """A layer actor for each chunk (of ``keys``, or all) holding a translucent row."""
         chunks = self.binding.chunks
-        held = self.rows_in(list(chunks)) if translucent.size else {}
-        for key, chunk in chunks.items():
-            wanted = key in held and bool(np.isin(held[key], translucent,
-                                                  assume_unique=True).any())
+        keys = list(chunks) if keys is None else [k for k in keys if k in chunks]
+        table = np.zeros(int(self._translucent.max(initial=0)) + 1, bool)
+        table[self._translucent] = True
+        held = self.rows_in(keys) if self._translucent.size else {}
+        for key in keys:
+            chunk = chunks[key]
+            rows = held.get(key)
+            wanted = rows is not None and bool(table[rows[rows < table.size]].any())
             if wanted and chunk.layers is None:
                 chunk.layers = self._make(key, chunk)
                 chunk.layers.actor.SetVisibility(chunk.shown)
@@ -140,33 +149,43 @@ class ChunkLayers:
                                  palette=self.palette)
 
     def edited(self, box, rebuilt) -> None:
-        """Labels changed in ``box`` (world voxels; chunks ``rebuilt`` have new actors)."""
+        """Labels changed in ``box`` (world voxels; chunks ``rebuilt`` have new actors).
+
+        The rows held and the layers are decided again for the chunks the box, grown by
+        the one voxel of their aprons, touches; those chunks' aprons take the new labels.
+        A world widened to uint16 remakes every apron.
+        """
         world = self.binding.model
-        for key in world.keys_in(box):
-            self._rows.pop(key, None)
-        for key in rebuilt:
+        grown = tuple(slice(max(s.start - 1, 0), min(s.stop + 1, n))
+                      for s, n in zip(box, world.dimensions, strict=True))
+        touched = set(world.keys_in(grown)) | set(rebuilt)
+        for key in touched:
             self._rows.pop(key, None)
         if self.palette is None:
             return
-        for chunk in self.binding.chunks.values():
-            apron = chunk.layers.apron if chunk.layers is not None else None
-            if apron is None:
-                continue
-            if apron.region.dtype != world.dtype:   # the world widened to uint16
+        if any(c.layers is not None and c.layers.apron.region.dtype != world.dtype
+               for c in self.binding.chunks.values()):
+            for chunk in self.binding.chunks.values():
                 chunk.release_layers()
+            self.place_layers()
+            return
+        for key in touched:
+            chunk = self.binding.chunks.get(key)
+            if chunk is None or chunk.layers is None:
                 continue
-            origin, shape = world.chunk_box(apron.key)
+            origin, shape = world.chunk_box(key)
             low = [max(s.start, o - 1) for s, o in zip(box, origin, strict=True)]
             high = [min(s.stop, o + n + 1) for s, o, n in zip(box, origin, shape, strict=True)]
             if all(h > lo for lo, h in zip(low, high, strict=True)):
                 part = tuple(slice(lo, h) for lo, h in zip(low, high, strict=True))
-                apron.texture.update_region([lo - o + 1 for lo, o in zip(low, origin,
-                                                                         strict=True)],
-                                            world.labels_in(part))
-        self.place_layers()
+                chunk.layers.apron.texture.update_region(
+                    [lo - o + 1 for lo, o in zip(low, origin, strict=True)],
+                    world.labels_in(part))
+        self.place_layers(sorted(touched))
 
     def release(self) -> None:
         """Drop every chunk's layers and the full palette."""
+        self._translucent = np.zeros(0, np.int64)
         for chunk in self.binding.chunks.values():
             chunk.release_layers()
         if self.palette is not None:

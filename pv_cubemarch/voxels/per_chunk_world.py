@@ -166,22 +166,28 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         resolves (seen: 10 pixels of a 100-chunk terrain showing the farther chunk's face,
         0.03 voxel behind, at a depth 2000 voxels away); the depth test passes on equal
         depths (``GL_LEQUAL``), so the chunk drawn last wins. Adjacent cells of a grid are in
-        visibility order by their centres' distance from the eye (along the view direction
-        under a parallel projection). Reordered when the camera or the chunks change.
+        visibility order by their centres' distance from the eye in index space (along the
+        view direction under a parallel projection), whatever the placement: a shear or a
+        stretch after a rotation keeps which side of each border the eye is on. Reordered
+        when the camera or the chunks change.
         """
         camera = self.renderer.GetActiveCamera()
-        key = (camera.GetMTime(), tuple((id(c), id(c.layers)) for c in self.chunks.values()))
+        key = (camera.GetMTime(), self.model.world_from_index().tobytes(),
+               tuple((id(c), id(c.layers)) for c in self.chunks.values()))
         if key == self._ordered_for or len(self.chunks) < 2:
             return
         self._ordered_for = key
         size = self.model.chunk_size
-        cells = (np.array(list(self.chunks), dtype=np.float64) + 0.5) * size
-        centers = (np.c_[cells, np.ones(len(cells))] @ self.model.world_from_index().T)[:, :3]
-        offsets = centers - np.asarray(camera.GetPosition())
+        centers = (np.array(list(self.chunks), dtype=np.float64) + 0.5) * size
+        # in index space, where the chunks are a grid of cubes (a sheared placement keeps
+        # which side of each border the eye is on, not the distances between centres)
+        index_from_world = np.linalg.inv(self.model.world_from_index())
         if camera.GetParallelProjection():
-            distance = offsets @ np.asarray(camera.GetDirectionOfProjection())
+            direction = index_from_world[:3, :3] @ np.asarray(camera.GetDirectionOfProjection())
+            distance = centers @ direction
         else:
-            distance = np.linalg.norm(offsets, axis=1)
+            eye = (index_from_world @ np.append(camera.GetPosition(), 1.0))[:3]
+            distance = np.linalg.norm(centers - eye, axis=1)
         props = self.renderer.GetViewProps()   # moved in the list: nothing released
         chunks = list(self.chunks.values())
         for index in np.argsort(-distance, kind="stable"):
@@ -405,9 +411,10 @@ class WorldPasses(DrawnBinding):
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes of the occluders' pass and the shared shell pass."""
+        """GPU bytes of the occluders' pass, the shared shell pass and the layers' palette."""
+        full = self.world.chunk_layers.palette
         return self.world.occluders.nbytes + (self.world.depth.nbytes if self.world.depth
-                                              else 0)
+                                              else 0) + (full.nbytes if full is not None else 0)
 
     def release_resources(self) -> None:
         """The world's shared passes (the chunks are tracked and freed on their own)."""

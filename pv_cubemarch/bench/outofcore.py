@@ -1,0 +1,275 @@
+"""``pv-cubemarch bench outofcore``: multiscale volumes streamed by bricks, in a budget.
+
+Scenes: ``procedural`` (by default 16384 x 16384 x 4096 uint16, 2 TiB, every level's
+points computed on demand from a seeded field of a few octaves of separable waves, so
+nothing is stored), ``procedural-small`` (the same field, 384³: small enough to draw
+whole in memory, the image every row is compared with), and ``smoke`` (the shipped smoke
+density written by :func:`~pv_cubemarch.build_pyramid` to an OME-Zarr store, then read
+back). Views: far, mid and close. Rows: ours (``lod_bias`` 0), ours with the finest level
+everywhere (``lod_bias=-30``), the coarsest level only (what napari draws of a pyramid in
+3D), and the whole array in memory (``add_volume(technique='direct')``) where it fits.
+Measured in one run: time to the first frame and to converged, frames while streaming and
+their longest, bytes read against the bytes of the bricks the view finally holds, peak
+host RSS over the run, GPU bytes, and PSNR against the in-memory image.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pyvista
+
+from ..api import add_volume
+from ..core.rendering import offscreen_plotter, read_pixels, render_frame
+from ..models.multiscale import Level, MultiscaleSource
+
+SCENES = ("procedural", "procedural-small", "smoke")
+VIEWS = ("far", "mid", "close")
+#: The transfer function every row draws with (data units of the uint16 field).
+KEYWORDS = dict(cmap="magma", clim=(20000.0, 60000.0), opacity="sigmoid")
+
+
+class WaveLevel:
+    """One level of the procedural field: points computed when sliced, never stored.
+
+    The field at finest-level point ``p``: ``32768 + sum_k a_k sin(f_k . p + phi_k)``
+    factored per axis (each octave a product of three 1D waves), uint16. A level's point
+    ``i`` sits at finest point ``(i + 0.5) 2^L - 0.5``, as the block centres of a 2x
+    pyramid.
+    """
+
+    def __init__(self, shape, level: int, seed: int = 0, octaves: int = 5):
+        self.shape = tuple(int(n) for n in shape)
+        self.dtype = np.dtype(np.uint16)
+        self.ndim = 3
+        self.level = int(level)
+        rng = np.random.default_rng(seed)
+        self.waves = [(9000.0 / 1.7 ** k, rng.uniform(0.004, 0.012, 3) * 2.0 ** k,
+                       rng.uniform(0, 2 * np.pi, 3)) for k in range(octaves)]
+
+    def __getitem__(self, box):
+        box = tuple(slice(*s.indices(n)) for s, n in zip(box, self.shape, strict=True))
+        factor = 2.0 ** self.level
+        axes = [(np.arange(s.start, s.stop, s.step) + 0.5) * factor - 0.5 for s in box]
+        values = np.full([len(a) for a in axes], 32768.0)
+        for amplitude, frequency, phase in self.waves:
+            x, y, z = (np.sin(f * a + p) for f, a, p in zip(frequency, axes, phase,
+                                                           strict=True))
+            values += amplitude * x[:, None, None] * y[None, :, None] * z[None, None, :]
+        return np.clip(values, 0, 65535).astype(np.uint16)
+
+
+def wave_source(shape, coarsest: int = 256, seed: int = 0) -> MultiscaleSource:
+    """The procedural field's pyramid: levels halved until the largest side is ``coarsest``."""
+    levels, number, size = [], 0, tuple(int(n) for n in shape)
+    while True:
+        factor = 2.0 ** number
+        levels.append(Level(WaveLevel(size, number, seed), size, np.full(3, factor),
+                            np.full(3, (factor - 1.0) / 2.0)))
+        if max(size) <= coarsest:
+            break
+        size = tuple(-(-n // 2) for n in size)
+        number += 1
+    return MultiscaleSource(levels, "waves")
+
+
+def smoke_pyramid(directory: Path) -> Path:
+    """The shipped smoke density written as an OME-Zarr pyramid (uint16 over its range)."""
+    from ..models.pyramid import build_pyramid
+
+    grid = pyvista.read(Path(__file__).resolve().parents[2] / "datasets" / "smoke_density.vti")
+    values = np.asarray(grid.point_data["density"]).reshape(grid.dimensions, order="F")
+    scaled = (values - values.min()) / max(float(np.ptp(values)), 1e-30) * 65535
+    path = directory / "smoke.ome.zarr"
+    build_pyramid(scaled.astype(np.uint16), path, chunk_size=16, scale=grid.spacing,
+                  translation=grid.origin, progress_bar=False, overwrite=True)
+    return path
+
+
+@dataclass
+class OutOfCoreRow:
+    """One way of drawing one view of one scene, and what it cost."""
+
+    scene: str
+    view: str
+    row: str
+    first_frame_s: float | None = None
+    converged_s: float | None = None
+    frames: int = 0
+    longest_frame_ms: float | None = None
+    bytes_read: int | None = None
+    held_brick_bytes: int | None = None
+    peak_rss_mb: float | None = None
+    gpu_mb: float | None = None
+    psnr_db: float | None = None
+    note: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+def _rss_mb() -> float:
+    """Resident memory of this process now (MiB), from /proc."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def _camera(pl, extent: np.ndarray, view: str) -> None:
+    """Far: the whole volume; mid: a quarter of it; close: inside, near a corner."""
+    centre = extent / 2.0
+    if view == "far":
+        eye, focal = centre + np.array([1.2, -1.6, 1.1]) * extent.max(), centre
+    elif view == "mid":
+        focal = extent * np.array([0.3, 0.3, 0.5])
+        eye = focal + np.array([0.25, -0.35, 0.2]) * extent.max()
+    else:
+        focal = extent * np.array([0.22, 0.2, 0.5])
+        eye = focal + np.array([0.02, -0.03, 0.01]) * extent.max()
+    pl.camera_position = [tuple(eye), tuple(focal), (0, 0, 1)]
+    pl.renderer.ResetCameraClippingRange()
+
+
+def _paged_row(scene, view, row, source, extent, size, lod_bias, gpu_bytes, host_bytes,
+               timeout, expected) -> tuple[OutOfCoreRow, np.ndarray]:
+    pl = offscreen_plotter(size)
+    pl.set_background("black")
+    result = OutOfCoreRow(scene, view, row)
+    base = _rss_mb()
+    peak = base
+    try:
+        start = time.perf_counter()
+        actor = add_volume(pl, source, lod_bias=lod_bias, gpu_bytes=gpu_bytes,
+                           host_bytes=host_bytes, **KEYWORDS)
+        _camera(pl, extent, view)
+        render_frame(pl)
+        image = read_pixels(pl)
+        result.first_frame_s = time.perf_counter() - start
+        binding = actor.cubemarch
+        longest, frames = 0.0, 1
+        while not binding.converged and time.perf_counter() - start < timeout:
+            binding.wait_for_bricks(0.2)
+            began = time.perf_counter()
+            render_frame(pl)
+            longest = max(longest, time.perf_counter() - began)
+            frames += 1
+            peak = max(peak, _rss_mb())
+        image = read_pixels(pl)
+        peak = max(peak, _rss_mb())
+        stats = binding.stats()
+        result.converged_s = time.perf_counter() - start if binding.converged else None
+        result.frames = frames
+        result.longest_frame_ms = longest * 1e3 if frames > 1 else None
+        result.bytes_read = int(stats["bytes_read"])
+        pager = binding.pager
+        itemsize = np.dtype(source.dtype).itemsize
+        result.held_brick_bytes = int(len(pager.slot_of) * (pager.brick + 2) ** 3 * itemsize)
+        result.peak_rss_mb = peak - base
+        result.gpu_mb = binding.nbytes / 2**20
+        result.extra = {k: stats[k] for k in ("resident", "slots", "missing", "over_budget")}
+        if not binding.converged:
+            result.note = f"not converged in {timeout:g} s"
+        if expected is not None:
+            result.psnr_db = _psnr(image, expected)
+        return result, image
+    finally:
+        pl.close()
+
+
+def _in_memory_row(scene, view, source, extent, size) -> tuple[OutOfCoreRow, np.ndarray]:
+    """The finest level read whole and drawn by the direct marcher: the reference image."""
+    pl = offscreen_plotter(size)
+    pl.set_background("black")
+    result = OutOfCoreRow(scene, view, "whole array in memory")
+    base = _rss_mb()
+    try:
+        start = time.perf_counter()
+        finest = source.levels[0]
+        values = finest.read(tuple(slice(0, n) for n in finest.shape))
+        grid = pyvista.ImageData(dimensions=values.shape, spacing=tuple(finest.scale),
+                                 origin=tuple(finest.translation))
+        grid.point_data["values"] = values.ravel(order="F")
+        del values
+        actor = add_volume(pl, grid, technique="direct", **KEYWORDS)
+        _camera(pl, extent, view)
+        render_frame(pl)
+        image = read_pixels(pl)
+        result.first_frame_s = result.converged_s = time.perf_counter() - start
+        result.frames = 1
+        result.bytes_read = int(grid.point_data["values"].nbytes)
+        result.peak_rss_mb = _rss_mb() - base
+        result.gpu_mb = actor.cubemarch.nbytes / 2**20
+        return result, image
+    finally:
+        pl.close()
+
+
+def _psnr(image: np.ndarray, reference: np.ndarray) -> float:
+    diff = (image.astype(np.float64) - reference.astype(np.float64)) / 255.0
+    return float(10 * np.log10(1.0 / max(np.mean(diff ** 2), 1e-12)))
+
+
+def run_outofcore(scenes: Sequence[str] = SCENES, views: Sequence[str] = VIEWS,
+                  size=(320, 240), shape=(16384, 16384, 4096), small: int = 384,
+                  gpu_bytes: int = 256 * 2**20, host_bytes: int = 512 * 2**20,
+                  timeout: float = 120.0) -> list[OutOfCoreRow]:
+    """Every row of every scene and view, side by side in one run (module docstring)."""
+    rows = []
+    size = tuple(int(v) for v in size)
+    scratch = Path(tempfile.mkdtemp(prefix="cubemarch-outofcore-"))
+    try:
+        for scene in scenes:
+            if scene == "procedural":
+                source = wave_source(shape)
+            elif scene == "procedural-small":
+                source = wave_source((small,) * 3, coarsest=48)
+            elif scene == "smoke":
+                from ..models.multiscale import multiscale_source
+
+                source = multiscale_source(str(smoke_pyramid(scratch)))
+            else:
+                raise ValueError(f"scene must be one of {SCENES}, got {scene!r}.")
+            finest = source.levels[0]
+            extent = (np.asarray(finest.shape) - 1) * finest.scale + finest.translation
+            fits = source.nbytes * 4 <= 2 * 2**30   # float32 in memory, and its texture
+            for view in views:
+                expected = None
+                if fits:
+                    row, expected = _in_memory_row(scene, view, source, extent, size)
+                    rows.append(row)
+                for name, bias in (("ours", 0.0), ("ours, finest everywhere", -30.0),
+                                   ("coarsest level only", 99.0)):
+                    if bias < -1 and not fits:
+                        continue   # the finest level over a whole 2 TiB view: no reference
+                    rows.append(_paged_row(scene, view, name, source, extent, size, bias,
+                                           gpu_bytes, host_bytes, timeout, expected)[0])
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    return rows
+
+
+def _number(value, digits: int = 2) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def format_outofcore(rows: list[OutOfCoreRow]) -> str:
+    """The rows as a text table."""
+    head = (f"{'scene':17} {'view':5} {'row':24} {'first s':>8} {'conv. s':>8} {'frames':>6} "
+            f"{'max ms':>8} {'read MB':>9} {'held MB':>8} {'RSS MB':>7} {'GPU MB':>7} "
+            f"{'PSNR':>6}")
+    lines = [head]
+    for r in rows:
+        read = None if r.bytes_read is None else r.bytes_read / 2**20
+        held = None if r.held_brick_bytes is None else r.held_brick_bytes / 2**20
+        lines.append(
+            f"{r.scene:17} {r.view:5} {r.row:24} {_number(r.first_frame_s):>8} "
+            f"{_number(r.converged_s):>8} {r.frames:>6} {_number(r.longest_frame_ms, 0):>8} "
+            f"{_number(read, 1):>9} {_number(held, 1):>8} {_number(r.peak_rss_mb, 0):>7} "
+            f"{_number(r.gpu_mb, 1):>7} {_number(r.psnr_db, 1):>6}"
+            + (f"  {r.note}" if r.note else ""))
+    return "\n".join(lines)
