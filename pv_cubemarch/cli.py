@@ -714,11 +714,12 @@ def _bench_soak(args) -> int:
 
 
 def _write_rows(path: str | None, rows: list, **run) -> None:
-    """A bench's rows (dataclasses with ``median_ms``) and its run's settings as JSON."""
+    """A bench's rows (dataclasses; ``median_ms`` where they have it) and settings as JSON."""
     if not path:
         return
     Path(path).write_text(json.dumps({
-        "rows": [{**vars(r), "median_ms": r.median_ms} for r in rows], **run,
+        "rows": [{**vars(r), **({"median_ms": r.median_ms} if hasattr(r, "median_ms")
+                                else {})} for r in rows], **run,
         "gl_renderer": gl_info()["renderer"]}, indent=1))
     print(f"wrote {path}")
 

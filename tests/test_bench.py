@@ -403,3 +403,30 @@ def test_bench_labels_measures_worlds_of_chunks(traversal):
     assert row.changes["recolour 1"]["bytes"] == 16 and row.labels_resent_bytes == 0
     # 2-byte rows where chunks are stored, plus levels and, in the pool, its slots' spare room
     assert 1.0 <= row.label_bytes_per_voxel <= 6.0
+
+
+def test_bench_outofcore_rows_and_errors(tmp_path, capsys):
+    # The small procedural pyramid: the whole-array row is the reference; the finest level
+    # everywhere converges to it, the coarsest level alone is far from it, and the default
+    # level of detail reads less than the finest everywhere. catches: a row timed or
+    # compared before its bricks arrived (converged_s None, PSNR of the coarse image).
+    from pv_cubemarch.bench import outofcore
+
+    rows = outofcore.run_outofcore(["procedural-small"], ["far"], size=(96, 72), small=64,
+                                   timeout=60)
+    by = {r.row: r for r in rows}
+    assert set(by) == {"whole array in memory", "ours", "ours, finest everywhere",
+                       "coarsest level only"}
+    assert by["ours, finest everywhere"].converged_s is not None
+    assert by["ours, finest everywhere"].psnr_db >= 50.0
+    assert by["coarsest level only"].psnr_db < by["ours, finest everywhere"].psnr_db
+    assert by["ours"].bytes_read <= by["ours, finest everywhere"].bytes_read
+    # the 2 TiB source: never read whole, converged within its pool, RSS bounded
+    huge = outofcore.run_outofcore(["procedural"], ["far"], size=(64, 48), timeout=60)
+    assert {r.row for r in huge} == {"ours", "coarsest level only"}
+    assert all(r.bytes_read < 2**30 and r.converged_s is not None for r in huge)
+    path = tmp_path / "outofcore.json"
+    assert main(["bench", "outofcore", "--scenes", "smoke", "--views", "far", "--size",
+                 "64x48", "--json", str(path)]) == 0
+    assert len(json.loads(path.read_text())["rows"]) == 4
+    assert "coarsest level only" in capsys.readouterr().out

@@ -54,6 +54,12 @@ KNOB_OPACITIES = ("linear", "linear_r", "sigmoid", "sigmoid_r", "geom", "geom_r"
 #: Why a range or a length has no live-view control.
 NO_KNOB_UNITS = "a value in the data's own units: give it in Python, on the CLI or in USD"
 
+#: Why the keywords of multiscale sources have no CLI flag, USD attribute or knob yet.
+PAGED_ONLY = dict.fromkeys(
+    ("cli", "usd", "knob"), "read only for a multiscale source (an OME-Zarr pyramid, a zarr "
+    "or dask array) given to add_volume in Python; scenes, USD Volume prims and the live "
+    "view read their grids whole")
+
 #: Why the channel keywords have no CLI flag, USD attribute or knob yet.
 COMPONENTS_WHEN_READ = ("decided when the data are read: a grid file's 2-4 components are "
                         "channels, 4 uint8 RGBA; set cubemarch:independentComponents in USD "
@@ -66,8 +72,8 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
     SAMPLE_FACTOR, OCCLUSION_SHARPNESS, BLENDING, ISOSURFACES, INTERPOLATION, LIGHTS, \
     LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT, SHADE, AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER, \
     CMAP, OPACITY, CLIM, OPACITY_UNIT_DISTANCE, N_COLORS, FLIP_SCALARS, LOG_SCALE, \
-    CATEGORIES, INDEPENDENT_COMPONENTS, CHANNEL_BLENDING, CLIP_PLANES, CROP_BOX, \
-    AVERAGE_RANGE = declare(
+    CATEGORIES, LOD_BIAS, GPU_BYTES, HOST_BYTES, BRICK_SIZE, INDEPENDENT_COMPONENTS, \
+    CHANNEL_BLENDING, CLIP_PLANES, CROP_BOX, AVERAGE_RANGE = declare(
         Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
                control=Control("select")),
         Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
@@ -157,6 +163,19 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
         Option("categories", "volume", bool, False, "as many colours as the data has "
                "distinct values (a number in Python: that many)", model=True,
                control=Control("switch", "categories")),
+        # Multiscale sources streamed by bricks (volume/paged.py): set on the pager.
+        Option("lod_bias", "volume", float, None, "levels added to the one whose points fit "
+               "a pixel (multiscale sources; -30: the finest everywhere)", optional=True,
+               model=True, usd=None, cli=None, without=PAGED_ONLY),
+        Option("gpu_bytes", "volume", int, None, "GPU budget of a multiscale source's brick "
+               "pool (256 MiB by default)", low=1, optional=True, model=True, usd=None,
+               cli=None, without=PAGED_ONLY),
+        Option("host_bytes", "volume", int, None, "host budget of a multiscale source's read "
+               "bricks (2 GiB by default)", low=1, optional=True, model=True, usd=None,
+               cli=None, without=PAGED_ONLY),
+        Option("brick_size", "volume", int, None, "points along a brick's edge (32 by "
+               "default)", low=1, high=1024, optional=True, model=True, usd=None, cli=None,
+               without=PAGED_ONLY),
         # How a multi-component array is drawn: RGBA or channels (models/channels.py).
         Option("independent_components", "volume", bool, None, "2 to 4 components as "
                "channels, each its own transfer function (4 uint8: RGBA unless True)",
