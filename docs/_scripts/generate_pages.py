@@ -47,6 +47,15 @@ COLUMNS = {
         ("hide half: KB", "changes.hide half.bytes", "KB"),
         ("note", "note", "{}"),
     ],
+    "outofcore": [
+        ("scene", "scene", "{}"), ("view", "view", "{}"), ("row", "row", "{}"),
+        ("first frame s", "first_frame_s", "{:.2f}"), ("converged s", "converged_s", "{:.2f}"),
+        ("frames", "frames", "{}"), ("longest frame ms", "longest_frame_ms", "{:.0f}"),
+        ("read MB", "bytes_read", "MB"), ("held MB", "held_brick_bytes", "MB"),
+        ("peak RSS MB", "peak_rss_mb", "{:.0f}"), ("GPU MB", "gpu_mb", "{:.1f}"),
+        ("PSNR dB", "psnr_db", "{:.1f}"), ("pool", "extra.resident", "{}"),
+        ("over budget", "extra.over_budget", "{}"), ("note", "note", "{}"),
+    ],
 }
 #: Row fields never shown: per-frame lists and the parameters already named by 'setting'.
 HIDDEN = {"parameters"}
