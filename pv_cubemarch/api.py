@@ -8,6 +8,7 @@ is placed in the plotter the same way for every technique.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import warnings
 
 import numpy as np
@@ -30,6 +31,7 @@ from .models.channels import (
 from .models.field_sources import color_values, make_field
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
+from .models.multiscale import MultiscaleSource, is_zarr_group, multiscale_source
 from .models.volume import VolumeModel, checked_transform, with_transfer
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
@@ -47,7 +49,21 @@ from .volume.clipping import clip_plane_list, set_crop_box
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
 from .volume.light_map import LightMap
-from .volume.options import DEFAULT_STOP_OPACITY, INTERPOLATION, CommonVolumeOptions
+from .volume.options import (
+    DEFAULT_STOP_OPACITY,
+    INTERPOLATION,
+    CommonVolumeOptions,
+    DirectOptions,
+)
+from .volume.paged import (
+    BRICK_POINTS,
+    GPU_BYTES,
+    BrickPager,
+    PagedData,
+    PagedVolume,
+    build_paged_actor,
+    paged_transfer,
+)
 from .volume.pyvista_keywords import (
     add_scalar_bar,
     check_channels,
@@ -503,9 +519,7 @@ PAGED_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors"
 
 def is_multiscale_input(volume) -> bool:
     """Whether ``add_volume`` streams ``volume`` by bricks (a source beyond memory)."""
-    from .models.multiscale import MultiscaleSource, _is_zarr_group
-
-    if isinstance(volume, MultiscaleSource) or _is_zarr_group(volume):
+    if isinstance(volume, MultiscaleSource) or is_zarr_group(volume):
         return True
     if isinstance(volume, str) or hasattr(volume, "__fspath__"):
         return str(volume).rstrip("/").endswith(".zarr")
@@ -517,19 +531,7 @@ def is_multiscale_input(volume) -> bool:
 
 def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     """``add_volume`` for a multiscale source: the direct marcher reading a brick pool."""
-    from .models.multiscale import multiscale_source
-    from .volume.options import DirectOptions
-    from .volume.paged import (
-        BRICK_POINTS,
-        GPU_BYTES,
-        BrickPager,
-        PagedData,
-        PagedVolume,
-        build_paged_actor,
-        paged_transfer,
-    )
-
-    defaults = {key: value.default for key, value in __import__("inspect").signature(
+    defaults = {key: value.default for key, value in inspect.signature(
         add_volume).parameters.items()}
     refused = sorted(key for key, value in {**given, **extra}.items()
                      if key not in PAGED_KEYWORDS and value is not None

@@ -134,6 +134,15 @@ bool cm_marchPiece(inout vec4 rgba, vec3 a, vec3 b, float mediumLength, float st
   return true;
 }
 
+// Blend the span f0..f1 of the ray from entry to exit, stepped cm_stepScale of the `texels`
+// the whole ray crosses (a piece of a joint group's ray, or of a multiscale volume's).
+bool cm_marchSpan(inout vec4 rgba, vec3 entry, vec3 exit, float mediumLength, float f0,
+                  float f1, float texels)
+{
+  return cm_marchPiece(rgba, mix(entry, exit, f0), mix(entry, exit, f1),
+                       mediumLength * (f1 - f0), max(texels * (f1 - f0) / cm_stepScale, 1e-6));
+}
+
 #ifdef CM_JOINT
 // A joint group's ray, piece by piece between the members' box boundaries (joint_sample's
 // cm_memberSpans gives where each member's box starts and ends along the ray).
@@ -156,9 +165,7 @@ void cm_marchJoint(inout vec4 rgba, vec3 entry, vec3 exit, float mediumLength,
     {
       vec4 own = covers * texels;
       float finest = max(groupTexels, max(max(own.x, own.y), max(own.z, own.w)));
-      float steps = max(finest * (f1 - f0) / cm_stepScale, 1e-6);
-      if (!cm_marchPiece(rgba, mix(entry, exit, f0), mix(entry, exit, f1),
-                         mediumLength * (f1 - f0), steps))
+      if (!cm_marchSpan(rgba, entry, exit, mediumLength, f0, f1, finest))
       {
         return;
       }
@@ -182,17 +189,12 @@ void cm_marchPaged(inout vec4 rgba, vec3 entry, vec3 exit, float mediumLength)
   {
     float f1 = cm_pagedLevelEnd(entry, exit, f0);
     int level = cm_pagedLevelAt(mix(entry, exit, 0.5 * (f0 + f1)));
-    float steps = max(cm_pagedTexels(exit - entry, level) * (f1 - f0) / cm_stepScale, 1e-6);
-    if (!cm_marchPiece(rgba, mix(entry, exit, f0), mix(entry, exit, f1),
-                       mediumLength * (f1 - f0), steps))
+    if (!cm_marchSpan(rgba, entry, exit, mediumLength, f0, f1,
+                      cm_pagedTexels(exit - entry, level)) || f1 >= 1.0)
     {
       return;
     }
     f0 = f1;
-    if (f0 >= 1.0)
-    {
-      return;
-    }
   }
 }
 #endif

@@ -27,7 +27,8 @@ import pyvista
 
 from ..api import add_volume
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
-from ..models.multiscale import Level, MultiscaleSource
+from ..models.multiscale import Level, MultiscaleSource, multiscale_source
+from ..models.pyramid import build_pyramid
 
 SCENES = ("procedural", "procedural-small", "smoke")
 VIEWS = ("far", "mid", "close")
@@ -81,8 +82,6 @@ def wave_source(shape, coarsest: int = 256, seed: int = 0) -> MultiscaleSource:
 
 def smoke_pyramid(directory: Path) -> Path:
     """The shipped smoke density written as an OME-Zarr pyramid (uint16 over its range)."""
-    from ..models.pyramid import build_pyramid
-
     grid = pyvista.read(Path(__file__).resolve().parents[2] / "datasets" / "smoke_density.vti")
     values = np.asarray(grid.point_data["density"]).reshape(grid.dimensions, order="F")
     scaled = (values - values.min()) / max(float(np.ptp(values)), 1e-30) * 65535
@@ -229,8 +228,6 @@ def run_outofcore(scenes: Sequence[str] = SCENES, views: Sequence[str] = VIEWS,
             elif scene == "procedural-small":
                 source = wave_source((small,) * 3, coarsest=48)
             elif scene == "smoke":
-                from ..models.multiscale import multiscale_source
-
                 source = multiscale_source(str(smoke_pyramid(scratch)))
             else:
                 raise ValueError(f"scene must be one of {SCENES}, got {scene!r}.")

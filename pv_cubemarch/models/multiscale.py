@@ -135,7 +135,7 @@ def multiscale_source(source, *, time: int = 0, channel: int = 0,
         import zarr
 
         source = zarr.open(str(source), mode="r")
-    if _is_zarr_group(source):
+    if is_zarr_group(source):
         return _ome_source(source, time, channel, name)
     if isinstance(source, (list, tuple)):
         arrays = list(source)
@@ -157,7 +157,8 @@ def multiscale_source(source, *, time: int = 0, channel: int = 0,
     return MultiscaleSource([_array_level(source)], name or "volume")
 
 
-def _is_zarr_group(value) -> bool:
+def is_zarr_group(value) -> bool:
+    """Whether ``value`` is a zarr group (without importing zarr)."""
     return type(value).__module__.startswith("zarr") and type(value).__name__ == "Group"
 
 

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..core.progress import progress
 from .multiscale import Level, multiscale_source
 from .voxel_levels import representative_levels
 
@@ -163,8 +164,6 @@ def build_pyramid(source, store, *, levels: int | None = None, chunk_size: int =
 def _dask_bar(desc: str, enabled: bool | None):
     """A progress bar over a dask computation's tasks (dask's callbacks, tqdm's bar)."""
     from dask.callbacks import Callback
-
-    from ..core.progress import progress
 
     class Bar(Callback):
         def _start_state(self, dsk, state):

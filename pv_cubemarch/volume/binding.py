@@ -338,6 +338,17 @@ def with_gradient_shading(recipe: ShaderRecipe, shaded: bool) -> ShaderRecipe:
                                           for r in recipe.replacements])
 
 
+def bind_marching(target, data, step_scale: float, stop_opacity: float) -> None:
+    """What the marcher reads of any volume: termination, grid, step, placement, planes."""
+    model = data.model
+    target.set_uniform("cm_stopOpacity", stop_opacity)
+    target.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
+    target.set_uniform("cm_stepScale", step_scale)
+    target.set_uniform("cm_worldFromTexture", lambda: world_from_texture(model))
+    target.set_uniform("cm_mediumFromTexture", lambda: medium_from_texture(model))
+    target.set_uniform("cm_clipPlanes", lambda: data.clip.uniform(world_from_texture(model)))
+
+
 def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: float,
                   skip_empty: bool, sample_data: bool = True,
                   blend: Blend = Blend()) -> tuple[str, dict]:
@@ -358,12 +369,7 @@ def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: flo
     if blend.shade is not None:
         blend.shade.bind(target)
         extra.update(blend.shade.defines)
-    target.set_uniform("cm_stopOpacity", stop_opacity)
-    target.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
-    target.set_uniform("cm_stepScale", step_scale)
-    target.set_uniform("cm_worldFromTexture", lambda: world_from_texture(model))
-    target.set_uniform("cm_mediumFromTexture", lambda: medium_from_texture(model))
-    target.set_uniform("cm_clipPlanes", lambda: data.clip.uniform(world_from_texture(model)))
+    bind_marching(target, data, step_scale, stop_opacity)
     extra.update(data.clip.defines)
     if isinstance(model, VolumeGroup):
         # the table size of the group; each member's own table is bound below

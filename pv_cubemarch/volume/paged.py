@@ -30,7 +30,8 @@ from ..gl.textures import Texture
 from ..models.brick_cache import HOST_BYTES, BrickCache, brick_counts, read_brick
 from ..models.multiscale import MultiscaleSource
 from ..models.transfer import TransferFunction
-from .binding import VolumeSetup, march_defines, medium_from_texture, world_from_texture
+from ..models.volume import box_world_bounds
+from .binding import VolumeSetup, bind_marching, march_defines, world_from_texture
 from .clipping import ClipState
 from .direct import DirectBinding
 
@@ -73,8 +74,6 @@ class PagedVolume:
 
     def world_bounds(self) -> np.ndarray:
         """World bounds ``(xmin, xmax, ...)`` of the finest level's box."""
-        from ..models.volume import box_world_bounds
-
         return box_world_bounds(self.world_from_index(), np.asarray(self.dimensions) - 1.0)
 
 
@@ -401,12 +400,7 @@ def bind_paged_sampling(target, data: PagedData, step_scale: float,
                         stop_opacity: float) -> dict:
     """Give ``target`` what the marcher reads of a paged volume; returns its switches."""
     model, pager = data.model, data.pager
-    target.set_uniform("cm_stopOpacity", stop_opacity)
-    target.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
-    target.set_uniform("cm_stepScale", step_scale)
-    target.set_uniform("cm_worldFromTexture", lambda: world_from_texture(model))
-    target.set_uniform("cm_mediumFromTexture", lambda: medium_from_texture(model))
-    target.set_uniform("cm_clipPlanes", lambda: data.clip.uniform(world_from_texture(model)))
+    bind_marching(target, data, step_scale, stop_opacity)
     target.add_texture("cm_transferTable", data.tables[0])
     target.set_uniform("cm_clim", model.transfer.clim)
     target.add_texture("cm_pool", pager.pool)
