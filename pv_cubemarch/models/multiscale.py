@@ -113,6 +113,17 @@ def check_levels(levels: Sequence[Level]) -> None:
                              "go finest first.")
 
 
+def needs(module: str):
+    """Import an optional dependency of multiscale sources, or say how to install it."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as error:
+        raise ImportError(f"{module} is needed for multiscale sources (OME-Zarr, "
+                          "build_pyramid): pip install 'pv_cubemarch[multiscale]'.") from error
+
+
 def _array_level(array, scale=(1.0, 1.0, 1.0), translation=(0.0, 0.0, 0.0)) -> Level:
     """An array indexed ``(x, y, z)`` as a level (no metadata: unit spacing at the origin)."""
     shape = tuple(int(n) for n in np.shape(array))
@@ -132,9 +143,7 @@ def multiscale_source(source, *, time: int = 0, channel: int = 0,
     if isinstance(source, MultiscaleSource):
         return source
     if isinstance(source, str) or hasattr(source, "__fspath__"):
-        import zarr
-
-        source = zarr.open(str(source), mode="r")
+        source = needs("zarr").open(str(source), mode="r")
     if is_zarr_group(source):
         return _ome_source(source, time, channel, name)
     if isinstance(source, (list, tuple)):
@@ -164,7 +173,7 @@ def is_zarr_group(value) -> bool:
 
 def _ome_source(group, time: int, channel: int, name: str | None) -> MultiscaleSource:
     """An OME-Zarr image group's first multiscale, validated and placed by its metadata."""
-    import ome_zarr_models
+    ome_zarr_models = needs("ome_zarr_models")
     from pydantic import ValidationError
 
     try:

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..core.progress import progress
-from .multiscale import Level, multiscale_source
+from .multiscale import Level, multiscale_source, needs
 from .voxel_levels import representative_levels
 
 #: Ways a level is made from the one before.
@@ -108,6 +108,8 @@ def build_pyramid(source, store, *, levels: int | None = None, chunk_size: int =
     >>> [image[str(k)].shape for k in range(3)]   # stored z, y, x
     [(64, 80, 96), (32, 40, 48), (16, 20, 24)]
     """
+    needs("dask")
+    needs("ome_zarr_models")
     import dask.array as da
     import zarr
     from ome_zarr_models.v05.axes import Axis
