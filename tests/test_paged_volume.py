@@ -232,3 +232,31 @@ def test_a_read_error_is_raised_not_drawn_empty(pyramid, tmp_path):
             cm.render_image(pl)
             actor.cubemarch.wait_for_bricks(0.5)
     pl.close()
+
+
+@pytest.mark.slow   # 15 s here: about 10^5 bricks read and uploaded one by one
+def test_one_point_bricks_use_a_float_page_table_and_stay_exact():
+    """Bricks of one point (slots of 3³ with their apron): over 65535 slots, so the page
+    table holds float32 slot numbers; converged, still the in-memory image.
+
+    catches (seen failing): slot numbers past 65535 written into a uint16 table (wrapped:
+    bricks read from the wrong slots).
+    """
+    values = field((64, 48, 32))
+    levels = [values, values[::2, ::2, ::2], values[::4, ::4, ::4]]
+    grid = pv.ImageData(dimensions=values.shape)
+    grid.point_data["values"] = values.ravel(order="F")
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    actor = cm.add_volume(pl, levels, lod_bias=-30, brick_size=1, **KEYWORDS)
+    assert actor.cubemarch.pager.capacity > 65535
+    assert actor.cubemarch.pager.table_type == np.float32
+    set_camera(pl, (90.0, -70.0, 60.0), focal=(31.5, 23.5, 15.5), up=(0, 0, 1))
+    image = cm.render_image(pl, converge=True)
+    pl.close()
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    cm.add_volume(pl, grid, technique="direct", **KEYWORDS)
+    set_camera(pl, (90.0, -70.0, 60.0), focal=(31.5, 23.5, 15.5), up=(0, 0, 1))
+    assert psnr(image, cm.render_image(pl)) >= 50.0
+    pl.close()

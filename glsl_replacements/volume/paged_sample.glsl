@@ -7,6 +7,7 @@
 // cm_sampleScalar the marcher reads.
 uniform sampler3D cm_pool;         // slots of (brick + 2)^3 values, side by side
 uniform sampler3D cm_pageTable;    // per level and brick: its slot + 1, or 0 (not resident)
+uniform float cm_pageScale;        // 65535 (uint16 entries, read normalised) or 1 (float32)
 uniform sampler2D cm_levelInfo;    // per level (row): the texels below
 uniform vec3 cm_poolSlots;         // slots along x, y, z
 uniform float cm_brickPoints;      // points along a brick's edge, apron left out
@@ -42,7 +43,7 @@ float cm_sampleScalar(vec3 texturePosition)
                        vec3(0.0), points - 1.0);
     vec3 brick = min(floor(point / cm_brickPoints), ceil(points / cm_brickPoints) - 1.0);
     int slot = int(texelFetch(cm_pageTable, ivec3(cm_levelTexel(level, 3).xyz + brick), 0).r
-                   + 0.5) - 1;
+                   * cm_pageScale + 0.5) - 1;
     if (slot >= 0)
     {
       ivec3 slots = ivec3(cm_poolSlots + 0.5);

@@ -136,7 +136,10 @@ class BrickPager:
             raise ValueError(f"The page table of {self.counts[0]} bricks at the finest level "
                              f"is over {MAX_TEXTURE_SIZE} texels a side: give a larger "
                              "brick_size.")
-        self.table = Texture(np.zeros(shape, np.float32), kind="3d", interpolate=False)
+        # slot + 1 per brick: 2 bytes while the pool has fewer than 65535 slots (GL reads them
+        # normalised: cm_pageScale), else float32 (exact to 2^24)
+        self.table_type = np.uint16 if self.capacity < 65535 else np.float32
+        self.table = Texture(np.zeros(shape, self.table_type), kind="3d", interpolate=False)
         side = self.brick + 2
         self.pool = Texture(np.zeros([n * side for n in self.slots], np.float32), kind="3d",
                             interpolate=model.interpolation == "linear",
@@ -145,6 +148,8 @@ class BrickPager:
         self.key_in: list = [None] * self.capacity
         self.slot_of: dict = {}
         self.last_used = np.full(self.capacity, -1, np.int64)
+        self._free = list(range(self.capacity - 1, -1, -1))   # popped from the end: 0 first
+        self._victims = iter(())   # slots by last use, made when a frame must evict
         self.frame_number = 0
         self.pinned = {(coarsest, *ijk) for ijk in np.ndindex(*self.counts[coarsest])}
         #: Wanted bricks not resident after the last frame (0: converged).
@@ -174,7 +179,8 @@ class BrickPager:
         """A new window: the pool starts empty (bricks are placed again, the coarsest now)."""
         self.key_in = [None] * self.capacity
         self.slot_of = {}
-        self.table.set_data(np.zeros(self.table.array.shape, np.float32))
+        self._free = list(range(self.capacity - len(self.pinned) - 1, len(self.pinned) - 1, -1))
+        self.table.set_data(np.zeros(self.table.array.shape, self.table_type))
         side = self.brick + 2
         pool = np.zeros([n * side for n in self.slots], np.float32)
         for slot, key in enumerate(sorted(self.pinned)):
@@ -198,16 +204,19 @@ class BrickPager:
         self.last_used[slot] = self.frame_number
         level, *ijk = key
         origin = [self.table_origins[level] + ijk[0], ijk[1], ijk[2]]
-        self.table.update_region(origin, np.full((1, 1, 1), slot + 1, np.float32))
+        self.table.update_region(origin, np.full((1, 1, 1), slot + 1, self.table_type))
 
     def _place(self, key, values: np.ndarray, keep: set | None = None) -> bool:
-        """Put brick ``key`` in a free slot, or the least recently used one not kept."""
-        free = [s for s, k in enumerate(self.key_in) if k is None]
-        if free:
-            slot = free[0]
+        """Put brick ``key`` in a free slot, or the least recently used one not kept.
+
+        The free slots and this frame's eviction order are kept between calls
+        (:meth:`_victims`), so placing many bricks costs no scan of the pool per brick.
+        """
+        if self._free:
+            slot = self._free.pop()
         else:
-            order = np.argsort(self.last_used, kind="stable")
-            slot = next((int(s) for s in order if self.key_in[s] not in self.pinned
+            slot = next((s for s in self._victims if self.key_in[s] is not None
+                         and self.key_in[s] not in self.pinned
                          and (keep is None or self.key_in[s] not in keep)), None)
             if slot is None:
                 return False
@@ -215,7 +224,7 @@ class BrickPager:
             del self.slot_of[old]
             level, *ijk = old
             self.table.update_region([self.table_origins[level] + ijk[0], ijk[1], ijk[2]],
-                                     np.zeros((1, 1, 1), np.float32))
+                                     np.zeros((1, 1, 1), self.table_type))
         self.pool.update_region(self._slot_origin(slot), values)
         self.uploaded_bytes += values.nbytes
         self._mark(key, slot)
@@ -278,11 +287,14 @@ class BrickPager:
         counts = np.asarray(self.counts[finer])
         first = np.clip(np.floor((low * a + b) / self.brick), 0, counts - 1).astype(np.int64)
         last = np.clip(np.floor((high * a + b) / self.brick), 0, counts - 1).astype(np.int64)
-        found = set()
-        for lo, hi in zip(first, last, strict=True):
-            found.update(itertools.product(*(range(s, e + 1) for s, e in zip(lo, hi,
-                                                                               strict=True))))
-        return np.array(sorted(found), dtype=np.int64).reshape(-1, 3)
+        if not len(first):
+            return np.zeros((0, 3), np.int64)
+        span = (last - first).max(axis=0) + 1
+        offsets = np.stack(np.meshgrid(*(np.arange(n) for n in span), indexing="ij"),
+                           -1).reshape(-1, 3)
+        children = first[:, None, :] + offsets[None, :, :]
+        inside = (children <= last[:, None, :]).all(axis=2)
+        return np.unique(children[inside], axis=0)
 
     def frame(self, *_) -> None:
         """At each frame's start: choose, request, and upload what has arrived."""
@@ -299,6 +311,7 @@ class BrickPager:
         absent = [key for key in wanted if key not in self.slot_of]
         self.cache.request(absent)
         self.cache.arrived()
+        self._victims = (int(s) for s in np.argsort(self.last_used, kind="stable"))
         sent = 0
         for key in absent:
             if sent >= UPLOAD_BYTES_PER_FRAME:
@@ -405,6 +418,7 @@ def bind_paged_sampling(target, data: PagedData, step_scale: float,
     target.set_uniform("cm_clim", model.transfer.clim)
     target.add_texture("cm_pool", pager.pool)
     target.add_texture("cm_pageTable", pager.table)
+    target.set_uniform("cm_pageScale", 65535.0 if pager.table_type == np.uint16 else 1.0)
     target.add_texture("cm_levelInfo", pager.info)
     target.set_uniform("cm_poolSlots", tuple(float(n) for n in pager.slots))
     target.set_uniform("cm_brickPoints", float(pager.brick))
