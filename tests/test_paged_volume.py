@@ -250,7 +250,7 @@ def test_one_point_bricks_use_a_float_page_table_and_stay_exact():
     pl.set_background("black")
     actor = cm.add_volume(pl, levels, lod_bias=-30, brick_size=1, **KEYWORDS)
     assert actor.cubemarch.pager.capacity > 65535
-    assert actor.cubemarch.pager.table_type == np.float32
+    assert actor.cubemarch.pager.table.dtype == np.float32
     set_camera(pl, (90.0, -70.0, 60.0), focal=(31.5, 23.5, 15.5), up=(0, 0, 1))
     image = cm.render_image(pl, converge=True)
     pl.close()
@@ -260,3 +260,30 @@ def test_one_point_bricks_use_a_float_page_table_and_stay_exact():
     set_camera(pl, (90.0, -70.0, 60.0), focal=(31.5, 23.5, 15.5), up=(0, 0, 1))
     assert psnr(image, cm.render_image(pl)) >= 50.0
     pl.close()
+
+
+def test_page_table_blocks_are_taken_and_given_back():
+    """A directory of blocks of 8³ bricks over a 64³-brick level, room for two blocks: a
+    block is taken by its first brick, given back by its last, and taken again elsewhere.
+
+    catches (seen failing): a block kept after its last brick left (the third block finds
+    no room: IndexError), an entry left in the directory for an empty block.
+    """
+    from pv_cubemarch.volume.page_table import PageTable
+
+    table = PageTable([(64, 64, 64), (32, 32, 32)], capacity=2)
+    assert table.block_capacity == 2 and table.dtype == np.uint16
+    table.set((0, 0, 0, 0), 0)
+    table.set((0, 7, 7, 7), 5)        # the same block
+    table.set((1, 9, 0, 0), 1)        # level 1, block (1, 0, 0)
+    assert len(table.block_of) == 2
+    directory = table.directory.array
+    assert directory[0, 0, 0] == 1 and directory[table.origins[1] + 1, 0, 0] == 2
+    origin = table._block_origin(table.block_of[(0, 0, 0, 0)])
+    assert table.blocks.array[origin[0] + 7, origin[1] + 7, origin[2] + 7] == 6
+    table.clear((0, 0, 0, 0))
+    assert directory[0, 0, 0] == 1   # (0, 7, 7, 7) still holds it
+    table.clear((0, 7, 7, 7))
+    assert directory[0, 0, 0] == 0 and not table.blocks.array[tuple(origin)].any()
+    table.set((0, 63, 63, 63), 3)     # a third block: the one given back
+    assert directory[7, 7, 7] == table.block_of[(0, 7, 7, 7)] + 1

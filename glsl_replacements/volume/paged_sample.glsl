@@ -4,10 +4,14 @@
 // resident yet, from the nearest coarser one that is (the coarsest level always is: never a
 // hole). Each resident brick fills one slot of cm_pool with one point of its neighbours
 // around it, so a trilinear read inside the slot is the level's own. Defines the
-// cm_sampleScalar the marcher reads.
+// cm_sampleScalar the marcher reads. Which slot holds a brick: a directory of blocks of bricks
+// and the blocks (page_table.py).
 uniform sampler3D cm_pool;         // slots of (brick + 2)^3 values, side by side
-uniform sampler3D cm_pageTable;    // per level and brick: its slot + 1, or 0 (not resident)
+uniform sampler3D cm_pageDirectory;  // per level and block of bricks: its block + 1, or 0
+uniform sampler3D cm_pageBlocks;   // per brick of a block: its slot + 1, or 0 (not resident)
 uniform float cm_pageScale;        // 65535 (uint16 entries, read normalised) or 1 (float32)
+uniform vec3 cm_blockGrid;         // blocks along x, y, z of cm_pageBlocks
+uniform float cm_blockBricks;      // bricks along a block's edge
 uniform sampler2D cm_levelInfo;    // per level (row): the texels below
 uniform vec3 cm_poolSlots;         // slots along x, y, z
 uniform float cm_brickPoints;      // points along a brick's edge, apron left out
@@ -15,11 +19,28 @@ uniform mat3 cm_pagedWorldFromPoint;   // finest-level point offsets to world le
 uniform vec3 cm_pagedEye;          // the eye in finest-level point coordinates
 uniform vec2 cm_lodFootprint;      // world length a pixel spans at distance d: d x + y
 
-// Row `level` of cm_levelInfo: (a, step), (b, 0), (points, 0), (table origin, 0), with
+// Row `level` of cm_levelInfo: (a, step), (b, 0), (points, 0), (directory origin, 0), with
 // level point = finest point * a + b, and step the world length of one of its points.
 vec4 cm_levelTexel(int level, int column)
 {
   return texelFetch(cm_levelInfo, ivec2(column, level), 0);
+}
+
+// The slot holding brick `brick` of `level` (-1: not resident): its block through the
+// directory, then its entry in the block.
+int cm_brickSlot(int level, vec3 brick)
+{
+  vec3 block = floor(brick / cm_blockBricks);
+  int index = int(texelFetch(cm_pageDirectory, ivec3(cm_levelTexel(level, 3).xyz + block), 0).r
+                  * cm_pageScale + 0.5) - 1;
+  if (index < 0)
+  {
+    return -1;
+  }
+  ivec3 grid = ivec3(cm_blockGrid + 0.5);
+  ivec3 where = ivec3(index % grid.x, (index / grid.x) % grid.y, index / (grid.x * grid.y));
+  ivec3 entry = where * int(cm_blockBricks + 0.5) + ivec3(brick - block * cm_blockBricks);
+  return int(texelFetch(cm_pageBlocks, entry, 0).r * cm_pageScale + 0.5) - 1;
 }
 
 float cm_sampleScalar(vec3 texturePosition)
@@ -42,8 +63,7 @@ float cm_sampleScalar(vec3 texturePosition)
     vec3 point = clamp(finest * cm_levelTexel(level, 0).xyz + cm_levelTexel(level, 1).xyz,
                        vec3(0.0), points - 1.0);
     vec3 brick = min(floor(point / cm_brickPoints), ceil(points / cm_brickPoints) - 1.0);
-    int slot = int(texelFetch(cm_pageTable, ivec3(cm_levelTexel(level, 3).xyz + brick), 0).r
-                   * cm_pageScale + 0.5) - 1;
+    int slot = cm_brickSlot(level, brick);
     if (slot >= 0)
     {
       ivec3 slots = ivec3(cm_poolSlots + 0.5);

@@ -34,6 +34,7 @@ from ..models.volume import box_world_bounds
 from .binding import VolumeSetup, bind_marching, march_defines, world_from_texture
 from .clipping import ClipState
 from .direct import DirectBinding
+from .page_table import PageTable
 
 #: Default GPU budget of the brick pool (bytes).
 GPU_BYTES = 256 * 2**20
@@ -127,19 +128,7 @@ class BrickPager:
                              "coarser levels (pv_cubemarch.build_pyramid).")
         self.cache = BrickCache(source, self.brick,
                                 HOST_BYTES if host_bytes is None else host_bytes, threads)
-        # page tables of every level side by side along x (one texture: no sampler arrays)
-        self.table_origins = list(itertools.accumulate(
-            [0] + [c[0] for c in self.counts[:-1]]))
-        shape = (sum(c[0] for c in self.counts), max(c[1] for c in self.counts),
-                 max(c[2] for c in self.counts))
-        if max(shape) > MAX_TEXTURE_SIZE:
-            raise ValueError(f"The page table of {self.counts[0]} bricks at the finest level "
-                             f"is over {MAX_TEXTURE_SIZE} texels a side: give a larger "
-                             "brick_size.")
-        # slot + 1 per brick: 2 bytes while the pool has fewer than 65535 slots (GL reads them
-        # normalised: cm_pageScale), else float32 (exact to 2^24)
-        self.table_type = np.uint16 if self.capacity < 65535 else np.float32
-        self.table = Texture(np.zeros(shape, self.table_type), kind="3d", interpolate=False)
+        self.table = PageTable(self.counts, self.capacity)
         side = self.brick + 2
         self.pool = Texture(np.zeros([n * side for n in self.slots], np.float32), kind="3d",
                             interpolate=model.interpolation == "linear",
@@ -161,7 +150,7 @@ class BrickPager:
             self._place(key, read_brick(source, key, self.brick))
 
     def _level_info(self) -> np.ndarray:
-        """Per level: (a, world step), (b, 0), (points, 0), (table origin, 0)."""
+        """Per level: (a, world step), (b, 0), (points, 0), (directory origin, 0)."""
         finest = self.levels[0]
         linear = self.model.world_from_index()[:3, :3]
         info = np.zeros((len(self.levels), 4, 4), np.float32)
@@ -172,7 +161,7 @@ class BrickPager:
             info[number, 0] = (*a, step)
             info[number, 1, :3] = b
             info[number, 2, :3] = level.shape
-            info[number, 3, :3] = (self.table_origins[number], 0, 0)
+            info[number, 3, :3] = (self.table.origins[number], 0, 0)
         return info
 
     def _forget_pool(self) -> np.ndarray:
@@ -180,7 +169,7 @@ class BrickPager:
         self.key_in = [None] * self.capacity
         self.slot_of = {}
         self._free = list(range(self.capacity - len(self.pinned) - 1, len(self.pinned) - 1, -1))
-        self.table.set_data(np.zeros(self.table.array.shape, self.table_type))
+        self.table.reset()
         side = self.brick + 2
         pool = np.zeros([n * side for n in self.slots], np.float32)
         for slot, key in enumerate(sorted(self.pinned)):
@@ -202,9 +191,7 @@ class BrickPager:
         self.key_in[slot] = key
         self.slot_of[key] = slot
         self.last_used[slot] = self.frame_number
-        level, *ijk = key
-        origin = [self.table_origins[level] + ijk[0], ijk[1], ijk[2]]
-        self.table.update_region(origin, np.full((1, 1, 1), slot + 1, self.table_type))
+        self.table.set(key, slot)
 
     def _place(self, key, values: np.ndarray, keep: set | None = None) -> bool:
         """Put brick ``key`` in a free slot, or the least recently used one not kept.
@@ -222,9 +209,7 @@ class BrickPager:
                 return False
             old = self.key_in[slot]
             del self.slot_of[old]
-            level, *ijk = old
-            self.table.update_region([self.table_origins[level] + ijk[0], ijk[1], ijk[2]],
-                                     np.zeros((1, 1, 1), self.table_type))
+            self.table.clear(old)
         self.pool.update_region(self._slot_origin(slot), values)
         self.uploaded_bytes += values.nbytes
         self._mark(key, slot)
@@ -342,7 +327,8 @@ class BrickPager:
     def release(self) -> None:
         """Stop reading; free the textures."""
         self.cache.close()
-        for texture in (self.pool, self.table, self.info):
+        self.table.release()
+        for texture in (self.pool, self.info):
             texture.release()
 
 
@@ -417,8 +403,7 @@ def bind_paged_sampling(target, data: PagedData, step_scale: float,
     target.add_texture("cm_transferTable", data.tables[0])
     target.set_uniform("cm_clim", model.transfer.clim)
     target.add_texture("cm_pool", pager.pool)
-    target.add_texture("cm_pageTable", pager.table)
-    target.set_uniform("cm_pageScale", 65535.0 if pager.table_type == np.uint16 else 1.0)
+    pager.table.bind(target)
     target.add_texture("cm_levelInfo", pager.info)
     target.set_uniform("cm_poolSlots", tuple(float(n) for n in pager.slots))
     target.set_uniform("cm_brickPoints", float(pager.brick))
