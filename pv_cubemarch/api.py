@@ -519,7 +519,7 @@ PAGED_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors"
 
 def is_multiscale_input(volume) -> bool:
     """Whether ``add_volume`` streams ``volume`` by bricks (a source beyond memory)."""
-    if isinstance(volume, MultiscaleSource) or is_zarr_group(volume):
+    if isinstance(volume, (MultiscaleSource, PagedVolume)) or is_zarr_group(volume):
         return True
     if isinstance(volume, str) or hasattr(volume, "__fspath__"):
         return str(volume).rstrip("/").endswith(".zarr")
@@ -535,7 +535,8 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         add_volume).parameters.items()}
     refused = sorted(key for key, value in {**given, **extra}.items()
                      if key not in PAGED_KEYWORDS and value is not None
-                     and value != defaults.get(key))
+                     and value != defaults.get(key)
+                     and not (key == "downsample" and value == 1))   # full resolution only
     if given["technique"] not in ("vtk", "direct", "auto"):
         refused.insert(0, f"technique={given['technique']!r}")
     if given["blending"] != "composite":
@@ -545,24 +546,35 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
                          f"pool (blending='composite'); {', '.join(refused)} "
                          "cannot be used with it.")
     transform = given["transform"] if given["user_matrix"] is None else given["user_matrix"]
+    if isinstance(source, PagedVolume):   # added again (the live view): as it was, but what
+        made = source                     # this call changes
+        source = made.source
+        transform = made.transform if transform is None else transform
+        paging = {k: given[k] if given[k] is not None else made.paging.get(k)
+                  for k in made.paging}
+        given = {**given, "interpolation": given["interpolation"] or made.interpolation}
+    else:
+        made, paging = None, {k: given[k] for k in ("lod_bias", "gpu_bytes", "host_bytes",
+                                                     "brick_size")}
     interpolation = given["interpolation"] or "linear"
     INTERPOLATION.check(interpolation)
     source = multiscale_source(source, name=given["name"])
-    transfer = paged_transfer(source, given["cmap"], given["opacity"], given["clim"],
-                              given["opacity_unit_distance"], given["n_colors"],
-                              given["flip_scalars"], given["log_scale"])
+    keywords = [given[k] for k in ("cmap", "opacity", "clim", "opacity_unit_distance",
+                                   "n_colors", "flip_scalars", "log_scale")]
+    transfer = made.transfer if made is not None and all(k is None for k in keywords) \
+        else paged_transfer(source, *keywords)
     model = PagedVolume(source, transfer, np.eye(4) if transform is None
                         else checked_transform(transform), given["name"] or source.name,
-                        interpolation)
+                        interpolation, paging)
     options = DirectOptions(**({} if given["step_scale"] is None
                                else {"step_scale": given["step_scale"]}))
     options.check_model(model)
     shading = CommonVolumeOptions(given["stop_opacity"], False)
     shading.check()
     component = plotter.cubemarch
-    pager = BrickPager(model, plotter.renderer, given["brick_size"] or BRICK_POINTS,
-                       given["gpu_bytes"] or GPU_BYTES, given["host_bytes"],
-                       lod_bias=given["lod_bias"] or 0.0)
+    pager = BrickPager(model, plotter.renderer, paging["brick_size"] or BRICK_POINTS,
+                       paging["gpu_bytes"] or GPU_BYTES, paging["host_bytes"],
+                       lod_bias=paging["lod_bias"] or 0.0)
     binding = build_paged_actor(plotter, PagedData(model, pager),
                                 VolumeSetup(options, shading, None))
     binding.light_map = None

@@ -287,3 +287,22 @@ def test_page_table_blocks_are_taken_and_given_back():
     assert directory[0, 0, 0] == 0 and not table.blocks.array[tuple(origin)].any()
     table.set((0, 63, 63, 63), 3)     # a third block: the one given back
     assert directory[7, 7, 7] == table.block_of[(0, 7, 7, 7)] + 1
+
+
+def test_the_live_view_retunes_a_streamed_volume(pyramid):
+    # A knob (step_scale) adds the volume again from its model: still streamed, with the
+    # keywords it was added with. catches (seen failing): the PagedVolume taken for raw data
+    # (add_volume refused it), and lod_bias / brick_size lost on the way.
+    from pv_cubemarch.views.session import TuningSession
+
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    cm.add_volume(pl, str(pyramid), lod_bias=-30, brick_size=8, name="scan", **KEYWORDS)
+    view(pl)
+    session = TuningSession.from_plotter(pl)
+    session.set("volume", "step_scale", 0.25)
+    binding = pl.actors["scan"].cubemarch
+    assert binding.step_scale == 0.25 and binding.pager.brick == 8
+    assert binding.pager.lod_bias == -30
+    image = cm.render_image(pl, converge=True)
+    assert image.mean() > 1.0
+    pl.close()

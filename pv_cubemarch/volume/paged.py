@@ -57,6 +57,9 @@ class PagedVolume:
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
     name: str = "volume"
     interpolation: str = "linear"
+    #: The streaming keywords it was added with (lod_bias, gpu_bytes, host_bytes,
+    #: brick_size), kept when it is added again.
+    paging: dict = field(default_factory=dict)
     colors = None
     value_offset = 0
 
