@@ -62,6 +62,7 @@ from .volume.paged import (
     PagedData,
     PagedVolume,
     build_paged_actor,
+    check_paging,
     paged_transfer,
 )
 from .volume.pyvista_keywords import (
@@ -531,12 +532,22 @@ def is_multiscale_input(volume) -> bool:
 
 def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     """``add_volume`` for a multiscale source: the direct marcher reading a brick pool."""
+    named = resolve_aliases(dict(extra), {"clim": given["clim"], "cmap": given["cmap"]})
+    given = {**given, **named}   # PyVista's rng= and colormap=
     defaults = {key: value.default for key, value in inspect.signature(
         add_volume).parameters.items()}
-    refused = sorted(key for key, value in {**given, **extra}.items()
-                     if key not in PAGED_KEYWORDS and value is not None
-                     and value != defaults.get(key)
-                     and not (key == "downsample" and value == 1))   # full resolution only
+
+    def left_out(key, value) -> bool:   # not given, or given as the default
+        if value is None or (key == "downsample" and value == 1):   # full resolution only
+            return True
+        default = defaults.get(key)
+        return default is not None and isinstance(value, type(default)) and value == default
+
+    refused = sorted(key for key, value in given.items()
+                     if key not in PAGED_KEYWORDS and not left_out(key, value))
+    if given["user_matrix"] is not None and given["transform"] is not None:
+        raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")
+    check_paging(given)
     if given["technique"] not in ("vtk", "direct", "auto"):
         refused.insert(0, f"technique={given['technique']!r}")
     if given["blending"] != "composite":
@@ -572,9 +583,11 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     shading = CommonVolumeOptions(given["stop_opacity"], False)
     shading.check()
     component = plotter.cubemarch
-    pager = BrickPager(model, plotter.renderer, paging["brick_size"] or BRICK_POINTS,
-                       paging["gpu_bytes"] or GPU_BYTES, paging["host_bytes"],
-                       lod_bias=paging["lod_bias"] or 0.0)
+    pager = BrickPager(model, plotter.renderer,
+                       BRICK_POINTS if paging["brick_size"] is None else paging["brick_size"],
+                       GPU_BYTES if paging["gpu_bytes"] is None else paging["gpu_bytes"],
+                       paging["host_bytes"],
+                       lod_bias=0.0 if paging["lod_bias"] is None else paging["lod_bias"])
     binding = build_paged_actor(plotter, PagedData(model, pager),
                                 VolumeSetup(options, shading, None))
     binding.light_map = None

@@ -306,3 +306,160 @@ def test_the_live_view_retunes_a_streamed_volume(pyramid):
     image = cm.render_image(pl, converge=True)
     assert image.mean() > 1.0
     pl.close()
+
+
+def test_a_pool_uploaded_whole_keeps_its_bricks(pyramid, monkeypatch):
+    """Found by review (seen failing): without partial uploads every placed brick made the
+    pool go up whole, remade by forgetting all but the coarsest level (converged said True
+    at 29 dB); and a pool remade for a new window lost a slot per coarsest brick, so it
+    never converged again. Both now converge to the in-memory image."""
+    expected = in_memory(finest_grid(pyramid))
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    actor = cm.add_volume(pl, str(pyramid), lod_bias=-30, brick_size=8,
+                          gpu_bytes=120 * 10**3 * 4, **KEYWORDS)
+    view(pl)
+    assert psnr(cm.render_image(pl, converge=True), expected) >= 50.0
+    pager = actor.cubemarch.pager
+    pager.pool.invalidate()   # what a new window does: remade from the coarsest level
+    assert psnr(cm.render_image(pl, converge=True), expected) >= 50.0
+    assert sorted(pager._free + list(pager.slot_of.values())) == list(range(pager.capacity))
+    pl.close()
+    from pv_cubemarch.gl import textures
+    from pv_cubemarch.volume import paged
+
+    monkeypatch.setattr(textures, "sub_image_available", lambda: False)
+    monkeypatch.setattr(paged, "sub_image_available", lambda: False)
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    actor = cm.add_volume(pl, str(pyramid), lod_bias=-30, brick_size=8, **KEYWORDS)
+    view(pl)
+    assert psnr(cm.render_image(pl, converge=True), expected) >= 50.0
+    pl.close()
+
+
+def test_a_moved_volume_chooses_levels_as_if_placed_so(pyramid):
+    """Placed twice as large at add, or moved so afterwards: the same bricks and image.
+
+    catches (found by review, seen failing): the levels' world steps kept from the add, so
+    a volume scaled later drew levels 1-2 coarser than one added with that scale.
+    """
+    scale = np.diag([2.0, 2.0, 2.0, 1.0])
+    results = []
+    for moved in (False, True):
+        pl = pv.Plotter(off_screen=True, window_size=SIZE)
+        pl.set_background("black")
+        actor = cm.add_volume(pl, str(pyramid), brick_size=8, lod_bias=1.0,
+                              transform=None if moved else scale, **KEYWORDS)
+        if moved:
+            actor.cubemarch.set_transform(scale)
+        view(pl, distance=250.0)
+        pl.camera.focal_point = tuple(np.array(pl.camera.focal_point) * 2)
+        pl.camera.position = tuple(np.array(pl.camera.position) * 2)
+        pl.renderer.ResetCameraClippingRange()
+        image = cm.render_image(pl, converge=True)
+        results.append((sorted(actor.cubemarch.pager.slot_of), image))
+        pl.close()
+    assert results[0][0] == results[1][0]
+    assert psnr(results[0][1], results[1][1]) >= 50.0
+
+
+def test_the_pagers_distance_is_a_lower_bound_exact_without_rotation():
+    """The distance from the eye to a brick's placed box, against the nearest of many points
+    sampled in it: never more (a lower bound: no brick asked too coarse), and equal for a
+    placement that scales without rotating.
+
+    catches (found by review, seen failing): a bound from the smallest stretch alone, 2.5x
+    too small along the longer axes (the whole finest level read for nothing).
+    """
+    from pv_cubemarch.volume.paged import _distance_to_boxes
+
+    rng = np.random.default_rng(4)
+    low = rng.uniform(-20, 20, (50, 3))
+    high = low + rng.uniform(1, 8, (50, 3))
+    angle = np.radians(35)
+    rotation = np.eye(4)
+    rotation[:2, :2] = [[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]]
+    for matrix, exact in ((np.diag([0.5, 0.75, 6.0, 1.0]), True),
+                          (rotation @ np.diag([1.0, 3.0, 1.0, 1.0]), False)):
+        eye = np.array([3.0, -40.0, 25.0])
+        bound = _distance_to_boxes(eye, low, high, matrix)
+        t = rng.random((4000, 3))
+        for n in range(len(low)):
+            points = (low[n] + t * (high[n] - low[n])) @ matrix[:3, :3].T + matrix[:3, 3]
+            nearest = np.linalg.norm(points - eye, axis=1).min()
+            assert bound[n] <= nearest + 1e-9
+            if exact:
+                assert bound[n] >= 0.97 * nearest
+
+
+def test_a_streamed_volumes_setters_say_what_they_cannot_do(pyramid):
+    # found by review (seen failing): AttributeError from the in-memory volume's setters
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    actor = cm.add_volume(pl, str(pyramid), brick_size=8, rng=(0, 900), **{
+        k: v for k, v in KEYWORDS.items() if k != "clim"})
+    binding = actor.cubemarch
+    assert binding.model.transfer.clim == (0.0, 900.0)   # PyVista's alias
+    binding.set_interpolation("nearest")
+    assert not binding.pager.pool.interpolate
+    for call, match in ((lambda: binding.set_values(field()), "reads its values"),
+                        (lambda: binding.set_opacity_unit_distance(2.0), "add it again"),
+                        (lambda: binding.set_blending("maximum"), "composite")):
+        with pytest.raises(ValueError, match=match):
+            call()
+    for keywords, match in ((dict(gpu_bytes=0), "gpu_bytes must be an integer"),
+                            (dict(brick_size=2.7), "brick_size must be an integer"),
+                            (dict(lod_bias=float("nan")), "lod_bias must be a number"),
+                            (dict(crop_box=np.array([0, 1, 0, 1, 0, 1])), "crop_box"),
+                            (dict(transform=np.eye(4), user_matrix=np.eye(4)), "not both")):
+        with pytest.raises(ValueError, match=match):
+            cm.add_volume(pl, str(pyramid), **keywords)
+    pl.close()
+
+
+def test_an_interactive_window_redraws_while_bricks_arrive():
+    """A repeating timer of the window's interactor renders while the volume is shown and
+    not converged, and stops with the volume. catches (found by review): nothing redrew an
+    interactive window when bricks arrived (the image refined only on interaction)."""
+    from pv_cubemarch.volume.paged import refine_while_shown
+
+    class Interactor:
+        def __init__(self):
+            self.observers, self.timers = [], []
+
+        def add_observer(self, event, call):
+            self.observers.append((event, call))
+            return len(self.observers)
+
+        def create_timer(self, duration, repeating=True):
+            self.timers.append((duration, repeating))
+            return 1
+
+        def remove_observer(self, tag):
+            self.observers.clear()
+
+        def destroy_timer(self, timer):
+            self.timers.clear()
+
+    class Window:
+        off_screen = False
+
+        def __init__(self):
+            self.iren, self.renders = Interactor(), 0
+
+        def render(self):
+            self.renders += 1
+
+    class Streamed:
+        shown, converged, extra_release = True, False, []
+
+    window, volume = Window(), Streamed()
+    refine_while_shown(window, volume)
+    (event, tick), = window.iren.observers
+    assert event == "TimerEvent" and window.iren.timers[0][1]
+    tick()
+    volume.converged = True
+    tick()
+    assert window.renders == 1
+    volume.extra_release[0]()
+    assert not window.iren.observers and not window.iren.timers

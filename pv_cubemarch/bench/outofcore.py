@@ -260,7 +260,7 @@ def run_outofcore(scenes: Sequence[str] = SCENES, views: Sequence[str] = VIEWS,
                     row, expected = _in_memory_row(scene, view, source, extent, size)
                     rows.append(row)
                 for name, bias in (("ours", 0.0), ("ours, finest everywhere", -30.0),
-                                   ("coarsest level only", 99.0)):
+                                   ("coarsest level only", 64.0)):
                     if bias < -1 and not fits:
                         continue   # the finest level over a whole 2 TiB view: no reference
                     rows.append(_paged_row(scene, view, name, source, extent, size, bias,

@@ -42,7 +42,10 @@ def _halve(level, method: str, dtype: np.dtype):
 
     pad = [(0, n % 2) for n in level.shape]
     if any(p for _, p in pad):
-        level = da.pad(level, pad, mode="edge")
+        # da.pad adds the plane as a chunk of its own (1 wide): even chunks again, or a block
+        # of 'mode' would be cut between two (seen: the last coarse plane of labels all 0)
+        even = tuple(max(2, c[0] - c[0] % 2) for c in level.chunks)
+        level = da.pad(level, pad, mode="edge").rechunk(even)
     if method == "mode":
         return level.map_blocks(lambda block: representative_levels(block, 1)[0],
                                 chunks=tuple(tuple(c // 2 for c in axis)

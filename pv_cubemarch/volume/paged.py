@@ -26,6 +26,7 @@ from ..core.frame_errors import observe
 from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, box_actor, camera_matrices
+from ..gl.sub_upload import sub_image_available
 from ..gl.textures import Texture
 from ..models.brick_cache import HOST_BYTES, BrickCache, brick_counts, read_brick
 from ..models.multiscale import MultiscaleSource
@@ -135,7 +136,10 @@ class BrickPager:
         side = self.brick + 2
         self.pool = Texture(np.zeros([n * side for n in self.slots], np.float32), kind="3d",
                             interpolate=model.interpolation == "linear",
-                            rebuild=self._forget_pool)
+                            rebuild=self._forget_pool if sub_image_available() else None)
+        # Without partial uploads (no window system giving glTexSubImage3D) the pool keeps
+        # its host copy: each brick is written there and the whole pool goes up again, so
+        # a whole upload never forgets the bricks placed before it.
         self.info = Texture(self._level_info(), kind="2d", interpolate=False)
         self.key_in: list = [None] * self.capacity
         self.slot_of: dict = {}
@@ -146,6 +150,8 @@ class BrickPager:
         self.pinned = {(coarsest, *ijk) for ijk in np.ndindex(*self.counts[coarsest])}
         #: Wanted bricks not resident after the last frame (0: converged).
         self.missing = 0
+        #: Whether the volume is drawn this frame (its binding says): hidden, it reads nothing.
+        self.shown = lambda: True
         #: Whether the last frame wanted more bricks than the pool holds.
         self.over_budget = False
         self.uploaded_bytes = 0
@@ -171,7 +177,8 @@ class BrickPager:
         """A new window: the pool starts empty (bricks are placed again, the coarsest now)."""
         self.key_in = [None] * self.capacity
         self.slot_of = {}
-        self._free = list(range(self.capacity - len(self.pinned) - 1, len(self.pinned) - 1, -1))
+        self._free = list(range(self.capacity - 1, len(self.pinned) - 1, -1))
+        self.missing = max(self.missing, 1)   # decided again at the next frame
         self.table.reset()
         side = self.brick + 2
         pool = np.zeros([n * side for n in self.slots], np.float32)
@@ -233,10 +240,7 @@ class BrickPager:
         info = self.info.array if self.info.array is not None else self._level_info()
         steps = info[:, 0, 3]
         world_from_point = self.model.world_from_index()
-        linear = world_from_point[:3, :3]
-        stretch = float(np.linalg.svd(linear, compute_uv=False).min())   # a lower bound
         eye_world = np.asarray(self.renderer.GetActiveCamera().GetPosition(), float)
-        eye = (np.linalg.inv(world_from_point) @ np.append(eye_world, 1.0))[:3]
         view, projection = camera_matrices(self.renderer)
         clip_from_point = projection @ view @ world_from_point
         per_distance, constant = self.footprint()
@@ -252,7 +256,7 @@ class BrickPager:
             high = ((candidates + 1) * self.brick + 1.0 - b) / a
             shown = _in_view(low, high, clip_from_point)
             candidates, low, high = candidates[shown], low[shown], high[shown]
-            nearest = np.linalg.norm(np.clip(eye, low, high) - eye, axis=1) * stretch
+            nearest = _distance_to_boxes(eye_world, low, high, world_from_point)
             pixel = nearest * per_distance + constant
             # the finest level any sample in the brick may choose
             needed = np.zeros(len(candidates), np.int64)
@@ -284,8 +288,17 @@ class BrickPager:
         inside = (children <= last[:, None, :]).all(axis=2)
         return np.unique(children[inside], axis=0)
 
+    def follow_placement(self) -> None:
+        """The volume moved: each level's world step (what a pixel is compared with) anew."""
+        self.info.set_data(self._level_info())
+
     def frame(self, *_) -> None:
-        """At each frame's start: choose, request, and upload what has arrived."""
+        """At each frame's start: choose, request, and upload what has arrived.
+
+        Nothing while the volume is hidden (``shown``, set by its binding).
+        """
+        if not self.shown():
+            return
         self.cache.raise_errors()
         self.frame_number += 1
         wanted = self.wanted()
@@ -335,10 +348,28 @@ class BrickPager:
             texture.release()
 
 
+def _corners(low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """The 8 corners ``(n, 8, 3)`` of boxes ``[low, high]`` (``(n, 3)`` each)."""
+    return np.stack([np.where(np.array(pick)[None, :] == 0, low, high)
+                     for pick in itertools.product((0, 1), repeat=3)], axis=1)
+
+
+def _distance_to_boxes(eye: np.ndarray, low: np.ndarray, high: np.ndarray,
+                       world_from_point: np.ndarray) -> np.ndarray:
+    """A lower bound of each box's (finest points) world distance from ``eye``.
+
+    The distance to the world-axis box around its placed corners: exact for a placement
+    without rotation, whatever its scales (a bound from the smallest stretch alone asked
+    for bricks 2.5x too fine along the longer axes).
+    """
+    corners = _corners(low, high) @ world_from_point[:3, :3].T + world_from_point[:3, 3]
+    lower, upper = corners.min(axis=1), corners.max(axis=1)
+    return np.linalg.norm(np.clip(eye, lower, upper) - eye, axis=1)
+
+
 def _in_view(low: np.ndarray, high: np.ndarray, clip_from_point: np.ndarray) -> np.ndarray:
     """Which boxes (finest points, ``(n, 3)`` corners) are not wholly outside a frustum plane."""
-    corners = np.stack([np.where(np.array(pick)[None, :] == 0, low, high)
-                        for pick in itertools.product((0, 1), repeat=3)], axis=1)
+    corners = _corners(low, high)
     clip = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2) \
         @ clip_from_point.T
     w = clip[..., 3]
@@ -390,12 +421,70 @@ class PagedBinding(DirectBinding):
         """Resident, missing and read bricks and bytes (:meth:`BrickPager.stats`)."""
         return self.data.pager.stats()
 
+    def place(self, transform) -> None:
+        """The box follows, and the levels' world steps (a pixel is compared with them)."""
+        super().place(transform)
+        self.data.pager.follow_placement()
+
+    def set_interpolation(self, interpolation: str) -> None:
+        """Read the bricks ``'linear'`` or ``'nearest'`` from the next frame (no upload)."""
+        if interpolation not in ("linear", "nearest"):
+            raise ValueError(f"interpolation must be 'linear' or 'nearest', got "
+                             f"{interpolation!r}.")
+        self.model.interpolation = interpolation
+        self.data.pager.pool.set_interpolation(interpolation == "linear")
+
+    def set_values(self, values, member: str | None = None) -> None:
+        """Refused: a streamed volume's values are its source's (write to the store)."""
+        raise ValueError("A volume streamed from a multiscale source reads its values from "
+                         "the source; write them there and add the volume again.")
+
+    def set_opacity_unit_distance(self, length: float) -> None:
+        """Refused: add the streamed volume again with ``opacity_unit_distance=``."""
+        raise ValueError("A streamed volume's transfer function is set when it is added: "
+                         "add it again with opacity_unit_distance=.")
+
+    def set_blending(self, blending: str) -> None:
+        """Only 'composite' (what the brick pool's marcher draws)."""
+        if blending != "composite":
+            raise ValueError(f"blending={blending!r}: a volume streamed from a multiscale "
+                             "source is drawn with blending='composite' only.")
+
     def release_resources(self) -> None:
         """Stop the per-frame choice, then what a direct volume frees (the pager too)."""
         if getattr(self, "_pager_tag", None) is not None:
             self.bindings.renderer.RemoveObserver(self._pager_tag)
             self._pager_tag = None
         super().release_resources()
+
+
+#: Milliseconds between the redraws of a window whose streamed volume still misses bricks.
+REFINE_MS = 100
+
+
+def refine_while_shown(plotter, binding) -> None:
+    """In an interactive window, redraw while bricks arrive: the image refines by itself.
+
+    A repeating timer of the window's interactor (it runs while ``plotter.show()`` does)
+    renders again whenever the volume is shown and not converged; offscreen plotters have
+    none (``render_image(converge=True)`` waits there).
+    """
+    interactor = getattr(plotter, "iren", None)
+    if interactor is None or getattr(plotter, "off_screen", True):
+        return
+
+    def refine(*_):
+        if binding.shown and not binding.converged:
+            plotter.render()
+
+    tag = interactor.add_observer("TimerEvent", refine)
+    timer = interactor.create_timer(REFINE_MS, repeating=True)
+
+    def stop():
+        interactor.remove_observer(tag)
+        interactor.destroy_timer(timer)
+
+    binding.extra_release.append(stop)
 
 
 def bind_paged_sampling(target, data: PagedData, step_scale: float,
@@ -440,8 +529,28 @@ def build_paged_actor(plotter, data: PagedData, setup: VolumeSetup) -> PagedBind
     binding._tag = observe(renderer, vtk.vtkCommand.StartEvent,
                            binding.follow_multisampling, 5.0)
     binding._pager_tag = observe(renderer, vtk.vtkCommand.StartEvent, data.pager.frame, 4.0)
+    data.pager.shown = lambda: binding.shown
+    refine_while_shown(plotter, binding)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
+
+
+def check_paging(given: dict) -> None:
+    """Refuse streaming keywords out of their range, naming them (None: the default)."""
+    for name, low, high in (("gpu_bytes", 1, None), ("host_bytes", 1, None),
+                            ("brick_size", 1, 1024)):
+        value = given.get(name)
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low \
+                or (high is not None and value > high):
+            raise ValueError(f"{name} must be an integer of at least {low}"
+                             + (f" and at most {high}" if high else "") + f", got {value!r}.")
+    bias = given.get("lod_bias")
+    if bias is not None and not (isinstance(bias, (int, float, np.number))
+                                 and not isinstance(bias, bool) and -64 <= float(bias) <= 64):
+        raise ValueError(f"lod_bias must be a number from -64 to 64 (levels added to the one "
+                         f"whose points fit a pixel), got {bias!r}.")
 
 
 def paged_transfer(source: MultiscaleSource, cmap, opacity, clim, opacity_unit_distance,
