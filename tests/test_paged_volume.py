@@ -463,3 +463,17 @@ def test_an_interactive_window_redraws_while_bricks_arrive():
     assert window.renders == 1
     volume.extra_release[0]()
     assert not window.iren.observers and not window.iren.timers
+
+
+@pytest.mark.parametrize(("budget", "want"), [(7, 10**6), (26, 10**6), (1700, 10**6),
+                                              (11184, 10**6), (10**6, 75), (10**5, 10**5)])
+def test_the_pool_holds_what_its_budget_allows(budget, want):
+    # catches (found by review, seen failing): slots rounded down to a cube (7 bricks'
+    # worth gave 4 slots, 26 gave 18), so a budget that fits the coarsest level was refused
+    from pv_cubemarch.volume.paged import pool_slots
+
+    side = 34
+    slots = pool_slots(32, budget * side**3 * 4, want)
+    count = int(np.prod(slots))
+    assert count <= budget and max(slots) <= 2048 // side
+    assert count >= min(want, budget) * 0.99

@@ -97,14 +97,21 @@ def pool_slots(brick: int, gpu_bytes: int, most_bricks: int | None = None
                          f"({brick}³ points and their apron): give more, or a smaller "
                          "brick_size.")
     want = budget if most_bricks is None else max(1, min(budget, int(most_bricks)))
-    x = min(most, int(np.ceil(want ** (1 / 3))))
-    y = min(most, int(np.ceil((want / x) ** 0.5)))
-    z = min(most, int(np.ceil(want / (x * y))))
-    if x * y * z > budget:   # rounded up past the budget: fewer along z (then y)
-        z = budget // (x * y)
-        if z < 1:
-            x, y, z = min(most, budget), max(1, min(most, budget // min(most, budget))), 1
-    return x, y, z
+    # the box of slots holding the most up to ``want`` within the budget, then the fewest
+    # slots past ``want`` (a cube's rounding alone left a third of small budgets unused)
+    best = (1, 1, 1)
+    for x in range(1, min(most, 2 * int(np.ceil(want ** (1 / 3))) + 1) + 1):
+        for y in range(1, min(most, 2 * int(np.ceil((want / x) ** 0.5)) + 1) + 1):
+            z = min(most, -(-want // (x * y)))
+            if x * y * z > budget:
+                z = min(most, budget // (x * y))
+            if z < 1:
+                continue
+            count, held = x * y * z, best[0] * best[1] * best[2]
+            if min(count, want) > min(held, want) or (min(count, want) == min(held, want)
+                                                        and count < held):
+                best = (x, y, z)
+    return best
 
 
 class BrickPager:
