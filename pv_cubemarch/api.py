@@ -45,6 +45,7 @@ from .surfaces.levels import (
 from .surfaces.technique import build_translucent_levels
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.binding import VolumeBinding, VolumeData, VolumeSetup
+from .volume.brick_pager import BRICK_POINTS, GPU_BYTES, BrickPager
 from .volume.clipping import clip_plane_list, set_crop_box
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
@@ -56,9 +57,6 @@ from .volume.options import (
     DirectOptions,
 )
 from .volume.paged import (
-    BRICK_POINTS,
-    GPU_BYTES,
-    BrickPager,
     PagedData,
     PagedVolume,
     build_paged_actor,

@@ -326,10 +326,10 @@ def test_a_pool_uploaded_whole_keeps_its_bricks(pyramid, monkeypatch):
     assert sorted(pager._free + list(pager.slot_of.values())) == list(range(pager.capacity))
     pl.close()
     from pv_cubemarch.gl import textures
-    from pv_cubemarch.volume import paged
+    from pv_cubemarch.volume import brick_pager
 
     monkeypatch.setattr(textures, "sub_image_available", lambda: False)
-    monkeypatch.setattr(paged, "sub_image_available", lambda: False)
+    monkeypatch.setattr(brick_pager, "sub_image_available", lambda: False)
     pl = pv.Plotter(off_screen=True, window_size=SIZE)
     pl.set_background("black")
     actor = cm.add_volume(pl, str(pyramid), lod_bias=-30, brick_size=8, **KEYWORDS)
@@ -372,7 +372,7 @@ def test_the_pagers_distance_is_a_lower_bound_exact_without_rotation():
     catches (found by review, seen failing): a bound from the smallest stretch alone, 2.5x
     too small along the longer axes (the whole finest level read for nothing).
     """
-    from pv_cubemarch.volume.paged import _distance_to_boxes
+    from pv_cubemarch.volume.brick_pager import _distance_to_boxes
 
     rng = np.random.default_rng(4)
     low = rng.uniform(-20, 20, (50, 3))
@@ -470,7 +470,7 @@ def test_an_interactive_window_redraws_while_bricks_arrive():
 def test_the_pool_holds_what_its_budget_allows(budget, want):
     # catches (found by review, seen failing): slots rounded down to a cube (7 bricks'
     # worth gave 4 slots, 26 gave 18), so a budget that fits the coarsest level was refused
-    from pv_cubemarch.volume.paged import pool_slots
+    from pv_cubemarch.volume.brick_pager import pool_slots
 
     side = 34
     slots = pool_slots(32, budget * side**3 * 4, want)

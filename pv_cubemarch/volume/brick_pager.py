@@ -1,0 +1,336 @@
+"""The brick pool of a multiscale volume and the per-frame choice of its bricks.
+
+The pool is one 3D texture of brick slots within a GPU budget; the page table
+(:mod:`.page_table`) says which slot holds each brick. At each frame the pager walks the
+bricks from the coarsest level down, keeping those in view whose nearest point needs that
+level or a finer one, requests the missing ones from the host cache (coarse first, near
+first) and uploads what has arrived into free or least recently used slots: a frame never
+waits for a read, and the coarsest level, loaded before the first frame, is never evicted.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from ..core.gl_limits import MAX_TEXTURE_SIZE
+from ..gl.box import camera_matrices
+from ..gl.sub_upload import sub_image_available
+from ..gl.textures import Texture
+from ..models.brick_cache import HOST_BYTES, BrickCache, brick_counts, read_brick
+from .page_table import PageTable
+
+#: Default GPU budget of the brick pool (bytes).
+GPU_BYTES = 256 * 2**20
+#: Default points along a brick's edge (its slot holds two more: the apron).
+BRICK_POINTS = 32
+#: Most brick bytes uploaded in one frame (the rest waits for the next frames).
+UPLOAD_BYTES_PER_FRAME = 64 * 2**20
+
+
+def pool_slots(brick: int, gpu_bytes: int, most_bricks: int | None = None
+               ) -> tuple[int, int, int]:
+    """Slots along x, y, z of the largest pool within ``gpu_bytes`` and one texture.
+
+    No more than ``most_bricks`` (every brick of every level: a small source's pool holds
+    all of it and no more).
+    """
+    side = brick + 2
+    budget = int(gpu_bytes) // (side ** 3 * 4)
+    most = MAX_TEXTURE_SIZE // side
+    if budget < 1:
+        raise ValueError(f"gpu_bytes={gpu_bytes} holds no brick of {side ** 3 * 4} bytes "
+                         f"({brick}³ points and their apron): give more, or a smaller "
+                         "brick_size.")
+    want = budget if most_bricks is None else max(1, min(budget, int(most_bricks)))
+    # the box of slots holding the most up to ``want`` within the budget, then the fewest
+    # slots past ``want`` (a cube's rounding alone left a third of small budgets unused)
+    best = (1, 1, 1)
+    for x in range(1, min(most, 2 * int(np.ceil(want ** (1 / 3))) + 1) + 1):
+        for y in range(1, min(most, 2 * int(np.ceil((want / x) ** 0.5)) + 1) + 1):
+            z = min(most, -(-want // (x * y)))
+            if x * y * z > budget:
+                z = min(most, budget // (x * y))
+            if z < 1:
+                continue
+            count, held = x * y * z, best[0] * best[1] * best[2]
+            if min(count, want) > min(held, want) or (min(count, want) == min(held, want)
+                                                        and count < held):
+                best = (x, y, z)
+    return best
+
+
+class BrickPager:
+    """The pool, the page table and the per-frame choice of bricks (module docstring).
+
+    ``model``: the :class:`~.paged.PagedVolume` drawn (its source, placement, interpolation).
+    """
+
+    def __init__(self, model, renderer, brick: int = BRICK_POINTS,
+                 gpu_bytes: int = GPU_BYTES, host_bytes: int | None = None,
+                 threads: int = 4, lod_bias: float = 0.0):
+        self.model = model
+        self.renderer = renderer
+        self.brick = int(brick)
+        self.lod_bias = float(lod_bias)
+        source = model.source
+        self.levels = source.levels
+        self.counts = [brick_counts(level.shape, self.brick) for level in self.levels]
+        self.slots = pool_slots(self.brick, gpu_bytes,
+                                sum(int(np.prod(c)) for c in self.counts))
+        self.capacity = int(np.prod(self.slots))
+        coarsest = len(self.levels) - 1
+        pinned = int(np.prod(self.counts[coarsest]))
+        if pinned > self.capacity:
+            raise ValueError(f"The coarsest level ({self.levels[coarsest].shape} points) needs "
+                             f"{pinned} bricks of {self.brick}³ and gpu_bytes holds "
+                             f"{self.capacity}: give more gpu_bytes, or a source with "
+                             "coarser levels (pv_cubemarch.build_pyramid).")
+        self.cache = BrickCache(source, self.brick,
+                                HOST_BYTES if host_bytes is None else host_bytes, threads)
+        self.table = PageTable(self.counts, self.capacity)
+        side = self.brick + 2
+        self.pool = Texture(np.zeros([n * side for n in self.slots], np.float32), kind="3d",
+                            interpolate=model.interpolation == "linear",
+                            rebuild=self._forget_pool if sub_image_available() else None)
+        # Without partial uploads (no window system giving glTexSubImage3D) the pool keeps
+        # its host copy: each brick is written there and the whole pool goes up again, so
+        # a whole upload never forgets the bricks placed before it.
+        self.info = Texture(self._level_info(), kind="2d", interpolate=False)
+        self.key_in: list = [None] * self.capacity
+        self.slot_of: dict = {}
+        self.last_used = np.full(self.capacity, -1, np.int64)
+        self._free = list(range(self.capacity - 1, -1, -1))   # popped from the end: 0 first
+        self._victims = iter(())   # slots by last use, made when a frame must evict
+        self.frame_number = 0
+        self.pinned = {(coarsest, *ijk) for ijk in np.ndindex(*self.counts[coarsest])}
+        #: Wanted bricks not resident after the last frame (0: converged).
+        self.missing = 0
+        #: Whether the volume is drawn this frame (its binding says): hidden, it reads nothing.
+        self.shown = lambda: True
+        #: Whether the last frame wanted more bricks than the pool holds.
+        self.over_budget = False
+        self.uploaded_bytes = 0
+        for key in sorted(self.pinned):   # before the first frame: never a hole
+            self._place(key, read_brick(source, key, self.brick))
+
+    def _level_info(self) -> np.ndarray:
+        """Per level: (a, world step), (b, 0), (points, 0), (directory origin, 0)."""
+        finest = self.levels[0]
+        linear = self.model.world_from_index()[:3, :3]
+        info = np.zeros((len(self.levels), 4, 4), np.float32)
+        for number, level in enumerate(self.levels):
+            a = finest.scale / level.scale
+            b = (finest.translation - level.translation) / level.scale
+            step = float(np.max(np.linalg.norm(linear, axis=0) * level.scale / finest.scale))
+            info[number, 0] = (*a, step)
+            info[number, 1, :3] = b
+            info[number, 2, :3] = level.shape
+            info[number, 3, :3] = (self.table.origins[number], 0, 0)
+        return info
+
+    def _forget_pool(self) -> np.ndarray:
+        """A new window: the pool starts empty (bricks are placed again, the coarsest now)."""
+        self.key_in = [None] * self.capacity
+        self.slot_of = {}
+        self._free = list(range(self.capacity - 1, len(self.pinned) - 1, -1))
+        self.missing = max(self.missing, 1)   # decided again at the next frame
+        self.table.reset()
+        side = self.brick + 2
+        pool = np.zeros([n * side for n in self.slots], np.float32)
+        for slot, key in enumerate(sorted(self.pinned)):
+            self._write_slot(pool, slot, read_brick(self.model.source, key, self.brick))
+            self._mark(key, slot)
+        return pool
+
+    def _write_slot(self, pool: np.ndarray, slot: int, values: np.ndarray) -> None:
+        side = self.brick + 2
+        where = self._slot_origin(slot)
+        pool[tuple(slice(o, o + side) for o in where)] = values
+
+    def _slot_origin(self, slot: int) -> tuple[int, int, int]:
+        x, y, _ = self.slots
+        side = self.brick + 2
+        return (slot % x * side, slot // x % y * side, slot // (x * y) * side)
+
+    def _mark(self, key, slot: int) -> None:
+        self.key_in[slot] = key
+        self.slot_of[key] = slot
+        self.last_used[slot] = self.frame_number
+        self.table.set(key, slot)
+
+    def _place(self, key, values: np.ndarray, keep: set | None = None) -> bool:
+        """Put brick ``key`` in a free slot, or the least recently used one not kept.
+
+        The free slots and this frame's eviction order are kept between calls
+        (:meth:`_victims`), so placing many bricks costs no scan of the pool per brick.
+        """
+        if self._free:
+            slot = self._free.pop()
+        else:
+            slot = next((s for s in self._victims if self.key_in[s] is not None
+                         and self.key_in[s] not in self.pinned
+                         and (keep is None or self.key_in[s] not in keep)), None)
+            if slot is None:
+                return False
+            old = self.key_in[slot]
+            del self.slot_of[old]
+            self.table.clear(old)
+        self.pool.update_region(self._slot_origin(slot), values)
+        self.uploaded_bytes += values.nbytes
+        self._mark(key, slot)
+        return True
+
+    def footprint(self) -> tuple[float, float]:
+        """World length one pixel spans at distance d: ``d x + y`` (bias included)."""
+        camera = self.renderer.GetActiveCamera()
+        height = max(self.renderer.GetSize()[1], 1)
+        scale = 2.0 ** self.lod_bias
+        if camera.GetParallelProjection():
+            return 0.0, 2.0 * camera.GetParallelScale() / height * scale
+        return 2.0 * np.tan(np.radians(camera.GetViewAngle()) / 2.0) / height * scale, 0.0
+
+    def wanted(self) -> list:
+        """The bricks this view needs, coarse first and near first within a level."""
+        levels = self.levels
+        info = self.info.array if self.info.array is not None else self._level_info()
+        steps = info[:, 0, 3]
+        world_from_point = self.model.world_from_index()
+        eye_world = np.asarray(self.renderer.GetActiveCamera().GetPosition(), float)
+        view, projection = camera_matrices(self.renderer)
+        clip_from_point = projection @ view @ world_from_point
+        per_distance, constant = self.footprint()
+        coarsest = len(levels) - 1
+        keys = sorted(self.pinned)
+        candidates = np.array(list(np.ndindex(*self.counts[coarsest])), dtype=np.int64)
+        for number in range(coarsest, -1, -1):
+            if not len(candidates):
+                break
+            a, b = info[number, 0, :3].astype(float), info[number, 1, :3].astype(float)
+            # the bricks' boxes in finest points (one point of margin: the trilinear reads)
+            low = (candidates * self.brick - 1.0 - b) / a
+            high = ((candidates + 1) * self.brick + 1.0 - b) / a
+            shown = _in_view(low, high, clip_from_point)
+            candidates, low, high = candidates[shown], low[shown], high[shown]
+            nearest = _distance_to_boxes(eye_world, low, high, world_from_point)
+            pixel = nearest * per_distance + constant
+            # the finest level any sample in the brick may choose
+            needed = np.zeros(len(candidates), np.int64)
+            for level in range(1, len(levels)):
+                needed[steps[level] <= pixel] = level
+            keep = needed <= number
+            order = np.argsort(nearest[keep], kind="stable")
+            if number < coarsest:
+                keys += [(number, *map(int, ijk)) for ijk in candidates[keep][order]]
+            if number == 0:
+                break
+            refine = needed < number
+            candidates = self._children(number, low[refine], high[refine], info)
+        return keys
+
+    def _children(self, number: int, low: np.ndarray, high: np.ndarray, info) -> np.ndarray:
+        """The bricks of level ``number - 1`` under boxes (finest points) of level ``number``."""
+        finer = number - 1
+        a, b = info[finer, 0, :3].astype(float), info[finer, 1, :3].astype(float)
+        counts = np.asarray(self.counts[finer])
+        first = np.clip(np.floor((low * a + b) / self.brick), 0, counts - 1).astype(np.int64)
+        last = np.clip(np.floor((high * a + b) / self.brick), 0, counts - 1).astype(np.int64)
+        if not len(first):
+            return np.zeros((0, 3), np.int64)
+        span = (last - first).max(axis=0) + 1
+        offsets = np.stack(np.meshgrid(*(np.arange(n) for n in span), indexing="ij"),
+                           -1).reshape(-1, 3)
+        children = first[:, None, :] + offsets[None, :, :]
+        inside = (children <= last[:, None, :]).all(axis=2)
+        return np.unique(children[inside], axis=0)
+
+    def follow_placement(self) -> None:
+        """The volume moved: each level's world step (what a pixel is compared with) anew."""
+        self.info.set_data(self._level_info())
+
+    def frame(self, *_) -> None:
+        """At each frame's start: choose, request, and upload what has arrived.
+
+        Nothing while the volume is hidden (``shown``, set by its binding).
+        """
+        if not self.shown():
+            return
+        self.cache.raise_errors()
+        self.frame_number += 1
+        wanted = self.wanted()
+        self.over_budget = len(wanted) > self.capacity
+        wanted = wanted[:self.capacity]
+        keep = set(wanted)
+        for key in wanted:
+            slot = self.slot_of.get(key)
+            if slot is not None:
+                self.last_used[slot] = self.frame_number
+        absent = [key for key in wanted if key not in self.slot_of]
+        self.cache.request(absent)
+        self.cache.arrived()
+        self._victims = (int(s) for s in np.argsort(self.last_used, kind="stable"))
+        sent = 0
+        for key in absent:
+            if sent >= UPLOAD_BYTES_PER_FRAME:
+                break
+            values = self.cache.get(key)
+            if values is not None and self._place(key, values, keep):
+                sent += values.nbytes
+        self.missing = sum(1 for key in wanted if key not in self.slot_of)
+
+    @property
+    def converged(self) -> bool:
+        """Whether every brick the last frame wanted (within the pool) was resident."""
+        return self.missing == 0
+
+    def stats(self) -> dict:
+        """Resident and requested bricks and the bytes they hold (for views and scripts)."""
+        return {"resident": sum(k is not None for k in self.key_in), "slots": self.capacity,
+                "missing": self.missing, "reading": self.cache.pending,
+                "over_budget": self.over_budget, "gpu_bytes": self.nbytes,
+                "host_bytes": self.cache.nbytes, "bytes_read": self.cache.bytes_read,
+                "uploaded_bytes": self.uploaded_bytes}
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of the pool, the page table and the level table."""
+        return self.pool.nbytes + self.table.nbytes + self.info.nbytes
+
+    def release(self) -> None:
+        """Stop reading; free the textures."""
+        self.cache.close()
+        self.table.release()
+        for texture in (self.pool, self.info):
+            texture.release()
+
+
+def _corners(low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """The 8 corners ``(n, 8, 3)`` of boxes ``[low, high]`` (``(n, 3)`` each)."""
+    return np.stack([np.where(np.array(pick)[None, :] == 0, low, high)
+                     for pick in itertools.product((0, 1), repeat=3)], axis=1)
+
+
+def _distance_to_boxes(eye: np.ndarray, low: np.ndarray, high: np.ndarray,
+                       world_from_point: np.ndarray) -> np.ndarray:
+    """A lower bound of each box's (finest points) world distance from ``eye``.
+
+    The distance to the world-axis box around its placed corners: exact for a placement
+    without rotation, whatever its scales (a bound from the smallest stretch alone asked
+    for bricks 2.5x too fine along the longer axes).
+    """
+    corners = _corners(low, high) @ world_from_point[:3, :3].T + world_from_point[:3, 3]
+    lower, upper = corners.min(axis=1), corners.max(axis=1)
+    return np.linalg.norm(np.clip(eye, lower, upper) - eye, axis=1)
+
+
+def _in_view(low: np.ndarray, high: np.ndarray, clip_from_point: np.ndarray) -> np.ndarray:
+    """Which boxes (finest points, ``(n, 3)`` corners) are not wholly outside a frustum plane."""
+    corners = _corners(low, high)
+    clip = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2) \
+        @ clip_from_point.T
+    w = clip[..., 3]
+    outside = np.zeros(len(low), bool)
+    for axis in range(3):
+        outside |= (clip[..., axis] < -w).all(axis=1) | (clip[..., axis] > w).all(axis=1)
+    return ~outside
