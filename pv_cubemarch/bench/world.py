@@ -118,6 +118,8 @@ def run_world(size: Sequence[int] = (640, 480), chunk: int = 128, count: int = 1
         camera = _camera(name, labels)
         try:
             for row, options in ROWS.items():
+                if chunk_size is None and "world_traversal" in options:
+                    continue   # a grid drawn whole has no chunks to traverse otherwise
                 plotters[row], setup[row], memory[row] = _draw_row(size, camera, labels,
                                                                    chunk_size, options)
             first = plotters["dda"]
