@@ -109,6 +109,7 @@ class BrickPager:
         self.missing = 0
         #: Whether the volume is drawn this frame (its binding says): hidden, it reads nothing.
         self.shown = lambda: True
+        self._planned_for = None   # the view the last choice of bricks was made for
         #: Whether the last frame wanted more bricks than the pool holds.
         self.over_budget = False
         self.uploaded_bytes = 0
@@ -252,11 +253,18 @@ class BrickPager:
     def frame(self, *_) -> None:
         """At each frame's start: choose, request, and upload what has arrived.
 
-        Nothing while the volume is hidden (``shown``, set by its binding).
+        Nothing while the volume is hidden (``shown``, set by its binding), nor once
+        converged for a view that has not changed since (other props' redraws).
         """
         if not self.shown():
             return
         self.cache.raise_errors()
+        camera = self.renderer.GetActiveCamera()
+        view = (camera.GetMTime(), tuple(self.renderer.GetSize()), self.lod_bias,
+                self.model.world_from_index().tobytes())
+        if view == self._planned_for and self.converged:
+            return
+        self._planned_for = view
         self.frame_number += 1
         wanted = self.wanted()
         self.over_budget = len(wanted) > self.capacity
