@@ -39,11 +39,16 @@ from .options import STEP_SCALES, DirectOptions
 DEPTH_SHARPNESS = 20.0
 
 
-def direct_recipe(defines: dict, lit: bool = False, sampling: str = "volume_sample",
+def direct_recipe(defines: dict, lit: bool = False,
+                  sampling: str | tuple[str, ...] = "volume_sample",
                   blending: str = "composite") -> ShaderRecipe:
-    """The polydata-shader replacements of the direct marcher."""
+    """The polydata-shader replacements of the direct marcher.
+
+    ``sampling``: the snippet (or snippets, in order) defining ``cm_sampleScalar``.
+    """
+    sampling = (sampling,) if isinstance(sampling, str) else tuple(sampling)
     return box_recipe(
-        (*DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
+        (*DECLARATION_SNIPPETS, *sampling, *SCREEN_DECLARATIONS,
          *march_snippets(blending, defines), *(("light_sample",) if lit else ()),
          "pixel_ray", "screen_ray"), "ea_direct_fragment", defines=defines)
 
@@ -63,7 +68,8 @@ class DirectBinding(VolumeBinding):
 
     technique = "direct"
 
-    def __init__(self, *args, window=None, lit: bool = False, sampling: str = "",
+    def __init__(self, *args, window=None, lit: bool = False,
+                 sampling: str | tuple[str, ...] = "",
                  defines: dict | None = None):
         super().__init__(*args)
         self.window = window

@@ -1,7 +1,8 @@
 """Multiscale volumes beyond memory: the direct marcher reading a brick pool.
 
 The volume's levels (:mod:`~pv_cubemarch.models.multiscale`) are cut into bricks streamed
-into a GPU pool (:mod:`.brick_pager`). The shader (``paged_sample.glsl``) reads each
+into a GPU pool (:mod:`.brick_pager`). The shader (``paged_sample.glsl``, reading
+the pool through ``paged_bricks.glsl``) reads each
 sample from the coarsest level whose point spacing fits one pixel there (shifted by
 ``lod_bias``), or from the nearest coarser resident one: the coarsest level is loaded
 before the first frame and never evicted, so there is no hole. When nothing wanted is
@@ -210,7 +211,7 @@ def build_paged_actor(plotter, data: PagedData, setup: VolumeSetup) -> PagedBind
     defines = bind_paged_sampling(bindings, data, step_scale, shading.stop_opacity)
     bind_camera(bindings, renderer, lambda: world_from_texture(model))
     binding = PagedBinding(model, data, bindings, None, step_scale, shading.stop_opacity,
-                           window=plotter.ren_win, sampling="paged_sample", defines=defines)
+                           window=plotter.ren_win, sampling=("paged_bricks", "paged_sample"), defines=defines)
     binding.drawn = [actor]
     binding.renderer = renderer
     binding.follow_multisampling()
