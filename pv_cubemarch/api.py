@@ -77,6 +77,7 @@ from .volume.stand_in import stand_in_volume
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
 from .voxels.indexed_world import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
+from .voxels.paged_labels import LabelPager, PagedLabels, build_paged_labels
 from .voxels.per_chunk_world import build_world
 from .voxels.scalar_bar import add_voxel_scalar_bar
 
@@ -599,6 +600,68 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     return actor
 
 
+def is_multiscale_labels(grid) -> bool:
+    """Whether ``add_voxels`` streams ``grid`` by bricks: a pyramid, not one array."""
+    if isinstance(grid, (MultiscaleSource, PagedLabels)) or is_zarr_group(grid):
+        return True
+    if isinstance(grid, str) or hasattr(grid, "__fspath__"):
+        return str(grid).rstrip("/").endswith(".zarr")
+    return isinstance(grid, (list, tuple)) and bool(grid) and all(
+        is_array_source(v) or isinstance(v, np.ndarray) for v in grid)
+
+
+#: What ``add_voxels`` reads for a multiscale label source (the rest is refused by name).
+PAGED_LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "specular",
+                        "specular_power", "lod_bias", "transform", "name", "background",
+                        "gpu_bytes", "host_bytes", "brick_size")
+
+
+def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
+    """``add_voxels`` for a multiscale source: the traversal reading a brick pool."""
+    defaults = {key: value.default for key, value in inspect.signature(
+        add_voxels).parameters.items()}
+    refused = sorted(key for key, value in given.items() if key not in PAGED_LABEL_KEYWORDS
+                     and value is not None and value != defaults.get(key))
+    if refused:
+        raise ValueError(f"A multiscale label source is streamed by bricks and drawn opaque "
+                         f"by the exact traversal; {', '.join(refused)} cannot be used with "
+                         "it (add the finest level alone to use them).")
+    palette = given["palette"]
+    if not (palette is None or isinstance(palette, dict) or
+            (callable(palette) and not isinstance(palette, str))):
+        raise ValueError(f"palette={palette!r}: a multiscale label source's ids are met as "
+                         "its bricks are read, so its palette is None (colours hashed from "
+                         "each id), a {id: colour} dict or a function of the id.")
+    check_paging(given)
+    options = voxel_options(mode=given["mode"], shading=given["shading"],
+                            ambient=given["ambient"], specular=given["specular"],
+                            specular_power=given["specular_power"])
+    transform = given["transform"]
+    if isinstance(source, PagedLabels):   # added again: as it was, but what this call changes
+        model = dataclasses.replace(
+            source, palette=source.palette if palette is None else palette,
+            transform=source.transform if transform is None else checked_transform(transform),
+            paging={k: given[k] if given[k] is not None else source.paging.get(k)
+                    for k in source.paging})
+    else:
+        model = PagedLabels(multiscale_source(source, name=given["name"]), palette,
+                            np.eye(4) if transform is None else checked_transform(transform),
+                            given["name"] or "voxels", int(given["background"]),
+                            {k: given[k] for k in ("lod_bias", "gpu_bytes", "host_bytes",
+                                                   "brick_size")})
+    paging = model.paging
+    pager = LabelPager(model, plotter.renderer,
+                       BRICK_POINTS if paging["brick_size"] is None else paging["brick_size"],
+                       GPU_BYTES if paging["gpu_bytes"] is None else paging["gpu_bytes"],
+                       paging["host_bytes"],
+                       lod_bias=0.0 if not paging["lod_bias"] else paging["lod_bias"])
+    binding = build_paged_labels(plotter, model, options, pager)
+    actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
+    plotter.cubemarch.track(binding)
+    _frame(plotter)
+    return actor
+
+
 def _frame(plotter: pyvista.Plotter, reset_camera: bool | None = None) -> None:
     """Frame a new prop: the camera if asked or the user set none, else the clipping range."""
     if reset_camera or (reset_camera is None and not plotter.camera_set):
@@ -870,6 +933,9 @@ def add_voxels(
     lighting: bool | None = None,
     background: int = 0,
     clip_planes=None,
+    gpu_bytes: int | None = None,
+    host_bytes: int | None = None,
+    brick_size: int | None = None,
     **kwargs,
 ) -> pyvista.Actor:
     """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal).
@@ -893,7 +959,10 @@ def add_voxels(
         ids): ids beyond 0..65535 are compacted to dense rows on upload (1, 2 or 4 bytes a
         voxel: up to 255, 65535, 16.7 million distinct ids), and every per-label
         property is one entry of a table by id (``actor.cubemarch.set_label_color``,
-        ``hide_labels``, ``show_selected_labels``, ``highlight_labels``).
+        ``hide_labels``, ``show_selected_labels``, ``highlight_labels``). A multiscale
+        source (an OME-Zarr pyramid as a path or zarr group, a list of arrays finest
+        first, :func:`~pv_cubemarch.multiscale_source`) is streamed by bricks, never read
+        whole: see ``gpu_bytes``.
     scalars : str, optional
         The ImageData array of labels; by default its active scalars, else the first cell
         (then point) array.
@@ -1040,6 +1109,17 @@ def add_voxels(
         ``'labels'``, only the boundaries between different labels: a face's edge where the
         surface across it shows another label (or none), and where a clip plane cuts the
         grid, the lines where the cut crosses from one label to another.
+    gpu_bytes, host_bytes, brick_size : int, optional
+        A multiscale source only: the GPU budget of its brick pool (256 MiB), the host
+        budget of its read bricks (2 GiB) and the voxels along a brick's edge (32). Each
+        voxel is drawn from the coarsest level whose voxels fit a pixel there (``lod_bias``
+        levels coarser, or finer when negative: ``-64`` draws the finest everywhere),
+        from the next coarser level while its brick is read; coarse levels should keep the
+        most frequent non-empty id of each block (``build_pyramid(..., method='mode')``),
+        so a coarse hit is a real label. ``render_image(plotter, converge=True)`` waits
+        until every brick the view wants is drawn; ``actor.cubemarch.stats()`` says what
+        is resident and read. Labels are drawn opaque; ``palette`` is ``None``, a dict or
+        a function of the id.
 
     A material with an opacity between 0 and 1 is composited front to back, as PyVista
     draws ``threshold`` + ``add_mesh(opacity=...)`` per label under depth peeling; chunked
@@ -1068,6 +1148,10 @@ def add_voxels(
     refuse_mesh_keywords("add_voxels", kwargs, VOXEL_REFUSED)
     _checked_name(name)
     shading = shading_for_lighting(lighting, shading)
+    if is_multiscale_labels(grid):
+        given = {key: value for key, value in locals().items()
+                 if key not in ("plotter", "grid", "kwargs", "lighting")}
+        return _add_paged_labels(plotter, grid, given)
     chosen = get_technique("voxels", "voxels")
     options = voxel_options(traversal=traversal, step_scale=step_scale, mip_levels=mip_levels,
                             distance_field=distance_field, mode=mode, shading=shading,

@@ -19,8 +19,8 @@ uniform sampler2D cm_shellDepth; // per pixel, the view depth where the ray meet
 #endif
 
 // The label of a voxel (0: empty), drawn or hidden (a world's: through its chunk index,
-// voxel_chunk_index.glsl).
-#ifdef CM_CHUNK_INDEX
+// voxel_chunk_index.glsl; a streamed grid's: through its brick pool, voxel_paged.glsl).
+#if defined(CM_CHUNK_INDEX) || defined(CM_PAGED_LEVELS)
 int cm_label(ivec3 voxel);
 #elif defined(CM_LABEL_APRON)
 // A world's chunk as its translucent layers read it: one voxel of its neighbours around its

@@ -2,7 +2,9 @@
 
 A brick is ``brick³`` points of one level with one point of its neighbours around it (its
 apron, the level's edge repeated past its sides), so trilinear reads inside a brick never
-need another: ``(brick + 2)³`` values, float32. Requests come in priority order each frame;
+need another: ``(brick + 2)³`` values, float32. Labels, read nearest, take no apron and keep
+their ids' type until ``prepare`` (run on the reading thread) turns them into what is
+uploaded (an empty array: nothing to draw there). Requests come in priority order each frame;
 reads run on threads (zarr, dask and numpy release the GIL while decompressing) and land in
 the cache, which forgets the least recently used bricks beyond its byte budget. Nothing here
 blocks the caller: a frame takes what has arrived.
@@ -29,27 +31,40 @@ def brick_counts(shape, brick: int) -> tuple[int, int, int]:
     return tuple(-(-int(n) // int(brick)) for n in shape)
 
 
-def read_brick(source: MultiscaleSource, key, brick: int) -> np.ndarray:
-    """Brick ``key = (level, i, j, k)`` with its apron, float32 ``(brick + 2)³``."""
+def read_brick(source: MultiscaleSource, key, brick: int, apron: int = 1,
+               dtype=np.float32) -> np.ndarray:
+    """Brick ``key = (level, i, j, k)`` with its apron, ``(brick + 2 apron)³`` of ``dtype``.
+
+    ``dtype=None`` keeps the source's type (label ids wider than float32 holds exactly).
+    """
     level = source.levels[key[0]]
-    lower = [int(i) * brick - 1 for i in key[1:]]
-    box = tuple(slice(max(a, 0), min(a + brick + 2, n))
+    side = brick + 2 * apron
+    lower = [int(i) * brick - apron for i in key[1:]]
+    box = tuple(slice(max(a, 0), min(a + side, n))
                 for a, n in zip(lower, level.shape, strict=True))
-    values = level.read(box).astype(np.float32, copy=False)
-    pad = [(s.start - a, a + brick + 2 - s.stop) for s, a in zip(box, lower, strict=True)]
+    values = level.read(box)
+    if dtype is not None:
+        values = values.astype(dtype, copy=False)
+    pad = [(s.start - a, a + side - s.stop) for s, a in zip(box, lower, strict=True)]
     return np.pad(values, pad, mode="edge") if any(p for pair in pad for p in pair) \
         else np.ascontiguousarray(values)
 
 
 class BrickCache:
-    """Read bricks of ``source`` (``brick`` points a side) within ``host_bytes``."""
+    """Read bricks of ``source`` (``brick`` points a side) within ``host_bytes``.
+
+    ``apron``: points of the neighbours around each brick (1, or 0 for nearest reads);
+    ``prepare(key, values)``: what is kept of a read brick (float32 values by default).
+    """
 
     def __init__(self, source: MultiscaleSource, brick: int = 32, host_bytes: int = HOST_BYTES,
-                 threads: int = READ_THREADS):
+                 threads: int = READ_THREADS, apron: int = 1, prepare=None):
         self.source = source
         self.brick = int(brick)
+        self.apron = int(apron)
+        self.prepare = prepare
         self.host_bytes = int(host_bytes)
-        self.brick_bytes = (self.brick + 2) ** 3 * 4
+        self.brick_bytes = (self.brick + 2 * self.apron) ** 3 * 4
         if self.host_bytes < self.brick_bytes:
             raise ValueError(f"host_bytes={host_bytes} holds no brick of {self.brick_bytes} "
                              "bytes: give more.")
@@ -59,6 +74,7 @@ class BrickCache:
         self._arrived: list = []
         self._pool = ThreadPoolExecutor(max(1, int(threads)), thread_name_prefix="bricks")
         self._changed = threading.Event()
+        self._held = 0   # bytes of the bricks held
         #: Bytes read from the source so far, and bricks read.
         self.bytes_read = 0
         self.reads = 0
@@ -79,7 +95,7 @@ class BrickCache:
     def nbytes(self) -> int:
         """Host bytes of the bricks held."""
         with self._lock:
-            return len(self._cache) * self.brick_bytes
+            return self._held
 
     def get(self, key) -> np.ndarray | None:
         """Brick ``key`` if held (and now the most recently used), else None."""
@@ -110,7 +126,12 @@ class BrickCache:
 
     def _read(self, key) -> None:
         try:
-            values = read_brick(self.source, key, self.brick)
+            if self.prepare is None:
+                values = read_brick(self.source, key, self.brick, self.apron)
+            else:
+                values = read_brick(self.source, key, self.brick, self.apron, None)
+                read = values.size * values.itemsize
+                values = self.prepare(key, values)
         except BaseException as error:   # kept for the caller, not lost in a thread
             with self._lock:
                 self._reading.pop(key, None)
@@ -120,13 +141,17 @@ class BrickCache:
         level = self.source.levels[key[0]]
         with self._lock:
             self._reading.pop(key, None)
+            if key in self._cache:
+                self._held -= self._cache[key].nbytes
             self._cache[key] = values
             self._cache.move_to_end(key)
-            while len(self._cache) > self.capacity:
-                self._cache.popitem(last=False)
+            self._held += values.nbytes
+            while self._held > self.host_bytes and len(self._cache) > 1:
+                self._held -= self._cache.popitem(last=False)[1].nbytes
             self._arrived.append(key)
             self.reads += 1
-            self.bytes_read += values.size * np.dtype(level.array.dtype).itemsize
+            self.bytes_read += read if self.prepare is not None else \
+                values.size * np.dtype(level.array.dtype).itemsize
         self._changed.set()
 
     def arrived(self) -> list:

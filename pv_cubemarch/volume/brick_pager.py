@@ -29,20 +29,19 @@ BRICK_POINTS = 32
 UPLOAD_BYTES_PER_FRAME = 64 * 2**20
 
 
-def pool_slots(brick: int, gpu_bytes: int, most_bricks: int | None = None
-               ) -> tuple[int, int, int]:
+def pool_slots(brick: int, gpu_bytes: int, most_bricks: int | None = None,
+               apron: int = 1) -> tuple[int, int, int]:
     """Slots along x, y, z of the largest pool within ``gpu_bytes`` and one texture.
 
     No more than ``most_bricks`` (every brick of every level: a small source's pool holds
-    all of it and no more).
+    all of it and no more). A slot holds ``brick + 2 apron`` values a side.
     """
-    side = brick + 2
+    side = brick + 2 * apron
     budget = int(gpu_bytes) // (side ** 3 * 4)
     most = MAX_TEXTURE_SIZE // side
     if budget < 1:
         raise ValueError(f"gpu_bytes={gpu_bytes} holds no brick of {side ** 3 * 4} bytes "
-                         f"({brick}³ points and their apron): give more, or a smaller "
-                         "brick_size.")
+                         f"({side}³ values): give more, or a smaller brick_size.")
     want = budget if most_bricks is None else max(1, min(budget, int(most_bricks)))
     # the box of slots holding the most up to ``want`` within the budget, then the fewest
     # slots past ``want`` (a cube's rounding alone left a third of small budgets unused)
@@ -65,7 +64,15 @@ class BrickPager:
     """The pool, the page table and the per-frame choice of bricks (module docstring).
 
     ``model``: the :class:`~.paged.PagedVolume` drawn (its source, placement, interpolation).
+    A subclass changes what a slot holds: ``apron`` (points of the neighbours around a
+    brick), ``prepare`` (a read brick to what is uploaded, on the reading thread; an empty
+    array marks a brick with nothing to draw, which takes no slot) and ``page_blocks``.
     """
+
+    #: Points of the neighbours around each brick in its slot (trilinear reads need 1).
+    apron = 1
+    #: A read brick to its slot's values (None: float32 values as read).
+    prepare = None
 
     def __init__(self, model, renderer, brick: int = BRICK_POINTS,
                  gpu_bytes: int = GPU_BYTES, host_bytes: int | None = None,
@@ -78,7 +85,7 @@ class BrickPager:
         self.levels = source.levels
         self.counts = [brick_counts(level.shape, self.brick) for level in self.levels]
         self.slots = pool_slots(self.brick, gpu_bytes,
-                                sum(int(np.prod(c)) for c in self.counts))
+                                sum(int(np.prod(c)) for c in self.counts), self.apron)
         self.capacity = int(np.prod(self.slots))
         coarsest = len(self.levels) - 1
         pinned = int(np.prod(self.counts[coarsest]))
@@ -88,9 +95,10 @@ class BrickPager:
                              f"{self.capacity}: give more gpu_bytes, or a source with "
                              "coarser levels (pv_cubemarch.build_pyramid).")
         self.cache = BrickCache(source, self.brick,
-                                HOST_BYTES if host_bytes is None else host_bytes, threads)
-        self.table = PageTable(self.counts, self.capacity)
-        side = self.brick + 2
+                                HOST_BYTES if host_bytes is None else host_bytes, threads,
+                                self.apron, self.prepare)
+        self.table = PageTable(self.counts, self.capacity, self.page_blocks())
+        side = self.brick + 2 * self.apron
         self.pool = Texture(np.zeros([n * side for n in self.slots], np.float32), kind="3d",
                             interpolate=model.interpolation == "linear",
                             rebuild=self._forget_pool if sub_image_available() else None)
@@ -100,6 +108,9 @@ class BrickPager:
         self.info = Texture(self._level_info(), kind="2d", interpolate=False)
         self.key_in: list = [None] * self.capacity
         self.slot_of: dict = {}
+        #: Bricks with nothing to draw (``prepare`` gave an empty array): no slot, a mark in
+        #: the page table.
+        self.empty: set = set()
         self.last_used = np.full(self.capacity, -1, np.int64)
         self._free = list(range(self.capacity - 1, -1, -1))   # popped from the end: 0 first
         self._victims = iter(())   # slots by last use, made when a frame must evict
@@ -114,12 +125,27 @@ class BrickPager:
         self.over_budget = False
         self.uploaded_bytes = 0
         for key in sorted(self.pinned):   # before the first frame: never a hole
-            self._place(key, read_brick(source, key, self.brick))
+            self._place(key, self.read_now(key))
+
+    def page_blocks(self) -> int | None:
+        """Blocks the page table holds (None: as many as the pool has slots)."""
+        return None
+
+    def read_now(self, key) -> np.ndarray:
+        """Brick ``key`` read on this thread, as the cache would keep it."""
+        if self.prepare is None:
+            return read_brick(self.model.source, key, self.brick, self.apron)
+        return self.prepare(key, read_brick(self.model.source, key, self.brick, self.apron,
+                                            None))
+
+    def world_from_point(self) -> np.ndarray:
+        """4x4 from finest-level point indices to world coordinates."""
+        return self.model.world_from_point()
 
     def _level_info(self) -> np.ndarray:
         """Per level: (a, world step), (b, 0), (points, 0), (directory origin, 0)."""
         finest = self.levels[0]
-        linear = self.model.world_from_index()[:3, :3]
+        linear = self.world_from_point()[:3, :3]
         info = np.zeros((len(self.levels), 4, 4), np.float32)
         for number, level in enumerate(self.levels):
             a = finest.scale / level.scale
@@ -135,38 +161,69 @@ class BrickPager:
         """A new window: the pool starts empty (bricks are placed again, the coarsest now)."""
         self.key_in = [None] * self.capacity
         self.slot_of = {}
-        self._free = list(range(self.capacity - 1, len(self.pinned) - 1, -1))
+        self.empty = set()
         self.missing = max(self.missing, 1)   # decided again at the next frame
         self.table.reset()
-        side = self.brick + 2
+        side = self.brick + 2 * self.apron
         pool = np.zeros([n * side for n in self.slots], np.float32)
-        for slot, key in enumerate(sorted(self.pinned)):
-            self._write_slot(pool, slot, read_brick(self.model.source, key, self.brick))
-            self._mark(key, slot)
+        slot = 0
+        for key in sorted(self.pinned):
+            values = self.read_now(key)
+            if values.size:
+                self._write_slot(pool, slot, values)
+                self._mark(key, slot)
+                slot += 1
+            else:
+                self._mark_empty(key)
+        self._free = list(range(self.capacity - 1, slot - 1, -1))
         return pool
 
     def _write_slot(self, pool: np.ndarray, slot: int, values: np.ndarray) -> None:
-        side = self.brick + 2
+        side = self.brick + 2 * self.apron
         where = self._slot_origin(slot)
         pool[tuple(slice(o, o + side) for o in where)] = values
 
     def _slot_origin(self, slot: int) -> tuple[int, int, int]:
         x, y, _ = self.slots
-        side = self.brick + 2
+        side = self.brick + 2 * self.apron
         return (slot % x * side, slot // x % y * side, slot // (x * y) * side)
 
     def _mark(self, key, slot: int) -> None:
         self.key_in[slot] = key
         self.slot_of[key] = slot
         self.last_used[slot] = self.frame_number
+        self._make_room(key)
         self.table.set(key, slot)
+
+    def _mark_empty(self, key, keep: set | None = None) -> bool:
+        """Brick ``key`` has nothing to draw: its entry says so (slot ``capacity``), no slot."""
+        if not self._make_room(key, keep):
+            return False
+        self.empty.add(key)
+        self.table.set(key, self.capacity)
+        return True
+
+    def _make_room(self, key, keep: set | None = None) -> bool:
+        """A page-table block for ``key``: empty bricks' marks not kept give theirs back."""
+        if self.table.has_room(key):
+            return True
+        for old in [k for k in self.empty if k not in self.pinned
+                    and (keep is None or k not in keep)]:
+            self.empty.discard(old)
+            self.table.clear(old)
+            if self.table.has_room(key):
+                return True
+        return False
 
     def _place(self, key, values: np.ndarray, keep: set | None = None) -> bool:
         """Put brick ``key`` in a free slot, or the least recently used one not kept.
 
         The free slots and this frame's eviction order are kept between calls
         (:meth:`_victims`), so placing many bricks costs no scan of the pool per brick.
+        An empty ``values`` (nothing to draw) takes no slot.
         """
+        if not values.size:
+            return self._mark_empty(key, keep)
         if self._free:
             slot = self._free.pop()
         else:
@@ -197,7 +254,7 @@ class BrickPager:
         levels = self.levels
         info = self.info.array if self.info.array is not None else self._level_info()
         steps = info[:, 0, 3]
-        world_from_point = self.model.world_from_index()
+        world_from_point = self.world_from_point()
         eye_world = np.asarray(self.renderer.GetActiveCamera().GetPosition(), float)
         view, projection = camera_matrices(self.renderer)
         clip_from_point = projection @ view @ world_from_point
@@ -209,9 +266,11 @@ class BrickPager:
             if not len(candidates):
                 break
             a, b = info[number, 0, :3].astype(float), info[number, 1, :3].astype(float)
-            # the bricks' boxes in finest points (one point of margin: the trilinear reads)
-            low = (candidates * self.brick - 1.0 - b) / a
-            high = ((candidates + 1) * self.brick + 1.0 - b) / a
+            # the bricks' boxes in finest points (the apron's margin: the trilinear reads;
+            # without one, half a point: a nearest read's cell)
+            below, above = (1.0, 1.0) if self.apron else (0.5, -0.5)
+            low = (candidates * self.brick - below - b) / a
+            high = ((candidates + 1) * self.brick + above - b) / a
             shown = _in_view(low, high, clip_from_point)
             candidates, low, high = candidates[shown], low[shown], high[shown]
             nearest = _distance_to_boxes(eye_world, low, high, world_from_point)
@@ -261,20 +320,22 @@ class BrickPager:
         self.cache.raise_errors()
         camera = self.renderer.GetActiveCamera()
         view = (camera.GetMTime(), tuple(self.renderer.GetSize()), self.lod_bias,
-                self.model.world_from_index().tobytes())
+                self.world_from_point().tobytes())
         if view == self._planned_for and self.converged:
             return
         self._planned_for = view
         self.frame_number += 1
         wanted = self.wanted()
-        self.over_budget = len(wanted) > self.capacity
-        wanted = wanted[:self.capacity]
+        # within the pool's slots (bricks known to be empty take none)
+        taking = np.cumsum([key not in self.empty for key in wanted])
+        self.over_budget = bool(len(wanted)) and int(taking[-1]) > self.capacity
+        wanted = wanted[:int(np.searchsorted(taking, self.capacity, side="right"))]
         keep = set(wanted)
         for key in wanted:
             slot = self.slot_of.get(key)
             if slot is not None:
                 self.last_used[slot] = self.frame_number
-        absent = [key for key in wanted if key not in self.slot_of]
+        absent = [key for key in wanted if key not in self.slot_of and key not in self.empty]
         self.cache.request(absent)
         self.cache.arrived()
         self._victims = (int(s) for s in np.argsort(self.last_used, kind="stable"))
@@ -285,7 +346,8 @@ class BrickPager:
             values = self.cache.get(key)
             if values is not None and self._place(key, values, keep):
                 sent += values.nbytes
-        self.missing = sum(1 for key in wanted if key not in self.slot_of)
+        self.missing = sum(1 for key in wanted if key not in self.slot_of
+                           and key not in self.empty)
 
     @property
     def converged(self) -> bool:
@@ -295,6 +357,7 @@ class BrickPager:
     def stats(self) -> dict:
         """Resident and requested bricks and the bytes they hold (for views and scripts)."""
         return {"resident": sum(k is not None for k in self.key_in), "slots": self.capacity,
+                "empty": len(self.empty),
                 "missing": self.missing, "reading": self.cache.pending,
                 "over_budget": self.over_budget, "gpu_bytes": self.nbytes,
                 "host_bytes": self.cache.nbytes, "bytes_read": self.cache.bytes_read,
@@ -311,6 +374,24 @@ class BrickPager:
         self.table.release()
         for texture in (self.pool, self.info):
             texture.release()
+
+
+def bind_pool(target, pager: BrickPager, world_from_point) -> None:
+    """What ``paged_bricks.glsl`` reads: the pool, page table, levels and the eye."""
+    target.add_texture("cm_pool", pager.pool)
+    pager.table.bind(target)
+    target.add_texture("cm_levelInfo", pager.info)
+    target.set_uniform("cm_poolSlots", tuple(float(n) for n in pager.slots))
+    target.set_uniform("cm_brickPoints", float(pager.brick))
+    target.set_uniform("cm_pagedWorldFromPoint", lambda: world_from_point()[:3, :3])
+
+    def eye():
+        position = np.append(pager.renderer.GetActiveCamera().GetPosition(), 1.0)
+        return tuple((np.linalg.inv(world_from_point()) @ position)[:3])
+
+    target.set_uniform("cm_pagedEye", eye)
+    target.set_uniform("cm_lodFootprint", pager.footprint)
+
 
 
 def _corners(low: np.ndarray, high: np.ndarray) -> np.ndarray:

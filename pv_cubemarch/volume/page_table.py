@@ -37,7 +37,7 @@ def block_grid(count: int, edge: int) -> tuple[int, int, int]:
 class PageTable:
     """The directory and the blocks of a brick pool's page table (module docstring)."""
 
-    def __init__(self, counts, capacity: int):
+    def __init__(self, counts, capacity: int, blocks: int | None = None):
         self.directory_counts = [tuple(-(-int(n) // BLOCK) for n in c) for c in counts]
         self.origins = list(itertools.accumulate(
             [0] + [c[0] for c in self.directory_counts[:-1]]))
@@ -49,9 +49,11 @@ class PageTable:
                              f"over {MAX_TEXTURE_SIZE} texels a side: give a larger "
                              "brick_size.")
         total = sum(int(np.prod(c)) for c in self.directory_counts)
-        self.block_capacity = max(1, min(int(capacity), total))
+        self.block_capacity = max(1, min(int(capacity if blocks is None else blocks), total))
         self.grid = block_grid(self.block_capacity, BLOCK)
-        self.dtype = np.uint16 if max(capacity, self.block_capacity) < 65535 else np.float32
+        # entries reach capacity + 1 (an empty brick: no slot, see BrickPager)
+        self.dtype = np.uint16 if max(capacity + 1, self.block_capacity) < 65535 \
+            else np.float32
         self.directory = Texture(np.zeros(shape, self.dtype), kind="3d", interpolate=False)
         self.blocks = Texture(np.zeros([n * BLOCK for n in self.grid], self.dtype), kind="3d",
                               interpolate=False)
@@ -69,6 +71,11 @@ class PageTable:
     def _block_origin(self, index: int) -> list[int]:
         x, y, _ = self.grid
         return [index % x * BLOCK, index // x % y * BLOCK, index // (x * y) * BLOCK]
+
+    def has_room(self, key) -> bool:
+        """Whether brick ``key`` can be set: its block is taken, or a block is free."""
+        level, *ijk = key
+        return (level, *(v // BLOCK for v in ijk)) in self.block_of or bool(self.free)
 
     def set(self, key, slot: int) -> None:
         """Brick ``key = (level, i, j, k)`` is in ``slot``."""

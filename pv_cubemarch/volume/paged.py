@@ -26,7 +26,7 @@ from ..models.multiscale import MultiscaleSource
 from ..models.transfer import TransferFunction
 from ..models.volume import box_world_bounds
 from .binding import VolumeSetup, bind_marching, march_defines, world_from_texture
-from .brick_pager import BrickPager
+from .brick_pager import BrickPager, bind_pool
 from .clipping import ClipState
 from .direct import DirectBinding
 
@@ -62,6 +62,10 @@ class PagedVolume:
     def world_from_index(self) -> np.ndarray:
         """4x4 from finest-level point indices to world coordinates."""
         return np.asarray(self.transform, float) @ self.dataset_from_index()
+
+    def world_from_point(self) -> np.ndarray:
+        """The same: a volume's index space is its finest level's points (the pager's name)."""
+        return self.world_from_index()
 
     def world_bounds(self) -> np.ndarray:
         """World bounds ``(xmin, xmax, ...)`` of the finest level's box."""
@@ -183,19 +187,7 @@ def bind_paged_sampling(target, data: PagedData, step_scale: float,
     bind_marching(target, data, step_scale, stop_opacity)
     target.add_texture("cm_transferTable", data.tables[0])
     target.set_uniform("cm_clim", model.transfer.clim)
-    target.add_texture("cm_pool", pager.pool)
-    pager.table.bind(target)
-    target.add_texture("cm_levelInfo", pager.info)
-    target.set_uniform("cm_poolSlots", tuple(float(n) for n in pager.slots))
-    target.set_uniform("cm_brickPoints", float(pager.brick))
-    target.set_uniform("cm_pagedWorldFromPoint", lambda: model.world_from_index()[:3, :3])
-
-    def eye():
-        position = np.append(pager.renderer.GetActiveCamera().GetPosition(), 1.0)
-        return tuple((np.linalg.inv(model.world_from_index()) @ position)[:3])
-
-    target.set_uniform("cm_pagedEye", eye)
-    target.set_uniform("cm_lodFootprint", pager.footprint)
+    bind_pool(target, pager, model.world_from_point)
     return {**march_defines(model, False), **data.clip.defines,
             "CM_PAGED_LEVELS": len(pager.levels)}
 
@@ -211,7 +203,8 @@ def build_paged_actor(plotter, data: PagedData, setup: VolumeSetup) -> PagedBind
     defines = bind_paged_sampling(bindings, data, step_scale, shading.stop_opacity)
     bind_camera(bindings, renderer, lambda: world_from_texture(model))
     binding = PagedBinding(model, data, bindings, None, step_scale, shading.stop_opacity,
-                           window=plotter.ren_win, sampling=("paged_bricks", "paged_sample"), defines=defines)
+                           window=plotter.ren_win, sampling=("paged_bricks", "paged_sample"),
+                           defines=defines)
     binding.drawn = [actor]
     binding.renderer = renderer
     binding.follow_multisampling()

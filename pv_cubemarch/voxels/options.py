@@ -37,11 +37,16 @@ MAX_DISTANCE_FIELD = 3
 
 
 DDA = ("voxels",)
+#: Why the keywords of multiscale label sources have no CLI flag, USD attribute or knob yet.
+PAGED_LABELS_ONLY = dict.fromkeys(
+    ("cli", "usd", "knob"), "read only for a multiscale label source (an OME-Zarr pyramid, a "
+    "list of levels) given to add_voxels in Python; scenes, USD and the live view read their "
+    "grids whole")
 #: Every option of the voxel technique, declared once (:mod:`pv_cubemarch.core.declared`).
 (TRAVERSAL, VOXEL_STEP_SCALE, MIP_LEVELS, DISTANCE_FIELD, MODE, SHADING, AMBIENT, SPECULAR,
  SPECULAR_POWER, AMBIENT_OCCLUSION, OCCLUSION_STRENGTH, PROXY, LOD, LOD_BIAS,
  WORLD_TRAVERSAL, SHOW_EDGES, EDGE_COLOR, LINE_WIDTH, EDGE_OPACITY, EDGE_MODE,
- CLIP_PLANES) = declare(
+ CLIP_PLANES, GPU_BYTES, HOST_BYTES, BRICK_SIZE) = declare(
     Option("traversal", "voxels", str, "dda", "dda (exact: every voxel a ray crosses) or "
            "fixed steps (may miss thin voxels)", choices=TRAVERSALS,
            control=Control("select", help="dda is exact; fixed steps may miss thin voxels")),
@@ -70,7 +75,8 @@ DDA = ("voxels",)
            choices=PROXIES, control=Control("select")),
     Option("lod", "voxels", bool, False, "draw coarser occupancy cells far away",
            control=Control("switch", "level of detail")),
-    Option("lod_bias", "voxels", float, 0.0, "levels added to the level of detail (with lod)",
+    Option("lod_bias", "voxels", float, 0.0, "levels added to the level of detail (with lod, "
+           "or a multiscale source)",
            low=-float(MAX_MIP_LEVELS), high=float(MAX_MIP_LEVELS),
            control=Control("slider", "lod bias", -2.0, 2.0, 0.25)),
     Option("world_traversal", "voxels", str, None, "chunked worlds: one traversal through "
@@ -97,6 +103,16 @@ DDA = ("voxels",)
            "drawn on the plane)", optional=True,
            without={"knob": "six numbers a plane; set in Python, the CLI or USD "
                             "(actor.cubemarch.set_clip_planes moves them)"}),
+    # Multiscale label sources streamed by bricks (voxels/paged_labels.py): set on the pager.
+    Option("gpu_bytes", "voxels", int, None, "GPU budget of a multiscale source's brick "
+           "pool (256 MiB by default)", low=1, optional=True, model=True, usd=None, cli=None,
+           without=PAGED_LABELS_ONLY),
+    Option("host_bytes", "voxels", int, None, "host budget of a multiscale source's read "
+           "bricks (2 GiB by default)", low=1, optional=True, model=True, usd=None, cli=None,
+           without=PAGED_LABELS_ONLY),
+    Option("brick_size", "voxels", int, None, "voxels along a brick's edge (32 by default)",
+           low=1, high=1024, optional=True, model=True, usd=None, cli=None,
+           without=PAGED_LABELS_ONLY),
 )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("voxels"))

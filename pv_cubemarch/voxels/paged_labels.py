@@ -1,0 +1,265 @@
+"""Label grids beyond memory: the voxel traversal reading a brick pool of a label pyramid.
+
+The levels of a multiscale label source (an OME-Zarr pyramid whose coarse levels keep the
+most frequent non-empty id of each block, as ``build_pyramid(method='mode')`` writes) are
+cut into bricks streamed into a GPU pool, as a paged volume's
+(:mod:`pv_cubemarch.volume.brick_pager`), with two differences: a brick is read without an
+apron (labels are read nearest) and turns into rows of the per-label tables as it is read
+(ids of any width, up to 2^24 of them, rows given in the order ids are met); a brick of
+background alone takes no slot, and the traversal leaves it in one step. The shader
+(``voxel_paged.glsl``) draws each voxel with the label of the level its centre chooses, so
+the image refines to the exact finest-level one as bricks arrive.
+"""
+
+from __future__ import annotations
+
+import threading
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyvista
+import vtk
+
+from ..core.frame_errors import observe
+from ..gl.bindings import ShaderBindings
+from ..gl.box import box_actor, place_box
+from ..gl.handle import DrawnBinding
+from ..gl.shaders import ShaderRecipe, box_recipe
+from ..gl.textures import Texture
+from ..models.label_colors import colors_by_id, hashed_colors
+from ..models.label_ids import MAX_IDS
+from ..models.multiscale import MultiscaleSource
+from ..models.volume import box_world_bounds
+from ..models.voxels import palette_texels
+from ..volume.brick_pager import BrickPager, bind_pool
+from ..volume.paged import refine_while_shown
+from .options import VoxelOptions
+from .technique import bind_grid
+
+#: Page-table blocks a label pool keeps beyond its slots' (for bricks marked empty).
+EMPTY_BLOCKS = 1024
+
+
+@dataclass(eq=False)
+class PagedLabels:
+    """A multiscale label grid placed in the world with its colours; no data held.
+
+    Voxel ``i`` of the finest level spans ``[i, i + 1]`` of its index space, centred on the
+    point the source's metadata places; ``transform`` places that physical frame in the
+    world. ``palette``: ``None`` (a colour hashed from each id), ``{id: colour}`` or
+    ``{id: (colour, opacity)}`` (ids left out are hidden), or a function of the id.
+    """
+
+    source: MultiscaleSource
+    palette: object = None
+    transform: np.ndarray = field(default_factory=lambda: np.eye(4))
+    name: str = "voxels"
+    background: int = 0
+    #: The streaming keywords it was added with (lod_bias, gpu_bytes, host_bytes,
+    #: brick_size).
+    paging: dict = field(default_factory=dict)
+    #: Labels are read nearest (the pool's filtering).
+    interpolation = "nearest"
+
+    @property
+    def dimensions(self) -> tuple[int, int, int]:
+        """Voxels along x, y, z of the finest level."""
+        return self.source.shape
+
+    def world_from_point(self) -> np.ndarray:
+        """4x4 from finest-level voxel indices (their centres) to world coordinates."""
+        return np.asarray(self.transform, float) @ self.source.levels[0].physical_from_index()
+
+    def world_from_index(self) -> np.ndarray:
+        """4x4 from the finest level's index space (voxel ``i`` spans ``[i, i + 1]``)."""
+        shift = np.eye(4)
+        shift[:3, 3] = -0.5
+        return self.world_from_point() @ shift
+
+    @property
+    def dtype(self) -> np.dtype:
+        """What the pool holds: rows of the per-label tables, float32 (exact to 2^24)."""
+        return np.dtype(np.float32)
+
+    def world_bounds(self) -> np.ndarray:
+        """World bounds ``(xmin, xmax, ...)`` of the finest level's voxels."""
+        return box_world_bounds(self.world_from_index(), np.asarray(self.dimensions, float))
+
+
+class LabelPager(BrickPager):
+    """The brick pool of a label pyramid: rows of the per-label tables, nearest, no apron.
+
+    Ids become rows as bricks are read (on the reading threads); the palette grows with
+    them and goes to the GPU at the frame that first draws them.
+    """
+
+    apron = 0
+
+    def __init__(self, model: PagedLabels, renderer, *args, **kwargs):
+        dtype = np.dtype(model.source.dtype)
+        if dtype.kind not in "iu":
+            raise ValueError(f"Labels streamed from a multiscale source must be integers, got "
+                             f"{dtype}: give add_volume the source instead, or its labels.")
+        self._lock = threading.Lock()
+        self._row_of: dict[int, int] = {}
+        self.ids: list[int] = []   # the id of each row from 1 on
+        self.background = int(model.background)
+        self.palette = Texture(palette_texels(np.zeros((2, 4), np.float32)), kind="2d",
+                               interpolate=False)
+        self._rgba = np.zeros((1, 4), np.float32)   # row 0: the background
+        self._translucent_said = False
+        super().__init__(model, renderer, *args, **kwargs)
+        self.follow_ids()
+
+    def page_blocks(self) -> int:
+        """The slots' blocks, the coarsest level's and :data:`EMPTY_BLOCKS` for empty marks."""
+        return self.capacity + int(np.prod([-(-n // 8) for n in self.counts[-1]])) \
+            + EMPTY_BLOCKS
+
+    def prepare(self, key, values: np.ndarray) -> np.ndarray:
+        """A brick of ids as float32 rows; an empty array where all is background."""
+        ids, inverse = np.unique(values, return_inverse=True)
+        if ids.size == 1 and int(ids[0]) == self.background:
+            return np.zeros(0, np.float32)
+        with self._lock:
+            rows = np.empty(ids.size, np.float32)
+            for n, value in enumerate(ids.tolist()):
+                row = self._row_of.get(value)
+                if row is None:
+                    if value == self.background:
+                        row = 0
+                    else:
+                        if len(self.ids) >= MAX_IDS:
+                            raise ValueError(f"More than {MAX_IDS} distinct label ids met: "
+                                             "rows are read from float32, exact to 2^24.")
+                        self.ids.append(value)
+                        row = len(self.ids)
+                    self._row_of[value] = row
+                rows[n] = row
+        return rows[inverse.reshape(values.shape)]
+
+    def follow_ids(self) -> None:
+        """Colours for the rows added since the last call, sent with the whole palette."""
+        with self._lock:
+            added = self.ids[self.coloured_rows:]
+        if not added:
+            return
+        ids = np.asarray(added, dtype=np.int64 if min(added) < 0 else np.uint64)
+        palette = self.model.palette
+        new = hashed_colors(ids) if palette is None else colors_by_id(palette, ids)[1:]
+        translucent = (new[:, 3] > 0) & (new[:, 3] < 1)
+        if translucent.any() and not self._translucent_said:
+            self._translucent_said = True
+            warnings.warn(f"Voxels {self.model.name!r}: labels streamed from a multiscale "
+                          "source are drawn opaque; translucent ones too.", stacklevel=2)
+        new[translucent, 3] = 1.0
+        self._rgba = np.vstack([self._rgba, new])
+        self.palette.set_data(palette_texels(self._rgba))
+
+    def frame(self, *args) -> None:
+        """The volume pager's frame, then the colours of ids the new bricks brought."""
+        super().frame(*args)
+        if len(self.ids) > self.coloured_rows:
+            self.follow_ids()
+
+    @property
+    def coloured_rows(self) -> int:
+        """Rows (from 1) the palette on the GPU colours."""
+        return len(self._rgba) - 1
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of the pool, page table, level table and palette."""
+        return super().nbytes + self.palette.nbytes
+
+    def release(self) -> None:
+        """Stop reading; free the textures and the palette."""
+        super().release()
+        self.palette.release()
+
+
+def paged_label_recipe(options: VoxelOptions, levels: int) -> ShaderRecipe:
+    """The box actor's replacements: the streamed traversal, the mode and the shading."""
+    lit = options.mode == "color" and options.shading != "unlit"
+    return box_recipe(
+        ("camera_declarations", "slab", "pixel_ray", "voxel_declarations", "paged_bricks",
+         "voxel_paged", *(("blinn_phong", "voxel_shading") if lit else ())), "voxel_fragment",
+        defines={"CM_VOXEL_ID": options.mode == "id", "CM_VOXEL_FACE": options.mode == "face",
+                 "CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn",
+                 "CM_PAGED_LEVELS": levels})
+
+
+class PagedLabelsBinding(DrawnBinding):
+    """What ``actor.cubemarch`` holds for a streamed label grid: model, pager, bindings."""
+
+    technique = "voxels"
+    needs_single_sample = True   # as a grid drawn whole (technique.VoxelBinding)
+
+    def __init__(self, model: PagedLabels, pager: LabelPager, bindings: ShaderBindings,
+                 recipe: ShaderRecipe, options: VoxelOptions):
+        super().__init__(model, bindings, recipe)
+        self.pager = pager
+        self.options = options
+        self._pager_tag = None
+
+    @property
+    def converged(self) -> bool:
+        """Whether the last frame had every brick it wanted."""
+        return self.pager.converged
+
+    def wait_for_bricks(self, timeout: float) -> bool:
+        """Wait until a requested brick arrives (or ``timeout`` s); True if one did."""
+        return self.pager.cache.wait(timeout)
+
+    def stats(self) -> dict:
+        """Resident, empty, missing and read bricks and bytes, and the ids met so far."""
+        return {**self.pager.stats(), "labels": len(self.pager.ids)}
+
+    @property
+    def label_ids(self) -> np.ndarray:
+        """The ids the bricks read so far hold, in the order they were met."""
+        return np.asarray(self.pager.ids)
+
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of the pool, its tables and the palette."""
+        return self.pager.nbytes
+
+    def place(self, transform) -> None:
+        """The box follows, and the levels' world steps (a pixel is compared with them)."""
+        place_box(self.drawn[0], self.model.world_from_index())
+        self.pager.follow_placement()
+
+    def release_resources(self) -> None:
+        """Stop the per-frame choice and the reads; free the pool, tables and palette."""
+        if self._pager_tag is not None:
+            self.renderer.RemoveObserver(self._pager_tag)
+            self._pager_tag = None
+        self.pager.release()
+        self.bindings.release()
+
+
+def build_paged_labels(plotter, model: PagedLabels, options: VoxelOptions,
+                       pager: LabelPager) -> PagedLabelsBinding:
+    """The opaque box actor of a streamed label grid; returns its binding."""
+    renderer = plotter.renderer
+    dims = np.asarray(model.dimensions, float)
+    actor = box_actor(dims, model.world_from_index(), margin=0.01 * float(dims.max()))
+    actor.ForceTranslucentOff()
+    actor.ForceOpaqueOn()
+    actor.GetProperty().LightingOff()
+    bindings = ShaderBindings(actor.GetMapper(), renderer)
+    bindings.add_texture("cm_palette", pager.palette)
+    bind_pool(bindings, pager, model.world_from_point)
+    bind_grid(bindings, renderer, model, options)
+    recipe = paged_label_recipe(options, len(pager.levels))
+    bindings.install(recipe, actor)
+    binding = PagedLabelsBinding(model, pager, bindings, recipe, options)
+    binding.drawn = [actor]
+    binding.renderer = renderer
+    binding._pager_tag = observe(renderer, vtk.vtkCommand.StartEvent, pager.frame, 4.0)
+    pager.shown = lambda: binding.shown
+    refine_while_shown(plotter, binding)
+    pyvista.set_new_attribute(actor, "cubemarch", binding)
+    return binding
