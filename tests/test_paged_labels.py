@@ -1,0 +1,224 @@
+"""Label pyramids streamed by bricks (``add_voxels`` of an OME-Zarr pyramid or a list of levels).
+
+Oracles: the levels read straight from zarr (stored z, y, x; transposed here by hand) or the
+arrays given, traversed by the CPU reference (``trace_voxels``, float64, no GL); coarse
+levels drawn as the finest voxels that read them, derived here with numpy from the rule
+"voxel i reads the level's nearest point" (``round(i a + b)``, from the levels' scales and
+translations), never from the shader's tables; resident brick counts from numpy's own count
+of the non-empty bricks of each level.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyvista as pv
+import zarr
+
+import pv_cubemarch as cm
+from pv_cubemarch.reference.voxels import id_colors, trace_voxels
+
+SIZE = (96, 72)
+SHAPE = (45, 37, 29)   # odd sides: partial bricks and padded coarse levels
+BRICK = 8
+EDGE = 1e-4
+
+
+def ball(shape=SHAPE, seed=3, ids=(1_000_003, 2_000_029, 77, 5)) -> np.ndarray:
+    """A ball of random ids of a wide type, its first slabs empty (empty bricks)."""
+    rng = np.random.default_rng(seed)
+    x, y, z = np.meshgrid(*(np.arange(n) for n in shape), indexing="ij")
+    inside = (x - 22) ** 2 + (y - 18) ** 2 + (z - 14) ** 2 < 13 ** 2
+    labels = np.where(inside, np.asarray(ids, np.uint32)[rng.integers(0, len(ids), shape)], 0)
+    labels[:9] = 0
+    return labels.astype(np.uint32)
+
+
+@pytest.fixture(scope="module")
+def pyramid(tmp_path_factory):
+    path = tmp_path_factory.mktemp("labels") / "ball.ome.zarr"
+    cm.build_pyramid(ball(), path, levels=3, chunk_size=16, method="mode", progress_bar=False)
+    return path
+
+
+def level(path, number: int) -> np.ndarray:
+    """Level ``number`` read whole with zarr, as x, y, z."""
+    return np.asarray(zarr.open_group(str(path), mode="r")[str(number)][:]).transpose(2, 1, 0)
+
+
+def plotter():
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.disable_anti_aliasing()
+    pl.ren_win.SetMultiSamples(0)   # an id is a pixel's, never a blend of two
+    pl.set_background("black")
+    return pl
+
+
+def look(pl, eye, focal=(22.0, 18.0, 14.0), parallel=False):
+    pl.camera_position = [eye, focal, (0, 0, 1)]
+    if parallel:
+        pl.camera.parallel_projection = True
+        pl.camera.parallel_scale = 30.0
+    pl.renderer.ResetCameraClippingRange()
+
+
+def wrong_ids(pl, actor, labels, *others) -> tuple[int, int, int]:
+    """(wrong, near-edge, filled) pixels of the converged id image against the CPU traversal.
+
+    ``others``: grids equally right (a voxel whose cell is a tie may read either): a pixel
+    is right if it matches any.
+    """
+    image = cm.render_image(pl, converge=True).astype(int)
+    wrong, edge = None, None
+    for grid in (labels, *others):
+        hits = trace_voxels(grid, actor.cubemarch.model.world_from_index(),
+                            cm.Camera.from_pyvista(pl.camera), SIZE,
+                            near=pl.camera.clipping_range[0], tie_tolerance=EDGE)
+        expected = id_colors(hits, labels.shape).astype(int)
+        differs = np.any(image != expected, axis=-1) & ~hits.near_edge
+        wrong = differs if wrong is None else wrong & differs
+        edge = hits.near_edge if edge is None else edge | hits.near_edge
+        filled = int(expected.any(axis=-1).sum()) if grid is labels else filled
+    return int(wrong.sum()), int(edge.sum()), filled
+
+
+@pytest.mark.parametrize("eye, parallel", [
+    ((80.0, -60.0, 70.0), False),
+    ((80.0, -60.0, 70.0), True),
+    ((20.0, 17.0, 15.0), False),    # inside the ball
+    ((120.0, 18.0, 14.0), False),   # along -x: axis-parallel central rays
+])
+def test_the_finest_level_converges_to_the_exact_traversal(pyramid, eye, parallel):
+    # catches (seen failing): a cell's block one voxel too long on its upper side (`to`
+    # from last + 1.5), its lower side from floor, not ceil; bricks read one texel in (the
+    # volume pool's apron); an empty brick left as two bricks; empty bricks counted as
+    # missing (never converged).
+    pl = plotter()
+    actor = cm.add_voxels(pl, pyramid, mode="id", lod_bias=-64, brick_size=BRICK)
+    look(pl, eye, parallel=parallel)
+    wrong, edge, filled = wrong_ids(pl, actor, level(pyramid, 0))
+    assert filled > 300 and wrong == 0, (wrong, edge, filled)
+    stats = actor.cubemarch.stats()
+    assert stats["missing"] == 0 and not stats["over_budget"]
+    pl.close()
+
+
+def nearest_cells(coarse: np.ndarray, shape, a, b, tie: float = 0.0) -> np.ndarray:
+    """The finest grid each of whose voxels holds its level's nearest cell: round(i a + b).
+
+    ``tie``: added before rounding (a voxel halfway between two points may take either).
+    """
+    index = [np.clip(np.floor(np.arange(n) * a_ + b_ + 0.5 + tie).astype(int), 0, m - 1)
+             for n, a_, b_, m in zip(shape, a, b, coarse.shape, strict=True)]
+    return coarse[np.ix_(*index)]
+
+
+def test_the_coarsest_level_draws_its_cells_as_blocks_of_finest_voxels(pyramid):
+    # catches (seen failing): cells read at round(i a), without the levels' offset b.
+    pl = plotter()
+    actor = cm.add_voxels(pl, pyramid, mode="id", lod_bias=64, brick_size=BRICK)
+    look(pl, (80.0, -60.0, 70.0))
+    coarse = level(pyramid, 2)   # build_pyramid: blocks of 4, centred (a = 1/4, b = -3/8)
+    expected = nearest_cells(coarse, SHAPE, [0.25] * 3, [-0.375] * 3)
+    assert (expected == np.repeat(np.repeat(np.repeat(coarse, 4, 0), 4, 1), 4, 2)[
+        :SHAPE[0], :SHAPE[1], :SHAPE[2]]).all()   # the rule, checked by hand for blocks
+    wrong, edge, filled = wrong_ids(pl, actor, expected)
+    assert filled > 300 and wrong == 0, (wrong, edge, filled)
+    assert {key[0] for key in actor.cubemarch.pager.slot_of} == {2}   # nothing finer read
+    pl.close()
+
+
+def test_levels_of_a_list_with_odd_steps_are_read_by_the_nearest_rule():
+    # A list finest first spans the finest level's extent with each level, cell centred:
+    # 45 voxels over 23 and 12 give steps of 45/23 and 45/12, not powers of two.
+    # catches (seen failing): cells read without the offset b (1814 wrong pixels).
+    finest = ball()
+    rng = np.random.default_rng(5)
+    middle = np.where(rng.random((23, 19, 15)) < 0.3, 9, 0).astype(np.uint32)
+    coarsest = np.where(rng.random((12, 10, 8)) < 0.4, 4, 0).astype(np.uint32)
+    pl = plotter()
+    actor = cm.add_voxels(pl, [finest, middle, coarsest], mode="id", lod_bias=64,
+                          brick_size=4)
+    look(pl, (80.0, -60.0, 70.0))
+    step = np.asarray(SHAPE, float) / coarsest.shape
+    a, b = 1.0 / step, -((step - 1.0) / 2.0) / step
+    # voxels 7, 22, 37 along x and 14 along z lie halfway between two points: either is right
+    up, down = (nearest_cells(coarsest, SHAPE, a, b, tie) for tie in (1e-6, -1e-6))
+    assert (up != down).any()
+    wrong, edge, filled = wrong_ids(pl, actor, up, down)
+    assert filled > 300 and wrong == 0, (wrong, edge, filled)
+    pl.close()
+
+
+def non_empty_bricks(labels: np.ndarray, brick: int) -> int:
+    """Bricks of ``brick``³ voxels holding a non-zero label, counted with numpy."""
+    pad = [(0, -n % brick) for n in labels.shape]
+    blocks = np.pad(labels != 0, pad).reshape(
+        labels.shape[0] // brick + bool(labels.shape[0] % brick), brick,
+        labels.shape[1] // brick + bool(labels.shape[1] % brick), brick,
+        labels.shape[2] // brick + bool(labels.shape[2] % brick), brick)
+    return int(blocks.any(axis=(1, 3, 5)).sum())
+
+
+def test_empty_bricks_take_no_slot(pyramid):
+    # catches (seen failing): bricks of background alone given a slot.
+    pl = plotter()
+    actor = cm.add_voxels(pl, pyramid, mode="id", lod_bias=-64, brick_size=BRICK)
+    look(pl, (150.0, -110.0, 130.0))   # the whole grid in view: every brick wanted
+    cm.render_image(pl, converge=True)
+    stats = actor.cubemarch.stats()
+    expected = sum(non_empty_bricks(level(pyramid, n), BRICK) for n in range(3))
+    assert stats["resident"] == expected
+    total = sum(int(np.prod([-(-n // BRICK) for n in level(pyramid, k).shape]))
+                for k in range(3))
+    assert stats["empty"] == total - expected > 0
+    pl.close()
+
+
+def test_ids_of_any_width_get_their_colours_and_hidden_ids_are_passed():
+    # uint64 ids past 2^63 and 2^40, hidden ones left out of the palette dict.
+    # catches (seen failing): ids made rows through float32 (2^40 + 1 and 2^40 + 2 merged),
+    # and a hidden id drawn (the ray must pass it to the voxel behind).
+    big = [2**40 + 1, 2**40 + 2, 2**63 + 5]
+    rng = np.random.default_rng(2)
+    rows = np.where(rng.random(SHAPE) < 0.08, rng.integers(1, 4, SHAPE), 0)
+    labels = np.where(rows > 0, np.asarray([0, *big], np.uint64)[rows], 0).astype(np.uint64)
+    colors = {big[0]: (1.0, 0.0, 0.0), big[2]: (0.0, 0.0, 1.0)}
+    pl = plotter()
+    cm.add_voxels(pl, [labels, labels[::2, ::2, ::2]], palette=colors, shading="unlit",
+                  lod_bias=-64, brick_size=BRICK)
+    look(pl, (80.0, -60.0, 70.0))
+    image = cm.render_image(pl, converge=True).astype(float) / 255
+    hits = trace_voxels(rows, _index_placement(),
+                        cm.Camera.from_pyvista(pl.camera), SIZE,
+                        near=pl.camera.clipping_range[0], visible=np.array([0, 1, 0, 1], bool),
+                        tie_tolerance=EDGE)
+    table = np.array([(0, 0, 0), colors[big[0]], (0, 0, 0), colors[big[2]]], float)
+    hit = hits.index[..., 0] >= 0
+    label = np.where(hit, rows[tuple(np.clip(hits.index, 0, None)[..., a] for a in range(3))], 0)
+    expected = table[label]
+    wrong = np.abs(image[..., :3] - expected).max(axis=-1) > 2 / 255
+    assert hit.sum() > 300 and int((wrong & ~hits.near_edge).sum()) == 0
+    pl.close()
+
+
+def _index_placement() -> np.ndarray:
+    """A list's finest level: voxel i centred on point i, so index space is shifted by -1/2."""
+    shift = np.eye(4)
+    shift[:3, 3] = -0.5
+    return shift
+
+
+def test_keywords_and_sources_it_cannot_take_are_refused(pyramid):
+    pl = plotter()
+    for keywords, words in [(dict(show_edges=True), "show_edges"),
+                            (dict(clip_planes=[0, 0, 5, 0, 0, 1]), "clip_planes"),
+                            (dict(opacity=0.5), "opacity"),
+                            (dict(palette="viridis"), "palette='viridis'"),
+                            (dict(gpu_bytes=0), "gpu_bytes"),
+                            (dict(lod_bias="far"), "lod_bias")]:
+        with pytest.raises(ValueError, match=words):
+            cm.add_voxels(pl, pyramid, **keywords)
+    with pytest.raises(ValueError, match="must be integers"):
+        cm.add_voxels(pl, [np.zeros((8, 8, 8), np.float32)])
+    pl.close()
