@@ -69,7 +69,7 @@ def wrong_ids(pl, actor, labels, *others) -> tuple[int, int, int]:
     is right if it matches any.
     """
     image = cm.render_image(pl, converge=True).astype(int)
-    wrong, edge = None, None
+    wrong, edge, filled = None, None, 0
     for grid in (labels, *others):
         hits = trace_voxels(grid, actor.cubemarch.model.world_from_index(),
                             cm.Camera.from_pyvista(pl.camera), SIZE,
@@ -78,7 +78,8 @@ def wrong_ids(pl, actor, labels, *others) -> tuple[int, int, int]:
         differs = np.any(image != expected, axis=-1) & ~hits.near_edge
         wrong = differs if wrong is None else wrong & differs
         edge = hits.near_edge if edge is None else edge | hits.near_edge
-        filled = int(expected.any(axis=-1).sum()) if grid is labels else filled
+        if grid is labels:
+            filled = int(expected.any(axis=-1).sum())
     return int(wrong.sum()), int(edge.sum()), filled
 
 
