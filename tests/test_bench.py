@@ -428,6 +428,11 @@ def test_bench_outofcore_rows_and_errors(tmp_path, capsys):
     huge = outofcore.run_outofcore(["procedural"], ["far"], size=(64, 48), timeout=60)
     assert {r.row for r in huge} == {"ours", "coarsest level only"}
     assert all(r.bytes_read < 2**30 and r.converged_s is not None for r in huge)
+    # labels: the finest level everywhere draws the in-memory add_voxels image exactly
+    labels = {r.row: r for r in outofcore.run_outofcore(["labels-small"], ["close"],
+                                                          size=(96, 72), small=96, timeout=60)}
+    assert labels["ours, finest everywhere"].wrong_percent == 0.0
+    assert labels["ours, finest everywhere"].converged_s is not None
     path = tmp_path / "outofcore.json"
     assert main(["bench", "outofcore", "--scenes", "smoke", "--views", "far", "--size",
                  "64x48", "--json", str(path)]) == 0

@@ -53,7 +53,8 @@ COLUMNS = {
         ("frames", "frames", "{}"), ("longest frame ms", "longest_frame_ms", "{:.0f}"),
         ("read MB", "bytes_read", "MB"), ("held MB", "held_brick_bytes", "MB"),
         ("peak RSS MB", "peak_rss_mb", "{:.0f}"), ("GPU MB", "gpu_mb", "{:.1f}"),
-        ("PSNR dB", "psnr_db", "{:.1f}"), ("pool", "extra.resident", "{}"),
+        ("PSNR dB", "psnr_db", "{:.1f}"), ("wrong %", "wrong_percent", "{:.2f}"),
+        ("pool", "extra.resident", "{}"),
         ("over budget", "extra.over_budget", "{}"), ("note", "note", "{}"),
     ],
 }

@@ -20,7 +20,6 @@ import shutil
 import tempfile
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -30,8 +29,10 @@ from ..api import add_volume
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..models.multiscale import Level, MultiscaleSource, multiscale_source
 from ..models.pyramid import build_pyramid
+from .outofcore_labels import LABEL_SCENES, label_rows
+from .outofcore_rows import OutOfCoreRow, place_camera, rss_mb, stream_row
 
-SCENES = ("procedural", "procedural-small", "smoke")
+SCENES = ("procedural", "procedural-small", "smoke", *LABEL_SCENES)
 VIEWS = ("far", "mid", "close")
 #: The transfer function every row draws with (data units of the uint16 field).
 KEYWORDS = dict(cmap="magma", clim=(20000.0, 60000.0), opacity="sigmoid")
@@ -92,101 +93,12 @@ def smoke_pyramid(directory: Path) -> Path:
     return path
 
 
-@dataclass
-class OutOfCoreRow:
-    """One way of drawing one view of one scene, and what it cost."""
-
-    scene: str
-    view: str
-    row: str
-    first_frame_s: float | None = None
-    converged_s: float | None = None
-    frames: int = 0
-    longest_frame_ms: float | None = None
-    bytes_read: int | None = None
-    held_brick_bytes: int | None = None
-    peak_rss_mb: float | None = None
-    gpu_mb: float | None = None
-    psnr_db: float | None = None
-    note: str = ""
-    extra: dict = field(default_factory=dict)
-
-
-def _rss_mb() -> float:
-    """Resident memory of this process now (MiB), from /proc."""
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1]) / 1024.0
-    return float("nan")
-
-
-def _camera(pl, extent: np.ndarray, view: str) -> None:
-    """Far: the whole volume; mid: a quarter of it; close: inside, near a corner."""
-    centre = extent / 2.0
-    if view == "far":
-        eye, focal = centre + np.array([1.2, -1.6, 1.1]) * extent.max(), centre
-    elif view == "mid":
-        focal = extent * np.array([0.3, 0.3, 0.5])
-        eye = focal + np.array([0.25, -0.35, 0.2]) * extent.max()
-    else:
-        focal = extent * np.array([0.22, 0.2, 0.5])
-        eye = focal + np.array([0.02, -0.03, 0.01]) * extent.max()
-    pl.camera_position = [tuple(eye), tuple(focal), (0, 0, 1)]
-    pl.renderer.ResetCameraClippingRange()
-
-
-def _paged_row(scene, view, row, source, extent, size, lod_bias, gpu_bytes, host_bytes,
-               timeout, expected) -> tuple[OutOfCoreRow, np.ndarray]:
-    pl = offscreen_plotter(size)
-    pl.set_background("black")
-    result = OutOfCoreRow(scene, view, row)
-    base = _rss_mb()
-    peak = base
-    try:
-        start = time.perf_counter()
-        actor = add_volume(pl, source, lod_bias=lod_bias, gpu_bytes=gpu_bytes,
-                           host_bytes=host_bytes, **KEYWORDS)
-        _camera(pl, extent, view)
-        render_frame(pl)
-        image = read_pixels(pl)
-        result.first_frame_s = time.perf_counter() - start
-        binding = actor.cubemarch
-        longest, frames = 0.0, 1
-        while not binding.converged and time.perf_counter() - start < timeout:
-            binding.wait_for_bricks(0.2)
-            began = time.perf_counter()
-            render_frame(pl)
-            longest = max(longest, time.perf_counter() - began)
-            frames += 1
-            peak = max(peak, _rss_mb())
-        image = read_pixels(pl)
-        peak = max(peak, _rss_mb())
-        stats = binding.stats()
-        result.converged_s = time.perf_counter() - start if binding.converged else None
-        result.frames = frames
-        result.longest_frame_ms = longest * 1e3 if frames > 1 else None
-        result.bytes_read = int(stats["bytes_read"])
-        pager = binding.pager
-        itemsize = np.dtype(source.dtype).itemsize
-        result.held_brick_bytes = int(len(pager.slot_of) * (pager.brick + 2) ** 3 * itemsize)
-        result.peak_rss_mb = peak - base
-        result.gpu_mb = binding.nbytes / 2**20
-        result.extra = {k: stats[k] for k in ("resident", "slots", "missing", "over_budget")}
-        if not binding.converged:
-            result.note = f"not converged in {timeout:g} s"
-        if expected is not None:
-            result.psnr_db = _psnr(image, expected)
-        return result, image
-    finally:
-        pl.close()
-
-
 def _in_memory_row(scene, view, source, extent, size) -> tuple[OutOfCoreRow, np.ndarray]:
     """The finest level read whole and drawn by the direct marcher: the reference image."""
     pl = offscreen_plotter(size)
     pl.set_background("black")
     result = OutOfCoreRow(scene, view, "whole array in memory")
-    base = _rss_mb()
+    base = rss_mb()
     try:
         start = time.perf_counter()
         finest = source.levels[0]
@@ -196,13 +108,13 @@ def _in_memory_row(scene, view, source, extent, size) -> tuple[OutOfCoreRow, np.
         grid.point_data["values"] = values.ravel(order="F")
         del values
         actor = add_volume(pl, grid, technique="direct", **KEYWORDS)
-        _camera(pl, extent, view)
+        place_camera(pl, extent, view)
         render_frame(pl)
         image = read_pixels(pl)
         result.first_frame_s = result.converged_s = time.perf_counter() - start
         result.frames = 1
         result.bytes_read = int(grid.point_data["values"].nbytes)
-        result.peak_rss_mb = _rss_mb() - base
+        result.peak_rss_mb = rss_mb() - base
         result.gpu_mb = actor.cubemarch.nbytes / 2**20
         return result, image
     finally:
@@ -227,11 +139,6 @@ def _warm_up(size) -> None:
             pl.close()
 
 
-def _psnr(image: np.ndarray, reference: np.ndarray) -> float:
-    diff = (image.astype(np.float64) - reference.astype(np.float64)) / 255.0
-    return float(10 * np.log10(1.0 / max(np.mean(diff ** 2), 1e-12)))
-
-
 def run_outofcore(scenes: Sequence[str] = SCENES, views: Sequence[str] = VIEWS,
                   size=(320, 240), shape=(16384, 16384, 4096), small: int = 384,
                   gpu_bytes: int = 256 * 2**20, host_bytes: int = 512 * 2**20,
@@ -243,6 +150,10 @@ def run_outofcore(scenes: Sequence[str] = SCENES, views: Sequence[str] = VIEWS,
     scratch = Path(tempfile.mkdtemp(prefix="cubemarch-outofcore-"))
     try:
         for scene in scenes:
+            if scene in LABEL_SCENES:
+                rows += label_rows(scene, views, size, shape, small, gpu_bytes, host_bytes,
+                                   timeout)
+                continue
             if scene == "procedural":
                 source = wave_source(shape)
             elif scene == "procedural-small":
@@ -263,8 +174,12 @@ def run_outofcore(scenes: Sequence[str] = SCENES, views: Sequence[str] = VIEWS,
                                    ("coarsest level only", 64.0)):
                     if bias < -1 and not fits:
                         continue   # the finest level over a whole 2 TiB view: no reference
-                    rows.append(_paged_row(scene, view, name, source, extent, size, bias,
-                                           gpu_bytes, host_bytes, timeout, expected)[0])
+                    def add(pl, bias=bias, source=source):
+                        return add_volume(pl, source, lod_bias=bias, gpu_bytes=gpu_bytes,
+                                          host_bytes=host_bytes, **KEYWORDS)
+
+                    rows.append(stream_row(scene, view, name, add, source, extent, size,
+                                           timeout, expected)[0])
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     return rows
@@ -278,7 +193,7 @@ def format_outofcore(rows: list[OutOfCoreRow]) -> str:
     """The rows as a text table."""
     head = (f"{'scene':17} {'view':5} {'row':24} {'first s':>8} {'conv. s':>8} {'frames':>6} "
             f"{'max ms':>8} {'read MB':>9} {'held MB':>8} {'RSS MB':>7} {'GPU MB':>7} "
-            f"{'PSNR':>6}")
+            f"{'PSNR':>6} {'wrong%':>6}")
     lines = [head]
     for r in rows:
         read = None if r.bytes_read is None else r.bytes_read / 2**20
@@ -287,6 +202,7 @@ def format_outofcore(rows: list[OutOfCoreRow]) -> str:
             f"{r.scene:17} {r.view:5} {r.row:24} {_number(r.first_frame_s):>8} "
             f"{_number(r.converged_s):>8} {r.frames:>6} {_number(r.longest_frame_ms, 0):>8} "
             f"{_number(read, 1):>9} {_number(held, 1):>8} {_number(r.peak_rss_mb, 0):>7} "
-            f"{_number(r.gpu_mb, 1):>7} {_number(r.psnr_db, 1):>6}"
+            f"{_number(r.gpu_mb, 1):>7} {_number(r.psnr_db, 1):>6} "
+            f"{_number(r.wrong_percent, 2):>6}"
             + (f"  {r.note}" if r.note else ""))
     return "\n".join(lines)

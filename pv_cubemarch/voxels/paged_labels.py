@@ -102,9 +102,11 @@ class LabelPager(BrickPager):
             raise ValueError(f"Labels streamed from a multiscale source must be integers, got "
                              f"{dtype}: give add_volume the source instead, or its labels.")
         self._lock = threading.Lock()
-        self._row_of: dict[int, int] = {}
-        self.ids: list[int] = []   # the id of each row from 1 on
         self.background = int(model.background)
+        # the ids met so far, sorted (the background first, row 0), and their rows
+        self._keys = np.array([self.background], dtype)
+        self._key_rows = np.zeros(1, np.float32)
+        self._ids = np.zeros(0, dtype)   # the id of each row from 1 on, in the order met
         self.palette = Texture(palette_texels(np.zeros((2, 4), np.float32)), kind="2d",
                                interpolate=False)
         self._rgba = np.zeros((1, 4), np.float32)   # row 0: the background
@@ -118,34 +120,40 @@ class LabelPager(BrickPager):
             + EMPTY_BLOCKS
 
     def prepare(self, key, values: np.ndarray) -> np.ndarray:
-        """A brick of ids as float32 rows; an empty array where all is background."""
+        """A brick of ids as float32 rows; an empty array where all is background.
+
+        Ids met for the first time get the next rows, all at once: the known ids are kept
+        sorted with their rows, so a brick of 32³ distinct ids costs a few searches, not a
+        Python loop.
+        """
         ids, inverse = np.unique(values, return_inverse=True)
         if ids.size == 1 and int(ids[0]) == self.background:
             return np.zeros(0, np.float32)
         with self._lock:
-            rows = np.empty(ids.size, np.float32)
-            for n, value in enumerate(ids.tolist()):
-                row = self._row_of.get(value)
-                if row is None:
-                    if value == self.background:
-                        row = 0
-                    else:
-                        if len(self.ids) >= MAX_IDS:
-                            raise ValueError(f"More than {MAX_IDS} distinct label ids met: "
-                                             "rows are read from float32, exact to 2^24.")
-                        self.ids.append(value)
-                        row = len(self.ids)
-                    self._row_of[value] = row
-                rows[n] = row
-        return rows[inverse.reshape(values.shape)]
+            at = np.searchsorted(self._keys, ids)
+            known = at < self._keys.size
+            known[known] = self._keys[at[known]] == ids[known]
+            new = ids[~known]
+            if new.size:
+                if self._ids.size + new.size > MAX_IDS:
+                    raise ValueError(f"More than {MAX_IDS} distinct label ids met: rows are "
+                                     "read from float32, exact to 2^24.")
+                rows = np.arange(self._ids.size + 1, self._ids.size + 1 + new.size,
+                                 dtype=np.float32)
+                place = np.searchsorted(self._keys, new)
+                self._keys = np.insert(self._keys, place, new)
+                self._key_rows = np.insert(self._key_rows, place, rows)
+                self._ids = np.concatenate([self._ids, new])
+                at = np.searchsorted(self._keys, ids)
+            found = self._key_rows[at]
+        return found[inverse.reshape(values.shape)]
 
     def follow_ids(self) -> None:
         """Colours for the rows added since the last call, sent with the whole palette."""
         with self._lock:
-            added = self.ids[self.coloured_rows:]
-        if not added:
+            ids = self._ids[self.coloured_rows:]
+        if not ids.size:
             return
-        ids = np.asarray(added, dtype=np.int64 if min(added) < 0 else np.uint64)
         palette = self.model.palette
         new = hashed_colors(ids) if palette is None else colors_by_id(palette, ids)[1:]
         translucent = (new[:, 3] > 0) & (new[:, 3] < 1)
@@ -160,8 +168,14 @@ class LabelPager(BrickPager):
     def frame(self, *args) -> None:
         """The volume pager's frame, then the colours of ids the new bricks brought."""
         super().frame(*args)
-        if len(self.ids) > self.coloured_rows:
+        if self._ids.size > self.coloured_rows:
             self.follow_ids()
+
+    @property
+    def ids(self) -> np.ndarray:
+        """The id of each row from 1 on, in the order the bricks brought them."""
+        with self._lock:
+            return self._ids
 
     @property
     def coloured_rows(self) -> int:
@@ -214,12 +228,12 @@ class PagedLabelsBinding(DrawnBinding):
 
     def stats(self) -> dict:
         """Resident, empty, missing and read bricks and bytes, and the ids met so far."""
-        return {**self.pager.stats(), "labels": len(self.pager.ids)}
+        return {**self.pager.stats(), "labels": int(self.pager.ids.size)}
 
     @property
     def label_ids(self) -> np.ndarray:
         """The ids the bricks read so far hold, in the order they were met."""
-        return np.asarray(self.pager.ids)
+        return self.pager.ids.copy()
 
     @property
     def nbytes(self) -> int:
