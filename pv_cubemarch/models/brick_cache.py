@@ -79,6 +79,10 @@ class BrickCache:
         self.bytes_read = 0
         self.reads = 0
         self.errors: list[BaseException] = []
+        #: Bricks whose read failed: not asked for again (drawn from a coarser level) until
+        #: :meth:`retry`.
+        self.failed: set = set()
+        self._said = False   # a read error was raised: later ones are counted, not raised
 
     @property
     def capacity(self) -> int:
@@ -119,7 +123,7 @@ class BrickCache:
             for key in keys:
                 if room <= 0:
                     break
-                if key in self._cache or key in self._reading:
+                if key in self._cache or key in self._reading or key in self.failed:
                     continue
                 self._reading[key] = self._pool.submit(self._read, key)
                 room -= 1
@@ -136,6 +140,7 @@ class BrickCache:
             with self._lock:
                 self._reading.pop(key, None)
                 self.errors.append(error)
+                self.failed.add(key)
             self._changed.set()
             return
         level = self.source.levels[key[0]]
@@ -166,11 +171,27 @@ class BrickCache:
         return self._changed.wait(timeout)
 
     def raise_errors(self) -> None:
-        """Raise the first error a read met (an unreadable chunk is said, not drawn empty)."""
+        """Raise the first error a read met (an unreadable chunk is said, not drawn empty).
+
+        Once: its brick and those failing after it are not asked for again, drawn from a
+        coarser level and counted in ``failed``, until :meth:`retry`.
+        """
         with self._lock:
             errors, self.errors = self.errors, []
-        if errors:
-            raise errors[0]
+            said, self._said = self._said, self._said or bool(errors)
+        if errors and not said:
+            first = errors[0]
+            if hasattr(first, "add_note"):
+                first.add_note("Bricks whose read fails are drawn from a coarser level and "
+                               "counted in actor.cubemarch.stats()['failed']; "
+                               "actor.cubemarch.pager.retry() asks for them again.")
+            raise first
+
+    def retry(self) -> None:
+        """Ask again for the bricks whose read failed (e.g. after a network error)."""
+        with self._lock:
+            self.failed.clear()
+            self._said = False
 
     def close(self) -> None:
         """Stop reading (reads not started are dropped)."""

@@ -317,7 +317,12 @@ class BrickPager:
         """
         if not self.shown():
             return
-        self.cache.raise_errors()
+        try:
+            self._choose_and_upload()
+        finally:
+            self.cache.raise_errors()   # after this frame's work: raised once, not each frame
+
+    def _choose_and_upload(self) -> None:
         camera = self.renderer.GetActiveCamera()
         view = (camera.GetMTime(), tuple(self.renderer.GetSize()), self.lod_bias,
                 self.world_from_point().tobytes())
@@ -335,7 +340,9 @@ class BrickPager:
             slot = self.slot_of.get(key)
             if slot is not None:
                 self.last_used[slot] = self.frame_number
-        absent = [key for key in wanted if key not in self.slot_of and key not in self.empty]
+        failed = self.cache.failed
+        absent = [key for key in wanted if key not in self.slot_of and key not in self.empty
+                  and key not in failed]
         self.cache.request(absent)
         self.cache.arrived()
         self._victims = (int(s) for s in np.argsort(self.last_used, kind="stable"))
@@ -347,7 +354,12 @@ class BrickPager:
             if values is not None and self._place(key, values, keep):
                 sent += values.nbytes
         self.missing = sum(1 for key in wanted if key not in self.slot_of
-                           and key not in self.empty)
+                           and key not in self.empty and key not in failed)
+
+    def retry(self) -> None:
+        """Ask again, from the next frame, for the bricks whose read failed."""
+        self.cache.retry()
+        self._planned_for = None
 
     @property
     def converged(self) -> bool:
@@ -357,7 +369,7 @@ class BrickPager:
     def stats(self) -> dict:
         """Resident and requested bricks and the bytes they hold (for views and scripts)."""
         return {"resident": sum(k is not None for k in self.key_in), "slots": self.capacity,
-                "empty": len(self.empty),
+                "empty": len(self.empty), "failed": len(self.cache.failed),
                 "missing": self.missing, "reading": self.cache.pending,
                 "over_budget": self.over_budget, "gpu_bytes": self.nbytes,
                 "host_bytes": self.cache.nbytes, "bytes_read": self.cache.bytes_read,
