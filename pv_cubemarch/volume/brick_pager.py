@@ -99,9 +99,11 @@ class BrickPager:
                                 self.apron, self.prepare)
         self.table = PageTable(self.counts, self.capacity, self.page_blocks())
         side = self.brick + 2 * self.apron
-        self.pool = Texture(np.zeros([n * side for n in self.slots], np.float32), kind="3d",
+        self.pool = Texture(np.zeros([n * side for n in self.slots], np.float32, order="F"),
+                            kind="3d",
                             interpolate=model.interpolation == "linear",
                             rebuild=self._forget_pool if sub_image_available() else None)
+        # x fastest (Fortran order), as the upload wants it: no copy of the whole pool.
         # Without partial uploads (no window system giving glTexSubImage3D) the pool keeps
         # its host copy: each brick is written there and the whole pool goes up again, so
         # a whole upload never forgets the bricks placed before it.
@@ -165,7 +167,7 @@ class BrickPager:
         self.missing = max(self.missing, 1)   # decided again at the next frame
         self.table.reset()
         side = self.brick + 2 * self.apron
-        pool = np.zeros([n * side for n in self.slots], np.float32)
+        pool = np.zeros([n * side for n in self.slots], np.float32, order="F")
         slot = 0
         for key in sorted(self.pinned):
             values = self.read_now(key)
