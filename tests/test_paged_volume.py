@@ -325,6 +325,35 @@ def test_the_live_view_retunes_a_streamed_volume(pyramid):
     pl.close()
 
 
+def test_the_live_view_redraws_while_bricks_arrive_and_says_what_streams(pyramid, tmp_path):
+    # A served page refines by itself: each step redraws while bricks are missing, and the
+    # streaming line says what is resident, missing and read; a streamed label grid is
+    # drawn, not adopted as a tunable grid. catches (seen failing): a step that redraws
+    # nothing (the page's image stays at the first frame's coarse bricks), and the label
+    # grid taken for a volume by the session (it read a transfer function it has not).
+    pytest.importorskip("trame")
+    from pv_cubemarch.views.app import build_app, refine_step
+
+    labels = np.zeros((24, 20, 16), np.uint16)
+    labels[4:20, 4:16, 4:12] = 7
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    cm.add_volume(pl, str(pyramid), lod_bias=-30, brick_size=8, name="scan", **KEYWORDS)
+    cm.add_voxels(pl, [labels, labels[::2, ::2, ::2]], name="cells", brick_size=8)
+    view(pl)
+    server, _, session = build_app(pl, name="streaming-test", show_panel=False)
+    redraws = []
+    server.controller.view_update = lambda: (redraws.append(1), pl.render())
+    assert list(session.items) == ["scan"]
+    for _ in range(200):
+        if not refine_step(server, session):
+            break
+        pl.actors["scan"].cubemarch.wait_for_bricks(0.5)
+    assert redraws and not refine_step(server, session)
+    text = server.state.streaming
+    assert "scan:" in text and "cells:" in text and "0 bricks missing" in text
+    pl.close()
+
+
 def test_a_pool_uploaded_whole_keeps_its_bricks(pyramid, monkeypatch):
     """Found by review (seen failing): without partial uploads every placed brick made the
     pool go up whole, remade by forgetting all but the coarsest level (converged said True

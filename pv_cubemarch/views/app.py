@@ -89,6 +89,7 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     state.message = ""
     state.drawn = _drawn(session)
     state.label_legend = session.legend()
+    state.streaming = streaming_text(plotter)
     for kind in session.kinds():
         for knob in session.knobs(kind):
             _bind(server, session, kind, knob)
@@ -97,6 +98,10 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     layout.cubemarch_token = token
     page = layout.iframe_builder
     layout.iframe_builder = lambda lay: {**page(lay), "src": with_token(page(lay)["src"], token)}
+
+    @ctrl.on_server_ready.add
+    def start_refining(**_):
+        asyncio.get_event_loop().create_task(refine_while_streaming(server, session))
 
     @ctrl.set("measure_error")
     def measure_error():
@@ -108,6 +113,50 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
         state.error_text = (f"error vs CPU reference: mean {errors['mean_abs']:.2f}/255, "
                             f"PSNR {errors['psnr']:.1f} dB, SSIM {errors['ssim']:.4f}")
     return server, layout, session
+
+
+#: Seconds between the live view's redraws while streamed bricks arrive.
+REFINE_S = 0.2
+
+
+def streaming_text(plotter: pyvista.Plotter) -> str:
+    """What each source streamed by bricks holds and misses now ('' when none streams)."""
+    parts = []
+    for binding in plotter.cubemarch.tracked:
+        if not hasattr(binding, "converged") or not hasattr(binding, "stats"):
+            continue
+        stats = binding.stats()
+        parts.append(f"{binding.name}: {stats['resident']} of {stats['slots']} slots, "
+                     f"{stats['missing']} bricks missing, {stats['reading']} reading, "
+                     f"{stats['bytes_read'] / 2**20:.1f} MB read"
+                     + (", over budget: coarser where the pool has no room"
+                        if stats["over_budget"] else "")
+                     + (f", {stats['failed']} unreadable" if stats.get("failed") else ""))
+    return "; ".join(parts)
+
+
+def refine_step(server, session: TuningSession) -> bool:
+    """Redraw the page's image while streamed bricks arrive; True while some are missing.
+
+    The streaming line follows each redraw (resident, missing, reading bricks, bytes read).
+    """
+    plotter = session.plotter
+    streaming = any(getattr(b, "shown", True) and not b.converged
+                    for b in plotter.cubemarch.tracked if hasattr(b, "converged"))
+    if streaming:
+        server.controller.view_update()
+    text = streaming_text(plotter)
+    if text != server.state.streaming:
+        with server.state as state:
+            state.streaming = text
+    return streaming
+
+
+async def refine_while_streaming(server, session: TuningSession) -> None:
+    """Every :data:`REFINE_S`: :func:`refine_step` (a frame never waits for a read)."""
+    while True:
+        await asyncio.sleep(REFINE_S)
+        refine_step(server, session)
 
 
 def _bind(server, session: TuningSession, kind: str, knob: Knob) -> None:
@@ -193,6 +242,8 @@ def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size, show
             vuetify3.VBtn("measure error", id="measure-error", click=server.controller
                           .measure_error, classes="ma-2", size="small")
             html.Div("{{ error_text }}", id="error-text", classes="ma-2 text-caption")
+            html.Div("{{ streaming }}", id="streaming", classes="ma-2 text-caption",
+                     v_show="streaming")
             html.Div("{{ message }}", id="message", classes="ma-2 text-caption text-error")
         with layout.content:
             with html.Div(id="view-box", style=f"width:{size[0]}px;height:{size[1]}px;"

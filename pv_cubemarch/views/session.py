@@ -26,6 +26,7 @@ from ..models.surface import SplineField
 from ..models.voxels import VoxelModel, label_legend
 from ..models.world import VoxelWorld
 from ..scene.model import Scene
+from ..voxels.paged_labels import PagedLabels
 from .knobs import Knob, surface_knobs, volume_knobs, voxel_knobs
 
 #: The kinds of items, in panel order.
@@ -373,11 +374,13 @@ def adoptable_actors(plotter: pyvista.Plotter) -> list[tuple[str, object, int]]:
     """``(name, actor, renderer index)`` of each of our techniques' actors in ``plotter``.
 
     Actors a binding draws for another one (the direct half of an ``auto`` volume, a
-    world's chunks: their binding's ``actor`` is that other one's) are left out.
+    world's chunks: their binding's ``actor`` is that other one's) are left out, and label
+    grids streamed by bricks (drawn as they are, as meshes: no knob re-adds them yet).
     """
     return [(name, actor, index) for index, renderer in enumerate(plotter.renderers)
             for name, actor in renderer.actors.items()
             if getattr(getattr(actor, "cubemarch", None), "model", None) is not None
+            and not isinstance(actor.cubemarch.model, PagedLabels)
             and getattr(actor.cubemarch, "actor", actor) is actor]
 
 
