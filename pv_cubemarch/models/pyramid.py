@@ -82,7 +82,8 @@ def build_pyramid(source, store, *, levels: int | None = None, chunk_size: int =
         with ``shape``, ``dtype`` and slicing), or a multiscale source whose finest level
         is used. Read a chunk at a time.
     store : str, pathlib.Path or zarr store
-        Where the image goes (a directory path makes a local store).
+        Where the image goes: a directory path makes a local store, a URL
+        (``s3://...``, ``memory://...``) an fsspec store.
     levels : int, optional
         Levels written, the finest included. Default: until the coarsest fits one chunk.
     chunk_size : int
@@ -153,7 +154,9 @@ def build_pyramid(source, store, *, levels: int | None = None, chunk_size: int =
         translations=[list(reversed(base_translation + (f - 1.0) / 2.0 * base_scale))
                       for f in factors],
         name=name, multiscale_type=f"{method} of 2x2x2 blocks")
-    if isinstance(store, str) or hasattr(store, "__fspath__"):
+    if isinstance(store, str) and "://" in store:   # fsspec: s3://, gs://, memory://, ...
+        store = zarr.storage.FsspecStore.from_url(store, read_only=False)
+    elif isinstance(store, str) or hasattr(store, "__fspath__"):
         store = zarr.storage.LocalStore(str(store))
     group = image.to_zarr(store, path="", overwrite=overwrite)
     level = da.from_array(_Points(finest), chunks=(chunk_size,) * 3)
