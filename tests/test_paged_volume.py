@@ -528,8 +528,8 @@ def test_the_pool_holds_what_its_budget_allows(budget, want):
 def test_a_pyramid_in_an_fsspec_store_is_written_and_drawn_from_its_url(tmp_path):
     # fsspec's in-memory filesystem stands for remote ones (s3://, gs://, http: the same
     # FsspecStore path in zarr, no network here). catches (seen failing): a URL taken for
-    # a local directory by build_pyramid (a folder named "memory:" written in the cwd, and
-    # nothing at the URL: GroupNotFoundError when drawn).
+    # a local directory by build_pyramid (a folder named "memory:" written in the cwd,
+    # nothing at the URL).
     fsspec = pytest.importorskip("fsspec")
     url = f"memory://cubemarch-{tmp_path.name}/blob.ome.zarr"
     local = tmp_path / "blob.ome.zarr"
