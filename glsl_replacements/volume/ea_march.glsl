@@ -68,7 +68,7 @@ vec4 cm_emission(vec3 texturePosition)
   return emission;
 }
 
-#ifdef CM_SKIP_EMPTY
+#if defined(CM_SKIP_EMPTY) && !defined(CM_PAGED_LEVELS)   // paged: paged_sample.glsl's
 uniform sampler3D cm_brickExtinction;  // per brick: largest extinction its data can reach
 uniform vec3 cm_brickCount;            // bricks along x, y, z
 uniform float cm_brickSize;            // points per brick edge

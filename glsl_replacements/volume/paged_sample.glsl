@@ -5,6 +5,19 @@
 // one that is (the coarsest level always is: never a hole). Each resident brick fills one
 // slot of cm_pool with one point of its neighbours around it, so a trilinear read inside
 // the slot is the level's own. Defines the cm_sampleScalar the marcher reads.
+#ifdef CM_SKIP_EMPTY
+uniform float cm_pagedEmptyValue;  // a value of zero extinction: what an empty brick reads
+#endif
+
+// The brick of `level` a sample at finest-level point `finest` reads, in that level's bricks.
+vec3 cm_pagedBrick(vec3 finest, int level)
+{
+  vec3 points = cm_levelTexel(level, 2).xyz;
+  vec3 point = clamp(finest * cm_levelTexel(level, 0).xyz + cm_levelTexel(level, 1).xyz,
+                     vec3(0.0), points - 1.0);
+  return min(floor(point / cm_brickPoints), ceil(points / cm_brickPoints) - 1.0);
+}
+
 float cm_sampleScalar(vec3 texturePosition)
 {
   vec3 finest = texturePosition * cm_levelTexel(0, 2).xyz - 0.5;
@@ -18,6 +31,12 @@ float cm_sampleScalar(vec3 texturePosition)
     if (slot >= 0)
     {
       ivec3 slots = ivec3(cm_poolSlots + 0.5);
+#ifdef CM_SKIP_EMPTY
+      if (slot >= slots.x * slots.y * slots.z)   // a brick of zero extinction: no slot
+      {
+        return cm_pagedEmptyValue;
+      }
+#endif
       ivec3 where = ivec3(slot % slots.x, (slot / slots.x) % slots.y, slot / (slots.x * slots.y));
       float side = cm_brickPoints + 2.0;
       vec3 texel = vec3(where) * side + 1.5 + (point - brick * cm_brickPoints);
@@ -26,6 +45,59 @@ float cm_sampleScalar(vec3 texturePosition)
   }
   return 0.0;   // not reached: the coarsest level is resident
 }
+
+#ifdef CM_SKIP_EMPTY
+// Empty-space skipping (ea_march.glsl's hooks): a brick whose values, apron included, all
+// map to zero extinction has no slot, its page entry says so. A sample is empty where the
+// brick it reads is; the ray may then leave, in one step, the box where that stays true:
+// the brick of the level it chose and of every level it fell back through (not resident:
+// the next coarser read instead), down to the empty one.
+int cm_skipFirst = 0;   // the levels cm_brickIsEmpty went through, first and last
+int cm_skipLast = 0;
+
+bool cm_brickIsEmpty(vec3 position)
+{
+  vec3 finest = position * cm_levelTexel(0, 2).xyz - 0.5;
+  ivec3 slots = ivec3(cm_poolSlots + 0.5);
+  cm_skipFirst = cm_pagedLevelAtPoint(finest);
+  for (int level = cm_skipFirst; level < CM_PAGED_LEVELS; ++level)
+  {
+    int slot = cm_brickSlot(level, cm_pagedBrick(finest, level));
+    if (slot >= 0)
+    {
+      cm_skipLast = level;
+      return slot >= slots.x * slots.y * slots.z;
+    }
+  }
+  return false;
+}
+
+// Steps (of stepVector, from entry) to where the ray leaves the box cm_brickIsEmpty found
+// empty at step t: the nearest exit of the bricks it went through, as finest-level points
+// (level point = finest point a + b, so a brick's [kB, (k + 1)B) is (kB - b) / a ...).
+float cm_brickExitSteps(vec3 entry, vec3 stepVector, float t)
+{
+  vec3 dims = cm_levelTexel(0, 2).xyz;
+  vec3 origin = entry * dims - 0.5;
+  vec3 direction = stepVector * dims;
+  vec3 finest = origin + direction * (t + 0.5);
+  vec3 moving = step(vec3(1e-30), abs(direction));
+  vec3 safe = mix(vec3(1.0), direction, moving);
+  float exit = 1e30;
+  for (int level = cm_skipFirst; level <= cm_skipLast; ++level)
+  {
+    vec3 a = cm_levelTexel(level, 0).xyz;
+    vec3 b = cm_levelTexel(level, 1).xyz;
+    vec3 brick = cm_pagedBrick(finest, level);
+    vec3 low = (brick * cm_brickPoints - b) / a;
+    vec3 high = ((brick + 1.0) * cm_brickPoints - b) / a;
+    vec3 side = mix(low, high, step(vec3(0.0), direction));
+    vec3 steps = mix(vec3(1e30), (side - origin) / safe, moving);
+    exit = min(exit, min(steps.x, min(steps.y, steps.z)));
+  }
+  return exit;
+}
+#endif
 
 // The level a sample at `texturePosition` reads first, as cm_sampleScalar chooses it.
 int cm_pagedLevelAt(vec3 texturePosition)

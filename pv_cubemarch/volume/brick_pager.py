@@ -20,6 +20,7 @@ from ..gl.sub_upload import sub_image_available
 from ..gl.textures import Texture
 from ..models.brick_cache import HOST_BYTES, BrickCache, brick_counts, read_brick
 from .page_table import PageTable
+from .skipping import range_extinction, transparent_value
 
 #: Default GPU budget of the brick pool (bytes).
 GPU_BYTES = 256 * 2**20
@@ -98,6 +99,11 @@ class BrickPager:
                                 HOST_BYTES if host_bytes is None else host_bytes, threads,
                                 self.apron, self.prepare)
         self.table = PageTable(self.counts, self.capacity, self.page_blocks())
+        transfer = getattr(model, "transfer", None)
+        #: A value read as "nothing here" (zero extinction), when the transfer function has
+        #: one: bricks whose values all map to zero extinction then take no slot, and the
+        #: marcher leaves them in one step.
+        self.empty_value = None if transfer is None else transparent_value(transfer)
         side = self.brick + 2 * self.apron
         self.pool = Texture(np.zeros([n * side for n in self.slots], np.float32, order="F"),
                             kind="3d",
@@ -128,6 +134,17 @@ class BrickPager:
         self.uploaded_bytes = 0
         for key in sorted(self.pinned):   # before the first frame: never a hole
             self._place(key, self.read_now(key))
+
+    def nothing_drawn(self, values: np.ndarray) -> bool:
+        """Whether a read brick draws nothing: empty, or every value (apron included) maps
+        to zero extinction through the volume's transfer function."""
+        if not values.size:
+            return True
+        if self.empty_value is None:
+            return False
+        low, high = float(values.min()), float(values.max())
+        return bool(np.isfinite(low) and np.isfinite(high)
+                    and range_extinction(low, high, self.model.transfer) <= 0.0)
 
     def page_blocks(self) -> int | None:
         """Blocks the page table holds (None: as many as the pool has slots)."""
@@ -171,7 +188,7 @@ class BrickPager:
         slot = 0
         for key in sorted(self.pinned):
             values = self.read_now(key)
-            if values.size:
+            if not self.nothing_drawn(values):
                 self._write_slot(pool, slot, values)
                 self._mark(key, slot)
                 slot += 1
@@ -222,9 +239,9 @@ class BrickPager:
 
         The free slots and this frame's eviction order are kept between calls
         (:meth:`_victims`), so placing many bricks costs no scan of the pool per brick.
-        An empty ``values`` (nothing to draw) takes no slot.
+        A brick that draws nothing (:meth:`nothing_drawn`) takes no slot.
         """
-        if not values.size:
+        if self.nothing_drawn(values):
             return self._mark_empty(key, keep)
         if self._free:
             slot = self._free.pop()
@@ -405,6 +422,8 @@ def bind_pool(target, pager: BrickPager, world_from_point) -> None:
 
     target.set_uniform("cm_pagedEye", eye)
     target.set_uniform("cm_lodFootprint", pager.footprint)
+    if pager.empty_value is not None:
+        target.set_uniform("cm_pagedEmptyValue", float(pager.empty_value))
 
 
 

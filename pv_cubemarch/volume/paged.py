@@ -188,7 +188,7 @@ def bind_paged_sampling(target, data: PagedData, step_scale: float,
     target.add_texture("cm_transferTable", data.tables[0])
     target.set_uniform("cm_clim", model.transfer.clim)
     bind_pool(target, pager, model.world_from_point)
-    return {**march_defines(model, False), **data.clip.defines,
+    return {**march_defines(model, pager.empty_value is not None), **data.clip.defines,
             "CM_PAGED_LEVELS": len(pager.levels)}
 
 

@@ -59,6 +59,28 @@ def brick_extinction(values: np.ndarray, transfer: TransferFunction,
     return result.astype(np.float32)
 
 
+def range_extinction(low: float, high: float, transfer: TransferFunction) -> float:
+    """Largest extinction any value in ``[low, high]`` reads through ``transfer``'s table.
+
+    As :func:`brick_extinction` for one brick (rows from the floor of the lowest to the
+    ceiling of the highest, values clamped to ``clim``).
+    """
+    lo, hi = transfer.clim
+    rows = transfer.n_colors - 1
+    first = int(np.floor(np.clip((low - lo) / (hi - lo), 0, 1) * rows))
+    last = int(np.ceil(np.clip((high - lo) / (hi - lo), 0, 1) * rows))
+    return float(np.max(transfer.table[first:last + 1, 3]))
+
+
+def transparent_value(transfer: TransferFunction) -> float | None:
+    """A value whose table row has zero extinction (None: every row has some)."""
+    rows = np.flatnonzero(transfer.table[:, 3] <= 0)
+    if not rows.size:
+        return None
+    lo, hi = transfer.clim
+    return float(lo + rows[0] / (transfer.n_colors - 1) * (hi - lo))
+
+
 def empty_fraction(bricks: np.ndarray) -> float:
     """Share of bricks the marcher can skip."""
     return float((bricks <= 0).mean())
