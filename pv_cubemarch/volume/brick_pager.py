@@ -137,7 +137,8 @@ class BrickPager:
 
     def nothing_drawn(self, values: np.ndarray) -> bool:
         """Whether a read brick draws nothing: empty, or every value (apron included) maps
-        to zero extinction through the volume's transfer function."""
+        to zero extinction through the volume's transfer function.
+        """
         if not values.size:
             return True
         if self.empty_value is None:
