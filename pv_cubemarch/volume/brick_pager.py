@@ -136,8 +136,9 @@ class BrickPager:
             self._place(key, self.read_now(key))
 
     def nothing_drawn(self, values: np.ndarray) -> bool:
-        """Whether a read brick draws nothing: empty, or every value (apron included) maps
-        to zero extinction through the volume's transfer function.
+        """Whether a read brick draws nothing: empty, or all zero extinction.
+
+        Every value, apron included, mapped through the volume's transfer function.
         """
         if not values.size:
             return True
