@@ -54,6 +54,7 @@ from .volume.options import (
     DEFAULT_STOP_OPACITY,
     INTERPOLATION,
     CommonVolumeOptions,
+    CubeMapOptions,
     DirectOptions,
 )
 from .volume.paged import (
@@ -514,7 +515,8 @@ PAGED_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors"
                   "interpolation", "lod_bias", "gpu_bytes", "host_bytes", "brick_size",
                   "blending", "skip_empty", "show_scalar_bar", "scalar_bar_args",
                   "annotations", "preference", "light_map_size", "light_map_ambient",
-                  "nan_policy", "multi_colors")
+                  "nan_policy", "multi_colors", "face_size", "max_samples", "upscale",
+                  "sample_factor", "occlusion_sharpness")
 
 
 def is_multiscale_input(volume) -> bool:
@@ -547,14 +549,20 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     if given["user_matrix"] is not None and given["transform"] is not None:
         raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")
     check_paging(given)
-    if given["technique"] not in ("vtk", "direct", "auto"):
+    if given["technique"] not in ("vtk", "direct", "auto", "cubemap"):
         refused.insert(0, f"technique={given['technique']!r}")
+    cube = given["technique"] == "cubemap"
+    marcher = {key: given[key] for key in ("face_size", "max_samples", "upscale",
+                                            "sample_factor", "occlusion_sharpness")
+               if not left_out(key, given[key])}
+    if marcher and not cube:
+        refused += sorted(marcher)
     if given["blending"] != "composite":
         refused.append(f"blending={given['blending']!r}")
     if refused:
-        raise ValueError(f"A multiscale source is drawn by the direct marcher reading a brick "
-                         f"pool (blending='composite'); {', '.join(refused)} "
-                         "cannot be used with it.")
+        raise ValueError(f"A multiscale source is drawn by the direct marcher or the cube map "
+                         f"(technique='cubemap') reading a brick pool (blending='composite'); "
+                         f"{', '.join(refused)} cannot be used with it.")
     transform = given["transform"] if given["user_matrix"] is None else given["user_matrix"]
     if isinstance(source, PagedVolume):   # added again (the live view): as it was, but what
         made = source                     # this call changes
@@ -576,8 +584,14 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     model = PagedVolume(source, transfer, np.eye(4) if transform is None
                         else checked_transform(transform), given["name"] or source.name,
                         interpolation, paging)
-    options = DirectOptions(**({} if given["step_scale"] is None
-                               else {"step_scale": given["step_scale"]}))
+    if cube:
+        if given["step_scale"] is not None:
+            raise ValueError("step_scale is the direct marcher's; the cube map steps "
+                             "max_samples along the volume's diagonal.")
+        options = CubeMapOptions(**marcher)
+    else:
+        options = DirectOptions(**({} if given["step_scale"] is None
+                                   else {"step_scale": given["step_scale"]}))
     options.check_model(model)
     shading = CommonVolumeOptions(given["stop_opacity"], False)
     shading.check()
@@ -587,8 +601,8 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
                        GPU_BYTES if paging["gpu_bytes"] is None else paging["gpu_bytes"],
                        paging["host_bytes"],
                        lod_bias=0.0 if paging["lod_bias"] is None else paging["lod_bias"])
-    binding = build_paged_actor(plotter, PagedData(model, pager),
-                                VolumeSetup(options, shading, None))
+    build = get_technique("volume", "cubemap").build if cube else build_paged_actor
+    binding = build(plotter, PagedData(model, pager), VolumeSetup(options, shading, None))
     binding.light_map = None
     actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
     actor.SetPickable(bool(given["pickable"]))

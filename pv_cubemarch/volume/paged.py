@@ -93,8 +93,8 @@ class PagedData:
         self.pager.release()
 
 
-class PagedBinding(DirectBinding):
-    """A paged volume on its box: the direct marcher reading the brick pool."""
+class Streamed:
+    """What a volume streamed by bricks adds to its technique's binding (mixed in first)."""
 
     @property
     def pager(self) -> BrickPager:
@@ -144,11 +144,28 @@ class PagedBinding(DirectBinding):
                              "source is drawn with blending='composite' only.")
 
     def release_resources(self) -> None:
-        """Stop the per-frame choice, then what a direct volume frees (the pager too)."""
+        """Stop the per-frame choice, then what its technique frees (the pager too)."""
         if getattr(self, "_pager_tag", None) is not None:
-            self.bindings.renderer.RemoveObserver(self._pager_tag)
+            self._pager_renderer.RemoveObserver(self._pager_tag)
             self._pager_tag = None
         super().release_resources()
+
+
+class PagedBinding(Streamed, DirectBinding):
+    """A paged volume on its box: the direct marcher reading the brick pool."""
+
+
+def follow_pager(plotter, binding, pager: BrickPager) -> None:
+    """Choose and upload bricks at the start of each frame of the plotter's renderer.
+
+    Before any pass reads the pool; nothing while ``binding`` is hidden. An interactive
+    window redraws by itself while bricks arrive (:func:`refine_while_shown`).
+    """
+    binding._pager_renderer = plotter.renderer
+    binding._pager_tag = observe(plotter.renderer, vtk.vtkCommand.StartEvent, pager.frame,
+                                 4.0)
+    pager.shown = lambda: binding.shown
+    refine_while_shown(plotter, binding)
 
 
 #: Milliseconds between the redraws of a window whose streamed volume still misses bricks.
@@ -210,9 +227,7 @@ def build_paged_actor(plotter, data: PagedData, setup: VolumeSetup) -> PagedBind
     binding.follow_multisampling()
     binding._tag = observe(renderer, vtk.vtkCommand.StartEvent,
                            binding.follow_multisampling, 5.0)
-    binding._pager_tag = observe(renderer, vtk.vtkCommand.StartEvent, data.pager.frame, 4.0)
-    data.pager.shown = lambda: binding.shown
-    refine_while_shown(plotter, binding)
+    follow_pager(plotter, binding, data.pager)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
 

@@ -19,9 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pyvista
-import vtk
 
-from ..core.frame_errors import observe
 from ..gl.bindings import ShaderBindings
 from ..gl.box import box_actor, place_box
 from ..gl.handle import DrawnBinding
@@ -33,7 +31,7 @@ from ..models.multiscale import MultiscaleSource
 from ..models.volume import box_world_bounds
 from ..models.voxels import palette_texels
 from ..volume.brick_pager import BrickPager, bind_pool
-from ..volume.paged import refine_while_shown
+from ..volume.paged import follow_pager
 from .options import VoxelOptions
 from .technique import bind_grid
 
@@ -248,7 +246,7 @@ class PagedLabelsBinding(DrawnBinding):
     def release_resources(self) -> None:
         """Stop the per-frame choice and the reads; free the pool, tables and palette."""
         if self._pager_tag is not None:
-            self.renderer.RemoveObserver(self._pager_tag)
+            self._pager_renderer.RemoveObserver(self._pager_tag)
             self._pager_tag = None
         self.pager.release()
         self.bindings.release()
@@ -272,8 +270,6 @@ def build_paged_labels(plotter, model: PagedLabels, options: VoxelOptions,
     binding = PagedLabelsBinding(model, pager, bindings, recipe, options)
     binding.drawn = [actor]
     binding.renderer = renderer
-    binding._pager_tag = observe(renderer, vtk.vtkCommand.StartEvent, pager.frame, 4.0)
-    pager.shown = lambda: binding.shown
-    refine_while_shown(plotter, binding)
+    follow_pager(plotter, binding, pager)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding

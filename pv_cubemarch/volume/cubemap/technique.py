@@ -42,6 +42,7 @@ from ..binding import (
     world_from_texture,
 )
 from ..options import CubeMapOptions, default_max_samples
+from ..paged import PagedData, Streamed, bind_paged_sampling, follow_pager
 from .lod import LodChoice, choose_lod, cube_corners, project_corners, visible_face_mask
 
 CUBE_TARGETS = ("rgba16f", "r32f")  # colour (premultiplied), the view distance of each ray
@@ -137,8 +138,9 @@ def _outside_frustum(clip_from_local: np.ndarray) -> bool:
     return False
 
 
-def _pass_snippets(lit: bool, sampling: str, blending: str, defines: dict) -> tuple[str, ...]:
-    return ("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
+def _pass_snippets(lit: bool, sampling: tuple[str, ...], blending: str,
+                   defines: dict) -> tuple[str, ...]:
+    return ("pass_head", *DECLARATION_SNIPPETS, *sampling, *SCREEN_DECLARATIONS,
             *march_snippets(blending, defines), *(("light_sample",) if lit else ()),
             "pixel_ray", "screen_ray", "cube_faces", "cube_march_main")
 
@@ -169,8 +171,13 @@ def build_cubemap_actor(plotter, data: VolumeData, setup: VolumeSetup):
     cube_pass = RenderToTexturePass(overlay.renderer, None, size=frame.atlas_size,
                                     targets=CUBE_TARGETS, run_when=frame.update,
                                     grow_only=True)
-    sampling, defines = bind_sampling(cube_pass, data, 1.0, shading.stop_opacity,
-                                      shading.skip_empty, blend=shading.blend)
+    if isinstance(data, PagedData):   # a multiscale source: its brick pool
+        sampling = ("paged_bricks", "paged_sample")
+        defines = bind_paged_sampling(cube_pass, data, 1.0, shading.stop_opacity)
+    else:
+        sampling, defines = bind_sampling(cube_pass, data, 1.0, shading.stop_opacity,
+                                          shading.skip_empty, blend=shading.blend)
+        sampling = (sampling,)
     cube_pass.set_uniform("cm_stepScale", lambda: frame.step_scale)
     cube_pass.add_texture("cm_sceneDepth", FramebufferDepth())
     cube_pass.set_uniform("cm_viewFromTexture",
@@ -200,8 +207,9 @@ def build_cubemap_actor(plotter, data: VolumeData, setup: VolumeSetup):
     bind_camera(bindings, main, lambda: world_from_texture(model))
     recipe = resample_recipe(frame_inputs(main).has_opaque_props())
     bindings.install(recipe, actor)
-    binding = CubeMapBinding(model, data, bindings, recipe, frame, cube_pass, light_map,
-                             shading.stop_opacity)
+    kind = PagedCubeMapBinding if isinstance(data, PagedData) else CubeMapBinding
+    binding = kind(model, data, bindings, recipe, frame, cube_pass, light_map,
+                   shading.stop_opacity)
     binding.drawn = [actor]
     frame.on_update = binding.follow_occluders
     cube_pass.run_when = lambda: binding.shown and frame.update()
@@ -209,6 +217,8 @@ def build_cubemap_actor(plotter, data: VolumeData, setup: VolumeSetup):
     overlay.add_user(actor)
     binding.extra_release = [cube_pass.release, lambda: overlay.remove_actor(actor),
                              lambda: overlay.release_user(actor)]
+    if isinstance(data, PagedData):
+        follow_pager(plotter, binding, data.pager)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
 
@@ -267,6 +277,10 @@ class CubeMapBinding(VolumeBinding):
     def nbytes(self) -> int:
         """All GPU bytes the volume holds."""
         return sum(self.memory.values())
+
+
+class PagedCubeMapBinding(Streamed, CubeMapBinding):
+    """A multiscale volume's cube map: its rays read the brick pool."""
 
 
 def _describe(setting: dict) -> str:
