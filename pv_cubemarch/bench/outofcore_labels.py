@@ -2,7 +2,7 @@
 
 ``labels`` (by default 16384 x 16384 x 4096 uint32 ids, 4 TiB) and ``labels-small`` (the
 same field, 384³: drawn whole in memory by ``add_voxels`` too, the image every row is
-compared with, pixel by pixel). The field: cells of a lattice (48 voxels a side), each filled
+compared with, pixel by pixel). The field: cells of a lattice (45 voxels a side), each filled
 with an id hashed from its position where a few octaves of waves at its centre are positive,
 else empty, computed when sliced, never stored. A coarse level's point holds the id at the
 centre of its block, a real label (the most frequent id would mean reading the whole block;
@@ -21,8 +21,10 @@ from ..models.multiscale import Level, MultiscaleSource
 from .outofcore_rows import OutOfCoreRow, place_camera, rss_mb, stream_row
 
 LABEL_SCENES = ("labels", "labels-small")
-#: Voxels along a lattice cell's edge.
-CELL = 48
+#: Voxels along a lattice cell's edge: no power of two divides it, so the cells' borders
+#: fall inside coarse voxels (a multiple of the levels' factors would make every level
+#: draw the finest image exactly).
+CELL = 45
 
 
 class CellLevel:
