@@ -18,29 +18,51 @@ vec3 cm_pagedBrick(vec3 finest, int level)
   return min(floor(point / cm_brickPoints), ceil(points / cm_brickPoints) - 1.0);
 }
 
+// The value of level `level` at finest-level point `finest`, from its brick in `slot`.
+float cm_readSlot(vec3 finest, int level, int slot)
+{
+  vec3 points = cm_levelTexel(level, 2).xyz;
+  vec3 point = clamp(finest * cm_levelTexel(level, 0).xyz + cm_levelTexel(level, 1).xyz,
+                     vec3(0.0), points - 1.0);
+  vec3 brick = min(floor(point / cm_brickPoints), ceil(points / cm_brickPoints) - 1.0);
+  ivec3 slots = ivec3(cm_poolSlots + 0.5);
+  ivec3 where = ivec3(slot % slots.x, (slot / slots.x) % slots.y, slot / (slots.x * slots.y));
+  float side = cm_brickPoints + 2.0;
+  vec3 texel = vec3(where) * side + 1.5 + (point - brick * cm_brickPoints);
+  return texture(cm_pool, texel / (cm_poolSlots * side)).r;
+}
+
+#ifdef CM_SKIP_EMPTY
+// What cm_brickIsEmpty found last: where, and the level and slot whose brick answered. The
+// marcher asks it at the very position it then samples: the sample reuses the lookup.
+vec3 cm_checkedAt = vec3(-1e30);
+int cm_checkedLevel = 0;
+int cm_checkedSlot = -1;
+#endif
+
 float cm_sampleScalar(vec3 texturePosition)
 {
   vec3 finest = texturePosition * cm_levelTexel(0, 2).xyz - 0.5;
+  ivec3 slots = ivec3(cm_poolSlots + 0.5);
+#ifdef CM_SKIP_EMPTY
+  if (all(equal(texturePosition, cm_checkedAt)) && cm_checkedSlot >= 0)
+  {
+    return cm_checkedSlot >= slots.x * slots.y * slots.z ? cm_pagedEmptyValue
+        : cm_readSlot(finest, cm_checkedLevel, cm_checkedSlot);
+  }
+#endif
   for (int level = cm_pagedLevelAtPoint(finest); level < CM_PAGED_LEVELS; ++level)
   {
-    vec3 points = cm_levelTexel(level, 2).xyz;
-    vec3 point = clamp(finest * cm_levelTexel(level, 0).xyz + cm_levelTexel(level, 1).xyz,
-                       vec3(0.0), points - 1.0);
-    vec3 brick = min(floor(point / cm_brickPoints), ceil(points / cm_brickPoints) - 1.0);
-    int slot = cm_brickSlot(level, brick);
+    int slot = cm_brickSlot(level, cm_pagedBrick(finest, level));
     if (slot >= 0)
     {
-      ivec3 slots = ivec3(cm_poolSlots + 0.5);
 #ifdef CM_SKIP_EMPTY
       if (slot >= slots.x * slots.y * slots.z)   // a brick of zero extinction: no slot
       {
         return cm_pagedEmptyValue;
       }
 #endif
-      ivec3 where = ivec3(slot % slots.x, (slot / slots.x) % slots.y, slot / (slots.x * slots.y));
-      float side = cm_brickPoints + 2.0;
-      vec3 texel = vec3(where) * side + 1.5 + (point - brick * cm_brickPoints);
-      return texture(cm_pool, texel / (cm_poolSlots * side)).r;
+      return cm_readSlot(finest, level, slot);
     }
   }
   return 0.0;   // not reached: the coarsest level is resident
@@ -59,6 +81,8 @@ bool cm_brickIsEmpty(vec3 position)
 {
   vec3 finest = position * cm_levelTexel(0, 2).xyz - 0.5;
   ivec3 slots = ivec3(cm_poolSlots + 0.5);
+  cm_checkedAt = position;
+  cm_checkedSlot = -1;
   cm_skipFirst = cm_pagedLevelAtPoint(finest);
   for (int level = cm_skipFirst; level < CM_PAGED_LEVELS; ++level)
   {
@@ -66,6 +90,8 @@ bool cm_brickIsEmpty(vec3 position)
     if (slot >= 0)
     {
       cm_skipLast = level;
+      cm_checkedLevel = level;
+      cm_checkedSlot = slot;
       return slot >= slots.x * slots.y * slots.z;
     }
   }
