@@ -600,7 +600,8 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
                        BRICK_POINTS if paging["brick_size"] is None else paging["brick_size"],
                        GPU_BYTES if paging["gpu_bytes"] is None else paging["gpu_bytes"],
                        paging["host_bytes"],
-                       lod_bias=0.0 if paging["lod_bias"] is None else paging["lod_bias"])
+                       lod_bias=0.0 if paging["lod_bias"] is None else paging["lod_bias"],
+                       skip_empty=bool(given["skip_empty"]))
     build = get_technique("volume", "cubemap").build if cube else build_paged_actor
     binding = build(plotter, PagedData(model, pager), VolumeSetup(options, shading, None))
     binding.light_map = None
@@ -620,8 +621,22 @@ def is_multiscale_labels(grid) -> bool:
         return True
     if isinstance(grid, str) or hasattr(grid, "__fspath__"):
         return str(grid).rstrip("/").endswith(".zarr")
+    # levels of 3 axes each (a list of 2D slices is one grid, stacked)
     return isinstance(grid, (list, tuple)) and bool(grid) and all(
-        is_array_source(v) or isinstance(v, np.ndarray) for v in grid)
+        (is_array_source(v) or isinstance(v, np.ndarray)) and len(np.shape(v)) == 3
+        for v in grid)
+
+
+def _same(value, default) -> bool:
+    """Whether a keyword was left at its default (arrays compared as values, no error)."""
+    if value is default:
+        return True
+    if isinstance(value, np.ndarray) or isinstance(default, np.ndarray):
+        return False
+    try:
+        return bool(type(value) is type(default) and value == default)
+    except (TypeError, ValueError):
+        return False
 
 
 #: What ``add_voxels`` reads for a multiscale label source (the rest is refused by name).
@@ -635,7 +650,7 @@ def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
     defaults = {key: value.default for key, value in inspect.signature(
         add_voxels).parameters.items()}
     refused = sorted(key for key, value in given.items() if key not in PAGED_LABEL_KEYWORDS
-                     and value is not None and value != defaults.get(key))
+                     and value is not None and not _same(value, defaults.get(key)))
     if refused:
         raise ValueError(f"A multiscale label source is streamed by bricks and drawn opaque "
                          f"by the exact traversal; {', '.join(refused)} cannot be used with "
@@ -654,6 +669,7 @@ def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
     if isinstance(source, PagedLabels):   # added again: as it was, but what this call changes
         model = dataclasses.replace(
             source, palette=source.palette if palette is None else palette,
+            background=source.background if given["background"] == 0 else given["background"],
             transform=source.transform if transform is None else checked_transform(transform),
             paging={k: given[k] if given[k] is not None else source.paging.get(k)
                     for k in source.paging})
@@ -1166,6 +1182,12 @@ def add_voxels(
         given = {key: value for key, value in locals().items()
                  if key not in ("plotter", "grid", "kwargs", "lighting")}
         return _add_paged_labels(plotter, grid, given)
+    streaming = [key for key, value in (("gpu_bytes", gpu_bytes), ("host_bytes", host_bytes),
+                                        ("brick_size", brick_size)) if value is not None]
+    if streaming:
+        raise ValueError(f"{', '.join(streaming)}: for multiscale label sources (an OME-Zarr "
+                         "pyramid, a list of levels) streamed by bricks; this grid is read "
+                         "whole (or by chunks: chunk_size=).")
     chosen = get_technique("voxels", "voxels")
     options = voxel_options(traversal=traversal, step_scale=step_scale, mip_levels=mip_levels,
                             distance_field=distance_field, mode=mode, shading=shading,

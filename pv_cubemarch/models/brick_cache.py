@@ -50,6 +50,11 @@ def read_brick(source: MultiscaleSource, key, brick: int, apron: int = 1,
         else np.ascontiguousarray(values)
 
 
+def _held_bytes(values: np.ndarray) -> int:
+    """What a held brick counts against the budget: its bytes, an empty one a key's worth."""
+    return max(int(values.nbytes), 128)
+
+
 class BrickCache:
     """Read bricks of ``source`` (``brick`` points a side) within ``host_bytes``.
 
@@ -147,12 +152,12 @@ class BrickCache:
         with self._lock:
             self._reading.pop(key, None)
             if key in self._cache:
-                self._held -= self._cache[key].nbytes
+                self._held -= _held_bytes(self._cache[key])
             self._cache[key] = values
             self._cache.move_to_end(key)
-            self._held += values.nbytes
+            self._held += _held_bytes(values)
             while self._held > self.host_bytes and len(self._cache) > 1:
-                self._held -= self._cache.popitem(last=False)[1].nbytes
+                self._held -= _held_bytes(self._cache.popitem(last=False)[1])
             self._arrived.append(key)
             self.reads += 1
             self.bytes_read += read if self.prepare is not None else \

@@ -156,7 +156,11 @@ async def refine_while_streaming(server, session: TuningSession) -> None:
     """Every :data:`REFINE_S`: :func:`refine_step` (a frame never waits for a read)."""
     while True:
         await asyncio.sleep(REFINE_S)
-        refine_step(server, session)
+        try:
+            refine_step(server, session)
+        except Exception as error:   # said on the page; the next step tries again
+            with server.state as state:
+                state.message = f"streaming: {error}"
 
 
 def _bind(server, session: TuningSession, kind: str, knob: Knob) -> None:

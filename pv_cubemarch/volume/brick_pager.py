@@ -19,13 +19,15 @@ from ..gl.box import camera_matrices
 from ..gl.sub_upload import sub_image_available
 from ..gl.textures import Texture
 from ..models.brick_cache import HOST_BYTES, BrickCache, brick_counts, read_brick
-from .page_table import PageTable
+from .page_table import BLOCK, PageTable
 from .skipping import range_extinction, transparent_value
 
 #: Default GPU budget of the brick pool (bytes).
 GPU_BYTES = 256 * 2**20
 #: Default points along a brick's edge (its slot holds two more: the apron).
 BRICK_POINTS = 32
+#: Page-table blocks kept beyond the slots' for bricks marked empty (1 KiB each).
+EMPTY_BLOCKS = 1024
 #: Most brick bytes uploaded in one frame (the rest waits for the next frames).
 UPLOAD_BYTES_PER_FRAME = 64 * 2**20
 
@@ -77,7 +79,7 @@ class BrickPager:
 
     def __init__(self, model, renderer, brick: int = BRICK_POINTS,
                  gpu_bytes: int = GPU_BYTES, host_bytes: int | None = None,
-                 threads: int = 4, lod_bias: float = 0.0):
+                 threads: int = 4, lod_bias: float = 0.0, skip_empty: bool = True):
         self.model = model
         self.renderer = renderer
         self.brick = int(brick)
@@ -103,7 +105,8 @@ class BrickPager:
         #: A value read as "nothing here" (zero extinction), when the transfer function has
         #: one: bricks whose values all map to zero extinction then take no slot, and the
         #: marcher leaves them in one step.
-        self.empty_value = None if transfer is None else transparent_value(transfer)
+        self.empty_value = None if transfer is None or not skip_empty \
+            else transparent_value(transfer)
         side = self.brick + 2 * self.apron
         self.pool = Texture(np.zeros([n * side for n in self.slots], np.float32, order="F"),
                             kind="3d",
@@ -119,6 +122,9 @@ class BrickPager:
         #: Bricks with nothing to draw (``prepare`` gave an empty array): no slot, a mark in
         #: the page table.
         self.empty: set = set()
+        #: Empty bricks of this frame the page table had no block left to mark (drawn from
+        #: a coarser level; not counted missing, asked for again at the next choice).
+        self.unmarked: set = set()
         self.last_used = np.full(self.capacity, -1, np.int64)
         self._free = list(range(self.capacity - 1, -1, -1))   # popped from the end: 0 first
         self._victims = iter(())   # slots by last use, made when a frame must evict
@@ -148,9 +154,14 @@ class BrickPager:
         return bool(np.isfinite(low) and np.isfinite(high)
                     and range_extinction(low, high, self.model.transfer) <= 0.0)
 
-    def page_blocks(self) -> int | None:
-        """Blocks the page table holds (None: as many as the pool has slots)."""
-        return None
+    def page_blocks(self) -> int:
+        """Blocks the page table holds: the slots', the coarsest level's and a reserve.
+
+        The coarsest level's bricks may all be empty, marked without a slot; the reserve,
+        :data:`EMPTY_BLOCKS`, holds other empty marks.
+        """
+        return self.capacity + int(np.prod([-(-n // BLOCK) for n in self.counts[-1]])) \
+            + EMPTY_BLOCKS
 
     def read_now(self, key) -> np.ndarray:
         """Brick ``key`` read on this thread, as the cache would keep it."""
@@ -209,16 +220,19 @@ class BrickPager:
         side = self.brick + 2 * self.apron
         return (slot % x * side, slot // x % y * side, slot // (x * y) * side)
 
-    def _mark(self, key, slot: int) -> None:
+    def _mark(self, key, slot: int, keep: set | None = None) -> None:
         self.key_in[slot] = key
         self.slot_of[key] = slot
         self.last_used[slot] = self.frame_number
-        self._make_room(key)
+        if not self._make_room(key, keep) and not self._make_room(key):
+            raise RuntimeError(f"The page table has no block left for brick {key} "
+                               f"({self.table.block_capacity} blocks).")
         self.table.set(key, slot)
 
     def _mark_empty(self, key, keep: set | None = None) -> bool:
         """Brick ``key`` has nothing to draw: its entry says so (slot ``capacity``), no slot."""
         if not self._make_room(key, keep):
+            self.unmarked.add(key)
             return False
         self.empty.add(key)
         self.table.set(key, self.capacity)
@@ -258,7 +272,7 @@ class BrickPager:
             self.table.clear(old)
         self.pool.update_region(self._slot_origin(slot), values)
         self.uploaded_bytes += values.nbytes
-        self._mark(key, slot)
+        self._mark(key, slot, keep)
         return True
 
     def footprint(self) -> tuple[float, float]:
@@ -315,8 +329,11 @@ class BrickPager:
         finer = number - 1
         a, b = info[finer, 0, :3].astype(float), info[finer, 1, :3].astype(float)
         counts = np.asarray(self.counts[finer])
-        first = np.clip(np.floor((low * a + b) / self.brick), 0, counts - 1).astype(np.int64)
-        last = np.clip(np.floor((high * a + b) / self.brick), 0, counts - 1).astype(np.int64)
+        nearest = 0.0 if self.apron else 0.5   # no apron: a point reads its nearest cell
+        first = np.clip(np.floor((low * a + b + nearest) / self.brick), 0,
+                        counts - 1).astype(np.int64)
+        last = np.clip(np.floor((high * a + b + nearest) / self.brick), 0,
+                       counts - 1).astype(np.int64)
         if not len(first):
             return np.zeros((0, 3), np.int64)
         span = (last - first).max(axis=0) + 1
@@ -351,9 +368,11 @@ class BrickPager:
             return
         self._planned_for = view
         self.frame_number += 1
+        self.unmarked = set()
         wanted = self.wanted()
-        # within the pool's slots (bricks known to be empty take none)
-        taking = np.cumsum([key not in self.empty for key in wanted])
+        failed = self.cache.failed
+        # within the pool's slots (bricks known to be empty, or unreadable, take none)
+        taking = np.cumsum([key not in self.empty and key not in failed for key in wanted])
         self.over_budget = bool(len(wanted)) and int(taking[-1]) > self.capacity
         wanted = wanted[:int(np.searchsorted(taking, self.capacity, side="right"))]
         keep = set(wanted)
@@ -361,9 +380,9 @@ class BrickPager:
             slot = self.slot_of.get(key)
             if slot is not None:
                 self.last_used[slot] = self.frame_number
-        failed = self.cache.failed
         absent = [key for key in wanted if key not in self.slot_of and key not in self.empty
                   and key not in failed]
+        marked = len(self.empty)
         self.cache.request(absent)
         self.cache.arrived()
         self._victims = (int(s) for s in np.argsort(self.last_used, kind="stable"))
@@ -375,7 +394,11 @@ class BrickPager:
             if values is not None and self._place(key, values, keep):
                 sent += values.nbytes
         self.missing = sum(1 for key in wanted if key not in self.slot_of
-                           and key not in self.empty and key not in failed)
+                           and key not in self.empty and key not in failed
+                           and key not in self.unmarked)
+        if self.over_budget and (len(self.empty) != marked or self.unmarked):
+            # bricks cut from this frame's list may fit now that some turned out empty
+            self.missing = max(self.missing, 1)
 
     def retry(self) -> None:
         """Ask again, from the next frame, for the bricks whose read failed."""

@@ -35,9 +35,6 @@ from ..volume.paged import follow_pager
 from .options import VoxelOptions
 from .technique import bind_grid
 
-#: Page-table blocks a label pool keeps beyond its slots' (for bricks marked empty).
-EMPTY_BLOCKS = 1024
-
 
 @dataclass(eq=False)
 class PagedLabels:
@@ -101,6 +98,9 @@ class LabelPager(BrickPager):
                              f"{dtype}: give add_volume the source instead, or its labels.")
         self._lock = threading.Lock()
         self.background = int(model.background)
+        if not np.iinfo(dtype).min <= self.background <= np.iinfo(dtype).max:
+            raise ValueError(f"background={self.background} is not a {dtype} id: give one "
+                             f"from {np.iinfo(dtype).min} to {np.iinfo(dtype).max}.")
         # the ids met so far, sorted (the background first, row 0), and their rows
         self._keys = np.array([self.background], dtype)
         self._key_rows = np.zeros(1, np.float32)
@@ -111,11 +111,6 @@ class LabelPager(BrickPager):
         self._translucent_said = False
         super().__init__(model, renderer, *args, **kwargs)
         self.follow_ids()
-
-    def page_blocks(self) -> int:
-        """The slots' blocks, the coarsest level's and :data:`EMPTY_BLOCKS` for empty marks."""
-        return self.capacity + int(np.prod([-(-n // 8) for n in self.counts[-1]])) \
-            + EMPTY_BLOCKS
 
     def prepare(self, key, values: np.ndarray) -> np.ndarray:
         """A brick of ids as float32 rows; an empty array where all is background.
@@ -165,9 +160,11 @@ class LabelPager(BrickPager):
 
     def frame(self, *args) -> None:
         """The volume pager's frame, then the colours of ids the new bricks brought."""
-        super().frame(*args)
-        if self._ids.size > self.coloured_rows:
-            self.follow_ids()
+        try:
+            super().frame(*args)
+        finally:   # a read error is raised after this frame's uploads: their colours too
+            if self._ids.size > self.coloured_rows:
+                self.follow_ids()
 
     @property
     def ids(self) -> np.ndarray:
