@@ -256,3 +256,49 @@ def test_what_is_not_a_pyramid_or_not_an_id_is_said():
         cm.add_voxels(pl, [np.ones((8, 8, 8), np.uint8)],
                       clip_planes=np.array([0, 0, 4, 0, 0, 1.0]))
     pl.close()
+
+
+def test_an_ome_zarr_pyramid_is_placed_by_its_scales_and_translation(tmp_path):
+    # Voxel i of the finest level is centred on translation + i * scale (OME-Zarr places
+    # array elements at their centres): its box spans half a voxel either side. Derived
+    # here from the numbers given, not from the model. catches (seen failing): voxel
+    # boxes starting at the translation (half a voxel off), and the scale taken as the
+    # coarsest level's.
+    scale, origin = (0.5, 0.75, 2.0), (-3.0, 2.0, 5.0)
+    path = tmp_path / "placed.ome.zarr"
+    cm.build_pyramid(ball(), path, levels=3, chunk_size=16, method="mode", scale=scale,
+                     translation=origin, progress_bar=False)
+    pl = plotter()
+    actor = cm.add_voxels(pl, path)
+    low = np.asarray(origin) - 0.5 * np.asarray(scale)
+    high = np.asarray(origin) + (np.asarray(SHAPE) - 0.5) * np.asarray(scale)
+    assert np.allclose(actor.cubemarch.model.world_bounds(), np.ravel(np.c_[low, high]))
+    assert np.allclose(actor.GetBounds(), np.ravel(np.c_[low, high]), atol=0.01 * 45 * 2.0)
+    pl.close()
+
+
+def test_colours_follow_ids_met_over_many_frames_past_one_palette_row():
+    # 6000 distinct ids (past the palette texture's 4096-entry rows) arriving brick by
+    # brick: the streamed grid, converged at the finest level, draws every pixel the
+    # colour the same labels drawn whole get (the palette as add_voxels makes it for a
+    # numpy grid). catches (seen failing): new palette rows sent as a region past the
+    # texture's wrapped rows (refused: the palette must go up whole when it grows).
+    rng = np.random.default_rng(7)
+    shape = (40, 36, 32)
+    ids = rng.permutation(np.arange(1, 6001, dtype=np.uint32) * 7919)
+    labels = np.where(rng.random(shape) < 0.35, ids[rng.integers(0, 6000, shape)], 0)
+    labels = labels.astype(np.uint32)
+    images = []
+    for grid in (labels, [labels, labels[::2, ::2, ::2]]):
+        pl = plotter()
+        # a list's voxel i is centred on point i: the whole grid placed likewise
+        cm.add_voxels(pl, grid, shading="unlit",
+                      **(dict(transform=_index_placement()) if grid is labels
+                         else dict(lod_bias=-64, brick_size=4)))
+        look(pl, (90.0, -70.0, 80.0), focal=(20.0, 18.0, 16.0))
+        images.append(cm.render_image(pl, converge=True).astype(int))
+        pl.close()
+    assert int(images[1].any(axis=-1).sum()) > 2000
+    assert len(np.unique(images[1].reshape(-1, 3), axis=0)) > 500   # many ids in view
+    wrong = np.abs(images[0] - images[1]).max(axis=-1) > 2
+    assert wrong.mean() < 0.002, wrong.sum()

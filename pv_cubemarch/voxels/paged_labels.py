@@ -32,6 +32,7 @@ from ..models.volume import box_world_bounds
 from ..models.voxels import palette_texels
 from ..volume.brick_pager import BrickPager, bind_pool
 from ..volume.paged import follow_pager
+from .label_state import upload_palette_rows
 from .options import VoxelOptions
 from .technique import bind_grid
 
@@ -142,7 +143,7 @@ class LabelPager(BrickPager):
         return found[inverse.reshape(values.shape)]
 
     def follow_ids(self) -> None:
-        """Colours for the rows added since the last call, sent with the whole palette."""
+        """Colours for the rows added since the last call; only they go to the GPU."""
         with self._lock:
             ids = self._ids[self.coloured_rows:]
         if not ids.size:
@@ -155,8 +156,10 @@ class LabelPager(BrickPager):
             warnings.warn(f"Voxels {self.model.name!r}: labels streamed from a multiscale "
                           "source are drawn opaque; translucent ones too.", stacklevel=2)
         new[translucent, 3] = 1.0
+        first = len(self._rgba)
         self._rgba = np.vstack([self._rgba, new])
-        self.palette.set_data(palette_texels(self._rgba))
+        # only the new entries, where the table's texture has room for them
+        upload_palette_rows(self.palette, self._rgba, np.arange(first, len(self._rgba)))
 
     def frame(self, *args) -> None:
         """The volume pager's frame, then the colours of ids the new bricks brought."""
