@@ -138,8 +138,9 @@ class BrickPager:
         #: Whether the last frame wanted more bricks than the pool holds.
         self.over_budget = False
         self.uploaded_bytes = 0
-        for key in sorted(self.pinned):   # before the first frame: never a hole
-            self._place(key, self.read_now(key))
+        pinned = sorted(self.pinned)   # before the first frame: never a hole
+        for key, values in zip(pinned, self.read_pinned(pinned), strict=True):
+            self._place(key, values)
 
     def nothing_drawn(self, values: np.ndarray) -> bool:
         """Whether a read brick draws nothing: empty, or all zero extinction.
@@ -162,6 +163,10 @@ class BrickPager:
         """
         return self.capacity + int(np.prod([-(-n // BLOCK) for n in self.counts[-1]])) \
             + EMPTY_BLOCKS
+
+    def read_pinned(self, keys) -> list:
+        """The coarsest level's bricks, read on this thread before the first frame."""
+        return [self.read_now(key) for key in keys]
 
     def read_now(self, key) -> np.ndarray:
         """Brick ``key`` read on this thread, as the cache would keep it."""

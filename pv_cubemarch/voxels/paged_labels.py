@@ -25,6 +25,7 @@ from ..gl.box import box_actor, place_box
 from ..gl.handle import DrawnBinding
 from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
+from ..models.brick_cache import read_brick
 from ..models.label_colors import colors_by_id, hashed_colors
 from ..models.label_ids import MAX_IDS
 from ..models.multiscale import MultiscaleSource
@@ -113,6 +114,42 @@ class LabelPager(BrickPager):
         super().__init__(model, renderer, *args, **kwargs)
         self.follow_ids()
 
+    def read_pinned(self, keys) -> list:
+        """The coarsest level's bricks as rows, their new ids registered in one merge.
+
+        Brick by brick, a level of millions of distinct ids would insert into the sorted
+        table millions of times over (0.8 s of a first frame).
+        """
+        bricks = [read_brick(self.model.source, key, self.brick, 0, None) for key in keys]
+        found = [np.unique(values, return_inverse=True) for values in bricks]
+        every = np.sort(np.concatenate([ids for ids, _ in found])) if found else \
+            np.zeros(0, self._keys.dtype)
+        every = every[np.append(True, every[1:] != every[:-1])]   # sorted: runs of one id
+        self._register(every[every != self.background])
+        return [np.zeros(0, np.float32) if ids.size == 1 and int(ids[0]) == self.background
+                else self._key_rows[np.searchsorted(self._keys, ids)][
+                    inverse.reshape(values.shape)]
+                for (ids, inverse), values in zip(found, bricks, strict=True)]
+
+    def _register(self, ids: np.ndarray) -> None:
+        """Give the ids not met yet (sorted, background left out) the next rows."""
+        with self._lock:
+            at = np.searchsorted(self._keys, ids)
+            known = at < self._keys.size
+            known[known] = self._keys[at[known]] == ids[known]
+            new = ids[~known]
+            if not new.size:
+                return
+            if self._ids.size + new.size > MAX_IDS:
+                raise ValueError(f"More than {MAX_IDS} distinct label ids met: rows are "
+                                 "read from float32, exact to 2^24.")
+            rows = np.arange(self._ids.size + 1, self._ids.size + 1 + new.size,
+                             dtype=np.float32)
+            place = np.searchsorted(self._keys, new)
+            self._keys = np.insert(self._keys, place, new)
+            self._key_rows = np.insert(self._key_rows, place, rows)
+            self._ids = np.concatenate([self._ids, new])
+
     def prepare(self, key, values: np.ndarray) -> np.ndarray:
         """A brick of ids as float32 rows; an empty array where all is background.
 
@@ -123,23 +160,9 @@ class LabelPager(BrickPager):
         ids, inverse = np.unique(values, return_inverse=True)
         if ids.size == 1 and int(ids[0]) == self.background:
             return np.zeros(0, np.float32)
+        self._register(ids[ids != self.background])
         with self._lock:
-            at = np.searchsorted(self._keys, ids)
-            known = at < self._keys.size
-            known[known] = self._keys[at[known]] == ids[known]
-            new = ids[~known]
-            if new.size:
-                if self._ids.size + new.size > MAX_IDS:
-                    raise ValueError(f"More than {MAX_IDS} distinct label ids met: rows are "
-                                     "read from float32, exact to 2^24.")
-                rows = np.arange(self._ids.size + 1, self._ids.size + 1 + new.size,
-                                 dtype=np.float32)
-                place = np.searchsorted(self._keys, new)
-                self._keys = np.insert(self._keys, place, new)
-                self._key_rows = np.insert(self._key_rows, place, rows)
-                self._ids = np.concatenate([self._ids, new])
-                at = np.searchsorted(self._keys, ids)
-            found = self._key_rows[at]
+            found = self._key_rows[np.searchsorted(self._keys, ids)]
         return found[inverse.reshape(values.shape)]
 
     def follow_ids(self) -> None:
@@ -158,8 +181,11 @@ class LabelPager(BrickPager):
         new[translucent, 3] = 1.0
         first = len(self._rgba)
         self._rgba = np.vstack([self._rgba, new])
-        # only the new entries, where the table's texture has room for them
-        upload_palette_rows(self.palette, self._rgba, np.arange(first, len(self._rgba)))
+        shape = self.palette.array.shape if self.palette.array is not None else (0, 0)
+        if shape[0] * shape[1] < len(self._rgba):   # it grew past the texture: all of it
+            self.palette.set_data(palette_texels(self._rgba))
+        else:   # only the new entries
+            upload_palette_rows(self.palette, self._rgba, np.arange(first, len(self._rgba)))
 
     def frame(self, *args) -> None:
         """The volume pager's frame, then the colours of ids the new bricks brought."""
