@@ -19,6 +19,7 @@ from ..gl.box import camera_matrices
 from ..gl.sub_upload import sub_image_available
 from ..gl.textures import Texture
 from ..models.brick_cache import HOST_BYTES, BrickCache, brick_counts, read_brick
+from .occluded_bricks import DepthPyramid, hidden_boxes
 from .page_table import BLOCK, PageTable
 from .skipping import range_extinction, transparent_value
 
@@ -76,6 +77,9 @@ class BrickPager:
     apron = 1
     #: A read brick to its slot's values (None: float32 values as read).
     prepare = None
+    #: Whether bricks behind what the last frame of the same view drew are left out: for
+    #: sources drawn opaque, whose depth is the surface hit (:mod:`.occluded_bricks`).
+    cull_hidden = False
 
     def __init__(self, model, renderer, brick: int = BRICK_POINTS,
                  gpu_bytes: int = GPU_BYTES, host_bytes: int | None = None,
@@ -125,6 +129,9 @@ class BrickPager:
         #: Empty bricks of this frame the page table had no block left to mark (drawn from
         #: a coarser level; not counted missing, asked for again at the next choice).
         self.unmarked: set = set()
+        #: The last frame's depth pyramid and the view it was drawn for (cull_hidden).
+        self.depth: tuple | None = None
+        self._view_now = None
         self.last_used = np.full(self.capacity, -1, np.int64)
         self._free = list(range(self.capacity - 1, -1, -1))   # popped from the end: 0 first
         self._victims = iter(())   # slots by last use, made when a frame must evict
@@ -312,6 +319,7 @@ class BrickPager:
             low = (candidates * self.brick - below - b) / a
             high = ((candidates + 1) * self.brick + above - b) / a
             shown = _in_view(low, high, clip_from_point)
+            shown[shown] = ~self._hidden(low[shown], high[shown], clip_from_point)
             candidates, low, high = candidates[shown], low[shown], high[shown]
             nearest = _distance_to_boxes(eye_world, low, high, world_from_point)
             pixel = nearest * per_distance + constant
@@ -328,6 +336,23 @@ class BrickPager:
             refine = needed < number
             candidates = self._children(number, low[refine], high[refine], info)
         return keys
+
+    def _hidden(self, low: np.ndarray, high: np.ndarray, clip_from_point) -> np.ndarray:
+        """Which boxes lie behind the last frame's depth (none without one for this view)."""
+        if not self.cull_hidden or self.depth is None or self.depth[0] != self._view_now \
+                or not len(low):
+            return np.zeros(len(low), bool)
+        corners = _corners(low, high)
+        clip = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2) \
+            @ clip_from_point.T
+        return hidden_boxes(self.depth[1], clip, tuple(self.renderer.GetSize()))
+
+    def keep_depth(self, *_) -> None:
+        """After a frame that planned or uploaded: its depth, for the next frame's culling."""
+        if self._planned_for is not None and (not self.converged or self.depth is None
+                                              or self.depth[0] != self._planned_for):
+            pyramid = DepthPyramid.read(self.renderer)
+            self.depth = None if pyramid is None else (self._planned_for, pyramid)
 
     def _children(self, number: int, low: np.ndarray, high: np.ndarray, info) -> np.ndarray:
         """The bricks of level ``number - 1`` under boxes (finest points) of level ``number``."""
@@ -371,7 +396,7 @@ class BrickPager:
                 self.world_from_point().tobytes())
         if view == self._planned_for and self.converged:
             return
-        self._planned_for = view
+        self._planned_for = self._view_now = view
         self.frame_number += 1
         self.unmarked = set()
         wanted = self.wanted()
@@ -401,6 +426,10 @@ class BrickPager:
         self.missing = sum(1 for key in wanted if key not in self.slot_of
                            and key not in self.empty and key not in failed
                            and key not in self.unmarked)
+        if self.cull_hidden and sent:
+            # what was drawn coarse may hide what the new bricks uncover: plan again with
+            # the depth of the frame that draws them
+            self.missing = max(self.missing, 1)
         if self.over_budget and (len(self.empty) != marked or self.unmarked):
             # bricks cut from this frame's list may fit now that some turned out empty
             self.missing = max(self.missing, 1)

@@ -145,9 +145,7 @@ class Streamed:
 
     def release_resources(self) -> None:
         """Stop the per-frame choice, then what its technique frees (the pager too)."""
-        if getattr(self, "_pager_tag", None) is not None:
-            self._pager_renderer.RemoveObserver(self._pager_tag)
-            self._pager_tag = None
+        stop_following(self)
         super().release_resources()
 
 
@@ -162,10 +160,20 @@ def follow_pager(plotter, binding, pager: BrickPager) -> None:
     window redraws by itself while bricks arrive (:func:`refine_while_shown`).
     """
     binding._pager_renderer = plotter.renderer
-    binding._pager_tag = observe(plotter.renderer, vtk.vtkCommand.StartEvent, pager.frame,
-                                 4.0)
+    binding._pager_tags = [observe(plotter.renderer, vtk.vtkCommand.StartEvent, pager.frame,
+                                   4.0)]
+    if pager.cull_hidden:   # the frame's depth, once drawn, for the next frame's choice
+        binding._pager_tags.append(observe(plotter.renderer, vtk.vtkCommand.EndEvent,
+                                           pager.keep_depth))
     pager.shown = lambda: binding.shown
     refine_while_shown(plotter, binding)
+
+
+def stop_following(binding) -> None:
+    """Undo :func:`follow_pager` (once)."""
+    for tag in getattr(binding, "_pager_tags", ()):
+        binding._pager_renderer.RemoveObserver(tag)
+    binding._pager_tags = []
 
 
 #: Milliseconds between the redraws of a window whose streamed volume still misses bricks.

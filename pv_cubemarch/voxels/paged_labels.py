@@ -32,7 +32,7 @@ from ..models.multiscale import MultiscaleSource
 from ..models.volume import box_world_bounds
 from ..models.voxels import palette_texels
 from ..volume.brick_pager import BrickPager, bind_pool
-from ..volume.paged import follow_pager
+from ..volume.paged import follow_pager, stop_following
 from .label_state import upload_palette_rows
 from .options import VoxelOptions
 from .technique import bind_grid
@@ -92,6 +92,7 @@ class LabelPager(BrickPager):
     """
 
     apron = 0
+    cull_hidden = True   # drawn opaque: its depth is the surface hit
 
     def __init__(self, model: PagedLabels, renderer, *args, **kwargs):
         dtype = np.dtype(model.source.dtype)
@@ -239,7 +240,6 @@ class PagedLabelsBinding(DrawnBinding):
         super().__init__(model, bindings, recipe)
         self.pager = pager
         self.options = options
-        self._pager_tag = None
 
     @property
     def converged(self) -> bool:
@@ -271,9 +271,7 @@ class PagedLabelsBinding(DrawnBinding):
 
     def release_resources(self) -> None:
         """Stop the per-frame choice and the reads; free the pool, tables and palette."""
-        if self._pager_tag is not None:
-            self._pager_renderer.RemoveObserver(self._pager_tag)
-            self._pager_tag = None
+        stop_following(self)
         self.pager.release()
         self.bindings.release()
 
