@@ -25,12 +25,8 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
 {
   ivec3 dims = ivec3(cm_gridDims);
   vec3 d = b - a;
-  vec3 moving = step(vec3(1e-30), abs(d));
-  // t = (x - a) / d as the CPU reference; an axis the ray does not move along gets
-  // inverse 0 and `never` 1e30, so its crossing is never the nearest.
-  vec3 inverse = moving / mix(vec3(1.0), d, moving);
-  vec3 never = 1e30 * (1.0 - moving);
-  vec3 forward = step(vec3(0.0), d);
+  vec3 inverse, never, forward;
+  cm_rayAxes(d, inverse, never, forward);
   ivec3 ahead = ivec3(forward);
   voxel = clamp(ivec3(floor(a)), ivec3(0), dims - 1);
   t = 0.0;
@@ -106,22 +102,8 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
       }
 #endif
       passing = false;
-      // Leave the block [low, high): its nearest forward boundary, x before y before z on
-      // a tie.
-      vec3 exits = (mix(vec3(low), vec3(high), forward) - a) * inverse + never;
-      axis = (exits.x <= exits.y && exits.x <= exits.z) ? 0 : (exits.y <= exits.z ? 1 : 2);
-      t = min(exits.x, min(exits.y, exits.z));
-      if (t > 1.0)
-      {
-        return 0;
-      }
-      // The voxel just past the exit: on the exit axis the first voxel beyond the block, on
-      // the others the exit point's (kept inside the block's span; one voxel: itself).
-      ivec3 onAxis = ivec3(equal(ivec3(axis), ivec3(0, 1, 2)));
-      ivec3 next = clamp(ivec3(floor(a + d * t)), low, high - 1);
-      ivec3 past = low - 1 + (high - low + 1) * ahead;
-      next += (past - next) * onAxis;
-      if (any(lessThan(next, ivec3(0))) || any(greaterThanEqual(next, dims)))
+      ivec3 next;
+      if (!cm_leaveBlock(a, d, inverse, never, forward, low, high, axis, t, next))
       {
         return 0;
       }

@@ -58,6 +58,41 @@ int cm_visibleMaterial(ivec3 voxel)
   return material != 0 && cm_shown(material) ? material : 0;
 }
 
+// What a traversal of the ray a + d t steps by, per axis: t = (x - a) / d as the CPU
+// reference; an axis the ray does not move along gets `inverse` 0 and `never` 1e30, so its
+// crossing is never the nearest (GLSL 1.50 promises no infinity); `forward`: 1 where d >= 0.
+void cm_rayAxes(vec3 d, out vec3 inverse, out vec3 never, out vec3 forward)
+{
+  vec3 moving = step(vec3(1e-30), abs(d));
+  inverse = moving / mix(vec3(1.0), d, moving);
+  never = 1e30 * (1.0 - moving);
+  forward = step(vec3(0.0), d);
+}
+
+// A traversal step (voxel_dda.glsl, voxel_paged.glsl): leave the block [low, high) of
+// voxels along the ray a + d t (index space; `inverse` 1/d per moving axis, 0 on the others,
+// `never` 1e30 on those, `forward` 1 where d >= 0). Its nearest forward boundary, x before
+// y before z on a tie, is crossed at t through `axis`; `next` is the voxel just past it: on
+// the exit axis the first voxel beyond the block, on the others the exit point's (kept in
+// the block's span; one voxel: itself). False when the ray ends first or leaves the grid.
+bool cm_leaveBlock(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, ivec3 low,
+                   ivec3 high, out int axis, out float t, out ivec3 next)
+{
+  vec3 exits = (mix(vec3(low), vec3(high), forward) - a) * inverse + never;
+  axis = (exits.x <= exits.y && exits.x <= exits.z) ? 0 : (exits.y <= exits.z ? 1 : 2);
+  t = min(exits.x, min(exits.y, exits.z));
+  next = low;
+  if (t > 1.0)
+  {
+    return false;
+  }
+  ivec3 onAxis = ivec3(equal(ivec3(axis), ivec3(0, 1, 2)));
+  next = clamp(ivec3(floor(a + d * t)), low, high - 1);
+  ivec3 past = low - 1 + (high - low + 1) * ivec3(forward);
+  next += (past - next) * onAxis;
+  return all(greaterThanEqual(next, ivec3(0))) && all(lessThan(next, ivec3(cm_gridDims)));
+}
+
 // The face of the grid box a ray (index space) enters through, as voxel faces are numbered
 // (2 * axis + 1 moving +axis): the axis whose slab it enters last, ties to the lowest axis
 // (as the CPU reference).

@@ -83,10 +83,8 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
 {
   ivec3 dims = ivec3(cm_gridDims);
   vec3 d = b - a;
-  vec3 moving = step(vec3(1e-30), abs(d));
-  vec3 inverse = moving / mix(vec3(1.0), d, moving);
-  vec3 never = 1e30 * (1.0 - moving);
-  vec3 forward = step(vec3(0.0), d);
+  vec3 inverse, never, forward;
+  cm_rayAxes(d, inverse, never, forward);
   ivec3 ahead = ivec3(forward);
   voxel = clamp(ivec3(floor(a)), ivec3(0), dims - 1);
   t = 0.0;
@@ -104,19 +102,8 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
       }
       return label;
     }
-    // Leave the block [low, high): its nearest forward boundary, x before y before z.
-    vec3 exits = (mix(vec3(low), vec3(high), forward) - a) * inverse + never;
-    axis = (exits.x <= exits.y && exits.x <= exits.z) ? 0 : (exits.y <= exits.z ? 1 : 2);
-    t = min(exits.x, min(exits.y, exits.z));
-    if (t > 1.0)
-    {
-      return 0;
-    }
-    ivec3 onAxis = ivec3(equal(ivec3(axis), ivec3(0, 1, 2)));
-    ivec3 next = clamp(ivec3(floor(a + d * t)), low, high - 1);
-    ivec3 past = low - 1 + (high - low + 1) * ahead;
-    next += (past - next) * onAxis;
-    if (any(lessThan(next, ivec3(0))) || any(greaterThanEqual(next, dims)))
+    ivec3 next;
+    if (!cm_leaveBlock(a, d, inverse, never, forward, low, high, axis, t, next))
     {
       return 0;
     }

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import shutil
 import tempfile
-import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -26,11 +25,18 @@ import numpy as np
 import pyvista
 
 from ..api import add_volume
-from ..core.rendering import offscreen_plotter, read_pixels, render_frame
-from ..models.multiscale import Level, MultiscaleSource, multiscale_source
+from ..core.rendering import offscreen_plotter, render_frame
+from ..models.multiscale import MultiscaleSource, multiscale_source
 from ..models.pyramid import build_pyramid
 from .outofcore_labels import LABEL_SCENES, label_rows
-from .outofcore_rows import OutOfCoreRow, place_camera, rss_mb, stream_row
+from .outofcore_rows import (
+    OutOfCoreRow,
+    halved_pyramid,
+    separable_waves,
+    stream_row,
+    wave_octaves,
+    whole_row,
+)
 
 SCENES = ("procedural", "procedural-small", "smoke", *LABEL_SCENES)
 VIEWS = ("far", "mid", "close")
@@ -52,34 +58,20 @@ class WaveLevel:
         self.dtype = np.dtype(np.uint16)
         self.ndim = 3
         self.level = int(level)
-        rng = np.random.default_rng(seed)
-        self.waves = [(9000.0 / 1.7 ** k, rng.uniform(0.004, 0.012, 3) * 2.0 ** k,
-                       rng.uniform(0, 2 * np.pi, 3)) for k in range(octaves)]
+        self.waves = wave_octaves(9000.0, 1.7, (0.004, 0.012), octaves, seed)
 
     def __getitem__(self, box):
         box = tuple(slice(*s.indices(n)) for s, n in zip(box, self.shape, strict=True))
         factor = 2.0 ** self.level
         axes = [(np.arange(s.start, s.stop, s.step) + 0.5) * factor - 0.5 for s in box]
-        values = np.full([len(a) for a in axes], 32768.0)
-        for amplitude, frequency, phase in self.waves:
-            x, y, z = (np.sin(f * a + p) for f, a, p in zip(frequency, axes, phase,
-                                                           strict=True))
-            values += amplitude * x[:, None, None] * y[None, :, None] * z[None, None, :]
+        values = 32768.0 + separable_waves(self.waves, axes)
         return np.clip(values, 0, 65535).astype(np.uint16)
 
 
 def wave_source(shape, coarsest: int = 256, seed: int = 0) -> MultiscaleSource:
     """The procedural field's pyramid: levels halved until the largest side is ``coarsest``."""
-    levels, number, size = [], 0, tuple(int(n) for n in shape)
-    while True:
-        factor = 2.0 ** number
-        levels.append(Level(WaveLevel(size, number, seed), size, np.full(3, factor),
-                            np.full(3, (factor - 1.0) / 2.0)))
-        if max(size) <= coarsest:
-            break
-        size = tuple(-(-n // 2) for n in size)
-        number += 1
-    return MultiscaleSource(levels, "waves")
+    return halved_pyramid(lambda size, number: WaveLevel(size, number, seed), shape,
+                          coarsest, "waves")
 
 
 def smoke_pyramid(directory: Path) -> Path:
@@ -95,30 +87,15 @@ def smoke_pyramid(directory: Path) -> Path:
 
 def _in_memory_row(scene, view, source, extent, size) -> tuple[OutOfCoreRow, np.ndarray]:
     """The finest level read whole and drawn by the direct marcher: the reference image."""
-    pl = offscreen_plotter(size)
-    pl.set_background("black")
-    result = OutOfCoreRow(scene, view, "whole array in memory")
-    base = rss_mb()
-    try:
-        start = time.perf_counter()
+    def draw(pl):
         finest = source.levels[0]
         values = finest.read(tuple(slice(0, n) for n in finest.shape))
         grid = pyvista.ImageData(dimensions=values.shape, spacing=tuple(finest.scale),
                                  origin=tuple(finest.translation))
         grid.point_data["values"] = values.ravel(order="F")
-        del values
-        actor = add_volume(pl, grid, technique="direct", **KEYWORDS)
-        place_camera(pl, extent, view)
-        render_frame(pl)
-        image = read_pixels(pl)
-        result.first_frame_s = result.converged_s = time.perf_counter() - start
-        result.frames = 1
-        result.bytes_read = int(grid.point_data["values"].nbytes)
-        result.peak_rss_mb = rss_mb() - base
-        result.gpu_mb = actor.cubemarch.nbytes / 2**20
-        return result, image
-    finally:
-        pl.close()
+        return add_volume(pl, grid, technique="direct", **KEYWORDS), values.nbytes
+
+    return whole_row(scene, view, extent, size, draw)
 
 
 def _warm_up(size) -> None:

@@ -11,14 +11,18 @@ below the lattice's size the two are the same).
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from ..api import add_voxels
-from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..models.multiscale import Level, MultiscaleSource
-from .outofcore_rows import OutOfCoreRow, place_camera, rss_mb, stream_row
+from .outofcore_rows import (
+    OutOfCoreRow,
+    halved_pyramid,
+    separable_waves,
+    stream_row,
+    wave_octaves,
+    whole_row,
+)
 
 LABEL_SCENES = ("labels", "labels-small")
 #: Voxels along a lattice cell's edge: no power of two divides it, so the cells' borders
@@ -36,9 +40,7 @@ class CellLevel:
         self.dtype = np.dtype(np.uint32)
         self.ndim = 3
         self.level = int(level)
-        rng = np.random.default_rng(seed)
-        self.waves = [(1.0 / 1.6 ** k, rng.uniform(0.1, 0.3, 3) * 2.0 ** k,
-                       rng.uniform(0, 2 * np.pi, 3)) for k in range(octaves)]
+        self.waves = wave_octaves(1.0, 1.6, (0.1, 0.3), octaves, seed)
 
     def __getitem__(self, box):
         box = tuple(slice(*s.indices(n)) for s, n in zip(box, self.shape, strict=True))
@@ -46,11 +48,7 @@ class CellLevel:
         voxels = [np.minimum((np.arange(s.start, s.stop, s.step) * factor + factor // 2), n - 1)
                   for s, n in zip(box, self.finest, strict=True)]
         cells = [v // CELL for v in voxels]
-        wave = np.zeros([len(c) for c in cells])
-        for amplitude, frequency, phase in self.waves:
-            x, y, z = (np.sin(f * (c + 0.5) + p) for f, c, p in zip(frequency, cells, phase,
-                                                                  strict=True))
-            wave += amplitude * x[:, None, None] * y[None, :, None] * z[None, None, :]
+        wave = separable_waves(self.waves, [c + 0.5 for c in cells])
         cx, cy, cz = (c.astype(np.uint64) for c in cells)
         with np.errstate(over="ignore"):
             ids = ((cx[:, None, None] * np.uint64(0x9E3779B1))
@@ -62,16 +60,8 @@ class CellLevel:
 def cell_source(shape, coarsest: int = 256) -> MultiscaleSource:
     """The segmentation's pyramid: levels halved until the largest side is ``coarsest``."""
     finest = tuple(int(n) for n in shape)
-    levels, number, size = [], 0, finest
-    while True:
-        factor = 2.0 ** number
-        levels.append(Level(CellLevel(size, finest, number), size, np.full(3, factor),
-                            np.full(3, (factor - 1.0) / 2.0)))
-        if max(size) <= coarsest:
-            break
-        size = tuple(-(-n // 2) for n in size)
-        number += 1
-    return MultiscaleSource(levels, "cells")
+    return halved_pyramid(lambda size, number: CellLevel(size, finest, number), finest,
+                          coarsest, "cells")
 
 
 def wrong_pixels(row: OutOfCoreRow, image: np.ndarray, expected: np.ndarray) -> None:
@@ -82,26 +72,12 @@ def wrong_pixels(row: OutOfCoreRow, image: np.ndarray, expected: np.ndarray) -> 
 
 def in_memory_labels_row(scene, view, source, extent, size) -> tuple[OutOfCoreRow, np.ndarray]:
     """The finest level read whole and drawn by ``add_voxels``: the reference image."""
-    pl = offscreen_plotter(size)
-    pl.set_background("black")
-    result = OutOfCoreRow(scene, view, "whole array in memory")
-    base = rss_mb()
-    try:
-        start = time.perf_counter()
+    def draw(pl):
         finest = source.levels[0]
         labels = finest.read(tuple(slice(0, n) for n in finest.shape))
-        actor = add_voxels(pl, labels, transform=_index_to_world(finest))
-        place_camera(pl, extent, view)
-        render_frame(pl)
-        image = read_pixels(pl)
-        result.first_frame_s = result.converged_s = time.perf_counter() - start
-        result.frames = 1
-        result.bytes_read = int(labels.nbytes)
-        result.peak_rss_mb = rss_mb() - base
-        result.gpu_mb = actor.cubemarch.nbytes / 2**20
-        return result, image
-    finally:
-        pl.close()
+        return add_voxels(pl, labels, transform=_index_to_world(finest)), labels.nbytes
+
+    return whole_row(scene, view, extent, size, draw)
 
 
 def _index_to_world(level: Level) -> np.ndarray:

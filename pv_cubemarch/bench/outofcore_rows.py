@@ -2,7 +2,8 @@
 
 One row: add a multiscale source to an offscreen plotter, frame until every wanted brick is
 drawn (or a timeout), and keep the times, bytes, memory and the image's error against the
-in-memory drawing of the same view.
+in-memory drawing of the same view. Also what its procedural sources share: pyramids of
+halved levels, fields of separable waves.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
+from ..models.multiscale import Level, MultiscaleSource
 
 
 @dataclass
@@ -119,3 +121,67 @@ def stream_row(scene, view, row, add, source, extent, size, timeout, expected,
         pl.close()
 
 
+def whole_row(scene, view, extent, size, draw) -> tuple[OutOfCoreRow, np.ndarray]:
+    """The reference row: the whole array read in memory and drawn.
+
+    ``draw(plotter)`` adds it and returns its actor and the bytes it read; timed from
+    there to the first frame.
+    """
+    pl = offscreen_plotter(size)
+    pl.set_background("black")
+    result = OutOfCoreRow(scene, view, "whole array in memory")
+    base = rss_mb()
+    try:
+        start = time.perf_counter()
+        actor, read = draw(pl)
+        place_camera(pl, extent, view)
+        render_frame(pl)
+        image = read_pixels(pl)
+        result.first_frame_s = result.converged_s = time.perf_counter() - start
+        result.frames = 1
+        result.bytes_read = int(read)
+        result.peak_rss_mb = rss_mb() - base
+        result.gpu_mb = actor.cubemarch.nbytes / 2**20
+        return result, image
+    finally:
+        pl.close()
+
+
+def halved_pyramid(make_level, shape, coarsest: int, name: str) -> MultiscaleSource:
+    """Levels halved until the largest side is ``coarsest``.
+
+    Level ``L`` sits at the centres of the finest level's ``2^L`` blocks;
+    ``make_level(size, L)`` gives each level's array.
+    """
+    levels, number, size = [], 0, tuple(int(n) for n in shape)
+    while True:
+        factor = 2.0 ** number
+        levels.append(Level(make_level(size, number), size, np.full(3, factor),
+                            np.full(3, (factor - 1.0) / 2.0)))
+        if max(size) <= coarsest:
+            break
+        size = tuple(-(-n // 2) for n in size)
+        number += 1
+    return MultiscaleSource(levels, name)
+
+
+def wave_octaves(amplitude: float, decay: float, frequencies, octaves: int, seed: int):
+    """Seeded octaves ``(amplitude, frequency per axis, phase per axis)``.
+
+    Each has twice the frequency and ``1 / decay`` the amplitude of the one before.
+    """
+    rng = np.random.default_rng(seed)
+    return [(amplitude / decay ** k, rng.uniform(*frequencies, 3) * 2.0 ** k,
+             rng.uniform(0, 2 * np.pi, 3)) for k in range(octaves)]
+
+
+def separable_waves(octaves, axes) -> np.ndarray:
+    """The octaves' sum on the grid of the coordinate arrays ``axes`` (x, y, z).
+
+    ``sum_k a_k sin(f_kx x + p_kx) sin(f_ky y + p_ky) sin(f_kz z + p_kz)``.
+    """
+    values = np.zeros([len(a) for a in axes])
+    for amplitude, frequency, phase in octaves:
+        x, y, z = (np.sin(f * a + p) for f, a, p in zip(frequency, axes, phase, strict=True))
+        values += amplitude * x[:, None, None] * y[None, :, None] * z[None, None, :]
+    return values
