@@ -624,3 +624,26 @@ def test_the_cube_map_reads_the_brick_pool_and_converges_to_its_in_memory_image(
     with pytest.raises(ValueError, match="face_size"):
         cm.add_volume(pl, str(pyramid), face_size=128, **KEYWORDS)   # the direct marcher's
     pl.close()
+
+
+def test_a_pool_of_one_brick_draws_the_coarsest_level_and_says_it_wants_more(pyramid):
+    # The coarsest level is one brick and the pool holds one slot: every finer brick is
+    # wanted and never fits, so every sample reads the coarsest level, stepped at the
+    # finest spacing: near the coarsest level drawn alone (lod_bias=64, stepped at its own
+    # spacing), never a hole, and over budget. catches (seen failing): a pool one slot
+    # short of its budget (refused: "holds no brick").
+    images = []
+    for bias, budget in ((-30.0, 10**3 * 4), (64.0, None)):
+        pl = pv.Plotter(off_screen=True, window_size=SIZE)
+        pl.set_background("black")
+        actor = cm.add_volume(pl, str(pyramid), lod_bias=bias, brick_size=8,
+                              gpu_bytes=budget, **KEYWORDS)
+        view(pl)
+        images.append(converged(pl, actor))
+        if budget is not None:
+            pager = actor.cubemarch.pager
+            assert pager.capacity == 1 and len(pager.pinned) == 1 and pager.over_budget
+        pl.close()
+    lit = images[1].max(axis=2) > 20
+    assert lit.sum() > 1000 and (images[0].max(axis=2)[lit] > 0).all()
+    assert psnr(images[0], images[1]) >= 30.0
