@@ -545,7 +545,9 @@ def test_a_pyramid_in_an_fsspec_store_is_written_and_drawn_from_its_url(tmp_path
         view(pl)
         images.append(cm.render_image(pl, converge=True))
         pl.close()
-    assert images[0].any() and np.array_equal(images[0], images[1])
+    # the same bricks, in other slots as they arrived: interpolated at other texture
+    # coordinates (a last bit may differ), not exactly the same pixels
+    assert images[0].any() and psnr(images[0], images[1]) >= 60.0
 
 
 def transparent_bricks(values: np.ndarray, brick: int, below: float) -> int:
