@@ -45,7 +45,7 @@ from .surfaces.levels import (
 from .surfaces.technique import build_translucent_levels
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.binding import VolumeBinding, VolumeData, VolumeSetup
-from .volume.brick_pager import BRICK_POINTS, GPU_BYTES, BrickPager
+from .volume.brick_pager import BrickPager
 from .volume.clipping import clip_plane_list, set_crop_box
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
@@ -596,12 +596,8 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     shading = CommonVolumeOptions(given["stop_opacity"], False)
     shading.check()
     component = plotter.cubemarch
-    pager = BrickPager(model, plotter.renderer,
-                       BRICK_POINTS if paging["brick_size"] is None else paging["brick_size"],
-                       GPU_BYTES if paging["gpu_bytes"] is None else paging["gpu_bytes"],
-                       paging["host_bytes"],
-                       lod_bias=0.0 if paging["lod_bias"] is None else paging["lod_bias"],
-                       skip_empty=bool(given["skip_empty"]))
+    pager = BrickPager.from_paging(model, plotter.renderer,
+                                   skip_empty=bool(given["skip_empty"]))
     build = get_technique("volume", "cubemap").build if cube else build_paged_actor
     binding = build(plotter, PagedData(model, pager), VolumeSetup(options, shading, None))
     binding.light_map = None
@@ -679,12 +675,7 @@ def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
                             given["name"] or "voxels", int(given["background"]),
                             {k: given[k] for k in ("lod_bias", "gpu_bytes", "host_bytes",
                                                    "brick_size")})
-    paging = model.paging
-    pager = LabelPager(model, plotter.renderer,
-                       BRICK_POINTS if paging["brick_size"] is None else paging["brick_size"],
-                       GPU_BYTES if paging["gpu_bytes"] is None else paging["gpu_bytes"],
-                       paging["host_bytes"],
-                       lod_bias=0.0 if not paging["lod_bias"] else paging["lod_bias"])
+    pager = LabelPager.from_paging(model, plotter.renderer)
     binding = build_paged_labels(plotter, model, options, pager)
     actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
     plotter.cubemarch.track(binding)

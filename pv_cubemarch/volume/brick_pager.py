@@ -149,6 +149,22 @@ class BrickPager:
         for key, values in zip(pinned, self.read_pinned(pinned), strict=True):
             self._place(key, values)
 
+    @classmethod
+    def from_paging(cls, model, renderer, **options) -> BrickPager:
+        """A pager for ``model`` with the streaming keywords it was added with.
+
+        ``model.paging``: brick_size, gpu_bytes, host_bytes, lod_bias (None: the defaults).
+        """
+        paging = model.paging
+
+        def given(key, default):
+            value = paging.get(key)
+            return default if value is None else value
+
+        return cls(model, renderer, given("brick_size", BRICK_POINTS),
+                   given("gpu_bytes", GPU_BYTES), paging.get("host_bytes"),
+                   lod_bias=float(given("lod_bias", 0.0)), **options)
+
     def nothing_drawn(self, values: np.ndarray) -> bool:
         """Whether a read brick draws nothing: empty, or all zero extinction.
 

@@ -93,31 +93,42 @@ class PagedData:
         self.pager.release()
 
 
-class Streamed:
+class FollowsPager:
+    """What any binding streamed by bricks answers (mixed in first; ``pager``: its pager)."""
+
+    pager: BrickPager
+
+    @property
+    def converged(self) -> bool:
+        """Whether the last frame had every brick it wanted."""
+        return self.pager.converged
+
+    def wait_for_bricks(self, timeout: float) -> bool:
+        """Wait until a requested brick arrives (or ``timeout`` s); True if one did."""
+        return self.pager.cache.wait(timeout)
+
+    def stats(self) -> dict:
+        """Resident, missing and read bricks and bytes (:meth:`BrickPager.stats`)."""
+        return self.pager.stats()
+
+    def place(self, transform) -> None:
+        """The box follows, and the levels' world steps (a pixel is compared with them)."""
+        super().place(transform)
+        self.pager.follow_placement()
+
+    def release_resources(self) -> None:
+        """Stop the per-frame choice, then what its technique frees."""
+        stop_following(self)
+        super().release_resources()
+
+
+class Streamed(FollowsPager):
     """What a volume streamed by bricks adds to its technique's binding (mixed in first)."""
 
     @property
     def pager(self) -> BrickPager:
         """The pool, page table and reads of this volume."""
         return self.data.pager
-
-    @property
-    def converged(self) -> bool:
-        """Whether the last frame had every brick it wanted."""
-        return self.data.pager.converged
-
-    def wait_for_bricks(self, timeout: float) -> bool:
-        """Wait until a requested brick arrives (or ``timeout`` s); True if one did."""
-        return self.data.pager.cache.wait(timeout)
-
-    def stats(self) -> dict:
-        """Resident, missing and read bricks and bytes (:meth:`BrickPager.stats`)."""
-        return self.data.pager.stats()
-
-    def place(self, transform) -> None:
-        """The box follows, and the levels' world steps (a pixel is compared with them)."""
-        super().place(transform)
-        self.data.pager.follow_placement()
 
     def set_interpolation(self, interpolation: str) -> None:
         """Read the bricks ``'linear'`` or ``'nearest'`` from the next frame (no upload)."""
@@ -142,11 +153,6 @@ class Streamed:
         if blending != "composite":
             raise ValueError(f"blending={blending!r}: a volume streamed from a multiscale "
                              "source is drawn with blending='composite' only.")
-
-    def release_resources(self) -> None:
-        """Stop the per-frame choice, then what its technique frees (the pager too)."""
-        stop_following(self)
-        super().release_resources()
 
 
 class PagedBinding(Streamed, DirectBinding):

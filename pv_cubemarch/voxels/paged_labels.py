@@ -21,7 +21,7 @@ import numpy as np
 import pyvista
 
 from ..gl.bindings import ShaderBindings
-from ..gl.box import box_actor, place_box
+from ..gl.box import box_actor
 from ..gl.handle import DrawnBinding
 from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
@@ -32,7 +32,7 @@ from ..models.multiscale import MultiscaleSource
 from ..models.volume import box_world_bounds
 from ..models.voxels import palette_texels
 from ..volume.brick_pager import BrickPager, bind_pool
-from ..volume.paged import follow_pager, stop_following
+from ..volume.paged import FollowsPager, follow_pager
 from .label_state import upload_palette_rows
 from .options import VoxelOptions
 from .technique import bind_grid
@@ -127,9 +127,7 @@ class LabelPager(BrickPager):
             np.zeros(0, self._keys.dtype)
         every = every[np.append(True, every[1:] != every[:-1])]   # sorted: runs of one id
         self._register(every[every != self.background])
-        return [np.zeros(0, np.float32) if ids.size == 1 and int(ids[0]) == self.background
-                else self._key_rows[np.searchsorted(self._keys, ids)][
-                    inverse.reshape(values.shape)]
+        return [self._rows(ids, inverse, values.shape)
                 for (ids, inverse), values in zip(found, bricks, strict=True)]
 
     def _register(self, ids: np.ndarray) -> None:
@@ -159,12 +157,19 @@ class LabelPager(BrickPager):
         Python loop.
         """
         ids, inverse = np.unique(values, return_inverse=True)
+        self._register(ids[ids != self.background])
+        return self._rows(ids, inverse, values.shape)
+
+    def _rows(self, ids: np.ndarray, inverse: np.ndarray, shape) -> np.ndarray:
+        """A brick's rows from its distinct ids (registered) and ``np.unique``'s inverse.
+
+        An empty array where all is background (the brick takes no slot).
+        """
         if ids.size == 1 and int(ids[0]) == self.background:
             return np.zeros(0, np.float32)
-        self._register(ids[ids != self.background])
         with self._lock:
             found = self._key_rows[np.searchsorted(self._keys, ids)]
-        return found[inverse.reshape(values.shape)]
+        return found[inverse.reshape(shape)]
 
     def follow_ids(self) -> None:
         """Colours for the rows added since the last call; only they go to the GPU."""
@@ -229,7 +234,7 @@ def paged_label_recipe(options: VoxelOptions, levels: int) -> ShaderRecipe:
                  "CM_PAGED_LEVELS": levels})
 
 
-class PagedLabelsBinding(DrawnBinding):
+class PagedLabelsBinding(FollowsPager, DrawnBinding):
     """What ``actor.cubemarch`` holds for a streamed label grid: model, pager, bindings."""
 
     technique = "voxels"
@@ -241,18 +246,9 @@ class PagedLabelsBinding(DrawnBinding):
         self.pager = pager
         self.options = options
 
-    @property
-    def converged(self) -> bool:
-        """Whether the last frame had every brick it wanted."""
-        return self.pager.converged
-
-    def wait_for_bricks(self, timeout: float) -> bool:
-        """Wait until a requested brick arrives (or ``timeout`` s); True if one did."""
-        return self.pager.cache.wait(timeout)
-
     def stats(self) -> dict:
         """Resident, empty, missing and read bricks and bytes, and the ids met so far."""
-        return {**self.pager.stats(), "labels": int(self.pager.ids.size)}
+        return {**super().stats(), "labels": int(self.pager.ids.size)}
 
     @property
     def label_ids(self) -> np.ndarray:
@@ -264,16 +260,10 @@ class PagedLabelsBinding(DrawnBinding):
         """GPU bytes of the pool, its tables and the palette."""
         return self.pager.nbytes
 
-    def place(self, transform) -> None:
-        """The box follows, and the levels' world steps (a pixel is compared with them)."""
-        place_box(self.drawn[0], self.model.world_from_index())
-        self.pager.follow_placement()
-
     def release_resources(self) -> None:
         """Stop the per-frame choice and the reads; free the pool, tables and palette."""
-        stop_following(self)
+        super().release_resources()
         self.pager.release()
-        self.bindings.release()
 
 
 def build_paged_labels(plotter, model: PagedLabels, options: VoxelOptions,
