@@ -227,8 +227,8 @@ class BrickPager:
         side = self.brick + 2 * self.apron
         pool = np.zeros([n * side for n in self.slots], np.float32, order="F")
         slot = 0
-        for key in sorted(self.pinned):
-            values = self.read_now(key)
+        pinned = sorted(self.pinned)
+        for key, values in zip(pinned, self.read_pinned(pinned), strict=True):
             if not self.nothing_drawn(values):
                 self._write_slot(pool, slot, values)
                 self._mark(key, slot)
