@@ -41,6 +41,28 @@ int cm_brickSlot(int level, vec3 brick)
 }
 
 
+// Where slot `slot` starts in the pool, in slots (x fastest); and whether an entry's slot
+// is none at all: a brick marked empty (page entry = the pool's slot count), no slot.
+ivec3 cm_slotOrigin(int slot)
+{
+  ivec3 slots = ivec3(cm_poolSlots + 0.5);
+  return ivec3(slot % slots.x, (slot / slots.x) % slots.y, slot / (slots.x * slots.y));
+}
+
+bool cm_slotIsEmpty(int slot)
+{
+  ivec3 slots = ivec3(cm_poolSlots + 0.5);
+  return slot >= slots.x * slots.y * slots.z;
+}
+
+// The point of level `level` (continuous, in its points, kept inside it) at finest-level
+// point `finest`.
+vec3 cm_levelPoint(vec3 finest, int level)
+{
+  return clamp(finest * cm_levelTexel(level, 0).xyz + cm_levelTexel(level, 1).xyz,
+               vec3(0.0), cm_levelTexel(level, 2).xyz - 1.0);
+}
+
 // The level a sample at finest-level point `finest` reads first: the coarsest whose points
 // fit a pixel there.
 int cm_pagedLevelAtPoint(vec3 finest)

@@ -13,22 +13,17 @@ uniform float cm_pagedEmptyValue;  // a value of zero extinction: what an empty 
 vec3 cm_pagedBrick(vec3 finest, int level)
 {
   vec3 points = cm_levelTexel(level, 2).xyz;
-  vec3 point = clamp(finest * cm_levelTexel(level, 0).xyz + cm_levelTexel(level, 1).xyz,
-                     vec3(0.0), points - 1.0);
-  return min(floor(point / cm_brickPoints), ceil(points / cm_brickPoints) - 1.0);
+  return min(floor(cm_levelPoint(finest, level) / cm_brickPoints),
+             ceil(points / cm_brickPoints) - 1.0);
 }
 
 // The value of level `level` at finest-level point `finest`, from its brick in `slot`.
 float cm_readSlot(vec3 finest, int level, int slot)
 {
-  vec3 points = cm_levelTexel(level, 2).xyz;
-  vec3 point = clamp(finest * cm_levelTexel(level, 0).xyz + cm_levelTexel(level, 1).xyz,
-                     vec3(0.0), points - 1.0);
-  vec3 brick = min(floor(point / cm_brickPoints), ceil(points / cm_brickPoints) - 1.0);
-  ivec3 slots = ivec3(cm_poolSlots + 0.5);
-  ivec3 where = ivec3(slot % slots.x, (slot / slots.x) % slots.y, slot / (slots.x * slots.y));
+  vec3 point = cm_levelPoint(finest, level);
+  vec3 brick = cm_pagedBrick(finest, level);
   float side = cm_brickPoints + 2.0;
-  vec3 texel = vec3(where) * side + 1.5 + (point - brick * cm_brickPoints);
+  vec3 texel = vec3(cm_slotOrigin(slot)) * side + 1.5 + (point - brick * cm_brickPoints);
   return texture(cm_pool, texel / (cm_poolSlots * side)).r;
 }
 
@@ -43,11 +38,10 @@ int cm_checkedSlot = -1;
 float cm_sampleScalar(vec3 texturePosition)
 {
   vec3 finest = texturePosition * cm_levelTexel(0, 2).xyz - 0.5;
-  ivec3 slots = ivec3(cm_poolSlots + 0.5);
 #ifdef CM_SKIP_EMPTY
   if (all(equal(texturePosition, cm_checkedAt)) && cm_checkedSlot >= 0)
   {
-    return cm_checkedSlot >= slots.x * slots.y * slots.z ? cm_pagedEmptyValue
+    return cm_slotIsEmpty(cm_checkedSlot) ? cm_pagedEmptyValue
         : cm_readSlot(finest, cm_checkedLevel, cm_checkedSlot);
   }
 #endif
@@ -57,7 +51,7 @@ float cm_sampleScalar(vec3 texturePosition)
     if (slot >= 0)
     {
 #ifdef CM_SKIP_EMPTY
-      if (slot >= slots.x * slots.y * slots.z)   // a brick of zero extinction: no slot
+      if (cm_slotIsEmpty(slot))   // a brick of zero extinction: no slot
       {
         return cm_pagedEmptyValue;
       }
@@ -80,7 +74,6 @@ int cm_skipLast = 0;
 bool cm_brickIsEmpty(vec3 position)
 {
   vec3 finest = position * cm_levelTexel(0, 2).xyz - 0.5;
-  ivec3 slots = ivec3(cm_poolSlots + 0.5);
   cm_checkedAt = position;
   cm_checkedSlot = -1;
   cm_skipFirst = cm_pagedLevelAtPoint(finest);
@@ -92,7 +85,7 @@ bool cm_brickIsEmpty(vec3 position)
       cm_skipLast = level;
       cm_checkedLevel = level;
       cm_checkedSlot = slot;
-      return slot >= slots.x * slots.y * slots.z;
+      return cm_slotIsEmpty(slot);
     }
   }
   return false;

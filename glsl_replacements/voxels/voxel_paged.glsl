@@ -30,14 +30,12 @@ int cm_pagedLabel(ivec3 voxel, out ivec3 low, out ivec3 high)
 {
   ivec3 dims = ivec3(cm_gridDims);
   vec3 finest = vec3(voxel);
-  ivec3 slots = ivec3(cm_poolSlots + 0.5);
-  int capacity = slots.x * slots.y * slots.z;
   for (int level = cm_pagedLevelAtPoint(finest); level < CM_PAGED_LEVELS; ++level)
   {
     vec3 a = cm_levelTexel(level, 0).xyz;
     vec3 b = cm_levelTexel(level, 1).xyz;
     vec3 points = cm_levelTexel(level, 2).xyz;
-    vec3 cell = clamp(floor(finest * a + b + 0.5), vec3(0.0), points - 1.0);
+    vec3 cell = floor(cm_levelPoint(finest, level) + 0.5);   // the nearest
     vec3 brick = floor(cell / cm_brickPoints);
     int slot = cm_pagedSlot(level, brick);
     if (slot < 0)
@@ -47,17 +45,16 @@ int cm_pagedLabel(ivec3 voxel, out ivec3 low, out ivec3 high)
     vec3 first = cell;
     vec3 last = cell;
     int label = 0;
-    if (slot >= capacity)   // nothing in this brick
+    if (cm_slotIsEmpty(slot))   // nothing in this brick
     {
       first = brick * cm_brickPoints;
       last = min(first + cm_brickPoints - 1.0, points - 1.0);
     }
     else
     {
-      ivec3 where = ivec3(slot % slots.x, (slot / slots.x) % slots.y,
-                          slot / (slots.x * slots.y));
       int side = int(cm_brickPoints + 0.5);
-      label = int(texelFetch(cm_pool, where * side + ivec3(cell - brick * cm_brickPoints),
+      label = int(texelFetch(cm_pool, cm_slotOrigin(slot) * side
+                                      + ivec3(cell - brick * cm_brickPoints),
                              0).r + 0.5);
     }
     // Finest voxels whose nearest cell lies in [first, last]; the first and last cells
