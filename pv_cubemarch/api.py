@@ -539,10 +539,10 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         add_volume).parameters.items()}
 
     def left_out(key, value) -> bool:   # not given, or given as the default
-        if value is None or (key == "downsample" and value == 1):   # full resolution only
+        if value is None or (key == "downsample" and _same(value, 1)):   # full resolution only
             return True
         default = defaults.get(key)
-        return default is not None and isinstance(value, type(default)) and value == default
+        return default is not None and _same(value, default)
 
     refused = sorted(key for key, value in given.items()
                      if key not in PAGED_KEYWORDS and not left_out(key, value))
