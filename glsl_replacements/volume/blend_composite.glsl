@@ -4,6 +4,12 @@
 // and the premultiplied rgba it leaves; the marcher (ea_march) calls these three.
 vec4 cm_emission(vec3 texturePosition);   // defined by ea_march
 
+#ifdef CM_STOP_DEPTH
+// Where the ray stopped (texture coordinates of its last sample), once cm_stopped.
+vec3 cm_stopPosition;
+bool cm_stopped = false;
+#endif
+
 vec4 cm_blendStart()
 {
   return vec4(0.0);
@@ -12,7 +18,15 @@ vec4 cm_blendStart()
 bool cm_blend(inout vec4 state, vec3 texturePosition, float dt)
 {
   cm_composite(state, cm_emission(texturePosition), dt);
-  return !(state.a > cm_stopOpacity);
+  bool goOn = !(state.a > cm_stopOpacity);
+#ifdef CM_STOP_DEPTH
+  if (!goOn)
+  {
+    cm_stopPosition = texturePosition;
+    cm_stopped = true;
+  }
+#endif
+  return goOn;
 }
 
 vec4 cm_blendResult(vec4 state)

@@ -131,6 +131,10 @@ class BrickPager:
         self.unmarked: set = set()
         #: The last frame's depth pyramid and the view it was drawn for (cull_hidden).
         self.depth: tuple | None = None
+        #: The depth the frame just drawn leaves (a DepthPyramid; None: none), and what else
+        #: than the view it depends on (a volume's clipping planes): a change plans again.
+        self.read_depth = lambda: DepthPyramid.read(self.renderer)
+        self.drawn_state = lambda: ()
         self._view_now = None
         self.last_used = np.full(self.capacity, -1, np.int64)
         self._free = list(range(self.capacity - 1, -1, -1))   # popped from the end: 0 first
@@ -363,11 +367,20 @@ class BrickPager:
             @ clip_from_point.T
         return hidden_boxes(self.depth[1], clip, tuple(self.renderer.GetSize()))
 
+    def wants_depth(self) -> bool:
+        """Whether the frame now drawn leaves a depth to keep.
+
+        It does when the source culls hidden bricks, is shown, and the frame planned anew
+        or is not converged.
+        """
+        return (self.cull_hidden and self._planned_for is not None and self.shown()
+                and (not self.converged or self.depth is None
+                     or self.depth[0] != self._planned_for))
+
     def keep_depth(self, *_) -> None:
         """After a frame that planned or uploaded: its depth, for the next frame's culling."""
-        if self._planned_for is not None and (not self.converged or self.depth is None
-                                              or self.depth[0] != self._planned_for):
-            pyramid = DepthPyramid.read(self.renderer)
+        if self.wants_depth():
+            pyramid = self.read_depth()
             self.depth = None if pyramid is None else (self._planned_for, pyramid)
 
     def _children(self, number: int, low: np.ndarray, high: np.ndarray, info) -> np.ndarray:
@@ -409,7 +422,7 @@ class BrickPager:
     def _choose_and_upload(self) -> None:
         camera = self.renderer.GetActiveCamera()
         view = (camera.GetMTime(), tuple(self.renderer.GetSize()), self.lod_bias,
-                self.world_from_point().tobytes())
+                self.world_from_point().tobytes(), self.drawn_state())
         if view == self._planned_for and self.converged:
             return
         self._planned_for = self._view_now = view

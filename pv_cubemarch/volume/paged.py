@@ -29,6 +29,7 @@ from .binding import VolumeSetup, bind_marching, march_defines, world_from_textu
 from .brick_pager import BrickPager, bind_pool
 from .clipping import ClipState
 from .direct import DirectBinding
+from .stop_depth import follow_stop_depth, rays_can_stop
 
 
 @dataclass(eq=False)
@@ -241,6 +242,9 @@ def build_paged_actor(plotter, data: PagedData, setup: VolumeSetup) -> PagedBind
     binding.follow_multisampling()
     binding._tag = observe(renderer, vtk.vtkCommand.StartEvent,
                            binding.follow_multisampling, 5.0)
+    if rays_can_stop(model, shading.stop_opacity):   # bricks behind where rays stop: unread
+        follow_stop_depth(binding, lambda target: bind_paged_sampling(
+            target, data, step_scale, shading.stop_opacity))
     follow_pager(plotter, binding, data.pager)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
