@@ -418,15 +418,15 @@ def test_bench_outofcore_rows_and_errors(tmp_path, capsys):
     rows = outofcore.run_outofcore(["procedural-small"], ["far"], size=(96, 72), small=64,
                                    timeout=60)
     by = {r.row: r for r in rows}
-    assert set(by) == {"whole array in memory", "ours", "ours, finest everywhere",
-                       "coarsest level only"}
+    assert set(by) == {"whole array in memory", "ours", "ours, no hidden culling",
+                       "ours, finest everywhere", "coarsest level only"}
     assert by["ours, finest everywhere"].converged_s is not None
     assert by["ours, finest everywhere"].psnr_db >= 50.0
     assert by["coarsest level only"].psnr_db < by["ours, finest everywhere"].psnr_db
     assert by["ours"].bytes_read <= by["ours, finest everywhere"].bytes_read
     # the 2 TiB source: never read whole, converged within its pool, RSS bounded
     huge = outofcore.run_outofcore(["procedural"], ["far"], size=(64, 48), timeout=60)
-    assert {r.row for r in huge} == {"ours", "coarsest level only"}
+    assert {r.row for r in huge} == {"ours", "ours, no hidden culling", "coarsest level only"}
     assert all(r.bytes_read < 2**30 and r.converged_s is not None for r in huge)
     # labels: the finest level everywhere draws the in-memory add_voxels image exactly
     labels = {r.row: r for r in outofcore.run_outofcore(["labels-small"], ["close"],
@@ -436,5 +436,5 @@ def test_bench_outofcore_rows_and_errors(tmp_path, capsys):
     path = tmp_path / "outofcore.json"
     assert main(["bench", "outofcore", "--scenes", "smoke", "--views", "far", "--size",
                  "64x48", "--json", str(path)]) == 0
-    assert len(json.loads(path.read_text())["rows"]) == 4
+    assert len(json.loads(path.read_text())["rows"]) == 5
     assert "coarsest level only" in capsys.readouterr().out

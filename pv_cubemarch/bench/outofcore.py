@@ -2,12 +2,15 @@
 
 Scenes: ``procedural`` (by default 16384 x 16384 x 4096 uint16, 2 TiB, every level's
 points computed on demand from a seeded field of a few octaves of separable waves, so
-nothing is stored), ``procedural-small`` (the same field, 384³: small enough to draw
-whole in memory, the image every row is compared with), and ``smoke`` (the shipped smoke
+nothing is stored), ``procedural-dense`` (the same field under a transfer function that
+stops rays within a few points: most bricks behind are hidden), ``procedural-small``
+(the same field, 384³: small enough to draw whole in memory, the image every row is
+compared with), and ``smoke`` (the shipped smoke
 density written by :func:`~pv_cubemarch.build_pyramid` to an OME-Zarr store, then read
-back). Views: far, mid and close. Rows: ours (``lod_bias`` 0), ours with the finest level
-everywhere (``lod_bias=-30``), the coarsest level only (what napari draws of a pyramid in
-3D), and the whole array in memory (``add_volume(technique='direct')``) where it fits.
+back). Views: far, mid and close. Rows: ours (``lod_bias`` 0), ours without culling the
+bricks behind where the rays stop, ours with the finest level everywhere
+(``lod_bias=-30``), the coarsest level only (what napari draws of a pyramid in 3D), and
+the whole array in memory (``add_volume(technique='direct')``) where it fits.
 Measured in one run, after a small pyramid was drawn once both ways (:func:`_warm_up`):
 time to the first frame and to converged, frames while streaming and
 their longest, bytes read against the bytes of the bricks the view finally holds, peak
@@ -38,10 +41,12 @@ from .outofcore_rows import (
     whole_row,
 )
 
-SCENES = ("procedural", "procedural-small", "smoke", *LABEL_SCENES)
+SCENES = ("procedural", "procedural-dense", "procedural-small", "smoke", *LABEL_SCENES)
 VIEWS = ("far", "mid", "close")
 #: The transfer function every row draws with (data units of the uint16 field).
 KEYWORDS = dict(cmap="magma", clim=(20000.0, 60000.0), opacity="sigmoid")
+#: ``procedural-dense``'s: opacity 0.43 per point at the field's mean, 32768.
+DENSE = dict(cmap="bone", clim=(20000.0, 50000.0), opacity="linear")
 
 
 class WaveLevel:
@@ -85,7 +90,8 @@ def smoke_pyramid(directory: Path) -> Path:
     return path
 
 
-def _in_memory_row(scene, view, source, extent, size) -> tuple[OutOfCoreRow, np.ndarray]:
+def _in_memory_row(scene, view, source, extent, size, keywords
+                   ) -> tuple[OutOfCoreRow, np.ndarray]:
     """The finest level read whole and drawn by the direct marcher: the reference image."""
     def draw(pl):
         finest = source.levels[0]
@@ -93,7 +99,7 @@ def _in_memory_row(scene, view, source, extent, size) -> tuple[OutOfCoreRow, np.
         grid = pyvista.ImageData(dimensions=values.shape, spacing=tuple(finest.scale),
                                  origin=tuple(finest.translation))
         grid.point_data["values"] = values.ravel(order="F")
-        return add_volume(pl, grid, technique="direct", **KEYWORDS), values.nbytes
+        return add_volume(pl, grid, technique="direct", **keywords), values.nbytes
 
     return whole_row(scene, view, extent, size, draw)
 
@@ -131,7 +137,8 @@ def run_outofcore(scenes: Sequence[str] = SCENES, views: Sequence[str] = VIEWS,
                 rows += label_rows(scene, views, size, shape, small, gpu_bytes, host_bytes,
                                    timeout)
                 continue
-            if scene == "procedural":
+            keywords = DENSE if scene == "procedural-dense" else KEYWORDS
+            if scene in ("procedural", "procedural-dense"):
                 source = wave_source(shape)
             elif scene == "procedural-small":
                 source = wave_source((small,) * 3, coarsest=48)
@@ -145,15 +152,21 @@ def run_outofcore(scenes: Sequence[str] = SCENES, views: Sequence[str] = VIEWS,
             for view in views:
                 expected = None
                 if fits:
-                    row, expected = _in_memory_row(scene, view, source, extent, size)
+                    row, expected = _in_memory_row(scene, view, source, extent, size,
+                                                   keywords)
                     rows.append(row)
-                for name, bias in (("ours", 0.0), ("ours, finest everywhere", -30.0),
-                                   ("coarsest level only", 64.0)):
+                for name, bias, cull in (("ours", 0.0, True), ("ours, no hidden culling",
+                                                                0.0, False),
+                                         ("ours, finest everywhere", -30.0, True),
+                                         ("coarsest level only", 64.0, True)):
                     if bias < -1 and not fits:
                         continue   # the finest level over a whole 2 TiB view: no reference
-                    def add(pl, bias=bias, source=source):
-                        return add_volume(pl, source, lod_bias=bias, gpu_bytes=gpu_bytes,
-                                          host_bytes=host_bytes, **KEYWORDS)
+                    def add(pl, bias=bias, source=source, cull=cull, keywords=keywords):
+                        actor = add_volume(pl, source, lod_bias=bias, gpu_bytes=gpu_bytes,
+                                           host_bytes=host_bytes, **keywords)
+                        # off: its pager keeps no depth, so the depth pass never runs
+                        actor.cubemarch.pager.cull_hidden &= cull
+                        return actor
 
                     rows.append(stream_row(scene, view, name, add, source, extent, size,
                                            timeout, expected)[0])

@@ -54,13 +54,15 @@ class RenderToTexturePass:
         Keep the largest targets made so far and draw into their lower-left ``size``
         (:attr:`allocated` is what the textures hold), so a size that goes back and forth
         reallocates nothing.
+    on_demand : bool
+        Run only when :meth:`run_now` is called (from inside a frame), never by itself.
     """
 
     def __init__(self, renderer, recipe: ShaderRecipe | None,
                  size: tuple[int, int] | Callable[[], tuple[int, int]],
                  targets: int | Sequence[str] = 1,
                  every_frame: bool = False, run_when: Callable[[], bool] | None = None,
-                 grow_only: bool = False):
+                 grow_only: bool = False, on_demand: bool = False):
         self.renderer = renderer
         self.recipe = recipe
         self._size_source = size if callable(size) else None
@@ -85,7 +87,15 @@ class RenderToTexturePass:
         self._fbo = self._quad = None
         self._fragment = recipe.fragment_source() if recipe is not None else None
         self._vertex = vtkOpenGLRenderUtilities.GetFullScreenQuadVertexShader()
-        self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start)
+        self._tag = None if on_demand else observe(renderer, vtk.vtkCommand.StartEvent,
+                                                   self._on_start)
+
+    def run_now(self) -> bool:
+        """Run at once (the context current: inside a frame); whether it drew."""
+        self._needed = True
+        runs = self.runs
+        self._on_start()
+        return self.runs > runs
 
     def invalidate(self) -> None:
         """Ask for the pass to run at the next frame."""
@@ -223,7 +233,9 @@ class RenderToTexturePass:
     def release(self) -> None:
         """Free the targets and stop running."""
         self._release_targets(self.renderer.GetRenderWindow())
-        self.renderer.RemoveObserver(self._tag)
+        if self._tag is not None:
+            self.renderer.RemoveObserver(self._tag)
+            self._tag = None
 
 
 class PassOutput:

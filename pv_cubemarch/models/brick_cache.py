@@ -172,7 +172,13 @@ class BrickCache:
         return keys
 
     def wait(self, timeout: float) -> bool:
-        """Wait until a read ends (or ``timeout`` seconds); True if one did."""
+        """Wait until a read ends (or ``timeout`` seconds); True if one did.
+
+        At once when none is under way and none ended unseen: nothing would end.
+        """
+        with self._lock:
+            if not self._reading and not self._arrived:
+                return False
         return self._changed.wait(timeout)
 
     def raise_errors(self) -> None:

@@ -11,6 +11,7 @@ waits for a read, and the coarsest level, loaded before the first frame, is neve
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 
 import numpy as np
 
@@ -131,9 +132,13 @@ class BrickPager:
         self.unmarked: set = set()
         #: The last frame's depth pyramid and the view it was drawn for (cull_hidden).
         self.depth: tuple | None = None
-        #: The depth the frame just drawn leaves (a DepthPyramid; None: none), and what else
-        #: than the view it depends on (a volume's clipping planes): a change plans again.
+        #: The depth the frame just drawn leaves (a DepthPyramid; None: none), kept after
+        #: each frame that planned; or, where it is set, the depth of what the pool holds
+        #: seen from this view, made before each plan (a volume's: where its rays stop).
         self.read_depth = lambda: DepthPyramid.read(self.renderer)
+        self.depth_before_plan: Callable[[], DepthPyramid | None] | None = None
+        #: What else than the view the depth depends on (a volume's clipping planes): a
+        #: change plans again.
         self.drawn_state = lambda: ()
         self._view_now = None
         self.last_used = np.full(self.capacity, -1, np.int64)
@@ -149,6 +154,9 @@ class BrickPager:
         #: Whether the last frame wanted more bricks than the pool holds.
         self.over_budget = False
         self.uploaded_bytes = 0
+        #: Bricks the last plan left out as hidden behind the depth.
+        self.hidden_bricks = 0
+        self._fruitless = None   # the view whose depth pass stopped no ray
         pinned = sorted(self.pinned)   # before the first frame: never a hole
         for key, values in zip(pinned, self.read_pinned(pinned), strict=True):
             self._place(key, values)
@@ -328,6 +336,7 @@ class BrickPager:
         per_distance, constant = self.footprint()
         coarsest = len(levels) - 1
         keys = sorted(self.pinned)
+        self.hidden_bricks = 0
         candidates = np.array(list(np.ndindex(*self.counts[coarsest])), dtype=np.int64)
         for number in range(coarsest, -1, -1):
             if not len(candidates):
@@ -339,7 +348,9 @@ class BrickPager:
             low = (candidates * self.brick - below - b) / a
             high = ((candidates + 1) * self.brick + above - b) / a
             shown = _in_view(low, high, clip_from_point)
-            shown[shown] = ~self._hidden(low[shown], high[shown], clip_from_point)
+            hidden = self._hidden(low[shown], high[shown], clip_from_point)
+            self.hidden_bricks += int(hidden.sum())
+            shown[shown] = ~hidden
             candidates, low, high = candidates[shown], low[shown], high[shown]
             nearest = _distance_to_boxes(eye_world, low, high, world_from_point)
             pixel = nearest * per_distance + constant
@@ -425,10 +436,23 @@ class BrickPager:
                 self.world_from_point().tobytes(), self.drawn_state())
         if view == self._planned_for and self.converged:
             return
+        # The first frame draws the coarsest level at once; a pager that culls by a depth
+        # made before the plan asks for nothing then: the next frame asks, knowing where
+        # the rays stop (asked blind, the reads started would be spent on hidden bricks).
+        defer = self._planned_for is None and self.cull_hidden \
+            and self.depth_before_plan is not None
+        if self.cull_hidden and self.depth_before_plan is not None:
+            # before the uploads; a view where no ray stopped runs no more of them (culling
+            # less is never wrong; the pass costs a march of every pixel)
+            pyramid = None if defer or view == self._fruitless else self.depth_before_plan()
+            self.depth = None if pyramid is None else (view, pyramid)
         self._planned_for = self._view_now = view
         self.frame_number += 1
         self.unmarked = set()
         wanted = self.wanted()
+        if self.depth_before_plan is not None and self.depth is not None \
+                and self.depth[1].levels[0].min() >= 1.0:
+            self._fruitless = view
         failed = self.cache.failed
         # within the pool's slots (bricks known to be empty, or unreadable, take none)
         taking = np.cumsum([key not in self.empty and key not in failed for key in wanted])
@@ -442,7 +466,7 @@ class BrickPager:
         absent = [key for key in wanted if key not in self.slot_of and key not in self.empty
                   and key not in failed]
         marked = len(self.empty)
-        self.cache.request(absent)
+        self.cache.request([] if defer else absent)
         self.cache.arrived()
         self._victims = (int(s) for s in np.argsort(self.last_used, kind="stable"))
         sent = 0

@@ -169,7 +169,8 @@ def follow_pager(plotter, binding, pager: BrickPager) -> None:
     binding._pager_renderer = plotter.renderer
     binding._pager_tags = [observe(plotter.renderer, vtk.vtkCommand.StartEvent, pager.frame,
                                    4.0)]
-    if pager.cull_hidden:   # the frame's depth, once drawn, for the next frame's choice
+    if pager.cull_hidden and pager.depth_before_plan is None:
+        # the frame's depth, once drawn, for the next frame's choice
         binding._pager_tags.append(observe(plotter.renderer, vtk.vtkCommand.EndEvent,
                                            pager.keep_depth))
     pager.shown = lambda: binding.shown

@@ -1,13 +1,13 @@
 """Where a streamed volume's rays stop: the depth its pager culls hidden bricks by.
 
-A label grid writes the depth of what it hits; a volume writes none (it blends). While its
-pager still reads bricks, a pass marches the same rays with the same steps as the box and
-writes, per pixel, the window depth of the sample where the opacity passed
-``stop_opacity`` (the marcher stops there; what lies behind reaches no pixel). Read back
-after the frame, that depth culls the bricks behind it as a label grid's does
-(:mod:`.occluded_bricks`). The pass runs only on frames whose depth the pager keeps, and
-not at all for a transfer function whose densest value cannot stop a ray crossing the
-whole box.
+A label grid writes the depth of what it hits; a volume writes none (it blends). Before
+each plan of its pager (a new view, or bricks still missing; not the first frame, which
+draws the coarsest level at once), a pass marches the same rays with the same steps as
+the box over what the pool holds, and writes per pixel the window depth of the sample
+where the opacity passed ``stop_opacity``: the marcher stops there, and what lies behind
+reaches no pixel. Read back at once, that depth culls the bricks behind it as a label
+grid's does (:mod:`.occluded_bricks`). The pass runs on no other frame, and never for a
+transfer function whose densest value cannot stop a ray crossing the whole box.
 """
 
 from __future__ import annotations
@@ -36,16 +36,16 @@ def rays_can_stop(model, stop_opacity: float) -> bool:
 
 def follow_stop_depth(binding, bind_sampling: Callable[[object], dict]
                       ) -> RenderToTexturePass:
-    """Give the pager of ``binding``'s volume the depth where its rays stop.
+    """Give the pager of ``binding``'s volume the depth where its rays stop, before each plan.
 
-    Read after each frame the pager plans. ``bind_sampling(target)`` gives a pass what the
+    ``bind_sampling(target)`` gives a pass what the
     box's marcher reads and returns its switches. The pass recompiles with the binding's
     marchers (a clipping plane added) and is freed with it.
     """
     renderer, data, model = binding.renderer, binding.data, binding.model
     pager = data.pager
     depth_pass = RenderToTexturePass(renderer, None, size=lambda: drawn_viewport(renderer)[2:],
-                                     targets=("r32f",), run_when=pager.wants_depth)
+                                     targets=("r32f",), on_demand=True)
     switches = bind_sampling(depth_pass)
     bind_camera(depth_pass, renderer, lambda: world_from_texture(model))
     depth_pass.set_recipe(ShaderRecipe(
@@ -53,16 +53,14 @@ def follow_stop_depth(binding, bind_sampling: Callable[[object], dict]
                     "camera_declarations", *march_snippets("composite", switches),
                     "pixel_ray", "screen_ray", "ea_stop_depth_main"),
         defines={**switches, "CM_STOP_DEPTH": True}))
-    read_runs = [depth_pass.runs]
 
-    def read_depth():
-        if depth_pass.runs == read_runs[0]:   # not run this frame: no depth of it
+    def depth_now():
+        if not depth_pass.run_now():
             return None
-        read_runs[0] = depth_pass.runs
         return DepthPyramid(depth_pass.read(0)[..., 0], tuple(drawn_viewport(renderer)[:2]))
 
     pager.cull_hidden = True
-    pager.read_depth = read_depth
+    pager.depth_before_plan = depth_now
     pager.drawn_state = lambda: data.clip.planes   # a moved plane uncovers what it cut
     binding.targets.append(depth_pass)
     binding.extra_release.append(depth_pass.release)
