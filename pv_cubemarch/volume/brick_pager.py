@@ -479,9 +479,9 @@ class BrickPager:
         self.missing = sum(1 for key in wanted if key not in self.slot_of
                            and key not in self.empty and key not in failed
                            and key not in self.unmarked)
-        if self.cull_hidden and sent:
+        if self.cull_hidden and sent and self.hidden_bricks:
             # what was drawn coarse may hide what the new bricks uncover: plan again with
-            # the depth of the frame that draws them
+            # the depth of the frame that draws them (nothing hidden: nothing to uncover)
             self.missing = max(self.missing, 1)
         if self.over_budget and (len(self.empty) != marked or self.unmarked):
             # bricks cut from this frame's list may fit now that some turned out empty
