@@ -87,3 +87,22 @@ def hidden_boxes(pyramid: DepthPyramid, corners_clip: np.ndarray, size: tuple[in
     farthest = pyramid.farthest(pixels.min(axis=1), pixels.max(axis=1))
     hidden[np.flatnonzero(ahead)] = nearest > farthest + 1e-6
     return hidden
+
+
+def opaque_scene_state(renderer, own: list) -> tuple:
+    """What the depth of a frame owes to the renderer's props other than ``own``.
+
+    Which are drawn and when each (or its mapper) last changed: a mesh removed, hidden or
+    moved uncovers bricks its depth hid, so a plan keyed on this is made again.
+    """
+    props = renderer.GetViewProps()
+    state = []
+    for index in range(props.GetNumberOfItems()):
+        prop = props.GetItemAsObject(index)
+        if any(prop is item for item in own):
+            continue
+        mapper = prop.GetMapper() if hasattr(prop, "GetMapper") else None
+        state.append((prop.__this__, prop.GetVisibility(), prop.GetMTime(),
+                      mapper.GetMTime() if mapper is not None else 0))
+    return tuple(state)
+

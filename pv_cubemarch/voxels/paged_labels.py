@@ -32,6 +32,7 @@ from ..models.multiscale import MultiscaleSource
 from ..models.volume import box_world_bounds
 from ..models.voxels import palette_texels
 from ..volume.brick_pager import BrickPager, bind_pool
+from ..volume.occluded_bricks import opaque_scene_state
 from ..volume.paged import FollowsPager, follow_pager
 from .label_state import upload_palette_rows
 from .options import VoxelOptions
@@ -283,6 +284,8 @@ def build_paged_labels(plotter, model: PagedLabels, options: VoxelOptions,
     bindings.install(recipe, actor)
     binding = PagedLabelsBinding(model, pager, bindings, recipe, options)
     binding.drawn = [actor]
+    # the frame's depth holds the other props too: a plan is made again when they change
+    pager.drawn_state = lambda: opaque_scene_state(plotter.renderer, binding.drawn)
     binding.renderer = renderer
     follow_pager(plotter, binding, pager)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
