@@ -436,11 +436,10 @@ class BrickPager:
                 self.world_from_point().tobytes(), self.drawn_state())
         if view == self._planned_for and self.converged:
             return
-        # The first frame draws the coarsest level at once; a pager that culls by a depth
-        # made before the plan asks for nothing then: the next frame asks, knowing where
-        # the rays stop (asked blind, the reads started would be spent on hidden bricks).
-        defer = self._planned_for is None and self.cull_hidden \
-            and self.depth_before_plan is not None
+        # The first frame draws the coarsest level at once; a pager that culls hidden
+        # bricks asks for nothing then: the next frame asks, knowing where the rays stop
+        # (asked blind, the reads started would be spent on hidden bricks).
+        defer = self._planned_for is None and self.cull_hidden
         if self.cull_hidden and self.depth_before_plan is not None:
             # before the uploads; a view where no ray stopped runs no more of them (culling
             # less is never wrong; the pass costs a march of every pixel)
