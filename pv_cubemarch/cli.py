@@ -25,6 +25,7 @@ from .bench import voxels as bench_voxels
 from .bench import world as bench_world
 from .bench.layer_rows import format_layer_table
 from .bench.voxels import ROWS as VOXEL_ROWS
+from .cluster import orbit, render_frames
 from .core.declared import KINDS, declared, option, options_markdown
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
@@ -141,6 +142,22 @@ def build_parser() -> argparse.ArgumentParser:
                         help="draw a grid file's field as its implicit surface at this level "
                              "(a quadratic B-spline through its samples)")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
+    frames = commands.add_parser("render-frames", help="render an orbit of a scene on a Dask "
+                                                       "cluster (PNG frames or a movie)")
+    frames.add_argument("scene", help="scene file, as for render")
+    frames.add_argument("--out", "-o", required=True,
+                        help="folder for frame_00000.png ..., or a movie (.mp4, .gif)")
+    frames.add_argument("--orbit", type=int, default=64,
+                        help="frames turning once around the scene camera's focal point "
+                             "(default 64)")
+    frames.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
+    frames.add_argument("--camera", help="name of the scene camera the orbit starts from")
+    frames.add_argument("--workers", type=int,
+                        help="processes of the local cluster started for the run (default 2)")
+    frames.add_argument("--scheduler", help="address of a running Dask scheduler to use "
+                                            "instead (tcp://host:8786)")
+    frames.add_argument("--fps", type=float, default=24.0, help="a movie's frame rate")
+    frames.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     commands.add_parser("options", help="print every option's table (docs/options.md): its "
                                          "flag, USD attribute and live-view control")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
@@ -357,6 +374,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "render":
             return _render(args)
+        if args.command == "render-frames":
+            return _render_frames(args)
         if args.command == "bench":
             code = _bench(args)
             _record_command(getattr(args, "json_path", None), argv)
@@ -393,6 +412,34 @@ def _techniques() -> list:
 def _warn(flag: str, what: str) -> None:
     print(f"pv-cubemarch: warning: --{flag.replace('_', '-')} does not apply to {what}; left "
           "out for it", file=sys.stderr)
+
+
+def _render_frames(args) -> int:
+    """An orbit of the scene's camera rendered on a cluster (render_frames)."""
+    if args.scheduler is not None and args.workers is not None:
+        raise ValueError("--workers sizes the local cluster started for the run; a "
+                         "--scheduler brings its own workers: give one of them.")
+    scene = load_scene(args.scene, progress_bar=False)
+    start = scene.cameras.get(args.camera) if args.camera else scene.camera
+    if args.camera and start is None:
+        raise KeyError(f"No camera named {args.camera!r}; the scene has {list(scene.cameras)}.")
+    start = start or scene.default_camera(args.size[0] / args.size[1])
+    client = None
+    if args.scheduler is not None:
+        from distributed import Client
+
+        client = Client(args.scheduler)
+    try:
+        written = render_frames(args.scene, orbit(start, args.orbit), args.size, client=client,
+                                workers=args.workers, out=args.out, fps=args.fps,
+                                progress_bar=False if args.no_progress else None)
+    finally:
+        if client is not None:
+            client.close()
+    where = f"{len(written)} frames to {args.out}" if isinstance(written, list) else \
+        f"{args.orbit} frames to {written}"
+    print(f"wrote {where}")
+    return 0
 
 
 def _render(args) -> int:
