@@ -167,3 +167,42 @@ def test_the_command_line_renders_an_orbit_of_a_scene(tmp_path, capsys):
         main(["render-frames", str(DEFAULT_SCENE), "--orbit", "x", "--out", "o"])
     assert main(["render-frames", str(DEFAULT_SCENE), "--workers", "2", "--scheduler",
                  "tcp://127.0.0.1:1", "--out", str(tmp_path / "o")]) != 0
+
+
+class Unreadable:
+    """A level whose bricks past x = 8 cannot be read (a lost chunk, a network error)."""
+
+    def __init__(self, values):
+        self.values = values
+        self.shape, self.dtype, self.ndim = values.shape, values.dtype, 3
+
+    def __getitem__(self, box):
+        if box[0].stop is not None and box[0].stop > 8:
+            raise OSError("chunk lost")
+        return self.values[box]
+
+
+class StreamedBuild:
+    """A streamed volume whose finest level has bricks that cannot be read."""
+
+    def __call__(self, plotter):
+        x, y, z = np.meshgrid(*(np.linspace(-1, 1, 24),) * 3, indexing="ij")
+        values = (900 * np.exp(-3 * (x**2 + y**2 + z**2))).astype(np.float32)
+        source = cm.multiscale_source([Unreadable(values), values[::2, ::2, ::2]])
+        cm.add_volume(plotter, source, lod_bias=-64, brick_size=4, clim=(0.0, 900.0))
+
+
+def test_a_frame_with_unreadable_bricks_is_an_error_not_a_coarse_frame(client, tmp_path):
+    # The read error is said once by the pager; a retried frame on the same plotter would
+    # converge coarser in silence. Here every try fails and the batch raises; a movie
+    # begun is removed. catches (seen failing): the kept plotter reused after the error
+    # (the retry returned a frame drawn from the coarser level).
+    movie = tmp_path / "orbit.gif"
+    with pytest.raises(cm.CubemarchError, match="could not be read|chunk lost"):
+        cm.render_frames(StreamedBuild(), CAMERAS[:2], SIZE, client=client, out=movie,
+                         retries=1, progress_bar=False)
+    assert not movie.exists()
+    with pytest.raises(ValueError, match="workers"):
+        cm.render_frames(build, CAMERAS[:1], SIZE, workers=0, out=tmp_path / "x.mp4")
+    assert not (tmp_path / "x.mp4").exists()
+    assert cm.render_frames(build, [], SIZE) == []

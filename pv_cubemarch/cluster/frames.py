@@ -10,15 +10,17 @@ from __future__ import annotations
 
 import hashlib
 import os
-import threading
+import warnings
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..core.camera import Camera
+from ..core.errors import CubemarchError
 from ..core.progress import progress
 from ..core.rendering import offscreen_plotter, render_image
 from ..scene.io import load_scene
@@ -26,8 +28,12 @@ from ..scene.model import Scene
 
 #: Plotters a worker keeps (least recently used dropped first): one per scene and size.
 KEPT_PLOTTERS = 2
-#: Frame files and movies render_frames writes (``out``).
-MOVIE_SUFFIXES = (".mp4", ".gif")
+#: Movies render_frames writes (``out``; imageio-ffmpeg, GIF by imageio); else a folder.
+MOVIE_SUFFIXES = (".mp4", ".mov", ".mkv", ".avi", ".webm", ".gif")
+
+
+class FrameError(CubemarchError, RuntimeError):
+    """A frame the cluster could not render right (its error, or an image not converged)."""
 
 
 @dataclass(frozen=True)
@@ -82,28 +88,51 @@ class _SceneAdder:
         self.scene.add_to(plotter, progress_bar=False)
 
 
-# In each worker process: its plotters, how many times it built one, and one frame at a
-# time (a GL context is not shared between threads).
+# In each worker process: its plotters, how many times it built one, and the one thread
+# every frame is drawn on (a GL context is current on one thread; a worker may run its
+# tasks on several).
 _kept: OrderedDict = OrderedDict()
 _builds = [0]
-_lock = threading.Lock()
+_gl_thread = ThreadPoolExecutor(1, thread_name_prefix="pv-cubemarch-gl")
 
 
 def render_one(source: SceneSource, camera: Camera, size: tuple[int, int]) -> np.ndarray:
     """One frame, on a worker: its kept plotter for the scene (built at first), converged."""
-    with _lock:
-        key = (source.key, size)
-        plotter = _kept.pop(key, None)
-        if plotter is None:
-            plotter = source.build(size)
-            _builds[0] += 1
-        _kept[key] = plotter
-        while len(_kept) > KEPT_PLOTTERS:
-            _kept.popitem(last=False)[1].close()
+    return _gl_thread.submit(_render_kept, source, camera, size).result()
+
+
+def _render_kept(source: SceneSource, camera: Camera, size: tuple[int, int]) -> np.ndarray:
+    key = (source.key, size)
+    plotter = _kept.pop(key, None)
+    if plotter is None:
+        plotter = source.build(size)
+        _builds[0] += 1
+    try:
         camera.apply_to(plotter.camera)
         if camera.clipping_range is None:
             plotter.renderer.ResetCameraClippingRange()
-        return render_image(plotter, converge=True)
+        with warnings.catch_warnings():   # not converged in time: an error, not a frame
+            warnings.filterwarnings("error", message=r"render_image\(converge=True\)")
+            image = render_image(plotter, converge=True)
+        _check_streamed(plotter)
+    except BaseException:
+        plotter.close()   # a later try builds it again: bricks failed here are read anew
+        raise
+    _kept[key] = plotter
+    while len(_kept) > KEPT_PLOTTERS:
+        _kept.popitem(last=False)[1].close()
+    return image
+
+
+def _check_streamed(plotter) -> None:
+    """Raise if a streamed source of the plotter drew a brick from a coarser level."""
+    component = plotter.__dict__.get("_cubemarch_component")
+    for binding in component.tracked if component is not None else ():
+        pager = getattr(binding, "pager", None)
+        failed = len(pager.cache.failed) if pager is not None else 0
+        if failed:
+            raise FrameError(f"{failed} bricks of {binding.model.name!r} could not be read; "
+                             "the frame would draw them from a coarser level.")
 
 
 def _same(value):
@@ -203,6 +232,12 @@ class _FrameSink:
             return self.path
         return self.images
 
+    def abort(self) -> None:
+        """After an error: the movie closed and removed (a partial one would mislead)."""
+        if self.movie is not None:
+            self.movie.close()
+            self.path.unlink(missing_ok=True)
+
 
 def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), *,
                   client=None, workers: int | None = None, out=None, fps: float = 24.0,
@@ -231,12 +266,15 @@ def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), 
     workers : int, optional
         Processes of the default ``LocalCluster`` (default: 2, at most the cores).
     out : str or os.PathLike, optional
-        A folder (frames written as ``frame_00000.png`` ...) or a movie (``.mp4`` through
-        imageio-ffmpeg, ``.gif``). By default the frames are returned.
+        A folder (frames written as ``frame_00000.png`` ...) or a movie (``.mp4``,
+        ``.mov``, ``.mkv``, ``.avi``, ``.webm`` through imageio-ffmpeg, or ``.gif``). By
+        default the frames are returned.
     fps : float
         Frames per second of a movie.
     retries : int
-        Times a frame whose rendering raised is tried again before its error is raised.
+        Times a frame whose rendering raised is tried again before its error is raised
+        (:class:`FrameError`, also for a streamed source not converged in time or with
+        bricks it could not read: never a frame drawn coarser in silence).
     progress_bar : bool, optional
         Show a bar as frames finish (default: on a terminal).
 
@@ -260,20 +298,24 @@ def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), 
     size = _checked_size(size)
     if isinstance(retries, bool) or not isinstance(retries, (int, np.integer)) or retries < 0:
         raise ValueError(f"retries must be a non-negative integer, got {retries!r}.")
-    source = SceneSource.of(scene)
-    sink = _FrameSink(out, len(cameras), float(fps))
-    cluster = None
-    if client is None:
-        count = workers if workers is not None else min(2, os.cpu_count() or 1)
-        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-            raise ValueError(f"workers must be a positive integer, got {workers!r}.")
-        cluster = LocalCluster(n_workers=int(count), threads_per_worker=1, processes=True,
-                               dashboard_address=None)
-        client = Client(cluster)
-    elif workers is not None:
+    if client is not None and workers is not None:
         raise ValueError("workers= sizes the LocalCluster render_frames starts; a client "
                          "brings its own workers: leave workers out.")
+    count = workers if workers is not None else min(2, os.cpu_count() or 1)
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+        raise ValueError(f"workers must be a positive integer, got {workers!r}.")
+    if not float(fps) > 0:
+        raise ValueError(f"fps must be positive, got {fps!r}.")
+    source = SceneSource.of(scene)
+    if not cameras:
+        return _FrameSink(out, 0, float(fps)).close()
+    cluster = sink = None
     try:
+        if client is None:
+            cluster = LocalCluster(n_workers=int(count), threads_per_worker=1,
+                                   processes=True, dashboard_address=None)
+            client = Client(cluster)
+        sink = _FrameSink(out, len(cameras), float(fps))
         # a task, not scattered data: if the worker holding it dies, it is made again
         shared = client.submit(_same, source, pure=False)
         futures = [client.submit(render_one, shared, camera, size, retries=int(retries),
@@ -286,15 +328,21 @@ def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), 
                 image = future.result()
             except Exception as error:
                 client.cancel(futures)
-                raise RuntimeError(f"frame {index} (camera {cameras[index]}) failed on the "
-                                   f"cluster: {type(error).__name__}: {error}") from error
+                raise FrameError(f"frame {index} (camera {cameras[index]}) failed on the "
+                                 f"cluster: {type(error).__name__}: {error}") from error
             sink.put(index, image)
             future.release()
+        result, sink = sink.close(), None
     finally:
+        if sink is not None:
+            sink.abort()
         if cluster is not None:
-            client.close()
-            cluster.close()
-    return sink.close()
+            try:
+                if client is not None:
+                    client.close()
+            finally:
+                cluster.close()
+    return result
 
 
 def _checked_size(size) -> tuple[int, int]:

@@ -13,6 +13,7 @@ blocks the caller: a frame takes what has arrived.
 from __future__ import annotations
 
 import threading
+import time
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 
@@ -24,6 +25,8 @@ from .multiscale import MultiscaleSource
 HOST_BYTES = 2 * 2**30
 #: Reads running at once by default.
 READ_THREADS = 4
+#: Seconds wait() pauses when nothing is being read (a converging loop does not spin).
+IDLE_WAIT_S = 0.01
 
 
 def brick_counts(shape, brick: int) -> tuple[int, int, int]:
@@ -168,7 +171,7 @@ class BrickCache:
         """Keys read since the last call (some may have left the cache again)."""
         with self._lock:
             keys, self._arrived = self._arrived, []
-        self._changed.clear()
+            self._changed.clear()   # under the lock: a read ending now sets it again
         return keys
 
     def wait(self, timeout: float) -> bool:
@@ -177,8 +180,10 @@ class BrickCache:
         At once when none is under way and none ended unseen: nothing would end.
         """
         with self._lock:
-            if not self._reading and not self._arrived:
-                return False
+            idle = not self._reading and not self._arrived
+        if idle:   # a moment, so a caller looping on it does not spin
+            time.sleep(min(timeout, IDLE_WAIT_S))
+            return False
         return self._changed.wait(timeout)
 
     def raise_errors(self) -> None:

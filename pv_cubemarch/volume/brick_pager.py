@@ -376,7 +376,8 @@ class BrickPager:
         corners = _corners(low, high)
         clip = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2) \
             @ clip_from_point.T
-        return hidden_boxes(self.depth[1], clip, tuple(self.renderer.GetSize()))
+        pyramid = self.depth[1]   # its pixels are the ones the clip space maps onto
+        return hidden_boxes(pyramid, clip, pyramid.levels[0].shape[::-1])
 
     def wants_depth(self) -> bool:
         """Whether the frame now drawn leaves a depth to keep.

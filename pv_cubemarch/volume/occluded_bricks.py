@@ -92,8 +92,9 @@ def hidden_boxes(pyramid: DepthPyramid, corners_clip: np.ndarray, size: tuple[in
 def opaque_scene_state(renderer, own: list) -> tuple:
     """What the depth of a frame owes to the renderer's props other than ``own``.
 
-    Which are drawn and when each (or its mapper) last changed: a mesh removed, hidden or
-    moved uncovers bricks its depth hid, so a plan keyed on this is made again.
+    Which are drawn and when each (its mapper, its input data) last changed: a mesh
+    removed, hidden, moved or edited uncovers bricks its depth hid, so a plan keyed on this
+    is made again.
     """
     props = renderer.GetViewProps()
     state = []
@@ -102,7 +103,10 @@ def opaque_scene_state(renderer, own: list) -> tuple:
         if any(prop is item for item in own):
             continue
         mapper = prop.GetMapper() if hasattr(prop, "GetMapper") else None
+        data = mapper.GetInputDataObject(0, 0) if mapper is not None \
+            and mapper.GetNumberOfInputPorts() else None
         state.append((prop.__this__, prop.GetVisibility(), prop.GetMTime(),
-                      mapper.GetMTime() if mapper is not None else 0))
+                      mapper.GetMTime() if mapper is not None else 0,
+                      data.GetMTime() if data is not None else 0))
     return tuple(state)
 

@@ -12,10 +12,12 @@ transfer function whose densest value cannot stop a ray crossing the whole box.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 
 import numpy as np
 
+from ..core.errors import ShaderCompileError
 from ..gl.box import bind_camera, drawn_viewport
 from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import ShaderRecipe
@@ -55,13 +57,22 @@ def follow_stop_depth(binding, bind_sampling: Callable[[object], dict]
         defines={**switches, "CM_STOP_DEPTH": True}))
 
     def depth_now():
-        if not depth_pass.run_now():
+        try:
+            ran = depth_pass.run_now()
+        except ShaderCompileError as error:   # drawn as before, every brick in view read
+            pager.cull_hidden = False
+            warnings.warn(f"the pass finding where a streamed volume's rays stop did not "
+                          f"compile; its hidden bricks are read too: {error}",
+                          RuntimeWarning, stacklevel=2)
+            return None
+        if not ran:
             return None
         return DepthPyramid(depth_pass.read(0)[..., 0], tuple(drawn_viewport(renderer)[:2]))
 
     pager.cull_hidden = True
     pager.depth_before_plan = depth_now
-    pager.drawn_state = lambda: data.clip.planes   # a moved plane uncovers what it cut
+    # a moved plane uncovers what it cut; nearest reads stop rays elsewhere than linear
+    pager.drawn_state = lambda: (data.clip.planes, model.interpolation)
     binding.targets.append(depth_pass)
     binding.extra_release.append(depth_pass.release)
     return depth_pass

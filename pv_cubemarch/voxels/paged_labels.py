@@ -285,7 +285,8 @@ def build_paged_labels(plotter, model: PagedLabels, options: VoxelOptions,
     binding = PagedLabelsBinding(model, pager, bindings, recipe, options)
     binding.drawn = [actor]
     # the frame's depth holds the other props too: a plan is made again when they change
-    pager.drawn_state = lambda: opaque_scene_state(plotter.renderer, binding.drawn)
+    renderer = plotter.renderer   # this one: the plotter's active one may change
+    pager.drawn_state = lambda: opaque_scene_state(renderer, binding.drawn)
     binding.renderer = renderer
     follow_pager(plotter, binding, pager)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
