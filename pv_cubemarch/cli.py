@@ -10,6 +10,7 @@ import sys
 import warnings
 from pathlib import Path
 
+from .bench import cluster as bench_cluster
 from .bench import edits as bench_edits
 from .bench import harness as bench
 from .bench import labels as bench_labels
@@ -278,6 +279,17 @@ def build_parser() -> argparse.ArgumentParser:
     outofcore.add_argument("--timeout", type=float, default=120.0,
                            help="seconds a row may take to converge")
     outofcore.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    cluster = bench_commands.add_parser(
+        "cluster", help="an orbit of a shipped scene on a Dask LocalCluster of 1, 2 ... "
+                        "processes against the serial loop and a multiprocessing.Pool "
+                        "building the scene per frame: fps, speed-up, overhead, equality")
+    cluster.add_argument("--scenes", default="smoke",
+                         help=f"comma-separated, of {', '.join(bench_cluster.SCENES)}")
+    cluster.add_argument("--frames", type=int, default=64, help="frames of the orbit")
+    cluster.add_argument("--size", type=_size, default=(320, 240), help="WxH (default 320x240)")
+    cluster.add_argument("--workers", default="1,2",
+                         help="comma-separated LocalCluster sizes (default 1,2)")
+    cluster.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     labels = bench_commands.add_parser(
         "labels", help="segmentations of many uint32/uint64 ids: ours against threshold + "
                        "add_mesh, contour_labels and a volume ray cast; setup, frames, bytes, "
@@ -630,6 +642,19 @@ def _bench(args) -> int:
               "(> 10/255): against the CPU reference compositing every root")
         print(format_layer_table(rows, bench_surface_layers.OURS))
         _write_rows(args.json_path, rows, size=list(args.size), grids=list(args.grids))
+        return 0
+    if args.bench_command == "cluster":
+        workers = [int(w) for w in args.workers.split(",") if w.strip()]
+        if not workers or min(workers) < 1 or args.frames < 1:
+            raise ValueError("--workers takes positive counts (1,2) and --frames a positive "
+                             "count.")
+        rows = bench_cluster.run_cluster([s.strip() for s in args.scenes.split(",")
+                                          if s.strip()], args.frames, args.size, workers)
+        print(f"{args.size[0]}x{args.size[1]}, {args.frames} frames; +ms/frame: time per "
+              "frame beyond a perfect split of the serial loop's; equal: every frame the "
+              "serial loop's, pixel for pixel")
+        print(bench_cluster.format_cluster(rows))
+        _write_rows(args.json_path, rows, size=list(args.size), frames=args.frames)
         return 0
     if args.bench_command == "outofcore":
         rows = bench_outofcore.run_outofcore(

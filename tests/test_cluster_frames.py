@@ -206,3 +206,26 @@ def test_a_frame_with_unreadable_bricks_is_an_error_not_a_coarse_frame(client, t
         cm.render_frames(build, CAMERAS[:1], SIZE, workers=0, out=tmp_path / "x.mp4")
     assert not (tmp_path / "x.mp4").exists()
     assert cm.render_frames(build, [], SIZE) == []
+
+
+def test_bench_cluster_rows(tmp_path, capsys):
+    # The rows of one run: the serial loop, a Pool building the scene per frame, and
+    # render_frames; every frame of the pool and the cluster equals the serial loop's.
+    # catches (seen failing): the cluster's frames compared in another order (equal
+    # False), the speed-up inverted.
+    import json
+
+    from pv_cubemarch.cli import main
+
+    path = tmp_path / "cluster.json"
+    assert main(["bench", "cluster", "--frames", "4", "--size", "64x48", "--workers", "1",
+                 "--json", str(path)]) == 0
+    rows = json.loads(path.read_text())["rows"]
+    assert [r["row"] for r in rows] == ["serial loop, one plotter",
+                                        "multiprocessing.Pool, scene per frame",
+                                        "render_frames, LocalCluster"]
+    assert all(r["equal"] for r in rows)
+    assert rows[0]["speedup"] == 1.0
+    for r in rows:
+        assert r["speedup"] == pytest.approx(rows[0]["seconds"] / r["seconds"])
+    assert "render_frames" in capsys.readouterr().out

@@ -47,6 +47,12 @@ COLUMNS = {
         ("hide half: KB", "changes.hide half.bytes", "KB"),
         ("note", "note", "{}"),
     ],
+    "cluster": [
+        ("scene", "scene", "{}"), ("row", "row", "{}"), ("workers", "workers", "{}"),
+        ("frames", "frames", "{}"), ("seconds", "seconds", "{:.2f}"), ("fps", "fps", "{:.1f}"),
+        ("speed-up", "speedup", "{:.2f}"), ("efficiency", "efficiency", "{:.2f}"),
+        ("+ms per frame", "overhead_ms", "{:.1f}"), ("equal to serial", "equal", "{}"),
+    ],
     "outofcore": [
         ("scene", "scene", "{}"), ("view", "view", "{}"), ("row", "row", "{}"),
         ("first frame s", "first_frame_s", "{:.2f}"), ("converged s", "converged_s", "{:.2f}"),
