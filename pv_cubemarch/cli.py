@@ -428,6 +428,8 @@ def _warn(flag: str, what: str) -> None:
 
 def _render_frames(args) -> int:
     """An orbit of the scene's camera rendered on a cluster (render_frames)."""
+    if args.orbit < 1:
+        raise ValueError(f"--orbit must be a positive number of frames, got {args.orbit}.")
     if args.scheduler is not None and args.workers is not None:
         raise ValueError("--workers sizes the local cluster started for the run; a "
                          "--scheduler brings its own workers: give one of them.")

@@ -59,7 +59,7 @@ def serial(scene, cameras):
 @pytest.fixture(scope="module")
 def client():
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       dashboard_address=None)
+                                       dashboard_address=":0")
     with distributed.Client(cluster) as client:
         yield client
     cluster.close()
@@ -117,6 +117,13 @@ def test_frames_written_as_pngs_and_a_movie(client, tmp_path):
     import imageio.v2 as imageio
 
     assert len(imageio.mimread(str(movie))) == 4
+    # plays in a loop. catches (seen failing): the GIF written without a loop block
+    assert Image.open(movie).info.get("loop") == 0
+    # a video keeps the frames' size (72 is no multiple of ffmpeg's 16-pixel blocks)
+    video = cm.render_frames(build, CAMERAS[:3], SIZE, client=client,
+                             out=tmp_path / "orbit.mp4", progress_bar=False)
+    frames = imageio.mimread(str(video))
+    assert len(frames) == 3 and frames[0].shape[:2] == (SIZE[1], SIZE[0])
 
 
 def test_bad_inputs_are_refused_by_name(client, tmp_path):
@@ -132,7 +139,7 @@ def test_bad_inputs_are_refused_by_name(client, tmp_path):
     def broken(plotter):
         raise OSError("no such data")
 
-    with pytest.raises(RuntimeError, match="frame [01] .*OSError: no such data"):
+    with pytest.raises(RuntimeError, match="building the scene failed.*OSError: no such data"):
         cm.render_frames(broken, CAMERAS[:2], SIZE, client=client, retries=0)
 
 
@@ -205,7 +212,12 @@ def test_a_frame_with_unreadable_bricks_is_an_error_not_a_coarse_frame(client, t
     with pytest.raises(ValueError, match="workers"):
         cm.render_frames(build, CAMERAS[:1], SIZE, workers=0, out=tmp_path / "x.mp4")
     assert not (tmp_path / "x.mp4").exists()
-    assert cm.render_frames(build, [], SIZE) == []
+    with pytest.raises(ValueError, match="cameras is empty"):
+        cm.render_frames(build, [], SIZE, out=tmp_path / "empty.mp4")
+    with pytest.raises(ValueError, match="one camera"):
+        cm.render_frames(build, CAMERAS[0], SIZE)
+    with pytest.raises(ValueError, match="one image"):
+        cm.render_frames(build, CAMERAS[:1], SIZE, out=tmp_path / "frame.png")
 
 
 def test_bench_cluster_rows(tmp_path, capsys):

@@ -54,7 +54,8 @@ def serial_frames(path: Path, cameras: Sequence[Camera], size) -> list[np.ndarra
         frames = []
         for camera in cameras:
             camera.apply_to(plotter.camera)
-            plotter.renderer.ResetCameraClippingRange()
+            if camera.clipping_range is None:   # as render_frames' workers do
+                plotter.renderer.ResetCameraClippingRange()
             frames.append(render_image(plotter, converge=True))
         return frames
     finally:
@@ -95,7 +96,7 @@ def run_cluster(scenes: Sequence[str] = ("smoke",), frames: int = 64, size=(320,
                          serial, _all_equal(images, expected)))
         for count in workers:
             with LocalCluster(n_workers=count, threads_per_worker=1, processes=True,
-                              dashboard_address=None) as cluster, Client(cluster) as client:
+                              dashboard_address=":0") as cluster, Client(cluster) as client:
                 start = time.perf_counter()
                 images = render_frames(path, cameras, size, client=client, progress_bar=False)
                 took = time.perf_counter() - start

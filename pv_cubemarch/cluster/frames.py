@@ -30,10 +30,16 @@ from ..scene.model import Scene
 KEPT_PLOTTERS = 2
 #: Movies render_frames writes (``out``; imageio-ffmpeg, GIF by imageio); else a folder.
 MOVIE_SUFFIXES = (".mp4", ".mov", ".mkv", ".avi", ".webm", ".gif")
+#: Suffixes of one image: refused as ``out`` (a folder of frames would be made by that name).
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 
 
 class FrameError(CubemarchError, RuntimeError):
     """A frame the cluster could not render right (its error, or an image not converged)."""
+
+
+class SceneBuildError(FrameError):
+    """The scene could not be built on a worker (every frame would fail alike)."""
 
 
 @dataclass(frozen=True)
@@ -58,7 +64,12 @@ class SceneSource:
         if isinstance(scene, Scene) or callable(scene):
             import cloudpickle  # what Dask ships functions with: the key is their bytes
 
-            data = cloudpickle.dumps(scene)
+            try:
+                data = cloudpickle.dumps(scene)
+            except Exception as error:
+                raise TypeError(f"scene cannot be sent to the workers ({type(error).__name__}: "
+                                f"{error}): a build function must be picklable (no open "
+                                "files, locks or plotters in what it uses).") from error
             builder = _SceneAdder(scene) if isinstance(scene, Scene) else scene
             return cls(hashlib.sha256(data).hexdigest(), builder=builder)
         raise TypeError(f"scene must be a scene file's path, a pv_cubemarch.Scene or a "
@@ -105,7 +116,11 @@ def _render_kept(source: SceneSource, camera: Camera, size: tuple[int, int]) -> 
     key = (source.key, size)
     plotter = _kept.pop(key, None)
     if plotter is None:
-        plotter = source.build(size)
+        try:
+            plotter = source.build(size)
+        except Exception as error:
+            raise SceneBuildError(f"building the scene failed on a worker: "
+                                  f"{type(error).__name__}: {error}") from error
         _builds[0] += 1
     try:
         camera.apply_to(plotter.camera)
@@ -165,6 +180,9 @@ def as_camera(camera, index: int = 0) -> Camera:
 def orbit(camera, frames: int) -> list[Camera]:
     """``frames`` cameras turning once around ``camera``'s focal point, about its view up.
 
+    Each keeps the camera's clipping range (its distance to the focal point is the same);
+    a camera without one has its range fitted to the scene at each frame.
+
     Examples
     --------
     >>> import pv_cubemarch
@@ -185,9 +203,8 @@ def orbit(camera, frames: int) -> list[Camera]:
         turned = (offset * np.cos(angle) + np.cross(axis, offset) * np.sin(angle)
                   + axis * np.dot(axis, offset) * (1.0 - np.cos(angle)))
         cameras.append(Camera(tuple(map(float, focal + turned)), camera.focal_point,
-                              camera.view_up,
-                              camera.view_angle, None, camera.parallel_projection,
-                              camera.parallel_scale))
+                              camera.view_up, camera.view_angle, camera.clipping_range,
+                              camera.parallel_projection, camera.parallel_scale))
     return cameras
 
 
@@ -204,8 +221,14 @@ class _FrameSink:
                 import imageio.v2 as imageio
 
                 out.parent.mkdir(parents=True, exist_ok=True)
-                self.movie = imageio.get_writer(str(out), fps=fps)
+                # a GIF plays in a loop; a video keeps the frames' size (no macro blocks)
+                extra = {"loop": 0} if out.suffix.lower() == ".gif" else \
+                    {"macro_block_size": 1}
+                self.movie = imageio.get_writer(str(out), fps=fps, **extra)
                 self.path = out
+            elif out.suffix.lower() in IMAGE_SUFFIXES:
+                raise ValueError(f"out={str(out)!r} names one image; give a folder for the "
+                                 f"frames' PNGs or a movie ({', '.join(MOVIE_SUFFIXES)}).")
             else:
                 out.mkdir(parents=True, exist_ok=True)
                 self.folder = out
@@ -294,7 +317,13 @@ def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), 
     """
     from distributed import Client, LocalCluster, as_completed
 
+    if isinstance(cameras, Camera) or hasattr(cameras, "GetPosition") or _is_position(cameras):
+        raise ValueError("cameras is one camera; give a list of them, one per frame "
+                         "(pv_cubemarch.orbit(camera, n) makes an orbit).")
     cameras = [as_camera(camera, i) for i, camera in enumerate(cameras)]
+    if not cameras:
+        raise ValueError("cameras is empty: give one camera per frame (pv_cubemarch.orbit("
+                         "camera, n) makes an orbit).")
     size = _checked_size(size)
     if isinstance(retries, bool) or not isinstance(retries, (int, np.integer)) or retries < 0:
         raise ValueError(f"retries must be a non-negative integer, got {retries!r}.")
@@ -307,13 +336,11 @@ def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), 
     if not float(fps) > 0:
         raise ValueError(f"fps must be positive, got {fps!r}.")
     source = SceneSource.of(scene)
-    if not cameras:
-        return _FrameSink(out, 0, float(fps)).close()
     cluster = sink = None
     try:
         if client is None:
             cluster = LocalCluster(n_workers=int(count), threads_per_worker=1,
-                                   processes=True, dashboard_address=None)
+                                   processes=True, dashboard_address=":0")
             client = Client(cluster)
         sink = _FrameSink(out, len(cameras), float(fps))
         # a task, not scattered data: if the worker holding it dies, it is made again
@@ -326,10 +353,13 @@ def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), 
             index = index_of[future.key]
             try:
                 image = future.result()
+            except SceneBuildError:
+                client.cancel(futures)
+                raise
             except Exception as error:
                 client.cancel(futures)
-                raise FrameError(f"frame {index} (camera {cameras[index]}) failed on the "
-                                 f"cluster: {type(error).__name__}: {error}") from error
+                raise FrameError(f"frame {index} (camera at {cameras[index].position}) failed "
+                                 f"on the cluster: {type(error).__name__}: {error}") from error
             sink.put(index, image)
             future.release()
         result, sink = sink.close(), None
@@ -343,6 +373,15 @@ def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), 
             finally:
                 cluster.close()
     return result
+
+
+def _is_position(value) -> bool:
+    """Whether ``value`` is one camera position: three points of three numbers."""
+    try:
+        return len(value) == 3 and all(len(p) == 3 and all(
+            isinstance(v, (int, float, np.number)) for v in p) for p in value)
+    except TypeError:
+        return False
 
 
 def _checked_size(size) -> tuple[int, int]:
