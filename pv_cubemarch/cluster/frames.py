@@ -22,7 +22,7 @@ import numpy as np
 from ..core.camera import Camera
 from ..core.errors import CubemarchError
 from ..core.progress import progress
-from ..core.rendering import offscreen_plotter, render_image
+from ..core.rendering import offscreen_plotter, render_image, tracked_bindings
 from ..scene.io import load_scene
 from ..scene.model import Scene
 
@@ -141,8 +141,7 @@ def _render_kept(source: SceneSource, camera: Camera, size: tuple[int, int]) -> 
 
 def _check_streamed(plotter) -> None:
     """Raise if a streamed source of the plotter drew a brick from a coarser level."""
-    component = plotter.__dict__.get("_cubemarch_component")
-    for binding in component.tracked if component is not None else ():
+    for binding in tracked_bindings(plotter):
         pager = getattr(binding, "pager", None)
         failed = len(pager.cache.failed) if pager is not None else 0
         if failed:

@@ -24,6 +24,12 @@ def offscreen_plotter(size: tuple[int, int] = (800, 600), **kwargs) -> pyvista.P
     return pyvista.Plotter(off_screen=True, window_size=(width, height), **kwargs)
 
 
+def tracked_bindings(plotter) -> list:
+    """The bindings the plotter's cubemarch component follows (streamed sources among them)."""
+    component = plotter.__dict__.get("_cubemarch_component")
+    return list(component.tracked) if component is not None else []
+
+
 def _bindings_of(plotter) -> list:
     component = plotter.__dict__.get("_cubemarch_component")
     return component.bindings() if component is not None else []
@@ -110,8 +116,7 @@ def _converge(plotter: pyvista.Plotter, timeout: float) -> None:
 
     deadline = time.perf_counter() + timeout
     while True:
-        component = plotter.__dict__.get("_cubemarch_component")
-        streaming = [b for b in (component.tracked if component is not None else [])
+        streaming = [b for b in tracked_bindings(plotter)
                      if b.shown and not getattr(b, "converged", True)]
         if not streaming:
             return
