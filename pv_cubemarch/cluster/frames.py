@@ -14,6 +14,7 @@ import warnings
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -314,7 +315,7 @@ def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), 
     >>> cameras = pv_cubemarch.orbit([(4, 0, 0), (0, 0, 0), (0, 0, 1)], 8)
     >>> frames = pv_cubemarch.render_frames(build, cameras, (320, 240))  # doctest: +SKIP
     """
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import as_completed
 
     if isinstance(cameras, Camera) or hasattr(cameras, "GetPosition") or _is_position(cameras):
         raise ValueError("cameras is one camera; give a list of them, one per frame "
@@ -326,52 +327,64 @@ def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), 
     size = _checked_size(size)
     if isinstance(retries, bool) or not isinstance(retries, (int, np.integer)) or retries < 0:
         raise ValueError(f"retries must be a non-negative integer, got {retries!r}.")
-    if client is not None and workers is not None:
-        raise ValueError("workers= sizes the LocalCluster render_frames starts; a client "
-                         "brings its own workers: leave workers out.")
-    count = workers if workers is not None else min(2, os.cpu_count() or 1)
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-        raise ValueError(f"workers must be a positive integer, got {workers!r}.")
+    _checked_workers(client, workers)
     if not float(fps) > 0:
         raise ValueError(f"fps must be positive, got {fps!r}.")
     source = SceneSource.of(scene)
-    cluster = sink = None
-    try:
-        if client is None:
-            cluster = LocalCluster(n_workers=int(count), threads_per_worker=1,
-                                   processes=True, dashboard_address=":0")
-            client = Client(cluster)
-        sink = _FrameSink(out, len(cameras), float(fps))
-        # a task, not scattered data: if the worker holding it dies, it is made again
-        shared = client.submit(_same, source, pure=False)
-        futures = [client.submit(render_one, shared, camera, size, retries=int(retries),
-                                 pure=False) for camera in cameras]
-        index_of = {future.key: i for i, future in enumerate(futures)}
-        for future in progress(as_completed(futures), desc="rendering frames",
-                               total=len(futures), enabled=progress_bar):
-            index = index_of[future.key]
-            try:
-                image = future.result()
-            except SceneBuildError:
-                client.cancel(futures)
-                raise
-            except Exception as error:
-                client.cancel(futures)
-                raise FrameError(f"frame {index} (camera at {cameras[index].position}) failed "
-                                 f"on the cluster: {type(error).__name__}: {error}") from error
-            sink.put(index, image)
-            future.release()
-        result, sink = sink.close(), None
-    finally:
-        if sink is not None:
-            sink.abort()
-        if cluster is not None:
-            try:
-                if client is not None:
-                    client.close()
-            finally:
-                cluster.close()
+    sink = None
+    with local_client(client, workers) as client:
+        try:
+            sink = _FrameSink(out, len(cameras), float(fps))
+            # a task, not scattered data: if the worker holding it dies, it is made again
+            shared = client.submit(_same, source, pure=False)
+            futures = [client.submit(render_one, shared, camera, size, retries=int(retries),
+                                     pure=False) for camera in cameras]
+            index_of = {future.key: i for i, future in enumerate(futures)}
+            for future in progress(as_completed(futures), desc="rendering frames",
+                                   total=len(futures), enabled=progress_bar):
+                index = index_of[future.key]
+                try:
+                    image = future.result()
+                except SceneBuildError:
+                    client.cancel(futures)
+                    raise
+                except Exception as error:
+                    client.cancel(futures)
+                    raise FrameError(f"frame {index} (camera at {cameras[index].position}) "
+                                     f"failed on the cluster: {type(error).__name__}: "
+                                     f"{error}") from error
+                sink.put(index, image)
+                future.release()
+            result, sink = sink.close(), None
+        finally:
+            if sink is not None:
+                sink.abort()
     return result
+
+
+def _checked_workers(client, workers) -> int:
+    """The LocalCluster's process count (default 2, at most the cores), checked."""
+    if client is not None and workers is not None:
+        raise ValueError("workers= sizes the LocalCluster started for you; a client brings "
+                         "its own workers: leave workers out.")
+    count = workers if workers is not None else min(2, os.cpu_count() or 1)
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+        raise ValueError(f"workers must be a positive integer, got {workers!r}.")
+    return int(count)
+
+
+@contextmanager
+def local_client(client=None, workers: int | None = None):
+    """``client``, or a ``LocalCluster`` of ``workers`` processes closed on leaving."""
+    count = _checked_workers(client, workers)
+    if client is not None:
+        yield client
+        return
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=count, threads_per_worker=1, processes=True,
+                      dashboard_address=":0") as cluster, Client(cluster) as started:
+        yield started
 
 
 def _is_position(value) -> bool:

@@ -1,0 +1,142 @@
+"""A worker's part of a sort-last frame: its partition of a volume, marched as the whole.
+
+The partition is drawn by the direct marcher's bindings in an offscreen plotter, but its box
+draws nothing: a full-viewport float pass (``ea_partition_main.glsl``) marches the whole
+volume's rays with the whole box's steps and blends only the samples lying in this
+partition, into premultiplied RGBA and the blend mode's raw state, read back as float32.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..api import add_volume
+from ..core.camera import Camera
+from ..core.rendering import offscreen_plotter, render_frame
+from ..gl.box import bind_camera, drawn_viewport
+from ..gl.passes import RenderToTexturePass
+from ..gl.shaders import ShaderRecipe
+from ..volume.binding import (
+    DECLARATION_SNIPPETS,
+    SCREEN_DECLARATIONS,
+    Blend,
+    bind_sampling,
+    march_snippets,
+    world_from_texture,
+)
+
+#: Blend modes a partitioned volume can be drawn with: the ones whose partial images combine
+#: exactly (front-to-back "over"; the extreme of the extremes).
+PARTITION_BLENDING = ("composite", "maximum", "minimum")
+
+
+@dataclass(frozen=True)
+class Partition:
+    """One slab of a volume along ``axis``: points ``start`` to ``stop``, both included.
+
+    Neighbours share their boundary points (``stop`` of one is ``start`` of the next), so a
+    sample between them is interpolated from the same points as in the whole grid.
+    ``values`` is the slab's array (x, y, z) or a lazy one (``.read()``) read on the worker.
+    """
+
+    index: int
+    axis: int
+    start: int
+    stop: int
+    dimensions: tuple[int, int, int]
+    spacing: tuple[float, float, float]
+    origin: tuple[float, float, float]
+    values: object
+
+    @property
+    def bounds(self) -> tuple[float, ...]:
+        """The whole grid's bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)``."""
+        hi = np.asarray(self.origin) + np.asarray(self.spacing) * (
+            np.asarray(self.dimensions) - 1)
+        return tuple(float(v) for pair in zip(self.origin, hi, strict=True) for v in pair)
+
+    def grid(self):
+        """The slab as ``pyvista.ImageData`` in the whole grid's world coordinates."""
+        import pyvista
+
+        values = self.values.read() if hasattr(self.values, "read") else self.values
+        values = np.asarray(values)
+        expected = list(self.dimensions)
+        expected[self.axis] = self.stop - self.start + 1
+        if values.shape != tuple(expected):
+            raise ValueError(f"partition {self.index} read values of shape {values.shape}, "
+                             f"expected {tuple(expected)}.")
+        origin = list(self.origin)
+        origin[self.axis] += self.start * self.spacing[self.axis]
+        grid = pyvista.ImageData(dimensions=values.shape, spacing=self.spacing,
+                                 origin=origin)
+        grid.point_data["values"] = values.ravel(order="F")
+        return grid
+
+
+class PartitionView:
+    """An offscreen plotter holding one partition, and the pass that marches it."""
+
+    def __init__(self, partition: Partition, size: tuple[int, int], keywords: dict):
+        blending = keywords.get("blending", "composite")
+        if blending not in PARTITION_BLENDING:
+            raise ValueError(f"blending={blending!r} cannot be split across partitions; "
+                             f"use one of {PARTITION_BLENDING}.")
+        self.partition = partition
+        self.plotter = offscreen_plotter(size)
+        try:
+            self._build(partition, keywords, blending)
+        except BaseException:
+            self.plotter.close()
+            raise
+
+    def _build(self, partition: Partition, keywords: dict, blending: str) -> None:
+        plotter = self.plotter
+        actor = add_volume(plotter, partition.grid(), technique="direct",
+                           show_scalar_bar=False, **keywords)
+        binding = actor.cubemarch
+        actor.SetVisibility(False)   # the pass marches; the box draws nothing
+        model, renderer = binding.model, plotter.renderer
+        march = RenderToTexturePass(renderer, None, size=lambda: drawn_viewport(renderer)[2:],
+                                    targets=("rgba32f", "rgba32f"), every_frame=True)
+        sampling, defines = bind_sampling(march, binding.data, binding.step_scale,
+                                          binding.stop_opacity, skip_empty=True,
+                                          blend=Blend(blending))
+        bind_camera(march, renderer, lambda: world_from_texture(model))
+        # the whole grid's box of texel centres, in this partition's texture coordinates
+        dims = np.asarray(model.dimensions, float)
+        lo, hi = 0.5 / dims, 1.0 - 0.5 / dims
+        axis, points = partition.axis, dims[partition.axis]
+        lo[axis] = (0.5 - partition.start) / points
+        hi[axis] = (partition.dimensions[axis] - 0.5 - partition.start) / points
+        march.set_uniform("cm_wholeLo", tuple(lo))
+        march.set_uniform("cm_wholeHi", tuple(hi))
+        march.set_recipe(ShaderRecipe(
+            standalone=("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
+                        *march_snippets(blending, defines), "pixel_ray", "screen_ray",
+                        "ea_partition_main"),
+            defines=defines))
+        self.march, self.binding, self.blending = march, binding, blending
+
+    def render(self, camera: Camera) -> tuple[np.ndarray, np.ndarray | None]:
+        """The partition's float32 premultiplied RGBA for ``camera``, rows top to bottom.
+
+        For the projections also the kept value and whether a sample was read. The
+        clipping range is the camera's, or fitted to the whole grid's bounds (as one
+        plotter holding the whole volume fits it), never to this partition's.
+        """
+        vtk_camera = self.plotter.camera
+        camera.apply_to(vtk_camera)
+        self.plotter.camera_set = True
+        if camera.clipping_range is None:
+            self.plotter.renderer.ResetCameraClippingRange(*self.partition.bounds)
+        render_frame(self.plotter)
+        rgba = self.march.read(0)[::-1]
+        if self.blending == "composite":
+            return np.ascontiguousarray(rgba), None
+        return np.ascontiguousarray(rgba), np.ascontiguousarray(self.march.read(1)[::-1, :, :2])
+
+    def close(self) -> None:
+        self.plotter.close()

@@ -1,0 +1,406 @@
+"""Sort-last rendering of a volume split across a Dask cluster (:func:`render_sort_last`).
+
+The volume is cut along one axis into slabs that share their boundary points; each worker
+reads only its slab (a NumPy slice, a dask array's or a zarr store's part) and marches the
+whole volume's rays through it (:mod:`.partition_march`). The client composites the slabs'
+float images in visibility order, front-to-back "over" for emission/absorption and the
+extreme of the extremes for the intensity projections, as IceT composites ParaView's
+partitions; for slabs along one axis this order is exact.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections import OrderedDict
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.camera import Camera
+from ..core.progress import progress
+from .frames import (
+    FrameError,
+    _checked_size,
+    _checked_workers,
+    _FrameSink,
+    _gl_thread,
+    _is_position,
+    _same,
+    as_camera,
+    local_client,
+)
+from .partition_march import PARTITION_BLENDING, Partition, PartitionView
+
+#: Partition views a worker keeps (least recently used closed first).
+KEPT_PARTITIONS = 8
+
+
+@dataclass(frozen=True)
+class _LazySlab:
+    """A slab of a dask array, read on the worker that draws it (and by no other)."""
+
+    array: object
+
+    def read(self) -> np.ndarray:
+        import dask
+
+        return np.asarray(dask.compute(self.array, scheduler="synchronous")[0])
+
+
+@dataclass(frozen=True)
+class SplitVolume:
+    """A volume cut into slabs, with what every slab must be drawn with alike.
+
+    ``keywords`` hold the whole volume's ``clim`` and ``opacity_unit_distance`` (by
+    default PyVista's, of the whole grid): a slab alone would take its own.
+    """
+
+    partitions: tuple[Partition, ...]
+    keywords: dict
+    token: str
+
+
+def split_volume(volume, partitions: int | None = None, axis: int | None = None, *,
+                 scalars: str | None = None, spacing=None, origin=None,
+                 keywords: dict | None = None) -> SplitVolume:
+    """Cut ``volume`` into ``partitions`` slabs along ``axis`` (see :func:`render_sort_last`)."""
+    from dask.base import tokenize
+
+    values, spacing, origin = _volume_parts(volume, scalars, spacing, origin)
+    shape = tuple(int(n) for n in values.shape)
+    if axis is None:
+        axis = int(np.argmax(shape))
+    if isinstance(axis, bool) or axis not in (0, 1, 2):
+        raise ValueError(f"axis must be 0, 1 or 2 (x, y, z), got {axis!r}.")
+    if partitions is None:
+        chunks = getattr(values, "chunks", None)
+        partitions = len(chunks[axis]) if chunks is not None else 2
+    if isinstance(partitions, bool) or not isinstance(partitions, (int, np.integer)) \
+            or partitions < 1:
+        raise ValueError(f"partitions must be a positive integer, got {partitions!r}.")
+    cells = shape[axis] - 1
+    if partitions > max(cells, 1):
+        raise ValueError(f"partitions={partitions} is more than the {cells} cells along axis "
+                         f"{axis} (each slab needs one); use at most {max(cells, 1)} or "
+                         "another axis.")
+    keywords = dict(keywords or {})
+    if keywords.get("clim") is None:
+        keywords["clim"] = _data_range(values)
+    if keywords.get("opacity_unit_distance") is None:
+        diagonal = float(np.linalg.norm((np.asarray(shape) - 1) * spacing))
+        points = float(np.mean(shape)) - 1.0
+        keywords["opacity_unit_distance"] = (diagonal / points if points > 0 and diagonal > 0
+                                             else float(np.mean(spacing)))
+    cuts = np.linspace(0, max(cells, 0), partitions + 1).round().astype(int)
+    lazy = not isinstance(values, np.ndarray)
+    slabs = []
+    for index in range(partitions):
+        start, stop = int(cuts[index]), int(cuts[index + 1]) if cells else 0
+        where = [slice(None)] * 3
+        where[axis] = slice(start, stop + 1)
+        part = values[tuple(where)]
+        slabs.append(Partition(index, axis, start, stop, shape, tuple(spacing), tuple(origin),
+                               _LazySlab(part) if lazy else np.ascontiguousarray(part)))
+    token = tokenize(values if lazy else values.tobytes(), shape, tuple(spacing),
+                     tuple(origin), axis, partitions)
+    return SplitVolume(tuple(slabs), keywords, token)
+
+
+def _volume_parts(volume, scalars, spacing, origin):
+    """The (x, y, z) values (NumPy or dask), spacing and origin of a volume input."""
+    import pyvista
+
+    if isinstance(volume, (str, os.PathLike)) or type(volume).__module__.startswith("zarr"):
+        import dask.array as da
+
+        try:
+            volume = da.from_zarr(os.fspath(volume) if isinstance(volume, os.PathLike)
+                                  else volume)
+        except Exception as error:
+            raise ValueError(f"volume {volume!r} is not a zarr array ({type(error).__name__}: "
+                             f"{error}); give a zarr array's path, a NumPy or dask array, "
+                             "or a pyvista.ImageData.") from error
+    if isinstance(volume, pyvista.ImageData):
+        if spacing is not None or origin is not None:
+            raise ValueError("spacing= and origin= place an array; a pyvista.ImageData has "
+                             "its own: leave them out.")
+        if not np.allclose(volume.direction_matrix, np.eye(3)):
+            raise ValueError("a pyvista.ImageData with a direction matrix cannot be split "
+                             "yet; resample it onto an axis-aligned grid.")
+        name = scalars or volume.point_data.active_scalars_name
+        if name is None or name not in volume.point_data:
+            raise ValueError(f"the ImageData has no point scalars {name!r} to draw; pass "
+                             f"scalars= (point arrays: {list(volume.point_data.keys())}).")
+        values = np.asarray(volume.point_data[name])
+        if values.ndim != 1:
+            raise ValueError(f"point array {name!r} has {values.shape[1]} components; a "
+                             "partitioned volume draws one scalar per point.")
+        return (values.reshape(volume.dimensions, order="F"), np.asarray(volume.spacing, float),
+                np.asarray(volume.origin, float))
+    if scalars is not None:
+        raise ValueError("scalars= names an ImageData's array; an array is its own scalars.")
+    if not hasattr(volume, "shape") or not hasattr(volume, "dtype"):
+        raise TypeError(f"volume must be a NumPy or dask array, a zarr array (or its path) "
+                        f"or a pyvista.ImageData, got {type(volume).__name__}.")
+    if len(volume.shape) != 3 or min(volume.shape) < 1:
+        raise ValueError(f"volume must be a 3-D array of scalars (x, y, z), got shape "
+                         f"{tuple(volume.shape)}.")
+    if not (np.issubdtype(volume.dtype, np.number) and not np.issubdtype(volume.dtype,
+                                                                           np.complexfloating)):
+        raise ValueError(f"volume must hold real numbers, got dtype {volume.dtype}.")
+    if type(volume).__module__.split(".")[0] != "dask":
+        volume = np.asarray(volume)
+    spacing = _triple(spacing, "spacing", (1.0, 1.0, 1.0))
+    if not np.all(spacing > 0):
+        raise ValueError(f"spacing must be three positive lengths, got {tuple(spacing)}.")
+    return volume, spacing, _triple(origin, "origin", (0.0, 0.0, 0.0))
+
+
+def _triple(value, name: str, default) -> np.ndarray:
+    try:
+        triple = np.asarray(default if value is None else value, dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be three numbers (x, y, z), got {value!r}.") from None
+    if not np.all(np.isfinite(triple)):
+        raise ValueError(f"{name} must be finite, got {value!r}.")
+    return triple
+
+
+def _data_range(values) -> tuple[float, float]:
+    """The whole volume's finite range (the colour range each slab must share)."""
+    if isinstance(values, np.ndarray):
+        low, high = np.nanmin(values), np.nanmax(values)
+    else:
+        import dask
+        import dask.array as da
+
+        low, high = dask.compute(da.nanmin(values), da.nanmax(values))
+    low, high = float(low), float(high)
+    if not (np.isfinite(low) and np.isfinite(high)):
+        raise ValueError("the volume holds no finite value to take a colour range from; "
+                         "give clim=.")
+    return (low, high if high > low else low + 1.0)
+
+
+def visibility_order(partitions: Sequence[Partition], camera: Camera) -> list[int]:
+    """The partitions' indices front to back for ``camera``'s rays.
+
+    Slabs along one axis: the camera's own slab first, then outwards by distance along the
+    axis. A ray moves one way along the axis, so slabs on the other side of the camera add
+    nothing to its pixel and their order against these does not matter. A parallel
+    projection comes from infinitely far behind along its direction.
+    """
+    first = partitions[0]
+    axis, spacing, origin = first.axis, first.spacing[first.axis], first.origin[first.axis]
+    if camera.parallel_projection:
+        direction = np.subtract(camera.focal_point, camera.position)[axis]
+        return sorted(range(len(partitions)),
+                      key=lambda i: partitions[i].start * (1 if direction >= 0 else -1))
+    place = (camera.position[axis] - origin) / spacing
+
+    def distance(index: int) -> float:
+        part = partitions[index]
+        return max(part.start - place, place - part.stop, 0.0)
+    return sorted(range(len(partitions)), key=distance)
+
+
+def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
+              shape: tuple[int, int], background) -> np.ndarray:
+    """The frame from the partitions' layers, ``(height, width, 3)`` uint8.
+
+    Each layer is ``(row0, col0, rgba, state)``: a window of premultiplied float RGBA (and
+    for the projections the kept value and whether a sample was read). Composite: "over",
+    front to back; maximum / minimum: per pixel the layer holding the extreme, the first of
+    equals in visibility order. The result is drawn over ``background`` (RGB in [0, 1]).
+    """
+    height, width = shape
+    rgba = np.zeros((height, width, 4), np.float64)
+    held = np.full((height, width), -np.inf)
+    sign = -1.0 if blending == "minimum" else 1.0
+    for index in order:
+        row, col, layer, state = layers[index]
+        if layer is None:
+            continue
+        window = (slice(row, row + layer.shape[0]), slice(col, col + layer.shape[1]))
+        if blending == "composite":
+            under = rgba[window]
+            rgba[window] = under + (1.0 - under[..., 3:]) * layer
+            continue
+        value = sign * state[..., 0].astype(np.float64)
+        take = (state[..., 1] > 0) & (value > held[window])
+        rgba[window][take] = layer[take]
+        held[window][take] = value[take]
+    color = rgba[..., :3] + (1.0 - rgba[..., 3:]) * np.asarray(background, float)[:3]
+    return np.round(np.clip(color, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+# In each worker process: the partitions it drew, kept for the next frames.
+_views: OrderedDict = OrderedDict()
+
+
+def render_partition(key: tuple, partition: Partition, camera: Camera, size: tuple[int, int],
+                     keywords: dict):
+    """One partition's layer for one frame, on a worker (its view built at first, then kept).
+
+    Returns ``(row0, col0, rgba, state)`` cropped to the pixels the partition reached
+    (``rgba`` None when it reached none), so only those travel.
+    """
+    return _gl_thread.submit(_render_kept, key, partition, camera, size, keywords).result()
+
+
+def _render_kept(key, partition, camera, size, keywords):
+    view = _views.pop(key, None)
+    if view is None:
+        view = PartitionView(partition, size, keywords)
+    try:
+        rgba, state = view.render(camera)
+    except BaseException:
+        view.close()
+        raise
+    _views[key] = view
+    while len(_views) > KEPT_PARTITIONS:
+        _views.popitem(last=False)[1].close()
+    reached = rgba[..., 3] > 0 if state is None else state[..., 1] > 0
+    rows, cols = np.flatnonzero(reached.any(axis=1)), np.flatnonzero(reached.any(axis=0))
+    if rows.size == 0:
+        return 0, 0, None, None
+    window = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    return (int(rows[0]), int(cols[0]), rgba[window].copy(),
+            None if state is None else state[window].copy())
+
+
+def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
+                     partitions: int | None = None, axis: int | None = None,
+                     scalars: str | None = None, spacing=None, origin=None,
+                     client=None, workers: int | None = None, out=None, fps: float = 24.0,
+                     background=None, progress_bar: bool | None = None,
+                     report: dict | None = None, **volume_keywords):
+    """Render a volume split across a Dask cluster's workers, composited on the client.
+
+    Each worker holds and reads only its slabs of the volume and marches the whole
+    volume's rays through them; the client composites the slabs' float images in
+    visibility order. The frame equals one plotter's render of the whole volume
+    (``add_volume(..., technique='direct')``), also with the camera inside the volume.
+
+    Parameters
+    ----------
+    volume : numpy.ndarray, dask.array.Array, zarr.Array, str or pyvista.ImageData
+        Scalars on the points of a grid ``(x, y, z)``; a zarr array or its path is read
+        through dask, each worker reading its slab's chunks. A NumPy array travels to the
+        workers slab by slab.
+    cameras : camera or sequence of cameras
+        :class:`pv_cubemarch.Camera`, ``pyvista.Camera`` or camera position; one camera
+        gives one frame, a sequence one frame per camera (see :func:`orbit`).
+    size : tuple of int
+        ``(width, height)`` of every frame.
+    partitions : int, optional
+        Slabs to cut the volume into (default: a dask array's chunks along ``axis``, else
+        2). Slabs are spread over the workers and stay there between frames.
+    axis : int, optional
+        Axis to cut along (0, 1, 2: x, y, z; default: the one with most points).
+    scalars : str, optional
+        An ImageData's point array to draw (default: its active scalars).
+    spacing, origin : sequence of float, optional
+        Where an array's points lie (as ``pyvista.ImageData``'s); default 1 and 0.
+    client : dask.distributed.Client, optional
+        The cluster; by default a ``LocalCluster`` of ``workers`` processes, closed after.
+    workers : int, optional
+        Processes of the default ``LocalCluster`` (default 2).
+    out : str or os.PathLike, optional
+        A folder of PNGs or a movie, as :func:`render_frames` writes them.
+    fps : float
+        Frames per second of a movie.
+    background : color, optional
+        What the volume is drawn over (default: PyVista's theme background).
+    progress_bar : bool, optional
+        Show a bar as frames finish (default: on a terminal).
+    report : dict, optional
+        Filled with what the frames cost: ``'bytes'`` sent from the workers per frame,
+        ``'composite_s'`` compositing seconds per frame, ``'partitions'``.
+    **volume_keywords
+        What :func:`pv_cubemarch.add_volume` takes for the look (``cmap``, ``opacity``,
+        ``clim``, ``opacity_unit_distance``, ``blending`` of ``'composite'``,
+        ``'maximum'``, ``'minimum'``, ``step_scale`` ...). ``clim`` and
+        ``opacity_unit_distance`` default to the whole volume's, as one plotter takes them.
+
+    Returns
+    -------
+    numpy.ndarray, list of numpy.ndarray, list of pathlib.Path or pathlib.Path
+        One ``(height, width, 3)`` uint8 frame for one camera; else as
+        :func:`render_frames` returns.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pv_cubemarch
+    >>> values = np.random.default_rng(0).random((64, 64, 64))
+    >>> camera = [(200, 150, 120), (32, 32, 32), (0, 0, 1)]
+    >>> image = pv_cubemarch.render_sort_last(values, camera, (320, 240),
+    ...                                       partitions=4)  # doctest: +SKIP
+    """
+    import pyvista
+
+    one = isinstance(cameras, Camera) or hasattr(cameras, "GetPosition") or \
+        _is_position(cameras)
+    cameras = [as_camera(c, i) for i, c in enumerate([cameras] if one else cameras)]
+    if not cameras:
+        raise ValueError("cameras is empty: give a camera, or one per frame.")
+    if one and out is not None:
+        raise ValueError("out= writes a batch of frames; give a list of cameras, or save "
+                         "the one image returned.")
+    size = _checked_size(size)
+    blending = volume_keywords.get("blending", "composite")
+    if blending not in PARTITION_BLENDING:
+        raise ValueError(f"blending={blending!r} cannot be split across partitions; use one "
+                         f"of {PARTITION_BLENDING}.")
+    if not float(fps) > 0:
+        raise ValueError(f"fps must be positive, got {fps!r}.")
+    _checked_workers(client, workers)
+    background = pyvista.Color(background if background is not None
+                               else pyvista.global_theme.background).float_rgb
+    split = split_volume(volume, partitions, axis, scalars=scalars, spacing=spacing,
+                         origin=origin, keywords=volume_keywords)
+    sink = None
+    with local_client(client, workers) as client:
+        try:
+            sink = _FrameSink(out, len(cameras), float(fps))
+            homes = list(client.scheduler_info()["workers"])
+            shared = []
+            for part in split.partitions:
+                home = [homes[part.index % len(homes)]] if homes else None
+                shared.append((client.submit(_same, part, pure=False, workers=home,
+                                             allow_other_workers=True), home))
+            frames = []
+            for camera in cameras:
+                frames.append([client.submit(
+                    render_partition, (split.token, part.index, size), future, camera, size,
+                    split.keywords, workers=home, allow_other_workers=True, pure=False)
+                    for part, (future, home) in zip(split.partitions, shared, strict=True)])
+            sent = composing = 0.0
+            for index in progress(range(len(cameras)), desc="compositing frames",
+                                  enabled=progress_bar):
+                try:
+                    layers = client.gather(frames[index])
+                except Exception as error:
+                    client.cancel([f for frame in frames for f in frame])
+                    raise FrameError(f"frame {index} (camera at {cameras[index].position}) "
+                                     f"failed on the cluster: {type(error).__name__}: "
+                                     f"{error}") from error
+                started = time.perf_counter()
+                image = composite(layers, visibility_order(split.partitions, cameras[index]),
+                                  blending, (size[1], size[0]), background)
+                composing += time.perf_counter() - started
+                sent += sum(a.nbytes + (0 if s is None else s.nbytes)
+                            for _, _, a, s in layers if a is not None)
+                sink.put(index, image)
+                frames[index] = None
+            result, sink = sink.close(), None
+        finally:
+            if sink is not None:
+                sink.abort()
+    if report is not None:
+        report.update(partitions=len(split.partitions), bytes=sent / len(cameras),
+                      composite_s=composing / len(cameras))
+    return result[0] if one else result
