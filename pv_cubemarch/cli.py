@@ -10,6 +10,8 @@ import sys
 import warnings
 from pathlib import Path
 
+import numpy as np
+
 from .bench import cluster as bench_cluster
 from .bench import edits as bench_edits
 from .bench import harness as bench
@@ -26,13 +28,16 @@ from .bench import voxels as bench_voxels
 from .bench import world as bench_world
 from .bench.layer_rows import format_layer_table
 from .bench.voxels import ROWS as VOXEL_ROWS
-from .cluster import orbit, render_frames
+from .cluster import orbit, render_frames, render_sort_last
+from .cluster.partition_march import PARTITION_BLENDING, PARTITION_KEYWORDS
 from .core.declared import KINDS, declared, option, options_markdown
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, specific_option_names, techniques
 from .models.voxels import VoxelModel, count_labels, label_legend
+from .scene.grids import read_grid
 from .scene.io import load_scene
+from .scene.model import camera_for_bounds
 from .views.app import WINDOW_MODES, serve
 from .volume.binding import BLEND_MODES
 from .voxels.options import VoxelOptions
@@ -93,24 +98,31 @@ def add_option_flags(parser: argparse.ArgumentParser) -> dict[str, argparse.Acti
                 if shared.choices and item.choices:
                     shared.choices = tuple(dict.fromkeys((*shared.choices, *item.choices)))
                 continue
-            settings: dict = {"dest": item.dest, "default": None, "help": text}
+            settings = flag_settings(item, text)
             if item.name == "technique" and kind == "volume":
+                settings.pop("type", None)
                 settings["choices"] = [t.name for t in _techniques()]
                 settings["help"] = "how every volume is drawn: " + "; ".join(
                     f"{t.name}: {t.summary}" for t in _techniques()) + \
                     ". With voxels every volume must hold integer labels"
-            elif item.parse is not None:
-                settings["type"] = item.parse
-            elif item.type is bool:
-                settings["action"] = argparse.BooleanOptionalAction
-            elif item.type is tuple:
-                settings.update(type=float, nargs="+")
-            elif item.choices:
-                settings["choices"] = item.choices
-            else:
-                settings["type"] = {int: int, float: float}.get(item.type, str)
             actions[item.flag] = group.add_argument(item.flag, **settings)
     return actions
+
+
+def flag_settings(item, text: str, choices=None) -> dict:
+    """``add_argument`` settings of a declared option's flag (``choices``: a subset)."""
+    settings: dict = {"dest": item.dest, "default": None, "help": text}
+    if item.parse is not None:
+        settings["type"] = item.parse
+    elif item.type is bool:
+        settings["action"] = argparse.BooleanOptionalAction
+    elif item.type is tuple:
+        settings.update(type=float, nargs="+")
+    elif item.choices:
+        settings["choices"] = choices or item.choices
+    else:
+        settings["type"] = {int: int, float: float}.get(item.type, str)
+    return settings
 
 
 def given_options(args, kind: str) -> dict:
@@ -159,6 +171,33 @@ def build_parser() -> argparse.ArgumentParser:
                                             "instead (tcp://host:8786)")
     frames.add_argument("--fps", type=float, default=24.0, help="a movie's frame rate")
     frames.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    split = commands.add_parser(
+        "render-sort-last", help="render an orbit of a volume split across a Dask cluster's "
+                                 "workers (each reads and marches its slab; sort-last)")
+    split.add_argument("volume", help="grid file (.vti, .vtk, .nrrd, .npy, .npz) or zarr "
+                                      "array (a folder: each worker reads its slab)")
+    split.add_argument("--out", "-o", required=True,
+                       help="folder for frame_00000.png ..., or a movie (.mp4, .gif)")
+    split.add_argument("--partitions", type=int,
+                       help="slabs to cut the volume into (default: a zarr array's chunks "
+                            "along the axis, else 2)")
+    split.add_argument("--axis", choices=("x", "y", "z"),
+                       help="axis to cut along (default: the one with most points)")
+    split.add_argument("--spacing", type=float, nargs=3, help="a zarr array's point spacing")
+    split.add_argument("--origin", type=float, nargs=3, help="a zarr array's origin")
+    split.add_argument("--orbit", type=int, default=64,
+                       help="frames turning once around the volume (default 64)")
+    split.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
+    split.add_argument("--workers", type=int,
+                       help="processes of the local cluster started for the run (default 2)")
+    split.add_argument("--scheduler", help="address of a running Dask scheduler to use "
+                                           "instead (tcp://host:8786)")
+    split.add_argument("--fps", type=float, default=24.0, help="a movie's frame rate")
+    split.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    for item in declared("volume"):   # the look a split volume can take
+        if item.name in PARTITION_KEYWORDS and item.flag is not None:
+            split.add_argument(item.flag, **flag_settings(
+                item, item.doc, PARTITION_BLENDING if item.name == "blending" else None))
     commands.add_parser("options", help="print every option's table (docs/options.md): its "
                                          "flag, USD attribute and live-view control")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
@@ -388,6 +427,8 @@ def main(argv: list[str] | None = None) -> int:
             return _render(args)
         if args.command == "render-frames":
             return _render_frames(args)
+        if args.command == "render-sort-last":
+            return _render_sort_last(args)
         if args.command == "bench":
             code = _bench(args)
             _record_command(getattr(args, "json_path", None), argv)
@@ -430,23 +471,68 @@ def _render_frames(args) -> int:
     """An orbit of the scene's camera rendered on a cluster (render_frames)."""
     if args.orbit < 1:
         raise ValueError(f"--orbit must be a positive number of frames, got {args.orbit}.")
-    if args.scheduler is not None and args.workers is not None:
-        raise ValueError("--workers sizes the local cluster started for the run; a "
-                         "--scheduler brings its own workers: give one of them.")
     scene = load_scene(args.scene, progress_bar=False)
     start = scene.cameras.get(args.camera) if args.camera else scene.camera
     if args.camera and start is None:
         raise KeyError(f"No camera named {args.camera!r}; the scene has {list(scene.cameras)}.")
     start = start or scene.default_camera(args.size[0] / args.size[1])
-    client = None
-    if args.scheduler is not None:
-        from distributed import Client
-
-        client = Client(args.scheduler)
+    client = _cluster_client(args)
     try:
         written = render_frames(args.scene, orbit(start, args.orbit), args.size, client=client,
                                 workers=args.workers, out=args.out, fps=args.fps,
                                 progress_bar=False if args.no_progress else None)
+    finally:
+        if client is not None:
+            client.close()
+    where = f"{len(written)} frames to {args.out}" if isinstance(written, list) else \
+        f"{args.orbit} frames to {written}"
+    print(f"wrote {where}")
+    return 0
+
+
+def _cluster_client(args):
+    """The client of ``--scheduler``, or None (a local cluster of ``--workers``)."""
+    if args.scheduler is not None and args.workers is not None:
+        raise ValueError("--workers sizes the local cluster started for the run; a "
+                         "--scheduler brings its own workers: give one of them.")
+    if args.scheduler is None:
+        return None
+    from distributed import Client
+
+    return Client(args.scheduler)
+
+
+def _render_sort_last(args) -> int:
+    """An orbit of a volume split across the cluster's workers (render_sort_last)."""
+    if args.orbit < 1:
+        raise ValueError(f"--orbit must be a positive number of frames, got {args.orbit}.")
+    path = Path(args.volume)
+    if not path.exists():
+        raise FileNotFoundError(f"volume {args.volume!r} does not exist.")
+    look = {"cmap": "magma", "opacity": "linear", **given_options(args, "volume")}
+    if path.is_dir():   # a zarr array: read slab by slab on the workers
+        import zarr
+
+        shape = zarr.open_array(str(path), mode="r").shape
+        spacing = np.asarray(args.spacing or (1.0, 1.0, 1.0), float)
+        origin = np.asarray(args.origin or (0.0, 0.0, 0.0), float)
+        far = origin + spacing * (np.asarray(shape[:3], float) - 1.0)
+        bounds = [v for pair in zip(origin, far, strict=True) for v in pair]
+        volume, placed = str(path), {"spacing": spacing, "origin": origin}
+    else:
+        if args.spacing or args.origin:
+            raise ValueError("--spacing and --origin place a zarr array; a grid file has "
+                             "its own.")
+        volume, placed = read_grid(path, f"volume file {args.volume}"), {}
+        bounds = volume.bounds
+    cameras = orbit(camera_for_bounds(bounds), args.orbit)
+    client = _cluster_client(args)
+    try:
+        written = render_sort_last(
+            volume, cameras, args.size, partitions=args.partitions,
+            axis=None if args.axis is None else "xyz".index(args.axis), client=client,
+            workers=args.workers, out=args.out, fps=args.fps,
+            progress_bar=False if args.no_progress else None, **placed, **look)
     finally:
         if client is not None:
             client.close()

@@ -1,29 +1,37 @@
 // requires: camera_declarations, ea_declarations, ea_march, screen_ray
 // One partition of a volume split across workers (sort-last rendering). The rays are the
 // whole volume's, stepped as the whole box steps them (from its entry, cm_stepScale texels of
-// the dominant axis); this pass blends only the samples whose middles lie in its own box of
-// texel centres, so the partitions' images composited in visibility order are the whole
-// render's. Neighbouring partitions share their boundary points: a sample near the boundary
-// is interpolated from the same points as in the whole grid. Target 0: the blend mode's
-// premultiplied rgba; target 1: the ray's raw state (the projections' kept value), so the
-// client keeps the partition holding the ray's extreme.
-uniform vec3 cm_wholeLo;   // the whole grid's box of texel centres, in this partition's
-uniform vec3 cm_wholeHi;   // texture coordinates
+// the dominant axis); this pass blends only the samples whose middles lie in its own part of
+// the whole grid, so the partitions' images composited in visibility order are the whole
+// render's. Which samples a partition owns is decided in the whole grid's texture frame,
+// from the same uniforms in every partition: neighbours agree to the bit on a sample lying
+// on their shared plane (coarse steps put many there), so none is lost or blended twice.
+// The samples are then read in this partition's own frame; neighbours share their boundary
+// points, so a sample near the boundary is interpolated from the same points as in the
+// whole grid. Target 0: the blend mode's premultiplied rgba; target 1: the ray's raw state
+// (the projections' kept value), so the client keeps the partition holding the extreme.
+uniform mat4 cm_wholeTextureFromView;  // the whole grid's texture coordinates from view
+uniform vec3 cm_wholeDims;             // the whole grid's points along x, y, z
+uniform vec3 cm_ownLo;                 // this partition's box of texel centres, in the
+uniform vec3 cm_ownHi;                 // whole grid's texture coordinates
 
 void main()
 {
-  vec3 entry, exit, entryView, exitView;
   vec4 state = cm_blendStart();
   vec4 rgba = vec4(0.0);
-  if (cm_screenRayBox(texCoord * 2.0 - 1.0, 1.0, cm_wholeLo, cm_wholeHi, entry, exit,
-                      entryView, exitView))
+  vec3 originView, directionView;
+  cm_pixelRay(texCoord * 2.0 - 1.0, originView, directionView);
+  vec3 origin = (cm_wholeTextureFromView * vec4(originView, 1.0)).xyz;
+  vec3 direction = mat3(cm_wholeTextureFromView) * directionView;
+  vec2 inBox = cm_slab(origin, direction, 0.5 / cm_wholeDims, 1.0 - 0.5 / cm_wholeDims);
+  float t0 = max(cm_viewDepthOf(0.0), inBox.x);
+  float t1 = min(inBox.y, cm_viewDepthOf(1.0));
+  if (t1 > t0)
   {
-    vec3 span = exit - entry;
-    float mediumLength = cm_mediumLength(span);
-    float steps = max(cm_dominantTexels(span, cm_dims) / cm_stepScale, 1e-6);
-    vec3 stepVector = span / steps;
-    // The steps (in step units from the entry) over which the ray is inside this partition.
-    vec2 own = cm_slab(entry, stepVector, 0.5 / cm_dims, 1.0 - 0.5 / cm_dims);
+    vec3 span = (t1 - t0) * direction;
+    float steps = max(cm_dominantTexels(span, cm_wholeDims) / cm_stepScale, 1e-6);
+    // The steps (in step units from the entry) over which the ray is in this partition.
+    vec2 own = cm_slab(origin + t0 * direction, span / steps, cm_ownLo, cm_ownHi);
     float count = ceil(steps);
     float last = count - 1.0;
     float lastMiddle = last + 0.5 * (steps - last);   // the last segment is cut at the exit
@@ -33,11 +41,16 @@ void main()
     {
       k1 = count;
     }
+    // The same ray, view depth t0 to t1, in this partition's texture frame.
+    vec3 entry = (cm_textureFromView * vec4(originView + t0 * directionView, 1.0)).xyz;
+    vec3 exit = (cm_textureFromView * vec4(originView + t1 * directionView, 1.0)).xyz;
+    float mediumLength = cm_mediumLength(exit - entry);
     if (mediumLength > 0.0 && k1 > k0)
     {
 #ifdef CM_SHADE
-      cm_rayWorld = normalize(mat3(cm_worldFromTexture) * span);
+      cm_rayWorld = normalize(mat3(cm_worldFromTexture) * (exit - entry));
 #endif
+      vec3 stepVector = (exit - entry) / steps;
       float pieceSteps = k1 >= count ? steps - k0 : k1 - k0;
       vec3 a = entry + stepVector * k0;
       cm_marchPiece(state, a, a + stepVector * pieceSteps,

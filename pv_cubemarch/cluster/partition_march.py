@@ -15,7 +15,7 @@ import numpy as np
 from ..api import add_volume
 from ..core.camera import Camera
 from ..core.rendering import offscreen_plotter, render_frame
-from ..gl.box import bind_camera, drawn_viewport
+from ..gl.box import bind_camera, camera_matrices, drawn_viewport
 from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import ShaderRecipe
 from ..volume.binding import (
@@ -30,6 +30,12 @@ from ..volume.binding import (
 #: Blend modes a partitioned volume can be drawn with: the ones whose partial images combine
 #: exactly (front-to-back "over"; the extreme of the extremes).
 PARTITION_BLENDING = ("composite", "maximum", "minimum")
+#: add_volume keywords a partitioned volume is drawn with: the look and the marching. The
+#: others (gradient shading and lights, whose samples read across the cut; clipping; other
+#: techniques' settings) are refused rather than drawn unlike the whole volume.
+PARTITION_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
+                      "flip_scalars", "log_scale", "categories", "blending", "step_scale",
+                      "stop_opacity", "skip_empty", "interpolation")
 
 
 @dataclass(frozen=True)
@@ -56,6 +62,14 @@ class Partition:
         hi = np.asarray(self.origin) + np.asarray(self.spacing) * (
             np.asarray(self.dimensions) - 1)
         return tuple(float(v) for pair in zip(self.origin, hi, strict=True) for v in pair)
+
+    def world_from_texture(self) -> np.ndarray:
+        """4x4 from the whole grid's texture coordinates (texel centres on points) to world."""
+        dims = np.asarray(self.dimensions, float)
+        matrix = np.eye(4)
+        matrix[:3, :3] = np.diag(np.asarray(self.spacing, float) * dims)
+        matrix[:3, 3] = np.asarray(self.origin, float) - 0.5 * np.asarray(self.spacing, float)
+        return matrix
 
     def grid(self):
         """The slab as ``pyvista.ImageData`` in the whole grid's world coordinates."""
@@ -105,14 +119,19 @@ class PartitionView:
                                           binding.stop_opacity, skip_empty=True,
                                           blend=Blend(blending))
         bind_camera(march, renderer, lambda: world_from_texture(model))
-        # the whole grid's box of texel centres, in this partition's texture coordinates
-        dims = np.asarray(model.dimensions, float)
-        lo, hi = 0.5 / dims, 1.0 - 0.5 / dims
-        axis, points = partition.axis, dims[partition.axis]
-        lo[axis] = (0.5 - partition.start) / points
-        hi[axis] = (partition.dimensions[axis] - 0.5 - partition.start) / points
-        march.set_uniform("cm_wholeLo", tuple(lo))
-        march.set_uniform("cm_wholeHi", tuple(hi))
+        # The whole grid's frame, made alike in every partition from the same numbers (the
+        # partitions' ownership of samples on a shared plane is decided in it).
+        whole = np.asarray(partition.dimensions, float)
+        whole_from_view = lambda: np.linalg.inv(  # noqa: E731
+            camera_matrices(renderer)[0] @ partition.world_from_texture())
+        march.set_uniform("cm_wholeTextureFromView", whole_from_view)
+        march.set_uniform("cm_wholeDims", tuple(whole))
+        lo, hi = 0.5 / whole, 1.0 - 0.5 / whole
+        axis = partition.axis
+        lo[axis] = (partition.start + 0.5) / whole[axis]
+        hi[axis] = (partition.stop + 0.5) / whole[axis]
+        march.set_uniform("cm_ownLo", tuple(lo))
+        march.set_uniform("cm_ownHi", tuple(hi))
         march.set_recipe(ShaderRecipe(
             standalone=("pass_head", *DECLARATION_SNIPPETS, sampling, *SCREEN_DECLARATIONS,
                         *march_snippets(blending, defines), "pixel_ray", "screen_ray",

@@ -31,7 +31,7 @@ from .frames import (
     as_camera,
     local_client,
 )
-from .partition_march import PARTITION_BLENDING, Partition, PartitionView
+from .partition_march import PARTITION_BLENDING, PARTITION_KEYWORDS, Partition, PartitionView
 
 #: Partition views a worker keeps (least recently used closed first).
 KEPT_PARTITIONS = 8
@@ -238,6 +238,12 @@ def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
 
 # In each worker process: the partitions it drew, kept for the next frames.
 _views: OrderedDict = OrderedDict()
+_view_builds = [0]
+
+
+def worker_view_builds() -> int:
+    """Partition views this process built (run on the workers: ``client.run``)."""
+    return _view_builds[0]
 
 
 def render_partition(key: tuple, partition: Partition, camera: Camera, size: tuple[int, int],
@@ -254,6 +260,7 @@ def _render_kept(key, partition, camera, size, keywords):
     view = _views.pop(key, None)
     if view is None:
         view = PartitionView(partition, size, keywords)
+        _view_builds[0] += 1
     try:
         rgba, state = view.render(camera)
     except BaseException:
@@ -341,6 +348,7 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
     ...                                       partitions=4)  # doctest: +SKIP
     """
     import pyvista
+    from dask.base import tokenize
 
     one = isinstance(cameras, Camera) or hasattr(cameras, "GetPosition") or \
         _is_position(cameras)
@@ -351,6 +359,11 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
         raise ValueError("out= writes a batch of frames; give a list of cameras, or save "
                          "the one image returned.")
     size = _checked_size(size)
+    other = sorted(set(volume_keywords) - set(PARTITION_KEYWORDS))
+    if other:
+        raise ValueError(f"{', '.join(other)} cannot be drawn by a split volume (only "
+                         f"{', '.join(PARTITION_KEYWORDS)}); draw it on one machine with "
+                         "add_volume, or leave them out.")
     blending = volume_keywords.get("blending", "composite")
     if blending not in PARTITION_BLENDING:
         raise ValueError(f"blending={blending!r} cannot be split across partitions; use one "
@@ -372,10 +385,11 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
                 home = [homes[part.index % len(homes)]] if homes else None
                 shared.append((client.submit(_same, part, pure=False, workers=home,
                                              allow_other_workers=True), home))
+            look = tokenize(sorted(split.keywords.items(), key=str))   # a view per look
             frames = []
             for camera in cameras:
                 frames.append([client.submit(
-                    render_partition, (split.token, part.index, size), future, camera, size,
+                    render_partition, (split.token, look, part.index, size), future, camera, size,
                     split.keywords, workers=home, allow_other_workers=True, pure=False)
                     for part, (future, home) in zip(split.partitions, shared, strict=True)])
             sent = composing = 0.0

@@ -83,15 +83,7 @@ class Scene:
 
     def default_camera(self, aspect: float = 1.0) -> Camera:
         """A camera looking at the whole scene from the front, ``up_axis`` up."""
-        b = self.bounds()
-        center = np.array([b[0] + b[1], b[2] + b[3], b[4] + b[5]]) / 2.0
-        radius = max(np.linalg.norm([b[1] - b[0], b[3] - b[2], b[5] - b[4]]) / 2.0, 1e-12)
-        up = {"Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}[self.up_axis]
-        back = np.array((0.35, 0.3, 1.0) if self.up_axis == "Y" else (0.35, -1.0, 0.3))
-        back /= np.linalg.norm(back)
-        distance = radius / np.sin(np.radians(30.0) / 2.0) * 1.05
-        return Camera(position=tuple(center + back * distance), focal_point=tuple(center),
-                      view_up=up, view_angle=30.0)
+        return camera_for_bounds(self.bounds(), self.up_axis)
 
     def summary(self) -> str:
         """A human-readable account of what was loaded and what was skipped."""
@@ -284,3 +276,16 @@ def _cell_image(grid, name: str, values: np.ndarray) -> pyvista.ImageData:
     image.direction_matrix = matrix[:3, :3] / spacing
     image.cell_data[name] = np.asarray(values).ravel(order="F")
     return image
+
+
+def camera_for_bounds(bounds, up_axis: str = "Z") -> Camera:
+    """A camera looking at ``bounds`` (xmin, xmax, ...) from the front, ``up_axis`` up."""
+    b = bounds
+    center = np.array([b[0] + b[1], b[2] + b[3], b[4] + b[5]]) / 2.0
+    radius = max(np.linalg.norm([b[1] - b[0], b[3] - b[2], b[5] - b[4]]) / 2.0, 1e-12)
+    up = {"Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}[up_axis]
+    back = np.array((0.35, 0.3, 1.0) if up_axis == "Y" else (0.35, -1.0, 0.3))
+    back /= np.linalg.norm(back)
+    distance = radius / np.sin(np.radians(30.0) / 2.0) * 1.05
+    return Camera(position=tuple(center + back * distance), focal_point=tuple(center),
+                  view_up=up, view_angle=30.0)
