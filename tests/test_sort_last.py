@@ -104,7 +104,12 @@ CAMERAS = {
 @pytest.mark.parametrize("view, step_scale", [(view, 1.0) for view in CAMERAS]
                          + [("outside", 4.0), ("inside", 3.0)])
 def test_slabs_composite_to_the_whole_volume_render(client, view, step_scale):
-    # catches (seen failing): ...
+    # catches (seen failing): slabs composited in index order, not from the camera (outside,
+    # near plane); which slab owns a sample decided in each slab's own frame (coarse steps:
+    # 23 and 39 dB, samples on a cut plane lost or blended twice); the last, cut segment left
+    # to the next slab (coarse steps); steps counted from the slab's own entry (coarse
+    # steps); the clipping range fitted to the slab (inside); each slab's own
+    # opacity_unit_distance (every view).
     camera = CAMERAS[view]
     look = dict(LOOK, step_scale=step_scale)
     expected = whole_render(GRID, camera, **look)
@@ -117,7 +122,8 @@ def test_slabs_composite_to_the_whole_volume_render(client, view, step_scale):
 
 @pytest.mark.parametrize("blending", ["maximum", "minimum"])
 def test_projections_keep_the_extreme_of_the_slabs(client, blending):
-    # catches (seen failing): ...
+    # catches (seen failing): the last slab's value kept instead of the extreme; steps
+    # counted from the slab's own entry.
     camera = CAMERAS["outside"]
     # the minimum of the negated volume: air at +1000, the shell's extreme the most opaque
     grid = GRID if blending == "maximum" else whole_grid(-values())
@@ -128,3 +134,146 @@ def test_projections_keep_the_extreme_of_the_slabs(client, blending):
     image = cm.render_sort_last(grid, camera, SIZE, partitions=3, axis=1, client=client,
                                 background=BACKGROUND, progress_bar=False, **look)
     assert compare_images(image, expected).psnr >= 50.0
+
+
+def view_builds(client) -> int:
+    return sum(client.run(sort_last.worker_view_builds).values())
+
+
+def test_each_slab_is_built_once_per_look_and_kept_between_frames(client):
+    # catches (seen failing): views keyed without the look (a second call drew the first
+    # call's step; the coarse-step renders above fell to 23 dB), and views rebuilt per
+    # frame.
+    grid = whole_grid(values((33, 41, 29)))
+    cameras = cm.orbit(CAMERAS["outside"], 2)
+    before = view_builds(client)
+    first = cm.render_sort_last(grid, cameras, SIZE, partitions=4, axis=1, client=client,
+                                background=BACKGROUND, progress_bar=False, **LOOK)
+    assert view_builds(client) - before == 4
+    for image, camera in zip(first, cameras, strict=True):
+        assert compare_images(image, whole_render(grid, camera, **LOOK)).psnr >= 50.0
+    cm.render_sort_last(grid, cameras[:1], SIZE, partitions=4, axis=1, client=client,
+                        background=BACKGROUND, progress_bar=False, **LOOK)
+    assert view_builds(client) - before == 4
+    other = dict(LOOK, cmap="bone")
+    again = cm.render_sort_last(grid, cameras[0], SIZE, partitions=4, axis=1, client=client,
+                                background=BACKGROUND, progress_bar=False, **other)
+    assert view_builds(client) - before == 8
+    assert compare_images(again, whole_render(grid, cameras[0], **other)).psnr >= 50.0
+
+
+def hu_block(marker_dir, block_info=None):
+    """A block of the Hounsfield volume made where it is asked for, leaving a marker."""
+    where = block_info[None]["array-location"]
+    axes = [np.linspace(-1.0, 1.0, n)[lo:hi] for n, (lo, hi) in zip(SHAPE, where, strict=True)]
+    Path(marker_dir, f"{block_info[None]['chunk-location'][0]}-{os.getpid()}-"
+                     f"{np.random.default_rng().integers(1 << 62)}").touch()
+    return hounsfield(*np.meshgrid(*axes, indexing="ij"))
+
+
+def test_each_worker_reads_only_its_slab_of_a_dask_array(client, tmp_path):
+    # catches (seen failing): the slabs read on the client (through the cluster) and sent
+    # to the workers: chunks read by processes that do not draw them.
+    import dask.array as da
+
+    lazy = da.map_blocks(hu_block, str(tmp_path), chunks=((10, 10, 10, 11), (33,), (29,)),
+                         dtype=np.float32, meta=np.array((), np.float32))
+    camera = CAMERAS["outside"]
+    # clim and opacity_unit_distance given: nothing reads the array but the slabs
+    image = cm.render_sort_last(lazy, camera, SIZE, spacing=SPACING, origin=ORIGIN,
+                                client=client, background=BACKGROUND, progress_bar=False,
+                                clim=(-1000.0, float(values().max())), **LOOK)
+    expected = whole_render(GRID, camera, clim=(-1000.0, float(values().max())), **LOOK)
+    assert compare_images(image, expected).psnr >= 50.0
+    # 4 slabs by default (the chunks along x); slab p reads its chunk and the first plane
+    # of chunk p + 1: 7 chunk reads, not 16 (every slab reading the whole array)
+    reads = sorted((int(path.name.split("-")[0]), int(path.name.split("-")[1]))
+                   for path in tmp_path.iterdir())
+    assert [chunk for chunk, _ in reads] == [0, 1, 1, 2, 2, 3, 3]
+    # ... each by the worker process that draws the slab (not read elsewhere and sent)
+    holder = {index: pid for pid, indices in client.run(held_slabs).values()
+              for index in indices if index is not None}
+    assert len(set(holder.values())) == 2   # the slabs were spread over both workers
+    for chunk, pid in reads:
+        assert pid in (holder[chunk] if chunk < 4 else None, holder.get(chunk - 1)), chunk
+
+
+def held_slabs():
+    """On a worker: its process id and the indices of the lazily read slabs it draws."""
+    return os.getpid(), [key[2] for key, view in sort_last._views.items()
+                         if hasattr(view.partition.values, "read")]
+
+
+def test_a_zarr_store_is_split_by_its_path(client, tmp_path):
+    # catches (seen failing): a str path not taken for a zarr store (TypeError).
+    import zarr
+
+    data = values()
+    store = zarr.open_array(str(tmp_path / "hu.zarr"), mode="w", shape=data.shape,
+                            chunks=(8, 33, 29), dtype=data.dtype)
+    store[:] = data
+    camera = CAMERAS["inside"]
+    image = cm.render_sort_last(str(tmp_path / "hu.zarr"), camera, SIZE, spacing=SPACING,
+                                origin=ORIGIN, client=client, background=BACKGROUND,
+                                progress_bar=False, **LOOK)
+    assert compare_images(image, whole_render(GRID, camera, **LOOK)).psnr >= 50.0
+
+
+def test_slabs_are_composited_front_to_back_from_the_camera():
+    # catches (seen failing): a parallel view looking down -x ordered as one looking down +x.
+    parts = sort_last.split_volume(values(), 4, 0, keywords={"clim": (0, 1)}).partitions
+    assert [(p.start, p.stop) for p in parts] == [(0, 10), (10, 20), (20, 30), (30, 40)]
+    at = lambda x, **kw: Camera((x, 16.0, 14.0), (x + 1.0, 16.0, 14.0), (0, 0, 1), **kw)  # noqa: E731
+    assert sort_last.visibility_order(parts, at(25.0))[:1] == [2]
+    assert sort_last.visibility_order(parts, at(25.0))[1:3] in ([1, 3], [3, 1])
+    assert sort_last.visibility_order(parts, at(-5.0)) == [0, 1, 2, 3]
+    assert sort_last.visibility_order(parts, at(90.0)) == [3, 2, 1, 0]
+    backwards = Camera((-5.0, 16.0, 14.0), (-6.0, 16.0, 14.0), (0, 0, 1),
+                       parallel_projection=True)
+    assert sort_last.visibility_order(parts, backwards) == [3, 2, 1, 0]
+
+
+def test_cli_renders_an_orbit_of_a_split_grid_file(client, tmp_path):
+    # catches (seen failing): the subcommand not dispatched (nothing written).
+    from pv_cubemarch.cli import main
+
+    GRID.save(str(tmp_path / "hu.vti"))
+    code = main(["render-sort-last", str(tmp_path / "hu.vti"), "--orbit", "2", "--size",
+                 "64x48", "--partitions", "3", "--scheduler", client.scheduler.address,
+                 "--out", str(tmp_path / "frames"), "--no-progress", "--cmap", "bone"])
+    assert code == 0
+    frames = sorted((tmp_path / "frames").iterdir())
+    assert [p.name for p in frames] == ["frame_00000.png", "frame_00001.png"]
+    from PIL import Image
+
+    image = np.asarray(Image.open(frames[0]))
+    assert image.shape == (48, 64, 3) and len(np.unique(image.reshape(-1, 3), axis=0)) > 20
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], blending="average"),
+     "cannot be split"),
+    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], shade=True), "shade cannot be"),
+    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], partitions=41, axis=0),
+     "more than the 40 cells"),
+    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], axis=3), "axis must be"),
+    (lambda: cm.render_sort_last(values()[0], CAMERAS["outside"]), "3-D array"),
+    (lambda: cm.render_sort_last(values().astype(complex), CAMERAS["outside"]),
+     "real numbers"),
+    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], spacing=(1, 1, 1)),
+     "leave them out"),
+    (lambda: cm.render_sort_last(values(), CAMERAS["outside"], spacing=(1, 0, 1)),
+     "positive lengths"),
+    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], out="frames"), "a batch"),
+    (lambda: cm.render_sort_last(GRID, [], (10, 10)), "cameras is empty"),
+    (lambda: cm.render_sort_last(pv.ImageData(dimensions=(3, 3, 3)), CAMERAS["outside"]),
+     "no point scalars"),
+    (lambda: cm.render_sort_last(np.full((3, 3, 3), np.nan), CAMERAS["outside"]),
+     "no finite value"),
+    (lambda: cm.render_sort_last("/nonexistent/volume.zarr", CAMERAS["outside"]),
+     "not a zarr array"),
+])
+def test_bad_input_is_refused_before_any_cluster_starts(call, message):
+    # the refusals name what was wrong; each raises before a LocalCluster is started
+    with pytest.raises((ValueError, TypeError), match=message):
+        call()

@@ -171,7 +171,8 @@ def _triple(value, name: str, default) -> np.ndarray:
 def _data_range(values) -> tuple[float, float]:
     """The whole volume's finite range (the colour range each slab must share)."""
     if isinstance(values, np.ndarray):
-        low, high = np.nanmin(values), np.nanmax(values)
+        finite = values[np.isfinite(values)] if values.dtype.kind == "f" else values
+        low, high = (finite.min(), finite.max()) if finite.size else (np.nan, np.nan)
     else:
         import dask
         import dask.array as da
