@@ -272,8 +272,92 @@ def test_cli_renders_an_orbit_of_a_split_grid_file(client, tmp_path):
      "no finite value"),
     (lambda: cm.render_sort_last("/nonexistent/volume.zarr", CAMERAS["outside"]),
      "not a zarr array"),
+    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], technique="cubemap"),
+     "technique must be"),
+    (lambda: cm.render_sort_last(LABELS, CAMERAS["outside"], technique="voxels",
+                                 ambient_occlusion=True), "ambient_occlusion cannot be"),
+    (lambda: cm.render_sort_last(values(), CAMERAS["outside"], technique="voxels"),
+     "integer labels"),
+    (lambda: cm.render_sort_last(LABELS, CAMERAS["outside"], technique="voxels",
+                                 partitions=38, axis=0), "more than the 37 cells"),
 ])
 def test_bad_input_is_refused_before_any_cluster_starts(call, message):
     # the refusals name what was wrong; each raises before a LocalCluster is started
     with pytest.raises((ValueError, TypeError), match=message):
         call()
+
+
+def label_grid(shape=(37, 23, 19), spots=60):
+    """Segmentation-like ids: a ball, a slab of a uint32 id past 2**31, scattered spots."""
+    rng = np.random.default_rng(1)
+    x, y, z = np.meshgrid(*[np.linspace(-1.0, 1.0, n) for n in shape], indexing="ij")
+    labels = np.zeros(shape, np.uint32)
+    labels[x**2 + y**2 + z**2 < 0.7] = 7
+    labels[(x > 0.2) & (np.abs(y) < 0.5)] = 4_000_000_123
+    where = rng.random(shape) < 0.04
+    labels[where] = rng.integers(1, spots + 1, int(where.sum()))
+    grid = pv.ImageData(dimensions=np.asarray(shape) + 1, spacing=SPACING, origin=ORIGIN)
+    grid.cell_data["ids"] = labels.ravel(order="F")
+    return grid
+
+
+def whole_labels(grid, camera, **look):
+    """One plotter drawing the whole label grid, without anti-aliasing."""
+    plotter = offscreen_plotter(SIZE)
+    plotter.disable_anti_aliasing()
+    plotter.set_background(BACKGROUND)
+    cm.add_voxels(plotter, grid, **look)
+    camera.apply_to(plotter.camera)
+    plotter.camera_set = True
+    if camera.clipping_range is None:
+        plotter.renderer.ResetCameraClippingRange()
+    image = cm.render_image(plotter)
+    plotter.close()
+    return image
+
+
+LABELS = label_grid()
+LABEL_CAMERAS = {
+    "outside": Camera(tuple(np.asarray(LABELS.center) + [30.0, 22.0, 18.0]),
+                      tuple(LABELS.center), (0, 0, 1)),
+    "inside": Camera((-93.0, 27.0, 13.0), (-85.0, 30.0, 14.0), (0, 0, 1)),
+    "along -x": Camera((-40.0, 28.0, 13.0), (-90.0, 28.0, 13.0), (0, 0, 1),
+                       parallel_projection=True, parallel_scale=10.0),
+}
+
+
+@pytest.mark.parametrize("view", list(LABEL_CAMERAS))
+def test_label_slabs_keep_the_nearest_hit_of_the_whole_grid(client, view):
+    # catches (seen failing): each pixel taken from the last slab with a hit instead of the
+    # nearest (inside); the clipping range fitted to each slab (outside, along -x); each
+    # slab's own default palette (every view).
+    camera = LABEL_CAMERAS[view]
+    expected = whole_labels(LABELS, camera, palette=sort_last.hashed_color)
+    assert len(np.unique(expected.reshape(-1, 3), axis=0)) > 20   # many ids seen
+    image = cm.render_sort_last(LABELS, camera, SIZE, partitions=4, axis=0,
+                                technique="voxels", client=client, background=BACKGROUND,
+                                progress_bar=False)
+    assert np.array_equal(image, expected)
+
+
+def test_label_colours_do_not_depend_on_the_ids_a_slab_holds(client):
+    # catches (seen failing): each slab's own default palette; a colormap over each slab's
+    # own range of ids.
+    few = label_grid(spots=3)   # 5 ids: one plotter would colour them tab10 by rank
+    camera = LABEL_CAMERAS["outside"]
+    expected = whole_labels(few, camera, palette=sort_last.hashed_color)
+    image = cm.render_sort_last(few, camera, SIZE, partitions=3, axis=0, technique="voxels",
+                                client=client, background=BACKGROUND, progress_bar=False)
+    assert np.array_equal(image, expected)
+    # a colormap spans the whole grid's drawn ids, not each slab's
+    look = {"cmap": "viridis"}
+    image = cm.render_sort_last(few, camera, SIZE, partitions=3, axis=0, technique="voxels",
+                                client=client, background=BACKGROUND, progress_bar=False,
+                                **look)
+    assert np.array_equal(image, whole_labels(few, camera, **look))
+
+
+def test_translucent_labels_are_refused(client):
+    with pytest.raises(cm.cluster.frames.FrameError, match="translucent labels"):
+        cm.render_sort_last(LABELS, LABEL_CAMERAS["outside"], SIZE, technique="voxels",
+                            palette={7: ("red", 0.5)}, client=client, progress_bar=False)

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..api import add_volume
+from ..api import add_volume, add_voxels
 from ..core.camera import Camera
-from ..core.rendering import offscreen_plotter, render_frame
+from ..core.rendering import offscreen_plotter, read_depth, render_frame, render_image
 from ..gl.box import bind_camera, camera_matrices, drawn_viewport
 from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import ShaderRecipe
@@ -30,6 +30,12 @@ from ..volume.binding import (
 #: Blend modes a partitioned volume can be drawn with: the ones whose partial images combine
 #: exactly (front-to-back "over"; the extreme of the extremes).
 PARTITION_BLENDING = ("composite", "maximum", "minimum")
+#: add_voxels keywords a split label grid is drawn with: the look, exact per voxel. The
+#: others (ambient occlusion and edges, which read neighbours across the cut; approximate
+#: traversals; translucency; clipping) are refused.
+LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "specular", "specular_power",
+                  "cmap", "categories", "clim", "n_colors", "flip_scalars", "background",
+                  "lighting", "mip_levels")
 #: add_volume keywords a partitioned volume is drawn with: the look and the marching. The
 #: others (gradient shading and lights, whose samples read across the cut; clipping; other
 #: techniques' settings) are refused rather than drawn unlike the whole volume.
@@ -40,10 +46,11 @@ PARTITION_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_col
 
 @dataclass(frozen=True)
 class Partition:
-    """One slab of a volume along ``axis``: points ``start`` to ``stop``, both included.
+    """One slab of a grid along ``axis``, between index planes ``start`` and ``stop``.
 
-    Neighbours share their boundary points (``stop`` of one is ``start`` of the next), so a
-    sample between them is interpolated from the same points as in the whole grid.
+    A volume's slab holds points ``start`` to ``stop``, both included: neighbours share
+    their boundary points, so a sample between them is interpolated from the same points
+    as in the whole grid. A label grid's (``cells``) holds voxels ``start`` to ``stop - 1``.
     ``values`` is the slab's array (x, y, z) or a lazy one (``.read()``) read on the worker.
     """
 
@@ -55,12 +62,13 @@ class Partition:
     spacing: tuple[float, float, float]
     origin: tuple[float, float, float]
     values: object
+    cells: bool = False
 
     @property
     def bounds(self) -> tuple[float, ...]:
         """The whole grid's bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)``."""
         hi = np.asarray(self.origin) + np.asarray(self.spacing) * (
-            np.asarray(self.dimensions) - 1)
+            np.asarray(self.dimensions) - (0 if self.cells else 1))
         return tuple(float(v) for pair in zip(self.origin, hi, strict=True) for v in pair)
 
     def world_from_texture(self) -> np.ndarray:
@@ -78,16 +86,63 @@ class Partition:
         values = self.values.read() if hasattr(self.values, "read") else self.values
         values = np.asarray(values)
         expected = list(self.dimensions)
-        expected[self.axis] = self.stop - self.start + 1
+        expected[self.axis] = self.stop - self.start + (0 if self.cells else 1)
         if values.shape != tuple(expected):
             raise ValueError(f"partition {self.index} read values of shape {values.shape}, "
                              f"expected {tuple(expected)}.")
         origin = list(self.origin)
         origin[self.axis] += self.start * self.spacing[self.axis]
+        if self.cells:   # one voxel per cell
+            grid = pyvista.ImageData(dimensions=np.asarray(values.shape) + 1,
+                                     spacing=self.spacing, origin=origin)
+            grid.cell_data["labels"] = values.ravel(order="F")
+            return grid
         grid = pyvista.ImageData(dimensions=values.shape, spacing=self.spacing,
                                  origin=origin)
         grid.point_data["values"] = values.ravel(order="F")
         return grid
+
+
+def _fit_camera(plotter, partition: Partition, camera: Camera) -> None:
+    """The camera, its clipping range fitted to the whole grid (as one plotter fits it)."""
+    camera.apply_to(plotter.camera)
+    plotter.camera_set = True
+    if camera.clipping_range is None:
+        plotter.renderer.ResetCameraClippingRange(*partition.bounds)
+
+
+class LabelView:
+    """An offscreen plotter holding one slab of a label grid, drawn exactly as the whole.
+
+    The voxel traversal is exact, so the slab's first hit at a pixel is the whole grid's
+    whenever it is the nearest of the slabs'. Drawn without anti-aliasing (a silhouette
+    pixel would mix in this plotter's background) and opaque (translucent labels would need
+    every slab's layers, in depth order).
+    """
+
+    def __init__(self, partition: Partition, size: tuple[int, int], keywords: dict):
+        self.partition = partition
+        self.plotter = offscreen_plotter(size)
+        try:
+            self.plotter.disable_anti_aliasing()
+            actor = add_voxels(self.plotter, partition.grid(), **keywords)
+            opacity = actor.cubemarch.palette.rgba[1:, 3]
+            if np.any((opacity > 0) & (opacity < 1)):
+                raise ValueError("translucent labels cannot be split across partitions (the "
+                                 "slabs are composited by depth); make them opaque or hide "
+                                 "them.")
+        except BaseException:
+            self.plotter.close()
+            raise
+
+    def render(self, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+        """The slab's RGB (uint8) and window depth (1: nothing), rows top to bottom."""
+        _fit_camera(self.plotter, self.partition, camera)
+        image = render_image(self.plotter)
+        return image, read_depth(self.plotter).astype(np.float32)
+
+    def close(self) -> None:
+        self.plotter.close()
 
 
 class PartitionView:
@@ -146,11 +201,7 @@ class PartitionView:
         clipping range is the camera's, or fitted to the whole grid's bounds (as one
         plotter holding the whole volume fits it), never to this partition's.
         """
-        vtk_camera = self.plotter.camera
-        camera.apply_to(vtk_camera)
-        self.plotter.camera_set = True
-        if camera.clipping_range is None:
-            self.plotter.renderer.ResetCameraClippingRange(*self.partition.bounds)
+        _fit_camera(self.plotter, self.partition, camera)
         render_frame(self.plotter)
         rgba = self.march.read(0)[::-1]
         if self.blending == "composite":

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..core.progress import progress
+from ..models.label_colors import hashed_colors
 from .frames import (
     FrameError,
     _checked_size,
@@ -31,7 +32,14 @@ from .frames import (
     as_camera,
     local_client,
 )
-from .partition_march import PARTITION_BLENDING, PARTITION_KEYWORDS, Partition, PartitionView
+from .partition_march import (
+    LABEL_KEYWORDS,
+    PARTITION_BLENDING,
+    PARTITION_KEYWORDS,
+    LabelView,
+    Partition,
+    PartitionView,
+)
 
 #: Partition views a worker keeps (least recently used closed first).
 KEPT_PARTITIONS = 8
@@ -64,11 +72,14 @@ class SplitVolume:
 
 def split_volume(volume, partitions: int | None = None, axis: int | None = None, *,
                  scalars: str | None = None, spacing=None, origin=None,
-                 keywords: dict | None = None) -> SplitVolume:
-    """Cut ``volume`` into ``partitions`` slabs along ``axis`` (see :func:`render_sort_last`)."""
+                 keywords: dict | None = None, labels: bool = False) -> SplitVolume:
+    """Cut ``volume`` into ``partitions`` slabs along ``axis`` (see :func:`render_sort_last`).
+
+    ``labels``: a label grid, one voxel per cell, cut between voxels (no voxel shared).
+    """
     from dask.base import tokenize
 
-    values, spacing, origin = _volume_parts(volume, scalars, spacing, origin)
+    values, spacing, origin = _volume_parts(volume, scalars, spacing, origin, labels)
     shape = tuple(int(n) for n in values.shape)
     if axis is None:
         axis = int(np.argmax(shape))
@@ -80,12 +91,31 @@ def split_volume(volume, partitions: int | None = None, axis: int | None = None,
     if isinstance(partitions, bool) or not isinstance(partitions, (int, np.integer)) \
             or partitions < 1:
         raise ValueError(f"partitions must be a positive integer, got {partitions!r}.")
-    cells = shape[axis] - 1
+    cells = shape[axis] if labels else shape[axis] - 1
     if partitions > max(cells, 1):
         raise ValueError(f"partitions={partitions} is more than the {cells} cells along axis "
                          f"{axis} (each slab needs one); use at most {max(cells, 1)} or "
                          "another axis.")
-    keywords = dict(keywords or {})
+    keywords = (_label_look if labels else _volume_look)(values, shape, spacing,
+                                                         dict(keywords or {}))
+    cuts = np.linspace(0, max(cells, 0), partitions + 1).round().astype(int)
+    lazy = not isinstance(values, np.ndarray)
+    slabs = []
+    for index in range(partitions):
+        start, stop = int(cuts[index]), int(cuts[index + 1]) if cells else 0
+        where = [slice(None)] * 3
+        where[axis] = slice(start, stop if labels else stop + 1)
+        part = values[tuple(where)]
+        slabs.append(Partition(index, axis, start, stop, shape, tuple(spacing), tuple(origin),
+                               _LazySlab(part) if lazy else np.ascontiguousarray(part),
+                               cells=labels))
+    token = tokenize(values if lazy else values.tobytes(), shape, tuple(spacing),
+                     tuple(origin), axis, partitions, labels)
+    return SplitVolume(tuple(slabs), keywords, token)
+
+
+def _volume_look(values, shape, spacing, keywords: dict) -> dict:
+    """The whole volume's clim and opacity_unit_distance where not given (a slab's differ)."""
     if keywords.get("clim") is None:
         keywords["clim"] = _data_range(values)
     if keywords.get("opacity_unit_distance") is None:
@@ -93,23 +123,33 @@ def split_volume(volume, partitions: int | None = None, axis: int | None = None,
         points = float(np.mean(shape)) - 1.0
         keywords["opacity_unit_distance"] = (diagonal / points if points > 0 and diagonal > 0
                                              else float(np.mean(spacing)))
-    cuts = np.linspace(0, max(cells, 0), partitions + 1).round().astype(int)
-    lazy = not isinstance(values, np.ndarray)
-    slabs = []
-    for index in range(partitions):
-        start, stop = int(cuts[index]), int(cuts[index + 1]) if cells else 0
-        where = [slice(None)] * 3
-        where[axis] = slice(start, stop + 1)
-        part = values[tuple(where)]
-        slabs.append(Partition(index, axis, start, stop, shape, tuple(spacing), tuple(origin),
-                               _LazySlab(part) if lazy else np.ascontiguousarray(part)))
-    token = tokenize(values if lazy else values.tobytes(), shape, tuple(spacing),
-                     tuple(origin), axis, partitions)
-    return SplitVolume(tuple(slabs), keywords, token)
+    return keywords
 
 
-def _volume_parts(volume, scalars, spacing, origin):
-    """The (x, y, z) values (NumPy or dask), spacing and origin of a volume input."""
+def _label_look(values, shape, spacing, keywords: dict) -> dict:
+    """Colours that do not depend on which ids a slab holds.
+
+    By default each id's colour is hashed from it; a colormap spans the whole grid's drawn
+    ids unless ``clim`` is given.
+    """
+    if keywords.get("palette") is None and keywords.get("cmap") is None:
+        keywords["palette"] = hashed_color
+    elif keywords.get("cmap") is not None and keywords.get("clim") is None:
+        keywords["clim"] = _data_range(values, keywords.get("background", 0))
+    return keywords
+
+
+def hashed_color(label) -> tuple[float, float, float]:
+    """The colour hashed from ``label`` (a palette function, the same in every slab)."""
+    return tuple(float(v) for v in hashed_colors([label])[0, :3])
+
+
+def _volume_parts(volume, scalars, spacing, origin, cells: bool = False):
+    """The (x, y, z) values (NumPy or dask), spacing and origin of a volume input.
+
+    ``cells``: a label grid; an ImageData's cell data (or point data: a voxel centred on
+    each point).
+    """
     import pyvista
 
     if isinstance(volume, (str, os.PathLike)) or type(volume).__module__.startswith("zarr"):
@@ -123,22 +163,7 @@ def _volume_parts(volume, scalars, spacing, origin):
                              f"{error}); give a zarr array's path, a NumPy or dask array, "
                              "or a pyvista.ImageData.") from error
     if isinstance(volume, pyvista.ImageData):
-        if spacing is not None or origin is not None:
-            raise ValueError("spacing= and origin= place an array; a pyvista.ImageData has "
-                             "its own: leave them out.")
-        if not np.allclose(volume.direction_matrix, np.eye(3)):
-            raise ValueError("a pyvista.ImageData with a direction matrix cannot be split "
-                             "yet; resample it onto an axis-aligned grid.")
-        name = scalars or volume.point_data.active_scalars_name
-        if name is None or name not in volume.point_data:
-            raise ValueError(f"the ImageData has no point scalars {name!r} to draw; pass "
-                             f"scalars= (point arrays: {list(volume.point_data.keys())}).")
-        values = np.asarray(volume.point_data[name])
-        if values.ndim != 1:
-            raise ValueError(f"point array {name!r} has {values.shape[1]} components; a "
-                             "partitioned volume draws one scalar per point.")
-        return (values.reshape(volume.dimensions, order="F"), np.asarray(volume.spacing, float),
-                np.asarray(volume.origin, float))
+        return _image_parts(volume, scalars, spacing, origin, cells)
     if scalars is not None:
         raise ValueError("scalars= names an ImageData's array; an array is its own scalars.")
     if not hasattr(volume, "shape") or not hasattr(volume, "dtype"):
@@ -147,15 +172,48 @@ def _volume_parts(volume, scalars, spacing, origin):
     if len(volume.shape) != 3 or min(volume.shape) < 1:
         raise ValueError(f"volume must be a 3-D array of scalars (x, y, z), got shape "
                          f"{tuple(volume.shape)}.")
-    if not (np.issubdtype(volume.dtype, np.number) and not np.issubdtype(volume.dtype,
-                                                                           np.complexfloating)):
-        raise ValueError(f"volume must hold real numbers, got dtype {volume.dtype}.")
+    kinds = "iu" if cells else "iuf"
+    if volume.dtype.kind not in kinds:
+        raise ValueError(f"volume must hold {'integer labels' if cells else 'real numbers'},"
+                         f" got dtype {volume.dtype}.")
     if type(volume).__module__.split(".")[0] != "dask":
         volume = np.asarray(volume)
     spacing = _triple(spacing, "spacing", (1.0, 1.0, 1.0))
     if not np.all(spacing > 0):
         raise ValueError(f"spacing must be three positive lengths, got {tuple(spacing)}.")
     return volume, spacing, _triple(origin, "origin", (0.0, 0.0, 0.0))
+
+
+def _image_parts(volume, scalars, spacing, origin, cells: bool):
+    """An ImageData's values (x, y, z), spacing and origin (a label grid's cells' corner)."""
+    if spacing is not None or origin is not None:
+        raise ValueError("spacing= and origin= place an array; a pyvista.ImageData has "
+                         "its own: leave them out.")
+    if not np.allclose(volume.direction_matrix, np.eye(3)):
+        raise ValueError("a pyvista.ImageData with a direction matrix cannot be split "
+                         "yet; resample it onto an axis-aligned grid.")
+    data = volume.point_data
+    on_cells = cells and (scalars in volume.cell_data if scalars is not None
+                          else len(volume.cell_data) > 0)
+    if on_cells:
+        data = volume.cell_data
+    name = scalars or data.active_scalars_name or next(iter(data.keys()), None)
+    where = "cell" if on_cells else "point"
+    if name is None or name not in data:
+        raise ValueError(f"the ImageData has no {where} scalars {name!r} to draw; pass "
+                         f"scalars= ({where} arrays: {list(data.keys())}).")
+    values = np.asarray(data[name])
+    if values.ndim != 1:
+        raise ValueError(f"{where} array {name!r} has {values.shape[1]} components; a "
+                         f"split grid draws one scalar per {where}.")
+    if cells and values.dtype.kind not in "iu":
+        raise ValueError(f"{where} array {name!r} holds {values.dtype}, not integer labels.")
+    spacing = np.asarray(volume.spacing, float)
+    origin = np.asarray(volume.origin, float)
+    shape = np.asarray(volume.dimensions) - (1 if on_cells else 0)
+    if cells and not on_cells:   # a voxel centred on each point
+        origin = origin - 0.5 * spacing
+    return values.reshape(tuple(int(n) for n in shape), order="F"), spacing, origin
 
 
 def _triple(value, name: str, default) -> np.ndarray:
@@ -168,15 +226,23 @@ def _triple(value, name: str, default) -> np.ndarray:
     return triple
 
 
-def _data_range(values) -> tuple[float, float]:
-    """The whole volume's finite range (the colour range each slab must share)."""
+def _data_range(values, background=None) -> tuple[float, float]:
+    """The whole grid's finite range (the colour range each slab must share).
+
+    ``background``: a label grid's empty id, left out (its colormap spans the drawn ids).
+    """
     if isinstance(values, np.ndarray):
-        finite = values[np.isfinite(values)] if values.dtype.kind == "f" else values
-        low, high = (finite.min(), finite.max()) if finite.size else (np.nan, np.nan)
+        keep = np.isfinite(values) if values.dtype.kind == "f" else np.ones(values.shape, bool)
+        if background is not None:
+            keep &= values != background
+        kept = values[keep]
+        low, high = (kept.min(), kept.max()) if kept.size else (np.nan, np.nan)
     else:
         import dask
         import dask.array as da
 
+        if background is not None:
+            values = da.where(values == background, np.nan, values.astype(float))
         low, high = dask.compute(da.nanmin(values), da.nanmax(values))
     low, high = float(low), float(high)
     if not (np.isfinite(low) and np.isfinite(high)):
@@ -215,11 +281,14 @@ def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
     for the projections the kept value and whether a sample was read). Composite: "over",
     front to back; maximum / minimum: per pixel the layer holding the extreme, the first of
     equals in visibility order. The result is drawn over ``background`` (RGB in [0, 1]).
+    ``'nearest'``: label slabs' ``(row0, col0, rgb, depth)``, the nearest hit kept.
     """
     height, width = shape
     rgba = np.zeros((height, width, 4), np.float64)
     held = np.full((height, width), -np.inf)
     sign = -1.0 if blending == "minimum" else 1.0
+    if blending == "nearest":
+        return _nearest(layers, shape, background)
     for index in order:
         row, col, layer, state = layers[index]
         if layer is None:
@@ -235,6 +304,22 @@ def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
         held[window][take] = value[take]
     color = rgba[..., :3] + (1.0 - rgba[..., 3:]) * np.asarray(background, float)[:3]
     return np.round(np.clip(color, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def _nearest(layers, shape: tuple[int, int], background) -> np.ndarray:
+    """Label slabs' frame: at each pixel the colour of the nearest slab's first hit."""
+    height, width = shape
+    image = np.empty((height, width, 3), np.uint8)
+    image[:] = np.round(np.clip(np.asarray(background, float)[:3], 0, 1) * 255.0)
+    depth = np.ones((height, width), np.float32)
+    for row, col, color, near in layers:
+        if color is None:
+            continue
+        window = (slice(row, row + color.shape[0]), slice(col, col + color.shape[1]))
+        take = near < depth[window]
+        image[window][take] = color[take]
+        depth[window][take] = near[take]
+    return image
 
 
 # In each worker process: the partitions it drew, kept for the next frames.
@@ -260,7 +345,7 @@ def render_partition(key: tuple, partition: Partition, camera: Camera, size: tup
 def _render_kept(key, partition, camera, size, keywords):
     view = _views.pop(key, None)
     if view is None:
-        view = PartitionView(partition, size, keywords)
+        view = (LabelView if partition.cells else PartitionView)(partition, size, keywords)
         _view_builds[0] += 1
     try:
         rgba, state = view.render(camera)
@@ -270,7 +355,10 @@ def _render_kept(key, partition, camera, size, keywords):
     _views[key] = view
     while len(_views) > KEPT_PARTITIONS:
         _views.popitem(last=False)[1].close()
-    reached = rgba[..., 3] > 0 if state is None else state[..., 1] > 0
+    if partition.cells:   # colour and depth of the slab's first hit
+        reached = state < 1.0
+    else:
+        reached = rgba[..., 3] > 0 if state is None else state[..., 1] > 0
     rows, cols = np.flatnonzero(reached.any(axis=1)), np.flatnonzero(reached.any(axis=0))
     if rows.size == 0:
         return 0, 0, None, None
@@ -283,21 +371,25 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
                      partitions: int | None = None, axis: int | None = None,
                      scalars: str | None = None, spacing=None, origin=None,
                      client=None, workers: int | None = None, out=None, fps: float = 24.0,
-                     background=None, progress_bar: bool | None = None,
-                     report: dict | None = None, **volume_keywords):
-    """Render a volume split across a Dask cluster's workers, composited on the client.
+                     background=None, technique: str = "direct",
+                     progress_bar: bool | None = None, report: dict | None = None,
+                     **volume_keywords):
+    """Render a volume or label grid split across a Dask cluster's workers.
 
-    Each worker holds and reads only its slabs of the volume and marches the whole
-    volume's rays through them; the client composites the slabs' float images in
-    visibility order. The frame equals one plotter's render of the whole volume
-    (``add_volume(..., technique='direct')``), also with the camera inside the volume.
+    Each worker holds and reads only its slabs of the grid. A volume's slab is marched
+    along the whole volume's rays and the client composites the slabs' float images in
+    visibility order; the frame equals one plotter's render of the whole volume
+    (``add_volume(..., technique='direct')``), also with the camera inside the volume. A
+    label grid's slab is drawn voxel by voxel and the client keeps each pixel's nearest
+    hit: the same voxels, ids and colours as ``add_voxels`` of the whole grid.
 
     Parameters
     ----------
     volume : numpy.ndarray, dask.array.Array, zarr.Array, str or pyvista.ImageData
-        Scalars on the points of a grid ``(x, y, z)``; a zarr array or its path is read
-        through dask, each worker reading its slab's chunks. A NumPy array travels to the
-        workers slab by slab.
+        Scalars on the points of a grid ``(x, y, z)`` (with ``technique='voxels'``:
+        integer labels, one voxel per array element or ImageData cell); a zarr array or
+        its path is read through dask, each worker reading its slab's chunks. A NumPy
+        array travels to the workers slab by slab.
     cameras : camera or sequence of cameras
         :class:`pv_cubemarch.Camera`, ``pyvista.Camera`` or camera position; one camera
         gives one frame, a sequence one frame per camera (see :func:`orbit`).
@@ -322,6 +414,9 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
         Frames per second of a movie.
     background : color, optional
         What the volume is drawn over (default: PyVista's theme background).
+    technique : str
+        ``'direct'``: a volume, the direct marcher's image; ``'voxels'``: a label grid,
+        drawn exactly and opaque, without anti-aliasing.
     progress_bar : bool, optional
         Show a bar as frames finish (default: on a terminal).
     report : dict, optional
@@ -332,6 +427,9 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
         ``clim``, ``opacity_unit_distance``, ``blending`` of ``'composite'``,
         ``'maximum'``, ``'minimum'``, ``step_scale`` ...). ``clim`` and
         ``opacity_unit_distance`` default to the whole volume's, as one plotter takes them.
+        For labels, what :func:`pv_cubemarch.add_voxels` takes (``palette``, ``cmap``,
+        ``shading`` ...); by default each id's colour is hashed from it
+        (:func:`pv_cubemarch.hashed_colors`), as no slab knows the whole grid's ids.
 
     Returns
     -------
@@ -360,13 +458,19 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
         raise ValueError("out= writes a batch of frames; give a list of cameras, or save "
                          "the one image returned.")
     size = _checked_size(size)
-    other = sorted(set(volume_keywords) - set(PARTITION_KEYWORDS))
+    if technique not in ("direct", "voxels"):
+        raise ValueError(f"technique must be 'direct' (a volume) or 'voxels' (a label grid), "
+                         f"got {technique!r}.")
+    labels = technique == "voxels"
+    allowed = LABEL_KEYWORDS if labels else PARTITION_KEYWORDS
+    other = sorted(set(volume_keywords) - set(allowed))
     if other:
-        raise ValueError(f"{', '.join(other)} cannot be drawn by a split volume (only "
-                         f"{', '.join(PARTITION_KEYWORDS)}); draw it on one machine with "
-                         "add_volume, or leave them out.")
-    blending = volume_keywords.get("blending", "composite")
-    if blending not in PARTITION_BLENDING:
+        raise ValueError(f"{', '.join(other)} cannot be drawn by a split "
+                         f"{'label grid' if labels else 'volume'} (only {', '.join(allowed)})"
+                         f"; draw it on one machine with "
+                         f"{'add_voxels' if labels else 'add_volume'}, or leave them out.")
+    blending = "nearest" if labels else volume_keywords.get("blending", "composite")
+    if not labels and blending not in PARTITION_BLENDING:
         raise ValueError(f"blending={blending!r} cannot be split across partitions; use one "
                          f"of {PARTITION_BLENDING}.")
     if not float(fps) > 0:
@@ -375,7 +479,7 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
     background = pyvista.Color(background if background is not None
                                else pyvista.global_theme.background).float_rgb
     split = split_volume(volume, partitions, axis, scalars=scalars, spacing=spacing,
-                         origin=origin, keywords=volume_keywords)
+                         origin=origin, keywords=volume_keywords, labels=labels)
     sink = None
     with local_client(client, workers) as client:
         try:
