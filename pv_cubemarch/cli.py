@@ -29,7 +29,7 @@ from .bench import world as bench_world
 from .bench.layer_rows import format_layer_table
 from .bench.voxels import ROWS as VOXEL_ROWS
 from .cluster import orbit, render_frames, render_sort_last
-from .cluster.partition_march import PARTITION_BLENDING, PARTITION_KEYWORDS
+from .cluster.partition_march import LABEL_KEYWORDS, PARTITION_BLENDING, PARTITION_KEYWORDS
 from .core.declared import KINDS, declared, option, options_markdown
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
@@ -194,10 +194,17 @@ def build_parser() -> argparse.ArgumentParser:
                                            "instead (tcp://host:8786)")
     split.add_argument("--fps", type=float, default=24.0, help="a movie's frame rate")
     split.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    for item in declared("volume"):   # the look a split volume can take
-        if item.name in PARTITION_KEYWORDS and item.flag is not None:
-            split.add_argument(item.flag, **flag_settings(
-                item, item.doc, PARTITION_BLENDING if item.name == "blending" else None))
+    split.add_argument("--technique", choices=("direct", "voxels"), default="direct",
+                       help="direct: a volume (default); voxels: a label grid, each slab's "
+                            "nearest voxel kept")
+    flags: set = set()
+    for kind, names in (("volume", PARTITION_KEYWORDS), ("voxels", LABEL_KEYWORDS)):
+        for item in declared(kind):   # the look a split volume or label grid can take
+            if item.name in names and item.flag is not None and item.flag not in flags:
+                flags.add(item.flag)
+                split.add_argument(item.flag, **flag_settings(
+                    item, f"{kind}: {item.doc}",
+                    PARTITION_BLENDING if item.name == "blending" else None))
     commands.add_parser("options", help="print every option's table (docs/options.md): its "
                                          "flag, USD attribute and live-view control")
     info = commands.add_parser("info", help="describe a scene, or the OpenGL stack with --gl")
@@ -509,7 +516,15 @@ def _render_sort_last(args) -> int:
     path = Path(args.volume)
     if not path.exists():
         raise FileNotFoundError(f"volume {args.volume!r} does not exist.")
-    look = {"cmap": "magma", "opacity": "linear", **given_options(args, "volume")}
+    labels = args.technique == "voxels"
+    given = {**given_options(args, "volume"), **given_options(args, "voxels")}
+    allowed = LABEL_KEYWORDS if labels else PARTITION_KEYWORDS
+    other = [name for name in given if name not in allowed]
+    if other:
+        flags = ", ".join(f"--{name.replace('_', '-')}" for name in other)
+        raise ValueError(f"{flags} {'does' if len(other) == 1 else 'do'} not apply to "
+                         f"--technique {args.technique}.")
+    look = given if labels else {"cmap": "magma", "opacity": "linear", **given}
     if path.is_dir():   # a zarr array: read slab by slab on the workers
         import zarr
 
@@ -523,7 +538,7 @@ def _render_sort_last(args) -> int:
         if args.spacing or args.origin:
             raise ValueError("--spacing and --origin place a zarr array; a grid file has "
                              "its own.")
-        volume, placed = read_grid(path, f"volume file {args.volume}"), {}
+        volume, placed = read_grid(path, f"volume file {args.volume}", cells=labels), {}
         bounds = volume.bounds
     cameras = orbit(camera_for_bounds(bounds), args.orbit)
     client = _cluster_client(args)
@@ -532,7 +547,8 @@ def _render_sort_last(args) -> int:
             volume, cameras, args.size, partitions=args.partitions,
             axis=None if args.axis is None else "xyz".index(args.axis), client=client,
             workers=args.workers, out=args.out, fps=args.fps,
-            progress_bar=False if args.no_progress else None, **placed, **look)
+            technique=args.technique, progress_bar=False if args.no_progress else None,
+            **placed, **look)
     finally:
         if client is not None:
             client.close()

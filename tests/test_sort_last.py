@@ -248,6 +248,15 @@ def test_cli_renders_an_orbit_of_a_split_grid_file(client, tmp_path):
 
     image = np.asarray(Image.open(frames[0]))
     assert image.shape == (48, 64, 3) and len(np.unique(image.reshape(-1, 3), axis=0)) > 20
+    # a label grid, its voxels' look only
+    LABELS.save(str(tmp_path / "ids.vti"))
+    assert main(["render-sort-last", str(tmp_path / "ids.vti"), "--technique", "voxels",
+                 "--orbit", "1", "--size", "64x48", "--scheduler", client.scheduler.address,
+                 "--out", str(tmp_path / "ids.gif"), "--no-progress", "--shading",
+                 "flat"]) == 0
+    assert (tmp_path / "ids.gif").stat().st_size > 0
+    assert main(["render-sort-last", str(tmp_path / "ids.vti"), "--technique", "voxels",
+                 "--out", str(tmp_path / "x"), "--opacity", "linear"]) == 2
 
 
 @pytest.mark.parametrize("call, message", [
