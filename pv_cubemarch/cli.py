@@ -21,6 +21,7 @@ from .bench import outofcore as bench_outofcore
 from .bench import resolution as bench_resolution
 from .bench import scene_prims as bench_prims
 from .bench import soak as bench_soak
+from .bench import sort_last as bench_sort_last
 from .bench import surface_layers as bench_surface_layers
 from .bench import surfaces as bench_surfaces
 from .bench import voxel_layers as bench_layers
@@ -51,6 +52,18 @@ def _size(text: str) -> tuple[int, int]:
     if width < 1 or height < 1:
         raise argparse.ArgumentTypeError(f"size must be positive, got {text!r}")
     return width, height
+
+
+def _shape(text: str) -> tuple[int, int, int]:
+    """``XxYxZ`` points or voxels of a grid."""
+    try:
+        shape = tuple(int(v) for v in text.lower().split("x"))
+        if len(shape) != 3 or min(shape) < 1:
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a shape looks like 192x128x96, got {text!r}") \
+            from None
+    return shape
 
 
 def _sizes(text: str) -> list[tuple[int, int]]:
@@ -318,7 +331,7 @@ def build_parser() -> argparse.ArgumentParser:
                            help=f"comma-separated, of {', '.join(bench_outofcore.SCENES)}")
     outofcore.add_argument("--views", default=",".join(bench_outofcore.VIEWS),
                            help="comma-separated, of far, mid, close")
-    outofcore.add_argument("--shape", type=lambda t: tuple(int(v) for v in t.split("x")),
+    outofcore.add_argument("--shape", type=_shape,
                            default=(16384, 16384, 4096),
                            help="the procedural scene's points, XxYxZ (default "
                                 "16384x16384x4096: 2 TiB of uint16)")
@@ -336,6 +349,20 @@ def build_parser() -> argparse.ArgumentParser:
     cluster.add_argument("--workers", default="1,2",
                          help="comma-separated LocalCluster sizes (default 1,2)")
     cluster.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    sortlast = bench_commands.add_parser(
+        "sortlast", help="a volume and a label grid split in 2, 4, 8 slabs over a Dask "
+                         "LocalCluster (render_sort_last) against one plotter drawing the "
+                         "whole: s per frame, compositing ms, MB sent, error")
+    sortlast.add_argument("--shape", type=_shape, default=(192, 128, 96),
+                          help="points (volume) and voxels (labels), XxYxZ")
+    sortlast.add_argument("--frames", type=int, default=16, help="frames of the orbit")
+    sortlast.add_argument("--size", type=_size, default=(320, 240),
+                          help="WxH (default 320x240)")
+    sortlast.add_argument("--partitions", default="2,4,8",
+                          help="comma-separated slab counts (default 2,4,8)")
+    sortlast.add_argument("--workers", default="2",
+                          help="comma-separated LocalCluster sizes (default 2)")
+    sortlast.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     labels = bench_commands.add_parser(
         "labels", help="segmentations of many uint32/uint64 ids: ours against threshold + "
                        "add_mesh, contour_labels and a volume ray cast; setup, frames, bytes, "
@@ -759,6 +786,21 @@ def _bench(args) -> int:
               "serial loop's, pixel for pixel")
         print(bench_cluster.format_cluster(rows))
         _write_rows(args.json_path, rows, size=list(args.size), frames=args.frames)
+        return 0
+    if args.bench_command == "sortlast":
+        counts = [[int(v) for v in text.split(",") if v.strip()]
+                  for text in (args.partitions, args.workers)]
+        if not all(counts) or min(min(c) for c in counts) < 1 or args.frames < 1:
+            raise ValueError("--partitions and --workers take positive counts (2,4,8) and "
+                             "--frames a positive count.")
+        rows = bench_sort_last.run_sort_last(args.shape, args.frames, args.size, *counts)
+        print(f"{args.size[0]}x{args.size[1]}, {args.frames} frames after one that reads and "
+              "uploads; comp. ms: the client's compositing per frame; sent MB: what the "
+              "workers sent per frame; PSNR min: the orbit's lowest against one plotter "
+              "drawing the whole volume; wrong: label pixels unlike the whole grid's")
+        print(bench_sort_last.format_sort_last(rows))
+        _write_rows(args.json_path, rows, size=list(args.size), frames=args.frames,
+                    shape=list(args.shape))
         return 0
     if args.bench_command == "outofcore":
         rows = bench_outofcore.run_outofcore(

@@ -370,3 +370,24 @@ def test_translucent_labels_are_refused(client):
     with pytest.raises(cm.cluster.frames.FrameError, match="translucent labels"):
         cm.render_sort_last(LABELS, LABEL_CAMERAS["outside"], SIZE, technique="voxels",
                             palette={7: ("red", 0.5)}, client=client, progress_bar=False)
+
+
+def test_bench_sortlast_rows(tmp_path):
+    # The rows of one run: one plotter drawing the whole grid, then the split grid per slab
+    # count; the split volume within 50 dB of the whole at every frame, labels exact, and
+    # the bytes the workers sent growing with the slabs (each slab sends its own window).
+    # catches (seen failing): the PSNR taken against the previous frame's reference.
+    import json
+
+    from pv_cubemarch.cli import main
+
+    path = tmp_path / "sortlast.json"
+    assert main(["bench", "sortlast", "--shape", "40x32x24", "--frames", "2", "--size",
+                 "64x48", "--partitions", "2,3", "--json", str(path)]) == 0
+    rows = json.loads(path.read_text())["rows"]
+    assert [(r["grid"].split()[0], r["partitions"]) for r in rows] == [
+        ("volume", None), ("volume", 2), ("volume", 3),
+        ("labels", None), ("labels", 2), ("labels", 3)]
+    assert all(r["psnr_min"] >= 50.0 for r in rows[1:3])
+    assert all(r["wrong_pixels"] == 0 for r in rows[4:])
+    assert all(r["sent_mb"] > 0 and r["composite_ms"] > 0 for r in rows if r["partitions"])
