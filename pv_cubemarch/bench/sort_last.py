@@ -17,7 +17,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import pyvista
 
+from ..api import add_volume, add_voxels
 from ..cluster.frames import orbit
 from ..cluster.sort_last import hashed_color, render_sort_last
 from ..core.camera import Camera
@@ -81,10 +83,6 @@ def _store(path, data: np.ndarray, slabs: int):
 
 def _whole(data, cameras, size, labels: bool) -> tuple[list[np.ndarray], float]:
     """One plotter drawing the whole grid for every camera; the frames and s per frame."""
-    import pyvista
-
-    from ..api import add_volume, add_voxels
-
     plotter = offscreen_plotter(size)
     try:
         if labels:
