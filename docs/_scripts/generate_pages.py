@@ -53,6 +53,13 @@ COLUMNS = {
         ("speed-up", "speedup", "{:.2f}"), ("efficiency", "efficiency", "{:.2f}"),
         ("+ms per frame", "overhead_ms", "{:.1f}"), ("equal to serial", "equal", "{}"),
     ],
+    "sortlast": [
+        ("grid", "grid", "{}"), ("row", "row", "{}"), ("slabs", "partitions", "{}"),
+        ("workers", "workers", "{}"), ("frames", "frames", "{}"),
+        ("s per frame", "frame_s", "{:.3f}"), ("compositing ms", "composite_ms", "{:.1f}"),
+        ("sent MB per frame", "sent_mb", "{:.2f}"), ("lowest PSNR dB", "psnr_min", "{:.1f}"),
+        ("wrong pixels", "wrong_pixels", "{}"),
+    ],
     "outofcore": [
         ("scene", "scene", "{}"), ("view", "view", "{}"), ("row", "row", "{}"),
         ("first frame s", "first_frame_s", "{:.2f}"), ("converged s", "converged_s", "{:.2f}"),

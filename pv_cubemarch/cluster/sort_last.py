@@ -288,7 +288,7 @@ def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
     held = np.full((height, width), -np.inf)
     sign = -1.0 if blending == "minimum" else 1.0
     if blending == "nearest":
-        return _nearest(layers, shape, background)
+        return _nearest([layers[index] for index in order], shape, background)
     for index in order:
         row, col, layer, state = layers[index]
         if layer is None:
@@ -307,7 +307,12 @@ def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
 
 
 def _nearest(layers, shape: tuple[int, int], background) -> np.ndarray:
-    """Label slabs' frame: at each pixel the colour of the nearest slab's first hit."""
+    """Label slabs' frame: at each pixel the colour of the nearest slab's first hit.
+
+    ``layers`` front to back: a hit in a nearer slab keeps its pixel against a farther
+    slab's hit at the same depth buffer value (a ray grazing a voxel's side just before the
+    cut plane and meeting the next slab's voxel on it: 24 bits cannot tell them apart).
+    """
     height, width = shape
     image = np.empty((height, width, 3), np.uint8)
     image[:] = np.round(np.clip(np.asarray(background, float)[:3], 0, 1) * 255.0)
