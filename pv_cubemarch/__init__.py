@@ -14,7 +14,7 @@ configure_offscreen()
 
 from . import plugin  # noqa: E402  (registers plotter.cubemarch for explicit imports too)
 from .api import add_surface, add_volume, add_volumes, add_voxels  # noqa: E402
-from .cluster import orbit, render_frames, render_sort_last  # noqa: E402
+from .cluster import orbit, render_frames, render_sort_last, sweep_options  # noqa: E402
 from .core.camera import Camera  # noqa: E402
 from .core.errors import (  # noqa: E402
     CubemarchError,
@@ -73,5 +73,5 @@ __all__ = [
     "render_emission_absorption", "render_blended", "render_frame", "ShadeSetup",
     "render_image", "widget",
     "live_view", "LiveView", "LabelIds", "hashed_colors", "trace_ids", "VoxelBinding",
-    "VoxelPick", "orbit", "render_frames", "render_sort_last",
+    "VoxelPick", "orbit", "render_frames", "render_sort_last", "sweep_options",
 ]

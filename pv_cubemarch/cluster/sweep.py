@@ -89,7 +89,9 @@ def sweep_options(build: Callable, grid, camera, size: tuple[int, int] = (640, 4
         ``reference(camera, size)`` making it (run once, on a worker). Without one, only
         times are measured.
     frames : int
-        Timed frames per setting (the median is reported), after ``warmup`` untimed ones.
+        Timed frames per setting (the median is reported).
+    warmup : int
+        Untimed frames before them (uploads, shader builds), run in parallel.
     client : dask.distributed.Client, optional
         The cluster; by default a ``LocalCluster`` of ``workers`` processes, closed after.
     workers : int, optional
