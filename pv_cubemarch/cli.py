@@ -30,6 +30,7 @@ from .bench import world as bench_world
 from .bench.layer_rows import format_layer_table
 from .bench.voxels import ROWS as VOXEL_ROWS
 from .cluster import orbit, render_frames, render_sort_last
+from .cluster.offload import bench_offload
 from .cluster.partition_march import LABEL_KEYWORDS, PARTITION_BLENDING, PARTITION_KEYWORDS
 from .core.declared import KINDS, declared, option, options_markdown
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
@@ -279,6 +280,13 @@ def build_parser() -> argparse.ArgumentParser:
                             help="smaller cube maps timed at the largest size, to compare "
                                  "with direct at comparable error (default 128,64; 'none')")
     resolution.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    for command in (tradeoff, resolution):
+        command.add_argument("--scheduler", help="compute the CPU references on this Dask "
+                                                 "scheduler's workers (tcp://host:8786); "
+                                                 "the rows are still timed here, side by side")
+        command.add_argument("--workers", type=int,
+                             help="compute the CPU references on a local cluster of this "
+                                  "many processes, before any row is timed")
     voxels = bench_commands.add_parser(
         "voxels", help="material grids: fixed step, DDA with occupancy levels and "
                        "distance fields, PyVista's paths, timed side by side, wrong pixels "
@@ -846,8 +854,10 @@ def _bench(args) -> int:
     scene = load_scene(scene_path, progress_bar=False)
     if args.bench_command == "resolution":
         return _bench_resolution(args, scene, scene_path)
-    results = bench.run_tradeoff(args.technique, scene, size=args.size, frames=args.frames,
-                                 include_stock=not args.no_stock, blending=args.blending)
+    with bench_offload(args.scheduler, args.workers) as offload:
+        results = bench.run_tradeoff(args.technique, scene, size=args.size,
+                                     frames=args.frames, include_stock=not args.no_stock,
+                                     blending=args.blending, offload=offload)
     print(f"scene {scene_path}, {args.size[0]}x{args.size[1]}, median of {args.frames} frames; "
           "error against the CPU reference (0.1 voxel steps)")
     print(bench.format_table(results))
@@ -972,8 +982,11 @@ def _bench_resolution(args, scene, scene_path) -> int:
     face_sizes = args.comparable_face_sizes
     if face_sizes is None:
         face_sizes = bench_resolution.COMPARABLE_FACE_SIZES
-    rows = bench_resolution.run_resolution(scene, sizes=sizes, frames=args.frames,
-                                           crop=args.crop, comparable_face_sizes=face_sizes)
+    with bench_offload(args.scheduler, args.workers) as offload:
+        rows = bench_resolution.run_resolution(scene, sizes=sizes, frames=args.frames,
+                                               crop=args.crop,
+                                               comparable_face_sizes=face_sizes,
+                                               offload=offload)
     print(f"scene {scene_path}; median of {args.frames} frames drawn to completion, the rows "
           f"drawn in turn; error (PSNR) on three {args.crop}px crops against the CPU reference "
           "(0.1 voxel steps)")

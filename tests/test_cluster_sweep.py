@@ -94,3 +94,48 @@ def test_the_front_holds_the_rows_nothing_beats():
 def test_bad_grids_are_refused(grid, message):
     with pytest.raises(ValueError, match=message):
         cm.sweep_options(build, grid, CAMERA, SIZE)
+
+
+def test_a_reference_made_in_bands_on_the_workers_is_the_whole_one(client):
+    # catches (seen failing): the opaque layer not cut to each band's rows; a band's rays
+    # one row off; the bands stacked in another order.
+    from pv_cubemarch.cluster.offload import Offload
+    from pv_cubemarch.reference.emission_absorption import render_emission_absorption
+
+    data = np.linspace(-1000.0, 1500.0, 17 * 13 * 11).reshape(17, 13, 11)
+    grid = pv.ImageData(dimensions=data.shape, spacing=(0.5, 0.7, 0.9), origin=(-5, 3, 2))
+    grid.point_data["hu"] = data.ravel(order="F")
+    volume = cm.make_volume(grid, cmap="bone", opacity="linear")
+    camera = cm.Camera((12.0, -8.0, 9.0), tuple(grid.center), (0, 0, 1))
+    size = (40, 31)
+    rows, cols = np.mgrid[0:size[1], 0:size[0]]
+    depth = 16.0 + 0.3 * rows + 0.1 * cols   # an opaque wall cutting the volume, per pixel
+    colour = np.stack([rows / size[1], cols / size[0], 0.5 + 0 * rows], axis=-1)
+    whole = render_emission_absorption(volume, camera, size, step_voxels=0.5,
+                                       opaque_depth=depth, opaque_color=colour)
+    banded = Offload(client).banded(render_emission_absorption, size, volume, camera, size,
+                                    step_voxels=0.5, sliced={"opaque_depth": depth,
+                                                             "opaque_color": colour}).result()
+    assert np.array_equal(banded, whole)
+    # the volume shows in front of the wall on most pixels, and the wall cuts it on some
+    assert np.mean(np.abs(whole - colour).max(axis=-1) > 0.05) > 0.5
+    free = render_emission_absorption(volume, camera, size, step_voxels=0.5)
+    assert np.mean(np.abs(whole - free).max(axis=-1) > 0.05) > 0.2
+
+
+def test_bench_tradeoff_computes_its_references_on_the_cluster(client, tmp_path):
+    # The same rows and errors as computed here; the rows still timed side by side here.
+    # catches (seen failing): the reference's bands stacked in another order.
+    import json
+
+    from pv_cubemarch.cli import main
+
+    runs = []
+    for extra in ([], ["--scheduler", client.scheduler.address]):
+        path = tmp_path / f"tradeoff{len(extra)}.json"
+        assert main(["bench", "tradeoff", "direct", "--size", "64x48", "--no-stock",
+                     "--json", str(path), *extra]) == 0
+        runs.append(json.loads(path.read_text()))
+    here, there = ([(r["setting"], r["errors"]["psnr"]) for r in run.get("results", run.get(
+        "rows"))] for run in runs)
+    assert here == there and len(here) >= 5

@@ -20,6 +20,7 @@ import pyvista
 import vtk
 
 from ..api import add_volume
+from ..cluster.offload import Offload
 from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.registry import describe_setting, techniques
@@ -210,7 +211,8 @@ def time_frames_side_by_side(plotters: dict, frames: int = 3, warmup: int = 2,
 def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[int] = (640, 480),
                  frames: int = 3, include_stock: bool = True, reference_step: float = 0.1,
                  progress_bar: bool | None = None,
-                 blending: Sequence[str] = ("composite",)) -> list[TradeoffResult]:
+                 blending: Sequence[str] = ("composite",),
+                 offload: Offload | None = None) -> list[TradeoffResult]:
     """Sweep ``technique``'s settings on ``scene``'s first volume; return one row per setting.
 
     Parameters
@@ -238,6 +240,10 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
         once per mode, against that mode's CPU reference, and against PyVista's own
         ``add_volume`` of the mode at its finest setting (``extra['psnr_vs_pyvista']``, with
         ``include_stock``). The Pareto front is marked per mode.
+    offload : Offload, optional
+        Where the CPU references are computed: a Dask cluster's workers, in bands of rows,
+        in parallel (:mod:`pv_cubemarch.cluster.offload`); they are waited for before any
+        row is timed. By default, here.
     """
     available = sweeps()
     chosen = [technique] if isinstance(technique, str) else list(technique)
@@ -255,8 +261,11 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
     color, distance = opaque_layer(scene, camera, size)
     near = camera.clipping_range[0] if camera.clipping_range else None
     modes = {mode: blend_setting(mode, volume) for mode in blending}
-    references = {mode: _reference(modes[mode], available[chosen[0]], volume, camera, size,
-                                   reference_step, distance, color, near) for mode in blending}
+    offload = offload or Offload()
+    pending = {mode: _reference(offload, modes[mode], available[chosen[0]], volume, camera,
+                                size, reference_step, distance, color, near)
+               for mode in blending}
+    references = {mode: future.result() for mode, future in pending.items()}
     runs = [(available[name], dict(s, **modes[mode])) for mode in blending
             for name in chosen for s in available[name].settings]
     if include_stock and "pyvista" not in chosen:
@@ -292,19 +301,21 @@ def run_tradeoff(technique: str | Sequence[str], scene: Scene, size: Sequence[in
     return results
 
 
-def _reference(blend: dict, sweep, volume, camera, size, step, distance, color, near):
-    """The right image of a blend setting.
+def _reference(offload: Offload, blend: dict, sweep, volume, camera, size, step, distance,
+               color, near):
+    """The right image of a blend setting, as a future of ``offload``.
 
-    The technique's reference for composite, else the blend modes'
-    (:func:`~pv_cubemarch.reference.projections.render_blended`).
+    The technique's reference for composite (in bands of rows on a cluster), else the
+    blend modes' (:func:`~pv_cubemarch.reference.projections.render_blended`), whole.
     """
     if blend["blending"] == "composite":
-        return sweep.reference(volume, camera, size, step_voxels=step, opaque_depth=distance,
-                               opaque_color=color, near=near)
+        return offload.banded(sweep.reference, size, volume, camera, size, step_voxels=step,
+                              near=near, sliced={"opaque_depth": distance,
+                                                 "opaque_color": color})
     levels = _stored_levels(volume, blend.get("isosurfaces", ()))
-    return render_blended(volume, camera, size, blend["blending"], isosurfaces=levels,
-                          step_voxels=step, opaque_depth=distance, opaque_color=color,
-                          near=near)
+    return offload.submit(render_blended, volume, camera, size, blend["blending"],
+                          isosurfaces=levels, step_voxels=step, opaque_depth=distance,
+                          opaque_color=color, near=near)
 
 
 def mark_pareto(results: list[TradeoffResult]) -> None:

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import vtk
 
+from ..cluster.offload import Offload
 from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.rendering import read_pixels
@@ -159,7 +160,8 @@ def run_resolution(scene: Scene, sizes: Sequence[Sequence[int]] = SIZES, frames:
                    crop: int = 128, reference_step: float = 0.1,
                    techniques: Sequence[str] = TECHNIQUES,
                    comparable_face_sizes: Sequence[int] = COMPARABLE_FACE_SIZES,
-                   progress_bar: bool | None = None) -> list[ResolutionRow]:
+                   progress_bar: bool | None = None,
+                   offload: Offload | None = None) -> list[ResolutionRow]:
     """Time every scenario x technique x size in one run and measure errors on crops.
 
     Parameters
@@ -185,6 +187,10 @@ def run_resolution(scene: Scene, sizes: Sequence[Sequence[int]] = SIZES, frames:
         (which may be more accurate than direct). Empty to leave them out.
     progress_bar : bool, optional
         Show progress over the rows; by default only on a terminal.
+    offload : Offload, optional
+        Where the CPU references are computed: every scenario's and size's at once on a
+        Dask cluster's workers (:mod:`pv_cubemarch.cluster.offload`), waited for before any
+        row is timed. By default, here, one before each scenario's rows.
     """
     if frames < 3:
         raise ValueError(f"frames must be at least 3 for a median, got {frames}.")
@@ -196,9 +202,17 @@ def run_resolution(scene: Scene, sizes: Sequence[Sequence[int]] = SIZES, frames:
     jobs = [(name, sub, tuple(int(v) for v in size))
             for name, sub in scenarios(scene).items() for size in sizes]
     rows = []
-    for name, sub, size in progress(jobs, desc="resolution", enabled=progress_bar):
-        camera = sub.camera or sub.default_camera(size[0] / size[1])
-        windows, reference = _reference(sub, camera, size, crop, reference_step)
+    offload = offload or Offload()
+    cameras = [sub.camera or sub.default_camera(size[0] / size[1]) for _, sub, size in jobs]
+    pending = [] if offload.client is None else [
+        offload.submit(_reference, sub, camera, size, crop, reference_step)
+        for (_, sub, size), camera in zip(jobs, cameras, strict=True)]
+    ready = [future.result() for future in pending]
+    for index, (name, sub, size) in enumerate(progress(jobs, desc="resolution",
+                                                       enabled=progress_bar)):
+        camera = cameras[index]
+        windows, reference = ready[index] if ready else _reference(sub, camera, size, crop,
+                                                                   reference_step)
         plotters, bindings = {}, {}
         try:
             for technique in [*techniques, *(extra if size == largest else [])]:
