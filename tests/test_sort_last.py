@@ -19,7 +19,7 @@ import pytest
 import pyvista as pv
 
 import pv_cubemarch as cm
-from pv_cubemarch.cluster import sort_last
+from pv_cubemarch.cluster import sort_last, split_grid
 from pv_cubemarch.core.camera import Camera
 from pv_cubemarch.core.rendering import offscreen_plotter
 from pv_cubemarch.image_metrics import compare_images
@@ -221,7 +221,7 @@ def test_a_zarr_store_is_split_by_its_path(client, tmp_path):
 
 def test_slabs_are_composited_front_to_back_from_the_camera():
     # catches (seen failing): a parallel view looking down -x ordered as one looking down +x.
-    parts = sort_last.split_volume(values(), 4, 0, keywords={"clim": (0, 1)}).partitions
+    parts = split_grid.split_volume(values(), 4, 0, keywords={"clim": (0, 1)}).partitions
     assert [(p.start, p.stop) for p in parts] == [(0, 10), (10, 20), (20, 30), (30, 40)]
     at = lambda x, **kw: Camera((x, 16.0, 14.0), (x + 1.0, 16.0, 14.0), (0, 0, 1), **kw)  # noqa: E731
     assert sort_last.visibility_order(parts, at(25.0))[:1] == [2]
@@ -341,7 +341,7 @@ def test_label_slabs_keep_the_nearest_hit_of_the_whole_grid(client, view):
     # nearest (inside); the clipping range fitted to each slab (outside, along -x); each
     # slab's own default palette (every view).
     camera = LABEL_CAMERAS[view]
-    expected = whole_labels(LABELS, camera, palette=sort_last.hashed_color)
+    expected = whole_labels(LABELS, camera, palette=split_grid.hashed_color)
     assert len(np.unique(expected.reshape(-1, 3), axis=0)) > 20   # many ids seen
     image = cm.render_sort_last(LABELS, camera, SIZE, partitions=4, axis=0,
                                 technique="voxels", client=client, background=BACKGROUND,
@@ -354,7 +354,7 @@ def test_label_colours_do_not_depend_on_the_ids_a_slab_holds(client):
     # own range of ids.
     few = label_grid(spots=3)   # 5 ids: one plotter would colour them tab10 by rank
     camera = LABEL_CAMERAS["outside"]
-    expected = whole_labels(few, camera, palette=sort_last.hashed_color)
+    expected = whole_labels(few, camera, palette=split_grid.hashed_color)
     image = cm.render_sort_last(few, camera, SIZE, partitions=3, axis=0, technique="voxels",
                                 client=client, background=BACKGROUND, progress_bar=False)
     assert np.array_equal(image, expected)

@@ -21,7 +21,8 @@ import pyvista
 
 from ..api import add_volume, add_voxels
 from ..cluster.frames import orbit
-from ..cluster.sort_last import hashed_color, render_sort_last
+from ..cluster.sort_last import render_sort_last
+from ..cluster.split_grid import hashed_color
 from ..core.camera import Camera
 from ..core.rendering import offscreen_plotter, render_image
 from ..image_metrics import compare_images

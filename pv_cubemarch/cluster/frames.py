@@ -222,9 +222,9 @@ class _FrameSink:
 
                 out.parent.mkdir(parents=True, exist_ok=True)
                 # a GIF plays in a loop; a video keeps the frames' size (no macro blocks)
-                extra = {"loop": 0} if out.suffix.lower() == ".gif" else \
-                    {"macro_block_size": 1}
-                self.movie = imageio.get_writer(str(out), fps=fps, **extra)
+                timing = {"loop": 0, "duration": 1000.0 / fps} \
+                    if out.suffix.lower() == ".gif" else {"fps": fps, "macro_block_size": 1}
+                self.movie = imageio.get_writer(str(out), **timing)
                 self.path = out
             elif out.suffix.lower() in IMAGE_SUFFIXES:
                 raise ValueError(f"out={str(out)!r} names one image; give a folder for the "

@@ -10,17 +10,14 @@ partitions; for slabs along one axis this order is exact.
 
 from __future__ import annotations
 
-import os
 import time
 from collections import OrderedDict
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.camera import Camera
 from ..core.progress import progress
-from ..models.label_colors import hashed_colors
 from .frames import (
     FrameError,
     _checked_size,
@@ -40,215 +37,10 @@ from .partition_march import (
     Partition,
     PartitionView,
 )
+from .split_grid import SplitVolume, split_volume
 
 #: Partition views a worker keeps (least recently used closed first).
 KEPT_PARTITIONS = 8
-
-
-@dataclass(frozen=True)
-class _LazySlab:
-    """A slab of a dask array, read on the worker that draws it (and by no other)."""
-
-    array: object
-
-    def read(self) -> np.ndarray:
-        import dask
-
-        return np.asarray(dask.compute(self.array, scheduler="synchronous")[0])
-
-
-@dataclass(frozen=True)
-class SplitVolume:
-    """A volume cut into slabs, with what every slab must be drawn with alike.
-
-    ``keywords`` hold the whole volume's ``clim`` and ``opacity_unit_distance`` (by
-    default PyVista's, of the whole grid): a slab alone would take its own.
-    """
-
-    partitions: tuple[Partition, ...]
-    keywords: dict
-    token: str
-
-
-def split_volume(volume, partitions: int | None = None, axis: int | None = None, *,
-                 scalars: str | None = None, spacing=None, origin=None,
-                 keywords: dict | None = None, labels: bool = False) -> SplitVolume:
-    """Cut ``volume`` into ``partitions`` slabs along ``axis`` (see :func:`render_sort_last`).
-
-    ``labels``: a label grid, one voxel per cell, cut between voxels (no voxel shared).
-    """
-    from dask.base import tokenize
-
-    values, spacing, origin = _volume_parts(volume, scalars, spacing, origin, labels)
-    shape = tuple(int(n) for n in values.shape)
-    if axis is None:
-        axis = int(np.argmax(shape))
-    if isinstance(axis, bool) or axis not in (0, 1, 2):
-        raise ValueError(f"axis must be 0, 1 or 2 (x, y, z), got {axis!r}.")
-    if partitions is None:
-        chunks = getattr(values, "chunks", None)
-        partitions = len(chunks[axis]) if chunks is not None else 2
-    if isinstance(partitions, bool) or not isinstance(partitions, (int, np.integer)) \
-            or partitions < 1:
-        raise ValueError(f"partitions must be a positive integer, got {partitions!r}.")
-    cells = shape[axis] if labels else shape[axis] - 1
-    if partitions > max(cells, 1):
-        raise ValueError(f"partitions={partitions} is more than the {cells} cells along axis "
-                         f"{axis} (each slab needs one); use at most {max(cells, 1)} or "
-                         "another axis.")
-    keywords = (_label_look if labels else _volume_look)(values, shape, spacing,
-                                                         dict(keywords or {}))
-    cuts = np.linspace(0, max(cells, 0), partitions + 1).round().astype(int)
-    lazy = not isinstance(values, np.ndarray)
-    slabs = []
-    for index in range(partitions):
-        start, stop = int(cuts[index]), int(cuts[index + 1]) if cells else 0
-        where = [slice(None)] * 3
-        where[axis] = slice(start, stop if labels else stop + 1)
-        part = values[tuple(where)]
-        slabs.append(Partition(index, axis, start, stop, shape, tuple(spacing), tuple(origin),
-                               _LazySlab(part) if lazy else np.ascontiguousarray(part),
-                               cells=labels))
-    token = tokenize(values if lazy else values.tobytes(), shape, tuple(spacing),
-                     tuple(origin), axis, partitions, labels)
-    return SplitVolume(tuple(slabs), keywords, token)
-
-
-def _volume_look(values, shape, spacing, keywords: dict) -> dict:
-    """The whole volume's clim and opacity_unit_distance where not given (a slab's differ)."""
-    if keywords.get("clim") is None:
-        keywords["clim"] = _data_range(values)
-    if keywords.get("opacity_unit_distance") is None:
-        diagonal = float(np.linalg.norm((np.asarray(shape) - 1) * spacing))
-        points = float(np.mean(shape)) - 1.0
-        keywords["opacity_unit_distance"] = (diagonal / points if points > 0 and diagonal > 0
-                                             else float(np.mean(spacing)))
-    return keywords
-
-
-def _label_look(values, shape, spacing, keywords: dict) -> dict:
-    """Colours that do not depend on which ids a slab holds.
-
-    By default each id's colour is hashed from it; a colormap spans the whole grid's drawn
-    ids unless ``clim`` is given.
-    """
-    if keywords.get("palette") is None and keywords.get("cmap") is None:
-        keywords["palette"] = hashed_color
-    elif keywords.get("cmap") is not None and keywords.get("clim") is None:
-        keywords["clim"] = _data_range(values, keywords.get("background", 0))
-    return keywords
-
-
-def hashed_color(label) -> tuple[float, float, float]:
-    """The colour hashed from ``label`` (a palette function, the same in every slab)."""
-    return tuple(float(v) for v in hashed_colors([label])[0, :3])
-
-
-def _volume_parts(volume, scalars, spacing, origin, cells: bool = False):
-    """The (x, y, z) values (NumPy or dask), spacing and origin of a volume input.
-
-    ``cells``: a label grid; an ImageData's cell data (or point data: a voxel centred on
-    each point).
-    """
-    import pyvista
-
-    if isinstance(volume, (str, os.PathLike)) or type(volume).__module__.startswith("zarr"):
-        import dask.array as da
-
-        try:
-            volume = da.from_zarr(os.fspath(volume) if isinstance(volume, os.PathLike)
-                                  else volume)
-        except Exception as error:
-            raise ValueError(f"volume {volume!r} is not a zarr array ({type(error).__name__}: "
-                             f"{error}); give a zarr array's path, a NumPy or dask array, "
-                             "or a pyvista.ImageData.") from error
-    if isinstance(volume, pyvista.ImageData):
-        return _image_parts(volume, scalars, spacing, origin, cells)
-    if scalars is not None:
-        raise ValueError("scalars= names an ImageData's array; an array is its own scalars.")
-    if not hasattr(volume, "shape") or not hasattr(volume, "dtype"):
-        raise TypeError(f"volume must be a NumPy or dask array, a zarr array (or its path) "
-                        f"or a pyvista.ImageData, got {type(volume).__name__}.")
-    if len(volume.shape) != 3 or min(volume.shape) < 1:
-        raise ValueError(f"volume must be a 3-D array of scalars (x, y, z), got shape "
-                         f"{tuple(volume.shape)}.")
-    kinds = "iu" if cells else "iuf"
-    if volume.dtype.kind not in kinds:
-        raise ValueError(f"volume must hold {'integer labels' if cells else 'real numbers'},"
-                         f" got dtype {volume.dtype}.")
-    if type(volume).__module__.split(".")[0] != "dask":
-        volume = np.asarray(volume)
-    spacing = _triple(spacing, "spacing", (1.0, 1.0, 1.0))
-    if not np.all(spacing > 0):
-        raise ValueError(f"spacing must be three positive lengths, got {tuple(spacing)}.")
-    return volume, spacing, _triple(origin, "origin", (0.0, 0.0, 0.0))
-
-
-def _image_parts(volume, scalars, spacing, origin, cells: bool):
-    """An ImageData's values (x, y, z), spacing and origin (a label grid's cells' corner)."""
-    if spacing is not None or origin is not None:
-        raise ValueError("spacing= and origin= place an array; a pyvista.ImageData has "
-                         "its own: leave them out.")
-    if not np.allclose(volume.direction_matrix, np.eye(3)):
-        raise ValueError("a pyvista.ImageData with a direction matrix cannot be split "
-                         "yet; resample it onto an axis-aligned grid.")
-    data = volume.point_data
-    on_cells = cells and (scalars in volume.cell_data if scalars is not None
-                          else len(volume.cell_data) > 0)
-    if on_cells:
-        data = volume.cell_data
-    name = scalars or data.active_scalars_name or next(iter(data.keys()), None)
-    where = "cell" if on_cells else "point"
-    if name is None or name not in data:
-        raise ValueError(f"the ImageData has no {where} scalars {name!r} to draw; pass "
-                         f"scalars= ({where} arrays: {list(data.keys())}).")
-    values = np.asarray(data[name])
-    if values.ndim != 1:
-        raise ValueError(f"{where} array {name!r} has {values.shape[1]} components; a "
-                         f"split grid draws one scalar per {where}.")
-    if cells and values.dtype.kind not in "iu":
-        raise ValueError(f"{where} array {name!r} holds {values.dtype}, not integer labels.")
-    spacing = np.asarray(volume.spacing, float)
-    origin = np.asarray(volume.origin, float)
-    shape = np.asarray(volume.dimensions) - (1 if on_cells else 0)
-    if cells and not on_cells:   # a voxel centred on each point
-        origin = origin - 0.5 * spacing
-    return values.reshape(tuple(int(n) for n in shape), order="F"), spacing, origin
-
-
-def _triple(value, name: str, default) -> np.ndarray:
-    try:
-        triple = np.asarray(default if value is None else value, dtype=float).reshape(3)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be three numbers (x, y, z), got {value!r}.") from None
-    if not np.all(np.isfinite(triple)):
-        raise ValueError(f"{name} must be finite, got {value!r}.")
-    return triple
-
-
-def _data_range(values, background=None) -> tuple[float, float]:
-    """The whole grid's finite range (the colour range each slab must share).
-
-    ``background``: a label grid's empty id, left out (its colormap spans the drawn ids).
-    """
-    if isinstance(values, np.ndarray):
-        keep = np.isfinite(values) if values.dtype.kind == "f" else np.ones(values.shape, bool)
-        if background is not None:
-            keep &= values != background
-        kept = values[keep]
-        low, high = (kept.min(), kept.max()) if kept.size else (np.nan, np.nan)
-    else:
-        import dask
-        import dask.array as da
-
-        if background is not None:
-            values = da.where(values == background, np.nan, values.astype(float))
-        low, high = dask.compute(da.nanmin(values), da.nanmax(values))
-    low, high = float(low), float(high)
-    if not (np.isfinite(low) and np.isfinite(high)):
-        raise ValueError("the volume holds no finite value to take a colour range from; "
-                         "give clim=.")
-    return (low, high if high > low else low + 1.0)
 
 
 def visibility_order(partitions: Sequence[Partition], camera: Camera) -> list[int]:
@@ -325,6 +117,67 @@ def _nearest(layers, shape: tuple[int, int], background) -> np.ndarray:
         image[window][take] = color[take]
         depth[window][take] = near[take]
     return image
+
+
+class SplitRenderer:
+    """A split grid placed on a cluster's workers, drawing a frame for any camera.
+
+    Each slab goes to one worker (round robin) and stays there; its plotter is kept per
+    look, so later frames only draw. :meth:`submit` asks every slab for its layer at once
+    and returns a :class:`SplitFrame` whose ``result()`` composites them.
+    """
+
+    def __init__(self, split: SplitVolume, client, size: tuple[int, int], blending: str,
+                 background):
+        from dask.base import tokenize
+
+        self.split, self.client, self.size = split, client, size
+        self.blending, self.background = blending, background
+        homes = list(client.scheduler_info()["workers"])
+        self._shared = []
+        for part in split.partitions:
+            home = [homes[part.index % len(homes)]] if homes else None
+            self._shared.append((client.submit(_same, part, pure=False, workers=home,
+                                               allow_other_workers=True), home))
+        self._look = tokenize(sorted(split.keywords.items(), key=str))   # a view per look
+        self.sent = self.composing = 0.0
+
+    def submit(self, camera: Camera) -> SplitFrame:
+        """Every slab's layer for ``camera``, asked for now."""
+        futures = [self.client.submit(
+            render_partition, (self.split.token, self._look, part.index, self.size), future,
+            camera, self.size, self.split.keywords, workers=home, allow_other_workers=True,
+            pure=False) for part, (future, home) in zip(self.split.partitions, self._shared,
+                                                        strict=True)]
+        return SplitFrame(self, camera, futures)
+
+
+class SplitFrame:
+    """One frame being drawn by the slabs; ``result()`` waits and composites it."""
+
+    def __init__(self, renderer: SplitRenderer, camera: Camera, futures: list):
+        self.renderer, self.camera, self.futures = renderer, camera, futures
+
+    def done(self) -> bool:
+        """Whether every slab's layer has arrived (or failed)."""
+        return all(future.done() for future in self.futures)
+
+    def cancel(self) -> None:
+        """Stop asking for this frame's layers."""
+        self.renderer.client.cancel(self.futures)
+
+    def result(self) -> np.ndarray:
+        """The composited ``(height, width, 3)`` uint8 frame."""
+        renderer = self.renderer
+        layers = renderer.client.gather(self.futures)
+        started = time.perf_counter()
+        image = composite(layers, visibility_order(renderer.split.partitions, self.camera),
+                          renderer.blending, (renderer.size[1], renderer.size[0]),
+                          renderer.background)
+        renderer.composing += time.perf_counter() - started
+        renderer.sent += sum(a.nbytes + (0 if s is None else s.nbytes)
+                             for _, _, a, s in layers if a is not None)
+        return image
 
 
 # In each worker process: the partitions it drew, kept for the next frames.
@@ -452,7 +305,6 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
     ...                                       partitions=4)  # doctest: +SKIP
     """
     import pyvista
-    from dask.base import tokenize
 
     one = isinstance(cameras, Camera) or hasattr(cameras, "GetPosition") or \
         _is_position(cameras)
@@ -489,35 +341,18 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
     with local_client(client, workers) as client:
         try:
             sink = _FrameSink(out, len(cameras), float(fps))
-            homes = list(client.scheduler_info()["workers"])
-            shared = []
-            for part in split.partitions:
-                home = [homes[part.index % len(homes)]] if homes else None
-                shared.append((client.submit(_same, part, pure=False, workers=home,
-                                             allow_other_workers=True), home))
-            look = tokenize(sorted(split.keywords.items(), key=str))   # a view per look
-            frames = []
-            for camera in cameras:
-                frames.append([client.submit(
-                    render_partition, (split.token, look, part.index, size), future, camera, size,
-                    split.keywords, workers=home, allow_other_workers=True, pure=False)
-                    for part, (future, home) in zip(split.partitions, shared, strict=True)])
-            sent = composing = 0.0
+            renderer = SplitRenderer(split, client, size, blending, background)
+            frames = [renderer.submit(camera) for camera in cameras]
             for index in progress(range(len(cameras)), desc="compositing frames",
                                   enabled=progress_bar):
                 try:
-                    layers = client.gather(frames[index])
+                    image = frames[index].result()
                 except Exception as error:
-                    client.cancel([f for frame in frames for f in frame])
+                    for frame in frames:
+                        frame.cancel()
                     raise FrameError(f"frame {index} (camera at {cameras[index].position}) "
                                      f"failed on the cluster: {type(error).__name__}: "
                                      f"{error}") from error
-                started = time.perf_counter()
-                image = composite(layers, visibility_order(split.partitions, cameras[index]),
-                                  blending, (size[1], size[0]), background)
-                composing += time.perf_counter() - started
-                sent += sum(a.nbytes + (0 if s is None else s.nbytes)
-                            for _, _, a, s in layers if a is not None)
                 sink.put(index, image)
                 frames[index] = None
             result, sink = sink.close(), None
@@ -525,6 +360,6 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
             if sink is not None:
                 sink.abort()
     if report is not None:
-        report.update(partitions=len(split.partitions), bytes=sent / len(cameras),
-                      composite_s=composing / len(cameras))
+        report.update(partitions=len(split.partitions), bytes=renderer.sent / len(cameras),
+                      composite_s=renderer.composing / len(cameras))
     return result[0] if one else result

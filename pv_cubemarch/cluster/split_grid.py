@@ -1,0 +1,224 @@
+"""A volume or label grid cut into slabs along one axis, for sort-last rendering.
+
+A volume's slabs share their boundary points; a label grid's are cut between voxels. Each
+slab's values are a NumPy slice or a lazy slice of a dask array (a zarr store is read
+through dask), read on the worker that draws it. What every slab must be drawn with alike
+(the whole grid's colour range and opacity unit distance, colours independent of the ids a
+slab holds) is settled here, from the whole grid.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..models.label_colors import hashed_colors
+from .partition_march import Partition
+
+
+@dataclass(frozen=True)
+class _LazySlab:
+    """A slab of a dask array, read on the worker that draws it (and by no other)."""
+
+    array: object
+
+    def read(self) -> np.ndarray:
+        import dask
+
+        return np.asarray(dask.compute(self.array, scheduler="synchronous")[0])
+
+
+@dataclass(frozen=True)
+class SplitVolume:
+    """A volume cut into slabs, with what every slab must be drawn with alike.
+
+    ``keywords`` hold the whole volume's ``clim`` and ``opacity_unit_distance`` (by
+    default PyVista's, of the whole grid): a slab alone would take its own.
+    """
+
+    partitions: tuple[Partition, ...]
+    keywords: dict
+    token: str
+
+
+def split_volume(volume, partitions: int | None = None, axis: int | None = None, *,
+                 scalars: str | None = None, spacing=None, origin=None,
+                 keywords: dict | None = None, labels: bool = False) -> SplitVolume:
+    """Cut ``volume`` into ``partitions`` slabs along ``axis`` (see :func:`render_sort_last`).
+
+    ``labels``: a label grid, one voxel per cell, cut between voxels (no voxel shared).
+    """
+    from dask.base import tokenize
+
+    values, spacing, origin = _volume_parts(volume, scalars, spacing, origin, labels)
+    shape = tuple(int(n) for n in values.shape)
+    if axis is None:
+        axis = int(np.argmax(shape))
+    if isinstance(axis, bool) or axis not in (0, 1, 2):
+        raise ValueError(f"axis must be 0, 1 or 2 (x, y, z), got {axis!r}.")
+    if partitions is None:
+        chunks = getattr(values, "chunks", None)
+        partitions = len(chunks[axis]) if chunks is not None else 2
+    if isinstance(partitions, bool) or not isinstance(partitions, (int, np.integer)) \
+            or partitions < 1:
+        raise ValueError(f"partitions must be a positive integer, got {partitions!r}.")
+    cells = shape[axis] if labels else shape[axis] - 1
+    if partitions > max(cells, 1):
+        raise ValueError(f"partitions={partitions} is more than the {cells} cells along axis "
+                         f"{axis} (each slab needs one); use at most {max(cells, 1)} or "
+                         "another axis.")
+    keywords = (_label_look if labels else _volume_look)(values, shape, spacing,
+                                                         dict(keywords or {}))
+    cuts = np.linspace(0, max(cells, 0), partitions + 1).round().astype(int)
+    lazy = not isinstance(values, np.ndarray)
+    slabs = []
+    for index in range(partitions):
+        start, stop = int(cuts[index]), int(cuts[index + 1]) if cells else 0
+        where = [slice(None)] * 3
+        where[axis] = slice(start, stop if labels else stop + 1)
+        part = values[tuple(where)]
+        slabs.append(Partition(index, axis, start, stop, shape, tuple(spacing), tuple(origin),
+                               _LazySlab(part) if lazy else np.ascontiguousarray(part),
+                               cells=labels))
+    token = tokenize(values if lazy else values.tobytes(), shape, tuple(spacing),
+                     tuple(origin), axis, partitions, labels)
+    return SplitVolume(tuple(slabs), keywords, token)
+
+
+def _volume_look(values, shape, spacing, keywords: dict) -> dict:
+    """The whole volume's clim and opacity_unit_distance where not given (a slab's differ)."""
+    if keywords.get("clim") is None:
+        keywords["clim"] = _data_range(values)
+    if keywords.get("opacity_unit_distance") is None:
+        diagonal = float(np.linalg.norm((np.asarray(shape) - 1) * spacing))
+        points = float(np.mean(shape)) - 1.0
+        keywords["opacity_unit_distance"] = (diagonal / points if points > 0 and diagonal > 0
+                                             else float(np.mean(spacing)))
+    return keywords
+
+
+def _label_look(values, shape, spacing, keywords: dict) -> dict:
+    """Colours that do not depend on which ids a slab holds.
+
+    By default each id's colour is hashed from it; a colormap spans the whole grid's drawn
+    ids unless ``clim`` is given.
+    """
+    if keywords.get("palette") is None and keywords.get("cmap") is None:
+        keywords["palette"] = hashed_color
+    elif keywords.get("cmap") is not None and keywords.get("clim") is None:
+        keywords["clim"] = _data_range(values, keywords.get("background", 0))
+    return keywords
+
+
+def hashed_color(label) -> tuple[float, float, float]:
+    """The colour hashed from ``label`` (a palette function, the same in every slab)."""
+    return tuple(float(v) for v in hashed_colors([label])[0, :3])
+
+
+def _volume_parts(volume, scalars, spacing, origin, cells: bool = False):
+    """The (x, y, z) values (NumPy or dask), spacing and origin of a volume input.
+
+    ``cells``: a label grid; an ImageData's cell data (or point data: a voxel centred on
+    each point).
+    """
+    import pyvista
+
+    if isinstance(volume, (str, os.PathLike)) or type(volume).__module__.startswith("zarr"):
+        import dask.array as da
+
+        try:
+            volume = da.from_zarr(os.fspath(volume) if isinstance(volume, os.PathLike)
+                                  else volume)
+        except Exception as error:
+            raise ValueError(f"volume {volume!r} is not a zarr array ({type(error).__name__}: "
+                             f"{error}); give a zarr array's path, a NumPy or dask array, "
+                             "or a pyvista.ImageData.") from error
+    if isinstance(volume, pyvista.ImageData):
+        return _image_parts(volume, scalars, spacing, origin, cells)
+    if scalars is not None:
+        raise ValueError("scalars= names an ImageData's array; an array is its own scalars.")
+    if not hasattr(volume, "shape") or not hasattr(volume, "dtype"):
+        raise TypeError(f"volume must be a NumPy or dask array, a zarr array (or its path) "
+                        f"or a pyvista.ImageData, got {type(volume).__name__}.")
+    if len(volume.shape) != 3 or min(volume.shape) < 1:
+        raise ValueError(f"volume must be a 3-D array of scalars (x, y, z), got shape "
+                         f"{tuple(volume.shape)}.")
+    kinds = "iu" if cells else "iuf"
+    if volume.dtype.kind not in kinds:
+        raise ValueError(f"volume must hold {'integer labels' if cells else 'real numbers'},"
+                         f" got dtype {volume.dtype}.")
+    if type(volume).__module__.split(".")[0] != "dask":
+        volume = np.asarray(volume)
+    spacing = _triple(spacing, "spacing", (1.0, 1.0, 1.0))
+    if not np.all(spacing > 0):
+        raise ValueError(f"spacing must be three positive lengths, got {tuple(spacing)}.")
+    return volume, spacing, _triple(origin, "origin", (0.0, 0.0, 0.0))
+
+
+def _image_parts(volume, scalars, spacing, origin, cells: bool):
+    """An ImageData's values (x, y, z), spacing and origin (a label grid's cells' corner)."""
+    if spacing is not None or origin is not None:
+        raise ValueError("spacing= and origin= place an array; a pyvista.ImageData has "
+                         "its own: leave them out.")
+    if not np.allclose(volume.direction_matrix, np.eye(3)):
+        raise ValueError("a pyvista.ImageData with a direction matrix cannot be split "
+                         "yet; resample it onto an axis-aligned grid.")
+    data = volume.point_data
+    on_cells = cells and (scalars in volume.cell_data if scalars is not None
+                          else len(volume.cell_data) > 0)
+    if on_cells:
+        data = volume.cell_data
+    name = scalars or data.active_scalars_name or next(iter(data.keys()), None)
+    where = "cell" if on_cells else "point"
+    if name is None or name not in data:
+        raise ValueError(f"the ImageData has no {where} scalars {name!r} to draw; pass "
+                         f"scalars= ({where} arrays: {list(data.keys())}).")
+    values = np.asarray(data[name])
+    if values.ndim != 1:
+        raise ValueError(f"{where} array {name!r} has {values.shape[1]} components; a "
+                         f"split grid draws one scalar per {where}.")
+    if cells and values.dtype.kind not in "iu":
+        raise ValueError(f"{where} array {name!r} holds {values.dtype}, not integer labels.")
+    spacing = np.asarray(volume.spacing, float)
+    origin = np.asarray(volume.origin, float)
+    shape = np.asarray(volume.dimensions) - (1 if on_cells else 0)
+    if cells and not on_cells:   # a voxel centred on each point
+        origin = origin - 0.5 * spacing
+    return values.reshape(tuple(int(n) for n in shape), order="F"), spacing, origin
+
+
+def _triple(value, name: str, default) -> np.ndarray:
+    try:
+        triple = np.asarray(default if value is None else value, dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be three numbers (x, y, z), got {value!r}.") from None
+    if not np.all(np.isfinite(triple)):
+        raise ValueError(f"{name} must be finite, got {value!r}.")
+    return triple
+
+
+def _data_range(values, background=None) -> tuple[float, float]:
+    """The whole grid's finite range (the colour range each slab must share).
+
+    ``background``: a label grid's empty id, left out (its colormap spans the drawn ids).
+    """
+    if isinstance(values, np.ndarray):
+        keep = np.isfinite(values) if values.dtype.kind == "f" else np.ones(values.shape, bool)
+        if background is not None:
+            keep &= values != background
+        kept = values[keep]
+        low, high = (kept.min(), kept.max()) if kept.size else (np.nan, np.nan)
+    else:
+        import dask
+        import dask.array as da
+
+        if background is not None:
+            values = da.where(values == background, np.nan, values.astype(float))
+        low, high = dask.compute(da.nanmin(values), da.nanmax(values))
+    low, high = float(low), float(high)
+    if not (np.isfinite(low) and np.isfinite(high)):
+        raise ValueError("the volume holds no finite value to take a colour range from; "
+                         "give clim=.")
+    return (low, high if high > low else low + 1.0)
