@@ -30,8 +30,10 @@ from .bench import world as bench_world
 from .bench.layer_rows import format_layer_table
 from .bench.voxels import ROWS as VOXEL_ROWS
 from .cluster import orbit, render_frames, render_sort_last
+from .cluster.frames import local_client
 from .cluster.offload import bench_offload
 from .cluster.partition_march import LABEL_KEYWORDS, PARTITION_BLENDING, PARTITION_KEYWORDS
+from .cluster.sort_last import SplitRenderer, prepare_split
 from .core.declared import KINDS, declared, option, options_markdown
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
@@ -41,6 +43,7 @@ from .scene.grids import read_grid
 from .scene.io import load_scene
 from .scene.model import camera_for_bounds
 from .views.app import WINDOW_MODES, serve
+from .views.cluster_view import ClusterDisplay, serve_cluster
 from .volume.binding import BLEND_MODES
 from .voxels.options import VoxelOptions
 
@@ -190,8 +193,14 @@ def build_parser() -> argparse.ArgumentParser:
                                  "workers (each reads and marches its slab; sort-last)")
     split.add_argument("volume", help="grid file (.vti, .vtk, .nrrd, .npy, .npz) or zarr "
                                       "array (a folder: each worker reads its slab)")
-    split.add_argument("--out", "-o", required=True,
+    split.add_argument("--out", "-o",
                        help="folder for frame_00000.png ..., or a movie (.mp4, .gif)")
+    split.add_argument("--live", action="store_true",
+                       help="instead of writing an orbit, serve a live view whose frames the "
+                            "cluster draws as the mouse turns the camera (trame)")
+    split.add_argument("--port", type=int, default=8080, help="the live view's port")
+    split.add_argument("--host", default="127.0.0.1",
+                       help="address the live view listens on (default: this machine only)")
     split.add_argument("--partitions", type=int,
                        help="slabs to cut the volume into (default: a zarr array's chunks "
                             "along the axis, else 2)")
@@ -575,6 +584,12 @@ def _render_sort_last(args) -> int:
                              "its own.")
         volume, placed = read_grid(path, f"volume file {args.volume}", cells=labels), {}
         bounds = volume.bounds
+    if args.live:
+        if args.out is not None:
+            raise ValueError("--out writes an orbit and --live serves a view: give one.")
+        return _live_sort_last(args, volume, camera_for_bounds(bounds), placed, look)
+    if args.out is None:
+        raise ValueError("give --out (a folder or a movie for the orbit) or --live.")
     cameras = orbit(camera_for_bounds(bounds), args.orbit)
     client = _cluster_client(args)
     try:
@@ -590,6 +605,22 @@ def _render_sort_last(args) -> int:
     where = f"{len(written)} frames to {args.out}" if isinstance(written, list) else \
         f"{args.orbit} frames to {written}"
     print(f"wrote {where}")
+    return 0
+
+
+def _live_sort_last(args, volume, camera, placed: dict, look: dict) -> int:
+    """Serve the live view of a split grid, its frames drawn by the cluster."""
+    split, blending, background = prepare_split(
+        volume, partitions=args.partitions,
+        axis=None if args.axis is None else "xyz".index(args.axis),
+        technique=args.technique, **placed, **look)
+    with local_client(_cluster_client(args), args.workers) as client:
+        display = ClusterDisplay(SplitRenderer(split, client, args.size, blending, background),
+                                 camera)
+        try:
+            serve_cluster(display, port=args.port, host=args.host)
+        finally:
+            display.close()
     return 0
 
 

@@ -391,3 +391,37 @@ def test_bench_sortlast_rows(tmp_path):
     assert all(r["psnr_min"] >= 50.0 for r in rows[1:3])
     assert all(r["wrong_pixels"] == 0 for r in rows[4:])
     assert all(r["sent_mb"] > 0 and r["composite_ms"] > 0 for r in rows if r["partitions"])
+
+
+def test_a_live_view_shows_the_cluster_s_frames_for_its_camera(client):
+    # The display's plotter holds no data: its background is the frame the cluster drew
+    # for its camera, pixel for pixel; a move while a frame is in flight is drawn after it.
+    # catches (seen failing): the newest camera not asked for once the frame in flight
+    # came back (the view kept a half-turned camera's frame); the frame shown upside down.
+    from pv_cubemarch.cluster.sort_last import SplitRenderer, prepare_split
+    from pv_cubemarch.views.cluster_view import ClusterDisplay
+
+    split, blending, background = prepare_split(GRID, partitions=3, axis=0,
+                                                background=BACKGROUND, **LOOK)
+    display = ClusterDisplay(SplitRenderer(split, client, SIZE, blending, background),
+                             CAMERAS["outside"])
+    try:
+        display.wait()
+        shown = cm.render_image(display.plotter)
+        assert compare_images(shown, whole_render(GRID, CAMERAS["outside"], **LOOK)).psnr >= 50
+        turned = cm.orbit(CAMERAS["outside"], 4)[1]
+        turned.apply_to(display.plotter.camera)    # asks at once: nothing in flight
+        assert display.in_flight is not None
+        last = cm.orbit(CAMERAS["outside"], 4)[2]
+        last.apply_to(display.plotter.camera)      # in flight: only marked stale
+        display.wait()
+        assert display.frames == 3     # the first view, the turned one, then the last one
+        shown = cm.render_image(display.plotter)
+        assert compare_images(shown, whole_render(GRID, last, **LOOK)).psnr >= 50
+        # the trame app around it: the page is guarded by a token, the view is the display's
+        from pv_cubemarch.views.cluster_view import build_cluster_app
+
+        server, layout = build_cluster_app(display, name="test-cluster-view")
+        assert layout.cubemarch_token and "cluster_text" in server.state
+    finally:
+        display.close()

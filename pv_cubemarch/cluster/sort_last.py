@@ -225,6 +225,38 @@ def _render_kept(key, partition, camera, size, keywords):
             None if state is None else state[window].copy())
 
 
+def prepare_split(volume, *, partitions: int | None = None, axis: int | None = None,
+                  scalars: str | None = None, spacing=None, origin=None,
+                  technique: str = "direct", background=None, **volume_keywords):
+    """The slabs of ``volume`` and how they composite (see :func:`render_sort_last`).
+
+    Returns ``(split, blending, background)``: the :class:`SplitVolume`, the compositing
+    rule and the background as RGB in [0, 1]. Every keyword is checked first.
+    """
+    import pyvista
+
+    if technique not in ("direct", "voxels"):
+        raise ValueError(f"technique must be 'direct' (a volume) or 'voxels' (a label grid), "
+                         f"got {technique!r}.")
+    labels = technique == "voxels"
+    allowed = LABEL_KEYWORDS if labels else PARTITION_KEYWORDS
+    other = sorted(set(volume_keywords) - set(allowed))
+    if other:
+        raise ValueError(f"{', '.join(other)} cannot be drawn by a split "
+                         f"{'label grid' if labels else 'volume'} (only {', '.join(allowed)})"
+                         f"; draw it on one machine with "
+                         f"{'add_voxels' if labels else 'add_volume'}, or leave them out.")
+    blending = "nearest" if labels else volume_keywords.get("blending", "composite")
+    if not labels and blending not in PARTITION_BLENDING:
+        raise ValueError(f"blending={blending!r} cannot be split across partitions; use one "
+                         f"of {PARTITION_BLENDING}.")
+    background = pyvista.Color(background if background is not None
+                               else pyvista.global_theme.background).float_rgb
+    split = split_volume(volume, partitions, axis, scalars=scalars, spacing=spacing,
+                         origin=origin, keywords=volume_keywords, labels=labels)
+    return split, blending, background
+
+
 def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
                      partitions: int | None = None, axis: int | None = None,
                      scalars: str | None = None, spacing=None, origin=None,
@@ -304,8 +336,6 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
     >>> image = pv_cubemarch.render_sort_last(values, camera, (320, 240),
     ...                                       partitions=4)  # doctest: +SKIP
     """
-    import pyvista
-
     one = isinstance(cameras, Camera) or hasattr(cameras, "GetPosition") or \
         _is_position(cameras)
     cameras = [as_camera(c, i) for i, c in enumerate([cameras] if one else cameras)]
@@ -315,28 +345,12 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
         raise ValueError("out= writes a batch of frames; give a list of cameras, or save "
                          "the one image returned.")
     size = _checked_size(size)
-    if technique not in ("direct", "voxels"):
-        raise ValueError(f"technique must be 'direct' (a volume) or 'voxels' (a label grid), "
-                         f"got {technique!r}.")
-    labels = technique == "voxels"
-    allowed = LABEL_KEYWORDS if labels else PARTITION_KEYWORDS
-    other = sorted(set(volume_keywords) - set(allowed))
-    if other:
-        raise ValueError(f"{', '.join(other)} cannot be drawn by a split "
-                         f"{'label grid' if labels else 'volume'} (only {', '.join(allowed)})"
-                         f"; draw it on one machine with "
-                         f"{'add_voxels' if labels else 'add_volume'}, or leave them out.")
-    blending = "nearest" if labels else volume_keywords.get("blending", "composite")
-    if not labels and blending not in PARTITION_BLENDING:
-        raise ValueError(f"blending={blending!r} cannot be split across partitions; use one "
-                         f"of {PARTITION_BLENDING}.")
     if not float(fps) > 0:
         raise ValueError(f"fps must be positive, got {fps!r}.")
     _checked_workers(client, workers)
-    background = pyvista.Color(background if background is not None
-                               else pyvista.global_theme.background).float_rgb
-    split = split_volume(volume, partitions, axis, scalars=scalars, spacing=spacing,
-                         origin=origin, keywords=volume_keywords, labels=labels)
+    split, blending, background = prepare_split(
+        volume, partitions=partitions, axis=axis, scalars=scalars, spacing=spacing,
+        origin=origin, technique=technique, background=background, **volume_keywords)
     sink = None
     with local_client(client, workers) as client:
         try:
