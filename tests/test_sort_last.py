@@ -425,3 +425,20 @@ def test_a_live_view_shows_the_cluster_s_frames_for_its_camera(client):
         assert layout.cubemarch_token and "cluster_text" in server.state
     finally:
         display.close()
+
+
+def test_an_ome_zarr_image_is_split_from_its_finest_level(client, tmp_path):
+    # The finest level, placed by the image's metadata (scale, translation), read slab by
+    # slab; the colour range given (by default: its coarsest level's, as streamed volumes).
+    # catches (seen failing): the image's translation left out.
+    data = values()
+    cm.build_pyramid(data, str(tmp_path / "ct.ome.zarr"), chunk_size=8, scale=SPACING,
+                     translation=ORIGIN, progress_bar=False)
+    look = dict(LOOK, clim=(float(data.min()), float(data.max())))
+    camera = CAMERAS["near plane"]
+    image = cm.render_sort_last(str(tmp_path / "ct.ome.zarr"), camera, SIZE, partitions=3,
+                                client=client, background=BACKGROUND, progress_bar=False,
+                                **look)
+    assert compare_images(image, whole_render(GRID, camera, **look)).psnr >= 50.0
+    with pytest.raises(ValueError, match="placed by its own metadata"):
+        cm.render_sort_last(str(tmp_path / "ct.ome.zarr"), camera, SIZE, spacing=(1, 1, 1))

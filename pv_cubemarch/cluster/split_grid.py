@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..models.label_colors import hashed_colors
+from ..models.multiscale import is_zarr_group, multiscale_source
 from .partition_march import Partition
 
 
@@ -52,7 +53,7 @@ def split_volume(volume, partitions: int | None = None, axis: int | None = None,
     """
     from dask.base import tokenize
 
-    values, spacing, origin = _volume_parts(volume, scalars, spacing, origin, labels)
+    values, spacing, origin, coarse = _volume_parts(volume, scalars, spacing, origin, labels)
     shape = tuple(int(n) for n in values.shape)
     if axis is None:
         axis = int(np.argmax(shape))
@@ -69,8 +70,9 @@ def split_volume(volume, partitions: int | None = None, axis: int | None = None,
         raise ValueError(f"partitions={partitions} is more than the {cells} cells along axis "
                          f"{axis} (each slab needs one); use at most {max(cells, 1)} or "
                          "another axis.")
-    keywords = (_label_look if labels else _volume_look)(values, shape, spacing,
-                                                         dict(keywords or {}))
+    # the colour range of an OME-Zarr pyramid's coarsest level, as a streamed volume takes it
+    keywords = (_label_look if labels else _volume_look)(
+        values if coarse is None else coarse, shape, spacing, dict(keywords or {}))
     cuts = np.linspace(0, max(cells, 0), partitions + 1).round().astype(int)
     lazy = not isinstance(values, np.ndarray)
     slabs = []
@@ -126,17 +128,14 @@ def _volume_parts(volume, scalars, spacing, origin, cells: bool = False):
     import pyvista
 
     if isinstance(volume, (str, os.PathLike)) or type(volume).__module__.startswith("zarr"):
+        volume = _opened(volume)
+        if is_zarr_group(volume):
+            return _pyramid_parts(volume, spacing, origin)
         import dask.array as da
 
-        try:
-            volume = da.from_zarr(os.fspath(volume) if isinstance(volume, os.PathLike)
-                                  else volume)
-        except Exception as error:
-            raise ValueError(f"volume {volume!r} is not a zarr array ({type(error).__name__}: "
-                             f"{error}); give a zarr array's path, a NumPy or dask array, "
-                             "or a pyvista.ImageData.") from error
+        volume = da.from_zarr(volume)
     if isinstance(volume, pyvista.ImageData):
-        return _image_parts(volume, scalars, spacing, origin, cells)
+        return (*_image_parts(volume, scalars, spacing, origin, cells), None)
     if scalars is not None:
         raise ValueError("scalars= names an ImageData's array; an array is its own scalars.")
     if not hasattr(volume, "shape") or not hasattr(volume, "dtype"):
@@ -154,7 +153,59 @@ def _volume_parts(volume, scalars, spacing, origin, cells: bool = False):
     spacing = _triple(spacing, "spacing", (1.0, 1.0, 1.0))
     if not np.all(spacing > 0):
         raise ValueError(f"spacing must be three positive lengths, got {tuple(spacing)}.")
-    return volume, spacing, _triple(origin, "origin", (0.0, 0.0, 0.0))
+    return volume, spacing, _triple(origin, "origin", (0.0, 0.0, 0.0)), None
+
+
+def _opened(volume):
+    """A zarr array or group from a path (or itself); a clear error for anything else."""
+    if not isinstance(volume, (str, os.PathLike)):
+        return volume
+    try:
+        import zarr
+
+        return zarr.open(os.fspath(volume), mode="r")
+    except Exception as error:
+        raise ValueError(f"volume {os.fspath(volume)!r} is not a zarr array or OME-Zarr image "
+                         f"({type(error).__name__}: {error}); give a zarr store's path, a "
+                         "NumPy or dask array, or a pyvista.ImageData.") from error
+
+
+class _LevelArray:
+    """A pyramid level as an ``(x, y, z)`` array dask reads box by box.
+
+    Its axes reordered, time and channel fixed, as
+    :class:`~pv_cubemarch.models.multiscale.Level` reads.
+    """
+
+    def __init__(self, level):
+        self.level = level
+        self.shape = tuple(int(n) for n in level.shape)
+        self.dtype = np.dtype(level.array.dtype)
+        self.ndim = 3
+
+    def __getitem__(self, box):
+        return self.level.read(tuple(box))
+
+
+def _pyramid_parts(group, spacing, origin):
+    """An OME-Zarr image's finest level (lazy, x y z), its placement, its coarsest level."""
+    import dask.array as da
+
+    if spacing is not None or origin is not None:
+        raise ValueError("spacing= and origin= place an array; an OME-Zarr image is placed "
+                         "by its own metadata: leave them out.")
+    try:
+        source = multiscale_source(group)
+    except Exception as error:
+        raise ValueError(f"the zarr group is not an OME-Zarr image ({type(error).__name__}: "
+                         f"{error}); give its image group or one of its arrays.") from error
+    finest, coarsest = source.levels[0], source.levels[-1]
+    chunks = getattr(finest.array, "chunks", None)
+    chunks = tuple(chunks[a] for a in finest.axes) if chunks is not None else "auto"
+    values = da.from_array(_LevelArray(finest), chunks=chunks, asarray=True)
+    coarse = coarsest.read(tuple(slice(0, n) for n in coarsest.shape))
+    return (values, np.asarray(finest.scale, float), np.asarray(finest.translation, float),
+            coarse)
 
 
 def _image_parts(volume, scalars, spacing, origin, cells: bool):
