@@ -1,4 +1,4 @@
-// requires: camera_declarations, ea_declarations, ea_march, screen_ray
+// requires: camera_declarations, ea_declarations, ea_march, slab, pixel_ray, screen_ray
 // One partition of a volume split across workers (sort-last rendering). The rays are the
 // whole volume's, stepped as the whole box steps them (from its entry, cm_stepScale texels of
 // the dominant axis); this pass blends only the samples whose middles lie in its own part of
