@@ -155,6 +155,18 @@ def given_options(args, kind: str) -> dict:
             for name, value in given.items()}
 
 
+def _cluster_flags(command) -> None:
+    """The flags every command rendering a batch on a cluster takes."""
+    command.add_argument("--size", type=_size, default=(800, 600),
+                         help="WxH (default 800x600)")
+    command.add_argument("--workers", type=int,
+                         help="processes of the local cluster started for the run (default 2)")
+    command.add_argument("--scheduler", help="address of a running Dask scheduler to use "
+                                             "instead (tcp://host:8786)")
+    command.add_argument("--fps", type=float, default=24.0, help="a movie's frame rate")
+    command.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for tests and documentation)."""
     parser = argparse.ArgumentParser(prog="pv-cubemarch", description=__doc__)
@@ -180,14 +192,8 @@ def build_parser() -> argparse.ArgumentParser:
     frames.add_argument("--orbit", type=int, default=64,
                         help="frames turning once around the scene camera's focal point "
                              "(default 64)")
-    frames.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
     frames.add_argument("--camera", help="name of the scene camera the orbit starts from")
-    frames.add_argument("--workers", type=int,
-                        help="processes of the local cluster started for the run (default 2)")
-    frames.add_argument("--scheduler", help="address of a running Dask scheduler to use "
-                                            "instead (tcp://host:8786)")
-    frames.add_argument("--fps", type=float, default=24.0, help="a movie's frame rate")
-    frames.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    _cluster_flags(frames)
     split = commands.add_parser(
         "render-sort-last", help="render an orbit of a volume split across a Dask cluster's "
                                  "workers (each reads and marches its slab; sort-last)")
@@ -210,13 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
     split.add_argument("--origin", type=float, nargs=3, help="a zarr array's origin")
     split.add_argument("--orbit", type=int, default=64,
                        help="frames turning once around the volume (default 64)")
-    split.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
-    split.add_argument("--workers", type=int,
-                       help="processes of the local cluster started for the run (default 2)")
-    split.add_argument("--scheduler", help="address of a running Dask scheduler to use "
-                                           "instead (tcp://host:8786)")
-    split.add_argument("--fps", type=float, default=24.0, help="a movie's frame rate")
-    split.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    _cluster_flags(split)
     split.add_argument("--technique", choices=("direct", "voxels"), default="direct",
                        help="direct: a volume (default); voxels: a label grid, each slab's "
                             "nearest voxel kept")
@@ -527,11 +527,16 @@ def _render_frames(args) -> int:
     if args.camera and start is None:
         raise KeyError(f"No camera named {args.camera!r}; the scene has {list(scene.cameras)}.")
     start = start or scene.default_camera(args.size[0] / args.size[1])
+    return _written_on_cluster(args, lambda client: render_frames(
+        args.scene, orbit(start, args.orbit), args.size, client=client, workers=args.workers,
+        out=args.out, fps=args.fps, progress_bar=False if args.no_progress else None))
+
+
+def _written_on_cluster(args, render) -> int:
+    """Run ``render(client)`` on ``--scheduler``'s client or None; say what it wrote."""
     client = _cluster_client(args)
     try:
-        written = render_frames(args.scene, orbit(start, args.orbit), args.size, client=client,
-                                workers=args.workers, out=args.out, fps=args.fps,
-                                progress_bar=False if args.no_progress else None)
+        written = render(client)
     finally:
         if client is not None:
             client.close()
@@ -591,21 +596,11 @@ def _render_sort_last(args) -> int:
     if args.out is None:
         raise ValueError("give --out (a folder or a movie for the orbit) or --live.")
     cameras = orbit(camera_for_bounds(bounds), args.orbit)
-    client = _cluster_client(args)
-    try:
-        written = render_sort_last(
-            volume, cameras, args.size, partitions=args.partitions,
-            axis=None if args.axis is None else "xyz".index(args.axis), client=client,
-            workers=args.workers, out=args.out, fps=args.fps,
-            technique=args.technique, progress_bar=False if args.no_progress else None,
-            **placed, **look)
-    finally:
-        if client is not None:
-            client.close()
-    where = f"{len(written)} frames to {args.out}" if isinstance(written, list) else \
-        f"{args.orbit} frames to {written}"
-    print(f"wrote {where}")
-    return 0
+    return _written_on_cluster(args, lambda client: render_sort_last(
+        volume, cameras, args.size, partitions=args.partitions,
+        axis=None if args.axis is None else "xyz".index(args.axis), client=client,
+        workers=args.workers, out=args.out, fps=args.fps, technique=args.technique,
+        progress_bar=False if args.no_progress else None, **placed, **look))
 
 
 def _live_sort_last(args, volume, camera, placed: dict, look: dict) -> int:

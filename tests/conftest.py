@@ -226,3 +226,15 @@ def draw_at(add, size, position, background="black"):
     camera = cm.Camera.from_pyvista(pl.camera)
     pl.close()
     return image, actor, camera
+
+
+@pytest.fixture(scope="module")
+def client():
+    """A LocalCluster of 2 processes (one thread each) and its client, for a test module."""
+    import distributed
+
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                       dashboard_address=":0")
+    with distributed.Client(cluster) as started:
+        yield started
+    cluster.close()

@@ -10,7 +10,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import distributed
 import numpy as np
 import pytest
 import pyvista as pv
@@ -54,15 +53,6 @@ def serial(scene, cameras):
         images.append(cm.render_image(pl))
     pl.close()
     return images
-
-
-@pytest.fixture(scope="module")
-def client():
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       dashboard_address=":0")
-    with distributed.Client(cluster) as client:
-        yield client
-    cluster.close()
 
 
 CAMERAS = cm.orbit([(8.0, -6.0, 5.0), (1.0, 1.0, 0.0), (0, 0, 1)], 12)

@@ -7,7 +7,6 @@ reference by hand; the timed spans the workers report must not overlap.
 
 from __future__ import annotations
 
-import distributed
 import numpy as np
 import pytest
 import pyvista as pv
@@ -27,10 +26,10 @@ def build(plotter, resolution, smooth_shading=False):
                      color="tomato", smooth_shading=smooth_shading)
 
 
-def fine_sphere(camera, size):
-    """The reference: the sphere finely tessellated, smooth."""
+def rendered(draw, camera, size):
+    """``draw(plotter)`` rendered from ``camera`` by one plotter in this process."""
     plotter = offscreen_plotter(size)
-    build(plotter, 256, True)
+    draw(plotter)
     camera.apply_to(plotter.camera)
     plotter.renderer.ResetCameraClippingRange()
     image = cm.render_image(plotter)
@@ -38,23 +37,13 @@ def fine_sphere(camera, size):
     return image
 
 
+def fine_sphere(camera, size):
+    """The reference: the sphere finely tessellated, smooth."""
+    return rendered(lambda plotter: build(plotter, 256, True), camera, size)
+
+
 def local(setting):
-    plotter = offscreen_plotter(SIZE)
-    build(plotter, **setting)
-    CAMERA.apply_to(plotter.camera)
-    plotter.renderer.ResetCameraClippingRange()
-    image = cm.render_image(plotter)
-    plotter.close()
-    return image
-
-
-@pytest.fixture(scope="module")
-def client():
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       dashboard_address=":0")
-    with distributed.Client(cluster) as client:
-        yield client
-    cluster.close()
+    return rendered(lambda plotter: build(plotter, **setting), CAMERA, SIZE)
 
 
 def test_every_setting_is_timed_alone_and_compared_with_the_reference(client):

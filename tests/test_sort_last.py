@@ -13,7 +13,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import distributed
 import numpy as np
 import pytest
 import pyvista as pv
@@ -50,11 +49,12 @@ def whole_grid(data):
     return grid
 
 
-def whole_render(grid, camera, **look):
-    """One plotter drawing the whole volume: the image sort-last must equal."""
+def one_plotter(camera, draw):
+    """One plotter in this process drawing ``draw(plotter)`` from ``camera``: the oracle."""
     plotter = offscreen_plotter(SIZE)
+    plotter.disable_anti_aliasing()
     plotter.set_background(BACKGROUND)
-    cm.add_volume(plotter, grid, technique="direct", show_scalar_bar=False, **look)
+    draw(plotter)
     camera.apply_to(plotter.camera)
     plotter.camera_set = True
     if camera.clipping_range is None:
@@ -64,19 +64,16 @@ def whole_render(grid, camera, **look):
     return image
 
 
+def whole_render(grid, camera, **look):
+    """One plotter drawing the whole volume: the image sort-last must equal."""
+    return one_plotter(camera, lambda plotter: cm.add_volume(
+        plotter, grid, technique="direct", show_scalar_bar=False, **look))
+
+
 def drawn_share(image) -> float:
     """Share of pixels that differ from the background (a background-only image: 0)."""
     background = np.round(np.asarray(BACKGROUND) * 255)
     return float(np.mean(np.abs(image.astype(float) - background).sum(axis=-1) > 3))
-
-
-@pytest.fixture(scope="module")
-def client():
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       dashboard_address=":0")
-    with distributed.Client(cluster) as client:
-        yield client
-    cluster.close()
 
 
 GRID = whole_grid(values())
@@ -312,17 +309,7 @@ def label_grid(shape=(37, 23, 19), spots=60):
 
 def whole_labels(grid, camera, **look):
     """One plotter drawing the whole label grid, without anti-aliasing."""
-    plotter = offscreen_plotter(SIZE)
-    plotter.disable_anti_aliasing()
-    plotter.set_background(BACKGROUND)
-    cm.add_voxels(plotter, grid, **look)
-    camera.apply_to(plotter.camera)
-    plotter.camera_set = True
-    if camera.clipping_range is None:
-        plotter.renderer.ResetCameraClippingRange()
-    image = cm.render_image(plotter)
-    plotter.close()
-    return image
+    return one_plotter(camera, lambda plotter: cm.add_voxels(plotter, grid, **look))
 
 
 LABELS = label_grid()
