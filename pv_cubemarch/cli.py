@@ -155,6 +155,16 @@ def given_options(args, kind: str) -> dict:
             for name, value in given.items()}
 
 
+def _reference_flags(command) -> None:
+    """A bench's flags for computing its CPU references on a cluster."""
+    command.add_argument("--scheduler", help="compute the CPU references on this Dask "
+                                             "scheduler's workers (tcp://host:8786); the "
+                                             "rows are still timed here, side by side")
+    command.add_argument("--workers", type=int,
+                         help="compute the CPU references on a local cluster of this many "
+                              "processes, before any row is timed")
+
+
 def _cluster_flags(command) -> None:
     """The flags every command rendering a batch on a cluster takes."""
     command.add_argument("--size", type=_size, default=(800, 600),
@@ -290,12 +300,7 @@ def build_parser() -> argparse.ArgumentParser:
                                  "with direct at comparable error (default 128,64; 'none')")
     resolution.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     for command in (tradeoff, resolution):
-        command.add_argument("--scheduler", help="compute the CPU references on this Dask "
-                                                 "scheduler's workers (tcp://host:8786); "
-                                                 "the rows are still timed here, side by side")
-        command.add_argument("--workers", type=int,
-                             help="compute the CPU references on a local cluster of this "
-                                  "many processes, before any row is timed")
+        _reference_flags(command)
     voxels = bench_commands.add_parser(
         "voxels", help="material grids: fixed step, DDA with occupancy levels and "
                        "distance fields, PyVista's paths, timed side by side, wrong pixels "
@@ -436,6 +441,8 @@ def build_parser() -> argparse.ArgumentParser:
                           help="comma-separated among " + ", ".join(bench_surfaces.SHAPES))
     surfaces.add_argument("--frames", type=int, default=3, help="timed frames per row")
     surfaces.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    for command in (voxels, surfaces):
+        _reference_flags(command)
     layers = bench_commands.add_parser(
         "voxel-layers", help="translucent voxel materials against PyVista's depth-peeled "
                              "meshes of the same cells")
@@ -903,8 +910,9 @@ def _bench(args) -> int:
 def _bench_voxels(args) -> int:
     rows = args.rows.split(",") if args.rows else tuple(VOXEL_ROWS)
     only = args.scenes.split(",") if args.scenes else None
-    results = bench_voxels.run_voxels(args.sizes, frames=args.frames, large=args.large,
-                                      rows=rows, only=only)
+    with bench_offload(args.scheduler, args.workers) as offload:
+        results = bench_voxels.run_voxels(args.sizes, frames=args.frames, large=args.large,
+                                          rows=rows, only=only, offload=offload)
     print(f"median of {args.frames} frames, rows drawn in turn; wrong: pixels showing "
           "another material than the CPU traversal (unlit colours), away from voxel edges; "
           "edge px: differing pixels whose ray passes within 1e-4 voxel of an edge; GPU MB "
@@ -980,8 +988,9 @@ def _write_rows(path: str | None, rows: list, **run) -> None:
 
 def _bench_surfaces(args) -> int:
     shapes = [s.strip() for s in args.shapes.split(",") if s.strip()]
-    rows = bench_surfaces.run_surfaces(args.size, args.grids, args.steps, shapes,
-                                       frames=args.frames)
+    with bench_offload(args.scheduler, args.workers) as offload:
+        rows = bench_surfaces.run_surfaces(args.size, args.grids, args.steps, shapes,
+                                           frames=args.frames, offload=offload)
     print(f"median of up to {args.frames} frames at {args.size[0]}x{args.size[1]}, rows drawn "
           "in turn; x full: the full-domain march's time at the same M over the row's; "
           "errors against the CPU reference's first roots (depth in cells; later: pixels "

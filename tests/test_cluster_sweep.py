@@ -128,3 +128,34 @@ def test_bench_tradeoff_computes_its_references_on_the_cluster(client, tmp_path)
     here, there = ([(r["setting"], r["errors"]["psnr"]) for r in run.get("results", run.get(
         "rows"))] for run in runs)
     assert here == there and len(here) >= 5
+
+
+@pytest.mark.parametrize("reference", ["voxels", "surface"])
+def test_a_per_pixel_record_made_in_bands_is_the_whole_one(client, reference):
+    # The voxel traversal's and the surface roots' records (dataclasses of per-pixel
+    # images), stacked field by field. catches (seen failing): bands stacked in another
+    # order.
+    from pv_cubemarch.bench.surfaces import shape_field
+    from pv_cubemarch.cluster.offload import Offload
+    from pv_cubemarch.models.surface import active_cells
+    from pv_cubemarch.reference.surfaces import trace_surface
+    from pv_cubemarch.reference.voxels import trace_voxels
+
+    size = (36, 27)
+    if reference == "voxels":
+        labels = np.zeros((9, 8, 7), np.uint16)
+        labels[2:7, 1:6, 3:] = 4
+        labels[::3, ::2, 1] = 9
+        camera = cm.Camera((20.0, -14.0, 16.0), (4.5, 4.0, 3.5), (0, 0, 1))
+        args, kwargs = (trace_voxels, labels, np.eye(4), camera, size), {"near": 0.1}
+    else:
+        field = shape_field("blobs", 12)
+        camera = cm.Camera((3.0, -2.5, 2.0), (0.0, 0.0, 0.0), (0, 0, 1))
+        args, kwargs = (trace_surface, field, active_cells(field), camera, size), {}
+    whole = args[0](*args[1:], **kwargs)
+    banded = Offload(client).banded(args[0], size, *args[1:], **kwargs).result()
+    assert type(banded) is type(whole)
+    for name in vars(whole):
+        assert np.array_equal(getattr(banded, name), getattr(whole, name), equal_nan=True), name
+    hit = whole.material > 0 if reference == "voxels" else whole.hit
+    assert 0.1 < hit.mean() < 0.9

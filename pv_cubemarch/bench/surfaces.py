@@ -28,6 +28,7 @@ import vtk
 from pyvista import examples as pyvista_examples
 
 from ..api import add_surface
+from ..cluster.offload import Offload
 from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.rendering import offscreen_plotter, read_depth, read_pixels, render_frame
@@ -283,9 +284,15 @@ def _depth_quantum(pl: pyvista.Plotter, hits, cell: float) -> tuple[float, float
 
 def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 128),
                  steps: Sequence[int] = (50, 500, 5000), shapes: Sequence[str] = SHAPES,
-                 frames: int = 3, progress_bar: bool | None = None) -> list[SurfaceRow]:
-    """Every row on every shape and grid, rows of one shape and grid drawn in turn."""
+                 frames: int = 3, progress_bar: bool | None = None,
+                 offload: Offload | None = None) -> list[SurfaceRow]:
+    """Every row on every shape and grid, rows of one shape and grid drawn in turn.
+
+    ``offload``: where the CPU reference's roots are found (a Dask cluster's workers, in
+    bands of rows, before the rows are timed; :mod:`pv_cubemarch.cluster.offload`).
+    """
     size = tuple(int(v) for v in size)
+    offload = offload or Offload()
     results = []
     cases = [(s, int(n)) for s in shapes for n in grids]
     for shape, cells in progress(cases, total=len(cases), desc="surfaces",
@@ -304,9 +311,9 @@ def run_surfaces(size: Sequence[int] = (720, 720), grids: Sequence[int] = (32, 1
                     continue
                 plotters[row], *drawn[row] = _draw(size, camera, surface, how)
             first = next(iter(plotters.values()))
-            hits = trace_surface(surface, active_cells(surface),
-                                 Camera.from_pyvista(first.camera), size,
-                                 near=first.camera.clipping_range[0])
+            hits = offload.banded(trace_surface, size, surface, active_cells(surface),
+                                  Camera.from_pyvista(first.camera), size,
+                                  near=first.camera.clipping_range[0]).result()
             times = time_frames_side_by_side(plotters, frames, warmup=0,
                                              row_budget_ms=ROW_BUDGET_MS)
             quantum = _depth_quantum(first, hits, cell)

@@ -21,6 +21,7 @@ import numpy as np
 import pyvista
 
 from ..api import add_voxels
+from ..cluster.offload import Offload
 from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
@@ -197,7 +198,7 @@ def _camera_for(labels: np.ndarray) -> Camera:
 
 
 def _run_scene(labels: np.ndarray, name: str, size: tuple[int, int], frames: int,
-               rows: Sequence[str]) -> list[VoxelRow]:
+               rows: Sequence[str], offload: Offload) -> list[VoxelRow]:
     """Every row on one scene at one size, frames drawn in turn; wrong pixels per row."""
     camera = _camera_for(labels)
     plotters, setup, memory = {}, {}, {}
@@ -214,14 +215,16 @@ def _run_scene(labels: np.ndarray, name: str, size: tuple[int, int], frames: int
             render_frame(pl)
             setup[row] = (time.perf_counter() - start) * 1e3
             plotters[row] = pl
+        # The CPU traversal first (on a cluster: in bands, waited for before any timing).
+        near = plotters[rows[0]].camera.clipping_range[0]
+        shot = Camera.from_pyvista(plotters[rows[0]].camera)
+        hits = offload.banded(trace_voxels, size, labels, np.eye(4), shot, size,
+                              near=near).result()
         # The first frame is drawn (shaders built, data uploaded): no more warm-up; rows of
         # seconds per frame (the fixed step at 1000x1000) stop after 3 s. Every frame is
         # timed as if the view turned (the brick shell's depth pass runs each frame).
         times = time_frames_side_by_side(plotters, frames, warmup=0, row_budget_ms=3000.0,
                                          camera_moves=True)
-        near = plotters[rows[0]].camera.clipping_range[0]
-        shot = Camera.from_pyvista(plotters[rows[0]].camera)
-        hits = trace_voxels(labels, np.eye(4), shot, size, near=near)
         # The unlit image: each hit's palette colour, the background elsewhere.
         reference = np.where(hits.material[..., None] > 0,
                              PALETTE[np.clip(hits.material, 0, len(PALETTE) - 1), :3],
@@ -244,7 +247,8 @@ def _run_scene(labels: np.ndarray, name: str, size: tuple[int, int], frames: int
 def run_voxels(sizes: Sequence[Sequence[int]] = ((1000, 1000), (400, 400)), frames: int = 3,
                large: int = 256, rows: Sequence[str] = tuple(ROWS),
                only: Sequence[str] | None = None,
-               progress_bar: bool | None = None) -> list[VoxelRow]:
+               progress_bar: bool | None = None,
+               offload: Offload | None = None) -> list[VoxelRow]:
     """Time every row on every scene and size side by side; wrong pixels against the CPU.
 
     Parameters
@@ -261,6 +265,9 @@ def run_voxels(sizes: Sequence[Sequence[int]] = ((1000, 1000), (400, 400)), fram
         Scene names of :func:`scenes` to run (all by default).
     progress_bar : bool, optional
         Show a progress bar (default: when attached to a terminal).
+    offload : Offload, optional
+        Where the CPU traversal runs: a Dask cluster's workers, in bands of rows
+        (:mod:`pv_cubemarch.cluster.offload`), before the rows are timed. By default, here.
     """
     unknown = [r for r in rows if r not in ROWS]
     if unknown:
@@ -274,7 +281,8 @@ def run_voxels(sizes: Sequence[Sequence[int]] = ((1000, 1000), (400, 400)), fram
     steps = [(name, size) for name in chosen for size in sizes]
     results = []
     for name, size in progress(steps, desc="bench voxels", enabled=progress_bar):
-        results += _run_scene(chosen[name], name, size, frames, list(rows))
+        results += _run_scene(chosen[name], name, size, frames, list(rows),
+                              offload or Offload())
     return results
 
 

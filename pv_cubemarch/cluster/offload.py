@@ -9,6 +9,7 @@ frame shares the machine with them.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from contextlib import contextmanager
 
@@ -50,6 +51,9 @@ class Offload:
                **kwargs):
         """An image of ``size`` made by ``function(*args, crop=..., **kwargs)`` in bands.
 
+        The image may be a record of per-pixel images (a dataclass whose fields are all
+        ``(height, ...)`` arrays, as the voxel and surface references return).
+
         One band of rows per worker (twice as many, so a slow band is not waited for
         alone); ``sliced``: keyword arrays of the whole image's rows (opaque depth, colour),
         cut to each band. Here, one call over the whole image.
@@ -70,6 +74,11 @@ class Offload:
 
 
 def _stacked(parts):
+    """Bands of rows stacked: images, or per-pixel records (dataclasses of images)."""
+    if dataclasses.is_dataclass(parts[0]):
+        return type(parts[0])(**{field.name: np.concatenate(
+            [getattr(part, field.name) for part in parts], axis=0)
+            for field in dataclasses.fields(parts[0])})
     return np.concatenate(parts, axis=0)
 
 
