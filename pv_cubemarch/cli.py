@@ -838,7 +838,8 @@ def _bench(args) -> int:
         print(f"{args.size[0]}x{args.size[1]}, {args.frames} frames after one that reads and "
               "uploads; comp. ms: the client's compositing per frame; sent MB: what the "
               "workers sent per frame; PSNR min: the orbit's lowest against one plotter "
-              "drawing the whole volume; wrong: label pixels unlike the whole grid's")
+              "drawing the whole volume; wrong: label pixels unlike the whole grid's, away from "
+              "voxel edges; edge: those whose ray grazes an edge (CPU traversal)")
         print(bench_sort_last.format_sort_last(rows))
         _write_rows(args.json_path, rows, size=list(args.size), frames=args.frames,
                     shape=list(args.shape))

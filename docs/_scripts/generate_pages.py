@@ -58,7 +58,7 @@ COLUMNS = {
         ("workers", "workers", "{}"), ("frames", "frames", "{}"),
         ("s per frame", "frame_s", "{:.3f}"), ("compositing ms", "composite_ms", "{:.1f}"),
         ("sent MB per frame", "sent_mb", "{:.2f}"), ("lowest PSNR dB", "psnr_min", "{:.1f}"),
-        ("wrong pixels", "wrong_pixels", "{}"),
+        ("wrong pixels", "wrong_pixels", "{}"), ("grazing pixels", "edge_pixels", "{}"),
     ],
     "outofcore": [
         ("scene", "scene", "{}"), ("view", "view", "{}"), ("row", "row", "{}"),
