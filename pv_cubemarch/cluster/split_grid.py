@@ -84,7 +84,7 @@ def split_volume(volume, partitions: int | None = None, axis: int | None = None,
         slabs.append(Partition(index, axis, start, stop, shape, tuple(spacing), tuple(origin),
                                _LazySlab(part) if lazy else np.ascontiguousarray(part),
                                cells=labels))
-    token = tokenize(values if lazy else values.tobytes(), shape, tuple(spacing),
+    token = tokenize(values, shape, tuple(spacing),
                      tuple(origin), axis, partitions, labels)
     return SplitVolume(tuple(slabs), keywords, token)
 
