@@ -112,7 +112,7 @@ def test_slabs_composite_to_the_whole_volume_render(client, view, step_scale):
     expected = whole_render(GRID, camera, **look)
     assert drawn_share(expected) > 0.2
     image = cm.render_sort_last(GRID, camera, SIZE, partitions=4, axis=0, client=client,
-                                background=BACKGROUND, progress_bar=False, **look)
+                                background_color=BACKGROUND, progress_bar=False, **look)
     assert image.shape == (SIZE[1], SIZE[0], 3)
     assert compare_images(image, expected).psnr >= 50.0
 
@@ -129,7 +129,7 @@ def test_projections_keep_the_extreme_of_the_slabs(client, blending):
     expected = whole_render(grid, camera, **look)
     assert drawn_share(expected) > 0.2
     image = cm.render_sort_last(grid, camera, SIZE, partitions=3, axis=1, client=client,
-                                background=BACKGROUND, progress_bar=False, **look)
+                                background_color=BACKGROUND, progress_bar=False, **look)
     assert compare_images(image, expected).psnr >= 50.0
 
 
@@ -145,16 +145,16 @@ def test_each_slab_is_built_once_per_look_and_kept_between_frames(client):
     cameras = cm.orbit(CAMERAS["outside"], 2)
     before = view_builds(client)
     first = cm.render_sort_last(grid, cameras, SIZE, partitions=4, axis=1, client=client,
-                                background=BACKGROUND, progress_bar=False, **LOOK)
+                                background_color=BACKGROUND, progress_bar=False, **LOOK)
     assert view_builds(client) - before == 4
     for image, camera in zip(first, cameras, strict=True):
         assert compare_images(image, whole_render(grid, camera, **LOOK)).psnr >= 50.0
     cm.render_sort_last(grid, cameras[:1], SIZE, partitions=4, axis=1, client=client,
-                        background=BACKGROUND, progress_bar=False, **LOOK)
+                        background_color=BACKGROUND, progress_bar=False, **LOOK)
     assert view_builds(client) - before == 4
     other = dict(LOOK, cmap="bone")
     again = cm.render_sort_last(grid, cameras[0], SIZE, partitions=4, axis=1, client=client,
-                                background=BACKGROUND, progress_bar=False, **other)
+                                background_color=BACKGROUND, progress_bar=False, **other)
     assert view_builds(client) - before == 8
     assert compare_images(again, whole_render(grid, cameras[0], **other)).psnr >= 50.0
 
@@ -178,7 +178,7 @@ def test_each_worker_reads_only_its_slab_of_a_dask_array(client, tmp_path):
     camera = CAMERAS["outside"]
     # clim and opacity_unit_distance given: nothing reads the array but the slabs
     image = cm.render_sort_last(lazy, camera, SIZE, spacing=SPACING, origin=ORIGIN,
-                                client=client, background=BACKGROUND, progress_bar=False,
+                                client=client, background_color=BACKGROUND, progress_bar=False,
                                 clim=(-1000.0, float(values().max())), **LOOK)
     expected = whole_render(GRID, camera, clim=(-1000.0, float(values().max())), **LOOK)
     assert compare_images(image, expected).psnr >= 50.0
@@ -211,7 +211,7 @@ def test_a_zarr_store_is_split_by_its_path(client, tmp_path):
     store[:] = data
     camera = CAMERAS["inside"]
     image = cm.render_sort_last(str(tmp_path / "hu.zarr"), camera, SIZE, spacing=SPACING,
-                                origin=ORIGIN, client=client, background=BACKGROUND,
+                                origin=ORIGIN, client=client, background_color=BACKGROUND,
                                 progress_bar=False, **LOOK)
     assert compare_images(image, whole_render(GRID, camera, **LOOK)).psnr >= 50.0
 
@@ -275,7 +275,16 @@ def test_cli_renders_an_orbit_of_a_split_grid_file(client, tmp_path):
     (lambda: cm.render_sort_last(pv.ImageData(dimensions=(3, 3, 3)), CAMERAS["outside"]),
      "no point scalars"),
     (lambda: cm.render_sort_last(np.full((3, 3, 3), np.nan), CAMERAS["outside"]),
-     "no finite value"),
+     "NaN or infinite values; pass nan_policy"),
+    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], stop_opacity=0.5),
+     "stop_opacity cannot be"),
+    (lambda: cm.render_sort_last(LABELS, CAMERAS["outside"], technique="voxels",
+                                 categories=True), "categories cannot be"),
+    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], axis=1.0), "axis must be"),
+    (lambda: cm.render_sort_last(GRID, Camera((1, 2, 3), (1, 2, 3), (0, 0, 1))),
+     "coincide"),
+    (lambda: cm.render_sort_last(GRID, Camera((np.nan, 2, 3), (1, 2, 3), (0, 0, 1))),
+     "not finite"),
     (lambda: cm.render_sort_last("/nonexistent/volume.zarr", CAMERAS["outside"]),
      "not a zarr array"),
     (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], technique="cubemap"),
@@ -331,7 +340,7 @@ def test_label_slabs_keep_the_nearest_hit_of_the_whole_grid(client, view):
     expected = whole_labels(LABELS, camera, palette=split_grid.hashed_color)
     assert len(np.unique(expected.reshape(-1, 3), axis=0)) > 20   # many ids seen
     image = cm.render_sort_last(LABELS, camera, SIZE, partitions=4, axis=0,
-                                technique="voxels", client=client, background=BACKGROUND,
+                                technique="voxels", client=client, background_color=BACKGROUND,
                                 progress_bar=False)
     assert np.array_equal(image, expected)
 
@@ -343,12 +352,12 @@ def test_label_colours_do_not_depend_on_the_ids_a_slab_holds(client):
     camera = LABEL_CAMERAS["outside"]
     expected = whole_labels(few, camera, palette=split_grid.hashed_color)
     image = cm.render_sort_last(few, camera, SIZE, partitions=3, axis=0, technique="voxels",
-                                client=client, background=BACKGROUND, progress_bar=False)
+                                client=client, background_color=BACKGROUND, progress_bar=False)
     assert np.array_equal(image, expected)
     # a colormap spans the whole grid's drawn ids, not each slab's
     look = {"cmap": "viridis"}
     image = cm.render_sort_last(few, camera, SIZE, partitions=3, axis=0, technique="voxels",
-                                client=client, background=BACKGROUND, progress_bar=False,
+                                client=client, background_color=BACKGROUND, progress_bar=False,
                                 **look)
     assert np.array_equal(image, whole_labels(few, camera, **look))
 
@@ -390,7 +399,7 @@ def test_a_live_view_shows_the_cluster_s_frames_for_its_camera(client):
     from pv_cubemarch.views.cluster_view import ClusterDisplay
 
     split, blending, background = prepare_split(GRID, partitions=3, axis=0,
-                                                background=BACKGROUND, **LOOK)
+                                                background_color=BACKGROUND, **LOOK)
     display = ClusterDisplay(SplitRenderer(split, client, SIZE, blending, background),
                              CAMERAS["outside"])
     try:
@@ -425,7 +434,7 @@ def test_an_ome_zarr_image_is_split_from_its_finest_level(client, tmp_path):
     look = dict(LOOK, clim=(float(data.min()), float(data.max())))
     camera = CAMERAS["near plane"]
     image = cm.render_sort_last(str(tmp_path / "ct.ome.zarr"), camera, SIZE, partitions=3,
-                                client=client, background=BACKGROUND, progress_bar=False,
+                                client=client, background_color=BACKGROUND, progress_bar=False,
                                 **look)
     assert compare_images(image, whole_render(GRID, camera, **look)).psnr >= 50.0
     with pytest.raises(ValueError, match="placed by its own metadata"):
@@ -438,9 +447,51 @@ def test_new_data_of_the_same_shape_and_look_is_drawn_anew(client):
     camera = CAMERAS["outside"]
     look = dict(LOOK, clim=(-1000.0, 1200.0))
     cm.render_sort_last(GRID, camera, SIZE, partitions=2, client=client,
-                        background=BACKGROUND, progress_bar=False, **look)
+                        background_color=BACKGROUND, progress_bar=False, **look)
     other = whole_grid(values()[::-1].copy())   # the same values, mirrored along x
     image = cm.render_sort_last(other, camera, SIZE, partitions=2, client=client,
-                                background=BACKGROUND, progress_bar=False, **look)
+                                background_color=BACKGROUND, progress_bar=False, **look)
     assert compare_images(image, whole_render(other, camera, **look)).psnr >= 50.0
     assert compare_images(image, whole_render(GRID, camera, **look)).psnr < 40.0
+
+
+def test_what_a_slab_alone_would_settle_otherwise_is_the_whole_grid_s(client):
+    # Each case drawn alone by a slab would differ from the whole volume: the theme's
+    # colormap (the workers have their own theme), categories counted per slab, a clim of
+    # uint64 values rounded to float, NaN drawn as 0, a label grid's empty id.
+    # catches (seen failing): the workers' own theme colormap; categories counted per slab;
+    # a clim of uint64 values rounded to float; NaN left out of the range that nan_policy
+    # 'zero' draws as 0; and, before its fix, the empty id taken for the frame colour
+    # (TypeError: multiple values for 'background').
+    camera = CAMERAS["outside"]
+    cases = []
+    # 14 values along x: each slab of 3 holds 5 or 6 of them
+    steps = np.broadcast_to((np.arange(SHAPE[0]) // 3)[:, None, None], SHAPE)
+    steps = (steps * (values() > -500)).astype(np.int16)
+    cases.append((whole_grid(steps), {"categories": True}))
+    cases.append((whole_grid(np.uint64(2**62) + (values() + 1000.0).astype(np.uint64)), {}))
+    holes = values() + 2000.0   # 1000 to 3200: a NaN drawn as 0 widens the range
+    holes[::5, ::4, ::3] = np.nan
+    cases.append((whole_grid(holes), {"nan_policy": "zero"}))
+    previous = pv.global_theme.cmap
+    pv.global_theme.cmap = "magma"
+    try:
+        cases.append((GRID, {}))
+        for grid, look in cases:
+            look = dict(opacity="linear", **look)
+            image = cm.render_sort_last(grid, camera, SIZE, partitions=3, client=client,
+                                        background_color=BACKGROUND, progress_bar=False,
+                                        **look)
+            assert compare_images(image, whole_render(grid, camera, **look)).psnr >= 50.0, \
+                look
+    finally:
+        pv.global_theme.cmap = previous
+    labels = label_grid()
+    ids = np.asarray(labels.cell_data["ids"]).copy()
+    ids[ids == 0] = 5    # the empty id is 5, and 0 a label like any other
+    labels.cell_data["ids"] = ids
+    look = {"background": 5, "palette": split_grid.hashed_color}
+    image = cm.render_sort_last(labels, LABEL_CAMERAS["outside"], SIZE, partitions=3,
+                                technique="voxels", client=client, progress_bar=False,
+                                background_color=BACKGROUND, **look)
+    assert np.array_equal(image, whole_labels(labels, LABEL_CAMERAS["outside"], **look))

@@ -32,16 +32,18 @@ from ..volume.binding import (
 PARTITION_BLENDING = ("composite", "maximum", "minimum")
 #: add_voxels keywords a split label grid is drawn with: the look, exact per voxel. The
 #: others (ambient occlusion and edges, which read neighbours across the cut; approximate
-#: traversals; translucency; clipping) are refused.
+#: traversals; translucency; clipping; colours by the rank of the ids a slab holds,
+#: ``categories``) are refused.
 LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "specular", "specular_power",
-                  "cmap", "categories", "clim", "n_colors", "flip_scalars", "background",
-                  "lighting", "mip_levels")
+                  "cmap", "clim", "n_colors", "flip_scalars", "background", "lighting",
+                  "mip_levels")
 #: add_volume keywords a partitioned volume is drawn with: the look and the marching. The
 #: others (gradient shading and lights, whose samples read across the cut; clipping; other
-#: techniques' settings) are refused rather than drawn unlike the whole volume.
+#: techniques' settings; ``stop_opacity``, since a slab cannot know the opacity in front
+#: of it) are refused rather than drawn unlike the whole volume.
 PARTITION_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
                       "flip_scalars", "log_scale", "categories", "blending", "step_scale",
-                      "stop_opacity", "skip_empty", "interpolation")
+                      "skip_empty", "interpolation", "nan_policy")
 
 
 @dataclass(frozen=True)

@@ -227,7 +227,7 @@ def _render_kept(key, partition, camera, size, keywords):
 
 def prepare_split(volume, *, partitions: int | None = None, axis: int | None = None,
                   scalars: str | None = None, spacing=None, origin=None,
-                  technique: str = "direct", background=None, **volume_keywords):
+                  technique: str = "direct", background_color=None, **volume_keywords):
     """The slabs of ``volume`` and how they composite (see :func:`render_sort_last`).
 
     Returns ``(split, blending, background)``: the :class:`SplitVolume`, the compositing
@@ -250,7 +250,7 @@ def prepare_split(volume, *, partitions: int | None = None, axis: int | None = N
     if not labels and blending not in PARTITION_BLENDING:
         raise ValueError(f"blending={blending!r} cannot be split across partitions; use one "
                          f"of {PARTITION_BLENDING}.")
-    background = pyvista.Color(background if background is not None
+    background = pyvista.Color(background_color if background_color is not None
                                else pyvista.global_theme.background).float_rgb
     split = split_volume(volume, partitions, axis, scalars=scalars, spacing=spacing,
                          origin=origin, keywords=volume_keywords, labels=labels)
@@ -261,7 +261,7 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
                      partitions: int | None = None, axis: int | None = None,
                      scalars: str | None = None, spacing=None, origin=None,
                      client=None, workers: int | None = None, out=None, fps: float = 24.0,
-                     background=None, technique: str = "direct",
+                     background_color=None, technique: str = "direct",
                      progress_bar: bool | None = None, report: dict | None = None,
                      **volume_keywords):
     """Render a volume or label grid split across a Dask cluster's workers.
@@ -302,8 +302,9 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
         A folder of PNGs or a movie, as :func:`render_frames` writes them.
     fps : float
         Frames per second of a movie.
-    background : color, optional
-        What the volume is drawn over (default: PyVista's theme background).
+    background_color : color, optional
+        What the volume is drawn over (default: PyVista's theme background). (A label
+        grid's ``background``, its empty id, is one of the look's keywords.)
     technique : str
         ``'direct'``: a volume, the direct marcher's image; ``'voxels'``: a label grid,
         drawn exactly and opaque, without anti-aliasing.
@@ -341,6 +342,10 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
     cameras = [as_camera(c, i) for i, c in enumerate([cameras] if one else cameras)]
     if not cameras:
         raise ValueError("cameras is empty: give a camera, or one per frame.")
+    for index, camera in enumerate(cameras):
+        if not np.all(np.isfinite([*camera.position, *camera.focal_point, *camera.view_up])):
+            raise ValueError(f"cameras[{index}] holds a value that is not finite: {camera}.")
+        camera.basis()   # a view direction and view up that make a view, or a clear error
     if one and out is not None:
         raise ValueError("out= writes a batch of frames; give a list of cameras, or save "
                          "the one image returned.")
@@ -350,7 +355,8 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
     _checked_workers(client, workers)
     split, blending, background = prepare_split(
         volume, partitions=partitions, axis=axis, scalars=scalars, spacing=spacing,
-        origin=origin, technique=technique, background=background, **volume_keywords)
+        origin=origin, technique=technique, background_color=background_color,
+        **volume_keywords)
     sink = None
     with local_client(client, workers) as client:
         try:

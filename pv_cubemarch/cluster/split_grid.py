@@ -57,7 +57,8 @@ def split_volume(volume, partitions: int | None = None, axis: int | None = None,
     shape = tuple(int(n) for n in values.shape)
     if axis is None:
         axis = int(np.argmax(shape))
-    if isinstance(axis, bool) or axis not in (0, 1, 2):
+    if isinstance(axis, bool) or not isinstance(axis, (int, np.integer)) or \
+            axis not in (0, 1, 2):
         raise ValueError(f"axis must be 0, 1 or 2 (x, y, z), got {axis!r}.")
     if partitions is None:
         chunks = getattr(values, "chunks", None)
@@ -90,9 +91,30 @@ def split_volume(volume, partitions: int | None = None, axis: int | None = None,
 
 
 def _volume_look(values, shape, spacing, keywords: dict) -> dict:
-    """The whole volume's clim and opacity_unit_distance where not given (a slab's differ)."""
+    """What a slab alone would take otherwise, settled from the whole volume.
+
+    Its clim, opacity_unit_distance and number of categories; the theme's colormap (the
+    workers have their own theme).
+    """
+    import pyvista
+
+    if keywords.get("cmap") is None:
+        keywords["cmap"] = pyvista.global_theme.cmap
+    if keywords.get("nan_policy", "raise") == "raise" and isinstance(values, np.ndarray) \
+            and values.dtype.kind == "f" and not np.isfinite(values).all():
+        raise ValueError("the volume holds NaN or infinite values; pass nan_policy='zero' "
+                         "to draw them as 0, as add_volume takes it.")
     if keywords.get("clim") is None:
-        keywords["clim"] = _data_range(values)
+        keywords["clim"] = _data_range(values, zero_for_nan=keywords.get("nan_policy")
+                                       == "zero")
+    if keywords.get("categories") is True:   # as many colours as the whole volume's values
+        if isinstance(values, np.ndarray):
+            count = np.unique(values).size
+        else:
+            import dask.array as da
+
+            count = int(da.unique(values.ravel()).size.compute())
+        keywords["categories"] = max(int(count), 2)
     if keywords.get("opacity_unit_distance") is None:
         diagonal = float(np.linalg.norm((np.asarray(shape) - 1) * spacing))
         points = float(np.mean(shape)) - 1.0
@@ -224,8 +246,11 @@ def _image_parts(volume, scalars, spacing, origin, cells: bool):
     name = scalars or data.active_scalars_name or next(iter(data.keys()), None)
     where = "cell" if on_cells else "point"
     if name is None or name not in data:
+        cell_only = "" if cells or not len(volume.cell_data) else (
+            f"; its cell arrays {list(volume.cell_data.keys())} are not drawn by a split "
+            "volume: move them to the points (ImageData.cell_data_to_point_data())")
         raise ValueError(f"the ImageData has no {where} scalars {name!r} to draw; pass "
-                         f"scalars= ({where} arrays: {list(data.keys())}).")
+                         f"scalars= ({where} arrays: {list(data.keys())}){cell_only}.")
     values = np.asarray(data[name])
     if values.ndim != 1:
         raise ValueError(f"{where} array {name!r} has {values.shape[1]} components; a "
@@ -250,11 +275,19 @@ def _triple(value, name: str, default) -> np.ndarray:
     return triple
 
 
-def _data_range(values, background=None) -> tuple[float, float]:
+def _data_range(values, background=None, zero_for_nan: bool = False) -> tuple:
     """The whole grid's finite range (the colour range each slab must share).
 
     ``background``: a label grid's empty id, left out (its colormap spans the drawn ids).
+    ``zero_for_nan``: NaN and infinite values count as 0 (``nan_policy='zero'``).
     """
+    if zero_for_nan and values.dtype.kind == "f":
+        if isinstance(values, np.ndarray):
+            values = np.where(np.isfinite(values), values, 0.0)
+        else:
+            import dask.array as da
+
+            values = da.where(da.isfinite(values), values, 0.0)
     if isinstance(values, np.ndarray):
         keep = np.isfinite(values) if values.dtype.kind == "f" else np.ones(values.shape, bool)
         if background is not None:
@@ -268,8 +301,9 @@ def _data_range(values, background=None) -> tuple[float, float]:
         if background is not None:
             values = da.where(values == background, np.nan, values.astype(float))
         low, high = dask.compute(da.nanmin(values), da.nanmax(values))
-    low, high = float(low), float(high)
-    if not (np.isfinite(low) and np.isfinite(high)):
+    # integers kept exact (float64 would round ids and counts past 2**53)
+    low, high = (v.item() if isinstance(v, np.generic) else v for v in (low, high))
+    if not (np.isfinite(float(low)) and np.isfinite(float(high))):
         raise ValueError("the volume holds no finite value to take a colour range from; "
                          "give clim=.")
-    return (low, high if high > low else low + 1.0)
+    return (low, high if high > low else low + 1)
