@@ -12,12 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..api import add_volume, add_voxels
+from ..api import add_volume, add_voxels, voxel_options
 from ..core.camera import Camera
 from ..core.rendering import offscreen_plotter, read_depth, render_frame, render_image
 from ..gl.box import bind_camera, camera_matrices, drawn_viewport
 from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import ShaderRecipe
+from ..models.volume import make_volume
+from ..models.voxels import make_voxels
 from ..volume.binding import (
     DECLARATION_SNIPPETS,
     SCREEN_DECLARATIONS,
@@ -44,6 +46,37 @@ LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "specular", "specular
 PARTITION_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
                       "flip_scalars", "log_scale", "categories", "blending", "step_scale",
                       "skip_empty", "interpolation", "nan_policy")
+
+
+#: The look keywords make_volume / make_voxels check (the rest are the marcher's).
+_VOLUME_LOOK = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
+                "flip_scalars", "log_scale", "categories", "interpolation", "nan_policy")
+_LABEL_LOOK = ("palette", "cmap", "clim", "n_colors", "flip_scalars", "background")
+_LABEL_OPTIONS = ("mode", "shading", "ambient", "specular", "specular_power", "mip_levels")
+
+
+def check_look(keywords: dict, labels: bool) -> None:
+    """Raise here what a worker would refuse of ``keywords``, before any cluster starts.
+
+    The look is built once on a tiny grid (no GL): a bad colormap, opacity, range, palette
+    or option fails with the message add_volume / add_voxels gives.
+    """
+    if labels:
+        voxel_options(**{k: keywords[k] for k in _LABEL_OPTIONS if k in keywords})
+        empty = int(keywords.get("background", 0))
+        tiny = np.full((2, 2, 2), empty, np.int64)
+        tiny[0, 0, 0] = empty + 1
+        make_voxels(tiny, **{k: keywords[k] for k in _LABEL_LOOK if k in keywords})
+        return
+    step = keywords.get("step_scale")
+    if step is not None and not (isinstance(step, (int, float, np.number))
+                                 and not isinstance(step, bool) and 0 < step < np.inf):
+        raise ValueError(f"step_scale must be a positive number of texels, got {step!r}.")
+    look = {k: keywords[k] for k in _VOLUME_LOOK if k in keywords}
+    low, high = 1.0, 2.0   # positive: a log scale's range too
+    if look.get("clim") is not None and np.size(look["clim"]) == 2 and look.get("log_scale"):
+        low, high = sorted(float(v) for v in np.ravel(look["clim"]))
+    make_volume(np.linspace(low, high, 8).reshape(2, 2, 2), **look)
 
 
 @dataclass(frozen=True)

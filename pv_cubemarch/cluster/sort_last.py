@@ -36,6 +36,7 @@ from .partition_march import (
     LabelView,
     Partition,
     PartitionView,
+    check_look,
 )
 from .split_grid import SplitVolume, split_volume
 
@@ -252,6 +253,7 @@ def prepare_split(volume, *, partitions: int | None = None, axis: int | None = N
                          f"of {PARTITION_BLENDING}.")
     background = pyvista.Color(background_color if background_color is not None
                                else pyvista.global_theme.background).float_rgb
+    check_look(volume_keywords, labels)
     split = split_volume(volume, partitions, axis, scalars=scalars, spacing=spacing,
                          origin=origin, keywords=volume_keywords, labels=labels)
     return split, blending, background
