@@ -8,8 +8,9 @@
 // on their shared plane (coarse steps put many there), so none is lost or blended twice.
 // The samples are then read in this partition's own frame; neighbours share their boundary
 // points, so a sample near the boundary is interpolated from the same points as in the
-// whole grid. Target 0: the blend mode's premultiplied rgba; target 1: the ray's raw state
-// (the projections' kept value), so the client keeps the partition holding the extreme.
+// whole grid. Target 0: the blend mode's premultiplied rgba; with CM_KEEP_STATE (the
+// projections) target 1: the ray's raw state, so the client keeps the slab holding the
+// extreme.
 uniform mat4 cm_wholeTextureFromView;  // the whole grid's texture coordinates from view
 uniform vec3 cm_wholeDims;             // the whole grid's points along x, y, z
 uniform vec3 cm_ownLo;                 // this partition's box of texel centres, in the
@@ -59,5 +60,7 @@ void main()
     }
   }
   gl_FragData[0] = rgba;
+#ifdef CM_KEEP_STATE
   gl_FragData[1] = state;
+#endif
 }

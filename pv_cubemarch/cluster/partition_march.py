@@ -203,11 +203,15 @@ class PartitionView:
         binding = actor.cubemarch
         actor.SetVisibility(False)   # the pass marches; the box draws nothing
         model, renderer = binding.model, plotter.renderer
+        # the projections also keep the ray's raw state (the composite needs colour only)
+        keeps_state = blending != "composite"
         march = RenderToTexturePass(renderer, None, size=lambda: drawn_viewport(renderer)[2:],
-                                    targets=("rgba32f", "rgba32f"), every_frame=True)
+                                    targets=("rgba32f",) * (2 if keeps_state else 1),
+                                    every_frame=True)
         sampling, defines = bind_sampling(march, binding.data, binding.step_scale,
                                           binding.stop_opacity, skip_empty=True,
                                           blend=Blend(blending))
+        defines["CM_KEEP_STATE"] = keeps_state
         bind_camera(march, renderer, lambda: world_from_texture(model))
         # The whole grid's frame, made alike in every partition from the same numbers (the
         # partitions' ownership of samples on a shared plane is decided in it).
