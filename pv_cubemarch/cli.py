@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .bench import cluster as bench_cluster
+from .bench import device as bench_device
 from .bench import edits as bench_edits
 from .bench import harness as bench
 from .bench import labels as bench_labels
@@ -470,6 +471,19 @@ def build_parser() -> argparse.ArgumentParser:
     world.add_argument("--count", type=int, default=10, help="chunks per side (default 10)")
     world.add_argument("--frames", type=int, default=3, help="timed frames per row")
     world.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    device = bench_commands.add_parser(
+        "device", help="the headline benches at GPU scale, each in its own process within a "
+                       "time budget, and the rows Mesa measured (docs/bench_results) compared "
+                       "error for error; one device.json (tools/device_check.sh runs it)")
+    device.add_argument("--out", default="device_out", help="folder for device.json and the "
+                                                            "sections' files")
+    device.add_argument("--plan", choices=sorted(bench_device.PLANS), default="gpu",
+                        help="gpu: the GPU machine's plan; quick: two small sections, to try "
+                             "the script on a CPU")
+    device.add_argument("--budget", type=float, default=420.0,
+                        help="seconds for the whole plan (default 420)")
+    device.add_argument("--sections", default=None,
+                        help="comma-separated section names to run (default: all)")
     return parser
 
 
@@ -776,6 +790,12 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
 
 
 def _bench(args) -> int:
+    if args.bench_command == "device":
+        names = None if args.sections is None else [
+            s.strip() for s in args.sections.split(",") if s.strip()]
+        report = bench_device.run_device_check(Path(args.out), args.plan, args.budget, names)
+        print(f"wrote {Path(args.out) / 'device.json'} ({report['seconds']:.0f} s)")
+        return 0
     if args.bench_command == "soak":
         return _bench_soak(args)
     if args.bench_command == "scene-prims":

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 import vtk
-from vtk.util.numpy_support import numpy_to_vtk
+from vtkmodules.util.numpy_support import numpy_to_vtk
 
 from ..cluster.sort_last import SplitRenderer
 from ..core.camera import Camera
