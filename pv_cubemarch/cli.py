@@ -482,6 +482,8 @@ def build_parser() -> argparse.ArgumentParser:
                              "the script on a CPU")
     device.add_argument("--budget", type=float, default=420.0,
                         help="seconds for the whole plan (default 420)")
+    device.add_argument("--report", default=None,
+                        help="where to write device.json (default: in --out)")
     device.add_argument("--sections", default=None,
                         help="comma-separated section names to run (default: all)")
     return parser
@@ -793,8 +795,10 @@ def _bench(args) -> int:
     if args.bench_command == "device":
         names = None if args.sections is None else [
             s.strip() for s in args.sections.split(",") if s.strip()]
-        report = bench_device.run_device_check(Path(args.out), args.plan, args.budget, names)
-        print(f"wrote {Path(args.out) / 'device.json'} ({report['seconds']:.0f} s)")
+        path = Path(args.report) if args.report else Path(args.out) / "device.json"
+        report = bench_device.run_device_check(Path(args.out), args.plan, args.budget, names,
+                                               report_path=path)
+        print(f"wrote {path} ({report['seconds']:.0f} s)")
         return 0
     if args.bench_command == "soak":
         return _bench_soak(args)

@@ -172,9 +172,9 @@ def trim_vtk(site: Path, modules: list[str]) -> None:
 
 
 def trim_pxr(site: Path, packages: list[str]) -> None:
-    """Drop the pxr packages nothing imported (their schemas stay registered in libusd)."""
+    """Drop the pxr packages nothing imported; ``pxr/pluginfo`` (the schemas) stays."""
     for folder in (site / "pxr").iterdir():
-        if folder.is_dir() and folder.name not in packages and folder.name != "__pycache__":
+        if (folder / "__init__.py").exists() and folder.name not in packages:
             shutil.rmtree(folder)
 
 

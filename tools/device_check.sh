@@ -19,7 +19,12 @@ if compgen -G ".gl/*.deb" >/dev/null; then
 fi
 PY=python3
 if [ -f .devbundle/site.tar.xz ]; then
-  mkdir -p /tmp/site && tar -xJf .devbundle/site.tar.xz -C /tmp/site
+  if [ ! -f /tmp/site/vtk.py ]; then
+    mkdir -p /tmp/site
+    tar -xJf .devbundle/site.tar.xz -C /tmp/site 2>/dev/null || python3 -c \
+      "import tarfile, sys; tarfile.open(sys.argv[1]).extractall(sys.argv[2])" \
+      .devbundle/site.tar.xz /tmp/site
+  fi
   # the package-dir mapping an install makes: glsl_replacements/ is pv_cubemarch's GLSL
   [ -e pv_cubemarch/glsl_replacements ] || ln -s ../glsl_replacements pv_cubemarch/glsl_replacements
   export PYTHONPATH=/tmp/site:$PWD
@@ -32,8 +37,6 @@ export PV_CUBEMARCH_GL=egl PYTHONUNBUFFERED=1
 nvidia-smi >"$OUT/gl.txt" 2>&1
 "$PY" -m pv_cubemarch.cli info --gl >>"$OUT/gl.txt" 2>&1
 cat "$OUT/gl.txt"
-"$PY" -m pv_cubemarch.cli bench device --out "$WORK" --budget "${BUDGET:-420}" "$@" 2>&1 \
-  | tee "$OUT/device.log"
-status=${PIPESTATUS[0]}
-cp "$WORK/device.json" "$OUT/" 2>/dev/null
-exit "$status"
+"$PY" -m pv_cubemarch.cli bench device --out "$WORK" --report "$OUT/device.json" \
+  --budget "${BUDGET:-420}" "$@" 2>&1 | tee "$OUT/device.log"
+exit "${PIPESTATUS[0]}"
