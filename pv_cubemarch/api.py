@@ -35,6 +35,7 @@ from .models.multiscale import MultiscaleSource, is_zarr_group, multiscale_sourc
 from .models.volume import VolumeModel, checked_transform, with_transfer
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
+from .quality.volumes import calibrate_volume, check_quality_request
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .surfaces.levels import (
     SurfaceLevels,
@@ -102,6 +103,7 @@ def add_volume(
     scalar_bar_args: dict | None = None,
     annotations: dict | None = None,
     technique: str = "vtk",
+    quality=None,
     step_scale: float | None = None,
     stop_opacity: float = DEFAULT_STOP_OPACITY,
     skip_empty: bool = True,
@@ -212,6 +214,17 @@ def add_volume(
         frame, the cube map when its visible texels are fewer than the volume's projected
         pixels, else the direct marcher (``actor.cubemarch.force`` pins one,
         ``actor.cubemarch.choice`` tells which was drawn). All run the same marching GLSL.
+    quality : float or str, optional
+        An error budget instead of settings: a PSNR in dB (up to 60) against the
+        technique's CPU reference, or ``'fast'`` (30), ``'balanced'`` (40), ``'best'``
+        (50). The cheapest ``step_scale`` (``'vtk'``, ``'direct'``) or ``face_size`` and
+        ``sample_factor`` (``'cubemap'``) that meets it is chosen by drawing a few of them
+        from the camera the view will have, at the window's size, and comparing crops
+        with the reference; ``actor.cubemarch.quality`` says what was chosen, its
+        estimated error and what was tried. Choices are kept per data, camera, window size
+        and GL renderer (in ``~/.cache/pv_cubemarch``, or ``PV_CUBEMARCH_CACHE_DIR``).
+        One unlit scalar volume with ``blending='composite'``; not with the settings it
+        chooses.
     step_scale : float, optional
         ``'vtk'``, ``'direct'`` and ``'auto'``: step length in texels along the ray's
         dominant texture axis (texel-spaced sampling, 0.5 by default). Smaller is more
@@ -460,6 +473,18 @@ def add_volume(
     if isinstance(model, VolumeGroup) and not chosen.groups:
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
+    choice = None
+    if quality is not None:
+        target = check_quality_request(
+            quality, given, blending, shade, lights,
+            isinstance(model, VolumeModel) and model.colors is None and not is_channels(model))
+        keep = {"stop_opacity": stop_opacity, "skip_empty": skip_empty,
+                **{k: given[k] for k in ("downsample", "upscale", "occlusion_sharpness")
+                   if k in given}}
+        choice = calibrate_volume(plotter, model, chosen.name, target, keep, reset_camera,
+                                  add_volume, chosen.reference)
+        given = {**given, **choice.setting}
+        options = chosen.make_options(given)
     options.check_model(model)
     check_direct_color(model, blending, shade, cmap)
     check_channels(model, blending, shade, lights)
@@ -477,6 +502,7 @@ def add_volume(
         plotter.renderer, data, source, int(light_map_size), float(light_map_ambient))
     binding = chosen.build(plotter, data, VolumeSetup(options, shading, light_map))
     binding.light_map = light_map
+    binding.quality = choice
     binding.blending = blending
     binding.isosurfaces = isosurfaces   # as given (data units, or a count)
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))

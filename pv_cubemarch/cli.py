@@ -706,7 +706,8 @@ def _volume_options(scene, args, given: dict, as_voxels: bool) -> None:
                     n for n in given if n in specific]:
                 _warn(name, "this scene (it has no volumes)")
         return
-    common = {o.name for o in declared("volume") if not o.techniques} - {"technique"}
+    # every option no technique's options hold (quality too: add_volume reads it)
+    common = {o.name for o in declared("volume") if o.name not in specific} - {"technique"}
     given = {k: v for k, v in given.items() if k in specific | common}
     if args.technique:
         given["technique"] = args.technique

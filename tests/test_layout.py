@@ -17,7 +17,7 @@ from conftest import ROOT
 PACKAGE = ROOT / "pv_cubemarch"
 #: Subpackages and top-level modules from the bottom up: each imports only those before it.
 LAYERS = ("core", "image_metrics", "models", "reference", "gl", "volume", "voxels", "surfaces",
-          "api", "scene", "cluster", "bench", "views", "plugin", "cli", "__init__")
+          "quality", "api", "scene", "cluster", "bench", "views", "plugin", "cli", "__init__")
 
 
 def module_name(path: Path) -> str:

@@ -179,6 +179,10 @@ class Scene:
         # channel volume (already a group of its channels) is drawn as it is.
         groups = overlap_groups([v for v in self.volumes if not is_channels(v)]) + [
             [v] for v in self.volumes if is_channels(v)]
+        if any(o.get("quality") is not None for o in self.volume_options.values()):
+            # quality= calibrates on the view: the scene's camera must be in place first
+            self._apply_camera(plotter, camera)
+            plotter.camera_set = True
         for group in progress(groups, desc="uploading volumes", enabled=progress_bar):
             options = self.volume_options.get(group[0].name, {})
             if options.get("lights") == "scene" and self.usd_lighting:
@@ -203,6 +207,11 @@ class Scene:
                     plotter, surface, **self.surface_options.get(surface.name, {}))
             except ValueError as error:   # say which surface's options are wrong
                 raise type(error)(f"surface {surface.name!r}: {error}") from error
+        self._apply_camera(plotter, camera)
+        return actors
+
+    def _apply_camera(self, plotter: pyvista.Plotter, camera: str | Camera | None) -> None:
+        """Set the plotter's camera to the scene's (by name, given, first, or the default)."""
         chosen = self.cameras.get(camera) if isinstance(camera, str) else camera
         if isinstance(camera, str) and chosen is None:
             raise KeyError(f"No camera named {camera!r}; the scene has {list(self.cameras)}.")
@@ -213,7 +222,6 @@ class Scene:
         chosen.apply_to(plotter.camera)
         if chosen.clipping_range is None:
             plotter.renderer.ResetCameraClippingRange()
-        return actors
 
     def _report(self, path: str, reason: str) -> None:
         """Record what is drawn otherwise than authored (once per path and reason)."""

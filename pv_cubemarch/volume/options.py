@@ -73,7 +73,7 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
     LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT, SHADE, AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER, \
     CMAP, OPACITY, CLIM, OPACITY_UNIT_DISTANCE, N_COLORS, FLIP_SCALARS, LOG_SCALE, \
     CATEGORIES, LOD_BIAS, GPU_BYTES, HOST_BYTES, BRICK_SIZE, INDEPENDENT_COMPONENTS, \
-    CHANNEL_BLENDING, CLIP_PLANES, CROP_BOX, AVERAGE_RANGE = declare(
+    CHANNEL_BLENDING, CLIP_PLANES, CROP_BOX, AVERAGE_RANGE, QUALITY = declare(
         Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
                control=Control("select")),
         Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
@@ -197,6 +197,12 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
         Option("average_range", "volume", tuple, None, "the values (data units) that "
                "blending='average' averages, as VTK's AverageIPScalarRange", optional=True,
                without={"knob": NO_KNOB_UNITS}),
+        Option("quality", "volume", str, None, "error budget: the cheapest step (or cube-map "
+               "face) whose PSNR against the CPU reference meets this many dB, or fast / "
+               "balanced / best (30 / 40 / 50)", ("vtk", "direct", "cubemap"), optional=True,
+               parse=preset_or_number,
+               control=Control("select", "quality", choices=(AUTO, "fast", "balanced", "best"),
+                               help="calibrated against the CPU reference")),
     )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("volume"))
