@@ -219,7 +219,7 @@ def add_volume(
         technique's CPU reference, or ``'fast'`` (30), ``'balanced'`` (40), ``'best'``
         (50). The cheapest ``step_scale`` (``'vtk'``, ``'direct'``) or ``face_size`` and
         ``sample_factor`` (``'cubemap'``) that meets it is chosen by drawing a few of them
-        from the camera the view will have, at the window's size, and comparing crops
+        from the camera the view will have, at the window's size, and comparing pixels
         with the reference; ``actor.cubemarch.quality`` says what was chosen, its
         estimated error and what was tried. Choices are kept per data, camera, window size
         and GL renderer (in ``~/.cache/pv_cubemarch``, or ``PV_CUBEMARCH_CACHE_DIR``).

@@ -14,6 +14,7 @@ import numpy as np
 
 from .bench import cluster as bench_cluster
 from .bench import device as bench_device
+from .bench import dial as bench_dial
 from .bench import edits as bench_edits
 from .bench import harness as bench
 from .bench import labels as bench_labels
@@ -471,6 +472,19 @@ def build_parser() -> argparse.ArgumentParser:
     world.add_argument("--count", type=int, default=10, help="chunks per side (default 10)")
     world.add_argument("--frames", type=int, default=3, help="timed frames per row")
     world.add_argument("--json", dest="json_path", help="write the rows as JSON here")
+    dial = bench_commands.add_parser(
+        "dial", help="quality=: per scene and technique, the whole ladder timed side by side "
+                     "against the CPU reference, then the setting quality= chooses for each "
+                     "target, its error, its cost against the cheapest that meets it, and "
+                     "the calibration's time")
+    dial.add_argument("--size", type=_size, default=(320, 240), help="WxH (default 320x240)")
+    dial.add_argument("--frames", type=int, default=3, help="timed frames per rung")
+    dial.add_argument("--scenes", default=",".join(bench_dial.SCENES),
+                      help=f"comma-separated, of {', '.join(bench_dial.SCENES)}")
+    dial.add_argument("--techniques", default=",".join(bench_dial.TECHNIQUES),
+                      help=f"comma-separated, of {', '.join(bench_dial.TECHNIQUES)}")
+    dial.add_argument("--targets", default="30,40,50", help="dB, comma-separated")
+    dial.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     device = bench_commands.add_parser(
         "device", help="the headline benches at GPU scale, each in its own process within a "
                        "time budget, and the rows Mesa measured (docs/bench_results) compared "
@@ -793,6 +807,18 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
 
 
 def _bench(args) -> int:
+    if args.bench_command == "dial":
+        words = [[w.strip() for w in text.split(",") if w.strip()]
+                 for text in (args.scenes, args.techniques, args.targets)]
+        sweep, dials = bench_dial.run_dial(args.size, args.frames, words[0], words[1],
+                                           [float(t) for t in words[2]])
+        print(f"{args.size[0]}x{args.size[1]}, median of {args.frames} frames; PSNR: whole "
+              "frame against the CPU reference; est.: what the calibration estimated; x "
+              "cost: the chosen rung's time over the cheapest rung meeting the target")
+        print(bench_dial.format_dial(sweep, dials))
+        _write_rows(args.json_path, sweep, dials=[vars(d) for d in dials],
+                    size=list(args.size), frames=args.frames)
+        return 0
     if args.bench_command == "device":
         names = None if args.sections is None else [
             s.strip() for s in args.sections.split(",") if s.strip()]

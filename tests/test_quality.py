@@ -22,7 +22,7 @@ from pv_cubemarch.core.camera import Camera
 from pv_cubemarch.core.rendering import offscreen_plotter, read_pixels, render_frame
 from pv_cubemarch.image_metrics import compare_images
 from pv_cubemarch.quality import cache, parse_quality
-from pv_cubemarch.quality.calibration import crop_windows, footprint, search
+from pv_cubemarch.quality.calibration import footprint, sample_pixels, search
 from pv_cubemarch.quality.ladders import volume_ladder
 from pv_cubemarch.reference.emission_absorption import render_emission_absorption
 
@@ -111,9 +111,11 @@ def test_footprint_of_a_box_seen_head_on_by_hand():
     assert (x0, y0, x1, y1) == (90, 90, 110, 110)
     # the eye inside the box: the whole frame
     assert footprint(camera, (200, 100), (-20, 20, -20, 20, -20, 20)) == (0, 0, 200, 100)
-    crops = crop_windows((90, 90, 110, 110), side=40)
-    assert crops == [(90, 90, 20, 20)]          # a small footprint: one crop, clipped
-    assert len(crop_windows((0, 0, 200, 150))) == 3
+    rows, columns = sample_pixels((90, 90, 110, 110), count=16)
+    # 20x20 pixels, 16 samples: a stride of 5 from the cells' middles (by hand)
+    assert sorted(set(rows)) == sorted(set(columns)) == [92, 97, 102, 107]
+    assert rows.size == 16
+    assert sample_pixels((0, 0, 0, 10))[0].size == 0
 
 
 @pytest.mark.parametrize("technique", ["direct", "vtk", "cubemap"])
@@ -126,9 +128,8 @@ def test_the_chosen_setting_meets_its_target_over_the_whole_frame(ct, technique,
     choice = actor.cubemarch.quality
     measured = _whole_frame_psnr(plotter, actor)
     plotter.close()
-    # only the cube map's ladder ends below 60 dB (its face stops at twice the grid)
-    finest = volume_ladder(technique, ct.dimensions)[-1].setting
-    assert choice.met or (technique == "cubemap" and choice.setting == finest), choice
+    # only the cube map's ladders end below 60 dB (its face stops at twice the grid)
+    assert choice.met or technique == "cubemap", choice
     if choice.met:
         assert measured >= target - 1.0, (choice, measured)
     assert abs(measured - choice.psnr) < 3.0, (choice, measured)
@@ -209,12 +210,15 @@ def test_a_choice_is_kept_per_view_and_look_and_a_spoilt_file_is_ignored(ct, tmp
     plotter.close()
 
 
-def test_an_unreachable_target_draws_the_finest_and_says_so(ct):
+def test_an_unreachable_target_draws_the_best_tried_and_says_so(ct):
+    # catches (seen failing): the finest rung kept when none meets the target (it is not
+    # the best: rounding accumulates over thousands of steps)
     with pytest.warns(UserWarning, match="out of reach"):
-        plotter, actor = _add(ct, technique="cubemap", quality=60)
-    assert not actor.cubemarch.quality.met
-    assert actor.cubemarch.quality.setting == volume_ladder("cubemap",
-                                                            ct.dimensions)[-1].setting
+        plotter, actor = _add(ct, technique="direct", quality=60)
+    choice = actor.cubemarch.quality
+    assert not choice.met
+    best = max(choice.measured, key=lambda m: m["psnr"])
+    assert choice.setting == best["setting"] and choice.psnr == best["psnr"]
     plotter.close()
 
 
@@ -288,3 +292,30 @@ def test_a_usd_attribute_asks_for_quality_calibrated_from_the_scene_camera(tmp_p
     assert np.allclose(camera.position, scene.camera.position)
     (setting,) = _stored_settings()
     assert set(setting) == {"step_scale"}
+
+
+@pytest.mark.parametrize("placed", [False, True])
+def test_calibration_sees_the_camera_the_first_frame_is_drawn_with(ct, monkeypatch, placed):
+    # a fresh plotter turns to PyVista's isometric view at its first frame; a camera set
+    # but not pinned slides to fit; either way the calibration must measure that view
+    # catches (seen failing): the renderer's camera before PyVista's first-frame reset
+    # (looking down -z: the estimate was 5 dB off the frame actually drawn)
+    from pv_cubemarch.quality import volumes
+    seen = []
+
+    def spy(tracks, render, reference, camera, *rest, **keywords):
+        seen.append(camera)
+        return calibrate(tracks, render, reference, camera, *rest, **keywords)
+    calibrate = volumes.calibrate
+    monkeypatch.setattr(volumes, "calibrate", spy)
+    plotter = _plotter()
+    if placed:
+        plotter.add_mesh(pyvista.Sphere(radius=5.0, center=(-120.0, 10.0, 0.0)))
+        plotter.camera.position = (-300.0, -300.0, 100.0)
+    pv_cubemarch.add_volume(plotter, ct, technique="direct", quality=35, **LOOK)
+    render_frame(plotter)
+    drawn = Camera.from_pyvista(plotter.camera)
+    (used,) = seen
+    assert np.allclose(used.position, drawn.position) and np.allclose(
+        used.focal_point, drawn.focal_point) and np.allclose(used.view_up, drawn.view_up)
+    plotter.close()

@@ -6,8 +6,8 @@ them, and the first whose error against the CPU reference meets the target is ke
 """
 
 from .calibration import QualityChoice, calibrate
-from .ladders import Rung, volume_ladder
+from .ladders import Rung, volume_ladder, volume_tracks
 from .targets import NAMED_TARGETS, QualityTarget, parse_quality
 
 __all__ = ["NAMED_TARGETS", "QualityChoice", "QualityTarget", "Rung", "calibrate",
-           "parse_quality", "volume_ladder"]
+           "parse_quality", "volume_ladder", "volume_tracks"]

@@ -1,10 +1,10 @@
-"""Calibration: the cheapest rung whose error against CPU reference crops meets the target.
+"""Calibration: the cheapest rung whose error against the CPU reference meets the target.
 
 The GPU draws the whole frame (its cost and its level of detail are the view's); the CPU
-reference traces only a few crops inside the volume's footprint, so calibrating costs
-little more than a few frames. The crops' error stands for the footprint's, and the whole
-frame's PSNR is estimated from it and the footprint's share of the frame (pixels outside
-the volume are the background in both images).
+reference traces only a few thousand pixels spread over the volume's footprint, so
+calibrating costs little more than a few frames. Their error stands for the footprint's,
+and the whole frame's PSNR is estimated from it and the footprint's share of the frame
+(pixels outside the volume are the background in both images).
 """
 
 from __future__ import annotations
@@ -21,19 +21,20 @@ from ..image_metrics import to_uint8
 from .ladders import DB_PER_HALVING, Rung
 from .targets import QualityTarget
 
-#: Calibration aims this far past the target: crops stand for the frame only roughly.
+#: Calibration aims this far past the target: a sample stands for the frame only roughly.
 MARGIN_DB = 0.5
-#: Side of each crop the CPU reference traces, in pixels.
-CROP = 40
+#: Pixels of the footprint the CPU reference traces.
+SAMPLES = 4096
 
 
 @dataclass
 class QualityChoice:
     """What ``quality=`` chose, and what was measured to choose it.
 
-    ``psnr`` is the kept setting's whole-frame PSNR (dB) as estimated from the crops;
+    ``psnr`` is the kept setting's whole-frame PSNR (dB) as estimated from the sample;
     ``met`` whether it reaches the target (when no rung does, the finest is kept);
-    ``measured`` every rung tried, in order, with its estimate and relative cost.
+    ``measured`` every rung tried, in order, with its estimate and relative cost. When no
+    rung meets the target, the one with the best estimate is kept.
     """
 
     target: QualityTarget
@@ -43,14 +44,14 @@ class QualityChoice:
     measured: list[dict] = field(default_factory=list)
     seconds: float = 0.0
     size: tuple[int, int] = (0, 0)
-    crops: list[tuple[int, int, int, int]] = field(default_factory=list)
+    traced: int = 0
     cached: bool = False
 
     def __str__(self) -> str:
         setting = ", ".join(f"{k}={v:g}" for k, v in self.setting.items())
         how = "from the cache" if self.cached else (
             f"{len(self.measured)} settings tried in {self.seconds:.2f} s")
-        verdict = "" if self.met else "; the target is out of reach, the finest is drawn"
+        verdict = "" if self.met else "; the target is out of reach, the best tried is drawn"
         return (f"quality {self.target.name}: {setting} ({self.psnr:.1f} dB estimated, "
                 f"{how}{verdict})")
 
@@ -58,8 +59,7 @@ class QualityChoice:
         """JSON-friendly fields (the cache and the benches store these)."""
         return {"target": self.target.psnr, "name": self.target.name, "setting": self.setting,
                 "psnr": self.psnr, "met": self.met, "measured": self.measured,
-                "seconds": self.seconds, "size": list(self.size),
-                "crops": [list(c) for c in self.crops]}
+                "seconds": self.seconds, "size": list(self.size), "traced": self.traced}
 
 
 def footprint(camera: Camera, size: Sequence[int], bounds) -> tuple[int, int, int, int]:
@@ -94,28 +94,34 @@ def footprint(camera: Camera, size: Sequence[int], bounds) -> tuple[int, int, in
     return x0, y0, x1, y1
 
 
-def crop_windows(rect, side: int = CROP) -> list[tuple[int, int, int, int]]:
-    """Up to three ``(x, y, w, h)`` crops in ``rect``: its centre and two diagonal points."""
+def sample_pixels(rect, count: int = SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+    """About ``count`` pixels ``(rows, columns)`` on an even lattice over ``rect``.
+
+    Spread over the whole footprint (its empty margins and its sharpest edges alike), so
+    their mean squared error estimates the footprint's without bias; windows would miss
+    an error that gathers on a thin shell.
+    """
     x0, y0, x1, y1 = rect
     width, height = x1 - x0, y1 - y0
     if width < 1 or height < 1:
-        return []
-    w, h = min(side, width), min(side, height)
-    found = []
-    for fx, fy in ((0.5, 0.5), (0.25, 0.3), (0.75, 0.7)):
-        x = int(np.clip(round(x0 + fx * width - w / 2), x0, x1 - w))
-        y = int(np.clip(round(y0 + fy * height - h / 2), y0, y1 - h))
-        if (x, y, w, h) not in found:
-            found.append((x, y, w, h))
-    return found
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    stride = max(1, int(math.sqrt(width * height / float(count))))
+    columns = np.arange(x0 + stride // 2, x1, stride)
+    rows = np.arange(y0 + stride // 2, y1, stride)
+    grid_rows, grid_columns = np.meshgrid(rows, columns, indexing="ij")
+    return grid_rows.ravel(), grid_columns.ravel()
 
 
-def estimated_psnr(image: np.ndarray, references: dict, share: float) -> float:
-    """The whole frame's PSNR from the crops' mean squared error and the footprint's share."""
-    errors = [((image[y:y + h, x:x + w].astype(np.float64)
-                - to_uint8(reference).astype(np.float64)) ** 2).ravel()
-              for (x, y, w, h), reference in references.items()]
-    mse = float(np.concatenate(errors).mean()) * share
+def estimated_psnr(image: np.ndarray, pixels, reference: np.ndarray, share: float) -> float:
+    """The whole frame's PSNR from the sampled pixels' error and the footprint's share.
+
+    Outside the footprint both images are the background, so the frame's mean squared
+    error is the footprint's times its share of the frame.
+    """
+    rows, columns = pixels
+    drawn = image[rows, columns].astype(np.float64)
+    traced = to_uint8(reference).reshape(-1, 3).astype(np.float64)
+    mse = float(((drawn - traced) ** 2).mean()) * share
     return math.inf if mse == 0.0 else 10.0 * math.log10(255.0 ** 2 / mse)
 
 
@@ -147,39 +153,51 @@ def search(count: int, psnr_at: Callable[[int], float], goal: float, start: int)
     return None if high == count else high
 
 
-def calibrate(ladder: Sequence[Rung], render: Callable[[dict], np.ndarray],
-              reference: Callable[[tuple[int, int, int, int]], np.ndarray], camera: Camera,
+def calibrate(tracks: Sequence[Sequence[Rung]], render: Callable[[dict], np.ndarray],
+              reference: Callable[[tuple[np.ndarray, np.ndarray]], np.ndarray], camera: Camera,
               size: Sequence[int], bounds, target: QualityTarget, start: int | None = None
               ) -> QualityChoice:
-    """Keep the cheapest rung of ``ladder`` whose estimated PSNR meets ``target``.
+    """Keep the cheapest rung whose estimated PSNR meets ``target``, over every track.
 
-    ``render(setting)`` draws the whole frame (uint8 ``(h, w, 3)``); ``reference(crop)``
-    traces one crop on the CPU (floats in [0, 1]). Rungs are tried from ``start`` (the
-    middle by default) as :func:`search` guides.
+    ``render(setting)`` draws the whole frame (uint8 ``(h, w, 3)``); ``reference(pixels)``
+    traces the sampled pixels on the CPU (floats in [0, 1]). Each track is searched from ``start``
+    (its middle by default) as :func:`search` guides; of the tracks' first rungs that meet
+    the target, the one of least cost is kept, else the best measured.
     """
     began = time.perf_counter()
     size = (int(size[0]), int(size[1]))
     rect = footprint(camera, size, bounds)
-    crops = crop_windows(rect)
-    if not crops:
+    pixels = sample_pixels(rect)
+    if not pixels[0].size:
         raise ValueError("quality=: the volume is outside the view, so there is nothing to "
                          "measure; set the camera first (or give the settings themselves).")
     share = (rect[2] - rect[0]) * (rect[3] - rect[1]) / float(size[0] * size[1])
-    references = {crop: reference(crop) for crop in crops}
-    estimates: dict[int, float] = {}
+    traced = reference(pixels)
+    estimates: dict[tuple[int, int], float] = {}
     measured: list[dict] = []
 
-    def psnr_at(index: int) -> float:
-        if index not in estimates:
-            image = np.asarray(render(dict(ladder[index].setting)))
-            estimates[index] = estimated_psnr(image, references, share)
-            measured.append({"setting": ladder[index].setting, "psnr": estimates[index],
-                             "cost": ladder[index].cost})
-        return estimates[index]
+    def psnr_of(track: int, index: int) -> float:
+        if (track, index) not in estimates:
+            rung = tracks[track][index]
+            image = np.asarray(render(dict(rung.setting)))
+            estimates[track, index] = estimated_psnr(image, pixels, traced, share)
+            measured.append({"setting": rung.setting, "psnr": estimates[track, index],
+                             "cost": rung.cost})
+        return estimates[track, index]
 
-    first = len(ladder) // 2 if start is None else start
-    kept = search(len(ladder), psnr_at, target.psnr + MARGIN_DB, first)
-    index = len(ladder) - 1 if kept is None else kept
-    psnr = psnr_at(index)
-    return QualityChoice(target, dict(ladder[index].setting), psnr, psnr >= target.psnr,
-                         measured, time.perf_counter() - began, size, crops)
+    winners = []
+    for number, track in enumerate(tracks):
+        first = len(track) // 2 if start is None else start
+        kept = search(len(track), lambda i, n=number: psnr_of(n, i),
+                      target.psnr + MARGIN_DB, first)
+        if kept is not None:
+            winners.append((track[kept].cost, number, kept))
+    if winners:
+        _, number, index = min(winners)
+    else:   # none meets it: the best measured (the finest step is not always the best:
+        # rounding accumulates over thousands of steps)
+        number, index = max(estimates, key=lambda k: (estimates[k], -tracks[k[0]][k[1]].cost))
+    psnr = psnr_of(number, index)
+    return QualityChoice(target, dict(tracks[number][index].setting), psnr,
+                         psnr >= target.psnr, measured, time.perf_counter() - began, size,
+                         int(pixels[0].size))

@@ -2,8 +2,9 @@
 
 The volume is drawn alone, unlit, over black, at the plotter's window size from the
 camera the plotter will have once the volume is added, on a second offscreen plotter; the
-CPU reference (the technique's own) traces crops of the same frame. The choice is kept per
-data, transfer function, placement, camera, window size, GL renderer and target.
+CPU reference (the technique's own) traces a sample of the same frame's pixels. The choice
+is kept per data, transfer function, placement, camera, window size, GL renderer and
+target.
 """
 
 from __future__ import annotations
@@ -13,12 +14,13 @@ import warnings
 from collections.abc import Callable
 
 import numpy as np
+from vtkmodules.vtkRenderingCore import vtkCamera
 
 from ..core.camera import Camera
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from .cache import choice_key, lookup, store
 from .calibration import QualityChoice, calibrate
-from .ladders import volume_ladder
+from .ladders import volume_tracks
 from .targets import QualityTarget, parse_quality
 
 #: The knobs a ladder sets: giving one with ``quality=`` is a contradiction.
@@ -44,18 +46,32 @@ def check_quality_request(quality, given: dict, blending: str, shade: bool, ligh
 
 
 def camera_once_added(plotter, bounds, reset_camera: bool | None) -> Camera:
-    """The camera the plotter will have after framing a prop of ``bounds`` (left as is)."""
-    camera = plotter.renderer.GetActiveCamera()
-    if not (reset_camera or (reset_camera is None and not plotter.camera_set)):
+    """The camera the plotter will draw with after adding a prop of ``bounds`` (left as is).
+
+    As PyVista frames it: a camera nobody set turns to the theme's view (isometric) of the
+    whole scene at the first frame; one set but not pinned slides along its direction to
+    fit the scene (``reset_camera``); a camera the user placed stays.
+    """
+    renderer = plotter.renderer
+    camera = renderer.camera
+    fresh = not camera.is_set
+    if not (fresh or reset_camera or (reset_camera is None and not renderer.camera_set)):
         return Camera.from_pyvista(camera)
-    seen = np.asarray(plotter.renderer.ComputeVisiblePropBounds(), dtype=np.float64)
+    seen = np.asarray(renderer.ComputeVisiblePropBounds(), dtype=np.float64)
     own = np.asarray(bounds, dtype=np.float64)
     union = own if seen[0] > seen[1] else np.ravel(
         [[min(seen[i], own[i]), max(seen[i + 1], own[i + 1])] for i in (0, 2, 4)])
-    saved = type(camera)()
+    saved = vtkCamera()
     saved.DeepCopy(camera)
     try:
-        plotter.renderer.ResetCamera(*union)
+        if fresh:
+            centre = (union[0::2] + union[1::2]) / 2.0
+            theme = renderer._theme.camera
+            offset = np.asarray(theme.position, dtype=np.float64) / np.asarray(renderer.scale)
+            camera.SetFocalPoint(*centre)
+            camera.SetPosition(*(centre + offset))
+            camera.SetViewUp(*theme.viewup)
+        renderer.ResetCamera(*union)
         return Camera.from_pyvista(camera)
     finally:
         camera.DeepCopy(saved)
@@ -75,7 +91,7 @@ def calibrate_volume(plotter, model, technique: str, target: QualityTarget, keep
     ``add(plotter, model, technique=, name=, **setting, **keep)`` draws a candidate (the
     package's ``add_volume``); ``reference`` is the technique's CPU reference.
     """
-    ladder = volume_ladder(technique, model.dimensions)
+    tracks = volume_tracks(technique, model.dimensions)
     size = tuple(int(v) for v in plotter.window_size)
     camera = camera_once_added(plotter, model.world_bounds(), reset_camera)
     probe = offscreen_plotter(size)
@@ -89,7 +105,7 @@ def calibrate_volume(plotter, model, technique: str, target: QualityTarget, keep
             camera.apply_to(probe.camera)
             probe.renderer.ResetCameraClippingRange()
 
-        draw(ladder[0].setting)
+        draw(tracks[0][0].setting)
         render_frame(probe)
         near = float(probe.camera.clipping_range[0])
         transfer = model.transfer
@@ -103,20 +119,20 @@ def calibrate_volume(plotter, model, technique: str, target: QualityTarget, keep
         if stored is not None:
             return QualityChoice(target, dict(stored["setting"]), float(stored["psnr"]),
                                  bool(stored["met"]), list(stored.get("measured", [])),
-                                 0.0, size, [], cached=True)
+                                 0.0, size, 0, cached=True)
 
         def render(setting: dict) -> np.ndarray:
             draw(setting)
             render_frame(probe)
             return read_pixels(probe)
 
-        def traced(crop) -> np.ndarray:
+        def traced(pixels) -> np.ndarray:
             return reference(model, camera, size, step_voxels=REFERENCE_STEP, near=near,
-                             crop=crop)
+                             pixels=pixels)
 
-        start = next((i for i, rung in enumerate(ladder)
+        start = next((i for i, rung in enumerate(tracks[0])
                       if rung.setting.get("step_scale") == 1.0), None)
-        choice = calibrate(ladder, render, traced, camera, size, model.world_bounds(),
+        choice = calibrate(tracks, render, traced, camera, size, model.world_bounds(),
                            target, start)
     finally:
         probe.close()

@@ -37,6 +37,7 @@ def render_emission_absorption(
     crop: Sequence[int] | None = None,
     shade: ShadeSetup | None = None,
     clip_planes: Sequence | None = None,
+    pixels: tuple | None = None,
 ) -> np.ndarray:
     """Render ``volume`` as an emission/absorption medium, returning ``(h, w, 3)`` floats.
 
@@ -72,6 +73,10 @@ def render_emission_absorption(
     crop : sequence of int, optional
         ``(x, y, width, height)`` of a pixel window (from the top-left) of the ``size``
         image: only those rays are traced, e.g. to check a 4K frame on a few crops.
+    pixels : (rows, columns) of int arrays, optional
+        Only the rays through these pixels of the ``size`` image (rows from the top), as
+        a ``(1, n, 3)`` image: a sample of a frame spread over it, where ``crop`` takes a
+        window. Not with ``crop``, nor with additive channel volumes.
     shade : ShadeSetup, optional
         Gradient shading of each sample's colour, as VTK's ``shade=True``
         (:mod:`pv_cubemarch.reference.volume_shading`).
@@ -80,6 +85,8 @@ def render_emission_absorption(
         VTK's volume mapper does (:func:`pv_cubemarch.reference.rays.clip_interval`).
     """
     if isinstance(volume, VolumeGroup) and volume.channel_mix == "additive":
+        if pixels is not None:
+            raise ValueError("pixels: additive channel volumes are traced by windows (crop).")
         return render_additive_channels(
             volume, render_emission_absorption, camera, size, background, opaque_color,
             step_voxels=step_voxels,
@@ -87,6 +94,16 @@ def render_emission_absorption(
             crop=crop, clip_planes=clip_planes)
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
+    if pixels is not None:
+        if crop is not None:
+            raise ValueError("Give crop (a window) or pixels (a sample), not both.")
+        rows, columns = (np.asarray(v, dtype=np.intp).ravel() for v in pixels)
+        if rows.shape != columns.shape or (rows.size and (
+                rows.min() < 0 or columns.min() < 0 or rows.max() >= height
+                or columns.max() >= width)):
+            raise ValueError(f"pixels must be rows and columns of equal length inside an "
+                             f"image of size {size}.")
+        origins, directions = origins[rows, columns][None], directions[rows, columns][None]
     if crop is not None:
         x, y, width, height = (int(v) for v in crop)
         origins = origins[y:y + height, x:x + width]
@@ -106,6 +123,7 @@ def render_emission_absorption(
     grids = None
     if lights:
         grids = {id(item): light_grid(item, lights, clip_planes=clip_planes) for item in items}
+    origins_shape = origins.shape   # (height, width, 3), a crop's, or (1, n, 3)
     origins = origins.reshape(-1, 3)
     directions = directions.reshape(-1, 3)
     n_rays = origins.shape[0]
@@ -170,4 +188,4 @@ def render_emission_absorption(
         keep = (t < t1[active]) & (trans[active] > min_transmittance)
         active, t = active[keep], t[keep]
     image = color + trans[:, None] * backdrop
-    return image.reshape(height, width, 3)
+    return image.reshape(origins_shape)

@@ -1,0 +1,204 @@
+"""``pv-cubemarch bench dial``: whether ``quality=`` picks the cheapest setting meeting it.
+
+Per scene and technique, in one run: every rung of the technique's ladder drawn from the
+same camera and timed side by side (the sweep, with its Pareto front), each measured over
+the whole frame against the CPU reference; then ``add_volume(quality=target)`` for each
+target, calibrated afresh (no cache): the setting it chose, that setting's measured error,
+its time against the cheapest rung of the sweep that meets the target, and how long the
+calibration took.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyvista
+
+from ..api import add_volume
+from ..core.camera import Camera
+from ..core.rendering import offscreen_plotter, read_pixels
+from ..image_metrics import compare_images
+from ..quality import cache
+from ..quality.ladders import volume_ladder
+from ..reference.emission_absorption import render_emission_absorption
+from .harness import time_frames_side_by_side
+from .sort_last import phantom
+
+SCENES = ("ct", "smoke", "blobs")
+TECHNIQUES = ("direct", "vtk", "cubemap")
+TARGETS = (30.0, 40.0, 50.0)
+DATASETS = Path(__file__).resolve().parents[2] / "datasets"
+
+
+@dataclass
+class SweepRow:
+    """One rung of a technique's ladder on a scene: its time and whole-frame PSNR."""
+
+    scene: str
+    technique: str
+    setting: str
+    median_ms: float
+    psnr: float
+    pareto: bool = False
+
+
+@dataclass
+class DialRow:
+    """``quality=target``: what it chose and how that compares with the sweep."""
+
+    scene: str
+    technique: str
+    target: float
+    chosen: str
+    psnr: float
+    estimated: float
+    met: bool
+    cheapest: str | None
+    cost_ratio: float | None
+    calibration_s: float
+
+
+def _scene(name: str):
+    """A grid in its real units and the look it is drawn with."""
+    if name == "ct":   # Hounsfield units, anisotropic, far from the origin
+        values = phantom((64, 48, 40))
+        grid = pyvista.ImageData(dimensions=values.shape, spacing=(0.8, 1.0, 1.3),
+                                 origin=(-100.0, 20.0, 5.0))
+        grid.point_data["hu"] = values.ravel(order="F")
+        return grid, {"cmap": "bone", "opacity": "sigmoid", "clim": (-200.0, 1500.0)}
+    if name == "smoke":
+        grid = pyvista.read(DATASETS / "smoke_density.vti")
+        return grid, {"cmap": "inferno", "opacity": "linear"}
+    if name == "blobs":   # a signed field (negative and positive lobes), extent not at 0
+        axes = [np.linspace(-1.0, 1.0, n) for n in (56, 56, 56)]
+        x, y, z = np.meshgrid(*axes, indexing="ij")
+        field = (np.exp(-8 * ((x - 0.3) ** 2 + y ** 2 + z ** 2))
+                 - np.exp(-8 * ((x + 0.35) ** 2 + (y - 0.2) ** 2 + z ** 2))) * 500.0
+        grid = pyvista.ImageData(dimensions=field.shape, spacing=(0.5, 0.5, 0.5))
+        grid.origin = (10.0, -40.0, 3.0)
+        grid.point_data["signal"] = field.ravel(order="F")
+        return grid, {"cmap": "coolwarm", "opacity": [0.8, 0.3, 0.0, 0.3, 0.8],
+                      "clim": (-500.0, 500.0)}
+    raise ValueError(f"Unknown scene {name!r}; choose from {', '.join(SCENES)}.")
+
+
+def _plotter(size):
+    plotter = offscreen_plotter(size)
+    plotter.set_background("black")
+    plotter.ren_win.SetMultiSamples(0)
+    return plotter
+
+
+def _label(setting: dict) -> str:
+    return ", ".join(f"{k}={v:g}" for k, v in setting.items())
+
+
+def run_dial(size: Sequence[int] = (320, 240), frames: int = 3,
+             scenes: Sequence[str] = SCENES, techniques: Sequence[str] = TECHNIQUES,
+             targets: Sequence[float] = TARGETS) -> tuple[list[SweepRow], list[DialRow]]:
+    """The sweeps and the choices of every scene and technique (see the module's text)."""
+    size = (int(size[0]), int(size[1]))
+    sweep_rows, dial_rows = [], []
+    with tempfile.TemporaryDirectory() as folder:
+        for name in scenes:
+            grid, look = _scene(name)
+            for technique in techniques:
+                rows, dials = _one(name, grid, look, technique, size, frames, targets, folder)
+                sweep_rows += rows
+                dial_rows += dials
+    return sweep_rows, dial_rows
+
+
+def _one(name, grid, look, technique, size, frames, targets, folder):
+    ladder = volume_ladder(technique, grid.dimensions)
+    plotters = {}
+    try:
+        for index, rung in enumerate(ladder):
+            plotters[index] = plotter = _plotter(size)
+            actor = add_volume(plotter, grid, technique=technique, **look, **rung.setting)
+            if index == 0:
+                camera = Camera.from_pyvista(plotter.camera)
+                model = actor.cubemarch.model
+            camera.apply_to(plotter.camera)
+        times = time_frames_side_by_side(plotters, frames)
+        near = plotters[0].camera.clipping_range[0]
+        reference = render_emission_absorption(model, camera, size, step_voxels=0.1,
+                                               near=near)
+        psnrs = {i: compare_images(read_pixels(p), reference).psnr for i, p in plotters.items()}
+    finally:
+        for plotter in plotters.values():
+            plotter.close()
+    rows = [SweepRow(name, technique, _label(rung.setting), float(np.median(times[i])),
+                     psnrs[i]) for i, rung in enumerate(ladder)]
+    for row in rows:
+        row.pareto = not any(o.median_ms <= row.median_ms and o.psnr >= row.psnr and
+                             (o.median_ms < row.median_ms or o.psnr > row.psnr) for o in rows)
+    dials = []
+    for target in targets:
+        cache.forget()
+        plotter = _plotter(size)
+        try:
+            camera.apply_to(plotter.camera)
+            plotter.camera_set = True
+            with _FreshCache(folder, target):
+                actor = add_volume(plotter, grid, technique=technique, quality=target, **look)
+            choice = actor.cubemarch.quality
+        finally:
+            plotter.close()
+        chosen = next(i for i, rung in enumerate(ladder) if rung.setting == choice.setting)
+        meeting = [r for r in rows if r.psnr >= target]
+        cheapest = min(meeting, key=lambda r: r.median_ms) if meeting else None
+        dials.append(DialRow(name, technique, float(target), rows[chosen].setting,
+                             rows[chosen].psnr, choice.psnr, rows[chosen].psnr >= target,
+                             None if cheapest is None else cheapest.setting,
+                             None if cheapest is None else
+                             rows[chosen].median_ms / cheapest.median_ms, choice.seconds))
+    return rows, dials
+
+
+class _FreshCache:
+    """A cache folder of the run's own, so every choice is calibrated afresh."""
+
+    def __init__(self, folder: str, target: float):
+        self.folder = f"{folder}/{target:g}-{id(self)}"
+
+    def __enter__(self):
+        self.saved = os.environ.get(cache.CACHE_ENV)
+        os.environ[cache.CACHE_ENV] = self.folder
+
+    def __exit__(self, *exc):
+        if self.saved is None:
+            os.environ.pop(cache.CACHE_ENV, None)
+        else:
+            os.environ[cache.CACHE_ENV] = self.saved
+
+
+def format_dial(sweep: list[SweepRow], dials: list[DialRow]) -> str:
+    """The sweeps (Pareto rungs starred) and the choices, as two text tables."""
+    lines = [f"{'scene':7}{'technique':10}{'setting':30}{'ms':>8}{'PSNR':>8}  front"]
+    for r in sweep:
+        lines.append(f"{r.scene:7}{r.technique:10}{r.setting:30}{r.median_ms:8.1f}"
+                     f"{r.psnr:8.1f}  {'*' if r.pareto else ''}")
+    lines += ["", f"{'scene':7}{'technique':10}{'target':>7}  {'chosen':30}{'PSNR':>7}"
+                  f"{'est.':>7}{'met':>5}  {'cheapest meeting':30}{'x cost':>7}{'calib s':>8}"]
+    for d in dials:
+        ratio = "-" if d.cost_ratio is None else f"{d.cost_ratio:.2f}"
+        lines.append(f"{d.scene:7}{d.technique:10}{d.target:7.0f}  {d.chosen:30}"
+                     f"{d.psnr:7.1f}{d.estimated:7.1f}{'yes' if d.met else 'no':>5}  "
+                     f"{d.cheapest or '(none)':30}{ratio:>7}{d.calibration_s:8.2f}")
+    met = [d for d in dials if d.cheapest is not None]
+    if met:
+        share = sum(d.met for d in met) / len(met)
+        worst = max((d.target - d.psnr for d in met if not d.met), default=0.0)
+        ratios = [d.cost_ratio for d in met if d.met and d.cost_ratio is not None
+                  and math.isfinite(d.cost_ratio)]
+        lines.append(f"\nreachable targets met: {share:.0%} (worst miss {worst:.1f} dB); "
+                     f"cost over the cheapest meeting: median {np.median(ratios):.2f}x, "
+                     f"worst {max(ratios):.2f}x" if ratios else "")
+    return "\n".join(lines)
