@@ -35,6 +35,7 @@ from .models.multiscale import MultiscaleSource, is_zarr_group, multiscale_sourc
 from .models.volume import VolumeModel, checked_transform, with_transfer
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
+from .quality.interaction import attach_frame_budget, check_frame_budget
 from .quality.volumes import calibrate_volume, check_quality_request
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .surfaces.levels import (
@@ -104,6 +105,7 @@ def add_volume(
     annotations: dict | None = None,
     technique: str = "vtk",
     quality=None,
+    frame_budget_ms: float | None = None,
     step_scale: float | None = None,
     stop_opacity: float = DEFAULT_STOP_OPACITY,
     skip_empty: bool = True,
@@ -225,6 +227,13 @@ def add_volume(
         and GL renderer (in ``~/.cache/pv_cubemarch``, or ``PV_CUBEMARCH_CACHE_DIR``).
         One unlit scalar volume with ``blending='composite'``; not with the settings it
         chooses.
+    frame_budget_ms : float, optional
+        ``'vtk'`` and ``'direct'`` (at ``downsample=1``): while the view moves (VTK's
+        interactors, the live view's mouse), each frame takes the coarsest step needed to
+        stay within this many milliseconds, predicted from the last frame's time (which
+        grows as ``1 / step_scale``); the first frame after the view stops draws the still
+        step again (``step_scale``, or what ``quality`` chose). Only a uniform changes.
+        ``actor.cubemarch.frame_budget`` keeps the frames' steps and times.
     step_scale : float, optional
         ``'vtk'``, ``'direct'`` and ``'auto'``: step length in texels along the ray's
         dominant texture axis (texel-spaced sampling, 0.5 by default). Smaller is more
@@ -503,6 +512,12 @@ def add_volume(
     binding = chosen.build(plotter, data, VolumeSetup(options, shading, light_map))
     binding.light_map = light_map
     binding.quality = choice
+    if frame_budget_ms is not None:
+        check_frame_budget(frame_budget_ms, chosen.name, given.get("downsample", 1))
+        attach_frame_budget(binding, plotter.renderer, plotter.ren_win, frame_budget_ms,
+                            {} if choice is None else {
+                                m["setting"]["step_scale"]: m["psnr"]
+                                for m in choice.measured if "step_scale" in m["setting"]})
     binding.blending = blending
     binding.isosurfaces = isosurfaces   # as given (data units, or a count)
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))

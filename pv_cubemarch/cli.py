@@ -484,6 +484,13 @@ def build_parser() -> argparse.ArgumentParser:
     dial.add_argument("--techniques", default=",".join(bench_dial.TECHNIQUES),
                       help=f"comma-separated, of {', '.join(bench_dial.TECHNIQUES)}")
     dial.add_argument("--targets", default="30,40,50", help="dB, comma-separated")
+    dial.add_argument("--orbit-size", type=_size, default=(800, 600),
+                      help="WxH of the frame_budget_ms orbits (default 800x600)")
+    dial.add_argument("--budget-ms", type=float, default=20.0,
+                      help="frame_budget_ms of the orbits (default 20, on llvmpipe tighter "
+                           "than the still frames)")
+    dial.add_argument("--orbit-frames", type=int, default=32,
+                      help="moving frames of each orbit (0: no orbits)")
     dial.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     device = bench_commands.add_parser(
         "device", help="the headline benches at GPU scale, each in its own process within a "
@@ -816,8 +823,19 @@ def _bench(args) -> int:
               "frame against the CPU reference; est.: what the calibration estimated; x "
               "cost: the chosen rung's time over the cheapest rung meeting the target")
         print(bench_dial.format_dial(sweep, dials))
+        orbits = []
+        if args.orbit_frames > 0:
+            orbits = bench_dial.run_interaction(
+                args.orbit_size, args.budget_ms, args.orbit_frames, words[0],
+                [t for t in words[1] if t in ("direct", "vtk")])
+            print(f"\nframe_budget_ms={args.budget_ms:g} at {args.orbit_size[0]}x"
+                  f"{args.orbit_size[1]}, quality=40, an orbit of {args.orbit_frames} "
+                  "moving frames then the stop; within: moving frames (after the first) "
+                  "within the budget; still ms: the frame after the stop")
+            print(bench_dial.format_interaction(orbits))
         _write_rows(args.json_path, sweep, dials=[vars(d) for d in dials],
-                    size=list(args.size), frames=args.frames)
+                    orbits=[vars(o) for o in orbits], size=list(args.size),
+                    frames=args.frames)
         return 0
     if args.bench_command == "device":
         names = None if args.sections is None else [

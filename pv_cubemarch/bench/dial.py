@@ -22,7 +22,7 @@ import pyvista
 
 from ..api import add_volume
 from ..core.camera import Camera
-from ..core.rendering import offscreen_plotter, read_pixels
+from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..image_metrics import compare_images
 from ..quality import cache
 from ..quality.ladders import volume_ladder
@@ -30,7 +30,7 @@ from ..reference.emission_absorption import render_emission_absorption
 from .harness import time_frames_side_by_side
 from .sort_last import phantom
 
-SCENES = ("ct", "smoke", "blobs")
+SCENES = ("ct", "smoke", "blobs", "cells")
 TECHNIQUES = ("direct", "vtk", "cubemap")
 TARGETS = (30.0, 40.0, 50.0)
 DATASETS = Path(__file__).resolve().parents[2] / "datasets"
@@ -46,6 +46,23 @@ class SweepRow:
     median_ms: float
     psnr: float
     pareto: bool = False
+
+
+@dataclass
+class InteractionRow:
+    """A scripted orbit with ``frame_budget_ms``: moving frames within it, then the stop."""
+
+    scene: str
+    technique: str
+    size: list
+    budget_ms: float
+    moving_frames: int
+    within_budget: float
+    median_moving_ms: float
+    steps: str
+    still_step: float
+    still_ms: float
+    still_psnr: float
 
 
 @dataclass
@@ -85,6 +102,20 @@ def _scene(name: str):
         grid.point_data["signal"] = field.ravel(order="F")
         return grid, {"cmap": "coolwarm", "opacity": [0.8, 0.3, 0.0, 0.3, 0.8],
                       "clim": (-500.0, 500.0)}
+    if name == "cells":   # uint16 microscopy: bright thin membranes over a dim background
+        rng = np.random.default_rng(3)
+        axes = [np.arange(n, dtype=np.float64) for n in (72, 60, 40)]
+        x, y, z = np.meshgrid(*axes, indexing="ij")
+        signal = np.full(x.shape, 120.0)
+        for cx, cy, cz, r in zip(rng.uniform(10, 62, 12), rng.uniform(10, 50, 12),
+                                 rng.uniform(8, 32, 12), rng.uniform(5, 11, 12),
+                                 strict=True):
+            distance = np.sqrt((x - cx) ** 2 + (y - cy) ** 2 + ((z - cz) * 1.5) ** 2)
+            signal += 3000.0 * np.exp(-((distance - r) ** 2) / 1.5)
+        grid = pyvista.ImageData(dimensions=signal.shape, spacing=(0.2, 0.2, 0.3))
+        grid.point_data["uint16"] = np.clip(signal, 0, 65535).astype(np.uint16).ravel(
+            order="F")
+        return grid, {"cmap": "viridis", "opacity": "linear", "clim": (150.0, 2500.0)}
     raise ValueError(f"Unknown scene {name!r}; choose from {', '.join(SCENES)}.")
 
 
@@ -201,4 +232,65 @@ def format_dial(sweep: list[SweepRow], dials: list[DialRow]) -> str:
         lines.append(f"\nreachable targets met: {share:.0%} (worst miss {worst:.1f} dB); "
                      f"cost over the cheapest meeting: median {np.median(ratios):.2f}x, "
                      f"worst {max(ratios):.2f}x" if ratios else "")
+    return "\n".join(lines)
+
+
+def run_interaction(size: Sequence[int] = (800, 600), budget_ms: float = 100.0,
+                    frames: int = 32, scenes: Sequence[str] = SCENES,
+                    techniques: Sequence[str] = ("direct", "vtk"),
+                    target: float = 40.0) -> list[InteractionRow]:
+    """Orbits with ``quality=target`` and ``frame_budget_ms``, then the stop.
+
+    Each scene: ``frames`` moving frames (the render window's desired update rate raised,
+    as an interactor's drag does), then the drag's end. Reported: the share of moving
+    frames (after the first, which has no time to predict from) within the budget, and
+    the still frame's time (the refinement back to the chosen step) and its PSNR over the
+    whole frame.
+    """
+    size = (int(size[0]), int(size[1]))
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        for name in scenes:
+            grid, look = _scene(name)
+            for technique in techniques:
+                plotter = _plotter(size)
+                try:
+                    with _FreshCache(folder, target):
+                        actor = add_volume(plotter, grid, technique=technique, quality=target,
+                                           frame_budget_ms=budget_ms, **look)
+                    budget = actor.cubemarch.frame_budget
+                    render_frame(plotter)
+                    plotter.ren_win.SetDesiredUpdateRate(15.0)
+                    for _ in range(frames):
+                        plotter.camera.Azimuth(360.0 / frames)
+                        render_frame(plotter)
+                    plotter.ren_win.SetDesiredUpdateRate(0.0001)
+                    render_frame(plotter)
+                    still = budget.frames[-1]
+                    camera = Camera.from_pyvista(plotter.camera)
+                    reference = render_emission_absorption(
+                        actor.cubemarch.model, camera, size, step_voxels=0.1,
+                        near=plotter.camera.clipping_range[0])
+                    psnr = compare_images(read_pixels(plotter), reference).psnr
+                finally:
+                    plotter.close()
+                moving = [f for f in budget.frames if f.moving][1:]
+                steps = sorted({f.step_scale for f in moving})
+                rows.append(InteractionRow(
+                    name, technique, list(size), float(budget_ms), len(moving),
+                    sum(f.ms <= budget_ms for f in moving) / max(1, len(moving)),
+                    float(np.median([f.ms for f in moving])) if moving else 0.0,
+                    ", ".join(f"{s:g}" for s in steps), still.step_scale, still.ms, psnr))
+    return rows
+
+
+def format_interaction(rows: list[InteractionRow]) -> str:
+    """The orbits as a text table."""
+    lines = [f"{'scene':7}{'technique':10}{'budget':>7}{'frames':>7}{'within':>8}"
+             f"{'median ms':>10}  {'moving steps':14}{'still step':>11}{'still ms':>9}"
+             f"{'PSNR':>7}"]
+    for r in rows:
+        lines.append(f"{r.scene:7}{r.technique:10}{r.budget_ms:7.0f}{r.moving_frames:7d}"
+                     f"{r.within_budget:8.0%}{r.median_moving_ms:10.1f}  {r.steps:14}"
+                     f"{r.still_step:11g}{r.still_ms:9.1f}{r.still_psnr:7.1f}")
     return "\n".join(lines)

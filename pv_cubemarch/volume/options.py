@@ -73,7 +73,7 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
     LIGHT_MAP_SIZE, LIGHT_MAP_AMBIENT, SHADE, AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER, \
     CMAP, OPACITY, CLIM, OPACITY_UNIT_DISTANCE, N_COLORS, FLIP_SCALARS, LOG_SCALE, \
     CATEGORIES, LOD_BIAS, GPU_BYTES, HOST_BYTES, BRICK_SIZE, INDEPENDENT_COMPONENTS, \
-    CHANNEL_BLENDING, CLIP_PLANES, CROP_BOX, AVERAGE_RANGE, QUALITY = declare(
+    CHANNEL_BLENDING, CLIP_PLANES, CROP_BOX, AVERAGE_RANGE, QUALITY, FRAME_BUDGET_MS = declare(
         Option("technique", "volume", str, "vtk", "how the rays are set up and drawn",
                control=Control("select")),
         Option("step_scale", "volume", float, 0.5, "step along the ray, in texels of the "
@@ -203,6 +203,11 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
                parse=preset_or_number,
                control=Control("select", "quality", choices=(AUTO, "fast", "balanced", "best"),
                                help="calibrated against the CPU reference")),
+        Option("frame_budget_ms", "volume", float, None, "while the view moves, the coarsest "
+               "step keeping frames within this many ms (the still step when it stops)",
+               ("vtk", "direct"), low=0.0, closed_low=False, optional=True,
+               control=Control("select", "frame budget (ms)", choices=(AUTO, 16, 33, 66, 100),
+                               help="coarser steps while the view moves")),
     )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("volume"))
