@@ -44,6 +44,8 @@ from .models.surface import SplineField  # noqa: E402
 from .models.transfer import TransferFunction  # noqa: E402
 from .models.volume import VolumeModel, make_volume  # noqa: E402
 from .models.voxels import Palette, VoxelModel, make_voxels  # noqa: E402
+from .quality import QualityChoice  # noqa: E402
+from .quality.interaction import FrameBudget  # noqa: E402
 from .reference import ShadeSetup, render_blended, render_emission_absorption  # noqa: E402
 from .reference.label_ids import trace_ids  # noqa: E402
 from .scene.io import load_scene  # noqa: E402
@@ -74,4 +76,5 @@ __all__ = [
     "render_image", "widget",
     "live_view", "LiveView", "LabelIds", "hashed_colors", "trace_ids", "VoxelBinding",
     "VoxelPick", "orbit", "render_frames", "render_sort_last", "sweep_options",
+    "QualityChoice", "FrameBudget",
 ]

@@ -196,15 +196,16 @@ def bench_markdown(name: str, path: Path) -> str:
 
 
 def _row_sets(payload: dict) -> list[tuple[str | None, list[dict]]]:
-    """The row lists of a bench's JSON: its results, else each list of records in it.
+    """The row lists of a bench's JSON: its results (or rows), then other lists of records.
 
-    A bench of one measurement writes it as the payload itself: that is the one row.
+    ``bench dial`` writes its choices and orbits beside its sweep. A bench of one
+    measurement writes it as the payload itself: that is the one row.
     """
     rows = payload.get("results", payload.get("rows"))
-    if isinstance(rows, list) and rows:
-        return [(None, rows)]
-    sets = [(key, value) for key, value in payload.items() if key != "seed_tables"
-            and isinstance(value, list) and value and all(isinstance(v, dict) for v in value)]
+    sets = [(None, rows)] if isinstance(rows, list) and rows else []
+    sets += [(key, value) for key, value in payload.items()
+             if key not in ("seed_tables", "results", "rows") and isinstance(value, list)
+             and value and all(isinstance(v, dict) for v in value)]
     if sets:
         return sets
     return [(None, [{k: v for k, v in payload.items() if k not in ("command", "gl_renderer")}])]
