@@ -319,3 +319,29 @@ def test_calibration_sees_the_camera_the_first_frame_is_drawn_with(ct, monkeypat
     assert np.allclose(used.position, drawn.position) and np.allclose(
         used.focal_point, drawn.focal_point) and np.allclose(used.view_up, drawn.view_up)
     plotter.close()
+
+
+def test_the_live_view_knobs_ask_for_quality_and_a_budget_and_say_what_was_drawn(ct):
+    # the live view's quality and frame-budget selects reach add_volume through the
+    # session, and the panel's text says the choice and the last frame's step
+    # catches (seen failing): the session's own step_scale handed to add_volume with the
+    # quality (refused: "chooses step_scale itself")
+    from pv_cubemarch.views.app import quality_text
+    from pv_cubemarch.views.session import TuningSession
+    plotter = _plotter()
+    pv_cubemarch.add_volume(plotter, ct, technique="direct", **LOOK)
+    session = TuningSession.from_plotter(plotter)
+    names = [knob.name for knob in session.knobs("volume")]
+    assert "quality" in names and "frame_budget_ms" in names
+    session.set("volume", "quality", "balanced")
+    assert "quality balanced: step_scale=" in quality_text(session)
+    session.set("volume", "frame_budget_ms", 33)
+    plotter.ren_win.SetDesiredUpdateRate(15.0)
+    plotter.camera.Azimuth(10.0)
+    session.draw()
+    assert "moving frame" in quality_text(session)
+    # the step moved by hand takes the volume back from the budget
+    session.set("volume", "step_scale", 0.25)
+    assert session.actor(next(iter(session.items))).cubemarch.quality is None
+    assert session.value("volume", "step_scale") == 0.25
+    plotter.close()

@@ -90,6 +90,7 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
     state.drawn = _drawn(session)
     state.label_legend = session.legend()
     state.streaming = streaming_text(plotter)
+    state.quality_text = quality_text(session)
     for kind in session.kinds():
         for knob in session.knobs(kind):
             _bind(server, session, kind, knob)
@@ -199,6 +200,28 @@ def show_session(server, session: TuningSession) -> None:
         state.drawn = _drawn(session)
         state.label_legend = session.legend()
         state.error_text = "error: not measured"
+        state.quality_text = quality_text(session)
+
+
+def quality_text(session: TuningSession) -> str:
+    """What ``quality=`` chose and what ``frame_budget_ms`` drew last, per item."""
+    parts = []
+    for name in session.items:
+        binding = session.actor(name).cubemarch
+        choice = getattr(binding, "quality", None)
+        budget = getattr(binding, "frame_budget", None)
+        if choice is not None:
+            setting = ", ".join(f"{k}={v:g}" for k, v in choice.setting.items())
+            parts.append(f"{name}: quality {choice.target.name}: {setting}, "
+                         f"{choice.psnr:.1f} dB estimated")
+        if budget is not None and budget.frames:
+            last = budget.frames[-1]
+            estimate = budget.estimated_psnr
+            parts.append(f"{name}: {'moving' if last.moving else 'still'} frame "
+                         f"{last.ms:.0f} ms (budget {budget.budget_ms:g}) at step "
+                         f"{last.step_scale:g}" + ("" if estimate is None else
+                                                   f", {estimate:.1f} dB estimated"))
+    return "; ".join(parts)
 
 
 def _drawn(session: TuningSession) -> str:
@@ -246,6 +269,7 @@ def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size, show
             vuetify3.VBtn("measure error", id="measure-error", click=server.controller
                           .measure_error, classes="ma-2", size="small")
             html.Div("{{ error_text }}", id="error-text", classes="ma-2 text-caption")
+            html.Div("{{ quality_text }}", id="quality-text", classes="ma-2 text-caption")
             html.Div("{{ streaming }}", id="streaming", classes="ma-2 text-caption",
                      v_show="streaming")
             html.Div("{{ message }}", id="message", classes="ma-2 text-caption text-error")

@@ -25,6 +25,7 @@ from ..models.group import overlap_groups
 from ..models.surface import SplineField
 from ..models.voxels import VoxelModel, label_legend
 from ..models.world import VoxelWorld
+from ..quality.volumes import PICKED
 from ..scene.model import Scene
 from ..voxels.paged_labels import PagedLabels
 from .knobs import Knob, surface_knobs, volume_knobs, voxel_knobs
@@ -220,6 +221,7 @@ class TuningSession:
                         else value
                     if kind == "volume":
                         _settle_isosurfaces(item.options, name)
+                        _settle_quality(item.options, name)
                 self._add(item)
         except Exception:       # refused (ValueError, or TypeError for a wrong type)
             for item, model, options, shift in done:   # back as it was
@@ -392,6 +394,19 @@ def _fields(options) -> dict:
 
 #: The levels a volume switched to blending='isosurface' gets (three inside its range).
 DEFAULT_ISOSURFACES = 5
+
+
+def _settle_quality(options: dict, changed: str) -> None:
+    """An error budget and the settings it chooses are never set together.
+
+    A quality asked for drops the step, face and samples knobs' values (it chooses them);
+    one of those moved by hand takes the volume back from the budget.
+    """
+    if changed == "quality" and options.get("quality") is not None:
+        for name in PICKED:
+            options.pop(name, None)
+    elif changed in PICKED:
+        options.pop("quality", None)
 
 
 def _settle_isosurfaces(options: dict, changed: str) -> None:
