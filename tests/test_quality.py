@@ -47,6 +47,20 @@ def ct():
     return grid
 
 
+@pytest.fixture
+def seen(monkeypatch):
+    """The cameras calibrations are run with, in order."""
+    from pv_cubemarch.quality import volumes
+    cameras = []
+    calibrate = volumes.calibrate
+
+    def spy(tracks, render, reference, camera, *rest, **keywords):
+        cameras.append(camera)
+        return calibrate(tracks, render, reference, camera, *rest, **keywords)
+    monkeypatch.setattr(volumes, "calibrate", spy)
+    return cameras
+
+
 def _plotter():
     plotter = offscreen_plotter(SIZE)
     plotter.set_background("black")
@@ -264,18 +278,9 @@ def test_the_cli_flag_calibrates_on_the_scene_camera_and_draws_the_choice(tmp_pa
     # target was drawn without a word)
 
 
-def test_a_usd_attribute_asks_for_quality_calibrated_from_the_scene_camera(tmp_path,
-                                                                         monkeypatch):
+def test_a_usd_attribute_asks_for_quality_calibrated_from_the_scene_camera(tmp_path, seen):
     # catches (seen failing): the scene's camera applied only after the volumes were
     # added (calibration measured the default framing instead)
-    from pv_cubemarch.quality import volumes
-    seen = []
-
-    def spy(ladder, render, reference, camera, *rest, **keywords):
-        seen.append(camera)
-        return calibrate(ladder, render, reference, camera, *rest, **keywords)
-    calibrate = volumes.calibrate
-    monkeypatch.setattr(volumes, "calibrate", spy)
     from pxr import Sdf, Usd
     stage = Usd.Stage.Open(SCENE)
     prim = stage.GetPrimAtPath("/World/Smoke")
@@ -295,19 +300,11 @@ def test_a_usd_attribute_asks_for_quality_calibrated_from_the_scene_camera(tmp_p
 
 
 @pytest.mark.parametrize("placed", [False, True])
-def test_calibration_sees_the_camera_the_first_frame_is_drawn_with(ct, monkeypatch, placed):
+def test_calibration_sees_the_camera_the_first_frame_is_drawn_with(ct, seen, placed):
     # a fresh plotter turns to PyVista's isometric view at its first frame; a camera set
     # but not pinned slides to fit; either way the calibration must measure that view
     # catches (seen failing): the renderer's camera before PyVista's first-frame reset
     # (looking down -z: the estimate was 5 dB off the frame actually drawn)
-    from pv_cubemarch.quality import volumes
-    seen = []
-
-    def spy(tracks, render, reference, camera, *rest, **keywords):
-        seen.append(camera)
-        return calibrate(tracks, render, reference, camera, *rest, **keywords)
-    calibrate = volumes.calibrate
-    monkeypatch.setattr(volumes, "calibrate", spy)
     plotter = _plotter()
     if placed:
         plotter.add_mesh(pyvista.Sphere(radius=5.0, center=(-120.0, 10.0, 0.0)))
