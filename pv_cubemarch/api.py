@@ -228,12 +228,13 @@ def add_volume(
         One unlit scalar volume with ``blending='composite'``; not with the settings it
         chooses.
     frame_budget_ms : float, optional
-        ``'vtk'`` and ``'direct'`` (at ``downsample=1``): while the view moves (VTK's
-        interactors, the live view's mouse), each frame takes the coarsest step needed to
-        stay within this many milliseconds, predicted from the last frame's time (which
-        grows as ``1 / step_scale``); the first frame after the view stops draws the still
-        step again (``step_scale``, or what ``quality`` chose). Only a uniform changes.
-        ``actor.cubemarch.frame_budget`` keeps the frames' steps and times.
+        ``'vtk'``, ``'direct'`` (at ``downsample=1``) and ``'cubemap'``: while the view
+        moves (VTK's interactors, the live view's mouse), each frame takes the finest step
+        (the cube map: ``upscale``) predicted to stay within this many milliseconds from
+        the last frame's time (which grows as ``1 / step_scale``, or ``1 / upscale**2``);
+        the first frame after the view stops draws the still setting again (given, or what
+        ``quality`` chose). Nothing is rebuilt. ``actor.cubemarch.frame_budget`` keeps the
+        frames' values and times.
     step_scale : float, optional
         ``'vtk'``, ``'direct'`` and ``'auto'``: step length in texels along the ray's
         dominant texture axis (texel-spaced sampling, 0.5 by default). Smaller is more
@@ -514,8 +515,8 @@ def add_volume(
     binding.quality = choice
     if frame_budget_ms is not None:
         check_frame_budget(frame_budget_ms, chosen.name, given.get("downsample", 1))
-        attach_frame_budget(binding, plotter.renderer, plotter.ren_win, frame_budget_ms,
-                            {} if choice is None else {
+        attach_frame_budget(binding, chosen.name, plotter.renderer, plotter.ren_win,
+                            frame_budget_ms, {} if choice is None else {
                                 m["setting"]["step_scale"]: m["psnr"]
                                 for m in choice.measured if "step_scale" in m["setting"]})
     binding.blending = blending

@@ -827,7 +827,7 @@ def _bench(args) -> int:
         if args.orbit_frames > 0:
             orbits = bench_dial.run_interaction(
                 args.orbit_size, args.budget_ms, args.orbit_frames, words[0],
-                [t for t in words[1] if t in ("direct", "vtk")])
+                [t for t in words[1] if t in ("direct", "vtk", "cubemap")])
             print(f"\nframe_budget_ms={args.budget_ms:g} at {args.orbit_size[0]}x"
                   f"{args.orbit_size[1]}, quality=40, an orbit of {args.orbit_frames} "
                   "moving frames then the stop; within: moving frames (after the first) "

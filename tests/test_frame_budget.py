@@ -13,7 +13,7 @@ import pyvista
 import pv_cubemarch
 from pv_cubemarch.bench.sort_last import phantom
 from pv_cubemarch.core.rendering import offscreen_plotter, read_pixels, render_frame
-from pv_cubemarch.quality.interaction import FrameBudget, attach_frame_budget
+from pv_cubemarch.quality.interaction import KNOBS, FrameBudget, attach_frame_budget
 
 LOOK = {"cmap": "bone", "opacity": "sigmoid", "clim": (-200.0, 1500.0)}
 
@@ -36,15 +36,21 @@ class _Window:
 
 
 def test_the_next_step_by_hand():
-    budget = FrameBudget(binding=None, window=_Window(15.0), budget_ms=40.0, still_step=0.5)
+    budget = FrameBudget(binding=None, window=_Window(15.0), budget_ms=40.0,
+                         knob=KNOBS["step"], still=0.5)
     # 64 ms at step 0.5: 0.5 * 64 / (0.8 * 40) = 1.0 fits exactly
-    assert budget.next_step(0.5, 64.0) == 1.0
+    assert budget.next_value(0.5, 64.0) == 1.0
     # 10 ms at step 2: 0.625 would fit; the finest allowed step at or above it is 1
-    assert budget.next_step(2.0, 10.0) == 1.0
+    assert budget.next_value(2.0, 10.0) == 1.0
     # fast frames never go finer than the still step
-    assert budget.next_step(0.5, 1.0) == 0.5
+    assert budget.next_value(0.5, 1.0) == 0.5
     # far over budget: the coarsest moving step
-    assert budget.next_step(0.5, 1e6) == 16.0
+    assert budget.next_value(0.5, 1e6) == 16.0
+    # the cube map's upscale: cost as upscale**-2, so 128 ms at 1 wants sqrt(4) = 2
+    budget = FrameBudget(binding=None, window=_Window(15.0), budget_ms=40.0,
+                         knob=KNOBS["upscale"], still=1.0)
+    assert budget.next_value(1.0, 128.0) == 2.0
+    assert budget.next_value(1.0, 129.0) == 3.0
 
 
 def _scripted(plotter, budget_ms, cost):
@@ -54,11 +60,12 @@ def _scripted(plotter, budget_ms, cost):
     def clock():
         state["calls"] += 1
         if state["calls"] % 2 == 0:           # the frame's end: its cost at its step
-            state["t"] += cost / budget.step / 1e3
+            state["t"] += cost / budget.value ** budget.knob.power / 1e3
         return state["t"]
     actor = plotter.renderer.actors[next(iter(plotter.renderer.actors))]
-    budget = attach_frame_budget(actor.cubemarch, plotter.renderer, plotter.ren_win,
-                                 budget_ms, clock=clock)
+    technique = actor.cubemarch.technique
+    budget = attach_frame_budget(actor.cubemarch, technique, plotter.renderer,
+                                 plotter.ren_win, budget_ms, clock=clock)
     return actor, budget
 
 
@@ -69,14 +76,19 @@ def _image(ct, technique, **keywords):
     return plotter, read_pixels(plotter)
 
 
-@pytest.mark.parametrize("technique", ["direct", "vtk"])
+@pytest.mark.parametrize("technique", ["direct", "vtk", "cubemap"])
 def test_moving_frames_fit_the_budget_and_a_still_view_refines(ct, technique):
     # catches (seen failing): the step left coarse after the view stopped, the
-    # prediction read the wrong way (frames over budget refined), and a moving frame that
-    # did not draw the step it reported (the uniform not set)
+    # prediction read the wrong way (frames over budget refined), a moving frame that
+    # did not draw the step it reported (the uniform not set), the cube map's upscale not
+    # written, and its cost taken as 1 / upscale instead of 1 / upscale**2
     plotter = offscreen_plotter((160, 120))
-    pv_cubemarch.add_volume(plotter, ct, technique=technique, step_scale=0.5, **LOOK)
-    _, budget = _scripted(plotter, 40.0, cost=50.0)   # still step 0.5: 100 ms a frame
+    # still frames take 100 ms: 50 / 0.5 (the step) or 100 / 1**2 (upscale 1)
+    still_setting, cost, moving_setting, moving_value = {
+        "cubemap": ({"upscale": 1.0}, 100.0, {"upscale": 2.0}, 2.0)}.get(
+        technique, ({"step_scale": 0.5}, 50.0, {"step_scale": 2.0}, 2.0))
+    pv_cubemarch.add_volume(plotter, ct, technique=technique, **still_setting, **LOOK)
+    _, budget = _scripted(plotter, 40.0, cost=cost)
     render_frame(plotter)
     still = read_pixels(plotter)
     plotter.ren_win.SetDesiredUpdateRate(15.0)         # what an interactor does on a drag
@@ -85,16 +97,18 @@ def test_moving_frames_fit_the_budget_and_a_still_view_refines(ct, technique):
         render_frame(plotter)
     moving = [f for f in budget.frames if f.moving]
     assert all(f.ms <= 40.0 for f in moving[1:]), budget.frames
-    assert moving[-1].step_scale == 2.0                 # 50 / 2 = 25 ms; 50 / 1 = 50 ms
+    # step: 50 / 2 = 25 ms fits, 50 / 1 = 50 does not; upscale: 100 / 4 = 25 ms fits,
+    # 100 / 1.5**2 = 44 does not
+    assert moving[-1].value == moving_value
     plotter.camera.Azimuth(-25.0)
     render_frame(plotter)
     coarse = read_pixels(plotter)
     plotter.ren_win.SetDesiredUpdateRate(0.0001)       # the drag ends
     render_frame(plotter)
-    assert budget.frames[-1].step_scale == 0.5 and not budget.frames[-1].moving
+    assert budget.frames[-1].value == budget.still and not budget.frames[-1].moving
     assert np.array_equal(read_pixels(plotter), still)
     plotter.close()
-    other, expected = _image(ct, technique, step_scale=2.0)
+    other, expected = _image(ct, technique, **moving_setting)
     assert np.array_equal(coarse, expected)
     other.close()
 
@@ -105,13 +119,13 @@ def test_add_volume_takes_the_budget_and_the_quality_s_estimates(ct, tmp_path, m
     actor = pv_cubemarch.add_volume(plotter, ct, technique="direct", quality=40,
                                     frame_budget_ms=30, **LOOK)
     budget = actor.cubemarch.frame_budget
-    assert budget.still_step == actor.cubemarch.quality.setting["step_scale"]
+    assert budget.still == actor.cubemarch.quality.setting["step_scale"]
     assert budget.estimated_psnr == actor.cubemarch.quality.psnr
     plotter.close()
 
 
 @pytest.mark.parametrize("keywords, words", [
-    ({"technique": "cubemap"}, "cube map"),
+    ({"technique": "auto"}, "'auto' switches"),
     ({"technique": "direct", "downsample": 2}, "downsample=1"),
     ({"technique": "direct", "frame_budget_ms": -5}, "positive"),
     ({"technique": "direct", "frame_budget_ms": True}, "positive"),

@@ -60,7 +60,8 @@ class InteractionRow:
     within_budget: float
     median_moving_ms: float
     steps: str
-    still_step: float
+    knob: str
+    still_value: float
     still_ms: float
     still_psnr: float
 
@@ -237,7 +238,7 @@ def format_dial(sweep: list[SweepRow], dials: list[DialRow]) -> str:
 
 def run_interaction(size: Sequence[int] = (800, 600), budget_ms: float = 100.0,
                     frames: int = 32, scenes: Sequence[str] = SCENES,
-                    techniques: Sequence[str] = ("direct", "vtk"),
+                    techniques: Sequence[str] = ("direct", "vtk", "cubemap"),
                     target: float = 40.0) -> list[InteractionRow]:
     """Orbits with ``quality=target`` and ``frame_budget_ms``, then the stop.
 
@@ -275,22 +276,23 @@ def run_interaction(size: Sequence[int] = (800, 600), budget_ms: float = 100.0,
                 finally:
                     plotter.close()
                 moving = [f for f in budget.frames if f.moving][1:]
-                steps = sorted({f.step_scale for f in moving})
+                steps = sorted({f.value for f in moving})
                 rows.append(InteractionRow(
                     name, technique, list(size), float(budget_ms), len(moving),
                     sum(f.ms <= budget_ms for f in moving) / max(1, len(moving)),
                     float(np.median([f.ms for f in moving])) if moving else 0.0,
-                    ", ".join(f"{s:g}" for s in steps), still.step_scale, still.ms, psnr))
+                    ", ".join(f"{s:g}" for s in steps), budget.knob.name, still.value,
+                    still.ms, psnr))
     return rows
 
 
 def format_interaction(rows: list[InteractionRow]) -> str:
     """The orbits as a text table."""
     lines = [f"{'scene':7}{'technique':10}{'budget':>7}{'frames':>7}{'within':>8}"
-             f"{'median ms':>10}  {'moving steps':14}{'still step':>11}{'still ms':>9}"
+             f"{'median ms':>10}  {'knob':11}{'moving':14}{'still':>6}{'still ms':>9}"
              f"{'PSNR':>7}"]
     for r in rows:
         lines.append(f"{r.scene:7}{r.technique:10}{r.budget_ms:7.0f}{r.moving_frames:7d}"
-                     f"{r.within_budget:8.0%}{r.median_moving_ms:10.1f}  {r.steps:14}"
-                     f"{r.still_step:11g}{r.still_ms:9.1f}{r.still_psnr:7.1f}")
+                     f"{r.within_budget:8.0%}{r.median_moving_ms:10.1f}  {r.knob:11}"
+                     f"{r.steps:14}{r.still_value:6g}{r.still_ms:9.1f}{r.still_psnr:7.1f}")
     return "\n".join(lines)

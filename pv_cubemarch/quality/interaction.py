@@ -1,62 +1,97 @@
-"""The frame-time budget: while the view moves, a coarser step keeps frames within it.
+"""The frame-time budget: while the view moves, a coarser setting keeps frames within it.
 
 VTK's interactors raise the render window's desired update rate while the user drags
 (``DesiredUpdateRate``, 15 frames a second by default) and drop it to the still rate when
 the drag ends; VTK's own level-of-detail props follow the same signal. Each frame drawn
-while it is raised takes the step the cost model predicts will fit the budget (the frame
-time scales as the samples, ``1 / step_scale``, from the last frame's measured time: a
-fit of a fixed cost plus the samples' was tried, and followed llvmpipe's noise); the
-first still frame goes back to the step the error budget chose (or the user gave), so the
-image refines to it as soon as the view stops. Only the uniform changes: no shader is
-rebuilt and no data moves.
+while it is raised takes the setting the cost model predicts will fit the budget, from the
+last frame's measured time: the marchers' step (time as ``1 / step_scale``: the samples)
+or the cube map's ``upscale`` (time as ``1 / upscale**2``: the texels marched). A fit of
+a fixed cost plus the samples' was tried, and followed llvmpipe's noise. The first still
+frame goes back to the still setting (what the error budget chose, or the user gave), so
+the image refines to it as soon as the view stops. Nothing is rebuilt and no data move:
+a uniform (the step) or the cube map's level of detail (upscale) changes.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from .ladders import STEP_SCALES
 
-#: Steps a moving view may take, coarse to fine (the ladder's, and two coarser).
-MOVING_STEPS = (16.0, 8.0, *STEP_SCALES)
 #: A desired update rate at or above this (frames a second) means the view is moving.
 MOVING_RATE = 1.0
 #: The share of the budget a predicted frame aims at (room for the prediction's error).
 AIM = 0.8
 
 
+@dataclass(frozen=True)
+class BudgetKnob:
+    """What a budget moves: its values (coarse to fine), how the cost follows it, how set.
+
+    Cost goes as ``value ** -power``; ``read`` / ``write`` get and set it on a binding.
+    """
+
+    name: str
+    values: tuple[float, ...]
+    power: float
+    read: Callable
+    write: Callable
+
+
+def _write_step(binding, value: float) -> None:
+    binding.bindings.set_uniform("cm_stepScale", float(value))
+    binding.step_scale = float(value)
+
+
+def _write_upscale(binding, value: float) -> None:
+    frame = binding.frame
+    frame.options = dataclasses.replace(frame.options, upscale=float(value))
+
+
+#: The knob of each technique a budget steers.
+KNOBS = {
+    "step": BudgetKnob("step_scale", (16.0, 8.0, *STEP_SCALES), 1.0,
+                       lambda b: float(b.step_scale), _write_step),
+    "upscale": BudgetKnob("upscale", (8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5), 2.0,
+                          lambda b: float(b.frame.options.upscale), _write_upscale),
+}
+TECHNIQUE_KNOBS = {"vtk": "step", "direct": "step", "cubemap": "upscale"}
+
+
 @dataclass
 class FrameRecord:
-    """One frame: whether the view was moving, the step drawn and its time."""
+    """One frame: whether the view was moving, the knob's value drawn and its time."""
 
     moving: bool
-    step_scale: float
+    value: float
     ms: float
 
 
 @dataclass
 class FrameBudget:
-    """Holds a marched volume's frames within ``budget_ms`` while the view moves.
+    """Holds a volume's frames within ``budget_ms`` while the view moves.
 
-    ``binding`` is the volume's binding (its ``cm_stepScale`` uniform is set per frame);
-    ``still_step`` the step of a still view; ``errors`` the estimated PSNR of steps the
-    error budget measured, to report the moving frames' error; ``clock`` seconds.
+    ``binding`` is the volume's binding; ``knob`` what is moved (:data:`KNOBS`);
+    ``still`` the knob's value for a still view; ``errors`` the estimated PSNR of values
+    the error budget measured, to report a moving frame's error; ``clock`` in seconds.
     """
 
     binding: object
     window: object
     budget_ms: float
-    still_step: float
+    knob: BudgetKnob
+    still: float
     errors: dict = field(default_factory=dict)
     clock: Callable[[], float] = time.perf_counter
     frames: list[FrameRecord] = field(default_factory=list)
-    step: float = 0.0
+    value: float = 0.0
     _started: float | None = None
 
     def __post_init__(self):
-        self.step = self.still_step
+        self.value = self.still
 
     @property
     def moving(self) -> bool:
@@ -65,28 +100,27 @@ class FrameBudget:
 
     @property
     def estimated_psnr(self) -> float | None:
-        """The error budget's estimate for the step drawn last (None: not measured)."""
-        return self.errors.get(self.step)
+        """The error budget's estimate for the value drawn last (None: not measured)."""
+        return self.errors.get(self.value)
 
-    def next_step(self, step: float, ms: float) -> float:
-        """The finest moving step predicted to fit the budget after ``ms`` at ``step``.
+    def next_value(self, value: float, ms: float) -> float:
+        """The finest value predicted to fit the budget after ``ms`` at ``value``.
 
-        Frame time taken as proportional to ``1 / step``; never finer than the still step.
+        Never finer than the still value; the coarsest when nothing fits.
         """
-        wanted = step * ms / (AIM * self.budget_ms)
-        allowed = [s for s in MOVING_STEPS if s >= self.still_step]
-        fitting = [s for s in allowed if s >= wanted]
+        wanted = value * (ms / (AIM * self.budget_ms)) ** (1.0 / self.knob.power)
+        allowed = [v for v in self.knob.values if v >= self.still]
+        fitting = [v for v in allowed if v >= wanted]
         return min(fitting) if fitting else max(allowed)
 
     def before_frame(self, *_) -> None:
-        """Choose this frame's step, set it, start the clock."""
+        """Choose this frame's value, set it, start the clock."""
         if not self.moving:
-            self.step = self.still_step
+            self.value = self.still
         elif self.frames:
             last = self.frames[-1]
-            self.step = self.next_step(last.step_scale, last.ms)
-        self.binding.bindings.set_uniform("cm_stepScale", float(self.step))
-        self.binding.step_scale = float(self.step)
+            self.value = self.next_value(last.value, last.ms)
+        self.knob.write(self.binding, self.value)
         self._started = self.clock()
 
     def after_frame(self, *_) -> None:
@@ -94,7 +128,7 @@ class FrameBudget:
         if self._started is None:
             return
         ms = (self.clock() - self._started) * 1e3
-        self.frames.append(FrameRecord(self.moving, float(self.step), ms))
+        self.frames.append(FrameRecord(self.moving, float(self.value), ms))
         del self.frames[:-1000]        # a long session keeps the last thousand
         self._started = None
 
@@ -105,17 +139,18 @@ def check_frame_budget(budget_ms, technique: str, downsample) -> None:
             0.0 < float(budget_ms) < float("inf")):
         raise ValueError(f"frame_budget_ms must be a positive number of milliseconds, got "
                          f"{budget_ms!r}.")
-    if technique not in ("vtk", "direct") or int(downsample) != 1:
-        raise ValueError(f"frame_budget_ms steers the step of technique='vtk' or 'direct' at "
-                         f"downsample=1, not technique={technique!r} (downsample="
-                         f"{downsample}): the cube map's level of detail already follows the "
-                         "view.")
+    if technique not in TECHNIQUE_KNOBS or int(downsample) != 1:
+        raise ValueError(f"frame_budget_ms steers technique='vtk', 'direct' (at downsample=1) "
+                         f"or 'cubemap', not technique={technique!r} (downsample={downsample}"
+                         "): 'auto' switches between two, whose budgets are set apart.")
 
 
-def attach_frame_budget(binding, renderer, window, budget_ms: float, errors: dict | None = None,
+def attach_frame_budget(binding, technique: str, renderer, window, budget_ms: float,
+                        errors: dict | None = None,
                         clock: Callable[[], float] = time.perf_counter) -> FrameBudget:
     """Follow ``renderer``'s frames with a :class:`FrameBudget`; removed with the binding."""
-    budget = FrameBudget(binding, window, float(budget_ms), float(binding.step_scale),
+    knob = KNOBS[TECHNIQUE_KNOBS[technique]]
+    budget = FrameBudget(binding, window, float(budget_ms), knob, knob.read(binding),
                          dict(errors or {}), clock)
     tags = [renderer.AddObserver("StartEvent", budget.before_frame),
             renderer.AddObserver("EndEvent", budget.after_frame)]

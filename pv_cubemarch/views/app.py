@@ -218,9 +218,9 @@ def quality_text(session: TuningSession) -> str:
             last = budget.frames[-1]
             estimate = budget.estimated_psnr
             parts.append(f"{name}: {'moving' if last.moving else 'still'} frame "
-                         f"{last.ms:.0f} ms (budget {budget.budget_ms:g}) at step "
-                         f"{last.step_scale:g}" + ("" if estimate is None else
-                                                   f", {estimate:.1f} dB estimated"))
+                         f"{last.ms:.0f} ms (budget {budget.budget_ms:g}) at "
+                         f"{budget.knob.name}={last.value:g}" + (
+                             "" if estimate is None else f", {estimate:.1f} dB estimated"))
     return "; ".join(parts)
 
 

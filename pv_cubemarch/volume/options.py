@@ -203,11 +203,12 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
                parse=preset_or_number,
                control=Control("select", "quality", choices=(AUTO, "fast", "balanced", "best"),
                                help="calibrated against the CPU reference")),
-        Option("frame_budget_ms", "volume", float, None, "while the view moves, the coarsest "
-               "step keeping frames within this many ms (the still step when it stops)",
-               ("vtk", "direct"), low=0.0, closed_low=False, optional=True,
+        Option("frame_budget_ms", "volume", float, None, "while the view moves, the finest "
+               "step (cube map: upscale) keeping frames within this many ms (the still one "
+               "when it stops)", ("vtk", "direct", "cubemap"), low=0.0, closed_low=False,
+               optional=True,
                control=Control("select", "frame budget (ms)", choices=(AUTO, 16, 33, 66, 100),
-                               help="coarser steps while the view moves")),
+                               help="coarser while the view moves")),
     )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("volume"))
