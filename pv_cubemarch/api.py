@@ -515,7 +515,7 @@ def add_volume(
     binding.quality = choice
     if frame_budget_ms is not None:
         check_frame_budget(frame_budget_ms, chosen.name, given.get("downsample", 1))
-        attach_frame_budget(binding, chosen.name, plotter.renderer, plotter.ren_win,
+        attach_frame_budget(binding, chosen.name, plotter.ren_win,
                             frame_budget_ms, {} if choice is None else {
                                 m["setting"]["step_scale"]: m["psnr"]
                                 for m in choice.measured if "step_scale" in m["setting"]})
