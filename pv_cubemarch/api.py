@@ -36,7 +36,7 @@ from .models.volume import VolumeModel, checked_transform, with_transfer
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .quality.interaction import attach_frame_budget, check_frame_budget
-from .quality.volumes import calibrate_volume, check_quality_request
+from .quality.volumes import VolumeCalibration, check_quality_request
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .surfaces.levels import (
     SurfaceLevels,
@@ -223,10 +223,12 @@ def add_volume(
         ``sample_factor`` (``'cubemap'``) that meets it is chosen by drawing a few of them
         from the camera the view will have, at the window's size, and comparing pixels
         with the reference; ``actor.cubemarch.quality`` says what was chosen, its
-        estimated error and what was tried. Choices are kept per data, camera, window size
-        and GL renderer (in ``~/.cache/pv_cubemarch``, or ``PV_CUBEMARCH_CACHE_DIR``).
-        One unlit scalar volume with ``blending='composite'``; not with the settings it
-        chooses.
+        estimated error and what was tried. Choices are kept per data, camera, window
+        size, background, clip planes and GL renderer (in ``~/.cache/pv_cubemarch``, or
+        ``PV_CUBEMARCH_CACHE_DIR``). A still frame drawn from another view than the one
+        calibrated warns once; ``actor.cubemarch.recalibrate()`` chooses for the view
+        then (set the camera before adding to avoid it). One unlit scalar volume with
+        ``blending='composite'``; not with the settings it chooses, nor a crop box.
     frame_budget_ms : float, optional
         ``'vtk'``, ``'direct'`` (at ``downsample=1``) and ``'cubemap'``: while the view
         moves (VTK's interactors, the live view's mouse), each frame takes the finest step
@@ -483,16 +485,21 @@ def add_volume(
     if isinstance(model, VolumeGroup) and not chosen.groups:
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
-    choice = None
+    if frame_budget_ms is not None:   # refused before anything is drawn or calibrated
+        check_frame_budget(frame_budget_ms, chosen.name, given.get("downsample", 1))
+    choice = calibration = None
     if quality is not None:
         target = check_quality_request(
             quality, given, blending, shade, lights,
-            isinstance(model, VolumeModel) and model.colors is None and not is_channels(model))
-        keep = {"stop_opacity": stop_opacity, "skip_empty": skip_empty,
-                **{k: given[k] for k in ("downsample", "upscale", "occlusion_sharpness")
-                   if k in given}}
-        choice = calibrate_volume(plotter, model, chosen.name, target, keep, reset_camera,
-                                  add_volume, chosen.reference)
+            isinstance(model, VolumeModel) and model.colors is None and not is_channels(model),
+            crop_box, average_range)
+        calibration = VolumeCalibration(
+            model, chosen.name, target,
+            {"stop_opacity": stop_opacity, "skip_empty": skip_empty,
+             "clip_planes": clip_planes,
+             **{k: given[k] for k in ("downsample", "upscale", "occlusion_sharpness")
+                if k in given}}, add_volume, chosen.reference)
+        choice = calibration.run(plotter, reset_camera)
         given = {**given, **choice.setting}
         options = chosen.make_options(given)
     options.check_model(model)
@@ -513,8 +520,9 @@ def add_volume(
     binding = chosen.build(plotter, data, VolumeSetup(options, shading, light_map))
     binding.light_map = light_map
     binding.quality = choice
+    if calibration is not None:
+        calibration.follow(binding, plotter)
     if frame_budget_ms is not None:
-        check_frame_budget(frame_budget_ms, chosen.name, given.get("downsample", 1))
         attach_frame_budget(binding, chosen.name, plotter.ren_win,
                             frame_budget_ms, {} if choice is None else {
                                 m["setting"]["step_scale"]: m["psnr"]

@@ -15,9 +15,12 @@ a uniform (the step) or the cube map's level of detail (upscale) changes.
 from __future__ import annotations
 
 import dataclasses
+import numbers
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from .ladders import STEP_SCALES
 
@@ -144,14 +147,18 @@ class FrameBudget:
 
 def check_frame_budget(budget_ms, technique: str, downsample) -> None:
     """Refuse a budget that is not a positive time, or a technique it cannot steer."""
-    if isinstance(budget_ms, bool) or not isinstance(budget_ms, (int, float)) or not (
-            0.0 < float(budget_ms) < float("inf")):
+    if isinstance(budget_ms, (bool, np.bool_)) or not isinstance(budget_ms, numbers.Real) \
+            or not 0.0 < float(budget_ms) < float("inf"):
         raise ValueError(f"frame_budget_ms must be a positive number of milliseconds, got "
                          f"{budget_ms!r}.")
-    if technique not in TECHNIQUE_KNOBS or int(downsample) != 1:
-        raise ValueError(f"frame_budget_ms steers technique='vtk', 'direct' (at downsample=1) "
-                         f"or 'cubemap', not technique={technique!r} (downsample={downsample}"
-                         "): 'auto' switches between two, whose budgets are set apart.")
+    if technique not in TECHNIQUE_KNOBS:
+        raise ValueError(f"frame_budget_ms steers technique='vtk', 'direct' or 'cubemap', not "
+                         f"technique={technique!r}: 'auto' switches between two, whose budgets "
+                         "are set apart; name one.")
+    if int(downsample) != 1:
+        raise ValueError(f"frame_budget_ms steers the step of a volume marched at full "
+                         f"resolution: give downsample=1 (not {downsample}) with it, or leave "
+                         "the budget out.")
 
 
 def attach_frame_budget(binding, technique: str, window, budget_ms: float,

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
+
+import numpy as np
 
 #: The named targets, in dB of PSNR against the technique's CPU reference.
 NAMED_TARGETS = {"fast": 30.0, "balanced": 40.0, "best": 50.0}
@@ -44,7 +47,7 @@ def parse_quality(value) -> QualityTarget:
         except ValueError:
             raise ValueError(f"quality={value!r} is not a target: give a PSNR in dB (30, "
                              f"'45dB') or one of {', '.join(NAMED_TARGETS)}.") from None
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise ValueError(f"quality={value!r} is not a target: give a PSNR in dB or one of "
                          f"{', '.join(NAMED_TARGETS)}.")
     value = float(value)
