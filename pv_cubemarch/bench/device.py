@@ -62,6 +62,8 @@ def _plans() -> dict[str, tuple[Section, ...]]:
     scale = (
         Section("cluster", ("cluster", "--scenes", "smoke,direct,cubemap,voxels,surface",
                             "--workers", "1,2,4,8"), 200),
+        Section("dial", ("dial", "--size", "1280x720", "--orbit-size", "1920x1080",
+                         "--budget-ms", "8"), 150),
         Section("sortlast", ("sortlast", "--shape", "384x384x384", "--size", "1280x720",
                              "--workers", "8"), 150),
         Section("volume-512", ("tradeoff", "direct", "vtk", "--scene", "{grid}", "--size",
