@@ -21,7 +21,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from vtkmodules.vtkCommonCore import vtkCommand
 
+from ..core.frame_errors import observe
 from .ladders import STEP_SCALES
 
 #: A desired update rate at or above this (frames a second) means the view is moving.
@@ -173,8 +175,8 @@ def attach_frame_budget(binding, technique: str, window, budget_ms: float,
     budget = FrameBudget(binding, window, float(budget_ms), knob, knob.read(binding),
                          dict(errors or {}), clock)
     # the end observed last: after any redraw the frame's other observers make
-    tags = [window.AddObserver("StartEvent", budget.before_frame),
-            window.AddObserver("EndEvent", budget.after_frame, -10.0)]
+    tags = [observe(window, vtkCommand.StartEvent, budget.before_frame),
+            observe(window, vtkCommand.EndEvent, budget.after_frame, -10.0)]
     binding.frame_budget = budget
     release = binding.release_resources
 

@@ -17,9 +17,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkRenderingCore import vtkCamera
 
 from ..core.camera import Camera
+from ..core.frame_errors import observe
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..volume.clipping import clip_plane_list
 from .cache import choice_key, lookup, store
@@ -210,7 +212,7 @@ class VolumeCalibration:
                     "may differ: call actor.cubemarch.recalibrate() (or set the view before "
                     "add_volume).", stacklevel=2)
 
-        tag = window.AddObserver("StartEvent", check)
+        tag = observe(window, vtkCommand.StartEvent, check)
         release = binding.release_resources
 
         def release_and_stop() -> None:
