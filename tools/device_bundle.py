@@ -8,8 +8,7 @@ which runs the plan's code paths small) and the libraries those link to, put a `
 module in place of VTK's own (which imports all 150 modules) that imports the one holding
 each name asked for, and pack the lot as one xz tarball. Also fetches the GL loader
 packages the device README asks for (``.gl/``). Usage: ``.venv/bin/python
-tools/device_bundle.py [--record]`` (both folders are git-ignored locally through
-``.git/info/exclude``).
+tools/device_bundle.py [--record]`` (both folders are git-ignored).
 """
 
 from __future__ import annotations
