@@ -441,3 +441,21 @@ def test_a_recalibrated_cube_map_draws_its_new_face(ct):
     render_frame(plotter)
     assert np.array_equal(drawn, read_pixels(plotter))
     plotter.close()
+
+
+def test_the_live_view_panel_follows_a_drag_s_frames(ct):
+    # the panel's quality line is refreshed by the live view's 5 Hz loop, so it shows a
+    # drag's frames (drawn by the view itself, not through a knob)
+    # catches (seen failing): the line set only when a knob changed (still the choice)
+    from pv_cubemarch.views.app import build_app, refine_step
+    plotter = _plotter()
+    pv_cubemarch.add_volume(plotter, ct, technique="direct", quality=40, frame_budget_ms=30,
+                            **LOOK)
+    server, _, session = build_app(plotter, name="quality-panel-test", show_panel=False)
+    before = server.state.quality_text
+    plotter.ren_win.SetDesiredUpdateRate(15.0)
+    plotter.camera.Azimuth(10.0)
+    render_frame(plotter)
+    refine_step(server, session)
+    assert "moving frame" in server.state.quality_text and before != server.state.quality_text
+    plotter.close()

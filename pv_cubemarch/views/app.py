@@ -139,7 +139,8 @@ def streaming_text(plotter: pyvista.Plotter) -> str:
 def refine_step(server, session: TuningSession) -> bool:
     """Redraw the page's image while streamed bricks arrive; True while some are missing.
 
-    The streaming line follows each redraw (resident, missing, reading bricks, bytes read).
+    The streaming line follows each redraw (resident, missing, reading bricks, bytes read),
+    and the quality line the last frame (a drag's frames are drawn by the view itself).
     """
     plotter = session.plotter
     streaming = any(getattr(b, "shown", True) and not b.converged
@@ -150,11 +151,18 @@ def refine_step(server, session: TuningSession) -> bool:
     if text != server.state.streaming:
         with server.state as state:
             state.streaming = text
+    quality = quality_text(session)   # a drag's frames: their time, setting and estimate
+    if quality != server.state.quality_text:
+        with server.state as state:
+            state.quality_text = quality
     return streaming
 
 
 async def refine_while_streaming(server, session: TuningSession) -> None:
-    """Every :data:`REFINE_S`: :func:`refine_step` (a frame never waits for a read)."""
+    """Every :data:`REFINE_S`: :func:`refine_step` (a frame never waits for a read).
+
+    Also how the panel follows a drag's frames under ``frame_budget_ms``.
+    """
     while True:
         await asyncio.sleep(REFINE_S)
         try:
