@@ -95,6 +95,7 @@ class FrameBudget:
     value: float = 0.0
     _started: float | None = None
     _depth: int = 0
+    _written: float | None = None
 
     def __post_init__(self):
         self.value = self.still
@@ -133,7 +134,9 @@ class FrameBudget:
         elif self.frames:
             last = self.frames[-1]
             self.value = self.next_value(last.value, last.ms)
-        self.knob.write(self.binding, self.value)
+        if self.value != self._written:   # a still view sets nothing frame after frame
+            self.knob.write(self.binding, self.value)
+            self._written = self.value
         self._started = self.clock()
 
     def after_frame(self, *_) -> None:

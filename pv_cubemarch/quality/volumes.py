@@ -26,7 +26,7 @@ from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..volume.clipping import clip_plane_list
 from .cache import choice_key, lookup, store
 from .calibration import QualityChoice, calibrate
-from .interaction import MOVING_RATE
+from .interaction import KNOBS, MOVING_RATE
 from .ladders import volume_tracks
 from .targets import QualityTarget, parse_quality
 
@@ -249,8 +249,7 @@ def apply_setting(binding, setting: dict) -> None:
     reads them at every frame).
     """
     if "step_scale" in setting:
-        binding.bindings.set_uniform("cm_stepScale", float(setting["step_scale"]))
-        binding.step_scale = float(setting["step_scale"])
+        KNOBS["step"].write(binding, float(setting["step_scale"]))
     else:
         frame = binding.frame
         frame.options = dataclasses.replace(
