@@ -36,6 +36,7 @@ from .models.volume import VolumeModel, checked_transform, with_transfer
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .quality.interaction import attach_frame_budget, check_frame_budget
+from .quality.surfaces import SurfaceCalibration, check_surface_quality
 from .quality.volumes import VolumeCalibration, check_quality_request
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .surfaces.levels import (
@@ -44,6 +45,8 @@ from .surfaces.levels import (
     level_lookup_table,
     surface_levels,
 )
+from .surfaces.options import ROOT as SURFACE_ROOT
+from .surfaces.options import STEPS as SURFACE_STEPS
 from .surfaces.technique import build_translucent_levels
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.binding import VolumeBinding, VolumeData, VolumeSetup
@@ -1301,9 +1304,9 @@ def add_surface(
     scalars: str | None = None,
     *,
     technique: str = "active",
-    steps: int = 500,
+    steps: int | None = None,
     refine_steps: int = 10,
-    root: str = "march",
+    root: str | None = None,
     traversal: str = "index",
     active_test: str = "bernstein",
     active_samples: int = 4,
@@ -1325,6 +1328,8 @@ def add_surface(
     scalar_bar_args: dict | None = None,
     annotations: dict | None = None,
     lighting: bool | None = None,
+    quality=None,
+    frame_budget_ms: float | None = None,
     **kwargs,
 ) -> pyvista.Actor:
     """Draw the implicit surface f = 0 of a field, per pixel, from its cells' polynomials.
@@ -1360,7 +1365,7 @@ def add_surface(
     steps : int
         Samples along the domain's diagonal (in cells); each cell crossed is sampled every
         ``diagonal / steps`` from where the ray enters it and at its exit. More steps miss
-        fewer thin features and grazing hits, at a cost.
+        fewer thin features and grazing hits, at a cost (500 by default).
     refine_steps : int
         Bisections of the first sign change (10 by default): the depth error halves with
         each.
@@ -1439,6 +1444,21 @@ def add_surface(
         Value to label, shown on the scalar bar (as ``add_mesh(annotations=)``).
     lighting : bool, optional
         PyVista's name: ``False`` draws the surface unlit (``shading='unlit'``).
+    quality : float or str, optional
+        An error budget instead of ``steps``: a PSNR in dB (up to 60) against the CPU
+        reference, ``'fast'`` (30), ``'balanced'`` (40), ``'best'`` (50), or ``'exact'``
+        (``root='exact'``: no root missed at any step). The fewest ``steps`` that meet it
+        are chosen by drawing a few from the camera the view will have, at the window's
+        size, in the surface's colour and shading lit by a headlight, and comparing
+        pixels with the reference; ``actor.cubemarch.quality`` says what was chosen and
+        what was tried. Kept per field, look, camera, window size, background and GL
+        renderer; ``actor.cubemarch.recalibrate()`` chooses again for the view then. One
+        opaque surface in one colour; not with ``steps`` or ``root``.
+    frame_budget_ms : float, optional
+        While the view moves, each frame marches the most ``steps`` predicted to stay
+        within this many milliseconds from the last frame's time (which grows with the
+        steps); the first frame after the view stops draws the still ``steps`` again.
+        Nothing is rebuilt. Not with ``root='exact'``.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
 
@@ -1487,6 +1507,9 @@ def add_surface(
                          "one has one colour: pass color_by=, or several isosurfaces "
                          "without color=.")
     color = "white" if color is None else color
+    given = {k: v for k, v in (("steps", steps), ("root", root)) if v is not None}
+    steps = SURFACE_STEPS.default if steps is None else steps
+    root = SURFACE_ROOT.default if root is None else root
     options = chosen.make_options(dict(
         steps=steps, refine_steps=refine_steps, root=root, traversal=traversal,
         active_test=active_test,
@@ -1498,6 +1521,20 @@ def add_surface(
     if colouring == "field" and not isinstance(color_by, str):   # values, not a name
         model = dataclasses.replace(model, color_values=color_values(color_by, model))
     options.check_model(model)
+    if frame_budget_ms is not None:   # refused before anything is drawn or calibrated
+        check_frame_budget(frame_budget_ms, chosen.name, 1)
+        if root == "exact" or quality == "exact":
+            raise ValueError("frame_budget_ms moves a marched surface's steps; root='exact' "
+                             "(or quality='exact') has none: leave one of them out.")
+    calibration = choice = None
+    if quality is not None:
+        target = check_surface_quality(quality, given, options, chosen.name,
+                                       1 if levels is None else len(levels))
+        calibration = SurfaceCalibration(
+            model, chosen.name, target, _surface_look(options), _add_probe_surface,
+            chosen.reference, options=options)
+        choice = calibration.run(plotter, None)
+        options = dataclasses.replace(options, **choice.setting)
     low, high = float(model.coefficients.min()), float(model.coefficients.max())
     if low > 0.0 or high < 0.0:   # the field is a convex combination of its coefficients
         warnings.warn(f"The field has no zero (its coefficients lie in [{low:g}, {high:g}]): "
@@ -1525,6 +1562,13 @@ def add_surface(
         binding = SurfaceLevels(drawn, levels)
     else:
         binding = chosen.build(plotter, model, options)
+        binding.quality = choice
+        if calibration is not None:
+            calibration.follow(binding, plotter)
+        if frame_budget_ms is not None:
+            attach_frame_budget(binding, chosen.name, plotter.ren_win, frame_budget_ms, {
+                m["setting"]["steps"]: m["psnr"] for m in (choice.measured if choice else [])
+                if "steps" in m["setting"]})
         if options.color_by:
             table = pyvista.LookupTable(cmap)
             table.scalar_range = options.color_range(model)
@@ -1541,6 +1585,18 @@ def add_surface(
                          "several isosurfaces without color=.")
     _frame(plotter)
     return actor
+
+
+def _surface_look(options) -> dict:
+    """What a surface's calibration candidates are drawn with besides the rung."""
+    return {name: getattr(options, name) for name in (
+        "refine_steps", "traversal", "active_test", "active_samples", "color", "shading",
+        "ambient", "specular", "specular_power")}
+
+
+def _add_probe_surface(plotter, model, reset_camera=None, render=None, **keywords):
+    """``add_surface`` as calibration draws a candidate (the probe's camera is set after)."""
+    return add_surface(plotter, model, **keywords)
 
 
 def _samples_of(field, scalars):

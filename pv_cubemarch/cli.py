@@ -779,7 +779,9 @@ def _surface_options(scene, args, given: dict) -> None:
     if args.surface_technique is not None:
         flags["technique"] = args.surface_technique
     if not scene.surfaces:
-        for name in [n for n in flags if n not in _shared_with_voxels()]:
+        volume_flags = {o.flag for o in declared("volume")}
+        for name in [n for n in flags if n not in _shared_with_voxels()
+                     and option("surface", n).flag not in volume_flags]:
             _warn(option("surface", name).dest, "this scene (it has no surfaces: give a grid "
                                                 "file --isovalue)")
         return

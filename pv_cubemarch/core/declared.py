@@ -40,6 +40,14 @@ class Control:
     help: str = ""
 
 
+def preset_or_number(word: str):
+    """A flag's word that is a number or a preset's name (opacity, quality)."""
+    try:
+        return float(word)
+    except ValueError:
+        return word
+
+
 @dataclass(frozen=True)
 class Option:
     """One option of ``add_volume``, ``add_voxels`` or ``add_surface``, for every channel.

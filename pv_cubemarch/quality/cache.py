@@ -41,7 +41,7 @@ def choice_key(*parts) -> str:
 
 def _well_formed(entry) -> bool:
     return (isinstance(entry, dict) and isinstance(entry.get("setting"), dict)
-            and all(isinstance(k, str) and isinstance(v, (int, float)) and not
+            and all(isinstance(k, str) and isinstance(v, (int, float, str)) and not
                     isinstance(v, bool) for k, v in entry["setting"].items())
             and isinstance(entry.get("psnr"), (int, float))
             and isinstance(entry.get("met"), bool))

@@ -47,8 +47,14 @@ class QualityChoice:
     traced: int = 0
     cached: bool = False
 
+    @property
+    def setting_text(self) -> str:
+        """The chosen setting as keywords (``step_scale=0.5``, ``root=exact``)."""
+        return ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}"
+                         for k, v in self.setting.items())
+
     def __str__(self) -> str:
-        setting = ", ".join(f"{k}={v:g}" for k, v in self.setting.items())
+        setting = self.setting_text
         how = "from the cache" if self.cached else (
             f"{len(self.measured)} settings tried in {self.seconds:.2f} s")
         verdict = "" if self.met else "; the target is out of reach, the best tried is drawn"
@@ -145,7 +151,8 @@ def search(count: int, psnr_at: Callable[[int], float], goal: float, start: int)
             step = -max(1, int(gap // DB_PER_HALVING)) if math.isfinite(gap) else -count
         else:
             low = index
-            step = max(1, math.ceil((goal - psnr) / DB_PER_HALVING))
+            step = max(1, math.ceil((goal - psnr) / DB_PER_HALVING)) \
+                if math.isfinite(goal - psnr) else count
         if high - low <= 1:
             break
         guess = min(max(index + step, low + 1), high - 1)
@@ -155,19 +162,20 @@ def search(count: int, psnr_at: Callable[[int], float], goal: float, start: int)
 
 def calibrate(tracks: Sequence[Sequence[Rung]], render: Callable[[dict], np.ndarray],
               reference: Callable[[tuple[np.ndarray, np.ndarray]], np.ndarray], camera: Camera,
-              size: Sequence[int], bounds, target: QualityTarget, start: int | None = None
-              ) -> QualityChoice:
+              size: Sequence[int], bounds, target: QualityTarget, start: int | None = None,
+              samples: int = SAMPLES) -> QualityChoice:
     """Keep the cheapest rung whose estimated PSNR meets ``target``, over every track.
 
     ``render(setting)`` draws the whole frame (uint8 ``(h, w, 3)``); ``reference(pixels)``
     traces the sampled pixels on the CPU (floats in [0, 1]). Each track is searched from ``start``
     (its middle by default) as :func:`search` guides; of the tracks' first rungs that meet
-    the target, the one of least cost is kept, else the best measured.
+    the target, the one of least cost is kept, else the best measured. ``samples``: about
+    how many pixels the reference traces.
     """
     began = time.perf_counter()
     size = (int(size[0]), int(size[1]))
     rect = footprint(camera, size, bounds)
-    pixels = sample_pixels(rect)
+    pixels = sample_pixels(rect, samples)
     if not pixels[0].size:
         raise ValueError("quality=: the volume is outside the view, so there is nothing to "
                          "measure; set the camera first (or give the settings themselves).")

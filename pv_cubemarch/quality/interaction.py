@@ -51,6 +51,12 @@ def _write_step(binding, value: float) -> None:
     binding.step_scale = float(value)
 
 
+def _write_steps(binding, value: float) -> None:
+    binding.options = dataclasses.replace(binding.options, steps=int(round(value)))
+    binding.bindings.set_uniform("cm_stepLength",
+                                 binding.options.step_length(binding.model.dimensions))
+
+
 def _write_upscale(binding, value: float) -> None:
     frame = binding.frame
     frame.options = dataclasses.replace(frame.options, upscale=float(value))
@@ -62,8 +68,13 @@ KNOBS = {
                        lambda b: float(b.step_scale), _write_step),
     "upscale": BudgetKnob("upscale", (8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5), 2.0,
                           lambda b: float(b.frame.options.upscale), _write_upscale),
+    # a surface's samples along the diagonal: time as the samples (finer is larger)
+    "steps": BudgetKnob("steps", (10.0, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0,
+                                  3200.0, 6400.0, 12800.0, 25000.0), -1.0,
+                        lambda b: float(b.options.steps), _write_steps),
 }
-TECHNIQUE_KNOBS = {"vtk": "step", "direct": "step", "cubemap": "upscale"}
+TECHNIQUE_KNOBS = {"vtk": "step", "direct": "step", "cubemap": "upscale", "active": "steps",
+                   "full": "steps"}
 
 
 @dataclass
@@ -113,12 +124,17 @@ class FrameBudget:
     def next_value(self, value: float, ms: float) -> float:
         """The finest value predicted to fit the budget after ``ms`` at ``value``.
 
-        Never finer than the still value; the coarsest when nothing fits.
+        Never finer than the still value; the coarsest when nothing fits. A knob's
+        coarseness is its value, or its inverse where cost grows with it (``power < 0``).
         """
         wanted = value * (ms / (AIM * self.budget_ms)) ** (1.0 / self.knob.power)
-        allowed = [v for v in self.knob.values if v >= self.still]
-        fitting = [v for v in allowed if v >= wanted]
-        return min(fitting) if fitting else max(allowed)
+        sign = 1.0 if self.knob.power > 0 else -1.0
+
+        def coarseness(v: float) -> float:
+            return sign * v
+        allowed = [v for v in self.knob.values if coarseness(v) >= coarseness(self.still)]
+        fitting = [v for v in allowed if coarseness(v) >= coarseness(wanted)]
+        return min(fitting, key=coarseness) if fitting else max(allowed, key=coarseness)
 
     def before_frame(self, *_) -> None:
         """Choose this frame's value, set it, start the clock.
@@ -157,9 +173,9 @@ def check_frame_budget(budget_ms, technique: str, downsample) -> None:
         raise ValueError(f"frame_budget_ms must be a positive number of milliseconds, got "
                          f"{budget_ms!r}.")
     if technique not in TECHNIQUE_KNOBS:
-        raise ValueError(f"frame_budget_ms steers technique='vtk', 'direct' or 'cubemap', not "
-                         f"technique={technique!r}: 'auto' switches between two, whose budgets "
-                         "are set apart; name one.")
+        raise ValueError(f"frame_budget_ms steers a volume's technique='vtk', 'direct' or "
+                         f"'cubemap', or a surface's steps, not technique={technique!r}: 'auto' "
+                         "switches between two, whose budgets are set apart; name one.")
     if int(downsample) != 1:
         raise ValueError(f"frame_budget_ms steers the step of a volume marched at full "
                          f"resolution: give downsample=1 (not {downsample}) with it, or leave "

@@ -21,9 +21,17 @@ class QualityTarget:
     psnr: float
     name: str
 
+    @property
+    def exact(self) -> bool:
+        """Whether the reference itself is asked for (``quality='exact'``)."""
+        return self.name == "exact"
 
-def parse_quality(value) -> QualityTarget:
+
+def parse_quality(value, exact: bool = False) -> QualityTarget:
     """Read ``quality=``: a number of dB in (0, 60], or 'fast', 'balanced', 'best'.
+
+    ``exact``: the technique can draw its reference exactly, so ``'exact'`` is accepted
+    (a target of infinite PSNR).
 
     Raises
     ------
@@ -37,9 +45,11 @@ def parse_quality(value) -> QualityTarget:
         word = value.strip().lower()
         if word in NAMED_TARGETS:
             return QualityTarget(NAMED_TARGETS[word], word)
+        if word == "exact" and exact:
+            return QualityTarget(math.inf, "exact")
         if word == "exact":
             raise ValueError("quality='exact' is for techniques that can draw their reference "
-                             "exactly (voxels); the emission/absorption techniques "
+                             "exactly (voxels, surfaces); the emission/absorption techniques "
                              "approximate an integral: give a PSNR in dB (up to "
                              f"{HIGHEST_TARGET:g}) or one of {', '.join(NAMED_TARGETS)}.")
         try:

@@ -65,7 +65,8 @@ class SurfaceHits:
 def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
                   size: Sequence[int], near: float = 0.0,
                   crop: tuple[int, int, int, int] | None = None,
-                  start: np.ndarray | None = None) -> SurfaceHits:
+                  start: np.ndarray | None = None, pixels: tuple | None = None
+                  ) -> SurfaceHits:
     """The first root of ``field`` along each pixel's ray, within the ``active`` cells.
 
     ``active``: ``(n, 3)`` cells that may hold a zero (e.g.
@@ -73,12 +74,19 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
     others are passed through. ``crop``: ``(x, y, width, height)`` of the pixels to trace.
     ``start``: per traced pixel (``(height, width)``), the distance along its ray from
     which to look (``inf``: not at all), to find the roots after one already found.
+    ``pixels``: ``(rows, columns)`` of the pixels to trace instead (a sample; rows from the
+    top); the hits then have the shape ``(1, n)``.
     """
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
-    x0, y0, w, h = crop if crop is not None else (0, 0, width, height)
-    origins = origins[y0:y0 + h, x0:x0 + w].reshape(-1, 3)
-    directions = directions[y0:y0 + h, x0:x0 + w].reshape(-1, 3)
+    if pixels is not None:
+        rows, columns = _sample(pixels, crop, width, height)
+        origins, directions = origins[rows, columns], directions[rows, columns]
+        h, w = 1, len(rows)
+    else:
+        x0, y0, w, h = crop if crop is not None else (0, 0, width, height)
+        origins = origins[y0:y0 + h, x0:x0 + w].reshape(-1, 3)
+        directions = directions[y0:y0 + h, x0:x0 + w].reshape(-1, 3)
     world_from_index = field.world_from_index()
     index_from_world = np.linalg.inv(world_from_index)
     # Camera-relative: origins are moved to the grid's centre before the inverse is applied.
@@ -154,6 +162,19 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
                        ambiguous.reshape(shape))
 
 
+def _sample(pixels, crop, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """Checked ``(rows, columns)`` of a pixel sample of a ``width`` x ``height`` image."""
+    if crop is not None:
+        raise ValueError("Give crop (a window) or pixels (a sample), not both.")
+    rows, columns = (np.asarray(v, dtype=np.intp).ravel() for v in pixels)
+    if rows.shape != columns.shape or (rows.size and (
+            rows.min() < 0 or rows.max() >= height or columns.min() < 0
+            or columns.max() >= width)):
+        raise ValueError(f"pixels must be rows and columns of equal length inside an image "
+                         f"of {width} x {height}.")
+    return rows, columns
+
+
 def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
                 t0: np.ndarray, t1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per ray, the first ``t`` in ``[t0, t1]`` where the cell's field is zero.
@@ -214,7 +235,11 @@ def _at(beta: np.ndarray, o: np.ndarray, d: np.ndarray, cells: np.ndarray,
     """The cells' fields (Bernstein ``beta``) at ray parameters ``t`` (``(m, k)``: k per ray)."""
     local = np.clip(o[:, None, :] + d[:, None, :] * t[..., None] - cells[:, None, :], 0.0, 1.0)
     bu, bv, bw = (bernstein_basis(local[..., a]) for a in range(3))
-    return np.einsum("mabc,mka,mkb,mkc->mk", beta, bu, bv, bw, optimize=True)
+    # contracted one axis at a time: w (a batched product), then v, then u
+    m, k = t.shape
+    along_w = (beta.reshape(m, 9, 3) @ bw.transpose(0, 2, 1)).reshape(m, 3, 3, k)
+    along_v = (along_w * bv.transpose(0, 2, 1)[:, None, :, :]).sum(axis=2)
+    return (along_v * bu.transpose(0, 2, 1)).sum(axis=1)
 
 
 def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
@@ -226,7 +251,8 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
                    lookup_table: np.ndarray | None = None,
                    clim: Sequence[float] = (0.0, 1.0), opacity: float = 1.0,
                    levels: Sequence[float] | None = None,
-                   level_colors: Sequence[Sequence[float]] | None = None) -> np.ndarray:
+                   level_colors: Sequence[Sequence[float]] | None = None,
+                   pixels: tuple | None = None) -> np.ndarray:
     """Render the surface f = 0: each pixel its first root's (lit) colour, both sides lit.
 
     ``opacity`` below 1: every root along the ray, each covering ``opacity`` of what lies
@@ -238,7 +264,9 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
     lighting as :func:`~pv_cubemarch.reference.shading.blinn_phong`. ``color_by``:
     ``'curvature'`` (the mean curvature at the hit) or ``'field'`` (the field's
     ``color_values`` there) through ``lookup_table`` (``(n, 3)``) over ``clim``, the entry
-    nearest the value's place. Returns ``(height, width, 3)`` float64 RGB.
+    nearest the value's place. Returns ``(height, width, 3)`` float64 RGB; with ``pixels``
+    (``(rows, columns)``, rows from the top: a sample, opaque and one level only) the
+    ``(1, n, 3)`` colours of those pixels.
     """
     if shading not in ("unlit", "flat", "blinn"):
         raise ValueError(f"shading must be 'unlit', 'flat' or 'blinn', got {shading!r}.")
@@ -246,13 +274,18 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
         raise ValueError(f"opacity must lie in [0, 1], got {opacity!r}.")
     width, height = (int(v) for v in size)
     active = active_cells(field)
-    image = np.empty((height, width, 3))
+    if pixels is not None and (opacity < 1.0 or levels is not None):
+        raise ValueError("pixels: a sample is traced for one opaque surface only.")
+    rows, columns = (None, None) if pixels is None else _sample(pixels, None, width, height)
+    image = np.empty((height, width, 3) if pixels is None else (1, len(rows), 3))
     image[...] = np.asarray(background, dtype=np.float64)
 
     def shade(hits: SurfaceHits, colour) -> np.ndarray:
         """The (lit) colour of each hit pixel."""
         hit = hits.hit
         _, directions = camera.rays((width, height))
+        if pixels is not None:
+            directions = directions[rows, columns][None]
         toward_eye = -directions[hit]
         normals = hits.normal[hit]
         normals = np.where(np.sum(normals * toward_eye, axis=1, keepdims=True) < 0,
@@ -270,7 +303,8 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
                                    shading, ambient, specular, specular_power), 0.0, 1.0)
 
     if opacity >= 1.0 and levels is None:
-        hits = trace_surface(field, active, camera, (width, height), near=near)
+        hits = trace_surface(field, active, camera, (width, height), near=near,
+                             pixels=pixels)
         image[hits.hit] = shade(hits, color)
         return image
     # Every root of every level along the ray, sorted by depth and composited front to

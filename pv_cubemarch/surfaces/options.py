@@ -7,7 +7,15 @@ from dataclasses import dataclass
 import numpy as np
 import pyvista
 
-from ..core.declared import AUTO, Control, Option, blinn_terms, declare, scalar_bar_terms
+from ..core.declared import (
+    AUTO,
+    Control,
+    Option,
+    blinn_terms,
+    declare,
+    preset_or_number,
+    scalar_bar_terms,
+)
 from ..models.surface import ACTIVE_TESTS
 
 ROOTS = ("march", "exact")
@@ -33,7 +41,8 @@ MAX_REFINE_STEPS = 40
 ACTIVE = ("active",)
 #: Every option of the surface techniques, declared once (:mod:`pv_cubemarch.core.declared`).
 (TECHNIQUE, STEPS, REFINE_STEPS, ROOT, TRAVERSAL, ACTIVE_TEST, ACTIVE_SAMPLES, COLOR, SHADING,
- AMBIENT, SPECULAR, SPECULAR_POWER, COLOR_BY_OPTION, CMAP, CLIM, OPACITY) = declare(
+ AMBIENT, SPECULAR, SPECULAR_POWER, COLOR_BY_OPTION, CMAP, CLIM, OPACITY, QUALITY,
+ FRAME_BUDGET_MS) = declare(
     Option("technique", "surface", str, "active", "active (only the cells the surface can "
            "cross) or full (every cell)", choices=("active", "full"),
            usd="surfaceTechnique", cli="--surface-technique", control=Control("select")),
@@ -74,6 +83,17 @@ ACTIVE = ("active",)
            "composited front to back, each covering this much (traversal='index')", ACTIVE,
            low=0.0, high=1.0, cli="--surface-opacity", usd="surfaceOpacity",
            control=Control("slider", "opacity", 0.0, 1.0, 0.05)),
+    Option("quality", "surface", str, None, "error budget: the fewest steps whose PSNR "
+           "against the CPU reference meets this many dB, fast / balanced / best (30 / 40 / "
+           "50), or exact (root='exact')", optional=True, parse=preset_or_number,
+           control=Control("select", "quality", choices=(AUTO, "fast", "balanced", "best",
+                                                         "exact"),
+                           help="calibrated against the CPU reference")),
+    Option("frame_budget_ms", "surface", float, None, "while the view moves, the most steps "
+           "keeping frames within this many ms (the still ones when it stops)", low=0.0,
+           closed_low=False, optional=True,
+           control=Control("select", "frame budget (ms)", choices=(AUTO, 16, 33, 66, 100),
+                           help="fewer steps while the view moves")),
 )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("surface"))

@@ -219,8 +219,7 @@ def quality_text(session: TuningSession) -> str:
         choice = getattr(binding, "quality", None)
         budget = getattr(binding, "frame_budget", None)
         if choice is not None:
-            setting = ", ".join(f"{k}={v:g}" for k, v in choice.setting.items())
-            parts.append(f"{name}: quality {choice.target.name}: {setting}, "
+            parts.append(f"{name}: quality {choice.target.name}: {choice.setting_text}, "
                          f"{choice.psnr:.1f} dB estimated")
         if budget is not None and budget.frames:
             last = budget.frames[-1]

@@ -25,7 +25,8 @@ from ..models.group import overlap_groups
 from ..models.surface import SplineField
 from ..models.voxels import VoxelModel, label_legend
 from ..models.world import VoxelWorld
-from ..quality.volumes import PICKED
+from ..quality.surfaces import PICKED as SURFACE_PICKED
+from ..quality.volumes import PICKED as VOLUME_PICKED
 from ..scene.model import Scene
 from ..voxels.paged_labels import PagedLabels
 from .knobs import Knob, surface_knobs, volume_knobs, voxel_knobs
@@ -221,7 +222,8 @@ class TuningSession:
                         else value
                     if kind == "volume":
                         _settle_isosurfaces(item.options, name)
-                        _settle_quality(item.options, name)
+                    if kind in QUALITY_PICKS:
+                        _settle_quality(item.options, name, QUALITY_PICKS[kind])
                 self._add(item)
         except Exception:       # refused (ValueError, or TypeError for a wrong type)
             for item, model, options, shift in done:   # back as it was
@@ -392,20 +394,23 @@ def _fields(options) -> dict:
             if value is not None}
 
 
+#: The settings an error budget chooses, per kind of item.
+QUALITY_PICKS = {"volume": VOLUME_PICKED, "surface": SURFACE_PICKED}
 #: The levels a volume switched to blending='isosurface' gets (three inside its range).
 DEFAULT_ISOSURFACES = 5
 
 
-def _settle_quality(options: dict, changed: str) -> None:
+def _settle_quality(options: dict, changed: str, picked: tuple) -> None:
     """An error budget and the settings it chooses are never set together.
 
-    A quality asked for drops the step, face and samples knobs' values (it chooses them);
-    one of those moved by hand takes the volume back from the budget.
+    A quality asked for drops the ``picked`` knobs' values (it chooses them: a volume's
+    step, face and samples, a surface's steps and root); one of those moved by hand takes
+    the item back from the budget.
     """
     if changed == "quality" and options.get("quality") is not None:
-        for name in PICKED:
+        for name in picked:
             options.pop(name, None)
-    elif changed in PICKED:
+    elif changed in picked:
         options.pop("quality", None)
 
 

@@ -9,7 +9,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..core.declared import AUTO, Control, Option, check_declared, declare, scalar_bar_terms
+from ..core.declared import (
+    AUTO,
+    Control,
+    Option,
+    check_declared,
+    declare,
+    preset_or_number,
+    scalar_bar_terms,
+)
 from ..models.channels import CHANNEL_MIXES
 from ..models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE
 from ..models.volume import INTERPOLATIONS
@@ -37,14 +45,6 @@ def refuse_more_steps(setting: str, steps: float, instead: str) -> None:
 def default_max_samples(model) -> int:
     """Two samples per texel along the cube's diagonal (the direct marcher's default step)."""
     return max(1, 2 * (max(model.dimensions) - 1))
-
-
-def preset_or_number(word: str):
-    """An opacity flag's word: a number (a constant opacity), else a preset's name."""
-    try:
-        return float(word)
-    except ValueError:
-        return word
 
 
 #: Colormaps and opacity presets the live view offers (any name works elsewhere).

@@ -164,7 +164,7 @@ def _surface(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
     options = {option: value for option, value in found.values()}
     try:
         get_technique("surface", options.get("technique", "active")).make_options(
-            {k: v for k, v in options.items() if k != "technique"})
+            {k: v for k, v in options.items() if k in specific_option_names("surface")})
     except ValueError as exc:
         raise options_error(name, found, "surface", exc) from exc
     isovalue = attr(prim, "cubemarch:isovalue")
