@@ -38,6 +38,7 @@ from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .quality.interaction import attach_frame_budget, check_frame_budget
 from .quality.surfaces import SurfaceCalibration, check_surface_quality
 from .quality.volumes import VolumeCalibration, check_quality_request
+from .quality.voxels import VoxelCalibration, check_voxel_quality, refuse_voxel_budget
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .surfaces.levels import (
     SurfaceLevels,
@@ -1010,6 +1011,8 @@ def add_voxels(
     gpu_bytes: int | None = None,
     host_bytes: int | None = None,
     brick_size: int | None = None,
+    quality=None,
+    frame_budget_ms: float | None = None,
     **kwargs,
 ) -> pyvista.Actor:
     """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal).
@@ -1166,6 +1169,17 @@ def add_voxels(
         part: a voxel the cut crosses is drawn on the plane (its label's colour there, as a
         clipped solid shows its inside). ``actor.cubemarch.set_clip_planes`` moves them.
         Grids drawn whole and worlds drawn in chunks alike.
+    quality : float or str, optional
+        An error budget: ``'exact'``, a PSNR in dB, or ``'fast'`` / ``'balanced'`` /
+        ``'best'``. Every target is met by the exact traversal (``traversal='dda'``, no
+        ``lod``): it visits every voxel a ray crosses, and no cheaper approximate setting
+        was measured (``bench voxels``). Its error against the CPU reference is measured
+        on a probe frame of at most 160x120 pixels from the camera the view will have, and
+        reported in ``actor.cubemarch.quality``. A grid drawn whole, ``mode='color'``; not
+        with ``traversal``, ``step_scale`` or ``lod``.
+    frame_budget_ms : float, optional
+        Refused for voxels, saying why: they have no coarser setting measured cheaper, so
+        a moving view has nothing to coarsen.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
     show_edges : bool
@@ -1233,6 +1247,9 @@ def add_voxels(
                          "pyramid, a list of levels) streamed by bricks; this grid is read "
                          "whole (or by chunks: chunk_size=).")
     chosen = get_technique("voxels", "voxels")
+    target = None if quality is None else check_voxel_quality(
+        quality, traversal, step_scale, lod, frame_budget_ms)
+    refuse_voxel_budget(frame_budget_ms)
     options = voxel_options(traversal=traversal, step_scale=step_scale, mip_levels=mip_levels,
                             distance_field=distance_field, mode=mode, shading=shading,
                             ambient=ambient, specular=specular, specular_power=specular_power,
@@ -1272,6 +1289,10 @@ def add_voxels(
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")
     if isinstance(model, VoxelWorld) or chunk_size is not None or not fits_one_texture(
             model.dimensions, model.labels.dtype):
+        if target is not None:
+            raise ValueError("quality= measures one grid drawn whole against the CPU "
+                             "reference; a grid drawn in chunks is drawn by the same exact "
+                             "traversal: leave quality out for it.")
         if proxy is None:   # chunks: no brick shells by default (bench voxel-world)
             options = dataclasses.replace(options, proxy="box")
         if not isinstance(model, VoxelWorld):
@@ -1284,8 +1305,21 @@ def add_voxels(
             warnings.warn(f"world_traversal={world_traversal!r} is for grids drawn in chunks; "
                           f"this grid of {tuple(model.dimensions)} voxels is drawn whole (give "
                           "chunk_size= to draw it in chunks).", stacklevel=2)
+        calibration = choice = None
+        if target is not None:
+            if options.mode != "color":
+                raise ValueError(f"quality= measures the colours a grid is drawn in; mode="
+                                 f"{options.mode!r} draws none: leave one of them out.")
+            calibration = VoxelCalibration(model, "voxels", target, _voxel_look(options),
+                                           _probe_adder(add_voxels, False),
+                                           chosen.reference,
+                                           look=_voxel_reference_look(options))
+            choice = calibration.run(plotter, None)
         component = plotter.cubemarch
         binding = chosen.build(plotter, model, options)
+        binding.quality = choice
+        if calibration is not None:
+            calibration.follow(binding, plotter)
         if not binding.composites:
             binding.opaque_because = _opaque_because(options)
             binding.say_drawn_opaque()
@@ -1531,7 +1565,7 @@ def add_surface(
         target = check_surface_quality(quality, given, options, chosen.name,
                                        1 if levels is None else len(levels))
         calibration = SurfaceCalibration(
-            model, chosen.name, target, _surface_look(options), _add_probe_surface,
+            model, chosen.name, target, _surface_look(options), _probe_adder(add_surface),
             chosen.reference, options=options)
         choice = calibration.run(plotter, None)
         options = dataclasses.replace(options, **choice.setting)
@@ -1594,9 +1628,35 @@ def _surface_look(options) -> dict:
         "ambient", "specular", "specular_power")}
 
 
-def _add_probe_surface(plotter, model, reset_camera=None, render=None, **keywords):
-    """``add_surface`` as calibration draws a candidate (the probe's camera is set after)."""
-    return add_surface(plotter, model, **keywords)
+def _probe_adder(add, technique: bool = True):
+    """``add`` as calibration draws a candidate (the probe's camera is set after).
+
+    ``technique``: whether ``add`` takes one (``add_voxels`` has one only).
+    """
+    def draw(plotter, model, reset_camera=None, render=None, **keywords):
+        if not technique:
+            keywords.pop("technique", None)
+        return add(plotter, model, **keywords)
+    return draw
+
+
+def _voxel_look(options) -> dict:
+    """What a voxel grid's probe is drawn with: its options but the traversal's."""
+    return {f.name: getattr(options, f.name) for f in dataclasses.fields(options)
+            if f.name not in ("traversal", "step_scale", "lod", "lod_bias",
+                              "world_traversal")}
+
+
+def _voxel_reference_look(options) -> dict:
+    """The voxel reference's keywords for the grid's look."""
+    look = {name: getattr(options, name) for name in (
+        "shading", "ambient", "specular", "specular_power", "ambient_occlusion",
+        "occlusion_strength", "show_edges", "edge_mode")}
+    look["clip_planes"] = options.world_planes or None
+    if options.show_edges:
+        color, half_width, opacity = options.edge_style
+        look.update(edge_color=color, line_width=2.0 * half_width, edge_opacity=opacity)
+    return look
 
 
 def _samples_of(field, scalars):

@@ -47,6 +47,7 @@ from .scene.model import camera_for_bounds
 from .views.app import WINDOW_MODES, serve
 from .views.cluster_view import ClusterDisplay, serve_cluster
 from .volume.binding import BLEND_MODES
+from .voxels.options import CALL_ONLY as VOXEL_CALL_ONLY
 from .voxels.options import VoxelOptions
 
 
@@ -669,7 +670,7 @@ def _render(args) -> int:
     given = {**given_options(args, "volume"), **given_options(args, "voxels")}
     if given.get("lights") == "none":
         given["lights"] = None
-    reads = {f.name for f in dataclasses.fields(VoxelOptions)}
+    reads = {f.name for f in dataclasses.fields(VoxelOptions)} | set(VOXEL_CALL_ONLY)
     other = [name for name in given if name not in reads]
     if as_voxels and other:   # the user asked for both: refused before loading anything
         flags = ", ".join(f"--{name.replace('_', '-')}" for name in other)
@@ -796,7 +797,7 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
     the others); otherwise one a grid does not read is left out for it, with a warning
     (``--step-scale`` is read only with the fixed traversal).
     """
-    reads = {f.name for f in dataclasses.fields(VoxelOptions)}
+    reads = {f.name for f in dataclasses.fields(VoxelOptions)} | set(VOXEL_CALL_ONLY)
     voxel_only = reads - {o.name for o in declared("volume")}
     if not scene.voxels:
         surfaces_read = _shared_with_voxels() if scene.surfaces else set()

@@ -16,12 +16,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+import pyvista
 from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkRenderingCore import vtkCamera
 
 from ..core.camera import Camera
 from ..core.frame_errors import observe
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
+from ..models.lights import VolumeLight
 from .cache import choice_key, lookup, store
 from .calibration import SAMPLES, QualityChoice, calibrate
 from .interaction import MOVING_RATE
@@ -123,6 +125,7 @@ class ProbeCalibration:
     reference: Callable
     view: tuple | None = None
     warned: bool = False
+    probe: object = None
     #: The ``add_*`` the prop comes from (messages and the cache's key).
     kind = "volume"
     #: About how many pixels of the footprint the reference traces.
@@ -155,6 +158,22 @@ class ProbeCalibration:
     def prepare(self, probe) -> None:
         """Set up the probe plotter before the first candidate (lights ...)."""
 
+    def probe_size(self, size: tuple[int, int]) -> tuple[int, int]:
+        """The probe's size for a window of ``size`` (the window's own by default)."""
+        return size
+
+    def light_by_headlight(self, probe, shading: str) -> None:
+        """Light a lit look by one headlight on the probe (placed as VTK places it)."""
+        if shading != "unlit":
+            probe.remove_all_lights()
+            probe.add_light(pyvista.Light(light_type="headlight"))
+        self.probe = probe
+
+    def probe_lights(self) -> list:
+        """The probe's lights as the references take them, placed for its camera now."""
+        return [VolumeLight.from_pyvista(light, self.probe.camera)
+                for light in self.probe.renderer.GetLights()]
+
     def settle(self, choice: QualityChoice) -> QualityChoice:
         """The choice as reported (a technique may know more than the estimate)."""
         return choice
@@ -162,7 +181,7 @@ class ProbeCalibration:
     def run(self, plotter, reset_camera: bool | None) -> QualityChoice:
         """Choose the rung for the view the plotter will have (cached per view)."""
         camera = camera_once_added(plotter, self.bounds(), reset_camera)
-        size = tuple(int(v) for v in plotter.window_size)
+        size = self.probe_size(tuple(int(v) for v in plotter.window_size))
         background = tuple(float(c) for c in plotter.background_color.float_rgb)
         self.view = (view_key(camera), size, background)
         return self._choose(camera, size, background)
@@ -251,7 +270,7 @@ class ProbeCalibration:
         """Choose again for the plotter's view now, and draw with the new choice."""
         camera = Camera.from_pyvista(plotter.renderer.camera)
         view = self.current_view(plotter)
-        choice = self._choose(camera, view[1], view[2])
+        choice = self._choose(camera, self.probe_size(view[1]), view[2])
         self.view, self.warned = view, False
         self.apply(binding, choice.setting)
         binding.quality = choice

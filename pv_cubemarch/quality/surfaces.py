@@ -14,9 +14,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-import pyvista
 
-from ..models.lights import VolumeLight
 from ..models.surface import active_cells
 from ..surfaces.options import LOOP_BUDGET, MAX_STEPS, SurfaceOptions
 from .interaction import KNOBS
@@ -74,7 +72,6 @@ class SurfaceCalibration(ProbeCalibration):
     """
 
     options: SurfaceOptions | None = None
-    probe: object = None
     kind = "surface"
     #: A marched surface errs at few pixels (a thin feature missed), which a sparse
     #: sample sees by chance (3.8 dB off at 4096 of 25,000 pixels): the reference traces
@@ -105,17 +102,12 @@ class SurfaceCalibration(ProbeCalibration):
         return np.column_stack([world[:, :3].min(axis=0), world[:, :3].max(axis=0)]).ravel()
 
     def prepare(self, probe) -> None:
-        if self.options.shading != "unlit":   # one light, placed as VTK places it
-            probe.remove_all_lights()
-            probe.add_light(pyvista.Light(light_type="headlight"))
-        self.probe = probe
+        self.light_by_headlight(probe, self.options.shading)
 
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
         options = self.options
-        lights = [VolumeLight.from_pyvista(light, self.probe.camera)
-                  for light in self.probe.renderer.GetLights()]
         return self.reference(self.model, camera, size, color=options.rgb,
-                              background=background, near=near, lights=lights,
+                              background=background, near=near, lights=self.probe_lights(),
                               shading=options.shading, ambient=options.ambient,
                               specular=options.specular,
                               specular_power=options.specular_power, pixels=pixels)

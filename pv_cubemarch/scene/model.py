@@ -180,7 +180,8 @@ class Scene:
         groups = overlap_groups([v for v in self.volumes if not is_channels(v)]) + [
             [v] for v in self.volumes if is_channels(v)]
         if any(o.get("quality") is not None for o in (*self.volume_options.values(),
-                                                       *self.surface_options.values())):
+                                                       *self.surface_options.values(),
+                                                       *self.voxel_options.values())):
             # quality= calibrates on the view: the scene's camera must be in place first
             self._apply_camera(plotter, camera)
             plotter.camera_set = True

@@ -395,7 +395,8 @@ def _fields(options) -> dict:
 
 
 #: The settings an error budget chooses, per kind of item.
-QUALITY_PICKS = {"volume": VOLUME_PICKED, "surface": SURFACE_PICKED}
+QUALITY_PICKS = {"volume": VOLUME_PICKED, "surface": SURFACE_PICKED,
+                 "voxels": ("traversal", "step_scale", "lod", "lod_bias")}
 #: The levels a volume switched to blending='isosurface' gets (three inside its range).
 DEFAULT_ISOSURFACES = 5
 

@@ -15,6 +15,7 @@ from ..core.declared import (
     check_declared,
     declare,
     option,
+    preset_or_number,
     scalar_bar_terms,
 )
 from ..core.gl_limits import MAX_TEXTURE_SIZE
@@ -46,7 +47,7 @@ PAGED_LABELS_ONLY = dict.fromkeys(
 (TRAVERSAL, VOXEL_STEP_SCALE, MIP_LEVELS, DISTANCE_FIELD, MODE, SHADING, AMBIENT, SPECULAR,
  SPECULAR_POWER, AMBIENT_OCCLUSION, OCCLUSION_STRENGTH, PROXY, LOD, LOD_BIAS,
  WORLD_TRAVERSAL, SHOW_EDGES, EDGE_COLOR, LINE_WIDTH, EDGE_OPACITY, EDGE_MODE,
- CLIP_PLANES, GPU_BYTES, HOST_BYTES, BRICK_SIZE) = declare(
+ CLIP_PLANES, GPU_BYTES, HOST_BYTES, BRICK_SIZE, QUALITY) = declare(
     Option("traversal", "voxels", str, "dda", "dda (exact: every voxel a ray crosses) or "
            "fixed steps (may miss thin voxels)", choices=TRAVERSALS,
            control=Control("select", help="dda is exact; fixed steps may miss thin voxels")),
@@ -113,7 +114,16 @@ PAGED_LABELS_ONLY = dict.fromkeys(
     Option("brick_size", "voxels", int, None, "voxels along a brick's edge (32 by default)",
            low=1, high=1024, optional=True, model=True, usd=None, cli=None,
            without=PAGED_LABELS_ONLY),
+    # Read by add_voxels itself, not the technique (quality/voxels.py).
+    Option("quality", "voxels", str, None, "error budget: exact (the DDA, its error "
+           "measured and reported), a PSNR in dB, or fast / balanced / best",
+           optional=True, parse=preset_or_number,
+           control=Control("select", "quality", choices=(AUTO, "exact", "fast", "balanced",
+                                                         "best"),
+                           help="measured against the CPU reference")),
 )
+#: Options add_voxels reads itself: no technique's options hold them.
+CALL_ONLY = ("quality",)
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("voxels"))
 #: VTK draws a surface's edges at least this wide (pixels), whatever smaller line_width is

@@ -18,6 +18,7 @@ from ...models.channels import make_data_model
 from ...models.field_sources import make_field
 from ...models.voxels import Palette, make_voxels
 from ...volume.options import CommonVolumeOptions
+from ...voxels.options import CALL_ONLY as VOXEL_CALL_ONLY
 from ..grids import placement, read_grid
 from ..voxel_worlds import ChunkPrim
 from .attributes import (
@@ -117,7 +118,7 @@ def _voxels(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
     found = authored(prim, name, VOXEL_OPTIONS)
     options = {option: value for option, value in found.values()}
     try:
-        voxel_options(**options)
+        voxel_options(**{k: v for k, v in options.items() if k not in VOXEL_CALL_ONLY})
     except ValueError as exc:
         raise options_error(name, found, "voxel", exc) from exc
     if not isinstance(grid, pyvista.ImageData):

@@ -1,0 +1,169 @@
+"""``add_voxels(..., quality=)``: every target is met by the exact traversal, whose error
+against the CPU reference is measured and reported (and reported as missed when the
+drawing and the reference differ); refusals; the CLI, USD and live-view channels.
+
+Labels are uint16 ids in the thousands on an anisotropic grid far from the origin. The
+oracle is the CPU voxel reference, which imports nothing of the renderer, traced over the
+whole frame at the camera, near plane, background and lights the plotter really has.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import pyvista
+
+import pv_cubemarch
+from pv_cubemarch.core.camera import Camera
+from pv_cubemarch.core.rendering import offscreen_plotter, read_pixels, render_frame
+from pv_cubemarch.image_metrics import compare_images
+from pv_cubemarch.models.lights import VolumeLight
+from pv_cubemarch.quality import cache
+from pv_cubemarch.reference.voxels import render_voxels
+
+SIZE = (240, 180)
+PLANE = [(-95.0, 30.0, 12.0, 1.0, 0.3, -0.2)]   # a point inside the grid, the normal kept
+
+
+@pytest.fixture(autouse=True)
+def _own_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path / "cache"))
+    cache.forget()
+    yield
+    cache.forget()
+
+
+@pytest.fixture(scope="module")
+def cells():
+    rng = np.random.default_rng(11)
+    shape = (28, 20, 14)
+    ids = np.where(rng.random(shape) < 0.3, rng.choice([1200, 7000, 40000], shape),
+                   0).astype(np.uint16)
+    grid = pyvista.ImageData(dimensions=np.add(shape, 1), spacing=(0.6, 0.8, 1.1),
+                             origin=(-100.0, 25.0, 5.0))
+    grid.cell_data["cell_id"] = ids.ravel(order="F")
+    return grid
+
+
+def _plotter():
+    plotter = offscreen_plotter(SIZE)
+    plotter.ren_win.SetMultiSamples(0)
+    plotter.remove_all_lights()
+    plotter.add_light(pyvista.Light(light_type="headlight"))
+    return plotter
+
+
+def _whole_frame_psnr(plotter, actor, **look) -> float:
+    render_frame(plotter)
+    model = actor.cubemarch.model
+    lights = [VolumeLight.from_pyvista(light, plotter.camera)
+              for light in plotter.renderer.GetLights()]
+    expected = render_voxels(model.labels, model.world_from_index(), model.palette.rgba,
+                             Camera.from_pyvista(plotter.camera), SIZE,
+                             background=plotter.background_color.float_rgb,
+                             near=plotter.camera.clipping_range[0], lights=lights, **look)
+    return compare_images(read_pixels(plotter), expected).psnr
+
+
+@pytest.mark.parametrize("quality", ["exact", 40.0])
+def test_every_target_gets_the_dda_with_its_error_measured(cells, quality):
+    # the probe's estimate and the whole frame both see the reference drawn, clip planes,
+    # edges and lights included
+    # catches (seen failing): the clip planes left out of the reference's look (the
+    # estimate 14 dB: the cut-away voxels traced)
+    plotter = _plotter()
+    actor = pv_cubemarch.add_voxels(plotter, cells, quality=quality, show_edges=True,
+                                    clip_planes=PLANE)
+    choice = actor.cubemarch.quality
+    assert choice.setting == {"traversal": "dda"} and choice.met
+    assert choice.psnr >= 45.0, choice
+    assert 1000 < choice.traced <= 160 * 120
+    edge = pyvista.Color(pyvista.global_theme.edge_color).float_rgb
+    measured = _whole_frame_psnr(plotter, actor, show_edges=True, edge_color=edge,
+                                 line_width=1.1, shading="blinn",
+                                 clip_planes=[((-95.0, 30.0, 12.0), (1.0, 0.3, -0.2))])
+    assert measured >= 45.0
+    plotter.close()
+
+
+def test_a_drawing_that_differs_from_the_reference_is_reported_as_missed(cells,
+                                                                          monkeypatch):
+    # the report is a measurement, not a promise: a reference traced without the probe's
+    # light (as a driver drawing wrong would differ) misses the target, with a warning
+    # catches (seen failing): met set for any target (not only 'exact')
+    from pv_cubemarch.quality.voxels import VoxelCalibration
+    monkeypatch.setattr(VoxelCalibration, "probe_lights", lambda self: [])
+    plotter = offscreen_plotter(SIZE)
+    with pytest.warns(UserWarning, match="no 'voxels' setting reaches 40 dB"):
+        actor = pv_cubemarch.add_voxels(plotter, cells, quality=40)
+    choice = actor.cubemarch.quality
+    assert not choice.met and choice.psnr < 40.0
+    plotter.close()
+
+
+@pytest.mark.parametrize("keywords, words", [
+    ({"traversal": "fixed"}, "leave traversal, step_scale and lod out"),
+    ({"lod": True}, "leave traversal, step_scale and lod out"),
+    ({"frame_budget_ms": 30}, "nothing to coarsen"),
+    ({"mode": "id"}, "draws none"),
+    ({"chunk_size": 8}, "drawn in chunks"),
+    ({"quality": "perfect"}, "not a target"),
+])
+def test_what_voxel_quality_cannot_take_is_refused_by_name(cells, keywords, words):
+    plotter = offscreen_plotter((80, 60))
+    with pytest.raises(ValueError, match=words):
+        pv_cubemarch.add_voxels(plotter, cells, **{"quality": "exact", **keywords})
+    assert not plotter.renderer.actors
+    plotter.close()
+
+
+def test_a_budget_alone_is_refused_for_voxels(cells):
+    plotter = offscreen_plotter((80, 60))
+    with pytest.raises(ValueError, match="nothing to coarsen"):
+        pv_cubemarch.add_voxels(plotter, cells, frame_budget_ms=30)
+    plotter.close()
+
+
+def _stored_settings() -> list[dict]:
+    return [entry["setting"] for entry in json.loads(cache.cache_file().read_text()).values()]
+
+
+def test_the_cli_and_usd_ask_voxels_for_quality(cells, tmp_path, capsys):
+    # catches (seen failing): --quality taken as no voxel option (refused with
+    # --technique voxels); the USD attribute checked as a technique's option (the stage
+    # refused)
+    from conftest import write_voxel_stage
+
+    from pv_cubemarch.cli import main
+    path = tmp_path / "cells.vti"
+    cells.save(path)
+    out = tmp_path / "q.png"
+    assert main(["render", str(path), "--technique", "voxels", "--quality", "exact",
+                 "--size", "96x72", "--no-progress", "-o", str(out)]) == 0
+    assert "does not apply" not in capsys.readouterr().err
+    assert _stored_settings() == [{"traversal": "dda"}]
+    stage = write_voxel_stage(tmp_path, np.asarray(cells.cell_data["cell_id"]).reshape(
+        (28, 20, 14), order="F"), attrs={"cubemarch:quality": ("String", "exact")})
+    scene = pv_cubemarch.load_scene(stage, strict=True)
+    (options,) = scene.voxel_options.values()
+    assert options["quality"] == "exact"
+    plotter = offscreen_plotter((96, 72))
+    actors = scene.add_to(plotter)
+    (actor,) = actors.values()
+    assert actor.cubemarch.quality.met
+    plotter.close()
+
+
+def test_the_live_view_asks_voxels_for_quality(cells):
+    from pv_cubemarch.views.app import quality_text
+    from pv_cubemarch.views.session import TuningSession
+    plotter = offscreen_plotter((96, 72))
+    pv_cubemarch.add_voxels(plotter, cells, traversal="fixed", step_scale=0.25)
+    session = TuningSession.from_plotter(plotter)
+    assert "quality" in [knob.name for knob in session.knobs("voxels")]
+    # catches (seen failing): the session's fixed traversal handed on with the quality
+    session.set("voxels", "quality", "exact")
+    assert "quality exact: traversal=dda" in quality_text(session)
+    plotter.close()
