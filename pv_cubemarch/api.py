@@ -37,7 +37,7 @@ from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .quality.interaction import attach_frame_budget, check_frame_budget
 from .quality.surfaces import SurfaceCalibration, check_surface_quality
-from .quality.volumes import VolumeCalibration, check_quality_request
+from .quality.volumes import check_quality_request, volume_calibration
 from .quality.voxels import VoxelCalibration, check_voxel_quality, refuse_voxel_budget
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .surfaces.levels import (
@@ -231,8 +231,10 @@ def add_volume(
         size, background, clip planes and GL renderer (in ``~/.cache/pv_cubemarch``, or
         ``PV_CUBEMARCH_CACHE_DIR``). A still frame drawn from another view than the one
         calibrated warns once; ``actor.cubemarch.recalibrate()`` chooses for the view
-        then (set the camera before adding to avoid it). One unlit scalar volume with
-        ``blending='composite'``; not with the settings it chooses, nor a crop box.
+        then (set the camera before adding to avoid it). ``'auto'``: both of its paths
+        are calibrated apart (the step and the face), so either meets the target. One
+        unlit scalar volume with ``blending='composite'``; not with the settings it
+        chooses, nor a crop box.
     frame_budget_ms : float, optional
         ``'vtk'``, ``'direct'`` (at ``downsample=1``) and ``'cubemap'``: while the view
         moves (VTK's interactors, the live view's mouse), each frame takes the finest step
@@ -497,12 +499,12 @@ def add_volume(
             quality, given, blending, shade, lights,
             isinstance(model, VolumeModel) and model.colors is None and not is_channels(model),
             crop_box, average_range)
-        calibration = VolumeCalibration(
+        calibration = volume_calibration(
             model, chosen.name, target,
             {"stop_opacity": stop_opacity, "skip_empty": skip_empty,
              "clip_planes": clip_planes,
              **{k: given[k] for k in ("downsample", "upscale", "occlusion_sharpness")
-                if k in given}}, add_volume, chosen.reference)
+                if k in given}}, add_volume)
         choice = calibration.run(plotter, reset_camera)
         given = {**given, **choice.setting}
         options = chosen.make_options(given)

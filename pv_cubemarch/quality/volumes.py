@@ -12,7 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.registry import get_technique
 from ..volume.clipping import clip_plane_list
+from .calibration import QualityChoice
 from .interaction import KNOBS
 from .ladders import volume_tracks
 from .probe import ProbeCalibration
@@ -92,3 +94,60 @@ def apply_setting(binding, setting: dict) -> None:
         frame.options = dataclasses.replace(
             frame.options, face_size=int(setting["face_size"]),
             sample_factor=float(setting.get("sample_factor", 1.0)))
+
+
+@dataclass
+class AutoCalibration:
+    """``quality=`` of ``technique='auto'``: its two paths calibrated apart.
+
+    Each frame draws the cube map or the direct marcher; each meeting the target on its
+    own, whichever a frame draws meets it. The choice reported holds both settings, the
+    lower estimate, and what both tried.
+    """
+
+    direct: VolumeCalibration
+    cubemap: VolumeCalibration
+
+    def run(self, plotter, reset_camera: bool | None) -> QualityChoice:
+        """Choose both paths' rungs for the view the plotter will have."""
+        return merged(self.direct.run(plotter, reset_camera),
+                      self.cubemap.run(plotter, reset_camera))
+
+    def follow(self, binding, plotter) -> None:
+        """Warn once when the view changes; ``recalibrate()`` chooses both again."""
+        self.direct.follow(binding, plotter)
+        binding.recalibrate = lambda: self.recalibrate(binding, plotter)
+
+    def recalibrate(self, binding, plotter) -> QualityChoice:
+        """Choose again for the plotter's view now, each path drawing its new rung."""
+        choice = merged(self.direct.recalibrate(binding.direct, plotter),
+                        self.cubemap.recalibrate(binding.cubemap, plotter))
+        self.direct.warned = False
+        binding.quality = choice
+        return choice
+
+
+def merged(direct: QualityChoice, cubemap: QualityChoice) -> QualityChoice:
+    """One report of both paths' choices."""
+    return QualityChoice(direct.target, {**direct.setting, **cubemap.setting},
+                         min(direct.psnr, cubemap.psnr), direct.met and cubemap.met,
+                         direct.measured + cubemap.measured, direct.seconds + cubemap.seconds,
+                         direct.size, direct.traced + cubemap.traced,
+                         direct.cached and cubemap.cached)
+
+
+def volume_calibration(model, technique: str, target: QualityTarget, keep: dict, add
+                       ) -> VolumeCalibration | AutoCalibration:
+    """The calibration of ``technique`` (both paths of 'auto').
+
+    Each path is drawn with the kept options it reads (the direct marcher no ``upscale``).
+    """
+    def one(name: str) -> VolumeCalibration:
+        reads = set(get_technique("volume", name).option_names) | {
+            "stop_opacity", "skip_empty", "clip_planes"}
+        return VolumeCalibration(model, name, target,
+                                 {k: v for k, v in keep.items() if k in reads}, add,
+                                 get_technique("volume", name).reference)
+    if technique == "auto":
+        return AutoCalibration(one("direct"), one("cubemap"))
+    return one(technique)

@@ -199,7 +199,8 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
                without={"knob": NO_KNOB_UNITS}),
         Option("quality", "volume", str, None, "error budget: the cheapest step (or cube-map "
                "face) whose PSNR against the CPU reference meets this many dB, or fast / "
-               "balanced / best (30 / 40 / 50)", ("vtk", "direct", "cubemap"), optional=True,
+               "balanced / best (30 / 40 / 50)", ("vtk", "direct", "cubemap", "auto"),
+               optional=True,
                parse=preset_or_number,
                control=Control("select", "quality", choices=(AUTO, "fast", "balanced", "best"),
                                help="calibrated against the CPU reference")),
