@@ -57,11 +57,13 @@ from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cub
 from .volume.gradient_shading import gradient_shading
 from .volume.light_map import LightMap
 from .volume.options import (
+    CUBE_MAPS,
     DEFAULT_STOP_OPACITY,
     INTERPOLATION,
     CommonVolumeOptions,
     CubeMapOptions,
     DirectOptions,
+    fitting_face_size,
 )
 from .volume.paged import (
     PagedData,
@@ -259,10 +261,12 @@ def add_volume(
         resolution in each direction (1, 2, 4 ...) and upsample with a depth-aware filter,
         so edges against meshes stay sharp. Cost falls about as ``1 / downsample**2``.
     face_size : int, optional
-        ``'cubemap'`` and ``'auto'`` (256 by default): the largest cube-map face, in texels
-        per edge (a power of two, the size at MIP level 0). Caps the marching cost at ``6 *
-        face_size**2`` rays; a volume far away uses a smaller level. Larger is sharper when
-        the volume fills a big viewport.
+        ``'cubemap'`` and ``'auto'``: the largest cube-map face, in texels per edge (a
+        power of two, the size at MIP level 0). By default twice the grid's longest axis
+        rounded up to a power of two, from 32 to 256: a finer face adds no detail of the
+        data (``bench dial``). Caps the marching cost at ``6 * face_size**2`` rays; a
+        volume far away uses a smaller level. Larger is sharper when the volume fills a
+        big viewport.
     max_samples : int, optional
         ``'cubemap'`` and ``'auto'``: most samples along a ray crossing the whole box
         diagonally; shorter rays take proportionally fewer. Cost grows linearly with it. By
@@ -485,9 +489,13 @@ def add_volume(
                                  log_scale=log_scale, categories=categories),
                             transform=transform, nan_policy=nan_policy,
                             name=name or "volume", interpolation=interpolation or "linear")
+    if quality is None and "face_size" not in given and chosen.name in CUBE_MAPS \
+            and hasattr(model, "dimensions"):
+        given["face_size"] = fitting_face_size(model.dimensions)   # no finer than the data
+        options = chosen.make_options(given)
     if is_channels(model) and not chosen.groups:
         chosen = get_technique("volume", "direct")   # VTK's mapper marches one texture
-        options = chosen.make_options(given)
+        options = chosen.make_options({k: v for k, v in given.items() if k != "face_size"})
     if isinstance(model, VolumeGroup) and not chosen.groups:
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")

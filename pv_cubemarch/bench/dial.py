@@ -1,8 +1,9 @@
 """``pv-cubemarch bench dial``: whether ``quality=`` picks the cheapest setting meeting it.
 
 Per scene and technique, in one run: every rung of the technique's ladder drawn from the
-same camera and timed side by side (the sweep, with its Pareto front), each measured over
-the whole frame against the CPU reference; then ``add_volume(quality=target)`` for each
+same camera and timed side by side with the technique's default (the sweep, with its
+Pareto front: whether the default sits on it), each measured over the whole frame against
+the CPU reference; then ``add_volume(quality=target)`` for each
 target, calibrated afresh (no cache): the setting it chose, that setting's measured error,
 its time against the cheapest rung of the sweep that meets the target, and how long the
 calibration took.
@@ -27,6 +28,7 @@ from ..image_metrics import compare_images
 from ..quality import cache
 from ..quality.ladders import volume_ladder
 from ..reference.emission_absorption import render_emission_absorption
+from ..volume.options import STEP_SCALE, fitting_face_size
 from .harness import time_frames_side_by_side
 from .sort_last import phantom
 
@@ -151,9 +153,9 @@ def _one(name, grid, look, technique, size, frames, targets, folder):
     ladder = volume_ladder(technique, grid.dimensions)
     plotters = {}
     try:
-        for index, rung in enumerate(ladder):
+        for index, setting in [*enumerate(r.setting for r in ladder), ("default", {})]:
             plotters[index] = plotter = _plotter(size)
-            actor = add_volume(plotter, grid, technique=technique, **look, **rung.setting)
+            actor = add_volume(plotter, grid, technique=technique, **look, **setting)
             if index == 0:
                 camera = Camera.from_pyvista(plotter.camera)
                 model = actor.cubemarch.model
@@ -168,9 +170,12 @@ def _one(name, grid, look, technique, size, frames, targets, folder):
             plotter.close()
     rows = [SweepRow(name, technique, _label(rung.setting), float(np.median(times[i])),
                      psnrs[i]) for i, rung in enumerate(ladder)]
-    for row in rows:
+    default = SweepRow(name, technique, f"default ({_label(_default_setting(technique, grid))})",
+                       float(np.median(times["default"])), psnrs["default"])
+    for row in [*rows, default]:
         row.pareto = not any(o.median_ms <= row.median_ms and o.psnr >= row.psnr and
-                             (o.median_ms < row.median_ms or o.psnr > row.psnr) for o in rows)
+                             (o.median_ms < row.median_ms or o.psnr > row.psnr)
+                             for o in [*rows, default])
     dials = []
     for target in targets:
         cache.forget()
@@ -191,7 +196,14 @@ def _one(name, grid, look, technique, size, frames, targets, folder):
                              None if cheapest is None else cheapest.setting,
                              None if cheapest is None else
                              rows[chosen].median_ms / cheapest.median_ms, choice.seconds))
-    return rows, dials
+    return [*rows, default], dials
+
+
+def _default_setting(technique: str, grid) -> dict:
+    """What ``add_volume`` draws ``technique`` with when no setting is given."""
+    if technique == "cubemap":
+        return {"face_size": fitting_face_size(grid.dimensions)}
+    return {"step_scale": STEP_SCALE.default}
 
 
 class _FreshCache:
