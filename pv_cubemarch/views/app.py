@@ -140,7 +140,8 @@ def refine_step(server, session: TuningSession) -> bool:
     """Redraw the page's image while streamed bricks arrive; True while some are missing.
 
     The streaming line follows each redraw (resident, missing, reading bricks, bytes read),
-    and the quality line the last frame (a drag's frames are drawn by the view itself).
+    and the quality line and the frame time the last frame (a drag's frames are drawn by
+    the view itself).
     """
     plotter = session.plotter
     streaming = any(getattr(b, "shown", True) and not b.converged
@@ -152,9 +153,11 @@ def refine_step(server, session: TuningSession) -> bool:
         with server.state as state:
             state.streaming = text
     quality = quality_text(session)   # a drag's frames: their time, setting and estimate
-    if quality != server.state.quality_text:
+    frame = round(session.window_frame_ms or session.last_frame_ms or 0.0, 1)
+    if quality != server.state.quality_text or frame != server.state.frame_ms:
         with server.state as state:
             state.quality_text = quality
+            state.frame_ms = frame
     return streaming
 
 

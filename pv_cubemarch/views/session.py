@@ -13,11 +13,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pyvista
+from vtkmodules.vtkCommonCore import vtkCommand
 
 from ..api import add_surface, add_volume, add_voxels
 from ..bench.harness import opaque_layer
 from ..core.camera import Camera
 from ..core.declared import declared
+from ..core.frame_errors import observe
 from ..core.registry import get_technique, specific_option_names, techniques
 from ..core.rendering import render_image
 from ..image_metrics import compare_images
@@ -82,6 +84,23 @@ class TuningSession:
         self.level_shift = 0.0
         #: Milliseconds of the last frame drawn (after the last change).
         self.last_frame_ms: float | None = None
+        #: Milliseconds of the last frame the window drew, whoever asked for it (a drag's
+        #: frames are drawn by the view itself); nested renders count with their frame.
+        self.window_frame_ms: float | None = None
+        self._frame_depth, self._frame_started = 0, 0.0
+        window = plotter.ren_win
+        observe(window, vtkCommand.StartEvent, self._frame_begins)
+        observe(window, vtkCommand.EndEvent, self._frame_ends, -10.0)
+
+    def _frame_begins(self, *_) -> None:
+        self._frame_depth += 1
+        if self._frame_depth == 1:
+            self._frame_started = time.perf_counter()
+
+    def _frame_ends(self, *_) -> None:
+        self._frame_depth = max(self._frame_depth - 1, 0)
+        if self._frame_depth == 0:
+            self.window_frame_ms = 1000.0 * (time.perf_counter() - self._frame_started)
 
     def _take_scene_options(self, scene: Scene) -> None:
         """The scene's own options for its items, and the technique each was drawn with.
