@@ -1576,7 +1576,7 @@ def add_surface(
                                        1 if levels is None else len(levels))
         calibration = SurfaceCalibration(
             model, chosen.name, target, _surface_look(options), _probe_adder(add_surface),
-            chosen.reference, options=options)
+            chosen.reference, options=options, exact_rung=frame_budget_ms is None)
         choice = calibration.run(plotter, None)
         options = dataclasses.replace(options, **choice.setting)
     low, high = float(model.coefficients.min()), float(model.coefficients.max())

@@ -483,7 +483,10 @@ def build_parser() -> argparse.ArgumentParser:
     dial.add_argument("--scenes", default=",".join(bench_dial.SCENES),
                       help=f"comma-separated, of {', '.join(bench_dial.SCENES)}")
     dial.add_argument("--techniques", default=",".join(bench_dial.TECHNIQUES),
-                      help=f"comma-separated, of {', '.join(bench_dial.TECHNIQUES)}")
+                      help=f"comma-separated, of {', '.join(bench_dial.TECHNIQUES)} (active: "
+                           "the implicit surfaces)")
+    dial.add_argument("--surface-scenes", default=",".join(bench_dial.SURFACE_SCENES),
+                      help=f"comma-separated, of {', '.join(bench_dial.SURFACE_SCENES)}")
     dial.add_argument("--targets", default="30,40,50", help="dB, comma-separated")
     dial.add_argument("--orbit-size", type=_size, default=(800, 600),
                       help="WxH of the frame_budget_ms orbits (default 800x600)")
@@ -819,9 +822,10 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
 def _bench(args) -> int:
     if args.bench_command == "dial":
         words = [[w.strip() for w in text.split(",") if w.strip()]
-                 for text in (args.scenes, args.techniques, args.targets)]
+                 for text in (args.scenes, args.techniques, args.targets,
+                              args.surface_scenes)]
         sweep, dials = bench_dial.run_dial(args.size, args.frames, words[0], words[1],
-                                           [float(t) for t in words[2]])
+                                           [float(t) for t in words[2]], words[3])
         print(f"{args.size[0]}x{args.size[1]}, median of {args.frames} frames; PSNR: whole "
               "frame against the CPU reference; est.: what the calibration estimated; x "
               "cost: the chosen rung's time over the cheapest rung meeting the target")

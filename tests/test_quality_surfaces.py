@@ -245,3 +245,31 @@ def test_a_usd_attribute_asks_a_surface_for_quality_from_the_scene_camera(tmp_pa
     assert np.allclose(camera.position, scene.camera.position)
     (setting,) = _stored_settings()
     assert set(setting) == {"steps"}
+
+
+def test_the_ladder_tops_with_the_exact_root_and_a_choice_switches_the_root(sheets):
+    # the exact root tops 'active''s ladder (it costs what 1600-3200 steps cost and
+    # misses nothing), not with a frame budget (which needs steps to move); a choice
+    # applied to a drawn surface switches the root finder in or out, drawing what those
+    # settings draw when asked for
+    # catches (seen failing): the root finder left as built when another is applied (the
+    # image stayed the march's)
+    from pv_cubemarch.quality.surfaces import SurfaceCalibration, surface_tracks
+    from pv_cubemarch.quality.targets import parse_quality
+    from pv_cubemarch.surfaces.options import SurfaceOptions
+    (ladder,) = surface_tracks(SurfaceOptions(), (40, 32, 24), parse_quality(40))
+    assert ladder[-1].setting == {"root": "exact"}
+    assert [r.setting["steps"] for r in ladder[:-1]] == [25, 50, 100, 200, 400, 800, 1600]
+    (marched,) = surface_tracks(SurfaceOptions(), (40, 32, 24), parse_quality(40),
+                                exact_rung=False)
+    assert all("steps" in r.setting for r in marched) and marched[-1].setting["steps"] > 1600
+    plotter, actor = _drawn(sheets, steps=200)
+    calibration = SurfaceCalibration(actor.cubemarch.model, "active", None, {}, None, None)
+    for setting in ({"root": "exact"}, {"steps": 800}):
+        calibration.apply(actor.cubemarch, setting)
+        render_frame(plotter)
+        other, _ = _drawn(sheets, **setting)
+        render_frame(other)
+        assert np.array_equal(read_pixels(plotter), read_pixels(other)), setting
+        other.close()
+    plotter.close()

@@ -12,10 +12,7 @@ calibration took.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -29,59 +26,15 @@ from ..quality import cache
 from ..quality.ladders import volume_ladder
 from ..reference.emission_absorption import render_emission_absorption
 from ..volume.options import STEP_SCALE, fitting_face_size
+from .dial_rows import DialRow, InteractionRow, SweepRow, fresh_cache, label, mark_front
+from .dial_surfaces import SURFACE_SCENES, run_surface_dial
 from .harness import time_frames_side_by_side
 from .sort_last import phantom
 
 SCENES = ("ct", "smoke", "blobs", "cells")
-TECHNIQUES = ("direct", "vtk", "cubemap")
+TECHNIQUES = ("direct", "vtk", "cubemap", "active")
 TARGETS = (30.0, 40.0, 50.0)
 DATASETS = Path(__file__).resolve().parents[2] / "datasets"
-
-
-@dataclass
-class SweepRow:
-    """One rung of a technique's ladder on a scene: its time and whole-frame PSNR."""
-
-    scene: str
-    technique: str
-    setting: str
-    median_ms: float
-    psnr: float
-    pareto: bool = False
-
-
-@dataclass
-class InteractionRow:
-    """A scripted orbit with ``frame_budget_ms``: moving frames within it, then the stop."""
-
-    scene: str
-    technique: str
-    size: list
-    budget_ms: float
-    moving_frames: int
-    within_budget: float
-    median_moving_ms: float
-    steps: str
-    knob: str
-    still_value: float
-    still_ms: float
-    still_psnr: float
-
-
-@dataclass
-class DialRow:
-    """``quality=target``: what it chose and how that compares with the sweep."""
-
-    scene: str
-    technique: str
-    target: float
-    chosen: str
-    psnr: float
-    estimated: float
-    met: bool
-    cheapest: str | None
-    cost_ratio: float | None
-    calibration_s: float
 
 
 def _scene(name: str):
@@ -129,27 +82,33 @@ def _plotter(size):
     return plotter
 
 
-def _label(setting: dict) -> str:
-    return ", ".join(f"{k}={v:g}" for k, v in setting.items())
-
-
 def run_dial(size: Sequence[int] = (320, 240), frames: int = 3,
              scenes: Sequence[str] = SCENES, techniques: Sequence[str] = TECHNIQUES,
-             targets: Sequence[float] = TARGETS) -> tuple[list[SweepRow], list[DialRow]]:
-    """The sweeps and the choices of every scene and technique (see the module's text)."""
+             targets: Sequence[float] = TARGETS,
+             surface_scenes: Sequence[str] = SURFACE_SCENES
+             ) -> tuple[list[SweepRow], list[DialRow]]:
+    """The sweeps and the choices of every scene and technique (see the module's text).
+
+    The volume techniques run on ``scenes``, the surfaces' (``'active'``) on
+    ``surface_scenes``.
+    """
     size = (int(size[0]), int(size[1]))
     sweep_rows, dial_rows = [], []
-    with tempfile.TemporaryDirectory() as folder:
-        for name in scenes:
-            grid, look = _scene(name)
-            for technique in techniques:
-                rows, dials = _one(name, grid, look, technique, size, frames, targets, folder)
-                sweep_rows += rows
-                dial_rows += dials
+    volumes = [t for t in techniques if t != "active"]
+    for name in scenes if volumes else ():
+        grid, look = _scene(name)
+        for technique in volumes:
+            rows, dials = _one(name, grid, look, technique, size, frames, targets)
+            sweep_rows += rows
+            dial_rows += dials
+    if "active" in techniques:
+        rows, dials = run_surface_dial(size, frames, surface_scenes, targets)
+        sweep_rows += rows
+        dial_rows += dials
     return sweep_rows, dial_rows
 
 
-def _one(name, grid, look, technique, size, frames, targets, folder):
+def _one(name, grid, look, technique, size, frames, targets):
     ladder = volume_ladder(technique, grid.dimensions)
     plotters = {}
     try:
@@ -168,14 +127,11 @@ def _one(name, grid, look, technique, size, frames, targets, folder):
     finally:
         for plotter in plotters.values():
             plotter.close()
-    rows = [SweepRow(name, technique, _label(rung.setting), float(np.median(times[i])),
+    rows = [SweepRow(name, technique, label(rung.setting), float(np.median(times[i])),
                      psnrs[i]) for i, rung in enumerate(ladder)]
-    default = SweepRow(name, technique, f"default ({_label(_default_setting(technique, grid))})",
+    default = SweepRow(name, technique, f"default ({label(_default_setting(technique, grid))})",
                        float(np.median(times["default"])), psnrs["default"])
-    for row in [*rows, default]:
-        row.pareto = not any(o.median_ms <= row.median_ms and o.psnr >= row.psnr and
-                             (o.median_ms < row.median_ms or o.psnr > row.psnr)
-                             for o in [*rows, default])
+    mark_front([*rows, default])
     dials = []
     for target in targets:
         cache.forget()
@@ -183,7 +139,7 @@ def _one(name, grid, look, technique, size, frames, targets, folder):
         try:
             camera.apply_to(plotter.camera)
             plotter.camera_set = True
-            with _FreshCache(folder, target):
+            with fresh_cache():
                 actor = add_volume(plotter, grid, technique=technique, quality=target, **look)
             choice = actor.cubemarch.quality
         finally:
@@ -204,23 +160,6 @@ def _default_setting(technique: str, grid) -> dict:
     if technique == "cubemap":
         return {"face_size": fitting_face_size(grid.dimensions)}
     return {"step_scale": STEP_SCALE.default}
-
-
-class _FreshCache:
-    """A cache folder of the run's own, so every choice is calibrated afresh."""
-
-    def __init__(self, folder: str, target: float):
-        self.folder = f"{folder}/{target:g}-{id(self)}"
-
-    def __enter__(self):
-        self.saved = os.environ.get(cache.CACHE_ENV)
-        os.environ[cache.CACHE_ENV] = self.folder
-
-    def __exit__(self, *exc):
-        if self.saved is None:
-            os.environ.pop(cache.CACHE_ENV, None)
-        else:
-            os.environ[cache.CACHE_ENV] = self.saved
 
 
 def format_dial(sweep: list[SweepRow], dials: list[DialRow]) -> str:
@@ -262,39 +201,38 @@ def run_interaction(size: Sequence[int] = (800, 600), budget_ms: float = 100.0,
     """
     size = (int(size[0]), int(size[1]))
     rows = []
-    with tempfile.TemporaryDirectory() as folder:
-        for name in scenes:
-            grid, look = _scene(name)
-            for technique in techniques:
-                plotter = _plotter(size)
-                try:
-                    with _FreshCache(folder, target):
-                        actor = add_volume(plotter, grid, technique=technique, quality=target,
-                                           frame_budget_ms=budget_ms, **look)
-                    budget = actor.cubemarch.frame_budget
+    for name in scenes:
+        grid, look = _scene(name)
+        for technique in techniques:
+            plotter = _plotter(size)
+            try:
+                with fresh_cache():
+                    actor = add_volume(plotter, grid, technique=technique, quality=target,
+                                       frame_budget_ms=budget_ms, **look)
+                budget = actor.cubemarch.frame_budget
+                render_frame(plotter)
+                plotter.ren_win.SetDesiredUpdateRate(15.0)
+                for _ in range(frames):
+                    plotter.camera.Azimuth(360.0 / frames)
                     render_frame(plotter)
-                    plotter.ren_win.SetDesiredUpdateRate(15.0)
-                    for _ in range(frames):
-                        plotter.camera.Azimuth(360.0 / frames)
-                        render_frame(plotter)
-                    plotter.ren_win.SetDesiredUpdateRate(0.0001)
-                    render_frame(plotter)
-                    still = budget.frames[-1]
-                    camera = Camera.from_pyvista(plotter.camera)
-                    reference = render_emission_absorption(
-                        actor.cubemarch.model, camera, size, step_voxels=0.1,
-                        near=plotter.camera.clipping_range[0])
-                    psnr = compare_images(read_pixels(plotter), reference).psnr
-                finally:
-                    plotter.close()
-                moving = [f for f in budget.frames if f.moving][1:]
-                steps = sorted({f.value for f in moving})
-                rows.append(InteractionRow(
-                    name, technique, list(size), float(budget_ms), len(moving),
-                    sum(f.ms <= budget_ms for f in moving) / max(1, len(moving)),
-                    float(np.median([f.ms for f in moving])) if moving else 0.0,
-                    ", ".join(f"{s:g}" for s in steps), budget.knob.name, still.value,
-                    still.ms, psnr))
+                plotter.ren_win.SetDesiredUpdateRate(0.0001)
+                render_frame(plotter)
+                still = budget.frames[-1]
+                camera = Camera.from_pyvista(plotter.camera)
+                reference = render_emission_absorption(
+                    actor.cubemarch.model, camera, size, step_voxels=0.1,
+                    near=plotter.camera.clipping_range[0])
+                psnr = compare_images(read_pixels(plotter), reference).psnr
+            finally:
+                plotter.close()
+            moving = [f for f in budget.frames if f.moving][1:]
+            steps = sorted({f.value for f in moving})
+            rows.append(InteractionRow(
+                name, technique, list(size), float(budget_ms), len(moving),
+                sum(f.ms <= budget_ms for f in moving) / max(1, len(moving)),
+                float(np.median([f.ms for f in moving])) if moving else 0.0,
+                ", ".join(f"{s:g}" for s in steps), budget.knob.name, still.value,
+                still.ms, psnr))
     return rows
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..models.surface import active_cells
 from ..surfaces.options import LOOP_BUDGET, MAX_STEPS, SurfaceOptions
+from ..surfaces.technique import surface_recipe
 from .interaction import KNOBS
 from .ladders import Rung
 from .probe import ProbeCalibration
@@ -25,6 +26,8 @@ from .targets import QualityTarget, parse_quality
 #: Samples along the domain's diagonal, coarse to fine: each doubling halves the gap a
 #: feature can hide in and the depth a root is found late by.
 SURFACE_STEPS = (25, 50, 100, 200, 400, 800, 1600, 3200, 6400, 12800, 25000)
+#: The most steps below the exact root on technique='active''s ladder.
+STEPS_BELOW_EXACT = 1600
 #: The settings quality= chooses for a surface.
 PICKED = ("steps", "root")
 
@@ -48,19 +51,28 @@ def check_surface_quality(quality, given: dict, options: SurfaceOptions, techniq
     return target
 
 
-def surface_tracks(options: SurfaceOptions, dimensions, target: QualityTarget
-                   ) -> list[list[Rung]]:
+def surface_tracks(options: SurfaceOptions, dimensions, target: QualityTarget,
+                   technique: str = "active", exact_rung: bool = True) -> list[list[Rung]]:
     """The ladder of ``steps`` this surface can march (the exact root alone for 'exact').
 
     Steps a ray of ``traversal='index'`` could not finish within a fragment's loops on
-    llvmpipe are left off, as ``add_surface`` would refuse them.
+    llvmpipe are left off, as ``add_surface`` would refuse them. With ``'active'`` the
+    exact root is the top rung, after :data:`STEPS_BELOW_EXACT`: it misses nothing and
+    costs about what 500 to 3200 steps cost (``bench surfaces``: 1.1-1.4x 500 steps;
+    ``bench dial``: between 1600 and 3200), so more steps than that would be dearer and
+    no better. ``exact_rung=False`` (a frame budget moves the steps): steps only.
     """
     if target.exact:
         return [[Rung({"root": "exact"}, 1.0)]]
-    steps = [m for m in SURFACE_STEPS if m <= MAX_STEPS and (
+    exact_rung = exact_rung and technique == "active"
+    top = STEPS_BELOW_EXACT if exact_rung else MAX_STEPS
+    steps = [m for m in SURFACE_STEPS if m <= top and (
         options.traversal != "index"
         or dataclasses.replace(options, steps=m).index_iterations(dimensions) <= LOOP_BUDGET)]
-    return [[Rung({"steps": m}, m / float(steps[-1])) for m in steps]]
+    if not exact_rung:
+        return [[Rung({"steps": m}, m / float(steps[-1])) for m in steps]]
+    finest = 2.0 * steps[-1]   # the exact root costs about twice the last rung's steps
+    return [[*(Rung({"steps": m}, m / finest) for m in steps), Rung({"root": "exact"}, 1.0)]]
 
 
 @dataclass
@@ -72,6 +84,7 @@ class SurfaceCalibration(ProbeCalibration):
     """
 
     options: SurfaceOptions | None = None
+    exact_rung: bool = True
     kind = "surface"
     #: A marched surface errs at few pixels (a thin feature missed), which a sparse
     #: sample sees by chance (3.8 dB off at 4096 of 25,000 pixels): the reference traces
@@ -79,7 +92,8 @@ class SurfaceCalibration(ProbeCalibration):
     samples = 16384
 
     def tracks(self) -> list[list[Rung]]:
-        return surface_tracks(self.options, self.model.dimensions, self.target)
+        return surface_tracks(self.options, self.model.dimensions, self.target,
+                              self.technique, self.exact_rung)
 
     def key_parts(self) -> tuple:
         model = self.model
@@ -122,8 +136,9 @@ class SurfaceCalibration(ProbeCalibration):
         return choice
 
     def apply(self, binding, setting: dict) -> None:
+        root = setting.get("root", "march")
+        if binding.options.root != root:   # the root finder is compiled in: recompile
+            binding.options = dataclasses.replace(binding.options, root=root)
+            binding.recompile(surface_recipe(binding.options, self.technique))
         if "steps" in setting:
             KNOBS["steps"].write(binding, float(setting["steps"]))
-        else:
-            raise ValueError("recalibrate: root='exact' is built into the surface's shader; "
-                             "add the surface again.")
