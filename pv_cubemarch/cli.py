@@ -833,8 +833,8 @@ def _bench(args) -> int:
         orbits = []
         if args.orbit_frames > 0:
             orbits = bench_dial.run_interaction(
-                args.orbit_size, args.budget_ms, args.orbit_frames, words[0],
-                [t for t in words[1] if t in ("direct", "vtk", "cubemap")])
+                args.orbit_size, args.budget_ms, args.orbit_frames, words[0], words[1],
+                surface_scenes=words[3])
             print(f"\nframe_budget_ms={args.budget_ms:g} at {args.orbit_size[0]}x"
                   f"{args.orbit_size[1]}, quality=40, an orbit of {args.orbit_frames} "
                   "moving frames then the stop; within: moving frames (after the first) "

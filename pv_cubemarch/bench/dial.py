@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pyvista
 
-from ..api import add_volume
+from ..api import add_surface, add_volume
 from ..core.camera import Camera
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..image_metrics import compare_images
@@ -27,7 +27,14 @@ from ..quality.ladders import volume_ladder
 from ..reference.emission_absorption import render_emission_absorption
 from ..volume.options import STEP_SCALE, fitting_face_size
 from .dial_rows import DialRow, InteractionRow, SweepRow, fresh_cache, label, mark_front
-from .dial_surfaces import SURFACE_SCENES, run_surface_dial
+from .dial_surfaces import LOOK as SURFACE_LOOK
+from .dial_surfaces import (
+    SURFACE_SCENES,
+    run_surface_dial,
+    surface_plotter,
+    surface_reference,
+    surface_scene,
+)
 from .harness import time_frames_side_by_side
 from .sort_last import phantom
 
@@ -189,51 +196,68 @@ def format_dial(sweep: list[SweepRow], dials: list[DialRow]) -> str:
 
 def run_interaction(size: Sequence[int] = (800, 600), budget_ms: float = 100.0,
                     frames: int = 32, scenes: Sequence[str] = SCENES,
-                    techniques: Sequence[str] = ("direct", "vtk", "cubemap"),
-                    target: float = 40.0) -> list[InteractionRow]:
+                    techniques: Sequence[str] = ("direct", "vtk", "cubemap", "active"),
+                    target: float = 40.0,
+                    surface_scenes: Sequence[str] = SURFACE_SCENES) -> list[InteractionRow]:
     """Orbits with ``quality=target`` and ``frame_budget_ms``, then the stop.
 
     Each scene: ``frames`` moving frames (the render window's desired update rate raised,
     as an interactor's drag does), then the drag's end. Reported: the share of moving
     frames (after the first, which has no time to predict from) within the budget, and
-    the still frame's time (the refinement back to the chosen step) and its PSNR over the
-    whole frame.
+    the still frame's time (the refinement back to the chosen setting) and its PSNR over
+    the whole frame. Volumes on ``scenes``, surfaces (``'active'``) on ``surface_scenes``.
     """
     size = (int(size[0]), int(size[1]))
     rows = []
-    for name in scenes:
+    volumes = [t for t in techniques if t != "active"]
+    for name in scenes if volumes else ():
         grid, look = _scene(name)
-        for technique in techniques:
+        for technique in volumes:
             plotter = _plotter(size)
             try:
                 with fresh_cache():
                     actor = add_volume(plotter, grid, technique=technique, quality=target,
                                        frame_budget_ms=budget_ms, **look)
-                budget = actor.cubemarch.frame_budget
-                render_frame(plotter)
-                plotter.ren_win.SetDesiredUpdateRate(15.0)
-                for _ in range(frames):
-                    plotter.camera.Azimuth(360.0 / frames)
-                    render_frame(plotter)
-                plotter.ren_win.SetDesiredUpdateRate(0.0001)
-                render_frame(plotter)
-                still = budget.frames[-1]
-                camera = Camera.from_pyvista(plotter.camera)
-                reference = render_emission_absorption(
-                    actor.cubemarch.model, camera, size, step_voxels=0.1,
-                    near=plotter.camera.clipping_range[0])
-                psnr = compare_images(read_pixels(plotter), reference).psnr
+                rows.append(_orbit(name, technique, plotter, actor, frames, lambda p, a: (
+                    render_emission_absorption(a.cubemarch.model,
+                                               Camera.from_pyvista(p.camera), size,
+                                               step_voxels=0.1,
+                                               near=p.camera.clipping_range[0]))))
             finally:
                 plotter.close()
-            moving = [f for f in budget.frames if f.moving][1:]
-            steps = sorted({f.value for f in moving})
-            rows.append(InteractionRow(
-                name, technique, list(size), float(budget_ms), len(moving),
-                sum(f.ms <= budget_ms for f in moving) / max(1, len(moving)),
-                float(np.median([f.ms for f in moving])) if moving else 0.0,
-                ", ".join(f"{s:g}" for s in steps), budget.knob.name, still.value,
-                still.ms, psnr))
+    for name in surface_scenes if "active" in techniques else ():
+        source, isovalue = surface_scene(name)
+        plotter = surface_plotter(size)
+        try:
+            with fresh_cache():
+                actor = add_surface(plotter, source, isovalue=isovalue, quality=target,
+                                    frame_budget_ms=budget_ms, **SURFACE_LOOK)
+            rows.append(_orbit(name, "active", plotter, actor, frames,
+                               lambda p, a: surface_reference(p, a.cubemarch.model, size)))
+        finally:
+            plotter.close()
     return rows
+
+
+def _orbit(name, technique, plotter, actor, frames, reference) -> InteractionRow:
+    """``frames`` moving frames around the scene, then the stop, as one row."""
+    budget = actor.cubemarch.frame_budget
+    render_frame(plotter)
+    plotter.ren_win.SetDesiredUpdateRate(15.0)
+    for _ in range(frames):
+        plotter.camera.Azimuth(360.0 / frames)
+        render_frame(plotter)
+    plotter.ren_win.SetDesiredUpdateRate(0.0001)
+    render_frame(plotter)
+    still = budget.frames[-1]
+    psnr = compare_images(read_pixels(plotter), reference(plotter, actor)).psnr
+    moving = [f for f in budget.frames if f.moving][1:]
+    steps = sorted({f.value for f in moving})
+    return InteractionRow(
+        name, technique, list(plotter.window_size), float(budget.budget_ms), len(moving),
+        sum(f.ms <= budget.budget_ms for f in moving) / max(1, len(moving)),
+        float(np.median([f.ms for f in moving])) if moving else 0.0,
+        ", ".join(f"{s:g}" for s in steps), budget.knob.name, still.value, still.ms, psnr)
 
 
 def format_interaction(rows: list[InteractionRow]) -> str:

@@ -48,7 +48,8 @@ def surface_scene(name: str):
                      f"{', '.join(SURFACE_SCENES)}.")
 
 
-def _plotter(size):
+def surface_plotter(size):
+    """A plotter lit by one headlight over black, single-sampled."""
     plotter = offscreen_plotter(size)
     plotter.set_background("black")
     plotter.ren_win.SetMultiSamples(0)
@@ -57,14 +58,14 @@ def _plotter(size):
     return plotter
 
 
-def _psnr(plotter, model, size) -> float:
+def surface_reference(plotter, model, size) -> np.ndarray:
+    """The CPU reference of the frame the plotter draws (its camera, near plane, lights)."""
     lights = [VolumeLight.from_pyvista(light, plotter.camera)
               for light in plotter.renderer.GetLights()]
-    expected = render_surface(model, Camera.from_pyvista(plotter.camera), size,
-                              color=pyvista.Color(LOOK["color"]).float_rgb,
-                              near=plotter.camera.clipping_range[0], lights=lights,
-                              shading=LOOK["shading"])
-    return compare_images(read_pixels(plotter), expected).psnr
+    return render_surface(model, Camera.from_pyvista(plotter.camera), size,
+                          color=pyvista.Color(LOOK["color"]).float_rgb,
+                          near=plotter.camera.clipping_range[0], lights=lights,
+                          shading=LOOK["shading"])
 
 
 def run_surface_dial(size: Sequence[int], frames: int, scenes: Sequence[str],
@@ -81,8 +82,9 @@ def run_surface_dial(size: Sequence[int], frames: int, scenes: Sequence[str],
 
 
 def _one(name, source, isovalue, size, frames, targets):
-    probe = add_surface(_plotter(size), source, isovalue=isovalue, **LOOK)
-    model = probe.cubemarch.model
+    first = surface_plotter(size)
+    model = add_surface(first, source, isovalue=isovalue, **LOOK).cubemarch.model
+    first.close()
     ladder = surface_tracks(SurfaceOptions(), model.dimensions, parse_quality(40))[0]
     settings = {label(r.setting): r.setting for r in ladder}
     settings["root=exact"] = {"root": "exact"}
@@ -90,14 +92,16 @@ def _one(name, source, isovalue, size, frames, targets):
     plotters = {}
     try:
         for key, setting in settings.items():
-            plotters[key] = plotter = _plotter(size)
+            plotters[key] = plotter = surface_plotter(size)
             add_surface(plotter, model, **LOOK, **setting)
             if not len(plotters) - 1:
                 camera = Camera.from_pyvista(plotter.camera)
             camera.apply_to(plotter.camera)
             plotter.renderer.ResetCameraClippingRange()
         times = time_frames_side_by_side(plotters, frames)
-        psnrs = {key: _psnr(plotter, model, size) for key, plotter in plotters.items()}
+        psnrs = {key: compare_images(read_pixels(plotter),
+                                     surface_reference(plotter, model, size)).psnr
+                 for key, plotter in plotters.items()}
     finally:
         for plotter in plotters.values():
             plotter.close()
@@ -106,7 +110,7 @@ def _one(name, source, isovalue, size, frames, targets):
     ladder_rows = rows[:len(ladder)]
     dials = []
     for target in [*targets, "exact"]:
-        plotter = _plotter(size)
+        plotter = surface_plotter(size)
         try:
             camera.apply_to(plotter.camera)
             plotter.camera_set = True

@@ -64,3 +64,42 @@ def bind_scene_lights(bindings: ShaderBindings, renderer,
                              lambda c=columns: frame_lights()["colors"][:, c])
     bindings.set_uniform("cm_normalFromIndex", lambda: camera_matrices(renderer)[0][:3, :3]
                          @ np.linalg.inv(world_from_index()[:3, :3]).T)
+
+
+#: Set on a light :func:`steady_headlights` turned from a headlight into a camera light.
+WAS_HEADLIGHT = "_cubemarch_was_headlight"   # private: PyVista allows it on its Light
+
+
+def steady_headlights(renderer) -> None:
+    """Turn the renderer's headlights into the same lights fixed to the camera.
+
+    VTK moves a headlight to the camera at every frame the camera moved, which modifies
+    the light; VTK's GPU volume mapper rebuilds its shader whenever a light was modified
+    (shading on or off), and skips on that frame the ``UpdateShaderEvent`` our bindings
+    are set in, so the frame had to be drawn twice. A camera light at (0, 0, 1) looking at
+    the origin (camera coordinates) shines from the eye along the view, as a headlight
+    does, and follows the camera through a matrix VTK updates in place: the light itself
+    is never modified. The light keeps a mark (:func:`is_headlight`).
+
+    A lone headlight of intensity 1 is left as it is: VTK lights meshes by it in a path of
+    its own (a camera light there draws a lit sphere up to 50 levels apart), so that scene
+    keeps its second draw after a camera move.
+    """
+    switched_on = [light for light in renderer.GetLights() if light.GetSwitch()]
+    if len(switched_on) == 1 and switched_on[0].LightTypeIsHeadlight() \
+            and float(switched_on[0].GetIntensity()) == 1.0:
+        return
+    for light in renderer.GetLights():
+        if light.LightTypeIsHeadlight():
+            light.SetLightTypeToCameraLight()
+            light.SetPosition(0.0, 0.0, 1.0)
+            light.SetFocalPoint(0.0, 0.0, 0.0)
+            setattr(light, WAS_HEADLIGHT, True)
+
+
+def is_headlight(light) -> bool:
+    """A headlight, or one :func:`steady_headlights` fixed to the camera (the same light)."""
+    return bool(light.LightTypeIsHeadlight()) or (
+        bool(getattr(light, WAS_HEADLIGHT, False)) and bool(light.LightTypeIsCameraLight())
+        and tuple(light.GetPosition()) == (0.0, 0.0, 1.0)
+        and tuple(light.GetFocalPoint()) == (0.0, 0.0, 0.0))

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..core.declared import option
 from ..gl.bindings import FloatArray
+from ..gl.lights import is_headlight
 from ..models.lights import light_placement
 
 #: Most lights a shaded volume reads (VTK's light kit has five).
@@ -77,7 +78,7 @@ class GradientShading:
     def headlight_path(self) -> bool:
         """Whether VTK takes its single-headlight path: one light, a headlight, intensity 1."""
         lights = self.lights()
-        return len(lights) == 1 and bool(lights[0].LightTypeIsHeadlight()) and \
+        return len(lights) == 1 and is_headlight(lights[0]) and \
             float(lights[0].GetIntensity()) == 1.0
 
     def packed_lights(self) -> FloatArray:

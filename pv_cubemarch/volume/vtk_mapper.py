@@ -13,9 +13,11 @@ from __future__ import annotations
 import pyvista
 import vtk
 
+from ..core.frame_errors import observe
 from ..core.registry import Sweep, Technique, register_technique
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, camera_matrices, place_box
+from ..gl.lights import steady_headlights
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..models.volume import VolumeModel
 from ..reference.emission_absorption import render_emission_absorption
@@ -113,6 +115,8 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
     binding.vtk_input = grid
     binding.drawn = [actor]
     binding.renderer = plotter.renderer
+    tag = observe(renderer, vtk.vtkCommand.StartEvent, lambda *_: steady_headlights(renderer))
+    binding.extra_release.append(lambda: renderer.RemoveObserver(tag))
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
 
