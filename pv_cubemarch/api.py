@@ -37,8 +37,14 @@ from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .quality.interaction import attach_frame_budget, check_frame_budget
 from .quality.surfaces import SurfaceCalibration, check_surface_quality
+from .quality.targets import parse_quality
 from .quality.volumes import check_quality_request, volume_calibration
-from .quality.voxels import VoxelCalibration, check_voxel_quality, refuse_voxel_budget
+from .quality.voxels import (
+    VoxelCalibration,
+    check_opaque,
+    check_voxel_quality,
+    refuse_voxel_budget,
+)
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .surfaces.levels import (
     SurfaceLevels,
@@ -264,9 +270,9 @@ def add_volume(
         ``'cubemap'`` and ``'auto'``: the largest cube-map face, in texels per edge (a
         power of two, the size at MIP level 0). By default twice the grid's longest axis
         rounded up to a power of two, from 32 to 256: a finer face adds no detail of the
-        data (``bench dial``). Caps the marching cost at ``6 * face_size**2`` rays; a
-        volume far away uses a smaller level. Larger is sharper when the volume fills a
-        big viewport.
+        data, a coarser one blurs a small grid filling the view (``bench dial``). Caps
+        the marching cost at ``6 * face_size**2`` rays; a volume far away uses a smaller
+        level. Larger is sharper when the volume fills a big viewport.
     max_samples : int, optional
         ``'cubemap'`` and ``'auto'``: most samples along a ray crossing the whole box
         diagonally; shorter rays take proportionally fewer. Cost grows linearly with it. By
@@ -276,7 +282,7 @@ def add_volume(
         ``'cubemap'`` and ``'auto'`` (1 by default): screen pixels per cube-map texel the
         LOD aims at (``k_u``): 2 marches a quarter of the texels for a softer image.
     sample_factor : float, optional
-        ``'cubemap'`` and ``'auto'`` (1 by default): samples per cube-map texel along the
+        ``'cubemap'`` and ``'auto'`` (2 by default): samples per cube-map texel along the
         box diagonal (``k_c``). The LOD asks for ``k_c`` times the face's texels, capped by
         ``max_samples``, then sizes the face from the samples it got (``S = sqrt(3) N /
         k_c``): above 1, fewer texels and finer steps; below 1, more texels and coarser
@@ -1184,9 +1190,10 @@ def add_voxels(
         ``'best'``. Every target is met by the exact traversal (``traversal='dda'``, no
         ``lod``): it visits every voxel a ray crosses, and no cheaper approximate setting
         was measured (``bench voxels``). Its error against the CPU reference is measured
-        on a probe frame of at most 160x120 pixels from the camera the view will have, and
-        reported in ``actor.cubemarch.quality``. A grid drawn whole, ``mode='color'``; not
-        with ``traversal``, ``step_scale`` or ``lod``.
+        over a frame of the window's size from the camera the view will have, and
+        reported in ``actor.cubemarch.quality`` (``'exact'`` is met only when the
+        measurement shows the reference drawn: 45 dB or more). A grid drawn whole, opaque,
+        ``mode='color'``; not with ``traversal``, ``step_scale`` or ``lod``.
     frame_budget_ms : float, optional
         Refused for voxels, saying why: they have no coarser setting measured cheaper, so
         a moving view has nothing to coarsen.
@@ -1317,6 +1324,7 @@ def add_voxels(
                           "chunk_size= to draw it in chunks).", stacklevel=2)
         calibration = choice = None
         if target is not None:
+            check_opaque(model)
             if options.mode != "color":
                 raise ValueError(f"quality= measures the colours a grid is drawn in; mode="
                                  f"{options.mode!r} draws none: leave one of them out.")
@@ -1567,7 +1575,8 @@ def add_surface(
     options.check_model(model)
     if frame_budget_ms is not None:   # refused before anything is drawn or calibrated
         check_frame_budget(frame_budget_ms, chosen.name, 1)
-        if root == "exact" or quality == "exact":
+        if root == "exact" or (quality is not None and parse_quality(quality,
+                                                                     exact=True).exact):
             raise ValueError("frame_budget_ms moves a marched surface's steps; root='exact' "
                              "(or quality='exact') has none: leave one of them out.")
     calibration = choice = None

@@ -398,18 +398,43 @@ def test_the_background_and_clip_planes_are_calibrated_with(ct):
     {"setting": {}, "psnr": 50.0, "met": True},
     {"setting": {"step_scale": 0.5}, "psnr": float("nan"), "met": True},
     {"setting": {"step_scale": 0.5}, "psnr": 50.0, "met": True, "measured": "abc"},
+    {"setting": {"step_scale": 0.5}, "psnr": 10 ** 400, "met": True},
+    {"setting": {"step_scale": 0.5}, "psnr": 50.0, "met": True,
+     "measured": [{"setting": {"step_scale": 0.5}, "psnr": float("nan")}]},
+    {"setting": {"step_scale": 0.5}, "psnr": 50.0, "met": True,
+     "measured": [{"setting": {"step_scale": 0.5}, "psnr": True}]},
+    "nested",
 ])
 def test_a_cached_entry_that_is_no_rung_is_calibrated_again(ct, entry):
     # catches (seen failing): entries checked for their types only (a 1e300 step raised,
-    # downsample=8 was drawn, an empty setting reported)
+    # downsample=8 was drawn, an empty setting reported); a 400-digit PSNR (OverflowError)
+    # and a file nested to death (RecursionError) raised out of add_volume, a NaN or a
+    # boolean PSNR of a setting tried taken into the budget's estimates (found by a review)
     plotter, actor = _add(ct, technique="direct", quality=40)
     plotter.close()
     path = cache.cache_file()
     data = json.loads(path.read_text())
-    path.write_text(json.dumps({key: entry for key in data}))
+    path.write_text("[" * 100000 + "]" * 100000 if entry == "nested"
+                    else json.dumps({key: entry for key in data}))
     cache.forget()
     plotter, actor = _add(ct, technique="direct", quality=40, frame_budget_ms=30)
     assert not actor.cubemarch.quality.cached
+    plotter.close()
+
+
+def test_a_cached_entry_says_what_it_draws_and_whether_that_meets_the_target(ct):
+    # the file's "met" is not read: a stored 5 dB is reported as missing 40 dB
+    # catches (seen failing): "met": true trusted (a 5 dB entry reported as meeting 40)
+    plotter, actor = _add(ct, technique="direct", quality=40)
+    plotter.close()
+    path = cache.cache_file()
+    data = json.loads(path.read_text())
+    path.write_text(json.dumps({key: {"setting": {"step_scale": 0.5}, "psnr": 5.0,
+                                      "met": True} for key in data}))
+    cache.forget()
+    plotter, actor = _add(ct, technique="direct", quality=40)
+    choice = actor.cubemarch.quality
+    assert choice.cached and choice.setting == {"step_scale": 0.5} and not choice.met
     plotter.close()
 
 

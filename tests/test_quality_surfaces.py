@@ -118,6 +118,7 @@ def test_exact_draws_each_cell_s_first_root(sheets):
     ({"quality": "superb"}, "not a target"),
     ({"quality": 75}, "out of range"),
     ({"frame_budget_ms": 30, "root": "exact"}, "has none"),
+    ({"frame_budget_ms": 30, "quality": " Exact"}, "has none"),
     ({"frame_budget_ms": 0}, "positive"),
 ])
 def test_what_surface_calibration_cannot_measure_is_refused_by_name(sheets, keywords, words):
@@ -172,6 +173,20 @@ def test_add_surface_takes_a_budget_with_the_quality_s_estimates(sheets):
     budget, choice = actor.cubemarch.frame_budget, actor.cubemarch.quality
     assert budget.still == choice.setting["steps"]
     assert budget.estimated_psnr == choice.psnr
+    plotter.close()
+
+
+def test_recalibrating_gives_the_budget_this_view_s_estimates(sheets):
+    # catches (seen failing, found by a review): recalibrate() moving the still steps but
+    # leaving the budget the old view's estimates (the live view's moving-frame PSNR)
+    plotter, actor = _drawn(sheets, quality=40, frame_budget_ms=25)
+    render_frame(plotter)
+    plotter.camera.Zoom(2.5)
+    choice = actor.cubemarch.recalibrate()
+    budget = actor.cubemarch.frame_budget
+    assert budget.errors == {float(m["setting"]["steps"]): m["psnr"]
+                             for m in choice.measured}
+    assert budget.still == choice.setting["steps"]
     plotter.close()
 
 

@@ -81,13 +81,12 @@ def steady_headlights(renderer) -> None:
     does, and follows the camera through a matrix VTK updates in place: the light itself
     is never modified. The light keeps a mark (:func:`is_headlight`).
 
-    A lone headlight of intensity 1 is left as it is: VTK lights meshes by it in a path of
-    its own (a camera light there draws a lit sphere up to 50 levels apart), so that scene
-    keeps its second draw after a camera move.
+    A lone headlight is left as it is: VTK lights meshes by it in a path of its own (a
+    camera light there draws a lit sphere up to 50 levels apart at intensity 1, 30 at
+    0.5), so that scene keeps its second draw after a camera move.
     """
     switched_on = [light for light in renderer.GetLights() if light.GetSwitch()]
-    if len(switched_on) == 1 and switched_on[0].LightTypeIsHeadlight() \
-            and float(switched_on[0].GetIntensity()) == 1.0:
+    if len(switched_on) == 1 and switched_on[0].LightTypeIsHeadlight():
         return
     for light in renderer.GetLights():
         if light.LightTypeIsHeadlight():

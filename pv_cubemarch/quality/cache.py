@@ -50,7 +50,7 @@ def _well_formed(entry) -> bool:
 def _read() -> dict:
     try:
         data = json.loads(cache_file().read_text())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):   # unreadable, not JSON, nested to death
         return {}
     return {k: v for k, v in data.items() if isinstance(k, str) and _well_formed(v)} \
         if isinstance(data, dict) else {}

@@ -32,9 +32,9 @@ class QualityChoice:
     """What ``quality=`` chose, and what was measured to choose it.
 
     ``psnr`` is the kept setting's whole-frame PSNR (dB) as estimated from the sample;
-    ``met`` whether it reaches the target (when no rung does, the finest is kept);
-    ``measured`` every rung tried, in order, with its estimate and relative cost. When no
-    rung meets the target, the one with the best estimate is kept.
+    ``met`` whether it reaches the target; ``measured`` every rung tried, in order, with
+    its estimate and relative cost. When no rung meets the target, the one with the best
+    estimate is kept.
     """
 
     target: QualityTarget
@@ -118,17 +118,30 @@ def sample_pixels(rect, count: int = SAMPLES) -> tuple[np.ndarray, np.ndarray]:
     return grid_rows.ravel(), grid_columns.ravel()
 
 
-def estimated_psnr(image: np.ndarray, pixels, reference: np.ndarray, share: float) -> float:
+def estimated_psnr(image: np.ndarray, pixels, reference: np.ndarray, share: float,
+                   fraction: float = 1.0) -> float:
     """The whole frame's PSNR from the sampled pixels' error and the footprint's share.
 
     Outside the footprint both images are the background, so the frame's mean squared
-    error is the footprint's times its share of the frame.
+    error is the footprint's times its share of the frame. ``fraction``: the share of the
+    footprint's pixels the sample holds. Below 1 the sample's mean stands for the
+    footprint's only up to its standard error, which is large when few pixels carry the
+    error (a thin sheet missed: tens of pixels); the estimate is then the mean plus two
+    standard errors (``sqrt((1 - fraction) / n)``, ``n`` the pixels the error is spread
+    over: ``(sum e)**2 / sum e**2``), so a sparse error is not under-counted by chance.
     """
     rows, columns = pixels
     drawn = image[rows, columns].astype(np.float64)
     traced = to_uint8(reference).reshape(-1, 3).astype(np.float64)
-    mse = float(((drawn - traced) ** 2).mean()) * share
-    return math.inf if mse == 0.0 else 10.0 * math.log10(255.0 ** 2 / mse)
+    per_pixel = ((drawn - traced) ** 2).mean(axis=-1)
+    total = float(per_pixel.sum())
+    if total == 0.0:
+        return math.inf
+    mse = total / per_pixel.size * share
+    if fraction < 1.0:
+        spread = total ** 2 / float((per_pixel ** 2).sum())
+        mse *= 1.0 + 2.0 * math.sqrt((1.0 - fraction) / spread)
+    return 10.0 * math.log10(255.0 ** 2 / mse)
 
 
 def search(count: int, psnr_at: Callable[[int], float], goal: float, start: int) -> int | None:
@@ -177,9 +190,12 @@ def calibrate(tracks: Sequence[Sequence[Rung]], render: Callable[[dict], np.ndar
     rect = footprint(camera, size, bounds)
     pixels = sample_pixels(rect, samples)
     if not pixels[0].size:
-        raise ValueError("quality=: the volume is outside the view, so there is nothing to "
-                         "measure; set the camera first (or give the settings themselves).")
-    share = (rect[2] - rect[0]) * (rect[3] - rect[1]) / float(size[0] * size[1])
+        raise ValueError("quality=: what is added lies outside the view, so there is "
+                         "nothing to measure; set the camera first (or give the settings "
+                         "themselves).")
+    area = (rect[2] - rect[0]) * (rect[3] - rect[1])
+    share = area / float(size[0] * size[1])
+    fraction = min(1.0, pixels[0].size / float(area))
     traced = reference(pixels)
     estimates: dict[tuple[int, int], float] = {}
     measured: list[dict] = []
@@ -188,7 +204,7 @@ def calibrate(tracks: Sequence[Sequence[Rung]], render: Callable[[dict], np.ndar
         if (track, index) not in estimates:
             rung = tracks[track][index]
             image = np.asarray(render(dict(rung.setting)))
-            estimates[track, index] = estimated_psnr(image, pixels, traced, share)
+            estimates[track, index] = estimated_psnr(image, pixels, traced, share, fraction)
             measured.append({"setting": rung.setting, "psnr": estimates[track, index],
                              "cost": rung.cost})
         return estimates[track, index]

@@ -132,7 +132,8 @@ class FrameBudget:
 
         def coarseness(v: float) -> float:
             return sign * v
-        allowed = [v for v in self.knob.values if coarseness(v) >= coarseness(self.still)]
+        values = sorted({*self.knob.values, float(self.still)}, key=coarseness)
+        allowed = [v for v in values if coarseness(v) >= coarseness(self.still)]
         fitting = [v for v in allowed if coarseness(v) >= coarseness(wanted)]
         return min(fitting, key=coarseness) if fitting else max(allowed, key=coarseness)
 

@@ -48,8 +48,8 @@ def volume_tracks(technique: str, dimensions) -> list[list[Rung]]:
         faces = [f for f in (32, 64, 128, 256, 512, 1024) if f <= min(top, 1024)]
         work = {(f, k): f * f * (1.0 + 0.2 * (k - 1.0)) for f in faces for k in (1.0, 2.0)}
         most = max(work.values())
-        return [[Rung({"face_size": f} if k == 1.0 else {"face_size": f, "sample_factor": k},
-                      work[f, k] / most) for f in faces] for k in (1.0, 2.0)]
+        return [[Rung({"face_size": f, "sample_factor": k}, work[f, k] / most) for f in faces]
+                for k in (1.0, 2.0)]
     raise ValueError(f"quality= picks the settings of 'vtk', 'direct' or 'cubemap', not "
                      f"technique={technique!r}: name one of those ('auto' switches between "
                      "two per frame, whose settings are calibrated apart).")

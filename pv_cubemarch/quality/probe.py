@@ -11,12 +11,15 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pyvista
+import vtkmodules
 from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkRenderingCore import vtkCamera
 
@@ -74,16 +77,66 @@ def stored_choice(stored: dict, tracks, target: QualityTarget, size) -> QualityC
     """A cached entry as a choice, if it names one of these rungs with a finite PSNR.
 
     The file is untrusted: another version's ladder, or an edited file, calibrates again.
+    The setting drawn is the ladder's own rung (not the file's copy of it), and whether
+    the target is met is worked out again from the PSNR, not read.
     """
     rungs = [rung.setting for track in tracks for rung in track]
+
+    def rung_of(setting) -> dict | None:
+        return next((dict(r) for r in rungs if r == setting and all(
+            type(r[k]) is type(setting[k]) for k in r)), None)
+
+    def number(value) -> float | None:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return None
+        try:
+            value = float(value)
+        except OverflowError:
+            return None
+        return None if math.isnan(value) else value
+
+    setting = rung_of(stored.get("setting"))
+    psnr = number(stored.get("psnr"))
     measured = stored.get("measured", [])
-    if (stored.get("setting") not in rungs or not math.isfinite(float(stored["psnr"]))
-            or not isinstance(measured, list)
-            or not all(isinstance(m, dict) and m.get("setting") in rungs
-                       and isinstance(m.get("psnr"), (int, float)) for m in measured)):
+    if setting is None or psnr is None or not math.isfinite(psnr) \
+            or not isinstance(measured, list) or not all(
+                isinstance(m, dict) and rung_of(m.get("setting")) is not None
+                and number(m.get("psnr")) is not None for m in measured):
         return None
-    return QualityChoice(target, dict(stored["setting"]), float(stored["psnr"]),
-                         bool(stored["met"]), list(measured), 0.0, size, 0, cached=True)
+    measured = [{"setting": rung_of(m["setting"]), "psnr": number(m["psnr"]),
+                 "cost": number(m.get("cost")) or 0.0} for m in measured]
+    return QualityChoice(target, setting, psnr, psnr >= target.psnr, measured, 0.0, size, 0,
+                         cached=True)
+
+
+#: Where frames are not the user's: this package, PyVista and VTK (warnings skip them).
+_LIBRARIES = tuple(str(Path(module.__file__).resolve().parent)
+                   for module in (pyvista, vtkmodules)) + (
+    str(Path(__file__).resolve().parents[1]),)
+
+
+def warn_user(message: str) -> None:
+    """Warn, attributed to the first caller outside this package, PyVista and VTK."""
+    frame, level = sys._getframe(1), 2
+    while frame is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(
+            _LIBRARIES):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, UserWarning, stacklevel=level)
+
+
+def drawn_box_bounds(model, lower, upper) -> np.ndarray:
+    """World bounds of the index-space box ``[lower, upper]`` of ``model``, placed."""
+    corners = np.array([[x, y, z, 1.0] for x in (lower[0], upper[0])
+                        for y in (lower[1], upper[1]) for z in (lower[2], upper[2])])
+    world = corners @ np.asarray(model.world_from_index()).T
+    return np.column_stack([world[:, :3].min(axis=0), world[:, :3].max(axis=0)]).ravel()
+
+
+def margined_bounds(model) -> np.ndarray:
+    """The grid's box as the ray-casting box actors draw it: 1 % of its longest side larger."""
+    dims = np.asarray(model.dimensions, dtype=np.float64)
+    margin = 0.01 * dims.max()
+    return drawn_box_bounds(model, -margin * np.ones(3), dims + margin)
 
 
 def view_key(camera: Camera) -> tuple:
@@ -106,6 +159,11 @@ def same_view(a: tuple, b: tuple | None) -> bool:
     camera_b = np.array([float(v) for v in b[0]])
     scale = max(float(np.abs(camera_a[:6]).max()), float(np.abs(camera_b[:6]).max()), 1e-30)
     return bool(np.allclose(camera_a, camera_b, rtol=1e-6, atol=1e-6 * scale))
+
+
+#: The least estimated PSNR of a frame that draws its reference exactly (8-bit rounding
+#: alone is about 59 dB; a grid drawn exactly with edges and clip planes measures 45-90).
+EXACT_FLOOR_DB = 45.0
 
 
 @dataclass
@@ -175,7 +233,13 @@ class ProbeCalibration:
                 for light in self.probe.renderer.GetLights()]
 
     def settle(self, choice: QualityChoice) -> QualityChoice:
-        """The choice as reported (a technique may know more than the estimate)."""
+        """The choice as reported; ``'exact'`` is met only when measured so.
+
+        The reference drawn, 8-bit rounding and a few grazing pixels apart: at least
+        :data:`EXACT_FLOOR_DB`.
+        """
+        if self.target.exact:
+            choice.met = choice.psnr >= EXACT_FLOOR_DB
         return choice
 
     def run(self, plotter, reset_camera: bool | None) -> QualityChoice:
@@ -200,7 +264,9 @@ class ProbeCalibration:
                 camera.apply_to(probe.camera)
                 probe.renderer.ResetCameraClippingRange()
 
-            draw(tracks[0][0].setting)
+            with warnings.catch_warnings():   # the candidates' own (said once by the add)
+                warnings.simplefilter("ignore")
+                draw(tracks[0][0].setting)
             render_frame(probe)
             near = float(probe.camera.clipping_range[0])
             key = choice_key(self.kind, self.technique, *self.key_parts(), view_key(camera),
@@ -217,19 +283,20 @@ class ProbeCalibration:
                 render_frame(probe)
                 return read_pixels(probe)
 
-            choice = calibrate(tracks, render,
-                               lambda pixels: self.trace(camera, size, background, near,
-                                                         pixels),
-                               camera, size, self.bounds(), self.target,
-                               self.start(tracks), self.samples)
+            with warnings.catch_warnings():   # the candidates' own (said once by the add)
+                warnings.simplefilter("ignore")
+                choice = calibrate(tracks, render,
+                                   lambda pixels: self.trace(camera, size, background, near,
+                                                             pixels),
+                                   camera, size, self.bounds(), self.target,
+                                   self.start(tracks), self.samples)
         finally:
             probe.close()
         store(key, choice.as_dict())
         choice = self.settle(choice)
         if not choice.met:
-            warnings.warn(f"{choice}: no {self.technique!r} setting reaches {self.target.name} "
-                          f"on this {self.kind} and view; ask for less, or try another "
-                          "technique.", stacklevel=5)
+            warn_user(f"{choice}: no {self.technique!r} setting reaches {self.target.name} on "
+                      f"this {self.kind} and view; ask for less, or try another technique.")
         return choice
 
     def follow(self, binding, plotter) -> None:
@@ -244,11 +311,11 @@ class ProbeCalibration:
                 return
             if not same_view(self.current_view(plotter), self.view):
                 self.warned = True
-                warnings.warn(
+                warn_user(
                     f"quality {self.target.name} was calibrated for the view at add_"
                     f"{self.kind}; the camera, window size or background has changed since, "
                     "so the error may differ: call actor.cubemarch.recalibrate() (or set the "
-                    f"view before add_{self.kind}).", stacklevel=2)
+                    f"view before add_{self.kind}).")
 
         tag = observe(window, vtkCommand.StartEvent, check)
         release = binding.release_resources
@@ -275,6 +342,10 @@ class ProbeCalibration:
         self.apply(binding, choice.setting)
         binding.quality = choice
         budget = getattr(binding, "frame_budget", None)
-        if budget is not None and budget.knob.name in choice.setting:
-            budget.still = budget.value = float(choice.setting[budget.knob.name])
+        if budget is not None:   # its still value and its estimates: this view's now
+            knob = budget.knob.name
+            if knob in choice.setting:
+                budget.still = budget.value = float(choice.setting[knob])
+            budget.errors = {float(m["setting"][knob]): m["psnr"] for m in choice.measured
+                             if knob in m["setting"]}
         return choice

@@ -20,7 +20,7 @@ from ..surfaces.options import LOOP_BUDGET, MAX_STEPS, SurfaceOptions
 from ..surfaces.technique import surface_recipe
 from .interaction import KNOBS
 from .ladders import Rung
-from .probe import ProbeCalibration
+from .probe import ProbeCalibration, drawn_box_bounds, margined_bounds
 from .targets import QualityTarget, parse_quality
 
 #: Samples along the domain's diagonal, coarse to fine: each doubling halves the gap a
@@ -102,18 +102,12 @@ class SurfaceCalibration(ProbeCalibration):
 
     def bounds(self) -> np.ndarray:
         """The drawn box: the domain a hair larger, or the active cells' boxes."""
-        dims = np.asarray(self.model.dimensions, dtype=np.float64)
         if self.technique == "active" and self.options.traversal == "cell_boxes":
             cells = active_cells(self.model, self.options.active_test,
                                  self.options.active_samples)
-            lower, upper = (cells.min(axis=0), cells.max(axis=0) + 1.0) if len(cells) else (
-                np.zeros(3), dims)
-        else:   # as surfaces.technique draws the domain: 1 % of its longest side around
-            lower, upper = -0.01 * dims.max() * np.ones(3), dims + 0.01 * dims.max()
-        corners = np.array([[x, y, z, 1.0] for x in (lower[0], upper[0])
-                            for y in (lower[1], upper[1]) for z in (lower[2], upper[2])])
-        world = corners @ np.asarray(self.model.world_from_index()).T
-        return np.column_stack([world[:, :3].min(axis=0), world[:, :3].max(axis=0)]).ravel()
+            if len(cells):
+                return drawn_box_bounds(self.model, cells.min(axis=0), cells.max(axis=0) + 1)
+        return margined_bounds(self.model)
 
     def prepare(self, probe) -> None:
         self.light_by_headlight(probe, self.options.shading)
@@ -129,11 +123,6 @@ class SurfaceCalibration(ProbeCalibration):
     def start(self, tracks) -> int | None:
         return next((i for i, rung in enumerate(tracks[0])
                      if rung.setting.get("steps") == 400), None)
-
-    def settle(self, choice):
-        if self.target.exact:   # exact by construction; the estimate says what 8 bits keep
-            choice.met = True
-        return choice
 
     def apply(self, binding, setting: dict) -> None:
         root = setting.get("root", "march")

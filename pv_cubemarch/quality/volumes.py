@@ -93,7 +93,7 @@ def apply_setting(binding, setting: dict) -> None:
         frame = binding.frame
         frame.options = dataclasses.replace(
             frame.options, face_size=int(setting["face_size"]),
-            sample_factor=float(setting.get("sample_factor", 1.0)))
+            sample_factor=float(setting["sample_factor"]))
 
 
 @dataclass

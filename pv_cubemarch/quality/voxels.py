@@ -4,43 +4,49 @@ The voxel DDA visits every voxel a ray crosses, so it draws the CPU reference it
 settings that trade accuracy for time (fixed steps, level of detail) were not found
 cheaper where measured (``bench voxels``: fixed steps 1.3-10x slower than the DDA;
 ``bench voxel-world``: level of detail no faster on a 256³ terrain), so every target gets
-the DDA. Its error is still measured, on a probe frame of at most
-:data:`PROBE_PIXELS` pixels against the reference over that whole frame, and reported as
-any choice is, so a driver that draws wrong is seen.
+the DDA. Its error is still measured, on a probe frame of the window's size against the
+reference over that whole frame (0.4 s at 640x480), and reported as any choice is, so a
+drawing that differs from the reference is seen ('exact' too: met only when the
+measurement shows it).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from .ladders import Rung
-from .probe import ProbeCalibration
+from .probe import ProbeCalibration, margined_bounds
 from .targets import QualityTarget, parse_quality
 
-#: The probe frame's most pixels (the window's aspect kept): the reference traces all.
-PROBE_PIXELS = 160 * 120
 #: What quality= chooses for voxels; the settings it rules out.
 EXACT = {"traversal": "dda"}
+
+
+_NO_BUDGET = ("frame_budget_ms: voxels have no coarser setting that was measured cheaper "
+              "than the exact traversal (bench voxels), so a moving view has nothing to "
+              "coarsen; leave it out (mip_levels and proxy speed every frame up exactly).")
 
 
 def check_voxel_quality(quality, traversal: str, step_scale, lod: bool, frame_budget_ms
                         ) -> QualityTarget:
     """Read ``quality=`` for voxels and refuse the settings that would contradict it."""
     target = parse_quality(quality, exact=True)
+    refuse_voxel_budget(frame_budget_ms)
     if traversal != "dda" or step_scale is not None or lod:
         raise ValueError("quality= draws every voxel a ray crosses (traversal='dda', no lod): "
                          "leave traversal, step_scale and lod out with it.")
-    if frame_budget_ms is not None:
-        raise ValueError(_NO_BUDGET)
     return target
 
 
-_NO_BUDGET = ("frame_budget_ms: voxels have no coarser setting that was measured cheaper "
-              "than the exact traversal (bench voxels), so a moving view has nothing to "
-              "coarsen; leave it out (mip_levels and proxy speed every frame up exactly).")
+def check_opaque(model) -> None:
+    """Refuse ``quality=`` for a grid with translucent labels (the reference has none)."""
+    alpha = np.asarray(model.palette.rgba)[1:, 3]
+    if ((alpha > 0.0) & (alpha < 1.0)).any():
+        raise ValueError("quality= measures against the voxel reference, which draws labels "
+                         "opaque or hidden; this grid has translucent labels (opacity "
+                         "between 0 and 1): leave quality out, or make them opaque.")
 
 
 def refuse_voxel_budget(frame_budget_ms) -> None:
@@ -51,14 +57,14 @@ def refuse_voxel_budget(frame_budget_ms) -> None:
 
 @dataclass
 class VoxelCalibration(ProbeCalibration):
-    """``quality=`` of a voxel grid: the DDA, measured on a small probe frame.
+    """``quality=`` of a voxel grid: the DDA, measured over the window's frame.
 
     ``look`` holds the reference's keywords for the grid's look (shading, edges ...).
     """
 
     look: dict | None = None
     kind = "voxels"
-    samples = PROBE_PIXELS   # every pixel of the probe frame
+    samples = 1 << 40   # every pixel of the footprint (the reference traces the frame)
 
     def tracks(self) -> list[list[Rung]]:
         return [[Rung(dict(EXACT), 1.0)]]
@@ -69,9 +75,8 @@ class VoxelCalibration(ProbeCalibration):
                 np.asarray(model.world_from_index()),
                 sorted((k, repr(v)) for k, v in self.keep.items()))
 
-    def probe_size(self, size: tuple[int, int]) -> tuple[int, int]:
-        scale = min(1.0, math.sqrt(PROBE_PIXELS / float(size[0] * size[1])))
-        return max(1, int(size[0] * scale)), max(1, int(size[1] * scale))
+    def bounds(self) -> np.ndarray:
+        return margined_bounds(self.model)
 
     def prepare(self, probe) -> None:
         self.light_by_headlight(probe, self.look.get("shading", "unlit"))
@@ -83,11 +88,6 @@ class VoxelCalibration(ProbeCalibration):
                                lights=self.probe_lights(), **self.look)
         rows, columns = pixels
         return frame[rows, columns][None]
-
-    def settle(self, choice):
-        if self.target.exact:   # the reference's own traversal; the estimate: its 8 bits
-            choice.met = True
-        return choice
 
     def apply(self, binding, setting: dict) -> None:
         """Nothing to change: the grid is drawn by the DDA already."""
