@@ -25,7 +25,7 @@ from ..image_metrics import compare_images
 from ..quality import cache
 from ..quality.ladders import volume_ladder
 from ..reference.emission_absorption import render_emission_absorption
-from ..volume.options import STEP_SCALE, fitting_face_size
+from ..volume.options import DEFAULT_SAMPLE_FACTOR, STEP_SCALE, fitting_face_size
 from .dial_rows import DialRow, InteractionRow, SweepRow, fresh_cache, label, mark_front
 from .dial_surfaces import LOOK as SURFACE_LOOK
 from .dial_surfaces import (
@@ -117,9 +117,13 @@ def run_dial(size: Sequence[int] = (320, 240), frames: int = 3,
 
 def _one(name, grid, look, technique, size, frames, targets):
     ladder = volume_ladder(technique, grid.dimensions)
+    default = _default_setting(technique, grid)
+    settings = [r.setting for r in ladder]
+    if default not in settings:   # else the rung it equals is the default's row
+        settings.append(default)
     plotters = {}
     try:
-        for index, setting in [*enumerate(r.setting for r in ladder), ("default", {})]:
+        for index, setting in enumerate(settings):
             plotters[index] = plotter = _plotter(size)
             actor = add_volume(plotter, grid, technique=technique, **look, **setting)
             if index == 0:
@@ -134,11 +138,10 @@ def _one(name, grid, look, technique, size, frames, targets):
     finally:
         for plotter in plotters.values():
             plotter.close()
-    rows = [SweepRow(name, technique, label(rung.setting), float(np.median(times[i])),
-                     psnrs[i]) for i, rung in enumerate(ladder)]
-    default = SweepRow(name, technique, f"default ({label(_default_setting(technique, grid))})",
-                       float(np.median(times["default"])), psnrs["default"])
-    mark_front([*rows, default])
+    every = mark_front([SweepRow(name, technique, label(setting), float(np.median(times[i])),
+                                 psnrs[i], default=setting == default)
+                        for i, setting in enumerate(settings)])
+    rows = every[:len(ladder)]
     dials = []
     for target in targets:
         cache.forget()
@@ -159,27 +162,28 @@ def _one(name, grid, look, technique, size, frames, targets):
                              None if cheapest is None else cheapest.setting,
                              None if cheapest is None else
                              rows[chosen].median_ms / cheapest.median_ms, choice.seconds))
-    return [*rows, default], dials
+    return every, dials
 
 
 def _default_setting(technique: str, grid) -> dict:
     """What ``add_volume`` draws ``technique`` with when no setting is given."""
     if technique == "cubemap":
-        return {"face_size": fitting_face_size(grid.dimensions)}
+        return {"face_size": fitting_face_size(grid.dimensions),
+                "sample_factor": DEFAULT_SAMPLE_FACTOR}
     return {"step_scale": STEP_SCALE.default}
 
 
 def format_dial(sweep: list[SweepRow], dials: list[DialRow]) -> str:
     """The sweeps (Pareto rungs starred) and the choices, as two text tables."""
-    lines = [f"{'scene':7}{'technique':10}{'setting':30}{'ms':>8}{'PSNR':>8}  front"]
+    lines = [f"{'scene':13}{'technique':10}{'setting':30}{'ms':>8}{'PSNR':>8}  front  default"]
     for r in sweep:
-        lines.append(f"{r.scene:7}{r.technique:10}{r.setting:30}{r.median_ms:8.1f}"
-                     f"{r.psnr:8.1f}  {'*' if r.pareto else ''}")
-    lines += ["", f"{'scene':7}{'technique':10}{'target':>7}  {'chosen':30}{'PSNR':>7}"
+        lines.append(f"{r.scene:13}{r.technique:10}{r.setting:30}{r.median_ms:8.1f}"
+                     f"{r.psnr:8.1f}  {'*' if r.pareto else ' ':5}  {'<-' if r.default else ''}")
+    lines += ["", f"{'scene':13}{'technique':10}{'target':>7}  {'chosen':30}{'PSNR':>7}"
                   f"{'est.':>7}{'met':>5}  {'cheapest meeting':30}{'x cost':>7}{'calib s':>8}"]
     for d in dials:
         ratio = "-" if d.cost_ratio is None else f"{d.cost_ratio:.2f}"
-        lines.append(f"{d.scene:7}{d.technique:10}{d.target:7.0f}  {d.chosen:30}"
+        lines.append(f"{d.scene:13}{d.technique:10}{d.target:7.0f}  {d.chosen:30}"
                      f"{d.psnr:7.1f}{d.estimated:7.1f}{'yes' if d.met else 'no':>5}  "
                      f"{d.cheapest or '(none)':30}{ratio:>7}{d.calibration_s:8.2f}")
     met = [d for d in dials if d.cheapest is not None]

@@ -19,6 +19,7 @@ class SweepRow:
     setting: str
     median_ms: float
     psnr: float
+    default: bool = False
     pareto: bool = False
 
 

@@ -105,7 +105,8 @@ def _one(name, source, isovalue, size, frames, targets):
     finally:
         for plotter in plotters.values():
             plotter.close()
-    rows = mark_front([SweepRow(name, "active", key, float(np.median(times[key])), psnrs[key])
+    rows = mark_front([SweepRow(name, "active", key, float(np.median(times[key])), psnrs[key],
+                                default=key.startswith("default"))
                        for key in settings])
     ladder_rows = rows[:len(ladder)]
     dials = []
