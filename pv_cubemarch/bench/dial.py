@@ -266,11 +266,11 @@ def _orbit(name, technique, plotter, actor, frames, reference) -> InteractionRow
 
 def format_interaction(rows: list[InteractionRow]) -> str:
     """The orbits as a text table."""
-    lines = [f"{'scene':7}{'technique':10}{'budget':>7}{'frames':>7}{'within':>8}"
+    lines = [f"{'scene':13}{'technique':10}{'budget':>7}{'frames':>7}{'within':>8}"
              f"{'median ms':>10}  {'knob':11}{'moving':14}{'still':>6}{'still ms':>9}"
              f"{'PSNR':>7}"]
     for r in rows:
-        lines.append(f"{r.scene:7}{r.technique:10}{r.budget_ms:7.0f}{r.moving_frames:7d}"
+        lines.append(f"{r.scene:13}{r.technique:10}{r.budget_ms:7.0f}{r.moving_frames:7d}"
                      f"{r.within_budget:8.0%}{r.median_moving_ms:10.1f}  {r.knob:11}"
                      f"{r.steps:14}{r.still_value:6g}{r.still_ms:9.1f}{r.still_psnr:7.1f}")
     return "\n".join(lines)
