@@ -238,3 +238,21 @@ def client():
     with distributed.Client(cluster) as started:
         yield started
     cluster.close()
+
+
+@pytest.fixture
+def quality_cache(tmp_path, monkeypatch):
+    """quality='s choices kept in a folder of the test's own, none in memory."""
+    from pv_cubemarch.quality import cache
+    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path / "cache"))
+    cache.forget()
+    yield cache
+    cache.forget()
+
+
+def stored_settings() -> list[dict]:
+    """The settings quality= stored in the cache file (the quality_cache fixture's)."""
+    import json
+
+    from pv_cubemarch.quality import cache
+    return [entry["setting"] for entry in json.loads(cache.cache_file().read_text()).values()]

@@ -15,6 +15,7 @@ import math
 import numpy as np
 import pytest
 import pyvista
+from conftest import stored_settings
 
 import pv_cubemarch
 from pv_cubemarch.bench.sort_last import phantom
@@ -31,11 +32,8 @@ LOOK = {"cmap": "bone", "opacity": "sigmoid", "clim": (-200.0, 1500.0)}
 
 
 @pytest.fixture(autouse=True)
-def _own_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path / "cache"))
-    cache.forget()
-    yield
-    cache.forget()
+def _own_cache(quality_cache):
+    """Every test calibrates afresh, in a cache folder of its own."""
 
 
 @pytest.fixture(scope="module")
@@ -275,10 +273,6 @@ def test_auto_calibrates_both_paths_so_either_meets_the_target(ct):
 SCENE = pv_cubemarch.__file__.rsplit("/", 2)[0] + "/datasets/smoke_scene.usda"
 
 
-def _stored_settings() -> list[dict]:
-    return [entry["setting"] for entry in json.loads(cache.cache_file().read_text()).values()]
-
-
 def test_the_cli_flag_calibrates_on_the_scene_camera_and_draws_the_choice(tmp_path, capsys):
     # --quality reaches add_volume (a flag no technique's options hold was dropped in
     # silence), and the image is the one the chosen step draws
@@ -291,7 +285,7 @@ def test_the_cli_flag_calibrates_on_the_scene_camera_and_draws_the_choice(tmp_pa
     # a volume's and a surface's flag: no word that the scene has no surfaces
     # catches (seen failing): the surfaces' "does not apply" warning for a shared flag
     assert "does not apply" not in capsys.readouterr().err
-    (setting,) = _stored_settings()
+    (setting,) = stored_settings()
     again = tmp_path / "s.png"
     assert main([*common, "--step-scale", str(setting["step_scale"]), "-o", str(again)]) == 0
     assert np.array_equal(np.asarray(Image.open(out)), np.asarray(Image.open(again)))
@@ -318,7 +312,7 @@ def test_a_usd_attribute_asks_for_quality_calibrated_from_the_scene_camera(tmp_p
     assert scene.render(size=(80, 60)).std() > 3
     (camera,) = seen
     assert np.allclose(camera.position, scene.camera.position)
-    (setting,) = _stored_settings()
+    (setting,) = stored_settings()
     assert set(setting) == {"step_scale"}
 
 

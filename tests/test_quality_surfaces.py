@@ -10,18 +10,16 @@ light the plotter really has; it imports nothing of the renderer.
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 import pyvista
+from conftest import stored_settings
 
 import pv_cubemarch
 from pv_cubemarch.core.camera import Camera
 from pv_cubemarch.core.rendering import offscreen_plotter, read_pixels, render_frame
 from pv_cubemarch.image_metrics import compare_images
 from pv_cubemarch.models.lights import VolumeLight
-from pv_cubemarch.quality import cache
 from pv_cubemarch.reference.surfaces import render_surface
 
 SIZE = (200, 150)
@@ -29,11 +27,8 @@ ISOVALUE = 250.0
 
 
 @pytest.fixture(autouse=True)
-def _own_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path / "cache"))
-    cache.forget()
-    yield
-    cache.forget()
+def _own_cache(quality_cache):
+    """Every test calibrates afresh, in a cache folder of its own."""
 
 
 @pytest.fixture(scope="module")
@@ -190,10 +185,6 @@ def test_recalibrating_gives_the_budget_this_view_s_estimates(sheets):
     plotter.close()
 
 
-def _stored_settings() -> list[dict]:
-    return [entry["setting"] for entry in json.loads(cache.cache_file().read_text()).values()]
-
-
 def test_the_cli_flag_reaches_a_surface_and_draws_its_choice(sheets, tmp_path, capsys):
     # --quality is a volume's and a surface's flag: it reaches add_surface, and the image
     # is what the chosen steps draw
@@ -208,7 +199,7 @@ def test_the_cli_flag_reaches_a_surface_and_draws_its_choice(sheets, tmp_path, c
               "--no-progress"]
     out = tmp_path / "q.png"
     assert main([*common, "--quality", "35", "-o", str(out)]) == 0
-    (setting,) = _stored_settings()
+    (setting,) = stored_settings()
     again = tmp_path / "s.png"
     assert main([*common, "--steps", str(setting["steps"]), "-o", str(again)]) == 0
     assert np.array_equal(np.asarray(Image.open(out)), np.asarray(Image.open(again)))
@@ -258,7 +249,7 @@ def test_a_usd_attribute_asks_a_surface_for_quality_from_the_scene_camera(tmp_pa
     assert scene.render(size=(80, 60)).std() > 3
     (camera,) = seen
     assert np.allclose(camera.position, scene.camera.position)
-    (setting,) = _stored_settings()
+    (setting,) = stored_settings()
     assert set(setting) == {"steps"}
 
 

@@ -9,18 +9,16 @@ whole frame at the camera, near plane, background and lights the plotter really 
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 import pyvista
+from conftest import stored_settings
 
 import pv_cubemarch
 from pv_cubemarch.core.camera import Camera
 from pv_cubemarch.core.rendering import offscreen_plotter, read_pixels, render_frame
 from pv_cubemarch.image_metrics import compare_images
 from pv_cubemarch.models.lights import VolumeLight
-from pv_cubemarch.quality import cache
 from pv_cubemarch.reference.voxels import render_voxels
 
 SIZE = (240, 180)
@@ -28,11 +26,8 @@ PLANE = [(-95.0, 30.0, 12.0, 1.0, 0.3, -0.2)]   # a point inside the grid, the n
 
 
 @pytest.fixture(autouse=True)
-def _own_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path / "cache"))
-    cache.forget()
-    yield
-    cache.forget()
+def _own_cache(quality_cache):
+    """Every test calibrates afresh, in a cache folder of its own."""
 
 
 @pytest.fixture(scope="module")
@@ -158,10 +153,6 @@ def test_a_budget_alone_is_refused_for_voxels(cells):
     plotter.close()
 
 
-def _stored_settings() -> list[dict]:
-    return [entry["setting"] for entry in json.loads(cache.cache_file().read_text()).values()]
-
-
 def test_the_cli_and_usd_ask_voxels_for_quality(cells, tmp_path, capsys):
     # catches (seen failing): --quality taken as no voxel option (refused with
     # --technique voxels); the USD attribute checked as a technique's option (the stage
@@ -175,7 +166,7 @@ def test_the_cli_and_usd_ask_voxels_for_quality(cells, tmp_path, capsys):
     assert main(["render", str(path), "--technique", "voxels", "--quality", "exact",
                  "--size", "96x72", "--no-progress", "-o", str(out)]) == 0
     assert "does not apply" not in capsys.readouterr().err
-    assert _stored_settings() == [{"traversal": "dda"}]
+    assert stored_settings() == [{"traversal": "dda"}]
     stage = write_voxel_stage(tmp_path, np.asarray(cells.cell_data["cell_id"]).reshape(
         (28, 20, 14), order="F"), attrs={"cubemarch:quality": ("String", "exact")})
     scene = pv_cubemarch.load_scene(stage, strict=True)
