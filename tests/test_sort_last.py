@@ -216,6 +216,30 @@ def test_a_zarr_store_is_split_by_its_path(client, tmp_path):
     assert compare_images(image, whole_render(GRID, camera, **LOOK)).psnr >= 50.0
 
 
+def test_a_pixel_the_front_layers_made_opaque_takes_nothing_from_behind():
+    # the whole volume's march stops once a pixel's opacity passes the stop opacity
+    # (0.99): a front layer that opaque on its own hides the layer behind, which its slab
+    # still drew; by hand: red over nothing
+    # catches (seen failing, found by a review): "over" of every layer (the green behind
+    # leaked through: 48.6 dB against the whole render inside a narrow clim)
+    front = (0, 0, np.array([[[0.996, 0.0, 0.0, 0.996]]]), None)
+    behind = (0, 0, np.array([[[0.0, 0.996, 0.0, 0.996]]]), None)
+    image = sort_last.composite([front, behind], [0, 1], "composite", (1, 1), (0, 0, 1))
+    assert image[0, 0].tolist() == [254, 0, 1]
+
+
+def test_a_slab_opaque_on_its_own_hides_the_slabs_behind(client):
+    # values over a narrow, logarithmic clim make the camera's slab opaque by itself
+    # catches (seen failing): "over" of every layer (48.6 dB)
+    camera = CAMERAS["inside"]
+    grid = whole_grid(values() + 1001.0)
+    look = dict(LOOK, clim=(10.0, 500.0), log_scale=True)
+    expected = whole_render(grid, camera, **look)
+    image = cm.render_sort_last(grid, camera, SIZE, partitions=4, axis=0, client=client,
+                                background_color=BACKGROUND, progress_bar=False, **look)
+    assert compare_images(image, expected).psnr >= 50.0
+
+
 def test_slabs_are_composited_front_to_back_from_the_camera():
     # catches (seen failing): a parallel view looking down -x ordered as one looking down +x.
     parts = split_grid.split_volume(values(), 4, 0, keywords={"clim": (0, 1)}).partitions

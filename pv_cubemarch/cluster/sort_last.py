@@ -18,6 +18,7 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..core.progress import progress
+from ..volume.options import DEFAULT_STOP_OPACITY
 from .frames import (
     FrameError,
     _checked_size,
@@ -88,8 +89,12 @@ def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
             continue
         window = (slice(row, row + layer.shape[0]), slice(col, col + layer.shape[1]))
         if blending == "composite":
+            # the whole volume's march ends once its opacity passes the stop opacity, and a
+            # slab stops only on its own: a pixel the layers in front made that opaque
+            # takes nothing from behind (exact where one slab gets there alone)
             under = rgba[window]
-            rgba[window] = under + (1.0 - under[..., 3:]) * layer
+            rgba[window] = np.where(under[..., 3:] > DEFAULT_STOP_OPACITY, under,
+                                    under + (1.0 - under[..., 3:]) * layer)
             continue
         value = sign * state[..., 0].astype(np.float64)
         take = (state[..., 1] > 0) & (value > held[window])
