@@ -256,3 +256,27 @@ def stored_settings() -> list[dict]:
 
     from pv_cubemarch.quality import cache
     return [entry["setting"] for entry in json.loads(cache.cache_file().read_text()).values()]
+
+
+@pytest.fixture
+def seen(monkeypatch):
+    """The cameras quality= calibrations are run with, in order."""
+    from pv_cubemarch.quality import probe
+    cameras = []
+    calibrate = probe.calibrate
+
+    def spy(tracks, render, reference, camera, *rest, **keywords):
+        cameras.append(camera)
+        return calibrate(tracks, render, reference, camera, *rest, **keywords)
+    monkeypatch.setattr(probe, "calibrate", spy)
+    return cameras
+
+
+def headlit_plotter(size):
+    """An offscreen plotter lit by one headlight (the light quality= calibrates with)."""
+    from pv_cubemarch.core.rendering import offscreen_plotter
+    plotter = offscreen_plotter(size)
+    plotter.ren_win.SetMultiSamples(0)
+    plotter.remove_all_lights()
+    plotter.add_light(pv.Light(light_type="headlight"))
+    return plotter

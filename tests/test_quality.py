@@ -45,20 +45,6 @@ def ct():
     return grid
 
 
-@pytest.fixture
-def seen(monkeypatch):
-    """The cameras calibrations are run with, in order."""
-    from pv_cubemarch.quality import probe
-    cameras = []
-    calibrate = probe.calibrate
-
-    def spy(tracks, render, reference, camera, *rest, **keywords):
-        cameras.append(camera)
-        return calibrate(tracks, render, reference, camera, *rest, **keywords)
-    monkeypatch.setattr(probe, "calibrate", spy)
-    return cameras
-
-
 def _plotter():
     plotter = offscreen_plotter(SIZE)
     plotter.set_background("black")

@@ -13,11 +13,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista
-from conftest import stored_settings
+from conftest import headlit_plotter, stored_settings
 
 import pv_cubemarch
 from pv_cubemarch.core.camera import Camera
-from pv_cubemarch.core.rendering import offscreen_plotter, read_pixels, render_frame
+from pv_cubemarch.core.rendering import read_pixels, render_frame
 from pv_cubemarch.image_metrics import compare_images
 from pv_cubemarch.models.lights import VolumeLight
 from pv_cubemarch.reference.surfaces import render_surface
@@ -43,15 +43,6 @@ def sheets():
     return grid
 
 
-def _plotter():
-    """A plotter lit by one headlight (the light calibration measures with)."""
-    plotter = offscreen_plotter(SIZE)
-    plotter.ren_win.SetMultiSamples(0)
-    plotter.remove_all_lights()
-    plotter.add_light(pyvista.Light(light_type="headlight"))
-    return plotter
-
-
 def _whole_frame_psnr(plotter, actor) -> float:
     """The drawn frame against the reference traced over every pixel."""
     render_frame(plotter)
@@ -65,7 +56,7 @@ def _whole_frame_psnr(plotter, actor) -> float:
 
 
 def _drawn(sheets, **keywords):
-    plotter = _plotter()
+    plotter = headlit_plotter(SIZE)
     actor = pv_cubemarch.add_surface(plotter, sheets, isovalue=ISOVALUE, color="tan",
                                      **keywords)
     return plotter, actor
@@ -117,7 +108,7 @@ def test_exact_draws_each_cell_s_first_root(sheets):
     ({"frame_budget_ms": 0}, "positive"),
 ])
 def test_what_surface_calibration_cannot_measure_is_refused_by_name(sheets, keywords, words):
-    plotter = _plotter()
+    plotter = headlit_plotter(SIZE)
     keywords = {"color": "tan", **keywords}
     with pytest.raises(ValueError, match=words):
         pv_cubemarch.add_surface(plotter, sheets, isovalue=ISOVALUE, **keywords)
@@ -223,21 +214,12 @@ def test_the_live_view_asks_a_surface_for_quality_and_a_step_by_hand_drops_it(sh
     plotter.close()
 
 
-def test_a_usd_attribute_asks_a_surface_for_quality_from_the_scene_camera(tmp_path,
-                                                                          monkeypatch):
+def test_a_usd_attribute_asks_a_surface_for_quality_from_the_scene_camera(tmp_path, seen):
     # catches (seen failing): the surface prim's options checked with quality among them
     # (the stage refused as "quality is not an option of technique='active'"); the
     # scene's camera applied after the surfaces were added (calibrated on another view)
     from conftest import write_voxel_stage
 
-    from pv_cubemarch.quality import probe
-    seen = []
-    calibrate = probe.calibrate
-
-    def spy(tracks, render, reference, camera, *rest, **keywords):
-        seen.append(camera)
-        return calibrate(tracks, render, reference, camera, *rest, **keywords)
-    monkeypatch.setattr(probe, "calibrate", spy)
     p = np.indices((16, 16, 16)).reshape(3, -1).T.astype(float)
     ball = (5.0 - np.linalg.norm(p - 7.5, axis=1)).reshape(16, 16, 16)
     path = write_voxel_stage(tmp_path, ball, technique="surface", attrs={

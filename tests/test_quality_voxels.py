@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista
-from conftest import stored_settings
+from conftest import headlit_plotter, stored_settings
 
 import pv_cubemarch
 from pv_cubemarch.core.camera import Camera
@@ -42,14 +42,6 @@ def cells():
     return grid
 
 
-def _plotter():
-    plotter = offscreen_plotter(SIZE)
-    plotter.ren_win.SetMultiSamples(0)
-    plotter.remove_all_lights()
-    plotter.add_light(pyvista.Light(light_type="headlight"))
-    return plotter
-
-
 def _whole_frame_psnr(plotter, actor, **look) -> float:
     render_frame(plotter)
     model = actor.cubemarch.model
@@ -68,7 +60,7 @@ def test_every_target_gets_the_dda_with_its_error_measured(cells, quality):
     # edges and lights included
     # catches (seen failing): the clip planes left out of the reference's look (the
     # estimate 14 dB: the cut-away voxels traced)
-    plotter = _plotter()
+    plotter = headlit_plotter(SIZE)
     actor = pv_cubemarch.add_voxels(plotter, cells, quality=quality, show_edges=True,
                                     clip_planes=PLANE)
     choice = actor.cubemarch.quality

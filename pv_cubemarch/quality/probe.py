@@ -13,6 +13,7 @@ import math
 import re
 import sys
 import warnings
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +28,7 @@ from ..core.camera import Camera
 from ..core.frame_errors import observe
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..models.lights import VolumeLight
+from ..models.volume import box_world_bounds
 from .cache import choice_key, lookup, store
 from .calibration import SAMPLES, QualityChoice, calibrate
 from .interaction import MOVING_RATE
@@ -126,10 +128,10 @@ def warn_user(message: str) -> None:
 
 def drawn_box_bounds(model, lower, upper) -> np.ndarray:
     """World bounds of the index-space box ``[lower, upper]`` of ``model``, placed."""
-    corners = np.array([[x, y, z, 1.0] for x in (lower[0], upper[0])
-                        for y in (lower[1], upper[1]) for z in (lower[2], upper[2])])
-    world = corners @ np.asarray(model.world_from_index()).T
-    return np.column_stack([world[:, :3].min(axis=0), world[:, :3].max(axis=0)]).ravel()
+    shift = np.eye(4)
+    shift[:3, 3] = lower
+    return box_world_bounds(np.asarray(model.world_from_index()) @ shift,
+                            np.subtract(upper, lower))
 
 
 def margined_bounds(model) -> np.ndarray:
@@ -167,7 +169,7 @@ EXACT_FLOOR_DB = 45.0
 
 
 @dataclass
-class ProbeCalibration:
+class ProbeCalibration(ABC):
     """What ``quality=`` needs to calibrate a prop, now and again when the view moves.
 
     ``add(plotter, model, technique=, name=, **setting, **keep)`` draws a candidate (the
@@ -189,21 +191,21 @@ class ProbeCalibration:
     #: About how many pixels of the footprint the reference traces.
     samples = SAMPLES
 
+    @abstractmethod
     def tracks(self) -> list[list[Rung]]:
         """The ladders searched, each cheapest first."""
-        raise NotImplementedError
 
+    @abstractmethod
     def key_parts(self) -> tuple:
         """What the choice depends on besides the view, the GL renderer and the target."""
-        raise NotImplementedError
 
+    @abstractmethod
     def trace(self, camera: Camera, size, background, near: float, pixels) -> np.ndarray:
         """The reference's colours of ``pixels`` (``(1, n, 3)`` floats in [0, 1])."""
-        raise NotImplementedError
 
+    @abstractmethod
     def apply(self, binding, setting: dict) -> None:
         """Draw ``setting`` from the next frame, nothing rebuilt."""
-        raise NotImplementedError
 
     def start(self, tracks) -> int | None:
         """The rung each track's search starts from (None: its middle)."""
@@ -213,19 +215,16 @@ class ProbeCalibration:
         """World bounds of the prop as drawn (what PyVista frames the camera on)."""
         return np.asarray(self.model.world_bounds(), dtype=np.float64)
 
-    def prepare(self, probe) -> None:
-        """Set up the probe plotter before the first candidate (lights ...)."""
+    def shading(self) -> str:
+        """How the candidates are shaded: anything lit is lit by one headlight."""
+        return "unlit"
 
-    def probe_size(self, size: tuple[int, int]) -> tuple[int, int]:
-        """The probe's size for a window of ``size`` (the window's own by default)."""
-        return size
-
-    def light_by_headlight(self, probe, shading: str) -> None:
+    def light_probe(self, probe) -> None:
         """Light a lit look by one headlight on the probe (placed as VTK places it)."""
-        if shading != "unlit":
+        self.probe = probe
+        if self.shading() != "unlit":
             probe.remove_all_lights()
             probe.add_light(pyvista.Light(light_type="headlight"))
-        self.probe = probe
 
     def probe_lights(self) -> list:
         """The probe's lights as the references take them, placed for its camera now."""
@@ -245,7 +244,7 @@ class ProbeCalibration:
     def run(self, plotter, reset_camera: bool | None) -> QualityChoice:
         """Choose the rung for the view the plotter will have (cached per view)."""
         camera = camera_once_added(plotter, self.bounds(), reset_camera)
-        size = self.probe_size(tuple(int(v) for v in plotter.window_size))
+        size = tuple(int(v) for v in plotter.window_size)
         background = tuple(float(c) for c in plotter.background_color.float_rgb)
         self.view = (view_key(camera), size, background)
         return self._choose(camera, size, background)
@@ -256,7 +255,7 @@ class ProbeCalibration:
         try:
             probe.ren_win.SetMultiSamples(0)
             probe.set_background(background)
-            self.prepare(probe)
+            self.light_probe(probe)
 
             def draw(setting: dict) -> None:
                 self.add(probe, self.model, technique=self.technique, name="calibration",
@@ -337,7 +336,7 @@ class ProbeCalibration:
         """Choose again for the plotter's view now, and draw with the new choice."""
         camera = Camera.from_pyvista(plotter.renderer.camera)
         view = self.current_view(plotter)
-        choice = self._choose(camera, self.probe_size(view[1]), view[2])
+        choice = self._choose(camera, view[1], view[2])
         self.view, self.warned = view, False
         self.apply(binding, choice.setting)
         binding.quality = choice

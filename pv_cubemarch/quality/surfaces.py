@@ -109,8 +109,8 @@ class SurfaceCalibration(ProbeCalibration):
                 return drawn_box_bounds(self.model, cells.min(axis=0), cells.max(axis=0) + 1)
         return margined_bounds(self.model)
 
-    def prepare(self, probe) -> None:
-        self.light_by_headlight(probe, self.options.shading)
+    def shading(self) -> str:
+        return self.options.shading
 
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
         options = self.options

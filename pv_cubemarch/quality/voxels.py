@@ -78,8 +78,8 @@ class VoxelCalibration(ProbeCalibration):
     def bounds(self) -> np.ndarray:
         return margined_bounds(self.model)
 
-    def prepare(self, probe) -> None:
-        self.light_by_headlight(probe, self.look.get("shading", "unlit"))
+    def shading(self) -> str:
+        return self.look.get("shading", "unlit")
 
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
         model = self.model

@@ -17,7 +17,14 @@ from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel
 from .channels import render_additive_channels
 from .lighting import light_grid, lit_emission
-from .rays import clip_interval, data_per_world, index_rays, sample, sample_colors
+from .rays import (
+    checked_pixels,
+    clip_interval,
+    data_per_world,
+    index_rays,
+    sample,
+    sample_colors,
+)
 from .transfer import medium as transfer_medium
 from .volume_shading import ShadeSetup
 
@@ -95,14 +102,7 @@ def render_emission_absorption(
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
     if pixels is not None:
-        if crop is not None:
-            raise ValueError("Give crop (a window) or pixels (a sample), not both.")
-        rows, columns = (np.asarray(v, dtype=np.intp).ravel() for v in pixels)
-        if rows.shape != columns.shape or (rows.size and (
-                rows.min() < 0 or columns.min() < 0 or rows.max() >= height
-                or columns.max() >= width)):
-            raise ValueError(f"pixels must be rows and columns of equal length inside an "
-                             f"image of size {size}.")
+        rows, columns = checked_pixels(pixels, crop, width, height)
         origins, directions = origins[rows, columns][None], directions[rows, columns][None]
     if crop is not None:
         x, y, width, height = (int(v) for v in crop)

@@ -170,3 +170,16 @@ def index_rays(volume, origins, directions):
     upper = np.array(volume.dimensions, dtype=np.float64) - 1.0
     t0, t1 = ray_box_interval(o_idx, d_idx, np.zeros(3), upper)
     return o_idx, d_idx, t0, t1
+
+
+def checked_pixels(pixels, crop, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(rows, columns)`` of a pixel sample of a ``width`` x ``height`` image, checked."""
+    if crop is not None:
+        raise ValueError("Give crop (a window) or pixels (a sample), not both.")
+    rows, columns = (np.asarray(v, dtype=np.intp).ravel() for v in pixels)
+    if rows.shape != columns.shape or (rows.size and (
+            rows.min() < 0 or columns.min() < 0 or rows.max() >= height
+            or columns.max() >= width)):
+        raise ValueError(f"pixels must be rows and columns of equal length inside an image "
+                         f"of {width} x {height}.")
+    return rows, columns

@@ -26,7 +26,7 @@ import numpy as np
 from ..core.camera import Camera
 from ..models.lights import VolumeLight
 from ..models.surface import SplineField, active_cells, bernstein_basis
-from .rays import ray_box_interval
+from .rays import checked_pixels, ray_box_interval
 from .shading import blinn_phong
 
 #: Sample intervals per cell segment in which the first sign change is looked for.
@@ -80,7 +80,7 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
     if pixels is not None:
-        rows, columns = _sample(pixels, crop, width, height)
+        rows, columns = checked_pixels(pixels, crop, width, height)
         origins, directions = origins[rows, columns], directions[rows, columns]
         h, w = 1, len(rows)
     else:
@@ -160,19 +160,6 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
     return SurfaceHits(hit.reshape(shape), depth.reshape(shape), point.reshape(*shape, 3),
                        normal.reshape(*shape, 3), cell_hit.reshape(*shape, 3),
                        ambiguous.reshape(shape))
-
-
-def _sample(pixels, crop, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
-    """Checked ``(rows, columns)`` of a pixel sample of a ``width`` x ``height`` image."""
-    if crop is not None:
-        raise ValueError("Give crop (a window) or pixels (a sample), not both.")
-    rows, columns = (np.asarray(v, dtype=np.intp).ravel() for v in pixels)
-    if rows.shape != columns.shape or (rows.size and (
-            rows.min() < 0 or rows.max() >= height or columns.min() < 0
-            or columns.max() >= width)):
-        raise ValueError(f"pixels must be rows and columns of equal length inside an image "
-                         f"of {width} x {height}.")
-    return rows, columns
 
 
 def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
@@ -276,7 +263,7 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
     active = active_cells(field)
     if pixels is not None and (opacity < 1.0 or levels is not None):
         raise ValueError("pixels: a sample is traced for one opaque surface only.")
-    rows, columns = (None, None) if pixels is None else _sample(pixels, None, width, height)
+    rows, columns = (None, None) if pixels is None else checked_pixels(pixels, None, width, height)
     image = np.empty((height, width, 3) if pixels is None else (1, len(rows), 3))
     image[...] = np.asarray(background, dtype=np.float64)
 
