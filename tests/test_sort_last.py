@@ -240,6 +240,52 @@ def test_a_slab_opaque_on_its_own_hides_the_slabs_behind(client):
     assert compare_images(image, expected).psnr >= 50.0
 
 
+def test_a_ray_stopping_inside_a_slab_behind_others_is_drawn_again_to_its_own_stop():
+    # by hand: the front layer leaves opacity 0.5; the layer behind, marched alone, went on
+    # to 0.995, past where the whole ray (0.99) stops: front + (1 - front) a > 0.99 at
+    # a > 0.98, so it is drawn again to 0.98; the third layer then adds nothing
+    # catches (seen failing): the plan's stop from the slab alone (0.99); the second pass
+    # ignored by the composite; "ended" taken from the redrawn opacity (the blue leaked)
+    front = (0, 0, np.array([[[0.5, 0.0, 0.0, 0.5], [0.5, 0.0, 0.0, 0.5]]]), None)
+    behind = (0, 0, np.array([[[0.0, 0.995, 0.0, 0.995], [0.0, 0.3, 0.0, 0.3]]]), None)
+    last = (0, 0, np.array([[[0.0, 0.0, 0.9, 0.9], [0.0, 0.0, 0.9, 0.9]]]), None)
+    layers, order = [front, behind, last], [0, 1, 2]
+    plan = sort_last.stop_plan(layers, order, (1, 2))
+    assert list(plan) == [1]
+    row, col, stops = plan[1]
+    assert (row, col) == (0, 0)
+    assert stops[0, 0] == pytest.approx(0.98) and stops[0, 1] < 0   # the second goes on
+    # the slab's second pass stops at 0.98 (a sample past it; its first pass had gone on)
+    again = (0, 0, np.array([[[0.0, 0.981, 0.0, 0.981], [0.0, 0.0, 0.0, 0.0]]]), None)
+    image = sort_last.composite(layers, order, "composite", (1, 2), (0, 0, 0),
+                                redrawn={1: again})
+    # pixel 0: 0.5 red + 0.5 * 0.981 green, nothing of the blue
+    assert image[0, 0].tolist() == [128, 125, 0]
+    # pixel 1: 0.5 red, 0.5 * 0.3 green, then 0.35 * 0.9 blue (its ray did not stop)
+    assert image[0, 1].tolist() == [128, 38, 80]
+
+
+@pytest.mark.parametrize("view, offset, look", [
+    # the reviewer's case: no slab is opaque alone, several together pass the stop
+    ("inside", 1001.0, dict(LOOK, clim=(500.0, 1500.0))),
+    # a low stop opacity passed inside the slabs behind the camera's (37.9 dB drawn without
+    # the second pass), with a near plane cutting a cut plane
+    ("near plane", 0.0, dict(LOOK, stop_opacity=0.5)),
+])
+def test_rays_stop_where_the_whole_volume_s_rays_stop(client, view, offset, look):
+    # catches (seen failing): no second pass (46.8 and 37.9 dB)
+    camera = CAMERAS[view]
+    grid = whole_grid(values() + offset)
+    expected = whole_render(grid, camera, **look)
+    assert drawn_share(expected) > 0.5
+    report = {}
+    image = cm.render_sort_last(grid, camera, SIZE, partitions=4, axis=0, client=client,
+                                background_color=BACKGROUND, progress_bar=False,
+                                report=report, **look)
+    assert report["second_passes"] == 1.0
+    assert compare_images(image, expected).psnr >= 50.0
+
+
 def test_slabs_are_composited_front_to_back_from_the_camera():
     # catches (seen failing): a parallel view looking down -x ordered as one looking down +x.
     parts = split_grid.split_volume(values(), 4, 0, keywords={"clim": (0, 1)}).partitions
@@ -300,8 +346,8 @@ def test_cli_renders_an_orbit_of_a_split_grid_file(client, tmp_path):
      "no point scalars"),
     (lambda: cm.render_sort_last(np.full((3, 3, 3), np.nan), CAMERAS["outside"]),
      "NaN or infinite values; pass nan_policy"),
-    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], stop_opacity=0.5),
-     "stop_opacity cannot be"),
+    (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], stop_opacity=1.5),
+     "stop_opacity"),
     (lambda: cm.render_sort_last(LABELS, CAMERAS["outside"], technique="voxels",
                                  categories=True), "categories cannot be"),
     (lambda: cm.render_sort_last(GRID, CAMERAS["outside"], axis=1.0), "axis must be"),

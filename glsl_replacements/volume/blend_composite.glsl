@@ -10,6 +10,15 @@ vec3 cm_stopPosition;
 bool cm_stopped = false;
 #endif
 
+#ifdef CM_PIXEL_STOP
+// The stop opacity of this pixel's ray, set by the main (a sort-last slab's: the opacity
+// the slabs in front of it leave to reach before the whole ray stops).
+float cm_rayStopOpacity = 1.0;
+#define CM_RAY_STOP_OPACITY cm_rayStopOpacity
+#else
+#define CM_RAY_STOP_OPACITY cm_stopOpacity
+#endif
+
 vec4 cm_blendStart()
 {
   return vec4(0.0);
@@ -18,7 +27,7 @@ vec4 cm_blendStart()
 bool cm_blend(inout vec4 state, vec3 texturePosition, float dt)
 {
   cm_composite(state, cm_emission(texturePosition), dt);
-  bool goOn = !(state.a > cm_stopOpacity);
+  bool goOn = !(state.a > CM_RAY_STOP_OPACITY);
 #ifdef CM_STOP_DEPTH
   if (!goOn)
   {

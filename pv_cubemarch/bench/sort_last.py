@@ -4,10 +4,12 @@ Rows, per grid, in one run: one plotter drawing the whole grid in a loop (the re
 every frame is compared with), and :func:`~pv_cubemarch.render_sort_last` with 2, 4, 8 ...
 slabs on LocalClusters of the given sizes, started before the clock and warmed by one frame
 (each worker's slabs read and uploaded). Measured per frame: seconds, the client's
-compositing time, the bytes the workers sent, and the error against the whole render (the
-lowest PSNR of the orbit for a volume; for labels, pixels that differ, apart and then among
-those whose ray grazes a voxel's edge, where the CPU traversal in float64 says a float32
-traversal may legitimately hit another voxel, as ``bench voxels`` counts them).
+compositing time, the bytes the workers sent, the share of frames that took a second
+round (rays whose whole march stops inside a slab behind others), and the error against the
+whole render (the lowest PSNR of the orbit for a volume; for labels, pixels that differ,
+apart and then among those whose ray grazes a voxel's edge, where the CPU traversal in
+float64 says a float32 traversal may legitimately hit another voxel, as ``bench voxels``
+counts them).
 The grids sit in a zarr store, chunked along x, so each worker reads only its slabs.
 """
 
@@ -47,6 +49,8 @@ class SortLastRow:
     frame_s: float
     composite_ms: float | None = None
     sent_mb: float | None = None
+    #: Share of frames that took a second round (rays stopping inside a slab behind others).
+    second_pass_share: float | None = None
     psnr_min: float | None = None
     wrong_pixels: int | None = None
     edge_pixels: int | None = None
@@ -186,6 +190,7 @@ def _split_row(name, path, cameras, size, slabs, client, count, labels, look,
         row.edge_pixels = int(sum((d & edge).sum() for d, edge in zip(differs, grazing,
                                                                        strict=True)))
     else:
+        row.second_pass_share = report["second_passes"]
         row.psnr_min = min(compare_images(a, b).psnr
                            for a, b in zip(images, expected[1:], strict=True))
     return row
@@ -194,14 +199,15 @@ def _split_row(name, path, cameras, size, slabs, client, count, labels, look,
 def format_sort_last(rows: list[SortLastRow]) -> str:
     """The rows as a text table."""
     lines = [f"{'grid':18} {'row':32} {'slabs':>5} {'workers':>7} {'frames':>6} "
-             f"{'s/frame':>8} {'comp. ms':>8} {'sent MB':>8} {'PSNR min':>8} {'wrong':>6} "
-             f"{'edge':>5}"]
+             f"{'s/frame':>8} {'comp. ms':>8} {'sent MB':>8} {'2nd pass':>8} {'PSNR min':>8} "
+             f"{'wrong':>6} {'edge':>5}"]
 
     def cell(value, width: int, spec: str = "") -> str:
         return "-".rjust(width) if value is None else format(value, f">{width}{spec}")
     for r in rows:
         lines.append(f"{r.grid:18} {r.row:32} {cell(r.partitions, 5)} {r.workers:>7} "
                      f"{r.frames:>6} {r.frame_s:>8.3f} {cell(r.composite_ms, 8, '.1f')} "
-                     f"{cell(r.sent_mb, 8, '.2f')} {cell(r.psnr_min, 8, '.1f')} "
+                     f"{cell(r.sent_mb, 8, '.2f')} {cell(r.second_pass_share, 8, '.0%')} "
+                     f"{cell(r.psnr_min, 8, '.1f')} "
                      f"{cell(r.wrong_pixels, 6)} {cell(r.edge_pixels, 5)}")
     return "\n".join(lines)

@@ -18,6 +18,7 @@ from ..core.rendering import offscreen_plotter, read_depth, render_frame, render
 from ..gl.box import bind_camera, camera_matrices, drawn_viewport
 from ..gl.passes import RenderToTexturePass
 from ..gl.shaders import ShaderRecipe
+from ..gl.textures import Texture
 from ..models.volume import make_volume
 from ..models.voxels import make_voxels
 from ..volume.binding import (
@@ -28,6 +29,7 @@ from ..volume.binding import (
     march_snippets,
     world_from_texture,
 )
+from ..volume.options import STOP_OPACITY
 
 #: Blend modes a partitioned volume can be drawn with: the ones whose partial images combine
 #: exactly (front-to-back "over"; the extreme of the extremes).
@@ -41,11 +43,10 @@ LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "specular", "specular
                   "mip_levels")
 #: add_volume keywords a partitioned volume is drawn with: the look and the marching. The
 #: others (gradient shading and lights, whose samples read across the cut; clipping; other
-#: techniques' settings; ``stop_opacity``, since a slab cannot know the opacity in front
-#: of it) are refused rather than drawn unlike the whole volume.
+#: techniques' settings) are refused rather than drawn unlike the whole volume.
 PARTITION_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
                       "flip_scalars", "log_scale", "categories", "blending", "step_scale",
-                      "skip_empty", "interpolation", "nan_policy")
+                      "stop_opacity", "skip_empty", "interpolation", "nan_policy")
 
 
 #: The look keywords make_volume / make_voxels check (the rest are the marcher's).
@@ -72,6 +73,8 @@ def check_look(keywords: dict, labels: bool) -> None:
     if step is not None and not (isinstance(step, (int, float, np.number))
                                  and not isinstance(step, bool) and 0 < step < np.inf):
         raise ValueError(f"step_scale must be a positive number of texels, got {step!r}.")
+    if "stop_opacity" in keywords:
+        STOP_OPACITY.check(keywords["stop_opacity"])
     look = {k: keywords[k] for k in _VOLUME_LOOK if k in keywords}
     low, high = 1.0, 2.0   # positive: a log scale's range too
     if look.get("clim") is not None and np.size(look["clim"]) == 2 and look.get("log_scale"):
@@ -212,6 +215,13 @@ class PartitionView:
                                           binding.stop_opacity, skip_empty=True,
                                           blend=Blend(blending))
         defines["CM_KEEP_STATE"] = keeps_state
+        # composite: a second pass may draw chosen pixels again with their own stop opacity
+        defines["CM_PIXEL_STOP"] = not keeps_state
+        self._stops = Texture(np.full((1, 1), -1.0, np.float32), interpolate=False)
+        self._redraw = False
+        if not keeps_state:
+            march.add_texture("cm_pixelStop", self._stops)
+            march.set_uniform("cm_pixelStops", lambda: int(self._redraw))
         bind_camera(march, renderer, lambda: world_from_texture(model))
         # The whole grid's frame, made alike in every partition from the same numbers (the
         # partitions' ownership of samples on a shared plane is decided in it).
@@ -233,19 +243,36 @@ class PartitionView:
             defines=defines))
         self.march, self.binding, self.blending = march, binding, blending
 
-    def render(self, camera: Camera) -> tuple[np.ndarray, np.ndarray | None]:
+    def render(self, camera: Camera, stops: tuple | None = None
+               ) -> tuple[np.ndarray, np.ndarray | None]:
         """The partition's float32 premultiplied RGBA for ``camera``, rows top to bottom.
 
         For the projections also the kept value and whether a sample was read. The
         clipping range is the camera's, or fitted to the whole grid's bounds (as one
-        plotter holding the whole volume fits it), never to this partition's.
+        plotter holding the whole volume fits it), never to this partition's. ``stops``
+        (composite only), ``(row0, col0, window)``: draw again only the window's pixels
+        that hold a stop opacity (the rest negative), each ray stopping at its own; the
+        other pixels are left transparent.
         """
         _fit_camera(self.plotter, self.partition, camera)
-        render_frame(self.plotter)
+        if stops is not None:
+            if self.blending != "composite":
+                raise ValueError("per-pixel stop opacities are for composite blending.")
+            row, col, window = stops
+            width, height = self.plotter.window_size
+            frame = np.full((height, width), -1.0, np.float32)
+            frame[row:row + window.shape[0], col:col + window.shape[1]] = window
+            self._stops.set_data(np.ascontiguousarray(frame[::-1]))
+        self._redraw = stops is not None
+        try:
+            render_frame(self.plotter)
+        finally:
+            self._redraw = False
         rgba = self.march.read(0)[::-1]
         if self.blending == "composite":
             return np.ascontiguousarray(rgba), None
         return np.ascontiguousarray(rgba), np.ascontiguousarray(self.march.read(1)[::-1, :, :2])
 
     def close(self) -> None:
+        self._stops.release()
         self.plotter.close()

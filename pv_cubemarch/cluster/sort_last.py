@@ -67,41 +67,102 @@ def visibility_order(partitions: Sequence[Partition], camera: Camera) -> list[in
     return sorted(range(len(partitions)), key=distance)
 
 
+def _front_to_back(layers: Sequence[tuple], order: Sequence[int], shape: tuple[int, int],
+                   stop: float):
+    """Walk composite layers front to back as the whole ray would stop.
+
+    Yields ``(index, window, layer, front, crossing, ended)`` per drawn layer: the opacity
+    the layers in front leave (from the first pass's layers), the pixels whose whole ray
+    passes ``stop`` inside this layer, and those it passed in front of it.
+    """
+    alpha = np.zeros(shape, np.float64)
+    ended = np.zeros(shape, bool)
+    for index in order:
+        row, col, layer, _ = layers[index]
+        if layer is None:
+            continue
+        window = (slice(row, row + layer.shape[0]), slice(col, col + layer.shape[1]))
+        front, before = alpha[window].copy(), ended[window].copy()
+        after = front + (1.0 - front) * layer[..., 3]
+        crossing = ~before & (after > stop)
+        yield index, window, layer, front, crossing, before
+        alpha[window] = np.where(before, front, after)
+        ended[window] |= crossing
+
+
+def stop_plan(layers: Sequence[tuple], order: Sequence[int], shape: tuple[int, int],
+              stop: float = DEFAULT_STOP_OPACITY) -> dict[int, tuple]:
+    """Which composite layers to draw again, with which per-pixel stop opacities.
+
+    The whole volume's march stops at the sample where its opacity passes ``stop``; a slab
+    marched alone stops at its own. Where the whole ray stops inside a slab that has
+    opacity in front of it, the slab must stop where its own opacity ``a`` gives
+    ``front + (1 - front) a > stop``: ``a > (stop - front) / (1 - front)``. (The slabs in
+    front of it did not stop early, so ``front`` is exact.) Returns ``{index: (row0, col0,
+    stops)}``, ``stops`` a float32 window of the frame, negative where nothing is redrawn.
+    """
+    plan = {}
+    for index, window, _, front, crossing, _ in _front_to_back(layers, order, shape, stop):
+        again = crossing & (front > 0.0)
+        if not again.any():
+            continue
+        stops = np.full(again.shape, -1.0, np.float32)
+        stops[again] = (stop - front[again]) / (1.0 - front[again])
+        plan[index] = (window[0].start, window[1].start, stops)
+    return plan
+
+
 def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
-              shape: tuple[int, int], background) -> np.ndarray:
+              shape: tuple[int, int], background, redrawn: dict | None = None,
+              stop: float = DEFAULT_STOP_OPACITY) -> np.ndarray:
     """The frame from the partitions' layers, ``(height, width, 3)`` uint8.
 
     Each layer is ``(row0, col0, rgba, state)``: a window of premultiplied float RGBA (and
     for the projections the kept value and whether a sample was read). Composite: "over",
-    front to back; maximum / minimum: per pixel the layer holding the extreme, the first of
-    equals in visibility order. The result is drawn over ``background`` (RGB in [0, 1]).
+    front to back, each pixel ending in the layer where its whole ray passes ``stop``;
+    ``redrawn`` maps a layer's index to its second pass (:func:`stop_plan`'s pixels drawn
+    again with their own stop opacity, as a layer), which replaces the first there.
+    Maximum / minimum: per pixel the layer holding the extreme, the first of equals in
+    visibility order. The result is drawn over ``background`` (RGB in [0, 1]).
     ``'nearest'``: label slabs' ``(row0, col0, rgb, depth)``, the nearest hit kept.
     """
     height, width = shape
     rgba = np.zeros((height, width, 4), np.float64)
-    held = np.full((height, width), -np.inf)
-    sign = -1.0 if blending == "minimum" else 1.0
     if blending == "nearest":
         return _nearest([layers[index] for index in order], shape, background)
-    for index in order:
-        row, col, layer, state = layers[index]
-        if layer is None:
-            continue
-        window = (slice(row, row + layer.shape[0]), slice(col, col + layer.shape[1]))
-        if blending == "composite":
-            # the whole volume's march ends once its opacity passes the stop opacity, and a
-            # slab stops only on its own: a pixel the layers in front made that opaque
-            # takes nothing from behind (exact where one slab gets there alone)
+    if blending == "composite":
+        plan = stop_plan(layers, order, shape, stop) if redrawn else {}
+        for index, window, layer, _, _, ended in _front_to_back(layers, order, shape, stop):
+            if index in plan:
+                layer = _redrawn_layer(layer, plan[index], redrawn[index], shape)
             under = rgba[window]
-            rgba[window] = np.where(under[..., 3:] > DEFAULT_STOP_OPACITY, under,
-                                    under + (1.0 - under[..., 3:]) * layer)
-            continue
-        value = sign * state[..., 0].astype(np.float64)
-        take = (state[..., 1] > 0) & (value > held[window])
-        rgba[window][take] = layer[take]
-        held[window][take] = value[take]
+            rgba[window] = np.where(ended[..., None], under, under + (1.0 - under[..., 3:])
+                                    * layer)
+    else:
+        held = np.full((height, width), -np.inf)
+        sign = -1.0 if blending == "minimum" else 1.0
+        for index in order:
+            row, col, layer, state = layers[index]
+            if layer is None:
+                continue
+            window = (slice(row, row + layer.shape[0]), slice(col, col + layer.shape[1]))
+            value = sign * state[..., 0].astype(np.float64)
+            take = (state[..., 1] > 0) & (value > held[window])
+            rgba[window][take] = layer[take]
+            held[window][take] = value[take]
     color = rgba[..., :3] + (1.0 - rgba[..., 3:]) * np.asarray(background, float)[:3]
     return np.round(np.clip(color, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
+def _redrawn_layer(layer, planned, again, shape) -> np.ndarray:
+    """``layer`` with the pixels its stop plan drew again taken from the second pass."""
+    row, col, stops = planned
+    frame = np.zeros((*shape, 4), np.float64)
+    a_row, a_col, a_rgba, _ = again
+    if a_rgba is not None:
+        frame[a_row:a_row + a_rgba.shape[0], a_col:a_col + a_rgba.shape[1]] = a_rgba
+    window = frame[row:row + stops.shape[0], col:col + stops.shape[1]]
+    return np.where((stops >= 0.0)[..., None], window, layer)
 
 
 def _nearest(layers, shape: tuple[int, int], background) -> np.ndarray:
@@ -139,6 +200,7 @@ class SplitRenderer:
 
         self.split, self.client, self.size = split, client, size
         self.blending, self.background = blending, background
+        self.stop = float(split.keywords.get("stop_opacity", DEFAULT_STOP_OPACITY))
         homes = list(client.scheduler_info()["workers"])
         self._shared = []
         for part in split.partitions:
@@ -147,42 +209,83 @@ class SplitRenderer:
                                                allow_other_workers=True), home))
         self._look = tokenize(sorted(split.keywords.items(), key=str))   # a view per look
         self.sent = self.composing = 0.0
+        #: Frames that needed a second pass (pixels whose whole ray stops in a slab behind
+        #: others), and the slabs drawn again in them.
+        self.second_passes = self.redrawn_slabs = 0
 
     def submit(self, camera: Camera) -> SplitFrame:
         """Every slab's layer for ``camera``, asked for now."""
-        futures = [self.client.submit(
-            render_partition, (self.split.token, self._look, part.index, self.size), future,
-            camera, self.size, self.split.keywords, workers=home, allow_other_workers=True,
-            pure=False) for part, (future, home) in zip(self.split.partitions, self._shared,
-                                                        strict=True)]
-        return SplitFrame(self, camera, futures)
+        return SplitFrame(self, camera, self._ask(camera, range(len(self.split.partitions))))
+
+    def _ask(self, camera: Camera, indices, stops: dict | None = None) -> list:
+        """Futures of the slabs ``indices``' layers (``stops``: their second pass)."""
+        futures = []
+        for index in indices:
+            part = self.split.partitions[index]
+            future, home = self._shared[index]
+            # a second pass goes before later frames' first: its frame is being waited for
+            extra = {} if stops is None else {"stops": stops[index], "priority": 1}
+            futures.append(self.client.submit(
+                render_partition, (self.split.token, self._look, part.index, self.size),
+                future, camera, self.size, self.split.keywords, workers=home,
+                allow_other_workers=True, pure=False, **extra))
+        return futures
 
 
 class SplitFrame:
-    """One frame being drawn by the slabs; ``result()`` waits and composites it."""
+    """One frame being drawn by the slabs; ``result()`` waits and composites it.
+
+    Composite frames may take a second round: the slabs where some pixel's whole ray stops
+    behind opacity in front draw those pixels again (:func:`stop_plan`), asked for as
+    soon as the first layers are all in.
+    """
 
     def __init__(self, renderer: SplitRenderer, camera: Camera, futures: list):
         self.renderer, self.camera, self.futures = renderer, camera, futures
+        self.order = visibility_order(renderer.split.partitions, camera)
+        self._layers = self._plan = self._again = None
+
+    def _second_round(self) -> None:
+        """Once the first layers are in: ask the slabs the stop plan names to draw again."""
+        renderer = self.renderer
+        self._layers = renderer.client.gather(self.futures)
+        self._plan, self._again = {}, []
+        if renderer.blending == "composite":
+            shape = (renderer.size[1], renderer.size[0])
+            self._plan = stop_plan(self._layers, self.order, shape, renderer.stop)
+        if self._plan:
+            self._again = renderer._ask(self.camera, list(self._plan), self._plan)
+            renderer.second_passes += 1
+            renderer.redrawn_slabs += len(self._plan)
 
     def done(self) -> bool:
-        """Whether every slab's layer has arrived (or failed)."""
-        return all(future.done() for future in self.futures)
+        """Whether every layer the frame needs has arrived (or one failed)."""
+        if self._layers is None:
+            if not all(future.done() for future in self.futures):
+                return False
+            if any(future.status != "finished" for future in self.futures):
+                return True   # result() raises the failure
+            self._second_round()
+        return all(future.done() for future in self._again)
 
     def cancel(self) -> None:
         """Stop asking for this frame's layers."""
-        self.renderer.client.cancel(self.futures)
+        self.renderer.client.cancel(self.futures + list(self._again or []))
 
     def result(self) -> np.ndarray:
         """The composited ``(height, width, 3)`` uint8 frame."""
         renderer = self.renderer
-        layers = renderer.client.gather(self.futures)
+        if self._layers is None:
+            self._second_round()
+        again = dict(zip(self._plan, renderer.client.gather(self._again), strict=True))
         started = time.perf_counter()
-        image = composite(layers, visibility_order(renderer.split.partitions, self.camera),
-                          renderer.blending, (renderer.size[1], renderer.size[0]),
-                          renderer.background)
+        image = composite(self._layers, self.order, renderer.blending,
+                          (renderer.size[1], renderer.size[0]), renderer.background,
+                          redrawn=again, stop=renderer.stop)
         renderer.composing += time.perf_counter() - started
         renderer.sent += sum(a.nbytes + (0 if s is None else s.nbytes)
-                             for _, _, a, s in layers if a is not None)
+                             for _, _, a, s in [*self._layers, *again.values()]
+                             if a is not None)
         return image
 
 
@@ -197,22 +300,24 @@ def worker_view_builds() -> int:
 
 
 def render_partition(key: tuple, partition: Partition, camera: Camera, size: tuple[int, int],
-                     keywords: dict):
+                     keywords: dict, stops: tuple | None = None):
     """One partition's layer for one frame, on a worker (its view built at first, then kept).
 
     Returns ``(row0, col0, rgba, state)`` cropped to the pixels the partition reached
-    (``rgba`` None when it reached none), so only those travel.
+    (``rgba`` None when it reached none), so only those travel. ``stops``: a second pass
+    drawing only the pixels of a :func:`stop_plan` window, each with its stop opacity.
     """
-    return _gl_thread.submit(_render_kept, key, partition, camera, size, keywords).result()
+    return _gl_thread.submit(_render_kept, key, partition, camera, size, keywords,
+                             stops).result()
 
 
-def _render_kept(key, partition, camera, size, keywords):
+def _render_kept(key, partition, camera, size, keywords, stops=None):
     view = _views.pop(key, None)
     if view is None:
         view = (LabelView if partition.cells else PartitionView)(partition, size, keywords)
         _view_builds[0] += 1
     try:
-        rgba, state = view.render(camera)
+        rgba, state = view.render(camera) if stops is None else view.render(camera, stops)
     except BaseException:
         view.close()
         raise
@@ -319,7 +424,10 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
         Show a bar as frames finish (default: on a terminal).
     report : dict, optional
         Filled with what the frames cost: ``'bytes'`` sent from the workers per frame,
-        ``'composite_s'`` compositing seconds per frame, ``'partitions'``.
+        ``'composite_s'`` compositing seconds per frame, ``'partitions'``, and the share of
+        frames that took a second pass (``'second_passes'``: pixels whose whole ray stops
+        inside a slab behind others, drawn again by that slab) with the slabs drawn again
+        per frame (``'redrawn_slabs'``).
     **volume_keywords
         What :func:`pv_cubemarch.add_volume` takes for the look (``cmap``, ``opacity``,
         ``clim``, ``opacity_unit_distance``, ``blending`` of ``'composite'``,
@@ -388,5 +496,7 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
                 sink.abort()
     if report is not None:
         report.update(partitions=len(split.partitions), bytes=renderer.sent / len(cameras),
-                      composite_s=renderer.composing / len(cameras))
+                      composite_s=renderer.composing / len(cameras),
+                      second_passes=renderer.second_passes / len(cameras),
+                      redrawn_slabs=renderer.redrawn_slabs / len(cameras))
     return result[0] if one else result
