@@ -11,16 +11,17 @@
 // whole grid. Target 0: the blend mode's premultiplied rgba; with CM_KEEP_STATE (the
 // projections) target 1: the ray's raw state, so the client keeps the slab holding the
 // extreme. With CM_PIXEL_STOP (composite) and cm_pixelStops set, a second pass for the
-// pixels whose whole ray stops inside this partition: cm_pixelStop holds each one's stop
-// opacity (from the opacity the partitions in front leave), negative where nothing is
-// redrawn.
+// pixels whose whole ray stops inside this partition (drawn in a scissored window):
+// cm_pixelStop holds each one's stop opacity (from the opacity the partitions in front
+// leave), negative where nothing is redrawn.
 uniform mat4 cm_wholeTextureFromView;  // the whole grid's texture coordinates from view
 uniform vec3 cm_wholeDims;             // the whole grid's points along x, y, z
 uniform vec3 cm_ownLo;                 // this partition's box of texel centres, in the
 uniform vec3 cm_ownHi;                 // whole grid's texture coordinates
 #ifdef CM_PIXEL_STOP
 uniform int cm_pixelStops;             // 1: read each pixel's stop opacity from cm_pixelStop
-uniform sampler2D cm_pixelStop;        // one texel per pixel, rows bottom to top
+uniform sampler2D cm_pixelStop;        // one texel per pixel of a window, rows bottom to top
+uniform vec2 cm_pixelStopOrigin;       // the window's lower-left pixel
 #endif
 
 void main()
@@ -31,7 +32,8 @@ void main()
   cm_rayStopOpacity = cm_stopOpacity;
   if (cm_pixelStops == 1)
   {
-    cm_rayStopOpacity = texelFetch(cm_pixelStop, ivec2(gl_FragCoord.xy), 0).r;
+    cm_rayStopOpacity = texelFetch(cm_pixelStop, ivec2(gl_FragCoord.xy - cm_pixelStopOrigin),
+                                   0).r;
     if (cm_rayStopOpacity < 0.0)
     {
       gl_FragData[0] = rgba;

@@ -193,6 +193,9 @@ class PartitionView:
                              f"use one of {PARTITION_BLENDING}.")
         self.partition = partition
         self.plotter = offscreen_plotter(size)
+        # the pass draws into its own float targets: the window's multisampled buffers
+        # would only be cleared and resolved every frame (14 ms a frame at 800x600)
+        self.plotter.ren_win.SetMultiSamples(0)
         try:
             self._build(partition, keywords, blending)
         except BaseException:
@@ -222,6 +225,8 @@ class PartitionView:
         if not keeps_state:
             march.add_texture("cm_pixelStop", self._stops)
             march.set_uniform("cm_pixelStops", lambda: int(self._redraw))
+            self._stops_origin = (0.0, 0.0)
+            march.set_uniform("cm_pixelStopOrigin", lambda: self._stops_origin)
         bind_camera(march, renderer, lambda: world_from_texture(model))
         # The whole grid's frame, made alike in every partition from the same numbers (the
         # partitions' ownership of samples on a shared plane is decided in it).
@@ -255,19 +260,29 @@ class PartitionView:
         other pixels are left transparent.
         """
         _fit_camera(self.plotter, self.partition, camera)
+        region = None
         if stops is not None:
             if self.blending != "composite":
                 raise ValueError("per-pixel stop opacities are for composite blending.")
             row, col, window = stops
-            width, height = self.plotter.window_size
-            frame = np.full((height, width), -1.0, np.float32)
-            frame[row:row + window.shape[0], col:col + window.shape[1]] = window
-            self._stops.set_data(np.ascontiguousarray(frame[::-1]))
+            height = self.plotter.window_size[1]
+            # the window's rows bottom to top, and where it lies in the targets
+            region = (col, height - row - window.shape[0], window.shape[1], window.shape[0])
+            self._stops.set_data(np.ascontiguousarray(window[::-1], np.float32))
+            self._stops_origin = (float(region[0]), float(region[1]))
         self._redraw = stops is not None
+        self.march.region = region
         try:
             render_frame(self.plotter)
         finally:
             self._redraw = False
+            self.march.region = None
+        if region is not None:   # the rest of the targets holds the first round's
+            rgba = np.zeros((*self.march.size[::-1], 4), np.float32)
+            row, col, window = stops
+            rows, cols = slice(row, row + window.shape[0]), slice(col, col + window.shape[1])
+            rgba[rows, cols] = self.march.read(0)[::-1][rows, cols]
+            return rgba, None
         rgba = self.march.read(0)[::-1]
         if self.blending == "composite":
             return np.ascontiguousarray(rgba), None

@@ -25,6 +25,8 @@ TARGET_FORMATS = {
     "r32f": (1, 0x822E, 4),
 }
 
+_SCISSOR_TEST = 0x0C11   # GL_SCISSOR_TEST
+
 
 class RenderToTexturePass:
     """A full-screen fragment pass into float textures, run inside a frame before props draw.
@@ -81,6 +83,9 @@ class RenderToTexturePass:
         self.run_when = run_when
         self.textures: dict[str, Texture] = {}
         self.uniforms: dict[str, UniformSource] = {}
+        #: ``(x, y, width, height)`` of the targets to draw, lower-left origin; None: all.
+        #: The rest keeps what an earlier run drew.
+        self.region: tuple[int, int, int, int] | None = None
         self.outputs: list[vtkTextureObject] = []
         self.runs = 0
         self._needed = True
@@ -182,6 +187,9 @@ class RenderToTexturePass:
             self._fbo.Start(*self.allocated)
             if tuple(self.size) != tuple(self.allocated):
                 state.vtkglViewport(0, 0, *self.size)
+            if self.region is not None:
+                state.vtkglEnable(_SCISSOR_TEST)
+                state.vtkglScissor(*(int(v) for v in self.region))
             program = window.GetShaderCache().ReadyShaderProgram(self._vertex, self._fragment, "")
             if program is None:
                 return
