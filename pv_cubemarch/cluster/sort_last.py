@@ -268,6 +268,11 @@ class SplitFrame:
             self._second_round()
         return all(future.done() for future in self._again)
 
+    def outstanding(self) -> list:
+        """The futures of the round being waited for that have not arrived."""
+        futures = self.futures if self._layers is None else self._again
+        return [future for future in futures if not future.done()]
+
     def cancel(self) -> None:
         """Stop asking for this frame's layers."""
         self.renderer.client.cancel(self.futures + list(self._again or []))
@@ -334,6 +339,24 @@ def _render_kept(key, partition, camera, size, keywords, stops=None):
     window = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
     return (int(rows[0]), int(cols[0]), rgba[window].copy(),
             None if state is None else state[window].copy())
+
+
+def _wait_driving(frames: list, index: int) -> None:
+    """Wait for ``frames[index]``, asking later frames' second rounds as their first ends.
+
+    Frames are composited in order; without this, a later frame's second round would be
+    asked for only once every frame before it was done.
+    """
+    from distributed import wait
+
+    while not frames[index].done():
+        pending = [future for frame in frames[index:] if frame is not None
+                   for future in frame.outstanding()]
+        if pending:
+            wait(pending, return_when="FIRST_COMPLETED")
+        for frame in frames[index + 1:]:
+            if frame is not None:
+                frame.done()
 
 
 def prepare_split(volume, *, partitions: int | None = None, axis: int | None = None,
@@ -481,6 +504,7 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
             for index in progress(range(len(cameras)), desc="compositing frames",
                                   enabled=progress_bar):
                 try:
+                    _wait_driving(frames, index)
                     image = frames[index].result()
                 except Exception as error:
                     for frame in frames:
