@@ -78,3 +78,31 @@ def test_a_steadied_headlight_is_still_the_headlight_of_vtk_s_one_light_path():
         light.SetIntensity(1.0)
     assert GradientShading(plotter.renderer, None, None).headlight_path()
     plotter.close()
+
+
+def test_the_headlights_are_headlights_again_once_the_last_vtk_volume_leaves():
+    # a mesh drawn after the volumes were removed is lit by PyVista's own headlight again,
+    # and while one 'vtk' volume stays the lights stay steady
+    # catches (seen failing): the lights left as camera lights after removal (no
+    # restore); restored when the first of two volumes left (no holder count)
+    plotter = offscreen_plotter((60, 45))
+    values = np.linspace(0.0, 1.0, 8 ** 3).reshape(8, 8, 8)
+    first = pv_cubemarch.add_volume(plotter, values, technique="vtk", name="first")
+    second = pv_cubemarch.add_volume(plotter, values, technique="vtk", name="second")
+    render_frame(plotter)
+
+    def headlights() -> int:
+        return sum(bool(light.LightTypeIsHeadlight()) for light in plotter.renderer.GetLights())
+    assert headlights() == 0
+    plotter.remove_actor(first)
+    render_frame(plotter)
+    assert headlights() == 0
+    plotter.remove_actor(second)
+    render_frame(plotter)
+    assert headlights() == 1
+    renders = []
+    plotter.renderer.AddObserver(vtk.vtkCommand.StartEvent, lambda *_: renders.append(1))
+    plotter.camera.Azimuth(10.0)
+    render_frame(plotter)   # and nothing steadies it any more: VTK moves it with the camera
+    assert headlights() == 1 and len(renders) == 1
+    plotter.close()

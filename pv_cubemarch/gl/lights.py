@@ -12,7 +12,9 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+import vtk
 
+from ..core.frame_errors import observe
 from ..models.lights import VolumeLight
 from .bindings import ShaderBindings
 from .box import camera_matrices
@@ -94,6 +96,46 @@ def steady_headlights(renderer) -> None:
             light.SetPosition(0.0, 0.0, 1.0)
             light.SetFocalPoint(0.0, 0.0, 0.0)
             setattr(light, WAS_HEADLIGHT, True)
+
+
+# Renderers whose headlights are held steady: id -> [holders, StartEvent observer tag].
+_held: dict[int, list] = {}
+
+
+def hold_headlights_steady(renderer) -> Callable[[], None]:
+    """Steady ``renderer``'s headlights at every frame until the returned call lets go.
+
+    Each ``'vtk'`` volume holds them; when the last lets go (its volume removed), the
+    lights still as :func:`steady_headlights` left them are headlights again, so meshes
+    drawn afterwards are lit as before the volume came.
+    """
+    entry = _held.get(id(renderer))
+    if entry is None:
+        tag = observe(renderer, vtk.vtkCommand.StartEvent,
+                      lambda *_: steady_headlights(renderer))
+        entry = _held[id(renderer)] = [0, tag]
+    entry[0] += 1
+    let_go_once = [False]
+
+    def let_go() -> None:
+        if let_go_once[0]:
+            return
+        let_go_once[0] = True
+        entry[0] -= 1
+        if entry[0] == 0:
+            renderer.RemoveObserver(entry[1])
+            _held.pop(id(renderer), None)
+            restore_headlights(renderer)
+    return let_go
+
+
+def restore_headlights(renderer) -> None:
+    """Make the lights :func:`steady_headlights` turned, and nobody moved since, headlights."""
+    for light in renderer.GetLights():
+        if getattr(light, WAS_HEADLIGHT, False) and not light.LightTypeIsHeadlight() \
+                and is_headlight(light):
+            light.SetLightTypeToHeadlight()
+            delattr(light, WAS_HEADLIGHT)
 
 
 def is_headlight(light) -> bool:

@@ -13,11 +13,10 @@ from __future__ import annotations
 import pyvista
 import vtk
 
-from ..core.frame_errors import observe
 from ..core.registry import Sweep, Technique, register_technique
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, camera_matrices, place_box
-from ..gl.lights import steady_headlights
+from ..gl.lights import hold_headlights_steady
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..models.volume import VolumeModel
 from ..reference.emission_absorption import render_emission_absorption
@@ -115,8 +114,7 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
     binding.vtk_input = grid
     binding.drawn = [actor]
     binding.renderer = plotter.renderer
-    tag = observe(renderer, vtk.vtkCommand.StartEvent, lambda *_: steady_headlights(renderer))
-    binding.extra_release.append(lambda: renderer.RemoveObserver(tag))
+    binding.extra_release.append(hold_headlights_steady(renderer))
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
 
