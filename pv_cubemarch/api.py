@@ -244,13 +244,14 @@ def add_volume(
         unlit scalar volume with ``blending='composite'``; not with the settings it
         chooses, nor a crop box.
     frame_budget_ms : float, optional
-        ``'vtk'``, ``'direct'`` (at ``downsample=1``) and ``'cubemap'``: while the view
-        moves (VTK's interactors, the live view's mouse), each frame takes the finest step
-        (the cube map: ``upscale``) predicted to stay within this many milliseconds from
-        the last frame's time (which grows as ``1 / step_scale``, or ``1 / upscale**2``);
-        the first frame after the view stops draws the still setting again (given, or what
-        ``quality`` chose). Nothing is rebuilt. ``actor.cubemarch.frame_budget`` keeps the
-        frames' values and times.
+        ``'vtk'``, ``'direct'`` (at ``downsample=1``), ``'cubemap'`` and ``'auto'``: while
+        the view moves (VTK's interactors, the live view's mouse), each frame takes the
+        finest step (the cube map: ``upscale``) predicted to stay within this many
+        milliseconds from the last frame's time (which grows as ``1 / step_scale``, or
+        ``1 / upscale**2``); the first frame after the view stops draws the still setting
+        again (given, or what ``quality`` chose). ``'auto'``: each path its own knob,
+        predicted from the last frame that path drew. Nothing is rebuilt.
+        ``actor.cubemarch.frame_budget`` keeps the frames' values and times.
     step_scale : float, optional
         ``'vtk'``, ``'direct'`` and ``'auto'``: step length in texels along the ray's
         dominant texture axis (texel-spaced sampling, 0.5 by default). Smaller is more
@@ -543,10 +544,11 @@ def add_volume(
     if calibration is not None:
         calibration.follow(binding, plotter)
     if frame_budget_ms is not None:
-        attach_frame_budget(binding, chosen.name, plotter.ren_win,
-                            frame_budget_ms, {} if choice is None else {
-                                m["setting"]["step_scale"]: m["psnr"]
-                                for m in choice.measured if "step_scale" in m["setting"]})
+        steps = {} if choice is None else {m["setting"]["step_scale"]: m["psnr"]
+                                           for m in choice.measured
+                                           if "step_scale" in m["setting"]}
+        attach_frame_budget(binding, chosen.name, plotter.ren_win, frame_budget_ms,
+                            {"direct": steps} if chosen.name == "auto" else steps)
     binding.blending = blending
     binding.isosurfaces = isosurfaces   # as given (data units, or a count)
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))

@@ -156,15 +156,64 @@ class FrameBudget:
             self._written = self.value
         self._started = self.clock()
 
-    def after_frame(self, *_) -> None:
-        """Record the frame's time (the outermost render's, nested ones included)."""
+    def after_frame(self, *_, record: bool = True) -> FrameRecord | None:
+        """Record the frame's time (the outermost render's, nested ones included).
+
+        ``record=False``: the frame ends without a record (another path drew it); the
+        recorded frame is returned.
+        """
         self._depth = max(self._depth - 1, 0)
         if self._depth > 0 or self._started is None:
-            return
+            return None
         ms = (self.clock() - self._started) * 1e3
+        self._started = None
+        if not record:
+            return None
         self.frames.append(FrameRecord(self.moving, float(self.value), ms))
         del self.frames[:-1000]        # a long session keeps the last thousand
-        self._started = None
+        return self.frames[-1]
+
+
+@dataclass
+class PathBudgets:
+    """``technique='auto'``: each path's own budget, fed only the frames that path drew.
+
+    Each frame, both paths set the value their own last frame predicts (one of them will
+    draw: the choice is made after the frame starts); the frame's time then goes to the
+    path that drew it. ``frames`` holds every frame; ``knob`` and ``estimated_psnr`` are
+    the last drawn path's.
+    """
+
+    binding: object
+    paths: dict
+    budget_ms: float
+    frames: list = field(default_factory=list)
+    _last: str = "direct"
+
+    @property
+    def knob(self) -> BudgetKnob:
+        return self.paths[self._last].knob
+
+    @property
+    def moving(self) -> bool:
+        return self.paths[self._last].moving
+
+    @property
+    def estimated_psnr(self) -> float | None:
+        return self.paths[self._last].estimated_psnr
+
+    def before_frame(self, *_) -> None:
+        for budget in self.paths.values():
+            budget.before_frame()
+
+    def after_frame(self, *_) -> None:
+        drawn = self.binding.choice
+        for name, budget in self.paths.items():
+            record = budget.after_frame(record=name == drawn)
+            if record is not None:
+                self._last = name
+                self.frames.append(record)
+                del self.frames[:-1000]
 
 
 def check_frame_budget(budget_ms, technique: str, downsample) -> None:
@@ -173,10 +222,10 @@ def check_frame_budget(budget_ms, technique: str, downsample) -> None:
             or not 0.0 < float(budget_ms) < float("inf"):
         raise ValueError(f"frame_budget_ms must be a positive number of milliseconds, got "
                          f"{budget_ms!r}.")
-    if technique not in TECHNIQUE_KNOBS:
-        raise ValueError(f"frame_budget_ms steers a volume's technique='vtk', 'direct' or "
-                         f"'cubemap', or a surface's steps, not technique={technique!r}: 'auto' "
-                         "switches between two, whose budgets are set apart; name one.")
+    if technique not in TECHNIQUE_KNOBS and technique != "auto":
+        raise ValueError(f"frame_budget_ms steers a volume's technique='vtk', 'direct', "
+                         f"'cubemap' or 'auto', or a surface's steps, not "
+                         f"technique={technique!r}.")
     if int(downsample) != 1:
         raise ValueError(f"frame_budget_ms steers the step of a volume marched at full "
                          f"resolution: give downsample=1 (not {downsample}) with it, or leave "
@@ -185,15 +234,28 @@ def check_frame_budget(budget_ms, technique: str, downsample) -> None:
 
 def attach_frame_budget(binding, technique: str, window, budget_ms: float,
                         errors: dict | None = None,
-                        clock: Callable[[], float] = time.perf_counter) -> FrameBudget:
+                        clock: Callable[[], float] = time.perf_counter
+                        ) -> FrameBudget | PathBudgets:
     """Follow ``window``'s frames with a :class:`FrameBudget`; removed with the binding.
 
     The window's, not the renderer's: the cube map marches in a pass before the renderer
-    starts (timed from the renderer, its frames took 2 ms of their 50).
+    starts (timed from the renderer, its frames took 2 ms of their 50). ``'auto'``: a
+    budget on each path (:class:`PathBudgets`), ``errors`` keyed by path name.
     """
-    knob = KNOBS[TECHNIQUE_KNOBS[technique]]
-    budget = FrameBudget(binding, window, float(budget_ms), knob, knob.read(binding),
-                         dict(errors or {}), clock)
+    if technique == "auto":
+        paths = {}
+        for name in ("direct", "cubemap"):
+            path = getattr(binding, name)
+            knob = KNOBS[TECHNIQUE_KNOBS[name]]
+            path.frame_budget = FrameBudget(path, window, float(budget_ms), knob,
+                                            knob.read(path),
+                                            dict((errors or {}).get(name, {})), clock)
+            paths[name] = path.frame_budget
+        budget = PathBudgets(binding, paths, float(budget_ms))
+    else:
+        knob = KNOBS[TECHNIQUE_KNOBS[technique]]
+        budget = FrameBudget(binding, window, float(budget_ms), knob, knob.read(binding),
+                             dict(errors or {}), clock)
     # the end observed last: after any redraw the frame's other observers make
     tags = [observe(window, vtkCommand.StartEvent, budget.before_frame),
             observe(window, vtkCommand.EndEvent, budget.after_frame, -10.0)]
