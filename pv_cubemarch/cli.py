@@ -495,6 +495,8 @@ def build_parser() -> argparse.ArgumentParser:
                            "than the still frames)")
     dial.add_argument("--orbit-frames", type=int, default=32,
                       help="moving frames of each orbit (0: no orbits)")
+    dial.add_argument("--orbit-techniques", default=",".join(bench_dial.ORBIT_TECHNIQUES),
+                      help=f"comma-separated, of {', '.join(bench_dial.ORBIT_TECHNIQUES)}")
     dial.add_argument("--json", dest="json_path", help="write the rows as JSON here")
     device = bench_commands.add_parser(
         "device", help="the headline benches at GPU scale, each in its own process within a "
@@ -823,7 +825,7 @@ def _bench(args) -> int:
     if args.bench_command == "dial":
         words = [[w.strip() for w in text.split(",") if w.strip()]
                  for text in (args.scenes, args.techniques, args.targets,
-                              args.surface_scenes)]
+                              args.surface_scenes, args.orbit_techniques)]
         sweep, dials = bench_dial.run_dial(args.size, args.frames, words[0], words[1],
                                            [float(t) for t in words[2]], words[3])
         print(f"{args.size[0]}x{args.size[1]}, median of {args.frames} frames; PSNR: whole "
@@ -833,7 +835,7 @@ def _bench(args) -> int:
         orbits = []
         if args.orbit_frames > 0:
             orbits = bench_dial.run_interaction(
-                args.orbit_size, args.budget_ms, args.orbit_frames, words[0], words[1],
+                args.orbit_size, args.budget_ms, args.orbit_frames, words[0], words[4],
                 surface_scenes=words[3])
             print(f"\nframe_budget_ms={args.budget_ms:g} at {args.orbit_size[0]}x"
                   f"{args.orbit_size[1]}, quality=40, an orbit of {args.orbit_frames} "

@@ -40,6 +40,8 @@ from .sort_last import phantom
 
 SCENES = ("ct", "smoke", "blobs", "cells")
 TECHNIQUES = ("direct", "vtk", "cubemap", "active")
+#: What the frame-budget orbits drive: the volume techniques ('auto' too) and the surfaces.
+ORBIT_TECHNIQUES = ("direct", "vtk", "cubemap", "auto", "active")
 TARGETS = (30.0, 40.0, 50.0)
 DATASETS = Path(__file__).resolve().parents[2] / "datasets"
 
@@ -200,8 +202,7 @@ def format_dial(sweep: list[SweepRow], dials: list[DialRow]) -> str:
 
 def run_interaction(size: Sequence[int] = (800, 600), budget_ms: float = 100.0,
                     frames: int = 32, scenes: Sequence[str] = SCENES,
-                    techniques: Sequence[str] = ("direct", "vtk", "cubemap", "active"),
-                    target: float = 40.0,
+                    techniques: Sequence[str] = ORBIT_TECHNIQUES, target: float = 40.0,
                     surface_scenes: Sequence[str] = SURFACE_SCENES) -> list[InteractionRow]:
     """Orbits with ``quality=target`` and ``frame_budget_ms``, then the stop.
 
