@@ -8,6 +8,7 @@ determinant) reverses the winding on screen, so the culled side follows the dete
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -18,6 +19,64 @@ import vtk
 def numpy_matrix(matrix) -> np.ndarray:
     """A ``vtkMatrix4x4`` as a numpy array."""
     return np.array([[matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
+
+
+_GL_VIEWPORT = 0x0BA2
+
+
+def supersampling_pass(renderer):
+    """The ``vtkSSAAPass`` drawing ``renderer`` (PyVista's ``enable_anti_aliasing('ssaa')``).
+
+    Followed through the passes' delegates; None when there is none.
+    """
+    render_pass = renderer.GetPass()
+    while render_pass is not None:
+        if render_pass.IsA("vtkSSAAPass"):
+            return render_pass
+        render_pass = render_pass.GetDelegatePass() \
+            if hasattr(render_pass, "GetDelegatePass") else None
+    return None
+
+
+def supersampled_size(renderer) -> tuple[int, int] | None:
+    """The size a ``vtkSSAAPass`` draws ``renderer``'s props at; None without one.
+
+    It draws them into its own framebuffer, from the origin, sqrt(5) times the renderer's
+    size (truncated, as VTK computes it), then filters that down into the window.
+    """
+    if supersampling_pass(renderer) is None:
+        return None
+    width, height = (int(v) for v in renderer.GetSize())
+    return int(width * math.sqrt(5.0)), int(height * math.sqrt(5.0))
+
+
+def props_size(renderer) -> tuple[int, int]:
+    """The pixels ``renderer``'s props are drawn at: its size, or a supersampled one."""
+    return supersampled_size(renderer) or tuple(drawn_viewport(renderer)[2:])
+
+
+def supersampling_now(renderer) -> tuple[int, int] | None:
+    """The size of the ``vtkSSAAPass`` framebuffer ``renderer``'s props draw into now.
+
+    None without one (:func:`supersampled_size`), or when the viewport set now is not
+    that framebuffer's (before or after the renderer draws, in another renderer, or in a
+    pass of ours).
+    """
+    size = supersampled_size(renderer)
+    if size is None:
+        return None
+    viewport = [0, 0, 0, 0]
+    renderer.GetRenderWindow().GetState().vtkglGetIntegerv(_GL_VIEWPORT, viewport)
+    return size if tuple(int(v) for v in viewport) == (0, 0, *size) else None
+
+
+def fragment_viewport(renderer) -> tuple[int, int, int, int]:
+    """The viewport of ``gl_FragCoord`` while ``renderer``'s props draw.
+
+    :func:`drawn_viewport`, except inside a ``vtkSSAAPass``: its enlarged framebuffer.
+    """
+    size = supersampling_now(renderer)
+    return drawn_viewport(renderer) if size is None else (0, 0, *size)
 
 
 def drawn_viewport(renderer) -> tuple[int, int, int, int]:
@@ -166,7 +225,7 @@ def bind_camera(target, renderer, world_from_texture: Callable[[], np.ndarray]) 
     target.set_uniform("cm_inverseProjection",
                        lambda: np.linalg.inv(camera_matrices(renderer)[1]))
     target.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
-    target.set_uniform("cm_viewport", lambda: drawn_viewport(renderer))
+    target.set_uniform("cm_viewport", lambda: fragment_viewport(renderer))
 
 
 def faces_for_peeling(actor, renderer, world_from_index: np.ndarray) -> str:

@@ -17,7 +17,7 @@ from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLFramebufferObject, vtkTextur
 
 from ..core.frame_errors import observe
 from .bindings import TextureUnitLedger
-from .box import drawn_viewport
+from .box import props_size
 from .sub_upload import read_red_floats
 
 #: What the target holds where no face is drawn (farther than any depth).
@@ -63,7 +63,7 @@ class FaceDepthPass:
     def ensure(self, window) -> vtkTextureObject:
         """The target, as :class:`~pv_cubemarch.gl.bindings.ShaderBindings` binds textures."""
         if self._target is None:
-            self._create(window, tuple(max(1, v) for v in drawn_viewport(self.renderer)[2:]))
+            self._create(window, tuple(max(1, v) for v in props_size(self.renderer)))
         return self._target
 
     def _create(self, window, size: tuple[int, int]) -> None:
@@ -88,7 +88,7 @@ class FaceDepthPass:
     def _on_start(self, *_) -> None:
         if not self.used():
             return
-        view = (self.renderer.GetActiveCamera().GetMTime(), drawn_viewport(self.renderer))
+        view = (self.renderer.GetActiveCamera().GetMTime(), props_size(self.renderer))
         if view != self._drawn_for:
             self._draw(view)
         if self.on_frame is not None:
@@ -98,7 +98,7 @@ class FaceDepthPass:
         """Draw the actor's faces into the target (and read it back when asked)."""
         window = self.renderer.GetRenderWindow()
         TextureUnitLedger.release_window(window)
-        size = tuple(max(1, v) for v in drawn_viewport(self.renderer)[2:])
+        size = tuple(max(1, v) for v in props_size(self.renderer))
         if self._fbo is None or size != self._size:
             self._create(window, size)
         self._drawn_for = view

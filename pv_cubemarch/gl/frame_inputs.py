@@ -17,9 +17,19 @@ import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
 from ..core.frame_errors import observe
-from .box import drawn_viewport
+from .box import drawn_viewport, supersampling_now
 
 _GL_READ_FRAMEBUFFER = 0x8CA8
+_GL_DRAW_FRAMEBUFFER_BINDING = 0x8CA6
+
+
+def drawing_framebuffer(window) -> int:
+    """The GL name of the framebuffer bound for drawing now."""
+    name = [0]
+    window.GetState().vtkglGetIntegerv(_GL_DRAW_FRAMEBUFFER_BINDING, name)
+    return int(name[0])
+
+
 #: ``GetObjectName()`` of props that only stand in for a volume's bounds (they draw nothing).
 PROXY_NAME = "pv_cubemarch bounds proxy"
 
@@ -52,7 +62,9 @@ class SceneDepth:
 
     def ensure(self, window) -> vtkTextureObject:
         """The texture holding this frame's depth (or colour), copied if not yet."""
-        x0, y0, width, height = drawn_viewport(self.renderer)
+        supersampled = supersampling_now(self.renderer)
+        x0, y0, width, height = drawn_viewport(self.renderer) if supersampled is None \
+            else (0, 0, *supersampled)
         if self.gl_object is None or self._size != (width, height) or self._window is not window:
             self.release()
             self.gl_object = vtkTextureObject()
@@ -70,9 +82,13 @@ class SceneDepth:
         # Read from the framebuffer VTK draws this frame into (another may be bound for
         # reading between renderers).
         state = window.GetState()
+        drawing = drawing_framebuffer(window) if supersampled is not None else None
         state.PushReadFramebufferBinding()
         try:
-            window.GetRenderFramebuffer().Bind(_GL_READ_FRAMEBUFFER)
+            if drawing is None:
+                window.GetRenderFramebuffer().Bind(_GL_READ_FRAMEBUFFER)
+            else:   # the supersampling pass's framebuffer, which VTK does not hand out
+                state.vtkglBindFramebuffer(_GL_READ_FRAMEBUFFER, drawing)
             self.gl_object.CopyFromFrameBuffer(x0, y0, 0, 0, width, height)
         finally:
             state.PopReadFramebufferBinding()

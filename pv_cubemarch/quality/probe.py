@@ -11,22 +11,20 @@ from __future__ import annotations
 
 import math
 import re
-import sys
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pyvista
-import vtkmodules
 from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkRenderingCore import vtkCamera
 
 from ..core.camera import Camera
 from ..core.frame_errors import observe
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
+from ..core.user_warnings import warn_user
 from ..models.lights import VolumeLight
 from ..models.volume import box_world_bounds
 from .cache import choice_key, lookup, store
@@ -109,21 +107,6 @@ def stored_choice(stored: dict, tracks, target: QualityTarget, size) -> QualityC
                  "cost": number(m.get("cost")) or 0.0} for m in measured]
     return QualityChoice(target, setting, psnr, psnr >= target.psnr, measured, 0.0, size, 0,
                          cached=True)
-
-
-#: Where frames are not the user's: this package, PyVista and VTK (warnings skip them).
-_LIBRARIES = tuple(str(Path(module.__file__).resolve().parent)
-                   for module in (pyvista, vtkmodules)) + (
-    str(Path(__file__).resolve().parents[1]),)
-
-
-def warn_user(message: str) -> None:
-    """Warn, attributed to the first caller outside this package, PyVista and VTK."""
-    frame, level = sys._getframe(1), 2
-    while frame is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(
-            _LIBRARIES):
-        frame, level = frame.f_back, level + 1
-    warnings.warn(message, UserWarning, stacklevel=level)
 
 
 def drawn_box_bounds(model, lower, upper) -> np.ndarray:

@@ -12,10 +12,14 @@ from __future__ import annotations
 
 import pyvista
 import vtk
+from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
+from ..core.frame_errors import observe
 from ..core.registry import Sweep, Technique, register_technique
+from ..core.user_warnings import warn_user
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, camera_matrices, place_box
+from ..gl.box import bind_camera, camera_matrices, place_box, supersampling_pass
+from ..gl.frame_inputs import frame_inputs
 from ..gl.lights import hold_headlights_steady
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..models.volume import VolumeModel
@@ -115,8 +119,39 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
     binding.drawn = [actor]
     binding.renderer = plotter.renderer
     binding.extra_release.append(hold_headlights_steady(renderer))
+    said = []
+
+    def follow_supersampling(*_) -> None:
+        if match_supersampling_depth(renderer) and binding.shown and not said \
+                and frame_inputs(renderer).has_opaque_props():
+            said.append(True)
+            warn_user(f"{binding.name!r}: under supersampling (enable_anti_aliasing('ssaa'), "
+                      "and 'fxaa' on EGL builds) VTK's volume mapper reads the meshes' depth "
+                      "at the window's size, not the supersampled one, so meshes hide "
+                      "technique='vtk' volumes in the wrong places; use technique='direct', "
+                      "or MSAA (enable_anti_aliasing('msaa')).")
+    tag = observe(renderer, vtk.vtkCommand.StartEvent, follow_supersampling)
+    binding.extra_release.append(lambda: renderer.RemoveObserver(tag))
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
+
+
+def match_supersampling_depth(renderer) -> bool:
+    """Give a ``vtkSSAAPass`` drawing ``renderer`` the depth VTK's volume mapper copies.
+
+    The mapper blits the framebuffer's depth into a 32-bit depth texture (a depth-stencil
+    one in a stencil-capable window); the pass's depth is 24-bit by default, and a blit
+    between depth formats fails (``GL_INVALID_OPERATION``): the volume drew nothing under
+    supersampling. Returns whether such a pass draws the renderer.
+    """
+    ssaa = supersampling_pass(renderer)
+    if ssaa is None:
+        return False
+    window = renderer.GetRenderWindow()
+    if not window.GetStencilCapable() and ssaa.GetDepthFormat() != vtkTextureObject.Fixed32:
+        ssaa.SetDepthFormat(vtkTextureObject.Fixed32)
+        ssaa.ReleaseGraphicsResources(window)   # allocated again, in that format
+    return True
 
 
 register_technique(Technique(
