@@ -1511,8 +1511,10 @@ def add_surface(
     frame_budget_ms : float, optional
         While the view moves, each frame marches the most ``steps`` predicted to stay
         within this many milliseconds from the last frame's time (which grows with the
-        steps); the first frame after the view stops draws the still ``steps`` again.
-        Nothing is rebuilt. Not with ``root='exact'``.
+        steps); below 100 steps it draws fewer pixels instead, at 1/2, 1/3 or 1/4 of the
+        viewport across, shown at full size with their depth (the walk through the cells
+        costs what the steps do not). The first frame after the view stops draws the still
+        ``steps`` again, at full size. Nothing is rebuilt. Not with ``root='exact'``.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
 

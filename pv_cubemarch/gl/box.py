@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from contextlib import contextmanager
 
 import numpy as np
 import pyvista
@@ -70,11 +71,28 @@ def supersampling_now(renderer) -> tuple[int, int] | None:
     return size if tuple(int(v) for v in viewport) == (0, 0, *size) else None
 
 
+#: Viewports a draw of ours into its own target set for the fragments (the innermost last).
+_drawing_at: list[tuple[int, int, int, int]] = []
+
+
+@contextmanager
+def drawing_at(viewport: tuple[int, int, int, int]):
+    """Within: :func:`fragment_viewport` is ``viewport`` (a prop drawn into our target)."""
+    _drawing_at.append(tuple(int(v) for v in viewport))
+    try:
+        yield
+    finally:
+        _drawing_at.pop()
+
+
 def fragment_viewport(renderer) -> tuple[int, int, int, int]:
     """The viewport of ``gl_FragCoord`` while ``renderer``'s props draw.
 
-    :func:`drawn_viewport`, except inside a ``vtkSSAAPass``: its enlarged framebuffer.
+    :func:`drawn_viewport`, except inside a ``vtkSSAAPass`` (its enlarged framebuffer) or
+    a draw into a target of ours (:func:`drawing_at`).
     """
+    if _drawing_at:
+        return _drawing_at[-1]
     size = supersampling_now(renderer)
     return drawn_viewport(renderer) if size is None else (0, 0, *size)
 

@@ -15,6 +15,7 @@ a uniform (the step) or the cube map's level of detail (upscale) changes.
 from __future__ import annotations
 
 import dataclasses
+import math
 import numbers
 import time
 from collections.abc import Callable
@@ -24,6 +25,7 @@ import numpy as np
 from vtkmodules.vtkCommonCore import vtkCommand
 
 from ..core.frame_errors import observe
+from ..gl.reduced_draw import ReducedDraw
 from .ladders import STEP_SCALES
 
 #: A desired update rate at or above this (frames a second) means the view is moving.
@@ -44,6 +46,12 @@ class BudgetKnob:
     power: float
     read: Callable
     write: Callable
+    #: How a value reads in a panel or a table (default ``name=value``).
+    label: Callable[[float], str] | None = None
+
+    def describe(self, value: float) -> str:
+        """``value`` as the panel and the bench say it."""
+        return self.label(value) if self.label is not None else f"{self.name}={value:g}"
 
 
 def _write_step(binding, value: float) -> None:
@@ -51,10 +59,31 @@ def _write_step(binding, value: float) -> None:
     binding.step_scale = float(value)
 
 
+#: Below this many steps, a surface's moving frames draw fewer pixels instead of fewer
+#: steps: its knob's values are then the steps over the pixels' reduction, squared.
+REDUCED_STEPS = 100.0
+
+
+def reduction_of(value: float) -> int:
+    """The pixels' reduction (1: full size) a surface's steps knob value draws with."""
+    return 1 if value >= REDUCED_STEPS else int(round(math.sqrt(REDUCED_STEPS / value)))
+
+
 def _write_steps(binding, value: float) -> None:
-    binding.options = dataclasses.replace(binding.options, steps=int(round(value)))
+    factor = reduction_of(value)
+    steps = value
+    if factor > 1:   # the steps of the knob's bottom, or the still ones if fewer
+        budget = getattr(binding, "frame_budget", None)
+        steps = min(REDUCED_STEPS, budget.still if budget is not None else REDUCED_STEPS)
+    binding.options = dataclasses.replace(binding.options, steps=int(round(steps)))
     binding.bindings.set_uniform("cm_stepLength",
                                  binding.options.step_length(binding.model.dimensions))
+    reduced = getattr(binding, "reduced", None)
+    if reduced is None and factor > 1:
+        reduced = binding.reduced = ReducedDraw(binding.renderer, binding.drawn[0])
+        binding.extra_release.append(reduced.release)
+    if reduced is not None:
+        reduced.factor = factor
 
 
 def _write_upscale(binding, value: float) -> None:
@@ -68,10 +97,15 @@ KNOBS = {
                        lambda b: float(b.step_scale), _write_step),
     "upscale": BudgetKnob("upscale", (8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5), 2.0,
                           lambda b: float(b.frame.options.upscale), _write_upscale),
-    # a surface's samples along the diagonal: time as the samples (finer is larger)
-    "steps": BudgetKnob("steps", (10.0, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0,
+    # a surface's samples along the diagonal: time as the samples (finer is larger); below
+    # REDUCED_STEPS, 100 steps over the pixels' reduction squared (2, 3, 4 times fewer
+    # across): the steps alone leave a floor, the walk through the active cells
+    "steps": BudgetKnob("steps", (REDUCED_STEPS / 16.0, REDUCED_STEPS / 9.0,
+                                  REDUCED_STEPS / 4.0, 100.0, 200.0, 400.0, 800.0, 1600.0,
                                   3200.0, 6400.0, 12800.0, 25000.0), -1.0,
-                        lambda b: float(b.options.steps), _write_steps),
+                        lambda b: float(b.options.steps), _write_steps,
+                        lambda v: f"steps={v:g}" if reduction_of(v) == 1 else
+                        f"steps<={REDUCED_STEPS:g} at 1/{reduction_of(v)} size"),
 }
 TECHNIQUE_KNOBS = {"vtk": "step", "direct": "step", "cubemap": "upscale", "active": "steps",
                    "full": "steps"}

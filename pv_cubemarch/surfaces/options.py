@@ -90,10 +90,11 @@ ACTIVE = ("active",)
                                                          "exact"),
                            help="calibrated against the CPU reference")),
     Option("frame_budget_ms", "surface", float, None, "while the view moves, the most steps "
-           "keeping frames within this many ms (the still ones when it stops)", low=0.0,
+           "(below 100, fewer pixels) keeping frames within this many ms (the still ones "
+           "when it stops)", low=0.0,
            closed_low=False, optional=True,
            control=Control("select", "frame budget (ms)", choices=(AUTO, 16, 33, 66, 100),
-                           help="fewer steps while the view moves")),
+                           help="fewer steps, then pixels, while the view moves")),
 )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("surface"))

@@ -1,0 +1,163 @@
+"""An opaque box actor drawn at a fraction of the viewport, shown at full size.
+
+While its :attr:`ReducedDraw.factor` is above 1 (a frame budget coarsening a moving view),
+the actor is drawn alone, at the renderer's start, into colour and depth targets of
+1/factor the renderer's size, its fragments seeing that size as their viewport
+(:func:`~pv_cubemarch.gl.box.drawing_at`); the actor sits the frame out, and a stand-in
+with its geometry and placement draws the targets back at full size, nearest texel, with
+their depth, so the scene's meshes occlude it and are occluded as by the actor itself. The
+pixels marched fall as ``factor**2``.
+"""
+
+from __future__ import annotations
+
+import vtk
+from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLFramebufferObject, vtkTextureObject
+
+from ..core.frame_errors import observe
+from .bindings import ShaderBindings, TextureUnitLedger
+from .box import drawing_at, drawn_viewport, fragment_viewport
+from .shaders import box_recipe
+
+_DEPTH_AND_COLOR = 0x00000100 | 0x00004000
+_DEPTH_TEST, _BLEND, _LESS = 0x0B71, 0x0BE2, 0x0201
+
+
+class _Target:
+    """One of the draw's targets, as :class:`ShaderBindings` binds textures (not owned)."""
+
+    kind = "2d"
+    nbytes = 0
+
+    def __init__(self, draw: ReducedDraw, index: int):
+        self.draw, self.index = draw, index
+
+    def ensure(self, window) -> vtkTextureObject:
+        return self.draw.targets[self.index]
+
+    def release(self) -> None:
+        """Nothing: the draw frees its targets."""
+
+
+class ReducedDraw:
+    """Draw ``actor`` (in ``renderer``) at 1/``factor`` of the viewport when asked.
+
+    The returned actor's visibility is the user's: the actor sits out only the frames drawn
+    reduced (hidden between the renderer's start and the window's end).
+    """
+
+    def __init__(self, renderer, actor):
+        self.renderer, self.actor = renderer, actor
+        self.factor = 1
+        self.runs = 0
+        self.targets: list[vtkTextureObject] = []
+        self._fbo = None
+        self._allocated = (0, 0)
+        self._size = (1, 1)
+        self._hidden = False
+        mapper = vtk.vtkPolyDataMapper()   # its own events: the bindings' UpdateShaderEvent
+        mapper.SetInputData(actor.GetMapper().GetInput())
+        self.stand_in = vtk.vtkActor()
+        self.stand_in.SetMapper(mapper)
+        self.stand_in.SetUserMatrix(actor.GetUserMatrix())
+        self.stand_in.GetProperty().SetFrontfaceCulling(actor.GetProperty().GetFrontfaceCulling())
+        self.stand_in.GetProperty().SetBackfaceCulling(actor.GetProperty().GetBackfaceCulling())
+        self.stand_in.GetProperty().LightingOff()
+        self.stand_in.GetMapper().ScalarVisibilityOff()
+        self.stand_in.ForceOpaqueOn()
+        self.stand_in.SetPickable(False)
+        self.stand_in.SetVisibility(False)
+        self.bindings = ShaderBindings(self.stand_in.GetMapper(), renderer)
+        self.bindings.add_texture("cm_reducedColor", _Target(self, 0))
+        self.bindings.add_texture("cm_reducedDepth", _Target(self, 1))
+        self.bindings.set_uniform("cm_viewport", lambda: fragment_viewport(renderer))
+        self.bindings.set_uniform("cm_reducedSize", lambda: tuple(float(v) for v in self._size))
+        self.bindings.install(box_recipe(("reduced_declarations",), "reduced_fragment"),
+                              self.stand_in)
+        renderer.AddActor(self.stand_in)
+        window = renderer.GetRenderWindow()
+        # after the other start observers (the actor's bindings count the frame first)
+        self._tags = [(renderer, observe(renderer, vtk.vtkCommand.StartEvent, self._on_start,
+                                         -5.0)),
+                      (window, observe(window, vtk.vtkCommand.EndEvent, self._on_end, 5.0))]
+
+    def _on_start(self, *_) -> None:
+        shown = bool(self.actor.GetVisibility())
+        reduced = shown and self.factor > 1
+        self.stand_in.SetVisibility(reduced)
+        if not reduced:
+            return
+        width, height = drawn_viewport(self.renderer)[2:]
+        self._size = (max(1, -(-width // self.factor)), max(1, -(-height // self.factor)))
+        self._draw()
+        self.actor.SetVisibility(False)   # back at the window's end
+        self._hidden = True
+
+    def _on_end(self, *_) -> None:
+        if self._hidden:
+            self.actor.SetVisibility(True)
+            self._hidden = False
+
+    def _create(self, window, size: tuple[int, int]) -> None:
+        self._release_targets()
+        color = vtkTextureObject()
+        color.SetContext(window)
+        color.Allocate2D(size[0], size[1], 4, vtk.VTK_UNSIGNED_CHAR)
+        depth = vtkTextureObject()
+        depth.SetContext(window)
+        depth.AllocateDepth(size[0], size[1], vtkTextureObject.Float32)
+        for texture in (color, depth):
+            texture.SetMinificationFilter(vtkTextureObject.Nearest)
+            texture.SetMagnificationFilter(vtkTextureObject.Nearest)
+        self._fbo = vtkOpenGLFramebufferObject()
+        self._fbo.SetContext(window)
+        self.targets, self._allocated, self._window = [color, depth], size, window
+
+    def _draw(self) -> None:
+        window = self.renderer.GetRenderWindow()
+        TextureUnitLedger.release_window(window)
+        size = self._size
+        if self._fbo is None or size != self._allocated:
+            self._create(window, size)
+        state = window.GetState()
+        state.Push()
+        state.PushFramebufferBindings()
+        try:
+            self._fbo.Bind()
+            self._fbo.AddColorAttachment(0, self.targets[0])
+            self._fbo.AddDepthAttachment(self.targets[1])
+            self._fbo.ActivateDrawBuffers(1)
+            self._fbo.Start(*size)
+            state.vtkglClearColor(0.0, 0.0, 0.0, 0.0)
+            state.vtkglClearDepth(1.0)
+            state.vtkglDepthMask(True)
+            state.vtkglEnable(_DEPTH_TEST)
+            state.vtkglDepthFunc(_LESS)
+            state.vtkglDisable(_BLEND)
+            state.vtkglClear(_DEPTH_AND_COLOR)
+            with drawing_at((0, 0, *size)):
+                self.actor.RenderOpaqueGeometry(self.renderer)
+        finally:
+            state.PopFramebufferBindings()
+            state.Pop()
+        TextureUnitLedger.release_window(window)
+        self.runs += 1
+
+    def _release_targets(self) -> None:
+        window = getattr(self, "_window", None)
+        for texture in self.targets:
+            if window is not None:
+                texture.ReleaseGraphicsResources(window)
+        if self._fbo is not None and window is not None:
+            self._fbo.ReleaseGraphicsResources(window)
+        self.targets, self._fbo, self._allocated = [], None, (0, 0)
+
+    def release(self) -> None:
+        """Stop following frames, give the actor back, free the targets and the stand-in."""
+        for subject, tag in self._tags:
+            subject.RemoveObserver(tag)
+        self._tags = []
+        self._on_end()
+        self.bindings.release()
+        self.renderer.RemoveActor(self.stand_in)
+        self._release_targets()
