@@ -42,8 +42,8 @@ from .quality.volumes import check_quality_request, volume_calibration
 from .quality.voxels import (
     VoxelCalibration,
     check_opaque,
+    check_voxel_budget,
     check_voxel_quality,
-    refuse_voxel_budget,
 )
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .surfaces.levels import (
@@ -1197,8 +1197,13 @@ def add_voxels(
         measurement shows the reference drawn: 45 dB or more). A grid drawn whole, opaque,
         ``mode='color'``; not with ``traversal``, ``step_scale`` or ``lod``.
     frame_budget_ms : float, optional
-        Refused for voxels, saying why: they have no coarser setting measured cheaper, so
-        a moving view has nothing to coarsen.
+        While the view moves, each frame draws the grid at the most pixels (1/2, 1/3 or
+        1/4 of the viewport across, shown at full size with their depth) predicted to stay
+        within this many milliseconds from the last frame's time (which grows with the
+        pixels): no traversal was measured cheaper than the exact one (``bench voxels``),
+        so the pixels are what a moving view coarsens. The first frame after the view
+        stops is drawn at full size. Not for grids drawn in chunks or with translucent
+        labels. ``actor.cubemarch.frame_budget`` keeps the frames' values and times.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
     show_edges : bool
@@ -1267,8 +1272,9 @@ def add_voxels(
                          "whole (or by chunks: chunk_size=).")
     chosen = get_technique("voxels", "voxels")
     target = None if quality is None else check_voxel_quality(
-        quality, traversal, step_scale, lod, frame_budget_ms)
-    refuse_voxel_budget(frame_budget_ms)
+        quality, traversal, step_scale, lod)
+    if frame_budget_ms is not None:   # the number, before anything is built
+        check_frame_budget(frame_budget_ms, "voxels", 1)
     options = voxel_options(traversal=traversal, step_scale=step_scale, mip_levels=mip_levels,
                             distance_field=distance_field, mode=mode, shading=shading,
                             ambient=ambient, specular=specular, specular_power=specular_power,
@@ -1308,6 +1314,7 @@ def add_voxels(
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")
     if isinstance(model, VoxelWorld) or chunk_size is not None or not fits_one_texture(
             model.dimensions, model.labels.dtype):
+        check_voxel_budget(frame_budget_ms, None)
         if target is not None:
             raise ValueError("quality= measures one grid drawn whole against the CPU "
                              "reference; a grid drawn in chunks is drawn by the same exact "
@@ -1325,6 +1332,7 @@ def add_voxels(
                           f"this grid of {tuple(model.dimensions)} voxels is drawn whole (give "
                           "chunk_size= to draw it in chunks).", stacklevel=2)
         calibration = choice = None
+        check_voxel_budget(frame_budget_ms, model)
         if target is not None:
             check_opaque(model)
             if options.mode != "color":
@@ -1340,6 +1348,8 @@ def add_voxels(
         binding.quality = choice
         if calibration is not None:
             calibration.follow(binding, plotter)
+        if frame_budget_ms is not None:
+            attach_frame_budget(binding, "voxels", plotter.ren_win, frame_budget_ms)
         if not binding.composites:
             binding.opaque_because = _opaque_because(options)
             binding.say_drawn_opaque()
@@ -1622,6 +1632,8 @@ def add_surface(
         binding.quality = choice
         if calibration is not None:
             calibration.follow(binding, plotter)
+        if frame_budget_ms is not None:
+            attach_frame_budget(binding, "voxels", plotter.ren_win, frame_budget_ms)
         if frame_budget_ms is not None:
             attach_frame_budget(binding, chosen.name, plotter.ren_win, frame_budget_ms, {
                 m["setting"]["steps"]: m["psnr"] for m in (choice.measured if choice else [])

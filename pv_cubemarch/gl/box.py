@@ -85,6 +85,11 @@ def drawing_at(viewport: tuple[int, int, int, int]):
         _drawing_at.pop()
 
 
+def drawing_reduced() -> bool:
+    """Whether a prop is being drawn into a target of ours (:func:`drawing_at`)."""
+    return bool(_drawing_at)
+
+
 def fragment_viewport(renderer) -> tuple[int, int, int, int]:
     """The viewport of ``gl_FragCoord`` while ``renderer``'s props draw.
 

@@ -86,6 +86,15 @@ def _write_steps(binding, value: float) -> None:
         reduced.factor = factor
 
 
+def _write_reduction(binding, value: float) -> None:
+    reduced = getattr(binding, "reduced", None)
+    if reduced is None and value > 1:
+        reduced = binding.reduced = ReducedDraw(binding.renderer, binding.drawn[0])
+        binding.extra_release.append(reduced.release)
+    if reduced is not None:
+        reduced.factor = int(value)
+
+
 def _write_upscale(binding, value: float) -> None:
     frame = binding.frame
     frame.options = dataclasses.replace(frame.options, upscale=float(value))
@@ -106,9 +115,14 @@ KNOBS = {
                         lambda b: float(b.options.steps), _write_steps,
                         lambda v: f"steps={v:g}" if reduction_of(v) == 1 else
                         f"steps<={REDUCED_STEPS:g} at 1/{reduction_of(v)} size"),
+    # a voxel grid's pixels, 1/reduction of the viewport across: time as the pixels
+    "pixels": BudgetKnob("reduction", (4.0, 3.0, 2.0, 1.0), 2.0,
+                         lambda b: float(getattr(getattr(b, "reduced", None), "factor", 1)),
+                         _write_reduction,
+                         lambda v: "full size" if v == 1 else f"1/{v:g} size"),
 }
 TECHNIQUE_KNOBS = {"vtk": "step", "direct": "step", "cubemap": "upscale", "active": "steps",
-                   "full": "steps"}
+                   "full": "steps", "voxels": "pixels"}
 
 
 @dataclass

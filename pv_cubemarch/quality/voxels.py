@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .interaction import check_frame_budget
 from .ladders import Rung
 from .probe import ProbeCalibration, margined_bounds
 from .targets import QualityTarget, parse_quality
@@ -24,16 +25,9 @@ from .targets import QualityTarget, parse_quality
 EXACT = {"traversal": "dda"}
 
 
-_NO_BUDGET = ("frame_budget_ms: voxels have no coarser setting that was measured cheaper "
-              "than the exact traversal (bench voxels), so a moving view has nothing to "
-              "coarsen; leave it out (mip_levels and proxy speed every frame up exactly).")
-
-
-def check_voxel_quality(quality, traversal: str, step_scale, lod: bool, frame_budget_ms
-                        ) -> QualityTarget:
+def check_voxel_quality(quality, traversal: str, step_scale, lod: bool) -> QualityTarget:
     """Read ``quality=`` for voxels and refuse the settings that would contradict it."""
     target = parse_quality(quality, exact=True)
-    refuse_voxel_budget(frame_budget_ms)
     if traversal != "dda" or step_scale is not None or lod:
         raise ValueError("quality= draws every voxel a ray crosses (traversal='dda', no lod): "
                          "leave traversal, step_scale and lod out with it.")
@@ -49,10 +43,24 @@ def check_opaque(model) -> None:
                          "between 0 and 1): leave quality out, or make them opaque.")
 
 
-def refuse_voxel_budget(frame_budget_ms) -> None:
-    """Refuse a frame budget for voxels, saying why."""
-    if frame_budget_ms is not None:
-        raise ValueError(_NO_BUDGET)
+def check_voxel_budget(frame_budget_ms, model) -> None:
+    """Refuse a frame budget a grid's moving frames cannot be held to.
+
+    The budget draws the grid at fewer pixels (one opaque actor into reduced targets): not a
+    grid with translucent labels (drawn in layers of their own), nor one drawn in chunks.
+    """
+    if frame_budget_ms is None:
+        return
+    check_frame_budget(frame_budget_ms, "voxels", 1)
+    if model is None:
+        raise ValueError("frame_budget_ms draws a grid drawn whole at fewer pixels while the "
+                         "view moves; this one is drawn in chunks (a VoxelWorld, chunk_size=, "
+                         "or larger than one texture): leave the budget out.")
+    alpha = np.asarray(model.palette.rgba)[1:, 3]
+    if ((alpha > 0.0) & (alpha < 1.0)).any():
+        raise ValueError("frame_budget_ms draws a grid's opaque voxels at fewer pixels while "
+                         "the view moves; this grid has translucent labels (drawn in layers "
+                         "of their own): leave the budget out, or make them opaque.")
 
 
 @dataclass

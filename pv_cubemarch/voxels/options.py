@@ -47,7 +47,7 @@ PAGED_LABELS_ONLY = dict.fromkeys(
 (TRAVERSAL, VOXEL_STEP_SCALE, MIP_LEVELS, DISTANCE_FIELD, MODE, SHADING, AMBIENT, SPECULAR,
  SPECULAR_POWER, AMBIENT_OCCLUSION, OCCLUSION_STRENGTH, PROXY, LOD, LOD_BIAS,
  WORLD_TRAVERSAL, SHOW_EDGES, EDGE_COLOR, LINE_WIDTH, EDGE_OPACITY, EDGE_MODE,
- CLIP_PLANES, GPU_BYTES, HOST_BYTES, BRICK_SIZE, QUALITY) = declare(
+ CLIP_PLANES, GPU_BYTES, HOST_BYTES, BRICK_SIZE, QUALITY, FRAME_BUDGET_MS) = declare(
     Option("traversal", "voxels", str, "dda", "dda (exact: every voxel a ray crosses) or "
            "fixed steps (may miss thin voxels)", choices=TRAVERSALS,
            control=Control("select", help="dda is exact; fixed steps may miss thin voxels")),
@@ -121,9 +121,15 @@ PAGED_LABELS_ONLY = dict.fromkeys(
            control=Control("select", "quality", choices=(AUTO, "exact", "fast", "balanced",
                                                          "best"),
                            help="measured against the CPU reference")),
+    Option("frame_budget_ms", "voxels", float, None, "while the view moves, the most pixels "
+           "(the grid drawn at 1/2, 1/3 or 1/4 the viewport across) keeping frames within "
+           "this many ms (full size when it stops)", low=0.0, closed_low=False,
+           optional=True,
+           control=Control("select", "frame budget (ms)", choices=(AUTO, 16, 33, 66, 100),
+                           help="fewer pixels while the view moves")),
 )
 #: Options add_voxels reads itself: no technique's options hold them.
-CALL_ONLY = ("quality",)
+CALL_ONLY = ("quality", "frame_budget_ms")
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("voxels"))
 #: VTK draws a surface's edges at least this wide (pixels), whatever smaller line_width is

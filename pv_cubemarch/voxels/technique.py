@@ -21,7 +21,7 @@ from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..core.registry import Technique, register_technique
 from ..core.rendering import needs_open_plotter
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, box_actor, camera_matrices
+from ..gl.box import bind_camera, box_actor, camera_matrices, drawing_reduced
 from ..gl.face_depth import FaceDepthPass
 from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
@@ -450,7 +450,9 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     bind_grid(bindings, renderer, model, options)
     if shell is not None:
         bindings.add_texture("cm_shellDepth", shell.depth)
-        bindings.set_uniform("cm_startAtProxy", lambda: shell.start_at_shell)
+        # a reduced draw's rays start at the box: the shell's depth is the full viewport's
+        bindings.set_uniform("cm_startAtProxy",
+                             lambda: 0.0 if drawing_reduced() else shell.start_at_shell)
     if occluders is not None:
         bindings.add_texture("cm_occluderDepth", occluders.depth)
         bindings.set_uniform("cm_useOccluders", lambda: occluders.use)
