@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pyvista
 
-from ..api import add_surface, add_volume
+from ..api import add_surface, add_volume, add_voxels
 from ..core.camera import Camera
 from ..core.rendering import offscreen_plotter, read_pixels, render_frame
 from ..image_metrics import compare_images
@@ -35,13 +35,14 @@ from .dial_surfaces import (
     surface_reference,
     surface_scene,
 )
+from .dial_voxels import VOXEL_SCENES, voxel_reference, voxel_scene
 from .harness import time_frames_side_by_side
 from .sort_last import phantom
 
 SCENES = ("ct", "smoke", "blobs", "cells")
 TECHNIQUES = ("direct", "vtk", "cubemap", "active")
 #: What the frame-budget orbits drive: the volume techniques ('auto' too) and the surfaces.
-ORBIT_TECHNIQUES = ("direct", "vtk", "cubemap", "auto", "active")
+ORBIT_TECHNIQUES = ("direct", "vtk", "cubemap", "auto", "active", "voxels")
 TARGETS = (30.0, 40.0, 50.0)
 DATASETS = Path(__file__).resolve().parents[2] / "datasets"
 
@@ -103,7 +104,7 @@ def run_dial(size: Sequence[int] = (320, 240), frames: int = 3,
     """
     size = (int(size[0]), int(size[1]))
     sweep_rows, dial_rows = [], []
-    volumes = [t for t in techniques if t != "active"]
+    volumes = [t for t in techniques if t not in ("active", "voxels")]
     for name in scenes if volumes else ():
         grid, look = _scene(name)
         for technique in volumes:
@@ -210,11 +211,12 @@ def run_interaction(size: Sequence[int] = (800, 600), budget_ms: float = 100.0,
     as an interactor's drag does), then the drag's end. Reported: the share of moving
     frames (after the first, which has no time to predict from) within the budget, and
     the still frame's time (the refinement back to the chosen setting) and its PSNR over
-    the whole frame. Volumes on ``scenes``, surfaces (``'active'``) on ``surface_scenes``.
+    the whole frame. Volumes on ``scenes``, surfaces (``'active'``) on ``surface_scenes``,
+    voxels on :data:`VOXEL_SCENES` (unlit, no quality: their traversal is the exact one).
     """
     size = (int(size[0]), int(size[1]))
     rows = []
-    volumes = [t for t in techniques if t != "active"]
+    volumes = [t for t in techniques if t not in ("active", "voxels")]
     for name in scenes if volumes else ():
         grid, look = _scene(name)
         for technique in volumes:
@@ -239,6 +241,16 @@ def run_interaction(size: Sequence[int] = (800, 600), budget_ms: float = 100.0,
                                     frame_budget_ms=budget_ms, **SURFACE_LOOK)
             rows.append(_orbit(name, "active", plotter, actor, frames,
                                lambda p, a: surface_reference(p, a.cubemarch.model, size)))
+        finally:
+            plotter.close()
+    for name in VOXEL_SCENES if "voxels" in techniques else ():
+        plotter = _plotter(size)
+        try:
+            actor = add_voxels(plotter, voxel_scene(name), shading="unlit",
+                               frame_budget_ms=budget_ms)
+            plotter.reset_camera()
+            rows.append(_orbit(name, "voxels", plotter, actor, frames,
+                               lambda p, a: voxel_reference(p, a, size)))
         finally:
             plotter.close()
     return rows
