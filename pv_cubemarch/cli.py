@@ -73,6 +73,20 @@ def _shape(text: str) -> tuple[int, int, int]:
     return shape
 
 
+def _partitions(text: str) -> int | tuple[int, int, int]:
+    """A count of slabs, or bricks per axis ``NxNxN``."""
+    if "x" in text.lower():
+        return _shape(text)
+    try:
+        count = int(text)
+        if count < 1:
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"partitions are a positive count (4) or bricks per "
+                                         f"axis (2x2x2), got {text!r}") from None
+    return count
+
+
 def _sizes(text: str) -> list[tuple[int, int]]:
     return [_size(part) for part in text.split(",") if part.strip()]
 
@@ -220,11 +234,12 @@ def build_parser() -> argparse.ArgumentParser:
     split.add_argument("--port", type=int, default=8080, help="the live view's port")
     split.add_argument("--host", default="127.0.0.1",
                        help="address the live view listens on (default: this machine only)")
-    split.add_argument("--partitions", type=int,
-                       help="slabs to cut the volume into (default: a zarr array's chunks "
-                            "along the axis, else 2)")
+    split.add_argument("--partitions", type=_partitions,
+                       help="slabs to cut the volume into along the axis (default: a zarr "
+                            "array's chunks along it, else 2), or bricks per axis as 2x2x2")
     split.add_argument("--axis", choices=("x", "y", "z"),
-                       help="axis to cut along (default: the one with most points)")
+                       help="axis the slabs are cut along (default: the one with most "
+                            "points)")
     split.add_argument("--spacing", type=float, nargs=3, help="a zarr array's point spacing")
     split.add_argument("--origin", type=float, nargs=3, help="a zarr array's origin")
     split.add_argument("--orbit", type=int, default=64,
@@ -383,8 +398,9 @@ def build_parser() -> argparse.ArgumentParser:
     sortlast.add_argument("--frames", type=int, default=16, help="frames of the orbit")
     sortlast.add_argument("--size", type=_size, default=(320, 240),
                           help="WxH (default 320x240)")
-    sortlast.add_argument("--partitions", default="2,4,8",
-                          help="comma-separated slab counts (default 2,4,8)")
+    sortlast.add_argument("--partitions", default="2,4,8,2x2x2",
+                          help="comma-separated slab counts along x, or bricks per axis "
+                               "(default 2,4,8,2x2x2)")
     sortlast.add_argument("--workers", default="2",
                           help="comma-separated LocalCluster sizes (default 2)")
     sortlast.add_argument("--json", dest="json_path", help="write the rows as JSON here")
@@ -907,11 +923,15 @@ def _bench(args) -> int:
         _write_rows(args.json_path, rows, size=list(args.size), frames=args.frames)
         return 0
     if args.bench_command == "sortlast":
-        counts = [[int(v) for v in text.split(",") if v.strip()]
-                  for text in (args.partitions, args.workers)]
-        if not all(counts) or min(min(c) for c in counts) < 1 or args.frames < 1:
-            raise ValueError("--partitions and --workers take positive counts (2,4,8) and "
-                             "--frames a positive count.")
+        try:
+            counts = [[_partitions(v.strip()) for v in args.partitions.split(",") if v.strip()],
+                      [int(v) for v in args.workers.split(",") if v.strip()]]
+        except (argparse.ArgumentTypeError, ValueError):
+            counts = [[], []]
+        if not all(counts) or min(counts[1]) < 1 or args.frames < 1:
+            raise ValueError("--partitions takes positive counts or bricks per axis "
+                             "(2,4,8,2x2x2), --workers positive counts (2) and --frames a "
+                             "positive count.")
         rows = bench_sort_last.run_sort_last(args.shape, args.frames, args.size, *counts)
         print(f"{args.size[0]}x{args.size[1]}, {args.frames} frames after one that reads and "
               "uploads; comp. ms: the client's compositing per frame; sent MB: what the "

@@ -117,6 +117,23 @@ def test_slabs_composite_to_the_whole_volume_render(client, view, step_scale):
     assert compare_images(image, expected).psnr >= 50.0
 
 
+@pytest.mark.parametrize("view", ["outside", "inside", "near plane"])
+def test_bricks_composite_to_the_whole_volume_render(client, view):
+    # 2x2x2 bricks: rays cross cut planes along every axis, the camera inside one brick,
+    # a near plane across two cuts; the stop opacity low, so rays stop inside bricks
+    # behind others
+    # catches (seen failing): which brick owns a sample decided along x only (samples
+    # across the y and z cuts blended by two bricks: 19.9 dB); the bricks ordered by their
+    # distance along x only (26.6 dB)
+    camera = CAMERAS[view]
+    look = dict(LOOK, stop_opacity=0.6)
+    expected = whole_render(GRID, camera, **look)
+    assert drawn_share(expected) > 0.2
+    image = cm.render_sort_last(GRID, camera, SIZE, partitions=(2, 2, 2), client=client,
+                                background_color=BACKGROUND, progress_bar=False, **look)
+    assert compare_images(image, expected).psnr >= 50.0
+
+
 @pytest.mark.parametrize("blending", ["maximum", "minimum"])
 def test_projections_keep_the_extreme_of_the_slabs(client, blending):
     # catches (seen failing): the last slab's value kept instead of the extreme; steps
@@ -291,7 +308,7 @@ def test_rays_stop_where_the_whole_volume_s_rays_stop(client, view, offset, look
 def test_slabs_are_composited_front_to_back_from_the_camera():
     # catches (seen failing): a parallel view looking down -x ordered as one looking down +x.
     parts = split_grid.split_volume(values(), 4, 0, keywords={"clim": (0, 1)}).partitions
-    assert [(p.start, p.stop) for p in parts] == [(0, 10), (10, 20), (20, 30), (30, 40)]
+    assert [(p.lower[0], p.upper[0]) for p in parts] == [(0, 10), (10, 20), (20, 30), (30, 40)]
     at = lambda x, **kw: Camera((x, 16.0, 14.0), (x + 1.0, 16.0, 14.0), (0, 0, 1), **kw)  # noqa: E731
     assert sort_last.visibility_order(parts, at(25.0))[:1] == [2]
     assert sort_last.visibility_order(parts, at(25.0))[1:3] in ([1, 3], [3, 1])
@@ -300,6 +317,25 @@ def test_slabs_are_composited_front_to_back_from_the_camera():
     backwards = Camera((-5.0, 16.0, 14.0), (-6.0, 16.0, 14.0), (0, 0, 1),
                        parallel_projection=True)
     assert sort_last.visibility_order(parts, backwards) == [3, 2, 1, 0]
+
+
+def test_bricks_are_composited_front_to_back_from_the_camera():
+    # 2x2 bricks of the 41x33x29 grid (x cut at 20, y at 16), numbered x fastest; by hand:
+    # the sum over the axes of each brick's distance from the camera, in cells
+    # catches (seen failing): the largest distance of the axes, not their sum (bricks 1
+    # and 3 tied, then ordered by index, though rays cross 3 before 1)
+    parts = split_grid.split_volume(values(), (2, 2, 1), keywords={"clim": (0, 1)}).partitions
+    assert [(p.lower, p.upper) for p in parts] == [
+        ((0, 0, 0), (20, 16, 28)), ((20, 0, 0), (40, 16, 28)),
+        ((0, 16, 0), (20, 32, 28)), ((20, 16, 0), (40, 32, 28))]
+    look = lambda eye, **kw: Camera(eye, (20.0, 16.0, 14.0), (0, 0, 1), **kw)  # noqa: E731
+    assert sort_last.visibility_order(parts, look((5.0, 5.0, 14.0))) == [0, 2, 1, 3]
+    # outside, x < 0 and y > 32: distances 34, 54, 18, 38
+    assert sort_last.visibility_order(parts, look((-10.0, 40.0, 14.0))) == [2, 0, 3, 1]
+    # parallel along (+1, -1, 0): the lower planes' x - y
+    along = Camera((-10.0, 40.0, 14.0), (0.0, 30.0, 14.0), (0, 0, 1),
+                   parallel_projection=True)
+    assert sort_last.visibility_order(parts, along) == [2, 0, 3, 1]
 
 
 def test_cli_renders_an_orbit_of_a_split_grid_file(client, tmp_path):
@@ -422,6 +458,19 @@ def test_label_slabs_keep_the_nearest_hit_of_the_whole_grid(client, view):
     assert np.array_equal(image, expected)
 
 
+@pytest.mark.parametrize("view", ["outside", "inside"])
+def test_label_bricks_keep_the_nearest_hit_of_the_whole_grid(client, view):
+    # 2x2x2 bricks: every pixel's nearest hit among bricks cut along all three axes
+    # catches (seen failing): the bricks' grids placed by their x cut only (the y and z
+    # bricks drawn at the grid's origin)
+    camera = LABEL_CAMERAS[view]
+    expected = whole_labels(LABELS, camera, palette=split_grid.hashed_color)
+    image = cm.render_sort_last(LABELS, camera, SIZE, partitions=(2, 2, 2),
+                                technique="voxels", client=client, background_color=BACKGROUND,
+                                progress_bar=False)
+    assert np.array_equal(image, expected)
+
+
 def test_label_colours_do_not_depend_on_the_ids_a_slab_holds(client):
     # catches (seen failing): each slab's own default palette; a colormap over each slab's
     # own range of ids.
@@ -456,11 +505,11 @@ def test_bench_sortlast_rows(tmp_path):
 
     path = tmp_path / "sortlast.json"
     assert main(["bench", "sortlast", "--shape", "40x32x24", "--frames", "2", "--size",
-                 "64x48", "--partitions", "2,3", "--json", str(path)]) == 0
+                 "64x48", "--partitions", "2,2x2x1", "--json", str(path)]) == 0
     rows = json.loads(path.read_text())["rows"]
     assert [(r["grid"].split()[0], r["partitions"]) for r in rows] == [
-        ("volume", None), ("volume", 2), ("volume", 3),
-        ("labels", None), ("labels", 2), ("labels", 3)]
+        ("volume", None), ("volume", 2), ("volume", "2x2x1"),
+        ("labels", None), ("labels", 2), ("labels", "2x2x1")]
     assert all(r["psnr_min"] >= 50.0 for r in rows[1:3])
     assert all(r["wrong_pixels"] == 0 for r in rows[4:])   # away from voxel edges
     assert all(r["edge_pixels"] <= 3 for r in rows[4:])

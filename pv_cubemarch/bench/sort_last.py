@@ -43,7 +43,7 @@ class SortLastRow:
 
     grid: str
     row: str
-    partitions: int | None
+    partitions: int | str | None   # slabs along x, or bricks per axis as 2x2x2
     workers: int
     frames: int
     frame_s: float
@@ -80,12 +80,16 @@ def segmentation(shape, cells: int = 300, seed: int = 0) -> np.ndarray:
     return labels
 
 
-def _store(path, data: np.ndarray, slabs: int):
+def _store(path, data: np.ndarray, partitions: Sequence) -> str:
+    """The grid in a zarr store, chunked so each slab or brick reads only its chunks."""
     import zarr
 
-    chunk = max(1, -(-data.shape[0] // slabs))
+    counts = [max([p[axis] for p in partitions if isinstance(p, tuple)]
+                  + [p for p in partitions if not isinstance(p, tuple) and axis == 0] + [1])
+              for axis in range(3)]
+    chunks = tuple(max(1, -(-n // c)) for n, c in zip(data.shape, counts, strict=True))
     array = zarr.open_array(str(path), mode="w", shape=data.shape, dtype=data.dtype,
-                            chunks=(chunk, *data.shape[1:]))
+                            chunks=chunks)
     array[:] = data
     return str(path)
 
@@ -126,7 +130,7 @@ def _whole(data, cameras, size, labels: bool) -> tuple[list[np.ndarray], float, 
 
 
 def run_sort_last(shape=(192, 128, 96), frames: int = 16, size=(320, 240),
-                  partitions: Sequence[int] = (2, 4, 8),
+                  partitions: Sequence = (2, 4, 8, (2, 2, 2)),
                   workers: Sequence[int] = (2,)) -> list[SortLastRow]:
     """Every row of both grids, measured in one run (module docstring)."""
     from distributed import Client, LocalCluster
@@ -143,7 +147,7 @@ def run_sort_last(shape=(192, 128, 96), frames: int = 16, size=(320, 240),
             data = segmentation(shape) if labels else phantom(shape)
             name = f"{'labels' if labels else 'volume'} {'x'.join(map(str, shape))}"
             path = _store(f"{folder}/{'labels' if labels else 'volume'}.zarr", data,
-                          max(partitions))
+                          partitions)
             expected, whole_s, nears = _whole(data, cameras, size, labels)
             rows.append(SortLastRow(name, "one plotter, whole grid", None, 1, frames, whole_s))
             look = {} if labels else {"cmap": "bone", "opacity": "sigmoid"}
@@ -173,14 +177,17 @@ def _grazing(labels, cameras, size, nears) -> list[np.ndarray]:
 
 def _split_row(name, path, cameras, size, slabs, client, count, labels, look,
                expected, grazing) -> SortLastRow:
-    keywords = dict(partitions=slabs, axis=0, spacing=SPACING, origin=ORIGIN, client=client,
+    keywords = dict(partitions=slabs, axis=None if isinstance(slabs, tuple) else 0,
+                    spacing=SPACING, origin=ORIGIN, client=client,
                     technique="voxels" if labels else "direct", progress_bar=False, **look)
     render_sort_last(path, cameras[0], size, **keywords)   # warm: slabs read and uploaded
     report: dict = {}
     start = time.perf_counter()
     images = render_sort_last(path, cameras[1:], size, report=report, **keywords)
     spent = time.perf_counter() - start
-    row = SortLastRow(name, "render_sort_last, LocalCluster", slabs, count, len(images),
+    row = SortLastRow(name, "render_sort_last, LocalCluster",
+                      "x".join(map(str, slabs)) if isinstance(slabs, tuple) else slabs,
+                      count, len(images),
                       spent / len(images), report["composite_s"] * 1e3,
                       report["bytes"] / 2**20)
     if labels:

@@ -84,18 +84,18 @@ def check_look(keywords: dict, labels: bool) -> None:
 
 @dataclass(frozen=True)
 class Partition:
-    """One slab of a grid along ``axis``, between index planes ``start`` and ``stop``.
+    """One brick of a grid: index planes ``lower`` to ``upper`` along each axis.
 
-    A volume's slab holds points ``start`` to ``stop``, both included: neighbours share
+    A volume's brick holds points ``lower`` to ``upper``, both included: neighbours share
     their boundary points, so a sample between them is interpolated from the same points
-    as in the whole grid. A label grid's (``cells``) holds voxels ``start`` to ``stop - 1``.
-    ``values`` is the slab's array (x, y, z) or a lazy one (``.read()``) read on the worker.
+    as in the whole grid. A label grid's (``cells``) holds voxels ``lower`` to
+    ``upper - 1``. Slabs are bricks spanning the grid along two axes. ``values`` is the
+    brick's array (x, y, z) or a lazy one (``.read()``) read on the worker.
     """
 
     index: int
-    axis: int
-    start: int
-    stop: int
+    lower: tuple[int, int, int]
+    upper: tuple[int, int, int]
     dimensions: tuple[int, int, int]
     spacing: tuple[float, float, float]
     origin: tuple[float, float, float]
@@ -123,13 +123,13 @@ class Partition:
 
         values = self.values.read() if hasattr(self.values, "read") else self.values
         values = np.asarray(values)
-        expected = list(self.dimensions)
-        expected[self.axis] = self.stop - self.start + (0 if self.cells else 1)
-        if values.shape != tuple(expected):
+        expected = tuple(int(u - lo + (0 if self.cells else 1))
+                         for lo, u in zip(self.lower, self.upper, strict=True))
+        if values.shape != expected:
             raise ValueError(f"partition {self.index} read values of shape {values.shape}, "
                              f"expected {tuple(expected)}.")
-        origin = list(self.origin)
-        origin[self.axis] += self.start * self.spacing[self.axis]
+        origin = [o + lo * d for o, lo, d in zip(self.origin, self.lower, self.spacing,
+                                                 strict=True)]
         if self.cells:   # one voxel per cell
             grid = pyvista.ImageData(dimensions=np.asarray(values.shape) + 1,
                                      spacing=self.spacing, origin=origin)
@@ -235,10 +235,8 @@ class PartitionView:
             camera_matrices(renderer)[0] @ partition.world_from_texture())
         march.set_uniform("cm_wholeTextureFromView", whole_from_view)
         march.set_uniform("cm_wholeDims", tuple(whole))
-        lo, hi = 0.5 / whole, 1.0 - 0.5 / whole
-        axis = partition.axis
-        lo[axis] = (partition.start + 0.5) / whole[axis]
-        hi[axis] = (partition.stop + 0.5) / whole[axis]
+        lo = (np.asarray(partition.lower, float) + 0.5) / whole
+        hi = (np.asarray(partition.upper, float) + 0.5) / whole
         march.set_uniform("cm_ownLo", tuple(lo))
         march.set_uniform("cm_ownHi", tuple(hi))
         march.set_recipe(ShaderRecipe(

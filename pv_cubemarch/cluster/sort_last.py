@@ -1,11 +1,12 @@
 """Sort-last rendering of a volume split across a Dask cluster (:func:`render_sort_last`).
 
-The volume is cut along one axis into slabs that share their boundary points; each worker
-reads only its slab (a NumPy slice, a dask array's or a zarr store's part) and marches the
-whole volume's rays through it (:mod:`.partition_march`). The client composites the slabs'
-float images in visibility order, front-to-back "over" for emission/absorption and the
-extreme of the extremes for the intensity projections, as IceT composites ParaView's
-partitions; for slabs along one axis this order is exact.
+The volume is cut into axis-aligned bricks (slabs along one axis, or a grid of bricks)
+that share their boundary points; each worker reads only its bricks (a NumPy slice, a dask
+array's or a zarr store's part) and marches the whole volume's rays through them
+(:mod:`.partition_march`). The client composites the bricks' float images in visibility
+order, front-to-back "over" for emission/absorption and the extreme of the extremes for
+the intensity projections, as IceT composites ParaView's partitions; for axis-aligned
+bricks of one grid that order is exact.
 """
 
 from __future__ import annotations
@@ -46,24 +47,27 @@ KEPT_PARTITIONS = 8
 
 
 def visibility_order(partitions: Sequence[Partition], camera: Camera) -> list[int]:
-    """The partitions' indices front to back for ``camera``'s rays.
+    """The bricks' indices front to back for ``camera``'s rays.
 
-    Slabs along one axis: the camera's own slab first, then outwards by distance along the
-    axis. A ray moves one way along the axis, so slabs on the other side of the camera add
-    nothing to its pixel and their order against these does not matter. A parallel
-    projection comes from infinitely far behind along its direction.
+    Along a ray every coordinate moves away from the camera's, so a brick the ray meets
+    later lies no nearer along any axis and farther along the one it crossed into it. The
+    bricks sorted by the sum over the axes of their distance from the camera (in cells)
+    are therefore in the order of every ray; bricks no common ray meets may fall in any
+    order. A parallel projection comes from infinitely far behind: the sum of the bricks'
+    lower planes along its direction.
     """
     first = partitions[0]
-    axis, spacing, origin = first.axis, first.spacing[first.axis], first.origin[first.axis]
+    origin, spacing = np.asarray(first.origin, float), np.asarray(first.spacing, float)
     if camera.parallel_projection:
-        direction = np.subtract(camera.focal_point, camera.position)[axis]
+        sign = np.sign(np.subtract(camera.focal_point, camera.position))
         return sorted(range(len(partitions)),
-                      key=lambda i: partitions[i].start * (1 if direction >= 0 else -1))
-    place = (camera.position[axis] - origin) / spacing
+                      key=lambda i: float(np.dot(sign, partitions[i].lower)))
+    place = (np.asarray(camera.position, float) - origin) / spacing
 
     def distance(index: int) -> float:
         part = partitions[index]
-        return max(part.start - place, place - part.stop, 0.0)
+        lower, upper = np.asarray(part.lower, float), np.asarray(part.upper, float)
+        return float(np.maximum(np.maximum(lower - place, place - upper), 0.0).sum())
     return sorted(range(len(partitions)), key=distance)
 
 
@@ -359,7 +363,7 @@ def _wait_driving(frames: list, index: int) -> None:
                 frame.done()
 
 
-def prepare_split(volume, *, partitions: int | None = None, axis: int | None = None,
+def prepare_split(volume, *, partitions: int | tuple | None = None, axis: int | None = None,
                   scalars: str | None = None, spacing=None, origin=None,
                   technique: str = "direct", background_color=None, **volume_keywords):
     """The slabs of ``volume`` and how they composite (see :func:`render_sort_last`).
@@ -393,7 +397,7 @@ def prepare_split(volume, *, partitions: int | None = None, axis: int | None = N
 
 
 def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
-                     partitions: int | None = None, axis: int | None = None,
+                     partitions: int | tuple | None = None, axis: int | None = None,
                      scalars: str | None = None, spacing=None, origin=None,
                      client=None, workers: int | None = None, out=None, fps: float = 24.0,
                      background_color=None, technique: str = "direct",
@@ -420,11 +424,13 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
         gives one frame, a sequence one frame per camera (see :func:`orbit`).
     size : tuple of int
         ``(width, height)`` of every frame.
-    partitions : int, optional
-        Slabs to cut the volume into (default: a dask array's chunks along ``axis``, else
-        2). Slabs are spread over the workers and stay there between frames.
+    partitions : int or tuple of int, optional
+        Slabs to cut the volume into along ``axis`` (default: a dask array's chunks
+        along it, else 2), or bricks per axis ``(nx, ny, nz)`` (``axis`` left out).
+        Bricks are spread over the workers and stay there between frames.
     axis : int, optional
-        Axis to cut along (0, 1, 2: x, y, z; default: the one with most points).
+        Axis the slabs are cut along (0, 1, 2: x, y, z; default: the one with most
+        points).
     scalars : str, optional
         An ImageData's point array to draw (default: its active scalars).
     spacing, origin : sequence of float, optional

@@ -1,14 +1,16 @@
-"""A volume or label grid cut into slabs along one axis, for sort-last rendering.
+"""A volume or label grid cut into bricks for sort-last rendering.
 
-A volume's slabs share their boundary points; a label grid's are cut between voxels. Each
-slab's values are a NumPy slice or a lazy slice of a dask array (a zarr store is read
-through dask), read on the worker that draws it. What every slab must be drawn with alike
+Slabs along one axis, or a grid of bricks along all three. A volume's bricks share their
+boundary points; a label grid's are cut between voxels. Each brick's values are a NumPy
+slice or a lazy slice of a dask array (a zarr store is read through dask), read on the
+worker that draws it. What every brick must be drawn with alike
 (the whole grid's colour range and opacity unit distance, colours independent of the ids a
-slab holds) is settled here, from the whole grid.
+brick holds) is settled here, from the whole grid.
 """
 
 from __future__ import annotations
 
+import itertools
 import os
 from dataclasses import dataclass
 
@@ -44,50 +46,71 @@ class SplitVolume:
     token: str
 
 
-def split_volume(volume, partitions: int | None = None, axis: int | None = None, *,
+def split_volume(volume, partitions=None, axis: int | None = None, *,
                  scalars: str | None = None, spacing=None, origin=None,
                  keywords: dict | None = None, labels: bool = False) -> SplitVolume:
-    """Cut ``volume`` into ``partitions`` slabs along ``axis`` (see :func:`render_sort_last`).
+    """Cut ``volume`` into bricks (see :func:`render_sort_last`).
 
+    ``partitions``: a count of slabs along ``axis``, or bricks per axis ``(nx, ny, nz)``.
     ``labels``: a label grid, one voxel per cell, cut between voxels (no voxel shared).
     """
     from dask.base import tokenize
 
     values, spacing, origin, coarse = _volume_parts(volume, scalars, spacing, origin, labels)
     shape = tuple(int(n) for n in values.shape)
+    counts = _brick_counts(partitions, axis, shape, getattr(values, "chunks", None))
+    cells = [n if labels else n - 1 for n in shape]
+    for along, (count, available) in enumerate(zip(counts, cells, strict=True)):
+        if count > max(available, 1):
+            raise ValueError(f"partitions={partitions} is more than the {available} cells "
+                             f"along axis {along} (each brick needs one); use at most "
+                             f"{max(available, 1)} there, or another axis.")
+    # the colour range of an OME-Zarr pyramid's coarsest level, as a streamed volume takes it
+    keywords = (_label_look if labels else _volume_look)(
+        values if coarse is None else coarse, shape, spacing, dict(keywords or {}))
+    cuts = [np.linspace(0, max(n, 0), count + 1).round().astype(int)
+            for n, count in zip(cells, counts, strict=True)]
+    lazy = not isinstance(values, np.ndarray)
+    bricks = []
+    # x fastest, as a grid's points are numbered
+    for k, j, i in itertools.product(*(range(count) for count in counts[::-1])):
+        lower = tuple(int(c[n]) for c, n in zip(cuts, (i, j, k), strict=True))
+        upper = tuple(int(c[n + 1]) if m else 0
+                      for c, n, m in zip(cuts, (i, j, k), cells, strict=True))
+        part = values[tuple(slice(lo, up if labels else up + 1)
+                            for lo, up in zip(lower, upper, strict=True))]
+        bricks.append(Partition(len(bricks), lower, upper, shape, tuple(spacing),
+                                tuple(origin),
+                                _LazySlab(part) if lazy else np.ascontiguousarray(part),
+                                cells=labels))
+    token = tokenize(values, shape, tuple(spacing), tuple(origin), counts, labels)
+    return SplitVolume(tuple(bricks), keywords, token)
+
+
+def _brick_counts(partitions, axis, shape, chunks) -> tuple[int, int, int]:
+    """Bricks per axis from ``partitions`` (a count along ``axis``, or one per axis)."""
+    def count(value, what: str) -> int:
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ValueError(f"{what} must be a positive integer, got {value!r}.")
+        return int(value)
+    if isinstance(partitions, (tuple, list)):
+        if axis is not None:
+            raise ValueError(f"partitions={tuple(partitions)} gives bricks per axis; leave "
+                             f"axis={axis!r} out with it.")
+        if len(partitions) != 3:
+            raise ValueError(f"partitions as bricks per axis takes three counts (x, y, z), "
+                             f"got {tuple(partitions)!r}.")
+        return tuple(count(value, "each of partitions") for value in partitions)
     if axis is None:
         axis = int(np.argmax(shape))
     if isinstance(axis, bool) or not isinstance(axis, (int, np.integer)) or \
             axis not in (0, 1, 2):
         raise ValueError(f"axis must be 0, 1 or 2 (x, y, z), got {axis!r}.")
     if partitions is None:
-        chunks = getattr(values, "chunks", None)
         partitions = len(chunks[axis]) if chunks is not None else 2
-    if isinstance(partitions, bool) or not isinstance(partitions, (int, np.integer)) \
-            or partitions < 1:
-        raise ValueError(f"partitions must be a positive integer, got {partitions!r}.")
-    cells = shape[axis] if labels else shape[axis] - 1
-    if partitions > max(cells, 1):
-        raise ValueError(f"partitions={partitions} is more than the {cells} cells along axis "
-                         f"{axis} (each slab needs one); use at most {max(cells, 1)} or "
-                         "another axis.")
-    # the colour range of an OME-Zarr pyramid's coarsest level, as a streamed volume takes it
-    keywords = (_label_look if labels else _volume_look)(
-        values if coarse is None else coarse, shape, spacing, dict(keywords or {}))
-    cuts = np.linspace(0, max(cells, 0), partitions + 1).round().astype(int)
-    lazy = not isinstance(values, np.ndarray)
-    slabs = []
-    for index in range(partitions):
-        start, stop = int(cuts[index]), int(cuts[index + 1]) if cells else 0
-        where = [slice(None)] * 3
-        where[axis] = slice(start, stop if labels else stop + 1)
-        part = values[tuple(where)]
-        slabs.append(Partition(index, axis, start, stop, shape, tuple(spacing), tuple(origin),
-                               _LazySlab(part) if lazy else np.ascontiguousarray(part),
-                               cells=labels))
-    token = tokenize(values, shape, tuple(spacing),
-                     tuple(origin), axis, partitions, labels)
-    return SplitVolume(tuple(slabs), keywords, token)
+    counts = [1, 1, 1]
+    counts[axis] = count(partitions, "partitions")
+    return tuple(counts)
 
 
 def _volume_look(values, shape, spacing, keywords: dict) -> dict:
