@@ -1593,6 +1593,10 @@ def add_surface(
                                                                      exact=True).exact):
             raise ValueError("frame_budget_ms moves a marched surface's steps; root='exact' "
                              "(or quality='exact') has none: leave one of them out.")
+        if levels is not None and len(levels) > 1:
+            raise ValueError(f"frame_budget_ms holds one surface's frames; these "
+                             f"{len(levels)} levels are drawn as surfaces of their own: give "
+                             "one isovalue, or leave the budget out.")
     calibration = choice = None
     if quality is not None:
         target = check_surface_quality(quality, given, options, chosen.name,
@@ -1632,8 +1636,6 @@ def add_surface(
         binding.quality = choice
         if calibration is not None:
             calibration.follow(binding, plotter)
-        if frame_budget_ms is not None:
-            attach_frame_budget(binding, "voxels", plotter.ren_win, frame_budget_ms)
         if frame_budget_ms is not None:
             attach_frame_budget(binding, chosen.name, plotter.ren_win, frame_budget_ms, {
                 m["setting"]["steps"]: m["psnr"] for m in (choice.measured if choice else [])

@@ -85,6 +85,19 @@ def test_meshes_in_front_of_a_reduced_surface_stay_sharp():
     assert np.array_equal(reduced[inner], full[inner])
 
 
+def _pixel_clock(actor):
+    """A scripted clock: each frame takes 60 ms over the pixels' reduction squared."""
+    state = {"t": 0.0, "calls": 0}
+
+    def clock():
+        state["calls"] += 1
+        if state["calls"] % 2 == 0:   # the frame's end
+            reduced = getattr(actor.cubemarch, "reduced", None)
+            state["t"] += 60.0 / (1 if reduced is None else reduced.factor) ** 2 / 1e3
+        return state["t"]
+    return clock
+
+
 def test_moving_frames_draw_fewer_pixels_when_fewer_steps_do_not_help():
     # a scripted clock where the steps cost nothing and the pixels everything (60 ms / f**2,
     # as llvmpipe walks a surface's cells): a 30 ms budget goes down the steps, finds no
@@ -93,14 +106,7 @@ def test_moving_frames_draw_fewer_pixels_when_fewer_steps_do_not_help():
     plotter, actor = _plotter(SIZE)
     render_frame(plotter)
     still = read_pixels(plotter)
-    state = {"t": 0.0, "calls": 0}
-
-    def clock():
-        state["calls"] += 1
-        if state["calls"] % 2 == 0:
-            reduced = getattr(actor.cubemarch, "reduced", None)
-            state["t"] += 60.0 / (1 if reduced is None else reduced.factor) ** 2 / 1e3
-        return state["t"]
+    clock = _pixel_clock(actor)
     budget = attach_frame_budget(actor.cubemarch, "active", plotter.ren_win, 30.0,
                                  clock=clock)
     plotter.ren_win.SetDesiredUpdateRate(15.0)
@@ -163,14 +169,7 @@ def test_a_voxel_budget_draws_fewer_pixels_while_moving_and_all_when_still():
     plotter, actor = _voxel_plotter(SIZE)
     render_frame(plotter)
     still = read_pixels(plotter)
-    state = {"t": 0.0, "calls": 0}
-
-    def clock():
-        state["calls"] += 1
-        if state["calls"] % 2 == 0:
-            reduced = getattr(actor.cubemarch, "reduced", None)
-            state["t"] += 60.0 / (1 if reduced is None else reduced.factor) ** 2 / 1e3
-        return state["t"]
+    clock = _pixel_clock(actor)
     budget = attach_frame_budget(actor.cubemarch, "voxels", plotter.ren_win, 20.0,
                                  clock=clock)
     plotter.ren_win.SetDesiredUpdateRate(15.0)
@@ -185,4 +184,95 @@ def test_a_voxel_budget_draws_fewer_pixels_while_moving_and_all_when_still():
     render_frame(plotter)
     assert budget.frames[-1].value == 1.0
     assert np.array_equal(read_pixels(plotter), still)
+    plotter.close()
+
+
+def test_a_reduced_surface_follows_a_new_placement():
+    # set_transform after a reduced frame: the stand-in takes the new placement
+    # catches (seen failing, found by a review): the stand-in kept the placement it was
+    # made with (the surface cut at the old box's outline: 16.1 dB)
+    shift = np.eye(4)
+    shift[:3, 3] = (0.0, 3.0, 1.0)
+    plotter, actor = _plotter(SIZE)
+    render_frame(plotter)
+    KNOBS["steps"].write(actor.cubemarch, 25.0)
+    render_frame(plotter)
+    actor.cubemarch.set_transform(shift)
+    render_frame(plotter)
+    reduced = read_pixels(plotter)
+    plotter.close()
+    small, small_actor = _plotter((SIZE[0] // 2, SIZE[1] // 2))
+    small_actor.cubemarch.set_transform(shift)
+    KNOBS["steps"].write(small_actor.cubemarch, 100.0)
+    render_frame(small)
+    expected = np.repeat(np.repeat(read_pixels(small), 2, axis=0), 2, axis=1)
+    small.close()
+    differs = np.abs(reduced.astype(int) - expected).max(axis=-1) > 2
+    assert differs.mean() < 0.002, differs.mean()
+
+
+def test_between_reduced_frames_bounds_and_picks_are_the_actor_s():
+    # the stand-in is shown only while a reduced frame draws; a pick draws the actor
+    # catches (seen failing, found by a review): the stand-in left shown after the frame
+    # (a hidden surface still framed by reset_camera); a hardware pick during reduced
+    # frames finding nothing (the actor hidden, the stand-in unpickable)
+    import vtk
+
+    plotter, actor = _plotter(SIZE)
+    render_frame(plotter)
+    KNOBS["steps"].write(actor.cubemarch, 25.0)
+    render_frame(plotter)
+    assert actor.cubemarch.reduced.runs == 1
+    selector = vtk.vtkHardwareSelector()
+    selector.SetRenderer(plotter.renderer)
+    selector.SetArea(SIZE[0] // 2 - 10, SIZE[1] // 2 - 10, SIZE[0] // 2 + 10, SIZE[1] // 2 + 10)
+    selector.SetFieldAssociation(vtk.vtkDataObject.FIELD_ASSOCIATION_CELLS)
+    found = selector.Select()
+    assert [found.GetNode(i).GetProperties().Get(vtk.vtkSelectionNode.PROP()) is actor
+            for i in range(found.GetNumberOfNodes())] == [True]
+    assert actor.GetVisibility()
+    actor.SetVisibility(False)
+    hidden = plotter.renderer.ComputeVisiblePropBounds()
+    plotter.close()
+    plotter, actor = _plotter(SIZE)   # never reduced
+    render_frame(plotter)
+    actor.SetVisibility(False)
+    assert hidden == plotter.renderer.ComputeVisiblePropBounds()
+    plotter.close()
+
+
+def test_a_translucent_surface_s_budget_moves_its_steps_only():
+    # a translucent surface composites over the scene in the translucent pass, which a
+    # reduced draw does not draw: its budget has no reduced rungs
+    # catches (seen failing, found by a review): moving frames reduced (the surface gone
+    # from every moving frame)
+    plotter = offscreen_plotter(SIZE)
+    actor = cm.add_surface(plotter, FIELD, isovalue=250.0, steps=800, color="tan",
+                           opacity=0.5)
+    plotter.camera_position = CAMERA
+    render_frame(plotter)
+    budget = attach_frame_budget(actor.cubemarch, "active", plotter.ren_win, 30.0,
+                                 clock=_pixel_clock(actor))
+    plotter.ren_win.SetDesiredUpdateRate(15.0)
+    for _ in range(4):
+        render_frame(plotter)
+    assert budget.frames[-1].value == 10.0
+    assert getattr(actor.cubemarch, "reduced", None) is None
+    image = read_pixels(plotter)
+    assert np.any(image != image[0, 0], axis=-1).mean() > 0.05
+    plotter.close()
+
+
+def test_add_surface_attaches_one_budget(monkeypatch):
+    # catches (seen failing, found by a review): a second, voxels' budget attached to a
+    # surface (two knobs writing each frame)
+    from pv_cubemarch import api
+
+    calls = []
+    real = api.attach_frame_budget
+    monkeypatch.setattr(api, "attach_frame_budget",
+                        lambda *args, **kwargs: calls.append(args[1]) or real(*args, **kwargs))
+    plotter = offscreen_plotter(SIZE)
+    cm.add_surface(plotter, FIELD, isovalue=250.0, frame_budget_ms=30.0)
+    assert calls == ["active"]
     plotter.close()

@@ -106,3 +106,28 @@ def test_vtk_volumes_behind_meshes_under_supersampling_are_warned_of():
     # catches (seen failing): no warning
     with pytest.warns(UserWarning, match="technique='direct', or MSAA"):
         _drawn("vtk", "ssaa", mesh=True)
+
+
+@pytest.mark.parametrize("kind", ["direct", "surface", "voxels"])
+def test_a_tiled_screenshot_under_supersampling_is_the_frame_without_it(kind):
+    # screenshot(scale=2) draws the image in tiles; the supersampling pass sizes its
+    # framebuffer from the tile's part of the renderer
+    # catches (seen failing, found by a review): the supersampled size taken from the
+    # whole image (each tile a shrunken copy of the frame: 5.3-16.9 dB)
+    def shot(aa):
+        plotter = offscreen_plotter(SIZE)
+        plotter.disable_anti_aliasing()
+        _add(kind, plotter)
+        plotter.camera_position = [(-20.0, 40.0, 40.0), CT.center, (0, 0, 1)]
+        if aa:
+            plotter.enable_anti_aliasing(aa)
+        image = plotter.screenshot(scale=2, return_img=True)[..., :3]
+        plotter.close()
+        return image
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        expected, image = shot(None), shot("ssaa")
+    assert image.shape == (2 * SIZE[1], 2 * SIZE[0], 3)
+    psnr = compare_images(_smoothed(image).astype(np.uint8),
+                          _smoothed(expected).astype(np.uint8)).psnr
+    assert psnr >= 30.0

@@ -106,3 +106,19 @@ def test_the_headlights_are_headlights_again_once_the_last_vtk_volume_leaves():
     render_frame(plotter)   # and nothing steadies it any more: VTK moves it with the camera
     assert headlights() == 1 and len(renders) == 1
     plotter.close()
+
+
+def test_a_gone_renderer_s_entry_does_not_stand_for_a_new_one():
+    # the holders are kept by the renderer's id, which Python reuses once it is gone
+    # catches (seen failing): a stale entry under the new renderer's id taken as its own
+    # (no observer: the headlights left moving, every moved frame drawn twice)
+    from pv_cubemarch.gl import lights
+
+    plotter = offscreen_plotter((60, 45))
+    lights._held[id(plotter.renderer)] = [1, 0, lambda: None]   # as a renderer gone unreleased
+    values = np.linspace(0.0, 1.0, 8 ** 3).reshape(8, 8, 8)
+    pv_cubemarch.add_volume(plotter, values, technique="vtk")
+    render_frame(plotter)
+    assert not any(light.LightTypeIsHeadlight() for light in plotter.renderer.GetLights())
+    plotter.close()
+    assert id(plotter.renderer) not in lights._held

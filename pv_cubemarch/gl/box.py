@@ -43,11 +43,12 @@ def supersampled_size(renderer) -> tuple[int, int] | None:
     """The size a ``vtkSSAAPass`` draws ``renderer``'s props at; None without one.
 
     It draws them into its own framebuffer, from the origin, sqrt(5) times the renderer's
-    size (truncated, as VTK computes it), then filters that down into the window.
+    size (its tile's part in a tiled screenshot; truncated, as VTK computes it), then
+    filters that down into the window.
     """
     if supersampling_pass(renderer) is None:
         return None
-    width, height = (int(v) for v in renderer.GetSize())
+    width, height = drawn_viewport(renderer)[2:]   # a tile's part while VTK tiles
     return int(width * math.sqrt(5.0)), int(height * math.sqrt(5.0))
 
 

@@ -27,6 +27,26 @@ _DEPTH_AND_COLOR = 0x00000100 | 0x00004000
 _DEPTH_TEST, _BLEND, _LESS = 0x0B71, 0x0BE2, 0x0201
 
 
+def start_nearest_draw(state, fbo, color, depth, size, clear) -> None:
+    """Bind ``fbo`` with ``color`` and ``depth`` at ``size``, cleared, for the nearest face.
+
+    The colour is cleared to ``clear``; the depth test keeps the nearest fragment, with
+    blending off. The caller pushes and pops the window's state and framebuffer bindings.
+    """
+    fbo.Bind()
+    fbo.AddColorAttachment(0, color)
+    fbo.AddDepthAttachment(depth)
+    fbo.ActivateDrawBuffers(1)
+    fbo.Start(*size)
+    state.vtkglClearColor(*clear)
+    state.vtkglClearDepth(1.0)
+    state.vtkglDepthMask(True)
+    state.vtkglEnable(_DEPTH_TEST)
+    state.vtkglDepthFunc(_LESS)
+    state.vtkglDisable(_BLEND)
+    state.vtkglClear(_DEPTH_AND_COLOR)
+
+
 class FaceDepthPass:
     """Draw ``actor`` (not in the renderer) into a float target at a frame's start.
 
@@ -106,18 +126,8 @@ class FaceDepthPass:
         state.Push()
         state.PushFramebufferBindings()
         try:
-            self._fbo.Bind()
-            self._fbo.AddColorAttachment(0, self._target)
-            self._fbo.AddDepthAttachment(self._depth)
-            self._fbo.ActivateDrawBuffers(1)
-            self._fbo.Start(*size)
-            state.vtkglClearColor(NO_FACE, 0.0, 0.0, 0.0)
-            state.vtkglClearDepth(1.0)
-            state.vtkglDepthMask(True)
-            state.vtkglEnable(_DEPTH_TEST)
-            state.vtkglDepthFunc(_LESS)
-            state.vtkglDisable(_BLEND)
-            state.vtkglClear(_DEPTH_AND_COLOR)
+            start_nearest_draw(state, self._fbo, self._target, self._depth, size,
+                               (NO_FACE, 0.0, 0.0, 0.0))
             self.actor.RenderOpaqueGeometry(self.renderer)
             if self.read_back:
                 self.depths = read_red_floats(*size)

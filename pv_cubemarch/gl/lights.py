@@ -9,6 +9,7 @@ space (the inverse transpose).
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable
 
 import numpy as np
@@ -98,7 +99,8 @@ def steady_headlights(renderer) -> None:
             setattr(light, WAS_HEADLIGHT, True)
 
 
-# Renderers whose headlights are held steady: id -> [holders, StartEvent observer tag].
+# Renderers whose headlights are held steady: id -> [holders, StartEvent observer tag,
+# a weak reference to the renderer (an id may be reused once it is gone)].
 _held: dict[int, list] = {}
 
 
@@ -110,10 +112,10 @@ def hold_headlights_steady(renderer) -> Callable[[], None]:
     drawn afterwards are lit as before the volume came.
     """
     entry = _held.get(id(renderer))
-    if entry is None:
+    if entry is None or entry[2]() is not renderer:   # none, or a gone renderer's id
         tag = observe(renderer, vtk.vtkCommand.StartEvent,
                       lambda *_: steady_headlights(renderer))
-        entry = _held[id(renderer)] = [0, tag]
+        entry = _held[id(renderer)] = [0, tag, weakref.ref(renderer)]
     entry[0] += 1
     let_go_once = [False]
 
@@ -124,7 +126,8 @@ def hold_headlights_steady(renderer) -> Callable[[], None]:
         entry[0] -= 1
         if entry[0] == 0:
             renderer.RemoveObserver(entry[1])
-            _held.pop(id(renderer), None)
+            if _held.get(id(renderer)) is entry:
+                del _held[id(renderer)]
             restore_headlights(renderer)
     return let_go
 

@@ -17,10 +17,8 @@ from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLFramebufferObject, vtkTextur
 from ..core.frame_errors import observe
 from .bindings import ShaderBindings, TextureUnitLedger
 from .box import drawing_at, drawn_viewport, fragment_viewport
+from .face_depth import start_nearest_draw
 from .shaders import box_recipe
-
-_DEPTH_AND_COLOR = 0x00000100 | 0x00004000
-_DEPTH_TEST, _BLEND, _LESS = 0x0B71, 0x0BE2, 0x0201
 
 
 class _Target:
@@ -43,7 +41,9 @@ class ReducedDraw:
     """Draw ``actor`` (in ``renderer``) at 1/``factor`` of the viewport when asked.
 
     The returned actor's visibility is the user's: the actor sits out only the frames drawn
-    reduced (hidden between the renderer's start and the window's end).
+    reduced (hidden between the renderer's start and the window's end), and the stand-in
+    is shown only then, so bounds and picks between frames are the actor's; a selection
+    render (picking) draws the actor itself.
     """
 
     def __init__(self, renderer, actor):
@@ -59,9 +59,6 @@ class ReducedDraw:
         mapper.SetInputData(actor.GetMapper().GetInput())
         self.stand_in = vtk.vtkActor()
         self.stand_in.SetMapper(mapper)
-        self.stand_in.SetUserMatrix(actor.GetUserMatrix())
-        self.stand_in.GetProperty().SetFrontfaceCulling(actor.GetProperty().GetFrontfaceCulling())
-        self.stand_in.GetProperty().SetBackfaceCulling(actor.GetProperty().GetBackfaceCulling())
         self.stand_in.GetProperty().LightingOff()
         self.stand_in.GetMapper().ScalarVisibilityOff()
         self.stand_in.ForceOpaqueOn()
@@ -82,11 +79,13 @@ class ReducedDraw:
                       (window, observe(window, vtk.vtkCommand.EndEvent, self._on_end, 5.0))]
 
     def _on_start(self, *_) -> None:
-        shown = bool(self.actor.GetVisibility())
-        reduced = shown and self.factor > 1
-        self.stand_in.SetVisibility(reduced)
+        # a selection render (picking) draws the actor itself, the one that can be picked
+        reduced = bool(self.actor.GetVisibility()) and self.factor > 1 and \
+            self.renderer.GetSelector() is None
         if not reduced:
             return
+        self._follow_actor()
+        self.stand_in.SetVisibility(True)
         width, height = drawn_viewport(self.renderer)[2:]
         self._size = (max(1, -(-width // self.factor)), max(1, -(-height // self.factor)))
         self._draw()
@@ -94,9 +93,24 @@ class ReducedDraw:
         self._hidden = True
 
     def _on_end(self, *_) -> None:
+        """The frame is over: the actor is shown again, the stand-in hidden (bounds, picks)."""
+        self.stand_in.SetVisibility(False)
         if self._hidden:
             self.actor.SetVisibility(True)
             self._hidden = False
+
+    def _follow_actor(self) -> None:
+        """The stand-in takes the actor's geometry, placement and culled faces now."""
+        geometry = self.actor.GetMapper().GetInput()
+        if self.stand_in.GetMapper().GetInput() is not geometry:
+            self.stand_in.GetMapper().SetInputData(geometry)
+        if self.stand_in.GetUserMatrix() is not self.actor.GetUserMatrix():
+            self.stand_in.SetUserMatrix(self.actor.GetUserMatrix())
+        ours, theirs = self.stand_in.GetProperty(), self.actor.GetProperty()
+        if (ours.GetFrontfaceCulling(), ours.GetBackfaceCulling()) != (
+                theirs.GetFrontfaceCulling(), theirs.GetBackfaceCulling()):
+            ours.SetFrontfaceCulling(theirs.GetFrontfaceCulling())
+            ours.SetBackfaceCulling(theirs.GetBackfaceCulling())
 
     def _create(self, window, size: tuple[int, int]) -> None:
         self._release_targets()
@@ -123,18 +137,7 @@ class ReducedDraw:
         state.Push()
         state.PushFramebufferBindings()
         try:
-            self._fbo.Bind()
-            self._fbo.AddColorAttachment(0, self.targets[0])
-            self._fbo.AddDepthAttachment(self.targets[1])
-            self._fbo.ActivateDrawBuffers(1)
-            self._fbo.Start(*size)
-            state.vtkglClearColor(0.0, 0.0, 0.0, 0.0)
-            state.vtkglClearDepth(1.0)
-            state.vtkglDepthMask(True)
-            state.vtkglEnable(_DEPTH_TEST)
-            state.vtkglDepthFunc(_LESS)
-            state.vtkglDisable(_BLEND)
-            state.vtkglClear(_DEPTH_AND_COLOR)
+            start_nearest_draw(state, self._fbo, *self.targets, size, (0.0, 0.0, 0.0, 0.0))
             with drawing_at((0, 0, *size)):
                 self.actor.RenderOpaqueGeometry(self.renderer)
         finally:

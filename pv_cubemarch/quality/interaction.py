@@ -69,15 +69,19 @@ def reduction_of(value: float) -> int:
     return 1 if value >= REDUCED_STEPS else int(round(math.sqrt(REDUCED_STEPS / value)))
 
 
+def _set_steps(binding, steps: float) -> None:
+    binding.options = dataclasses.replace(binding.options, steps=int(round(steps)))
+    binding.bindings.set_uniform("cm_stepLength",
+                                 binding.options.step_length(binding.model.dimensions))
+
+
 def _write_steps(binding, value: float) -> None:
     factor = reduction_of(value)
     steps = value
     if factor > 1:   # the steps of the knob's bottom, or the still ones if fewer
         budget = getattr(binding, "frame_budget", None)
         steps = min(REDUCED_STEPS, budget.still if budget is not None else REDUCED_STEPS)
-    binding.options = dataclasses.replace(binding.options, steps=int(round(steps)))
-    binding.bindings.set_uniform("cm_stepLength",
-                                 binding.options.step_length(binding.model.dimensions))
+    _set_steps(binding, steps)
     reduced = getattr(binding, "reduced", None)
     if reduced is None and factor > 1:
         reduced = binding.reduced = ReducedDraw(binding.renderer, binding.drawn[0])
@@ -115,6 +119,11 @@ KNOBS = {
                         lambda b: float(b.options.steps), _write_steps,
                         lambda v: f"steps={v:g}" if reduction_of(v) == 1 else
                         f"steps<={REDUCED_STEPS:g} at 1/{reduction_of(v)} size"),
+    # a translucent surface's steps alone: it composites over the scene in the translucent
+    # pass, which a reduced draw (opaque, into targets of its own) does not draw
+    "steps_translucent": BudgetKnob("steps", (10.0, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0,
+                                              1600.0, 3200.0, 6400.0, 12800.0, 25000.0),
+                                    -1.0, lambda b: float(b.options.steps), _set_steps),
     # a voxel grid's pixels, 1/reduction of the viewport across: time as the pixels
     "pixels": BudgetKnob("reduction", (4.0, 3.0, 2.0, 1.0), 2.0,
                          lambda b: float(getattr(getattr(b, "reduced", None), "factor", 1)),
@@ -301,7 +310,10 @@ def attach_frame_budget(binding, technique: str, window, budget_ms: float,
             paths[name] = path.frame_budget
         budget = PathBudgets(binding, paths, float(budget_ms))
     else:
-        knob = KNOBS[TECHNIQUE_KNOBS[technique]]
+        name = TECHNIQUE_KNOBS[technique]
+        if name == "steps" and binding.options.translucent:
+            name = "steps_translucent"
+        knob = KNOBS[name]
         budget = FrameBudget(binding, window, float(budget_ms), knob, knob.read(binding),
                              dict(errors or {}), clock)
     # the end observed last: after any redraw the frame's other observers make
