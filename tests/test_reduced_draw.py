@@ -15,7 +15,12 @@ import pyvista as pv
 
 import pv_cubemarch as cm
 from pv_cubemarch.core.rendering import offscreen_plotter, read_pixels, render_frame
-from pv_cubemarch.quality.interaction import KNOBS, attach_frame_budget
+from pv_cubemarch.quality.interaction import (
+    KNOBS,
+    attach_frame_budget,
+    reduce_pixels,
+    set_still_steps,
+)
 
 SIZE = (240, 180)   # even: 2 and 3 divide it
 
@@ -43,14 +48,15 @@ def _plotter(size, mesh=False):
     return plotter, actor
 
 
-@pytest.mark.parametrize("factor, value", [(2, 25.0), (3, 100.0 / 9.0)])
-def test_a_reduced_frame_is_the_small_frame_shown_at_full_size(factor, value):
+@pytest.mark.parametrize("factor", [2, 3])
+def test_a_reduced_frame_is_the_small_frame_shown_at_full_size(factor):
     # catches (seen failing): the stand-in's mapper a vtkDataSetMapper (its shader events
     # on an inner mapper: drawn black over the box); the fragments' viewport left at the
     # window's size while drawn into the targets (the surface drawn a quarter size)
     plotter, actor = _plotter(SIZE)
     render_frame(plotter)
-    KNOBS["steps"].write(actor.cubemarch, value)
+    set_still_steps(actor.cubemarch, 100.0)   # as a budget's moving frame draws value
+    reduce_pixels(actor.cubemarch, factor)
     render_frame(plotter)
     reduced = read_pixels(plotter)
     assert actor.GetVisibility()   # the user's actor is shown between frames
@@ -58,7 +64,7 @@ def test_a_reduced_frame_is_the_small_frame_shown_at_full_size(factor, value):
     plotter.close()
     small, small_actor = _plotter((SIZE[0] // factor, SIZE[1] // factor))
     small_actor.cubemarch.options = actor.cubemarch.options
-    KNOBS["steps"].write(small_actor.cubemarch, 100.0)
+    set_still_steps(small_actor.cubemarch, 100.0)
     render_frame(small)
     expected = np.repeat(np.repeat(read_pixels(small), factor, axis=0), factor, axis=1)
     small.close()
@@ -68,13 +74,30 @@ def test_a_reduced_frame_is_the_small_frame_shown_at_full_size(factor, value):
     assert differs.mean() < 0.002, differs.mean()
 
 
+def test_the_steps_knob_by_hand():
+    # below min(100, the still steps) the knob draws that many steps at fewer pixels; the
+    # still steps are always drawn at full size
+    # catches (seen failing): a still of 25 steps drawn at half size (the reduced rungs
+    # taken below 100 whatever the still: a quality choice of 25 steps drawn coarse)
+    from pv_cubemarch.quality.interaction import steps_drawn
+
+    knob = KNOBS["steps"]
+    assert knob.ladder(800.0)[:5] == (6.25, 100.0 / 9.0, 25.0, 100.0, 200.0)
+    assert steps_drawn(25.0, 800.0) == (100, 2) and steps_drawn(200.0, 800.0) == (200, 1)
+    assert knob.ladder(25.0)[:5] == (25.0 / 16.0, 25.0 / 9.0, 6.25, 25.0, 50.0)
+    assert steps_drawn(25.0, 25.0) == (25, 1) and steps_drawn(6.25, 25.0) == (25, 2)
+    assert knob.describe(25.0, 800.0) == "steps=100 at 1/2 size"
+    assert knob.describe(25.0, 25.0) == "steps=25"
+
+
 def test_meshes_in_front_of_a_reduced_surface_stay_sharp():
     # the stand-in writes the surface's depth: the ball in front keeps its full-size pixels
     # catches (seen failing): the stand-in's depth left at the box's (0: the ball hidden)
     plotter, actor = _plotter(SIZE, mesh=True)
     render_frame(plotter)
     full = read_pixels(plotter)
-    KNOBS["steps"].write(actor.cubemarch, 25.0)
+    set_still_steps(actor.cubemarch, 100.0)
+    reduce_pixels(actor.cubemarch, 2)
     render_frame(plotter)
     reduced = read_pixels(plotter)
     plotter.close()
@@ -179,7 +202,7 @@ def test_a_voxel_budget_draws_fewer_pixels_while_moving_and_all_when_still():
     moving = [f for f in budget.frames if f.moving]
     assert [f.value for f in moving] == [1.0, 2.0, 2.0, 2.0]
     assert all(f.ms <= 20.0 for f in moving[1:])
-    assert budget.knob.describe(2.0) == "1/2 size"
+    assert budget.describe(2.0) == "1/2 size"
     plotter.ren_win.SetDesiredUpdateRate(0.0001)
     render_frame(plotter)
     assert budget.frames[-1].value == 1.0
@@ -195,7 +218,8 @@ def test_a_reduced_surface_follows_a_new_placement():
     shift[:3, 3] = (0.0, 3.0, 1.0)
     plotter, actor = _plotter(SIZE)
     render_frame(plotter)
-    KNOBS["steps"].write(actor.cubemarch, 25.0)
+    set_still_steps(actor.cubemarch, 100.0)
+    reduce_pixels(actor.cubemarch, 2)
     render_frame(plotter)
     actor.cubemarch.set_transform(shift)
     render_frame(plotter)
@@ -203,7 +227,7 @@ def test_a_reduced_surface_follows_a_new_placement():
     plotter.close()
     small, small_actor = _plotter((SIZE[0] // 2, SIZE[1] // 2))
     small_actor.cubemarch.set_transform(shift)
-    KNOBS["steps"].write(small_actor.cubemarch, 100.0)
+    set_still_steps(small_actor.cubemarch, 100.0)
     render_frame(small)
     expected = np.repeat(np.repeat(read_pixels(small), 2, axis=0), 2, axis=1)
     small.close()
@@ -220,7 +244,8 @@ def test_between_reduced_frames_bounds_and_picks_are_the_actor_s():
 
     plotter, actor = _plotter(SIZE)
     render_frame(plotter)
-    KNOBS["steps"].write(actor.cubemarch, 25.0)
+    set_still_steps(actor.cubemarch, 100.0)
+    reduce_pixels(actor.cubemarch, 2)
     render_frame(plotter)
     assert actor.cubemarch.reduced.runs == 1
     selector = vtk.vtkHardwareSelector()

@@ -274,16 +274,16 @@ def _orbit(name, technique, plotter, actor, frames, reference) -> InteractionRow
         name, technique, list(plotter.window_size), float(budget.budget_ms), len(moving),
         sum(f.ms <= budget.budget_ms for f in moving) / max(1, len(moving)),
         float(np.median([f.ms for f in moving])) if moving else 0.0,
-        ", ".join(f"{s:g}" for s in steps), budget.knob.name, still.value, still.ms, psnr)
+        "; ".join(budget.describe(s) for s in steps), budget.knob.name, still.value, still.ms,
+        psnr)
 
 
 def format_interaction(rows: list[InteractionRow]) -> str:
     """The orbits as a text table."""
     lines = [f"{'scene':13}{'technique':10}{'budget':>7}{'frames':>7}{'within':>8}"
-             f"{'median ms':>10}  {'knob':11}{'moving':14}{'still':>6}{'still ms':>9}"
-             f"{'PSNR':>7}"]
+             f"{'median ms':>10}  {'knob':11}{'still':>6}{'still ms':>9}{'PSNR':>7}  moving"]
     for r in rows:
         lines.append(f"{r.scene:13}{r.technique:10}{r.budget_ms:7.0f}{r.moving_frames:7d}"
                      f"{r.within_budget:8.0%}{r.median_moving_ms:10.1f}  {r.knob:11}"
-                     f"{r.steps:14}{r.still_value:6g}{r.still_ms:9.1f}{r.still_psnr:7.1f}")
+                     f"{r.still_value:6g}{r.still_ms:9.1f}{r.still_psnr:7.1f}  {r.steps}")
     return "\n".join(lines)

@@ -46,12 +46,20 @@ class BudgetKnob:
     power: float
     read: Callable
     write: Callable
-    #: How a value reads in a panel or a table (default ``name=value``).
-    label: Callable[[float], str] | None = None
+    #: How a value reads in a panel or a table, given the still value (default
+    #: ``name=value``).
+    label: Callable[[float, float], str] | None = None
+    #: The values for a still value, where they depend on it (default ``values``).
+    ladder_of: Callable[[float], tuple[float, ...]] | None = None
 
-    def describe(self, value: float) -> str:
+    def ladder(self, still: float) -> tuple[float, ...]:
+        """The values a budget with this still value moves among."""
+        return self.values if self.ladder_of is None else self.ladder_of(still)
+
+    def describe(self, value: float, still: float) -> str:
         """``value`` as the panel and the bench say it."""
-        return self.label(value) if self.label is not None else f"{self.name}={value:g}"
+        return self.label(value, still) if self.label is not None else \
+            f"{self.name}={value:g}"
 
 
 def _write_step(binding, value: float) -> None:
@@ -59,14 +67,36 @@ def _write_step(binding, value: float) -> None:
     binding.step_scale = float(value)
 
 
-#: Below this many steps, a surface's moving frames draw fewer pixels instead of fewer
-#: steps: its knob's values are then the steps over the pixels' reduction, squared.
+#: Below this many steps (or the still steps, if fewer), a surface's moving frames draw
+#: fewer pixels instead of fewer steps: its knob's values are then those steps over the
+#: pixels' reduction, squared.
 REDUCED_STEPS = 100.0
+#: A surface's steps knob, coarse to fine (the still steps added).
+SURFACE_STEPS = (10.0, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0, 3200.0, 6400.0,
+                 12800.0, 25000.0)
 
 
-def reduction_of(value: float) -> int:
-    """The pixels' reduction (1: full size) a surface's steps knob value draws with."""
-    return 1 if value >= REDUCED_STEPS else int(round(math.sqrt(REDUCED_STEPS / value)))
+def _steps_floor(still: float) -> float:
+    return min(REDUCED_STEPS, float(still))
+
+
+def _steps_ladder(still: float) -> tuple[float, ...]:
+    """The steps from ``min(100, still)`` up, then that many at 1/2, 1/3, 1/4 the size."""
+    floor = _steps_floor(still)
+    return (floor / 16.0, floor / 9.0, floor / 4.0,
+            *sorted({floor, *(v for v in SURFACE_STEPS if v >= floor)}))
+
+
+def steps_drawn(value: float, still: float) -> tuple[int, int]:
+    """``(steps, reduction)`` a surface's knob value draws (reduction 1: full size)."""
+    floor = _steps_floor(still)
+    if value >= floor * (1.0 - 1e-9):
+        return int(round(value)), 1
+    return int(round(floor)), int(round(math.sqrt(floor / value)))
+
+
+def _steps_label(steps: int, reduction: int) -> str:
+    return f"steps={steps}" + ("" if reduction == 1 else f" at 1/{reduction} size")
 
 
 def _set_steps(binding, steps: float) -> None:
@@ -75,28 +105,31 @@ def _set_steps(binding, steps: float) -> None:
                                  binding.options.step_length(binding.model.dimensions))
 
 
-def _write_steps(binding, value: float) -> None:
-    factor = reduction_of(value)
-    steps = value
-    if factor > 1:   # the steps of the knob's bottom, or the still ones if fewer
-        budget = getattr(binding, "frame_budget", None)
-        steps = min(REDUCED_STEPS, budget.still if budget is not None else REDUCED_STEPS)
+def set_still_steps(binding, steps: float) -> None:
+    """Draw ``steps`` at full size (a calibration's choice, not a moving frame's)."""
     _set_steps(binding, steps)
+    reduce_pixels(binding, 1)
+
+
+def _write_steps(binding, value: float) -> None:
+    budget = getattr(binding, "frame_budget", None)
+    steps, factor = steps_drawn(value, budget.still if budget is not None else value)
+    _set_steps(binding, steps)
+    reduce_pixels(binding, factor)
+
+
+def reduce_pixels(binding, factor: int) -> None:
+    """Draw ``binding``'s actor at 1/``factor`` of the viewport (made at the first need)."""
     reduced = getattr(binding, "reduced", None)
     if reduced is None and factor > 1:
         reduced = binding.reduced = ReducedDraw(binding.renderer, binding.drawn[0])
         binding.extra_release.append(reduced.release)
     if reduced is not None:
-        reduced.factor = factor
+        reduced.factor = int(factor)
 
 
 def _write_reduction(binding, value: float) -> None:
-    reduced = getattr(binding, "reduced", None)
-    if reduced is None and value > 1:
-        reduced = binding.reduced = ReducedDraw(binding.renderer, binding.drawn[0])
-        binding.extra_release.append(reduced.release)
-    if reduced is not None:
-        reduced.factor = int(value)
+    reduce_pixels(binding, int(value))
 
 
 def _write_upscale(binding, value: float) -> None:
@@ -111,24 +144,22 @@ KNOBS = {
     "upscale": BudgetKnob("upscale", (8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5), 2.0,
                           lambda b: float(b.frame.options.upscale), _write_upscale),
     # a surface's samples along the diagonal: time as the samples (finer is larger); below
-    # REDUCED_STEPS, 100 steps over the pixels' reduction squared (2, 3, 4 times fewer
-    # across): the steps alone leave a floor, the walk through the active cells
-    "steps": BudgetKnob("steps", (REDUCED_STEPS / 16.0, REDUCED_STEPS / 9.0,
-                                  REDUCED_STEPS / 4.0, 100.0, 200.0, 400.0, 800.0, 1600.0,
-                                  3200.0, 6400.0, 12800.0, 25000.0), -1.0,
-                        lambda b: float(b.options.steps), _write_steps,
-                        lambda v: f"steps={v:g}" if reduction_of(v) == 1 else
-                        f"steps<={REDUCED_STEPS:g} at 1/{reduction_of(v)} size"),
+    # REDUCED_STEPS (or the still steps), that many steps over the pixels' reduction
+    # squared (2, 3, 4 times fewer across): the steps alone leave a floor, the walk
+    # through the active cells
+    "steps": BudgetKnob("steps", SURFACE_STEPS, -1.0, lambda b: float(b.options.steps),
+                        _write_steps,
+                        lambda v, still: _steps_label(*steps_drawn(v, still)),
+                        _steps_ladder),
     # a translucent surface's steps alone: it composites over the scene in the translucent
     # pass, which a reduced draw (opaque, into targets of its own) does not draw
-    "steps_translucent": BudgetKnob("steps", (10.0, 25.0, 50.0, 100.0, 200.0, 400.0, 800.0,
-                                              1600.0, 3200.0, 6400.0, 12800.0, 25000.0),
-                                    -1.0, lambda b: float(b.options.steps), _set_steps),
+    "steps_translucent": BudgetKnob("steps", SURFACE_STEPS, -1.0,
+                                    lambda b: float(b.options.steps), _set_steps),
     # a voxel grid's pixels, 1/reduction of the viewport across: time as the pixels
     "pixels": BudgetKnob("reduction", (4.0, 3.0, 2.0, 1.0), 2.0,
                          lambda b: float(getattr(getattr(b, "reduced", None), "factor", 1)),
                          _write_reduction,
-                         lambda v: "full size" if v == 1 else f"1/{v:g} size"),
+                         lambda v, still: "full size" if v == 1 else f"1/{v:g} size"),
 }
 TECHNIQUE_KNOBS = {"vtk": "step", "direct": "step", "cubemap": "upscale", "active": "steps",
                    "full": "steps", "voxels": "pixels"}
@@ -178,6 +209,10 @@ class FrameBudget:
         """The error budget's estimate for the value drawn last (None: not measured)."""
         return self.errors.get(self.value)
 
+    def describe(self, value: float) -> str:
+        """What ``value`` draws, as the panel and the bench say it."""
+        return self.knob.describe(value, self.still)
+
     def next_value(self, value: float, ms: float) -> float:
         """The finest value predicted to fit the budget after ``ms`` at ``value``.
 
@@ -189,7 +224,7 @@ class FrameBudget:
 
         def coarseness(v: float) -> float:
             return sign * v
-        values = sorted({*self.knob.values, float(self.still)}, key=coarseness)
+        values = sorted({*self.knob.ladder(self.still), float(self.still)}, key=coarseness)
         allowed = [v for v in values if coarseness(v) >= coarseness(self.still)]
         fitting = [v for v in allowed if coarseness(v) >= coarseness(wanted)]
         return min(fitting, key=coarseness) if fitting else max(allowed, key=coarseness)
@@ -258,6 +293,10 @@ class PathBudgets:
     @property
     def estimated_psnr(self) -> float | None:
         return self.paths[self._last].estimated_psnr
+
+    def describe(self, value: float) -> str:
+        """What ``value`` draws on the last drawn path."""
+        return self.paths[self._last].describe(value)
 
     def before_frame(self, *_) -> None:
         for budget in self.paths.values():

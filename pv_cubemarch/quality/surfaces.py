@@ -18,7 +18,7 @@ import numpy as np
 from ..models.surface import active_cells
 from ..surfaces.options import LOOP_BUDGET, MAX_STEPS, SurfaceOptions
 from ..surfaces.technique import surface_recipe
-from .interaction import KNOBS
+from .interaction import set_still_steps
 from .ladders import Rung
 from .probe import ProbeCalibration, drawn_box_bounds, margined_bounds
 from .targets import QualityTarget, parse_quality
@@ -129,5 +129,5 @@ class SurfaceCalibration(ProbeCalibration):
         if binding.options.root != root:   # the root finder is compiled in: recompile
             binding.options = dataclasses.replace(binding.options, root=root)
             binding.recompile(surface_recipe(binding.options, self.technique))
-        if "steps" in setting:
-            KNOBS["steps"].write(binding, float(setting["steps"]))
+        if "steps" in setting:   # the still steps, at full size
+            set_still_steps(binding, float(setting["steps"]))

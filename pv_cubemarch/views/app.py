@@ -229,7 +229,7 @@ def quality_text(session: TuningSession) -> str:
             estimate = budget.estimated_psnr
             parts.append(f"{name}: {'moving' if last.moving else 'still'} frame "
                          f"{last.ms:.0f} ms (budget {budget.budget_ms:g}) at "
-                         f"{budget.knob.describe(last.value)}" + (
+                         f"{budget.describe(last.value)}" + (
                              "" if estimate is None else f", {estimate:.1f} dB estimated"))
     return "; ".join(parts)
 
