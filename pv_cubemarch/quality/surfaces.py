@@ -11,10 +11,12 @@ normal, not only a wrong silhouette.
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.parallel import core_pool
 from ..models.surface import active_cells
 from ..surfaces.options import LOOP_BUDGET, MAX_STEPS, SurfaceOptions
 from ..surfaces.technique import surface_recipe
@@ -113,12 +115,23 @@ class SurfaceCalibration(ProbeCalibration):
         return self.options.shading
 
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
+        """The reference's colours of the sample, traced in parts, one per core."""
         options = self.options
-        return self.reference(self.model, camera, size, color=options.rgb,
-                              background=background, near=near, lights=self.probe_lights(),
-                              shading=options.shading, ambient=options.ambient,
-                              specular=options.specular,
-                              specular_power=options.specular_power, pixels=pixels)
+        lights = self.probe_lights()
+
+        def part(rows, columns) -> np.ndarray:
+            return self.reference(self.model, camera, size, color=options.rgb,
+                                  background=background, near=near, lights=lights,
+                                  shading=options.shading, ambient=options.ambient,
+                                  specular=options.specular,
+                                  specular_power=options.specular_power,
+                                  pixels=(rows, columns))
+        rows, columns = (np.asarray(v) for v in pixels)
+        parts = np.array_split(np.arange(len(rows)), min(os.cpu_count() or 1, 4))
+        parts = [p for p in parts if len(p)]
+        with core_pool(len(parts)) as pool:
+            traced = list(pool.map(lambda p: part(rows[p], columns[p]), parts))
+        return np.concatenate(traced, axis=1)
 
     def start(self, tracks) -> int | None:
         return next((i for i, rung in enumerate(tracks[0])

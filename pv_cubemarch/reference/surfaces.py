@@ -121,6 +121,7 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
     # The field at the previous cell's exit, where that cell was active (else NaN): a root
     # exactly on the face between two cells may round to the outside of both samples.
     last_end = np.full(len(going), np.nan)
+    pending = []   # rays whose root is bracketed: (rays, cells, lo, hi, field at lo)
     while len(going):
         bound = cell + ahead[going]
         crossing = np.where(moving[going], (bound - o[going]) * inverse[going], np.inf)
@@ -131,22 +132,28 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
         ends = np.full(len(going), np.nan)
         if here.any():
             rows = np.flatnonzero(here)
-            root, unsure, start_value, end_value = _first_root(
-                field, cell[rows], o[going[rows]], d[going[rows]], t_in[rows], t_out[rows])
-            on_face = np.sign(last_end[rows]) * np.sign(start_value) < 0   # NaN: False
-            root = np.where(on_face, t_in[rows], root)
-            found = np.isfinite(root)
+            bracket = _first_bracket(field, cell[rows], o[going[rows]], d[going[rows]],
+                                     t_in[rows], t_out[rows])
+            on_face = np.sign(last_end[rows]) * np.sign(bracket.start_value) < 0  # NaN: no
+            found = on_face | bracket.found
             rays = going[rows]
-            ambiguous[rays] |= unsure & ~on_face
-            depth[rays[found]] = root[found]
+            ambiguous[rays] |= bracket.unsure & ~on_face
+            depth[rays[on_face]] = t_in[rows[on_face]]
+            refine = bracket.found & ~on_face   # bisected once the traversal is over
+            pending.append((rays[refine], cell[rows[refine]], bracket.lo[refine],
+                            bracket.hi[refine], bracket.f_lo[refine]))
             cell_hit[rays[found]] = cell[rows[found]]
             done[rows[found]] = True
-            ends[rows] = end_value
+            ends[rows] = bracket.end_value
         step = np.where(ahead[going, axis], 1, -1)
         cell[np.arange(len(going)), axis] += step
         inside = np.all((cell >= 0) & (cell < np.asarray(field.dimensions)), axis=1)
         keep = ~done & inside & (t_out < leave[going])
         going, cell, t_in, last_end = going[keep], cell[keep], t_out[keep], ends[keep]
+    if pending:
+        rays, cells, lo, hi, f_lo = (np.concatenate(parts) for parts in zip(*pending,
+                                                                          strict=True))
+        depth[rays] = _bisect(field, cells, o[rays], d[rays], lo, hi, f_lo)
     hit = np.isfinite(depth)
     point = np.full((n, 3), np.nan)
     normal = np.full((n, 3), np.nan)
@@ -162,13 +169,27 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
                        ambiguous.reshape(shape))
 
 
-def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
-                t0: np.ndarray, t1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per ray, the first ``t`` in ``[t0, t1]`` where the cell's field is zero.
+@dataclass
+class _Bracket:
+    """Per ray, where its cell's field first changes sign, if it does (``found``).
 
-    ``inf`` where there is none; also whether a tangent or near-double root makes the ray
-    ambiguous, and the field at the segment's start and end.
+    ``lo``/``hi`` bound the first root and ``f_lo`` is the field at ``lo`` (``lo == hi``
+    where a sample is exactly 0); ``unsure``: a tangent or near-double root makes the ray
+    ambiguous; the field at the segment's start and end.
     """
+
+    found: np.ndarray
+    unsure: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    f_lo: np.ndarray
+    start_value: np.ndarray
+    end_value: np.ndarray
+
+
+def _first_bracket(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
+                   t0: np.ndarray, t1: np.ndarray) -> _Bracket:
+    """Per ray, the first of ``BRACKETS`` intervals of ``[t0, t1]`` where the field is 0."""
     beta = field.cell_bernstein(cells)
     scale = np.abs(beta).max(axis=(1, 2, 3))
     s = np.linspace(0.0, 1.0, BRACKETS + 1)
@@ -198,23 +219,27 @@ def _first_root(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndar
     between = (sample > first[:, None]) & (sample <= first[:, None] + PAIR_BRACKETS)
     peak = np.where(between, np.abs(values), 0.0).max(axis=1)
     unsure |= found & after.any(axis=1) & (peak < TANGENT_TOLERANCE * scale)
-    root = np.full(len(cells), np.inf)
-    rows = np.flatnonzero(found)
-    if len(rows):
-        k = first[rows]
-        lo = ts[rows, k]
-        hi = ts[rows, np.minimum(k + 1, BRACKETS)]
-        f_lo = values[rows, k]
-        exact = f_lo == 0.0
-        for _ in range(BISECTIONS):
-            mid = 0.5 * (lo + hi)
-            f_mid = _at(beta[rows], o[rows], d[rows], cells[rows], mid[:, None])[:, 0]
-            same = np.sign(f_mid) == np.sign(f_lo)
-            lo = np.where(same, mid, lo)
-            f_lo = np.where(same, f_mid, f_lo)
-            hi = np.where(same, hi, mid)
-        root[rows] = np.where(exact, ts[rows, k], 0.5 * (lo + hi))
-    return root, unsure, values[:, 0], values[:, -1]
+    k = np.minimum(first, BRACKETS - 1)
+    row = np.arange(len(cells))
+    lo, f_lo = ts[row, k], values[row, k]
+    hi = np.where(f_lo == 0.0, lo, ts[row, np.minimum(k + 1, BRACKETS)])   # exact: stays
+    return _Bracket(found, unsure, lo, hi, f_lo, values[:, 0], values[:, -1])
+
+
+def _bisect(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
+            lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray) -> np.ndarray:
+    """The roots bracketed in ``[lo, hi]``, by ``BISECTIONS`` halvings (all rays at once)."""
+    beta = field.cell_bernstein(cells)
+    exact = f_lo == 0.0
+    start = lo.copy()
+    for _ in range(BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        f_mid = _at(beta, o, d, cells, mid[:, None])[:, 0]
+        same = np.sign(f_mid) == np.sign(f_lo)
+        lo = np.where(same, mid, lo)
+        f_lo = np.where(same, f_mid, f_lo)
+        hi = np.where(same, hi, mid)
+    return np.where(exact, start, 0.5 * (lo + hi))
 
 
 def _at(beta: np.ndarray, o: np.ndarray, d: np.ndarray, cells: np.ndarray,
