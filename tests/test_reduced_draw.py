@@ -121,22 +121,29 @@ def _pixel_clock(actor):
     return clock
 
 
+def _scripted_drag(plotter, actor, technique, budget_ms, frames):
+    """The still frame's pixels, then ``frames`` moving frames under :func:`_pixel_clock`.
+
+    Returns the still pixels, the budget and its moving frames.
+    """
+    render_frame(plotter)
+    still = read_pixels(plotter)
+    budget = attach_frame_budget(actor.cubemarch, technique, plotter.ren_win, budget_ms,
+                                 clock=_pixel_clock(actor))
+    plotter.ren_win.SetDesiredUpdateRate(15.0)
+    for _ in range(frames):
+        plotter.camera.Azimuth(0.0)
+        render_frame(plotter)
+    return still, budget, [f for f in budget.frames if f.moving]
+
+
 def test_moving_frames_draw_fewer_pixels_when_fewer_steps_do_not_help():
     # a scripted clock where the steps cost nothing and the pixels everything (60 ms / f**2,
     # as llvmpipe walks a surface's cells): a 30 ms budget goes down the steps, finds no
     # gain, and settles at half the pixels (15 ms); the still frame is the full one again
     # catches (seen failing): the ladder without the reduced rungs (every frame 60 ms)
     plotter, actor = _plotter(SIZE)
-    render_frame(plotter)
-    still = read_pixels(plotter)
-    clock = _pixel_clock(actor)
-    budget = attach_frame_budget(actor.cubemarch, "active", plotter.ren_win, 30.0,
-                                 clock=clock)
-    plotter.ren_win.SetDesiredUpdateRate(15.0)
-    for _ in range(6):
-        plotter.camera.Azimuth(0.0)
-        render_frame(plotter)
-    moving = [f for f in budget.frames if f.moving]
+    still, budget, moving = _scripted_drag(plotter, actor, "active", 30.0, 6)
     assert moving[-1].value == 25.0 and all(f.ms <= 30.0 for f in moving[-3:])
     plotter.ren_win.SetDesiredUpdateRate(0.0001)
     render_frame(plotter)
@@ -190,16 +197,7 @@ def test_a_voxel_budget_draws_fewer_pixels_while_moving_and_all_when_still():
     # first moving frame's time, and the still frame is the full one again
     # catches (seen failing): the reduction's cost read as falling with fewer pixels
     plotter, actor = _voxel_plotter(SIZE)
-    render_frame(plotter)
-    still = read_pixels(plotter)
-    clock = _pixel_clock(actor)
-    budget = attach_frame_budget(actor.cubemarch, "voxels", plotter.ren_win, 20.0,
-                                 clock=clock)
-    plotter.ren_win.SetDesiredUpdateRate(15.0)
-    for _ in range(4):
-        plotter.camera.Azimuth(0.0)
-        render_frame(plotter)
-    moving = [f for f in budget.frames if f.moving]
+    still, budget, moving = _scripted_drag(plotter, actor, "voxels", 20.0, 4)
     assert [f.value for f in moving] == [1.0, 2.0, 2.0, 2.0]
     assert all(f.ms <= 20.0 for f in moving[1:])
     assert budget.describe(2.0) == "1/2 size"
