@@ -190,6 +190,24 @@ def _nearest(layers, shape: tuple[int, int], background) -> np.ndarray:
     return image
 
 
+def worker_addresses(client) -> list[str]:
+    """The cluster's workers, asked of the scheduler (waiting for the first to join).
+
+    ``client.scheduler_info()`` is a cache: right after a cluster starts it may list none
+    of the workers already there.
+    """
+    addresses = list(client.nthreads())
+    if not addresses:
+        client.wait_for_workers(1)
+        addresses = list(client.nthreads())
+    return addresses
+
+
+def _placed(workers: list | None) -> dict:
+    """``client.submit`` keywords keeping a task on ``workers`` when it can (none: anywhere)."""
+    return {} if not workers else {"workers": workers, "allow_other_workers": True}
+
+
 class SplitRenderer:
     """A split grid placed on a cluster's workers, drawing a frame for any camera.
 
@@ -205,12 +223,11 @@ class SplitRenderer:
         self.split, self.client, self.size = split, client, size
         self.blending, self.background = blending, background
         self.stop = float(split.keywords.get("stop_opacity", DEFAULT_STOP_OPACITY))
-        homes = list(client.scheduler_info()["workers"])
+        homes = worker_addresses(client)
         self._shared = []
         for part in split.partitions:
-            home = [homes[part.index % len(homes)]] if homes else None
-            self._shared.append((client.submit(_same, part, pure=False, workers=home,
-                                               allow_other_workers=True), home))
+            home = _placed([homes[part.index % len(homes)]] if homes else None)
+            self._shared.append((client.submit(_same, part, pure=False, **home), home))
         self._look = tokenize(sorted(split.keywords.items(), key=str))   # a view per look
         self.sent = self.composing = 0.0
         #: Frames that needed a second pass (pixels whose whole ray stops in a slab behind
@@ -231,8 +248,7 @@ class SplitRenderer:
             extra = {} if stops is None else {"stops": stops[index], "priority": 1}
             futures.append(self.client.submit(
                 render_partition, (self.split.token, self._look, part.index, self.size),
-                future, camera, self.size, self.split.keywords, workers=home,
-                allow_other_workers=True, pure=False, **extra))
+                future, camera, self.size, self.split.keywords, pure=False, **home, **extra))
         return futures
 
 
