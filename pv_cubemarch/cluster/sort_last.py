@@ -118,14 +118,15 @@ def stop_plan(layers: Sequence[tuple], order: Sequence[int], shape: tuple[int, i
 
 def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
               shape: tuple[int, int], background, redrawn: dict | None = None,
-              stop: float = DEFAULT_STOP_OPACITY) -> np.ndarray:
+              stop: float = DEFAULT_STOP_OPACITY, plan: dict | None = None) -> np.ndarray:
     """The frame from the partitions' layers, ``(height, width, 3)`` uint8.
 
     Each layer is ``(row0, col0, rgba, state)``: a window of premultiplied float RGBA (and
     for the projections the kept value and whether a sample was read). Composite: "over",
     front to back, each pixel ending in the layer where its whole ray passes ``stop``;
     ``redrawn`` maps a layer's index to its second pass (:func:`stop_plan`'s pixels drawn
-    again with their own stop opacity, as a layer), which replaces the first there.
+    again with their own stop opacity, as a layer), which replaces the first there;
+    ``plan``: that :func:`stop_plan`, when the caller holds it already.
     Maximum / minimum: per pixel the layer holding the extreme, the first of equals in
     visibility order. The result is drawn over ``background`` (RGB in [0, 1]).
     ``'nearest'``: label slabs' ``(row0, col0, rgb, depth)``, the nearest hit kept.
@@ -135,10 +136,13 @@ def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
     if blending == "nearest":
         return _nearest([layers[index] for index in order], shape, background)
     if blending == "composite":
-        plan = stop_plan(layers, order, shape, stop) if redrawn else {}
+        if not redrawn:
+            plan = {}
+        elif plan is None:
+            plan = stop_plan(layers, order, shape, stop)
         for index, window, layer, _, _, ended in _front_to_back(layers, order, shape, stop):
             if index in plan:
-                layer = _redrawn_layer(layer, plan[index], redrawn[index], shape)
+                layer = _redrawn_layer(layer, plan[index], redrawn[index])
             under = rgba[window]
             rgba[window] = np.where(ended[..., None], under, under + (1.0 - under[..., 3:])
                                     * layer)
@@ -158,15 +162,21 @@ def composite(layers: Sequence[tuple], order: Sequence[int], blending: str,
     return np.round(np.clip(color, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
-def _redrawn_layer(layer, planned, again, shape) -> np.ndarray:
-    """``layer`` with the pixels its stop plan drew again taken from the second pass."""
+def _redrawn_layer(layer, planned, again) -> np.ndarray:
+    """``layer`` with the pixels its stop plan drew again taken from the second pass.
+
+    ``planned`` is ``(row0, col0, stops)`` over the layer's window; the second pass sent
+    the window of those pixels it reached (inside it), the others it left transparent.
+    """
     row, col, stops = planned
-    frame = np.zeros((*shape, 4), np.float64)
+    redo = stops >= 0.0
+    layer = np.where(redo[..., None], 0.0, layer)
     a_row, a_col, a_rgba, _ = again
     if a_rgba is not None:
-        frame[a_row:a_row + a_rgba.shape[0], a_col:a_col + a_rgba.shape[1]] = a_rgba
-    window = frame[row:row + stops.shape[0], col:col + stops.shape[1]]
-    return np.where((stops >= 0.0)[..., None], window, layer)
+        rows = slice(a_row - row, a_row - row + a_rgba.shape[0])
+        cols = slice(a_col - col, a_col - col + a_rgba.shape[1])
+        layer[rows, cols] = np.where(redo[rows, cols][..., None], a_rgba, layer[rows, cols])
+    return layer
 
 
 def _nearest(layers, shape: tuple[int, int], background) -> np.ndarray:
@@ -306,7 +316,7 @@ class SplitFrame:
         started = time.perf_counter()
         image = composite(self._layers, self.order, renderer.blending,
                           (renderer.size[1], renderer.size[0]), renderer.background,
-                          redrawn=again, stop=renderer.stop)
+                          redrawn=again, stop=renderer.stop, plan=self._plan)
         renderer.composing += time.perf_counter() - started
         renderer.sent += sum(a.nbytes + (0 if s is None else s.nbytes)
                              for _, _, a, s in [*self._layers, *again.values()]
