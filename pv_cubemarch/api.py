@@ -820,6 +820,13 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
     return actor
 
 
+def _why_per_chunk(world: VoxelWorld, options) -> str | None:
+    """Why ``world`` would be drawn by a box per chunk with ``options`` (None: it would not)."""
+    if options.world_traversal == "per_chunk":
+        return "world_traversal='per_chunk'"
+    return None if options.world_traversal == "index" else why_not_indexed(world, options)
+
+
 def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str | None):
     """Draw a chunked world by one traversal or a box per chunk; returns its actor."""
     options.check_ids(world.dimensions)
@@ -1202,7 +1209,8 @@ def add_voxels(
         within this many milliseconds from the last frame's time (which grows with the
         pixels): no traversal was measured cheaper than the exact one (``bench voxels``),
         so the pixels are what a moving view coarsens. The first frame after the view
-        stops is drawn at full size. Not for grids drawn in chunks or with translucent
+        stops is drawn at full size. For a grid drawn whole or a world drawn by one
+        traversal (``world_traversal='index'``), not one drawn per chunk nor translucent
         labels. ``actor.cubemarch.frame_budget`` keeps the frames' values and times.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
@@ -1314,7 +1322,6 @@ def add_voxels(
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")
     if isinstance(model, VoxelWorld) or chunk_size is not None or not fits_one_texture(
             model.dimensions, model.labels.dtype):
-        check_voxel_budget(frame_budget_ms, None)
         if target is not None:
             raise ValueError("quality= measures one grid drawn whole against the CPU "
                              "reference; a grid drawn in chunks is drawn by the same exact "
@@ -1324,7 +1331,10 @@ def add_voxels(
         if not isinstance(model, VoxelWorld):
             model = VoxelWorld.from_model(
                 model, DEFAULT_CHUNK_SIZE if chunk_size is None else chunk_size)
+        check_voxel_budget(frame_budget_ms, model, _why_per_chunk(model, options))
         actor = _add_world(plotter, model, options, name)
+        if frame_budget_ms is not None:
+            attach_frame_budget(actor.cubemarch, "voxels", plotter.ren_win, frame_budget_ms)
     else:
         options.check_model(model)
         if world_traversal is not None:   # said, not ignored in silence

@@ -35,7 +35,7 @@ from .dial_surfaces import (
     surface_reference,
     surface_scene,
 )
-from .dial_voxels import VOXEL_SCENES, voxel_reference, voxel_scene
+from .dial_voxels import VOXEL_KEYWORDS, VOXEL_SCENES, voxel_reference, voxel_scene
 from .harness import time_frames_side_by_side
 from .sort_last import phantom
 
@@ -247,7 +247,7 @@ def run_interaction(size: Sequence[int] = (800, 600), budget_ms: float = 100.0,
         plotter = _plotter(size)
         try:
             actor = add_voxels(plotter, voxel_scene(name), shading="unlit",
-                               frame_budget_ms=budget_ms)
+                               frame_budget_ms=budget_ms, **VOXEL_KEYWORDS.get(name, {}))
             plotter.reset_camera()
             rows.append(_orbit(name, "voxels", plotter, actor, frames,
                                lambda p, a: voxel_reference(p, a, size)))

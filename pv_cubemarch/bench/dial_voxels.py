@@ -10,8 +10,11 @@ from ..reference.voxels import render_voxels
 from .sort_last import segmentation
 from .voxels import scenes
 
-#: Voxel grids the orbits drive: a segmentation of uint32 balls, and terrain.
-VOXEL_SCENES = ("segmentation", "waves")
+#: Voxel grids the orbits drive: a segmentation of uint32 balls, and terrain (whole, and
+#: as a world of 32³ chunks drawn by one traversal over its chunk index).
+VOXEL_SCENES = ("segmentation", "waves", "waves world")
+#: The keywords each scene is added with.
+VOXEL_KEYWORDS = {"waves world": {"chunk_size": 32}}
 
 
 def voxel_scene(name: str) -> pyvista.ImageData:
@@ -25,9 +28,14 @@ def voxel_scene(name: str) -> pyvista.ImageData:
 
 
 def voxel_reference(plotter, actor, size) -> np.ndarray:
-    """The CPU reference of the unlit grid's frame (the plotter's camera and near plane)."""
+    """The CPU reference of the unlit grid's frame (the plotter's camera and near plane).
+
+    A world's labels are read back whole from its chunks (the scenes are small).
+    """
     model = actor.cubemarch.model
-    return render_voxels(model.labels, model.world_from_index(), model.palette.rgba,
+    labels = model.labels if hasattr(model, "labels") else model.labels_in(
+        tuple(slice(0, n) for n in model.dimensions))
+    return render_voxels(labels, model.world_from_index(), model.palette.rgba,
                          Camera.from_pyvista(plotter.camera), size,
                          background=plotter.background_color.float_rgb,
                          near=plotter.camera.clipping_range[0], shading="unlit")

@@ -43,19 +43,21 @@ def check_opaque(model) -> None:
                          "between 0 and 1): leave quality out, or make them opaque.")
 
 
-def check_voxel_budget(frame_budget_ms, model) -> None:
+def check_voxel_budget(frame_budget_ms, model, per_chunk: str | None = None) -> None:
     """Refuse a frame budget a grid's moving frames cannot be held to.
 
-    The budget draws the grid at fewer pixels (one opaque actor into reduced targets): not a
-    grid with translucent labels (drawn in layers of their own), nor one drawn in chunks.
+    The budget draws the grid at fewer pixels (one opaque actor into reduced targets): a
+    grid drawn whole, or a world drawn by one traversal over its chunk index; not a world
+    drawn per chunk (``per_chunk``: why it is), nor translucent labels (drawn in layers of
+    their own).
     """
     if frame_budget_ms is None:
         return
     check_frame_budget(frame_budget_ms, "voxels", 1)
-    if model is None:
-        raise ValueError("frame_budget_ms draws a grid drawn whole at fewer pixels while the "
-                         "view moves; this one is drawn in chunks (a VoxelWorld, chunk_size=, "
-                         "or larger than one texture): leave the budget out.")
+    if per_chunk is not None:
+        raise ValueError("frame_budget_ms draws one traversal at fewer pixels while the view "
+                         f"moves; this world is drawn by a box per chunk ({per_chunk}): "
+                         "leave the budget out, or draw it with world_traversal='index'.")
     alpha = np.asarray(model.palette.rgba)[1:, 3]
     if ((alpha > 0.0) & (alpha < 1.0)).any():
         raise ValueError("frame_budget_ms draws a grid's opaque voxels at fewer pixels while "
