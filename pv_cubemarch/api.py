@@ -1526,15 +1526,19 @@ def add_surface(
         size, in the surface's colour and shading lit by a headlight, and comparing
         pixels with the reference; ``actor.cubemarch.quality`` says what was chosen and
         what was tried. Kept per field, look, camera, window size, background and GL
-        renderer; ``actor.cubemarch.recalibrate()`` chooses again for the view then. One
-        opaque surface in one colour; not with ``steps`` or ``root``.
+        renderer; ``actor.cubemarch.recalibrate()`` chooses again for the view then.
+        Several isosurfaces, translucency and ``color_by`` are drawn in the probe and
+        traced by the reference as drawn (translucent ones take a PSNR, not ``'exact'``);
+        not with ``steps``, ``root`` or ``shading='normals'``.
     frame_budget_ms : float, optional
         While the view moves, each frame marches the most ``steps`` predicted to stay
         within this many milliseconds from the last frame's time (which grows with the
         steps); below 100 steps it draws fewer pixels instead, at 1/2, 1/3 or 1/4 of the
         viewport across, shown at full size with their depth (the walk through the cells
         costs what the steps do not). The first frame after the view stops draws the still
-        ``steps`` again, at full size. Nothing is rebuilt. Not with ``root='exact'``.
+        ``steps`` again, at full size. Nothing is rebuilt. Several isosurfaces move
+        together; translucent surfaces move their steps only (the reduced draw is opaque).
+        Not with ``root='exact'``.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
 
@@ -1603,28 +1607,30 @@ def add_surface(
                                                                      exact=True).exact):
             raise ValueError("frame_budget_ms moves a marched surface's steps; root='exact' "
                              "(or quality='exact') has none: leave one of them out.")
-        if levels is not None and len(levels) > 1:
-            raise ValueError(f"frame_budget_ms holds one surface's frames; these "
-                             f"{len(levels)} levels are drawn as surfaces of their own: give "
-                             "one isovalue, or leave the budget out.")
+    table = None
+    if levels is not None and len(levels) > 1:
+        table = level_lookup_table(cmap, levels, options.clim)
+        colours = [tuple(float(v) for v in table.map_value(level, opacity=False))
+                   if by_level else options.rgb for level in levels]
     calibration = choice = None
     if quality is not None:
-        target = check_surface_quality(quality, given, options, chosen.name,
-                                       1 if levels is None else len(levels))
+        target = check_surface_quality(quality, given, options, chosen.name)
+        look, offsets = _surface_look(options), None
+        if table is not None:   # the levels from the model's zero, coloured as here
+            offsets = tuple(v - levels[0] for v in levels)
+            look.update(isosurfaces=list(offsets), color=None if by_level else options.color,
+                        clim=None if options.clim is None else tuple(
+                            float(c) - levels[0] for c in options.clim))
         calibration = SurfaceCalibration(
-            model, chosen.name, target, _surface_look(options), _probe_adder(add_surface),
-            chosen.reference, options=options, exact_rung=frame_budget_ms is None)
+            model, chosen.name, target, look, _probe_adder(add_surface), chosen.reference,
+            options=options, exact_rung=frame_budget_ms is None, levels=offsets,
+            level_colors=None if table is None else tuple(colours))
         choice = calibration.run(plotter, None)
         options = dataclasses.replace(options, **choice.setting)
     low, high = float(model.coefficients.min()), float(model.coefficients.max())
     if low > 0.0 or high < 0.0:   # the field is a convex combination of its coefficients
         warnings.warn(f"The field has no zero (its coefficients lie in [{low:g}, {high:g}]): "
                       "nothing is drawn. Check the isovalue or the field's sign.", stacklevel=2)
-    table = None
-    if levels is not None and len(levels) > 1:
-        table = level_lookup_table(cmap, levels, options.clim)
-        colours = [tuple(float(v) for v in table.map_value(level, opacity=False))
-                   if by_level else options.rgb for level in levels]
     if table is not None and options.translucent:   # every level in one pass
         if technique != "active":
             raise ValueError(f"opacity={opacity:g} with {len(levels)} isosurfaces: they are "
@@ -1643,16 +1649,16 @@ def add_surface(
         binding = SurfaceLevels(drawn, levels)
     else:
         binding = chosen.build(plotter, model, options)
-        binding.quality = choice
-        if calibration is not None:
-            calibration.follow(binding, plotter)
-        if frame_budget_ms is not None:
-            attach_frame_budget(binding, chosen.name, plotter.ren_win, frame_budget_ms, {
-                m["setting"]["steps"]: m["psnr"] for m in (choice.measured if choice else [])
-                if "steps" in m["setting"]})
         if options.color_by:
             table = pyvista.LookupTable(cmap)
             table.scalar_range = options.color_range(model)
+    binding.quality = choice
+    if calibration is not None:
+        calibration.follow(binding, plotter)
+    if frame_budget_ms is not None:
+        attach_frame_budget(binding, chosen.name, plotter.ren_win, frame_budget_ms, {
+            m["setting"]["steps"]: m["psnr"] for m in (choice.measured if choice else [])
+            if "steps" in m["setting"]})
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     plotter.cubemarch.track(binding)
     if table is not None:
@@ -1672,7 +1678,7 @@ def _surface_look(options) -> dict:
     """What a surface's calibration candidates are drawn with besides the rung."""
     return {name: getattr(options, name) for name in (
         "refine_steps", "traversal", "active_test", "active_samples", "color", "shading",
-        "ambient", "specular", "specular_power")}
+        "ambient", "specular", "specular_power", "color_by", "cmap", "clim", "opacity")}
 
 
 def _probe_adder(add, technique: bool = True):

@@ -99,23 +99,35 @@ def _steps_label(steps: int, reduction: int) -> str:
     return f"steps={steps}" + ("" if reduction == 1 else f" at 1/{reduction} size")
 
 
+def surface_parts(binding) -> list:
+    """The surfaces a binding draws: several opaque levels' own, else itself."""
+    return list(getattr(binding, "surfaces", [binding]))
+
+
+def _read_steps(binding) -> float:
+    return float(surface_parts(binding)[0].options.steps)
+
+
 def _set_steps(binding, steps: float) -> None:
-    binding.options = dataclasses.replace(binding.options, steps=int(round(steps)))
-    binding.bindings.set_uniform("cm_stepLength",
-                                 binding.options.step_length(binding.model.dimensions))
+    for part in surface_parts(binding):
+        part.options = dataclasses.replace(part.options, steps=int(round(steps)))
+        part.bindings.set_uniform("cm_stepLength",
+                                  part.options.step_length(part.model.dimensions))
 
 
 def set_still_steps(binding, steps: float) -> None:
     """Draw ``steps`` at full size (a calibration's choice, not a moving frame's)."""
     _set_steps(binding, steps)
-    reduce_pixels(binding, 1)
+    for part in surface_parts(binding):
+        reduce_pixels(part, 1)
 
 
 def _write_steps(binding, value: float) -> None:
     budget = getattr(binding, "frame_budget", None)
     steps, factor = steps_drawn(value, budget.still if budget is not None else value)
     _set_steps(binding, steps)
-    reduce_pixels(binding, factor)
+    for part in surface_parts(binding):   # each level drawn reduced by its own draw
+        reduce_pixels(part, factor)
 
 
 def reduce_pixels(binding, factor: int) -> None:
@@ -147,14 +159,12 @@ KNOBS = {
     # REDUCED_STEPS (or the still steps), that many steps over the pixels' reduction
     # squared (2, 3, 4 times fewer across): the steps alone leave a floor, the walk
     # through the active cells
-    "steps": BudgetKnob("steps", SURFACE_STEPS, -1.0, lambda b: float(b.options.steps),
-                        _write_steps,
+    "steps": BudgetKnob("steps", SURFACE_STEPS, -1.0, _read_steps, _write_steps,
                         lambda v, still: _steps_label(*steps_drawn(v, still)),
                         _steps_ladder),
     # a translucent surface's steps alone: it composites over the scene in the translucent
     # pass, which a reduced draw (opaque, into targets of its own) does not draw
-    "steps_translucent": BudgetKnob("steps", SURFACE_STEPS, -1.0,
-                                    lambda b: float(b.options.steps), _set_steps),
+    "steps_translucent": BudgetKnob("steps", SURFACE_STEPS, -1.0, _read_steps, _set_steps),
     # a voxel grid's pixels, 1/reduction of the viewport across: time as the pixels
     "pixels": BudgetKnob("reduction", (4.0, 3.0, 2.0, 1.0), 2.0,
                          lambda b: float(getattr(getattr(b, "reduced", None), "factor", 1)),

@@ -15,12 +15,13 @@ import os
 from dataclasses import dataclass
 
 import numpy as np
+import pyvista
 
 from ..core.parallel import core_pool
 from ..models.surface import active_cells
 from ..surfaces.options import LOOP_BUDGET, MAX_STEPS, SurfaceOptions
 from ..surfaces.technique import surface_recipe
-from .interaction import set_still_steps
+from .interaction import set_still_steps, surface_parts
 from .ladders import Rung
 from .probe import ProbeCalibration, drawn_box_bounds, margined_bounds
 from .targets import QualityTarget, parse_quality
@@ -34,18 +35,20 @@ STEPS_BELOW_EXACT = 1600
 PICKED = ("steps", "root")
 
 
-def check_surface_quality(quality, given: dict, options: SurfaceOptions, technique: str,
-                          levels: int) -> QualityTarget:
+def check_surface_quality(quality, given: dict, options: SurfaceOptions,
+                          technique: str) -> QualityTarget:
     """Read ``quality=`` for a surface and refuse what calibration cannot measure, by name."""
     target = parse_quality(quality, exact=True)
     picked = [k for k in PICKED if k in given]
     if picked:
         raise ValueError(f"quality= chooses {', '.join(picked)} itself: give quality= or "
                          "the settings, not both.")
-    if levels > 1 or options.translucent or options.color_by or options.shading == "normals":
-        raise ValueError("quality= measures one opaque surface in one colour against the CPU "
-                         "reference: it takes no isosurfaces=, opacity, color_by or "
-                         "shading='normals'. Give steps= (or root='exact') for those.")
+    if options.shading == "normals":
+        raise ValueError("quality= measures the colours the CPU reference draws, which has no "
+                         "shading='normals': give steps= (or root='exact') for it.")
+    if target.exact and options.translucent:
+        raise ValueError("quality='exact' draws each cell's exact first root; a translucent "
+                         "surface composites every crossing, marched: give it a PSNR target.")
     if target.exact and technique != "active":
         raise ValueError("quality='exact' draws each cell's exact first root, which "
                          "technique='active' finds (root='exact'); technique='full' marches: "
@@ -66,7 +69,7 @@ def surface_tracks(options: SurfaceOptions, dimensions, target: QualityTarget,
     """
     if target.exact:
         return [[Rung({"root": "exact"}, 1.0)]]
-    exact_rung = exact_rung and technique == "active"
+    exact_rung = exact_rung and technique == "active" and not options.translucent
     top = STEPS_BELOW_EXACT if exact_rung else MAX_STEPS
     steps = [m for m in SURFACE_STEPS if m <= top and (
         options.traversal != "index"
@@ -82,11 +85,14 @@ class SurfaceCalibration(ProbeCalibration):
     """``quality=`` of an implicit surface: its steps, or its exact root.
 
     ``options`` are the surface's (its colour, shading and traversal); ``keep`` what the
-    candidates are drawn with besides the rung.
+    candidates are drawn with besides the rung. Several levels: ``levels``, their values
+    less the model's zero, and ``level_colors``, one RGB each.
     """
 
     options: SurfaceOptions | None = None
     exact_rung: bool = True
+    levels: tuple | None = None
+    level_colors: tuple | None = None
     kind = "surface"
     #: A marched surface errs at few pixels (a thin feature missed), which a sparse
     #: sample sees by chance (3.8 dB off at 4096 of 25,000 pixels): the reference traces
@@ -118,6 +124,13 @@ class SurfaceCalibration(ProbeCalibration):
         """The reference's colours of the sample, traced in parts, one per core."""
         options = self.options
         lights = self.probe_lights()
+        look = {"opacity": float(options.opacity)}
+        if options.color_by is not None:   # the colormap's 256 entries, over the range
+            look.update(color_by=options.color_by, clim=options.color_range(self.model),
+                        lookup_table=np.asarray(pyvista.LookupTable(
+                            options.cmap, n_values=256).values[:, :3], np.float64) / 255.0)
+        if self.levels is not None:
+            look.update(levels=self.levels, level_colors=self.level_colors)
 
         def part(rows, columns) -> np.ndarray:
             return self.reference(self.model, camera, size, color=options.rgb,
@@ -125,7 +138,7 @@ class SurfaceCalibration(ProbeCalibration):
                                   shading=options.shading, ambient=options.ambient,
                                   specular=options.specular,
                                   specular_power=options.specular_power,
-                                  pixels=(rows, columns))
+                                  pixels=(rows, columns), **look)
         rows, columns = (np.asarray(v) for v in pixels)
         parts = np.array_split(np.arange(len(rows)), min(os.cpu_count() or 1, 4))
         parts = [p for p in parts if len(p)]
@@ -139,8 +152,9 @@ class SurfaceCalibration(ProbeCalibration):
 
     def apply(self, binding, setting: dict) -> None:
         root = setting.get("root", "march")
-        if binding.options.root != root:   # the root finder is compiled in: recompile
-            binding.options = dataclasses.replace(binding.options, root=root)
-            binding.recompile(surface_recipe(binding.options, self.technique))
+        for part in surface_parts(binding):   # each level's own surface
+            if part.options.root != root:   # the root finder is compiled in: recompile
+                part.options = dataclasses.replace(part.options, root=root)
+                part.recompile(surface_recipe(part.options, self.technique))
         if "steps" in setting:   # the still steps, at full size
             set_still_steps(binding, float(setting["steps"]))

@@ -277,8 +277,8 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
     ``'curvature'`` (the mean curvature at the hit) or ``'field'`` (the field's
     ``color_values`` there) through ``lookup_table`` (``(n, 3)``) over ``clim``, the entry
     nearest the value's place. Returns ``(height, width, 3)`` float64 RGB; with ``pixels``
-    (``(rows, columns)``, rows from the top: a sample, opaque and one level only) the
-    ``(1, n, 3)`` colours of those pixels.
+    (``(rows, columns)``, rows from the top: a sample) the ``(1, n, 3)`` colours of those
+    pixels.
     """
     if shading not in ("unlit", "flat", "blinn"):
         raise ValueError(f"shading must be 'unlit', 'flat' or 'blinn', got {shading!r}.")
@@ -286,8 +286,6 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
         raise ValueError(f"opacity must lie in [0, 1], got {opacity!r}.")
     width, height = (int(v) for v in size)
     active = active_cells(field)
-    if pixels is not None and (opacity < 1.0 or levels is not None):
-        raise ValueError("pixels: a sample is traced for one opaque surface only.")
     rows, columns = (None, None) if pixels is None else checked_pixels(pixels, None, width, height)
     image = np.empty((height, width, 3) if pixels is None else (1, len(rows), 3))
     image[...] = np.asarray(background, dtype=np.float64)
@@ -325,24 +323,27 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
     cell = float(np.linalg.norm(field.world_from_index()[:3, :3], axis=0).min())
     offsets = (0.0,) if levels is None else tuple(float(v) for v in levels)
     colours = [color] * len(offsets) if level_colors is None else list(level_colors)
+    # Opaque levels: each level's first root only (the nearest of them is drawn).
+    layers = MAX_LAYERS if opacity < 1.0 else 1
+    shape = image.shape[:2]
     depths, shades = [], []
     for offset, colour in zip(offsets, colours, strict=True):
         level = replace(field, coefficients=field.coefficients - offset)
         cells = active if levels is None else active_cells(level)
-        start = np.zeros((height, width))
-        for _ in range(MAX_LAYERS):
+        start = np.zeros(shape)
+        for _ in range(layers):
             hits = trace_surface(level, cells, camera, (width, height), near=near,
-                                 start=start)
+                                 start=start, pixels=pixels)
             hit = hits.hit
             if not hit.any():
                 break
             depths.append(np.where(hit, hits.depth, np.inf))
-            shade_here = np.zeros((height, width, 3))
+            shade_here = np.zeros((*shape, 3))
             shade_here[hit] = shade(hits, colour)
             shades.append(shade_here)
             start = np.where(hit, hits.depth + 1e-6 * cell, np.inf)
-    held = np.zeros((height, width, 3))
-    cover = np.zeros((height, width))
+    held = np.zeros((*shape, 3))
+    cover = np.zeros(shape)
     if depths:
         depth, colour = np.stack(depths), np.stack(shades)
         order = np.argsort(depth, axis=0)

@@ -66,6 +66,16 @@ class SurfaceLevels(DrawnBinding):
         self.renderer = first.renderer
 
     @property
+    def surfaces(self) -> list:
+        """Each level's binding (what a quality choice or a frame budget sets its steps on)."""
+        return self.levels
+
+    @property
+    def options(self):
+        """The levels' options (theirs differ only in colour)."""
+        return self.levels[0].options
+
+    @property
     def nbytes(self) -> int:
         """GPU bytes of every level."""
         return sum(level.nbytes for level in self.levels)
