@@ -145,8 +145,8 @@ class CubemarchComponent:
 
     @property
     def memory(self) -> dict[str, int]:
-        """GPU bytes our techniques added, by volume name."""
-        return {item.name: item.nbytes for item in self._tracked}
+        """GPU bytes our techniques added, by volume name (a frame budget's targets too)."""
+        return {item.name: item.nbytes + _reduced_bytes(item) for item in self._tracked}
 
     def remove(self, actor) -> bool:
         """Remove an actor added by pv_cubemarch and free its GPU resources now."""
@@ -214,3 +214,9 @@ def read_usd(path: str, **kwargs) -> pyvista.MultiBlock:
 def read_vdb_file(path: str, **kwargs) -> pyvista.DataSet:
     """``pyvista.read`` handler for .vdb: the file's density grid (else its first)."""
     return read_vdb(path, **kwargs)
+
+
+def _reduced_bytes(item) -> int:
+    """Bytes of the reduced-size targets a frame budget drew ``item`` (or its levels) into."""
+    parts = getattr(item, "surfaces", [item])
+    return sum(part.reduced.nbytes for part in parts if getattr(part, "reduced", None))

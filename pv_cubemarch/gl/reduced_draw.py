@@ -78,6 +78,11 @@ class ReducedDraw:
                                          -5.0)),
                       (window, observe(window, vtk.vtkCommand.EndEvent, self._on_end, 5.0))]
 
+    @property
+    def nbytes(self) -> int:
+        """GPU bytes of the targets allocated now (RGBA8 colour, float32 depth)."""
+        return 8 * self._allocated[0] * self._allocated[1]
+
     def _on_start(self, *_) -> None:
         # a selection render (picking) draws the actor itself, the one that can be picked
         reduced = bool(self.actor.GetVisibility()) and self.factor > 1 and \
