@@ -44,6 +44,7 @@ from .quality.voxels import (
     check_opaque,
     check_voxel_budget,
     check_voxel_quality,
+    world_reference_grid,
 )
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .surfaces.levels import (
@@ -820,6 +821,14 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
     return actor
 
 
+def _check_voxel_quality(model, options) -> None:
+    """Refuse ``quality=`` for a grid or world the voxel reference cannot draw as drawn."""
+    check_opaque(model)
+    if options.mode != "color":
+        raise ValueError(f"quality= measures the colours a grid is drawn in; mode="
+                         f"{options.mode!r} draws none: leave one of them out.")
+
+
 def _why_per_chunk(world: VoxelWorld, options) -> str | None:
     """Why ``world`` would be drawn by a box per chunk with ``options`` (None: it would not)."""
     if options.world_traversal == "per_chunk":
@@ -1201,8 +1210,10 @@ def add_voxels(
         was measured (``bench voxels``). Its error against the CPU reference is measured
         over a frame of the window's size from the camera the view will have, and
         reported in ``actor.cubemarch.quality`` (``'exact'`` is met only when the
-        measurement shows the reference drawn: 45 dB or more). A grid drawn whole, opaque,
-        ``mode='color'``; not with ``traversal``, ``step_scale`` or ``lod``.
+        measurement shows the reference drawn: 45 dB or more). Opaque labels,
+        ``mode='color'``; not with ``traversal``, ``step_scale`` or ``lod``. A world (in
+        chunks) is measured as drawn, against its filled voxels read whole (up to 2**27
+        of them).
     frame_budget_ms : float, optional
         While the view moves, each frame draws the grid at the most pixels (1/2, 1/3 or
         1/4 of the viewport across, shown at full size with their depth) predicted to stay
@@ -1322,17 +1333,27 @@ def add_voxels(
                          f"{model.chunk_size}; leave it out for a VoxelWorld.")
     if isinstance(model, VoxelWorld) or chunk_size is not None or not fits_one_texture(
             model.dimensions, model.labels.dtype):
-        if target is not None:
-            raise ValueError("quality= measures one grid drawn whole against the CPU "
-                             "reference; a grid drawn in chunks is drawn by the same exact "
-                             "traversal: leave quality out for it.")
         if proxy is None:   # chunks: no brick shells by default (bench voxel-world)
             options = dataclasses.replace(options, proxy="box")
         if not isinstance(model, VoxelWorld):
             model = VoxelWorld.from_model(
                 model, DEFAULT_CHUNK_SIZE if chunk_size is None else chunk_size)
-        check_voxel_budget(frame_budget_ms, model, _why_per_chunk(model, options))
+        per_chunk = _why_per_chunk(model, options)
+        check_voxel_budget(frame_budget_ms, model, per_chunk)
+        traced = None
+        if target is not None:   # refused before anything is drawn
+            _check_voxel_quality(model, options)
+            traced = world_reference_grid(model)
         actor = _add_world(plotter, model, options, name)
+        if target is not None:   # measured with the world drawn as the user's will be
+            look = dict(_voxel_look(options),
+                        world_traversal="index" if per_chunk is None else "per_chunk")
+            calibration = VoxelCalibration(model, "voxels", target, look,
+                                           _probe_adder(add_voxels, False), chosen.reference,
+                                           look=_voxel_reference_look(options), grid=traced,
+                                           drawn_bounds=np.asarray(actor.GetBounds()))
+            actor.cubemarch.quality = calibration.run(plotter, None)
+            calibration.follow(actor.cubemarch, plotter)
         if frame_budget_ms is not None:
             attach_frame_budget(actor.cubemarch, "voxels", plotter.ren_win, frame_budget_ms)
     else:
@@ -1344,10 +1365,7 @@ def add_voxels(
         calibration = choice = None
         check_voxel_budget(frame_budget_ms, model)
         if target is not None:
-            check_opaque(model)
-            if options.mode != "color":
-                raise ValueError(f"quality= measures the colours a grid is drawn in; mode="
-                                 f"{options.mode!r} draws none: leave one of them out.")
+            _check_voxel_quality(model, options)
             calibration = VoxelCalibration(model, "voxels", target, _voxel_look(options),
                                            _probe_adder(add_voxels, False),
                                            chosen.reference,

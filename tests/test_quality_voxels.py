@@ -121,12 +121,62 @@ def test_the_report_is_the_window_s_own_and_its_first_frame_is_the_one_calibrate
     plotter.close()
 
 
+@pytest.mark.parametrize("keywords", [
+    {"chunk_size": 8},                                  # one traversal over the chunk index
+    {"chunk_size": 8, "world_traversal": "per_chunk"},  # a box per chunk
+    {"chunk_size": 6, "show_edges": True},              # per chunk: not a power of two
+])
+def test_a_world_s_drawing_is_measured_against_its_labels_traced_whole(cells, keywords):
+    # The report and the first frame, against the reference of the test's own labels and
+    # placement (by hand: spacing and origin), traced over the whole frame; the camera is
+    # the one PyVista frames the world's actor with (none set).
+    # catches (seen failing): the probe framed on a grid's margined box where a world drawn
+    # per chunk stands as its bounds (the first frame warned of another view); the
+    # reference given the world's labels mirrored (13.0 dB reported)
+    import warnings
+    plotter = offscreen_plotter(SIZE)
+    plotter.ren_win.SetMultiSamples(0)
+    actor = pv_cubemarch.add_voxels(plotter, cells, quality="exact", shading="unlit",
+                                    **keywords)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        render_frame(plotter)
+    ids = cells.cell_data["cell_id"].reshape(np.subtract(cells.dimensions, 1), order="F")
+    world_from_index = np.diag([0.6, 0.8, 1.1, 1.0])
+    world_from_index[:3, 3] = (-100.0, 25.0, 5.0)
+    expected = render_voxels(ids, world_from_index, actor.cubemarch.palette.rgba,
+                             Camera.from_pyvista(plotter.camera), SIZE,
+                             background=plotter.background_color.float_rgb,
+                             near=plotter.camera.clipping_range[0], show_edges=bool(
+                                 keywords.get("show_edges")),
+                             edge_color=pyvista.Color(pyvista.global_theme.edge_color).float_rgb,
+                             line_width=1.1)
+    measured = compare_images(read_pixels(plotter), expected).psnr
+    choice = actor.cubemarch.quality
+    assert choice.met and measured >= 45.0, (choice, measured)
+    assert abs(measured - choice.psnr) < 0.5 or min(measured, choice.psnr) > 60.0, (
+        choice, measured)
+    plotter.close()
+
+
+def test_a_world_too_large_to_trace_whole_is_refused_before_drawing(cells, monkeypatch):
+    # catches (seen failing): the cap on the world's filled box not checked
+    from pv_cubemarch.quality import voxels
+    monkeypatch.setattr(voxels, "WORLD_REFERENCE_VOXELS", 1000)
+    plotter = offscreen_plotter((80, 60))
+    with pytest.raises(ValueError, match="over 1,000"):
+        pv_cubemarch.add_voxels(plotter, cells, quality=40, chunk_size=8)
+    assert not plotter.renderer.actors
+    plotter.close()
+
+
 @pytest.mark.parametrize("keywords, words", [
     ({"traversal": "fixed"}, "leave traversal, step_scale and lod out"),
     ({"lod": True}, "leave traversal, step_scale and lod out"),
     ({"mode": "id"}, "draws none"),
-    ({"chunk_size": 8}, "drawn in chunks"),
     ({"opacity": 0.5}, "translucent"),
+    ({"chunk_size": 8, "opacity": 0.5}, "translucent"),
+    ({"chunk_size": 8, "mode": "face"}, "draws none"),
     ({"quality": "perfect"}, "not a target"),
 ])
 def test_what_voxel_quality_cannot_take_is_refused_by_name(cells, keywords, words):

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..models.chunk_pool import world_filled_bounds
 from .interaction import check_frame_budget
 from .ladders import Rung
 from .probe import ProbeCalibration, margined_bounds
@@ -23,6 +24,29 @@ from .targets import QualityTarget, parse_quality
 
 #: What quality= chooses for voxels; the settings it rules out.
 EXACT = {"traversal": "dda"}
+#: The most voxels of a world's filled box quality= reads whole for the reference.
+WORLD_REFERENCE_VOXELS = 1 << 27
+
+
+def world_reference_grid(world) -> tuple[np.ndarray, np.ndarray]:
+    """A world's labels over the box of its filled voxels, read from its chunks, placed.
+
+    What the reference traces for ``quality=`` on a world: the box's labels (at most
+    :data:`WORLD_REFERENCE_VOXELS`, else ``ValueError``) and its ``world_from_index``.
+    """
+    lower, upper = (np.asarray(v, dtype=np.int64) for v in world_filled_bounds(world))
+    upper = np.maximum(upper, lower + 1)   # an empty world: one empty voxel
+    count = int(np.prod(upper - lower))
+    if count > WORLD_REFERENCE_VOXELS:
+        raise ValueError(f"quality= reads a world's filled voxels whole for the CPU reference; "
+                         f"this world's filled box holds {count:,} voxels, over "
+                         f"{WORLD_REFERENCE_VOXELS:,}: leave quality out (the world is drawn "
+                         "by the same exact traversal either way).")
+    labels = world.labels_in(tuple(slice(int(lo), int(hi))
+                                   for lo, hi in zip(lower, upper, strict=True)))
+    shift = np.eye(4)
+    shift[:3, 3] = lower
+    return labels, np.asarray(world.world_from_index(), dtype=np.float64) @ shift
 
 
 def check_voxel_quality(quality, traversal: str, step_scale, lod: bool) -> QualityTarget:
@@ -69,31 +93,42 @@ def check_voxel_budget(frame_budget_ms, model, per_chunk: str | None = None) -> 
 class VoxelCalibration(ProbeCalibration):
     """``quality=`` of a voxel grid: the DDA, measured over the window's frame.
 
-    ``look`` holds the reference's keywords for the grid's look (shading, edges ...).
+    ``look`` holds the reference's keywords for the grid's look (shading, edges ...). A
+    world: ``grid``, the labels and placement the reference traces
+    (:func:`world_reference_grid`), and ``drawn_bounds``, its actor's bounds.
     """
 
     look: dict | None = None
+    grid: tuple | None = None
+    drawn_bounds: np.ndarray | None = None
     kind = "voxels"
     samples = 1 << 40   # every pixel of the footprint (the reference traces the frame)
 
     def tracks(self) -> list[list[Rung]]:
         return [[Rung(dict(EXACT), 1.0)]]
 
+    def traced_grid(self) -> tuple[np.ndarray, np.ndarray]:
+        """The labels the reference traces and their ``world_from_index``."""
+        if self.grid is not None:
+            return self.grid
+        return self.model.labels, self.model.world_from_index()
+
     def key_parts(self) -> tuple:
-        model = self.model
-        return (np.asarray(model.labels), np.asarray(model.palette.rgba),
-                np.asarray(model.world_from_index()),
-                sorted((k, repr(v)) for k, v in self.keep.items()))
+        labels, world_from_index = self.traced_grid()
+        return (np.asarray(labels), np.asarray(self.model.palette.rgba),
+                np.asarray(world_from_index), sorted((k, repr(v)) for k, v in self.keep.items()))
 
     def bounds(self) -> np.ndarray:
+        if self.drawn_bounds is not None:
+            return np.asarray(self.drawn_bounds, dtype=np.float64)
         return margined_bounds(self.model)
 
     def shading(self) -> str:
         return self.look.get("shading", "unlit")
 
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
-        model = self.model
-        frame = self.reference(model.labels, model.world_from_index(), model.palette.rgba,
+        labels, world_from_index = self.traced_grid()
+        frame = self.reference(labels, world_from_index, self.model.palette.rgba,
                                camera, size, background=background, near=near,
                                lights=self.probe_lights(), **self.look)
         rows, columns = pixels

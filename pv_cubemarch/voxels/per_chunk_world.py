@@ -113,6 +113,10 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         self.occluders.release()
         self.palette_texture.release()
 
+    def release_resources(self) -> None:
+        """What goes when the world leaves (its passes; hooks such as a calibration's wrap it)."""
+        self.release_passes()
+
     def follow_clip_planes(self, remake: bool) -> None:
         """Every chunk cut by the world's planes (chunks made later take them too)."""
         for chunk in self.chunks.values():
@@ -418,7 +422,7 @@ class WorldPasses(DrawnBinding):
 
     def release_resources(self) -> None:
         """The world's shared passes (the chunks are tracked and freed on their own)."""
-        self.world.release_passes()
+        self.world.release_resources()
 
 
 def build_world(plotter, world: VoxelWorld, options: VoxelOptions,
