@@ -219,6 +219,12 @@ def test_the_cli_and_usd_ask_voxels_for_quality(cells, tmp_path, capsys):
                  "--size", "96x72", "--no-progress", "-o", str(out)]) == 0
     assert "does not apply" not in capsys.readouterr().err
     assert stored_settings() == [{"traversal": "dda"}]
+    # a world, and its frame budget (catches (seen failing): --chunk-size with --quality
+    # refused as a grid drawn in chunks)
+    assert main(["render", str(path), "--technique", "voxels", "--quality", "40",
+                 "--chunk-size", "8", "--frame-budget-ms", "30", "--size", "96x72",
+                 "--no-progress", "-o", str(out)]) == 0
+    assert stored_settings() == [{"traversal": "dda"}] * 2
     stage = write_voxel_stage(tmp_path, np.asarray(cells.cell_data["cell_id"]).reshape(
         (28, 20, 14), order="F"), attrs={"cubemarch:quality": ("String", "exact")})
     scene = pv_cubemarch.load_scene(stage, strict=True)
