@@ -1,7 +1,8 @@
-"""``add_volume(..., quality=)``: calibrate an emission/absorption technique on the view.
+"""``add_volume(..., quality=)``: calibrate a volume technique on the view.
 
-The volume is drawn alone, unlit, on a probe plotter (:mod:`.probe`); the CPU reference
-traces a sample of the same frame's pixels. The choice is kept per data, transfer
+The volume is drawn alone on a probe plotter (:mod:`.probe`), shaded (``shade=True``) by
+one headlight; the CPU reference (emission/absorption, or the projection ``blending``
+asks for) traces a sample of the same frame's pixels. The choice is kept per data, transfer
 function, placement, clip planes, camera, window size, background, GL renderer and target.
 """
 
@@ -12,7 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.declared import option
 from ..core.registry import get_technique
+from ..reference.projections import render_blended
+from ..reference.volume_shading import ShadeSetup
 from ..volume.clipping import clip_plane_list
 from .calibration import QualityChoice
 from .interaction import KNOBS
@@ -24,6 +28,11 @@ from .targets import QualityTarget, parse_quality
 PICKED = ("step_scale", "face_size", "max_samples", "sample_factor")
 #: Step of the CPU reference, in voxels (as the speed/accuracy benches).
 REFERENCE_STEP = 0.1
+#: The blendings quality= measures (the reference draws each); 'isosurface' is not here:
+#: its levels are found, not sampled, and go with the isosurface reference's own tests.
+QUALITY_BLENDING = ("composite", "maximum", "minimum", "average", "additive")
+#: The gradient shading's material terms (``shade=True``).
+MATERIAL = ("ambient", "diffuse", "specular", "specular_power")
 
 
 def check_quality_request(quality, given: dict, blending: str, shade: bool, lights,
@@ -35,11 +44,12 @@ def check_quality_request(quality, given: dict, blending: str, shade: bool, ligh
     if picked:
         raise ValueError(f"quality= chooses {', '.join(picked)} itself: give quality= or "
                          "the settings, not both.")
-    if blending != "composite" or shade or lights is not None or not single_unlit_volume:
-        raise ValueError("quality= measures against the emission/absorption reference of one "
-                         "unlit scalar volume: it takes blending='composite', no shade, no "
-                         "lights, no RGBA, channel or jointly marched volumes. Give the "
-                         "settings (step_scale, face_size ...) for those.")
+    if blending not in QUALITY_BLENDING or lights is not None or not single_unlit_volume:
+        raise ValueError(f"quality= measures against the CPU reference of one scalar volume: "
+                         f"blending one of {QUALITY_BLENDING} (shade=True with "
+                         "'composite'), no lights= (the light map), no RGBA, channel or "
+                         "jointly marched volumes. Give the settings (step_scale, face_size "
+                         "...) for those.")
     if crop_box is not None or average_range is not None:
         raise ValueError("quality= with crop_box (or average_range): the CPU reference has no "
                          "crop box; cut the volume with clip_planes instead, which it traces.")
@@ -53,7 +63,10 @@ def plane_pairs(clip_planes) -> list[tuple]:
 
 @dataclass
 class VolumeCalibration(ProbeCalibration):
-    """``quality=`` of an emission/absorption volume: its step, or its cube map's face."""
+    """``quality=`` of a volume: its step, or its cube map's face.
+
+    ``keep`` holds its ``blending`` and, shaded, ``shade`` and the material it was given.
+    """
 
     def tracks(self) -> list:
         return volume_tracks(self.technique, self.model.dimensions)
@@ -67,11 +80,34 @@ class VolumeCalibration(ProbeCalibration):
                 plane_pairs(self.keep.get("clip_planes")),
                 sorted((k, v) for k, v in self.keep.items() if k != "clip_planes"))
 
+    def shading(self) -> str:
+        return "blinn" if self.keep.get("shade") else "unlit"
+
+    def shade_setup(self) -> ShadeSetup:
+        """The reference's shading: the given material, lit by the probe's one headlight."""
+        camera = self.probe.camera
+        position, focal = (np.asarray(v, dtype=np.float64) for v in (
+            camera.GetPosition(), camera.GetFocalPoint()))
+        view = np.array([[camera.GetViewTransformMatrix().GetElement(i, j) for j in range(3)]
+                         for i in range(3)])
+        material = {name: float(self.keep[name]) if self.keep.get(name) is not None else
+                    float(option("volume", name).default) for name in MATERIAL}
+        white = np.ones(3)
+        return ShadeSetup(**material, lights=[((focal - position) / np.linalg.norm(
+            focal - position), white, white)], headlight=True, view_rotation=view,
+            two_sided=bool(self.probe.renderer.GetTwoSidedLighting()))
+
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
-        planes = plane_pairs(self.keep.get("clip_planes"))
+        planes = plane_pairs(self.keep.get("clip_planes")) or None
+        blending = self.keep.get("blending", "composite")
+        if blending != "composite":
+            return render_blended(self.model, camera, size, blending, background=background,
+                                  step_voxels=REFERENCE_STEP, near=near, clip_planes=planes,
+                                  pixels=pixels)
         return self.reference(self.model, camera, size, background=background,
                               step_voxels=REFERENCE_STEP, near=near, pixels=pixels,
-                              clip_planes=planes or None)
+                              clip_planes=planes,
+                              shade=self.shade_setup() if self.keep.get("shade") else None)
 
     def start(self, tracks) -> int | None:
         return next((i for i, rung in enumerate(tracks[0])
@@ -144,7 +180,7 @@ def volume_calibration(model, technique: str, target: QualityTarget, keep: dict,
     """
     def one(name: str) -> VolumeCalibration:
         reads = set(get_technique("volume", name).option_names) | {
-            "stop_opacity", "skip_empty", "clip_planes"}
+            "stop_opacity", "skip_empty", "clip_planes", "blending", "shade", *MATERIAL}
         return VolumeCalibration(model, name, target,
                                  {k: v for k, v in keep.items() if k in reads}, add,
                                  get_technique("volume", name).reference)

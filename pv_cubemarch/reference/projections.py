@@ -24,7 +24,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..core.camera import Camera
-from .rays import clip_interval, data_per_world, index_rays, sample, sample_colors
+from .rays import (
+    checked_pixels,
+    clip_interval,
+    data_per_world,
+    index_rays,
+    sample,
+    sample_colors,
+)
 from .transfer import medium
 
 
@@ -168,7 +175,8 @@ def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
                    opaque_depth: np.ndarray | None = None,
                    opaque_color: np.ndarray | None = None,
                    clip_planes: Sequence | None = None, shade=None,
-                   average_range: Sequence[float] | None = None) -> np.ndarray:
+                   average_range: Sequence[float] | None = None,
+                   pixels: tuple | None = None) -> np.ndarray:
     """The ``blending`` image of ``volume`` (a VolumeModel): ``(h, w, 3)`` floats.
 
     ``isosurfaces``: the levels of ``'isosurface'``, in the volume's stored units.
@@ -177,10 +185,15 @@ def render_blended(volume, camera: Camera, size: Sequence[int] = (256, 256),
     ``(origin, normal)`` pairs cutting the volume (see :func:`.rays.clip_interval`).
     ``shade``: a :class:`~.volume_shading.ShadeSetup` shading the isosurfaces, as VTK's
     ``shade=True`` shades them. ``average_range``: the values (data units) ``'average'``
-    takes.
+    takes. ``pixels``: ``(rows, columns)`` of the pixels to trace instead (a sample, rows
+    from the top), returned as a ``(1, n, 3)`` image.
     """
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
+    if pixels is not None:
+        rows, columns = checked_pixels(pixels, None, width, height)
+        origins, directions = origins[rows, columns][None], directions[rows, columns][None]
+        height, width = 1, len(rows)
     origins, directions = origins.reshape(-1, 3), directions.reshape(-1, 3)
     o_idx, d_idx, t0, t1 = index_rays(volume, origins, directions)
     t0 = np.maximum(t0, 0.0)
