@@ -242,10 +242,10 @@ def add_volume(
         calibrated warns once; ``actor.cubemarch.recalibrate()`` chooses for the view
         then (set the camera before adding to avoid it). ``'auto'``: both of its paths
         are calibrated apart (the step and the face), so either meets the target. One
-        scalar volume, composited (``shade=True`` too: lit by one headlight on the probe
-        and in the reference, with its material) or projected (``'maximum'``,
-        ``'minimum'``, ``'average'``, ``'additive'``); not with the settings it chooses,
-        ``lights=``, ``'isosurface'`` or a crop box.
+        scalar volume, composited or as isosurfaces (``shade=True`` too: lit by one
+        headlight on the probe and in the reference, with its material) or projected
+        (``'maximum'``, ``'minimum'``, ``'average'``, ``'additive'``); not with the
+        settings it chooses, ``lights=`` or a crop box.
     frame_budget_ms : float, optional
         ``'vtk'``, ``'direct'`` (at ``downsample=1``), ``'cubemap'`` and ``'auto'``: while
         the view moves (VTK's interactors, the live view's mouse), each frame takes the
@@ -521,6 +521,7 @@ def add_volume(
             model, chosen.name, target,
             {"stop_opacity": stop_opacity, "skip_empty": skip_empty,
              "clip_planes": clip_planes, "blending": blending,
+             **({"isosurfaces": isosurfaces} if blending == "isosurface" else {}),
              **({"shade": True, "ambient": ambient, "diffuse": diffuse, "specular": specular,
                  "specular_power": specular_power} if shade else {}),
              **{k: given[k] for k in ("downsample", "upscale", "occlusion_sharpness")

@@ -18,6 +18,7 @@ from ..core.registry import get_technique
 from ..reference.projections import render_blended
 from ..reference.volume_shading import ShadeSetup
 from ..volume.clipping import clip_plane_list
+from ..volume.pyvista_keywords import isosurface_levels
 from .calibration import QualityChoice
 from .interaction import KNOBS
 from .ladders import volume_tracks
@@ -28,9 +29,8 @@ from .targets import QualityTarget, parse_quality
 PICKED = ("step_scale", "face_size", "max_samples", "sample_factor")
 #: Step of the CPU reference, in voxels (as the speed/accuracy benches).
 REFERENCE_STEP = 0.1
-#: The blendings quality= measures (the reference draws each); 'isosurface' is not here:
-#: its levels are found, not sampled, and go with the isosurface reference's own tests.
-QUALITY_BLENDING = ("composite", "maximum", "minimum", "average", "additive")
+#: The blendings quality= measures (the reference draws each).
+QUALITY_BLENDING = ("composite", "maximum", "minimum", "average", "additive", "isosurface")
 #: The gradient shading's material terms (``shade=True``).
 MATERIAL = ("ambient", "diffuse", "specular", "specular_power")
 
@@ -47,7 +47,8 @@ def check_quality_request(quality, given: dict, blending: str, shade: bool, ligh
     if blending not in QUALITY_BLENDING or lights is not None or not single_unlit_volume:
         raise ValueError(f"quality= measures against the CPU reference of one scalar volume: "
                          f"blending one of {QUALITY_BLENDING} (shade=True with "
-                         "'composite'), no lights= (the light map), no RGBA, channel or "
+                         "'composite' or 'isosurface'), no lights= (the light map), no RGBA, "
+                         "channel or "
                          "jointly marched volumes. Give the settings (step_scale, face_size "
                          "...) for those.")
     if crop_box is not None or average_range is not None:
@@ -100,14 +101,15 @@ class VolumeCalibration(ProbeCalibration):
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
         planes = plane_pairs(self.keep.get("clip_planes")) or None
         blending = self.keep.get("blending", "composite")
+        shade = self.shade_setup() if self.keep.get("shade") else None
         if blending != "composite":
             return render_blended(self.model, camera, size, blending, background=background,
                                   step_voxels=REFERENCE_STEP, near=near, clip_planes=planes,
-                                  pixels=pixels)
+                                  pixels=pixels, shade=shade, isosurfaces=isosurface_levels(
+                                      self.keep.get("isosurfaces"), self.model))
         return self.reference(self.model, camera, size, background=background,
                               step_voxels=REFERENCE_STEP, near=near, pixels=pixels,
-                              clip_planes=planes,
-                              shade=self.shade_setup() if self.keep.get("shade") else None)
+                              clip_planes=planes, shade=shade)
 
     def start(self, tracks) -> int | None:
         return next((i for i, rung in enumerate(tracks[0])
@@ -180,7 +182,8 @@ def volume_calibration(model, technique: str, target: QualityTarget, keep: dict,
     """
     def one(name: str) -> VolumeCalibration:
         reads = set(get_technique("volume", name).option_names) | {
-            "stop_opacity", "skip_empty", "clip_planes", "blending", "shade", *MATERIAL}
+            "stop_opacity", "skip_empty", "clip_planes", "blending", "isosurfaces", "shade",
+            *MATERIAL}
         return VolumeCalibration(model, name, target,
                                  {k: v for k, v in keep.items() if k in reads}, add,
                                  get_technique("volume", name).reference)
