@@ -245,7 +245,9 @@ def add_volume(
         scalar volume, composited or as isosurfaces (``shade=True`` too: lit by one
         headlight on the probe and in the reference, with its material) or projected
         (``'maximum'``, ``'minimum'``, ``'average'``, ``'additive'``); not with the
-        settings it chooses, ``lights=`` or a crop box.
+        settings it chooses or a crop box. With ``lights=`` the reference lights its
+        samples through the volume as the light map does; the light map's own error (38.5
+        dB at 64 points a side on a CT phantom) bounds what a target can reach.
     frame_budget_ms : float, optional
         ``'vtk'``, ``'direct'`` (at ``downsample=1``), ``'cubemap'`` and ``'auto'``: while
         the view moves (VTK's interactors, the live view's mouse), each frame takes the
@@ -514,7 +516,7 @@ def add_volume(
     choice = calibration = None
     if quality is not None:
         target = check_quality_request(
-            quality, given, blending, shade, lights,
+            quality, given, blending,
             isinstance(model, VolumeModel) and model.colors is None and not is_channels(model),
             crop_box, average_range)
         calibration = volume_calibration(
@@ -522,6 +524,8 @@ def add_volume(
             {"stop_opacity": stop_opacity, "skip_empty": skip_empty,
              "clip_planes": clip_planes, "blending": blending,
              **({"isosurfaces": isosurfaces} if blending == "isosurface" else {}),
+             **({"lights": lights, "light_map_size": light_map_size,
+                 "light_map_ambient": light_map_ambient} if lights is not None else {}),
              **({"shade": True, "ambient": ambient, "diffuse": diffuse, "specular": specular,
                  "specular_power": specular_power} if shade else {}),
              **{k: given[k] for k in ("downsample", "upscale", "occlusion_sharpness")

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core.declared import option
 from ..core.registry import get_technique
+from ..models.lights import light_source
 from ..reference.projections import render_blended
 from ..reference.volume_shading import ShadeSetup
 from ..volume.clipping import clip_plane_list
@@ -35,22 +36,19 @@ QUALITY_BLENDING = ("composite", "maximum", "minimum", "average", "additive", "i
 MATERIAL = ("ambient", "diffuse", "specular", "specular_power")
 
 
-def check_quality_request(quality, given: dict, blending: str, shade: bool, lights,
-                          single_unlit_volume: bool, crop_box=None, average_range=None
-                          ) -> QualityTarget:
+def check_quality_request(quality, given: dict, blending: str, single_unlit_volume: bool,
+                          crop_box=None, average_range=None) -> QualityTarget:
     """Read ``quality=`` and refuse what calibration cannot measure, by name."""
     target = parse_quality(quality)
     picked = [k for k in PICKED if k in given]
     if picked:
         raise ValueError(f"quality= chooses {', '.join(picked)} itself: give quality= or "
                          "the settings, not both.")
-    if blending not in QUALITY_BLENDING or lights is not None or not single_unlit_volume:
+    if blending not in QUALITY_BLENDING or not single_unlit_volume:
         raise ValueError(f"quality= measures against the CPU reference of one scalar volume: "
                          f"blending one of {QUALITY_BLENDING} (shade=True with "
-                         "'composite' or 'isosurface'), no lights= (the light map), no RGBA, "
-                         "channel or "
-                         "jointly marched volumes. Give the settings (step_scale, face_size "
-                         "...) for those.")
+                         "'composite' or 'isosurface'), no RGBA, channel or jointly marched "
+                         "volumes. Give the settings (step_scale, face_size ...) for those.")
     if crop_box is not None or average_range is not None:
         raise ValueError("quality= with crop_box (or average_range): the CPU reference has no "
                          "crop box; cut the volume with clip_planes instead, which it traces.")
@@ -60,6 +58,22 @@ def check_quality_request(quality, given: dict, blending: str, shade: bool, ligh
 def plane_pairs(clip_planes) -> list[tuple]:
     """``add_volume``'s clip planes as the reference's ``(origin, normal)`` pairs."""
     return [(tuple(p.GetOrigin()), tuple(p.GetNormal())) for p in clip_plane_list(clip_planes)]
+
+
+def light_keys(lights) -> list:
+    """``lights=`` as a cache key: a VTK light by what places and colours it, not its id."""
+    if lights is None or isinstance(lights, str):
+        return [lights]
+    keys = []
+    for light in lights if isinstance(lights, (list, tuple)) else [lights]:
+        if hasattr(light, "GetTransformedPosition"):
+            keys.append((light.GetLightType(), light.GetSwitch(), light.GetPosition(),
+                         light.GetFocalPoint(), light.GetDiffuseColor(), light.GetIntensity(),
+                         light.GetPositional(), light.GetConeAngle(), light.GetExponent(),
+                         light.GetAttenuationValues()))
+        else:
+            keys.append(repr(light))
+    return keys
 
 
 @dataclass
@@ -79,10 +93,17 @@ class VolumeCalibration(ProbeCalibration):
                 float(getattr(model, "value_offset", 0.0)),
                 np.asarray(model.world_from_index()), model.interpolation,
                 plane_pairs(self.keep.get("clip_planes")),
-                sorted((k, v) for k, v in self.keep.items() if k != "clip_planes"))
+                light_keys(self.keep.get("lights")),
+                sorted((k, v) for k, v in self.keep.items()
+                       if k not in ("clip_planes", "lights")))
 
     def shading(self) -> str:
         return "blinn" if self.keep.get("shade") else "unlit"
+
+    def volume_lights(self) -> list | None:
+        """``lights=`` (the light map's) as the reference takes them, for the probe's view."""
+        source = light_source(self.keep.get("lights"), self.probe.renderer)
+        return None if source is None else list(source())
 
     def shade_setup(self) -> ShadeSetup:
         """The reference's shading: the given material, lit by the probe's one headlight."""
@@ -107,9 +128,12 @@ class VolumeCalibration(ProbeCalibration):
                                   step_voxels=REFERENCE_STEP, near=near, clip_planes=planes,
                                   pixels=pixels, shade=shade, isosurfaces=isosurface_levels(
                                       self.keep.get("isosurfaces"), self.model))
+        ambient = self.keep.get("light_map_ambient")
         return self.reference(self.model, camera, size, background=background,
                               step_voxels=REFERENCE_STEP, near=near, pixels=pixels,
-                              clip_planes=planes, shade=shade)
+                              clip_planes=planes, shade=shade, lights=self.volume_lights(),
+                              ambient=float(option("volume", "light_map_ambient").default
+                                            if ambient is None else ambient))
 
     def start(self, tracks) -> int | None:
         return next((i for i, rung in enumerate(tracks[0])
@@ -183,7 +207,7 @@ def volume_calibration(model, technique: str, target: QualityTarget, keep: dict,
     def one(name: str) -> VolumeCalibration:
         reads = set(get_technique("volume", name).option_names) | {
             "stop_opacity", "skip_empty", "clip_planes", "blending", "isosurfaces", "shade",
-            *MATERIAL}
+            "lights", "light_map_size", "light_map_ambient", *MATERIAL}
         return VolumeCalibration(model, name, target,
                                  {k: v for k, v in keep.items() if k in reads}, add,
                                  get_technique("volume", name).reference)
