@@ -44,7 +44,7 @@ from .quality.voxels import (
     check_opaque,
     check_voxel_budget,
     check_voxel_quality,
-    world_reference_grid,
+    check_world_reference,
 )
 from .surfaces import technique as _surfaces  # noqa: F401  (registers 'active', 'full')
 from .surfaces.levels import (
@@ -524,7 +524,7 @@ def add_volume(
             {"stop_opacity": stop_opacity, "skip_empty": skip_empty,
              "clip_planes": clip_planes, "blending": blending,
              **({"isosurfaces": isosurfaces} if blending == "isosurface" else {}),
-             **({"lights": lights, "light_map_size": light_map_size,
+             **({"lights": _lights_now(plotter, lights), "light_map_size": light_map_size,
                  "light_map_ambient": light_map_ambient} if lights is not None else {}),
              **({"shade": True, "ambient": ambient, "diffuse": diffuse, "specular": specular,
                  "specular_power": specular_power} if shade else {}),
@@ -828,6 +828,56 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
     if getattr(actor, "cubemarch", None) is not binding:
         pyvista.set_new_attribute(actor, "cubemarch", binding)
     return actor
+
+
+def _measure_voxels(plotter: pyvista.Plotter, actor, target, keep: dict, options) -> None:
+    """``quality=`` of a grid or world just added: its frame measured and reported.
+
+    Nothing is chosen (the exact traversal is drawn), so it is measured after the build,
+    from the camera the plotter will frame the actor's own bounds with; a world's labels
+    are read again at each calibration (edits included).
+    """
+    binding = actor.cubemarch
+    calibration = VoxelCalibration(binding.model, "voxels", target, keep,
+                                   _probe_adder(add_voxels, False),
+                                   get_technique("voxels", "voxels").reference,
+                                   look=_voxel_reference_look(options),
+                                   bounds_of=actor.GetBounds)
+    binding.quality = calibration.run(plotter, None)
+    calibration.follow(binding, plotter)
+
+
+def _say_levels_without_zero(model, levels) -> None:
+    """Warn of the levels the field never reaches (each draws nothing), all or some.
+
+    The field is a convex combination of its coefficients: a level outside their range
+    (``model`` is the field less the first level) has no zero.
+    """
+    low, high = float(model.coefficients.min()), float(model.coefficients.max())
+    offsets = [0.0] if levels is None else [float(v) - float(levels[0]) for v in levels]
+    missing = [i for i, offset in enumerate(offsets) if not low <= offset <= high]
+    if not missing:
+        return
+    if levels is None:
+        warnings.warn(f"The field has no zero (its coefficients lie in [{low:g}, {high:g}]): "
+                      "nothing is drawn. Check the isovalue or the field's sign.", stacklevel=3)
+        return
+    base = float(levels[0])
+    named = ", ".join(f"{levels[i]:g}" for i in missing)
+    what = "nothing is drawn" if len(missing) == len(levels) else "those draw nothing"
+    warnings.warn(f"The field never reaches the isosurfaces {named} (its values lie in "
+                  f"[{low + base:g}, {high + base:g}]): {what}. Check the levels.",
+                  stacklevel=3)
+
+
+def _lights_now(plotter: pyvista.Plotter, lights):
+    """``lights=`` as a calibration's probe takes it: ``'scene'``, this plotter's lights on now.
+
+    The probe has lights of its own; a volume lit by the scene is lit by the user's.
+    """
+    if isinstance(lights, str) and lights == "scene":
+        return [light for light in plotter.renderer.GetLights() if light.GetSwitch()]
+    return lights
 
 
 def _check_voxel_quality(model, options) -> None:
@@ -1349,20 +1399,14 @@ def add_voxels(
                 model, DEFAULT_CHUNK_SIZE if chunk_size is None else chunk_size)
         per_chunk = _why_per_chunk(model, options)
         check_voxel_budget(frame_budget_ms, model, per_chunk)
-        traced = None
         if target is not None:   # refused before anything is drawn
             _check_voxel_quality(model, options)
-            traced = world_reference_grid(model)
+            check_world_reference(model)
         actor = _add_world(plotter, model, options, name)
         if target is not None:   # measured with the world drawn as the user's will be
-            look = dict(_voxel_look(options),
-                        world_traversal="index" if per_chunk is None else "per_chunk")
-            calibration = VoxelCalibration(model, "voxels", target, look,
-                                           _probe_adder(add_voxels, False), chosen.reference,
-                                           look=_voxel_reference_look(options), grid=traced,
-                                           drawn_bounds=np.asarray(actor.GetBounds()))
-            actor.cubemarch.quality = calibration.run(plotter, None)
-            calibration.follow(actor.cubemarch, plotter)
+            _measure_voxels(plotter, actor, target, dict(
+                _voxel_look(options),
+                world_traversal="index" if per_chunk is None else "per_chunk"), options)
         if frame_budget_ms is not None:
             attach_frame_budget(actor.cubemarch, "voxels", plotter.ren_win, frame_budget_ms)
     else:
@@ -1371,20 +1415,11 @@ def add_voxels(
             warnings.warn(f"world_traversal={world_traversal!r} is for grids drawn in chunks; "
                           f"this grid of {tuple(model.dimensions)} voxels is drawn whole (give "
                           "chunk_size= to draw it in chunks).", stacklevel=2)
-        calibration = choice = None
         check_voxel_budget(frame_budget_ms, model)
         if target is not None:
             _check_voxel_quality(model, options)
-            calibration = VoxelCalibration(model, "voxels", target, _voxel_look(options),
-                                           _probe_adder(add_voxels, False),
-                                           chosen.reference,
-                                           look=_voxel_reference_look(options))
-            choice = calibration.run(plotter, None)
         component = plotter.cubemarch
         binding = chosen.build(plotter, model, options)
-        binding.quality = choice
-        if calibration is not None:
-            calibration.follow(binding, plotter)
         if frame_budget_ms is not None:
             attach_frame_budget(binding, "voxels", plotter.ren_win, frame_budget_ms)
         if not binding.composites:
@@ -1393,6 +1428,8 @@ def add_voxels(
         actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
         component.track(binding)
         _frame(plotter)
+        if target is not None:   # measured with the grid drawn, framed as its actor is
+            _measure_voxels(plotter, actor, target, _voxel_look(options), options)
     add_voxel_scalar_bar(plotter, actor, model.palette, scalars or model.name, show_scalar_bar,
                          scalar_bar_args, annotations, model.ids)
     return actor
@@ -1623,8 +1660,12 @@ def add_surface(
         active_samples=active_samples, color=color, shading=shading, ambient=ambient,
         specular=specular, specular_power=specular_power, color_by=colouring, cmap=cmap,
         clim=None if clim is None else tuple(clim), opacity=opacity))
-    model = make_field(field, isovalue if levels is None else levels[0], scalars, cells=cells,
-                       transform=transform, name=name or getattr(field, "name", "surface"))
+    with warnings.catch_warnings():   # several levels: each out of range is named below
+        if levels is not None and len(levels) > 1:
+            warnings.filterwarnings("ignore", message="isovalue=.* outside the data range")
+        model = make_field(field, isovalue if levels is None else levels[0], scalars,
+                           cells=cells, transform=transform,
+                           name=name or getattr(field, "name", "surface"))
     if colouring == "field" and not isinstance(color_by, str):   # values, not a name
         model = dataclasses.replace(model, color_values=color_values(color_by, model))
     options.check_model(model)
@@ -1654,10 +1695,7 @@ def add_surface(
             level_colors=None if table is None else tuple(colours))
         choice = calibration.run(plotter, None)
         options = dataclasses.replace(options, **choice.setting)
-    low, high = float(model.coefficients.min()), float(model.coefficients.max())
-    if low > 0.0 or high < 0.0:   # the field is a convex combination of its coefficients
-        warnings.warn(f"The field has no zero (its coefficients lie in [{low:g}, {high:g}]): "
-                      "nothing is drawn. Check the isovalue or the field's sign.", stacklevel=2)
+    _say_levels_without_zero(model, levels)
     if table is not None and options.translucent:   # every level in one pass
         if technique != "active":
             raise ValueError(f"opacity={opacity:g} with {len(levels)} isosurfaces: they are "

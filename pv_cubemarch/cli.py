@@ -717,9 +717,13 @@ def _render(args) -> int:
     _voxel_options(scene, as_voxels, given)
     _surface_options(scene, args, given)
     if args.chunk_size is not None:
-        for grid in scene.voxels:   # worlds keep their own chunks
-            if isinstance(grid, VoxelModel):
-                scene.voxel_options.setdefault(grid.name, {})["chunk_size"] = args.chunk_size
+        grids = [grid for grid in scene.voxels if isinstance(grid, VoxelModel)]
+        if not grids:   # said, not ignored
+            raise ValueError("--chunk-size draws label grids in chunks; this scene has none "
+                             "(give --technique voxels to draw its grids as labels, or leave "
+                             "--chunk-size out).")
+        for grid in grids:   # worlds keep their own chunks
+            scene.voxel_options.setdefault(grid.name, {})["chunk_size"] = args.chunk_size
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SceneWarning)
         scene.render(args.out, size=args.size, camera=args.camera, progress_bar=progress_bar)

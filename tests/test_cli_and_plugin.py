@@ -223,6 +223,13 @@ def test_render_label_file_with_technique_voxels(tmp_path, monkeypatch):
     assert_ids_exact(out, labels, np.eye(4), camera, None)
 
 
+def test_chunk_size_on_a_scene_without_label_grids_is_refused(tmp_path, capsys):
+    # catches (seen failing, found by a review): --chunk-size dropped in silence
+    assert main(["render", str(SCENE), "-o", str(tmp_path / "x.png"), "--chunk-size", "8",
+                 "--no-progress"]) == 2
+    assert "--chunk-size draws label grids in chunks" in capsys.readouterr().err
+
+
 def test_technique_voxels_on_a_density_volume_names_it(tmp_path, capsys):
     # catches (seen to fail): the loader's error passed on without saying what to do.
     assert main(["render", str(SCENE), "-o", str(tmp_path / "x.png"), "--technique",

@@ -19,6 +19,7 @@ from pv_cubemarch.core.camera import Camera
 from pv_cubemarch.core.rendering import offscreen_plotter, read_pixels, render_frame
 from pv_cubemarch.image_metrics import compare_images
 from pv_cubemarch.models.lights import VolumeLight
+from pv_cubemarch.quality import parse_quality
 from pv_cubemarch.reference.voxels import render_voxels
 
 SIZE = (240, 180)
@@ -157,6 +158,85 @@ def test_a_world_s_drawing_is_measured_against_its_labels_traced_whole(cells, ke
     assert abs(measured - choice.psnr) < 0.5 or min(measured, choice.psnr) > 60.0, (
         choice, measured)
     plotter.close()
+
+
+def test_a_world_s_report_follows_its_edits(cells):
+    # recalibrate() after an edit measures the world as it is now (its labels read again)
+    # catches (seen failing, found by a review): the labels read once at add_voxels (the
+    # edited world reported at 16.9 dB, out of reach, while drawn exactly)
+    plotter = offscreen_plotter(SIZE)
+    plotter.ren_win.SetMultiSamples(0)
+    plotter.camera_position = [(-130.0, 0.0, 40.0), cells.center, (0, 0, 1)]
+    actor = pv_cubemarch.add_voxels(plotter, cells, quality="exact", shading="unlit",
+                                    chunk_size=8)
+    actor.cubemarch.fill_box((0, 0, 0), (28, 20, 7), 7000)   # the lower half one id
+    plotter.camera.Azimuth(25.0)   # another view: no cached choice to fall back on
+    choice = actor.cubemarch.recalibrate()
+    render_frame(plotter)
+    ids = cells.cell_data["cell_id"].reshape((28, 20, 14), order="F").copy()
+    ids[:, :, :7] = 7000
+    world_from_index = np.diag([0.6, 0.8, 1.1, 1.0])
+    world_from_index[:3, 3] = (-100.0, 25.0, 5.0)
+    expected = render_voxels(ids, world_from_index, actor.cubemarch.palette.rgba,
+                             Camera.from_pyvista(plotter.camera), SIZE,
+                             background=plotter.background_color.float_rgb,
+                             near=plotter.camera.clipping_range[0])
+    measured = compare_images(read_pixels(plotter), expected).psnr
+    assert choice.met and measured >= 45.0, (choice, measured)
+    plotter.close()
+
+
+def test_a_small_grid_in_a_large_box_is_measured_from_its_first_frame_s_view():
+    # 12 filled voxels of a 120x100x60 grid: its actor is the box of the filled voxels,
+    # which PyVista frames; the report is that first frame's, and it does not warn
+    # catches (seen failing, found by a review): the probe framed on the whole grid (the
+    # first frame warned that the view had changed)
+    import warnings
+    ids = np.zeros((120, 100, 60), np.uint16)
+    ids[60:63, 40:42, 30:32] = 40000
+    grid = pyvista.ImageData(dimensions=(121, 101, 61), spacing=(0.3, 0.2, 0.5),
+                             origin=(-5000.0, 300.0, -20.0))
+    grid.cell_data["ids"] = ids.ravel(order="F")
+    plotter = offscreen_plotter(SIZE)
+    plotter.ren_win.SetMultiSamples(0)
+    actor = pv_cubemarch.add_voxels(plotter, grid, quality=40, shading="unlit")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        render_frame(plotter)
+    world_from_index = np.diag([0.3, 0.2, 0.5, 1.0])
+    world_from_index[:3, 3] = (-5000.0, 300.0, -20.0)
+    expected = render_voxels(ids, world_from_index, actor.cubemarch.palette.rgba,
+                             Camera.from_pyvista(plotter.camera), SIZE,
+                             background=plotter.background_color.float_rgb,
+                             near=plotter.camera.clipping_range[0])
+    assert np.any(expected != expected[0, 0], axis=-1).mean() > 0.05   # framed on it
+    measured = compare_images(read_pixels(plotter), expected).psnr
+    choice = actor.cubemarch.quality
+    assert choice.met and (abs(measured - choice.psnr) < 0.5 or min(measured,
+                                                                    choice.psnr) > 60.0)
+    plotter.close()
+
+
+def test_an_exact_measurement_is_served_from_the_cache():
+    # a choice measured at infinite PSNR (drawn equal to the reference), written to the
+    # cache file and read back from it (not from memory)
+    # catches (seen failing, found by a review): an infinite PSNR read back as a bad
+    # entry (every identical add calibrated again)
+    from pv_cubemarch.quality import cache
+    from pv_cubemarch.quality.calibration import QualityChoice
+    from pv_cubemarch.quality.ladders import Rung
+    from pv_cubemarch.quality.probe import stored_choice
+    setting = {"traversal": "dda"}
+    choice = QualityChoice(parse_quality("exact", exact=True), setting, float("inf"), True,
+                           [{"setting": setting, "psnr": float("inf"), "cost": 1.0}], 0.1,
+                           (240, 180), 100)
+    cache.store("exact-key", choice.as_dict())
+    cache._MEMORY.clear()
+    read = stored_choice(cache.lookup("exact-key"), [[Rung(setting, 1.0)]],
+                         parse_quality("exact", exact=True), (240, 180))
+    assert read is not None and read.cached and read.psnr == float("inf") and read.met
+    assert stored_choice({**choice.as_dict(), "psnr": float("-inf")}, [[Rung(setting, 1.0)]],
+                         parse_quality("exact", exact=True), (240, 180)) is None
 
 
 def test_a_world_too_large_to_trace_whole_is_refused_before_drawing(cells, monkeypatch):

@@ -217,6 +217,17 @@ def test_a_field_with_no_zero_draws_nothing_and_bad_input_is_refused(plotter_fac
     with pytest.warns(UserWarning, match="no zero"):
         actor = cm.add_surface(pl, np.ones((4, 4, 4)), isovalue=0.5)
     assert len(actor.cubemarch.cells) == 0 and not cm.render_image(pl).any()
+    # several levels: the ones out of reach are named, in any order (the field of ones
+    # by hand: it reaches 1 only)
+    # catches (seen failing, found by a review): the first level alone checked (levels
+    # [5, 1]: 'nothing is drawn' while 1 is drawn; [1, 5]: no word of 5)
+    values = np.ones((4, 4, 4))
+    values[1:3, 1:3, 1:3] = 3.0
+    for levels, words in (([5.0, 2.0], "isosurfaces 5 .* those draw nothing"),
+                          ([2.0, 5.0], "isosurfaces 5 .* those draw nothing"),
+                          ([5.0, 7.0], "isosurfaces 5, 7 .* nothing is drawn")):
+        with pytest.warns(UserWarning, match=words):
+            cm.add_surface(pl, values, isosurfaces=levels)
     with pytest.raises(VolumeDataError, match="needs isovalue"):
         cm.add_surface(pl, np.ones((4, 4, 4)))
     with pytest.raises(VolumeDataError, match="NaN"):

@@ -77,6 +77,7 @@ def stored_choice(stored: dict, tracks, target: QualityTarget, size) -> QualityC
     """A cached entry as a choice, if it names one of these rungs with a finite PSNR.
 
     The file is untrusted: another version's ladder, or an edited file, calibrates again.
+    An infinite PSNR (a drawing equal to the reference, as voxels are) is a measurement.
     The setting drawn is the ladder's own rung (not the file's copy of it), and whether
     the target is met is worked out again from the PSNR, not read.
     """
@@ -98,7 +99,7 @@ def stored_choice(stored: dict, tracks, target: QualityTarget, size) -> QualityC
     setting = rung_of(stored.get("setting"))
     psnr = number(stored.get("psnr"))
     measured = stored.get("measured", [])
-    if setting is None or psnr is None or not math.isfinite(psnr) \
+    if setting is None or psnr is None or psnr == -math.inf \
             or not isinstance(measured, list) or not all(
                 isinstance(m, dict) and rung_of(m.get("setting")) is not None
                 and number(m.get("psnr")) is not None for m in measured):

@@ -12,6 +12,7 @@ measurement shows it).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,20 +29,31 @@ EXACT = {"traversal": "dda"}
 WORLD_REFERENCE_VOXELS = 1 << 27
 
 
-def world_reference_grid(world) -> tuple[np.ndarray, np.ndarray]:
-    """A world's labels over the box of its filled voxels, read from its chunks, placed.
-
-    What the reference traces for ``quality=`` on a world: the box's labels (at most
-    :data:`WORLD_REFERENCE_VOXELS`, else ``ValueError``) and its ``world_from_index``.
-    """
+def _filled_box(world) -> tuple[np.ndarray, np.ndarray]:
+    """The index-space box of a world's filled voxels (one empty voxel for an empty world)."""
     lower, upper = (np.asarray(v, dtype=np.int64) for v in world_filled_bounds(world))
-    upper = np.maximum(upper, lower + 1)   # an empty world: one empty voxel
+    return lower, np.maximum(upper, lower + 1)
+
+
+def check_world_reference(world) -> None:
+    """Refuse ``quality=`` for a world whose filled voxels the reference cannot read whole."""
+    lower, upper = _filled_box(world)
     count = int(np.prod(upper - lower))
     if count > WORLD_REFERENCE_VOXELS:
         raise ValueError(f"quality= reads a world's filled voxels whole for the CPU reference; "
                          f"this world's filled box holds {count:,} voxels, over "
                          f"{WORLD_REFERENCE_VOXELS:,}: leave quality out (the world is drawn "
                          "by the same exact traversal either way).")
+
+
+def world_reference_grid(world) -> tuple[np.ndarray, np.ndarray]:
+    """A world's labels over the box of its filled voxels, read from its chunks, placed.
+
+    What the reference traces for ``quality=`` on a world: the box's labels and its
+    ``world_from_index`` (:func:`check_world_reference` says whether it may).
+    """
+    check_world_reference(world)
+    lower, upper = _filled_box(world)
     labels = world.labels_in(tuple(slice(int(lo), int(hi))
                                    for lo, hi in zip(lower, upper, strict=True)))
     shift = np.eye(4)
@@ -79,9 +91,13 @@ def check_voxel_budget(frame_budget_ms, model, per_chunk: str | None = None) -> 
         return
     check_frame_budget(frame_budget_ms, "voxels", 1)
     if per_chunk is not None:
+        chosen = per_chunk.startswith("world_traversal=")
         raise ValueError("frame_budget_ms draws one traversal at fewer pixels while the view "
                          f"moves; this world is drawn by a box per chunk ({per_chunk}): "
-                         "leave the budget out, or draw it with world_traversal='index'.")
+                         "leave the budget out, or " + (
+                             "draw it with world_traversal='index'." if chosen else
+                             "give it what one traversal needs (world_traversal='index': a "
+                             "power-of-two chunk_size, no distance_field, proxy='box')."))
     alpha = np.asarray(model.palette.rgba)[1:, 3]
     if ((alpha > 0.0) & (alpha < 1.0)).any():
         raise ValueError("frame_budget_ms draws a grid's opaque voxels at fewer pixels while "
@@ -93,14 +109,15 @@ def check_voxel_budget(frame_budget_ms, model, per_chunk: str | None = None) -> 
 class VoxelCalibration(ProbeCalibration):
     """``quality=`` of a voxel grid: the DDA, measured over the window's frame.
 
-    ``look`` holds the reference's keywords for the grid's look (shading, edges ...). A
-    world: ``grid``, the labels and placement the reference traces
-    (:func:`world_reference_grid`), and ``drawn_bounds``, its actor's bounds.
+    ``look`` holds the reference's keywords for the grid's look (shading, edges ...);
+    ``bounds_of`` gives its actor's bounds now (what PyVista frames the camera on). A
+    world's labels are read from its chunks at each calibration
+    (:func:`world_reference_grid`).
     """
 
     look: dict | None = None
-    grid: tuple | None = None
-    drawn_bounds: np.ndarray | None = None
+    bounds_of: Callable | None = None
+    _grid: tuple | None = None
     kind = "voxels"
     samples = 1 << 40   # every pixel of the footprint (the reference traces the frame)
 
@@ -108,10 +125,15 @@ class VoxelCalibration(ProbeCalibration):
         return [[Rung(dict(EXACT), 1.0)]]
 
     def traced_grid(self) -> tuple[np.ndarray, np.ndarray]:
-        """The labels the reference traces and their ``world_from_index``."""
-        if self.grid is not None:
-            return self.grid
-        return self.model.labels, self.model.world_from_index()
+        """The labels the reference traces and their ``world_from_index``, as they are now.
+
+        Read when a calibration keys its choice, and kept for its trace.
+        """
+        if hasattr(self.model, "labels"):
+            self._grid = (self.model.labels, self.model.world_from_index())
+        else:
+            self._grid = world_reference_grid(self.model)
+        return self._grid
 
     def key_parts(self) -> tuple:
         labels, world_from_index = self.traced_grid()
@@ -119,15 +141,15 @@ class VoxelCalibration(ProbeCalibration):
                 np.asarray(world_from_index), sorted((k, repr(v)) for k, v in self.keep.items()))
 
     def bounds(self) -> np.ndarray:
-        if self.drawn_bounds is not None:
-            return np.asarray(self.drawn_bounds, dtype=np.float64)
+        if self.bounds_of is not None:
+            return np.asarray(self.bounds_of(), dtype=np.float64)
         return margined_bounds(self.model)
 
     def shading(self) -> str:
         return self.look.get("shading", "unlit")
 
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
-        labels, world_from_index = self.traced_grid()
+        labels, world_from_index = self._grid or self.traced_grid()
         frame = self.reference(labels, world_from_index, self.model.palette.rgba,
                                camera, size, background=background, near=near,
                                lights=self.probe_lights(), **self.look)
