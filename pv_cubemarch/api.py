@@ -242,7 +242,7 @@ def add_volume(
         calibrated warns once; ``actor.cubemarch.recalibrate()`` chooses for the view
         then (set the camera before adding to avoid it). ``'auto'``: both of its paths
         are calibrated apart (the step and the face), so either meets the target. One
-        scalar volume, composited or as isosurfaces (``shade=True`` too: lit by one
+        volume (an RGBA one composited), composited or as isosurfaces (``shade=True`` too: lit by one
         headlight on the probe and in the reference, with its material) or projected
         (``'maximum'``, ``'minimum'``, ``'average'``, ``'additive'``); not with the
         settings it chooses or a crop box. With ``lights=`` the reference lights its
@@ -517,8 +517,8 @@ def add_volume(
     if quality is not None:
         target = check_quality_request(
             quality, given, blending,
-            isinstance(model, VolumeModel) and model.colors is None and not is_channels(model),
-            crop_box, average_range)
+            isinstance(model, VolumeModel) and not is_channels(model), crop_box, average_range,
+            rgba=getattr(model, "colors", None) is not None)
         calibration = volume_calibration(
             model, chosen.name, target,
             {"stop_opacity": stop_opacity, "skip_empty": skip_empty,

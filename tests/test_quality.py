@@ -313,6 +313,39 @@ def test_shaded_and_projected_volumes_meet_their_target(ct, technique, keywords)
     plotter.close()
 
 
+@pytest.mark.parametrize("technique", ["direct", "cubemap"])
+def test_an_rgba_volume_meets_its_target(technique):
+    # uint8 RGBA (independent_components=False): a ball of hard edge coloured by place,
+    # against the reference of its own colours and opacity over the whole frame
+    # catches (seen failing): RGBA refused (the reference draws it); the colours left out
+    # of the cache key (a recoloured volume served the first one's choice)
+    x, y, z = np.mgrid[-1:1:40j, -1:1:32j, -1:1:28j]
+    inside = np.sqrt(x**2 + 1.5 * y**2 + z**2) < 0.7
+    rgba = np.stack([(x + 1) / 2, (y + 1) / 2, (z + 1) / 2, 0.25 * inside], axis=-1)
+    grid = pyvista.ImageData(dimensions=x.shape, spacing=(0.5, 0.6, 0.7),
+                             origin=(300.0, -50.0, 20.0))
+    grid.point_data["rgba"] = (rgba.reshape(-1, 4, order="F") * 255).astype(np.uint8)
+    estimates = []
+    for colours in (grid.point_data["rgba"], grid.point_data["rgba"][:, [2, 0, 1, 3]]):
+        grid.point_data["rgba"] = colours
+        plotter = _plotter()
+        plotter.camera_position = [(280.0, -70.0, 40.0), grid.center, (0, 0, 1)]
+        actor = pv_cubemarch.add_volume(plotter, grid, quality=40, technique=technique,
+                                        independent_components=False)
+        choice = actor.cubemarch.quality
+        render_frame(plotter)
+        expected = render_emission_absorption(actor.cubemarch.model,
+                                              Camera.from_pyvista(plotter.camera), SIZE,
+                                              step_voxels=0.1,
+                                              near=plotter.camera.clipping_range[0])
+        measured = compare_images(read_pixels(plotter), expected).psnr
+        assert choice.met and measured >= 40.0, (choice, measured)
+        assert abs(measured - choice.psnr) < 1.5, (choice, measured)
+        estimates.append(choice.cached)
+        plotter.close()
+    assert estimates == [False, False]
+
+
 def test_auto_calibrates_both_paths_so_either_meets_the_target(ct):
     # 'auto' draws the cube map or the direct marcher per frame: each path is calibrated
     # on its own, and each, forced, meets the target over the whole frame

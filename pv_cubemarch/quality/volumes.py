@@ -36,19 +36,22 @@ QUALITY_BLENDING = ("composite", "maximum", "minimum", "average", "additive", "i
 MATERIAL = ("ambient", "diffuse", "specular", "specular_power")
 
 
-def check_quality_request(quality, given: dict, blending: str, single_unlit_volume: bool,
-                          crop_box=None, average_range=None) -> QualityTarget:
+def check_quality_request(quality, given: dict, blending: str, single_volume: bool,
+                          crop_box=None, average_range=None, rgba: bool = False
+                          ) -> QualityTarget:
     """Read ``quality=`` and refuse what calibration cannot measure, by name."""
     target = parse_quality(quality)
     picked = [k for k in PICKED if k in given]
     if picked:
         raise ValueError(f"quality= chooses {', '.join(picked)} itself: give quality= or "
                          "the settings, not both.")
-    if blending not in QUALITY_BLENDING or not single_unlit_volume:
-        raise ValueError(f"quality= measures against the CPU reference of one scalar volume: "
+    if blending not in QUALITY_BLENDING or not single_volume or (
+            rgba and blending != "composite"):
+        raise ValueError(f"quality= measures against the CPU reference of one volume: "
                          f"blending one of {QUALITY_BLENDING} (shade=True with "
-                         "'composite' or 'isosurface'), no RGBA, channel or jointly marched "
-                         "volumes. Give the settings (step_scale, face_size ...) for those.")
+                         "'composite' or 'isosurface'; an RGBA volume composited), no channel "
+                         "or jointly marched volumes. Give the settings (step_scale, "
+                         "face_size ...) for those.")
     if crop_box is not None or average_range is not None:
         raise ValueError("quality= with crop_box (or average_range): the CPU reference has no "
                          "crop box; cut the volume with clip_planes instead, which it traces.")
@@ -88,7 +91,7 @@ class VolumeCalibration(ProbeCalibration):
 
     def key_parts(self) -> tuple:
         model, transfer = self.model, self.model.transfer
-        return (model.values, transfer.table, tuple(transfer.clim),
+        return (model.values, model.colors, transfer.table, tuple(transfer.clim),
                 repr(getattr(transfer, "spec", None)),
                 float(getattr(model, "value_offset", 0.0)),
                 np.asarray(model.world_from_index()), model.interpolation,
