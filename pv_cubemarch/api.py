@@ -242,10 +242,10 @@ def add_volume(
         calibrated warns once; ``actor.cubemarch.recalibrate()`` chooses for the view
         then (set the camera before adding to avoid it). ``'auto'``: both of its paths
         are calibrated apart (the step and the face), so either meets the target. One
-        volume (an RGBA one composited), composited or as isosurfaces (``shade=True`` too: lit by one
-        headlight on the probe and in the reference, with its material) or projected
-        (``'maximum'``, ``'minimum'``, ``'average'``, ``'additive'``); not with the
-        settings it chooses or a crop box. With ``lights=`` the reference lights its
+        volume, composited (an RGBA one too) or as isosurfaces (``shade=True`` too: lit
+        by one headlight on the probe and in the reference, with its material) or
+        projected (``'maximum'``, ``'minimum'``, ``'average'``, ``'additive'``); not with
+        the settings it chooses, channel volumes or a crop box. With ``lights=`` the reference lights its
         samples through the volume as the light map does; the light map's own error (38.5
         dB at 64 points a side on a CT phantom) bounds what a target can reach.
     frame_budget_ms : float, optional
