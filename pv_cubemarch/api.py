@@ -245,9 +245,10 @@ def add_volume(
         volume, composited (an RGBA one too) or as isosurfaces (``shade=True`` too: lit
         by one headlight on the probe and in the reference, with its material) or
         projected (``'maximum'``, ``'minimum'``, ``'average'``, ``'additive'``); not with
-        the settings it chooses, channel volumes or a crop box. With ``lights=`` the reference lights its
-        samples through the volume as the light map does; the light map's own error (38.5
-        dB at 64 points a side on a CT phantom) bounds what a target can reach.
+        the settings it chooses, channel volumes or a crop box. With ``lights=`` the
+        reference lights its samples through the volume as the light map does; the light
+        map's own error (38.5 dB at 64 points a side on a CT phantom) bounds what a
+        target can reach.
     frame_budget_ms : float, optional
         ``'vtk'``, ``'direct'`` (at ``downsample=1``), ``'cubemap'`` and ``'auto'``: while
         the view moves (VTK's interactors, the live view's mouse), each frame takes the
