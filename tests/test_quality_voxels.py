@@ -55,6 +55,30 @@ def _whole_frame_psnr(plotter, actor, **look) -> float:
     return compare_images(read_pixels(plotter), expected).psnr
 
 
+def _first_frame_unwarned(size, grid, **keywords):
+    """A plotter of ``size`` without MSAA, ``grid`` added, its first frame drawn; a warning
+    then (the view differing from the one calibrated) fails the test."""
+    import warnings
+    plotter = offscreen_plotter(size)
+    plotter.ren_win.SetMultiSamples(0)
+    actor = pv_cubemarch.add_voxels(plotter, grid, **keywords)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        render_frame(plotter)
+    return plotter, actor
+
+
+def _by_hand(plotter, actor, ids, spacing, origin, **look) -> np.ndarray:
+    """The reference of the test's own labels, placed by hand (spacing, origin), at the
+    plotter's camera, near plane and background."""
+    world_from_index = np.diag([*spacing, 1.0])
+    world_from_index[:3, 3] = origin
+    return render_voxels(ids, world_from_index, actor.cubemarch.palette.rgba,
+                         Camera.from_pyvista(plotter.camera), tuple(plotter.window_size),
+                         background=plotter.background_color.float_rgb,
+                         near=plotter.camera.clipping_range[0], **look)
+
+
 @pytest.mark.parametrize("quality", ["exact", 40.0])
 def test_every_target_gets_the_dda_with_its_error_measured(cells, quality):
     # the probe's estimate and the whole frame both see the reference drawn, clip planes,
@@ -103,13 +127,7 @@ def test_the_report_is_the_window_s_own_and_its_first_frame_is_the_one_calibrate
     # other than the window's: 45.1 dB drawn where inf was reported, and a warning at the
     # first frame); the probe framed on the grid without the drawn box's margin (every
     # first frame warned that the view had changed)
-    import warnings
-    plotter = offscreen_plotter(size)
-    plotter.ren_win.SetMultiSamples(0)
-    actor = pv_cubemarch.add_voxels(plotter, cells, quality=35, shading="unlit")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        render_frame(plotter)
+    plotter, actor = _first_frame_unwarned(size, cells, quality=35, shading="unlit")
     model = actor.cubemarch.model
     expected = render_voxels(model.labels, model.world_from_index(), model.palette.rgba,
                              Camera.from_pyvista(plotter.camera), size,
@@ -134,24 +152,12 @@ def test_a_world_s_drawing_is_measured_against_its_labels_traced_whole(cells, ke
     # catches (seen failing): the probe framed on a grid's margined box where a world drawn
     # per chunk stands as its bounds (the first frame warned of another view); the
     # reference given the world's labels mirrored (13.0 dB reported)
-    import warnings
-    plotter = offscreen_plotter(SIZE)
-    plotter.ren_win.SetMultiSamples(0)
-    actor = pv_cubemarch.add_voxels(plotter, cells, quality="exact", shading="unlit",
-                                    **keywords)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        render_frame(plotter)
+    plotter, actor = _first_frame_unwarned(SIZE, cells, quality="exact", shading="unlit",
+                                           **keywords)
     ids = cells.cell_data["cell_id"].reshape(np.subtract(cells.dimensions, 1), order="F")
-    world_from_index = np.diag([0.6, 0.8, 1.1, 1.0])
-    world_from_index[:3, 3] = (-100.0, 25.0, 5.0)
-    expected = render_voxels(ids, world_from_index, actor.cubemarch.palette.rgba,
-                             Camera.from_pyvista(plotter.camera), SIZE,
-                             background=plotter.background_color.float_rgb,
-                             near=plotter.camera.clipping_range[0], show_edges=bool(
-                                 keywords.get("show_edges")),
-                             edge_color=pyvista.Color(pyvista.global_theme.edge_color).float_rgb,
-                             line_width=1.1)
+    expected = _by_hand(plotter, actor, ids, (0.6, 0.8, 1.1), (-100.0, 25.0, 5.0),
+                        show_edges=bool(keywords.get("show_edges")), line_width=1.1,
+                        edge_color=pyvista.Color(pyvista.global_theme.edge_color).float_rgb)
     measured = compare_images(read_pixels(plotter), expected).psnr
     choice = actor.cubemarch.quality
     assert choice.met and measured >= 45.0, (choice, measured)
@@ -175,12 +181,7 @@ def test_a_world_s_report_follows_its_edits(cells):
     render_frame(plotter)
     ids = cells.cell_data["cell_id"].reshape((28, 20, 14), order="F").copy()
     ids[:, :, :7] = 7000
-    world_from_index = np.diag([0.6, 0.8, 1.1, 1.0])
-    world_from_index[:3, 3] = (-100.0, 25.0, 5.0)
-    expected = render_voxels(ids, world_from_index, actor.cubemarch.palette.rgba,
-                             Camera.from_pyvista(plotter.camera), SIZE,
-                             background=plotter.background_color.float_rgb,
-                             near=plotter.camera.clipping_range[0])
+    expected = _by_hand(plotter, actor, ids, (0.6, 0.8, 1.1), (-100.0, 25.0, 5.0))
     measured = compare_images(read_pixels(plotter), expected).psnr
     assert choice.met and measured >= 45.0, (choice, measured)
     plotter.close()
@@ -191,24 +192,13 @@ def test_a_small_grid_in_a_large_box_is_measured_from_its_first_frame_s_view():
     # which PyVista frames; the report is that first frame's, and it does not warn
     # catches (seen failing, found by a review): the probe framed on the whole grid (the
     # first frame warned that the view had changed)
-    import warnings
     ids = np.zeros((120, 100, 60), np.uint16)
     ids[60:63, 40:42, 30:32] = 40000
     grid = pyvista.ImageData(dimensions=(121, 101, 61), spacing=(0.3, 0.2, 0.5),
                              origin=(-5000.0, 300.0, -20.0))
     grid.cell_data["ids"] = ids.ravel(order="F")
-    plotter = offscreen_plotter(SIZE)
-    plotter.ren_win.SetMultiSamples(0)
-    actor = pv_cubemarch.add_voxels(plotter, grid, quality=40, shading="unlit")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        render_frame(plotter)
-    world_from_index = np.diag([0.3, 0.2, 0.5, 1.0])
-    world_from_index[:3, 3] = (-5000.0, 300.0, -20.0)
-    expected = render_voxels(ids, world_from_index, actor.cubemarch.palette.rgba,
-                             Camera.from_pyvista(plotter.camera), SIZE,
-                             background=plotter.background_color.float_rgb,
-                             near=plotter.camera.clipping_range[0])
+    plotter, actor = _first_frame_unwarned(SIZE, grid, quality=40, shading="unlit")
+    expected = _by_hand(plotter, actor, ids, (0.3, 0.2, 0.5), (-5000.0, 300.0, -20.0))
     assert np.any(expected != expected[0, 0], axis=-1).mean() > 0.05   # framed on it
     measured = compare_images(read_pixels(plotter), expected).psnr
     choice = actor.cubemarch.quality
