@@ -197,11 +197,20 @@ def option(kind: str, name: str) -> Option:
 
 
 def check_declared(options) -> None:
-    """Check every field of an options dataclass against its declaration."""
+    """Check every field of an options dataclass against its declaration.
+
+    A float option given a whole number (``step_scale=16``) is held as a float: GL takes
+    a float uniform from a float only (set as an int it stays 0, and a ray stepping by 0
+    never ends).
+    """
     for item in dataclasses.fields(options):
         declaration = item.metadata.get("option")
         if declaration is not None:
-            declaration.check(getattr(options, item.name))
+            value = getattr(options, item.name)
+            declaration.check(value)
+            if declaration.type is float and not declaration.choices and isinstance(
+                    value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)):
+                object.__setattr__(options, item.name, float(value))
 
 
 def usd_table(kind: str) -> tuple[tuple[str, str, object], ...]:
