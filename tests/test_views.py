@@ -153,6 +153,25 @@ def test_an_adopted_surface_keeps_its_technique(plotter_factory):
     assert pl.renderer.actors["ball"].cubemarch.cells is None       # still the full march
 
 
+@pytest.mark.parametrize("opacity", [1.0, 0.5])
+def test_surfaces_of_several_levels_are_drawn_as_they_are(plotter_factory, opacity):
+    # the surface knobs tune one level: several levels (opaque: one surface each;
+    # translucent: one pass) are not adopted, and a knob leaves them as they were
+    # catches (seen failing): both adopted as their first level (a knob then drew one
+    # translucent shell: 209 levels off; opaque levels crashed adoption before they had
+    # options)
+    pl = plotter_factory(SIZE)
+    x, y, z = np.mgrid[-1:1:16j, -1:1:16j, -1:1:16j]
+    cm.add_surface(pl, x * x + y * y + z * z, isosurfaces=[0.3, 0.8], name="shells",
+                   opacity=opacity)
+    cm.add_surface(pl, x * x + y * y + z * z, isovalue=0.5, name="ball", color="tan")
+    before = cm.render_image(pl)
+    session = TuningSession.from_plotter(pl)
+    assert list(session.items) == ["ball"]
+    session.set("surface", "steps", 500)   # the ball's own steps: nothing changes
+    assert np.array_equal(cm.render_image(pl), before)
+
+
 # --- plotter.show() in a notebook: PyVista's backends as pv_cubemarch wraps them ----------
 
 def served_page(view) -> bytes:

@@ -398,12 +398,14 @@ def adoptable_actors(plotter: pyvista.Plotter) -> list[tuple[str, object, int]]:
 
     Actors a binding draws for another one (the direct half of an ``auto`` volume, a
     world's chunks: their binding's ``actor`` is that other one's) are left out, and label
-    grids streamed by bricks (drawn as they are, as meshes: no knob re-adds them yet).
+    grids streamed by bricks and surfaces of several levels (drawn as they are: no knob
+    re-adds them yet; the surface knobs tune one level, and would draw only the first).
     """
     return [(name, actor, index) for index, renderer in enumerate(plotter.renderers)
             for name, actor in renderer.actors.items()
             if getattr(getattr(actor, "cubemarch", None), "model", None) is not None
             and not isinstance(actor.cubemarch.model, PagedLabels)
+            and len(getattr(actor.cubemarch, "values", None) or ()) < 2
             and getattr(actor.cubemarch, "actor", actor) is actor]
 
 
