@@ -237,15 +237,16 @@ def test_what_calibration_cannot_measure_is_refused_by_name(ct, keywords, words)
     plotter.close()
 
 
+# the light map's and the cube map's cases are long (5-14 s): their own CI step (-m slow)
 @pytest.mark.parametrize("technique, keywords", [
     ("direct", {"shade": True}),
     ("vtk", {"shade": True, "ambient": 0.05, "specular": 0.6, "specular_power": 30.0}),
-    ("cubemap", {"shade": True}),
+    pytest.param("cubemap", {"shade": True}, marks=pytest.mark.slow),
     ("direct", {"blending": "maximum"}),
     ("vtk", {"blending": "average"}),
     ("direct", {"blending": "isosurface", "isosurfaces": [-300.0, 700.0], "shade": True}),
-    ("direct", {"lights": "light", "light_map_ambient": 0.3}),
-    ("direct", {"lights": "scene", "light_map_ambient": 0.3}),
+    pytest.param("direct", {"lights": "light", "light_map_ambient": 0.3}, marks=pytest.mark.slow),
+    pytest.param("direct", {"lights": "scene", "light_map_ambient": 0.3}, marks=pytest.mark.slow),
 ])
 def test_shaded_and_projected_volumes_meet_their_target(ct, technique, keywords):
     # Shaded (gradient shading by one headlight, with the material given) and projected
@@ -313,7 +314,7 @@ def test_shaded_and_projected_volumes_meet_their_target(ct, technique, keywords)
     plotter.close()
 
 
-@pytest.mark.parametrize("technique", ["direct", "cubemap"])
+@pytest.mark.parametrize("technique", ["direct", pytest.param("cubemap", marks=pytest.mark.slow)])
 def test_an_rgba_volume_meets_its_target(technique):
     # uint8 RGBA (independent_components=False): a ball of hard edge coloured by place,
     # against the reference of its own colours and opacity over the whole frame
