@@ -408,6 +408,7 @@ def test_bench_labels_measures_worlds_of_chunks(traversal):
     assert 1.0 <= row.label_bytes_per_voxel <= 6.0
 
 
+@pytest.mark.slow   # long (5-7 s): its own CI step (pytest -m slow)
 def test_bench_outofcore_rows_and_errors(tmp_path, capsys):
     # The small procedural pyramid: the whole-array row is the reference; the finest level
     # everywhere converges to it, the coarsest level alone is far from it, and the default

@@ -210,6 +210,7 @@ def test_a_frame_with_unreadable_bricks_is_an_error_not_a_coarse_frame(client, t
         cm.render_frames(build, CAMERAS[:1], SIZE, out=tmp_path / "frame.png")
 
 
+@pytest.mark.slow   # long (8-11 s): its own CI step (pytest -m slow)
 def test_bench_cluster_rows(tmp_path, capsys):
     # The rows of one run: the serial loop, a Pool building the scene per frame, and
     # render_frames; every frame of the pool and the cluster equals the serial loop's.

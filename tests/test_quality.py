@@ -240,7 +240,8 @@ def test_what_calibration_cannot_measure_is_refused_by_name(ct, keywords, words)
 # the light map's and the cube map's cases are long (5-14 s): their own CI step (-m slow)
 @pytest.mark.parametrize("technique, keywords", [
     ("direct", {"shade": True}),
-    ("vtk", {"shade": True, "ambient": 0.05, "specular": 0.6, "specular_power": 30.0}),
+    pytest.param("vtk", {"shade": True, "ambient": 0.05, "specular": 0.6,
+                         "specular_power": 30.0}, marks=pytest.mark.slow),
     pytest.param("cubemap", {"shade": True}, marks=pytest.mark.slow),
     ("direct", {"blending": "maximum"}),
     ("vtk", {"blending": "average"}),
@@ -314,7 +315,8 @@ def test_shaded_and_projected_volumes_meet_their_target(ct, technique, keywords)
     plotter.close()
 
 
-@pytest.mark.parametrize("technique", ["direct", pytest.param("cubemap", marks=pytest.mark.slow)])
+@pytest.mark.slow   # long (8-9 s a technique): its own CI step (pytest -m slow)
+@pytest.mark.parametrize("technique", ["direct", "cubemap"])
 def test_an_rgba_volume_meets_its_target(technique):
     # uint8 RGBA (independent_components=False): a ball of hard edge coloured by place,
     # against the reference of its own colours and opacity over the whole frame

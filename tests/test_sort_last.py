@@ -494,6 +494,7 @@ def test_translucent_labels_are_refused(client):
                             palette={7: ("red", 0.5)}, client=client, progress_bar=False)
 
 
+@pytest.mark.slow   # long (15-25 s): its own CI step (pytest -m slow)
 def test_bench_sortlast_rows(tmp_path):
     # The rows of one run: one plotter drawing the whole grid, then the split grid per slab
     # count; the split volume within 50 dB of the whole at every frame, labels exact, and
