@@ -899,10 +899,7 @@ def _why_per_chunk(world: VoxelWorld, options) -> str | None:
 def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str | None):
     """Draw a chunked world by one traversal or a box per chunk; returns its actor."""
     options.check_ids(world.dimensions)
-    traversal = options.world_traversal
-    if traversal is None:
-        traversal = "index" if why_not_indexed(world, options) is None else "per_chunk"
-    if traversal == "index":
+    if _why_per_chunk(world, options) is None:   # 'index' asked for and refused raises
         binding = build_indexed_world(plotter, world, options)
         if not binding.composites:
             binding.opaque_because = _opaque_because(options)

@@ -6,6 +6,7 @@ import numpy as np
 import pyvista
 
 from ..core.camera import Camera
+from ..quality.voxels import world_reference_grid
 from ..reference.voxels import render_voxels
 from .sort_last import segmentation
 from .voxels import scenes
@@ -30,12 +31,12 @@ def voxel_scene(name: str) -> pyvista.ImageData:
 def voxel_reference(plotter, actor, size) -> np.ndarray:
     """The CPU reference of the unlit grid's frame (the plotter's camera and near plane).
 
-    A world's labels are read back whole from its chunks (the scenes are small).
+    A world's filled voxels are read back whole from its chunks, as ``quality=`` reads them.
     """
     model = actor.cubemarch.model
-    labels = model.labels if hasattr(model, "labels") else model.labels_in(
-        tuple(slice(0, n) for n in model.dimensions))
-    return render_voxels(labels, model.world_from_index(), model.palette.rgba,
+    labels, world_from_index = (model.labels, model.world_from_index()) if hasattr(
+        model, "labels") else world_reference_grid(model)
+    return render_voxels(labels, world_from_index, model.palette.rgba,
                          Camera.from_pyvista(plotter.camera), size,
                          background=plotter.background_color.float_rgb,
                          near=plotter.camera.clipping_range[0], shading="unlit")

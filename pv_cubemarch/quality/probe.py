@@ -74,7 +74,7 @@ def renderer_name(plotter) -> str:
 
 
 def stored_choice(stored: dict, tracks, target: QualityTarget, size) -> QualityChoice | None:
-    """A cached entry as a choice, if it names one of these rungs with a finite PSNR.
+    """A cached entry as a choice, if it names one of these rungs with a PSNR (not NaN, -inf).
 
     The file is untrusted: another version's ladder, or an edited file, calibrates again.
     An infinite PSNR (a drawing equal to the reference, as voxels are) is a measurement.

@@ -15,7 +15,6 @@ import os
 from dataclasses import dataclass
 
 import numpy as np
-import pyvista
 
 from ..core.parallel import core_pool
 from ..models.surface import active_cells
@@ -127,8 +126,7 @@ class SurfaceCalibration(ProbeCalibration):
         look = {"opacity": float(options.opacity)}
         if options.color_by is not None:   # the colormap's 256 entries, over the range
             look.update(color_by=options.color_by, clim=options.color_range(self.model),
-                        lookup_table=np.asarray(pyvista.LookupTable(
-                            options.cmap, n_values=256).values[:, :3], np.float64) / 255.0)
+                        lookup_table=options.lookup_table())
         if self.levels is not None:
             look.update(levels=self.levels, level_colors=self.level_colors)
 

@@ -12,6 +12,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+import pyvista
 
 from ..core.declared import option
 from ..core.registry import get_technique
@@ -113,8 +114,7 @@ class VolumeCalibration(ProbeCalibration):
         camera = self.probe.camera
         position, focal = (np.asarray(v, dtype=np.float64) for v in (
             camera.GetPosition(), camera.GetFocalPoint()))
-        view = np.array([[camera.GetViewTransformMatrix().GetElement(i, j) for j in range(3)]
-                         for i in range(3)])
+        view = pyvista.array_from_vtkmatrix(camera.GetViewTransformMatrix())[:3, :3]
         material = {name: float(self.keep[name]) if self.keep.get(name) is not None else
                     float(option("volume", name).default) for name in MATERIAL}
         white = np.ones(3)

@@ -13,7 +13,7 @@ measurement shows it).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -117,7 +117,7 @@ class VoxelCalibration(ProbeCalibration):
 
     look: dict | None = None
     bounds_of: Callable | None = None
-    _grid: tuple | None = None
+    _grid: tuple | None = field(default=None, init=False, repr=False)
     kind = "voxels"
     samples = 1 << 40   # every pixel of the footprint (the reference traces the frame)
 
