@@ -514,16 +514,18 @@ def add_volume(
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
     if frame_budget_ms is not None:   # refused before anything is drawn or calibrated
         check_frame_budget(frame_budget_ms, chosen.name, given.get("downsample", 1))
+    check_channels(model, blending, shade, lights)   # before a calibration draws them
     choice = calibration = None
     if quality is not None:
         target = check_quality_request(
-            quality, given, blending,
-            isinstance(model, VolumeModel) and not is_channels(model), crop_box, average_range,
-            rgba=getattr(model, "colors", None) is not None)
+            quality, given, blending, rgba=getattr(model, "colors", None) is not None)
         calibration = volume_calibration(
             model, chosen.name, target,
             {"stop_opacity": stop_opacity, "skip_empty": skip_empty,
              "clip_planes": clip_planes, "blending": blending,
+             **({"crop_box": tuple(np.ravel(crop_box))} if crop_box is not None else {}),
+             **({"average_range": tuple(np.ravel(average_range))}
+                if average_range is not None else {}),
              **({"isosurfaces": isosurfaces} if blending == "isosurface" else {}),
              **({"lights": _lights_now(plotter, lights), "light_map_size": light_map_size,
                  "light_map_ambient": light_map_ambient} if lights is not None else {}),
@@ -536,7 +538,6 @@ def add_volume(
         options = chosen.make_options(given)
     options.check_model(model)
     check_direct_color(model, blending, shade, cmap)
-    check_channels(model, blending, shade, lights)
     gradient = gradient_shading(plotter, model, shade, lights, blending,
                                 dict(ambient=ambient, diffuse=diffuse, specular=specular,
                                      specular_power=specular_power))

@@ -16,10 +16,11 @@ import pyvista
 
 from ..core.declared import option
 from ..core.registry import get_technique
+from ..models.group import VolumeGroup
 from ..models.lights import light_source
 from ..reference.projections import render_blended
 from ..reference.volume_shading import ShadeSetup
-from ..volume.clipping import clip_plane_list
+from ..volume.clipping import box_planes, clip_plane_list
 from ..volume.pyvista_keywords import isosurface_levels
 from .calibration import QualityChoice
 from .interaction import KNOBS
@@ -37,31 +38,35 @@ QUALITY_BLENDING = ("composite", "maximum", "minimum", "average", "additive", "i
 MATERIAL = ("ambient", "diffuse", "specular", "specular_power")
 
 
-def check_quality_request(quality, given: dict, blending: str, single_volume: bool,
-                          crop_box=None, average_range=None, rgba: bool = False
+def check_quality_request(quality, given: dict, blending: str, rgba: bool = False
                           ) -> QualityTarget:
-    """Read ``quality=`` and refuse what calibration cannot measure, by name."""
+    """Read ``quality=`` and refuse what calibration cannot measure, by name.
+
+    Channel volumes and volumes marched jointly are composited (``add_volume`` refuses
+    other blendings for them), which the emission/absorption reference traces.
+    """
     target = parse_quality(quality)
     picked = [k for k in PICKED if k in given]
     if picked:
         raise ValueError(f"quality= chooses {', '.join(picked)} itself: give quality= or "
                          "the settings, not both.")
-    if blending not in QUALITY_BLENDING or not single_volume or (
-            rgba and blending != "composite"):
-        raise ValueError(f"quality= measures against the CPU reference of one volume: "
-                         f"blending one of {QUALITY_BLENDING} (shade=True with "
-                         "'composite' or 'isosurface'; an RGBA volume composited), no channel "
-                         "or jointly marched volumes. Give the settings (step_scale, "
-                         "face_size ...) for those.")
-    if crop_box is not None or average_range is not None:
-        raise ValueError("quality= with crop_box (or average_range): the CPU reference has no "
-                         "crop box; cut the volume with clip_planes instead, which it traces.")
+    if blending not in QUALITY_BLENDING or (rgba and blending != "composite"):
+        raise ValueError(f"quality= measures against the CPU reference: blending one of "
+                         f"{QUALITY_BLENDING} (shade=True with 'composite' or 'isosurface'; "
+                         "an RGBA volume composited). Give the settings (step_scale, "
+                         "face_size ...) for others.")
     return target
 
 
-def plane_pairs(clip_planes) -> list[tuple]:
-    """``add_volume``'s clip planes as the reference's ``(origin, normal)`` pairs."""
-    return [(tuple(p.GetOrigin()), tuple(p.GetNormal())) for p in clip_plane_list(clip_planes)]
+def plane_pairs(clip_planes, crop_box=None, transform=None) -> list[tuple]:
+    """``add_volume``'s clip planes and crop box as the reference's ``(origin, normal)`` pairs.
+
+    The crop box is in the data's coordinates, which ``transform`` places.
+    """
+    pairs = [(tuple(p.GetOrigin()), tuple(p.GetNormal())) for p in clip_plane_list(clip_planes)]
+    if crop_box is not None:
+        pairs += box_planes(crop_box, np.eye(4) if transform is None else transform)
+    return pairs
 
 
 def light_keys(lights) -> list:
@@ -80,6 +85,20 @@ def light_keys(lights) -> list:
     return keys
 
 
+def model_key(model) -> tuple:
+    """What a volume draws (data, colours, transfer function, placement) as flat key parts.
+
+    A group's (channels, or volumes marched jointly): how it mixes, then each member's.
+    """
+    if isinstance(model, VolumeGroup):
+        return (model.channel_mix, len(model.members),
+                *(part for member in model.members for part in model_key(member)))
+    transfer = model.transfer
+    return (model.values, model.colors, transfer.table, tuple(transfer.clim),
+            repr(getattr(transfer, "spec", None)), float(getattr(model, "value_offset", 0.0)),
+            np.asarray(model.world_from_index()), model.interpolation)
+
+
 @dataclass
 class VolumeCalibration(ProbeCalibration):
     """``quality=`` of a volume: its step, or its cube map's face.
@@ -91,15 +110,16 @@ class VolumeCalibration(ProbeCalibration):
         return volume_tracks(self.technique, self.model.dimensions)
 
     def key_parts(self) -> tuple:
-        model, transfer = self.model, self.model.transfer
-        return (model.values, model.colors, transfer.table, tuple(transfer.clim),
-                repr(getattr(transfer, "spec", None)),
-                float(getattr(model, "value_offset", 0.0)),
-                np.asarray(model.world_from_index()), model.interpolation,
-                plane_pairs(self.keep.get("clip_planes")),
+        return (*model_key(self.model),
+                self.planes(),
                 light_keys(self.keep.get("lights")),
                 sorted((k, v) for k, v in self.keep.items()
                        if k not in ("clip_planes", "lights")))
+
+    def planes(self) -> list[tuple]:
+        """The clip planes and crop box the volume is drawn with, as world planes."""
+        return plane_pairs(self.keep.get("clip_planes"), self.keep.get("crop_box"),
+                           getattr(self.model, "transform", None))
 
     def shading(self) -> str:
         return "blinn" if self.keep.get("shade") else "unlit"
@@ -123,14 +143,15 @@ class VolumeCalibration(ProbeCalibration):
             two_sided=bool(self.probe.renderer.GetTwoSidedLighting()))
 
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
-        planes = plane_pairs(self.keep.get("clip_planes")) or None
+        planes = self.planes() or None
         blending = self.keep.get("blending", "composite")
         shade = self.shade_setup() if self.keep.get("shade") else None
         if blending != "composite":
             return render_blended(self.model, camera, size, blending, background=background,
                                   step_voxels=REFERENCE_STEP, near=near, clip_planes=planes,
                                   pixels=pixels, shade=shade, isosurfaces=isosurface_levels(
-                                      self.keep.get("isosurfaces"), self.model))
+                                      self.keep.get("isosurfaces"), self.model),
+                                  average_range=self.keep.get("average_range"))
         ambient = self.keep.get("light_map_ambient")
         return self.reference(self.model, camera, size, background=background,
                               step_voxels=REFERENCE_STEP, near=near, pixels=pixels,
@@ -209,7 +230,8 @@ def volume_calibration(model, technique: str, target: QualityTarget, keep: dict,
     """
     def one(name: str) -> VolumeCalibration:
         reads = set(get_technique("volume", name).option_names) | {
-            "stop_opacity", "skip_empty", "clip_planes", "blending", "isosurfaces", "shade",
+            "stop_opacity", "skip_empty", "clip_planes", "crop_box", "average_range",
+            "blending", "isosurfaces", "shade",
             "lights", "light_map_size", "light_map_ambient", *MATERIAL}
         return VolumeCalibration(model, name, target,
                                  {k: v for k, v in keep.items() if k in reads}, add,

@@ -83,7 +83,7 @@ def render_emission_absorption(
     pixels : (rows, columns) of int arrays, optional
         Only the rays through these pixels of the ``size`` image (rows from the top), as
         a ``(1, n, 3)`` image: a sample of a frame spread over it, where ``crop`` takes a
-        window. Not with ``crop``, nor with additive channel volumes.
+        window. Not with ``crop``.
     shade : ShadeSetup, optional
         Gradient shading of each sample's colour, as VTK's ``shade=True``
         (:mod:`pv_cubemarch.reference.volume_shading`).
@@ -92,13 +92,11 @@ def render_emission_absorption(
         VTK's volume mapper does (:func:`pv_cubemarch.reference.rays.clip_interval`).
     """
     if isinstance(volume, VolumeGroup) and volume.channel_mix == "additive":
-        if pixels is not None:
-            raise ValueError("pixels: additive channel volumes are traced by windows (crop).")
         return render_additive_channels(
             volume, render_emission_absorption, camera, size, background, opaque_color,
             step_voxels=step_voxels,
             opaque_depth=opaque_depth, near=near, min_transmittance=min_transmittance,
-            crop=crop, clip_planes=clip_planes)
+            crop=crop, clip_planes=clip_planes, pixels=pixels)
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
     if pixels is not None:

@@ -98,7 +98,15 @@ def crop_planes(mapper, transform) -> tuple[tuple[tuple[float, ...], tuple[float
             f"The volume's mapper crops with region flags {mapper.GetCroppingRegionFlags():#x}"
             "; pv_cubemarch draws only the sub-volume between the cropping planes "
             "(mapper.SetCroppingRegionFlagsToSubVolume()), or use clipping planes.")
-    bounds = np.asarray(mapper.GetCroppingRegionPlanes(), dtype=np.float64)
+    return box_planes(mapper.GetCroppingRegionPlanes(), transform)
+
+
+def box_planes(box, transform) -> tuple[tuple[tuple[float, ...], tuple[float, ...]], ...]:
+    """The six world ``(origin, normal)`` planes keeping ``box`` (xmin, xmax, ... zmax).
+
+    ``box`` is in the data's coordinates, which ``transform`` places in the world.
+    """
+    bounds = np.asarray(box, dtype=np.float64).ravel()
     matrix = np.asarray(transform, dtype=np.float64)
     inverse_t = np.linalg.inv(matrix[:3, :3]).T
     planes = []
