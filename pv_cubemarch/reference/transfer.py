@@ -110,6 +110,21 @@ def colors_and_extinction(spec, data: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return rgb, sigma
 
 
+def extinction_of(spec, data: np.ndarray) -> np.ndarray:
+    """``sigma`` of scalars ``data``: :func:`colors_and_extinction`'s without the colours.
+
+    What a light's march through the medium reads at every step, at a third of the cost.
+    """
+    n = int(spec.n_colors)
+    _, alphas = point_values(spec)
+    if n == 1:
+        return np.full(np.shape(data), -np.log1p(-alphas[0]) / float(spec.opacity_unit_distance))
+    lo, hi = (float(v) for v in spec.clim)
+    x = np.clip((np.asarray(data, dtype=np.float64) - lo) / (hi - lo), 0.0, 1.0) * (n - 1)
+    alpha = np.interp(x, np.arange(n, dtype=np.float64), alphas)
+    return -np.log1p(-alpha) / float(spec.opacity_unit_distance)
+
+
 def table_lookup(table: np.ndarray, clim, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(rgb, sigma)`` from a table given as is (rows evenly over ``clim``, linear between)."""
     table = np.asarray(table, dtype=np.float64)
@@ -132,3 +147,11 @@ def medium(volume, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if transfer.spec is None:
         return table_lookup(transfer.table, transfer.clim, values)
     return colors_and_extinction(transfer.spec, values)
+
+
+def extinction(volume, values: np.ndarray) -> np.ndarray:
+    """``sigma`` of a volume's stored ``values``: :func:`medium`'s without the colours."""
+    transfer = volume.transfer
+    if transfer.spec is None:
+        return table_lookup(transfer.table, transfer.clim, values)[1]
+    return extinction_of(transfer.spec, values)
