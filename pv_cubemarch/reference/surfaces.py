@@ -18,6 +18,7 @@ of ``-gradient`` (pointing out).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -189,13 +190,37 @@ class _Bracket:
 
 def _first_bracket(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
                    t0: np.ndarray, t1: np.ndarray) -> _Bracket:
-    """Per ray, the first of ``BRACKETS`` intervals of ``[t0, t1]`` where the field is 0."""
+    """Per ray, the first of ``BRACKETS`` intervals of ``[t0, t1]`` where the field is 0.
+
+    A segment whose polynomial's Bernstein coefficients all lie beyond the tangent
+    tolerance on one side has no root and no near-zero sample (the polynomial is their
+    convex combination): only the others are sampled.
+    """
     beta = field.cell_bernstein(cells)
     scale = np.abs(beta).max(axis=(1, 2, 3))
-    s = np.linspace(0.0, 1.0, BRACKETS + 1)
-    span = (t1 - t0)[:, None]
-    ts = t0[:, None] + span * s[None, :]
-    values = _at(beta, o, d, cells, ts)
+    span = t1 - t0
+    at_nodes = _at(beta, o, d, cells, t0[:, None] + span[:, None] * _NODES[None, :])
+    along = at_nodes @ _TO_BERNSTEIN.T
+    margin = TANGENT_TOLERANCE * scale
+    sampled = np.flatnonzero(~((along.min(axis=1) > margin) | (along.max(axis=1) < -margin)))
+    n = len(cells)
+    bracket = _Bracket(np.zeros(n, bool), np.zeros(n, bool), t1.copy(), t1.copy(),
+                       at_nodes[:, -1].copy(), at_nodes[:, 0].copy(), at_nodes[:, -1].copy())
+    if len(sampled):
+        values = at_nodes[sampled] @ _INTERPOLATE
+        for sample, node in _ON_NODE:
+            values[:, sample] = at_nodes[sampled, node]
+        length = np.linalg.norm(d[sampled], axis=1) * span[sampled]   # cell units
+        found = _bracket_samples(values, t0[sampled], span[sampled], scale[sampled], length)
+        for name in ("found", "unsure", "lo", "hi", "f_lo", "start_value", "end_value"):
+            getattr(bracket, name)[sampled] = getattr(found, name)
+    return bracket
+
+
+def _bracket_samples(values: np.ndarray, t0: np.ndarray, span: np.ndarray,
+                     scale: np.ndarray, length: np.ndarray) -> _Bracket:
+    """:func:`_first_bracket` from the field's ``BRACKETS + 1`` samples of each segment."""
+    ts = t0[:, None] + span[:, None] * _SAMPLES[None, :]
     zero = values == 0.0
     change = (np.sign(values[:, :-1]) * np.sign(values[:, 1:]) < 0) | zero[:, :-1] | zero[:, 1:]
     first = np.where(change.any(axis=1), np.argmax(change, axis=1), BRACKETS)
@@ -203,7 +228,7 @@ def _first_bracket(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.n
     # Tangent: |f| comes near 0, and flat, before the bracket of the first sign change (at
     # any sample, the segment's ends included: a tangent point may lie on a cell's face; a
     # sample next to a root in the next cell is near 0 too, but steep).
-    length = np.maximum(np.linalg.norm(d, axis=1) * (t1 - t0), 1e-300)   # cell units
+    length = np.maximum(length, 1e-300)
     slope = np.abs(np.gradient(values, axis=1)) * BRACKETS / length[:, None]
     small = ((np.abs(values) < TANGENT_TOLERANCE * scale[:, None])
              & (slope < FLAT_TOLERANCE * scale[:, None]))
@@ -220,7 +245,7 @@ def _first_bracket(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.n
     peak = np.where(between, np.abs(values), 0.0).max(axis=1)
     unsure |= found & after.any(axis=1) & (peak < TANGENT_TOLERANCE * scale)
     k = np.minimum(first, BRACKETS - 1)
-    row = np.arange(len(cells))
+    row = np.arange(len(values))
     lo, f_lo = ts[row, k], values[row, k]
     hi = np.where(f_lo == 0.0, lo, ts[row, np.minimum(k + 1, BRACKETS)])   # exact: stays
     return _Bracket(found, unsure, lo, hi, f_lo, values[:, 0], values[:, -1])
@@ -240,6 +265,35 @@ def _bisect(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
         f_lo = np.where(same, f_mid, f_lo)
         hi = np.where(same, hi, mid)
     return np.where(exact, start, 0.5 * (lo + hi))
+
+
+#: The field along a ray through one cell is a polynomial of degree 6 at most (quadratic
+#: along each axis, each axis linear in the ray's parameter): its values at these 7
+#: Chebyshev-Lobatto points of the segment give it whole.
+_NODES = 0.5 - 0.5 * np.cos(np.pi * np.arange(7) / 6)
+_NODES = np.where(np.abs(_NODES * BRACKETS - np.round(_NODES * BRACKETS)) < 1e-9,
+                  np.round(_NODES * BRACKETS) / BRACKETS, _NODES)   # 1/4, 1/2, 3/4 exactly
+_SAMPLES = np.linspace(0.0, 1.0, BRACKETS + 1)
+
+
+def _lagrange(nodes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``(len(points), len(nodes))``: the Lagrange basis of ``nodes`` at ``points``."""
+    weights = np.ones((len(points), len(nodes)))
+    for j, node in enumerate(nodes):
+        for m, other in enumerate(nodes):
+            if m != j:
+                weights[:, j] *= (points - other) / (node - other)
+    return weights
+
+
+#: The samples' values from the nodes' (Lagrange interpolation, exact for degree 6).
+_INTERPOLATE = _lagrange(_NODES, _SAMPLES).T
+#: The Bernstein coefficients (degree 6 in the segment's parameter) from the nodes' values.
+_TO_BERNSTEIN = np.linalg.inv(np.stack([
+    math.comb(6, i) * _NODES ** i * (1.0 - _NODES) ** (6 - i) for i in range(7)], axis=1))
+#: Samples that are nodes (0, 1/4, 1/2, 3/4, 1): read as computed, not interpolated.
+_ON_NODE = [(int(n * BRACKETS), j) for j, n in enumerate(_NODES)
+            if n * BRACKETS == int(n * BRACKETS)]
 
 
 def _at(beta: np.ndarray, o: np.ndarray, d: np.ndarray, cells: np.ndarray,
