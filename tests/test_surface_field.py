@@ -191,3 +191,53 @@ def test_reference_flags_near_double_roots():
         hits = trace_surface(field, active_cells(field), camera, (1, 1))
         assert hits.hit[0, 0] and abs(hits.point[0, 0, 0] - (3.5 - half)) < 1e-9
         assert bool(hits.ambiguous[0, 0]) == flagged
+
+
+def test_a_segment_s_brackets_equal_sampling_every_point():
+    # The reference reads a ray's field through a cell from 7 evaluations (the degree-6
+    # polynomial it is) and samples only segments whose Bernstein coefficients come within
+    # the tangent tolerance of zero. Against evaluating the cell's Bernstein form at each
+    # of the 257 samples: random fields near zero (roots, dips, misses), random segments.
+    # catches (seen failing): segments skipped with no margin (grazing rays lost their
+    # tangent flag); a skipped segment's start read from its last node
+    from pv_cubemarch.reference import surfaces as reference
+    from pv_cubemarch.reference.rays import ray_box_interval
+    rng = np.random.default_rng(7)
+    random_field = SplineField(rng.normal(0.0, 1.0, (11, 11, 11)))
+    n = 4000
+    cells = rng.integers(0, 9, (n, 3))
+    entry, leave = rng.uniform(0, 1, (n, 3)), rng.uniform(0, 1, (n, 3))
+    o, d = cells + entry, leave - entry
+    t0, t1 = np.zeros(n), np.ones(n)
+    got = reference._first_bracket(random_field, cells, o, d, t0, t1)
+    # and rays grazing a sphere of radius 3 (by its blossom), 1e-7 to 1e-3 inside or out
+    sphere = SplineField(sphere_coefficients((9, 9, 9), (4.5, 4.5, 4.5), 3.0))
+    normal = rng.normal(size=(n, 3))
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    along = np.cross(normal, rng.normal(size=(n, 3)))
+    along /= np.linalg.norm(along, axis=1, keepdims=True)
+    offset = 10.0 ** rng.uniform(-7, -3, n) * rng.choice([-1.0, 1.0], n)
+    touch = 4.5 + (3.0 + offset)[:, None] * normal
+    grazing = np.floor(touch).astype(np.int64)
+    enter, exit_ = ray_box_interval(touch, along, grazing.astype(float), grazing + 1.0)
+    sphere_got = reference._first_bracket(sphere, grazing, touch, along, enter, exit_)
+
+    def every_sample(field, cells, o, d, t0, t1):
+        beta = field.cell_bernstein(cells)
+        ts = t0[:, None] + (t1 - t0)[:, None] * reference._SAMPLES[None, :]
+        return reference._bracket_samples(reference._at(beta, o, d, cells, ts), t0, t1 - t0,
+                                          np.abs(beta).max(axis=(1, 2, 3)),
+                                          np.linalg.norm(d, axis=1) * (t1 - t0))
+
+    for got_, expected in ((got, every_sample(random_field, cells, o, d, t0, t1)),
+                           (sphere_got, every_sample(sphere, grazing, touch, along, enter,
+                                                     exit_))):
+        assert expected.found.sum() > 100 and (~expected.found).sum() > 100
+        for name in ("found", "unsure", "start_value", "end_value"):
+            np.testing.assert_allclose(getattr(got_, name), getattr(expected, name),
+                                       rtol=1e-9, atol=1e-12, err_msg=name)
+        for name in ("lo", "hi", "f_lo"):
+            np.testing.assert_allclose(getattr(got_, name)[expected.found],
+                                       getattr(expected, name)[expected.found],
+                                       rtol=1e-9, atol=1e-12, err_msg=name)
+    assert 100 < expected.unsure.sum() < n - 100   # tangent flags, set and not
