@@ -230,6 +230,32 @@ def test_chunk_size_on_a_scene_without_label_grids_is_refused(tmp_path, capsys):
     assert "--chunk-size draws label grids in chunks" in capsys.readouterr().err
 
 
+def test_lights_scene_on_a_file_without_lights_lights_by_three_lights(tmp_path, capsys):
+    # A grid file has no lights: the volume is lit by the render's plotter, made with
+    # PyVista's three lights (its default kit's five are more than a volume takes).
+    # catches (seen failing, found by a review): exit 2, "The plotter has 5 lights", and
+    # advice to make a plotter, which a CLI user cannot
+    x, y, z = np.meshgrid(*(np.linspace(-1, 1, 24),) * 3, indexing="ij")
+    grid = pv.ImageData(dimensions=(24, 24, 24), spacing=(2.0, 2.0, 2.0),
+                        origin=(-500.0, 30.0, 7.0))
+    grid.point_data["density"] = np.clip(1.2 - 2.0 * np.sqrt(x**2 + y**2 + z**2), 0,
+                                         1).ravel(order="F")
+    path = tmp_path / "ball.vti"
+    grid.save(path)
+    images = {}
+    for lights in ("scene", "none"):
+        out = tmp_path / f"{lights}.png"
+        assert main(["render", str(path), "-o", str(out), "--size", "96x72", "--lights",
+                     lights, "--no-progress"]) == 0, capsys.readouterr().err
+        images[lights] = np.asarray(Image.open(out), dtype=np.float64)
+    background = images["none"][0, 0]
+    drawn = np.abs(images["none"] - background).max(axis=-1) > 8   # the ball's pixels
+    change = np.abs(images["scene"] - images["none"]).max(axis=-1)[drawn]
+    assert drawn.sum() > 200 and change.mean() > 8.0, (drawn.sum(), change.mean())
+    from pv_cubemarch.scene.io import load_scene as load
+    assert load(path).plotter_lighting() == "light kit"   # unlit volumes keep the kit
+
+
 def test_technique_voxels_on_a_density_volume_names_it(tmp_path, capsys):
     # catches (seen to fail): the loader's error passed on without saying what to do.
     assert main(["render", str(SCENE), "-o", str(tmp_path / "x.png"), "--technique",

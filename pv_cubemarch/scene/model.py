@@ -255,6 +255,17 @@ class Scene:
                 VolumeLight("point", position=li.position, color=li.color,
                             intensity=li.intensity * li.area * scale) for li in lights]
 
+    def plotter_lighting(self) -> str:
+        """The ``lighting=`` of the plotter a render makes: PyVista's default light kit.
+
+        A scene with no lights of its own keeps the plotter's; where a volume is lit by
+        them (``lights='scene'``), PyVista's three lights (the kit's five are more than a
+        volume takes).
+        """
+        lit_by_plotter = not (self.lights or self.usd_lighting) and any(
+            o.get("lights") == "scene" for o in self.volume_options.values())
+        return "three lights" if lit_by_plotter else "light kit"
+
     def render(self, path: str | os.PathLike | None = None, size: tuple[int, int] = (800, 600),
                camera: str | Camera | None = None, progress_bar: bool | None = None) -> np.ndarray:
         """Render offscreen to an RGB array, and to ``path`` (PNG) when given.
@@ -265,7 +276,7 @@ class Scene:
         >>> scene = pv_cubemarch.load_scene("datasets/smoke_scene.usda")  # doctest: +SKIP
         >>> image = scene.render("smoke.png", size=(640, 480))  # doctest: +SKIP
         """
-        plotter = offscreen_plotter(size)
+        plotter = offscreen_plotter(size, lighting=self.plotter_lighting())
         try:
             self.add_to(plotter, camera=camera, progress_bar=progress_bar)
             image = render_image(plotter)

@@ -145,7 +145,8 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
                "(default: linear)", choices=INTERPOLATIONS, optional=True, model=True,
                control=Control("select", choices=(AUTO, *INTERPOLATIONS))),
         Option("lights", "volume", str, None, "light the medium by the scene's lights "
-               "(its transmittance toward each)", choices=("scene", "none"), optional=True,
+               "(its transmittance toward each; a file without lights: PyVista's three "
+               "lights)", choices=("scene", "none"), optional=True,
                control=Control("select", choices=("none", "scene"))),
         Option("light_map_size", "volume", int, DEFAULT_LIGHT_MAP_SIZE, "light-map points "
                "per axis (with lights)", low=2, high=128,
