@@ -523,9 +523,8 @@ def add_volume(
             model, chosen.name, target,
             {"stop_opacity": stop_opacity, "skip_empty": skip_empty,
              "clip_planes": clip_planes, "blending": blending,
-             **({"crop_box": tuple(np.ravel(crop_box))} if crop_box is not None else {}),
-             **({"average_range": tuple(np.ravel(average_range))}
-                if average_range is not None else {}),
+             **({"crop_box": crop_box} if crop_box is not None else {}),
+             **({"average_range": average_range} if average_range is not None else {}),
              **({"isosurfaces": isosurfaces} if blending == "isosurface" else {}),
              **({"lights": _lights_now(plotter, lights), "light_map_size": light_map_size,
                  "light_map_ambient": light_map_ambient} if lights is not None else {}),
