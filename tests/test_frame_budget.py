@@ -114,6 +114,40 @@ def test_moving_frames_fit_the_budget_and_a_still_view_refines(ct, technique):
     other.close()
 
 
+def test_vtk_past_its_coarsest_step_draws_fewer_pixels_and_refines_when_still(ct):
+    # 'vtk' frames too slow at step 16 draw step 16 at 1/2-1/4 the size (VTK's
+    # ImageSampleDistance on the mapper that draws), and the still frame is whole again.
+    # Costs by hand: 1000 ms at step 1 is 62.5 at 16 (over 0.8 * 40 = 32), 15.6 at
+    # 16 * 2**2 (1/2 size): the budget settles there.
+    # catches (seen failing): the knob stopping at step 16 (every moving frame over budget)
+    plotter = offscreen_plotter((160, 120))
+    actor = pv_cubemarch.add_volume(plotter, ct, technique="vtk", step_scale=0.5, **LOOK)
+    _, budget = _scripted(plotter, 40.0, cost=1000.0)
+    render_frame(plotter)
+    still = read_pixels(plotter)
+    drawing = actor.cubemarch.drawn[0].GetMapper()
+    plotter.ren_win.SetDesiredUpdateRate(15.0)
+    for _ in range(4):
+        plotter.camera.Azimuth(0.0)
+        render_frame(plotter)
+    assert budget.frames[-1].value == 64.0 and budget.frames[-1].ms <= 40.0, budget.frames
+    assert drawing.GetImageSampleDistance() == 2.0
+    assert budget.describe(64.0) == "step_scale=16 at 1/2 size"
+    coarse = read_pixels(plotter)
+    plotter.ren_win.SetDesiredUpdateRate(0.0001)
+    render_frame(plotter)
+    assert drawing.GetImageSampleDistance() == 1.0 and budget.frames[-1].value == 0.5
+    assert np.array_equal(read_pixels(plotter), still)
+    plotter.close()
+    # the moving frame is what a user asking for that step and distance is drawn
+    other = offscreen_plotter((160, 120))
+    asked = pv_cubemarch.add_volume(other, ct, technique="vtk", step_scale=16.0, **LOOK)
+    asked.mapper.SetImageSampleDistance(2.0)
+    render_frame(other)
+    assert np.array_equal(coarse, read_pixels(other))
+    other.close()
+
+
 def test_add_volume_takes_the_budget_and_the_quality_s_estimates(ct, tmp_path, monkeypatch):
     monkeypatch.setenv("PV_CUBEMARCH_CACHE_DIR", str(tmp_path))
     plotter = offscreen_plotter((160, 120))

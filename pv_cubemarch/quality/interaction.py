@@ -140,6 +140,37 @@ def reduce_pixels(binding, factor: int) -> None:
         reduced.factor = int(factor)
 
 
+#: ``technique='vtk'``'s coarsest step; coarser frames draw it at 1/2, 1/3, 1/4 the size.
+VTK_STEP_FLOOR = 16.0
+
+
+def vtk_step_drawn(value: float) -> tuple[float, int]:
+    """``(step_scale, sample distance)`` a ``'vtk'`` knob value draws.
+
+    Past the coarsest step the value is that step times the pixels' reduction squared
+    (VTK's ``ImageSampleDistance``: 2, 3, 4 times fewer across).
+    """
+    if value <= VTK_STEP_FLOOR * (1.0 + 1e-9):
+        return float(value), 1
+    return VTK_STEP_FLOOR, int(round(math.sqrt(value / VTK_STEP_FLOOR)))
+
+
+def _read_vtk_step(binding) -> float:
+    distances = binding.sample_distances
+    return float(binding.step_scale) * distances.budget ** 2
+
+
+def _write_vtk_step(binding, value: float) -> None:
+    step, distance = vtk_step_drawn(value)
+    _write_step(binding, step)
+    binding.sample_distances.ask(distance)
+
+
+def _vtk_step_label(value: float, still: float) -> str:
+    step, distance = vtk_step_drawn(value)
+    return f"step_scale={step:g}" + ("" if distance == 1 else f" at 1/{distance} size")
+
+
 def _write_reduction(binding, value: float) -> None:
     reduce_pixels(binding, int(value))
 
@@ -153,6 +184,12 @@ def _write_upscale(binding, value: float) -> None:
 KNOBS = {
     "step": BudgetKnob("step_scale", (16.0, 8.0, *STEP_SCALES), 1.0,
                        lambda b: float(b.step_scale), _write_step),
+    # 'vtk': the step, then the coarsest step at fewer pixels (VTK's ImageSampleDistance:
+    # its mapper draws into a framebuffer 1/2-1/4 the size and stretches it): time as
+    # the samples, the step's or the pixels'
+    "step_pixels": BudgetKnob("step_scale", (16.0 * 16, 16.0 * 9, 16.0 * 4, 16.0, 8.0,
+                                             *STEP_SCALES), 1.0,
+                              _read_vtk_step, _write_vtk_step, _vtk_step_label),
     "upscale": BudgetKnob("upscale", (8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5), 2.0,
                           lambda b: float(b.frame.options.upscale), _write_upscale),
     # a surface's samples along the diagonal: time as the samples (finer is larger); below
@@ -171,7 +208,7 @@ KNOBS = {
                          _write_reduction,
                          lambda v, still: "full size" if v == 1 else f"1/{v:g} size"),
 }
-TECHNIQUE_KNOBS = {"vtk": "step", "direct": "step", "cubemap": "upscale", "active": "steps",
+TECHNIQUE_KNOBS = {"vtk": "step_pixels", "direct": "step", "cubemap": "upscale", "active": "steps",
                    "full": "steps", "voxels": "pixels"}
 
 

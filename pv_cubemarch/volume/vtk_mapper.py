@@ -18,7 +18,14 @@ from ..core.frame_errors import observe
 from ..core.registry import Sweep, Technique, register_technique
 from ..core.user_warnings import warn_user
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, camera_matrices, place_box, supersampling_pass
+from ..gl.box import (
+    bind_camera,
+    camera_matrices,
+    drawn_viewport,
+    fragment_viewport,
+    place_box,
+    supersampling_pass,
+)
 from ..gl.frame_inputs import frame_inputs
 from ..gl.lights import hold_headlights_steady
 from ..gl.shaders import Replacement, ShaderRecipe
@@ -105,6 +112,7 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
         return projection @ view @ model.world_from_index()
 
     bindings.set_uniform("cm_clipFromIndex", clip_from_index)
+    bindings.set_uniform("cm_viewport", lambda: sampled_viewport(mapper, renderer))
     _, defines = bind_sampling(bindings, data, step_scale, shading.stop_opacity,
                                shading.skip_empty, sample_data=False,
                                blend=shading.blend)
@@ -120,8 +128,14 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
     binding.renderer = plotter.renderer
     binding.extra_release.append(hold_headlights_steady(renderer))
     said = []
+    binding.sample_distances = SampleDistances(mapper)
 
     def follow_supersampling(*_) -> None:
+        stand_in = getattr(binding, "actor", None)   # the volume add_volume returned
+        supersampled = supersampling_pass(renderer) is not None
+        binding.sample_distances.follow(
+            stand_in.GetMapper() if stand_in is not None and stand_in is not actor else None,
+            supersampled)
         if match_supersampling_depth(renderer) and binding.shown and not said \
                 and frame_inputs(renderer).has_opaque_props():
             said.append(True)
@@ -134,6 +148,53 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
     binding.extra_release.append(lambda: renderer.RemoveObserver(tag))
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
+
+
+def sampled_viewport(mapper, renderer) -> tuple[int, int, int, int]:
+    """The viewport of ``gl_FragCoord`` while VTK's mapper draws: reduced, at a sample distance.
+
+    With ``ImageSampleDistance`` d above 1 VTK draws the volume into a framebuffer of its
+    own, ``int(width / d)`` by ``int(height / d)`` from (0, 0), then stretches it over the
+    viewport: the rays are made for those pixels.
+    """
+    distance = float(mapper.GetImageSampleDistance())
+    if distance == 1.0:
+        return fragment_viewport(renderer)
+    width, height = drawn_viewport(renderer)[2:]
+    return (0, 0, max(1, int(width / distance)), max(1, int(height / distance)))
+
+
+class SampleDistances:
+    """The ``ImageSampleDistance`` the drawing mapper takes: the user's, or a budget's.
+
+    ``vol.mapper.SetImageSampleDistance(d)`` on the returned volume draws the volume at
+    1/d of the viewport across, as on PyVista's own GPU mapper; a frame budget asks for
+    coarser ones while the view moves (the coarser of the two is drawn). Under
+    supersampling it is 1: VTK would shrink the window's size, not the pass's.
+    """
+
+    def __init__(self, mapper):
+        self.mapper = mapper
+        self.user = 1.0
+        self.budget = 1.0
+        self._supersampled = False
+
+    def follow(self, returned_mapper, supersampled: bool) -> None:
+        """At each frame: take the returned volume's distance and the supersampling."""
+        if returned_mapper is not None:
+            self.user = max(float(returned_mapper.GetImageSampleDistance()), 1.0)
+        self._supersampled = supersampled
+        self.apply()
+
+    def ask(self, distance: float) -> None:
+        """A budget's distance (1: none)."""
+        self.budget = float(distance)
+        self.apply()
+
+    def apply(self) -> None:
+        wanted = 1.0 if self._supersampled else max(self.user, self.budget)
+        if float(self.mapper.GetImageSampleDistance()) != wanted:
+            self.mapper.SetImageSampleDistance(wanted)
 
 
 def match_supersampling_depth(renderer) -> bool:
