@@ -46,6 +46,20 @@ def test_the_next_step_by_hand():
     assert budget.next_value(0.5, 1.0) == 0.5
     # far over budget: the coarsest moving step
     assert budget.next_value(0.5, 1e6) == 16.0
+    # finer only with room to spare: 14 ms at step 2 would fit step 1 (2 * 14 / 32 =
+    # 0.875), but not within 0.6 * 40 = 24 ms (2 * 14 / 24 = 1.17): it stays at 2
+    assert budget.next_value(2.0, 14.0) == 2.0
+    # predicted from the costliest of the last three frames, each at its own step: 30 ms
+    # at step 1 is 15 ms at step 2, over 10 and 12 ms at step 2
+    from pv_cubemarch.quality.interaction import FrameRecord
+    budget.frames = [FrameRecord(True, 1.0, 30.0), FrameRecord(True, 2.0, 10.0),
+                     FrameRecord(True, 2.0, 12.0)]
+    assert budget.predicted_ms(2.0) == 15.0
+    budget.frames.insert(0, FrameRecord(True, 0.5, 1000.0))   # four frames ago: not read
+    assert budget.predicted_ms(2.0) == 15.0
+    # catches (seen failing): the last frame alone predicting (a fast frame sent the next
+    # finer, over budget); refining at the same aim as coarsening (the size changed at
+    # every other frame)
     # the cube map's upscale: cost as upscale**-2, so 128 ms at 1 wants sqrt(4) = 2
     budget = FrameBudget(binding=None, window=_Window(15.0), budget_ms=40.0,
                          knob=KNOBS["upscale"], still=1.0)

@@ -4,8 +4,10 @@ VTK's interactors raise the render window's desired update rate while the user d
 (``DesiredUpdateRate``, 15 frames a second by default) and drop it to the still rate when
 the drag ends; VTK's own level-of-detail props follow the same signal. Each frame drawn
 while it is raised takes the setting the cost model predicts will fit the budget, from the
-last frame's measured time: the marchers' step (time as ``1 / step_scale``: the samples)
-or the cube map's ``upscale`` (time as ``1 / upscale**2``: the texels marched). A fit of
+costliest of the last three frames' measured times (a finer setting only with room to
+spare): the marchers' step (time as ``1 / step_scale``: the samples; ``'vtk'`` past its
+coarsest step at 1/2-1/4 the pixels) or the cube map's ``upscale`` (time as
+``1 / upscale**2``: the texels marched). A fit of
 a fixed cost plus the samples' was tried, and followed llvmpipe's noise. The first still
 frame goes back to the still setting (what the error budget chose, or the user gave), so
 the image refines to it as soon as the view stops. Nothing is rebuilt and no data move:
@@ -32,6 +34,12 @@ from .ladders import STEP_SCALES
 MOVING_RATE = 1.0
 #: The share of the budget a predicted frame aims at (room for the prediction's error).
 AIM = 0.8
+#: The share of the budget a finer value than the last must be predicted to fit.
+REFINE_AIM = 0.6
+#: A moving frame's value is predicted from the costliest of this many last frames (each
+#: frame's time at its own value, brought to the last value by the cost model): one fast
+#: frame does not send the next to a finer value that then misses.
+PREDICT_FROM = 3
 
 
 @dataclass(frozen=True)
@@ -263,18 +271,33 @@ class FrameBudget:
     def next_value(self, value: float, ms: float) -> float:
         """The finest value predicted to fit the budget after ``ms`` at ``value``.
 
-        Never finer than the still value; the coarsest when nothing fits. A knob's
-        coarseness is its value, or its inverse where cost grows with it (``power < 0``).
+        Never finer than the still value; the coarsest when nothing fits. A finer value
+        than ``value`` is taken only where it is predicted to fit :data:`REFINE_AIM` of the
+        budget (a change of size costs a frame new targets, and the cost model errs more
+        the further it reaches). A knob's coarseness is its value, or its inverse where
+        cost grows with it (``power < 0``).
         """
-        wanted = value * (ms / (AIM * self.budget_ms)) ** (1.0 / self.knob.power)
         sign = 1.0 if self.knob.power > 0 else -1.0
 
         def coarseness(v: float) -> float:
             return sign * v
         values = sorted({*self.knob.ladder(self.still), float(self.still)}, key=coarseness)
         allowed = [v for v in values if coarseness(v) >= coarseness(self.still)]
-        fitting = [v for v in allowed if coarseness(v) >= coarseness(wanted)]
-        return min(fitting, key=coarseness) if fitting else max(allowed, key=coarseness)
+
+        def finest_fitting(aim: float) -> float:
+            wanted = value * (ms / (aim * self.budget_ms)) ** (1.0 / self.knob.power)
+            fitting = [v for v in allowed if coarseness(v) >= coarseness(wanted)]
+            return min(fitting, key=coarseness) if fitting else max(allowed, key=coarseness)
+        chosen = finest_fitting(AIM)
+        if coarseness(chosen) < coarseness(value):   # finer: only with room to spare
+            cautious = finest_fitting(REFINE_AIM)
+            chosen = cautious if coarseness(cautious) < coarseness(value) else value
+        return chosen
+
+    def predicted_ms(self, value: float) -> float:
+        """A frame's time at ``value``: the costliest of the last :data:`PREDICT_FROM`."""
+        power = self.knob.power
+        return max(f.ms * (f.value / value) ** power for f in self.frames[-PREDICT_FROM:])
 
     def before_frame(self, *_) -> None:
         """Choose this frame's value, set it, start the clock.
@@ -289,7 +312,7 @@ class FrameBudget:
             self.value = self.still
         elif self.frames:
             last = self.frames[-1]
-            self.value = self.next_value(last.value, last.ms)
+            self.value = self.next_value(last.value, self.predicted_ms(last.value))
         if self.value != self._written:   # a still view sets nothing frame after frame
             self.knob.write(self.binding, self.value)
             self._written = self.value
