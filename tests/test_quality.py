@@ -410,8 +410,21 @@ def test_auto_calibrates_both_paths_so_either_meets_the_target(ct):
     # on its own, and each, forced, meets the target over the whole frame
     # catches (seen failing): the cube map's choice dropped when both are merged (its
     # face never applied); the direct marcher handed the cube map's upscale (refused:
-    # not an option of technique='direct')
-    plotter, actor = _add(ct, technique="auto", quality=38, upscale=1.0)
+    # not an option of technique='direct'); the same sample traced by the reference for
+    # each path (two traces where one serves both)
+    from pv_cubemarch.quality.volumes import VolumeCalibration
+    traces = []
+    trace = VolumeCalibration._trace
+
+    def counted(self, *args):
+        traces.append(self.technique)
+        return trace(self, *args)
+    VolumeCalibration._trace = counted
+    try:
+        plotter, actor = _add(ct, technique="auto", quality=38, upscale=1.0)
+    finally:
+        VolumeCalibration._trace = trace
+    assert len(traces) == 1, traces
     choice = actor.cubemarch.quality
     assert {"step_scale", "face_size"} <= set(choice.setting) and choice.met
     binding = actor.cubemarch

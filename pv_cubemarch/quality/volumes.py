@@ -22,10 +22,11 @@ from ..reference.projections import render_blended
 from ..reference.volume_shading import ShadeSetup
 from ..volume.clipping import box_planes, clip_plane_list
 from ..volume.pyvista_keywords import isosurface_levels
+from .cache import choice_key
 from .calibration import QualityChoice
 from .interaction import KNOBS
 from .ladders import volume_tracks
-from .probe import ProbeCalibration
+from .probe import ProbeCalibration, view_key
 from .targets import QualityTarget, parse_quality
 
 #: The knobs a ladder sets: giving one with ``quality=`` is a contradiction.
@@ -36,6 +37,9 @@ REFERENCE_STEP = 0.1
 QUALITY_BLENDING = ("composite", "maximum", "minimum", "average", "additive", "isosurface")
 #: The gradient shading's material terms (``shade=True``).
 MATERIAL = ("ambient", "diffuse", "specular", "specular_power")
+#: The kept options the reference reads (besides the clip planes, crop box and lights).
+REFERENCE_READS = ("blending", "isosurfaces", "shade", *MATERIAL, "light_map_ambient",
+                   "average_range")
 
 
 def check_quality_request(quality, given: dict, blending: str, rgba: bool = False
@@ -104,7 +108,11 @@ class VolumeCalibration(ProbeCalibration):
     """``quality=`` of a volume: its step, or its cube map's face.
 
     ``keep`` holds its ``blending`` and, shaded, ``shade`` and the material it was given.
+    ``traced``: the reference's images of the last samples, shared by the two paths of
+    ``'auto'`` (the same sample of the same view: traced once).
     """
+
+    traced: dict | None = None
 
     def tracks(self) -> list:
         return volume_tracks(self.technique, self.model.dimensions)
@@ -143,6 +151,20 @@ class VolumeCalibration(ProbeCalibration):
             two_sided=bool(self.probe.renderer.GetTwoSidedLighting()))
 
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
+        """The reference's sample, or the one the other path of ``'auto'`` traced."""
+        if self.traced is None:
+            return self._trace(camera, size, background, near, pixels)
+        key = choice_key(*model_key(self.model), self.planes(),
+                         light_keys(self.keep.get("lights")),
+                         sorted((k, repr(v)) for k, v in self.keep.items()
+                                if k in REFERENCE_READS), view_key(camera), size, background,
+                         near, *(np.asarray(p) for p in pixels))
+        if key not in self.traced:
+            self.traced.clear()   # the last sample only
+            self.traced[key] = self._trace(camera, size, background, near, pixels)
+        return self.traced[key]
+
+    def _trace(self, camera, size, background, near, pixels) -> np.ndarray:
         planes = self.planes() or None
         blending = self.keep.get("blending", "composite")
         shade = self.shade_setup() if self.keep.get("shade") else None
@@ -237,5 +259,7 @@ def volume_calibration(model, technique: str, target: QualityTarget, keep: dict,
                                  {k: v for k, v in keep.items() if k in reads}, add,
                                  get_technique("volume", name).reference)
     if technique == "auto":
-        return AutoCalibration(one("direct"), one("cubemap"))
+        direct, cubemap = one("direct"), one("cubemap")
+        direct.traced = cubemap.traced = {}
+        return AutoCalibration(direct, cubemap)
     return one(technique)
