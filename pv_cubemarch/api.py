@@ -241,11 +241,12 @@ def add_volume(
         ``PV_CUBEMARCH_CACHE_DIR``). A still frame drawn from another view than the one
         calibrated warns once; ``actor.cubemarch.recalibrate()`` chooses for the view
         then (set the camera before adding to avoid it). ``'auto'``: both of its paths
-        are calibrated apart (the step and the face), so either meets the target. One
-        volume, composited (an RGBA one too) or as isosurfaces (``shade=True`` too: lit
-        by one headlight on the probe and in the reference, with its material) or
-        projected (``'maximum'``, ``'minimum'``, ``'average'``, ``'additive'``); not with
-        the settings it chooses, channel volumes or a crop box. With ``lights=`` the
+        are calibrated apart (the step and the face), so either meets the target. A
+        volume composited (an RGBA one, channels and volumes marched jointly too) or as
+        isosurfaces (``shade=True`` too: lit by one headlight on the probe and in the
+        reference, with its material) or projected (``'maximum'``, ``'minimum'``,
+        ``'average'`` with its ``average_range``, ``'additive'``), cut by its clip
+        planes and crop box; not with the settings it chooses. With ``lights=`` the
         reference lights its samples through the volume as the light map does; the light
         map's own error (38.5 dB at 64 points a side on a CT phantom) bounds what a
         target can reach.
