@@ -254,10 +254,11 @@ def add_volume(
         ``'vtk'``, ``'direct'`` (at ``downsample=1``), ``'cubemap'`` and ``'auto'``: while
         the view moves (VTK's interactors, the live view's mouse), each frame takes the
         finest step (the cube map: ``upscale``) predicted to stay within this many
-        milliseconds from the last frame's time (which grows as ``1 / step_scale``, or
-        ``1 / upscale**2``); the first frame after the view stops draws the still setting
-        again (given, or what ``quality`` chose). ``'auto'``: each path its own knob,
-        predicted from the last frame that path drew. Nothing is rebuilt.
+        milliseconds from the costliest of the last three frames (time grows as
+        ``1 / step_scale``, or ``1 / upscale**2``; ``'vtk'`` past step 16 draws at 1/2-1/4
+        the size, VTK's ``ImageSampleDistance``); the first frame after the view stops
+        draws the still setting again (given, or what ``quality`` chose). ``'auto'``: each
+        path its own knob, predicted from the frames that path drew. Nothing is rebuilt.
         ``actor.cubemarch.frame_budget`` keeps the frames' values and times.
     step_scale : float, optional
         ``'vtk'``, ``'direct'`` and ``'auto'``: step length in texels along the ray's
