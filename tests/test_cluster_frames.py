@@ -143,6 +143,7 @@ def test_orbit_turns_about_the_view_up():
         cm.orbit(cameras[0], 0)
 
 
+@pytest.mark.slow   # long (12 s): its own CI step (pytest -m slow)
 def test_the_command_line_renders_an_orbit_of_a_scene(tmp_path, capsys):
     # pv-cubemarch render-frames: the shipped scene's orbit, 4 frames on 2 workers, equal
     # to Scene.render of the same cameras in this process.

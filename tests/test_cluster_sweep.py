@@ -112,6 +112,7 @@ def test_a_reference_made_in_bands_on_the_workers_is_the_whole_one(client):
     assert np.mean(np.abs(whole - free).max(axis=-1) > 0.05) > 0.2
 
 
+@pytest.mark.slow   # long (7 s): its own CI step (pytest -m slow)
 def test_bench_tradeoff_computes_its_references_on_the_cluster(client, tmp_path):
     # The same rows and errors as computed here; the rows still timed side by side here.
     # catches (seen failing): the reference's bands stacked in another order.

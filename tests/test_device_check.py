@@ -56,6 +56,7 @@ def test_voxel_and_surface_rows_are_judged_on_their_own_errors():
     assert compare_with_mesa("surfaces", gpu, mesa)["disagree"] == 1
 
 
+@pytest.mark.slow   # long (8 s): its own CI step (pytest -m slow)
 def test_a_failing_section_and_a_spent_budget_are_reported_and_the_plan_goes_on(
         tmp_path, monkeypatch):
     # catches (seen failing): a section's failure raised out of the plan (the next section

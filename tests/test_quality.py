@@ -349,6 +349,7 @@ def test_an_rgba_volume_meets_its_target(technique):
     assert estimates == [False, False]
 
 
+@pytest.mark.slow   # long (6 s a mix): its own CI step (pytest -m slow)
 @pytest.mark.parametrize("mix", ["composite", "additive"])
 def test_a_channel_volume_meets_its_target(ct, mix):
     # Two uint16 channels (microscopy's counts): the CT phantom shifted to counts and a

@@ -139,8 +139,11 @@ def _whole_frame_psnr_of(plotter, field, **look) -> float:
     return compare_images(read_pixels(plotter), expected).psnr
 
 
-@pytest.mark.parametrize("case", ["levels", "levels exact", "translucent levels",
-                                  "translucent", "curvature"])
+# translucent cases are long (2-5 s): their own CI step (-m slow)
+@pytest.mark.parametrize("case", ["levels", "levels exact",
+                                  pytest.param("translucent levels", marks=pytest.mark.slow),
+                                  pytest.param("translucent", marks=pytest.mark.slow),
+                                  "curvature"])
 def test_levels_translucency_and_colour_maps_meet_their_target(sheets, case):
     # Levels coloured by viridis over their own range (by hand: its first, middle and last
     # entries), translucent ones composited, a colour map over a given clim: the frame
