@@ -20,6 +20,7 @@ from .core.mesh_keywords import VOXELS as VOXEL_REFUSED
 from .core.mesh_keywords import refuse_mesh_keywords, shading_for_lighting
 from .core.registry import get_technique
 from .core.rendering import open_window
+from .core.user_warnings import warn_user
 from .gl.overlay import bounds_proxy
 from .models.array_sources import is_array_source, world_from_array
 from .models.channels import (
@@ -59,7 +60,7 @@ from .surfaces.technique import build_translucent_levels
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.binding import VolumeBinding, VolumeData, VolumeSetup
 from .volume.brick_pager import BrickPager
-from .volume.clipping import clip_plane_list, set_crop_box
+from .volume.clipping import clip_plane_list, crop_keeps_nothing, set_crop_box
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
 from .volume.light_map import LightMap
@@ -380,7 +381,8 @@ def add_volume(
         (at most 6). For scenes: ``--clip-planes`` and ``cubemarch:clipPlanes``.
     crop_box : sequence of float, optional
         ``(xmin, xmax, ymin, ymax, zmin, zmax)`` kept, in the data's coordinates (before
-        ``transform``): the mapper's cropping planes, as ``vol.mapper.SetCropping(True)``
+        ``transform``; volumes marched jointly with different placements: the world's):
+        the mapper's cropping planes, as ``vol.mapper.SetCropping(True)``
         and ``SetCroppingRegionPlanes`` set them. For scenes: ``--crop-box`` and
         ``cubemarch:cropBox``.
     average_range : sequence of float, optional
@@ -585,6 +587,10 @@ def add_volume(
         actor.mapper.AddClippingPlane(plane)
     if crop_box is not None:
         set_crop_box(actor.mapper, crop_box)
+        if crop_keeps_nothing(crop_box, model):
+            warn_user(f"crop_box={tuple(crop_box)!r} keeps none of {model.name!r} (its box "
+                      "lies outside the data, in the data's coordinates, before transform): "
+                      "nothing of it is drawn.")
     if average_range is not None:
         set_average_range(actor.mapper, average_range, blending)
     _frame(plotter, reset_camera)
@@ -1274,14 +1280,15 @@ def add_voxels(
         chunks) is measured as drawn, against its filled voxels read whole (up to 2**27
         of them).
     frame_budget_ms : float, optional
-        While the view moves, each frame draws the grid at the most pixels (1/2, 1/3 or
-        1/4 of the viewport across, shown at full size with their depth) predicted to stay
-        within this many milliseconds from the last frame's time (which grows with the
-        pixels): no traversal was measured cheaper than the exact one (``bench voxels``),
-        so the pixels are what a moving view coarsens. The first frame after the view
-        stops is drawn at full size. For a grid drawn whole or a world drawn by one
-        traversal (``world_traversal='index'``), not one drawn per chunk nor translucent
-        labels. ``actor.cubemarch.frame_budget`` keeps the frames' values and times.
+        While the view moves, each frame draws the grid at the most pixels (1/2, 1/3 or 1/4
+        of the viewport across, shown at full size with their depth) predicted to stay
+        within this many milliseconds from the costliest of the last three frames (time
+        grows with the pixels): no traversal was measured cheaper than the exact one
+        (``bench voxels``), so the pixels are what a moving view coarsens. The first frame
+        after the view stops is drawn at full size. For a grid drawn whole or a world drawn
+        by one traversal (``world_traversal='index'``), not one drawn per chunk nor
+        translucent labels. ``actor.cubemarch.frame_budget`` keeps the frames' values and
+        times.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
     show_edges : bool
@@ -1595,9 +1602,9 @@ def add_surface(
         traced by the reference as drawn (translucent ones take a PSNR, not ``'exact'``);
         not with ``steps``, ``root`` or ``shading='normals'``.
     frame_budget_ms : float, optional
-        While the view moves, each frame marches the most ``steps`` predicted to stay
-        within this many milliseconds from the last frame's time (which grows with the
-        steps); below 100 steps it draws fewer pixels instead, at 1/2, 1/3 or 1/4 of the
+        While the view moves, each frame marches the most ``steps`` predicted to stay within
+        this many milliseconds from the costliest of the last three frames (time grows with
+        the steps); below 100 steps it draws fewer pixels instead, at 1/2, 1/3 or 1/4 of the
         viewport across, shown at full size with their depth (the walk through the cells
         costs what the steps do not). The first frame after the view stops draws the still
         ``steps`` again, at full size. Nothing is rebuilt. Several isosurfaces move

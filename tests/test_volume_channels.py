@@ -271,3 +271,45 @@ def test_channel_volumes_from_files_usd_and_the_command_line(tmp_path, vtk_indep
     drawn = np.asarray(Image.open(out))[..., :3]
     assert_close_to_reference(drawn, reference, 40.0,
                               background=pv.Color(cm.load_scene(path).background).float_rgb)
+
+
+@pytest.mark.parametrize("technique", ["direct", "cubemap"])
+def test_a_crop_box_on_placed_channels_is_in_the_data_s_coordinates(technique):
+    # A crop box is in the data's coordinates, before user_matrix; a channel volume (a
+    # group of co-located channels) is placed by its channels' shared transform. Against
+    # the reference cut by the box's planes placed by the matrix by hand, origin far out.
+    # catches (seen failing, found by a review): the box read in world coordinates for a
+    # group (it has no .transform): nothing drawn (25.0 dB against the cut reference)
+    from pv_cubemarch.core.camera import Camera
+    from pv_cubemarch.core.rendering import offscreen_plotter, read_pixels, render_frame
+    from pv_cubemarch.image_metrics import compare_images
+    x, y, z = np.meshgrid(*(np.linspace(-1, 1, n) for n in (32, 24, 20)), indexing="ij")
+    grid = pv.ImageData(dimensions=x.shape, spacing=(0.8, 1.0, 1.3), origin=(1e5, -3e4, 7.0))
+    first = 3000 * np.exp(-((x - 0.3) ** 2 + y**2 + z**2) * 4) + 200
+    second = 4000 * np.exp(-((x + 0.3) ** 2 + (y - 0.2) ** 2 + z**2) * 6) + 300
+    grid.point_data["counts"] = np.column_stack(
+        [first.ravel(order="F"), second.ravel(order="F")]).astype(np.uint16)
+    matrix = np.eye(4)
+    matrix[0, 0], matrix[:3, 3] = 1.5, (5.0, -3.0, 2.0)
+    box = (1e5 + 5.0, 1e5 + 60.0, -3e4 + 5.0, -3e4 + 20.0, -3.0, 32.0)   # x past the data
+    plotter = offscreen_plotter((160, 120))
+    actor = cm.add_volume(plotter, grid, scalars="counts", technique=technique,
+                          opacity="linear", clim=[(200.0, 3200.0), (300.0, 4300.0)],
+                          crop_box=box, user_matrix=matrix)
+    render_frame(plotter)
+    planes = []   # x >= xmin ... placed by the matrix: origins moved, normals by M^-T
+    for axis in range(3):
+        for value, sign in ((box[2 * axis], 1.0), (box[2 * axis + 1], -1.0)):
+            origin, normal = np.zeros(3), np.zeros(3)
+            origin[axis], normal[axis] = value, sign
+            normal = np.linalg.inv(matrix[:3, :3]).T @ normal
+            planes.append((tuple(matrix[:3, :3] @ origin + matrix[:3, 3]),
+                           tuple(normal / np.linalg.norm(normal))))
+    expected = render_emission_absorption(
+        actor.cubemarch.model, Camera.from_pyvista(plotter.camera), (160, 120),
+        step_voxels=0.1, near=plotter.camera.clipping_range[0], clip_planes=planes,
+        background=tuple(plotter.background_color.float_rgb))
+    drawn = read_pixels(plotter)
+    assert np.abs(drawn.astype(float) - expected[0, 0] * 255).max() > 30   # something drawn
+    assert compare_images(drawn, expected).psnr >= 38.0
+    plotter.close()

@@ -15,6 +15,7 @@ grid's own frame before the volume's ``transform``: world axes, not a direction 
 from __future__ import annotations
 
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -471,3 +472,26 @@ def test_crop_box_from_python_usd_and_the_command_line(pyvista_cropped, tmp_path
     for bad in ([0, 1, 2], [5, 0, 0, 1, 0, 1], "box"):
         with pytest.raises(ValueError, match="crop_box takes six"):
             cm.add_volume(pv.Plotter(off_screen=True), grid, crop_box=bad)
+
+
+def test_a_crop_box_that_keeps_nothing_is_said():
+    # A box beside the data (in its coordinates, before user_matrix) draws nothing: said
+    # once, naming the volume; a box that cuts the data, or one beside it in the world but
+    # on it in the data's coordinates, says nothing.
+    # catches (seen failing, found by a review): a box outside passed in silence (and
+    # quality= reported it met at infinite PSNR)
+    grid = pv.ImageData(dimensions=(8, 8, 8), spacing=(1.0, 2.0, 0.5), origin=(-500.0, 7.0, 0.0))
+    grid.point_data["v"] = np.arange(512, dtype=float)
+    moved = np.eye(4)
+    moved[0, 3] = 1000.0   # the data placed at x = 500 .. 507 in the world
+    for box, matrix, said in (((0.0, 5.0, 0.0, 5.0, 0.0, 5.0), None, True),
+                              ((-497.0, -495.0, 8.0, 10.0, 1.0, 2.0), None, False),
+                              ((-497.0, -495.0, 8.0, 10.0, 1.0, 2.0), moved, False),
+                              ((500.0, 505.0, 8.0, 10.0, 1.0, 2.0), moved, True)):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            cm.add_volume(pv.Plotter(off_screen=True), grid, crop_box=box, name="scan",
+                          user_matrix=matrix)
+        messages = [str(w.message) for w in caught if "keeps none" in str(w.message)]
+        assert bool(messages) == said, (box, messages)
+        assert all("'scan'" in m for m in messages)

@@ -20,7 +20,7 @@ from ..models.group import VolumeGroup
 from ..models.lights import light_source
 from ..reference.projections import render_blended
 from ..reference.volume_shading import ShadeSetup
-from ..volume.clipping import box_planes, clip_plane_list
+from ..volume.clipping import box_planes, clip_plane_list, data_transform
 from ..volume.pyvista_keywords import isosurface_levels
 from .cache import choice_key
 from .calibration import QualityChoice
@@ -127,7 +127,7 @@ class VolumeCalibration(ProbeCalibration):
     def planes(self) -> list[tuple]:
         """The clip planes and crop box the volume is drawn with, as world planes."""
         return plane_pairs(self.keep.get("clip_planes"), self.keep.get("crop_box"),
-                           getattr(self.model, "transform", None))
+                           data_transform(self.model))
 
     def shading(self) -> str:
         return "blinn" if self.keep.get("shade") else "unlit"

@@ -23,7 +23,7 @@ from ..gl.shaders import ShaderRecipe
 from ..gl.textures import Texture
 from ..models.group import VolumeGroup
 from ..models.volume import INTERPOLATIONS, VolumeModel, checked_values
-from .clipping import ClipState
+from .clipping import ClipState, data_transform
 from .pyvista_keywords import DIRECT_COLOR_BLENDING
 from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
 from .stand_in import place_stand_in, stand_in_matrix
@@ -526,7 +526,7 @@ class VolumeBinding(DrawnBinding):
         map is marched again when a plane moves.
         """
         count_changed, changed = self.data.clip.follow(
-            self.clip_source, getattr(self.model, "transform", None))
+            self.clip_source, data_transform(self.model))
         if count_changed:
             self.set_march_defines(self.data.clip.defines)
         if changed and self.light_map is not None:

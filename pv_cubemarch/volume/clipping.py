@@ -101,6 +101,30 @@ def crop_planes(mapper, transform) -> tuple[tuple[tuple[float, ...], tuple[float
     return box_planes(mapper.GetCroppingRegionPlanes(), transform)
 
 
+def data_transform(model):
+    """Where ``model``'s data coordinates (a crop box's) lie in the world: its ``transform``.
+
+    A group's (a channel volume's, volumes marched jointly) when its members share one;
+    None (the world's) when they differ.
+    """
+    if hasattr(model, "shared_transform"):
+        return model.shared_transform()
+    return getattr(model, "transform", None)
+
+
+def crop_keeps_nothing(box, model) -> bool:
+    """Whether the crop ``box`` (the data's coordinates) misses ``model``'s box entirely."""
+    bounds = np.asarray(model.world_bounds(), dtype=np.float64).reshape(3, 2)
+    corners = np.array(np.meshgrid(*bounds, indexing="ij")).reshape(3, -1).T
+    transform = data_transform(model)
+    if transform is not None:   # the world box's corners in the data's coordinates
+        inverse = np.linalg.inv(np.asarray(transform, dtype=np.float64))
+        corners = corners @ inverse[:3, :3].T + inverse[:3, 3]
+    low, high = corners.min(axis=0), corners.max(axis=0)
+    box = np.asarray(box, dtype=np.float64).ravel()
+    return bool(np.any(box[1::2] < low) or np.any(box[::2] > high))
+
+
 def box_planes(box, transform) -> tuple[tuple[tuple[float, ...], tuple[float, ...]], ...]:
     """The six world ``(origin, normal)`` planes keeping ``box`` (xmin, xmax, ... zmax).
 

@@ -132,10 +132,11 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
 
     def follow_supersampling(*_) -> None:
         stand_in = getattr(binding, "actor", None)   # the volume add_volume returned
-        supersampled = supersampling_pass(renderer) is not None
+        full_only = supersampling_pass(renderer) is not None or \
+            drawn_viewport(renderer)[:2] != (0, 0)
         binding.sample_distances.follow(
             stand_in.GetMapper() if stand_in is not None and stand_in is not actor else None,
-            supersampled)
+            full_only)
         if match_supersampling_depth(renderer) and binding.shown and not said \
                 and frame_inputs(renderer).has_opaque_props():
             said.append(True)
@@ -169,21 +170,23 @@ class SampleDistances:
 
     ``vol.mapper.SetImageSampleDistance(d)`` on the returned volume draws the volume at
     1/d of the viewport across, as on PyVista's own GPU mapper; a frame budget asks for
-    coarser ones while the view moves (the coarser of the two is drawn). Under
-    supersampling it is 1: VTK would shrink the window's size, not the pass's.
+    coarser ones while the view moves (the coarser of the two is drawn). It is 1 under
+    supersampling (VTK would shrink the window's size, not the pass's) and in a renderer
+    that does not start at the window's lower-left corner (a subplot right of or above
+    another: the volume vanished there, and VTK's own mapper loses it from d=3).
     """
 
     def __init__(self, mapper):
         self.mapper = mapper
         self.user = 1.0
         self.budget = 1.0
-        self._supersampled = False
+        self._full_only = False
 
-    def follow(self, returned_mapper, supersampled: bool) -> None:
-        """At each frame: take the returned volume's distance and the supersampling."""
+    def follow(self, returned_mapper, full_only: bool) -> None:
+        """At each frame: take the returned volume's distance, and whether only 1 draws."""
         if returned_mapper is not None:
             self.user = max(float(returned_mapper.GetImageSampleDistance()), 1.0)
-        self._supersampled = supersampled
+        self._full_only = full_only
         self.apply()
 
     def ask(self, distance: float) -> None:
@@ -192,7 +195,7 @@ class SampleDistances:
         self.apply()
 
     def apply(self) -> None:
-        wanted = 1.0 if self._supersampled else max(self.user, self.budget)
+        wanted = 1.0 if self._full_only else max(self.user, self.budget)
         if float(self.mapper.GetImageSampleDistance()) != wanted:
             self.mapper.SetImageSampleDistance(wanted)
 
