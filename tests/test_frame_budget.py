@@ -162,6 +162,25 @@ def test_vtk_past_its_coarsest_step_draws_fewer_pixels_and_refines_when_still(ct
     other.close()
 
 
+def test_vtk_where_only_the_full_size_draws_the_budget_keeps_to_steps(ct):
+    # In a subplot off the window's corner the sample distance stays 1: the budget's
+    # ladder there stops at step 16 (no size it cannot draw counted as cheaper).
+    # catches (seen failing, found by a review): the budget stepping to "1/3 size" and
+    # "1/4 size" values that drew the full size (its cost model then off by 9-16x)
+    plotter = pyvista.Plotter(off_screen=True, window_size=(320, 120), shape=(1, 2))
+    plotter.subplot(0, 1)
+    actor = pv_cubemarch.add_volume(plotter, ct, technique="vtk", step_scale=0.5, **LOOK)
+    budget = attach_frame_budget(actor.cubemarch, "vtk", plotter.ren_win, 40.0,
+                                 clock=iter(np.arange(0.0, 100.0, 0.5)).__next__)
+    render_frame(plotter)
+    plotter.ren_win.SetDesiredUpdateRate(15.0)
+    for _ in range(3):   # every frame 500 ms: on to the coarsest value it can draw
+        render_frame(plotter)
+    assert [f.value for f in budget.frames[1:]] == [8.0, 16.0, 16.0], budget.frames
+    assert actor.cubemarch.drawn[0].GetMapper().GetImageSampleDistance() == 1.0
+    plotter.close()
+
+
 def test_add_volume_takes_the_budget_and_the_quality_s_estimates(ct, tmp_path, monkeypatch):
     monkeypatch.setenv("PV_CUBEMARCH_CACHE_DIR", str(tmp_path))
     plotter = offscreen_plotter((160, 120))

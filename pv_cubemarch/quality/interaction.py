@@ -59,10 +59,15 @@ class BudgetKnob:
     label: Callable[[float, float], str] | None = None
     #: The values for a still value, where they depend on it (default ``values``).
     ladder_of: Callable[[float], tuple[float, ...]] | None = None
+    #: Whether a value draws on a binding now (default: every value does).
+    drawable: Callable[[object, float], bool] | None = None
 
-    def ladder(self, still: float) -> tuple[float, ...]:
-        """The values a budget with this still value moves among."""
-        return self.values if self.ladder_of is None else self.ladder_of(still)
+    def ladder(self, still: float, binding=None) -> tuple[float, ...]:
+        """The values a budget with this still value moves among (on ``binding`` now)."""
+        values = self.values if self.ladder_of is None else self.ladder_of(still)
+        if self.drawable is None or binding is None:
+            return values
+        return tuple(v for v in values if self.drawable(binding, v))
 
     def describe(self, value: float, still: float) -> str:
         """``value`` as the panel and the bench say it."""
@@ -174,6 +179,11 @@ def _write_vtk_step(binding, value: float) -> None:
     binding.sample_distances.ask(distance)
 
 
+def _vtk_step_drawable(binding, value: float) -> bool:
+    """A reduced size draws only where the mapper may take a sample distance now."""
+    return vtk_step_drawn(value)[1] == 1 or not binding.sample_distances.full_only
+
+
 def _vtk_step_label(value: float, still: float) -> str:
     step, distance = vtk_step_drawn(value)
     return f"step_scale={step:g}" + ("" if distance == 1 else f" at 1/{distance} size")
@@ -197,7 +207,8 @@ KNOBS = {
     # the samples, the step's or the pixels'
     "step_pixels": BudgetKnob("step_scale", (16.0 * 16, 16.0 * 9, 16.0 * 4, 16.0, 8.0,
                                              *STEP_SCALES), 1.0,
-                              _read_vtk_step, _write_vtk_step, _vtk_step_label),
+                              _read_vtk_step, _write_vtk_step, _vtk_step_label,
+                              drawable=_vtk_step_drawable),
     "upscale": BudgetKnob("upscale", (8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5), 2.0,
                           lambda b: float(b.frame.options.upscale), _write_upscale),
     # a surface's samples along the diagonal: time as the samples (finer is larger); below
@@ -281,7 +292,8 @@ class FrameBudget:
 
         def coarseness(v: float) -> float:
             return sign * v
-        values = sorted({*self.knob.ladder(self.still), float(self.still)}, key=coarseness)
+        values = sorted({*self.knob.ladder(self.still, self.binding), float(self.still)},
+                        key=coarseness)
         allowed = [v for v in values if coarseness(v) >= coarseness(self.still)]
 
         def finest_fitting(aim: float) -> float:

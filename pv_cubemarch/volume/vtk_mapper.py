@@ -180,13 +180,14 @@ class SampleDistances:
         self.mapper = mapper
         self.user = 1.0
         self.budget = 1.0
-        self._full_only = False
+        #: Whether only 1 draws now (supersampling, a subplot off the window's corner).
+        self.full_only = False
 
     def follow(self, returned_mapper, full_only: bool) -> None:
         """At each frame: take the returned volume's distance, and whether only 1 draws."""
         if returned_mapper is not None:
             self.user = max(float(returned_mapper.GetImageSampleDistance()), 1.0)
-        self._full_only = full_only
+        self.full_only = full_only
         self.apply()
 
     def ask(self, distance: float) -> None:
@@ -195,7 +196,7 @@ class SampleDistances:
         self.apply()
 
     def apply(self) -> None:
-        wanted = 1.0 if self._full_only else max(self.user, self.budget)
+        wanted = 1.0 if self.full_only else max(self.user, self.budget)
         if float(self.mapper.GetImageSampleDistance()) != wanted:
             self.mapper.SetImageSampleDistance(wanted)
 
