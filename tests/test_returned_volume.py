@@ -336,6 +336,8 @@ def test_blend_mode_refused_where_the_volume_is_shaded():
     (lambda vol: setattr(vol.mapper, "scalar_range", (0.0, 100.0)), "clim"),
     (lambda vol: setattr(vol.prop, "independent_components", False), "independent_components"),
     (lambda vol: vol.prop.apply_lookup_table(pv.LookupTable("jet")), "colors"),
+    # 'direct' has no sample distance ('vtk' draws one): ignored in silence before
+    (lambda vol: vol.mapper.SetImageSampleDistance(2.0), "technique='vtk'"),
 ])
 def test_a_change_not_drawn_is_refused_and_set_back(change, named):
     """A change the marchers do not follow raises at the next frame, naming the keyword,
@@ -354,6 +356,7 @@ def test_a_change_not_drawn_is_refused_and_set_back(change, named):
     assert vol.prop.opacity_unit_distance == unit and vol.mapper.blend_mode == "composite"
     assert vol.prop.interpolation_type == "linear" and not vol.prop.shade
     assert vol.mapper.scalar_range == pytest.approx((40.0, 280.0))   # reads the clim
+    assert vol.mapper.GetImageSampleDistance() == 1.0
     assert np.array_equal(cm.render_image(pl), first)
     pl.close()
 

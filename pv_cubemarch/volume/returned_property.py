@@ -3,7 +3,8 @@
 The returned ``pyvista.Volume`` starts with what is drawn: ``vol.prop.interpolation_type``,
 ``opacity_unit_distance``, ``shade`` and its terms, ``vol.mapper.blend_mode``. At each frame
 a change the marchers can follow is drawn (the interpolation, the opacity unit distance,
-the blend mode, shading on or off, the shading terms); any other, or a pair the marchers do
+the blend mode, shading on or off, the shading terms; ``'vtk'``'s image sample distance);
+any other, or a pair the marchers do
 not draw together (shade with a projection), is refused with an error that says which
 ``add_volume`` keyword draws it, and the property is put back to what is drawn, so no
 frame shows a setting it ignores.
@@ -40,6 +41,8 @@ INSTEAD = {
     "diffuse": "add_volume(..., shade=True, diffuse=...)",
     "specular": "add_volume(..., shade=True, specular=...)",
     "specular_power": "add_volume(..., shade=True, specular_power=...)",
+    "image_sample_distance": "technique='vtk', whose mapper draws at 1/d of the viewport, or "
+                             "downsample= with technique='direct'",
 }
 
 
@@ -59,6 +62,8 @@ def _read(volume) -> dict:
         "independent_components": bool(prop.GetIndependentComponents()),
         "colors": int(prop.GetRGBTransferFunction().GetMTime()),
         "opacities": int(prop.GetScalarOpacity().GetMTime()),
+        "image_sample_distance": float(volume.GetMapper().GetImageSampleDistance())
+        if hasattr(volume.GetMapper(), "GetImageSampleDistance") else 1.0,
     }
 
 
@@ -76,6 +81,8 @@ def _write(volume, state: dict) -> None:
     volume.GetMapper().SetBlendMode(state["blending"])
     if state["clim"]:
         volume.GetMapper().scalar_range = state["clim"]
+    if hasattr(volume.GetMapper(), "SetImageSampleDistance"):
+        volume.GetMapper().SetImageSampleDistance(state["image_sample_distance"])
 
 
 class ReturnedProperty:
@@ -102,7 +109,9 @@ class ReturnedProperty:
             return
         changed = [key for key in now if now[key] != self.state[key]]
         followed = {"interpolation", "opacity_unit_distance", "blending", "shade"} | (
-            set(TERMS) if self.shade is not None or now["shade"] else set())
+            set(TERMS) if self.shade is not None or now["shade"] else set()) | (
+            {"image_sample_distance"} if getattr(self.binding, "technique", None) == "vtk"
+            else set())   # 'vtk''s drawing mapper takes it itself (vtk_mapper.py)
         refused = [key for key in changed if key not in followed]
         if refused:
             key = refused[0]
