@@ -205,8 +205,8 @@ KNOBS = {
     # 'vtk': the step, then the coarsest step at fewer pixels (VTK's ImageSampleDistance:
     # its mapper draws into a framebuffer 1/2-1/4 the size and stretches it): time as
     # the samples, the step's or the pixels'
-    "step_pixels": BudgetKnob("step_scale", (16.0 * 16, 16.0 * 9, 16.0 * 4, 16.0, 8.0,
-                                             *STEP_SCALES), 1.0,
+    "step_pixels": BudgetKnob("step_scale", (*(VTK_STEP_FLOOR * r * r for r in (4, 3, 2)),
+                                             VTK_STEP_FLOOR, 8.0, *STEP_SCALES), 1.0,
                               _read_vtk_step, _write_vtk_step, _vtk_step_label,
                               drawable=_vtk_step_drawable),
     "upscale": BudgetKnob("upscale", (8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5), 2.0,

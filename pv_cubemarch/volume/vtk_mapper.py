@@ -130,7 +130,8 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
     said = []
     binding.sample_distances = SampleDistances(mapper)
 
-    def follow_supersampling(*_) -> None:
+    def before_draw(*_) -> None:
+        """Each frame: the sample distance the mapper may take; warn of SSAA with meshes."""
         stand_in = getattr(binding, "actor", None)   # the volume add_volume returned
         full_only = supersampling_pass(renderer) is not None or \
             drawn_viewport(renderer)[:2] != (0, 0)
@@ -145,7 +146,7 @@ def build_vtk_actor(plotter, data: VolumeData, setup: VolumeSetup):
                       "at the window's size, not the supersampled one, so meshes hide "
                       "technique='vtk' volumes in the wrong places; use technique='direct', "
                       "or MSAA (enable_anti_aliasing('msaa')).")
-    tag = observe(renderer, vtk.vtkCommand.StartEvent, follow_supersampling)
+    tag = observe(renderer, vtk.vtkCommand.StartEvent, before_draw)
     binding.extra_release.append(lambda: renderer.RemoveObserver(tag))
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
