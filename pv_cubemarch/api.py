@@ -517,7 +517,7 @@ def add_volume(
         raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
                          "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
     if frame_budget_ms is not None:   # refused before anything is drawn or calibrated
-        check_frame_budget(frame_budget_ms, chosen.name, given.get("downsample", 1))
+        check_frame_budget(frame_budget_ms, chosen.name)
     check_channels(model, blending, shade, lights)   # before a calibration draws them
     choice = calibration = None
     if quality is not None:
@@ -1359,7 +1359,7 @@ def add_voxels(
     target = None if quality is None else check_voxel_quality(
         quality, traversal, step_scale, lod)
     if frame_budget_ms is not None:   # the number, before anything is built
-        check_frame_budget(frame_budget_ms, "voxels", 1)
+        check_frame_budget(frame_budget_ms, "voxels")
     options = voxel_options(traversal=traversal, step_scale=step_scale, mip_levels=mip_levels,
                             distance_field=distance_field, mode=mode, shading=shading,
                             ambient=ambient, specular=specular, specular_power=specular_power,
@@ -1677,7 +1677,7 @@ def add_surface(
         model = dataclasses.replace(model, color_values=color_values(color_by, model))
     options.check_model(model)
     if frame_budget_ms is not None:   # refused before anything is drawn or calibrated
-        check_frame_budget(frame_budget_ms, chosen.name, 1)
+        check_frame_budget(frame_budget_ms, chosen.name)
         if root == "exact" or (quality is not None and parse_quality(quality,
                                                                      exact=True).exact):
             raise ValueError("frame_budget_ms moves a marched surface's steps; root='exact' "

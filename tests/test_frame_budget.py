@@ -192,8 +192,39 @@ def test_add_volume_takes_the_budget_and_the_quality_s_estimates(ct, tmp_path, m
     plotter.close()
 
 
+def test_downsampled_direct_steps_then_marches_fewer_pixels_and_refines_when_still(ct):
+    # 'direct' with downsample=2: the step on its low-resolution pass (where it marches),
+    # then step 16 at twice to four times the downsample. Costs by hand: 1000 ms at step
+    # 1 is 62.5 at 16 (over 0.8 * 40 = 32), 15.6 at 16 * 2**2 (downsample 4): it settles
+    # there.
+    # catches (seen failing): the step set on the upsampling box only (the moving frame
+    # drew the still step), the pass's size not following the factor (downsample 2 drawn)
+    plotter = offscreen_plotter((160, 120))
+    actor = pv_cubemarch.add_volume(plotter, ct, technique="direct", step_scale=0.5,
+                                    downsample=2, **LOOK)
+    _, budget = _scripted(plotter, 40.0, cost=1000.0)
+    render_frame(plotter)
+    still = read_pixels(plotter)
+    low_pass = actor.cubemarch.targets[1]
+    assert low_pass.size == (80, 60)
+    plotter.ren_win.SetDesiredUpdateRate(15.0)
+    for _ in range(3):
+        render_frame(plotter)
+    assert budget.frames[-1].value == 64.0 and budget.frames[-1].ms <= 40.0, budget.frames
+    assert low_pass.size == (40, 30)
+    assert budget.describe(64.0) == "step_scale=16, downsample=4"
+    coarse = read_pixels(plotter)
+    plotter.ren_win.SetDesiredUpdateRate(0.0001)
+    render_frame(plotter)
+    assert budget.frames[-1].value == 0.5 and low_pass.size == (80, 60)
+    assert np.array_equal(read_pixels(plotter), still)
+    plotter.close()
+    other, expected = _image(ct, "direct", step_scale=16.0, downsample=4)
+    assert np.array_equal(coarse, expected)
+    other.close()
+
+
 @pytest.mark.parametrize("keywords, words", [
-    ({"technique": "direct", "downsample": 2}, "downsample=1"),
     ({"technique": "direct", "frame_budget_ms": -5}, "positive"),
     ({"technique": "direct", "frame_budget_ms": True}, "positive"),
 ])

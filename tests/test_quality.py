@@ -633,9 +633,9 @@ def test_a_refused_budget_adds_nothing(ct):
     # catches (seen failing): the budget checked after the volume was built (the refused
     # volume stayed in the renderer, drawn)
     plotter = _plotter()
-    with pytest.raises(ValueError, match="downsample=1"):
-        pv_cubemarch.add_volume(plotter, ct, technique="direct", downsample=2,
-                                frame_budget_ms=30, **LOOK)
+    with pytest.raises(ValueError, match="positive"):
+        pv_cubemarch.add_volume(plotter, ct, technique="direct", quality=40,
+                                frame_budget_ms=0, **LOOK)
     assert len(plotter.renderer.actors) == 0
     plotter.close()
 

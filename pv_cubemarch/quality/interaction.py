@@ -5,13 +5,13 @@ VTK's interactors raise the render window's desired update rate while the user d
 the drag ends; VTK's own level-of-detail props follow the same signal. Each frame drawn
 while it is raised takes the setting the cost model predicts will fit the budget, from the
 costliest of the last three frames' measured times (a finer setting only with room to
-spare): the marchers' step (time as ``1 / step_scale``: the samples; ``'vtk'`` past its
-coarsest step at 1/2-1/4 the pixels) or the cube map's ``upscale`` (time as
-``1 / upscale**2``: the texels marched). A fit of
-a fixed cost plus the samples' was tried, and followed llvmpipe's noise. The first still
-frame goes back to the still setting (what the error budget chose, or the user gave), so
-the image refines to it as soon as the view stops. Nothing is rebuilt and no data move:
-a uniform (the step) or the cube map's level of detail (upscale) changes.
+spare): the marchers' step (time as ``1 / step_scale``: the samples; ``'vtk'`` and a
+downsampled ``'direct'`` past their coarsest step at 1/2-1/4 the pixels) or the cube
+map's ``upscale`` (time as ``1 / upscale**2``: the texels marched). A fit of a fixed cost
+plus the samples' was tried, and followed llvmpipe's noise. The first still frame goes
+back to the still setting (what the error budget chose, or the user gave), so the image
+refines to it as soon as the view stops. Nothing is rebuilt and no data move: a uniform
+(the step), a reduced target's size or the cube map's level of detail (upscale) changes.
 """
 
 from __future__ import annotations
@@ -77,6 +77,9 @@ class BudgetKnob:
 
 def _write_step(binding, value: float) -> None:
     binding.bindings.set_uniform("cm_stepScale", float(value))
+    for target in getattr(binding, "targets", ()):   # a reduced-resolution pass marches too
+        if "cm_stepScale" in target.uniforms:
+            target.set_uniform("cm_stepScale", float(value))
     binding.step_scale = float(value)
 
 
@@ -153,19 +156,23 @@ def reduce_pixels(binding, factor: int) -> None:
         reduced.factor = int(factor)
 
 
-#: ``technique='vtk'``'s coarsest step; coarser frames draw it at 1/2, 1/3, 1/4 the size.
-VTK_STEP_FLOOR = 16.0
+#: The coarsest step of ``'vtk'`` and of a downsampled ``'direct'``; coarser frames draw
+#: it at 1/2, 1/3, 1/4 the pixels across.
+STEP_FLOOR = 16.0
+#: A stepped knob's values, coarse to fine: the coarsest step at 1/4-1/2 the pixels
+#: across (the step times the reduction squared), then the steps.
+STEPS_THEN_PIXELS = (*(STEP_FLOOR * r * r for r in (4, 3, 2)), STEP_FLOOR, 8.0, *STEP_SCALES)
 
 
-def vtk_step_drawn(value: float) -> tuple[float, int]:
-    """``(step_scale, sample distance)`` a ``'vtk'`` knob value draws.
+def step_drawn(value: float) -> tuple[float, int]:
+    """``(step_scale, reduction)`` a step-then-pixels knob value draws.
 
     Past the coarsest step the value is that step times the pixels' reduction squared
-    (VTK's ``ImageSampleDistance``: 2, 3, 4 times fewer across).
+    (``'vtk'``: VTK's ``ImageSampleDistance``; ``'direct'``: the downsample times it).
     """
-    if value <= VTK_STEP_FLOOR * (1.0 + 1e-9):
+    if value <= STEP_FLOOR * (1.0 + 1e-9):
         return float(value), 1
-    return VTK_STEP_FLOOR, int(round(math.sqrt(value / VTK_STEP_FLOOR)))
+    return STEP_FLOOR, int(round(math.sqrt(value / STEP_FLOOR)))
 
 
 def _read_vtk_step(binding) -> float:
@@ -174,19 +181,37 @@ def _read_vtk_step(binding) -> float:
 
 
 def _write_vtk_step(binding, value: float) -> None:
-    step, distance = vtk_step_drawn(value)
+    step, distance = step_drawn(value)
     _write_step(binding, step)
     binding.sample_distances.ask(distance)
 
 
 def _vtk_step_drawable(binding, value: float) -> bool:
     """A reduced size draws only where the mapper may take a sample distance now."""
-    return vtk_step_drawn(value)[1] == 1 or not binding.sample_distances.full_only
+    return step_drawn(value)[1] == 1 or not binding.sample_distances.full_only
 
 
 def _vtk_step_label(value: float, still: float) -> str:
-    step, distance = vtk_step_drawn(value)
+    step, distance = step_drawn(value)
     return f"step_scale={step:g}" + ("" if distance == 1 else f" at 1/{distance} size")
+
+
+def _read_step_downsample(binding) -> float:
+    reduction = binding.low_size.factor / binding.downsample
+    return float(binding.step_scale) * reduction ** 2
+
+
+def _write_step_downsample(binding, value: float) -> None:
+    step, reduction = step_drawn(value)
+    _write_step(binding, step)
+    binding.low_size.factor = int(binding.downsample) * reduction
+
+
+def _step_downsample_label(binding) -> Callable[[float, float], str]:
+    def label(value: float, still: float) -> str:
+        step, reduction = step_drawn(value)
+        return f"step_scale={step:g}, downsample={int(binding.downsample) * reduction}"
+    return label
 
 
 def _write_reduction(binding, value: float) -> None:
@@ -205,10 +230,13 @@ KNOBS = {
     # 'vtk': the step, then the coarsest step at fewer pixels (VTK's ImageSampleDistance:
     # its mapper draws into a framebuffer 1/2-1/4 the size and stretches it): time as
     # the samples, the step's or the pixels'
-    "step_pixels": BudgetKnob("step_scale", (*(VTK_STEP_FLOOR * r * r for r in (4, 3, 2)),
-                                             VTK_STEP_FLOOR, 8.0, *STEP_SCALES), 1.0,
+    "step_pixels": BudgetKnob("step_scale", STEPS_THEN_PIXELS, 1.0,
                               _read_vtk_step, _write_vtk_step, _vtk_step_label,
                               drawable=_vtk_step_drawable),
+    # 'direct' with downsample > 1: the step, then the coarsest step at 2-4 times the
+    # downsample (its low-resolution pass 1/2-1/4 as many pixels across)
+    "step_downsample": BudgetKnob("step_scale", STEPS_THEN_PIXELS, 1.0,
+                                  _read_step_downsample, _write_step_downsample),
     "upscale": BudgetKnob("upscale", (8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5), 2.0,
                           lambda b: float(b.frame.options.upscale), _write_upscale),
     # a surface's samples along the diagonal: time as the samples (finer is larger); below
@@ -394,7 +422,7 @@ class PathBudgets:
                 del self.frames[:-1000]
 
 
-def check_frame_budget(budget_ms, technique: str, downsample) -> None:
+def check_frame_budget(budget_ms, technique: str) -> None:
     """Refuse a budget that is not a positive time, or a technique it cannot steer."""
     if isinstance(budget_ms, (bool, np.bool_)) or not isinstance(budget_ms, numbers.Real) \
             or not 0.0 < float(budget_ms) < float("inf"):
@@ -404,10 +432,6 @@ def check_frame_budget(budget_ms, technique: str, downsample) -> None:
         raise ValueError(f"frame_budget_ms steers a volume's technique='vtk', 'direct', "
                          f"'cubemap' or 'auto', or a surface's steps, not "
                          f"technique={technique!r}.")
-    if int(downsample) != 1:
-        raise ValueError(f"frame_budget_ms steers the step of a volume marched at full "
-                         f"resolution: give downsample=1 (not {downsample}) with it, or leave "
-                         "the budget out.")
 
 
 def attach_frame_budget(binding, technique: str, window, budget_ms: float,
@@ -435,6 +459,9 @@ def attach_frame_budget(binding, technique: str, window, budget_ms: float,
         if name == "steps" and binding.options.translucent:
             name = "steps_translucent"
         knob = KNOBS[name]
+        if name == "step" and getattr(binding, "downsample", 1) > 1:
+            knob = dataclasses.replace(KNOBS["step_downsample"],
+                                       label=_step_downsample_label(binding))
         budget = FrameBudget(binding, window, float(budget_ms), knob, knob.read(binding),
                              dict(errors or {}), clock)
     # the end observed last: after any redraw the frame's other observers make

@@ -89,7 +89,7 @@ def check_voxel_budget(frame_budget_ms, model, per_chunk: str | None = None) -> 
     """
     if frame_budget_ms is None:
         return
-    check_frame_budget(frame_budget_ms, "voxels", 1)
+    check_frame_budget(frame_budget_ms, "voxels")
     if per_chunk is not None:
         chosen = per_chunk.startswith("world_traversal=")
         raise ValueError("frame_budget_ms draws one traversal at fewer pixels while the view "

@@ -159,8 +159,9 @@ def build_direct_actor(plotter, data: VolumeData, setup: VolumeSetup):
         binding._tag = observe(renderer, vtk.vtkCommand.StartEvent,
                                binding.follow_multisampling, 5.0)
     else:
+        low_size = LowSize(plotter.renderer, downsample)
         overlay, low_pass = _reduced_resolution(plotter, data, step_scale, shading,
-                                                downsample, light_map)
+                                                low_size, light_map)
         bindings = ShaderBindings(actor.GetMapper(), overlay.renderer)
         bindings.set_uniform("cm_dims", tuple(float(n) for n in model.dimensions))
         bindings.add_texture("cm_lowColor", low_pass.output(0))
@@ -181,23 +182,34 @@ def build_direct_actor(plotter, data: VolumeData, setup: VolumeSetup):
         binding.extra_release = [low_pass.release, lambda: overlay.remove_actor(actor),
                                  lambda: overlay.release_user(actor)]
         binding.targets = [bindings, low_pass]
+        binding.low_size = low_size
         low_pass.run_when = lambda: binding.shown   # every frame the volume is shown
     binding.downsample = downsample
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
 
 
+class LowSize:
+    """The low-resolution pass's size: 1/``factor`` of the viewport, rounded up.
+
+    ``factor`` is the volume's ``downsample``, or more while a frame budget coarsens a
+    moving view (the pass's targets follow at its next run).
+    """
+
+    def __init__(self, renderer, factor: int):
+        self.renderer, self.factor = renderer, int(factor)
+
+    def __call__(self) -> tuple[int, int]:
+        width, height = drawn_viewport(self.renderer)[2:]
+        return (-(-width // self.factor), -(-height // self.factor))
+
+
 def _reduced_resolution(plotter, data: VolumeData, step_scale: float, shading,
-                        downsample: int, light_map=None):
+                        low_size: LowSize, light_map=None):
     """The plotter's overlay and a low-resolution pass run at its start."""
     model = data.model
     main = plotter.renderer
     overlay = scene_overlay(plotter)
-
-    def low_size():
-        width, height = drawn_viewport(main)[2:]
-        return (-(-width // downsample), -(-height // downsample))
-
     low_pass = RenderToTexturePass(overlay.renderer, None, size=low_size,
                                    targets=("rgba16f", "r32f"))
     sampling, defines = bind_sampling(low_pass, data, step_scale, shading.stop_opacity,

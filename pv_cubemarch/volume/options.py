@@ -231,9 +231,9 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
                control=Control("select", "quality", choices=(AUTO, "fast", "balanced", "best"),
                                help="calibrated against the CPU reference")),
         Option("frame_budget_ms", "volume", float, None, "while the view moves, the finest "
-               "step (cube map: upscale) keeping frames within this many ms (the still one "
-               "when it stops)", ("vtk", "direct", "cubemap", "auto"), low=0.0,
-               closed_low=False,
+               "step (then fewer pixels: 'vtk', 'direct' with downsample; cube map: upscale) "
+               "keeping frames within this many ms (the still one when it stops)",
+               ("vtk", "direct", "cubemap", "auto"), low=0.0, closed_low=False,
                optional=True,
                control=Control("select", "frame budget (ms)", choices=(AUTO, 16, 33, 66, 100),
                                help="coarser while the view moves")),
