@@ -607,7 +607,7 @@ PAGED_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors"
                   "blending", "skip_empty", "show_scalar_bar", "scalar_bar_args",
                   "annotations", "preference", "light_map_size", "light_map_ambient",
                   "nan_policy", "multi_colors", "face_size", "max_samples", "upscale",
-                  "sample_factor", "occlusion_sharpness")
+                  "sample_factor", "occlusion_sharpness", "frame_budget_ms")
 
 
 def is_multiscale_input(volume) -> bool:
@@ -636,7 +636,7 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         return default is not None and _same(value, default)
 
     refused = sorted(key for key, value in given.items()
-                     if key not in PAGED_KEYWORDS and not left_out(key, value))
+                     if key not in (*PAGED_KEYWORDS, "quality") and not left_out(key, value))
     if given["user_matrix"] is not None and given["transform"] is not None:
         raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")
     check_paging(given)
@@ -650,6 +650,11 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         refused += sorted(marcher)
     if given["blending"] != "composite":
         refused.append(f"blending={given['blending']!r}")
+    if given["quality"] is not None:
+        raise ValueError("quality= calibrates against a CPU reference that traces the whole "
+                         "volume, which a multiscale source is streamed to avoid: give "
+                         "step_scale= (or the cube map's face_size=) and lod_bias= instead, "
+                         "or add a level that fits in memory to calibrate on it.")
     if refused:
         raise ValueError(f"A multiscale source is drawn by the direct marcher or the cube map "
                          f"(technique='cubemap') reading a brick pool (blending='composite'); "
@@ -684,6 +689,8 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         options = DirectOptions(**({} if given["step_scale"] is None
                                    else {"step_scale": given["step_scale"]}))
     options.check_model(model)
+    if given["frame_budget_ms"] is not None:
+        check_frame_budget(given["frame_budget_ms"], "cubemap" if cube else "direct")
     shading = CommonVolumeOptions(given["stop_opacity"], False)
     shading.check()
     component = plotter.cubemarch
@@ -692,6 +699,9 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     build = get_technique("volume", "cubemap").build if cube else build_paged_actor
     binding = build(plotter, PagedData(model, pager), VolumeSetup(options, shading, None))
     binding.light_map = None
+    if given["frame_budget_ms"] is not None:   # the step (cube map: upscale) while moving
+        attach_frame_budget(binding, "cubemap" if cube else "direct", plotter.ren_win,
+                            given["frame_budget_ms"])
     actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
     actor.SetPickable(bool(given["pickable"]))
     component.track(binding)
@@ -729,7 +739,7 @@ def _same(value, default) -> bool:
 #: What ``add_voxels`` reads for a multiscale label source (the rest is refused by name).
 PAGED_LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "specular",
                         "specular_power", "lod_bias", "transform", "name", "background",
-                        "gpu_bytes", "host_bytes", "brick_size")
+                        "gpu_bytes", "host_bytes", "brick_size", "frame_budget_ms")
 
 
 def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
@@ -749,6 +759,8 @@ def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
                          "its bricks are read, so its palette is None (colours hashed from "
                          "each id), a {id: colour} dict or a function of the id.")
     check_paging(given)
+    if given["frame_budget_ms"] is not None:   # refused before anything is read
+        check_frame_budget(given["frame_budget_ms"], "voxels")
     options = voxel_options(mode=given["mode"], shading=given["shading"],
                             ambient=given["ambient"], specular=given["specular"],
                             specular_power=given["specular_power"])
@@ -768,6 +780,8 @@ def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
                                                    "brick_size")})
     pager = LabelPager.from_paging(model, plotter.renderer)
     binding = build_paged_labels(plotter, model, options, pager)
+    if given["frame_budget_ms"] is not None:   # fewer pixels while the view moves
+        attach_frame_budget(binding, "voxels", plotter.ren_win, given["frame_budget_ms"])
     actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
     plotter.cubemarch.track(binding)
     _frame(plotter)
