@@ -16,7 +16,7 @@ from ..core.camera import Camera
 from ..models.group import VolumeGroup
 from ..models.volume import VolumeModel
 from .channels import render_additive_channels
-from .lighting import light_grid, lit_emission
+from .lighting import light_fields, lit_emission
 from .rays import (
     checked_pixels,
     clip_interval,
@@ -74,7 +74,7 @@ def render_emission_absorption(
     lights : sequence of VolumeLight, optional
         Light the samples: emission times ``ambient + (1 - ambient) * sum colour * T``,
         ``T`` the transmittance toward each light, from a grid half a voxel fine
-        (:func:`pv_cubemarch.reference.lighting.light_grid`).
+        (:func:`pv_cubemarch.reference.lighting.light_fields`).
     ambient : float
         Share of the emission no light modulates (with ``lights``).
     crop : sequence of int, optional
@@ -120,7 +120,8 @@ def render_emission_absorption(
             lit_through.append(item)
     grids = None
     if lights:
-        grids = {id(item): light_grid(item, lights, clip_planes=clip_planes) for item in items}
+        grids = {id(item): light_fields(item, lights, clip_planes=clip_planes)
+                 for item in items}
     origins_shape = origins.shape   # (height, width, 3), a crop's, or (1, n, 3)
     origins = origins.reshape(-1, 3)
     directions = directions.reshape(-1, 3)
