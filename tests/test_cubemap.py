@@ -218,8 +218,9 @@ def test_two_volumes_side_by_side_composite_in_order(plotter_factory, model):
 
 @pytest.mark.parametrize("case", ["grid", "placed", "clipped"])
 def test_light_grid_of_the_reference_matches_exact_transmittance(model, case):
-    # A directional light's lattice of rays marched once each, a point light's grid of
-    # points marched each, against each point marched toward the light at 1/20 voxel.
+    # A directional light's lattice of rays marched once each, a point light's frustum of
+    # rays (outside the box) or grid of points marched each (inside), against each point
+    # marched toward the light at 1/20 voxel.
     # placed: rotated and stretched (the lattice's axes are the world's, not the grid's),
     # a light along an axis; clipped: a plane cuts the medium away (it absorbs nothing
     # there), which makes the transmittance jump across the plane where paths run along
@@ -227,9 +228,14 @@ def test_light_grid_of_the_reference_matches_exact_transmittance(model, case):
     # mean, the others to 0.02.
     # catches (seen failing): the lattice's depths summed from the far side (error 0.996),
     # the direction taken away from the light (0.998), a ray's steps cut by the box counted
-    # whole (0.015); clip planes left out of the lattice
+    # whole (0.015); clip planes left out of the lattice (0.52); a point light's depths
+    # summed from the far side (0.9997), its rays' lengths per unit depth left out (0.011),
+    # its rays eight times too far apart (0.21)
     lights = [VolumeLight("directional", direction=(-1.0, -0.5, -0.3)),
-              VolumeLight("point", position=(0.2, 0.4, 0.1))]  # inside the volume
+              VolumeLight("point", position=(0.2, 0.4, 0.1)),    # inside: a grid
+              VolumeLight("point", position=(3.0, -2.5, 1.5))]   # outside: a frustum
+    assert reference_lighting.light_fields(model, lights)[1].across is None
+    assert reference_lighting.light_fields(model, lights)[2].across is not None
     planes = None
     if case != "grid":
         rotation = pv.Transform().rotate_z(30.0).rotate_x(-20.0).scale(1.0, 2.5, 0.6)

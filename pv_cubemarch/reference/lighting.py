@@ -94,25 +94,42 @@ def extinction_at(medium, points_index: np.ndarray) -> np.ndarray:
     return sigma
 
 
-#: A directional light's lattice: at most this many rays across each way, and samples
-#: along each (more would cost more than the image gains; 128³ grids reach them).
+#: A light's lattice: at most this many rays across each way, and samples along each (more
+#: would cost more than the image gains; 128³ grids reach them).
 LATTICE_RAYS = 192
 LATTICE_STEPS = 384
-#: Rays marched at once through a directional light's lattice (bounds the arrays' memory).
+#: Rays marched at once through a lattice (bounds the arrays' memory).
 RAYS_AT_ONCE = 4096
+#: A point light is given a lattice where every corner of the box lies at least this far
+#: (cosine) from the plane through the light across its axis; else a grid of points.
+FRUSTUM_COSINE = 0.2
 
 
 @dataclass(frozen=True)
 class LightField:
-    """Transmittance toward one light on a lattice, and the map from index points into it."""
+    """Transmittance toward one light on a lattice, and where index points fall in it.
+
+    ``lattice_from_index`` maps index points to lattice coordinates (affine); a point
+    light's lattice is a frustum from the light, so its map is projective: after it, the
+    first two coordinates are divided by the third and mapped by ``across`` (scale,
+    offset), the third by ``along``.
+    """
 
     values: np.ndarray
     lattice_from_index: np.ndarray
+    across: tuple | None = None
+    along: tuple | None = None
 
     def at(self, points_index: np.ndarray) -> np.ndarray:
         """The transmittance at index points, interpolated trilinearly."""
         matrix = self.lattice_from_index
-        return trilinear(self.values, points_index @ matrix[:3, :3].T + matrix[:3, 3])
+        coordinates = points_index @ matrix[:3, :3].T + matrix[:3, 3]
+        if self.across is not None:
+            depth = coordinates[:, 2:3]
+            (scale, offset), (depth_scale, depth_offset) = self.across, self.along
+            coordinates = np.hstack([coordinates[:, :2] / depth * scale + offset,
+                                     depth * depth_scale + depth_offset])
+        return trilinear(self.values, coordinates)
 
 
 def light_fields(volume, lights: Sequence[VolumeLight], spacing_voxels: float = 0.5,
@@ -120,24 +137,31 @@ def light_fields(volume, lights: Sequence[VolumeLight], spacing_voxels: float = 
                  clip_planes=None) -> list[LightField]:
     """Transmittance toward each light over the volume's (or group's) box.
 
-    A directional light: on a lattice of parallel rays toward it, ``spacing_voxels`` of the
-    smallest voxel apart and sampled as often, each ray marched once through the box (its
-    points' transmittances are the sums of what lies beyond them along it). A point light:
-    on a grid over the box, ``spacing_voxels`` apart (at most ``max_points`` per axis),
-    each point marched toward the light with steps of ``step_voxels``. Either is
-    interpolated trilinearly; :func:`transmittance_toward` gives exact values to check
-    them against. On the CT phantom lit from the side, half-voxel steps are within 60 dB
-    of quarter-voxel ones; a grid a voxel apart was 40 dB off half a voxel apart.
+    On a lattice of rays toward the light, ``spacing_voxels`` of the smallest voxel apart
+    (where they are farthest apart) and sampled as often, each ray marched once through
+    the box: its points' transmittances are the sums of what lies between them and the
+    light along it. A directional light's rays are parallel; a point light's leave it in
+    a frustum holding the box. A point light inside the box, or beside it (no frustum
+    holds the box), gets a grid over the box, ``spacing_voxels`` apart (at most
+    ``max_points`` per axis), each point marched toward it with steps of
+    ``step_voxels``. Either is interpolated trilinearly; :func:`transmittance_toward`
+    gives exact values to check them against. On the CT phantom lit from the side,
+    half-voxel steps are within 60 dB of quarter-voxel ones; a grid a voxel apart was
+    40 dB off half a voxel apart.
     """
-    return [_directional_field(volume, light, spacing_voxels, clip_planes)
-            if light.kind != "point" else
-            _grid_field(volume, light, spacing_voxels, max_points, step_voxels, clip_planes)
-            for light in lights]
+    fields = []
+    for light in lights:
+        field = _directional_field(volume, light, spacing_voxels, clip_planes) \
+            if light.kind != "point" else \
+            _frustum_field(volume, light, spacing_voxels, clip_planes)
+        fields.append(field if field is not None else _grid_field(
+            volume, light, spacing_voxels, max_points, step_voxels, clip_planes))
+    return fields
 
 
 def _grid_field(volume, light, spacing_voxels, max_points, step_voxels,
                 clip_planes) -> LightField:
-    """A point light's field: each point of a grid over the box marched toward it."""
+    """A light's field from each point of a grid over the box, marched toward it."""
     dims = np.array(volume.dimensions)
     counts = np.minimum(np.ceil((dims - 1) / spacing_voxels).astype(int) + 1, max_points)
     counts = np.maximum(counts, 2)
@@ -149,42 +173,118 @@ def _grid_field(volume, light, spacing_voxels, max_points, step_voxels,
     return LightField(values, np.diag([*scale, 1.0]))
 
 
-def _directional_field(medium, light, spacing_voxels, clip_planes) -> LightField:
-    """A directional light's field: a lattice of rays toward it, each marched once.
-
-    The lattice's axes are two directions across the light and the direction toward it
-    (world units); it covers the box's corners. A ray's samples are the midpoints of the
-    parts of its steps inside the box; a lattice point's optical depth is the sum of those
-    beyond it, toward the light.
-    """
-    world_from_index = medium.world_from_index()
-    index_from_world = np.linalg.inv(world_from_index)
-    toward = -np.asarray(light.direction, dtype=np.float64)
-    toward = toward / np.linalg.norm(toward)
-    across = np.cross(toward, np.eye(3)[int(np.argmin(np.abs(toward)))])
-    across = across / np.linalg.norm(across)
-    basis = np.stack([across, np.cross(toward, across), toward])   # rows: u, v, s
+def _box_corners(medium) -> np.ndarray:
+    """The world corners of a medium's box (index 0 to ``dims - 1``)."""
     upper = np.array(medium.dimensions, dtype=np.float64) - 1.0
     corners = np.array(np.meshgrid(*[(0.0, u) for u in upper], indexing="ij")).reshape(3, -1).T
-    projected = (corners @ world_from_index[:3, :3].T + world_from_index[:3, 3]) @ basis.T
+    world_from_index = medium.world_from_index()
+    return corners @ world_from_index[:3, :3].T + world_from_index[:3, 3]
+
+
+def _across(axis: np.ndarray) -> np.ndarray:
+    """Rows: two unit directions across ``axis`` (unit), then ``axis``."""
+    first = np.cross(axis, np.eye(3)[int(np.argmin(np.abs(axis)))])
+    first = first / np.linalg.norm(first)
+    return np.stack([first, np.cross(axis, first), axis])
+
+
+def _lattice_counts(extent: np.ndarray, spacing: float) -> np.ndarray:
+    wanted = np.ceil(extent / spacing).astype(int) + 1
+    return np.maximum(np.minimum(wanted, (LATTICE_RAYS, LATTICE_RAYS, LATTICE_STEPS)), 2)
+
+
+def _smallest_voxel(medium) -> float:
+    return float(np.linalg.norm(medium.world_from_index()[:3, :3], axis=0).min())
+
+
+def _directional_field(medium, light, spacing_voxels, clip_planes) -> LightField:
+    """A directional light's field: a lattice of parallel rays toward it.
+
+    The lattice's axes are two directions across the light and the direction toward it
+    (world units); it covers the box's corners.
+    """
+    toward = -np.asarray(light.direction, dtype=np.float64)
+    basis = _across(toward / np.linalg.norm(toward))   # rows: u, v, s
+    projected = _box_corners(medium) @ basis.T
     low, high = projected.min(axis=0), projected.max(axis=0)
-    voxel = float(np.linalg.norm(world_from_index[:3, :3], axis=0).min())
-    wanted = np.ceil((high - low) / (spacing_voxels * voxel)).astype(int) + 1
-    counts = np.maximum(np.minimum(wanted, (LATTICE_RAYS, LATTICE_RAYS, LATTICE_STEPS)), 2)
+    voxel = _smallest_voxel(medium)
+    counts = _lattice_counts(high - low, spacing_voxels * voxel)
     spacing = np.maximum((high - low) / (counts - 1), 1e-12 * voxel)
     lattice_from_world = np.eye(4)
     lattice_from_world[:3, :3] = basis / spacing[:, None]
     lattice_from_world[:3, 3] = -low / spacing
-    u, v = np.meshgrid(np.arange(counts[0]), np.arange(counts[1]), indexing="ij")
-    starts_world = (low[0] + u.ravel()[:, None] * spacing[0]) * basis[0] \
-        + (low[1] + v.ravel()[:, None] * spacing[1]) * basis[1] + low[2] * basis[2]
+    u, v = (a.ravel() for a in np.meshgrid(np.arange(counts[0]), np.arange(counts[1]),
+                                           indexing="ij"))
+    starts = (low[0] + u[:, None] * spacing[0]) * basis[0] \
+        + (low[1] + v[:, None] * spacing[1]) * basis[1] + low[2] * basis[2]
+    scale = float(data_per_world(medium, basis[2:])[0])
+    optical = _march_lattice(medium, starts, basis[2:], np.arange(counts[2]) * spacing[2],
+                             scale, clip_planes, light_ahead=True)
+    return LightField(np.exp(-optical).reshape(counts),
+                      lattice_from_world @ medium.world_from_index())
+
+
+def _frustum_field(medium, light, spacing_voxels, clip_planes) -> LightField | None:
+    """A point light's field: rays from it through a frustum holding the box (None: none).
+
+    A point ``x`` is at depth ``r = axis . (x - light)`` and across ``(u, v) / r``; the
+    rays are lines of constant ``(u, v) / r``, the lattice's third axis the depth.
+    """
+    light_at = np.asarray(light.position, dtype=np.float64)
+    corners = _box_corners(medium) - light_at
+    axis = corners.mean(axis=0)
+    if not np.linalg.norm(axis) > 0.0:
+        return None
+    basis = _across(axis / np.linalg.norm(axis))
+    local = corners @ basis.T
+    distance = np.linalg.norm(corners, axis=1)
+    if not (local[:, 2] >= FRUSTUM_COSINE * distance).all():
+        return None   # inside the box or beside it
+    slopes = local[:, :2] / local[:, 2:3]
+    low = np.array([*slopes.min(axis=0), local[:, 2].min()])
+    high = np.array([*slopes.max(axis=0), local[:, 2].max()])
+    voxel = _smallest_voxel(medium)
+    # rays at most spacing apart where they are farthest apart (the far depth); steps
+    # along the axis as long
+    extent = (high - low) * np.array([high[2], high[2], 1.0])
+    counts = _lattice_counts(extent, spacing_voxels * voxel)
+    spacing = np.maximum((high - low) / (counts - 1), 1e-12 * np.array([1.0, 1.0, voxel]))
+    a, b = (g.ravel() for g in np.meshgrid(low[0] + np.arange(counts[0]) * spacing[0],
+                                           low[1] + np.arange(counts[1]) * spacing[1],
+                                           indexing="ij"))
+    ways = basis[2] + a[:, None] * basis[0] + b[:, None] * basis[1]   # world per unit depth
+    starts = light_at + low[2] * ways
+    scale = data_per_world(medium, ways) * np.linalg.norm(ways, axis=1)
+    optical = _march_lattice(medium, starts, ways, np.arange(counts[2]) * spacing[2], scale,
+                             clip_planes, light_ahead=False)
+    lattice_from_world = np.eye(4)
+    lattice_from_world[:3, :3] = basis
+    lattice_from_world[:3, 3] = -basis @ light_at
+    return LightField(np.exp(-optical).reshape(counts),
+                      lattice_from_world @ medium.world_from_index(),
+                      (1.0 / spacing[:2], -low[:2] / spacing[:2]),
+                      (1.0 / spacing[2], -low[2] / spacing[2]))
+
+
+def _march_lattice(medium, starts_world, ways_world, edges, scale, clip_planes,
+                   light_ahead: bool) -> np.ndarray:
+    """Optical depth toward the light at each lattice point of each ray.
+
+    Ray ``i`` runs through ``starts_world[i] + t * ways_world[i]`` (one way for all where
+    ``ways_world`` has one row); its lattice points are at ``t = edges``. Each step between
+    two is sampled at the midpoint of its part inside the box, times ``scale`` (data
+    units per unit of ``t``). The light lies ahead (at large ``t``: a point's depth sums
+    the steps after it) or behind (at ``t = 0``: the steps before it).
+    """
+    world_from_index = medium.world_from_index()
+    index_from_world = np.linalg.inv(world_from_index)
+    upper = np.array(medium.dimensions, dtype=np.float64) - 1.0
     starts = starts_world @ index_from_world[:3, :3].T + index_from_world[:3, 3]
-    way = index_from_world[:3, :3] @ toward   # index units per world unit toward the light
-    enter, leave = ray_box_interval(starts, np.broadcast_to(way, starts.shape), np.zeros(3),
+    ways = ways_world @ index_from_world[:3, :3].T
+    enter, leave = ray_box_interval(starts, np.broadcast_to(ways, starts.shape), np.zeros(3),
                                     upper)
-    scale = float(data_per_world(medium, toward[None])[0])
-    edges = np.arange(counts[2]) * spacing[2]     # the lattice points along a ray
-    optical = np.zeros((len(starts), counts[2]))
+    scale = np.broadcast_to(np.asarray(scale, dtype=np.float64), (len(starts),))
+    optical = np.zeros((len(starts), len(edges)))
     for first in range(0, len(starts), RAYS_AT_ONCE):
         rays = slice(first, first + RAYS_AT_ONCE)
         a = np.maximum(edges[None, :-1], enter[rays, None])
@@ -193,18 +293,19 @@ def _directional_field(medium, light, spacing_voxels, clip_planes) -> LightField
         if not inside.any():
             continue
         which, step = np.nonzero(inside)
-        middle = 0.5 * (a[inside] + b[inside])
-        points = starts[rays][which] + middle[:, None] * way
+        way = ways if len(ways) == 1 else ways[rays][which]
+        points = starts[rays][which] + 0.5 * (a[inside] + b[inside])[:, None] * way
         sigma = extinction_at(medium, points)
         if clip_planes:
             sigma = sigma * kept(points @ world_from_index[:3, :3].T + world_from_index[:3, 3],
                                  clip_planes)
         steps = np.zeros(a.shape)
-        steps[which, step] = sigma * (b[inside] - a[inside]) * scale
-        # a lattice point's depth: every step beyond it toward the light
-        optical[rays, :-1] = np.cumsum(steps[:, ::-1], axis=1)[:, ::-1]
-    values = np.exp(-optical).reshape(counts)
-    return LightField(values, lattice_from_world @ world_from_index)
+        steps[which, step] = sigma * (b[inside] - a[inside]) * scale[rays][which]
+        if light_ahead:
+            optical[rays, :-1] = np.cumsum(steps[:, ::-1], axis=1)[:, ::-1]
+        else:
+            optical[rays, 1:] = np.cumsum(steps, axis=1)
+    return optical
 
 
 def lit_emission(volume, rgb: np.ndarray, points_index: np.ndarray,
