@@ -162,6 +162,31 @@ def test_vtk_past_its_coarsest_step_draws_fewer_pixels_and_refines_when_still(ct
     other.close()
 
 
+def test_vtk_reduces_from_the_user_s_own_sample_distance(ct):
+    # The user draws the volume at 1/2 size (vol.mapper.SetImageSampleDistance(2), as on
+    # PyVista's GPU mapper): the budget's reduction of 2 draws 1/4, four times fewer pixels
+    # than the user's, as its cost model says; the still frame is the user's 1/2 again.
+    # catches (seen failing): the budget asking 2 (drawn as the user's 2: no pixel fewer,
+    # every moving frame over budget while the model counted it four times cheaper)
+    plotter = offscreen_plotter((160, 120))
+    actor = pv_cubemarch.add_volume(plotter, ct, technique="vtk", step_scale=0.5, **LOOK)
+    actor.mapper.SetImageSampleDistance(2.0)
+    _, budget = _scripted(plotter, 40.0, cost=1000.0)
+    render_frame(plotter)
+    drawing = actor.cubemarch.drawn[0].GetMapper()
+    assert drawing.GetImageSampleDistance() == 2.0
+    plotter.ren_win.SetDesiredUpdateRate(15.0)
+    for _ in range(4):
+        render_frame(plotter)
+    assert budget.frames[-1].value == 64.0
+    assert drawing.GetImageSampleDistance() == 4.0
+    assert budget.describe(64.0) == "step_scale=16 at 1/4 size"
+    plotter.ren_win.SetDesiredUpdateRate(0.0001)
+    render_frame(plotter)
+    assert drawing.GetImageSampleDistance() == 2.0 and budget.frames[-1].value == 0.5
+    plotter.close()
+
+
 def test_vtk_where_only_the_full_size_draws_the_budget_keeps_to_steps(ct):
     # In a subplot off the window's corner the sample distance stays 1: the budget's
     # ladder there stops at step 16 (no size it cannot draw counted as cheaper).

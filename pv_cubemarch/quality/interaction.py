@@ -177,13 +177,20 @@ def step_drawn(value: float) -> tuple[float, int]:
 
 def _read_vtk_step(binding) -> float:
     distances = binding.sample_distances
-    return float(binding.step_scale) * distances.budget ** 2
+    reduction = distances.budget / distances.user if distances.budget > 1.0 else 1.0
+    return float(binding.step_scale) * reduction ** 2
 
 
 def _write_vtk_step(binding, value: float) -> None:
-    step, distance = step_drawn(value)
+    """The step, and past the coarsest step the user's sample distance times the reduction.
+
+    Relative to the user's ``ImageSampleDistance``: a volume the user draws at 1/2 size is
+    drawn at 1/4 for a reduction of 2, so the pixels fall as the cost model says.
+    """
+    step, reduction = step_drawn(value)
     _write_step(binding, step)
-    binding.sample_distances.ask(distance)
+    distances = binding.sample_distances
+    distances.ask(1.0 if reduction == 1 else reduction * distances.user)
 
 
 def _vtk_step_drawable(binding, value: float) -> bool:
@@ -191,9 +198,13 @@ def _vtk_step_drawable(binding, value: float) -> bool:
     return step_drawn(value)[1] == 1 or not binding.sample_distances.full_only
 
 
-def _vtk_step_label(value: float, still: float) -> str:
-    step, distance = step_drawn(value)
-    return f"step_scale={step:g}" + ("" if distance == 1 else f" at 1/{distance} size")
+def _vtk_step_label(binding) -> Callable[[float, float], str]:
+    def label(value: float, still: float) -> str:
+        step, reduction = step_drawn(value)
+        user = binding.sample_distances.user
+        size = reduction * user
+        return f"step_scale={step:g}" + ("" if size == 1 else f" at 1/{size:g} size")
+    return label
 
 
 def _read_step_downsample(binding) -> float:
@@ -231,7 +242,7 @@ KNOBS = {
     # its mapper draws into a framebuffer 1/2-1/4 the size and stretches it): time as
     # the samples, the step's or the pixels'
     "step_pixels": BudgetKnob("step_scale", STEPS_THEN_PIXELS, 1.0,
-                              _read_vtk_step, _write_vtk_step, _vtk_step_label,
+                              _read_vtk_step, _write_vtk_step,
                               drawable=_vtk_step_drawable),
     # 'direct' with downsample > 1: the step, then the coarsest step at 2-4 times the
     # downsample (its low-resolution pass 1/2-1/4 as many pixels across)
@@ -462,6 +473,8 @@ def attach_frame_budget(binding, technique: str, window, budget_ms: float,
         if name == "step" and getattr(binding, "downsample", 1) > 1:
             knob = dataclasses.replace(KNOBS["step_downsample"],
                                        label=_step_downsample_label(binding))
+        elif name == "step_pixels":   # its sizes read against the user's sample distance
+            knob = dataclasses.replace(knob, label=_vtk_step_label(binding))
         budget = FrameBudget(binding, window, float(budget_ms), knob, knob.read(binding),
                              dict(errors or {}), clock)
     # the end observed last: after any redraw the frame's other observers make
