@@ -250,17 +250,20 @@ def add_volume(
         planes and crop box; not with the settings it chooses. With ``lights=`` the
         reference lights its samples through the volume as the light map does; the light
         map's own error (38.5 dB at 64 points a side on a CT phantom) bounds what a
-        target can reach.
+        target can reach. Not for a multiscale source (the reference traces the whole
+        volume, which streaming avoids).
     frame_budget_ms : float, optional
-        ``'vtk'``, ``'direct'`` (at ``downsample=1``), ``'cubemap'`` and ``'auto'``: while
-        the view moves (VTK's interactors, the live view's mouse), each frame takes the
-        finest step (the cube map: ``upscale``) predicted to stay within this many
-        milliseconds from the costliest of the last three frames (time grows as
-        ``1 / step_scale``, or ``1 / upscale**2``; ``'vtk'`` past step 16 draws at 1/2-1/4
-        the size, VTK's ``ImageSampleDistance``); the first frame after the view stops
-        draws the still setting again (given, or what ``quality`` chose). ``'auto'``: each
-        path its own knob, predicted from the frames that path drew. Nothing is rebuilt.
-        ``actor.cubemarch.frame_budget`` keeps the frames' values and times.
+        ``'vtk'``, ``'direct'``, ``'cubemap'`` and ``'auto'``: while the view moves (VTK's
+        interactors, the live view's mouse), each frame takes the finest step (the cube
+        map: ``upscale``) predicted to stay within this many milliseconds from the
+        costliest of the last three frames (time grows as ``1 / step_scale``, or
+        ``1 / upscale**2``; past step 16, ``'vtk'`` draws at 1/2-1/4 the size, VTK's
+        ``ImageSampleDistance``, and ``'direct'`` with ``downsample`` above 1 at 2-4 times
+        its downsample); the first frame after the view stops draws the still setting
+        again (given, or what ``quality`` chose). ``'auto'``: each path its own knob,
+        predicted from the frames that path drew. A multiscale source takes it too (no
+        brick is read for it). Nothing is rebuilt. ``actor.cubemarch.frame_budget`` keeps
+        the frames' values and times.
     step_scale : float, optional
         ``'vtk'``, ``'direct'`` and ``'auto'``: step length in texels along the ray's
         dominant texture axis (texel-spaced sampling, 0.5 by default). Smaller is more
@@ -1300,9 +1303,9 @@ def add_voxels(
         grows with the pixels): no traversal was measured cheaper than the exact one
         (``bench voxels``), so the pixels are what a moving view coarsens. The first frame
         after the view stops is drawn at full size. For a grid drawn whole or a world drawn
-        by one traversal (``world_traversal='index'``), not one drawn per chunk nor
-        translucent labels. ``actor.cubemarch.frame_budget`` keeps the frames' values and
-        times.
+        by one traversal (``world_traversal='index'``) or a multiscale label source, not a
+        world drawn per chunk nor translucent labels. ``actor.cubemarch.frame_budget``
+        keeps the frames' values and times.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
     show_edges : bool
