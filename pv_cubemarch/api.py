@@ -658,6 +658,8 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
                          "volume, which a multiscale source is streamed to avoid: give "
                          "step_scale= (or the cube map's face_size=) and lod_bias= instead, "
                          "or add a level that fits in memory to calibrate on it.")
+    if given["frame_budget_ms"] is not None:   # refused before the source is opened
+        check_frame_budget(given["frame_budget_ms"], "cubemap" if cube else "direct")
     if refused:
         raise ValueError(f"A multiscale source is drawn by the direct marcher or the cube map "
                          f"(technique='cubemap') reading a brick pool (blending='composite'); "
@@ -692,8 +694,6 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         options = DirectOptions(**({} if given["step_scale"] is None
                                    else {"step_scale": given["step_scale"]}))
     options.check_model(model)
-    if given["frame_budget_ms"] is not None:
-        check_frame_budget(given["frame_budget_ms"], "cubemap" if cube else "direct")
     shading = CommonVolumeOptions(given["stop_opacity"], False)
     shading.check()
     component = plotter.cubemarch

@@ -259,6 +259,44 @@ def test_light_grid_of_the_reference_matches_exact_transmittance(model, case):
         error = np.abs(field.at(points) - exact)
         assert error[away].max() < (0.02 if planes else 0.01) and error.mean() < 0.005, \
             (light, error.max())
+
+
+def test_light_fields_of_a_light_on_a_corner_and_one_far_away(model):
+    # catches (seen failing): a point light on a corner of the box given a frustum (its
+    # slopes 0 / 0: an IndexError); a light 1e12 boxes away spreading its rays by an
+    # absolute floor on their spacing (mean error 0.46)
+    corner = model.world_from_index()[:3, 3]
+    far = corner + 1e12 * np.array([3.0, -2.5, 1.5])
+    rng = np.random.default_rng(2)
+    points = rng.uniform(0, np.array(model.dimensions) - 1.0, size=(300, 3))
+    for light in (VolumeLight("point", position=tuple(corner)),
+                  VolumeLight("point", position=tuple(far))):
+        field, = reference_lighting.light_fields(model, [light])
+        exact = reference_lighting.transmittance_toward(model, points, light, step_voxels=0.05)
+        assert np.abs(field.at(points) - exact).max() < 0.01
+
+
+def test_light_fields_hold_on_the_box_s_faces(model):
+    # Points on the faces, where a lattice point's neighbours outside the box read no
+    # medium: a point light in the plane of a face (its points' paths run along it) and a
+    # grazing directional light, against each point marched at 1/20 voxel. A grid of
+    # points has nodes on the faces (max 0.005 there); the lattice's max is 0.03.
+    # catches (seen failing): rays that miss the box reading nothing (0.39 for the light
+    # in the face's plane), the field not continued past the faces (mean 0.0026)
+    lights = [VolumeLight("point", position=(20.0, 5.0, 1.0)),
+              VolumeLight("directional", direction=(-0.3, 0.2, -1.0))]
+    rng = np.random.default_rng(1)
+    upper = np.array(model.dimensions) - 1.0
+    points = rng.uniform(0, upper, size=(3000, 3))
+    axis = rng.integers(0, 3, len(points))
+    points[np.arange(len(points)), axis] = np.where(rng.random(len(points)) < 0.5, 0.0,
+                                                    upper[axis])
+    for light, field in zip(lights, reference_lighting.light_fields(model, lights),
+                            strict=True):
+        assert field.across is not None or light.kind == "directional"
+        exact = reference_lighting.transmittance_toward(model, points, light, step_voxels=0.05)
+        error = np.abs(field.at(points) - exact)
+        assert error.max() < 0.04 and error.mean() < 0.0018, (light, error.max(), error.mean())
         assert exact.min() < 0.5  # the medium does shadow
 
 

@@ -187,6 +187,45 @@ def test_vtk_reduces_from_the_user_s_own_sample_distance(ct):
     plotter.close()
 
 
+@pytest.mark.parametrize("technique, keywords", [("vtk", {}), ("direct", {"downsample": 2})])
+@pytest.mark.parametrize("step", [20.0, 100.0])
+def test_a_still_step_past_16_is_drawn_as_given_and_coarsened_in_pixels(ct, technique,
+                                                                       keywords, step):
+    # step_scale above the knob's coarsest step (16): the still frame is the step given
+    # (a budget on a volume that never moves changes nothing), and moving frames draw
+    # that step at fewer pixels (100 ms at the still step, over 0.8 * 40; 25 ms at 1/2
+    # size fits). found by a review, catches (seen failing): the still
+    # step drawn as 16 (20) or as 16 at 1/2 the size (100)
+    plotter, expected = _image(ct, technique, step_scale=step, **keywords)
+    plotter.close()
+    plotter = offscreen_plotter((160, 120))
+    actor = pv_cubemarch.add_volume(plotter, ct, technique=technique, step_scale=step,
+                                    frame_budget_ms=40.0, **keywords, **LOOK)
+    budget = actor.cubemarch.frame_budget
+    render_frame(plotter)
+    assert np.array_equal(read_pixels(plotter), expected)
+    assert budget.still == step and actor.cubemarch.step_scale == step
+    clock = {"t": 0.0, "calls": 0}
+
+    def scripted():
+        clock["calls"] += 1
+        if clock["calls"] % 2 == 0:
+            clock["t"] += 100.0 * step / budget.value / 1e3
+        return clock["t"]
+    budget.clock = scripted
+    for _ in range(3):
+        render_frame(plotter)
+    plotter.ren_win.SetDesiredUpdateRate(15.0)
+    for _ in range(4):
+        render_frame(plotter)
+    assert budget.frames[-1].value == 4.0 * step and budget.frames[-1].ms <= 40.0, \
+        budget.frames
+    assert budget.describe(4.0 * step) == (f"step_scale={step:g} at 1/2 size"
+                                           if technique == "vtk" else
+                                           f"step_scale={step:g}, downsample=4")
+    plotter.close()
+
+
 def test_vtk_where_only_the_full_size_draws_the_budget_keeps_to_steps(ct):
     # In a subplot off the window's corner the sample distance stays 1: the budget's
     # ladder there stops at step 16 (no size it cannot draw counted as cheaper).

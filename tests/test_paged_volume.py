@@ -204,6 +204,10 @@ def test_sources_and_keywords_it_cannot_take_are_refused(pyramid, tmp_path):
         cm.add_volume(pl, str(pyramid), blending="maximum")
     with pytest.raises(ValueError, match="quality= calibrates.*step_scale="):
         cm.add_volume(pl, str(pyramid), quality="fast")
+    # refused before the source is opened (found by a review: a missing store said
+    # FileNotFoundError first)
+    with pytest.raises(ValueError, match="frame_budget_ms must be a positive"):
+        cm.add_volume(pl, str(tmp_path / "missing.zarr"), frame_budget_ms=-1)
     assert not pl.renderer.actors
     with pytest.raises(ValueError, match="lod_bias.*for multiscale sources"):
         cm.add_volume(pl, field(), lod_bias=1.0)

@@ -342,31 +342,3 @@ def test_the_ladder_tops_with_the_exact_root_and_a_choice_switches_the_root(shee
         assert np.array_equal(read_pixels(plotter), read_pixels(other)), setting
         other.close()
     plotter.close()
-
-
-def test_the_sample_traced_in_parts_is_the_whole_sample(sheets):
-    # the calibration traces its sample in parts, one per core, on threads
-    # catches (seen failing): the parts stacked instead of joined along the sample
-    from pv_cubemarch.core.camera import Camera
-    from pv_cubemarch.quality.surfaces import SurfaceCalibration
-    from pv_cubemarch.reference.surfaces import render_surface
-    plotter, actor = _drawn(sheets)
-    render_frame(plotter)
-    options = actor.cubemarch.options
-    calibration = SurfaceCalibration(actor.cubemarch.model, "active", None, {}, None,
-                                     render_surface, options=options)
-    calibration.probe_lights = lambda: []
-    camera, size = Camera.from_pyvista(plotter.camera), tuple(plotter.window_size)
-    rng = np.random.default_rng(5)
-    pixels = (rng.integers(0, size[1], 3001), rng.integers(0, size[0], 3001))
-    near = plotter.camera.clipping_range[0]
-    parts = calibration.trace(camera, size, (0.1, 0.2, 0.3), near, pixels)
-    whole = render_surface(actor.cubemarch.model, camera, size, color=options.rgb,
-                           background=(0.1, 0.2, 0.3), near=near, lights=[],
-                           shading=options.shading, ambient=options.ambient,
-                           specular=options.specular, specular_power=options.specular_power,
-                           pixels=pixels)
-    assert parts.shape == whole.shape == (1, 3001, 3)
-    assert np.any(whole != whole[0, 0])   # the sample sees the surface
-    np.testing.assert_allclose(parts, whole, rtol=0, atol=1e-9)
-    plotter.close()

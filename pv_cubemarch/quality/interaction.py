@@ -156,23 +156,43 @@ def reduce_pixels(binding, factor: int) -> None:
         reduced.factor = int(factor)
 
 
-#: The coarsest step of ``'vtk'`` and of a downsampled ``'direct'``; coarser frames draw
-#: it at 1/2, 1/3, 1/4 the pixels across.
+#: The coarsest step of ``'vtk'`` and of a downsampled ``'direct'`` (or the still step,
+#: where coarser); coarser frames draw it at 1/2, 1/3, 1/4 the pixels across.
 STEP_FLOOR = 16.0
-#: A stepped knob's values, coarse to fine: the coarsest step at 1/4-1/2 the pixels
-#: across (the step times the reduction squared), then the steps.
-STEPS_THEN_PIXELS = (*(STEP_FLOOR * r * r for r in (4, 3, 2)), STEP_FLOOR, 8.0, *STEP_SCALES)
 
 
-def step_drawn(value: float) -> tuple[float, int]:
+def _step_floor(still: float) -> float:
+    return max(STEP_FLOOR, float(still))
+
+
+def steps_then_pixels(still: float) -> tuple[float, ...]:
+    """A stepped knob's values, coarse to fine, for a still step.
+
+    The coarsest step (16, or the still step where coarser) at 1/4-1/2 the pixels across
+    (the step times the reduction squared), then the steps.
+    """
+    floor = _step_floor(still)
+    steps = sorted({floor, *(v for v in (STEP_FLOOR, 8.0, *STEP_SCALES) if v <= floor)},
+                   reverse=True)
+    return (*(floor * r * r for r in (4, 3, 2)), *steps)
+
+
+def step_drawn(value: float, still: float = STEP_FLOOR) -> tuple[float, int]:
     """``(step_scale, reduction)`` a step-then-pixels knob value draws.
 
-    Past the coarsest step the value is that step times the pixels' reduction squared
-    (``'vtk'``: VTK's ``ImageSampleDistance``; ``'direct'``: the downsample times it).
+    Past the coarsest step (16, or the still step where coarser) the value is that step
+    times the pixels' reduction squared (``'vtk'``: VTK's ``ImageSampleDistance``;
+    ``'direct'``: the downsample times it).
     """
-    if value <= STEP_FLOOR * (1.0 + 1e-9):
+    floor = _step_floor(still)
+    if value <= floor * (1.0 + 1e-9):
         return float(value), 1
-    return STEP_FLOOR, int(round(math.sqrt(value / STEP_FLOOR)))
+    return floor, int(round(math.sqrt(value / floor)))
+
+
+def _still_of(binding, value: float) -> float:
+    """The still value of the budget on ``binding`` (``value`` itself before one is on)."""
+    return float(getattr(getattr(binding, "frame_budget", None), "still", value))
 
 
 def _read_vtk_step(binding) -> float:
@@ -187,7 +207,7 @@ def _write_vtk_step(binding, value: float) -> None:
     Relative to the user's ``ImageSampleDistance``: a volume the user draws at 1/2 size is
     drawn at 1/4 for a reduction of 2, so the pixels fall as the cost model says.
     """
-    step, reduction = step_drawn(value)
+    step, reduction = step_drawn(value, _still_of(binding, value))
     _write_step(binding, step)
     distances = binding.sample_distances
     distances.ask(1.0 if reduction == 1 else reduction * distances.user)
@@ -195,12 +215,13 @@ def _write_vtk_step(binding, value: float) -> None:
 
 def _vtk_step_drawable(binding, value: float) -> bool:
     """A reduced size draws only where the mapper may take a sample distance now."""
-    return step_drawn(value)[1] == 1 or not binding.sample_distances.full_only
+    return step_drawn(value, _still_of(binding, value))[1] == 1 or \
+        not binding.sample_distances.full_only
 
 
 def _vtk_step_label(binding) -> Callable[[float, float], str]:
     def label(value: float, still: float) -> str:
-        step, reduction = step_drawn(value)
+        step, reduction = step_drawn(value, still)
         user = binding.sample_distances.user
         size = reduction * user
         return f"step_scale={step:g}" + ("" if size == 1 else f" at 1/{size:g} size")
@@ -213,14 +234,14 @@ def _read_step_downsample(binding) -> float:
 
 
 def _write_step_downsample(binding, value: float) -> None:
-    step, reduction = step_drawn(value)
+    step, reduction = step_drawn(value, _still_of(binding, value))
     _write_step(binding, step)
     binding.low_size.factor = int(binding.downsample) * reduction
 
 
 def _step_downsample_label(binding) -> Callable[[float, float], str]:
     def label(value: float, still: float) -> str:
-        step, reduction = step_drawn(value)
+        step, reduction = step_drawn(value, still)
         return f"step_scale={step:g}, downsample={int(binding.downsample) * reduction}"
     return label
 
@@ -241,13 +262,14 @@ KNOBS = {
     # 'vtk': the step, then the coarsest step at fewer pixels (VTK's ImageSampleDistance:
     # its mapper draws into a framebuffer 1/2-1/4 the size and stretches it): time as
     # the samples, the step's or the pixels'
-    "step_pixels": BudgetKnob("step_scale", STEPS_THEN_PIXELS, 1.0,
+    "step_pixels": BudgetKnob("step_scale", steps_then_pixels(STEP_FLOOR), 1.0,
                               _read_vtk_step, _write_vtk_step,
-                              drawable=_vtk_step_drawable),
+                              ladder_of=steps_then_pixels, drawable=_vtk_step_drawable),
     # 'direct' with downsample > 1: the step, then the coarsest step at 2-4 times the
     # downsample (its low-resolution pass 1/2-1/4 as many pixels across)
-    "step_downsample": BudgetKnob("step_scale", STEPS_THEN_PIXELS, 1.0,
-                                  _read_step_downsample, _write_step_downsample),
+    "step_downsample": BudgetKnob("step_scale", steps_then_pixels(STEP_FLOOR), 1.0,
+                                  _read_step_downsample, _write_step_downsample,
+                                  ladder_of=steps_then_pixels),
     "upscale": BudgetKnob("upscale", (8.0, 6.0, 4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5), 2.0,
                           lambda b: float(b.frame.options.upscale), _write_upscale),
     # a surface's samples along the diagonal: time as the samples (finer is larger); below

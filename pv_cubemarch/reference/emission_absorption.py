@@ -73,7 +73,7 @@ def render_emission_absorption(
         Rays stop once their transmittance falls below this (an error below this bound).
     lights : sequence of VolumeLight, optional
         Light the samples: emission times ``ambient + (1 - ambient) * sum colour * T``,
-        ``T`` the transmittance toward each light, from a grid half a voxel fine
+        ``T`` the transmittance toward each light, from a lattice of rays toward it
         (:func:`pv_cubemarch.reference.lighting.light_fields`).
     ambient : float
         Share of the emission no light modulates (with ``lights``).

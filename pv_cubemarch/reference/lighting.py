@@ -138,9 +138,10 @@ def light_fields(volume, lights: Sequence[VolumeLight], spacing_voxels: float = 
     """Transmittance toward each light over the volume's (or group's) box.
 
     On a lattice of rays toward the light, ``spacing_voxels`` of the smallest voxel apart
-    (where they are farthest apart) and sampled as often, each ray marched once through
-    the box: its points' transmittances are the sums of what lies between them and the
-    light along it. A directional light's rays are parallel; a point light's leave it in
+    (where they are farthest apart; at most :data:`LATTICE_RAYS` across and
+    :data:`LATTICE_STEPS` along, so a large box, or a point light close to one, spaces
+    them wider) and sampled as often, each ray marched once through the box: its points'
+    transmittances are the sums of what lies between them and the light along it. A directional light's rays are parallel; a point light's leave it in
     a frustum holding the box. A point light inside the box, or beside it (no frustum
     holds the box), gets a grid over the box, ``spacing_voxels`` apart (at most
     ``max_points`` per axis), each point marched toward it with steps of
@@ -219,8 +220,9 @@ def _directional_field(medium, light, spacing_voxels, clip_planes) -> LightField
         + (low[1] + v[:, None] * spacing[1]) * basis[1] + low[2] * basis[2]
     scale = float(data_per_world(medium, basis[2:])[0])
     optical = _march_lattice(medium, starts, basis[2:], np.arange(counts[2]) * spacing[2],
-                             scale, clip_planes, light_ahead=True)
-    return LightField(np.exp(-optical).reshape(counts),
+                             scale, clip_planes, light_ahead=True,
+                             apart=float(spacing[:2].max()) / voxel)
+    return LightField(_transmittance(optical, counts),
                       lattice_from_world @ medium.world_from_index())
 
 
@@ -238,8 +240,8 @@ def _frustum_field(medium, light, spacing_voxels, clip_planes) -> LightField | N
     basis = _across(axis / np.linalg.norm(axis))
     local = corners @ basis.T
     distance = np.linalg.norm(corners, axis=1)
-    if not (local[:, 2] >= FRUSTUM_COSINE * distance).all():
-        return None   # inside the box or beside it
+    if not ((local[:, 2] >= FRUSTUM_COSINE * distance) & (distance > 0.0)).all():
+        return None   # inside the box, on it or beside it
     slopes = local[:, :2] / local[:, 2:3]
     low = np.array([*slopes.min(axis=0), local[:, 2].min()])
     high = np.array([*slopes.max(axis=0), local[:, 2].max()])
@@ -248,7 +250,8 @@ def _frustum_field(medium, light, spacing_voxels, clip_planes) -> LightField | N
     # along the axis as long
     extent = (high - low) * np.array([high[2], high[2], 1.0])
     counts = _lattice_counts(extent, spacing_voxels * voxel)
-    spacing = np.maximum((high - low) / (counts - 1), 1e-12 * np.array([1.0, 1.0, voxel]))
+    spacing = np.maximum((high - low) / (counts - 1),
+                         1e-12 * voxel * np.array([1.0 / high[2], 1.0 / high[2], 1.0]))
     a, b = (g.ravel() for g in np.meshgrid(low[0] + np.arange(counts[0]) * spacing[0],
                                            low[1] + np.arange(counts[1]) * spacing[1],
                                            indexing="ij"))
@@ -256,18 +259,26 @@ def _frustum_field(medium, light, spacing_voxels, clip_planes) -> LightField | N
     starts = light_at + low[2] * ways
     scale = data_per_world(medium, ways) * np.linalg.norm(ways, axis=1)
     optical = _march_lattice(medium, starts, ways, np.arange(counts[2]) * spacing[2], scale,
-                             clip_planes, light_ahead=False)
+                             clip_planes, light_ahead=False,
+                             apart=float(spacing[:2].max() * high[2]) / voxel)
     lattice_from_world = np.eye(4)
     lattice_from_world[:3, :3] = basis
     lattice_from_world[:3, 3] = -basis @ light_at
-    return LightField(np.exp(-optical).reshape(counts),
+    return LightField(_transmittance(optical, counts),
                       lattice_from_world @ medium.world_from_index(),
                       (1.0 / spacing[:2], -low[:2] / spacing[:2]),
                       (1.0 / spacing[2], -low[2] / spacing[2]))
 
 
+def _transmittance(optical: np.ndarray, counts) -> np.ndarray:
+    """``exp(-optical)`` on the lattice, in float32 (ample for what interpolation errs)."""
+    np.negative(optical, out=optical)
+    np.exp(optical, out=optical)
+    return optical.astype(np.float32).reshape(counts)
+
+
 def _march_lattice(medium, starts_world, ways_world, edges, scale, clip_planes,
-                   light_ahead: bool) -> np.ndarray:
+                   light_ahead: bool, apart: float) -> np.ndarray:
     """Optical depth toward the light at each lattice point of each ray.
 
     Ray ``i`` runs through ``starts_world[i] + t * ways_world[i]`` (one way for all where
@@ -275,14 +286,38 @@ def _march_lattice(medium, starts_world, ways_world, edges, scale, clip_planes,
     two is sampled at the midpoint of its part inside the box, times ``scale`` (data
     units per unit of ``t``). The light lies ahead (at large ``t``: a point's depth sums
     the steps after it) or behind (at ``t = 0``: the steps before it).
+
+    A ray that misses the box but passes within ``apart`` (index units: how far apart the
+    rays are) marches the medium as if it went on past the box unchanged (its samples
+    clamped to the box): a point near a face is interpolated between rays through the box
+    and such rays, which would read no medium at all otherwise (off by 0.39 for a light
+    in the face's plane).
     """
     world_from_index = medium.world_from_index()
     index_from_world = np.linalg.inv(world_from_index)
     upper = np.array(medium.dimensions, dtype=np.float64) - 1.0
     starts = starts_world @ index_from_world[:3, :3].T + index_from_world[:3, 3]
     ways = ways_world @ index_from_world[:3, :3].T
-    enter, leave = ray_box_interval(starts, np.broadcast_to(ways, starts.shape), np.zeros(3),
-                                    upper)
+    directions = np.broadcast_to(ways, starts.shape)
+    enter, leave = ray_box_interval(starts, directions, np.zeros(3), upper)
+    misses = ~(leave > enter)
+    if misses.any():   # the box grown by the rays' spacing, for the rays that miss it
+        pad = apart * (1.0 + 1e-9) + 1e-9
+        grown = ray_box_interval(starts[misses], directions[misses], np.full(3, -pad),
+                                 upper + pad)
+        enter[misses], leave[misses] = grown
+    # Past each face the field is continued as the face's (a step and a half), so a point
+    # on a face is interpolated from lattice points that hold its own value continued, not
+    # from points outside that read nothing: on the side away from the light the medium
+    # goes on as at the face; on the light's side the depth falls below 0 at the face's
+    # extinction (a transmittance above 1, never read but between them)
+    beyond = 1.5 * float(edges[1] - edges[0]) if len(edges) > 1 else 0.0
+    hits = leave > enter
+    near_face = leave.copy() if light_ahead else enter.copy()
+    if light_ahead:
+        enter = enter - beyond
+    else:
+        leave = leave + beyond
     scale = np.broadcast_to(np.asarray(scale, dtype=np.float64), (len(starts),))
     optical = np.zeros((len(starts), len(edges)))
     for first in range(0, len(starts), RAYS_AT_ONCE):
@@ -295,6 +330,7 @@ def _march_lattice(medium, starts_world, ways_world, edges, scale, clip_planes,
         which, step = np.nonzero(inside)
         way = ways if len(ways) == 1 else ways[rays][which]
         points = starts[rays][which] + 0.5 * (a[inside] + b[inside])[:, None] * way
+        points = np.clip(points, 0.0, upper)   # a missing ray's: the nearest in the box
         sigma = extinction_at(medium, points)
         if clip_planes:
             sigma = sigma * kept(points @ world_from_index[:3, :3].T + world_from_index[:3, 3],
@@ -305,6 +341,19 @@ def _march_lattice(medium, starts_world, ways_world, edges, scale, clip_planes,
             optical[rays, :-1] = np.cumsum(steps[:, ::-1], axis=1)[:, ::-1]
         else:
             optical[rays, 1:] = np.cumsum(steps, axis=1)
+        # the light's side: minus the face's extinction times the way out to the point
+        face = near_face[rays]
+        past = (edges[None, :] - face[:, None]) * (1.0 if light_ahead else -1.0)
+        out = hits[rays, None] & (past > 0.0) & (past <= beyond)
+        if out.any():
+            ray, node = np.nonzero(out)
+            at_face = np.clip(starts[rays][ray] + face[ray, None] * (
+                ways if len(ways) == 1 else ways[rays][ray]), 0.0, upper)
+            sigma = extinction_at(medium, at_face)
+            if clip_planes:
+                sigma = sigma * kept(at_face @ world_from_index[:3, :3].T
+                                     + world_from_index[:3, 3], clip_planes)
+            optical[first + ray, node] = -sigma * past[out] * scale[rays][ray]
     return optical
 
 
