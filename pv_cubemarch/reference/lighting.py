@@ -141,9 +141,10 @@ def light_fields(volume, lights: Sequence[VolumeLight], spacing_voxels: float = 
     (where they are farthest apart; at most :data:`LATTICE_RAYS` across and
     :data:`LATTICE_STEPS` along, so a large box, or a point light close to one, spaces
     them wider) and sampled as often, each ray marched once through the box: its points'
-    transmittances are the sums of what lies between them and the light along it. A directional light's rays are parallel; a point light's leave it in
-    a frustum holding the box. A point light inside the box, or beside it (no frustum
-    holds the box), gets a grid over the box, ``spacing_voxels`` apart (at most
+    transmittances are the sums of what lies between them and the light along it. A
+    directional light's rays are parallel; a point light's leave it in a frustum holding
+    the box. A point light inside the box, on it or beside it (no frustum holds the box),
+    gets a grid over the box, ``spacing_voxels`` apart (at most
     ``max_points`` per axis), each point marched toward it with steps of
     ``step_voxels``. Either is interpolated trilinearly; :func:`transmittance_toward`
     gives exact values to check them against. On the CT phantom lit from the side,
