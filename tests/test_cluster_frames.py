@@ -58,6 +58,7 @@ def serial(scene, cameras):
 CAMERAS = cm.orbit([(8.0, -6.0, 5.0), (1.0, 1.0, 0.0), (0, 0, 1)], 12)
 
 
+@pytest.mark.slow   # long (8 s): its own CI step (pytest -m slow)
 def test_frames_come_back_in_order_equal_to_serial_renders(client):
     # catches (seen failing): frames put in the order they finished, not their cameras'.
     expected = serial(build, CAMERAS)
@@ -80,6 +81,7 @@ def test_each_worker_builds_the_scene_once(client):
     assert after - before <= 2
 
 
+@pytest.mark.slow   # long (13 s): its own CI step (pytest -m slow)
 def test_a_worker_killed_mid_batch_costs_only_its_frames(tmp_path):
     # The first worker to build dies; its frames run again on another worker (or its
     # restarted self) and the batch is whole and equal to the serial renders.

@@ -46,6 +46,7 @@ def local(setting):
     return rendered(lambda plotter: build(plotter, **setting), CAMERA, SIZE)
 
 
+@pytest.mark.slow   # long (10 s): its own CI step (pytest -m slow)
 def test_every_setting_is_timed_alone_and_compared_with_the_reference(client):
     # catches (seen failing): timed frames without the cluster-wide lock (two workers'
     # spans overlapped, twice in two runs); rows put in the order they finished.

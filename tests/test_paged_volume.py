@@ -362,6 +362,7 @@ def test_the_live_view_redraws_while_bricks_arrive_and_says_what_streams(pyramid
     pl.close()
 
 
+@pytest.mark.slow   # long (5 s): its own CI step (pytest -m slow)
 def test_a_pool_uploaded_whole_keeps_its_bricks(pyramid, monkeypatch):
     """Found by review (seen failing): without partial uploads every placed brick made the
     pool go up whole, remade by forgetting all but the coarsest level (converged said True
@@ -533,6 +534,7 @@ def test_the_pool_holds_what_its_budget_allows(budget, want):
     assert count >= min(want, budget) * 0.99
 
 
+@pytest.mark.slow   # long (6 s): its own CI step (pytest -m slow)
 def test_a_pyramid_in_an_fsspec_store_is_written_and_drawn_from_its_url(tmp_path):
     # fsspec's in-memory filesystem stands for remote ones (s3://, gs://, http: the same
     # FsspecStore path in zarr, no network here). catches (seen failing): a URL taken for

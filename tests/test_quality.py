@@ -181,6 +181,7 @@ def test_quality_draws_what_the_chosen_settings_draw(ct):
     plotter.close()
 
 
+@pytest.mark.slow   # long (7 s): its own CI step (pytest -m slow)
 def test_inside_the_volume_and_parallel_views_are_calibrated_on_their_own_camera(ct):
     centre = np.asarray(ct.center)
     inside = Camera(position=tuple(centre + (0.0, 0.0, 3.0)), focal_point=tuple(centre),
