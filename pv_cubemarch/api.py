@@ -639,13 +639,14 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         return default is not None and _same(value, default)
 
     refused = sorted(key for key, value in given.items()
-                     if key not in (*PAGED_KEYWORDS, "quality") and not left_out(key, value))
+                     if key not in PAGED_KEYWORDS and not left_out(key, value))
     if given["user_matrix"] is not None and given["transform"] is not None:
         raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")
     check_paging(given)
     if given["technique"] not in ("vtk", "direct", "auto", "cubemap"):
         refused.insert(0, f"technique={given['technique']!r}")
     cube = given["technique"] == "cubemap"
+    drawn_by = "cubemap" if cube else "direct"   # 'vtk' and 'auto' march the pool directly
     marcher = {key: given[key] for key in ("face_size", "max_samples", "upscale",
                                             "sample_factor", "occlusion_sharpness")
                if not left_out(key, given[key])}
@@ -659,7 +660,7 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
                          "step_scale= (or the cube map's face_size=) and lod_bias= instead, "
                          "or add a level that fits in memory to calibrate on it.")
     if given["frame_budget_ms"] is not None:   # refused before the source is opened
-        check_frame_budget(given["frame_budget_ms"], "cubemap" if cube else "direct")
+        check_frame_budget(given["frame_budget_ms"], drawn_by)
     if refused:
         raise ValueError(f"A multiscale source is drawn by the direct marcher or the cube map "
                          f"(technique='cubemap') reading a brick pool (blending='composite'); "
@@ -703,8 +704,7 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     binding = build(plotter, PagedData(model, pager), VolumeSetup(options, shading, None))
     binding.light_map = None
     if given["frame_budget_ms"] is not None:   # the step (cube map: upscale) while moving
-        attach_frame_budget(binding, "cubemap" if cube else "direct", plotter.ren_win,
-                            given["frame_budget_ms"])
+        attach_frame_budget(binding, drawn_by, plotter.ren_win, given["frame_budget_ms"])
     actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
     actor.SetPickable(bool(given["pickable"]))
     component.track(binding)

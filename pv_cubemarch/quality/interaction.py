@@ -76,8 +76,8 @@ class BudgetKnob:
 
 
 def _write_step(binding, value: float) -> None:
-    binding.bindings.set_uniform("cm_stepScale", float(value))
-    for target in getattr(binding, "targets", ()):   # a reduced-resolution pass marches too
+    # every pass that marches: the box, a reduced-resolution pass, a stop-depth pass
+    for target in getattr(binding, "targets", [binding.bindings]):
         if "cm_stepScale" in target.uniforms:
             target.set_uniform("cm_stepScale", float(value))
     binding.step_scale = float(value)
