@@ -219,8 +219,8 @@ def test_two_volumes_side_by_side_composite_in_order(plotter_factory, model):
 @pytest.mark.parametrize("case", ["grid", "placed", "clipped"])
 def test_light_grid_of_the_reference_matches_exact_transmittance(model, case):
     # A directional light's lattice of rays marched once each, a point light's frustum of
-    # rays (outside the box) or grid of points marched each (inside), against each point
-    # marched toward the light at 1/20 voxel.
+    # rays (outside the box) or six frusta around it (inside), against each point marched
+    # toward the light at 1/20 voxel.
     # placed: rotated and stretched (the lattice's axes are the world's, not the grid's),
     # a light along an axis; clipped: a plane cuts the medium away (it absorbs nothing
     # there), which makes the transmittance jump across the plane where paths run along
@@ -230,12 +230,13 @@ def test_light_grid_of_the_reference_matches_exact_transmittance(model, case):
     # the direction taken away from the light (0.998), a ray's steps cut by the box counted
     # whole (0.015); clip planes left out of the lattice (0.52); a point light's depths
     # summed from the far side (0.9997), its rays' lengths per unit depth left out (0.011),
-    # its rays eight times too far apart (0.21)
+    # its rays eight times too far apart (0.21); a clip plane taken at each step's midpoint
+    # instead of where it cuts the step (0.027 for the light inside, away from the plane)
     lights = [VolumeLight("directional", direction=(-1.0, -0.5, -0.3)),
-              VolumeLight("point", position=(0.2, 0.4, 0.1)),    # inside: a grid
+              VolumeLight("point", position=(0.2, 0.4, 0.1)),    # inside: six frusta
               VolumeLight("point", position=(3.0, -2.5, 1.5))]   # outside: a frustum
-    assert reference_lighting.light_fields(model, lights)[1].across is None
-    assert reference_lighting.light_fields(model, lights)[2].across is not None
+    kinds = [type(f) for f in reference_lighting.light_fields(model, lights)]
+    assert kinds[1:] == [reference_lighting.AroundLightField, reference_lighting.LightField]
     planes = None
     if case != "grid":
         rotation = pv.Transform().rotate_z(30.0).rotate_x(-20.0).scale(1.0, 2.5, 0.6)
@@ -264,7 +265,8 @@ def test_light_grid_of_the_reference_matches_exact_transmittance(model, case):
 def test_light_fields_of_a_light_on_a_corner_and_one_far_away(model):
     # catches (seen failing): a point light on a corner of the box given a frustum (its
     # slopes 0 / 0: an IndexError); a light 1e12 boxes away spreading its rays by an
-    # absolute floor on their spacing (mean error 0.46)
+    # absolute floor on their spacing (mean error 0.46); a point read from the frustum of
+    # the face opposite to the one it is seen through (0.9999)
     corner = model.world_from_index()[:3, 3]
     far = corner + 1e12 * np.array([3.0, -2.5, 1.5])
     rng = np.random.default_rng(2)
@@ -349,21 +351,29 @@ def test_a_cube_map_seen_from_afar_draws_without_vtk_errors():
 def test_light_fields_of_a_ct_in_hounsfield_units():
     # Real units: a CT phantom from -1000 to 1266 HU, spacing 0.8 x 1.0 x 1.3 mm, its
     # origin off zero, the bone/sigmoid look from -200 to 1500 HU; a directional light and
-    # a point light outside (a frustum). Against each point marched at 1/20 voxel: the
+    # a point light outside (a frustum), and point lights inside the box, on a face and
+    # beside it (six frusta around each). Against each point marched at 1/20 voxel: the
     # bone's sharp shell puts single points off by up to 0.13 (the old grid: 0.16-0.22),
-    # the mean stays near 0.003. catches (seen failing): the lattice's depths summed from
-    # the far side (mean 0.4)
+    # the mean stays under 0.004. catches (seen failing): the lattice's depths summed from
+    # the far side (mean 0.4); the six frusta's -x, -y, -z faces marched toward +x, +y, +z
+    # (0.42); a face's slopes bounded by the corners' smallest twice (0.54)
     from pv_cubemarch.bench.sort_last import phantom
     values = phantom((48, 36, 30))
     grid = pv.ImageData(dimensions=values.shape, spacing=(0.8, 1.0, 1.3),
                         origin=(-100.0, 20.0, 5.0))
     grid.point_data["hu"] = values.ravel(order="F")
     ct = cm.make_volume(grid, cmap="bone", opacity="sigmoid", clim=(-200.0, 1500.0))
+    centre, (low, high) = np.array(grid.center), np.array(grid.bounds).reshape(3, 2).T
     lights = [VolumeLight("directional", direction=(-1.0, 2.0, -0.5)),
-              VolumeLight("point", position=(-160.0, -30.0, 60.0))]
+              VolumeLight("point", position=(-160.0, -30.0, 60.0)),
+              VolumeLight("point", position=tuple(centre + (3.0, -2.0, 1.0))),   # inside
+              VolumeLight("point", position=(low[0], centre[1] + 1, centre[2] - 2)),  # on
+              VolumeLight("point", position=(high[0] + 5.0, *centre[1:]))]   # beside
+    fields = reference_lighting.light_fields(ct, lights)
+    assert [type(f).__name__ for f in fields] == ["LightField"] * 2 + ["AroundLightField"] * 3
     points = np.random.default_rng(4).uniform(0, np.array(ct.dimensions) - 1.0, (400, 3))
-    for light, field in zip(lights, reference_lighting.light_fields(ct, lights), strict=True):
+    for light, field in zip(lights, fields, strict=True):
         exact = reference_lighting.transmittance_toward(ct, points, light, step_voxels=0.05)
         error = np.abs(field.at(points) - exact)
-        assert exact.min() < 0.01   # the bone does shadow
+        assert exact.min() < 0.05   # the bone does shadow
         assert error.mean() < 0.006 and np.percentile(error, 99) < 0.1, (light, error.mean())
