@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .api import is_multiscale_input
 from .bench import cluster as bench_cluster
 from .bench import device as bench_device
 from .bench import dial as bench_dial
@@ -47,8 +48,9 @@ from .scene.model import camera_for_bounds
 from .views.app import WINDOW_MODES, serve
 from .views.cluster_view import ClusterDisplay, serve_cluster
 from .volume.binding import BLEND_MODES
+from .volume.options import PAGED_ONLY
 from .voxels.options import CALL_ONLY as VOXEL_CALL_ONLY
-from .voxels.options import VoxelOptions
+from .voxels.options import PAGED_LABELS_ONLY, VoxelOptions
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -199,8 +201,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="pv-cubemarch", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
     render = commands.add_parser("render", help="render a scene file to a PNG image")
-    render.add_argument("scene", help="USD stage, mesh file (OBJ, STL, PLY, OFF, GLB, glTF) "
-                                      "or grid file (.vti, .vtk, .npy, .npz)")
+    render.add_argument("scene", help="USD stage, mesh file (OBJ, STL, PLY, OFF, GLB, glTF), "
+                                      "grid file (.vti, .vtk, .npy, .npz) or .zarr source "
+                                      "(an OME-Zarr pyramid or zarr array, streamed by "
+                                      "bricks; with --technique voxels, labels)")
     render.add_argument("--out", "-o", required=True, help="output PNG path")
     render.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
     render.add_argument("--camera", help="name (prim path) of the scene camera to use")
@@ -691,7 +695,8 @@ def _render(args) -> int:
     given = {**given_options(args, "volume"), **given_options(args, "voxels")}
     if given.get("lights") == "none":
         given["lights"] = None
-    reads = {f.name for f in dataclasses.fields(VoxelOptions)} | set(VOXEL_CALL_ONLY)
+    reads = {f.name for f in dataclasses.fields(VoxelOptions)} | set(VOXEL_CALL_ONLY) \
+        | streamed_only("voxels")
     other = [name for name in given if name not in reads]
     if as_voxels and other:   # the user asked for both: refused before loading anything
         flags = ", ".join(f"--{name.replace('_', '-')}" for name in other)
@@ -701,6 +706,8 @@ def _render(args) -> int:
     if as_voxels and args.isovalue is not None:
         raise ValueError("--isovalue draws the grid as a surface, --technique voxels as "
                          "material labels: leave one out.")
+    if is_multiscale_input(args.scene):
+        return _render_streamed(args, as_voxels, progress_bar)
     try:
         scene = _load(args, progress_bar=progress_bar, as_voxels=as_voxels,
                       isovalue=args.isovalue)
@@ -713,7 +720,9 @@ def _render(args) -> int:
             f"{exc} --technique voxels draws every volume of the scene as a material grid; "
             "draw this scene with a volume technique, or leave --technique out and set "
             'cubemarch:technique = "voxels" on its labelled Volume prims only.') from exc
-    _volume_options(scene, args, given, as_voxels)
+    given = _without_streamed_only(scene, given, as_voxels)
+    _volume_options(scene, args, {k: v for k, v in given.items()
+                                  if k not in streamed_only("volume")}, as_voxels)
     _voxel_options(scene, as_voxels, given)
     _surface_options(scene, args, given)
     if args.chunk_size is not None:
@@ -733,6 +742,81 @@ def _render(args) -> int:
         else:
             warnings.warn_explicit(warning.message, warning.category, warning.filename,
                                    warning.lineno)
+    print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
+    return 0
+
+
+#: How long ``render`` waits for a streamed source's bricks before writing what it has.
+STREAM_TIMEOUT_S = 600.0
+
+
+def streamed_only(kind: str) -> set[str]:
+    """The options of ``kind`` read only for a source streamed by bricks (a ``.zarr``)."""
+    reason = (PAGED_ONLY if kind == "volume" else PAGED_LABELS_ONLY)["usd"]
+    return {o.name for o in declared(kind) if o.without.get("usd") == reason}
+
+
+def _without_streamed_only(scene, given: dict, as_voxels: bool) -> dict:
+    """``given`` less the options that only a streamed source reads, each said.
+
+    ``--lod-bias`` stays for the scene's voxel grids (their level of detail); the volumes
+    never get it (:func:`_render` leaves it out for them).
+    """
+    kept = dict(given)
+    grids = as_voxels or bool(scene.voxels)
+    for name in sorted(kept.keys() & (streamed_only("volume") | streamed_only("voxels"))):
+        if name in streamed_only("voxels") or not grids:
+            _warn(name, "this scene's grids (read whole: only a .zarr source given to "
+                        "render is streamed by bricks)")
+            if name in streamed_only("voxels"):
+                kept.pop(name)
+    return kept
+
+
+def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
+    """A ``.zarr`` source (an OME-Zarr pyramid, a zarr array) streamed by bricks, one image.
+
+    The volume's flags (with ``--technique voxels``, a label grid's) go to ``add_volume``
+    (``add_voxels``) as their keywords; the camera frames the source; bricks are read until
+    the view has every one it wants (at most :data:`STREAM_TIMEOUT_S`, then the image says
+    what is missing in a note).
+    """
+    for flag, value in (("--camera", args.camera), ("--isovalue", args.isovalue),
+                        ("--chunk-size", args.chunk_size)):
+        if value is not None:
+            raise ValueError(f"{flag} does not apply to a .zarr source ({args.scene}): it is "
+                             "streamed by bricks as one "
+                             f"{'label grid' if as_voxels else 'volume'}; leave it out.")
+    kind = "voxels" if as_voxels else "volume"
+    own = {o.flag for o in declared(kind)} | {"--technique"}
+    stray = sorted({o.flag for o in declared() if o.flag is not None and o.flag not in own
+                    and getattr(args, o.dest, None) is not None})
+    if stray:
+        raise ValueError(f"{', '.join(stray)}: not {'an option' if len(stray) == 1 else 'options'}"
+                         f" of a {'label grid' if as_voxels else 'volume'} streamed from a "
+                         f".zarr source; leave {'it' if len(stray) == 1 else 'them'} out.")
+    keywords = given_options(args, kind)
+    if keywords.get("lights") == "none":
+        keywords["lights"] = None
+    if args.technique and not as_voxels:
+        keywords["technique"] = args.technique
+    from PIL import Image
+
+    from .api import add_volume, add_voxels
+    from .core.rendering import offscreen_plotter, render_image
+    plotter = offscreen_plotter(args.size)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            (add_voxels if as_voxels else add_volume)(plotter, args.scene, **keywords)
+            image = render_image(plotter, converge=True, timeout=STREAM_TIMEOUT_S,
+                                 progress_bar=progress_bar)
+    finally:
+        plotter.close()
+    for warning in caught:
+        print(f"pv-cubemarch: note: {warning.message}", file=sys.stderr)
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(image).save(str(args.out))
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
     return 0
 

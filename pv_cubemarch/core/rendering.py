@@ -95,33 +95,49 @@ def render_frame(plotter: pyvista.Plotter) -> None:
 
 
 def render_image(plotter: pyvista.Plotter, converge: bool = False,
-                 timeout: float = 60.0) -> np.ndarray:
+                 timeout: float = 60.0, progress_bar: bool | None = False) -> np.ndarray:
     """Render ``plotter`` and return its image as ``(height, width, 3)`` uint8.
 
     ``converge``: render again until every volume streamed by bricks has all it wants for
     this view (each frame draws what has arrived; between frames the bricks being read are
     waited for), at most ``timeout`` seconds; past it, a warning says what was missing and
-    the last image is returned.
+    the last image is returned. ``progress_bar``: a bar of the bricks resident against
+    those wanted while it converges (``None``: on a terminal only).
     """
     render_frame(plotter)
     if converge:
-        _converge(plotter, float(timeout))
+        _converge(plotter, float(timeout), progress_bar)
     return read_pixels(plotter)
 
 
-def _converge(plotter: pyvista.Plotter, timeout: float) -> None:
+def _converge(plotter: pyvista.Plotter, timeout: float, progress_bar: bool | None) -> None:
     """Frames until no streamed volume misses a brick (see :func:`render_image`)."""
     import time
     import warnings
 
+    from .progress import progress
+
     deadline = time.perf_counter() + timeout
+    bar = None
     while True:
         streaming = [b for b in tracked_bindings(plotter)
                      if b.shown and not getattr(b, "converged", True)]
+        if progress_bar is not False and (streaming or bar is not None):
+            counts = [b.stats() for b in tracked_bindings(plotter) if hasattr(b, "stats")]
+            resident = sum(c["resident"] for c in counts)
+            if bar is None:
+                bar = progress(desc="streaming bricks", total=1, enabled=progress_bar)
+            bar.total = resident + sum(c["missing"] for c in counts)
+            bar.n = resident
+            bar.refresh()
         if not streaming:
+            if bar is not None:
+                bar.close()
             return
         left = deadline - time.perf_counter()
         if left <= 0:
+            if bar is not None:
+                bar.close()
             warnings.warn(f"render_image(converge=True): not converged after {timeout:g} s "
                           f"({'; '.join(str(b.stats()) for b in streaming)}); the image "
                           "shows coarser levels where bricks are missing.", stacklevel=3)

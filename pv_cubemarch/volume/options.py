@@ -80,9 +80,9 @@ NO_KNOB_UNITS = "a value in the data's own units: give it in Python, on the CLI 
 
 #: Why the keywords of multiscale sources have no CLI flag, USD attribute or knob yet.
 PAGED_ONLY = dict.fromkeys(
-    ("cli", "usd", "knob"), "read only for a multiscale source (an OME-Zarr pyramid, a zarr "
-    "or dask array) given to add_volume in Python; scenes, USD Volume prims and the live "
-    "view read their grids whole")
+    ("usd", "knob"), "read only for a multiscale source (an OME-Zarr pyramid, a zarr or "
+    "dask array) given to add_volume or to pv-cubemarch render; USD Volume prims and the "
+    "live view's knobs read their grids whole")
 
 #: Why the channel keywords have no CLI flag, USD attribute or knob yet.
 COMPONENTS_WHEN_READ = ("decided when the data are read: a grid file's 2-4 components are "
@@ -192,15 +192,15 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
         # Multiscale sources streamed by bricks (volume/paged.py): set on the pager.
         Option("lod_bias", "volume", float, None, "levels added to the one whose points fit "
                "a pixel (multiscale sources; -30: the finest everywhere)", optional=True,
-               model=True, usd=None, cli=None, without=PAGED_ONLY),
+               model=True, usd=None, without=PAGED_ONLY),
         Option("gpu_bytes", "volume", int, None, "GPU budget of a multiscale source's brick "
                "pool (256 MiB by default)", low=1, optional=True, model=True, usd=None,
-               cli=None, without=PAGED_ONLY),
+               without=PAGED_ONLY),
         Option("host_bytes", "volume", int, None, "host budget of a multiscale source's read "
                "bricks (2 GiB by default)", low=1, optional=True, model=True, usd=None,
-               cli=None, without=PAGED_ONLY),
+               without=PAGED_ONLY),
         Option("brick_size", "volume", int, None, "points along a brick's edge (32 by "
-               "default)", low=1, high=1024, optional=True, model=True, usd=None, cli=None,
+               "default)", low=1, high=1024, optional=True, model=True, usd=None,
                without=PAGED_ONLY),
         # How a multi-component array is drawn: RGBA or channels (models/channels.py).
         Option("independent_components", "volume", bool, None, "2 to 4 components as "

@@ -40,9 +40,9 @@ MAX_DISTANCE_FIELD = 3
 DDA = ("voxels",)
 #: Why the keywords of multiscale label sources have no CLI flag, USD attribute or knob yet.
 PAGED_LABELS_ONLY = dict.fromkeys(
-    ("cli", "usd", "knob"), "read only for a multiscale label source (an OME-Zarr pyramid, a "
-    "list of levels) given to add_voxels in Python; scenes, USD and the live view read their "
-    "grids whole")
+    ("usd", "knob"), "read only for a multiscale label source (an OME-Zarr pyramid, a list "
+    "of levels) given to add_voxels or to pv-cubemarch render --technique voxels; USD and "
+    "the live view's knobs read their grids whole")
 #: Every option of the voxel technique, declared once (:mod:`pv_cubemarch.core.declared`).
 (TRAVERSAL, VOXEL_STEP_SCALE, MIP_LEVELS, DISTANCE_FIELD, MODE, SHADING, AMBIENT, SPECULAR,
  SPECULAR_POWER, AMBIENT_OCCLUSION, OCCLUSION_STRENGTH, PROXY, LOD, LOD_BIAS,
@@ -106,13 +106,13 @@ PAGED_LABELS_ONLY = dict.fromkeys(
                             "(actor.cubemarch.set_clip_planes moves them)"}),
     # Multiscale label sources streamed by bricks (voxels/paged_labels.py): set on the pager.
     Option("gpu_bytes", "voxels", int, None, "GPU budget of a multiscale source's brick "
-           "pool (256 MiB by default)", low=1, optional=True, model=True, usd=None, cli=None,
+           "pool (256 MiB by default)", low=1, optional=True, model=True, usd=None,
            without=PAGED_LABELS_ONLY),
     Option("host_bytes", "voxels", int, None, "host budget of a multiscale source's read "
-           "bricks (2 GiB by default)", low=1, optional=True, model=True, usd=None, cli=None,
+           "bricks (2 GiB by default)", low=1, optional=True, model=True, usd=None,
            without=PAGED_LABELS_ONLY),
     Option("brick_size", "voxels", int, None, "voxels along a brick's edge (32 by default)",
-           low=1, high=1024, optional=True, model=True, usd=None, cli=None,
+           low=1, high=1024, optional=True, model=True, usd=None,
            without=PAGED_LABELS_ONLY),
     # Read by add_voxels itself, not the technique (quality/voxels.py).
     Option("quality", "voxels", str, None, "error budget: exact (the DDA, its error "
