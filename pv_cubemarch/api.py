@@ -1304,8 +1304,9 @@ def add_voxels(
         (``bench voxels``), so the pixels are what a moving view coarsens. The first frame
         after the view stops is drawn at full size. For a grid drawn whole or a world drawn
         by one traversal (``world_traversal='index'``) or a multiscale label source, not a
-        world drawn per chunk nor translucent labels. ``actor.cubemarch.frame_budget``
-        keeps the frames' values and times.
+        world drawn per chunk; translucent labels are drawn at the same reduction (after
+        the scene's other translucent props while the view moves).
+        ``actor.cubemarch.frame_budget`` keeps the frames' values and times.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
     show_edges : bool
@@ -1422,7 +1423,7 @@ def add_voxels(
             model = VoxelWorld.from_model(
                 model, DEFAULT_CHUNK_SIZE if chunk_size is None else chunk_size)
         per_chunk = _why_per_chunk(model, options)
-        check_voxel_budget(frame_budget_ms, model, per_chunk)
+        check_voxel_budget(frame_budget_ms, per_chunk)
         if target is not None:   # refused before anything is drawn
             _check_voxel_quality(model, options)
             check_world_reference(model)
@@ -1439,7 +1440,7 @@ def add_voxels(
             warnings.warn(f"world_traversal={world_traversal!r} is for grids drawn in chunks; "
                           f"this grid of {tuple(model.dimensions)} voxels is drawn whole (give "
                           "chunk_size= to draw it in chunks).", stacklevel=2)
-        check_voxel_budget(frame_budget_ms, model)
+        check_voxel_budget(frame_budget_ms)
         if target is not None:
             _check_voxel_quality(model, options)
         component = plotter.cubemarch

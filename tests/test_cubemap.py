@@ -278,6 +278,39 @@ def test_light_fields_of_a_light_on_a_corner_and_one_far_away(model):
         assert np.abs(field.at(points) - exact).max() < 0.01
 
 
+@pytest.mark.parametrize("case", ["face", "sheared edge", "one slab node", "flat corner"])
+def test_light_fields_of_a_light_on_the_box_s_surface(case):
+    # A point light exactly on a face (off its centre), on an edge of a sheared box, on a
+    # node of a one-point-thick grid, and on a corner of a box of spacing 0.1 x 1 x 3 (the
+    # box in one quadrant of two of the six frusta), against each point marched at 1/20
+    # voxel. catches (seen failing, found by a review): rays touching the box at the light
+    # alone counted as meeting it (read nothing: 0.074 on the face); the frusta's slopes
+    # left at [-1, 1] where the box's corners all lie on one side (flat corner: 0.095,
+    # mean 0.009)
+    shape, spacing, surface = {"face": ((24, 24, 24), None, (23.0, 9.3, 14.1)),
+                               "sheared edge": ((24, 24, 24), None, (11.5, 0.0, 23.0)),
+                               "one slab node": ((1, 20, 20), None, (0.0, 6.0, 6.0)),
+                               "flat corner": ((24, 24, 24), (0.1, 1.0, 3.0), (0.0, 0.0, 0.0))
+                               }[case]
+    grid = blob_grid(shape=shape)
+    grid.spacing = spacing or grid.spacing   # the same values, stretched
+    half = max((n - 1) * d for n, d in zip(shape, grid.spacing, strict=True)) / 2
+    medium = cm.make_volume(grid, clim=(0, 1), opacity_unit_distance=0.2 * half)
+    if case == "sheared edge":
+        shear = np.eye(4)
+        shear[0, 1], shear[1, 2] = 0.7, -0.4
+        medium = dataclasses.replace(medium, transform=shear)
+    matrix = medium.world_from_index()
+    light = VolumeLight("point", position=tuple(matrix[:3, :3] @ surface + matrix[:3, 3]))
+    field, = reference_lighting.light_fields(medium, [light])
+    assert isinstance(field, reference_lighting.AroundLightField)
+    points = np.random.default_rng(5).uniform(0, np.array(medium.dimensions) - 1.0, (600, 3))
+    exact = reference_lighting.transmittance_toward(medium, points, light, step_voxels=0.05)
+    error = np.abs(field.at(points) - exact)
+    assert error.max() < 0.02 and error.mean() < 0.003, (error.max(), error.mean())
+    assert exact.min() < 0.9   # the medium does shadow
+
+
 def test_light_fields_hold_on_the_box_s_faces(model):
     # Points on the faces, where a lattice point's neighbours outside the box read no
     # medium: a point light in the plane of a face (its points' paths run along it) and a

@@ -260,14 +260,13 @@ def test_what_voxel_quality_cannot_take_is_refused_by_name(cells, keywords, word
 @pytest.mark.parametrize("keywords, words", [
     ({"chunk_size": 8, "world_traversal": "per_chunk"}, "box per chunk"),
     ({"chunk_size": 6}, "power of two"),
-    ({"opacity": 0.5}, "translucent labels"),
-    ({"chunk_size": 8, "opacity": 0.5}, "translucent labels"),
+    ({"chunk_size": 8, "world_traversal": "per_chunk", "opacity": 0.5}, "box per chunk"),
     ({"frame_budget_ms": -1}, "positive"),
 ])
 def test_what_a_voxel_budget_cannot_hold_is_refused(cells, keywords, words):
     # catches (seen failing): a budget on a world drawn per chunk accepted (its actors are
-    # not drawn reduced: frames over budget in silence; the binding has no hook for it);
-    # a world's translucent labels accepted (the opacity check skipped for worlds)
+    # not drawn reduced: frames over budget in silence; the binding has no hook for it).
+    # Translucent labels are drawn reduced too (tests/test_reduced_draw.py).
     plotter = offscreen_plotter((80, 60))
     with pytest.raises(ValueError, match=words):
         pv_cubemarch.add_voxels(plotter, cells, **{"frame_budget_ms": 30, **keywords})

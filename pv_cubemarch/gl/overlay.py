@@ -25,9 +25,9 @@ ONE, SRC_ALPHA, ONE_MINUS_SRC_ALPHA = 1, 0x0302, 0x0303
 class SceneOverlay:
     """The overlay renderer of one plotter and the opaque depth copied at its start."""
 
-    def __init__(self, plotter):
-        self.main = plotter.renderer
-        self.window = plotter.ren_win
+    def __init__(self, main):
+        self.main = main
+        self.window = main.GetRenderWindow()
         renderer = vtk.vtkOpenGLRenderer()
         self.window.SetNumberOfLayers(max(self.window.GetNumberOfLayers(),
                                           self.main.GetLayer() + 2))
@@ -96,10 +96,14 @@ class SceneOverlay:
 
 def scene_overlay(plotter) -> SceneOverlay:
     """The overlay of the plotter's renderer, made on first use (again after its last user left)."""
-    main = plotter.renderer
+    return renderer_overlay(plotter.renderer)
+
+
+def renderer_overlay(main) -> SceneOverlay:
+    """The overlay of ``main`` (a PyVista renderer in its window), as :func:`scene_overlay`."""
     overlay = main.__dict__.get("_cubemarch_overlay")
     if overlay is None or overlay.renderer is None:
-        overlay = SceneOverlay(plotter)
+        overlay = SceneOverlay(main)
         main.__dict__["_cubemarch_overlay"] = overlay
     return overlay
 

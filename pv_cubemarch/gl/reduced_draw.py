@@ -7,6 +7,12 @@ the actor is drawn alone, at the renderer's start, into colour and depth targets
 with its geometry and placement draws the targets back at full size, nearest texel, with
 their depth, so the scene's meshes occlude it and are occluded as by the actor itself. The
 pixels marched fall as ``factor**2``.
+
+A translucent actor that draws each pixel once in straight alpha and stops at the frame's
+opaque depth (a grid's translucent labels) is drawn so after the scene's opaque props
+instead: at the start of the scene overlay (:mod:`~pv_cubemarch.gl.overlay`), reading the
+opaque depth copied there, its stand-in compositing the target over the frame in the
+overlay (after the main renderer's other translucent props, while the view moves).
 """
 
 from __future__ import annotations
@@ -46,9 +52,10 @@ class ReducedDraw:
     render (picking) draws the actor itself.
     """
 
-    def __init__(self, renderer, actor):
+    def __init__(self, renderer, actor, overlay=None, follows: ReducedDraw | None = None):
         self.renderer, self.actor = renderer, actor
-        self.factor = 1
+        self.overlay, self.follows = overlay, follows
+        self._factor = 1
         self.runs = 0
         self.targets: list[vtkTextureObject] = []
         self._fbo = None
@@ -61,22 +68,40 @@ class ReducedDraw:
         self.stand_in.SetMapper(mapper)
         self.stand_in.GetProperty().LightingOff()
         self.stand_in.GetMapper().ScalarVisibilityOff()
-        self.stand_in.ForceOpaqueOn()
         self.stand_in.SetPickable(False)
         self.stand_in.SetVisibility(False)
-        self.bindings = ShaderBindings(self.stand_in.GetMapper(), renderer)
+        shown_by = renderer if overlay is None else overlay.renderer
+        self.bindings = ShaderBindings(self.stand_in.GetMapper(), shown_by)
         self.bindings.add_texture("cm_reducedColor", _Target(self, 0))
-        self.bindings.add_texture("cm_reducedDepth", _Target(self, 1))
         self.bindings.set_uniform("cm_viewport", lambda: fragment_viewport(renderer))
         self.bindings.set_uniform("cm_reducedSize", lambda: tuple(float(v) for v in self._size))
-        self.bindings.install(box_recipe(("reduced_declarations",), "reduced_fragment"),
-                              self.stand_in)
-        renderer.AddActor(self.stand_in)
         window = renderer.GetRenderWindow()
         # after the other start observers (the actor's bindings count the frame first)
         self._tags = [(renderer, observe(renderer, vtk.vtkCommand.StartEvent, self._on_start,
                                          -5.0)),
                       (window, observe(window, vtk.vtkCommand.EndEvent, self._on_end, 5.0))]
+        if overlay is None:
+            self.stand_in.ForceOpaqueOn()
+            self.bindings.add_texture("cm_reducedDepth", _Target(self, 1))
+            self.bindings.install(box_recipe(("reduced_declarations",), "reduced_fragment"),
+                                  self.stand_in)
+        else:   # composited over the frame from the overlay, drawn at its start
+            self.stand_in.ForceTranslucentOn()
+            self.bindings.install(box_recipe(("reduced_declarations",),
+                                             "reduced_layer_fragment"), self.stand_in)
+            overlay.add_user(self.stand_in)
+            self._tags.append((overlay.renderer, observe(
+                overlay.renderer, vtk.vtkCommand.StartEvent, self._draw_translucent, 0.5)))
+        shown_by.AddActor(self.stand_in)
+
+    @property
+    def factor(self) -> int:
+        """The fraction of the viewport drawn across (that of the draw it follows, if any)."""
+        return self.follows.factor if self.follows is not None else self._factor
+
+    @factor.setter
+    def factor(self, value: int) -> None:
+        self._factor = int(value)
 
     @property
     def nbytes(self) -> int:
@@ -93,9 +118,22 @@ class ReducedDraw:
         self.stand_in.SetVisibility(True)
         width, height = drawn_viewport(self.renderer)[2:]
         self._size = (max(1, -(-width // self.factor)), max(1, -(-height // self.factor)))
-        self._draw()
+        if self.overlay is None:
+            self._draw(self.actor.RenderOpaqueGeometry)
         self.actor.SetVisibility(False)   # back at the window's end
         self._hidden = True
+
+    def _draw_translucent(self, *_) -> None:
+        """At the overlay's start (every opaque prop drawn): the actor, reduced.
+
+        It reads the scene's opaque depth (its own binding copies it then).
+        """
+        if self._hidden and self.overlay is not None:
+            self.actor.SetVisibility(True)
+            try:
+                self._draw(self.actor.RenderTranslucentPolygonalGeometry)
+            finally:
+                self.actor.SetVisibility(False)
 
     def _on_end(self, *_) -> None:
         """The frame is over: the actor is shown again, the stand-in hidden (bounds, picks)."""
@@ -132,7 +170,8 @@ class ReducedDraw:
         self._fbo.SetContext(window)
         self.targets, self._allocated, self._window = [color, depth], size, window
 
-    def _draw(self) -> None:
+    def _draw(self, render) -> None:
+        """``render(renderer)`` into the targets, cleared (colour to nothing, depth to far)."""
         window = self.renderer.GetRenderWindow()
         TextureUnitLedger.release_window(window)
         size = self._size
@@ -144,7 +183,7 @@ class ReducedDraw:
         try:
             start_nearest_draw(state, self._fbo, *self.targets, size, (0.0, 0.0, 0.0, 0.0))
             with drawing_at((0, 0, *size)):
-                self.actor.RenderOpaqueGeometry(self.renderer)
+                render(self.renderer)
         finally:
             state.PopFramebufferBindings()
             state.Pop()
@@ -167,5 +206,9 @@ class ReducedDraw:
         self._tags = []
         self._on_end()
         self.bindings.release()
-        self.renderer.RemoveActor(self.stand_in)
+        if self.overlay is None:
+            self.renderer.RemoveActor(self.stand_in)
+        else:
+            self.overlay.remove_actor(self.stand_in)
+            self.overlay.release_user(self.stand_in)
         self._release_targets()

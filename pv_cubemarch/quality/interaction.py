@@ -154,6 +154,9 @@ def reduce_pixels(binding, factor: int) -> None:
         binding.extra_release.append(reduced.release)
     if reduced is not None:
         reduced.factor = int(factor)
+        layers = getattr(binding, "layers", None)   # translucent labels: drawn as reduced
+        if layers is not None:
+            layers.reduce_as(reduced)
 
 
 #: The coarsest step of ``'vtk'`` and of a downsampled ``'direct'`` (or the still step,

@@ -79,13 +79,12 @@ def check_opaque(model) -> None:
                          "between 0 and 1): leave quality out, or make them opaque.")
 
 
-def check_voxel_budget(frame_budget_ms, model, per_chunk: str | None = None) -> None:
+def check_voxel_budget(frame_budget_ms, per_chunk: str | None = None) -> None:
     """Refuse a frame budget a grid's moving frames cannot be held to.
 
-    The budget draws the grid at fewer pixels (one opaque actor into reduced targets): a
-    grid drawn whole, or a world drawn by one traversal over its chunk index; not a world
-    drawn per chunk (``per_chunk``: why it is), nor translucent labels (drawn in layers of
-    their own).
+    The budget draws the grid at fewer pixels (its opaque actor, and its translucent
+    labels' layers, into reduced targets): a grid drawn whole, or a world drawn by one
+    traversal over its chunk index; not a world drawn per chunk (``per_chunk``: why it is).
     """
     if frame_budget_ms is None:
         return
@@ -98,11 +97,6 @@ def check_voxel_budget(frame_budget_ms, model, per_chunk: str | None = None) -> 
                              "draw it with world_traversal='index'." if chosen else
                              "give it what one traversal needs (world_traversal='index': a "
                              "power-of-two chunk_size, no distance_field, proxy='box')."))
-    alpha = np.asarray(model.palette.rgba)[1:, 3]
-    if ((alpha > 0.0) & (alpha < 1.0)).any():
-        raise ValueError("frame_budget_ms draws a grid's opaque voxels at fewer pixels while "
-                         "the view moves; this grid has translucent labels (drawn in layers "
-                         "of their own): leave the budget out, or make them opaque.")
 
 
 @dataclass

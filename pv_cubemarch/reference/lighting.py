@@ -142,8 +142,9 @@ def light_fields(volume, lights: Sequence[VolumeLight], spacing_voxels: float = 
     them wider) and sampled as often, each ray marched once through the box: its points'
     transmittances are the sums of what lies between them and the light along it. A
     directional light's rays are parallel; a point light's leave it in a frustum holding
-    the box, or, inside the box, on it or beside it (where no frustum holds it), in six
-    frusta through the faces of a cube around it. Interpolated trilinearly;
+    the box, or, inside the box, on it or beside it (where a corner lies more than about
+    78 degrees off the frustum's axis: :data:`FRUSTUM_COSINE`), in six frusta through the
+    faces of a cube around it. Interpolated trilinearly;
     :func:`transmittance_toward` gives exact values to check them against. On the CT
     phantom lit from the side, half-voxel steps are within 60 dB of quarter-voxel ones.
     """
@@ -268,7 +269,8 @@ class AroundLightField:
 
     A frustum through each face of a cube around the light (world axes), each point read
     from the face it is seen through (its largest coordinate from the light); ``faces``
-    ``+x, -x, +y, -y, +z, -z``, None where the box lies wholly behind.
+    ``+x, -x, +y, -y, +z, -z``, None where the box lies wholly behind (or only touches
+    the face's plane).
     """
 
     faces: tuple
@@ -302,9 +304,14 @@ def _around_field(medium, light, spacing_voxels, clip_planes) -> AroundLightFiel
             if not local[:, 2].max() > 0.0:
                 faces.append(None)                          # the box wholly behind
                 continue
-            low, high = np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, local[:, 2].max()])
-            if (local[:, 2] > 0.0).all():   # the box's corners' slopes bound its own
-                slopes = np.clip(local[:, :2] / local[:, 2:3], -1.0, 1.0)
+            # the slopes a point of the box can have, at most 1 either way: between the
+            # corners' where the box lies wholly ahead, else on the side of its corners
+            across = local[:, :2]
+            low = np.array([*np.where((across >= 0.0).all(axis=0), 0.0, -1.0), 0.0])
+            high = np.array([*np.where((across <= 0.0).all(axis=0), 0.0, 1.0),
+                             local[:, 2].max()])
+            if (local[:, 2] > 0.0).all():
+                slopes = np.clip(across / local[:, 2:3], -1.0, 1.0)
                 low = np.array([*slopes.min(axis=0), local[:, 2].min()])
                 high[:2] = slopes.max(axis=0)
             faces.append(_frustum(medium, light_at, basis, low, high, spacing_voxels,
@@ -342,7 +349,10 @@ def _march_lattice(medium, starts_world, ways_world, edges, scale, clip_planes,
     ways = ways_world @ index_from_world[:3, :3].T
     directions = np.broadcast_to(ways, starts.shape)
     enter, leave = ray_box_interval(starts, directions, np.zeros(3), upper)
-    misses = ~(leave > enter)
+    # a ray that meets the box only outside its lattice's span (a light on the box's
+    # surface: its rays touch the box at the light alone) misses it too
+    span = float(edges[-1]) if len(edges) else 0.0
+    misses = ~(np.minimum(leave, span) > np.maximum(enter, 0.0) + 1e-9 * span)
     if misses.any():   # the box grown by the rays' spacing, for the rays that miss it
         pad = apart * (1.0 + 1e-9) + 1e-9
         grown = ray_box_interval(starts[misses], directions[misses], np.full(3, -pad),

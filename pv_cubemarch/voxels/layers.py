@@ -17,6 +17,8 @@ import numpy as np
 from ..gl.bindings import ShaderBindings
 from ..gl.box import box_actor, faces_for_peeling, place_box
 from ..gl.frame_inputs import frame_inputs
+from ..gl.overlay import renderer_overlay
+from ..gl.reduced_draw import ReducedDraw
 from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
 from ..models.voxels import palette_texels
@@ -96,14 +98,29 @@ class TranslucentLayers:
         bind_grid(bindings, renderer, model, replace(options, show_edges=False, lod=False,
                                                      ambient_occlusion=False))
         self.bindings = bindings
+        self.reduced: ReducedDraw | None = None
         self.follow_clip_planes(options, binding)
         renderer.AddActor(self.actor)
 
+    def reduce_as(self, opaque: ReducedDraw) -> None:
+        """Draw the layers at the reduction of the grid's opaque draw (a frame budget's).
+
+        Drawn after the scene's opaque props, at the overlay's start; its stand-in
+        composites them over the frame from the overlay (:class:`ReducedDraw`).
+        """
+        if self.reduced is None:
+            self.reduced = ReducedDraw(self.renderer, self.actor,
+                                       overlay=renderer_overlay(self.renderer), follows=opaque)
+
     @property
     def nbytes(self) -> int:
-        """GPU bytes of its own (the labels are the opaque actor's, but a chunk's apron)."""
+        """GPU bytes of its own, its reduced draw's targets included.
+
+        The labels are the opaque actor's, but a chunk's apron.
+        """
         return (self.palette.nbytes if self.owns_palette else 0) + (
-            self.apron.texture.nbytes if self.apron is not None else 0)
+            self.apron.texture.nbytes if self.apron is not None else 0) + (
+            self.reduced.nbytes if self.reduced is not None else 0)
 
     def set_palette(self, rgba: np.ndarray, rows: np.ndarray | None = None) -> None:
         """The palette changed (``rows`` of it, or all): the layers read the new entries."""
@@ -121,7 +138,10 @@ class TranslucentLayers:
         place_box(self.actor, self.model.world_from_index())
 
     def release(self) -> None:
-        """Leave the renderer and free the palette and observers."""
+        """Leave the renderer and free the palette, observers and any reduced draw."""
+        if self.reduced is not None:
+            self.reduced.release()
+            self.reduced = None
         self.renderer.RemoveActor(self.actor)
         self.bindings.release()
 
@@ -153,6 +173,8 @@ class LayerHost:
         if wanted and self.layers is None:
             self.layers = self.make_layers()
             self.layers.actor.SetVisibility(self.shown)
+            if getattr(self, "reduced", None) is not None:   # under a frame budget
+                self.layers.reduce_as(self.reduced)
             return True
         if self.layers is not None and not wanted:
             self.release_layers()
