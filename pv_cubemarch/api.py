@@ -1626,8 +1626,9 @@ def add_surface(
         viewport across, shown at full size with their depth (the walk through the cells
         costs what the steps do not). The first frame after the view stops draws the still
         ``steps`` again, at full size. Nothing is rebuilt. Several isosurfaces move
-        together; translucent surfaces move their steps only (the reduced draw is opaque).
-        Not with ``root='exact'``.
+        together; a translucent surface is drawn reduced after the scene's opaque props
+        and composited over the frame (after its other translucent props, while the view
+        moves). Not with ``root='exact'``.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
 

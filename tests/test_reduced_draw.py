@@ -344,26 +344,49 @@ def test_between_reduced_frames_bounds_and_picks_are_the_actor_s():
     plotter.close()
 
 
-def test_a_translucent_surface_s_budget_moves_its_steps_only():
-    # a translucent surface composites over the scene in the translucent pass, which a
-    # reduced draw does not draw: its budget has no reduced rungs
-    # catches (seen failing, found by a review): moving frames reduced (the surface gone
-    # from every moving frame)
-    plotter = offscreen_plotter(SIZE)
-    actor = cm.add_surface(plotter, FIELD, isovalue=250.0, steps=800, color="tan",
-                           opacity=0.5)
+def _translucent_plotter(size, levels=False):
+    """A translucent surface (or two translucent levels) cutting a red ball (opaque)."""
+    plotter = offscreen_plotter(size)
+    plotter.disable_anti_aliasing()
+    keywords = {"isosurfaces": [200.0, 250.0]} if levels else {"isovalue": 250.0}
+    actor = cm.add_surface(plotter, FIELD, steps=800, color="tan", opacity=0.5, **keywords)
+    plotter.add_mesh(pv.Sphere(radius=2.5, center=np.add(FIELD.center, (-3.0, 2.0, 2.0))),
+                     color="red", lighting=False)
     plotter.camera_position = CAMERA
+    return plotter, actor
+
+
+@pytest.mark.parametrize("levels", [False, True])
+def test_a_translucent_surface_moves_its_steps_then_its_pixels(levels):
+    # A translucent surface (or two translucent levels in one pass) composites over the
+    # scene: under a 30 ms budget on the pixel clock it goes down the steps and then draws
+    # at 1/2 (after the opaque ball, from the overlay); the moving frame is the half-size
+    # plotter's frame at 25 steps, each pixel 2x2, where the ball's edges (drawn at full
+    # size) cross no 2x2 block; the still frame is the first one again.
+    # catches (seen failing): the translucent surface's knob left at its steps (it went
+    # down to 6.25 steps, still 60 ms at full size); its reduced draw made opaque (the
+    # surface drawn over by the stand-in's nothing: 8.5 % of the blocks off); the surface's
+    # rays not ended at the ball's depth (3.1 %)
+    plotter, actor = _translucent_plotter(SIZE, levels)
+    still, budget, moving = _scripted_drag(plotter, actor, "active", 30.0, 6)
+    assert moving[-1].value == 25.0 and all(f.ms <= 30.0 for f in moving[-3:])
+    reduced = read_pixels(plotter)
+    plotter.ren_win.SetDesiredUpdateRate(0.0001)
     render_frame(plotter)
-    budget = attach_frame_budget(actor.cubemarch, "active", plotter.ren_win, 30.0,
-                                 clock=_pixel_clock(actor))
-    plotter.ren_win.SetDesiredUpdateRate(15.0)
-    for _ in range(4):
-        render_frame(plotter)
-    assert budget.frames[-1].value == 10.0
-    assert getattr(actor.cubemarch, "reduced", None) is None
-    image = read_pixels(plotter)
-    assert np.any(image != image[0, 0], axis=-1).mean() > 0.05
+    assert np.array_equal(read_pixels(plotter), still)
     plotter.close()
+    small, small_actor = _translucent_plotter((SIZE[0] // 2, SIZE[1] // 2), levels)
+    for part in [small_actor.cubemarch, *getattr(small_actor.cubemarch, "levels", [])]:
+        set_still_steps(part, 100.0)
+    render_frame(small)
+    expected = np.repeat(np.repeat(read_pixels(small), 2, axis=0), 2, axis=1)
+    small.close()
+    assert np.any(expected != expected[0, 0], axis=-1).mean() > 0.05
+    blocks = reduced.reshape(SIZE[1] // 2, 2, SIZE[0] // 2, 2, 3).astype(int)
+    whole = np.all(blocks == blocks[:, :1, :, :1], axis=(1, 3, 4))
+    assert whole.mean() > 0.98
+    differs = np.abs(blocks[:, 0, :, 0] - expected[::2, ::2]).max(axis=-1) > 2
+    assert differs[whole].mean() < 0.002, differs[whole].mean()
 
 
 def test_add_surface_attaches_one_budget(monkeypatch):

@@ -27,6 +27,7 @@ import numpy as np
 from vtkmodules.vtkCommonCore import vtkCommand
 
 from ..core.frame_errors import observe
+from ..gl.overlay import renderer_overlay
 from ..gl.reduced_draw import ReducedDraw
 from .ladders import STEP_SCALES
 
@@ -150,7 +151,13 @@ def reduce_pixels(binding, factor: int) -> None:
     """Draw ``binding``'s actor at 1/``factor`` of the viewport (made at the first need)."""
     reduced = getattr(binding, "reduced", None)
     if reduced is None and factor > 1:
-        reduced = binding.reduced = ReducedDraw(binding.renderer, binding.drawn[0])
+        # a translucent surface composites over the scene: drawn reduced after its opaque
+        # props, from the overlay (a grid's translucent labels follow its opaque draw)
+        translucent = getattr(binding, "technique", None) == "surface" \
+            and binding.options.translucent
+        reduced = binding.reduced = ReducedDraw(
+            binding.renderer, binding.drawn[0],
+            overlay=renderer_overlay(binding.renderer) if translucent else None)
         binding.extra_release.append(reduced.release)
     if reduced is not None:
         reduced.factor = int(factor)
@@ -282,9 +289,6 @@ KNOBS = {
     "steps": BudgetKnob("steps", SURFACE_STEPS, -1.0, _read_steps, _write_steps,
                         lambda v, still: _steps_label(*steps_drawn(v, still)),
                         _steps_ladder),
-    # a translucent surface's steps alone: it composites over the scene in the translucent
-    # pass, which a reduced draw (opaque, into targets of its own) does not draw
-    "steps_translucent": BudgetKnob("steps", SURFACE_STEPS, -1.0, _read_steps, _set_steps),
     # a voxel grid's pixels, 1/reduction of the viewport across: time as the pixels
     "pixels": BudgetKnob("reduction", (4.0, 3.0, 2.0, 1.0), 2.0,
                          lambda b: float(getattr(getattr(b, "reduced", None), "factor", 1)),
@@ -492,8 +496,6 @@ def attach_frame_budget(binding, technique: str, window, budget_ms: float,
         budget = PathBudgets(binding, paths, float(budget_ms))
     else:
         name = TECHNIQUE_KNOBS[technique]
-        if name == "steps" and binding.options.translucent:
-            name = "steps_translucent"
         knob = KNOBS[name]
         if name == "step" and getattr(binding, "downsample", 1) > 1:
             knob = dataclasses.replace(KNOBS["step_downsample"],
