@@ -258,8 +258,9 @@ def add_volume(
         map: ``upscale``) predicted to stay within this many milliseconds from the
         costliest of the last three frames (time grows as ``1 / step_scale``, or
         ``1 / upscale**2``; past step 16, ``'vtk'`` draws at 1/2-1/4 the size, VTK's
-        ``ImageSampleDistance``, and ``'direct'`` with ``downsample`` above 1 at 2-4 times
-        its downsample); the first frame after the view stops draws the still setting
+        ``ImageSampleDistance``, ``'direct'`` at 1/2-1/4 the size too, or with
+        ``downsample`` above 1 at 2-4 times its downsample); the first frame after the
+        view stops draws the still setting
         again (given, or what ``quality`` chose). ``'auto'``: each path its own knob,
         predicted from the frames that path drew. A multiscale source takes it too (no
         brick is read for it). Nothing is rebuilt. ``actor.cubemarch.frame_budget`` keeps

@@ -11,8 +11,9 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 
-from .api import is_multiscale_input
+from .api import add_volume, add_voxels, is_multiscale_input
 from .bench import cluster as bench_cluster
 from .bench import device as bench_device
 from .bench import dial as bench_dial
@@ -41,6 +42,7 @@ from .core.declared import KINDS, declared, option, options_markdown
 from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, specific_option_names, techniques
+from .core.rendering import offscreen_plotter, render_image
 from .models.voxels import VoxelModel, count_labels, label_legend
 from .scene.grids import read_grid
 from .scene.io import load_scene
@@ -800,10 +802,6 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
         keywords["lights"] = None
     if args.technique and not as_voxels:
         keywords["technique"] = args.technique
-    from PIL import Image
-
-    from .api import add_volume, add_voxels
-    from .core.rendering import offscreen_plotter, render_image
     plotter = offscreen_plotter(args.size)
     try:
         with warnings.catch_warnings(record=True) as caught:

@@ -259,6 +259,35 @@ def test_translucent_labels_reduced_are_their_small_frame_shown_at_full_size(chu
     assert differs[whole].mean() < 0.001, differs[whole].mean()
 
 
+def test_translucent_labels_stay_over_a_background_image_added_later(tmp_path):
+    # PyVista's add_background_image moves the plotter's renderer to layer 2 after the
+    # overlay was made on layer 1: the overlay follows, the reduced frame is the one of a
+    # plotter given the image first. catches (seen failing, found by a review): the
+    # overlay left under the scene (the translucent labels gone from moving frames after
+    # a still one)
+    from PIL import Image
+    image = tmp_path / "background.png"
+    Image.fromarray(np.full((16, 16, 3), (30, 60, 90), np.uint8)).save(image)
+    frames = []
+    for image_first in (False, True):
+        plotter, actor = _voxel_plotter(SIZE, palette=TRANSLUCENT, frame_budget_ms=1000.0)
+        if image_first:
+            plotter.add_background_image(str(image))
+        for factor in (1.0, 2.0, "image", 1.0, 2.0):   # still, moving, still, moving
+            if factor == "image":
+                if not image_first:
+                    plotter.add_background_image(str(image))
+                continue
+            KNOBS["pixels"].write(actor.cubemarch, factor)
+            render_frame(plotter)
+        frames.append(read_pixels(plotter))
+        plotter.close()
+    # the image's letterbox is PyVista's (white or black by the order added): left out
+    inside = np.any(frames[0] != 255, axis=-1) & np.any(frames[1] != 0, axis=-1)
+    assert inside.mean() > 0.5
+    assert np.array_equal(frames[0][inside], frames[1][inside])
+
+
 def test_the_reduced_targets_are_counted_in_the_plotter_s_memory():
     # RGBA8 colour and float32 depth at 1/2 of 240x180 across: 8 bytes a texel, by hand
     # catches (seen failing): the targets left out of plotter.cubemarch.memory

@@ -7,6 +7,8 @@
 #ifdef CM_DEPTH_MULTISAMPLED
 uniform sampler2DMS cm_sceneDepth;    // the frame's own multisampled depth (not written now)
 uniform int cm_depthSamples;
+uniform vec4 cm_depthViewport;        // its texels of the viewport (cm_viewport, unless the
+                                      // box draws into a reduced target of ours)
 #else
 uniform sampler2D cm_sceneDepth;      // opaque depth of this frame, over the viewport
 #endif
@@ -18,7 +20,7 @@ float cm_sceneDepthAt(vec2 pixel)
   // The samples sit around the pixel centre: their mean is the centre's depth on a surface
   // (one sample alone is off by a fraction of a pixel, much on grazing surfaces), and a
   // blend of surface and background at an outline, as the resolved colour is.
-  ivec2 texel = ivec2(cm_viewport.xy + pixel * cm_viewport.zw);
+  ivec2 texel = ivec2(cm_depthViewport.xy + pixel * cm_depthViewport.zw);
   float sum = 0.0;
   for (int i = 0; i < cm_depthSamples; ++i)
   {

@@ -12,6 +12,7 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 from .errors import PlotterClosedError
 from .frame_errors import collecting_frame_errors, raise_frame_errors
 from .offscreen import configure_offscreen
+from .progress import progress
 from .shader_errors import watch_shader_errors
 
 
@@ -114,8 +115,6 @@ def _converge(plotter: pyvista.Plotter, timeout: float, progress_bar: bool | Non
     """Frames until no streamed volume misses a brick (see :func:`render_image`)."""
     import time
     import warnings
-
-    from .progress import progress
 
     deadline = time.perf_counter() + timeout
     bar = None

@@ -94,11 +94,19 @@ def drawing_reduced() -> bool:
 def fragment_viewport(renderer) -> tuple[int, int, int, int]:
     """The viewport of ``gl_FragCoord`` while ``renderer``'s props draw.
 
-    :func:`drawn_viewport`, except inside a ``vtkSSAAPass`` (its enlarged framebuffer) or
-    a draw into a target of ours (:func:`drawing_at`).
+    :func:`framebuffer_viewport`, except in a draw into a target of ours
+    (:func:`drawing_at`).
     """
     if _drawing_at:
         return _drawing_at[-1]
+    return framebuffer_viewport(renderer)
+
+
+def framebuffer_viewport(renderer) -> tuple[int, int, int, int]:
+    """The renderer's viewport in the framebuffer VTK draws it into (its depth's texels).
+
+    :func:`drawn_viewport`, except inside a ``vtkSSAAPass`` (its enlarged framebuffer).
+    """
     size = supersampling_now(renderer)
     return drawn_viewport(renderer) if size is None else (0, 0, *size)
 

@@ -44,6 +44,17 @@ class SceneOverlay:
         self.users: dict = {}  # user -> whether it reads the depth copy
         # Priority above the passes' observers: the depth is copied before any pass reads it.
         self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start, 1.0)
+        self._window_tag = observe(self.window, vtk.vtkCommand.StartEvent, self._follow_layer)
+
+    def _follow_layer(self, *_) -> None:
+        """Stay the layer above the main renderer's, which may move.
+
+        PyVista's ``add_background_image`` puts it on layer 2: the overlay drew under it.
+        """
+        layer = self.main.GetLayer() + 1
+        if self.renderer is not None and self.renderer.GetLayer() != layer:
+            self.window.SetNumberOfLayers(max(self.window.GetNumberOfLayers(), layer + 1))
+            self.renderer.SetLayer(layer)
 
     def _on_start(self, *_):
         # The main renderer's camera may have been replaced (link_views, a camera shared
@@ -90,6 +101,7 @@ class SceneOverlay:
         self.users.pop(user, None)
         if not self.users and self.renderer is not None:
             self.renderer.RemoveObserver(self._tag)
+            self.window.RemoveObserver(self._window_tag)
             self.window.RemoveRenderer(self.renderer)
             self.renderer = None
 

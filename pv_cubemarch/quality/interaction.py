@@ -151,10 +151,11 @@ def reduce_pixels(binding, factor: int) -> None:
     """Draw ``binding``'s actor at 1/``factor`` of the viewport (made at the first need)."""
     reduced = getattr(binding, "reduced", None)
     if reduced is None and factor > 1:
-        # a translucent surface composites over the scene: drawn reduced after its opaque
-        # props, from the overlay (a grid's translucent labels follow its opaque draw)
-        translucent = getattr(binding, "technique", None) == "surface" \
-            and binding.options.translucent
+        # a translucent surface or a directly marched volume composites over the scene:
+        # drawn reduced after its opaque props, from the overlay (a grid's translucent
+        # labels follow its opaque draw)
+        translucent = getattr(binding, "technique", None) in ("surface", "direct") \
+            and binding.blends_in_main_renderer
         reduced = binding.reduced = ReducedDraw(
             binding.renderer, binding.drawn[0],
             overlay=renderer_overlay(binding.renderer) if translucent else None)
@@ -265,10 +266,29 @@ def _write_upscale(binding, value: float) -> None:
     frame.options = dataclasses.replace(frame.options, upscale=float(value))
 
 
+def _read_step_pixels(binding) -> float:
+    reduced = getattr(binding, "reduced", None)
+    return float(binding.step_scale) * (1 if reduced is None else reduced.factor) ** 2
+
+
+def _write_step_pixels(binding, value: float) -> None:
+    step, reduction = step_drawn(value, _still_of(binding, value))
+    _write_step(binding, step)
+    reduce_pixels(binding, reduction)
+
+
+def _step_pixels_label(value: float, still: float) -> str:
+    step, reduction = step_drawn(value, still)
+    return f"step_scale={step:g}" + ("" if reduction == 1 else f" at 1/{reduction} size")
+
+
 #: The knob of each technique a budget steers.
 KNOBS = {
-    "step": BudgetKnob("step_scale", (16.0, 8.0, *STEP_SCALES), 1.0,
-                       lambda b: float(b.step_scale), _write_step),
+    # 'direct': the step, then the coarsest step at fewer pixels (its box drawn at 1/2-1/4
+    # of the viewport after the scene's opaque props, composited from the overlay)
+    "step": BudgetKnob("step_scale", steps_then_pixels(STEP_FLOOR), 1.0, _read_step_pixels,
+                       _write_step_pixels, label=_step_pixels_label,
+                       ladder_of=steps_then_pixels),
     # 'vtk': the step, then the coarsest step at fewer pixels (VTK's ImageSampleDistance:
     # its mapper draws into a framebuffer 1/2-1/4 the size and stretches it): time as
     # the samples, the step's or the pixels'

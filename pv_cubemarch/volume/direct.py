@@ -16,7 +16,7 @@ import vtk
 from ..core.frame_errors import observe
 from ..core.registry import Sweep, Technique, register_technique
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, box_actor, drawn_viewport
+from ..gl.box import bind_camera, box_actor, drawn_viewport, framebuffer_viewport
 from ..gl.frame_inputs import FramebufferDepth, SceneDepth, frame_inputs
 from ..gl.overlay import scene_overlay
 from ..gl.passes import RenderToTexturePass
@@ -103,8 +103,12 @@ class DirectBinding(VolumeBinding):
             self.bindings.set_uniform("cm_depthSamples", lambda: max(1, int(
                 window.GetRenderFramebuffer().GetDepthAttachmentAsTextureObject()
                 .GetSamples())))
+            renderer = self.bindings.renderer
+            self.bindings.set_uniform("cm_depthViewport",
+                                      lambda: framebuffer_viewport(renderer))
         else:
             self.bindings.uniforms.pop("cm_depthSamples", None)
+            self.bindings.uniforms.pop("cm_depthViewport", None)
         self.recompile(direct_recipe(dict(self._defines, CM_DEPTH_MULTISAMPLED=multisampled),
                                      lit=self._lit, sampling=self._sampling,
                                      blending=self.blending))
