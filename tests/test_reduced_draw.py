@@ -213,6 +213,16 @@ def test_a_world_drawn_by_one_traversal_reduced_is_its_small_frame_shown_at_full
     assert differs.mean() < 0.002, differs.mean()
 
 
+def _whole_blocks_against(reduced, expected) -> tuple[float, float]:
+    """A frame drawn at 1/2 against the half-size frame repeated 2x2: the share of its 2x2
+    blocks that are whole (a mesh drawn at full size breaks those its edges cross), and of
+    those, the share off by more than 2 levels."""
+    blocks = reduced.reshape(SIZE[1] // 2, 2, SIZE[0] // 2, 2, 3).astype(int)
+    whole = np.all(blocks == blocks[:, :1, :, :1], axis=(1, 3, 4))
+    differs = np.abs(blocks[:, 0, :, 0] - expected[::2, ::2]).max(axis=-1) > 2
+    return float(whole.mean()), float(differs[whole].mean())
+
+
 TRANSLUCENT = {4000 + i: (colour, 0.35 if i % 2 else 1.0)
                for i, colour in enumerate(("red", "green", "blue", "yellow", "white"))}
 
@@ -251,12 +261,8 @@ def test_translucent_labels_reduced_are_their_small_frame_shown_at_full_size(chu
     small.close()
     assert np.any(expected != expected[0, 0], axis=-1).mean() > 0.05
     assert (np.abs(still.astype(int) - reduced).max(axis=-1) > 2).mean() > 0.02   # reduced
-    # the mesh is drawn at full size: 2x2 blocks its edges cross are left out
-    blocks = reduced.reshape(SIZE[1] // 2, 2, SIZE[0] // 2, 2, 3).astype(int)
-    whole = np.all(blocks == blocks[:, :1, :, :1], axis=(1, 3, 4))
-    assert whole.mean() > 0.98
-    differs = np.abs(blocks[:, 0, :, 0] - expected[::2, ::2]).max(axis=-1) > 2
-    assert differs[whole].mean() < 0.001, differs[whole].mean()
+    whole, differs = _whole_blocks_against(reduced, expected)
+    assert whole > 0.98 and differs < 0.001, (whole, differs)
 
 
 def test_translucent_labels_stay_over_a_background_image_added_later(tmp_path):
@@ -411,11 +417,8 @@ def test_a_translucent_surface_moves_its_steps_then_its_pixels(levels):
     expected = np.repeat(np.repeat(read_pixels(small), 2, axis=0), 2, axis=1)
     small.close()
     assert np.any(expected != expected[0, 0], axis=-1).mean() > 0.05
-    blocks = reduced.reshape(SIZE[1] // 2, 2, SIZE[0] // 2, 2, 3).astype(int)
-    whole = np.all(blocks == blocks[:, :1, :, :1], axis=(1, 3, 4))
-    assert whole.mean() > 0.98
-    differs = np.abs(blocks[:, 0, :, 0] - expected[::2, ::2]).max(axis=-1) > 2
-    assert differs[whole].mean() < 0.002, differs[whole].mean()
+    whole, differs = _whole_blocks_against(reduced, expected)
+    assert whole > 0.98 and differs < 0.002, (whole, differs)
 
 
 def test_add_surface_attaches_one_budget(monkeypatch):
