@@ -619,7 +619,7 @@ def is_multiscale_input(volume) -> bool:
     if isinstance(volume, (MultiscaleSource, PagedVolume)) or is_zarr_group(volume):
         return True
     if isinstance(volume, str) or hasattr(volume, "__fspath__"):
-        return str(volume).rstrip("/").endswith(".zarr")
+        return str(volume).rstrip("/").lower().endswith(".zarr")
     if isinstance(volume, (list, tuple)):
         return bool(volume) and all(is_array_source(v) or isinstance(v, np.ndarray)
                                     for v in volume)

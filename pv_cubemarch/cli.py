@@ -784,7 +784,8 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
     what is missing in a note).
     """
     for flag, value in (("--camera", args.camera), ("--isovalue", args.isovalue),
-                        ("--chunk-size", args.chunk_size)):
+                        ("--chunk-size", args.chunk_size), ("--time", args.time),
+                        ("--strict", args.strict or None)):
         if value is not None:
             raise ValueError(f"{flag} does not apply to a .zarr source ({args.scene}): it is "
                              "streamed by bricks as one "
@@ -806,13 +807,23 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            (add_voxels if as_voxels else add_volume)(plotter, args.scene, **keywords)
-            image = render_image(plotter, converge=True, timeout=STREAM_TIMEOUT_S,
-                                 progress_bar=progress_bar)
+            actor = (add_voxels if as_voxels else add_volume)(plotter, args.scene, **keywords)
+            try:
+                image = render_image(plotter, converge=True, timeout=STREAM_TIMEOUT_S,
+                                     progress_bar=progress_bar)
+            except RuntimeError as exc:   # a brick's read failed (a codec, a store)
+                raise VolumeDataError(f"{args.scene}: a brick could not be read "
+                                      f"({type(exc).__name__}: {exc}); the store is damaged "
+                                      "or unreadable there.") from exc
+            stats = actor.cubemarch.stats()
     finally:
         plotter.close()
     for warning in caught:
         print(f"pv-cubemarch: note: {warning.message}", file=sys.stderr)
+    if stats.get("over_budget"):   # said, not drawn coarser in silence
+        print("pv-cubemarch: note: the GPU pool (--gpu-bytes) holds too few bricks for this "
+              "view: coarser levels are drawn where it had no room; give it more bytes, or "
+              "a larger --lod-bias.", file=sys.stderr)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(image).save(str(args.out))
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")

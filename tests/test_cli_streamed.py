@@ -8,6 +8,8 @@ to the CPU voxel traversal of the label grid the pyramid was built from.
 
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -94,7 +96,31 @@ def test_render_streams_a_zarr_label_pyramid_with_technique_voxels(label_pyramid
     assert filled.sum() > 1000 and wrong.sum() == 0, (wrong.sum(), filled.sum())
 
 
+def test_render_says_when_the_pool_is_too_small_and_fails_cleanly_on_a_damaged_store(
+        volume_pyramid, tmp_path, capsys):
+    # A pool of a few bricks draws coarser levels where it has no room: said on stderr.
+    # A store whose finest chunks are garbage: exit 2 with the source named, no image.
+    # catches (seen failing, found by a review): the coarser image written with nothing
+    # said; the codec's RuntimeError raised as a traceback (exit 1)
+    out = tmp_path / "small.png"
+    assert main(["render", str(volume_pyramid), "-o", str(out), *FLAGS,
+                 "--gpu-bytes", "8000"]) == 0
+    assert "holds too few bricks" in capsys.readouterr().err
+    damaged = tmp_path / "damaged.ome.zarr"
+    shutil.copytree(volume_pyramid, damaged)
+    for chunk in (damaged / "0").rglob("*"):
+        if chunk.is_file() and chunk.name != "zarr.json" and not chunk.name.startswith("."):
+            chunk.write_bytes(b"garbage")
+    out = tmp_path / "damaged.png"
+    assert main(["render", str(damaged), "-o", str(out), *FLAGS]) == 2
+    err = capsys.readouterr().err
+    assert "damaged.ome.zarr: a brick could not be read" in err and "Traceback" not in err
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("flags, message", [
+    (["--time", "1"], "--time does not apply to a .zarr source"),
+    (["--strict"], "--strict does not apply to a .zarr source"),
     (["--camera", "/Main"], "--camera does not apply to a .zarr source"),
     (["--isovalue", "3"], "--isovalue does not apply"),
     (["--chunk-size", "16"], "--chunk-size does not apply"),

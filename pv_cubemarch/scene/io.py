@@ -77,5 +77,6 @@ def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
         return load_grid_scene(path, as_voxels=as_voxels, isovalue=isovalue)
     raise SceneLoadError(
         f"Cannot load {str(path)!r}: unknown scene type {suffix!r}. Supported: "
-        f"{', '.join(USD_SUFFIXES + MESH_SUFFIXES + GRID_SUFFIXES)}."
+        f"{', '.join(USD_SUFFIXES + MESH_SUFFIXES + GRID_SUFFIXES)}; a .zarr folder (an "
+        "OME-Zarr pyramid or zarr array) is streamed by add_volume or pv-cubemarch render."
     )

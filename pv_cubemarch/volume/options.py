@@ -193,11 +193,11 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
         Option("lod_bias", "volume", float, None, "levels added to the one whose points fit "
                "a pixel (multiscale sources; -30: the finest everywhere)", optional=True,
                model=True, usd=None, without=PAGED_ONLY),
-        Option("gpu_bytes", "volume", int, None, "GPU budget of a multiscale source's brick "
-               "pool (256 MiB by default)", low=1, optional=True, model=True, usd=None,
+        Option("gpu_bytes", "volume", int, None, "GPU budget in bytes of a multiscale source's "
+               "brick pool (256 MiB by default)", low=1, optional=True, model=True, usd=None,
                without=PAGED_ONLY),
-        Option("host_bytes", "volume", int, None, "host budget of a multiscale source's read "
-               "bricks (2 GiB by default)", low=1, optional=True, model=True, usd=None,
+        Option("host_bytes", "volume", int, None, "host budget in bytes of a multiscale source's "
+               "read bricks (2 GiB by default)", low=1, optional=True, model=True, usd=None,
                without=PAGED_ONLY),
         Option("brick_size", "volume", int, None, "points along a brick's edge (32 by "
                "default)", low=1, high=1024, optional=True, model=True, usd=None,

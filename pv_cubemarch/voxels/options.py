@@ -105,11 +105,11 @@ PAGED_LABELS_ONLY = dict.fromkeys(
            without={"knob": "six numbers a plane; set in Python, the CLI or USD "
                             "(actor.cubemarch.set_clip_planes moves them)"}),
     # Multiscale label sources streamed by bricks (voxels/paged_labels.py): set on the pager.
-    Option("gpu_bytes", "voxels", int, None, "GPU budget of a multiscale source's brick "
-           "pool (256 MiB by default)", low=1, optional=True, model=True, usd=None,
+    Option("gpu_bytes", "voxels", int, None, "GPU budget in bytes of a multiscale source's "
+           "brick pool (256 MiB by default)", low=1, optional=True, model=True, usd=None,
            without=PAGED_LABELS_ONLY),
-    Option("host_bytes", "voxels", int, None, "host budget of a multiscale source's read "
-           "bricks (2 GiB by default)", low=1, optional=True, model=True, usd=None,
+    Option("host_bytes", "voxels", int, None, "host budget in bytes of a multiscale source's "
+           "read bricks (2 GiB by default)", low=1, optional=True, model=True, usd=None,
            without=PAGED_LABELS_ONLY),
     Option("brick_size", "voxels", int, None, "voxels along a brick's edge (32 by default)",
            low=1, high=1024, optional=True, model=True, usd=None,
