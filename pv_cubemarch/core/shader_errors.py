@@ -78,6 +78,11 @@ def raise_for_shader_errors(messages: list[str], snippets: tuple[str, ...]) -> N
     driver = re.search(r"\d+:\d+\(\d+\): error:.*", log)
     first_error = driver.group(0) if driver else next(
         (line for line in log.splitlines() if "error" in line.lower()), "")
+    hint = ""
+    if "vertexVC" in first_error and "shadowAttenuation" in log:
+        hint = (" VTK's shadow pass (PyVista's enable_shadows()) needs lit actors: it fails "
+                "the same way for an add_mesh(..., lighting=False); call "
+                "plotter.disable_shadows() to draw this scene.")
     raise ShaderCompileError(
         f"GLSL compile/link failed in snippet(s) {', '.join(culprits) or '(unknown)'}: "
-        f"{first_error.strip()[:300]}", log=log, snippets=culprits)
+        f"{first_error.strip()[:300]}.{hint}", log=log, snippets=culprits)
