@@ -765,13 +765,13 @@ def _without_streamed_only(scene, given: dict, as_voxels: bool) -> dict:
     never get it (:func:`_render` leaves it out for them).
     """
     kept = dict(given)
-    grids = as_voxels or bool(scene.voxels)
     for name in sorted(kept.keys() & (streamed_only("volume") | streamed_only("voxels"))):
-        if name in streamed_only("voxels") or not grids:
+        read_by_grids = name not in streamed_only("voxels") and (as_voxels or scene.voxels)
+        if not read_by_grids:
             _warn(name, "this scene's grids (read whole: only a .zarr source given to "
                         "render is streamed by bricks)")
-            if name in streamed_only("voxels"):
-                kept.pop(name)
+        if name in streamed_only("voxels"):
+            kept.pop(name)
     return kept
 
 

@@ -8,8 +8,9 @@ with its geometry and placement draws the targets back at full size, nearest tex
 their depth, so the scene's meshes occlude it and are occluded as by the actor itself. The
 pixels marched fall as ``factor**2``.
 
-A translucent actor that draws each pixel once in straight alpha and stops at the frame's
-opaque depth (a grid's translucent labels) is drawn so after the scene's opaque props
+A translucent actor (one VTK draws in its translucent pass) that draws each pixel once in
+straight alpha and stops at the frame's opaque depth (a grid's translucent labels, a
+translucent surface, a directly marched volume) is drawn so after the scene's opaque props
 instead: at the start of the scene overlay (:mod:`~pv_cubemarch.gl.overlay`), reading the
 opaque depth copied there, its stand-in compositing the target over the frame in the
 overlay (after the main renderer's other translucent props, while the view moves).
@@ -24,6 +25,7 @@ from ..core.frame_errors import observe
 from .bindings import ShaderBindings, TextureUnitLedger
 from .box import drawing_at, drawn_viewport, fragment_viewport
 from .face_depth import start_nearest_draw
+from .overlay import renderer_overlay
 from .shaders import box_recipe
 
 
@@ -52,8 +54,10 @@ class ReducedDraw:
     render (picking) draws the actor itself.
     """
 
-    def __init__(self, renderer, actor, overlay=None, follows: ReducedDraw | None = None):
+    def __init__(self, renderer, actor, follows: ReducedDraw | None = None):
         self.renderer, self.actor = renderer, actor
+        # an actor VTK draws in its translucent pass is drawn after the opaque props
+        overlay = renderer_overlay(renderer) if actor.GetForceTranslucent() else None
         self.overlay, self.follows = overlay, follows
         self._factor = 1
         self.runs = 0

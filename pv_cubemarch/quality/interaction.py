@@ -27,7 +27,6 @@ import numpy as np
 from vtkmodules.vtkCommonCore import vtkCommand
 
 from ..core.frame_errors import observe
-from ..gl.overlay import renderer_overlay
 from ..gl.reduced_draw import ReducedDraw
 from .ladders import STEP_SCALES
 
@@ -151,14 +150,9 @@ def reduce_pixels(binding, factor: int) -> None:
     """Draw ``binding``'s actor at 1/``factor`` of the viewport (made at the first need)."""
     reduced = getattr(binding, "reduced", None)
     if reduced is None and factor > 1:
-        # a translucent surface or a directly marched volume composites over the scene:
-        # drawn reduced after its opaque props, from the overlay (a grid's translucent
-        # labels follow its opaque draw)
-        translucent = getattr(binding, "technique", None) in ("surface", "direct") \
-            and binding.blends_in_main_renderer
-        reduced = binding.reduced = ReducedDraw(
-            binding.renderer, binding.drawn[0],
-            overlay=renderer_overlay(binding.renderer) if translucent else None)
+        # a translucent actor (a surface, a directly marched volume) is drawn reduced after
+        # the opaque props, from the overlay (ReducedDraw)
+        reduced = binding.reduced = ReducedDraw(binding.renderer, binding.drawn[0])
         binding.extra_release.append(reduced.release)
     if reduced is not None:
         reduced.factor = int(factor)

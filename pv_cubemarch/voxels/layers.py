@@ -17,7 +17,6 @@ import numpy as np
 from ..gl.bindings import ShaderBindings
 from ..gl.box import box_actor, faces_for_peeling, place_box
 from ..gl.frame_inputs import frame_inputs
-from ..gl.overlay import renderer_overlay
 from ..gl.reduced_draw import ReducedDraw
 from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
@@ -109,8 +108,7 @@ class TranslucentLayers:
         composites them over the frame from the overlay (:class:`ReducedDraw`).
         """
         if self.reduced is None:
-            self.reduced = ReducedDraw(self.renderer, self.actor,
-                                       overlay=renderer_overlay(self.renderer), follows=opaque)
+            self.reduced = ReducedDraw(self.renderer, self.actor, follows=opaque)
 
     @property
     def nbytes(self) -> int:
