@@ -49,9 +49,9 @@ def whole_grid(data):
     return grid
 
 
-def one_plotter(camera, draw):
+def one_plotter(camera, draw, size=SIZE):
     """One plotter in this process drawing ``draw(plotter)`` from ``camera``: the oracle."""
-    plotter = offscreen_plotter(SIZE)
+    plotter = offscreen_plotter(size)
     plotter.disable_anti_aliasing()
     plotter.set_background(BACKGROUND)
     draw(plotter)
@@ -471,6 +471,37 @@ def test_label_bricks_keep_the_nearest_hit_of_the_whole_grid(client, view):
     assert np.array_equal(image, expected)
 
 
+def test_label_slabs_equal_the_whole_grid_at_rays_grazing_a_voxel_edge(client):
+    # Two frames of an orbit where a ray passes within a hair of a voxel's edge: float32
+    # may send it either side, and each slab must send it where the whole grid's traversal
+    # does. Each slab traverses its rays in the whole grid's index space, from a start and
+    # through empty blocks that change no voxel met (traverse_as_brick).
+    # catches (seen failing): the slabs traversed in their own frames, as before (one pixel
+    # in each frame). Not seen failing here: a block left at the exit point's floor alone
+    # (cm_leaveBlock) or the first voxel taken as the start point's floor (cm_startVoxel);
+    # those order exact float ties, which these frames do not hold.
+    from pv_cubemarch.bench import sort_last as bench
+    from pv_cubemarch.cluster.frames import orbit
+
+    origin, spacing, segmentation = bench.ORIGIN, bench.SPACING, bench.segmentation
+
+    shape, size = (48, 32, 24), (320, 240)
+    grid = pv.ImageData(dimensions=np.asarray(shape) + 1, spacing=spacing, origin=origin)
+    grid.cell_data["ids"] = segmentation(shape, cells=40).ravel(order="F")
+    centre = np.asarray(origin) + np.asarray(spacing) * (np.asarray(shape) - 1) / 2.0
+    reach = float(np.linalg.norm(np.asarray(spacing) * np.asarray(shape)))
+    start = Camera(tuple(centre + reach * np.array([1.1, -0.9, 0.5])), tuple(centre),
+                   (0, 0, 1))
+    cameras = [orbit(start, 65)[frame] for frame in (33, 53)]
+    images = cm.render_sort_last(grid, cameras, size, partitions=4, axis=0,
+                                 technique="voxels", client=client,
+                                 background_color=BACKGROUND, progress_bar=False)
+    for camera, image in zip(cameras, images, strict=True):
+        expected = one_plotter(camera, lambda plotter: cm.add_voxels(
+            plotter, grid, palette=split_grid.hashed_color), size)
+        assert np.array_equal(image, expected)
+
+
 def test_label_colours_do_not_depend_on_the_ids_a_slab_holds(client):
     # catches (seen failing): each slab's own default palette; a colormap over each slab's
     # own range of ids.
@@ -512,8 +543,7 @@ def test_bench_sortlast_rows(tmp_path):
         ("volume", None), ("volume", 2), ("volume", "2x2x1"),
         ("labels", None), ("labels", 2), ("labels", "2x2x1")]
     assert all(r["psnr_min"] >= 50.0 for r in rows[1:3])
-    assert all(r["wrong_pixels"] == 0 for r in rows[4:])   # away from voxel edges
-    assert all(r["edge_pixels"] <= 3 for r in rows[4:])
+    assert all(r["wrong_pixels"] == 0 and r["edge_pixels"] == 0 for r in rows[4:])
     assert all(r["sent_mb"] > 0 and r["composite_ms"] > 0 for r in rows if r["partitions"])
 
 

@@ -9,6 +9,16 @@ uniform float cm_labelScale;     // 255 (uint8), 65535 (uint16) or 1 (float32 ro
 uniform sampler2D cm_palette;    // RGBA, material m at (m % width, m / width)
 uniform vec3 cm_gridDims;        // voxels along x, y, z
 uniform float cm_near;           // the near plane's view depth
+#ifdef CM_WHOLE_GRID
+// A brick of a larger grid (sort-last rendering): its rays are traversed in the whole
+// grid's index space (cm_textureFromView is the whole grid's), through the voxels outside
+// the brick as empty space, so that they meet the voxels the whole grid's rays meet.
+uniform vec3 cm_wholeDims;       // the whole grid's voxels along x, y, z
+uniform vec3 cm_brickOrigin;     // the brick's first voxel in the whole grid
+#define CM_TRAVERSED_DIMS cm_wholeDims
+#else
+#define CM_TRAVERSED_DIMS cm_gridDims
+#endif
 #ifdef CM_OCCLUDERS
 uniform float cm_useOccluders;      // 1: the world's solid faces were drawn this frame
 uniform sampler2D cm_occluderDepth; // per pixel, a view depth no ray passes without a hit
@@ -69,28 +79,113 @@ void cm_rayAxes(vec3 d, out vec3 inverse, out vec3 never, out vec3 forward)
   forward = step(vec3(0.0), d);
 }
 
+// The voxel the ray a + d t is in at t = start, as a traversal from farther back leaves it:
+// on each axis, past every plane crossed at or before start (t computed as a step's exits
+// are), within the grid. Where a ray starts (a box, the near plane, a brick shell) then
+// changes no voxel it meets after: a brick of a grid, traversed in the whole grid's frame,
+// meets the voxels the whole grid's traversal meets.
+ivec3 cm_startVoxel(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, float start,
+                    ivec3 dims)
+{
+  ivec3 voxel = clamp(ivec3(floor(a + d * start)), ivec3(0), dims - 1);
+  for (int j = 0; j < 3; ++j)
+  {
+    if (never[j] > 0.0)
+    {
+      continue;
+    }
+    int step = forward[j] > 0.5 ? 1 : -1;
+    float ahead = forward[j] > 0.5 ? 1.0 : 0.0;   // the plane to the next voxel: v + ahead
+    int v = voxel[j];
+    for (int n = 0; n < 2; ++n)   // float32's guess is off by one at most; two for safety
+    {
+      if (v + step >= 0 && v + step < dims[j]
+          && (float(v) + ahead - a[j]) * inverse[j] <= start)
+      {
+        v += step;
+      }
+    }
+    for (int n = 0; n < 2; ++n)
+    {
+      if (v - step >= 0 && v - step < dims[j]
+          && (float(v) + 1.0 - ahead - a[j]) * inverse[j] > start)
+      {
+        v -= step;
+      }
+    }
+    voxel[j] = v;
+  }
+  return voxel;
+}
+
+// Whether the ray a + d t crossed the plane `boundary` of axis j before the exit at t
+// through `axis`, in the traversal's order: an earlier t, or the same t on a lower axis.
+// The crossing's t is computed as a step's own exits are, so both agree to the bit.
+bool cm_crossedBefore(float a, float inverse, float boundary, int j, float t, int axis)
+{
+  float at = (boundary - a) * inverse;
+  return at < t || (at == t && j < axis);
+}
+
 // A traversal step (voxel_dda.glsl, voxel_paged.glsl): leave the block [low, high) of
-// voxels along the ray a + d t (index space; `inverse` 1/d per moving axis, 0 on the others,
-// `never` 1e30 on those, `forward` 1 where d >= 0). Its nearest forward boundary, x before
-// y before z on a tie, is crossed at t through `axis`; `next` is the voxel just past it: on
-// the exit axis the first voxel beyond the block, on the others the exit point's (kept in
-// the block's span; one voxel: itself). False when the ray ends first or leaves the grid.
-bool cm_leaveBlock(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, ivec3 low,
-                   ivec3 high, out int axis, out float t, out ivec3 next)
+// voxels, which holds the ray's voxel `from`, along the ray a + d t (index space; `inverse`
+// 1/d per moving axis, 0 on the others, `never` 1e30 on those, `forward` 1 where d >= 0).
+// Its nearest forward boundary, x before y before z on a tie, is crossed at t through
+// `axis`; `next` is the voxel just past it: on the exit axis the first voxel beyond the
+// block, on the others the voxel stepping one voxel at a time would be in. The exit point's
+// floor a + d t is only a guess there (float32 rounds it either way near a voxel's edge):
+// it is kept or moved by the crossings' own t, so a block of many voxels is left exactly
+// where its voxels, left one by one, would be, whatever blocks the occupancy levels make.
+// False when the ray ends first (past t = end) or leaves the grid.
+bool cm_leaveBlock(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, ivec3 from,
+                   ivec3 low, ivec3 high, float end, out int axis, out float t,
+                   out ivec3 next)
 {
   vec3 exits = (mix(vec3(low), vec3(high), forward) - a) * inverse + never;
   axis = (exits.x <= exits.y && exits.x <= exits.z) ? 0 : (exits.y <= exits.z ? 1 : 2);
   t = min(exits.x, min(exits.y, exits.z));
   next = low;
-  if (t > 1.0)
+  if (t > end)
   {
     return false;
   }
   ivec3 onAxis = ivec3(equal(ivec3(axis), ivec3(0, 1, 2)));
   next = clamp(ivec3(floor(a + d * t)), low, high - 1);
+  for (int j = 0; j < 3; ++j)
+  {
+    if (j == axis || never[j] > 0.0 || high[j] - low[j] < 2)
+    {
+      continue;   // the exit axis, one not moved along, or one voxel wide: exact already
+    }
+    bool up = forward[j] > 0.5;
+    int step = up ? 1 : -1;
+    int first = up ? from[j] : low[j];   // the span the ray can be in: never behind `from`
+    int last = up ? high[j] - 1 : from[j];
+    int v = clamp(next[j], first, last);
+    // on one voxel while the plane into the next was crossed, back one while the plane
+    // into this one was not (float32's guess is off by one at most; two for safety)
+    for (int n = 0; n < 2; ++n)
+    {
+      if (v != (up ? last : first)
+          && cm_crossedBefore(a[j], inverse[j], float(v + (up ? 1 : 0)), j, t, axis))
+      {
+        v += step;
+      }
+    }
+    for (int n = 0; n < 2; ++n)
+    {
+      if (v != (up ? first : last)
+          && !cm_crossedBefore(a[j], inverse[j], float(v + (up ? 0 : 1)), j, t, axis))
+      {
+        v -= step;
+      }
+    }
+    next[j] = v;
+  }
   ivec3 past = low - 1 + (high - low + 1) * ivec3(forward);
   next += (past - next) * onAxis;
-  return all(greaterThanEqual(next, ivec3(0))) && all(lessThan(next, ivec3(cm_gridDims)));
+  return all(greaterThanEqual(next, ivec3(0))) && all(lessThan(next,
+                                                           ivec3(CM_TRAVERSED_DIMS)));
 }
 
 // The face of the grid box a ray (index space) enters through, as voxel faces are numbered
@@ -100,7 +195,8 @@ int cm_boxEntryFace(vec3 origin, vec3 direction)
 {
   vec3 moving = step(vec3(1e-30), abs(direction));
   vec3 safe = mix(vec3(1.0), direction, moving);
-  vec3 enter = mix(vec3(-1e30), min(-origin / safe, (cm_gridDims - origin) / safe), moving);
+  vec3 enter = mix(vec3(-1e30), min(-origin / safe, (CM_TRAVERSED_DIMS - origin) / safe),
+                   moving);
   int axis = (enter.x >= enter.y && enter.x >= enter.z) ? 0 : (enter.y >= enter.z ? 1 : 2);
   return 2 * axis + (direction[axis] > 0.0 ? 1 : 0);
 }

@@ -21,7 +21,7 @@
 #endif
   vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and index space
   cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
-  vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), cm_gridDims);
+  vec2 cm_inBox = cm_slab(cm_origin, cm_direction, vec3(0.0), CM_TRAVERSED_DIMS);
   float cm_boxEntry = cm_inBox.x;
 #ifdef CM_CLIP_PLANES
   // The part of the ray the clip planes keep (clip_planes.glsl, index-space planes): a
@@ -53,8 +53,9 @@
   {
     discard;
   }
-  vec3 cm_a = cm_origin + cm_direction * cm_start;
-  vec3 cm_b = cm_origin + cm_direction * cm_inBox.y;
+  // The ray measured from where it meets the box's planes (whatever its start: the near
+  // plane, a clip plane, the shell), so that a ray's voxels are the same from any start.
+  vec3 cm_a = cm_origin + cm_direction * cm_boxEntry;
   // The face of the grid box the ray enters through (-1 when it starts inside the box).
   int cm_face = cm_boxEntry >= cm_start ? cm_boxEntryFace(cm_origin, cm_direction) : -1;
   ivec3 cm_voxel;
@@ -62,13 +63,14 @@
 #ifdef CM_LOD
   cm_drawLevel = cm_lodLevel(cm_start);
 #endif
-  int cm_material = cm_voxelTraverse(cm_a, cm_b, cm_voxel, cm_face, cm_t);
+  int cm_material = cm_voxelTraverse(cm_a, cm_direction, cm_start - cm_boxEntry,
+                                     cm_inBox.y - cm_boxEntry, cm_voxel, cm_face, cm_t);
   if (cm_material == 0)
   {
     discard;
   }
 #ifdef CM_VOXEL_ID
-  ivec3 cm_dims3 = ivec3(cm_gridDims);
+  ivec3 cm_dims3 = ivec3(CM_TRAVERSED_DIMS);
   int cm_id = cm_voxel.x + cm_dims3.x * (cm_voxel.y + cm_dims3.y * cm_voxel.z) + 1;
   fragOutput0 = vec4(float(cm_id & 255), float((cm_id >> 8) & 255),
                      float((cm_id >> 16) & 255), 255.0) / 255.0;
@@ -76,23 +78,24 @@
 #ifdef CM_VOXEL_FACE
   fragOutput0 = vec4(float(32 * (cm_face + 2)) / 255.0, 0.0, 0.0, 1.0);
 #endif
-  float cm_depth = mix(cm_start, cm_inBox.y, cm_t);   // the hit's view depth
+  float cm_depth = cm_boxEntry + cm_t;   // the hit's view depth
+  vec3 cm_hitIndex = cm_a + cm_direction * cm_t;
   vec3 cm_hitView = cm_originView + cm_directionView * cm_depth;
 #if !defined(CM_VOXEL_ID) && !defined(CM_VOXEL_FACE)
   vec3 cm_color = cm_paletteEntry(cm_material).rgb;
 #ifdef CM_OCCLUSION
   // The entered face's ambient occlusion (voxel_occlusion.glsl) at the index-space hit: it
   // scales the colour before lighting, so the ambient + diffuse term, not the highlight.
-  cm_color *= cm_voxelOcclusion(cm_voxel, cm_face, cm_a + (cm_b - cm_a) * cm_t);
+  cm_color *= cm_voxelOcclusion(cm_voxel, cm_face, cm_hitIndex);
 #endif
 #ifdef CM_EDGES
   // The edges (voxel_edges.glsl) take the unlit colour and the diffuse term, not the
   // highlight: the highlight is the shading of black.
 #ifdef CM_EDGE_LABELS
-  float cm_edge = cm_labelEdgeCoverage(cm_voxel, cm_face, cm_a + (cm_b - cm_a) * cm_t,
+  float cm_edge = cm_labelEdgeCoverage(cm_voxel, cm_face, cm_hitIndex,
                                        cm_material);
 #else
-  float cm_edge = cm_edgeCoverage(cm_voxel, cm_face, cm_a + (cm_b - cm_a) * cm_t);
+  float cm_edge = cm_edgeCoverage(cm_voxel, cm_face, cm_hitIndex);
 #endif
 #ifdef CM_LIGHTING
   vec3 cm_towardEye = -normalize(cm_directionView);

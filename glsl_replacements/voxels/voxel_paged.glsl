@@ -76,15 +76,15 @@ int cm_label(ivec3 voxel)
   return cm_pagedLabel(voxel, low, high);
 }
 
-int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float t)
+int cm_voxelTraverse(vec3 a, vec3 d, float start, float end, out ivec3 voxel, inout int face,
+                     out float t)
 {
   ivec3 dims = ivec3(cm_gridDims);
-  vec3 d = b - a;
   vec3 inverse, never, forward;
   cm_rayAxes(d, inverse, never, forward);
   ivec3 ahead = ivec3(forward);
-  voxel = clamp(ivec3(floor(a)), ivec3(0), dims - 1);
-  t = 0.0;
+  voxel = cm_startVoxel(a, d, inverse, never, forward, start, dims);
+  t = start;
   int axis = -1;
   int count = dims.x + dims.y + dims.z + 3;   // each step leaves at least one voxel
   for (int i = 0; i < count; ++i)
@@ -100,7 +100,7 @@ int cm_voxelTraverse(vec3 a, vec3 b, out ivec3 voxel, inout int face, out float 
       return label;
     }
     ivec3 next;
-    if (!cm_leaveBlock(a, d, inverse, never, forward, low, high, axis, t, next))
+    if (!cm_leaveBlock(a, d, inverse, never, forward, voxel, low, high, end, axis, t, next))
     {
       return 0;
     }

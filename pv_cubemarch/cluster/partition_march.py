@@ -117,6 +117,17 @@ class Partition:
         matrix[:3, 3] = np.asarray(self.origin, float) - 0.5 * np.asarray(self.spacing, float)
         return matrix
 
+    def grid_from_index(self) -> np.ndarray:
+        """4x4 from the whole label grid's index space (voxel ``i`` spans ``[i, i+1]``).
+
+        Made from the same numbers as a plotter drawing the whole grid makes it, so that
+        a brick traverses its rays in the same frame, to the bit.
+        """
+        matrix = np.eye(4)
+        matrix[:3, :3] = np.diag(np.asarray(self.spacing, float))
+        matrix[:3, 3] = np.asarray(self.origin, float)
+        return matrix
+
     def grid(self):
         """The slab as ``pyvista.ImageData`` in the whole grid's world coordinates."""
         import pyvista
@@ -164,6 +175,8 @@ class LabelView:
         try:
             self.plotter.disable_anti_aliasing()
             actor = add_voxels(self.plotter, partition.grid(), **keywords)
+            actor.cubemarch.traverse_as_brick(partition.lower, partition.dimensions,
+                                              partition.grid_from_index())
             opacity = actor.cubemarch.palette.rgba[1:, 3]
             if np.any((opacity > 0) & (opacity < 1)):
                 raise ValueError("translucent labels cannot be split across partitions (the "

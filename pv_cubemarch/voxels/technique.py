@@ -51,7 +51,7 @@ from .proxy import ShellStart
 
 def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                  level_axes: tuple[int, int] = (2, 0), occluders: bool = False,
-                 chunk_shift: int | None = None) -> ShaderRecipe:
+                 chunk_shift: int | None = None, brick: bool = False) -> ShaderRecipe:
     """The box actor's replacements for the chosen traversal, mode, shading and occlusion.
 
     ``shell_level``: the occupancy level of the brick shell that starts the rays, if any;
@@ -59,6 +59,8 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
     ``occluders``: rays end at a world's solid faces (:mod:`.occluders`);
     ``chunk_shift``: a world drawn by one traversal, labels read through its chunk index
     (chunks of ``2^chunk_shift`` voxels, :mod:`pv_cubemarch.models.chunk_pool`).
+    ``brick``: the grid is a brick of a larger one, traversed in its frame
+    (:meth:`VoxelBinding.traverse_as_brick`).
     """
     traversal = "voxel_dda" if options.traversal == "dda" else "voxel_fixed"
     lit = options.mode == "color" and options.shading != "unlit"
@@ -80,7 +82,7 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                  "CM_LEVEL_SLAB_AXIS": level_axes[0] if options.mip_levels else None,
                  "CM_LEVEL_ROW_AXIS": level_axes[1] if options.mip_levels else None,
                  "CM_SHELL_LEVEL": shell_level, "CM_LOD": lod, "CM_OCCLUDERS": occluders,
-                 "CM_CHUNK_INDEX": chunk_shift,
+                 "CM_CHUNK_INDEX": chunk_shift, "CM_WHOLE_GRID": brick,
                  "CM_CLIP_PLANES": clip_count(options),
                  "CM_DISTANCE_FIELD": options.distance_field or None,
                  "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion,
@@ -227,8 +229,35 @@ class VoxelBinding(LabelState, ClipPlaneSetting, LayerHost, DrawnBinding):
         #: Whether that box follows the filled voxels (edits grow it), or is the grid's.
         self.box_follows_voxels = False
         #: What :func:`voxel_recipe` takes besides the options (shell level, level axes,
-        #: occluders), to remake the shaders when the clip planes' number changes.
+        #: occluders, chunk shift, brick), to remake the shaders when the clip planes'
+        #: number changes.
         self.recipe_args: tuple = (None, (2, 0), False)
+
+    def traverse_as_brick(self, origin, whole_dims, whole_grid_from_index) -> None:
+        """Traverse this grid as the brick at voxel ``origin`` of a grid of ``whole_dims``.
+
+        Sort-last rendering draws each brick of a label grid in a plotter of its own. Its
+        rays are traversed in the whole grid's index space (``whole_grid_from_index``, as
+        the whole grid's plotter makes it) and through the voxels outside the brick as
+        empty space: a ray meets the voxels the whole grid's ray meets, to the bit, so the
+        nearest brick's first hit is the whole grid's (ids equal at grazing rays too).
+        """
+        refused = {"traversal='fixed'": self.options.traversal != "dda",
+                   "lod": self.options.lod, "show_edges": self.options.show_edges,
+                   "ambient_occlusion": self.options.ambient_occlusion,
+                   "clip_planes": bool(self.options.world_planes)}
+        if any(refused.values()):
+            raise ValueError(f"a brick of a split grid is drawn without "
+                             f"{', '.join(k for k, v in refused.items() if v)}: each reads "
+                             "or decides beyond the brick; leave them out.")
+        whole_grid_from_index = np.asarray(whole_grid_from_index, dtype=np.float64)
+        self.recipe_args = (*self.recipe_args[:3], None, True)
+        self.recipe = voxel_recipe(self.options, *self.recipe_args)
+        self.bindings.install(self.recipe, self.drawn[0])
+        self.bindings.set_uniform("cm_wholeDims", tuple(float(n) for n in whole_dims))
+        self.bindings.set_uniform("cm_brickOrigin", tuple(float(n) for n in origin))
+        bind_camera(self.bindings, self.renderer, lambda: np.asarray(
+            self.model.transform, dtype=np.float64) @ whole_grid_from_index)
 
     def follow_clip_planes(self, remake: bool) -> None:
         """Remake the shaders (and the translucent layers') for another number of planes."""
