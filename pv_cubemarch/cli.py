@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import shlex
 import sys
 import warnings
@@ -43,6 +44,7 @@ from .core.errors import CubemarchError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, specific_option_names, techniques
 from .core.rendering import offscreen_plotter, render_image
+from .models.multiscale import multiscale_source
 from .models.voxels import VoxelModel, count_labels, label_legend
 from .scene.grids import read_grid
 from .scene.io import load_scene
@@ -216,6 +218,9 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--isovalue", type=float,
                         help="draw a grid file's field as its implicit surface at this level "
                              "(a quadratic B-spline through its samples)")
+    for flag, axis in (("--channel", "channel"), ("--timepoint", "time")):
+        render.add_argument(flag, type=int,
+                            help=f"an OME-Zarr source's {axis} index to draw (default 0)")
     render.add_argument("--no-progress", action="store_true", help="hide progress bars")
     frames = commands.add_parser("render-frames", help="render an orbit of a scene on a Dask "
                                                        "cluster (PNG frames or a movie)")
@@ -576,7 +581,10 @@ def _record_command(path: str | None, argv: list[str] | None) -> None:
         return
     payload = json.loads(Path(path).read_text())
     words = sys.argv[1:] if argv is None else argv
-    payload["command"] = shlex.join(["pv-cubemarch", *words])
+    # the environment that changes how Mesa draws (llvmpipe's threads), as the run had it
+    setting = [f"{name}={os.environ[name]}" for name in ("LP_NUM_THREADS",)
+               if name in os.environ]
+    payload["command"] = " ".join(setting + [shlex.join(["pv-cubemarch", *words])])
     Path(path).write_text(json.dumps(payload, indent=1))
 
 
@@ -710,6 +718,10 @@ def _render(args) -> int:
                          "material labels: leave one out.")
     if is_multiscale_input(args.scene):
         return _render_streamed(args, as_voxels, progress_bar)
+    for flag, value in (("--channel", args.channel), ("--timepoint", args.timepoint)):
+        if value is not None:   # said, not ignored
+            raise ValueError(f"{flag} picks an index of an OME-Zarr source's axes; "
+                             f"{args.scene} is not a .zarr source: leave it out.")
     try:
         scene = _load(args, progress_bar=progress_bar, as_voxels=as_voxels,
                       isovalue=args.isovalue)
@@ -803,11 +815,12 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
         keywords["lights"] = None
     if args.technique and not as_voxels:
         keywords["technique"] = args.technique
+    source = _chosen_indices(args)
     plotter = offscreen_plotter(args.size)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            actor = (add_voxels if as_voxels else add_volume)(plotter, args.scene, **keywords)
+            actor = (add_voxels if as_voxels else add_volume)(plotter, source, **keywords)
             try:
                 image = render_image(plotter, converge=True, timeout=STREAM_TIMEOUT_S,
                                      progress_bar=progress_bar)
@@ -828,6 +841,30 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
     Image.fromarray(image).save(str(args.out))
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
     return 0
+
+
+def _chosen_indices(args):
+    """The ``.zarr`` source with its time and channel axes read at the indices asked for.
+
+    A flag naming an axis the source lacks is refused; an axis of several entries read at
+    index 0 because no flag chose another is said on stderr.
+    """
+    source = multiscale_source(args.scene, time=args.timepoint or 0,
+                               channel=args.channel or 0)
+    kinds = {kind for _, _, kind in source.others.values()}
+    for flag, value, kind in (("--channel", args.channel, "channel"),
+                              ("--timepoint", args.timepoint, "time")):
+        if value is not None and kind not in kinds:
+            axes = ", ".join(["x", "y", "z", *source.others])
+            raise ValueError(f"{flag} {value}: {args.scene} has no {kind} axis (its axes: "
+                             f"{axes}); leave {flag} out.")
+    chosen = {"channel": args.channel, "time": args.timepoint}
+    unchosen = [f"{name}={index} of {entries}" for name, (index, entries, kind)
+                in source.others.items() if entries > 1 and chosen[kind] is None]
+    if unchosen:
+        print(f"pv-cubemarch: note: {args.scene} is drawn at {', '.join(unchosen)}; choose "
+              "others with --channel and --timepoint.", file=sys.stderr)
+    return source
 
 
 def _volume_options(scene, args, given: dict, as_voxels: bool) -> None:

@@ -160,3 +160,44 @@ def test_render_image_shows_the_bricks_it_waits_for(volume_pyramid, capsys):
     cm.render_image(plotter, converge=True, progress_bar=True)
     plotter.close()
     assert "streaming bricks" in capsys.readouterr().err
+
+
+def test_channel_and_timepoint_pick_an_ome_zarr_source_s_indices(tmp_path, capsys):
+    # A 5D image (t, c, z, y, x): the flags draw the indices asked for, as the Python
+    # source read at them draws (test_multiscale checks that source against the arrays);
+    # left out, t=0 and c=0 are drawn and said. A flag naming an axis the source lacks,
+    # an index past the axis, or a flag on a file that is no .zarr source, are refused.
+    # catches (seen failing): the flags not passed to the source (t=0, c=0 drawn); the
+    # note left out.
+    import zarr
+    from test_multiscale import _v04_image
+
+    path = tmp_path / "tc.zarr"
+    _v04_image(path, (2, 3, 10, 12, 14), [[1, 1, 1.0, 1.0, 1.0], [1, 1, 2.0, 2.0, 2.0]],
+               [[0, 0, 0.0, 0.0, 0.0], [0, 0, 0.5, 0.5, 0.5]])
+    flags = ["--cmap", "viridis", "--clim", "0", "60000", "--size", "64x48", "--no-progress"]
+    picked, first = tmp_path / "picked.png", tmp_path / "first.png"
+    assert main(["render", str(path), "-o", str(picked), "--timepoint", "1", "--channel",
+                 "2", *flags]) == 0
+    assert "note" not in capsys.readouterr().err
+    assert main(["render", str(path), "-o", str(first), *flags]) == 0
+    assert "drawn at t=0 of 2, c=0 of 3" in capsys.readouterr().err
+    plotter = cm.offscreen_plotter((64, 48))
+    cm.add_volume(plotter, cm.multiscale_source(str(path), time=1, channel=2),
+                  cmap="viridis", clim=(0, 60000))
+    expected = cm.render_image(plotter, converge=True)
+    plotter.close()
+    drawn = np.asarray(Image.open(picked).convert("RGB"))
+    assert np.array_equal(drawn, expected)
+    assert compare_images(np.asarray(Image.open(first).convert("RGB")), expected).psnr < 40
+    out = str(tmp_path / "x.png")
+    assert main(["render", str(path), "-o", out, "--channel", "3", *flags]) == 2
+    assert "outside its 3 entries" in capsys.readouterr().err
+    plain = tmp_path / "plain.zarr"
+    zarr.create_array(str(plain), data=np.zeros((4, 4, 4), np.float32))
+    assert main(["render", str(plain), "-o", out, "--timepoint", "1", *flags]) == 2
+    assert "has no time axis (its axes: x, y, z)" in capsys.readouterr().err
+    grid = tmp_path / "grid.npy"
+    np.save(grid, np.zeros((4, 4, 4), np.float32))
+    assert main(["render", str(grid), "-o", out, "--channel", "1", *flags]) == 2
+    assert "is not a .zarr source" in capsys.readouterr().err

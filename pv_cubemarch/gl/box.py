@@ -25,18 +25,23 @@ def numpy_matrix(matrix) -> np.ndarray:
 _GL_VIEWPORT = 0x0BA2
 
 
-def supersampling_pass(renderer):
-    """The ``vtkSSAAPass`` drawing ``renderer`` (PyVista's ``enable_anti_aliasing('ssaa')``).
+def render_pass_of(renderer, class_name: str):
+    """The pass of VTK class ``class_name`` drawing ``renderer``, or None.
 
-    Followed through the passes' delegates; None when there is none.
+    Followed through the passes' delegates (PyVista chains its passes so).
     """
     render_pass = renderer.GetPass()
     while render_pass is not None:
-        if render_pass.IsA("vtkSSAAPass"):
+        if render_pass.IsA(class_name):
             return render_pass
         render_pass = render_pass.GetDelegatePass() \
             if hasattr(render_pass, "GetDelegatePass") else None
     return None
+
+
+def supersampling_pass(renderer):
+    """The ``vtkSSAAPass`` drawing ``renderer`` (PyVista's ``enable_anti_aliasing('ssaa')``)."""
+    return render_pass_of(renderer, "vtkSSAAPass")
 
 
 def supersampled_size(renderer) -> tuple[int, int] | None:

@@ -63,6 +63,9 @@ class MultiscaleSource:
 
     levels: list[Level]
     name: str = "volume"
+    #: The axes besides x, y and z (an OME-Zarr image's time and channel), by name: the
+    #: index read, the entries there are, and ``'time'`` or ``'channel'``.
+    others: dict = field(default_factory=dict)
 
     def __post_init__(self):
         check_levels(self.levels)
@@ -194,11 +197,14 @@ def _ome_source(group, time: int, channel: int, name: str | None) -> MultiscaleS
         raise ValueError(f"The image's axes are {names}: a volume needs space axes x, y and z "
                          f"({', '.join(missing)} missing).")
     axes = tuple(names.index(s) for s in SPACE)
-    fixed = {}
+    fixed, others = {}, {}
+    finest = group[scales.datasets[0].path].shape
     for index, (axis_name, kind) in enumerate(zip(names, kinds, strict=True)):
         if index in axes:
             continue
-        fixed[index] = channel if kind == "channel" or axis_name == "c" else time
+        along = "channel" if kind == "channel" or axis_name == "c" else "time"
+        fixed[index] = channel if along == "channel" else time
+        others[axis_name] = (fixed[index], int(finest[index]), along)
     overall = _transforms(getattr(scales, "coordinateTransformations", None), len(names))
     levels = []
     for dataset in scales.datasets:
@@ -211,7 +217,7 @@ def _ome_source(group, time: int, channel: int, name: str | None) -> MultiscaleS
         scale, translation = scale * overall[0], translation * overall[0] + overall[1]
         levels.append(Level(array, tuple(int(array.shape[a]) for a in axes),
                             scale[list(axes)], translation[list(axes)], axes, fixed))
-    return MultiscaleSource(levels, name or (scales.name or "volume"))
+    return MultiscaleSource(levels, name or (scales.name or "volume"), others)
 
 
 def _transforms(transforms, ndim: int) -> tuple[np.ndarray, np.ndarray]:
