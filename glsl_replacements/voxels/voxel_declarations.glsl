@@ -87,44 +87,18 @@ void cm_rayAxes(vec3 d, out vec3 inverse, out vec3 never, out vec3 forward)
 ivec3 cm_startVoxel(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, float start,
                     ivec3 dims)
 {
-  ivec3 voxel = clamp(ivec3(floor(a + d * start)), ivec3(0), dims - 1);
-  for (int j = 0; j < 3; ++j)
-  {
-    if (never[j] > 0.0)
-    {
-      continue;
-    }
-    int step = forward[j] > 0.5 ? 1 : -1;
-    float ahead = forward[j] > 0.5 ? 1.0 : 0.0;   // the plane to the next voxel: v + ahead
-    int v = voxel[j];
-    for (int n = 0; n < 2; ++n)   // float32's guess is off by one at most; two for safety
-    {
-      if (v + step >= 0 && v + step < dims[j]
-          && (float(v) + ahead - a[j]) * inverse[j] <= start)
-      {
-        v += step;
-      }
-    }
-    for (int n = 0; n < 2; ++n)
-    {
-      if (v - step >= 0 && v - step < dims[j]
-          && (float(v) + 1.0 - ahead - a[j]) * inverse[j] > start)
-      {
-        v -= step;
-      }
-    }
-    voxel[j] = v;
-  }
-  return voxel;
-}
-
-// Whether the ray a + d t crossed the plane `boundary` of axis j before the exit at t
-// through `axis`, in the traversal's order: an earlier t, or the same t on a lower axis.
-// The crossing's t is computed as a step's own exits are, so both agree to the bit.
-bool cm_crossedBefore(float a, float inverse, float boundary, int j, float t, int axis)
-{
-  float at = (boundary - a) * inverse;
-  return at < t || (at == t && j < axis);
+  ivec3 up = ivec3(forward);
+  ivec3 stride = 2 * up - 1;
+  ivec3 moving = ivec3(lessThan(never, vec3(1.0)));
+  // the start point's floor drawn back a hair along the ray (the voxel or the one before),
+  // moved on where the plane to the next was crossed at or before start
+  vec3 point = a + d * start
+               - vec3(stride * moving) * (1e-5 * (1.0 + abs(a) + abs(d * start)));
+  ivec3 voxel = clamp(ivec3(floor(point)), ivec3(0), dims - 1);
+  vec3 ahead = (vec3(voxel + up) - a) * inverse + never;
+  return voxel + stride * ivec3(lessThanEqual(ahead, vec3(start))) * moving
+                 * ivec3(greaterThanEqual(voxel + stride, ivec3(0)))
+                 * ivec3(lessThan(voxel + stride, dims));
 }
 
 // A traversal step (voxel_dda.glsl, voxel_paged.glsl): leave the block [low, high) of
@@ -150,38 +124,21 @@ bool cm_leaveBlock(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, ivec3
     return false;
   }
   ivec3 onAxis = ivec3(equal(ivec3(axis), ivec3(0, 1, 2)));
-  next = clamp(ivec3(floor(a + d * t)), low, high - 1);
-  for (int j = 0; j < 3; ++j)
-  {
-    if (j == axis || never[j] > 0.0 || high[j] - low[j] < 2)
-    {
-      continue;   // the exit axis, one not moved along, or one voxel wide: exact already
-    }
-    bool up = forward[j] > 0.5;
-    int step = up ? 1 : -1;
-    int first = up ? from[j] : low[j];   // the span the ray can be in: never behind `from`
-    int last = up ? high[j] - 1 : from[j];
-    int v = clamp(next[j], first, last);
-    // on one voxel while the plane into the next was crossed, back one while the plane
-    // into this one was not (float32's guess is off by one at most; two for safety)
-    for (int n = 0; n < 2; ++n)
-    {
-      if (v != (up ? last : first)
-          && cm_crossedBefore(a[j], inverse[j], float(v + (up ? 1 : 0)), j, t, axis))
-      {
-        v += step;
-      }
-    }
-    for (int n = 0; n < 2; ++n)
-    {
-      if (v != (up ? first : last)
-          && !cm_crossedBefore(a[j], inverse[j], float(v + (up ? 0 : 1)), j, t, axis))
-      {
-        v -= step;
-      }
-    }
-    next[j] = v;
-  }
+  // On the other axes: the exit point's floor, drawn back a hair along the ray so that it
+  // is the voxel or the one before, then moved on where the plane to the next was crossed
+  // before the exit: at an earlier t, or at the same t on a lower axis (the tie rule), t
+  // computed as a step's exits are, so both agree to the bit. Within the block, from
+  // `from` on; all axes at once (a loop per axis, checking both sides, cost llvmpipe 2x).
+  ivec3 up = ivec3(forward);
+  ivec3 stride = 2 * up - 1;
+  ivec3 far = low + (high - 1 - low) * up;   // the block's last voxel along the ray
+  ivec3 moving = ivec3(lessThan(never, vec3(1.0)));
+  vec3 lower = vec3(lessThan(ivec3(0, 1, 2), ivec3(axis)));
+  vec3 point = a + d * t - vec3(stride * moving) * (1e-5 * (1.0 + abs(a) + abs(d * t)));
+  next = clamp(ivec3(floor(point)), min(from, far), max(from, far));
+  vec3 ahead = (vec3(next + up) - a) * inverse + never;
+  vec3 crossed = max(vec3(lessThan(ahead, vec3(t))), vec3(equal(ahead, vec3(t))) * lower);
+  next += stride * ivec3(crossed) * moving * ivec3(notEqual(next, far));
   ivec3 past = low - 1 + (high - low + 1) * ivec3(forward);
   next += (past - next) * onAxis;
   return all(greaterThanEqual(next, ivec3(0))) && all(lessThan(next,
