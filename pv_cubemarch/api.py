@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import pyvista
 
-from .core.errors import VolumeDataError
+from .core.errors import RefusedOptionsError, VolumeDataError
 from .core.mesh_keywords import SURFACE as SURFACE_REFUSED
 from .core.mesh_keywords import VOXELS as VOXEL_REFUSED
 from .core.mesh_keywords import refuse_mesh_keywords, shading_for_lighting
@@ -663,9 +663,12 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     if given["frame_budget_ms"] is not None:   # refused before the source is opened
         check_frame_budget(given["frame_budget_ms"], drawn_by)
     if refused:
-        raise ValueError(f"A multiscale source is drawn by the direct marcher or the cube map "
-                         f"(technique='cubemap') reading a brick pool (blending='composite'); "
-                         f"{', '.join(refused)} cannot be used with it.")
+        raise RefusedOptionsError(
+            f"A multiscale source is drawn by the direct marcher or the cube map "
+            f"(technique='cubemap') reading a brick pool (blending='composite'); "
+            f"{', '.join(refused)} cannot be used with it.", refused,
+            "it is drawn by the direct marcher or the cube map reading a brick pool, "
+            "composite blending only")
     transform = given["transform"] if given["user_matrix"] is None else given["user_matrix"]
     if isinstance(source, PagedVolume):   # added again (the live view): as it was, but what
         made = source                     # this call changes
@@ -753,9 +756,11 @@ def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
     refused = sorted(key for key, value in given.items() if key not in PAGED_LABEL_KEYWORDS
                      and value is not None and not _same(value, defaults.get(key)))
     if refused:
-        raise ValueError(f"A multiscale label source is streamed by bricks and drawn opaque "
-                         f"by the exact traversal; {', '.join(refused)} cannot be used with "
-                         "it (add the finest level alone to use them).")
+        raise RefusedOptionsError(
+            f"A multiscale label source is streamed by bricks and drawn opaque by the exact "
+            f"traversal; {', '.join(refused)} cannot be used with it (add the finest level "
+            "alone to use them).", refused,
+            "its bricks are drawn opaque by the exact traversal")
     palette = given["palette"]
     if not (palette is None or isinstance(palette, dict) or
             (callable(palette) and not isinstance(palette, str))):

@@ -40,7 +40,7 @@ from .cluster.offload import bench_offload
 from .cluster.partition_march import LABEL_KEYWORDS, PARTITION_BLENDING, PARTITION_KEYWORDS
 from .cluster.sort_last import SplitRenderer, prepare_split
 from .core.declared import KINDS, declared, option, options_markdown
-from .core.errors import CubemarchError, SceneWarning, VolumeDataError
+from .core.errors import CubemarchError, RefusedOptionsError, SceneWarning, VolumeDataError
 from .core.offscreen import gl_info
 from .core.registry import get_technique, specific_option_names, techniques
 from .core.rendering import offscreen_plotter, render_image
@@ -820,7 +820,15 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            actor = (add_voxels if as_voxels else add_volume)(plotter, source, **keywords)
+            try:
+                actor = (add_voxels if as_voxels else add_volume)(plotter, source, **keywords)
+            except RefusedOptionsError as exc:   # said with the flags that gave them
+                flags = ", ".join(_flag_of(name) for name in exc.names)
+                one = len(exc.names) == 1
+                raise ValueError(f"{flags}: not for a {'label grid' if as_voxels else 'volume'}"
+                                 f" streamed from a .zarr source ({exc.why}); leave "
+                                 f"{'it' if one else 'them'} out, or render a level that "
+                                 "fits in memory as a grid file.") from exc
             try:
                 image = render_image(plotter, converge=True, timeout=STREAM_TIMEOUT_S,
                                      progress_bar=progress_bar)
@@ -841,6 +849,13 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
     Image.fromarray(image).save(str(args.out))
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")
     return 0
+
+
+def _flag_of(option: str) -> str:
+    """An option as the command line gives it: ``blending='maximum'``: ``--blending maximum``."""
+    name, _, value = option.partition("=")
+    flag = f"--{name.replace('_', '-')}"
+    return f"{flag} {value.strip(chr(39))}" if value else flag
 
 
 def _chosen_indices(args):

@@ -125,11 +125,18 @@ def test_render_says_when_the_pool_is_too_small_and_fails_cleanly_on_a_damaged_s
     (["--isovalue", "3"], "--isovalue does not apply"),
     (["--chunk-size", "16"], "--chunk-size does not apply"),
     (["--mode", "id", "--surface-opacity", "0.5"], "--mode, --surface-opacity: not options"),
+    # what add_volume refuses of a streamed source, said with the flags that gave it
+    (["--shade"], "--shade: not for a volume streamed from a .zarr source"),
+    (["--blending", "maximum", "--downsample", "2"],
+     "--downsample, --blending maximum: not for a volume streamed"),
+    (["--technique", "voxels", "--show-edges"],
+     "--show-edges: not for a label grid streamed from a .zarr source"),
 ])
 def test_render_of_a_zarr_source_refuses_what_does_not_apply(volume_pyramid, tmp_path,
                                                               capsys, flags, message):
     # catches (seen failing): voxel and surface flags dropped in silence for a volume (the
-    # image written, exit 0)
+    # image written, exit 0); add_volume's refusal passed on in Python's words (shade=,
+    # "add the finest level alone")
     out = tmp_path / "x.png"
     assert main(["render", str(volume_pyramid), "-o", str(out), "--no-progress",
                  *flags]) == 2

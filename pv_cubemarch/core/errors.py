@@ -20,6 +20,19 @@ class ShaderCompileError(CubemarchError, RuntimeError):
         self.snippets = snippets
 
 
+class RefusedOptionsError(CubemarchError, ValueError):
+    """Options that cannot be used with what is added: their names and why, apart.
+
+    ``names``: each option as given (``'shade'``, ``"blending='maximum'"``); ``why``: the
+    reason in words of no one channel, so the command line can say it with its flags.
+    """
+
+    def __init__(self, message: str, names, why: str):
+        super().__init__(message)
+        self.names = list(names)
+        self.why = why
+
+
 class SceneLoadError(CubemarchError, ValueError):
     """A scene file is missing, corrupt or uses something we cannot read."""
 
