@@ -20,6 +20,7 @@ from .core.errors import (  # noqa: E402
     CubemarchError,
     OffscreenUnavailableError,
     PlotterClosedError,
+    RefusedOptionsError,
     SceneChangedError,
     SceneLoadError,
     SceneWarning,
@@ -64,7 +65,8 @@ register_notebook_backends()
 
 __all__ = [
     "Camera", "CubemarchError", "OffscreenUnavailableError", "PlotterClosedError",
-    "RenderToTexturePass", "Replacement", "Scene", "SceneChangedError", "SceneLight",
+    "RefusedOptionsError", "RenderToTexturePass", "Replacement", "Scene", "SceneChangedError",
+    "SceneLight",
     "SceneLoadError", "SceneMesh", "SceneWarning", "ShaderBindings",
     "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "Texture", "TransferFunction",
     "VolumeDataError", "VolumeDataWarning", "VolumeGroup", "VolumeLight", "VolumeModel",
