@@ -1214,7 +1214,8 @@ def add_voxels(
         What starts the rays: ``'bricks'`` (default), the outer faces of the filled 2³
         bricks (4³ or 8³ for scattered content), so pixels that see none run nothing and
         rays start next to the voxels (the box instead on frames where the near plane
-        reaches them); ``'box'``, the grid's bounding box (every ray from the box). Exact
+        reaches them, and with ``lod``, whose coarse cells reach past the bricks);
+        ``'box'``, the grid's bounding box (every ray from the box). Exact
         either way; only the speed differs. By default ``'bricks'``, and ``'box'`` for a grid
         drawn in chunks (a hundred chunks' shells cost more than they save: ``bench voxel-world``).
     lod : bool

@@ -166,7 +166,8 @@ class VoxelOptions:
     outer faces of the filled 2³, 4³ or 8³ bricks
     (:func:`~pv_cubemarch.models.voxel_shell.choose_shell`), so pixels that see no filled brick
     run nothing and rays start next to the voxels; on frames where the near plane reaches
-    them it falls back to ``'box'``: the grid's bounding box, every ray traversed from where
+    them, and with ``lod`` (a coarse cell reaches past the bricks), it falls back to
+    ``'box'``: the grid's bounding box, every ray traversed from where
     it enters the box or from the near plane (kept to measure the traversal alone). Exact
     either way.
     ``world_traversal`` (grids drawn in chunks): ``'index'``, one box and one traversal over

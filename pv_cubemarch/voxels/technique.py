@@ -454,7 +454,11 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
     # 1 % larger on every side: the shader clips each ray to the exact grid box, so pixels
     # whose rays graze the box's edges are covered and decided there, not by rasterisation.
     # With the brick shell, rays meet filled voxels only inside the box around its bricks.
-    bricks = choose_shell(model.labels, levels) if options.proxy == "bricks" else None
+    # With level of detail a coarse cell reaches past the shell's bricks: rays started at
+    # the shell missed its near part (2 pixels wrong on a parallel view), so they start at
+    # the box around the coarse cells instead.
+    bricks = choose_shell(model.labels, levels) \
+        if options.proxy == "bricks" and not drawn_level(options) else None
     shell = ShellStart(model, renderer, bricks, shared_depth) if bricks is not None else None
     if options.proxy == "box" and occluders is None:
         lower, upper = np.zeros(3), np.asarray(model.dimensions, dtype=np.float64)
