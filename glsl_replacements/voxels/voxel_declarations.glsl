@@ -79,26 +79,36 @@ void cm_rayAxes(vec3 d, out vec3 inverse, out vec3 never, out vec3 forward)
   forward = step(vec3(0.0), d);
 }
 
-// The voxel the ray a + d t is in at t = start, as a traversal from farther back leaves it:
-// on each axis, past every plane crossed at or before start (t computed as a step's exits
-// are), within the grid. Where a ray starts (a box, the near plane, a brick shell) then
-// changes no voxel it meets after: a brick of a grid, traversed in the whole grid's frame,
-// meets the voxels the whole grid's traversal meets.
-ivec3 cm_startVoxel(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, float start,
-                    ivec3 dims)
+// The voxel the ray a + d t is in at t, on each axis between the voxels `from` and `far`
+// (where it can be; `far` the farther along the ray): the point's floor is only a guess
+// (float32 rounds it either way near a plane), drawn back a hair along the ray so that it
+// is the voxel or the one before, then moved on where the plane to the next was crossed
+// before t: at an earlier t, or at t itself where `ties` is 1 (the tie rule). The planes'
+// t are computed as a step's exits are, so a traversal agrees with them to the bit. All
+// axes at once (a loop per axis, checking both sides, cost llvmpipe 2x).
+ivec3 cm_voxelAt(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, float t,
+                 ivec3 from, ivec3 far, vec3 ties)
 {
   ivec3 up = ivec3(forward);
   ivec3 stride = 2 * up - 1;
   ivec3 moving = ivec3(lessThan(never, vec3(1.0)));
-  // the start point's floor drawn back a hair along the ray (the voxel or the one before),
-  // moved on where the plane to the next was crossed at or before start
-  vec3 point = a + d * start
-               - vec3(stride * moving) * (1e-5 * (1.0 + abs(a) + abs(d * start)));
-  ivec3 voxel = clamp(ivec3(floor(point)), ivec3(0), dims - 1);
+  vec3 point = a + d * t - vec3(stride * moving) * (1e-5 * (1.0 + abs(a) + abs(d * t)));
+  ivec3 voxel = clamp(ivec3(floor(point)), min(from, far), max(from, far));
   vec3 ahead = (vec3(voxel + up) - a) * inverse + never;
-  return voxel + stride * ivec3(lessThanEqual(ahead, vec3(start))) * moving
-                 * ivec3(greaterThanEqual(voxel + stride, ivec3(0)))
-                 * ivec3(lessThan(voxel + stride, dims));
+  vec3 crossed = max(vec3(lessThan(ahead, vec3(t))), vec3(equal(ahead, vec3(t))) * ties);
+  return voxel + stride * ivec3(crossed) * moving * ivec3(notEqual(voxel, far));
+}
+
+// The voxel the ray is in at t = start, as a traversal from farther back leaves it: past
+// every plane crossed at or before start, within the grid. Where a ray starts (a box, the
+// near plane, a brick shell) then changes no voxel it meets after: a brick of a grid,
+// traversed in the whole grid's frame, meets the voxels the whole grid's traversal meets.
+ivec3 cm_startVoxel(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, float start,
+                    ivec3 dims)
+{
+  ivec3 up = ivec3(forward);
+  return cm_voxelAt(a, d, inverse, never, forward, start, (dims - 1) * (1 - up),
+                    (dims - 1) * up, vec3(1.0));
 }
 
 // A traversal step (voxel_dda.glsl, voxel_paged.glsl): leave the block [low, high) of
@@ -106,10 +116,9 @@ ivec3 cm_startVoxel(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, floa
 // 1/d per moving axis, 0 on the others, `never` 1e30 on those, `forward` 1 where d >= 0).
 // Its nearest forward boundary, x before y before z on a tie, is crossed at t through
 // `axis`; `next` is the voxel just past it: on the exit axis the first voxel beyond the
-// block, on the others the voxel stepping one voxel at a time would be in. The exit point's
-// floor a + d t is only a guess there (float32 rounds it either way near a voxel's edge):
-// it is kept or moved by the crossings' own t, so a block of many voxels is left exactly
-// where its voxels, left one by one, would be, whatever blocks the occupancy levels make.
+// block, on the others the voxel stepping one voxel at a time would be in (cm_voxelAt), so
+// a block of many voxels is left exactly where its voxels, left one by one, would be,
+// whatever blocks the occupancy levels make.
 // False when the ray ends first (past t = end) or leaves the grid.
 bool cm_leaveBlock(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, ivec3 from,
                    ivec3 low, ivec3 high, float end, out int axis, out float t,
@@ -124,21 +133,11 @@ bool cm_leaveBlock(vec3 a, vec3 d, vec3 inverse, vec3 never, vec3 forward, ivec3
     return false;
   }
   ivec3 onAxis = ivec3(equal(ivec3(axis), ivec3(0, 1, 2)));
-  // On the other axes: the exit point's floor, drawn back a hair along the ray so that it
-  // is the voxel or the one before, then moved on where the plane to the next was crossed
-  // before the exit: at an earlier t, or at the same t on a lower axis (the tie rule), t
-  // computed as a step's exits are, so both agree to the bit. Within the block, from
-  // `from` on; all axes at once (a loop per axis, checking both sides, cost llvmpipe 2x).
-  ivec3 up = ivec3(forward);
-  ivec3 stride = 2 * up - 1;
-  ivec3 far = low + (high - 1 - low) * up;   // the block's last voxel along the ray
-  ivec3 moving = ivec3(lessThan(never, vec3(1.0)));
-  vec3 lower = vec3(lessThan(ivec3(0, 1, 2), ivec3(axis)));
-  vec3 point = a + d * t - vec3(stride * moving) * (1e-5 * (1.0 + abs(a) + abs(d * t)));
-  next = clamp(ivec3(floor(point)), min(from, far), max(from, far));
-  vec3 ahead = (vec3(next + up) - a) * inverse + never;
-  vec3 crossed = max(vec3(lessThan(ahead, vec3(t))), vec3(equal(ahead, vec3(t))) * lower);
-  next += stride * ivec3(crossed) * moving * ivec3(notEqual(next, far));
+  // the other axes: where the ray is at the exit, within the block from `from` on, the
+  // tie going to the axes below the exit's
+  ivec3 far = low + (high - 1 - low) * ivec3(forward);   // the block's last voxel on the ray
+  next = cm_voxelAt(a, d, inverse, never, forward, t, from, far,
+                    vec3(lessThan(ivec3(0, 1, 2), ivec3(axis))));
   ivec3 past = low - 1 + (high - low + 1) * ivec3(forward);
   next += (past - next) * onAxis;
   return all(greaterThanEqual(next, ivec3(0))) && all(lessThan(next,
