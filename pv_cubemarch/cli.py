@@ -823,7 +823,7 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
             try:
                 actor = (add_voxels if as_voxels else add_volume)(plotter, source, **keywords)
             except RefusedOptionsError as exc:   # said with the flags that gave them
-                flags = ", ".join(_flag_of(name) for name in exc.names)
+                flags = ", ".join(_flag_of(name, kind) for name in exc.names)
                 one = len(exc.names) == 1
                 raise ValueError(f"{flags}: not for a {'label grid' if as_voxels else 'volume'}"
                                  f" streamed from a .zarr source ({exc.why}); leave "
@@ -851,10 +851,11 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
     return 0
 
 
-def _flag_of(option: str) -> str:
-    """An option as the command line gives it: ``blending='maximum'``: ``--blending maximum``."""
-    name, _, value = option.partition("=")
-    flag = f"--{name.replace('_', '-')}"
+def _flag_of(given: str, kind: str) -> str:
+    """An option of ``kind`` as its declared flag gives it: ``--blending maximum``."""
+    name, _, value = given.partition("=")
+    flag = next((o.flag for o in declared(kind) if o.name == name and o.flag),
+                f"--{name.replace('_', '-')}")
     return f"{flag} {value.strip(chr(39))}" if value else flag
 
 
