@@ -43,7 +43,6 @@ from .quality.volumes import check_quality_request, volume_calibration
 from .quality.voxels import (
     VoxelCalibration,
     check_opaque,
-    check_voxel_budget,
     check_voxel_quality,
     check_world_reference,
 )
@@ -1309,10 +1308,10 @@ def add_voxels(
         within this many milliseconds from the costliest of the last three frames (time
         grows with the pixels): no traversal was measured cheaper than the exact one
         (``bench voxels``), so the pixels are what a moving view coarsens. The first frame
-        after the view stops is drawn at full size. For a grid drawn whole or a world drawn
-        by one traversal (``world_traversal='index'``) or a multiscale label source, not a
-        world drawn per chunk; translucent labels are drawn at the same reduction (after
-        the scene's other translucent props while the view moves).
+        after the view stops is drawn at full size. A world drawn per chunk has its chunks
+        drawn into one reduced frame (their rays start at their boxes, not ended at the
+        solid faces, both drawn at the full viewport); translucent labels are drawn at the
+        same reduction (after the scene's other translucent props while the view moves).
         ``actor.cubemarch.frame_budget`` keeps the frames' values and times.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
@@ -1430,7 +1429,6 @@ def add_voxels(
             model = VoxelWorld.from_model(
                 model, DEFAULT_CHUNK_SIZE if chunk_size is None else chunk_size)
         per_chunk = _why_per_chunk(model, options)
-        check_voxel_budget(frame_budget_ms, per_chunk)
         if target is not None:   # refused before anything is drawn
             _check_voxel_quality(model, options)
             check_world_reference(model)
@@ -1447,7 +1445,6 @@ def add_voxels(
             warnings.warn(f"world_traversal={world_traversal!r} is for grids drawn in chunks; "
                           f"this grid of {tuple(model.dimensions)} voxels is drawn whole (give "
                           "chunk_size= to draw it in chunks).", stacklevel=2)
-        check_voxel_budget(frame_budget_ms)
         if target is not None:
             _check_voxel_quality(model, options)
         component = plotter.cubemarch

@@ -16,6 +16,7 @@ from pv_cubemarch.models import voxels as voxel_models
 from pv_cubemarch.models.procedural import terrain
 from pv_cubemarch.models.voxels import make_voxels
 from pv_cubemarch.models.world import VoxelWorld
+from pv_cubemarch.quality.interaction import KNOBS
 from pv_cubemarch.reference.voxels import face_colors, trace_voxels
 
 PALETTE = ["black", "red", "lime", "blue"]
@@ -496,3 +497,39 @@ def test_level_of_detail_in_chunks_matches_one_grid(plotter_factory, traversal):
         images.append(cm.render_image(pl).astype(int))
     assert (np.abs(images[0] - images[1]).max(axis=-1) > 2).sum() == 0
     assert images[0].any(axis=-1).mean() > 0.2
+
+
+@pytest.mark.parametrize(("eye", "up"), [((70.0, -30.0, 30.0), (0, 0, 1)),
+                                         ((5.0, 5.0, 14.0), (0, 0, 1))])
+def test_a_world_drawn_per_chunk_under_a_frame_budget_draws_its_chunks_reduced(
+        plotter_factory, eye, up):
+    # A moving frame at 1/2 draws every chunk into one half-size target: each 2x2 block is
+    # the CPU traversal of the whole grid at half the size (the eye over the terrain, and
+    # among its hills, the near plane cutting chunks); the still frame after it is whole.
+    # catches (seen failing): the budget refused for a world drawn per chunk; the chunks'
+    # rays ended at the occluders' depth read at the reduced fragment's texel (202 of
+    # 3072 blocks showing a farther chunk or nothing); the chunks left at full size.
+    labels = terrain_labels()
+    size = (128, 96)
+    pl = plotter(plotter_factory, size)
+    actor = cm.add_voxels(pl, labels, mode="face", palette=PALETTE, chunk_size=16,
+                          world_traversal="per_chunk", frame_budget_ms=1000.0)
+    camera = set_camera(pl, eye, focal=(24.0, 20.0, 8.0), up=up, angle=40.0)
+    still = cm.render_image(pl).astype(int)
+    assert actor.cubemarch.occluders.active
+    KNOBS["pixels"].write(actor.cubemarch, 2.0)
+    reduced = cm.render_image(pl).astype(int)
+    assert actor.cubemarch.reduced.runs > 0 and actor.cubemarch.reduced.nbytes == 8 * 64 * 48
+    near = pl.camera.clipping_range[0]
+    hits = trace_voxels(labels, np.eye(4), camera, (64, 48), near=near, tie_tolerance=EDGE)
+    # each 2x2 block one pixel's, but where the world box's outline cuts it (the stand-in
+    # drawing the targets back is that box: pixels outside show what is behind)
+    blocks = reduced.reshape(48, 2, 64, 2, 3)
+    whole = np.all(blocks == blocks[:, :1, :, :1], axis=(1, 3, 4))
+    assert whole.mean() > 0.97, whole.mean()
+    wrong = np.any(blocks[:, 0, :, 0] != face_colors(hits).astype(int), axis=-1)
+    assert (hits.material > 0).mean() > 0.3
+    wrong &= whole & ~hits.near_edge
+    assert not wrong.any(), wrong.sum()
+    KNOBS["pixels"].write(actor.cubemarch, 1.0)
+    assert np.array_equal(cm.render_image(pl).astype(int), still)

@@ -13,6 +13,9 @@
   {
     discard;
   }
+#ifdef CM_PREMULTIPLIED
+  cm_color.rgb /= cm_color.a;   // many props' layers composited into the target, in order
+#endif
   fragOutput0 = cm_color;
   gl_FragDepth = 0.0;   // nearest: kept by the test, not written (translucent pass)
 }

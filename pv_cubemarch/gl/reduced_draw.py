@@ -60,10 +60,16 @@ class ReducedDraw:
     render (picking) draws the actor itself.
     """
 
-    def __init__(self, renderer, actor, follows: ReducedDraw | None = None):
+    #: The colour target's texel type (RGBA8: one layer's straight colour).
+    color_type = vtk.VTK_UNSIGNED_CHAR
+
+    def __init__(self, renderer, actor, follows: ReducedDraw | None = None,
+                 translucent: bool | None = None):
         self.renderer, self.actor = renderer, actor
         # an actor VTK draws in its translucent pass is drawn after the opaque props
-        overlay = renderer_overlay(renderer) if actor.GetForceTranslucent() else None
+        if translucent is None:
+            translucent = bool(actor.GetForceTranslucent())
+        overlay = renderer_overlay(renderer) if translucent else None
         self.overlay, self.follows = overlay, follows
         self._factor = 1
         self.runs = 0
@@ -71,7 +77,7 @@ class ReducedDraw:
         self._fbo = None
         self._allocated = (0, 0)
         self._size = (1, 1)
-        self._hidden = False
+        self._hidden: list = []   # the members sitting this frame out
         self._said_shading = False
         mapper = vtk.vtkPolyDataMapper()   # its own events: the bindings' UpdateShaderEvent
         mapper.SetInputData(actor.GetMapper().GetInput())
@@ -99,11 +105,19 @@ class ReducedDraw:
         else:   # composited over the frame from the overlay, drawn at its start
             self.stand_in.ForceTranslucentOn()
             self.bindings.install(box_recipe(("reduced_declarations",),
-                                             "reduced_layer_fragment"), self.stand_in)
+                                             "reduced_layer_fragment",
+                                             defines=self.layer_defines), self.stand_in)
             overlay.add_user(self.stand_in)
             self._tags.append((overlay.renderer, observe(
                 overlay.renderer, vtk.vtkCommand.StartEvent, self._draw_translucent, 0.5)))
         shown_by.AddActor(self.stand_in)
+
+    #: The translucent stand-in's defines (its target holds one layer's straight colour).
+    layer_defines: dict | None = None
+
+    def members(self) -> list:
+        """The actors drawn reduced this frame, in drawing order: the actor, if shown."""
+        return [self.actor] if self.actor.GetVisibility() else []
 
     @property
     def factor(self) -> int:
@@ -121,8 +135,8 @@ class ReducedDraw:
 
     def _on_start(self, *_) -> None:
         # a selection render (picking) draws the actor itself, the one that can be picked
-        reduced = bool(self.actor.GetVisibility()) and self.factor > 1 and \
-            self.renderer.GetSelector() is None
+        members = self.members() if self.factor > 1 else []
+        reduced = bool(members) and self.renderer.GetSelector() is None
         if reduced and render_pass_of(self.renderer, "vtkEDLShading") is not None:
             reduced = False
             if not self._said_shading:
@@ -138,9 +152,10 @@ class ReducedDraw:
         width, height = drawn_viewport(self.renderer)[2:]
         self._size = (max(1, -(-width // self.factor)), max(1, -(-height // self.factor)))
         if self.overlay is None:
-            self._draw(self.actor.RenderOpaqueGeometry)
-        self.actor.SetVisibility(False)   # back at the window's end
-        self._hidden = True
+            self._draw(members, "RenderOpaqueGeometry")
+        for actor in members:   # back at the window's end
+            actor.SetVisibility(False)
+        self._hidden = members
 
     def _draw_translucent(self, *_) -> None:
         """At the overlay's start (every opaque prop drawn): the actor, reduced.
@@ -148,18 +163,20 @@ class ReducedDraw:
         It reads the scene's opaque depth (its own binding copies it then).
         """
         if self._hidden and self.overlay is not None:
-            self.actor.SetVisibility(True)
+            for actor in self._hidden:
+                actor.SetVisibility(True)
             try:
-                self._draw(self.actor.RenderTranslucentPolygonalGeometry)
+                self._draw(self._hidden, "RenderTranslucentPolygonalGeometry")
             finally:
-                self.actor.SetVisibility(False)
+                for actor in self._hidden:
+                    actor.SetVisibility(False)
 
     def _on_end(self, *_) -> None:
         """The frame is over: the actor is shown again, the stand-in hidden (bounds, picks)."""
         self.stand_in.SetVisibility(False)
-        if self._hidden:
-            self.actor.SetVisibility(True)
-            self._hidden = False
+        for actor in self._hidden:
+            actor.SetVisibility(True)
+        self._hidden = []
 
     def _follow_actor(self) -> None:
         """The stand-in takes the actor's geometry, placement and culled faces now."""
@@ -178,7 +195,7 @@ class ReducedDraw:
         self._release_targets()
         color = vtkTextureObject()
         color.SetContext(window)
-        color.Allocate2D(size[0], size[1], 4, vtk.VTK_UNSIGNED_CHAR)
+        color.Allocate2D(size[0], size[1], 4, self.color_type)
         depth = vtkTextureObject()
         depth.SetContext(window)
         depth.AllocateDepth(size[0], size[1], vtkTextureObject.Float32)
@@ -189,8 +206,17 @@ class ReducedDraw:
         self._fbo.SetContext(window)
         self.targets, self._allocated, self._window = [color, depth], size, window
 
-    def _draw(self, render) -> None:
-        """``render(renderer)`` into the targets, cleared (colour to nothing, depth to far)."""
+    def _start_blending(self, state) -> None:
+        """After the targets are cleared and bound: how the members' fragments combine.
+
+        One actor draws each pixel once: the nearest fragment, blending off (as cleared).
+        """
+
+    def _draw(self, members: list, method: str) -> None:
+        """Each member's ``method(renderer)`` into the targets, cleared.
+
+        The colour is cleared to nothing, the depth to far.
+        """
         window = self.renderer.GetRenderWindow()
         TextureUnitLedger.release_window(window)
         size = self._size
@@ -201,8 +227,10 @@ class ReducedDraw:
         state.PushFramebufferBindings()
         try:
             start_nearest_draw(state, self._fbo, *self.targets, size, (0.0, 0.0, 0.0, 0.0))
+            self._start_blending(state)
             with drawing_at((0, 0, *size)):
-                render(self.renderer)
+                for actor in members:
+                    getattr(actor, method)(self.renderer)
         finally:
             state.PopFramebufferBindings()
             state.Pop()

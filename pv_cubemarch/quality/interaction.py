@@ -150,10 +150,14 @@ def reduce_pixels(binding, factor: int) -> None:
     """Draw ``binding``'s actor at 1/``factor`` of the viewport (made at the first need)."""
     reduced = getattr(binding, "reduced", None)
     if reduced is None and factor > 1:
-        # a translucent actor (a surface, a directly marched volume) is drawn reduced after
-        # the opaque props, from the overlay (ReducedDraw)
-        reduced = binding.reduced = ReducedDraw(binding.renderer, binding.drawn[0])
-        binding.extra_release.append(reduced.release)
+        make = getattr(binding, "make_reduced_draw", None)
+        if make is not None:   # many actors drawn as one (a world's chunks): its own
+            reduced = binding.reduced = make()
+        else:
+            # a translucent actor (a surface, a directly marched volume) is drawn reduced
+            # after the opaque props, from the overlay (ReducedDraw)
+            reduced = binding.reduced = ReducedDraw(binding.renderer, binding.drawn[0])
+            binding.extra_release.append(reduced.release)
     if reduced is not None:
         reduced.factor = int(factor)
         layers = getattr(binding, "layers", None)   # translucent labels: drawn as reduced

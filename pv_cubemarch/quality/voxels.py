@@ -18,7 +18,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..models.chunk_pool import world_filled_bounds
-from .interaction import check_frame_budget
 from .ladders import Rung
 from .probe import ProbeCalibration, margined_bounds
 from .targets import QualityTarget, parse_quality
@@ -77,26 +76,6 @@ def check_opaque(model) -> None:
         raise ValueError("quality= measures against the voxel reference, which draws labels "
                          "opaque or hidden; this grid has translucent labels (opacity "
                          "between 0 and 1): leave quality out, or make them opaque.")
-
-
-def check_voxel_budget(frame_budget_ms, per_chunk: str | None = None) -> None:
-    """Refuse a frame budget a grid's moving frames cannot be held to.
-
-    The budget draws the grid at fewer pixels (its opaque actor, and its translucent
-    labels' layers, into reduced targets): a grid drawn whole, or a world drawn by one
-    traversal over its chunk index; not a world drawn per chunk (``per_chunk``: why it is).
-    """
-    if frame_budget_ms is None:
-        return
-    check_frame_budget(frame_budget_ms, "voxels")
-    if per_chunk is not None:
-        chosen = per_chunk.startswith("world_traversal=")
-        raise ValueError("frame_budget_ms draws one traversal at fewer pixels while the view "
-                         f"moves; this world is drawn by a box per chunk ({per_chunk}): "
-                         "leave the budget out, or " + (
-                             "draw it with world_traversal='index'." if chosen else
-                             "give it what one traversal needs (world_traversal='index': a "
-                             "power-of-two chunk_size, no distance_field, proxy='box')."))
 
 
 @dataclass

@@ -32,6 +32,7 @@ from ..gl.box import camera_matrices
 from ..gl.face_depth import FaceDepthPass
 from ..gl.handle import DrawnBinding, Placement
 from ..gl.overlay import bounds_proxy
+from ..gl.reduced_group import ReducedGroup
 from ..gl.textures import Texture
 from ..models.voxel_shell import occupied_bricks
 from ..models.voxels import palette_texels
@@ -87,6 +88,10 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         self._corners_for = None
         self._hidden: list[VoxelBinding] = []
         self._ordered_for = None
+        #: A frame budget's draw of the chunks at fewer pixels (made at its first need),
+        #: and of their translucent layers, following it.
+        self.reduced: ReducedGroup | None = None
+        self._reduced_layers: ReducedGroup | None = None
         self._order_tag = observe(renderer, vtk.vtkCommand.StartEvent, self._order_chunks)
         try:
             for key in sorted(set(world.stored) | set(world.uniform)):
@@ -107,6 +112,10 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
     def release_passes(self) -> None:
         """Free the shared passes and stop ordering (the chunks are freed on their own)."""
         self.renderer.RemoveObserver(self._order_tag)
+        for reduced in (self.reduced, self._reduced_layers):
+            if reduced is not None:
+                reduced.release()
+        self.reduced = self._reduced_layers = None
         self.chunk_layers.release()
         if self.depth is not None:
             self.depth.release()
@@ -122,6 +131,27 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         for chunk in self.chunks.values():
             chunk.options = replace(chunk.options, clip_planes=self.options.clip_planes)
             chunk.follow_clip_planes(remake)
+
+    def make_reduced_draw(self) -> ReducedGroup:
+        """The chunks drawn at fewer pixels as one (a frame budget's), freed with the world.
+
+        Their translucent layers, where composited, follow its reduction; the chunks' rays
+        start at their boxes then, and do not end at the occluders' faces (both drawn at
+        the full viewport).
+        """
+        self.reduced = ReducedGroup(self.renderer, self.anchor,
+                                    lambda: [c.drawn[0] for c in self.chunks.values()])
+        if self.composites:
+            self._reduced_layers = ReducedGroup(
+                self.renderer, self.anchor, lambda: [c.layers.actor for c in self.chunks.values()
+                                                     if c.layers is not None],
+                follows=self.reduced, translucent=True)
+        return self.reduced
+
+    @property
+    def reduced_bytes(self) -> int:
+        """GPU bytes of the reduced draws' targets."""
+        return sum(r.nbytes for r in (self.reduced, self._reduced_layers) if r is not None)
 
     def _opaque_entries(self) -> np.ndarray:
         """The palette the chunks' opaque actors read (translucent hidden if composited)."""
@@ -301,7 +331,8 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         """GPU bytes of every chunk and the occluders, the shared depth pass counted once."""
         full = self.chunk_layers.palette   # the layers' palette, shared
         total = (sum(c.nbytes for c in self.chunks.values()) + self.occluders.nbytes
-                 + self.palette_texture.nbytes + (full.nbytes if full is not None else 0))
+                 + self.palette_texture.nbytes + (full.nbytes if full is not None else 0)
+                 + self.reduced_bytes)
         shells = sum(1 for c in self.chunks.values() if c.shell is not None)
         return total - max(shells - 1, 0) * (self.depth.nbytes if self.depth else 0)
 
@@ -415,10 +446,11 @@ class WorldPasses(DrawnBinding):
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes of the occluders' pass, the shared shell pass and the layers' palette."""
+        """GPU bytes of its passes: occluders, shells, layers' palette, reduced targets."""
         full = self.world.chunk_layers.palette
         return self.world.occluders.nbytes + (self.world.depth.nbytes if self.world.depth
-                                              else 0) + (full.nbytes if full is not None else 0)
+                                              else 0) + (full.nbytes if full is not None
+                                                         else 0) + self.world.reduced_bytes
 
     def release_resources(self) -> None:
         """The world's shared passes (the chunks are tracked and freed on their own)."""

@@ -488,7 +488,9 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
                              lambda: 0.0 if drawing_reduced() else shell.start_at_shell)
     if occluders is not None:
         bindings.add_texture("cm_occluderDepth", occluders.depth)
-        bindings.set_uniform("cm_useOccluders", lambda: occluders.use)
+        # a reduced draw's rays run on: the occluders' depth is the full viewport's
+        bindings.set_uniform("cm_useOccluders",
+                             lambda: 0.0 if drawing_reduced() else occluders.use)
     recipe_args = (shell.level if shell is not None else None, layout[:2], occluders is not None)
     recipe = voxel_recipe(options, *recipe_args)
     bindings.install(recipe, actor)
