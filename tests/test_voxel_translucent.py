@@ -20,6 +20,7 @@ import pytest
 import pyvista as pv
 from conftest import light_with_sun_and_lamp, rotated_mirrored_placement, set_camera
 from test_pyvista_parity import psnr
+from test_voxels import random_labels
 
 import pv_cubemarch as cm
 from pv_cubemarch.reference.voxel_layers import render_voxel_layers
@@ -536,3 +537,33 @@ def test_depth_peeling_keeps_faces_and_says_when_it_cannot():
     with pytest.warns(UserWarning, match="depth peeling"):
         cm.render_image(pl)
     pl.close()
+
+
+def test_where_a_translucent_ray_starts_changes_no_face_it_meets(plotter_factory):
+    # The layers' rays start at the box, or at a clip plane that cuts only empty voxels
+    # away (the labels end 2-3 voxels below it): they cross the same voxels either way, so
+    # the image is the same to the pixel, grazing rays included (the views are ones where
+    # rays measured from their own start sent 2 pixels to another voxel: along z, and from
+    # 1e4 voxels away through a narrow view). The voxels themselves are held to the CPU
+    # reference above.
+    # catches (seen failing): each ray measured from its own start, not the box's planes
+    # (2 pixels in each view).
+    labels = random_labels((48, 40, 32), 0.02, seed=11).astype(np.uint8)
+    labels[:, :, 26:] = 0
+    palette = {1: ("tomato", 0.4), 2: ("steelblue", 0.5), 3: ("gold", 1.0)}
+    centre = np.asarray(labels.shape) / 2.0
+    views = {"along z": ((24.0, 20.0, 120.0), (24.0, 20.0, 0.0), 40.0),
+             "1e4 away": (tuple(centre + 1e4 * np.array([0.6, 0.45, 0.66])), tuple(centre),
+                          0.3)}
+    for name, (position, focal, angle) in views.items():
+        images = []
+        for planes in ({}, {"clip_planes": [0.0, 0.0, 28.0, 0.0, 0.0, -1.0]}):
+            pl = plotter_factory(SIZE)
+            pl.disable_anti_aliasing()
+            pl.ren_win.SetMultiSamples(0)
+            cm.add_voxels(pl, labels, palette=palette, shading="unlit", **planes)
+            set_camera(pl, position, focal, angle=angle)
+            images.append(cm.render_image(pl))
+            pl.close()
+        assert np.any(images[0] != images[0][0, 0], axis=-1).sum() > 2000, name   # in view
+        assert np.array_equal(images[1], images[0]), name

@@ -52,14 +52,19 @@
   }
   vec3 cm_towardEye = -normalize(cm_directionView);
   ivec3 cm_dims = ivec3(cm_gridDims);
-  vec3 cm_a = cm_origin + cm_direction * cm_start;
-  vec3 cm_d = cm_direction * (cm_end - cm_start);   // t in [0, 1] spans start..end
+  // The ray measured from where it meets the box's planes, as the opaque traversal's
+  // (voxel_fragment.glsl): t past the box's entry, so that the layers cross the voxels
+  // the opaque actor's rays do, from any start (the box, the near plane, a clip plane).
+  vec3 cm_a = cm_origin + cm_direction * cm_boxEntry;
+  vec3 cm_d = cm_direction;
+  float cm_tEnd = cm_end - cm_boxEntry;
   vec3 cm_moving = step(vec3(1e-30), abs(cm_d));
   vec3 cm_inverse = cm_moving / mix(vec3(1.0), cm_d, cm_moving);
   vec3 cm_never = 1e30 * (1.0 - cm_moving);
   vec3 cm_forward = step(vec3(0.0), cm_d);
   ivec3 cm_ahead = ivec3(cm_forward);
-  ivec3 cm_voxel = clamp(ivec3(floor(cm_a)), ivec3(0), cm_dims - 1);
+  ivec3 cm_voxel = cm_startVoxel(cm_a, cm_d, cm_inverse, cm_never, cm_forward,
+                                 cm_start - cm_boxEntry, cm_dims);
   vec4 cm_held = vec4(0.0);
   float cm_first = -1.0;   // the view depth of the first layer
   int cm_current = cm_layerMaterial(cm_voxel);
@@ -114,7 +119,7 @@
     int cm_axis = (cm_exits.x <= cm_exits.y && cm_exits.x <= cm_exits.z) ? 0
                   : (cm_exits.y <= cm_exits.z ? 1 : 2);
     float cm_t = min(cm_exits.x, min(cm_exits.y, cm_exits.z));
-    if (cm_t > 1.0)
+    if (cm_t > cm_tEnd)
     {
       // the opaque depth, the box's exit or a clip plane comes first: a plane's cut
       // through a translucent material is its last face
@@ -135,8 +140,8 @@
 #ifdef CM_LABEL_APRON
     int cm_material = cm_layerMaterial(cm_next);   // past the box: the neighbour's voxel
 #ifdef CM_CLIP_PLANES
-    if (cm_out && cm_clipKeeps(cm_origin + cm_direction * (mix(cm_start, cm_end, cm_t)
-                                                           + cm_nudge)) < 0.5)
+    if (cm_out && cm_clipKeeps(cm_origin + cm_direction * (cm_boxEntry + cm_t + cm_nudge))
+                  < 0.5)
     {
       cm_material = 0;   // a plane on the box's face clipped the neighbour away
     }
@@ -146,7 +151,7 @@
 #endif
     if (cm_material != cm_current)
     {
-      float cm_depth = mix(cm_start, cm_end, cm_t);
+      float cm_depth = cm_boxEntry + cm_t;
       vec3 cm_hitView = cm_originView + cm_directionView * cm_depth;
       int cm_face = 2 * cm_axis + cm_ahead[cm_axis];
       if (cm_first < 0.0 && (cm_current > 0 || cm_material > 0))
