@@ -321,16 +321,22 @@ def test_translucent_labels_stay_over_a_background_image_added_later(tmp_path):
     assert np.array_equal(frames[0][inside], frames[1][inside])
 
 
-def test_the_reduced_targets_are_counted_in_the_plotter_s_memory():
-    # RGBA8 colour and float32 depth at 1/2 of 240x180 across: 8 bytes a texel, by hand
-    # catches (seen failing): the targets left out of plotter.cubemarch.memory
-    plotter, actor = _voxel_plotter(SIZE, frame_budget_ms=1000.0)
+@pytest.mark.parametrize(("keywords", "texel"), [
+    ({}, 8),                                               # RGBA8 colour, float32 depth
+    ({"palette": TRANSLUCENT}, 8 + 4),                     # the layers: RGBA8 colour alone
+    ({"palette": TRANSLUCENT, "chunk_size": 8,             # the chunks' layers: RGBA32F
+      "world_traversal": "per_chunk"}, 8 + 16),
+])
+def test_the_reduced_targets_are_counted_in_the_plotter_s_memory(keywords, texel):
+    # bytes a texel by hand, at 1/2 of 240x180 across
+    # catches (seen failing): the targets left out of plotter.cubemarch.memory; a depth
+    # target allocated for a translucent draw, which tests no depth (4 bytes a texel more)
+    plotter, actor = _voxel_plotter(SIZE, frame_budget_ms=1000.0, **keywords)
     render_frame(plotter)
-    name = actor.cubemarch.name
-    before = plotter.cubemarch.memory[name]
+    before = sum(plotter.cubemarch.memory.values())
     KNOBS["pixels"].write(actor.cubemarch, 2.0)
     render_frame(plotter)
-    assert plotter.cubemarch.memory[name] - before == 8 * 120 * 90
+    assert sum(plotter.cubemarch.memory.values()) - before == texel * 120 * 90
     plotter.close()
 
 

@@ -24,6 +24,7 @@ from .sub_upload import read_red_floats
 NO_FACE = 1e30
 _R32F = 0x822E
 _DEPTH_AND_COLOR = 0x00000100 | 0x00004000
+_COLOR = 0x00004000
 _DEPTH_TEST, _BLEND, _LESS = 0x0B71, 0x0BE2, 0x0201
 
 
@@ -31,19 +32,25 @@ def start_nearest_draw(state, fbo, color, depth, size, clear) -> None:
     """Bind ``fbo`` with ``color`` and ``depth`` at ``size``, cleared, for the nearest face.
 
     The colour is cleared to ``clear``; the depth test keeps the nearest fragment, with
-    blending off. The caller pushes and pops the window's state and framebuffer bindings.
+    blending off. Without ``depth`` (None), every fragment is kept. The caller pushes and
+    pops the window's state and framebuffer bindings.
     """
     fbo.Bind()
     fbo.AddColorAttachment(0, color)
-    fbo.AddDepthAttachment(depth)
+    if depth is not None:
+        fbo.AddDepthAttachment(depth)
     fbo.ActivateDrawBuffers(1)
     fbo.Start(*size)
     state.vtkglClearColor(*clear)
+    state.vtkglDisable(_BLEND)
+    if depth is None:
+        state.vtkglDisable(_DEPTH_TEST)
+        state.vtkglClear(_COLOR)
+        return
     state.vtkglClearDepth(1.0)
     state.vtkglDepthMask(True)
     state.vtkglEnable(_DEPTH_TEST)
     state.vtkglDepthFunc(_LESS)
-    state.vtkglDisable(_BLEND)
     state.vtkglClear(_DEPTH_AND_COLOR)
 
 

@@ -10,8 +10,8 @@ pixels marched fall as ``factor**2``.
 
 A translucent actor (one VTK draws in its translucent pass) that draws each pixel once in
 straight alpha and stops at the frame's opaque depth (a grid's translucent labels, a
-translucent surface, a directly marched volume) is drawn so after the scene's opaque props
-instead: at the start of the scene overlay (:mod:`~pv_cubemarch.gl.overlay`), reading the
+translucent surface, a directly marched volume) is drawn so, into a colour target alone
+(nothing is depth-tested), after the scene's opaque props instead: at the start of the scene overlay (:mod:`~pv_cubemarch.gl.overlay`), reading the
 opaque depth copied there, its stand-in compositing the target over the frame in the
 overlay (after the main renderer's other translucent props, while the view moves).
 
@@ -130,8 +130,10 @@ class ReducedDraw:
 
     @property
     def nbytes(self) -> int:
-        """GPU bytes of the targets allocated now (RGBA8 colour, float32 depth)."""
-        return 8 * self._allocated[0] * self._allocated[1]
+        """GPU bytes of the targets allocated now (colour; float32 depth where opaque)."""
+        texel = 16 if self.color_type == vtk.VTK_FLOAT else 4
+        texel += 4 if self.overlay is None else 0
+        return texel * self._allocated[0] * self._allocated[1]
 
     def _on_start(self, *_) -> None:
         # a selection render (picking) draws the actor itself, the one that can be picked
@@ -196,26 +198,30 @@ class ReducedDraw:
         color = vtkTextureObject()
         color.SetContext(window)
         color.Allocate2D(size[0], size[1], 4, self.color_type)
-        depth = vtkTextureObject()
-        depth.SetContext(window)
-        depth.AllocateDepth(size[0], size[1], vtkTextureObject.Float32)
-        for texture in (color, depth):
+        self.targets = [color]
+        if self.overlay is None:   # the stand-in writes the depth; a translucent one none
+            depth = vtkTextureObject()
+            depth.SetContext(window)
+            depth.AllocateDepth(size[0], size[1], vtkTextureObject.Float32)
+            self.targets.append(depth)
+        for texture in self.targets:
             texture.SetMinificationFilter(vtkTextureObject.Nearest)
             texture.SetMagnificationFilter(vtkTextureObject.Nearest)
         self._fbo = vtkOpenGLFramebufferObject()
         self._fbo.SetContext(window)
-        self.targets, self._allocated, self._window = [color, depth], size, window
+        self._allocated, self._window = size, window
 
     def _start_blending(self, state) -> None:
         """After the targets are cleared and bound: how the members' fragments combine.
 
-        One actor draws each pixel once: the nearest fragment, blending off (as cleared).
+        One actor draws each pixel once: blending off (as cleared); where opaque, the nearest
+        fragment kept.
         """
 
     def _draw(self, members: list, method: str) -> None:
         """Each member's ``method(renderer)`` into the targets, cleared.
 
-        The colour is cleared to nothing, the depth to far.
+        The colour is cleared to nothing, the depth (where drawn opaque) to far.
         """
         window = self.renderer.GetRenderWindow()
         TextureUnitLedger.release_window(window)
@@ -226,7 +232,9 @@ class ReducedDraw:
         state.Push()
         state.PushFramebufferBindings()
         try:
-            start_nearest_draw(state, self._fbo, *self.targets, size, (0.0, 0.0, 0.0, 0.0))
+            depth = self.targets[1] if len(self.targets) > 1 else None
+            start_nearest_draw(state, self._fbo, self.targets[0], depth, size,
+                               (0.0, 0.0, 0.0, 0.0))
             self._start_blending(state)
             with drawing_at((0, 0, *size)):
                 for actor in members:

@@ -19,7 +19,7 @@ import vtk
 from .box import box_polydata
 from .reduced_draw import ReducedDraw
 
-_BLEND, _DEPTH_TEST, _LEQUAL = 0x0BE2, 0x0B71, 0x0203
+_BLEND, _LEQUAL = 0x0BE2, 0x0203
 _ONE, _SRC_ALPHA, _ONE_MINUS_SRC_ALPHA = 1, 0x0302, 0x0303
 
 
@@ -65,7 +65,6 @@ class ReducedGroup(ReducedDraw):
         if self.overlay is None:
             state.vtkglDepthFunc(_LEQUAL)
             return
-        state.vtkglDisable(_DEPTH_TEST)   # each member ends its rays at the opaque depth
-        state.vtkglEnable(_BLEND)
+        state.vtkglEnable(_BLEND)   # each member ends its rays at the opaque depth
         state.vtkglBlendFuncSeparate(_SRC_ALPHA, _ONE_MINUS_SRC_ALPHA, _ONE,
                                      _ONE_MINUS_SRC_ALPHA)
