@@ -11,9 +11,10 @@ pixels marched fall as ``factor**2``.
 A translucent actor (one VTK draws in its translucent pass) that draws each pixel once in
 straight alpha and stops at the frame's opaque depth (a grid's translucent labels, a
 translucent surface, a directly marched volume) is drawn so, into a colour target alone
-(nothing is depth-tested), after the scene's opaque props instead: at the start of the scene overlay (:mod:`~pv_cubemarch.gl.overlay`), reading the
-opaque depth copied there, its stand-in compositing the target over the frame in the
-overlay (after the main renderer's other translucent props, while the view moves).
+(nothing is depth-tested), after the scene's opaque props instead: at the start of the
+scene overlay (:mod:`~pv_cubemarch.gl.overlay`), reading the opaque depth copied there,
+its stand-in compositing the target over the frame in the overlay (after the main
+renderer's other translucent props, while the view moves).
 
 Under eye-dome lighting (PyVista's ``enable_eye_dome_lighting``), which shades each pixel
 from its neighbours' depths, the actor is drawn at full size: a reduced frame's blocks of
