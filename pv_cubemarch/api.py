@@ -42,7 +42,7 @@ from .quality.targets import parse_quality
 from .quality.volumes import check_quality_request, volume_calibration
 from .quality.voxels import (
     VoxelCalibration,
-    check_opaque,
+    check_translucent,
     check_voxel_quality,
     check_world_reference,
 )
@@ -913,7 +913,7 @@ def _lights_now(plotter: pyvista.Plotter, lights):
 
 def _check_voxel_quality(model, options) -> None:
     """Refuse ``quality=`` for a grid or world the voxel reference cannot draw as drawn."""
-    check_opaque(model)
+    check_translucent(model, _voxel_reference_look(options))
     if options.mode != "color":
         raise ValueError(f"quality= measures the colours a grid is drawn in; mode="
                          f"{options.mode!r} draws none: leave one of them out.")
@@ -1298,8 +1298,10 @@ def add_voxels(
         was measured (``bench voxels``). Its error against the CPU reference is measured
         over a frame of the window's size from the camera the view will have, and
         reported in ``actor.cubemarch.quality`` (``'exact'`` is met only when the
-        measurement shows the reference drawn: 45 dB or more). Opaque labels,
-        ``mode='color'``; not with ``traversal``, ``step_scale`` or ``lod``. A world (in
+        measurement shows the reference drawn: 45 dB or more). ``mode='color'``; not
+        with ``traversal``, ``step_scale`` or ``lod``. Translucent labels are measured
+        against the layered reference (their faces composited in depth order), without
+        ``show_edges`` or ``ambient_occlusion``, which it does not draw. A world (in
         chunks) is measured as drawn, against its filled voxels read whole (up to 2**27
         of them).
     frame_budget_ms : float, optional

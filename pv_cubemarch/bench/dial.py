@@ -280,10 +280,10 @@ def _orbit(name, technique, plotter, actor, frames, reference) -> InteractionRow
 
 def format_interaction(rows: list[InteractionRow]) -> str:
     """The orbits as a text table."""
-    lines = [f"{'scene':13}{'technique':10}{'budget':>7}{'frames':>7}{'within':>8}"
+    lines = [f"{'scene':16}{'technique':10}{'budget':>7}{'frames':>7}{'within':>8}"
              f"{'median ms':>10}  {'knob':11}{'still':>6}{'still ms':>9}{'PSNR':>7}  moving"]
     for r in rows:
-        lines.append(f"{r.scene:13}{r.technique:10}{r.budget_ms:7.0f}{r.moving_frames:7d}"
+        lines.append(f"{r.scene:16}{r.technique:10}{r.budget_ms:7.0f}{r.moving_frames:7d}"
                      f"{r.within_budget:8.0%}{r.median_moving_ms:10.1f}  {r.knob:11}"
                      f"{r.still_value:6g}{r.still_ms:9.1f}{r.still_psnr:7.1f}  {r.steps}")
     return "\n".join(lines)

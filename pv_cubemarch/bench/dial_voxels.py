@@ -11,11 +11,12 @@ from ..reference.voxels import render_voxels
 from .sort_last import segmentation
 from .voxels import scenes
 
-#: Voxel grids the orbits drive: a segmentation of uint32 balls, and terrain (whole, and
-#: as a world of 32³ chunks drawn by one traversal over its chunk index).
-VOXEL_SCENES = ("segmentation", "waves", "waves world")
+#: Voxel grids the orbits drive: a segmentation of uint32 balls, and terrain (whole, as a
+#: world of 32³ chunks drawn by one traversal over its chunk index, and by a box per chunk).
+VOXEL_SCENES = ("segmentation", "waves", "waves world", "waves per chunk")
 #: The keywords each scene is added with.
-VOXEL_KEYWORDS = {"waves world": {"chunk_size": 32}}
+VOXEL_KEYWORDS = {"waves world": {"chunk_size": 32},
+                  "waves per chunk": {"chunk_size": 32, "world_traversal": "per_chunk"}}
 
 
 def voxel_scene(name: str) -> pyvista.ImageData:

@@ -7,7 +7,8 @@ cheaper where measured (``bench voxels``: fixed steps 1.3-10x slower than the DD
 the DDA. Its error is still measured, on a probe frame of the window's size against the
 reference over that whole frame (0.4 s at 640x480), and reported as any choice is, so a
 drawing that differs from the reference is seen ('exact' too: met only when the
-measurement shows it).
+measurement shows it). Translucent labels are measured against the layered reference (the
+faces of every translucent material a ray crosses, composited in depth order).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..models.chunk_pool import world_filled_bounds
+from ..reference.voxel_layers import render_voxel_layers
 from .ladders import Rung
 from .probe import ProbeCalibration, margined_bounds
 from .targets import QualityTarget, parse_quality
@@ -69,13 +71,26 @@ def check_voxel_quality(quality, traversal: str, step_scale, lod: bool) -> Quali
     return target
 
 
-def check_opaque(model) -> None:
-    """Refuse ``quality=`` for a grid with translucent labels (the reference has none)."""
-    alpha = np.asarray(model.palette.rgba)[1:, 3]
-    if ((alpha > 0.0) & (alpha < 1.0)).any():
-        raise ValueError("quality= measures against the voxel reference, which draws labels "
-                         "opaque or hidden; this grid has translucent labels (opacity "
-                         "between 0 and 1): leave quality out, or make them opaque.")
+def has_translucent(palette) -> bool:
+    """Whether some label's opacity lies strictly between 0 and 1."""
+    alpha = np.asarray(palette.rgba)[1:, 3]
+    return bool(((alpha > 0.0) & (alpha < 1.0)).any())
+
+
+#: The keywords of the layered reference's look.
+LAYERED_LOOK = ("shading", "ambient", "specular", "specular_power", "clip_planes")
+#: The looks the layered reference (translucent labels) does not draw.
+NOT_LAYERED = ("show_edges", "ambient_occlusion")
+
+
+def check_translucent(model, look: dict) -> None:
+    """Refuse ``quality=`` for translucent labels with a look their reference lacks."""
+    if has_translucent(model.palette):
+        given = [name for name in NOT_LAYERED if look.get(name)]
+        if given:
+            raise ValueError(f"quality= measures translucent labels against the layered "
+                             f"reference, which draws no {' or '.join(given)}: leave "
+                             f"{' and '.join(given)} out, or make the labels opaque.")
 
 
 @dataclass
@@ -123,9 +138,13 @@ class VoxelCalibration(ProbeCalibration):
 
     def trace(self, camera, size, background, near, pixels) -> np.ndarray:
         labels, world_from_index = self._grid or self.traced_grid()
-        frame = self.reference(labels, world_from_index, self.model.palette.rgba,
-                               camera, size, background=background, near=near,
-                               lights=self.probe_lights(), **self.look)
+        look, reference = self.look, self.reference
+        if has_translucent(self.model.palette):   # composited in depth order, face by face
+            look = {k: v for k, v in look.items() if k in LAYERED_LOOK}
+            reference = render_voxel_layers
+        frame = reference(labels, world_from_index, self.model.palette.rgba, camera, size,
+                          background=background, near=near, lights=self.probe_lights(),
+                          **look)
         rows, columns = pixels
         return frame[rows, columns][None]
 
