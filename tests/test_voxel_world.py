@@ -533,3 +533,36 @@ def test_a_world_drawn_per_chunk_under_a_frame_budget_draws_its_chunks_reduced(
     assert not wrong.any(), wrong.sum()
     KNOBS["pixels"].write(actor.cubemarch, 1.0)
     assert np.array_equal(cm.render_image(pl).astype(int), still)
+
+
+def test_a_world_drawn_per_chunk_and_moved_is_drawn_reduced_where_it_now_stands(
+        plotter_factory):
+    # set_transform between reduced frames: the frame at 1/2 is the CPU traversal of the
+    # placed grid at half the size, and the world's actor reports its new bounds.
+    # catches (seen failing): the stand-in box taken from the world's bounds prop, which a
+    # placement left where it was (1090 of 3072 blocks wrong; found by a review); the prop
+    # not moved (its bounds those of the first placement)
+    labels = terrain_labels()
+    pl = plotter(plotter_factory, (128, 96))
+    actor = cm.add_voxels(pl, labels, mode="face", palette=PALETTE, chunk_size=16,
+                          world_traversal="per_chunk", frame_budget_ms=1000.0)
+    set_camera(pl, (-60.0, -50.0, 40.0), focal=(0.0, 10.0, 8.0), up=(0, 0, 1))
+    cm.render_image(pl)
+    KNOBS["pixels"].write(actor.cubemarch, 2.0)
+    cm.render_image(pl)
+    placement = rotated_mirrored_placement()
+    placement[:3, 3] = (10.0, -5.0, 3.0)
+    actor.cubemarch.set_transform(placement)
+    corners = np.array([[x, y, z, 1.0] for x in (0, 48) for y in (0, 40) for z in (0, 24)])
+    placed = (corners @ placement.T)[:, :3]
+    assert np.allclose(actor.GetBounds(), np.ravel([placed.min(0), placed.max(0)], "F"))
+    camera = set_camera(pl, (-60.0, -50.0, 40.0), focal=(0.0, 10.0, 8.0), up=(0, 0, 1))
+    reduced = cm.render_image(pl).astype(int)
+    hits = trace_voxels(labels, placement, camera, (64, 48),
+                        near=pl.camera.clipping_range[0], tie_tolerance=EDGE)
+    blocks = reduced.reshape(48, 2, 64, 2, 3)
+    whole = np.all(blocks == blocks[:, :1, :, :1], axis=(1, 3, 4))
+    wrong = np.any(blocks[:, 0, :, 0] != face_colors(hits).astype(int), axis=-1)
+    assert (hits.material > 0).mean() > 0.2 and whole.mean() > 0.97
+    wrong &= whole & ~hits.near_edge
+    assert not wrong.any(), wrong.sum()

@@ -142,7 +142,7 @@ class ReducedDraw:
         reduced = bool(members) and self.renderer.GetSelector() is None
         if reduced and render_pass_of(self.renderer, "vtkEDLShading") is not None:
             reduced = False
-            if not self._said_shading:
+            if not self._said_shading and self.follows is None:   # said by the one followed
                 self._said_shading = True
                 warn_user("Eye-dome lighting shades each pixel from its neighbours' depths: "
                           "moving frames are drawn at full size, not reduced, under the "
@@ -150,7 +150,7 @@ class ReducedDraw:
                           "move faster).")
         if not reduced:
             return
-        self._follow_actor()
+        self._follow_actor(members)
         self.stand_in.SetVisibility(True)
         width, height = drawn_viewport(self.renderer)[2:]
         self._size = (max(1, -(-width // self.factor)), max(1, -(-height // self.factor)))
@@ -181,7 +181,7 @@ class ReducedDraw:
             actor.SetVisibility(True)
         self._hidden = []
 
-    def _follow_actor(self) -> None:
+    def _follow_actor(self, members: list) -> None:
         """The stand-in takes the actor's geometry, placement and culled faces now."""
         geometry = self.actor.GetMapper().GetInput()
         if self.stand_in.GetMapper().GetInput() is not geometry:

@@ -27,6 +27,7 @@ import numpy as np
 from vtkmodules.vtkCommonCore import vtkCommand
 
 from ..core.frame_errors import observe
+from ..core.user_warnings import warn_user
 from ..gl.reduced_draw import ReducedDraw
 from .ladders import STEP_SCALES
 
@@ -347,6 +348,7 @@ class FrameBudget:
     _started: float | None = None
     _depth: int = 0
     _written: float | None = None
+    _said_over: bool = False
 
     def __post_init__(self):
         self.value = self.still
@@ -374,13 +376,8 @@ class FrameBudget:
         the further it reaches). A knob's coarseness is its value, or its inverse where
         cost grows with it (``power < 0``).
         """
-        sign = 1.0 if self.knob.power > 0 else -1.0
-
-        def coarseness(v: float) -> float:
-            return sign * v
-        values = sorted({*self.knob.ladder(self.still, self.binding), float(self.still)},
-                        key=coarseness)
-        allowed = [v for v in values if coarseness(v) >= coarseness(self.still)]
+        coarseness = self._coarseness
+        allowed = self._allowed()
 
         def finest_fitting(aim: float) -> float:
             wanted = value * (ms / (aim * self.budget_ms)) ** (1.0 / self.knob.power)
@@ -391,6 +388,35 @@ class FrameBudget:
             cautious = finest_fitting(REFINE_AIM)
             chosen = cautious if coarseness(cautious) < coarseness(value) else value
         return chosen
+
+    def _coarseness(self, value: float) -> float:
+        return value if self.knob.power > 0 else -value
+
+    def _allowed(self) -> list[float]:
+        """The values a moving frame may take: the ladder's, none finer than the still."""
+        values = {*self.knob.ladder(self.still, self.binding), float(self.still)}
+        return sorted((v for v in values
+                       if self._coarseness(v) >= self._coarseness(self.still)),
+                      key=self._coarseness)
+
+    def _say_if_over(self) -> None:
+        """Warn once when the last moving frames, all at the coarsest value, missed the budget.
+
+        Nothing coarser is left: the budget cannot be held by this knob (a cost it does not
+        move: a world's chunks, a slow device). ``binding.budget_hint``, if any, says what
+        would help.
+        """
+        last = self.frames[-PREDICT_FROM:]
+        coarsest = max(self._allowed(), key=self._coarseness)
+        if self._said_over or len(last) < PREDICT_FROM or not all(
+                f.moving and f.value == coarsest and f.ms > self.budget_ms for f in last):
+            return
+        self._said_over = True
+        hint = getattr(self.binding, "budget_hint", "")
+        warn_user(f"frame_budget_ms={self.budget_ms:g}: moving frames take "
+                  f"{min(f.ms for f in last):.0f} ms or more at the coarsest setting "
+                  f"({self.describe(coarsest)}); nothing coarser is left to hold the budget."
+                  + (f" {hint}" if hint else ""))
 
     def predicted_ms(self, value: float) -> float:
         """A frame's time at ``value``: the costliest of the last :data:`PREDICT_FROM`."""
@@ -431,6 +457,7 @@ class FrameBudget:
             return None
         self.frames.append(FrameRecord(self.moving, float(self.value), ms))
         del self.frames[:-1000]        # a long session keeps the last thousand
+        self._say_if_over()
         return self.frames[-1]
 
 

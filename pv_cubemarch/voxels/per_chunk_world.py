@@ -31,7 +31,7 @@ from ..core.rendering import needs_open_plotter
 from ..gl.box import camera_matrices
 from ..gl.face_depth import FaceDepthPass
 from ..gl.handle import DrawnBinding, Placement
-from ..gl.overlay import bounds_proxy
+from ..gl.overlay import bounds_proxy, place_bounds_proxy
 from ..gl.reduced_group import ReducedGroup
 from ..gl.textures import Texture
 from ..models.voxel_shell import occupied_bricks
@@ -55,6 +55,10 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
     """
 
     technique = "voxels"
+    #: What a frame budget that fewer pixels cannot hold says would help.
+    budget_hint = ("A world drawn by a box per chunk costs per chunk too, whatever the "
+                   "pixels: world_traversal='index' (a power-of-two chunk_size, no "
+                   "distance_field, proxy='box') draws it by one traversal.")
 
     def __init__(self, plotter, world: VoxelWorld, options: VoxelOptions, anchor):
         self.plotter = plotter
@@ -379,10 +383,15 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         self.chunk_layers.edited(box, rebuilt)
 
     def place(self, transform) -> None:
-        """Every chunk follows the world, and the solid faces that end its rays."""
+        """Every chunk follows the world, with the solid faces that end its rays.
+
+        So does the prop standing for it (its bounds: the camera's framing and clipping
+        range).
+        """
         for chunk in self.chunks.values():
             chunk.set_transform(transform)
         self.occluders.place()
+        place_bounds_proxy(self.anchor, self.model)
 
 
 #: Edge (voxels) of the blocks whose screen rectangles decide if a chunk is hidden: finer
