@@ -23,6 +23,7 @@ def numpy_matrix(matrix) -> np.ndarray:
 
 
 _GL_VIEWPORT = 0x0BA2
+_GL_DRAW_FRAMEBUFFER_BINDING = 0x8CA6
 
 
 def render_pass_of(renderer, class_name: str):
@@ -62,21 +63,6 @@ def props_size(renderer) -> tuple[int, int]:
     return supersampled_size(renderer) or tuple(drawn_viewport(renderer)[2:])
 
 
-def supersampling_now(renderer) -> tuple[int, int] | None:
-    """The size of the ``vtkSSAAPass`` framebuffer ``renderer``'s props draw into now.
-
-    None without one (:func:`supersampled_size`), or when the viewport set now is not
-    that framebuffer's (before or after the renderer draws, in another renderer, or in a
-    pass of ours).
-    """
-    size = supersampled_size(renderer)
-    if size is None:
-        return None
-    viewport = [0, 0, 0, 0]
-    renderer.GetRenderWindow().GetState().vtkglGetIntegerv(_GL_VIEWPORT, viewport)
-    return size if tuple(int(v) for v in viewport) == (0, 0, *size) else None
-
-
 #: Viewports a draw of ours into its own target set for the fragments (the innermost last).
 _drawing_at: list[tuple[int, int, int, int]] = []
 
@@ -110,10 +96,43 @@ def fragment_viewport(renderer) -> tuple[int, int, int, int]:
 def framebuffer_viewport(renderer) -> tuple[int, int, int, int]:
     """The renderer's viewport in the framebuffer VTK draws it into (its depth's texels).
 
-    :func:`drawn_viewport`, except inside a ``vtkSSAAPass`` (its enlarged framebuffer).
+    :func:`drawn_viewport`, except inside a render pass of VTK's own framebuffer
+    (:func:`pass_viewport_now`: supersampling, eye-dome lighting, SSAO).
     """
-    size = supersampling_now(renderer)
-    return drawn_viewport(renderer) if size is None else (0, 0, *size)
+    return pass_viewport_now(renderer) or drawn_viewport(renderer)
+
+
+def drawing_framebuffer(window) -> int:
+    """The GL name of the framebuffer bound for drawing now."""
+    name = [0]
+    window.GetState().vtkglGetIntegerv(_GL_DRAW_FRAMEBUFFER_BINDING, name)
+    return int(name[0])
+
+
+def pass_viewport_now(renderer) -> tuple[int, int, int, int] | None:
+    """The viewport set now in the framebuffer of a VTK pass drawing ``renderer``'s props.
+
+    PyVista's supersampling (``vtkSSAAPass``), eye-dome lighting (``vtkEDLShading``) and
+    SSAO (``vtkSSAOPass``) draw the props into a framebuffer of their own, from its
+    origin, then composite it into the window's: the scene's depth is read from, and
+    ``gl_FragCoord`` lies in, that framebuffer then. None while the window's framebuffer
+    is bound for drawing, in a draw of ours (:func:`drawing_at`), or where the viewport
+    set is not the pass's. Asked while the renderer draws (a shader's uniforms, a pass
+    within the frame).
+    """
+    window = renderer.GetRenderWindow()
+    framebuffer = window.GetRenderFramebuffer() if window is not None else None
+    if _drawing_at or framebuffer is None or render_pass_of(renderer, "vtkRenderPass") is None:
+        return None
+    if drawing_framebuffer(window) == framebuffer.GetFBOIndex():
+        return None
+    # the pass's framebuffer holds the renderer's props from its origin: its size that of
+    # the renderer (the supersampled size under vtkSSAAPass); another viewport is a
+    # framebuffer of ours (a cube map's atlas ...), in which the renderer's is meant
+    viewport = [0, 0, 0, 0]
+    window.GetState().vtkglGetIntegerv(_GL_VIEWPORT, viewport)
+    size = supersampled_size(renderer) or tuple(drawn_viewport(renderer)[2:])
+    return (0, 0, *size) if tuple(int(v) for v in viewport) == (0, 0, *size) else None
 
 
 def drawn_viewport(renderer) -> tuple[int, int, int, int]:

@@ -17,17 +17,9 @@ import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
 from ..core.frame_errors import observe
-from .box import drawn_viewport, supersampling_now
+from .box import drawing_framebuffer, drawn_viewport, pass_viewport_now
 
 _GL_READ_FRAMEBUFFER = 0x8CA8
-_GL_DRAW_FRAMEBUFFER_BINDING = 0x8CA6
-
-
-def drawing_framebuffer(window) -> int:
-    """The GL name of the framebuffer bound for drawing now."""
-    name = [0]
-    window.GetState().vtkglGetIntegerv(_GL_DRAW_FRAMEBUFFER_BINDING, name)
-    return int(name[0])
 
 
 #: ``GetObjectName()`` of props that only stand in for a volume's bounds (they draw nothing).
@@ -62,9 +54,8 @@ class SceneDepth:
 
     def ensure(self, window) -> vtkTextureObject:
         """The texture holding this frame's depth (or colour), copied if not yet."""
-        supersampled = supersampling_now(self.renderer)
-        x0, y0, width, height = drawn_viewport(self.renderer) if supersampled is None \
-            else (0, 0, *supersampled)
+        in_pass = pass_viewport_now(self.renderer)   # a VTK pass's framebuffer is bound
+        x0, y0, width, height = in_pass or drawn_viewport(self.renderer)
         if self.gl_object is None or self._size != (width, height) or self._window is not window:
             self.release()
             self.gl_object = vtkTextureObject()
@@ -82,12 +73,12 @@ class SceneDepth:
         # Read from the framebuffer VTK draws this frame into (another may be bound for
         # reading between renderers).
         state = window.GetState()
-        drawing = drawing_framebuffer(window) if supersampled is not None else None
+        drawing = drawing_framebuffer(window) if in_pass is not None else None
         state.PushReadFramebufferBinding()
         try:
             if drawing is None:
                 window.GetRenderFramebuffer().Bind(_GL_READ_FRAMEBUFFER)
-            else:   # the supersampling pass's framebuffer, which VTK does not hand out
+            else:   # the pass's framebuffer, which VTK does not hand out
                 state.vtkglBindFramebuffer(_GL_READ_FRAMEBUFFER, drawing)
             self.gl_object.CopyFromFrameBuffer(x0, y0, 0, 0, width, height)
         finally:
