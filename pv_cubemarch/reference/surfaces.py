@@ -141,7 +141,8 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
             ambiguous[rays] |= bracket.unsure & ~on_face
             depth[rays[on_face]] = t_in[rows[on_face]]
             refine = bracket.found & ~on_face   # bisected once the traversal is over
-            pending.append((rays[refine], cell[rows[refine]], bracket.lo[refine],
+            pending.append((rays[refine], bracket.along[refine], t_in[rows[refine]],
+                            (t_out - t_in)[rows[refine]], bracket.lo[refine],
                             bracket.hi[refine], bracket.f_lo[refine]))
             cell_hit[rays[found]] = cell[rows[found]]
             done[rows[found]] = True
@@ -152,9 +153,9 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
         keep = ~done & inside & (t_out < leave[going])
         going, cell, t_in, last_end = going[keep], cell[keep], t_out[keep], ends[keep]
     if pending:
-        rays, cells, lo, hi, f_lo = (np.concatenate(parts) for parts in zip(*pending,
-                                                                          strict=True))
-        depth[rays] = _bisect(field, cells, o[rays], d[rays], lo, hi, f_lo)
+        rays, along, t0, span, lo, hi, f_lo = (np.concatenate(parts) for parts in zip(
+            *pending, strict=True))
+        depth[rays] = _bisect(along, t0, span, lo, hi, f_lo)
     hit = np.isfinite(depth)
     point = np.full((n, 3), np.nan)
     normal = np.full((n, 3), np.nan)
@@ -186,6 +187,9 @@ class _Bracket:
     f_lo: np.ndarray
     start_value: np.ndarray
     end_value: np.ndarray
+    #: Per ray, the field along its segment as Bernstein coefficients of degree 6 in the
+    #: segment's parameter (0 at ``t0``, 1 at ``t1``): what the bisection evaluates.
+    along: np.ndarray | None = None
 
 
 def _first_bracket(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
@@ -205,7 +209,8 @@ def _first_bracket(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.n
     sampled = np.flatnonzero(~((along.min(axis=1) > margin) | (along.max(axis=1) < -margin)))
     n = len(cells)
     bracket = _Bracket(np.zeros(n, bool), np.zeros(n, bool), t1.copy(), t1.copy(),
-                       at_nodes[:, -1].copy(), at_nodes[:, 0].copy(), at_nodes[:, -1].copy())
+                       at_nodes[:, -1].copy(), at_nodes[:, 0].copy(), at_nodes[:, -1].copy(),
+                       along)
     if len(sampled):
         values = at_nodes[sampled] @ _INTERPOLATE
         for sample, node in _ON_NODE:
@@ -258,15 +263,20 @@ def _bracket_samples(values: np.ndarray, t0: np.ndarray, span: np.ndarray,
     return _Bracket(found, unsure, lo, hi, f_lo, values[:, 0], values[:, -1])
 
 
-def _bisect(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
-            lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray) -> np.ndarray:
-    """The roots bracketed in ``[lo, hi]``, by ``BISECTIONS`` halvings (all rays at once)."""
-    beta = field.cell_bernstein(cells)
+def _bisect(along: np.ndarray, t0: np.ndarray, span: np.ndarray, lo: np.ndarray,
+            hi: np.ndarray, f_lo: np.ndarray) -> np.ndarray:
+    """The roots bracketed in ``[lo, hi]``, by ``BISECTIONS`` halvings (all rays at once).
+
+    The field along each ray's segment is the degree-6 polynomial ``along`` holds
+    (Bernstein coefficients over ``[t0, t0 + span]``), evaluated at each midpoint.
+    """
     exact = f_lo == 0.0
     start = lo.copy()
+    weights = np.array([math.comb(6, i) for i in range(7)], dtype=np.float64) * along
     for _ in range(BISECTIONS):
         mid = 0.5 * (lo + hi)
-        f_mid = _at(beta, o, d, cells, mid[:, None])[:, 0]
+        u = np.clip((mid - t0) / np.where(span > 0, span, 1.0), 0.0, 1.0)[:, None]
+        f_mid = np.sum(weights * u ** _POWERS * (1.0 - u) ** _POWERS[::-1], axis=1)
         same = np.sign(f_mid) == np.sign(f_lo)
         lo = np.where(same, mid, lo)
         f_lo = np.where(same, f_mid, f_lo)
@@ -298,6 +308,8 @@ _INTERPOLATE = _lagrange(_NODES, _SAMPLES).T
 #: The Bernstein coefficients (degree 6 in the segment's parameter) from the nodes' values.
 _TO_BERNSTEIN = np.linalg.inv(np.stack([
     math.comb(6, i) * _NODES ** i * (1.0 - _NODES) ** (6 - i) for i in range(7)], axis=1))
+#: The Bernstein basis's powers of the parameter, degree 6.
+_POWERS = np.arange(7)
 #: Samples that are nodes (0, 1/4, 1/2, 3/4, 1): read as computed, not interpolated.
 _ON_NODE = [(int(n * BRACKETS), j) for j, n in enumerate(_NODES)
             if n * BRACKETS == int(n * BRACKETS)]
