@@ -366,7 +366,8 @@ def test_a_budget_fewer_pixels_cannot_hold_is_said_once(world):
     # scripted clock, 60 ms / reduction**2: a 2 ms budget is missed even at 1/4 (3.75 ms);
     # after three such frames a warning says so, once, with what would help for a world
     # drawn per chunk (its cost per chunk, which fewer pixels do not move: a review
-    # measured 800 chunks at 288 ms a frame at full size and 284 ms at 1/4)
+    # measured 800 chunks at 288 ms a frame at full size and 284 ms at 1/4; 164 and 166
+    # once the lights were placed once a frame)
     # catches (seen failing): frames over the budget in silence; said at every frame
     plotter, actor = _voxel_plotter(SIZE, **world)
     with pytest.warns(UserWarning, match="frame_budget_ms=2: moving frames take 4 ms") as seen:

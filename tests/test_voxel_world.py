@@ -566,3 +566,23 @@ def test_a_world_drawn_per_chunk_and_moved_is_drawn_reduced_where_it_now_stands(
     assert (hits.material > 0).mean() > 0.2 and whole.mean() > 0.97
     wrong &= whole & ~hits.near_edge
     assert not wrong.any(), wrong.sum()
+
+
+@pytest.mark.parametrize("keywords", [{}, {"chunk_size": 16, "world_traversal": "per_chunk"}])
+def test_lights_placed_once_a_frame_follow_the_camera(plotter_factory, keywords):
+    # The scene's lights are placed in view space once per frame for every shader that
+    # takes them (a world's chunks share them): after the camera moves, the frame is the
+    # one a new plotter draws from there, lit by PyVista's light kit.
+    # catches (seen failing): the lights kept from the first frame's view
+    labels = terrain_labels()
+    frames = []
+    for moved in (True, False):
+        pl = plotter(plotter_factory, (96, 72))
+        cm.add_voxels(pl, labels, palette=PALETTE, shading="blinn", **keywords)
+        if moved:
+            set_camera(pl, (70.0, -30.0, 30.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))
+            cm.render_image(pl)
+        set_camera(pl, (-30.0, 60.0, 40.0), focal=(24.0, 20.0, 8.0), up=(0, 0, 1))
+        frames.append(cm.render_image(pl).astype(int))
+    assert (frames[1].max(axis=-1) > 60).mean() > 0.2
+    assert np.array_equal(frames[0], frames[1])

@@ -113,18 +113,35 @@ class FramebufferDepth:
 
 
 class FrameInputs:
-    """Per renderer and frame: the shared depth copy and whether opaque props are drawn."""
+    """Per renderer and frame: the shared depth copy, whether opaque props are drawn.
+
+    Also values every binding of the frame shares (:meth:`per_frame`).
+    """
 
     def __init__(self, renderer):
         self.renderer = renderer
         self.depth = SceneDepth(renderer)
         self._opaque = None
+        #: The renderer's frames started so far (a tile of a large image is one).
+        self.frame = 0
+        self._per_frame: dict = {}
         # First among the renderer's observers: later ones see this frame's state.
         self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start, 10.0)
 
     def _on_start(self, *_):
         self.depth.mark_stale()
         self._opaque = None
+        self.frame += 1
+
+    def per_frame(self, key: str, compute):
+        """``compute()``, once per frame for ``key``: shared by every binding that asks.
+
+        A world of many chunks sets the same lights on each chunk's shader: placed once.
+        """
+        held = self._per_frame.get(key)
+        if held is None or held[0] != self.frame:
+            held = self._per_frame[key] = (self.frame, compute())
+        return held[1]
 
     def has_opaque_props(self) -> bool:
         """Whether the renderer draws an opaque prop that could stop rays (once per frame)."""

@@ -19,6 +19,7 @@ from ..core.frame_errors import observe
 from ..models.lights import VolumeLight
 from .bindings import ShaderBindings
 from .box import camera_matrices
+from .frame_inputs import frame_inputs
 
 #: Most scene lights a shader is lit by (two mat4 of light vectors and colours).
 MAX_LIGHTS = 8
@@ -36,27 +37,11 @@ def bind_scene_lights(bindings: ShaderBindings, renderer,
                       world_from_index: Callable[[], np.ndarray]) -> None:
     """Per-frame light uniforms: the scene's lights in view space, the normals' map.
 
-    The lights are read and placed once per frame (keyed on the frame count of the
-    bindings), however many uniforms take them.
+    The lights are read and placed once per frame of the renderer, however many uniforms
+    and bindings take them (:meth:`~.frame_inputs.FrameInputs.per_frame`).
     """
-    cache: dict = {}
-
     def frame_lights() -> dict:
-        if cache.get("frame") != bindings.frames_started:
-            view = camera_matrices(renderer)[0]
-            vectors, colors = np.zeros((4, 8)), np.zeros((4, 8))
-            lights = scene_lights(renderer)
-            for column, light in enumerate(lights):
-                if light.kind == "point":
-                    vectors[:, column] = view @ np.append(light.position, 1.0)
-                    vectors[3, column] = 1.0
-                else:
-                    toward = -np.asarray(light.direction, dtype=np.float64)
-                    vectors[:3, column] = view[:3, :3] @ (toward / np.linalg.norm(toward))
-                colors[:3, column] = light.radiance
-            cache.update(frame=bindings.frames_started, count=len(lights), vectors=vectors,
-                         colors=colors)
-        return cache
+        return frame_inputs(renderer).per_frame("scene lights", lambda: placed_lights(renderer))
 
     bindings.set_uniform("cm_lightCount", lambda: frame_lights()["count"])
     for half in (0, 1):
@@ -65,8 +50,24 @@ def bind_scene_lights(bindings: ShaderBindings, renderer,
                              lambda c=columns: frame_lights()["vectors"][:, c])
         bindings.set_uniform(f"cm_lightColors{half}",
                              lambda c=columns: frame_lights()["colors"][:, c])
-    bindings.set_uniform("cm_normalFromIndex", lambda: camera_matrices(renderer)[0][:3, :3]
+    bindings.set_uniform("cm_normalFromIndex", lambda: frame_lights()["view"][:3, :3]
                          @ np.linalg.inv(world_from_index()[:3, :3]).T)
+
+
+def placed_lights(renderer) -> dict:
+    """The scene's lights now, in view space, as the light uniforms take them."""
+    view = camera_matrices(renderer)[0]
+    vectors, colors = np.zeros((4, 8)), np.zeros((4, 8))
+    lights = scene_lights(renderer)
+    for column, light in enumerate(lights):
+        if light.kind == "point":
+            vectors[:, column] = view @ np.append(light.position, 1.0)
+            vectors[3, column] = 1.0
+        else:
+            toward = -np.asarray(light.direction, dtype=np.float64)
+            vectors[:3, column] = view[:3, :3] @ (toward / np.linalg.norm(toward))
+        colors[:3, column] = light.radiance
+    return {"count": len(lights), "vectors": vectors, "colors": colors, "view": view}
 
 
 #: Set on a light :func:`steady_headlights` turned from a headlight into a camera light.
