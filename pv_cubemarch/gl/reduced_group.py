@@ -4,10 +4,10 @@ A :class:`~.reduced_draw.ReducedDraw` whose members are the actors a callable re
 each frame (those shown, in the renderer's drawing order), drawn one after the other into
 the same targets, and shown at full size by one stand-in: the box of the members' bounds,
 its back faces drawn, so it covers every pixel any member draws, once, from a camera
-outside or inside it. Opaque members keep the nearest fragment,
-the later on a tie (as the renderer draws them); translucent members (each compositing its
-part of a ray in straight alpha, drawn far to near) are composited over each other into a
-float target, premultiplied, which the stand-in divides back.
+outside or inside it. Opaque members keep the nearest fragment, the later on a tie (as the
+renderer draws them); translucent members (each compositing its part of a ray in straight
+alpha, drawn far to near) are composited over each other into a float target,
+premultiplied, which the stand-in divides back.
 """
 
 from __future__ import annotations
