@@ -539,9 +539,9 @@ def test_a_world_drawn_per_chunk_and_moved_is_drawn_reduced_where_it_now_stands(
         plotter_factory):
     # set_transform between reduced frames: the frame at 1/2 is the CPU traversal of the
     # placed grid at half the size, and the world's actor reports its new bounds.
-    # catches (seen failing): the stand-in box taken from the world's bounds prop, which a
-    # placement left where it was (1090 of 3072 blocks wrong; found by a review); the prop
-    # not moved (its bounds those of the first placement)
+    # catches (seen failing): the world's bounds prop left where the first placement put it
+    # (its bounds those of that placement; the stand-in, its box, then cut the frame: 1090
+    # of 3072 blocks wrong; found by a review)
     labels = terrain_labels()
     pl = plotter(plotter_factory, (128, 96))
     actor = cm.add_voxels(pl, labels, mode="face", palette=PALETTE, chunk_size=16,

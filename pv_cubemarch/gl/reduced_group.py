@@ -2,19 +2,18 @@
 
 A :class:`~.reduced_draw.ReducedDraw` whose members are the actors a callable returns at
 each frame (those shown, in the renderer's drawing order), drawn one after the other into
-the same targets, and shown at full size by one stand-in: the box of the members' bounds,
-its back faces drawn, so it covers every pixel any member draws, once, from a camera
-outside or inside it. Opaque members keep the nearest fragment, the later on a tie (as the
-renderer draws them); translucent members (each compositing its part of a ray in straight
-alpha, drawn far to near) are composited over each other into a float target,
-premultiplied, which the stand-in divides back.
+the same targets, and shown at full size by one stand-in: the box of the bounds of
+``anchor`` (a prop spanning them all), its back faces drawn, so it covers every pixel any
+member draws, once, from a camera outside or inside it. Opaque members keep the nearest
+fragment, the later on a tie (as the renderer draws them); translucent members (each
+compositing its part of a ray in straight alpha, drawn far to near) are composited over
+each other into a float target, premultiplied, which the stand-in divides back.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
-import numpy as np
 import vtk
 
 from .box import box_polydata
@@ -27,7 +26,8 @@ _ONE, _SRC_ALPHA, _ONE_MINUS_SRC_ALPHA = 1, 0x0302, 0x0303
 class ReducedGroup(ReducedDraw):
     """Draw the actors ``members()`` returns at 1/``factor`` of the viewport, as one.
 
-    ``anchor``: the prop whose visibility the members follow (none is drawn while hidden).
+    ``anchor``: the prop spanning every member (placed as they are), whose visibility they
+    follow (none is drawn while hidden).
     """
 
     def __init__(self, renderer, anchor, members: Callable[[], list],
@@ -51,13 +51,12 @@ class ReducedGroup(ReducedDraw):
         return [prop for prop in ordered if id(prop) in shown]
 
     def _follow_actor(self, members: list) -> None:
-        """The stand-in is the box of the bounds of the members drawn, its back faces drawn.
+        """The stand-in is the box of the anchor's bounds, its back faces drawn.
 
-        They cover each pixel of the box once, from outside it or inside.
+        They cover each pixel of the box once, from outside it or inside. The anchor spans
+        every member and follows their placement: one read a frame, not one per member.
         """
-        boxes = np.array([member.GetBounds() for member in members])
-        bounds = (*np.ravel([[boxes[:, 2 * a].min(), boxes[:, 2 * a + 1].max()]
-                             for a in range(3)]),)
+        bounds = tuple(self.actor.GetBounds())
         if bounds != self._bounds:
             self._bounds = bounds
             self.stand_in.GetMapper().SetInputData(box_polydata(bounds[0::2], bounds[1::2]))

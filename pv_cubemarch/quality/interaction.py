@@ -407,9 +407,11 @@ class FrameBudget:
         would help.
         """
         last = self.frames[-PREDICT_FROM:]
-        coarsest = max(self._allowed(), key=self._coarseness)
         if self._said_over or len(last) < PREDICT_FROM or not all(
-                f.moving and f.value == coarsest and f.ms > self.budget_ms for f in last):
+                f.moving and f.ms > self.budget_ms for f in last):
+            return   # the ladder is read only for frames over the budget
+        coarsest = max(self._allowed(), key=self._coarseness)
+        if any(f.value != coarsest for f in last):
             return
         self._said_over = True
         hint = getattr(self.binding, "budget_hint", "")

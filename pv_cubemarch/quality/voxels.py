@@ -20,6 +20,7 @@ import numpy as np
 
 from ..models.chunk_pool import world_filled_bounds
 from ..reference.voxel_layers import render_voxel_layers
+from ..voxels.layers import translucent_materials
 from .ladders import Rung
 from .probe import ProbeCalibration, margined_bounds
 from .targets import QualityTarget, parse_quality
@@ -73,8 +74,7 @@ def check_voxel_quality(quality, traversal: str, step_scale, lod: bool) -> Quali
 
 def has_translucent(palette) -> bool:
     """Whether some label's opacity lies strictly between 0 and 1."""
-    alpha = np.asarray(palette.rgba)[1:, 3]
-    return bool(((alpha > 0.0) & (alpha < 1.0)).any())
+    return translucent_materials(palette.rgba).size > 0
 
 
 #: The keywords of the layered reference's look.
