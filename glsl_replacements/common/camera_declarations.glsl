@@ -12,3 +12,12 @@ vec3 cm_viewPoint(vec2 ndc, float windowDepth)
   vec4 point = cm_inverseProjection * vec4(ndc, windowDepth * 2.0 - 1.0, 1.0);
   return point.xyz / point.w;
 }
+
+// The view depth of a window depth (0: the near plane, 1: the far plane), from the
+// projection's entries: what the rasterizer clips against.
+float cm_viewDepthOf(float windowDepth)
+{
+  mat4 p = cm_projection;
+  float z = windowDepth * 2.0 - 1.0;
+  return p[3][3] == 0.0 ? p[3][2] / (z + p[2][2]) : (p[3][2] - z) / p[2][2];
+}

@@ -4,13 +4,6 @@
 // test in the space cm_textureFromView maps to, to the near and far planes, to the opaque
 // scene's depth, and (with CM_CLIP_PLANES) to what the clipping planes keep. The box is
 // [lo, hi]; sceneDepth is a window depth (1: nothing opaque).
-float cm_viewDepthOf(float windowDepth)
-{
-  mat4 p = cm_projection;
-  float z = windowDepth * 2.0 - 1.0;
-  return p[3][3] == 0.0 ? p[3][2] / (z + p[2][2]) : (p[3][2] - z) / p[2][2];
-}
-
 bool cm_screenRayBox(vec2 ndc, float sceneDepth, vec3 lo, vec3 hi,
                      out vec3 entry, out vec3 exit, out vec3 entryView, out vec3 exitView)
 {

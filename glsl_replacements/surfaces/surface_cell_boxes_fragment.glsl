@@ -1,4 +1,4 @@
-// requires: pixel_ray, slab, surface_records
+// requires: camera_declarations, pixel_ray, slab, surface_records
 // Active cells drawn as boxes (traversal 'cell_boxes'):
 // each fragment of an active cell's back faces marches its pixel's ray within that cell
 // only, from where the ray enters it (or the near plane: the camera inside the cell) to
@@ -17,6 +17,7 @@
   // in an axis-aligned parallel view); the polynomial extends smoothly past the cell.
   vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(-1e-4), vec3(1.0 + 1e-4));
   float cm_start = max(cm_span.x, cm_near);
+  cm_span.y = min(cm_span.y, cm_viewDepthOf(1.0));   // nothing past the far plane
   if (!(cm_span.y > cm_start))
   {
     discard;

@@ -1,4 +1,4 @@
-// requires: pixel_ray, slab
+// requires: camera_declarations, pixel_ray, slab
 // Polynomial surfaces: declarations. Cell (i, j, k) spans [i, i+1] x [j, j+1] x [k, k+1]
 // of cell space (cm_textureFromView maps view to it); its field is the quadratic tensor
 // Bernstein polynomial sum beta[a][b][c] B_a(u) B_b(v) B_c(w) in cell-local (u, v, w) in
@@ -135,5 +135,6 @@ bool cm_domainRay(out vec3 originView, out vec3 directionView, out vec3 origin,
   cm_fragmentRay(originView, directionView, origin, direction);
   span = cm_slab(origin, direction, vec3(0.0), cm_gridDims);
   span.x = max(span.x, cm_near);
+  span.y = min(span.y, cm_viewDepthOf(1.0));   // nothing past the far plane, as VTK clips
   return span.y > span.x;
 }

@@ -1,8 +1,10 @@
 // requires: camera_declarations, surface_declarations, surface_shade_hit, surface_traverse
+// requires: layer_output_declarations
 // Translucent surface (surface_layer_declarations says what it draws): each crossing up to
 // the opaque depth, found by the active cells' traversal from just past the one before
 // (cm_rootPast, or cm_nudge further), composited front to back until the ray is opaque
-// or CM_MAX_LAYERS crossings are taken. One block of main: cm_ names.
+// or CM_MAX_LAYERS crossings are taken. One block of main, where VTK sets the depth: cm_
+// names; the colour is written after VTK's lighting (layer_output.glsl).
   vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and cell space
   vec2 cm_span;
   if (!cm_domainRay(cm_originView, cm_directionView, cm_origin, cm_direction, cm_span))
@@ -49,6 +51,6 @@
   {
     discard;
   }
-  fragOutput0 = vec4(cm_held.rgb / cm_held.a, cm_held.a);
+  cm_layerColor = vec4(cm_held.rgb / cm_held.a, cm_held.a);
   vec4 cm_clip = cm_projection * vec4(cm_originView + cm_directionView * cm_first, 1.0);
   gl_FragDepth = clamp(cm_clip.z / cm_clip.w * 0.5 + 0.5, 0.0, 1.0);

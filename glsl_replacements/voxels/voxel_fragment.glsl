@@ -1,4 +1,4 @@
-// requires: pixel_ray, slab, voxel_declarations
+// requires: camera_declarations, pixel_ray, slab, voxel_declarations
 // Material grid on its box actor (opaque pass, back faces; after VTK's lighting, which it
 // replaces): this pixel's ray (pixel_ray.glsl) through the grid's box (cm_slab), from the
 // box, the near plane or the brick shell (its depth pass), traversed to the first drawn
@@ -34,6 +34,9 @@
   cm_inBox.x += cm_inBox.x > cm_box.x ? cm_nudge : 0.0;
   cm_inBox.y -= cm_inBox.y < cm_box.y ? cm_nudge : 0.0;
 #endif
+  // No hit past the far plane (as VTK clips a mesh there): the box is drawn pulled onto
+  // it (ea_box_vertex.glsl), and its rays end there.
+  cm_inBox.y = min(cm_inBox.y, cm_viewDepthOf(1.0));
   // From the box or the near plane; with the brick shell, from where the ray meets it
   // (every voxel before that is empty), and not at all where it meets none.
   float cm_start = max(cm_inBox.x, cm_near);

@@ -1,6 +1,7 @@
-// requires: camera_declarations, pixel_ray, slab, voxel_declarations, voxel_layer_declarations
+// requires: camera_declarations, pixel_ray, slab, voxel_declarations, voxel_layer_declarations,
+// requires: layer_output_declarations
 // Translucent materials: the layer actor's fragment (voxel_layer_declarations says what
-// it draws), after VTK's lighting, which it replaces.
+// it draws), where VTK sets the depth; its colour is written after VTK's lighting.
 {
   vec3 cm_originView, cm_directionView, cm_origin, cm_direction;   // view and index space
   cm_fragmentRay(cm_originView, cm_directionView, cm_origin, cm_direction);
@@ -182,7 +183,7 @@
   {
     discard;
   }
-  fragOutput0 = vec4(cm_held.rgb / cm_held.a, cm_held.a);
+  cm_layerColor = vec4(cm_held.rgb / cm_held.a, cm_held.a);
   vec4 cm_clip = cm_projection * vec4(cm_originView + cm_directionView * cm_first, 1.0);
   gl_FragDepth = clamp(cm_clip.z / cm_clip.w * 0.5 + 0.5, 0.0, 1.0);
 }

@@ -282,24 +282,3 @@ def bind_camera(target, renderer, world_from_texture: Callable[[], np.ndarray]) 
                        lambda: np.linalg.inv(camera_matrices(renderer)[1]))
     target.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
     target.set_uniform("cm_viewport", lambda: fragment_viewport(renderer))
-
-
-def faces_for_peeling(actor, renderer, world_from_index: np.ndarray) -> str:
-    """Which faces a translucent box draws this frame: ``'front'`` under depth peeling.
-
-    VTK's depth peeling tests each fragment's raster depth, not the depth it writes: the
-    box's back faces lose every pixel where an opaque prop lies inside the box. Its front
-    faces do not, and are drawn while the whole box lies beyond the near plane (else, the
-    camera inside or the near plane cutting the box, the back faces: the only ones there).
-    """
-    faces = "back"
-    if renderer.GetUseDepthPeeling():
-        lo = np.asarray(actor.GetMapper().GetInput().GetBounds()[::2])
-        hi = np.asarray(actor.GetMapper().GetInput().GetBounds()[1::2])
-        corners = np.array([[(lo, hi)[i >> a & 1][a] for a in range(3)] for i in range(8)])
-        view = camera_matrices(renderer)[0] @ np.asarray(world_from_index, dtype=np.float64)
-        depth = -(corners @ view[2, :3].T + view[2, 3])
-        near = renderer.GetActiveCamera().GetClippingRange()[0]
-        faces = "front" if depth.min() > near * 1.001 else "back"
-    cull(actor, world_from_index, faces)
-    return faces

@@ -7,8 +7,6 @@ its own state and ``release()``.
 
 from __future__ import annotations
 
-import warnings
-
 from ..core.rendering import needs_open_plotter
 from ..models.volume import checked_transform
 from .bindings import ShaderBindings
@@ -72,7 +70,6 @@ class DrawnBinding(Placement):
         #: run once at release after its own resources.
         self.extra_release: list = []
         self._released = False
-        self._peeling_said = False
 
     def recompile(self, recipe: ShaderRecipe) -> None:
         """Draw with ``recipe`` from the next frame: a feature switched in or out."""
@@ -97,20 +94,6 @@ class DrawnBinding(Placement):
         for actor in self.drawn:
             if actor is not self.actor:
                 actor.SetVisibility(shown)
-
-    def say_depth_peeling(self, what: str) -> None:
-        """Warn once, if the renderer peels depth, that its peels drop ``what``.
-
-        VTK's peels test each fragment's raster depth (the box's back face), not the depth
-        the fragment writes, against the opaque depth: wherever an opaque prop lies nearer
-        than the box's back face, what the box composites there is lost.
-        """
-        if self.shown and not self._peeling_said and self.renderer.GetUseDepthPeeling():
-            self._peeling_said = True
-            warnings.warn(f"{self.name!r}: depth peeling is on, and it drops {what}; turn "
-                          "it off (plotter.disable_depth_peeling()) to draw them.",
-                          stacklevel=3)
-
 
     def release(self) -> None:
         """Free what it holds on the GPU and its observers, then ``extra_release``; once."""

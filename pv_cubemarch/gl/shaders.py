@@ -183,15 +183,25 @@ class ShaderRecipe:
 
 def box_recipe(declarations: tuple[str, ...], fragment: str | tuple[str, ...],
                defines: dict | None = None, vertex: tuple[str, ...] = ("ea_box_vertex",),
-               vertex_declarations: tuple[str, ...] = ()) -> ShaderRecipe:
+               vertex_declarations: tuple[str, ...] = (), layers: bool = False
+               ) -> ShaderRecipe:
     """The shader of a box actor that marches its pixels: every technique's skeleton.
 
     ``declarations`` go before VTK's colour declarations, ``fragment`` runs where VTK's
     lighting would (after the fragment's own colour), and the box's vertex code places it;
-    ``vertex_declarations`` add to the vertex stage's.
+    ``vertex_declarations`` add to the vertex stage's. ``layers``: a translucent fragment
+    (writing ``cm_layerColor``) runs where VTK sets the depth instead, so that VTK's depth
+    peeling tests and sorts it by the depth it writes, and its colour is written after.
     """
-    replacements = [Replacement("//VTK::Color::Dec", tuple(declarations), keep_tag="after"),
-                    Replacement("//VTK::Light::Impl", fragment, keep_tag="before")]
+    if layers:
+        declarations = (*declarations, "layer_output_declarations")
+        replacements = [Replacement("//VTK::Color::Dec", tuple(declarations), keep_tag="after"),
+                        Replacement("//VTK::Depth::Impl", fragment, keep_tag="before"),
+                        Replacement("//VTK::Light::Impl", "layer_output", keep_tag="before")]
+    else:
+        replacements = [Replacement("//VTK::Color::Dec", tuple(declarations),
+                                    keep_tag="after"),
+                        Replacement("//VTK::Light::Impl", fragment, keep_tag="before")]
     if vertex_declarations:
         replacements.append(Replacement("//VTK::PositionVC::Dec", tuple(vertex_declarations),
                                         stage="vertex", keep_tag="after"))

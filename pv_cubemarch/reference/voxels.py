@@ -161,6 +161,7 @@ def trace_voxels(
     tie_tolerance: float = 1e-4,
     crop: Sequence[int] | None = None,
     clip_planes: Sequence | None = None,
+    far: float | None = None,
 ) -> VoxelHits:
     """Find the first visible filled voxel along every pixel's ray (exact float64 traversal).
 
@@ -189,6 +190,10 @@ def trace_voxels(
     clip_planes : sequence of (origin, normal), optional
         World planes keeping ``normal . (x - origin) >= 0``: each ray is cut to the part
         all keep (a ray starting on a plane inside a filled voxel hits it there, face -1).
+    far : float, optional
+        Distance along the view axis of the far clipping plane: a first hit past it is no
+        hit (nothing behind it is nearer). Hits within ``tie_tolerance`` voxel lengths (or
+        a millionth of ``far``) of it are flagged in ``near_edge``.
 
     Returns
     -------
@@ -212,7 +217,7 @@ def trace_voxels(
                                 np.asarray(world_from_index, dtype=np.float64) @ shift, camera,
                                 size, near=near, visible=visible,
                                 tie_tolerance=tie_tolerance, crop=crop,
-                                clip_planes=clip_planes)
+                                clip_planes=clip_planes, far=far)
             seen = hits.material > 0
             hits.index[seen] += low
             hits.point[seen] += low
@@ -336,6 +341,13 @@ def trace_voxels(
         if ids.size:
             raise RuntimeError("voxel traversal did not finish; this is a bug.")
 
+    if far is not None:
+        _, _, forward = camera.basis()
+        past = depth * (directions @ forward) - float(far)
+        voxel = np.linalg.norm(np.asarray(world_from_index, np.float64)[:3, :3], axis=0).min()
+        near_edge |= (material > 0) & (np.abs(past) <= max(tol * voxel, 1e-6 * abs(far)))
+        cut = (material > 0) & (past > 0)
+        material[cut], index[cut], face[cut], depth[cut] = 0, -1, -1, np.inf
     point = np.full((n_rays, 3), np.nan)
     seen = material > 0
     point[seen] = o_idx[seen] + depth[seen, None] * d_idx[seen]

@@ -28,7 +28,7 @@ import vtk
 from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import FloatArray, ShaderBindings
-from ..gl.box import bind_camera, box_actor, faces_for_peeling, place_box
+from ..gl.box import bind_camera, box_actor, place_box
 from ..gl.frame_inputs import frame_inputs
 from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
@@ -97,7 +97,8 @@ def surface_recipe(options: SurfaceOptions, technique: str, levels: int = 1) -> 
         ("camera_declarations", "slab", "pixel_ray", "surface_declarations", STORAGE[how],
          *root, *cells, *(("blinn_phong",) if lit else ()),
          *(("surface_color",) if options.color_by else ()), "surface_shade_hit",
-         *(("surface_layer_declarations",) if layers else ())), body, defines=defines)
+         *(("surface_layer_declarations",) if layers else ())), body, defines=defines,
+        layers=bool(layers))
 
 
 def cell_layout(technique: str, options: SurfaceOptions) -> tuple[int, int, int | None]:
@@ -168,15 +169,6 @@ class SurfaceBinding(DrawnBinding):
     def dense_bytes(self) -> int:
         """What a dense layout takes: 27 floats per cell of the grid."""
         return 27 * 4 * int(np.prod(self.model.dimensions))
-
-    def follow_anchor(self) -> None:
-        """At each frame: follow the returned actor; say what depth peeling drops."""
-        super().follow_anchor()
-        if self.options.translucent and faces_for_peeling(
-                self.drawn[0], self.renderer, self.model.world_from_index()) == "back":
-            self.say_depth_peeling("the translucent surface wherever an opaque prop lies "
-                                   "inside its domain box, while the camera or the near "
-                                   "plane is inside the box")
 
 
 def _domain_actor(field: SplineField) -> pyvista.Actor:

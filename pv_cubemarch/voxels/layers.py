@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..gl.bindings import ShaderBindings
-from ..gl.box import box_actor, faces_for_peeling, place_box
+from ..gl.box import box_actor, place_box
 from ..gl.frame_inputs import frame_inputs
 from ..gl.reduced_draw import ReducedDraw
 from ..gl.shaders import ShaderRecipe, box_recipe
@@ -59,7 +59,7 @@ def layers_recipe(options, level_axes: tuple[int, int], chunk_shift: int | None 
                  "CM_CLIP_PLANES": clip_count(options), "CM_CHUNK_INDEX": chunk_shift,
                  "CM_LABEL_APRON": apron or None, "CM_MIP_LEVELS": levels or None,
                  "CM_LEVEL_SLAB_AXIS": level_axes[0] if levels else None,
-                 "CM_LEVEL_ROW_AXIS": level_axes[1] if levels else None})
+                 "CM_LEVEL_ROW_AXIS": level_axes[1] if levels else None}, layers=True)
 
 
 class TranslucentLayers:
@@ -189,19 +189,9 @@ class LayerHost:
         return self.layers is not None
 
     def follow_layers_anchor(self) -> None:
-        """At each frame: the layers follow the returned actor's visibility.
-
-        Under VTK's depth peeling they lose their faces in front of opaque voxels (its
-        peels test the box's depth, not the layers'): said once.
-        """
-        if self.layers is None:
-            return
-        self.layers.actor.SetVisibility(self.shown)
-        if faces_for_peeling(self.layers.actor, self.renderer,
-                             self.layers.model.world_from_index()) == "back":
-            self.say_depth_peeling("the translucent materials' faces in front of opaque "
-                                   "voxels, while the camera or the near plane is inside "
-                                   "the grid's box")
+        """At each frame: the layers follow the returned actor's visibility."""
+        if self.layers is not None:
+            self.layers.actor.SetVisibility(self.shown)
 
     def release_layers(self) -> None:
         """Drop the layer actor, if any."""

@@ -332,11 +332,7 @@ class VoxelBinding(LabelState, ClipPlaneSetting, LayerHost, DrawnBinding):
         return TranslucentLayers(self, self.renderer, bind_grid)
 
     def follow_anchor(self) -> None:
-        """At each frame: the drawn actors and the layers follow the returned actor.
-
-        Under VTK's depth peeling the layers lose their faces in front of opaque voxels
-        (its peels test the box's depth, not the layers'): said once.
-        """
+        """At each frame: the drawn actors and the layers follow the returned actor."""
         super().follow_anchor()
         self.follow_layers_anchor()
 
