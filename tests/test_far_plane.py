@@ -41,9 +41,9 @@ def cut_near_focus(pl, before):
 @pytest.mark.parametrize("drawing", VOXEL_DRAWINGS)
 @pytest.mark.parametrize("parallel", [False, True])
 def test_voxels_past_the_far_plane_are_not_drawn(plotter_factory, drawing, parallel):
-    # catches (seen failing): rays not ended at the far plane (voxels past it drawn where
-    # the box's back faces lie before it: 600-700 pixels wrong per case); the box's back
-    # faces not pulled onto the plane (voxels before it lost where they lie past it).
+    # catches (seen failing): rays not ended at the far plane (voxels past it drawn: 452
+    # to 855 pixels wrong per case); the box's back faces not pulled onto the plane (the
+    # voxels before it lost where the faces lie past it: 387 to 811).
     labels = random_labels((24, 20, 16), 0.06, seed=7).astype(np.uint8)
     options = dict(VOXEL_DRAWINGS[drawing])
     clip = options.pop("clip_planes", None)
