@@ -54,7 +54,8 @@ def vtk_mapper_recipe(defines: dict, lit: bool, blending: str = "composite") -> 
     """
     return ShaderRecipe(
         replacements=[
-            Replacement("//VTK::Base::Dec", DECLARATION_SNIPPETS, keep_tag="after"),
+            Replacement("//VTK::Base::Dec", (*DECLARATION_SNIPPETS, "ea_vtk_shading_gradient"),
+                        keep_tag="after"),
             Replacement("//VTK::ComputeColor::Dec",
                         ("ea_vtk_declarations", *SCREEN_DECLARATIONS,
                          *march_snippets(blending, defines),
