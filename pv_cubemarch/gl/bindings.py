@@ -13,6 +13,7 @@ import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
 from ..core.frame_errors import observe
+from .frame_inputs import frame_inputs
 from .shaders import ShaderRecipe
 from .textures import Texture
 
@@ -46,6 +47,39 @@ def set_uniform(program, name: str, value: Any) -> None:
         program.SetUniformMatrix(name, matrix)
     else:
         raise ValueError(f"Uniform {name!r}: unsupported value shape {array.shape}.")
+
+
+def _same(held, value) -> bool:
+    """Whether ``value`` is what ``held`` was set from: the same read-only array, or equal."""
+    if held is value:
+        return not isinstance(value, np.ndarray) or not value.flags.writeable
+    if isinstance(value, np.ndarray) or isinstance(held, np.ndarray):
+        return False
+    return type(held) is type(value) and held == value
+
+
+class ProgramUniforms:
+    """What our bindings last set on each shader program in the current frame.
+
+    The chunks of a world share one program (the same source): a value they all set
+    alike (the projection, the lights, a constant) is set once a frame, not once a chunk.
+    Keyed by program and renderer, valid within one frame of that renderer (a frame of
+    another renderer, or the next, sets everything again).
+    """
+
+    _held: dict = {}
+
+    @classmethod
+    def of(cls, program, renderer, frame: int) -> dict:
+        """The values set on ``program`` during this ``frame`` of ``renderer``."""
+        key = (program.GetAddressAsString("vtkObject"),
+               renderer.GetAddressAsString("vtkObject"))
+        held = cls._held.get(key)
+        if held is None or held[0] != frame:
+            if len(cls._held) > 4096:   # programs and renderers long gone
+                cls._held.clear()
+            held = cls._held[key] = (frame, {})
+        return held[1]
 
 
 class TextureUnitLedger:
@@ -184,8 +218,13 @@ class ShaderBindings:
             gl_object = texture.ensure(window)
             ledger.hold(gl_object)
             program.SetUniformi(sampler, gl_object.GetTextureUnit())
+        held = ProgramUniforms.of(program, self.renderer, frame_inputs(self.renderer).frame)
         for name, value in self.uniforms.items():
-            set_uniform(program, name, value() if callable(value) else value)
+            value = value() if callable(value) else value
+            if name in held and _same(held[name], value):
+                continue
+            set_uniform(program, name, value)
+            held[name] = value
         self._bound_this_frame = True
         self.frames_bound += 1
 

@@ -172,9 +172,17 @@ def camera_matrices(renderer) -> tuple[np.ndarray, np.ndarray]:
     aspect = width / max(height, 1)
     view = numpy_matrix(camera.GetModelViewTransformMatrix())
     projection = numpy_matrix(camera.GetProjectionTransformMatrix(aspect, -1.0, 1.0))
-    view.flags.writeable = projection.flags.writeable = False
-    renderer.__dict__["_cubemarch_camera"] = (key, (view, projection))
+    inverses = np.linalg.inv(np.stack([view, projection]))
+    for matrix in (view, projection, inverses):
+        matrix.flags.writeable = False
+    renderer.__dict__["_cubemarch_camera"] = (key, (view, projection), inverses)
     return view, projection
+
+
+def inverse_camera_matrices(renderer) -> np.ndarray:
+    """``(2, 4, 4)``: the inverses of :func:`camera_matrices`, made with them, read-only."""
+    camera_matrices(renderer)
+    return renderer.__dict__["_cubemarch_camera"][2]
 
 
 def box_actor(upper, world_from_index: np.ndarray, margin: float = 0.0,
@@ -276,9 +284,15 @@ def bind_camera(target, renderer, world_from_texture: Callable[[], np.ndarray]) 
 
     ``world_from_texture`` gives the technique's texture-to-world matrix at draw time.
     """
-    target.set_uniform("cm_textureFromView", lambda: np.linalg.inv(
-        camera_matrices(renderer)[0] @ world_from_texture()))
-    target.set_uniform("cm_inverseProjection",
-                       lambda: np.linalg.inv(camera_matrices(renderer)[1]))
+    held = [None, None]   # the last placement and its inverse: a placement rarely changes
+
+    def texture_from_view():
+        placement = world_from_texture()
+        if held[0] is None or not np.array_equal(held[0], placement):
+            held[:] = [np.array(placement, dtype=np.float64), np.linalg.inv(placement)]
+        return held[1] @ inverse_camera_matrices(renderer)[0]
+
+    target.set_uniform("cm_textureFromView", texture_from_view)
+    target.set_uniform("cm_inverseProjection", lambda: inverse_camera_matrices(renderer)[1])
     target.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
     target.set_uniform("cm_viewport", lambda: fragment_viewport(renderer))

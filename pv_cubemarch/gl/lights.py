@@ -45,13 +45,17 @@ def bind_scene_lights(bindings: ShaderBindings, renderer,
 
     bindings.set_uniform("cm_lightCount", lambda: frame_lights()["count"])
     for half in (0, 1):
-        columns = slice(4 * half, 4 * half + 4)
-        bindings.set_uniform(f"cm_lightVectors{half}",
-                             lambda c=columns: frame_lights()["vectors"][:, c])
-        bindings.set_uniform(f"cm_lightColors{half}",
-                             lambda c=columns: frame_lights()["colors"][:, c])
-    bindings.set_uniform("cm_normalFromIndex", lambda: frame_lights()["view"][:3, :3]
-                         @ np.linalg.inv(world_from_index()[:3, :3]).T)
+        for name, key in (("Vectors", f"vectors{half}"), ("Colors", f"colors{half}")):
+            bindings.set_uniform(f"cm_light{name}{half}", lambda key=key: frame_lights()[key])
+    held = [None, None]   # the last placement and its normals' map: a placement rarely changes
+
+    def normal_from_index():
+        linear = np.asarray(world_from_index(), dtype=np.float64)[:3, :3]
+        if held[0] is None or not np.array_equal(held[0], linear):
+            held[:] = [linear.copy(), np.linalg.inv(linear).T]
+        return frame_lights()["view"][:3, :3] @ held[1]
+
+    bindings.set_uniform("cm_normalFromIndex", normal_from_index)
 
 
 def placed_lights(renderer) -> dict:
@@ -67,7 +71,13 @@ def placed_lights(renderer) -> dict:
             toward = -np.asarray(light.direction, dtype=np.float64)
             vectors[:3, column] = view[:3, :3] @ (toward / np.linalg.norm(toward))
         colors[:3, column] = light.radiance
-    return {"count": len(lights), "vectors": vectors, "colors": colors, "view": view}
+    placed = {"count": len(lights), "vectors": vectors, "colors": colors, "view": view}
+    for half in (0, 1):   # the halves the uniforms take, made once: read-only, shared
+        for name in ("vectors", "colors"):
+            part = np.ascontiguousarray(placed[name][:, 4 * half:4 * half + 4])
+            part.flags.writeable = False
+            placed[f"{name}{half}"] = part
+    return placed
 
 
 #: Set on a light :func:`steady_headlights` turned from a headlight into a camera light.
