@@ -132,3 +132,43 @@ def test_a_shaded_volume_in_vtk_s_mapper_draws_under_ssao_what_pyvista_draws():
     assert (images[0].max(axis=-1) > 30).mean() > 0.3   # the plane, shaded
     assert np.array_equal(images[0], images[1]), (np.abs(images[0] - images[1]).max(
         axis=-1) > 0).sum()
+
+
+def _peeled(what, size, shape=None):
+    """``what`` drawn with the plotter's depth peeling on (in subplot (0, 1) of ``shape``)."""
+    plotter = _plotter(size, shape)
+    if shape:
+        plotter.subplot(0, 1)
+    plotter.set_background("black")
+    plotter.enable_depth_peeling(number_of_peels=20, occlusion_ratio=0.0)
+    if what == "translucent surface":
+        grid = pv.ImageData(dimensions=(20, 20, 20), spacing=(2.0, 2.0, 1.0))
+        grid["f"] = np.linalg.norm(grid.points - grid.center, axis=1)
+        plotter.add_mesh(pv.Sphere(radius=5.0, center=grid.center), color="white")
+        plotter.cubemarch.add_surface(grid, isovalue=12.0, scalars="f", opacity=0.5,
+                                      color="tan")
+        plotter.camera_position = [(80.0, -40.0, 50.0), grid.center, (0, 0, 1)]
+    else:
+        _add(plotter, "translucent labels" if what == "translucent labels" else "volume")
+        _look(plotter)
+    image = cm.render_image(plotter).astype(int)
+    plotter.close()
+    return image[:, size[0] // 2:] if shape else image
+
+
+@pytest.mark.parametrize("what", ["translucent labels", "translucent surface",
+                                  "direct volume"])
+def test_a_subplot_under_depth_peeling_is_drawn_as_alone(what):
+    # VTK's depth peeling draws the translucent props into a framebuffer of its own, from
+    # its origin (no pass of PyVista's is set): a subplot's fragments lie there, not at
+    # its place in the window (gl/box.py peeling_viewport_now). The right subplot is the
+    # plotter of its size drawing the same view alone (held to the references elsewhere).
+    # catches (seen failing; found by a review): the subplot's place in the window used
+    # (pixels off: the labels 50 %, the surface 14 %, the volume 23 %: lost or misplaced).
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        half = _peeled(what, (2 * SIZE[0], SIZE[1]), shape=(1, 2))
+        alone = _peeled(what, SIZE)
+    assert (alone.max(axis=-1) > 30).mean() > 0.1
+    off = (np.abs(half - alone).max(axis=-1) > 8).mean()
+    assert off == 0.0, off

@@ -90,7 +90,26 @@ def fragment_viewport(renderer) -> tuple[int, int, int, int]:
     """
     if _drawing_at:
         return _drawing_at[-1]
-    return framebuffer_viewport(renderer)
+    return peeling_viewport_now(renderer) or framebuffer_viewport(renderer)
+
+
+def peeling_viewport_now(renderer) -> tuple[int, int, int, int] | None:
+    """The viewport of VTK's depth peeling framebuffer, while it draws translucent props.
+
+    With ``enable_depth_peeling()`` (and no pass of PyVista's) the renderer peels its
+    translucent props in a framebuffer of its own, from its origin: a subplot's fragments
+    lie there, not at its place in the window. (The scene's depth is still the window's:
+    :func:`framebuffer_viewport`.) None otherwise.
+    """
+    window = renderer.GetRenderWindow()
+    framebuffer = window.GetRenderFramebuffer() if window is not None else None
+    if (framebuffer is None or not renderer.GetUseDepthPeeling()
+            or render_pass_of(renderer, "vtkRenderPass") is not None
+            or drawing_framebuffer(window) == framebuffer.GetFBOIndex()):
+        return None
+    viewport = [0, 0, 0, 0]
+    window.GetState().vtkglGetIntegerv(_GL_VIEWPORT, viewport)
+    return tuple(int(v) for v in viewport)
 
 
 def framebuffer_viewport(renderer) -> tuple[int, int, int, int]:
