@@ -17,6 +17,12 @@
   }
   // Blended as straight alpha by VTK's translucent pass: out = rgb * a + (1 - a) * dst.
   fragOutput0 = vec4(cm_rgba.rgb / cm_rgba.a, cm_rgba.a);
+#ifdef CM_SSAO
+  // PyVista's SSAO reads each pixel's view position and normal: a translucent fragment
+  // gives none (alpha 0: the blend keeps what lies behind), not its box's face.
+  fragOutput1 = vec4(0.0);
+  fragOutput2 = vec4(0.0);
+#endif
   vec4 cm_clip = cm_projection * vec4(cm_entryView, 1.0);
   gl_FragDepth = clamp(cm_clip.z / cm_clip.w * 0.5 + 0.5, 0.0, 1.0);
 }

@@ -119,4 +119,22 @@
 #endif
   vec4 cm_clip = cm_projection * vec4(cm_hitView, 1.0);
   gl_FragDepth = clamp(cm_clip.z / cm_clip.w * 0.5 + 0.5, 0.0, 1.0);
+#if defined(CM_SSAO) && !defined(CM_LIGHTING)
+  // PyVista's SSAO reads each pixel's view position and normal; an unlit prop gives none,
+  // as VTK's unlit meshes (no normals) do: SSAO leaves it as it is.
+  fragOutput1 = vec4(0.0);
+  fragOutput2 = vec4(0.0);
+#elif defined(CM_SSAO)
+  // PyVista's SSAO reads each pixel's view position and normal: the hit's, and its
+  // entered face's (normals map by the transpose of index-from-view), not the box's.
+  vec3 cm_faceNormal = -normalize(cm_directionView);   // a ray starting inside its voxel
+  if (cm_face >= 0)
+  {
+    vec3 cm_indexNormal = vec3(0.0);
+    cm_indexNormal[cm_face / 2] = (cm_face & 1) == 1 ? -1.0 : 1.0;
+    cm_faceNormal = normalize(transpose(mat3(cm_textureFromView)) * cm_indexNormal);
+  }
+  fragOutput1 = vec4(cm_hitView, 1.0);
+  fragOutput2 = vec4(cm_faceNormal, 1.0);
+#endif
 }

@@ -6,6 +6,7 @@ A technique describes *what* to bind; this module is the only place that binds.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -13,6 +14,7 @@ import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
 from ..core.frame_errors import observe
+from .box import render_pass_of
 from .frame_inputs import frame_inputs
 from .shaders import ShaderRecipe
 from .textures import Texture
@@ -64,14 +66,15 @@ class ProgramUniforms:
     The chunks of a world share one program (the same source): a value they all set
     alike (the projection, the lights, a constant) is set once a frame, not once a chunk.
     Keyed by program and renderer, valid within one frame of that renderer (a frame of
-    another renderer, or the next, sets everything again).
+    another renderer, or the next, sets everything again): frames are told apart by
+    their serial, never reused, as addresses of freed programs and renderers are.
     """
 
     _held: dict = {}
 
     @classmethod
     def of(cls, program, renderer, frame: int) -> dict:
-        """The values set on ``program`` during this ``frame`` of ``renderer``."""
+        """The values set on ``program`` during ``frame`` (a serial) of ``renderer``."""
         key = (program.GetAddressAsString("vtkObject"),
                renderer.GetAddressAsString("vtkObject"))
         held = cls._held.get(key)
@@ -80,6 +83,14 @@ class ProgramUniforms:
                 cls._held.clear()
             held = cls._held[key] = (frame, {})
         return held[1]
+
+
+def under_ssao(renderer) -> bool:
+    """Whether PyVista's SSAO pass draws ``renderer`` (asked once a frame)."""
+    if renderer is None:
+        return False
+    return frame_inputs(renderer).per_frame(
+        "ssao", lambda: render_pass_of(renderer, "vtkSSAOPass") is not None)
 
 
 class TextureUnitLedger:
@@ -152,6 +163,8 @@ class ShaderBindings:
         self.frames_bound = 0
         self._bound_this_frame = False
         self._missed = False
+        self._installed_on: tuple = ()   # the actors the recipe is installed on
+        self._ssao = False               # whether it was installed with CM_SSAO
         self._observers = [
             (mapper, observe(mapper, vtk.vtkCommand.UpdateShaderEvent,
                              lambda caller, event, program: self._on_update(program),
@@ -163,8 +176,17 @@ class ShaderBindings:
         ]
 
     def install(self, recipe: ShaderRecipe, *actors) -> None:
-        """Draw ``actors`` with ``recipe`` from the next frame (its shaders compile then)."""
+        """Draw ``actors`` with ``recipe`` from the next frame (its shaders compile then).
+
+        Under PyVista's SSAO (``enable_ssao()``) the recipe gains ``CM_SSAO``: a fragment
+        then gives the pass its hit's position and normal (or, translucent, none of its
+        own), not its box's face; the shaders are built again when SSAO comes or goes.
+        """
         self.recipe = recipe
+        self._installed_on = actors
+        self._ssao = under_ssao(self.renderer)
+        if self._ssao:
+            recipe = replace(recipe, defines={**recipe.defines, "CM_SSAO": True})
         for actor in actors:
             recipe.apply(actor.GetShaderProperty())
 
@@ -204,6 +226,9 @@ class ShaderBindings:
         return sum(t.nbytes for t in self.textures.values())
 
     def _on_start(self, *_):
+        if self.recipe is not None and self._installed_on \
+                and under_ssao(self.renderer) != self._ssao:
+            self.install(self.recipe, *self._installed_on)
         self.frames_started += 1
         self._bound_this_frame = False
         self._missed = False
@@ -218,7 +243,7 @@ class ShaderBindings:
             gl_object = texture.ensure(window)
             ledger.hold(gl_object)
             program.SetUniformi(sampler, gl_object.GetTextureUnit())
-        held = ProgramUniforms.of(program, self.renderer, frame_inputs(self.renderer).frame)
+        held = ProgramUniforms.of(program, self.renderer, frame_inputs(self.renderer).serial)
         for name, value in self.uniforms.items():
             value = value() if callable(value) else value
             if name in held and _same(held[name], value):

@@ -13,6 +13,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
@@ -112,6 +114,9 @@ class FramebufferDepth:
         """Nothing: VTK owns it."""
 
 
+_SERIALS = itertools.count(1)
+
+
 class FrameInputs:
     """Per renderer and frame: the shared depth copy, whether opaque props are drawn.
 
@@ -124,6 +129,9 @@ class FrameInputs:
         self._opaque = None
         #: The renderer's frames started so far (a tile of a large image is one).
         self.frame = 0
+        #: This frame's number among every renderer's frames: never the same twice, in
+        #: any plotter (a new renderer, even at a freed one's address, counts on).
+        self.serial = 0
         self._per_frame: dict = {}
         # First among the renderer's observers: later ones see this frame's state.
         self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start, 10.0)
@@ -132,6 +140,7 @@ class FrameInputs:
         self.depth.mark_stale()
         self._opaque = None
         self.frame += 1
+        self.serial = next(_SERIALS)
 
     def per_frame(self, key: str, compute):
         """``compute()``, once per frame for ``key``: shared by every binding that asks.

@@ -621,12 +621,10 @@ class VolumeBinding(DrawnBinding):
             if hasattr(target, "set_recipe"):
                 target.set_recipe(recipe)
                 continue
-            target.recipe = recipe
             if target is self.bindings:
                 self.recipe = recipe
-            for actor in self.drawn:
-                if actor.GetMapper() is target.mapper:
-                    recipe.apply(actor.GetShaderProperty())
+            target.install(recipe, *(actor for actor in self.drawn
+                                     if actor.GetMapper() is target.mapper))
 
 
 def follow_placement(binding) -> None:

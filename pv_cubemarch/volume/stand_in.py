@@ -22,7 +22,10 @@ from .pyvista_keywords import scalar_bar_mapper
 
 _DRAWS_NOTHING = ShaderRecipe([Replacement("//VTK::ComputeClipPos::Impl",
                                            "stand_in_clip_position", stage="vertex",
-                                           keep_tag="before")])
+                                           keep_tag="before"),
+                               # what PyVista's SSAO adds to a volume's shader reads it
+                               Replacement("//VTK::Base::Dec", "ea_vtk_shading_gradient",
+                                           keep_tag="after")])
 
 
 def stand_in_volume(model) -> pyvista.Volume:
