@@ -13,8 +13,10 @@ from __future__ import annotations
 import numpy as np
 import pyvista
 import vtk
+from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLGL2PSHelper
 
 from ..core.frame_errors import observe
+from ..core.user_warnings import warn_user
 from .frame_inputs import PROXY_NAME, frame_inputs
 from .shaders import Replacement, ShaderRecipe
 
@@ -47,10 +49,20 @@ class SceneOverlay:
         self._window_tag = observe(self.window, vtk.vtkCommand.StartEvent, self._follow_layer)
 
     def _follow_layer(self, *_) -> None:
-        """Stay the layer above the main renderer's, which may move.
+        """Stay the layer above the main renderer's, which may move; none in a GL2PS export.
 
         PyVista's ``add_background_image`` puts it on layer 2: the overlay drew under it.
+        ``save_graphic`` (VTK's GL2PS exporter) crashed in the overlay's draw: the overlay
+        is left out of the file, and that is said.
         """
+        exporting = vtkOpenGLGL2PSHelper.GetInstance() is not None
+        if self.renderer is not None:
+            self.renderer.SetDraw(not exporting)
+            if exporting and self.renderer.GetActors().GetNumberOfItems():
+                warn_user("save_graphic (VTK's GL2PS export) cannot draw the volumes "
+                          "pv_cubemarch composites over the scene (technique='cubemap', "
+                          "'direct' with downsample > 1, frames under a frame budget): "
+                          "they are left out of the file; plotter.screenshot() keeps them.")
         layer = self.main.GetLayer() + 1
         if self.renderer is not None and self.renderer.GetLayer() != layer:
             self.window.SetNumberOfLayers(max(self.window.GetNumberOfLayers(), layer + 1))
