@@ -7,10 +7,13 @@ its own state and ``release()``.
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..core.rendering import needs_open_plotter
+from ..core.user_warnings import warn_user
 from ..models.volume import checked_transform
 from .bindings import ShaderBindings
-from .box import place_box
+from .box import numpy_matrix, place_box
 from .shaders import ShaderRecipe
 
 
@@ -87,13 +90,53 @@ class DrawnBinding(Placement):
         return self.actor is None or bool(self.actor.GetVisibility())
 
     def follow_anchor(self) -> None:
-        """At each frame: the drawn actors follow the visibility of the returned actor."""
+        """At each frame: the drawn actors follow the visibility of the returned actor.
+
+        Where the returned actor is the box itself, PyVista's placement of it follows too
+        (:meth:`follow_actor_placement`).
+        """
         if self.actor is None:
             return
         shown = bool(self.actor.GetVisibility())
         for actor in self.drawn:
             if actor is not self.actor:
                 actor.SetVisibility(shown)
+        if self.drawn and self.actor is self.drawn[0]:
+            self.follow_actor_placement()
+
+    def follow_actor_placement(self) -> None:
+        """PyVista's placement of the returned box actor moves what it draws, as a mesh's.
+
+        ``position``, ``orientation``, ``scale`` or ``user_matrix`` set on it move it as
+        they move a mesh of the same data.
+        The box is drawn in index space under its placement (``user_matrix`` = world from
+        index); a mesh's own ``user_matrix`` places its data and its position, orientation
+        and scale apply before that. So a changed actor is read as a mesh would be (its
+        ``user_matrix``, if not ours, as the data's placement, else the ``transform``;
+        then its position, orientation and scale), and :meth:`set_transform` places the
+        box again, with position, orientation and scale put back to none.
+        """
+        actor = self.actor
+        user = actor.GetUserMatrix()
+        placed = self.model.world_from_index()
+        ours = user is not None and np.array_equal(numpy_matrix(user), placed)
+        moved = (tuple(actor.GetPosition()) != (0.0, 0.0, 0.0)
+                 or tuple(actor.GetOrientation()) != (0.0, 0.0, 0.0)
+                 or tuple(actor.GetScale()) != (1.0, 1.0, 1.0))
+        if ours and not moved:
+            return
+        mine = numpy_matrix(user) if user is not None else np.eye(4)
+        pose = np.linalg.solve(mine, numpy_matrix(actor.GetMatrix()))   # position etc.
+        base = np.asarray(self.model.transform, dtype=np.float64) if ours else mine
+        actor.SetPosition(0.0, 0.0, 0.0)
+        actor.SetOrientation(0.0, 0.0, 0.0)
+        actor.SetScale(1.0, 1.0, 1.0)
+        actor.SetOrigin(0.0, 0.0, 0.0)
+        try:
+            self.set_transform(base @ pose)
+        except ValueError as error:   # cannot move alone: put the box back, and say why
+            place_box(actor, placed)
+            warn_user(f"{self.name!r} was not moved: {error}")
 
     def release(self) -> None:
         """Free what it holds on the GPU and its observers, then ``extra_release``; once."""
