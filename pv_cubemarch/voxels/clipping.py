@@ -52,6 +52,37 @@ class ClipPlaneSetting:
         planes = tuple(float(v) for v in np.ravel(values)) or None   # [] clears them too
         options = replace(self.options, clip_planes=planes)
         options.check()
+        self.own_planes = planes
+        self._draw_planes((planes or ()) + self.mapper_planes)
+
+    #: The planes ``clip_planes`` / :meth:`set_clip_planes` gave (None: as at add time).
+    own_planes: tuple | None = ()
+    #: The planes of the returned actor's mapper (PyVista's ``mapper.AddClippingPlane``,
+    #: a plane widget's), six numbers each, read at each frame.
+    mapper_planes: tuple = ()
+
+    def follow_mapper_planes(self, actor) -> None:
+        """At each frame: the returned actor's mapper's clipping planes cut the grid too.
+
+        VTK would cut the box itself (the rays of the pixels it drops lost, the rest
+        uncut): its clipping is left out of the box's shader (box_not_clipped.glsl), and
+        the planes, read here, cut the rays as ``clip_planes`` do.
+        """
+        planes = actor.GetMapper().GetClippingPlanes()
+        values: list[float] = []
+        for index in range(planes.GetNumberOfItems() if planes is not None else 0):
+            plane = planes.GetItem(index)
+            values += [*plane.GetOrigin(), *plane.GetNormal()]
+        found = tuple(float(v) for v in values)
+        if found != self.mapper_planes:
+            if self.own_planes == ():
+                self.own_planes = self.options.clip_planes
+            self.mapper_planes = found
+            self._draw_planes((self.own_planes or ()) + found)
+
+    def _draw_planes(self, planes: tuple) -> None:
+        """Draw with ``planes`` (six numbers each) from the next frame."""
+        options = replace(self.options, clip_planes=tuple(planes) or None)
         remake = clip_count(options) != clip_count(self.options)
         self.options = options
         self.follow_clip_planes(remake)
