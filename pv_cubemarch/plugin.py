@@ -16,6 +16,7 @@ from .api import add_surface, add_volume, add_voxels
 from .core.frame_errors import observe
 from .core.rendering import render_frame, render_image
 from .core.scalar_bar import drop_scalar_bar_mapper
+from .core.user_warnings import warn_user
 from .gl.frame_inputs import MultisamplePolicy, release_frame_inputs
 from .scene.io import load_scene
 from .scene.openvdb.image import read_vdb
@@ -48,6 +49,7 @@ class CubemarchComponent:
         self._multisampling = None
         self._user_oit: dict = {}
         self._bar_mappers: list = []   # (renderer, actor, mapper, keywords): bar and actor
+        self._gone: list = []          # (actor's weak reference, renderer, name): released
         if self._window is not None:
             self._multisampling = MultisamplePolicy(self._window)
             self._observers = [
@@ -75,6 +77,7 @@ class CubemarchComponent:
     def _follow_scene(self, *_) -> None:
         """Before a frame: drop removed volumes, follow the returned actors, window settings."""
         self.release_removed()
+        self._say_if_added_again()
         single_sample = False
         translucent: dict = {}
         for item in self._tracked:
@@ -101,6 +104,9 @@ class CubemarchComponent:
         for item in gone:
             item.release()
             self._tracked.remove(item)
+            if item.actor is not None:
+                self._gone = self._gone[-63:] + [
+                    (weakref.ref(item.actor), item.main_renderer, item.name)]
         for held in [h for h in self._bar_mappers if not h[0].HasViewProp(h[1])]:
             self._bar_mappers.remove(held)
             drop_scalar_bar_mapper(self._plotter, held[2])
@@ -109,6 +115,18 @@ class CubemarchComponent:
             if id(renderer) not in in_use:
                 release_frame_inputs(renderer)   # the shared depth copy goes with the last
         return gone
+
+    def _say_if_added_again(self) -> None:
+        """Warn where an actor removed (what it drew released) was added again: it draws nothing."""
+        for entry in list(self._gone):
+            actor, renderer, name = entry
+            actor = actor()
+            if actor is None or renderer.HasViewProp(actor):
+                self._gone.remove(entry)
+            if actor is not None and renderer.HasViewProp(actor):
+                warn_user(f"{name!r} was removed from the plotter, which released what it "
+                          "drew, and was added again: it draws nothing. Add the data "
+                          "again (add_volume, add_voxels, add_surface) instead.")
 
     def add_volume(self, volume, scalars=None, **kwargs):
         """Same as :func:`pv_cubemarch.add_volume` on this plotter."""

@@ -625,3 +625,30 @@ def test_subplots_sharing_a_program_each_draw_their_own_view():
             assert (hits.material > 0).mean() > 0.1
             assert wrong.sum() == 0, (turn, column, int(wrong.sum()))
     pl.close()
+
+
+@pytest.mark.parametrize("add", ["voxels", "world", "surface", "volume"])
+def test_an_actor_removed_and_added_again_is_said_to_draw_nothing(add):
+    # remove_actor releases what the actor drew (textures, passes): PyVista's add_actor of
+    # it afterwards draws nothing, which is said (found by a review: it was silent).
+    # catches (seen failing): no warning.
+    labels = random_labels((24, 20, 16), 0.03, seed=31).astype(np.uint8)
+    plotter = offscreen_plotter((64, 48))
+    if add in ("voxels", "world"):
+        actor = cm.add_voxels(plotter, labels, palette=PALETTE,
+                              **({"chunk_size": 8} if add == "world" else {}))
+    elif add == "surface":
+        grid = pv.ImageData(dimensions=(12, 12, 12))
+        grid["r"] = np.linalg.norm(grid.points - grid.center, axis=1)
+        actor = plotter.cubemarch.add_surface(grid, isovalue=4.0, scalars="r")
+    else:
+        grid = pv.ImageData(dimensions=(12, 12, 12))
+        grid["d"] = np.linalg.norm(grid.points - grid.center, axis=1)
+        actor = cm.add_volume(plotter, grid, scalars="d", technique="direct")
+    cm.render_image(plotter)
+    plotter.remove_actor(actor)
+    cm.render_image(plotter)
+    with pytest.warns(UserWarning, match="was removed from the plotter.*draws nothing"):
+        plotter.add_actor(actor)   # PyVista draws a frame there
+        cm.render_image(plotter)
+    plotter.close()
