@@ -13,8 +13,10 @@ import warnings
 
 import numpy as np
 import pyvista
+import vtk
 
 from .core.errors import RefusedOptionsError, VolumeDataError
+from .core.frame_errors import observe
 from .core.mesh_keywords import SURFACE as SURFACE_REFUSED
 from .core.mesh_keywords import VOXELS as VOXEL_REFUSED
 from .core.mesh_keywords import refuse_mesh_keywords, shading_for_lighting
@@ -570,6 +572,7 @@ def add_volume(
     binding.blending = blending
     binding.isosurfaces = isosurfaces   # as given (data units, or a count)
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
+    _say_edits_of(binding, volume)
     actor.SetPickable(bool(pickable))
     spec = getattr(model.transfer, "spec", None)
     binding.returned_property = ReturnedProperty(
@@ -859,6 +862,28 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
     if getattr(actor, "cubemarch", None) is not binding:
         pyvista.set_new_attribute(actor, "cubemarch", binding)
     return actor
+
+
+def _say_edits_of(binding, source) -> None:
+    """Warn, once, if the dataset added is modified afterwards: what is drawn is a copy.
+
+    PyVista's mappers draw a dataset as it is at each frame; ours uploaded it once.
+    """
+    if not isinstance(source, vtk.vtkDataObject):
+        return
+    said = []
+
+    def modified(*_):
+        if not said:
+            said.append(True)
+            setter = "set_values" if getattr(binding, "technique", "") != "surfaces" else None
+            how = (f"actor.cubemarch.{setter}(...) draws new values"
+                   if setter and hasattr(binding, setter) else "add it again")
+            warn_user(f"{binding.name!r}: the dataset was modified after it was added, and "
+                      f"what is drawn is a copy of it as it was; {how}.")
+
+    tag = observe(source, vtk.vtkCommand.ModifiedEvent, modified)
+    binding.extra_release.append(lambda: source.RemoveObserver(tag))
 
 
 def _measure_voxels(plotter: pyvista.Plotter, actor, target, keep: dict, options) -> None:
@@ -1457,6 +1482,7 @@ def add_voxels(
             binding.opaque_because = _opaque_because(options)
             binding.say_drawn_opaque()
         actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
+        _say_edits_of(binding, grid)
         component.track(binding)
         _frame(plotter)
         if target is not None:   # measured with the grid drawn, framed as its actor is
@@ -1757,6 +1783,7 @@ def add_surface(
             m["setting"]["steps"]: m["psnr"] for m in (choice.measured if choice else [])
             if "steps" in m["setting"]})
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
+    _say_edits_of(binding, field)
     plotter.cubemarch.track(binding)
     if table is not None:
         if annotations:

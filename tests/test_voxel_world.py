@@ -3,6 +3,8 @@ for what holds voxels."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -651,4 +653,30 @@ def test_an_actor_removed_and_added_again_is_said_to_draw_nothing(add):
     with pytest.warns(UserWarning, match="was removed from the plotter.*draws nothing"):
         plotter.add_actor(actor)   # PyVista draws a frame there
         cm.render_image(plotter)
+    plotter.close()
+
+
+@pytest.mark.parametrize("add", ["voxels", "surface", "volume"])
+def test_a_dataset_modified_after_adding_is_said_to_be_drawn_as_it_was(add):
+    # PyVista draws a dataset as it is at each frame; ours draws the copy uploaded when it
+    # was added: editing the dataset in place afterwards is said, once, with the call that
+    # draws new values (found by a review: it was silent). A frame without edits says
+    # nothing. catches (seen failing): no warning.
+    plotter = offscreen_plotter((64, 48))
+    grid = pv.ImageData(dimensions=(12, 12, 12))
+    grid["v"] = np.linalg.norm(grid.points - grid.center, axis=1)
+    if add == "voxels":
+        labels = pv.ImageData(dimensions=(13, 13, 13))
+        labels.cell_data["m"] = (np.arange(12 ** 3) % 3).astype(np.uint8)
+        grid = labels
+        cm.add_voxels(plotter, grid, palette=PALETTE)
+    elif add == "surface":
+        plotter.cubemarch.add_surface(grid, isovalue=4.0, scalars="v")
+    else:
+        cm.add_volume(plotter, grid, scalars="v", technique="direct")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cm.render_image(plotter)
+    with pytest.warns(UserWarning, match="modified after it was added.*as it was"):
+        grid.active_scalars[:] = 0   # PyVista's arrays mark their dataset modified
     plotter.close()
