@@ -338,7 +338,7 @@ class VoxelBinding(LabelState, ClipPlaneSetting, LayerHost, DrawnBinding):
         """At each frame: drawn actors, layers and clipping planes follow the returned one."""
         super().follow_anchor()
         self.follow_layers_anchor()
-        if self.actor is not None:
+        if self.drawn and self.actor is self.drawn[0]:   # a grid drawn whole: its box
             self.follow_mapper_planes(self.actor)
 
     def place(self, transform) -> None:
