@@ -91,3 +91,37 @@ def test_a_surface_moves_as_pyvista_s_contour_of_it_moves(change):
     covered, expected = mine.max(axis=-1) > 127, theirs.max(axis=-1) > 127
     assert expected.mean() > 0.05 and (covered != (before.max(axis=-1) > 127)).mean() > 0.02
     assert (covered != expected).mean() < 0.01, (covered != expected).mean()
+
+
+@pytest.mark.parametrize("what", ["voxels", "surface"])
+def test_what_is_not_drawn_of_the_returned_actor_is_said(what):
+    # The returned actor's property opacity and colour (and a surface's mapper clipping
+    # planes) are not drawn: said once each, naming what draws them, instead of nothing
+    # changing (or the box being cut) in silence (found by a review). A frame without
+    # such a change says nothing.
+    # catches (seen failing): no warning for either.
+    import warnings
+
+    import vtk
+
+    plotter = pv.Plotter(off_screen=True, window_size=(64, 48))
+    if what == "voxels":
+        actor = cm.add_voxels(plotter, _labels(), palette=["black", "red", "lime", "blue"])
+    else:
+        actor = plotter.cubemarch.add_surface(_ball(), isovalue=1.0, scalars="r")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cm.render_image(plotter)
+        cm.render_image(plotter)
+    actor.prop.opacity = 0.5
+    hint = "set_label_color" if what == "voxels" else "add_surface"
+    with pytest.warns(UserWarning, match=f"opacity and colour .* not drawn.*{hint}"):
+        cm.render_image(plotter)
+    if what == "surface":
+        plane = vtk.vtkPlane()
+        plane.SetNormal(1.0, 0.0, 0.0)
+        plane.SetOrigin(*_ball().center)
+        actor.mapper.AddClippingPlane(plane)
+        with pytest.warns(UserWarning, match="clipping planes .* not drawn"):
+            cm.render_image(plotter)
+    plotter.close()

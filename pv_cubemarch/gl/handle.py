@@ -103,6 +103,34 @@ class DrawnBinding(Placement):
                 actor.SetVisibility(shown)
         if self.drawn and self.actor is self.drawn[0]:
             self.follow_actor_placement()
+            self.say_unfollowed_changes()
+
+    #: Where the returned actor's property (opacity, colour) is set instead, for the
+    #: warning that says it is not drawn.
+    look_hint = "add the data again with the opacity and colour wanted"
+    #: Whether the returned actor's mapper's clipping planes cut what it draws.
+    follows_mapper_planes = False
+
+    def say_unfollowed_changes(self) -> None:
+        """Once each: PyVista's calls on the returned box actor that are not drawn.
+
+        Its property's opacity and colour, and (where not followed) its mapper's clipping
+        planes: without this, they changed nothing, or cut the box, in silence.
+        """
+        actor = self.actor
+        prop = actor.GetProperty()
+        look = (prop.GetOpacity(), tuple(prop.GetColor()))
+        said = self.__dict__.setdefault("_unfollowed_said", {"look": look})
+        if look != said["look"] and "look said" not in said:
+            said["look said"] = True
+            warn_user(f"{self.name!r}: the opacity and colour set on the returned actor's "
+                      f"property are not drawn; {self.look_hint}.")
+        planes = actor.GetMapper().GetClippingPlanes()
+        if (not self.follows_mapper_planes and planes is not None
+                and planes.GetNumberOfItems() and "planes said" not in said):
+            said["planes said"] = True
+            warn_user(f"{self.name!r}: clipping planes added to the returned actor's mapper "
+                      "are not drawn (nothing of it is cut).")
 
     def follow_actor_placement(self) -> None:
         """PyVista's placement of the returned box actor moves what it draws, as a mesh's.

@@ -207,6 +207,10 @@ class VoxelPick:
 class VoxelBinding(LabelState, ClipPlaneSetting, LayerHost, DrawnBinding):
     """What ``actor.cubemarch`` holds for a material grid: model, textures, bindings."""
 
+    follows_mapper_planes = True
+    look_hint = ("each label's colour and opacity are the palette's: "
+                 "actor.cubemarch.set_label_color(ids, color=..., opacity=...)")
+
     technique = "voxels"
     # Under multisampling, a few pixels on the box's triangle edges kept one sample of four
     # from the background (tests/test_voxel_scenes.py): the window draws single-sampled
