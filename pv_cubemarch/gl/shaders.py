@@ -192,6 +192,8 @@ def box_recipe(declarations: tuple[str, ...], fragment: str | tuple[str, ...],
     ``vertex_declarations`` add to the vertex stage's. ``layers``: a translucent fragment
     (writing ``cm_layerColor``) runs where VTK sets the depth instead, so that VTK's depth
     peeling tests and sorts it by the depth it writes, and its colour is written after.
+    VTK's clipping of the box by its mapper's planes is left out: a plane cuts rays, not
+    the box (a grid's mapper planes: ``ClipPlaneSetting.follow_mapper_planes``).
     """
     if layers:
         declarations = (*declarations, "layer_output_declarations")
@@ -202,6 +204,7 @@ def box_recipe(declarations: tuple[str, ...], fragment: str | tuple[str, ...],
         replacements = [Replacement("//VTK::Color::Dec", tuple(declarations),
                                     keep_tag="after"),
                         Replacement("//VTK::Light::Impl", fragment, keep_tag="before")]
+    replacements.append(Replacement("//VTK::Clip::Impl", "box_not_clipped"))
     if vertex_declarations:
         replacements.append(Replacement("//VTK::PositionVC::Dec", tuple(vertex_declarations),
                                         stage="vertex", keep_tag="after"))

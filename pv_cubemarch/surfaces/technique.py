@@ -32,7 +32,7 @@ from ..gl.box import bind_camera, box_actor, place_box
 from ..gl.frame_inputs import frame_inputs
 from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
-from ..gl.shaders import Replacement, ShaderRecipe, box_recipe
+from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
 from ..models.surface import SplineField, active_cells
 from ..models.surface_bricks import BLOCK_SIZE, BRICK_SIZE, SurfaceBricks, surface_bricks
@@ -93,15 +93,12 @@ def surface_recipe(options: SurfaceOptions, technique: str, levels: int = 1) -> 
         defines["CM_MAX_LAYERS"] = MAX_LAYERS
         defines["CM_LEVELS"] = levels if levels > 1 else None
     body = ("surface_layers_fragment",) if layers else (FRAGMENT[how], "surface_hit")
-    recipe = box_recipe(
+    return box_recipe(
         ("camera_declarations", "slab", "pixel_ray", "surface_declarations", STORAGE[how],
          *root, *cells, *(("blinn_phong",) if lit else ()),
          *(("surface_color",) if options.color_by else ()), "surface_shade_hit",
          *(("surface_layer_declarations",) if layers else ())), body, defines=defines,
         layers=bool(layers))
-    # the mapper's clipping planes are not drawn (said), and do not cut the box either
-    recipe.replacements.append(Replacement("//VTK::Clip::Impl", "box_not_clipped"))
-    return recipe
 
 
 def cell_layout(technique: str, options: SurfaceOptions) -> tuple[int, int, int | None]:

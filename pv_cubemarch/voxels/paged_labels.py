@@ -23,7 +23,7 @@ import pyvista
 from ..gl.bindings import ShaderBindings
 from ..gl.box import box_actor
 from ..gl.handle import DrawnBinding
-from ..gl.shaders import Replacement, ShaderRecipe, box_recipe
+from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
 from ..models.brick_cache import read_brick
 from ..models.label_colors import colors_by_id, hashed_colors
@@ -227,15 +227,12 @@ class LabelPager(BrickPager):
 def paged_label_recipe(options: VoxelOptions, levels: int) -> ShaderRecipe:
     """The box actor's replacements: the streamed traversal, the mode and the shading."""
     lit = options.mode == "color" and options.shading != "unlit"
-    recipe = box_recipe(
+    return box_recipe(
         ("camera_declarations", "slab", "pixel_ray", "voxel_declarations", "paged_bricks",
          "voxel_paged", *(("blinn_phong", "voxel_shading") if lit else ())), "voxel_fragment",
         defines={"CM_VOXEL_ID": options.mode == "id", "CM_VOXEL_FACE": options.mode == "face",
                  "CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn",
                  "CM_PAGED_LEVELS": levels})
-    # the mapper's clipping planes are not drawn (said), and do not cut the box either
-    recipe.replacements.append(Replacement("//VTK::Clip::Impl", "box_not_clipped"))
-    return recipe
 
 
 class PagedLabelsBinding(FollowsPager, DrawnBinding):

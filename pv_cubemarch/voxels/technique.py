@@ -25,7 +25,7 @@ from ..gl.box import bind_camera, box_actor, camera_matrices, drawing_reduced
 from ..gl.face_depth import FaceDepthPass
 from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
-from ..gl.shaders import Replacement, ShaderRecipe, box_recipe
+from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
 from ..models.voxel_levels import (
     atlas_layout,
@@ -69,7 +69,7 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
         ("voxel_distance",) if options.distance_field else ()) + (
         ("voxel_lod",) if lod else ())
     occlusion = options.mode == "color" and options.ambient_occlusion
-    recipe = box_recipe(
+    return box_recipe(
         ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
          *(("clip_planes",) if clip_count(options) else ()),
          *(("voxel_chunk_index",) if chunk_shift else ()), *skipping, traversal,
@@ -88,9 +88,6 @@ def voxel_recipe(options: VoxelOptions, shell_level: int | None = None,
                  "CM_SPECULAR": lit and options.shading == "blinn", "CM_OCCLUSION": occlusion,
                  "CM_EDGES": options.show_edges,
                  "CM_EDGE_LABELS": options.show_edges and options.edge_mode == "labels"})
-    # the mapper's clipping planes cut the rays, not the box (VoxelBinding.follow_anchor)
-    recipe.replacements.append(Replacement("//VTK::Clip::Impl", "box_not_clipped"))
-    return recipe
 
 
 def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
