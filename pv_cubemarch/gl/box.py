@@ -101,11 +101,18 @@ def peeling_viewport_now(renderer) -> tuple[int, int, int, int] | None:
     lie there, not at its place in the window. (The scene's depth is still the window's:
     :func:`framebuffer_viewport`.) None otherwise.
     """
-    window = renderer.GetRenderWindow()
+    if not renderer.GetUseDepthPeeling() or render_pass_of(renderer, "vtkRenderPass"):
+        return None
+    return _viewport_off_window(renderer.GetRenderWindow())
+
+
+def _viewport_off_window(window) -> tuple[int, int, int, int] | None:
+    """The viewport set now, while a framebuffer other than the window's is bound.
+
+    That is a VTK pass's own, for drawing; None while the window's is bound.
+    """
     framebuffer = window.GetRenderFramebuffer() if window is not None else None
-    if (framebuffer is None or not renderer.GetUseDepthPeeling()
-            or render_pass_of(renderer, "vtkRenderPass") is not None
-            or drawing_framebuffer(window) == framebuffer.GetFBOIndex()):
+    if framebuffer is None or drawing_framebuffer(window) == framebuffer.GetFBOIndex():
         return None
     viewport = [0, 0, 0, 0]
     window.GetState().vtkglGetIntegerv(_GL_VIEWPORT, viewport)
@@ -139,19 +146,14 @@ def pass_viewport_now(renderer) -> tuple[int, int, int, int] | None:
     set is not the pass's. Asked while the renderer draws (a shader's uniforms, a pass
     within the frame).
     """
-    window = renderer.GetRenderWindow()
-    framebuffer = window.GetRenderFramebuffer() if window is not None else None
-    if _drawing_at or framebuffer is None or render_pass_of(renderer, "vtkRenderPass") is None:
+    if _drawing_at or render_pass_of(renderer, "vtkRenderPass") is None:
         return None
-    if drawing_framebuffer(window) == framebuffer.GetFBOIndex():
-        return None
+    viewport = _viewport_off_window(renderer.GetRenderWindow())
     # the pass's framebuffer holds the renderer's props from its origin: its size that of
     # the renderer (the supersampled size under vtkSSAAPass); another viewport is a
     # framebuffer of ours (a cube map's atlas ...), in which the renderer's is meant
-    viewport = [0, 0, 0, 0]
-    window.GetState().vtkglGetIntegerv(_GL_VIEWPORT, viewport)
     size = supersampled_size(renderer) or tuple(drawn_viewport(renderer)[2:])
-    return (0, 0, *size) if tuple(int(v) for v in viewport) == (0, 0, *size) else None
+    return (0, 0, *size) if viewport == (0, 0, *size) else None
 
 
 def drawn_viewport(renderer) -> tuple[int, int, int, int]:
@@ -298,20 +300,29 @@ def near_plane_reaches(renderer, world_from_index: np.ndarray, lower, upper,
     return bool(depths.min() <= near)
 
 
+def kept_inverse() -> Callable[[np.ndarray], np.ndarray]:
+    """A function giving a matrix's inverse, kept while it is given the same matrix.
+
+    A placement rarely changes, and is asked for at every draw.
+    """
+    held: list = [None, None]
+
+    def inverse(matrix: np.ndarray) -> np.ndarray:
+        if held[0] is None or not np.array_equal(held[0], matrix):
+            held[:] = [np.array(matrix, dtype=np.float64), np.linalg.inv(matrix)]
+        return held[1]
+
+    return inverse
+
+
 def bind_camera(target, renderer, world_from_texture: Callable[[], np.ndarray]) -> None:
     """Per-frame camera uniforms of the screen-ray code, for a binding or a pass.
 
     ``world_from_texture`` gives the technique's texture-to-world matrix at draw time.
     """
-    held = [None, None]   # the last placement and its inverse: a placement rarely changes
-
-    def texture_from_view():
-        placement = world_from_texture()
-        if held[0] is None or not np.array_equal(held[0], placement):
-            held[:] = [np.array(placement, dtype=np.float64), np.linalg.inv(placement)]
-        return held[1] @ inverse_camera_matrices(renderer)[0]
-
-    target.set_uniform("cm_textureFromView", texture_from_view)
+    placement_inverse = kept_inverse()
+    target.set_uniform("cm_textureFromView", lambda: placement_inverse(world_from_texture())
+                       @ inverse_camera_matrices(renderer)[0])
     target.set_uniform("cm_inverseProjection", lambda: inverse_camera_matrices(renderer)[1])
     target.set_uniform("cm_projection", lambda: camera_matrices(renderer)[1])
     target.set_uniform("cm_viewport", lambda: fragment_viewport(renderer))

@@ -18,7 +18,7 @@ import vtk
 from ..core.frame_errors import observe
 from ..models.lights import VolumeLight
 from .bindings import ShaderBindings
-from .box import camera_matrices
+from .box import camera_matrices, kept_inverse
 from .frame_inputs import frame_inputs
 
 #: Most scene lights a shader is lit by (two mat4 of light vectors and colours).
@@ -47,15 +47,9 @@ def bind_scene_lights(bindings: ShaderBindings, renderer,
     for half in (0, 1):
         for name, key in (("Vectors", f"vectors{half}"), ("Colors", f"colors{half}")):
             bindings.set_uniform(f"cm_light{name}{half}", lambda key=key: frame_lights()[key])
-    held = [None, None]   # the last placement and its normals' map: a placement rarely changes
-
-    def normal_from_index():
-        linear = np.asarray(world_from_index(), dtype=np.float64)[:3, :3]
-        if held[0] is None or not np.array_equal(held[0], linear):
-            held[:] = [linear.copy(), np.linalg.inv(linear).T]
-        return frame_lights()["view"][:3, :3] @ held[1]
-
-    bindings.set_uniform("cm_normalFromIndex", normal_from_index)
+    linear_inverse = kept_inverse()
+    bindings.set_uniform("cm_normalFromIndex", lambda: frame_lights()["view"][:3, :3]
+                         @ linear_inverse(np.asarray(world_from_index())[:3, :3]).T)
 
 
 def placed_lights(renderer) -> dict:
