@@ -9,15 +9,11 @@
   fragOutput1 = vec4(0.0);
   fragOutput2 = vec4(0.0);
 #elif defined(CM_SSAO)
-  // PyVista's SSAO reads each pixel's view position and normal: the hit's, its normal
-  // facing the eye (as it is lit), not the domain box's; from the cell loaded for the hit,
-  // before the colour may load another.
-  // (normals map by the transpose of index-from-view, bound lit or not)
-  vec3 cm_ssaoNormal = normalize(transpose(mat3(cm_textureFromView))
-                                 * -cm_fieldGradient(cm_local));
-  cm_ssaoNormal = dot(cm_ssaoNormal, cm_directionView) > 0.0 ? -cm_ssaoNormal : cm_ssaoNormal;
+  // PyVista's SSAO reads each pixel's view position and normal: the hit's, its normal as
+  // it is lit (surface_shade_hit.glsl), not the domain box's; from the cell loaded for
+  // the hit, before the colour may load another.
   fragOutput1 = vec4(cm_hitView, 1.0);
-  fragOutput2 = vec4(cm_ssaoNormal, 1.0);
+  fragOutput2 = vec4(cm_hitNormal(cm_local, cm_directionView), 1.0);
 #endif
   fragOutput0 = vec4(cm_hitColor(cm_hitCell, cm_local, cm_hitView, cm_directionView), 1.0);
   vec4 cm_clip = cm_projection * vec4(cm_hitView, 1.0);

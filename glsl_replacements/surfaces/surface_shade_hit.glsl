@@ -28,12 +28,20 @@ vec3 cm_hitAlbedo(CM_HIT_CELL cell, vec3 local)
 // inside), turned to the side facing the eye and lit there (both sides lit, as VTK's
 // two-sided lighting); CM_NORMAL_COLORS (shading 'normals') shows the view-space normal as
 // 0.5 + 0.5 n. The normal is taken from the loaded cell before the albedo is read.
+#if defined(CM_LIGHTING) || defined(CM_NORMAL_COLORS)
+// The hit's view-space normal, turned to the eye, from the loaded cell.
+vec3 cm_hitNormal(vec3 local, vec3 directionView)
+{
+  vec3 normal = normalize(cm_normalFromIndex * -cm_fieldGradient(local));
+  return dot(normal, directionView) > 0.0 ? -normal : normal;
+}
+#endif
+
 vec3 cm_hitColor(CM_HIT_CELL cell, vec3 local, vec3 hitView, vec3 directionView)
 {
 #if defined(CM_LIGHTING) || defined(CM_NORMAL_COLORS)
   vec3 towardEye = -normalize(directionView);
-  vec3 normal = normalize(cm_normalFromIndex * -cm_fieldGradient(local));
-  normal = dot(normal, towardEye) < 0.0 ? -normal : normal;
+  vec3 normal = cm_hitNormal(local, directionView);
 #endif
   vec3 albedo = cm_hitAlbedo(cell, local);
 #if defined(CM_NORMAL_COLORS)

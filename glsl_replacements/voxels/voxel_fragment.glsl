@@ -126,15 +126,8 @@
   fragOutput2 = vec4(0.0);
 #elif defined(CM_SSAO)
   // PyVista's SSAO reads each pixel's view position and normal: the hit's, and its
-  // entered face's (normals map by the transpose of index-from-view), not the box's.
-  vec3 cm_faceNormal = -normalize(cm_directionView);   // a ray starting inside its voxel
-  if (cm_face >= 0)
-  {
-    vec3 cm_indexNormal = vec3(0.0);
-    cm_indexNormal[cm_face / 2] = (cm_face & 1) == 1 ? -1.0 : 1.0;
-    cm_faceNormal = normalize(transpose(mat3(cm_textureFromView)) * cm_indexNormal);
-  }
+  // entered face's (voxel_shading.glsl, as it is lit), not the box's.
   fragOutput1 = vec4(cm_hitView, 1.0);
-  fragOutput2 = vec4(cm_faceNormal, 1.0);
+  fragOutput2 = vec4(cm_voxelFaceNormal(cm_face, -normalize(cm_directionView)), 1.0);
 #endif
 }
