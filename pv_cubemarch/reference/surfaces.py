@@ -78,16 +78,41 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
     ``pixels``: ``(rows, columns)`` of the pixels to trace instead (a sample; rows from the
     top); the hits then have the shape ``(1, n)``.
     """
+    origins, directions, shape = _pixel_rays(camera, size, crop, pixels)
+    hits = _trace_levels(field, [active], np.zeros(1), np.zeros(len(origins), np.intp),
+                         origins, directions, camera, near,
+                         None if start is None else np.asarray(start, np.float64).ravel())
+    return _shaped(hits, shape)
+
+
+def _pixel_rays(camera: Camera, size: Sequence[int], crop, pixels
+                ) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+    """The traced pixels' world rays, flat, and the shape their results take."""
     width, height = (int(v) for v in size)
     origins, directions = camera.rays((width, height))
     if pixels is not None:
         rows, columns = checked_pixels(pixels, crop, width, height)
-        origins, directions = origins[rows, columns], directions[rows, columns]
-        h, w = 1, len(rows)
-    else:
-        x0, y0, w, h = crop if crop is not None else (0, 0, width, height)
-        origins = origins[y0:y0 + h, x0:x0 + w].reshape(-1, 3)
-        directions = directions[y0:y0 + h, x0:x0 + w].reshape(-1, 3)
+        return origins[rows, columns], directions[rows, columns], (1, len(rows))
+    x0, y0, w, h = crop if crop is not None else (0, 0, width, height)
+    return (origins[y0:y0 + h, x0:x0 + w].reshape(-1, 3),
+            directions[y0:y0 + h, x0:x0 + w].reshape(-1, 3), (h, w))
+
+
+def _shaped(hits: SurfaceHits, shape: tuple[int, ...]) -> SurfaceHits:
+    """``hits`` of flat rays in ``shape``."""
+    return SurfaceHits(*(np.asarray(getattr(hits, name)).reshape(
+        *shape, *np.shape(getattr(hits, name))[1:]) for name in
+        ("hit", "depth", "point", "normal", "cell", "ambiguous")))
+
+
+def _trace_levels(field: SplineField, actives: Sequence[np.ndarray], offsets: np.ndarray,
+                  level: np.ndarray, origins: np.ndarray, directions: np.ndarray,
+                  camera: Camera, near: float, start: np.ndarray | None) -> SurfaceHits:
+    """Per flat ray, the first root of ``field - offsets[level]`` in ``actives[level]``.
+
+    Rays of several levels are walked together (one pass for them all); a level's
+    Bernstein coefficients are the field's less its offset (they sum to 1).
+    """
     world_from_index = field.world_from_index()
     index_from_world = np.linalg.inv(world_from_index)
     # Camera-relative: origins are moved to the grid's centre before the inverse is applied.
@@ -98,16 +123,17 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
     forward = np.asarray(camera.basis()[2])
     start = np.maximum(near / np.maximum(directions @ forward, 1e-300), 0.0) \
         if start is None else np.maximum(near / np.maximum(directions @ forward, 1e-300),
-                                         np.maximum(np.asarray(start, np.float64).ravel(), 0))
+                                         np.maximum(start, 0))
     enter, leave = ray_box_interval(o, d, np.zeros(3), dims)
     t = np.maximum(enter, start)
     n = len(o)
     depth = np.full(n, np.inf)
     cell_hit = np.full((n, 3), -1, np.int64)
     ambiguous = np.zeros(n, bool)
-    mask = np.zeros(field.dimensions, bool)
-    if len(active):
-        mask[tuple(np.asarray(active).T)] = True
+    mask = np.zeros((len(actives), *field.dimensions), bool)
+    for k, active in enumerate(actives):
+        if len(active):
+            mask[(k, *np.asarray(active).T)] = True
     going = np.flatnonzero(t < leave)
     moving = d != 0
     with np.errstate(divide="ignore"):
@@ -128,16 +154,16 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
         crossing = np.where(moving[going], (bound - o[going]) * inverse[going], np.inf)
         axis = np.argmin(crossing, axis=1)
         t_out = np.minimum(crossing[np.arange(len(going)), axis], leave[going])
-        here = mask[tuple(cell.T)]
+        here = mask[(level[going], *cell.T)]
         done = np.zeros(len(going), bool)
         ends = np.full(len(going), np.nan)
         if here.any():
             rows = np.flatnonzero(here)
-            bracket = _first_bracket(field, cell[rows], o[going[rows]], d[going[rows]],
-                                     t_in[rows], t_out[rows])
+            rays = going[rows]
+            bracket = _first_bracket(field, cell[rows], o[rays], d[rays], t_in[rows],
+                                     t_out[rows], offsets[level[rays]])
             on_face = np.sign(last_end[rows]) * np.sign(bracket.start_value) < 0  # NaN: no
             found = on_face | bracket.found
-            rays = going[rows]
             ambiguous[rays] |= bracket.unsure & ~on_face
             depth[rays[on_face]] = t_in[rows[on_face]]
             refine = bracket.found & ~on_face   # bisected once the traversal is over
@@ -165,10 +191,7 @@ def trace_surface(field: SplineField, active: np.ndarray, camera: Camera,
         gradient = field.gradient_at_cells(local) @ index_from_world[:3, :3]
         normal[hit] = -gradient / np.maximum(np.linalg.norm(gradient, axis=1,
                                                             keepdims=True), 1e-300)
-    shape = (h, w)
-    return SurfaceHits(hit.reshape(shape), depth.reshape(shape), point.reshape(*shape, 3),
-                       normal.reshape(*shape, 3), cell_hit.reshape(*shape, 3),
-                       ambiguous.reshape(shape))
+    return SurfaceHits(hit, depth, point, normal, cell_hit, ambiguous)
 
 
 @dataclass
@@ -193,14 +216,17 @@ class _Bracket:
 
 
 def _first_bracket(field: SplineField, cells: np.ndarray, o: np.ndarray, d: np.ndarray,
-                   t0: np.ndarray, t1: np.ndarray) -> _Bracket:
-    """Per ray, the first of ``BRACKETS`` intervals of ``[t0, t1]`` where the field is 0.
+                   t0: np.ndarray, t1: np.ndarray, offset: np.ndarray | float = 0.0
+                   ) -> _Bracket:
+    """Per ray, the first of ``BRACKETS`` intervals of ``[t0, t1]`` where it meets its level.
+
+    ``offset``: the level, per ray or one for all (the field less it is 0 on the surface).
 
     A segment whose polynomial's Bernstein coefficients all lie beyond the tangent
     tolerance on one side has no root and no near-zero sample (the polynomial is their
     convex combination): only the others are sampled.
     """
-    beta = field.cell_bernstein(cells)
+    beta = field.cell_bernstein(cells) - np.reshape(offset, (-1, 1, 1, 1))
     scale = np.abs(beta).max(axis=(1, 2, 3))
     span = t1 - t0
     at_nodes = _at(beta, o, d, cells, t0[:, None] + span[:, None] * _NODES[None, :])
@@ -358,22 +384,17 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
     if not 0.0 <= opacity <= 1.0:
         raise ValueError(f"opacity must lie in [0, 1], got {opacity!r}.")
     width, height = (int(v) for v in size)
-    active = active_cells(field)
-    rows, columns = (None, None) if pixels is None else checked_pixels(pixels, None, width, height)
-    image = np.empty((height, width, 3) if pixels is None else (1, len(rows), 3))
+    origins, directions, shape = _pixel_rays(camera, (width, height), None, pixels)
+    image = np.empty((*shape, 3))
     image[...] = np.asarray(background, dtype=np.float64)
 
-    def shade(hits: SurfaceHits, colour) -> np.ndarray:
-        """The (lit) colour of each hit pixel."""
+    def shade(hits: SurfaceHits, colour: np.ndarray, toward_eye: np.ndarray) -> np.ndarray:
+        """The (lit) colour of each hit ray (``colour``, ``toward_eye``: per hit)."""
         hit = hits.hit
-        _, directions = camera.rays((width, height))
-        if pixels is not None:
-            directions = directions[rows, columns][None]
-        toward_eye = -directions[hit]
         normals = hits.normal[hit]
         normals = np.where(np.sum(normals * toward_eye, axis=1, keepdims=True) < 0,
                            -normals, normals)
-        base = np.broadcast_to(np.asarray(colour, dtype=np.float64), normals.shape)
+        base = np.broadcast_to(colour, normals.shape)
         if color_by is not None:
             local = (hits.point[hit] - field.world_from_index()[:3, 3]) @ np.linalg.inv(
                 field.world_from_index()[:3, :3]).T
@@ -385,36 +406,43 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
         return np.clip(blinn_phong(base, normals, hits.point[hit], toward_eye, lights,
                                    shading, ambient, specular, specular_power), 0.0, 1.0)
 
+    offsets = np.zeros(1) if levels is None else np.asarray(levels, dtype=np.float64)
+    colours = np.asarray([color] * len(offsets) if level_colors is None else level_colors,
+                         dtype=np.float64).reshape(len(offsets), 3)
+    actives = [active_cells(replace(field, coefficients=field.coefficients - offset))
+               if offset != 0.0 else active_cells(field) for offset in offsets]
+    # Every level's rays walked at once: ray k * n + i is pixel i of level k.
+    m = len(origins)
+    level = np.repeat(np.arange(len(offsets)), m)
+    origins, directions = np.tile(origins, (len(offsets), 1)), np.tile(directions,
+                                                                        (len(offsets), 1))
     if opacity >= 1.0 and levels is None:
-        hits = trace_surface(field, active, camera, (width, height), near=near,
-                             pixels=pixels)
-        image[hits.hit] = shade(hits, color)
+        hits = _trace_levels(field, actives, offsets, level, origins, directions, camera,
+                             near, None)
+        flat = image.reshape(-1, 3)
+        flat[hits.hit] = shade(hits, colours[0], -directions[hits.hit])
         return image
     # Every root of every level along the ray, sorted by depth and composited front to
     # back, each covering `opacity`; the next root of a level looked for a millionth of a
     # cell past its last (roots are found to 1e-9).
     cell = float(np.linalg.norm(field.world_from_index()[:3, :3], axis=0).min())
-    offsets = (0.0,) if levels is None else tuple(float(v) for v in levels)
-    colours = [color] * len(offsets) if level_colors is None else list(level_colors)
     # Opaque levels: each level's first root only (the nearest of them is drawn).
     layers = MAX_LAYERS if opacity < 1.0 else 1
     shape = image.shape[:2]
     depths, shades = [], []
-    for offset, colour in zip(offsets, colours, strict=True):
-        level = replace(field, coefficients=field.coefficients - offset)
-        cells = active if levels is None else active_cells(level)
-        start = np.zeros(shape)
-        for _ in range(layers):
-            hits = trace_surface(level, cells, camera, (width, height), near=near,
-                                 start=start, pixels=pixels)
-            hit = hits.hit
-            if not hit.any():
-                break
-            depths.append(np.where(hit, hits.depth, np.inf))
-            shade_here = np.zeros((*shape, 3))
-            shade_here[hit] = shade(hits, colour)
-            shades.append(shade_here)
-            start = np.where(hit, hits.depth + 1e-6 * cell, np.inf)
+    start = np.zeros(len(origins))
+    for _ in range(layers):
+        hits = _trace_levels(field, actives, offsets, level, origins, directions, camera,
+                             near, start)
+        hit = hits.hit
+        if not hit.any():
+            break
+        shade_here = np.zeros((len(origins), 3))
+        shade_here[hit] = shade(hits, colours[level[hit]], -directions[hit])
+        for k in np.unique(level[hit]):   # each level's layer: one depth image of them
+            depths.append(np.where(hit, hits.depth, np.inf)[k * m:(k + 1) * m].reshape(shape))
+            shades.append(shade_here[k * m:(k + 1) * m].reshape(*shape, 3))
+        start = np.where(hit, hits.depth + 1e-6 * cell, np.inf)
     held = np.zeros((*shape, 3))
     cover = np.zeros(shape)
     if depths:
