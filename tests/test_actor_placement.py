@@ -18,6 +18,8 @@ import pv_cubemarch as cm
 SIZE = (200, 150)
 TURNED = np.array([[0.866, -0.5, 0.0, 2.0], [0.5, 0.866, 0.0, 1.0], [0.0, 0.0, 1.0, -1.0],
                    [0.0, 0.0, 0.0, 1.0]])
+PLACED = np.array([[0.985, -0.174, 0.0, -2.0], [0.174, 0.985, 0.0, 1.0], [0.0, 0.0, 1.0, 0.5],
+                   [0.0, 0.0, 0.0, 1.0]])
 CHANGES = {
     "position": lambda actor: actor.SetPosition(3.0, -2.0, 1.0),
     "scale": lambda actor: actor.SetScale(1.0, 2.0, 0.5),
@@ -78,6 +80,55 @@ def test_voxels_move_as_pyvista_s_mesh_of_them_moves(change):
     assert wrong <= 0.002 * drawn.sum(), (wrong, drawn.sum())
 
 
+@pytest.mark.parametrize("change", ["position", "user_matrix", "all"])
+def test_a_world_drawn_per_chunk_moves_as_pyvista_s_mesh_of_it_moves(change):
+    # The world's returned actor is a prop standing for its chunks (a bounds proxy): it
+    # holds the grid's own box under the world's placement, so PyVista's calls on it move
+    # the world as they move the mesh; user_matrix then reads what it was set to. Both
+    # are placed when added (transform=; add_mesh(user_matrix=)).
+    # catches (seen failing): the proxy's placement not followed (the world not moved:
+    # 6883 to 7764 pixels wrong); the proxy's points at the world bounds with no user
+    # matrix, its matrix read as the new transform (the placement given when added lost:
+    # 8607 wrong after position=; user_matrix read back as not set).
+    grid = _labels()
+    palette = ["black", "red", "lime", "blue"]
+    actors = []
+
+    def add(plotter):
+        actors.append(cm.add_voxels(plotter, grid, palette=palette, shading="unlit",
+                                    chunk_size=4, world_traversal="per_chunk",
+                                    transform=PLACED))
+        return actors[-1]
+
+    mine, before = _frames(add, CHANGES[change])
+    theirs, _ = _frames(lambda p: p.add_mesh(grid.threshold(0.5, scalars="m"), scalars="m",
+                                              cmap=palette[1:], clim=(1, 3), lighting=False,
+                                              show_scalar_bar=False, user_matrix=PLACED),
+                        CHANGES[change])
+    drawn = theirs.max(axis=-1) > 30
+    assert drawn.mean() > 0.05 and (np.abs(theirs - before).max(axis=-1) > 12).mean() > 0.02
+    wrong = (np.abs(mine - theirs).max(axis=-1) > 12).sum()
+    assert wrong <= 0.002 * drawn.sum(), (wrong, drawn.sum())
+    if change == "user_matrix":
+        assert np.allclose(actors[0].user_matrix, TURNED)
+
+
+@pytest.mark.parametrize("change", ["position", "all"])
+def test_several_isosurfaces_move_as_pyvista_s_contours_of_them_move(change):
+    # Several levels return a prop standing for their boxes (a bounds proxy).
+    # catches (seen failing): its placement not followed (nothing moved).
+    grid = _ball()
+    levels = [0.6, 1.0]
+    mine, before = _frames(lambda p: p.cubemarch.add_surface(
+        grid, isosurfaces=levels, scalars="r", color="white", shading="unlit"),
+        CHANGES[change])
+    theirs, _ = _frames(lambda p: p.add_mesh(grid.contour(levels, scalars="r"), color="white",
+                                              lighting=False), CHANGES[change])
+    covered, expected = mine.max(axis=-1) > 127, theirs.max(axis=-1) > 127
+    assert expected.mean() > 0.05 and (covered != (before.max(axis=-1) > 127)).mean() > 0.02
+    assert (covered != expected).mean() < 0.01, (covered != expected).mean()
+
+
 @pytest.mark.parametrize("change", ["position", "all"])
 def test_a_surface_moves_as_pyvista_s_contour_of_it_moves(change):
     # catches (seen failing): the returned box's placement not followed (nothing moved);
@@ -93,31 +144,35 @@ def test_a_surface_moves_as_pyvista_s_contour_of_it_moves(change):
     assert (covered != expected).mean() < 0.01, (covered != expected).mean()
 
 
-@pytest.mark.parametrize("what", ["voxels", "surface"])
+@pytest.mark.parametrize("what", ["voxels", "surface", "world", "levels"])
 def test_what_is_not_drawn_of_the_returned_actor_is_said(what):
     # The returned actor's property opacity and colour (and a surface's mapper clipping
     # planes) are not drawn: said once each, naming what draws them, instead of nothing
     # changing (or the box being cut) in silence (found by a review). A frame without
-    # such a change says nothing.
-    # catches (seen failing): no warning for either.
+    # such a change says nothing. The same for the prop a world drawn per chunk or several
+    # isosurfaces return.
+    # catches (seen failing): no warning for any.
     import warnings
 
     import vtk
 
     plotter = pv.Plotter(off_screen=True, window_size=(64, 48))
-    if what == "voxels":
-        actor = cm.add_voxels(plotter, _labels(), palette=["black", "red", "lime", "blue"])
+    if what in ("voxels", "world"):
+        chunks = {} if what == "voxels" else {"chunk_size": 4, "world_traversal": "per_chunk"}
+        actor = cm.add_voxels(plotter, _labels(), palette=["black", "red", "lime", "blue"],
+                              **chunks)
     else:
-        actor = plotter.cubemarch.add_surface(_ball(), isovalue=1.0, scalars="r")
+        levels = {"isovalue": 1.0} if what == "surface" else {"isosurfaces": [0.6, 1.0]}
+        actor = plotter.cubemarch.add_surface(_ball(), scalars="r", **levels)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         cm.render_image(plotter)
         cm.render_image(plotter)
     actor.prop.opacity = 0.5
-    hint = "set_label_color" if what == "voxels" else "add_surface"
+    hint = "set_label_color" if what in ("voxels", "world") else "add_surface"
     with pytest.warns(UserWarning, match=f"opacity and colour .* not drawn.*{hint}"):
         cm.render_image(plotter)
-    if what == "surface":
+    if what in ("surface", "levels"):
         plane = vtk.vtkPlane()
         plane.SetNormal(1.0, 0.0, 0.0)
         plane.SetOrigin(*_ball().center)

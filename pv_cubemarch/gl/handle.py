@@ -14,6 +14,7 @@ from ..core.user_warnings import warn_user
 from ..models.volume import checked_transform
 from .bindings import ShaderBindings
 from .box import numpy_matrix, place_box
+from .overlay import is_bounds_proxy, place_bounds_proxy
 from .shaders import ShaderRecipe
 
 
@@ -25,6 +26,8 @@ class Placement:
     """
 
     main_renderer = None
+    #: The prop standing for what it draws in the plotter, where that is not one box.
+    bounds_proxy = None
 
     @needs_open_plotter
     def set_transform(self, transform) -> None:
@@ -37,8 +40,28 @@ class Placement:
         self.check_movable()
         self.model.transform = placement
         self.place(placement)
+        if is_bounds_proxy(self.bounds_proxy):
+            place_bounds_proxy(self.bounds_proxy, self.model)
         if self.main_renderer is not None:
             self.main_renderer.ResetCameraClippingRange()
+
+    def follow_proxy_placement(self) -> None:
+        """PyVista's placement of the returned bounds proxy moves what it draws, as a mesh's.
+
+        The proxy holds the data's own box under the ``transform`` (its ``user_matrix``), so
+        its whole matrix, once ``position``, ``orientation``, ``scale`` or ``user_matrix``
+        changed it, is the data's new ``transform``.
+        """
+        proxy = self.bounds_proxy
+        matrix = numpy_matrix(proxy.GetMatrix())
+        if np.allclose(matrix, np.asarray(self.model.transform, np.float64), rtol=1e-12,
+                       atol=0.0):
+            return
+        try:
+            self.set_transform(matrix)
+        except ValueError as error:   # cannot move alone: put the proxy back, and say why
+            place_bounds_proxy(proxy, self.model)
+            warn_user(f"{self.model.name!r} was not moved: {error}")
 
     def check_movable(self) -> None:
         """Raise ``ValueError`` if this drawing cannot move alone (the default: it can)."""
@@ -92,8 +115,9 @@ class DrawnBinding(Placement):
     def follow_anchor(self) -> None:
         """At each frame: the drawn actors follow the visibility of the returned actor.
 
-        Where the returned actor is the box itself, PyVista's placement of it follows too
-        (:meth:`follow_actor_placement`).
+        Where the returned actor is the box itself, or a bounds proxy standing for several,
+        PyVista's placement of it follows too (:meth:`follow_actor_placement`,
+        :meth:`follow_proxy_placement`).
         """
         if self.actor is None:
             return
@@ -103,6 +127,9 @@ class DrawnBinding(Placement):
                 actor.SetVisibility(shown)
         if self.drawn and self.actor is self.drawn[0]:
             self.follow_actor_placement()
+            self.say_unfollowed_changes()
+        elif self.actor is self.bounds_proxy and is_bounds_proxy(self.actor):
+            self.follow_proxy_placement()
             self.say_unfollowed_changes()
 
     #: Where the returned actor's property (opacity, colour) is set instead, for the

@@ -164,10 +164,32 @@ def bounds_proxy(model) -> pyvista.Actor:
 
 
 def place_bounds_proxy(proxy, model) -> None:
-    """Put the proxy's two points on the corners of ``model``'s world bounds."""
-    bounds = model.world_bounds()
+    """Span ``model``'s box, as a mesh of its data placed by its ``transform`` would.
+
+    The proxy's two points are the corners of the data's own bounds (before the
+    ``transform``), and its ``user_matrix`` is the ``transform`` (position, orientation and
+    scale none): PyVista's placement calls on it then move it as they move a mesh, and
+    :meth:`~pv_cubemarch.gl.handle.Placement.follow_proxy_placement` moves the data along.
+    A model with no ``transform`` spans its world bounds.
+    """
+    if hasattr(model, "frame_bounds"):
+        bounds, transform = model.frame_bounds(), np.asarray(model.transform, np.float64)
+    else:
+        bounds, transform = model.world_bounds(), np.eye(4)
     corners = proxy.GetMapper().GetInput()
     corners.GetPoints().SetPoint(0, bounds[0], bounds[2], bounds[4])
     corners.GetPoints().SetPoint(1, bounds[1], bounds[3], bounds[5])
     corners.GetPoints().Modified()
     corners.Modified()
+    proxy.SetPosition(0.0, 0.0, 0.0)
+    proxy.SetOrientation(0.0, 0.0, 0.0)
+    proxy.SetScale(1.0, 1.0, 1.0)
+    proxy.SetOrigin(0.0, 0.0, 0.0)
+    matrix = vtk.vtkMatrix4x4()
+    matrix.DeepCopy(transform.ravel().tolist())
+    proxy.SetUserMatrix(matrix)
+
+
+def is_bounds_proxy(actor) -> bool:
+    """Whether ``actor`` is a :func:`bounds_proxy`."""
+    return actor is not None and actor.GetObjectName() == PROXY_NAME

@@ -275,6 +275,11 @@ class PlacedGrid:
         """Axis-aligned world bounds ``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the grid."""
         return box_world_bounds(self.world_from_index(), self.dimensions)
 
+    def frame_bounds(self) -> np.ndarray:
+        """Bounds of the grid in its own frame, before ``transform`` (as ``world_bounds``)."""
+        return box_world_bounds(self.grid_from_index, self.dimensions)
+
+
 @dataclass(eq=False)
 class VoxelModel(PlacedGrid):
     """A material grid placed in the world, with its palette."""

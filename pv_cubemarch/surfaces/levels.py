@@ -15,7 +15,6 @@ import pyvista
 from ..core.options import is_count, level_values, spread_levels
 from ..core.scalar_bar import attach_scalar_bar
 from ..gl.handle import DrawnBinding
-from ..gl.overlay import place_bounds_proxy
 
 
 def surface_levels(isosurfaces, samples: np.ndarray | None) -> tuple[float, ...]:
@@ -59,6 +58,7 @@ class SurfaceLevels(DrawnBinding):
 
     def __init__(self, levels: list, values):
         first = levels[0]
+        self.look_hint = first.look_hint
         super().__init__(first.model, first.bindings, first.recipe)
         self.levels = list(levels)
         self.values = tuple(float(v) for v in values)
@@ -86,11 +86,9 @@ class SurfaceLevels(DrawnBinding):
         return [level.cells for level in self.levels]
 
     def place(self, transform) -> None:
-        """Every level follows, and the stand-in the camera resets by."""
+        """Every level follows (the stand-in the camera resets by: ``set_transform``)."""
         for level in self.levels:
             level.set_transform(transform)
-        if self.bounds_proxy is not None:
-            place_bounds_proxy(self.bounds_proxy, self.model)
 
     def release_resources(self) -> None:
         """Every level frees its own (their actors leave the renderer by extra_release)."""

@@ -84,6 +84,12 @@ class PagedLabels:
         """World bounds ``(xmin, xmax, ...)`` of the finest level's voxels."""
         return box_world_bounds(self.world_from_index(), np.asarray(self.dimensions, float))
 
+    def frame_bounds(self) -> np.ndarray:
+        """Bounds of the finest level's voxels in their own frame, before ``transform``."""
+        return box_world_bounds(np.linalg.solve(np.asarray(self.transform, float),
+                                                self.world_from_index()),
+                                np.asarray(self.dimensions, float))
+
 
 class LabelPager(BrickPager):
     """The brick pool of a label pyramid: rows of the per-label tables, nearest, no apron.

@@ -31,7 +31,7 @@ from ..core.rendering import needs_open_plotter
 from ..gl.box import camera_matrices
 from ..gl.face_depth import FaceDepthPass
 from ..gl.handle import DrawnBinding, Placement
-from ..gl.overlay import bounds_proxy, place_bounds_proxy
+from ..gl.overlay import bounds_proxy
 from ..gl.reduced_group import ReducedGroup
 from ..gl.textures import Texture
 from ..models.voxel_shell import occupied_bricks
@@ -382,16 +382,16 @@ class WorldBinding(LabelState, WorldEditing, ClipPlaneSetting, Placement):
         self.occluders.edit(box)
         self.chunk_layers.edited(box, rebuilt)
 
-    def place(self, transform) -> None:
-        """Every chunk follows the world, with the solid faces that end its rays.
+    @property
+    def bounds_proxy(self):
+        """The prop standing for the world (placed again when the world moves)."""
+        return self.anchor
 
-        So does the prop standing for it (its bounds: the camera's framing and clipping
-        range).
-        """
+    def place(self, transform) -> None:
+        """Every chunk follows the world, with the solid faces that end its rays."""
         for chunk in self.chunks.values():
             chunk.set_transform(transform)
         self.occluders.place()
-        place_bounds_proxy(self.anchor, self.model)
 
 
 #: Edge (voxels) of the blocks whose screen rectangles decide if a chunk is hidden: finer
@@ -440,13 +440,34 @@ def _filled_blocks(labels: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 class WorldPasses(DrawnBinding):
-    """The world's shared passes as the plotter tracks them: freed when the world leaves."""
+    """The world's shared passes as the plotter tracks them: freed when the world leaves.
+
+    At each frame it also has the world follow what PyVista's calls set on the returned
+    prop: its placement and its mapper's clipping planes (the chunks hold the prop, not a
+    box of their own, so they do not).
+    """
+
+    follows_mapper_planes = True
+    look_hint = VoxelBinding.look_hint
 
     def __init__(self, world: WorldBinding):
         super().__init__(world.model, world.occluders.bindings, None)
         self.world = world
-        self.actor = world.anchor
+        self.actor = self.bounds_proxy = world.anchor
         self.main_renderer = self.renderer = world.renderer
+
+    def check_movable(self) -> None:
+        """As the world."""
+        self.world.check_movable()
+
+    def place(self, transform) -> None:
+        """The world follows (the prop is placed again by ``set_transform``)."""
+        self.world.place(transform)
+
+    def follow_anchor(self) -> None:
+        """At each frame: the prop's placement and its mapper's planes (see the class)."""
+        super().follow_anchor()
+        self.world.follow_mapper_planes(self.actor)
 
     @property
     def name(self) -> str:

@@ -339,7 +339,7 @@ class VoxelBinding(LabelState, ClipPlaneSetting, LayerHost, DrawnBinding):
         """At each frame: drawn actors, layers and clipping planes follow the returned one."""
         super().follow_anchor()
         self.follow_layers_anchor()
-        if self.drawn and self.actor is self.drawn[0]:   # a grid drawn whole: its box
+        if self.drawn and (self.actor is self.drawn[0] or self.actor is self.bounds_proxy):
             self.follow_mapper_planes(self.actor)
 
     def place(self, transform) -> None:
