@@ -71,6 +71,7 @@ def test_plotter_component_via_entry_point_in_fresh_process():
     assert result.stdout.split()[0] == "CubemarchComponent"
 
 
+@pytest.mark.slow   # a fresh process (3.5 s)
 def test_pyvista_read_usd_in_fresh_process():
     code = f"import pyvista as pv; print(sorted(pv.read({str(SCENE)!r}).keys()))"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

@@ -171,6 +171,7 @@ print("ok")
 """
 
 
+@pytest.mark.slow   # 4 s
 def test_whole_numbers_given_to_float_options_draw_as_the_floats():
     """``step_scale=16`` and ``stop_opacity=1`` (ints) draw what 16.0 and 1.0 draw, in a
     process of its own with a time limit (the failure hangs: a float uniform set as an int

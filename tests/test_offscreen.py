@@ -28,8 +28,10 @@ def test_gl_info_reports_a_real_context():
     assert info["renderer"] != "unknown" and info["version"][0].isdigit()
 
 
+# a fresh process each (4 s): EGL's in the default run, OSMesa's in the slow step
 @pytest.mark.parametrize("backend, window", [("egl", "vtkEGLRenderWindow"),
-                                             ("osmesa", "vtkOSOpenGLRenderWindow")])
+                                             pytest.param("osmesa", "vtkOSOpenGLRenderWindow",
+                                                          marks=pytest.mark.slow)])
 def test_backend_selected_by_environment_without_x_warnings(backend, window):
     if not offscreen.library_available(backend):
         other = "egl" if backend == "osmesa" else "osmesa"
@@ -40,6 +42,7 @@ def test_backend_selected_by_environment_without_x_warnings(backend, window):
     assert "X server" not in result.stderr and "X server" not in result.stdout
 
 
+@pytest.mark.slow   # a fresh process (4 s)
 def test_default_is_osmesa_when_available():
     result = run_probe()
     expected = "vtkOSOpenGLRenderWindow" if offscreen.library_available("osmesa") \

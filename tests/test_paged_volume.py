@@ -797,7 +797,8 @@ def test_a_view_where_no_ray_stops_runs_one_depth_pass():
 
 @pytest.mark.parametrize("technique, still, moving", [
     ("direct", {"step_scale": 0.5}, {"step_scale": 2.0}),
-    ("cubemap", {"upscale": 1.0}, {"upscale": 2.0})])
+    pytest.param("cubemap", {"upscale": 1.0}, {"upscale": 2.0},
+                 marks=pytest.mark.slow)])   # 3 s
 def test_a_streamed_volume_keeps_moving_frames_within_the_budget(pyramid, technique, still,
                                                                  moving):
     # frame_budget_ms on a multiscale source: its step (the cube map's upscale) moves as

@@ -256,7 +256,7 @@ def test_what_calibration_cannot_measure_is_refused_by_name(ct, keywords, words)
 
 # the light map's and the cube map's cases are long (5-14 s): their own CI step (-m slow)
 @pytest.mark.parametrize("technique, keywords", [
-    ("direct", {"shade": True}),
+    pytest.param("direct", {"shade": True}, marks=pytest.mark.slow),   # 5.5 s
     pytest.param("vtk", {"shade": True, "ambient": 0.05, "specular": 0.6,
                          "specular_power": 30.0}, marks=pytest.mark.slow),
     pytest.param("cubemap", {"shade": True}, marks=pytest.mark.slow),

@@ -32,9 +32,12 @@ SCRIPT = textwrap.dedent("""
 """)
 
 
+# a child process each (4 s): the cube map's in the default run, the others in the slow step
 @pytest.mark.parametrize(("technique", "keywords", "left_out"), [
-    ("cubemap", {}, True), ("direct", {"downsample": 2}, True), ("direct", {}, False),
-    ("vtk", {}, False)])
+    ("cubemap", {}, True),
+    pytest.param("direct", {"downsample": 2}, True, marks=pytest.mark.slow),
+    pytest.param("direct", {}, False, marks=pytest.mark.slow),
+    pytest.param("vtk", {}, False, marks=pytest.mark.slow)])
 def test_save_graphic_writes_the_file_and_says_what_it_leaves_out(tmp_path, technique,
                                                                    keywords, left_out):
     # catches (seen failing): the overlay renderer drawn during the export (the child

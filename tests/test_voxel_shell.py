@@ -7,6 +7,7 @@ from the CPU traversal (``pv_cubemarch.reference.voxels``).
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from conftest import set_camera
 from test_voxels import EDGE, SIZE, plotter, random_labels, wrong_pixels
 
@@ -198,6 +199,7 @@ def test_where_a_ray_starts_and_what_it_skips_change_no_voxel_it_meets(plotter_f
             assert np.array_equal(image, images[0]), (name, options)
 
 
+@pytest.mark.slow   # 6 s
 def test_leaving_an_empty_block_lands_where_stepping_voxel_by_voxel_does(plotter_factory):
     # The occupancy levels leave an empty cell of many voxels in one step; on the axes it
     # does not leave through, the next voxel is the exit point's floor only as a guess
