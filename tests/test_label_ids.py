@@ -542,6 +542,47 @@ def test_a_zarr_array_is_drawn_by_chunks_never_read_whole(tmp_path):
     pl.close()
 
 
+def test_a_world_past_its_host_budget_stops_reading_and_says_how_to_stream(tmp_path,
+                                                                         monkeypatch):
+    """A chunked array whose chunks would not fit the host memory a world may keep stops
+    being read once they pass it, with an error naming the streamed way; that way draws it
+    (ids exact against the CPU traversal). A sparse one under the same budget is drawn
+    whole: chunks of one label keep no array.
+
+    catches (seen failing): no budget (every chunk read and kept: 18 of 18 chunks read, no
+    error).
+    """
+    import zarr
+
+    rng = np.random.default_rng(3)
+    labels = rng.integers(1, 200, (48, 40, 32)).astype(np.uint16)   # no chunk of one label
+    store = zarr.create_array(store=str(tmp_path / "dense.zarr"), shape=labels.shape,
+                              chunks=(16, 16, 16), dtype="uint16")
+    store[...] = labels
+    source = CountingSource(zarr.open_array(str(tmp_path / "dense.zarr"), mode="r"))
+    monkeypatch.setenv("PV_CUBEMARCH_WORLD_BYTES", str(5 * 16**3))   # five 1-byte chunks
+    pl = plotter()
+    with pytest.raises(cm.VolumeDataError, match=r"more than the 20,480 bytes.*"
+                       r"add_voxels\(plotter, \[array\]\).*PV_CUBEMARCH_WORLD_BYTES"):
+        cm.add_voxels(pl, source, chunk_size=16, mode="id")
+    assert len(source.reads) < 2 * 3 * 3 * 2 - 6, len(source.reads)
+    actor = cm.add_voxels(pl, [source.array], mode="id")   # what the error says: streamed
+    camera = aim(pl, (80.0, 70.0, 60.0), (24.0, 20.0, 16.0))
+    for _ in range(40):   # the bricks arrive over a few frames
+        cm.render_image(pl)
+        if not actor.cubemarch.pager.stats()["missing"]:
+            break
+    wrong, hit, _, _ = wrong_ids(pl, actor, labels, camera)
+    assert hit > 2000 and wrong == 0
+    sparse = zarr.create_array(store=str(tmp_path / "sparse.zarr"), shape=labels.shape,
+                               chunks=(16, 16, 16), dtype="uint16")
+    sparse[:16, :16, :16] = labels[:16, :16, :16]   # one stored chunk; the rest empty
+    sparse[32:, 16:32, 16:] = 7                     # or one label
+    world = cm.add_voxels(pl, sparse, chunk_size=16, mode="id").cubemarch.model
+    assert len(world.stored) == 1 and len(world.uniform) == 1
+    pl.close()
+
+
 def test_a_numpy_grid_over_one_texture_goes_by_chunks_without_a_whole_copy(monkeypatch):
     """A numpy array of coherent uint64 ids larger than one texture (the limit lowered) is
     read into a world chunk by chunk, never compacted whole: drawn exact, picked by id.

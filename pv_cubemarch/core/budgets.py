@@ -16,3 +16,22 @@ def budget_from_env(name: str, default: int, error: type[Exception]) -> int:
     except ValueError:
         raise error(f"{name}={value!r} is not a number of bytes; set it to e.g. 4e9 or "
                     "unset it") from None
+
+
+def host_bytes_available() -> int | None:
+    """Bytes of host memory the system says it can give now, or None where it cannot say.
+
+    Linux's ``MemAvailable`` (free memory and what the page cache would give back), else the
+    free pages ``sysconf`` counts.
+    """
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.budgets import budget_from_env, host_bytes_available
 from ..core.errors import VolumeDataError
 from ..core.parallel import core_pool
 from ..core.progress import progress
@@ -45,6 +46,20 @@ def _read(source, box, name: str) -> np.ndarray:
     if block.dtype.kind not in "iub":
         raise VolumeDataError(f"{name} has dtype {block.dtype}; label ids are integers.")
     return block.astype(np.uint8) if block.dtype.kind == "b" else block
+
+
+#: Environment variable: the host bytes a world's stored chunks may take (``4e9``); by
+#: default 80 % of the memory the system can give when the world starts filling.
+WORLD_BYTES_ENV = "PV_CUBEMARCH_WORLD_BYTES"
+
+
+def world_bytes_budget() -> int | None:
+    """The host bytes a world read from a chunked array may keep (None: no limit known)."""
+    available = host_bytes_available()
+    default = None if available is None else int(0.8 * available)
+    value = budget_from_env(WORLD_BYTES_ENV, -1 if default is None else default,
+                            VolumeDataError)
+    return None if value < 0 else value
 
 
 #: Sources read on several threads at once: numpy arrays and memory maps, zarr and dask
@@ -129,10 +144,20 @@ def _filled_world(threads, source, boxes, chunk_size, background, palette, name,
                                   "not there on the first pass).")
         return rows
 
-    for (key, _), rows in zip(boxes, progress(
+    budget, kept = world_bytes_budget(), 0
+    for read, ((key, _), rows) in enumerate(zip(boxes, progress(
             threads.map(fill, range(len(boxes))), desc=f"{name}: filling chunks",
-            total=len(boxes), enabled=progress_bar), strict=True):
+            total=len(boxes), enabled=progress_bar), strict=True)):
         world._keep(key, rows, copy=False)
+        kept += world.stored[key].nbytes if key in world.stored else 0
+        if budget is not None and kept > budget:
+            raise VolumeDataError(
+                f"{name}: its chunks need more than the {budget:,} bytes of host memory a "
+                f"world may keep ({read + 1} of {len(boxes)} chunks read, {kept:,} bytes "
+                "kept), since a grid drawn in chunks holds every chunk that is not one "
+                "label. Stream it by bricks instead, reading only what is drawn: "
+                "add_voxels(plotter, [array]) (or a pyramid of it: build_pyramid), or "
+                f"raise {WORLD_BYTES_ENV}.")
     if ids is not None:
         world.label_ids = ids
         world.palette = Palette.make(palette, ids.n_rows, ids)
