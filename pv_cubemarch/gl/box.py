@@ -231,6 +231,20 @@ def box_polydata(lower, upper, margin: float = 0.0) -> pyvista.PolyData:
     return pyvista.Box(bounds=(lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])).triangulate()
 
 
+def place_by_user_matrix(prop, matrix: np.ndarray) -> None:
+    """Place ``prop`` by ``matrix`` alone: its ``user_matrix``, no position or turn.
+
+    What PyVista's placement calls change afterwards is then read back from the prop.
+    """
+    prop.SetPosition(0.0, 0.0, 0.0)
+    prop.SetOrientation(0.0, 0.0, 0.0)
+    prop.SetScale(1.0, 1.0, 1.0)
+    prop.SetOrigin(0.0, 0.0, 0.0)
+    user = vtk.vtkMatrix4x4()
+    user.DeepCopy(np.ascontiguousarray(matrix, dtype=np.float64).ravel().tolist())
+    prop.SetUserMatrix(user)
+
+
 def place_box(actor, world_from_index: np.ndarray, culling: bool = True,
               faces: str = "back") -> None:
     """Place an actor drawn in index space; the culled side follows the handedness.

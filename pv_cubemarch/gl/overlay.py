@@ -17,6 +17,7 @@ from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLGL2PSHelper
 
 from ..core.frame_errors import observe
 from ..core.user_warnings import warn_user
+from .box import place_by_user_matrix
 from .frame_inputs import PROXY_NAME, frame_inputs
 from .shaders import Replacement, ShaderRecipe
 
@@ -181,13 +182,7 @@ def place_bounds_proxy(proxy, model) -> None:
     corners.GetPoints().SetPoint(1, bounds[1], bounds[3], bounds[5])
     corners.GetPoints().Modified()
     corners.Modified()
-    proxy.SetPosition(0.0, 0.0, 0.0)
-    proxy.SetOrientation(0.0, 0.0, 0.0)
-    proxy.SetScale(1.0, 1.0, 1.0)
-    proxy.SetOrigin(0.0, 0.0, 0.0)
-    matrix = vtk.vtkMatrix4x4()
-    matrix.DeepCopy(transform.ravel().tolist())
-    proxy.SetUserMatrix(matrix)
+    place_by_user_matrix(proxy, transform)
 
 
 def is_bounds_proxy(actor) -> bool:

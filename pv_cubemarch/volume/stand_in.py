@@ -16,6 +16,7 @@ import vtk
 from pyvista.plotting.mapper import GPUVolumeRayCastMapper
 from pyvista.plotting.volume_property import VolumeProperty
 
+from ..gl.box import place_by_user_matrix
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..models.group import VolumeGroup
 from .pyvista_keywords import scalar_bar_mapper
@@ -78,13 +79,7 @@ def place_stand_in(volume, model) -> None:
     grid.SetSpacing(*np.maximum(extent, floor))
     grid.SetDirectionMatrix(*direction.ravel())
     grid.Modified()
-    volume.SetPosition(0.0, 0.0, 0.0)
-    volume.SetOrientation(0.0, 0.0, 0.0)
-    volume.SetScale(1.0, 1.0, 1.0)
-    volume.SetOrigin(0.0, 0.0, 0.0)
-    matrix = vtk.vtkMatrix4x4()
-    matrix.DeepCopy(transform.ravel().tolist())
-    volume.SetUserMatrix(matrix)
+    place_by_user_matrix(volume, transform)
 
 
 def stand_in_matrix(volume) -> np.ndarray:
