@@ -36,7 +36,7 @@ from .clipping import ClipPlaneSetting, bind_clip_planes
 from .label_state import LabelState, upload_palette_rows
 from .layers import LayerHost, TranslucentLayers
 from .options import VoxelOptions, drawn_level
-from .technique import bind_grid, voxel_recipe
+from .technique import VoxelBinding, bind_grid, voxel_recipe
 from .world_edits import WorldEditing
 
 #: Spare slots a pool gets when an edit needs one more than it has: a quarter more.
@@ -93,6 +93,8 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, LayerHost,
 
     technique = "voxels"
     needs_single_sample = True   # as a single grid's box (technique.VoxelBinding)
+    follows_mapper_planes = True   # as a single grid's (technique.VoxelBinding)
+    look_hint = VoxelBinding.look_hint
 
     def __init__(self, world: VoxelWorld, options: VoxelOptions, renderer):
         self.options = options
@@ -337,9 +339,11 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, LayerHost,
             self.layers.place()
 
     def follow_anchor(self) -> None:
-        """At each frame: the box and the layers follow the returned actor."""
+        """At each frame: the box, the layers and the mapper's planes follow the returned actor."""
         super().follow_anchor()
         self.follow_layers_anchor()
+        if self.drawn and self.actor is self.drawn[0]:
+            self.follow_mapper_planes(self.actor)
 
     def release_resources(self) -> None:
         """The bindings, and the chunk pool, chunk index and palette textures."""
