@@ -844,6 +844,7 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
     volume = isinstance(binding, VolumeBinding)
     if len(drawn) == 1 and binding.renderer is main and not volume:
         actor = drawn[0]
+        binding.use_frame_box()   # placed as a mesh of the data: PyVista's calls act alike
     else:
         for item in drawn:
             if not item.GetNumberOfConsumers():   # in no renderer yet

@@ -27,6 +27,21 @@ CHANGES = {
     "all": lambda actor: (setattr(actor, "user_matrix", TURNED),
                           actor.SetPosition(1.0, 2.0, 3.0), actor.SetOrientation(10, 20, 30)),
 }
+#: Calls made one frame after another (found by a review: each call added to the last):
+#: the same position twice stays there, a turn stays under a later move, and a user
+#: matrix set after a move keeps the move (a mesh's matrix: user_matrix, then the pose).
+REPEATED = {
+    "position twice": (CHANGES["position"], CHANGES["position"]),
+    "turn then move": (lambda actor: actor.SetOrientation(0, 0, 25),
+                       lambda actor: actor.SetPosition(1.0, -1.0, 0.5)),
+    "move then user_matrix": (CHANGES["position"], CHANGES["user_matrix"]),
+}
+#: What each sequence leaves the actor reading: position, orientation, user matrix.
+READ_BACK = {
+    "position twice": ((3.0, -2.0, 1.0), (0.0, 0.0, 0.0), None),
+    "turn then move": ((1.0, -1.0, 0.5), (0.0, 0.0, 25.0), None),
+    "move then user_matrix": ((3.0, -2.0, 1.0), (0.0, 0.0, 0.0), TURNED),
+}
 
 
 def _labels():
@@ -55,8 +70,9 @@ def _frames(add, change):
     plotter.camera_position = [(40.0, -30.0, 35.0), (12.0, 5.0, 9.0), (0.0, 0.0, 1.0)]
     plotter.camera.clipping_range = (1.0, 300.0)
     before = cm.render_image(plotter).astype(int)
-    change(actor)
-    after = cm.render_image(plotter).astype(int)
+    for step in change if isinstance(change, tuple) else (change,):   # a frame after each
+        step(actor)
+        after = cm.render_image(plotter).astype(int)
     plotter.close()
     return after, before
 
@@ -180,3 +196,59 @@ def test_what_is_not_drawn_of_the_returned_actor_is_said(what):
         with pytest.warns(UserWarning, match="clipping planes .* not drawn"):
             cm.render_image(plotter)
     plotter.close()
+
+
+def _ball_levels(plotter):
+    return plotter.cubemarch.add_surface(_ball(), isosurfaces=[0.6, 1.0], scalars="r",
+                                         color="white", shading="unlit")
+
+
+ADDERS = {
+    # what: (add ours, add PyVista's mesh of it)
+    "voxels": (lambda p: cm.add_voxels(p, _labels(), palette=PALETTE, shading="unlit"),
+               lambda p: _threshold(p)),
+    "world per chunk": (lambda p: cm.add_voxels(p, _labels(), palette=PALETTE,
+                                                shading="unlit", chunk_size=4,
+                                                world_traversal="per_chunk"),
+                        lambda p: _threshold(p)),
+    "world by index": (lambda p: cm.add_voxels(p, _labels(), palette=PALETTE,
+                                               shading="unlit", chunk_size=4),
+                       lambda p: _threshold(p)),
+    "surface": (lambda p: p.cubemarch.add_surface(_ball(), isovalue=1.0, scalars="r",
+                                                  color="white", shading="unlit"),
+                lambda p: p.add_mesh(_ball().contour([1.0], scalars="r"), color="white",
+                                     lighting=False)),
+    "levels": (_ball_levels,
+               lambda p: p.add_mesh(_ball().contour([0.6, 1.0], scalars="r"), color="white",
+                                    lighting=False)),
+}
+PALETTE = ["black", "red", "lime", "blue"]
+
+
+def _threshold(plotter):
+    grid = _labels()
+    return plotter.add_mesh(grid.threshold(0.5, scalars="m"), scalars="m", cmap=PALETTE[1:],
+                            clim=(1, 3), lighting=False, show_scalar_bar=False)
+
+
+@pytest.mark.parametrize("sequence", REPEATED)
+@pytest.mark.parametrize("what", ADDERS)
+def test_calls_made_again_place_as_a_mesh_and_read_back_as_set(what, sequence):
+    # catches (seen failing): the pose folded into the transform and reset every frame
+    # (the same position twice drawn twice as far; a user matrix after a move dropping
+    # it: 908 to 6007 pixels wrong), and our own index-to-world matrix read back as the
+    # user matrix (spacing and origin applied again by a widget composing on it).
+    ours, theirs_add = ADDERS[what]
+    kept = []
+    mine, before = _frames(lambda p: kept.append(ours(p)) or kept[-1], REPEATED[sequence])
+    theirs, _ = _frames(theirs_add, REPEATED[sequence])
+    shown, expected = mine.max(axis=-1) > 30, theirs.max(axis=-1) > 30
+    assert expected.mean() > 0.02 and (shown != (before.max(axis=-1) > 30)).mean() > 0.01
+    off = (shown != expected).mean() if what in ("surface", "levels") else (
+        (np.abs(mine - theirs).max(axis=-1) > 12).sum() / max(expected.sum(), 1))
+    assert off < 0.01, off
+    position, orientation, user = READ_BACK[sequence]
+    actor = kept[0]
+    assert np.allclose(actor.position, position) and np.allclose(actor.orientation,
+                                                                 orientation)
+    assert np.allclose(actor.user_matrix, np.eye(4) if user is None else user)

@@ -43,8 +43,9 @@ def draw(add, change, keywords=KEYWORDS):
     vol = add(pl, keywords)
     pl.camera_position = POSITION
     cm.render_image(pl)   # drawn once before the change
-    change(vol)
-    image = cm.render_image(pl)
+    for step in change if isinstance(change, tuple) else (change,):   # a frame after each
+        step(vol)
+        image = cm.render_image(pl)
     pl.close()
     return image
 
@@ -109,6 +110,30 @@ def test_placement_set_after_adding_is_drawn(technique):
     reference = draw(pyvista_add, move)
     image = draw(ours_add(technique), move)
     assert psnr(image, reference) >= 44.0
+
+
+@pytest.mark.parametrize("technique", TECHNIQUES)
+def test_placement_calls_made_again_place_as_pyvista_s_and_read_back(technique):
+    """The same position set twice, a frame apart, then a user matrix: the volume stays
+    where PyVista's does, and reads back what was set.
+
+    catches (found by a review, seen failing): the stand-in's pose folded into the
+    transform and reset every frame (the second call moved it again: 4673 pixels wrong;
+    the user matrix dropped the position).
+    """
+    def move(vol):
+        vol.position = (1.0, 2.0, -1.0)
+
+    def turn(vol):
+        vol.user_matrix = MOVE
+    steps = (move, move, turn)
+    reference = draw(pyvista_add, steps)
+    kept = []
+    image = draw(lambda pl, keywords: kept.append(ours_add(technique)(pl, keywords))
+                 or kept[-1], steps)
+    assert psnr(image, reference) >= 44.0
+    assert np.allclose(kept[0].position, (1.0, 2.0, -1.0))
+    assert np.allclose(kept[0].user_matrix, MOVE)
 
 
 SCALING = np.array([[2.2, 0.0, 0.0, 1.0], [0.0, 1.8, 0.0, -2.0], [0.0, 0.0, 2.0, 0.5],

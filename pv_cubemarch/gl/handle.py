@@ -8,12 +8,13 @@ its own state and ``release()``.
 from __future__ import annotations
 
 import numpy as np
+import pyvista
 
 from ..core.rendering import needs_open_plotter
 from ..core.user_warnings import warn_user
 from ..models.volume import checked_transform
 from .bindings import ShaderBindings
-from .box import numpy_matrix, place_box
+from .box import cull, numpy_matrix, place_box, place_by_user_matrix
 from .overlay import is_bounds_proxy, place_bounds_proxy
 from .shaders import ShaderRecipe
 
@@ -22,53 +23,83 @@ class Placement:
     """Moving what an ``actor.cubemarch`` draws: one ``set_transform`` for every technique.
 
     A technique says only what follows a new placement (:meth:`place`) and, if it cannot
-    move alone, why (:meth:`check_movable`).
+    move alone, why (:meth:`check_movable`). The prop returned for it (its box, a bounds
+    proxy or a volume's stand-in) holds the data's own frame under the ``transform`` as its
+    ``user_matrix``, as a mesh of the data would: PyVista's placement calls on it then
+    move the data as they move the mesh (:meth:`follow_prop_placement`).
     """
 
     main_renderer = None
     #: The prop standing for what it draws in the plotter, where that is not one box.
     bounds_proxy = None
+    #: Whether the returned box holds the data's own frame (:meth:`use_frame_box`).
+    box_in_frame = False
+    #: While the data follow the returned prop's own placement, which is left as it is.
+    _following_prop = False
 
     @needs_open_plotter
     def set_transform(self, transform) -> None:
         """Move what it draws: ``transform`` is its new 4x4 placement in the world.
 
         What it draws follows at once (passes that depend on the placement run again at the
-        next frame); nothing is uploaded again.
+        next frame); nothing is uploaded again. The returned actor then reads ``transform``
+        as its ``user_matrix``, with no position, orientation or scale.
         """
         placement = checked_transform(transform)
         self.check_movable()
         self.model.transform = placement
         self.place(placement)
-        if is_bounds_proxy(self.bounds_proxy):
+        if not self._following_prop and is_bounds_proxy(self.bounds_proxy):
             place_bounds_proxy(self.bounds_proxy, self.model)
         if self.main_renderer is not None:
             self.main_renderer.ResetCameraClippingRange()
-
-    def follow_proxy_placement(self) -> None:
-        """PyVista's placement of the returned bounds proxy moves what it draws, as a mesh's.
-
-        The proxy holds the data's own box under the ``transform`` (its ``user_matrix``), so
-        its whole matrix, once ``position``, ``orientation``, ``scale`` or ``user_matrix``
-        changed it, is the data's new ``transform``.
-        """
-        proxy = self.bounds_proxy
-        matrix = numpy_matrix(proxy.GetMatrix())
-        if np.allclose(matrix, np.asarray(self.model.transform, np.float64), rtol=1e-12,
-                       atol=0.0):
-            return
-        try:
-            self.set_transform(matrix)
-        except ValueError as error:   # cannot move alone: put the proxy back, and say why
-            place_bounds_proxy(proxy, self.model)
-            warn_user(f"{self.model.name!r} was not moved: {error}")
 
     def check_movable(self) -> None:
         """Raise ``ValueError`` if this drawing cannot move alone (the default: it can)."""
 
     def place(self, transform) -> None:
-        """Follow the model's new placement ``transform``: by default, the box actor."""
-        place_box(self.drawn[0], self.model.world_from_index())
+        """Follow the model's new placement ``transform``: by default, the box actor.
+
+        A returned box in the data's frame takes the ``transform`` as its ``user_matrix``
+        (not while it is the one followed); the culled side follows the handedness.
+        """
+        box = self.drawn[0]
+        if not self.box_in_frame:
+            place_box(box, self.model.world_from_index())
+            return
+        if not self._following_prop:
+            place_by_user_matrix(box, self.model.transform)
+        cull(box, self.model.world_from_index(), "back")
+
+    def follow_prop_placement(self, prop) -> None:
+        """The data follow the whole placement PyVista's calls gave ``prop``, left as set.
+
+        ``prop`` (the returned box, bounds proxy or stand-in) holds the data's own frame
+        under its matrix (``user_matrix``, then position, orientation and scale), as a mesh
+        of the data would; once that matrix changed, it is the data's new ``transform``.
+        Calls made again with the same values then change nothing, and every value reads
+        back as set. A drawing that cannot move alone puts the prop back and says why.
+        """
+        matrix = numpy_matrix(prop.GetMatrix())
+        placed = np.asarray(getattr(self.model, "transform", np.eye(4)), np.float64)
+        if np.allclose(matrix, placed, rtol=1e-12, atol=0.0):
+            return
+        self._following_prop = True
+        try:
+            self.set_transform(matrix)
+        except ValueError as error:
+            self._following_prop = False
+            self.put_back_prop()
+            warn_user(f"{self.model.name!r} was not moved: {error}")
+        finally:
+            self._following_prop = False
+
+    def put_back_prop(self) -> None:
+        """Place the returned prop where the data are (after a move refused)."""
+        if is_bounds_proxy(self.bounds_proxy):
+            place_bounds_proxy(self.bounds_proxy, self.model)
+        elif self.box_in_frame:
+            self.place(self.model.transform)
 
 
 class DrawnBinding(Placement):
@@ -116,8 +147,7 @@ class DrawnBinding(Placement):
         """At each frame: the drawn actors follow the visibility of the returned actor.
 
         Where the returned actor is the box itself, or a bounds proxy standing for several,
-        PyVista's placement of it follows too (:meth:`follow_actor_placement`,
-        :meth:`follow_proxy_placement`).
+        PyVista's placement of it follows too (:meth:`follow_prop_placement`).
         """
         if self.actor is None:
             return
@@ -125,11 +155,9 @@ class DrawnBinding(Placement):
         for actor in self.drawn:
             if actor is not self.actor:
                 actor.SetVisibility(shown)
-        if self.drawn and self.actor is self.drawn[0]:
-            self.follow_actor_placement()
-            self.say_unfollowed_changes()
-        elif self.actor is self.bounds_proxy and is_bounds_proxy(self.actor):
-            self.follow_proxy_placement()
+        if (self.drawn and self.actor is self.drawn[0] and self.box_in_frame) or (
+                self.actor is self.bounds_proxy and is_bounds_proxy(self.actor)):
+            self.follow_prop_placement(self.actor)
             self.say_unfollowed_changes()
 
     #: Where the returned actor's property (opacity, colour) is set instead, for the
@@ -159,39 +187,28 @@ class DrawnBinding(Placement):
             warn_user(f"{self.name!r}: clipping planes added to the returned actor's mapper "
                       "are not drawn (nothing of it is cut).")
 
-    def follow_actor_placement(self) -> None:
-        """PyVista's placement of the returned box actor moves what it draws, as a mesh's.
+    def use_frame_box(self) -> None:
+        """Make the box the returned actor: its corners in the data's own frame.
 
-        ``position``, ``orientation``, ``scale`` or ``user_matrix`` set on it move it as
-        they move a mesh of the same data.
-        The box is drawn in index space under its placement (``user_matrix`` = world from
-        index); a mesh's own ``user_matrix`` places its data and its position, orientation
-        and scale apply before that. So a changed actor is read as a mesh would be (its
-        ``user_matrix``, if not ours, as the data's placement, else the ``transform``;
-        then its position, orientation and scale), and :meth:`set_transform` places the
-        box again, with position, orientation and scale put back to none.
+        The box is drawn in index space under ``world_from_index``; returned to the user,
+        it holds the data's frame instead (``grid_from_index`` applied to its corners) and
+        the ``transform`` as its ``user_matrix``, as a mesh of the data would, so that
+        PyVista's placement calls move and read back as on that mesh
+        (:meth:`follow_prop_placement`).
         """
-        actor = self.actor
-        user = actor.GetUserMatrix()
-        placed = self.model.world_from_index()
-        ours = user is not None and np.array_equal(numpy_matrix(user), placed)
-        moved = (tuple(actor.GetPosition()) != (0.0, 0.0, 0.0)
-                 or tuple(actor.GetOrientation()) != (0.0, 0.0, 0.0)
-                 or tuple(actor.GetScale()) != (1.0, 1.0, 1.0))
-        if ours and not moved:
-            return
-        mine = numpy_matrix(user) if user is not None else np.eye(4)
-        pose = np.linalg.solve(mine, numpy_matrix(actor.GetMatrix()))   # position etc.
-        base = np.asarray(self.model.transform, dtype=np.float64) if ours else mine
-        actor.SetPosition(0.0, 0.0, 0.0)
-        actor.SetOrientation(0.0, 0.0, 0.0)
-        actor.SetScale(1.0, 1.0, 1.0)
-        actor.SetOrigin(0.0, 0.0, 0.0)
-        try:
-            self.set_transform(base @ pose)
-        except ValueError as error:   # cannot move alone: put the box back, and say why
-            place_box(actor, placed)
-            warn_user(f"{self.name!r} was not moved: {error}")
+        box = self.drawn[0]
+        corners = box.GetMapper().GetInput()
+        self.box_in_frame = True
+        self.set_box_polydata(corners)
+        self.place(self.model.transform)
+
+    def set_box_polydata(self, polydata) -> None:
+        """Draw the box ``polydata`` (index space), in the data's frame if it is returned."""
+        if self.box_in_frame:
+            frame_from_index = np.linalg.solve(
+                np.asarray(self.model.transform, np.float64), self.model.world_from_index())
+            polydata = pyvista.wrap(polydata).transform(frame_from_index, inplace=False)
+        self.drawn[0].GetMapper().SetInputData(polydata)
 
     def release(self) -> None:
         """Free what it holds on the GPU and its observers, then ``extra_release``; once."""

@@ -26,7 +26,7 @@ from ..models.volume import INTERPOLATIONS, VolumeModel, checked_values
 from .clipping import ClipState, data_transform
 from .pyvista_keywords import DIRECT_COLOR_BLENDING
 from .skipping import DEFAULT_BRICK_SIZE, brick_extinction
-from .stand_in import place_stand_in, stand_in_matrix
+from .stand_in import place_stand_in
 
 #: The marcher's loops (ea_march.glsl): blocks of STEP_BLOCK steps, at most STEP_BLOCKS
 #: blocks, so a ray (a piece of one in a joint group) takes up to MAX_STEPS steps while every
@@ -444,6 +444,11 @@ class VolumeBinding(DrawnBinding):
             self.light_map.release()
         self.data.release()
 
+    def put_back_prop(self) -> None:
+        """The stand-in where the volume is (after a move refused)."""
+        if self.bounds_proxy is not None:
+            place_stand_in(self.bounds_proxy, self.model)
+
     def check_movable(self) -> None:
         """Volumes marched jointly cannot move one by one."""
         if isinstance(self.model, VolumeGroup):
@@ -486,12 +491,8 @@ class VolumeBinding(DrawnBinding):
         ``position``, ``orientation``, ``scale``), which moves the volume as
         :meth:`set_transform` does.
         """
-        stand_in = self.bounds_proxy
-        if stand_in is not None:   # first: the crop box is placed with the volume
-            matrix = stand_in_matrix(stand_in)
-            placed = np.eye(4) if isinstance(self.model, VolumeGroup) else self.model.transform
-            if not np.allclose(matrix, placed, rtol=1e-12, atol=0.0):
-                self.set_transform(matrix)
+        if self.bounds_proxy is not None:   # first: the crop box is placed with the volume
+            self.follow_prop_placement(self.bounds_proxy)
         self.follow_clipping()
         if self.returned_property is not None:
             self.returned_property.follow()
@@ -628,8 +629,8 @@ class VolumeBinding(DrawnBinding):
 
 
 def follow_placement(binding) -> None:
-    """After a volume moved: its stand-in and the plotter's clipping range follow."""
-    if binding.bounds_proxy is not None:
+    """After a volume moved: its stand-in (unless it is what moved it) and the clipping range."""
+    if binding.bounds_proxy is not None and not binding._following_prop:
         place_stand_in(binding.bounds_proxy, binding.model)
     if binding.main_renderer is not None:
         binding.main_renderer.ResetCameraClippingRange()

@@ -80,9 +80,3 @@ def place_stand_in(volume, model) -> None:
     grid.SetDirectionMatrix(*direction.ravel())
     grid.Modified()
     place_by_user_matrix(volume, transform)
-
-
-def stand_in_matrix(volume) -> np.ndarray:
-    """The stand-in's whole placement (``user_matrix`` with position, orientation, scale)."""
-    matrix = volume.GetMatrix()
-    return np.array([[matrix.GetElement(i, j) for j in range(4)] for i in range(4)])

@@ -256,7 +256,7 @@ def refresh(binding, box: Box) -> None:
         after = bounds_in_cells(after, drawn_level(binding.options), dims)
     if tuple(np.concatenate(after)) != before:
         binding.drawn_bounds = after
-        binding.drawn[0].GetMapper().SetInputData(box_polydata(*after, 0.01 * max(dims)))
+        binding.set_box_polydata(box_polydata(*after, 0.01 * max(dims)))
         # The near and far planes follow the drawn box, as after a move.
         (binding.main_renderer or binding.renderer).ResetCameraClippingRange()
 

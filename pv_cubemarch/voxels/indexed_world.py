@@ -166,7 +166,7 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, LayerHost,
         """The box actor around the filled voxels (1 % larger: rays clip to it exactly)."""
         lower, upper = self.drawn_bounds
         margin = 0.01 * max(self.model.dimensions)
-        self.drawn[0].GetMapper().SetInputData(box_polydata(lower, upper, margin))
+        self.set_box_polydata(box_polydata(lower, upper, margin))
         renderer = self.main_renderer or self.renderer
         if renderer is not None and renderer.GetActors().IsItemPresent(self.drawn[0]):
             renderer.ResetCameraClippingRange()
