@@ -106,13 +106,31 @@ class SurfaceCalibration(ProbeCalibration):
                 sorted((k, repr(v)) for k, v in self.keep.items()))
 
     def bounds(self) -> np.ndarray:
-        """The drawn box: the domain a hair larger, or the active cells' boxes."""
-        if self.technique == "active" and self.options.traversal == "cell_boxes":
-            cells = active_cells(self.model, self.options.active_test,
-                                 self.options.active_samples)
+        """The drawn box, as ``surfaces.technique`` draws it.
+
+        The active cells' boxes, or their box a hair larger (the domain's for
+        ``technique='full'``). Opaque levels, each drawn apart, are framed by the prop
+        standing for them, which spans the domain.
+        """
+        if self.levels is not None and not self.options.translucent:
+            return drawn_box_bounds(self.model, np.zeros(3), self.model.dimensions)
+        if self.technique == "active":
+            cells = self.cells()
             if len(cells):
-                return drawn_box_bounds(self.model, cells.min(axis=0), cells.max(axis=0) + 1)
+                lower, upper = cells.min(axis=0), cells.max(axis=0) + 1
+                if self.options.traversal == "cell_boxes":
+                    return drawn_box_bounds(self.model, lower, upper)
+                margin = 0.01 * max(self.model.dimensions)
+                return drawn_box_bounds(self.model, lower - margin, upper + margin)
         return margined_bounds(self.model)
+
+    def cells(self) -> np.ndarray:
+        """The active cells of every level drawn (as the drawing finds them)."""
+        found = [active_cells(self.model if offset == 0.0 else dataclasses.replace(
+            self.model, coefficients=self.model.coefficients - offset),
+            self.options.active_test, self.options.active_samples)
+            for offset in (self.levels or (0.0,))]
+        return np.concatenate(found) if found else np.zeros((0, 3), np.int64)
 
     def shading(self) -> str:
         return self.options.shading

@@ -64,6 +64,8 @@ class SurfaceLevels(DrawnBinding):
         self.values = tuple(float(v) for v in values)
         self.drawn = [actor for level in self.levels for actor in level.drawn]
         self.renderer = first.renderer
+        for actor in self.drawn:   # the returned prop spans them: reset_camera frames it
+            actor.UseBoundsOff()
 
     @property
     def surfaces(self) -> list:

@@ -173,11 +173,20 @@ class SurfaceBinding(DrawnBinding):
         return 27 * 4 * int(np.prod(self.model.dimensions))
 
 
-def _domain_actor(field: SplineField) -> pyvista.Actor:
-    """The back faces of the domain's box (a hair larger: no grazing pixel lost)."""
-    dims = field.dimensions
-    return box_actor(np.asarray(dims, dtype=np.float64), field.world_from_index(),
-                     margin=0.01 * max(dims))
+def _domain_actor(field: SplineField, cells: np.ndarray | None = None) -> pyvista.Actor:
+    """The back faces of the box holding the active ``cells`` (all: the domain's).
+
+    A hair larger: no grazing pixel lost. Every root lies in an active cell, so a pixel
+    whose ray meets the surface lies inside their box; a box no larger draws fewer
+    fragments, and the returned actor's bounds are the surface's cells' (``reset_camera``
+    frames them, not the whole sampled grid).
+    """
+    dims = np.asarray(field.dimensions, dtype=np.float64)
+    lower, upper = np.zeros(3), dims
+    if cells is not None and len(cells):
+        lower, upper = np.min(cells, axis=0).astype(np.float64), np.max(cells, axis=0) + 1.0
+    return box_actor(upper, field.world_from_index(), margin=0.01 * float(dims.max()),
+                     lower=lower)
 
 
 def _cell_boxes_actor(field: SplineField, cells: np.ndarray) -> pyvista.Actor:
@@ -275,7 +284,8 @@ def _build(plotter, field: SplineField, options: SurfaceOptions, technique: str,
     if how == "index" and bricks is None:
         options = dataclasses.replace(options, traversal="cell_boxes")
         how = "cell_boxes"
-    actor = _cell_boxes_actor(field, cells) if how == "cell_boxes" else _domain_actor(field)
+    actor = (_cell_boxes_actor(field, cells) if how == "cell_boxes"
+             else _domain_actor(field, cells))
     if not options.translucent:   # else the translucent pass, after every opaque prop
         actor.ForceTranslucentOff()
         actor.ForceOpaqueOn()
