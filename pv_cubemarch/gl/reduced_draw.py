@@ -182,12 +182,17 @@ class ReducedDraw:
         self._hidden = []
 
     def _follow_actor(self, members: list) -> None:
-        """The stand-in takes the actor's geometry, placement and culled faces now."""
+        """The stand-in takes the actor's geometry, placement (pose too) and culled faces now."""
         geometry = self.actor.GetMapper().GetInput()
         if self.stand_in.GetMapper().GetInput() is not geometry:
             self.stand_in.GetMapper().SetInputData(geometry)
         if self.stand_in.GetUserMatrix() is not self.actor.GetUserMatrix():
             self.stand_in.SetUserMatrix(self.actor.GetUserMatrix())
+        # and the pose PyVista's calls gave a returned box (set only where it changed)
+        self.stand_in.SetPosition(self.actor.GetPosition())
+        self.stand_in.SetOrientation(self.actor.GetOrientation())
+        self.stand_in.SetScale(self.actor.GetScale())
+        self.stand_in.SetOrigin(self.actor.GetOrigin())
         ours, theirs = self.stand_in.GetProperty(), self.actor.GetProperty()
         if (ours.GetFrontfaceCulling(), ours.GetBackfaceCulling()) != (
                 theirs.GetFrontfaceCulling(), theirs.GetBackfaceCulling()):
