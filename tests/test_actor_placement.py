@@ -272,3 +272,57 @@ def test_a_surface_s_returned_bounds_hold_its_cells_not_the_whole_grid(opacity):
     assert (theirs[:, 0] - ours[:, 0] <= slack + 1e-9).all(), (ours, theirs)
     assert (ours[:, 1] - theirs[:, 1] <= slack + 1e-9).all(), (ours, theirs)
     plotter.close()
+
+
+def test_a_refused_move_puts_back_the_values_read_before_it():
+    # A scale of zero cannot place the grid (refused, said): the actor reads again what it
+    # read before the call, so the same position set once more changes nothing.
+    # catches (found by a review, seen failing): the earlier move folded into the user
+    # matrix and the pose reset, so the same position set again moved it again.
+    move = CHANGES["position"]
+
+    def squash(actor):
+        actor.SetScale(0.0, 1.0, 1.0)
+
+    actors = []
+
+    def add(plotter):
+        actors.append(cm.add_voxels(plotter, _labels(), palette=PALETTE, shading="unlit"))
+        return actors[-1]
+
+    with pytest.warns(UserWarning, match="was not moved"):
+        mine, _ = _frames(add, (move, squash, move))
+    theirs, _ = _frames(_threshold, move)
+    drawn = theirs.max(axis=-1) > 30
+    wrong = (np.abs(mine - theirs).max(axis=-1) > 12).sum()
+    assert drawn.mean() > 0.05 and wrong <= 0.002 * drawn.sum(), (wrong, drawn.sum())
+    assert np.allclose(actors[0].position, (3.0, -2.0, 1.0))
+    assert np.allclose(actors[0].scale, 1.0) and np.allclose(actors[0].user_matrix, np.eye(4))
+
+
+def test_a_grid_far_from_the_origin_keeps_its_box():
+    # Corners held in the data's frame at 1e6 with a spacing of 0.01: float32 steps there
+    # are 0.06 (six voxels), so the corners are kept in double.
+    # catches (found by a review, seen failing): float32 corners (533 of 6509 pixels
+    # wrong against the CPU traversal; the box's margin lost, faces inside the grid).
+    from pv_cubemarch.reference.voxels import face_colors, trace_voxels
+    labels = np.random.default_rng(4).integers(0, 3, (16, 12, 10)).astype(np.uint8)
+    grid = pv.ImageData(dimensions=np.array(labels.shape) + 1, spacing=(0.01, 0.01, 0.01),
+                        origin=(1e6, 1e6, 1e6))
+    grid.cell_data["m"] = labels.ravel(order="F")
+    plotter = pv.Plotter(off_screen=True, window_size=SIZE)
+    plotter.disable_anti_aliasing()
+    plotter.ren_win.SetMultiSamples(0)
+    plotter.set_background("black")
+    actor = cm.add_voxels(plotter, grid, mode="face")
+    centre = np.asarray(grid.center)
+    plotter.camera_position = [tuple(centre + (0.3, -0.25, 0.2)), tuple(centre), (0, 0, 1)]
+    plotter.camera.clipping_range = (0.05, 2.0)
+    image = cm.render_image(plotter).astype(int)
+    hits = trace_voxels(labels, actor.cubemarch.model.world_from_index(),
+                        cm.Camera.from_pyvista(plotter.camera), SIZE, near=0.05)
+    wrong = np.any(image != face_colors(hits), axis=-1) & ~hits.near_edge
+    assert (hits.material > 0).mean() > 0.1 and wrong.sum() == 0, int(wrong.sum())
+    bounds = np.reshape(actor.bounds, (3, 2))
+    assert (bounds[:, 0] < 1e6).all() and (bounds[:, 1] > np.asarray(grid.bounds)[1::2]).all()
+    plotter.close()

@@ -110,6 +110,24 @@ def test_isovalue_knob_moves_the_level(plotter_factory):
                                cm.make_field(samples, 0.6).coefficients, atol=1e-12)
 
 
+def test_a_surface_moved_after_a_knob_keeps_its_place_at_the_next(plotter_factory):
+    # A knob re-adds the surface (add_surface copies its field); PyVista's call moves the
+    # new actor; the next knob re-adds it where it was moved, not where it was first.
+    # catches (found by a review, seen failing): the session's first copy re-added (the
+    # surface jumped back: its transform the identity again).
+    pl = plotter_factory(SIZE)
+    x, y, z = np.mgrid[-1:1:10j, -1:1:10j, -1:1:10j]
+    cm.add_surface(pl, x * x + y * y + z * z, isovalue=0.5, name="ball")
+    session = TuningSession.from_plotter(pl)
+    session.set("surface", "steps", 200)
+    pl.renderer.actors["ball"].position = (0.0, 8.0, 0.0)
+    cm.render_image(pl)
+    session.set("surface", "steps", 100)
+    session.set("surface", "isovalue", 0.1)
+    moved = pl.renderer.actors["ball"].cubemarch.model.transform
+    np.testing.assert_allclose(np.asarray(moved)[:3, 3], (0.0, 8.0, 0.0))
+
+
 def test_the_app_binds_every_knob_of_the_scene():
     server, layout, session = build_app(SCENE, size=SIZE, name="test-views")
     try:

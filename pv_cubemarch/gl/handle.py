@@ -36,6 +36,8 @@ class Placement:
     box_in_frame = False
     #: While the data follow the returned prop's own placement, which is left as it is.
     _following_prop = False
+    #: The returned prop's placement values while the data were where it placed them.
+    _kept_pose = None
 
     @needs_open_plotter
     def set_transform(self, transform) -> None:
@@ -83,13 +85,18 @@ class Placement:
         matrix = numpy_matrix(prop.GetMatrix())
         placed = np.asarray(getattr(self.model, "transform", np.eye(4)), np.float64)
         if np.allclose(matrix, placed, rtol=1e-12, atol=0.0):
+            self._kept_pose = prop_pose(prop)   # what a refused move puts back
             return
         self._following_prop = True
         try:
             self.set_transform(matrix)
+            self._kept_pose = prop_pose(prop)
         except ValueError as error:
             self._following_prop = False
-            self.put_back_prop()
+            if self._kept_pose is not None:   # the values the prop read before the call
+                set_prop_pose(prop, self._kept_pose)
+            else:
+                self.put_back_prop()
             warn_user(f"{self.model.name!r} was not moved: {error}")
         finally:
             self._following_prop = False
@@ -207,7 +214,10 @@ class DrawnBinding(Placement):
         if self.box_in_frame:
             frame_from_index = np.linalg.solve(
                 np.asarray(self.model.transform, np.float64), self.model.world_from_index())
-            polydata = pyvista.wrap(polydata).transform(frame_from_index, inplace=False)
+            polydata = pyvista.wrap(polydata).copy()
+            # double: a frame far from its origin (1e6) holds no float32 corner a hair out
+            polydata.points = np.asarray(polydata.points, np.float64)
+            polydata = polydata.transform(frame_from_index, inplace=False)
         self.drawn[0].GetMapper().SetInputData(polydata)
 
     def release(self) -> None:
@@ -223,3 +233,23 @@ class DrawnBinding(Placement):
     def release_resources(self) -> None:
         """Free the technique's own resources: by default its bindings' textures and hooks."""
         self.bindings.release()
+
+
+def prop_pose(prop) -> tuple:
+    """A prop's placement values: user matrix (a copy), position, orientation, scale, origin."""
+    user = prop.GetUserMatrix()
+    return (None if user is None else numpy_matrix(user), prop.GetPosition(),
+            prop.GetOrientation(), prop.GetScale(), prop.GetOrigin())
+
+
+def set_prop_pose(prop, pose: tuple) -> None:
+    """Give ``prop`` back the placement values :func:`prop_pose` read."""
+    user, position, orientation, scale, origin = pose
+    if user is None:
+        prop.SetUserMatrix(None)
+    else:
+        place_by_user_matrix(prop, user)
+    prop.SetPosition(position)
+    prop.SetOrientation(orientation)
+    prop.SetScale(scale)
+    prop.SetOrigin(origin)

@@ -144,6 +144,7 @@ def bounds_proxy(model) -> pyvista.Actor:
     the volume.
     """
     points = vtk.vtkPoints()
+    points.SetDataTypeToDouble()   # corners far from the origin (1e6) kept to the digit
     points.SetNumberOfPoints(2)
     cells = vtk.vtkCellArray()
     for index in range(2):

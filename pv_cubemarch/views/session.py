@@ -353,7 +353,16 @@ class TuningSession:
         return [item for item in self.items.values() if item.kind == kind]
 
     def _add(self, item: TunedItem) -> None:
-        """Add the item again under its name, in its renderer (replacing the old one)."""
+        """Add the item again under its name, in its renderer (replacing the old one).
+
+        It keeps the placement its actor has now (PyVista's calls may have moved it since
+        it was added: a surface's model is a copy made by ``add_surface``).
+        """
+        live = getattr(item.binding, "model", None)
+        if (live is not None and live is not item.model and hasattr(live, "transform")
+                and hasattr(item.model, "transform")
+                and not np.array_equal(live.transform, item.model.transform)):
+            item.model = replace(item.model, transform=np.array(live.transform, np.float64))
         technique = item.options.get("technique") or DEFAULT_TECHNIQUE[item.kind]
         reader = get_technique(item.kind, technique)
         # options some technique of the kind reads and this one does not are left out
