@@ -165,12 +165,15 @@ class DrawnBinding(Placement):
         if (self.drawn and self.actor is self.drawn[0] and self.box_in_frame) or (
                 self.actor is self.bounds_proxy and is_bounds_proxy(self.actor)):
             self.follow_prop_placement(self.actor)
+            if self.follows_mapper_planes:
+                self.follow_mapper_planes(self.actor)
             self.say_unfollowed_changes()
 
     #: Where the returned actor's property (opacity, colour) is set instead, for the
     #: warning that says it is not drawn.
     look_hint = "add the data again with the opacity and colour wanted"
-    #: Whether the returned actor's mapper's clipping planes cut what it draws.
+    #: Whether the returned actor's mapper's clipping planes cut what it draws (then it
+    #: has ``follow_mapper_planes(actor)``, as ``voxels.clipping.ClipPlaneSetting``).
     follows_mapper_planes = False
 
     def say_unfollowed_changes(self) -> None:

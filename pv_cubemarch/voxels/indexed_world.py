@@ -339,11 +339,9 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, LayerHost,
             self.layers.place()
 
     def follow_anchor(self) -> None:
-        """At each frame: the box, the layers and the mapper's planes follow the returned actor."""
+        """At each frame: the box (placement, planes) and the layers follow the returned actor."""
         super().follow_anchor()
         self.follow_layers_anchor()
-        if self.drawn and self.actor is self.drawn[0]:
-            self.follow_mapper_planes(self.actor)
 
     def release_resources(self) -> None:
         """The bindings, and the chunk pool, chunk index and palette textures."""

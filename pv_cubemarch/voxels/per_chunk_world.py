@@ -464,10 +464,9 @@ class WorldPasses(DrawnBinding):
         """The world follows (the prop is placed again by ``set_transform``)."""
         self.world.place(transform)
 
-    def follow_anchor(self) -> None:
-        """At each frame: the prop's placement and its mapper's planes (see the class)."""
-        super().follow_anchor()
-        self.world.follow_mapper_planes(self.actor)
+    def follow_mapper_planes(self, actor) -> None:
+        """The world is cut by the prop's mapper's planes (see the class)."""
+        self.world.follow_mapper_planes(actor)
 
     @property
     def name(self) -> str:

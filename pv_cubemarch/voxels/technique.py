@@ -339,8 +339,6 @@ class VoxelBinding(LabelState, ClipPlaneSetting, LayerHost, DrawnBinding):
         """At each frame: drawn actors, layers and clipping planes follow the returned one."""
         super().follow_anchor()
         self.follow_layers_anchor()
-        if self.drawn and (self.actor is self.drawn[0] or self.actor is self.bounds_proxy):
-            self.follow_mapper_planes(self.actor)
 
     def place(self, transform) -> None:
         """The box, the brick shell and the translucent layers follow the grid."""
