@@ -38,6 +38,8 @@ class Placement:
     _following_prop = False
     #: The returned prop's placement values while the data were where it placed them.
     _kept_pose = None
+    #: The returned prop's modified time when it was last followed.
+    _prop_seen = None
 
     @needs_open_plotter
     def set_transform(self, transform) -> None:
@@ -82,13 +84,15 @@ class Placement:
         Calls made again with the same values then change nothing, and every value reads
         back as set. A drawing that cannot move alone puts the prop back and says why.
         """
+        if prop.GetMTime() == self._prop_seen:
+            return   # nothing set on it since the last look: a frame's usual case
         matrix = numpy_matrix(prop.GetMatrix())
         placed = np.asarray(getattr(self.model, "transform", np.eye(4)), np.float64)
-        if np.allclose(matrix, placed, rtol=1e-12, atol=0.0):
-            self._kept_pose = prop_pose(prop)   # what a refused move puts back
-            return
-        self._following_prop = True
         try:
+            if np.allclose(matrix, placed, rtol=1e-12, atol=0.0):
+                self._kept_pose = prop_pose(prop)   # what a refused move puts back
+                return
+            self._following_prop = True
             self.set_transform(matrix)
             self._kept_pose = prop_pose(prop)
         except ValueError as error:
@@ -100,6 +104,7 @@ class Placement:
             warn_user(f"{self.model.name!r} was not moved: {error}")
         finally:
             self._following_prop = False
+            self._prop_seen = prop.GetMTime()
 
     def put_back_prop(self) -> None:
         """Place the returned prop where the data are (after a move refused)."""
