@@ -13,7 +13,7 @@ of global coordinates lose all precision in float32 (errors of 1e3 to 1e10 at 32
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -313,6 +313,21 @@ def active_cells(surface: SplineField, test: str = "bernstein", samples: int = 4
         low, high = values.min(axis=(1, 2, 3)), values.max(axis=(1, 2, 3))
         keep.append(part[(low <= 0.0) & (high >= 0.0)])
     return np.concatenate(keep) if keep else np.zeros((0, 3), np.int64)
+
+
+def level_cells(surface: SplineField, offsets, test: str = "bernstein",
+                samples: int = 4) -> np.ndarray:
+    """:func:`active_cells` of every level ``f = offset`` drawn together, x fastest.
+
+    One offset of 0 is the surface's own cells.
+    """
+    offsets = tuple(float(v) for v in offsets)
+    if offsets == (0.0,):
+        return active_cells(surface, test, samples)
+    cells = np.unique(np.concatenate([active_cells(
+        replace(surface, coefficients=surface.coefficients - offset), test, samples)
+        for offset in offsets]), axis=0)
+    return cells[np.lexsort(cells.T)]
 
 
 def _bernstein_rows(c: np.ndarray, axis: int) -> np.ndarray:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..models.surface import active_cells
+from ..models.surface import level_cells
 from ..surfaces.options import LOOP_BUDGET, MAX_STEPS, SurfaceOptions
 from ..surfaces.technique import surface_recipe
 from .interaction import set_still_steps, surface_parts
@@ -115,7 +115,8 @@ class SurfaceCalibration(ProbeCalibration):
         if self.levels is not None and not self.options.translucent:
             return drawn_box_bounds(self.model, np.zeros(3), self.model.dimensions)
         if self.technique == "active":
-            cells = self.cells()
+            cells = level_cells(self.model, self.levels or (0.0,), self.options.active_test,
+                                self.options.active_samples)
             if len(cells):
                 lower, upper = cells.min(axis=0), cells.max(axis=0) + 1
                 if self.options.traversal == "cell_boxes":
@@ -123,14 +124,6 @@ class SurfaceCalibration(ProbeCalibration):
                 margin = 0.01 * max(self.model.dimensions)
                 return drawn_box_bounds(self.model, lower - margin, upper + margin)
         return margined_bounds(self.model)
-
-    def cells(self) -> np.ndarray:
-        """The active cells of every level drawn (as the drawing finds them)."""
-        found = [active_cells(self.model if offset == 0.0 else dataclasses.replace(
-            self.model, coefficients=self.model.coefficients - offset),
-            self.options.active_test, self.options.active_samples)
-            for offset in (self.levels or (0.0,))]
-        return np.concatenate(found) if found else np.zeros((0, 3), np.int64)
 
     def shading(self) -> str:
         return self.options.shading

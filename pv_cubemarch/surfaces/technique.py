@@ -34,7 +34,7 @@ from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
 from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
-from ..models.surface import SplineField, active_cells
+from ..models.surface import SplineField, level_cells
 from ..models.surface_bricks import BLOCK_SIZE, BRICK_SIZE, SurfaceBricks, surface_bricks
 from ..reference.surfaces import render_surface
 from .options import LOOP_BUDGET, SurfaceOptions
@@ -273,13 +273,8 @@ def _build(plotter, field: SplineField, options: SurfaceOptions, technique: str,
                          "crossing along one ray per pixel, as traversal='index' of "
                          f"technique='active' (the defaults) marches it; {used} keeps only "
                          "the nearest hit. Leave it out, or leave opacity out.")
-    cells = None if how == "full" else active_cells(field, options.active_test,
-                                                     options.active_samples)
-    if len(offsets) > 1:   # every level's cells, x fastest as active_cells orders them
-        cells = np.unique(np.concatenate([active_cells(
-            dataclasses.replace(field, coefficients=field.coefficients - offset),
-            options.active_test, options.active_samples) for offset in offsets]), axis=0)
-        cells = cells[np.lexsort(cells.T)]
+    cells = None if how == "full" else level_cells(field, offsets, options.active_test,
+                                                    options.active_samples)
     bricks = _index_bricks(field, options, cells) if how == "index" else None
     if how == "index" and bricks is None:
         options = dataclasses.replace(options, traversal="cell_boxes")
