@@ -851,7 +851,8 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
                 binding.renderer.AddActor(item)
                 if binding.renderer is main:   # not named: the stand-in's removal frees it
                     binding.extra_release.append(lambda item=item: main.RemoveActor(item))
-        actor = stand_in_volume(binding.model) if volume else bounds_proxy(binding.model)
+        actor = stand_in_volume(binding.model) if volume else bounds_proxy(
+            binding.model, binding.drawn_frame_bounds())
         binding.bounds_proxy = actor
     if volume:
         binding.clip_source = actor.GetMapper()

@@ -254,17 +254,20 @@ def test_calls_made_again_place_as_a_mesh_and_read_back_as_set(what, sequence):
     assert np.allclose(actor.user_matrix, np.eye(4) if user is None else user)
 
 
+@pytest.mark.parametrize("levels", [[1.0], [0.6, 1.0]], ids=["one level", "two levels"])
 @pytest.mark.parametrize("opacity", [1.0, 0.5])
-def test_a_surface_s_returned_bounds_hold_its_cells_not_the_whole_grid(opacity):
+def test_a_surface_s_returned_bounds_hold_its_cells_not_the_whole_grid(opacity, levels):
     # The returned box spans the active cells (a hair larger), so reset_camera frames the
     # surface as PyVista frames its contour, not the whole sampled grid (found by a
     # review: a third of PyVista's size). Oracle: PyVista's contour of the same samples.
     # catches (seen failing): the box of the whole domain (bounds 2.3 to 22.7 along x
-    # against the contour's 5.6 to 19.4).
+    # against the contour's 5.6 to 19.4); for two opaque levels (a prop standing for
+    # both), the proxy spanning the whole grid (SurfaceLevels.drawn_frame_bounds -> None).
     grid = _ball()
     plotter = pv.Plotter(off_screen=True, window_size=SIZE)
-    actor = plotter.cubemarch.add_surface(grid, isovalue=1.0, scalars="r", opacity=opacity)
-    contour = grid.contour([1.0], scalars="r")
+    actor = plotter.cubemarch.add_surface(grid, isosurfaces=levels, scalars="r",
+                                          opacity=opacity)
+    contour = grid.contour(levels, scalars="r")
     ours = np.reshape(actor.bounds, (3, 2))
     theirs = np.reshape(contour.bounds, (3, 2))
     slack = np.asarray(grid.spacing) + 0.01 * max(grid.dimensions) * max(grid.spacing)

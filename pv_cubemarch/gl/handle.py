@@ -54,9 +54,16 @@ class Placement:
         self.model.transform = placement
         self.place(placement)
         if not self._following_prop and is_bounds_proxy(self.bounds_proxy):
-            place_bounds_proxy(self.bounds_proxy, self.model)
+            place_bounds_proxy(self.bounds_proxy, self.model, self.drawn_frame_bounds())
         if self.main_renderer is not None:
             self.main_renderer.ResetCameraClippingRange()
+
+    def drawn_frame_bounds(self):
+        """The bounds of what is drawn, in the data's own frame, where less than its grid.
+
+        A bounds proxy spans them (``reset_camera`` frames them); None: the whole grid.
+        """
+        return None
 
     def check_movable(self) -> None:
         """Raise ``ValueError`` if this drawing cannot move alone (the default: it can)."""
@@ -109,7 +116,7 @@ class Placement:
     def put_back_prop(self) -> None:
         """Place the returned prop where the data are (after a move refused)."""
         if is_bounds_proxy(self.bounds_proxy):
-            place_bounds_proxy(self.bounds_proxy, self.model)
+            place_bounds_proxy(self.bounds_proxy, self.model, self.drawn_frame_bounds())
         elif self.box_in_frame:
             self.place(self.model.transform)
 

@@ -133,7 +133,7 @@ def renderer_overlay(main) -> SceneOverlay:
     return overlay
 
 
-def bounds_proxy(model) -> pyvista.Actor:
+def bounds_proxy(model, bounds=None) -> pyvista.Actor:
     """An invisible prop spanning ``model``'s world box, for the plotter's own renderer.
 
     A volume drawn by the overlay is not among the plotter renderer's props, which
@@ -141,7 +141,7 @@ def bounds_proxy(model) -> pyvista.Actor:
     the two corners of the box's world bounds as points whose fragments are discarded (an
     opaque prop, so it starts no translucency pass). A volume drawn by the overlay returns
     its proxy from ``add_volume``: the plotter knows it by name, and removing it removes
-    the volume.
+    the volume. ``bounds``: the part of the data's own frame it spans (by default all).
     """
     points = vtk.vtkPoints()
     points.SetDataTypeToDouble()   # corners far from the origin (1e6) kept to the digit
@@ -161,21 +161,23 @@ def bounds_proxy(model) -> pyvista.Actor:
     proxy.SetObjectName(PROXY_NAME)
     ShaderRecipe([Replacement("//VTK::Light::Impl", "discard_fragment", keep_tag="before")]
                  ).apply(proxy.GetShaderProperty())
-    place_bounds_proxy(proxy, model)
+    place_bounds_proxy(proxy, model, bounds)
     return proxy
 
 
-def place_bounds_proxy(proxy, model) -> None:
+def place_bounds_proxy(proxy, model, bounds=None) -> None:
     """Span ``model``'s box, as a mesh of its data placed by its ``transform`` would.
 
     The proxy's two points are the corners of the data's own bounds (before the
     ``transform``), and its ``user_matrix`` is the ``transform`` (position, orientation and
     scale none): PyVista's placement calls on it then move it as they move a mesh, and
     :meth:`~pv_cubemarch.gl.handle.Placement.follow_proxy_placement` moves the data along.
-    A model with no ``transform`` spans its world bounds.
+    A model with no ``transform`` spans its world bounds; ``bounds`` in its frame, if
+    given, replace its own (what is drawn of it, where that is less than the whole grid).
     """
     if hasattr(model, "frame_bounds"):
-        bounds, transform = model.frame_bounds(), np.asarray(model.transform, np.float64)
+        transform = np.asarray(model.transform, np.float64)
+        bounds = model.frame_bounds() if bounds is None else bounds
     else:
         bounds, transform = model.world_bounds(), np.eye(4)
     corners = proxy.GetMapper().GetInput()

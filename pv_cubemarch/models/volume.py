@@ -86,10 +86,10 @@ def first_point(grid: pyvista.ImageData) -> np.ndarray:
     return np.asarray(grid.origin, dtype=np.float64) + direction @ (spacing * start)
 
 
-def box_world_bounds(world_from_index: np.ndarray, upper) -> np.ndarray:
-    """World bounds ``(xmin, xmax, ...)`` of the index-space box ``[0, upper]`` placed."""
-    corners = np.array([[x, y, z, 1.0] for x in (0, upper[0]) for y in (0, upper[1])
-                        for z in (0, upper[2])])
+def box_world_bounds(world_from_index: np.ndarray, upper, lower=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """World bounds ``(xmin, xmax, ...)`` of the index-space box ``[lower, upper]`` placed."""
+    corners = np.array([[x, y, z, 1.0] for x in (lower[0], upper[0])
+                        for y in (lower[1], upper[1]) for z in (lower[2], upper[2])])
     world = corners @ np.asarray(world_from_index).T
     return np.column_stack([world[:, :3].min(axis=0), world[:, :3].max(axis=0)]).ravel()
 

@@ -15,6 +15,7 @@ import pyvista
 from ..core.options import is_count, level_values, spread_levels
 from ..core.scalar_bar import attach_scalar_bar
 from ..gl.handle import DrawnBinding
+from ..models.volume import box_world_bounds
 
 
 def surface_levels(isosurfaces, samples: np.ndarray | None) -> tuple[float, ...]:
@@ -86,6 +87,20 @@ class SurfaceLevels(DrawnBinding):
     def cells(self) -> list:
         """Each level's active cells (None for ``technique='full'``)."""
         return [level.cells for level in self.levels]
+
+    def drawn_frame_bounds(self) -> np.ndarray | None:
+        """The levels' boxes' bounds in the field's own frame (None: no level has cells).
+
+        Each level's box spans its active cells; the returned prop spans them all, so
+        ``reset_camera`` frames the levels as PyVista frames their contours.
+        """
+        boxes = [pyvista.wrap(level.drawn[0].GetMapper().GetInput()).bounds
+                 for level in self.levels if level.cells is None or len(level.cells)]
+        if not boxes:
+            return None
+        boxes = np.reshape(boxes, (-1, 3, 2))
+        return box_world_bounds(self.model.grid_from_index, boxes[:, :, 1].max(axis=0),
+                                boxes[:, :, 0].min(axis=0))
 
     def place(self, transform) -> None:
         """Every level follows (the stand-in the camera resets by: ``set_transform``)."""
