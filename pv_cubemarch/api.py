@@ -1604,7 +1604,7 @@ def add_surface(
         The colormap of ``color_by`` (256 entries).
     clim : sequence of float, optional
         The values at the colormap's ends: of ``color_by`` (by default the second field's
-        range, or plus and minus 4 / the domain's smallest side for curvature), or of the
+        range, or plus and minus 4 / the domain's shortest edge for curvature), or of the
         ``isosurfaces`` coloured by value (by default their range, as PyVista's contour).
     cells : int or sequence of int
         A mesh's or point cloud's resolution: cells along its longest side (64), or (a

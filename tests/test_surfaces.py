@@ -441,6 +441,41 @@ def test_colour_by_curvature_and_by_a_second_field(plotter_factory, drawing):
         cm.add_surface(pl, field, color_by=np.zeros((3, 3, 3)))
 
 
+def test_curvature_s_default_range_holds_under_a_turn(plotter_factory):
+    # The default clim of color_by='curvature' is plus and minus 4 / the grid's shortest
+    # edge in the world: 20 x 16 x 12 world units here (cells (10, 8, 6), 2 units each),
+    # so +-1/3 whatever the grid's turn. A ball of radius 3 cells (mean curvature 1/6, by
+    # hand) then sits at 3/4 of the colormap, given its turn at add or afterwards.
+    # catches (seen failing; found by a review): the range from the world's axis-aligned
+    # bounds, which a turn of 45 degrees about x widens (colours 111 levels off at add).
+    cells, centre = (10, 8, 6), (5.0, 4.0, 3.0)
+    angle = np.radians(45.0)
+    turn = np.eye(4)
+    turn[1:3, 1:3] = [[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]]
+    scale = np.diag([2.0, 2.0, 2.0, 1.0])
+    table = np.asarray(pyvista.LookupTable("viridis", n_values=256).values[:, :3]) / 255.0
+    expected = table[[191, 192]]   # 0.75 x 255 = 191.25
+    for later in (False, True):
+        field = SplineField(sphere_coefficients(cells, centre, 2.9),
+                            transform=scale if later else turn @ scale)
+        pl = plotter(plotter_factory)
+        actor = cm.add_surface(pl, field, shading="unlit", color_by="curvature",
+                               steps=300, refine_steps=20)
+        if later:
+            actor.cubemarch.set_transform(turn @ scale)
+        placed = SplineField(field.coefficients, transform=turn @ scale)
+        focal = (turn @ scale @ [5.0, 4.0, 3.0, 1.0])[:3]
+        camera = set_camera(pl, tuple(focal + (30.0, -20.0, 22.0)), focal=tuple(focal),
+                            up=(0, 0, 1))
+        image = cm.render_image(pl).astype(float) / 255.0
+        hits = trace_surface(placed, active_cells(placed), camera, SIZE,
+                             near=pl.camera.clipping_range[0])
+        sure = hits.hit & ~hits.ambiguous
+        assert sure.mean() > 0.1
+        off = np.abs(image[sure][:, None, :] - expected[None]).max(axis=-1).min(axis=-1)
+        assert off.max() <= 2.0 / 255.0, (later, off.max() * 255)
+
+
 @pytest.mark.parametrize(("drawing", "root"), ROOTED)
 def test_pixel_centres_on_cell_edges_in_an_axis_aligned_parallel_view(plotter_factory,
                                                                        drawing, root):

@@ -122,8 +122,9 @@ class SurfaceOptions:
     ``color_by``: ``None`` (``color``), ``'curvature'`` (the mean curvature, per world unit,
     positive where the surface bends like a ball) or ``'field'`` (a second field's value,
     the model's ``color_values``), through ``cmap`` over ``clim`` (by default the second
-    field's coefficients' range, or for curvature plus and minus 4 / the domain's smallest
-    side: a ball filling the domain's narrowest way sits at half the range).
+    field's coefficients' range, or for curvature plus and minus 4 / the domain's shortest
+    edge in the world, whatever its turn: a ball filling the domain's narrowest way sits
+    at half the range).
     ``opacity``: below 1, every crossing along a pixel's ray up to the opaque scene is
     composited front to back, each lit and covering ``opacity`` of what lies behind
     (``traversal='index'``).
@@ -182,8 +183,9 @@ class SurfaceOptions:
         if self.color_by == "field":
             low, high = float(model.color_values.min()), float(model.color_values.max())
             return (low, high) if high > low else (low - 0.5, low + 0.5)
-        bounds = np.asarray(model.world_bounds()).reshape(3, 2)
-        bend = 4.0 / max(float((bounds[:, 1] - bounds[:, 0]).min()), 1e-300)
+        # the grid's edges in the world, not its world bounds: a turn leaves them be
+        edges = np.linalg.norm(model.world_from_index()[:3, :3], axis=0) * model.dimensions
+        bend = 4.0 / max(float(edges.min()), 1e-300)
         return -bend, bend
 
     def lookup_table(self) -> np.ndarray:
