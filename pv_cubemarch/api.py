@@ -748,7 +748,8 @@ def _same(value, default) -> bool:
 #: What ``add_voxels`` reads for a multiscale label source (the rest is refused by name).
 PAGED_LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "specular",
                         "specular_power", "lod_bias", "transform", "name", "background",
-                        "gpu_bytes", "host_bytes", "brick_size", "frame_budget_ms")
+                        "gpu_bytes", "host_bytes", "brick_size", "frame_budget_ms",
+                        "clip_planes")
 
 
 def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
@@ -774,7 +775,8 @@ def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
         check_frame_budget(given["frame_budget_ms"], "voxels")
     options = voxel_options(mode=given["mode"], shading=given["shading"],
                             ambient=given["ambient"], specular=given["specular"],
-                            specular_power=given["specular_power"])
+                            specular_power=given["specular_power"],
+                            clip_planes=given["clip_planes"])
     transform = given["transform"]
     if isinstance(source, PagedLabels):   # added again: as it was, but what this call changes
         model = dataclasses.replace(

@@ -34,6 +34,7 @@ from ..models.voxels import palette_texels
 from ..volume.brick_pager import BrickPager, bind_pool
 from ..volume.occluded_bricks import opaque_scene_state
 from ..volume.paged import FollowsPager, follow_pager
+from .clipping import ClipPlaneSetting, bind_clip_planes, clip_count
 from .label_state import upload_palette_rows
 from .options import VoxelOptions
 from .technique import bind_grid
@@ -234,18 +235,26 @@ def paged_label_recipe(options: VoxelOptions, levels: int) -> ShaderRecipe:
     """The box actor's replacements: the streamed traversal, the mode and the shading."""
     lit = options.mode == "color" and options.shading != "unlit"
     return box_recipe(
-        ("camera_declarations", "slab", "pixel_ray", "voxel_declarations", "paged_bricks",
+        ("camera_declarations", "slab", "pixel_ray", "voxel_declarations",
+         *(("clip_planes",) if clip_count(options) else ()), "paged_bricks",
          "voxel_paged", *(("blinn_phong", "voxel_shading") if lit else ())), "voxel_fragment",
         defines={"CM_VOXEL_ID": options.mode == "id", "CM_VOXEL_FACE": options.mode == "face",
                  "CM_LIGHTING": lit, "CM_SPECULAR": lit and options.shading == "blinn",
-                 "CM_PAGED_LEVELS": levels})
+                 "CM_CLIP_PLANES": clip_count(options), "CM_PAGED_LEVELS": levels})
 
 
-class PagedLabelsBinding(FollowsPager, DrawnBinding):
+class PagedLabelsBinding(ClipPlaneSetting, FollowsPager, DrawnBinding):
     """What ``actor.cubemarch`` holds for a streamed label grid: model, pager, bindings."""
 
     technique = "voxels"
     needs_single_sample = True   # as a grid drawn whole (technique.VoxelBinding)
+    follows_mapper_planes = True   # PyVista's mapper planes cut its rays, as clip_planes
+
+    def follow_clip_planes(self, remake: bool) -> None:
+        """Remake the shaders for another number of planes (the pager plans again)."""
+        if remake:
+            self.recipe = paged_label_recipe(self.options, len(self.pager.levels))
+            self.bindings.install(self.recipe, self.drawn[0])
 
     def __init__(self, model: PagedLabels, pager: LabelPager, bindings: ShaderBindings,
                  recipe: ShaderRecipe, options: VoxelOptions):
@@ -290,9 +299,12 @@ def build_paged_labels(plotter, model: PagedLabels, options: VoxelOptions,
     bindings.install(recipe, actor)
     binding = PagedLabelsBinding(model, pager, bindings, recipe, options)
     binding.drawn = [actor]
-    # the frame's depth holds the other props too: a plan is made again when they change
+    bind_clip_planes(bindings, model, lambda: binding.options.world_planes)
+    # the frame's depth holds the other props too, and the planes cut where rays stop: a
+    # plan is made again when either changes
     renderer = plotter.renderer   # this one: the plotter's active one may change
-    pager.drawn_state = lambda: opaque_scene_state(renderer, binding.drawn)
+    pager.drawn_state = lambda: (opaque_scene_state(renderer, binding.drawn),
+                                 binding.options.clip_planes)
     binding.renderer = renderer
     follow_pager(plotter, binding, pager)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
