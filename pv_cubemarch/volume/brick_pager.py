@@ -20,6 +20,7 @@ from ..gl.box import camera_matrices
 from ..gl.sub_upload import sub_image_available
 from ..gl.textures import Texture
 from ..models.brick_cache import HOST_BYTES, BrickCache, brick_counts, read_brick
+from .clipping import texture_planes
 from .occluded_bricks import DepthPyramid, hidden_boxes
 from .page_table import BLOCK, PageTable
 from .skipping import range_extinction, transparent_value
@@ -140,6 +141,9 @@ class BrickPager:
         #: What else than the view the depth depends on (a volume's clipping planes): a
         #: change plans again.
         self.drawn_state = lambda: ()
+        #: The world planes (``(origin, normal)`` pairs) that cut what it draws: a brick
+        #: wholly on a side they cut away is not read (``drawn_state`` says when they move).
+        self.clip_planes = lambda: ()
         self._view_now = None
         self.last_used = np.full(self.capacity, -1, np.int64)
         self._free = list(range(self.capacity - 1, -1, -1))   # popped from the end: 0 first
@@ -333,6 +337,7 @@ class BrickPager:
         eye_world = np.asarray(self.renderer.GetActiveCamera().GetPosition(), float)
         view, projection = camera_matrices(self.renderer)
         clip_from_point = projection @ view @ world_from_point
+        point_planes = texture_planes(self.clip_planes(), world_from_point)
         per_distance, constant = self.footprint()
         coarsest = len(levels) - 1
         keys = sorted(self.pinned)
@@ -347,7 +352,7 @@ class BrickPager:
             below, above = (1.0, 1.0) if self.apron else (0.5, -0.5)
             low = (candidates * self.brick - below - b) / a
             high = ((candidates + 1) * self.brick + above - b) / a
-            shown = _in_view(low, high, clip_from_point)
+            shown = _in_view(low, high, clip_from_point) & _kept_by(point_planes, low, high)
             hidden = self._hidden(low[shown], high[shown], clip_from_point)
             self.hidden_bricks += int(hidden.sum())
             shown[shown] = ~hidden
@@ -556,6 +561,18 @@ def _distance_to_boxes(eye: np.ndarray, low: np.ndarray, high: np.ndarray,
     corners = _corners(low, high) @ world_from_point[:3, :3].T + world_from_point[:3, 3]
     lower, upper = corners.min(axis=1), corners.max(axis=1)
     return np.linalg.norm(np.clip(eye, lower, upper) - eye, axis=1)
+
+
+def _kept_by(planes: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """Which boxes (finest points) are not wholly on a side one of ``planes`` cuts away.
+
+    ``planes``: ``(m, 4)`` unit-normal planes of point space keeping ``plane . (p, 1) >= 0``;
+    a box is cut only where every corner lies a millionth of a point past a plane.
+    """
+    if not len(planes) or not len(low):
+        return np.ones(len(low), bool)
+    kept = _corners(low, high) @ planes[:, :3].T + planes[:, 3]   # (boxes, corners, planes)
+    return ~(kept < -1e-6).all(axis=1).any(axis=1)
 
 
 def _in_view(low: np.ndarray, high: np.ndarray, clip_from_point: np.ndarray) -> np.ndarray:

@@ -82,6 +82,9 @@ class PagedData:
         self.tables = [Texture(model.transfer.table.reshape(1, -1, 4), kind="2d")]
         self.clip = ClipState()
         self.brick_builds = 0
+        # a brick the planes cut away is not read; a moved plane plans again
+        pager.clip_planes = lambda: self.clip.planes
+        pager.drawn_state = lambda: self.clip.planes
 
     @property
     def nbytes(self) -> int:

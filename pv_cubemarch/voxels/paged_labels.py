@@ -305,6 +305,7 @@ def build_paged_labels(plotter, model: PagedLabels, options: VoxelOptions,
     renderer = plotter.renderer   # this one: the plotter's active one may change
     pager.drawn_state = lambda: (opaque_scene_state(renderer, binding.drawn),
                                  binding.options.clip_planes)
+    pager.clip_planes = lambda: binding.options.world_planes   # bricks they cut: not read
     binding.renderer = renderer
     follow_pager(plotter, binding, pager)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
