@@ -41,16 +41,20 @@ DEPTH_SHARPNESS = 20.0
 
 def direct_recipe(defines: dict, lit: bool = False,
                   sampling: str | tuple[str, ...] = "volume_sample",
-                  blending: str = "composite") -> ShaderRecipe:
+                  blending: str = "composite", peeled: bool = False) -> ShaderRecipe:
     """The polydata-shader replacements of the direct marcher.
 
     ``sampling``: the snippet (or snippets, in order) defining ``cm_sampleScalar``.
+    ``peeled``: under VTK's depth peeling the march runs where VTK sets the depth, so the
+    peeling tests and sorts the box's fragment by the ray's entry, not the box's back face
+    (which lies behind an opaque mesh inside the volume: the volume before it was lost).
     """
     sampling = (sampling,) if isinstance(sampling, str) else tuple(sampling)
     return box_recipe(
         (*DECLARATION_SNIPPETS, *sampling, *SCREEN_DECLARATIONS,
          *march_snippets(blending, defines), *(("light_sample",) if lit else ()),
-         "pixel_ray", "screen_ray"), "ea_direct_fragment", defines=defines)
+         "pixel_ray", "screen_ray"), "ea_direct_fragment",
+        defines={**defines, "CM_PEELED_LAYER": peeled}, layers=peeled)
 
 
 def upsample_recipe() -> ShaderRecipe:
@@ -75,6 +79,7 @@ class DirectBinding(VolumeBinding):
         self.window = window
         self._lit, self._sampling, self._defines = lit, sampling, dict(defines or {})
         self.multisampled: bool | None = None
+        self.peeled: bool | None = None
         self._tag = None
 
     @property
@@ -84,18 +89,26 @@ class DirectBinding(VolumeBinding):
 
     @property
     def needs_single_sample(self) -> bool:
-        """The reduced-resolution pass copies the depth, which needs a single sample."""
-        return self.downsample > 1
+        """Whether this frame needs the window single-sampled.
+
+        The reduced-resolution pass copies the depth, which needs a single sample; under
+        VTK's depth peeling the box is peeled, and the peeling's copy of the opaque depth
+        from a multisampled framebuffer gives none: every translucent prop is lost then
+        (PyVista's meshes too), where ``add_volume``'s volume is not peeled.
+        """
+        return self.downsample > 1 or bool(self.bindings.renderer.GetUseDepthPeeling())
 
     def follow_multisampling(self, *_) -> None:
         """At each frame: read the depth in place if multisampled, else the shared copy.
 
-        The shader is rebuilt only when the framebuffer's kind changes.
+        The shader is rebuilt only when the framebuffer's kind, or the renderer's depth
+        peeling (:func:`direct_recipe`'s ``peeled``), changes.
         """
         multisampled = self.window.GetMultiSamples() > 1
-        if multisampled == self.multisampled:
+        peeled = bool(self.bindings.renderer.GetUseDepthPeeling())
+        if (multisampled, peeled) == (self.multisampled, self.peeled):
             return
-        self.multisampled = multisampled
+        self.multisampled, self.peeled = multisampled, peeled
         depth = FramebufferDepth() if multisampled else frame_inputs(self.bindings.renderer).depth
         self.bindings.add_texture("cm_sceneDepth", depth)
         window = self.window
@@ -111,7 +124,7 @@ class DirectBinding(VolumeBinding):
             self.bindings.uniforms.pop("cm_depthViewport", None)
         self.recompile(direct_recipe(dict(self._defines, CM_DEPTH_MULTISAMPLED=multisampled),
                                      lit=self._lit, sampling=self._sampling,
-                                     blending=self.blending))
+                                     blending=self.blending, peeled=peeled))
 
     def recompile_marchers(self, change, light_map: bool = True) -> None:
         """Compile the marchers again (see ``VolumeBinding``), switches kept.
@@ -122,7 +135,7 @@ class DirectBinding(VolumeBinding):
         recipe = self.bindings.recipe
         if self.downsample == 1 and recipe is not None:
             self._defines = {key: value for key, value in recipe.defines.items()
-                             if key != "CM_DEPTH_MULTISAMPLED"}
+                             if key not in ("CM_DEPTH_MULTISAMPLED", "CM_PEELED_LAYER")}
 
     def release_resources(self) -> None:
         """Stop following the frame, then free what a volume holds."""
