@@ -586,9 +586,9 @@ def add_volume(
                       "channel with plotter.add_scalar_bar(mapper=...) if needed).",
                       stacklevel=2)
     elif not isinstance(model, VolumeGroup) and model.colors is None:
-        add_scalar_bar(plotter, actor, model,
-                       scalars if isinstance(scalars, str) else bar_title or model.name,
-                       show_scalar_bar, scalar_bar_args, annotations)
+        binding.returned_property.watch_bar(add_scalar_bar(
+            plotter, actor, model, scalars if isinstance(scalars, str) else bar_title
+            or model.name, show_scalar_bar, scalar_bar_args, annotations))
     for plane in clip_plane_list(clip_planes):
         actor.mapper.AddClippingPlane(plane)
     if crop_box is not None:

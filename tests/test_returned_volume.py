@@ -358,30 +358,44 @@ def test_blend_mode_refused_where_the_volume_is_shaded():
 
 
 @pytest.mark.parametrize(("change", "named"), [
-    (lambda vol: setattr(vol.mapper, "scalar_range", (0.0, 100.0)), "clim"),
-    (lambda vol: setattr(vol.prop, "independent_components", False), "independent_components"),
-    (lambda vol: vol.prop.apply_lookup_table(pv.LookupTable("jet")), "colors"),
+    (lambda pl, vol: setattr(vol.mapper, "scalar_range", (0.0, 100.0)), "clim"),
+    (lambda pl, vol: setattr(vol.prop, "independent_components", False),
+     "independent_components"),
+    (lambda pl, vol: vol.prop.apply_lookup_table(pv.LookupTable("jet")), "colors"),
     # 'direct' has no sample distance ('vtk' draws one): ignored in silence before
-    (lambda vol: vol.mapper.SetImageSampleDistance(2.0), "technique='vtk'"),
+    (lambda pl, vol: vol.mapper.SetImageSampleDistance(2.0), "technique='vtk'"),
+    # the next three changed nothing drawn, in silence, before (found by a review)
+    (lambda pl, vol: setattr(vol.mapper.lookup_table, "cmap", "hot"), "lookup_table"),
+    (lambda pl, vol: pl.update_scalar_bar_range((100.0, 200.0)), "update_scalar_bar_range"),
+    (lambda pl, vol: setattr(pl.mapper.lookup_table, "cmap", "hot"), "scalar_bar"),
 ])
 def test_a_change_not_drawn_is_refused_and_set_back(change, named):
     """A change the marchers do not follow raises at the next frame, naming the keyword,
-    and the property reads what is drawn again (the next frame draws).
+    and the property reads what is drawn again (the next frame draws), the scalar bar's
+    range and colours too.
 
     catches (seen failing): the refusal dropped (``refused`` made empty): no error, and
-    the frame draws the old setting in silence.
+    the frame draws the old setting in silence; the lookup tables and the bar's mapper
+    not read (no error for the last three).
     """
     pl = pv.Plotter(off_screen=True, window_size=SIZE)
     vol = pl.cubemarch.add_volume(pv.Wavelet(), technique="direct", **KEYWORDS)
     first = cm.render_image(pl)
     unit = vol.prop.opacity_unit_distance
-    change(vol)
+    colours = [np.array(table.values) for table in (vol.mapper.lookup_table,
+                                                    pl.mapper.lookup_table)]
+    change(pl, vol)
     with pytest.raises(ValueError, match=named):
         cm.render_image(pl)
     assert vol.prop.opacity_unit_distance == unit and vol.mapper.blend_mode == "composite"
     assert vol.prop.interpolation_type == "linear" and not vol.prop.shade
     assert vol.mapper.scalar_range == pytest.approx((40.0, 280.0))   # reads the clim
     assert vol.mapper.GetImageSampleDistance() == 1.0
+    assert pl.mapper.scalar_range == pytest.approx((40.0, 280.0))
+    for table, before in zip((vol.mapper.lookup_table, pl.mapper.lookup_table), colours,
+                             strict=True):
+        assert np.array_equal(table.values, before)
+        assert table.scalar_range == pytest.approx((40.0, 280.0))
     assert np.array_equal(cm.render_image(pl), first)
     pl.close()
 

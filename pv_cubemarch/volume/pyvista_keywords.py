@@ -176,11 +176,11 @@ def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
 
 
 def add_scalar_bar(plotter, actor, model, title: str, show: bool | None,
-                   args: dict | None, annotations: dict | None) -> None:
+                   args: dict | None, annotations: dict | None):
     """Make the volume ``plotter.mapper`` (for ``add_scalar_bar``) and add its bar if shown.
 
     ``show`` ``None`` follows the theme (``pyvista.global_theme.show_scalar_bar``), as
-    ``add_volume`` does.
+    ``add_volume`` does. Returns that mapper.
     """
     mapper = scalar_bar_mapper(model)
     if annotations:
@@ -188,6 +188,7 @@ def add_scalar_bar(plotter, actor, model, title: str, show: bool | None,
     if show is None:
         show = bool(plotter.theme.show_scalar_bar)
     attach_scalar_bar(plotter, actor, mapper, title, show, args)
+    return mapper
 
 
 def isosurface_levels(isosurfaces, model) -> tuple[float, ...]:

@@ -43,13 +43,30 @@ INSTEAD = {
     "specular_power": "add_volume(..., shade=True, specular_power=...)",
     "image_sample_distance": "technique='vtk', whose mapper draws at 1/d of the viewport, or "
                              "downsample= with technique='direct'",
+    "lookup_table": "add_volume(..., cmap=..., clim=...) (pv_cubemarch draws its own "
+                    "transfer table)",
+    "scalar_bar": "add_volume(..., cmap=..., clim=...): the bar's range and colormap "
+                  "(plotter.update_scalar_bar_range, plotter.mapper.lookup_table) are the "
+                  "volume's",
 }
 
 
-def _read(volume) -> dict:
-    """What the returned volume's property and mapper say now."""
+def _table_state(mapper) -> tuple:
+    """What a mapper's lookup table and range say now (their modified times, the range)."""
+    if mapper is None:
+        return ()
+    table = mapper.GetLookupTable() if hasattr(mapper, "GetLookupTable") else None
+    return (tuple(float(v) for v in mapper.GetScalarRange()),
+            int(table.GetMTime()) if table is not None else 0)
+
+
+def _read(volume, bar=None) -> dict:
+    """What the returned volume's property and mapper (and ``bar``, its bar's) say now."""
     prop = volume.GetProperty()
+    table = getattr(volume.GetMapper(), "lookup_table", None)
     return {
+        "lookup_table": int(table.GetMTime()) if table is not None else 0,
+        "scalar_bar": _table_state(bar),
         "interpolation": INTERPOLATION_TYPES[prop.GetInterpolationType()],
         "opacity_unit_distance": float(prop.GetScalarOpacityUnitDistance()),
         "shade": bool(prop.GetShade()),
@@ -92,6 +109,8 @@ class ReturnedProperty:
                  interpolation: str):
         self.binding = binding
         self.volume = volume
+        self.bar = None
+        self._tables: list = []   # (table, its copy as drawn)
         material = shade.material if shade is not None else None
         state = _read(volume)
         state.update(interpolation=interpolation, opacity_unit_distance=opacity_unit_distance,
@@ -100,11 +119,29 @@ class ReturnedProperty:
             state.update({term: float(getattr(material, term)) for term in TERMS})
         _write(volume, state)
         self.shade = shade
+        self._keep_table(getattr(volume.GetMapper(), "lookup_table", None))
         self.state = _read(volume)
+
+    def watch_bar(self, mapper) -> None:
+        """Follow the volume's scalar bar's mapper (``plotter.mapper``) too.
+
+        ``plotter.update_scalar_bar_range`` and edits of its lookup table change the bar,
+        not the volume: refused as the returned mapper's ``scalar_range`` is.
+        """
+        self.bar = mapper
+        self._keep_table(mapper.GetLookupTable())
+        self.state = _read(self.volume, self.bar)
+
+    def _keep_table(self, table) -> None:
+        """Keep a copy of ``table`` as drawn, which a refused edit of it is put back to."""
+        if table is not None:
+            kept = vtk.vtkLookupTable()
+            kept.DeepCopy(table)
+            self._tables.append((table, kept))
 
     def follow(self) -> None:
         """Draw what the user changed on the property, or refuse it (see the module)."""
-        now = _read(self.volume)
+        now = _read(self.volume, self.bar)
         if now == self.state:
             return
         changed = [key for key in now if now[key] != self.state[key]]
@@ -151,4 +188,10 @@ class ReturnedProperty:
     def _put_back(self, now: dict) -> None:
         """Set the property back to what is drawn (a transfer function stays as edited)."""
         _write(self.volume, self.state)
-        self.state = _read(self.volume)
+        if now["lookup_table"] != self.state["lookup_table"] or (
+                now["scalar_bar"] != self.state["scalar_bar"]):
+            for table, kept in self._tables:
+                table.DeepCopy(kept)
+            if self.bar is not None:
+                self.bar.SetScalarRange(self.state["scalar_bar"][0])
+        self.state = _read(self.volume, self.bar)
