@@ -17,10 +17,12 @@ from .core.frame_errors import observe
 from .core.rendering import render_frame, render_image
 from .core.scalar_bar import drop_scalar_bar_mapper
 from .core.user_warnings import warn_user
+from .gl.draw_order import sort_far_to_near
 from .gl.frame_inputs import MultisamplePolicy, release_frame_inputs
 from .scene.io import load_scene
 from .scene.openvdb.image import read_vdb
 from .scene.usd import load_usd
+from .volume.binding import VolumeBinding
 
 
 @pyvista.register_plotter_component("cubemarch")
@@ -80,12 +82,17 @@ class CubemarchComponent:
         self._say_if_added_again()
         single_sample = False
         translucent: dict = {}
+        volumes: dict = {}   # renderer: the props drawing volumes in it
         for item in self._tracked:
             item.follow_anchor()
             shown = bool(item.actor.GetVisibility())
             single_sample |= shown and item.needs_single_sample
             if shown and item.blends_in_main_renderer:
                 translucent[item.main_renderer] = True
+            if shown and isinstance(item, VolumeBinding) and item.renderer is item.main_renderer:
+                volumes.setdefault(item.renderer, []).extend(item.drawn)
+        for renderer, props in volumes.items():   # the nearer composited over the farther
+            sort_far_to_near(renderer, props)
         if not self._redrawing:
             self._multisampling.decide(single_sample)
         # Weighted order-independent translucency would reweight a box's single layer.

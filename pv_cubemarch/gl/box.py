@@ -103,7 +103,12 @@ def peeling_viewport_now(renderer) -> tuple[int, int, int, int] | None:
     """
     if not renderer.GetUseDepthPeeling() or render_pass_of(renderer, "vtkRenderPass"):
         return None
-    return _viewport_off_window(renderer.GetRenderWindow())
+    viewport = _viewport_off_window(renderer.GetRenderWindow())
+    # VTK's peeling framebuffer holds the renderer's props from its origin, at its size;
+    # another viewport is a framebuffer of ours (a cube map's atlas, drawn at the overlay's
+    # start), in which the renderer's own viewport is meant
+    size = tuple(drawn_viewport(renderer)[2:])
+    return viewport if viewport == (0, 0, *size) else None
 
 
 def _viewport_off_window(window) -> tuple[int, int, int, int] | None:

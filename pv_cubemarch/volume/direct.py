@@ -16,7 +16,13 @@ import vtk
 from ..core.frame_errors import observe
 from ..core.registry import Sweep, Technique, register_technique
 from ..gl.bindings import ShaderBindings
-from ..gl.box import bind_camera, box_actor, drawn_viewport, framebuffer_viewport
+from ..gl.box import (
+    bind_camera,
+    box_actor,
+    drawn_viewport,
+    framebuffer_viewport,
+    render_pass_of,
+)
 from ..gl.frame_inputs import FramebufferDepth, SceneDepth, frame_inputs
 from ..gl.overlay import scene_overlay
 from ..gl.passes import RenderToTexturePass
@@ -94,9 +100,15 @@ class DirectBinding(VolumeBinding):
         The reduced-resolution pass copies the depth, which needs a single sample; under
         VTK's depth peeling the box is peeled, and the peeling's copy of the opaque depth
         from a multisampled framebuffer gives none: every translucent prop is lost then
-        (PyVista's meshes too), where ``add_volume``'s volume is not peeled.
+        (PyVista's meshes too), where ``add_volume``'s volume is not peeled. Under a VTK
+        pass (eye-dome lighting, SSAO) the box draws into the pass's single-sampled
+        framebuffer, whose depth only the shared copy reads, and VTK's copy resolves (into
+        a fixed-point depth: zeros from the pass's float depth) whenever the window is
+        multisampled.
         """
-        return self.downsample > 1 or bool(self.bindings.renderer.GetUseDepthPeeling())
+        renderer = self.bindings.renderer
+        return self.downsample > 1 or bool(renderer.GetUseDepthPeeling()) \
+            or render_pass_of(renderer, "vtkRenderPass") is not None
 
     def follow_multisampling(self, *_) -> None:
         """At each frame: read the depth in place if multisampled, else the shared copy.
