@@ -5,8 +5,11 @@ wrapper and swallowed, and the frame goes on as if nothing happened. Every obser
 pv_cubemarch installs goes through :func:`observe`, which records the exception in the
 collector of the frame being drawn (:func:`collecting_frame_errors`, opened by
 :func:`pv_cubemarch.render_frame` around ``ren_win.Render()``); the frame finishes, then
-the first recorded error is raised to the caller. Outside such a frame (e.g. ``pl.show()``)
-the exception goes to VTK as before, which prints it.
+the first recorded error is raised to the caller. Outside such a frame (``pl.show()``,
+``pl.render()``, ``pl.screenshot()``) a ``ValueError``, what refuses a user's change, is
+a warning attributed to the user's line (VTK would print a traceback from inside its
+observer, which no ``warnings`` filter or ``try`` catches); any other exception goes to
+VTK as before, which prints it.
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ import functools
 from collections.abc import Callable
 
 from vtkmodules.util.misc import calldata_type
+
+from .user_warnings import warn_user
 
 #: Collectors of the frames being drawn, innermost last (a frame may render another).
 _collectors: list[list[Exception]] = []
@@ -34,6 +39,9 @@ def guarded(callback: Callable, calldata: int | None = None) -> Callable:
             return callback(*args)
         except Exception as exc:
             if not _collectors:
+                if isinstance(exc, ValueError):   # a refusal: said on the user's line
+                    warn_user(str(exc))
+                    return None
                 raise  # no frame collects: VTK prints it, as it always did
             _collectors[-1].append(exc)
             return None
