@@ -14,7 +14,7 @@ from PIL import Image
 
 from .api import add_surface, add_volume, add_voxels
 from .core.frame_errors import observe
-from .core.rendering import render_frame, render_image
+from .core.rendering import check_window_size, render_frame, render_image
 from .core.scalar_bar import drop_scalar_bar_mapper
 from .core.user_warnings import warn_user
 from .gl.draw_order import sort_far_to_near
@@ -78,6 +78,7 @@ class CubemarchComponent:
 
     def _follow_scene(self, *_) -> None:
         """Before a frame: drop removed volumes, follow the returned actors, window settings."""
+        check_window_size(self._window)   # said (show, screenshot): larger draws wrong
         self.release_removed()
         self._say_if_added_again()
         single_sample = False

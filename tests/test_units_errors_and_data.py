@@ -264,6 +264,23 @@ def test_render_after_close_says_the_plotter_is_closed(blob, render):
         draw()
 
 
+def test_a_window_larger_than_gl_draws_is_refused_before_it_is_drawn(blob):
+    # Past GL_MAX_RENDERBUFFER_SIZE / GL_MAX_VIEWPORT_DIMS (16384 on llvmpipe) a frame is
+    # drawn one colour or garbage, with no error from GL or VTK (20000 a side aborted the
+    # process). catches (seen failing; found by a review): no check (a 16385x48 window
+    # drew 'direct' black and 'vtk' white, and the CLI wrote it).
+    pl = cm.offscreen_plotter((16385, 48))
+    cm.add_volume(pl, blob, technique="direct")
+    with pytest.raises(ValueError, match="16385x48 pixels is larger than this GL draws"):
+        cm.render_image(pl)
+    pl.window_size = (64, 48)
+    assert cm.render_image(pl).std() > 1   # drawn once the window fits
+    pl.window_size = (48, 16385)
+    with pytest.warns(UserWarning, match="larger than this GL draws"):   # outside our frames
+        pl.show(auto_close=False)
+    pl.close()
+
+
 def test_nested_frame_error_collectors_keep_their_own_errors():
     # catches: removing a collector by equality (two empty lists are equal), which dropped
     # the outer frame's collector when an inner one closed.

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import weakref
 
 import numpy as np
 import pyvista
@@ -73,6 +74,38 @@ def needs_open_plotter(method):
     return checked
 
 
+_GL_MAX_RENDERBUFFER_SIZE = 0x84E8
+_GL_MAX_VIEWPORT_DIMS = 0x0D3A
+#: Each window's largest side GL draws (its renderbuffer and viewport limits), once read.
+_size_limits: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def check_window_size(window) -> None:
+    """Raise ``ValueError`` if ``window`` is larger than GL draws here.
+
+    Past GL's renderbuffer or viewport limit (16384 on llvmpipe) a frame is drawn wrong
+    without any error from GL or VTK (one colour, or garbage); larger still, the process
+    aborts. The limit is read from the window's context (made here if not yet).
+    """
+    limit = _size_limits.get(window)
+    if limit is None:
+        if window.GetNeverRendered():
+            window.Initialize()
+        buffer, viewport = [0], [0, 0]
+        window.GetState().vtkglGetIntegerv(_GL_MAX_RENDERBUFFER_SIZE, buffer)
+        window.GetState().vtkglGetIntegerv(_GL_MAX_VIEWPORT_DIMS, viewport)
+        limit = min(int(buffer[0]), *(int(v) for v in viewport))
+        if limit <= 0:   # not read (no context): nothing to check against
+            return
+        _size_limits[window] = limit
+    width, height = (int(v) for v in window.GetSize())
+    if max(width, height) > limit:
+        raise ValueError(
+            f"A window of {width}x{height} pixels is larger than this GL draws ({limit} "
+            f"a side: GL_MAX_RENDERBUFFER_SIZE / GL_MAX_VIEWPORT_DIMS); past it the image is "
+            f"drawn wrong without an error. Use a window of at most {limit} a side.")
+
+
 def render_frame(plotter: pyvista.Plotter) -> None:
     """Draw one frame; raise what went wrong while it was drawn.
 
@@ -83,6 +116,7 @@ def render_frame(plotter: pyvista.Plotter) -> None:
     silently) is drawn again by the ``plotter.cubemarch`` component.
     """
     window = open_window(plotter)
+    check_window_size(window)
     first_render = getattr(plotter, "_on_first_render_request", None)
     if first_render is not None:   # PyVista's default camera, as show() and screenshot() set it
         first_render()
