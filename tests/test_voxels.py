@@ -197,6 +197,25 @@ def test_id_mode_refuses_grids_beyond_24_bits(plotter_factory):
         cm.add_voxels(pl, np.zeros((256, 256, 256), np.uint8), mode="id")
 
 
+def test_a_palette_dict_is_read_by_the_ids_it_names():
+    # Keys are label ids: one no label here can be (negative, or past the ids kept as
+    # rows) colours nothing and takes no row; a key that is not an integer is refused.
+    # catches (seen failing; found by a review): -1 indexing the table's last row (label 3
+    # drawn red), a key of 2**32 sizing a 64 GiB table, 3.7 read as 3 and "3" as 3.
+    labels = np.zeros((4, 4, 4), np.uint8)
+    labels[1:3, 1:3, 1:3] = 3
+    for palette in ({3: "blue", -1: "red"}, {3: "blue", 2**32: "red"},
+                    {np.int64(3): "blue", 70000: "red"}):
+        rgba = cm.make_voxels(labels, palette=palette).palette.rgba
+        assert len(rgba) == 4 and np.allclose(rgba[3], (0.0, 0.0, 1.0, 1.0)), rgba
+    for key in (3.7, "3", True):
+        with pytest.raises(cm.VolumeDataError, match="not an integer label id"):
+            cm.make_voxels(labels, palette={key: "red"})
+    wide = labels.astype(np.int64) * 1_000_000   # compacted ids: read by id too
+    with pytest.raises(cm.VolumeDataError, match="not an integer label id"):
+        cm.make_voxels(wide, palette={3e6: "red"})
+
+
 def test_palette_colours_and_hiding_without_upload(plotter_factory):
     # catches: hiding a material re-uploading the labels, or hidden voxels still drawn
     # (the voxels behind them must show instead); seen to fail: the traversal stopping at

@@ -7,6 +7,7 @@ napari's and neuroglancer's segmentation colours do.
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable
 
 import numpy as np
@@ -93,7 +94,7 @@ def colors_by_id(palette, ids: np.ndarray) -> np.ndarray:
     """
     rgba = np.zeros((ids.size + 1, 4), np.float32)
     if isinstance(palette, dict):
-        keys = [int(k) for k in palette]
+        keys = palette_keys(palette)
         lookup = {int(v): row for row, v in enumerate(ids.tolist(), start=1)}
         for key, entry in zip(keys, palette.values(), strict=True):
             row = lookup.get(key)
@@ -106,6 +107,20 @@ def colors_by_id(palette, ids: np.ndarray) -> np.ndarray:
         rgb, opacity = _rgba_entry(function(value), value)
         rgba[row, :3], rgba[row, 3] = rgb, opacity
     return rgba
+
+
+def palette_keys(palette: dict) -> list[int]:
+    """The ids a ``{id: colour}`` palette names, refusing a key that is not an integer.
+
+    A float (``3.7``) or a string (``"3"``) would be read as another id in silence.
+    """
+    keys = []
+    for key in palette:
+        if isinstance(key, (bool, np.bool_)) or not isinstance(key, numbers.Integral):
+            raise VolumeDataError(f"palette key {key!r} is not an integer label id: key the "
+                                  "dict by the ids in the labels ({3: 'red'}).")
+        keys.append(int(key))
+    return keys
 
 
 def check_by_id(palette) -> None:

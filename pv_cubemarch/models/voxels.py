@@ -15,8 +15,8 @@ import pyvista
 
 from ..core.errors import VolumeDataError
 from ..core.gl_limits import MAX_GRID_BYTES, MAX_TEXTURE_SIZE
-from .label_colors import check_by_id, colors_by_id, hashed_colors
-from .label_ids import LabelIds, label_rows, sorted_unique
+from .label_colors import check_by_id, colors_by_id, hashed_colors, palette_keys
+from .label_ids import IDENTITY_MAX, LabelIds, label_rows, sorted_unique
 from .transfer import unknown_cmap
 from .volume import box_world_bounds, check_spacing, checked_transform, first_point
 
@@ -119,13 +119,19 @@ class Palette:
                                   "empty, is unused), a {material: colour} dict or a "
                                   "colormap name.")
         if isinstance(palette, dict):
-            rgba = np.zeros((max(n, max(int(k) for k in palette) + 1), 4), np.float32)
-            for material, entry in palette.items():
+            # rows are ids here (0..IDENTITY_MAX): a key past them, or negative, names
+            # an id these labels cannot hold (ignored, as colors_by_id ignores ids not met)
+            keys = palette_keys(palette)
+            rows = [k for k in keys if 0 <= k <= IDENTITY_MAX]
+            rgba = np.zeros((max([n, *(k + 1 for k in rows)]), 4), np.float32)
+            for material, entry in zip(keys, palette.values(), strict=True):
+                if not 0 <= material <= IDENTITY_MAX:
+                    continue
                 # (colour, opacity) pairs have two items; a colour has one (a name) or 3-4
                 pair = isinstance(entry, (tuple, list)) and len(entry) == 2
                 color, opacity = entry if pair else (entry, 1.0)
-                rgba[int(material), :3] = _material_color(color, material)
-                rgba[int(material), 3] = float(opacity)
+                rgba[material, :3] = _material_color(color, material)
+                rgba[material, 3] = float(opacity)
             return cls(rgba)
         array = np.asarray(palette)
         if array.ndim == 2 and array.shape[1] in (3, 4) and array.dtype.kind in "fiu":
