@@ -199,6 +199,41 @@ def test_npy_and_npz_fields(tmp_path):
     assert np.allclose(cm.load_scene(path).volumes[0].values, data)
 
 
+def test_grid_files_that_lack_the_field_or_lie_in_their_header_are_skipped_and_said(
+        tmp_path, monkeypatch):
+    # A fieldName the file lacks drew another array in silence (found by a review: the
+    # .npz's first, the .vti's active scalars); a .npy shorter than its header says, an
+    # empty .npz and an array past the memory budget are refused before any allocation.
+    # catches (seen failing): the fallback to the first array (no skip, no note); the
+    # budget not read from the header (the array read whole).
+    data = np.random.default_rng(0).random((5, 6, 7)).astype(np.float32)
+    np.savez(tmp_path / "two.npz", temperature=data, density=data)
+    image = pv.ImageData(dimensions=data.shape)
+    image.point_data["temperature"] = data.ravel(order="F")
+    image.save(tmp_path / "two.vti")
+    np.savez(tmp_path / "none.npz")
+    np.save(tmp_path / "short.npy", data)
+    with open(tmp_path / "short.npy", "r+b") as handle:
+        handle.truncate(200)
+    np.save(tmp_path / "d.npy", data)
+    cases = [("./two.npz", "pressure", "has no array named 'pressure' .its arrays: "
+              "temperature, density"),
+             ("./two.vti", "pressure", "has no array named 'pressure' .its arrays: "
+              "temperature"),
+             ("./none.npz", None, "holds no arrays"),
+             ("./short.npy", None, "could not read"),
+             ("./d.npy", None, "holds an array of 840 bytes, more than the 100")]
+    monkeypatch.setenv("PV_CUBEMARCH_ARRAY_MAX_BYTES", "100")
+    for asset, field, said in cases:
+        extra = {} if field is None else {"fieldName": (Sdf.ValueTypeNames.Token, field)}
+        path = write_field_stage(tmp_path, asset, extra)
+        with pytest.warns(UserWarning):
+            scene = cm.load_scene(path)
+        assert not scene.volumes, asset
+        assert re.search(said, " ".join(e.reason for e in scene.skipped)), (asset, [
+            e.reason for e in scene.skipped])
+
+
 def test_usdc_and_usdz(tmp_path):
     stage = Usd.Stage.CreateNew(str(tmp_path / "a.usdc"))
     quad_mesh(stage, "/Quad")

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pyvista
 
+from ..core.budgets import budget_from_env, host_bytes_available
 from ..core.errors import SceneLoadError, VolumeDataError
 from ..models.channels import make_data_model
 from ..models.field_sources import make_field
@@ -86,18 +87,14 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
             grid = pyvista.read(str(path))
         except Exception as exc:
             raise SceneLoadError(f"{where}: could not read {shown!r}: {exc}") from exc
-        if field_name and field_name in grid.array_names:
+        if field_name:
+            if field_name not in grid.array_names:   # not another array, in silence
+                raise SceneLoadError(f"{where}: {shown!r} has no array named {field_name!r} "
+                                     f"(its arrays: {', '.join(grid.array_names) or 'none'}).")
             grid.set_active_scalars(str(field_name))
         return grid
     if suffix in (".npy", ".npz"):
-        try:
-            loaded = np.load(str(path), allow_pickle=False)
-        except Exception as exc:
-            raise SceneLoadError(f"{where}: could not read {shown!r}: {exc}") from exc
-        if suffix == ".npz":
-            keys = list(loaded.keys())
-            key = str(field_name) if field_name and str(field_name) in keys else keys[0]
-            loaded = loaded[key]
+        loaded = _read_array(path, suffix, field_name, where, shown)
         if loaded.ndim != 3:
             raise VolumeDataError(f"{where}: {shown!r} holds an array of shape "
                                   f"{loaded.shape}; a volume needs 3 axes (x, y, z).")
@@ -113,6 +110,55 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
         return grid
     raise SceneLoadError(f"{where}: unsupported volume file type {suffix!r} ({shown!r}); "
                          "use .vti, .vtk, .npy or .npz.")
+
+
+#: The bytes one ``.npy``/``.npz`` array may take once read (default: 80 % of what the
+#: system can give now); its header is checked before anything is read.
+ARRAY_BYTES_ENV = "PV_CUBEMARCH_ARRAY_MAX_BYTES"
+
+
+def _array_budget() -> int:
+    """``PV_CUBEMARCH_ARRAY_MAX_BYTES``, else 80 % of the host memory available now."""
+    available = host_bytes_available()
+    return budget_from_env(ARRAY_BYTES_ENV, int(0.8 * available) if available else 2**62,
+                           SceneLoadError)
+
+
+def _read_array(path, suffix: str, field_name, where: str, shown: str) -> np.ndarray:
+    """The array of a ``.npy`` (or the ``field_name`` array of a ``.npz``, else its first).
+
+    Hostile headers are refused before any allocation: an array larger than the budget
+    (:data:`ARRAY_BYTES_ENV`), a ``.npy`` shorter than its header says, a ``.npz`` member
+    that inflates past the budget.
+    """
+    budget = _array_budget()
+    try:
+        if suffix == ".npy":
+            mapped = np.load(str(path), mmap_mode="r", allow_pickle=False)
+            size = mapped.nbytes
+        else:
+            archive = np.load(str(path), allow_pickle=False)
+            keys = list(archive.keys())
+            if not keys:
+                raise SceneLoadError(f"{where}: {shown!r} holds no arrays.")
+            if field_name and str(field_name) not in keys:   # not another array, in silence
+                raise SceneLoadError(f"{where}: {shown!r} has no array named {field_name!r} "
+                                     f"(its arrays: {', '.join(keys)}).")
+            key = str(field_name) if field_name else keys[0]
+            size = archive.zip.getinfo(f"{key}.npy").file_size   # inflated, header included
+    except SceneLoadError:
+        raise
+    except Exception as exc:
+        raise SceneLoadError(f"{where}: could not read {shown!r}: {exc}") from exc
+    if size > budget:
+        raise SceneLoadError(
+            f"{where}: {shown!r} holds an array of {size:,} bytes, more than the "
+            f"{budget:,} it may take ({ARRAY_BYTES_ENV}, by default 80 % of the memory "
+            "available): read a smaller array, or stream it as a zarr store.")
+    try:
+        return np.array(mapped) if suffix == ".npy" else archive[key]
+    except Exception as exc:
+        raise SceneLoadError(f"{where}: could not read {shown!r}: {exc}") from exc
 
 
 def load_grid_scene(path: str | Path, as_voxels: bool = False,
