@@ -35,7 +35,7 @@ from .models.field_sources import color_values, make_field
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
 from .models.multiscale import MultiscaleSource, is_zarr_group, multiscale_source
-from .models.volume import VolumeModel, checked_transform, with_transfer
+from .models.volume import NAN_POLICIES, VolumeModel, checked_transform, with_transfer
 from .models.voxels import VoxelModel, fits_one_texture, make_voxels
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .quality.interaction import attach_frame_budget, check_frame_budget
@@ -684,14 +684,17 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
                                                      "brick_size")}
     interpolation = given["interpolation"] or "linear"
     INTERPOLATION.check(interpolation)
+    if given["nan_policy"] not in NAN_POLICIES:
+        raise VolumeDataError(f"nan_policy must be one of {NAN_POLICIES}, got "
+                              f"{given['nan_policy']!r}.")
     source = multiscale_source(source, name=given["name"])
     keywords = [given[k] for k in ("cmap", "opacity", "clim", "opacity_unit_distance",
                                    "n_colors", "flip_scalars", "log_scale")]
     transfer = made.transfer if made is not None and all(k is None for k in keywords) \
-        else paged_transfer(source, *keywords)
+        else paged_transfer(source, *keywords, nan_policy=given["nan_policy"])
     model = PagedVolume(source, transfer, np.eye(4) if transform is None
                         else checked_transform(transform), given["name"] or source.name,
-                        interpolation, paging)
+                        interpolation, paging, given["nan_policy"])
     if cube:
         if given["step_scale"] is not None:
             raise ValueError("step_scale is the direct marcher's; the cube map steps "

@@ -15,6 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..core.errors import VolumeDataError
 from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..gl.box import camera_matrices
 from ..gl.sub_upload import sub_image_available
@@ -66,6 +67,30 @@ def pool_slots(brick: int, gpu_bytes: int, most_bricks: int | None = None,
     return best
 
 
+class FiniteBricks:
+    """A read brick as float32, its NaN and infinite values refused or drawn as 0.
+
+    ``policy``: ``add_volume``'s ``nan_policy`` (``'raise'``: a brick holding one raises,
+    naming it, at the frame that reads it, as an in-memory volume raises when added;
+    ``'zero'``: they are drawn as 0).
+    """
+
+    def __init__(self, policy: str, name: str):
+        self.policy, self.name = policy, name
+
+    def __call__(self, key, values: np.ndarray) -> np.ndarray:
+        values = np.asarray(values, dtype=np.float32)
+        bad = ~np.isfinite(values)
+        if bad.any():
+            if self.policy == "raise":
+                raise VolumeDataError(
+                    f"{self.name!r}: the brick {tuple(key[1:])} of level {key[0]} holds "
+                    f"{int(bad.sum())} NaN or infinite values; clean the source, or pass "
+                    "nan_policy='zero' to draw them as 0.")
+            values = np.where(bad, np.float32(0.0), values)
+        return values
+
+
 class BrickPager:
     """The pool, the page table and the per-frame choice of bricks (module docstring).
 
@@ -103,6 +128,9 @@ class BrickPager:
                              f"{pinned} bricks of {self.brick}³ and gpu_bytes holds "
                              f"{self.capacity}: give more gpu_bytes, or a source with "
                              "coarser levels (pv_cubemarch.build_pyramid).")
+        policy = getattr(model, "nan_policy", None)
+        if self.prepare is None and policy and np.dtype(source.dtype).kind == "f":
+            self.prepare = FiniteBricks(policy, model.name)
         self.cache = BrickCache(source, self.brick,
                                 HOST_BYTES if host_bytes is None else host_bytes, threads,
                                 self.apron, self.prepare)

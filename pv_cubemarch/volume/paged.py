@@ -26,7 +26,7 @@ from ..models.multiscale import MultiscaleSource
 from ..models.transfer import TransferFunction
 from ..models.volume import box_world_bounds
 from .binding import VolumeSetup, bind_marching, march_defines, world_from_texture
-from .brick_pager import BrickPager, bind_pool
+from .brick_pager import BrickPager, FiniteBricks, bind_pool
 from .clipping import ClipState
 from .direct import DirectBinding
 from .stop_depth import follow_stop_depth, rays_can_stop
@@ -48,6 +48,8 @@ class PagedVolume:
     #: The streaming keywords it was added with (lod_bias, gpu_bytes, host_bytes,
     #: brick_size), kept when it is added again.
     paging: dict = field(default_factory=dict)
+    #: ``add_volume``'s ``nan_policy``, applied to each brick as it is read.
+    nan_policy: str = "raise"
     colors = None
     value_offset = 0
 
@@ -273,17 +275,21 @@ def check_paging(given: dict) -> None:
 
 
 def paged_transfer(source: MultiscaleSource, cmap, opacity, clim, opacity_unit_distance,
-                   n_colors, flip_scalars, log_scale) -> TransferFunction:
+                   n_colors, flip_scalars, log_scale,
+                   nan_policy: str = "raise") -> TransferFunction:
     """The transfer table for a multiscale source, with defaults it can afford.
 
     ``clim`` defaults to the coarsest level's range (the finest would mean reading all of
-    it); ``opacity_unit_distance`` to PyVista's, the finest level's diagonal over its mean
+    it), its NaN and infinite values refused or read as 0 (``nan_policy``);
+    ``opacity_unit_distance`` to PyVista's, the finest level's diagonal over its mean
     number of points less one.
     """
     if clim is None:
         coarsest = source.levels[-1]
-        values = coarsest.read(tuple(slice(0, n) for n in coarsest.shape))
-        low, high = float(np.nanmin(values)), float(np.nanmax(values))
+        values = FiniteBricks(nan_policy, source.name)(
+            (len(source.levels) - 1, 0, 0, 0), coarsest.read(
+                tuple(slice(0, n) for n in coarsest.shape)))
+        low, high = float(values.min()), float(values.max())
         clim = (low, high if high > low else low + 1.0)
     if opacity_unit_distance is None:
         finest = source.levels[0]
