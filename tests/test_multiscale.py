@@ -145,6 +145,20 @@ def test_dask_arrays_and_lists_of_levels_are_sources():
     (lambda attrs: attrs["multiscales"][0]["datasets"][0]["coordinateTransformations"][0]
      .update(scale=[1, 1, -1, 1, 1]), "positive|not a valid"),
     (lambda attrs: attrs.pop("multiscales"), "not a valid OME-Zarr|no multiscales"),
+    # the next four: found by a review. The model's own reason, not only "could not
+    # validate" (catches, seen failing: the error's first line alone kept)
+    (lambda attrs: attrs["multiscales"][0]["datasets"][1].update(path="nope"),
+     "Expected to find an array at nope"),
+    # a level of half the points at the same scale (drawn as streaks before; catches,
+    # seen failing: no extent check)
+    (lambda attrs: attrs["multiscales"][0]["datasets"][1]["coordinateTransformations"][0]
+     .update(scale=[1, 1, 1, 1, 1]), r"Level 1 spans \[2, 2, 2\].*level 0 \[4, 4, 4\]"),
+    # far past float32 and exact voxel offsets (a TypeError while drawing, or blank)
+    (lambda attrs: [d["coordinateTransformations"][1].update(translation=[0, 0, 0, 0, 1e300])
+                    for d in attrs["multiscales"][0]["datasets"]], "translations under 2.53"),
+    (lambda attrs: [d["coordinateTransformations"][0].update(
+        scale=[1, 1] + [1e-300 * (n + 1)] * 3)
+        for n, d in enumerate(attrs["multiscales"][0]["datasets"])], "scales from 1e-30"),
 ])
 def test_hostile_metadata_is_refused_by_name(tmp_path, change, message):
     path = tmp_path / "bad.zarr"

@@ -10,6 +10,7 @@ channel) are read at one index.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -86,6 +87,11 @@ class MultiscaleSource:
         return int(np.prod(self.shape, dtype=np.int64)) * self.dtype.itemsize
 
 
+def _numbers(values) -> str:
+    """``values`` as plain numbers, ``[2, 2, 0.5]`` (not numpy's reprs)."""
+    return "[" + ", ".join(f"{float(v):g}" for v in values) + "]"
+
+
 def check_levels(levels: Sequence[Level]) -> None:
     """Refuse levels that do not form a pyramid, saying which and why."""
     if not levels:
@@ -102,8 +108,8 @@ def check_levels(levels: Sequence[Level]) -> None:
             raise ValueError(f"Level {number} has shape {level.shape} (x, y, z): empty.")
         if not (np.all(np.isfinite(level.scale)) and np.all(level.scale > 0)
                 and np.all(np.isfinite(level.translation))):
-            raise ValueError(f"Level {number} has scale {list(level.scale)} and translation "
-                             f"{list(level.translation)}: scales must be finite and positive, "
+            raise ValueError(f"Level {number} has scale {_numbers(level.scale)} and translation "
+                             f"{_numbers(level.translation)}: scales must be finite and positive, "
                              "translations finite.")
         if number and any(n > m for n, m in zip(level.shape, levels[number - 1].shape,
                                                  strict=True)):
@@ -111,9 +117,24 @@ def check_levels(levels: Sequence[Level]) -> None:
                              f"{number - 1} ({levels[number - 1].shape}) along some axis: "
                              "levels go finest first.")
         if number and np.any(level.scale < levels[number - 1].scale):
-            raise ValueError(f"Level {number} has a finer scale ({list(level.scale)}) than "
-                             f"level {number - 1} ({list(levels[number - 1].scale)}): levels "
+            raise ValueError(f"Level {number} has a finer scale ({_numbers(level.scale)}) than "
+                             f"level {number - 1} ({_numbers(levels[number - 1].scale)}): levels "
                              "go finest first.")
+        if np.any(level.scale < 1e-30) or np.any(level.scale > 1e30) or np.any(
+                np.abs(level.translation) / level.scale >= 2.0**53):
+            raise ValueError(f"Level {number} has scale {_numbers(level.scale)} and translation "
+                             f"{_numbers(level.translation)}: scales from 1e-30 to 1e30 and "
+                             "translations under 2^53 voxels are drawn (float32 shaders, "
+                             "exact voxel offsets); rescale the metadata.")
+        # every level spans the finest one's box, within one of its own voxels (a level
+        # of half the points at the same scale covers half the data: drawn as garbage)
+        extent = np.asarray(level.shape) * level.scale
+        finest = np.asarray(levels[0].shape) * levels[0].scale
+        if number and np.any(np.abs(extent - finest) > 1.5 * level.scale + 1e-9 * finest):
+            raise ValueError(f"Level {number} spans {_numbers(extent)} ({level.shape} points "
+                             f"of {_numbers(level.scale)}), level 0 {_numbers(finest)}: a "
+                             "level's shape and scale must cover the same box as the finest "
+                             "level's; its metadata says otherwise.")
 
 
 def needs(module: str):
@@ -174,6 +195,25 @@ def is_zarr_group(value) -> bool:
     return type(value).__module__.startswith("zarr") and type(value).__name__ == "Group"
 
 
+def _image_error(group) -> str | None:
+    """Why ``group`` is not an OME-Zarr image of its version, in a line or three.
+
+    ``open_ome_zarr`` says only that no model validated it (the reason, among every
+    model's, is deep in its text); the image model of the group's version says which field
+    is wrong. None where that model reads it.
+    """
+    version = "v05" if "ome" in dict(group.attrs) else "v04"
+    model = needs(f"ome_zarr_models.{version}.image").Image
+    try:
+        model.from_zarr(group)
+    except Exception as error:   # any: its text is all that is kept
+        lines = [re.sub(r"\s*\[type=.*$", "", line).strip()
+                 for line in str(error).splitlines()
+                 if line.strip() and "errors.pydantic.dev" not in line]
+        return "; ".join(line for line in lines[:3] if line) or None
+    return None
+
+
 def _ome_source(group, time: int, channel: int, name: str | None) -> MultiscaleSource:
     """An OME-Zarr image group's first multiscale, validated and placed by its metadata."""
     ome_zarr_models = needs("ome_zarr_models")
@@ -183,7 +223,8 @@ def _ome_source(group, time: int, channel: int, name: str | None) -> MultiscaleS
         image = ome_zarr_models.open_ome_zarr(group)
     except (ValidationError, ValueError, TypeError, KeyError, RuntimeError) as error:
         raise ValueError(f"The zarr group {group.path or group.store!s} is not a valid OME-Zarr "
-                         f"image: {str(error).splitlines()[0]}") from error
+                         f"image: {_image_error(group) or str(error).splitlines()[0]}"
+                         ) from error
     attributes = getattr(image, "ome_attributes", None) or image.attributes
     multiscales = getattr(attributes, "multiscales", None)
     if not multiscales:
