@@ -60,7 +60,7 @@ from .surfaces.options import STEPS as SURFACE_STEPS
 from .surfaces.technique import build_translucent_levels
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.binding import VolumeBinding, VolumeData, VolumeSetup
-from .volume.brick_pager import BrickPager
+from .volume.brick_pager import BRICK_POINTS, GPU_BYTES, BrickPager, coarsest_fits
 from .volume.clipping import clip_plane_list, crop_keeps_nothing, set_crop_box
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
@@ -688,6 +688,8 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         raise VolumeDataError(f"nan_policy must be one of {NAN_POLICIES}, got "
                               f"{given['nan_policy']!r}.")
     source = multiscale_source(source, name=given["name"])
+    coarsest_fits(source, paging.get("brick_size") or BRICK_POINTS,   # before any read
+                  paging.get("gpu_bytes") or GPU_BYTES)
     keywords = [given[k] for k in ("cmap", "opacity", "clim", "opacity_unit_distance",
                                    "n_colors", "flip_scalars", "log_scale")]
     transfer = made.transfer if made is not None and all(k is None for k in keywords) \

@@ -885,3 +885,18 @@ def test_nan_policy_applies_to_each_brick_as_it_is_read():
     pl.close()
     assert (expected.max(axis=-1) > 30).mean() > 0.1
     assert psnr(image, expected) >= 50.0
+
+
+def test_a_coarsest_level_past_the_pool_is_refused_before_it_is_read(tmp_path):
+    """The default ``clim`` reads the coarsest level whole: a level the pool cannot hold
+    is refused first, by its header, naming gpu_bytes (nothing of it was written here).
+    catches (seen failing; found by a review): the level read first (numpy's bare
+    MemoryError for 256 GiB, or a level that fits in memory read whole for nothing).
+    """
+    store = zarr.create_array(str(tmp_path / "huge.zarr"), shape=(4096, 4096, 4096),
+                              chunks=(256, 256, 256), dtype=np.float32)
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    with pytest.raises(ValueError, match=r"coarsest level \(\(4096, 4096, 4096\) points\)"
+                                         r".*gpu_bytes"):
+        cm.add_volume(pl, store)
+    pl.close()

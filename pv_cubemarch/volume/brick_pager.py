@@ -67,6 +67,23 @@ def pool_slots(brick: int, gpu_bytes: int, most_bricks: int | None = None,
     return best
 
 
+def coarsest_fits(source, brick: int, gpu_bytes: int, apron: int = 1) -> tuple[int, int, int]:
+    """The pool's slots, once the coarsest level's bricks (always resident) fit in it.
+
+    Raises ``ValueError`` otherwise, before anything of the source is read (its default
+    ``clim`` reads the coarsest level whole).
+    """
+    counts = [brick_counts(level.shape, brick) for level in source.levels]
+    slots = pool_slots(brick, gpu_bytes, sum(int(np.prod(c)) for c in counts), apron)
+    capacity, pinned = int(np.prod(slots)), int(np.prod(counts[-1]))
+    if pinned > capacity:
+        raise ValueError(f"The coarsest level ({source.levels[-1].shape} points) needs "
+                         f"{pinned} bricks of {brick}³ and gpu_bytes holds {capacity}: give "
+                         "more gpu_bytes, or a source with coarser levels "
+                         "(pv_cubemarch.build_pyramid).")
+    return slots
+
+
 class FiniteBricks:
     """A read brick as float32, its NaN and infinite values refused or drawn as 0.
 
@@ -118,16 +135,9 @@ class BrickPager:
         source = model.source
         self.levels = source.levels
         self.counts = [brick_counts(level.shape, self.brick) for level in self.levels]
-        self.slots = pool_slots(self.brick, gpu_bytes,
-                                sum(int(np.prod(c)) for c in self.counts), self.apron)
+        self.slots = coarsest_fits(source, self.brick, gpu_bytes, self.apron)
         self.capacity = int(np.prod(self.slots))
         coarsest = len(self.levels) - 1
-        pinned = int(np.prod(self.counts[coarsest]))
-        if pinned > self.capacity:
-            raise ValueError(f"The coarsest level ({self.levels[coarsest].shape} points) needs "
-                             f"{pinned} bricks of {self.brick}³ and gpu_bytes holds "
-                             f"{self.capacity}: give more gpu_bytes, or a source with "
-                             "coarser levels (pv_cubemarch.build_pyramid).")
         policy = getattr(model, "nan_policy", None)
         if self.prepare is None and policy and np.dtype(source.dtype).kind == "f":
             self.prepare = FiniteBricks(policy, model.name)
