@@ -542,6 +542,21 @@ def test_a_zarr_array_is_drawn_by_chunks_never_read_whole(tmp_path):
     pl.close()
 
 
+def test_an_array_of_absurd_shape_is_refused_before_its_chunks_are_listed(tmp_path):
+    # A header of 100000³ voxels (nothing written): 478 million chunks of 128³. Refused
+    # by the count, naming the streamed way, before any box is listed or read.
+    # catches (seen failing; found by a review): every box listed first (the review: 71 s,
+    # 4.4 GB, then a bare MemoryError; here the test ran past 150 s).
+    import zarr
+
+    store = zarr.create_array(str(tmp_path / "huge.zarr"), shape=(100000,) * 3,
+                              chunks=(512, 512, 512), dtype=np.uint16)
+    pl = pv.Plotter(off_screen=True, window_size=(32, 24))
+    with pytest.raises(cm.VolumeDataError, match=r"478,211,768 chunks.*\[array\]"):
+        cm.add_voxels(pl, store)
+    pl.close()
+
+
 def test_a_world_past_its_host_budget_stops_reading_and_says_how_to_stream(tmp_path,
                                                                          monkeypatch):
     """A chunked array whose chunks would not fit the host memory a world may keep stops

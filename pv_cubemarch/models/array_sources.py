@@ -48,6 +48,8 @@ def _read(source, box, name: str) -> np.ndarray:
     return block.astype(np.uint8) if block.dtype.kind == "b" else block
 
 
+#: Most chunks a world read from an array keeps (listed, read and indexed in memory).
+MAX_WORLD_CHUNKS = 2**21
 #: Environment variable: the host bytes a world's stored chunks may take (``4e9``); by
 #: default 80 % of the memory the system can give when the world starts filling.
 WORLD_BYTES_ENV = "PV_CUBEMARCH_WORLD_BYTES"
@@ -85,7 +87,15 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
     :func:`thread_safe`): 1, 2 or 4 bytes a voxel by how many there are. ``palette`` as
     :func:`~pv_cubemarch.models.voxels.make_voxels` takes it (by id).
     """
-    boxes = list(_boxes(tuple(int(n) for n in source.shape), int(chunk_size)))
+    shape, size = tuple(int(n) for n in source.shape), int(chunk_size)
+    count = int(np.prod([-(-n // max(size, 1)) for n in shape], dtype=np.float64))
+    if count > MAX_WORLD_CHUNKS:   # before the boxes are listed (an absurd header's too)
+        raise VolumeDataError(
+            f"{name!r}: {shape} voxels make {count:,} chunks of {size}³, more than the "
+            f"{MAX_WORLD_CHUNKS:,} a world read whole into memory keeps: stream it by bricks "
+            "(add_voxels(plotter, [array]) or an OME-Zarr pyramid), or give a larger "
+            "chunk_size.")
+    boxes = list(_boxes(shape, size))
     with core_pool(len(boxes), most=1 if not thread_safe(source) else None) as threads:
         return _filled_world(threads, source, boxes, chunk_size, background, palette, name,
                              progress_bar, placement)
