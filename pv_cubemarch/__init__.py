@@ -25,6 +25,7 @@ from .core.errors import (  # noqa: E402
     SceneLoadError,
     SceneWarning,
     ShaderCompileError,
+    StoreReadError,
     VolumeDataError,
     VolumeDataWarning,
 )
@@ -68,7 +69,8 @@ __all__ = [
     "RefusedOptionsError", "RenderToTexturePass", "Replacement", "Scene", "SceneChangedError",
     "SceneLight",
     "SceneLoadError", "SceneMesh", "SceneWarning", "ShaderBindings",
-    "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "Texture", "TransferFunction",
+    "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "StoreReadError", "Texture",
+    "TransferFunction",
     "VolumeDataError", "VolumeDataWarning", "VolumeGroup", "VolumeLight", "VolumeModel",
     "add_volume", "build_pyramid", "MultiscaleSource", "multiscale_source",
     "add_surface", "add_volumes", "add_voxels", "SplineField", "make_field",

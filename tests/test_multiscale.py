@@ -173,6 +173,29 @@ def test_hostile_metadata_is_refused_by_name(tmp_path, change, message):
         multiscale_source(str(path))
 
 
+def test_a_damaged_store_is_said_with_what_could_not_be_read(tmp_path):
+    # A chunk cut short, metadata that is not JSON: the error names the store and the
+    # points asked for (a raw zstd RuntimeError, a ZeroDivisionError or a bare JSON error
+    # before). catches (seen failing; found by a review): the read and the opening not
+    # wrapped (zarr's own errors, no store named).
+    import zarr
+
+    path = tmp_path / "cut.zarr"
+    store = zarr.create_array(str(path), shape=(16, 16, 16), chunks=(8, 8, 8),
+                              dtype=np.float32)
+    store[:] = np.arange(16**3, dtype=np.float32).reshape(16, 16, 16)
+    chunk = next(p for p in (path / "c").rglob("*") if p.is_file())
+    chunk.write_bytes(chunk.read_bytes()[:10])
+    level = multiscale_source(str(path)).levels[0]
+    with pytest.raises(cm.StoreReadError, match=r"cut.zarr: the points \(\(0, 16\), "
+                                                r"\(0, 16\), \(0, 16\)\) could not be read"):
+        level.read((slice(0, 16), slice(0, 16), slice(0, 16)))
+    (path / "zarr.json").write_text("{nope")
+    with pytest.raises(ValueError, match="cut.zarr: not a zarr array or group that can be "
+                                         "opened .JSONDecodeError"):
+        multiscale_source(str(path))
+
+
 def test_levels_that_are_no_pyramid_and_bad_arguments_are_refused(tmp_path):
     fine = np.zeros((8, 8, 8), np.uint16)
     with pytest.raises(ValueError, match="same dtype"):

@@ -41,6 +41,10 @@ class VolumeDataError(CubemarchError, ValueError):
     """Volume data that cannot be rendered as given (bad dtype, NaN, non-uniform grid...)."""
 
 
+class StoreReadError(CubemarchError, RuntimeError):
+    """A level's points could not be read from its store (what was asked, and why)."""
+
+
 class PlotterClosedError(CubemarchError, RuntimeError):
     """The plotter was closed (``plotter.close()``): it has no window to draw in any more."""
 

@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.errors import StoreReadError
+
 #: OME-Zarr's names of the spatial axes, in the project's index order.
 SPACE = ("x", "y", "z")
 
@@ -46,7 +48,14 @@ class Level:
             index[axis] = int(value)
         for spatial, axis in enumerate(self.axes):
             index[axis] = box[spatial]
-        block = np.asarray(self.array[tuple(index)])
+        try:
+            block = np.asarray(self.array[tuple(index)])
+        except Exception as error:   # a codec, a chunk cut short, metadata that lies
+            where = getattr(self.array, "store_path", None) or type(self.array).__name__
+            raise StoreReadError(
+                f"{where}: the points {tuple((s.start, s.stop) for s in box)} could not be "
+                f"read ({type(error).__name__}: {error}); the store is damaged there, or its "
+                "metadata (dtype, chunks, codecs) does not match its chunks.") from error
         kept = [a for a in range(len(index)) if a not in self.fixed]   # in the array's order
         return np.ascontiguousarray(np.transpose(block, [kept.index(a) for a in self.axes]))
 
@@ -167,7 +176,12 @@ def multiscale_source(source, *, time: int = 0, channel: int = 0,
     if isinstance(source, MultiscaleSource):
         return source
     if isinstance(source, str) or hasattr(source, "__fspath__"):
-        source = needs("zarr").open(str(source), mode="r")
+        zarr = needs("zarr")
+        try:
+            source = zarr.open(str(source), mode="r")
+        except Exception as error:   # metadata that is not JSON, a missing codec, ...
+            raise ValueError(f"{source}: not a zarr array or group that can be opened "
+                             f"({type(error).__name__}: {error}).") from error
     if is_zarr_group(source):
         return _ome_source(source, time, channel, name)
     if isinstance(source, (list, tuple)):
