@@ -234,6 +234,15 @@ def test_grid_files_that_lack_the_field_or_lie_in_their_header_are_skipped_and_s
             e.reason for e in scene.skipped])
 
 
+def test_a_usda_that_is_not_text_is_refused_naming_the_file(tmp_path):
+    # catches (seen failing; found by a review): a UnicodeDecodeError, no file named (the
+    # error's own message quoted the bytes it could not decode)
+    path = tmp_path / "junk.usda"
+    path.write_bytes(b"#usda 1.0\n" + np.random.default_rng(0).bytes(4096))
+    with pytest.raises(cm.SceneLoadError, match="junk.usda' could not be opened"):
+        cm.load_scene(path)
+
+
 def test_usdc_and_usdz(tmp_path):
     stage = Usd.Stage.CreateNew(str(tmp_path / "a.usdc"))
     quad_mesh(stage, "/Quad")

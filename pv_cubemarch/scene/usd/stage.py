@@ -73,7 +73,11 @@ def load_usd(path: str | Path, progress_bar: bool | None = None, as_voxels: bool
     try:
         stage = Usd.Stage.Open(str(path))
     except Tf.ErrorException as exc:
-        raise SceneLoadError(f"USD file {str(path)!r} could not be opened: {exc}") from exc
+        try:   # USD's message may quote the file's bytes, which need not be text
+            reason = str(exc)
+        except UnicodeDecodeError:
+            reason = "its bytes are not UTF-8 text"
+        raise SceneLoadError(f"USD file {str(path)!r} could not be opened: {reason}") from exc
     if stage is None:
         raise SceneLoadError(f"USD file {str(path)!r} could not be opened (not a USD layer?).")
     if time is not None and not np.isfinite(time):
