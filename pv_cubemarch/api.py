@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pyvista
@@ -33,6 +34,7 @@ from .models.channels import (
 )
 from .models.field_sources import color_values, make_field
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
+from .models.label_ids import check_background_id
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
 from .models.multiscale import MultiscaleSource, is_zarr_group, multiscale_source
 from .models.volume import NAN_POLICIES, VolumeModel, checked_transform, with_transfer
@@ -447,6 +449,7 @@ def add_volume(
         given = {key: value for key, value in locals().items()
                  if key not in ("plotter", "volume", "kwargs", "paging")}
         return _add_paged(plotter, volume, given, kwargs)
+    volume = _read_path(volume, "add_volume")
     unused = [key for key, value in paging.items() if value is not None]
     if unused:
         raise ValueError(f"{', '.join(unused)}: for multiscale sources (an OME-Zarr group, a "
@@ -616,6 +619,25 @@ PAGED_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors"
                   "sample_factor", "occlusion_sharpness", "frame_budget_ms")
 
 
+def _read_path(data, what: str):
+    """``data``, or the dataset ``pyvista.read`` reads from it where it is a file path.
+
+    As ``add_surface`` reads a mesh file; a ``.zarr`` path is streamed before this.
+    """
+    if not (isinstance(data, str) or hasattr(data, "__fspath__")):
+        return data
+    path = Path(data)
+    if not path.is_file():
+        raise FileNotFoundError(f"{what}: {str(path)!r} is not a file (a path is read with "
+                                "pyvista.read; a .zarr store is streamed).")
+    try:
+        return pyvista.read(str(path))
+    except Exception as error:
+        raise VolumeDataError(f"{what}: {str(path)!r} could not be read by pyvista.read "
+                              f"({error}); give a pyvista dataset or a numpy array, or load "
+                              "a scene file with pv_cubemarch.load_scene.") from error
+
+
 def is_multiscale_input(volume) -> bool:
     """Whether ``add_volume`` streams ``volume`` by bricks (a source beyond memory)."""
     if isinstance(volume, (MultiscaleSource, PagedVolume)) or is_zarr_group(volume):
@@ -776,6 +798,7 @@ def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
                          "its bricks are read, so its palette is None (colours hashed from "
                          "each id), a {id: colour} dict or a function of the id.")
     check_paging(given)
+    check_background_id(given["background"])
     if given["frame_budget_ms"] is not None:   # refused before anything is read
         check_frame_budget(given["frame_budget_ms"], "voxels")
     options = voxel_options(mode=given["mode"], shading=given["shading"],
@@ -1409,6 +1432,7 @@ def add_voxels(
         given = {key: value for key, value in locals().items()
                  if key not in ("plotter", "grid", "kwargs", "lighting")}
         return _add_paged_labels(plotter, grid, given)
+    grid = _read_path(grid, "add_voxels")
     streaming = [key for key, value in (("gpu_bytes", gpu_bytes), ("host_bytes", host_bytes),
                                         ("brick_size", brick_size)) if value is not None]
     if streaming:

@@ -244,3 +244,37 @@ def test_a_constant_volume_warns_and_says_what_to_do(plotter_factory):
         warnings.simplefilter("error", cm.VolumeDataWarning)
         cm.add_volume(pl, np.full((4, 4, 4), 7.0), clim=(0, 10), name="placed")
         cm.add_volume(pl, np.arange(64.0).reshape(4, 4, 4), name="ramp")
+
+
+def test_a_file_path_is_read_as_pyvista_reads_it(plotter_factory, tmp_path):
+    # add_surface read a path; add_volume and add_voxels said "Unable to wrap str" (found
+    # by a review). A path is read by pyvista.read: the same image as the dataset given;
+    # a missing file is named. catches (seen failing): the path passed on unread.
+    grid = pv.ImageData(dimensions=(12, 10, 8), spacing=(1.0, 1.5, 2.0), origin=(5, -3, 1))
+    grid.point_data["v"] = np.linspace(0.0, 1.0, grid.n_points)
+    grid.cell_data["labels"] = (np.arange(grid.n_cells) % 3).astype(np.uint8)
+    grid.save(tmp_path / "g.vti")
+    for add, keywords in ((cm.add_volume, dict(scalars="v")),
+                          (cm.add_voxels, dict(scalars="labels"))):
+        images = []
+        for data in (grid, str(tmp_path / "g.vti")):
+            pl = plotter_factory((64, 48))
+            add(pl, data, **keywords)
+            pl.camera_position = "iso"
+            images.append(cm.render_image(pl))
+        assert images[0].std() > 1 and np.array_equal(*images), add.__name__
+        with pytest.raises(FileNotFoundError, match="nope.vti' is not a file"):
+            add(pl, tmp_path / "nope.vti")
+
+
+@pytest.mark.parametrize("background", [float("nan"), 2.5, "0", True])
+def test_a_background_that_is_no_integer_id_is_refused_by_name(plotter_factory,
+                                                               background, tmp_path):
+    # catches (seen failing; found by a review): "cannot convert float NaN to integer"
+    # (no keyword named) for a grid, and for a streamed pyramid
+    labels = np.zeros((6, 6, 6), np.uint8)
+    labels[2:4, 2:4, 2:4] = 1
+    pl = plotter_factory((32, 24))
+    for data in (labels, [labels]):
+        with pytest.raises(cm.VolumeDataError, match="background=.*integer label id"):
+            cm.add_voxels(pl, data, background=background)

@@ -11,6 +11,8 @@ number read as before.
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 
 from ..core.errors import VolumeDataError
@@ -384,15 +386,20 @@ def _rows_of_slab(part: np.ndarray, keys: np.ndarray, order: np.ndarray, dtype,
 
 def _checked_background(background, dtype: np.dtype, name: str):
     """``background`` as an int the ids' type holds, or an error naming it."""
-    if isinstance(background, (bool, np.bool_)) or not isinstance(
-            background, (int, np.integer)):
-        raise ValueError(f"background must be an integer label id, got {background!r}.")
+    check_background_id(background)
     info = np.iinfo(dtype)
     if not info.min <= int(background) <= info.max:
         raise ValueError(f"background={background} is outside the range of {name} "
                          f"({dtype}: {info.min}..{info.max}); give an id the labels' type "
                          "holds (0 by default).")
     return dtype.type(int(background))
+
+
+def check_background_id(background) -> None:
+    """Refuse a ``background`` that is not an integer id (NaN, 2.5, "0", True)."""
+    if isinstance(background, (bool, np.bool_)) or not isinstance(background, numbers.Integral):
+        raise VolumeDataError(f"background={background!r}: the id drawn as empty is an "
+                              "integer label id (0 by default).")
 
 
 def label_rows(values: np.ndarray, background: int = 0,
@@ -406,6 +413,7 @@ def label_rows(values: np.ndarray, background: int = 0,
     values = np.asarray(values)
     if values.dtype.kind == "b":
         values = values.astype(np.uint8)
+    check_background_id(background)
     low, high = values.min(), values.max()
     if int(background) == 0 and low >= 0 and high <= IDENTITY_MAX:
         dtype = np.uint8 if high <= 255 else np.uint16
