@@ -243,6 +243,21 @@ def test_a_usda_that_is_not_text_is_refused_naming_the_file(tmp_path):
         cm.load_scene(path)
 
 
+def test_a_volume_option_of_the_wrong_type_is_said_by_attribute(tmp_path):
+    # catches (seen failing; found by a review): cubemarch:clim = "0 1" (a string) read
+    # character by character: "could not convert string to float: ' '", no attribute named
+    np.save(tmp_path / "d.npy", np.random.default_rng(0).random((5, 6, 7)))
+    path = write_field_stage(tmp_path, "./d.npy")
+    stage = Usd.Stage.Open(str(path))
+    stage.GetPrimAtPath("/Vol").CreateAttribute("cubemarch:clim",
+                                                Sdf.ValueTypeNames.String).Set("0 1")
+    stage.GetRootLayer().Save()
+    with pytest.warns(UserWarning):
+        scene = cm.load_scene(path)
+    assert not scene.volumes
+    assert "cubemarch:clim = '0 1': numbers are wanted" in scene.skipped[0].reason
+
+
 def test_usdc_and_usdz(tmp_path):
     stage = Usd.Stage.CreateNew(str(tmp_path / "a.usdc"))
     quad_mesh(stage, "/Quad")

@@ -110,20 +110,24 @@ class SurfaceCalibration(ProbeCalibration):
 
         The active cells' boxes, or their box a hair larger (the domain's for
         ``technique='full'``). Opaque levels, each drawn apart, are framed by the prop
-        standing for them, which spans the domain.
+        standing for them, which spans every level's box.
         """
-        if self.levels is not None and not self.options.translucent:
-            return drawn_box_bounds(self.model, np.zeros(3), self.model.dimensions)
-        if self.technique == "active":
-            cells = level_cells(self.model, self.levels or (0.0,), self.options.active_test,
+        if self.technique != "active":
+            return margined_bounds(self.model)
+        apart = self.levels is not None and not self.options.translucent
+        groups = [(v,) for v in self.levels] if apart else [self.levels or (0.0,)]
+        margin = 0.0 if self.options.traversal == "cell_boxes" else \
+            0.01 * max(self.model.dimensions)
+        boxes = []
+        for offsets in groups:
+            cells = level_cells(self.model, offsets, self.options.active_test,
                                 self.options.active_samples)
             if len(cells):
-                lower, upper = cells.min(axis=0), cells.max(axis=0) + 1
-                if self.options.traversal == "cell_boxes":
-                    return drawn_box_bounds(self.model, lower, upper)
-                margin = 0.01 * max(self.model.dimensions)
-                return drawn_box_bounds(self.model, lower - margin, upper + margin)
-        return margined_bounds(self.model)
+                boxes.append((cells.min(axis=0) - margin, cells.max(axis=0) + 1 + margin))
+        if not boxes:
+            return margined_bounds(self.model)
+        return drawn_box_bounds(self.model, np.min([b[0] for b in boxes], axis=0),
+                                np.max([b[1] for b in boxes], axis=0))
 
     def shading(self) -> str:
         return self.options.shading

@@ -89,15 +89,17 @@ def _model_attributes(prim, name: str) -> dict:
         value = attr(prim, f"cubemarch:{key}")
         if value is None:
             continue
-        if declaration.type is tuple:
-            value = tuple(float(v) for v in value)
-        elif declaration.name == "opacity" and not isinstance(value, str):
-            value = float(value) if np.ndim(value) == 0 else [float(v) for v in value]
-        elif declaration.type in (int, float, bool):
-            value = declaration.type(value)
         try:
+            if declaration.type is tuple:
+                if isinstance(value, str):   # each character read as a number before
+                    raise TypeError("numbers are wanted, not a string")
+                value = tuple(float(v) for v in value)
+            elif declaration.name == "opacity" and not isinstance(value, str):
+                value = float(value) if np.ndim(value) == 0 else [float(v) for v in value]
+            elif declaration.type in (int, float, bool):
+                value = declaration.type(value)
             declaration.check(value)
-        except ValueError as exc:
+        except (ValueError, TypeError) as exc:
             raise SceneLoadError(f"Volume {name}: cubemarch:{key} = {value!r}: {exc}") from exc
         found[declaration.name] = value
     return found
