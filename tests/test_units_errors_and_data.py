@@ -309,3 +309,24 @@ def test_shadows_say_what_to_do_where_vtk_s_shadow_pass_cannot_compile():
     plotter.disable_shadows()
     assert cm.render_image(plotter).std() > 1   # drawn once the shadows are off
     plotter.close()
+
+
+def test_a_drawing_beyond_float32_s_reach_is_refused_and_freed():
+    # GL squares distances in float32: a grid spanning 1e31 units drew nothing, or the
+    # frame stopped on a singular matrix (found by a review: a surface's LinAlgError, a USD
+    # volume scaled 1e30 drawn blank with no note). Refused when added, its GPU state freed.
+    # catches (seen failing): no check (the surface's frame raised LinAlgError).
+    grid = pv.ImageData(dimensions=(10, 10, 10), spacing=(1e30, 1e30, 1e30))
+    grid["v"] = np.linalg.norm(grid.points / 1e30 - 4.5, axis=1)
+    labels = np.zeros((4, 4, 4), np.uint8)
+    labels[1:3, 1:3, 1:3] = 1
+    pl = cm.offscreen_plotter((64, 48))
+    for add, data, keywords in ((cm.add_surface, grid, dict(isovalue=3.0)),
+                                (cm.add_volume, grid, {}),
+                                (cm.add_voxels, labels, dict(transform=np.diag(
+                                    [1e30, 1e30, 1e30, 1.0])))):
+        with pytest.raises(cm.VolumeDataError, match="world units from the origin.*float32"):
+            add(pl, data, **keywords)
+    assert not pl.actors and pl.cubemarch.memory == {}
+    assert cm.render_image(pl).std() == 0   # nothing left to draw, no error
+    pl.close()
