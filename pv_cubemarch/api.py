@@ -626,9 +626,9 @@ def _read_path(data, what: str):
     """
     if not (isinstance(data, str) or hasattr(data, "__fspath__")):
         return data
-    path = Path(data)
-    if not path.is_file():
-        raise FileNotFoundError(f"{what}: {str(path)!r} is not a file (a path is read with "
+    path = Path(data).expanduser()
+    if not path.exists():   # a folder may be a DICOM series, which pyvista.read reads
+        raise FileNotFoundError(f"{what}: {str(path)!r} does not exist (a path is read with "
                                 "pyvista.read; a .zarr store is streamed).")
     try:
         return pyvista.read(str(path))
@@ -861,26 +861,6 @@ def _checked_name(name):
     return name
 
 
-#: Largest world coordinate drawn: GL's float32 squares distances (the camera's matrices
-#: and their inverses), which overflow past about 1e19.
-MAX_WORLD_COORDINATE = 1e18
-
-
-def check_world_reach(binding) -> None:
-    """Refuse (and free) a drawing placed beyond :data:`MAX_WORLD_COORDINATE`.
-
-    Past it a frame draws nothing, or stops on a singular matrix, with no word of why.
-    """
-    bounds = getattr(binding.model, "world_bounds", None)
-    reach = float(np.max(np.abs(bounds()))) if callable(bounds) else 0.0
-    if reach > MAX_WORLD_COORDINATE:
-        binding.release()
-        raise VolumeDataError(
-            f"{binding.model.name!r} reaches {reach:.3g} world units from the origin; GL "
-            f"draws in float32, whose squares overflow past about 1e19: place it within "
-            f"{MAX_WORLD_COORDINATE:g} (a smaller spacing, scale or transform=).")
-
-
 def _place(plotter: pyvista.Plotter, binding, name: str):
     """Give the plotter the actor that stands for the volume, under ``name``.
 
@@ -888,7 +868,11 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
     draws elsewhere (the overlay renderer) or draws several returns a bounds proxy, which
     keeps ``reset_camera`` and the clipping range aware of the volume.
     """
-    check_world_reach(binding)
+    try:
+        binding.check_reach()
+    except ValueError:
+        binding.release()   # nothing of it is kept
+        raise
     main = plotter.renderer
     binding.main_renderer = main
     drawn = binding.drawn

@@ -78,7 +78,6 @@ class CubemarchComponent:
 
     def _follow_scene(self, *_) -> None:
         """Before a frame: drop removed volumes, follow the returned actors, window settings."""
-        check_window_size(self._window)   # said (show, screenshot): larger draws wrong
         self.release_removed()
         self._say_if_added_again()
         single_sample = False
@@ -104,6 +103,7 @@ class CubemarchComponent:
         for renderer in translucent:
             self._user_oit.setdefault(renderer, bool(renderer.GetUseOIT()))
             renderer.SetUseOIT(False)
+        check_window_size(self._window)   # last: said (show, screenshot), the rest done
 
     def release_removed(self) -> list:
         """Release every volume whose actor is no longer in its renderer; return them."""

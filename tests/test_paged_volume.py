@@ -904,3 +904,19 @@ def test_a_coarsest_level_past_the_pool_is_refused_before_it_is_read(tmp_path):
                                          r".*gpu_bytes"):
         cm.add_volume(pl, store)
     pl.close()
+
+
+def test_finite_values_past_float32_are_drawn_saturated_not_called_nan():
+    """A float64 source with finite values past float32's range (1e39) is drawn with them
+    at its largest value, as in memory, not refused as NaN.
+    catches (seen failing; found by a review): the cast to float32 first (inf), then
+    "holds 5204 NaN or infinite values".
+    """
+    values = np.zeros((16, 16, 16))
+    values[4:12, 4:12, 4:12] = 1e39
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    actor = cm.add_volume(pl, [values], clim=(0.0, 1.0), lod_bias=-64, brick_size=8)
+    pl.reset_camera()
+    image = converged(pl, actor)
+    assert (image.max(axis=-1) > 30).mean() > 0.05
+    pl.close()

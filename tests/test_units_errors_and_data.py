@@ -12,6 +12,7 @@ import pyvista as pv
 from conftest import BACKGROUND, MARCHING_TECHNIQUES, ROOT
 
 import pv_cubemarch as cm
+from pv_cubemarch.core.rendering import check_window_size
 from pv_cubemarch.image_metrics import compare_images, to_uint8
 from pv_cubemarch.reference import chord_lengths
 
@@ -278,6 +279,14 @@ def test_a_window_larger_than_gl_draws_is_refused_before_it_is_drawn(blob):
     pl.window_size = (48, 16385)
     with pytest.warns(UserWarning, match="larger than this GL draws"):   # outside our frames
         pl.show(auto_close=False)
+    # a tiled screenshot larger than GL draws is fine: each tile is the window's size
+    # (catches, seen failing; found by a review: the tiled size read, a warning a tile)
+    pl.window_size = (1100, 48)
+    cm.render_image(pl)
+    pl.ren_win.SetTileScale(15)   # as screenshot(scale=15) sets it: 16500 wide in tiles
+    assert tuple(pl.ren_win.GetSize()) == (16500, 720)
+    check_window_size(pl.ren_win)   # no error: each tile is drawn at the window's size
+    pl.ren_win.SetTileScale(1)
     pl.close()
 
 
@@ -312,9 +321,10 @@ def test_shadows_say_what_to_do_where_vtk_s_shadow_pass_cannot_compile():
 
 
 def test_a_drawing_beyond_float32_s_reach_is_refused_and_freed():
-    # GL squares distances in float32: a grid spanning 1e31 units drew nothing, or the
-    # frame stopped on a singular matrix (found by a review: a surface's LinAlgError, a USD
-    # volume scaled 1e30 drawn blank with no note). Refused when added, its GPU state freed.
+    # Past about 2e16 VTK's clipping range collapses and GL's float32 camera matrices turn
+    # singular: a grid spanning 1e31 units drew nothing, or the frame stopped on one
+    # (found by a review: a surface's LinAlgError, a USD volume scaled 1e30 drawn blank
+    # with no note). Refused when added, its GPU state freed.
     # catches (seen failing): no check (the surface's frame raised LinAlgError).
     grid = pv.ImageData(dimensions=(10, 10, 10), spacing=(1e30, 1e30, 1e30))
     grid["v"] = np.linalg.norm(grid.points / 1e30 - 4.5, axis=1)
@@ -329,4 +339,17 @@ def test_a_drawing_beyond_float32_s_reach_is_refused_and_freed():
             add(pl, data, **keywords)
     assert not pl.actors and pl.cubemarch.memory == {}
     assert cm.render_image(pl).std() == 0   # nothing left to draw, no error
+    # 2e16 from the origin already broke (the review: a singular projection); a move there
+    # later is refused too, the placement kept (catches, seen failing: set_transform not
+    # checked, the next frame stopped on LinAlgError)
+    far = pv.ImageData(dimensions=(8, 8, 8), origin=(2e16, 0.0, 0.0))
+    far["v"] = np.arange(512.0)
+    with pytest.raises(cm.VolumeDataError, match="world units from the origin"):
+        cm.add_volume(pl, far)
+    actor = cm.add_voxels(pl, labels)
+    with pytest.raises(cm.VolumeDataError, match="world units from the origin"):
+        actor.cubemarch.set_transform(np.diag([1e17, 1e17, 1e17, 1.0]))
+    assert np.allclose(actor.cubemarch.model.transform, np.eye(4))
+    pl.reset_camera()
+    assert cm.render_image(pl).std() > 1
     pl.close()

@@ -41,6 +41,14 @@ class VolumeDataError(CubemarchError, ValueError):
     """Volume data that cannot be rendered as given (bad dtype, NaN, non-uniform grid...)."""
 
 
+class RefusedChangeError(CubemarchError, ValueError):
+    """A change made after adding that is not drawn: refused, and set back where it can be.
+
+    Raised at the next frame (inside VTK's observers): ``render_image`` raises it, and a
+    frame drawn otherwise (``show``, ``render``) says it as a warning.
+    """
+
+
 class StoreReadError(CubemarchError, RuntimeError):
     """A level's points could not be read from its store (what was asked, and why)."""
 

@@ -6,10 +6,10 @@ pv_cubemarch installs goes through :func:`observe`, which records the exception 
 collector of the frame being drawn (:func:`collecting_frame_errors`, opened by
 :func:`pv_cubemarch.render_frame` around ``ren_win.Render()``); the frame finishes, then
 the first recorded error is raised to the caller. Outside such a frame (``pl.show()``,
-``pl.render()``, ``pl.screenshot()``) a ``ValueError``, what refuses a user's change, is
-a warning attributed to the user's line (VTK would print a traceback from inside its
-observer, which no ``warnings`` filter or ``try`` catches); any other exception goes to
-VTK as before, which prints it.
+``pl.render()``, ``pl.screenshot()``) a :class:`RefusedChangeError`, what refuses a user's
+change, is a warning attributed to the user's line (VTK would print a traceback from
+inside its observer, which no ``warnings`` filter or ``try`` catches); any other
+exception goes to VTK as before, which prints it with its traceback.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from collections.abc import Callable
 
 from vtkmodules.util.misc import calldata_type
 
+from .errors import RefusedChangeError
 from .user_warnings import warn_user
 
 #: Collectors of the frames being drawn, innermost last (a frame may render another).
@@ -39,7 +40,7 @@ def guarded(callback: Callable, calldata: int | None = None) -> Callable:
             return callback(*args)
         except Exception as exc:
             if not _collectors:
-                if isinstance(exc, ValueError):   # a refusal: said on the user's line
+                if isinstance(exc, RefusedChangeError):   # said on the user's line
                     warn_user(str(exc))
                     return None
                 raise  # no frame collects: VTK prints it, as it always did

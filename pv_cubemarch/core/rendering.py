@@ -10,7 +10,7 @@ import pyvista
 import vtk
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
-from .errors import PlotterClosedError
+from .errors import PlotterClosedError, RefusedChangeError
 from .frame_errors import collecting_frame_errors, raise_frame_errors
 from .offscreen import configure_offscreen
 from .progress import progress
@@ -81,7 +81,7 @@ _size_limits: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def check_window_size(window) -> None:
-    """Raise ``ValueError`` if ``window`` is larger than GL draws here.
+    """Raise :class:`RefusedChangeError` if ``window`` is larger than GL draws here.
 
     Past GL's renderbuffer or viewport limit (16384 on llvmpipe) a frame is drawn wrong
     without any error from GL or VTK (one colour, or garbage); larger still, the process
@@ -98,9 +98,10 @@ def check_window_size(window) -> None:
         if limit <= 0:   # not read (no context): nothing to check against
             return
         _size_limits[window] = limit
-    width, height = (int(v) for v in window.GetSize())
+    tiles = [max(int(v), 1) for v in window.GetTileScale()]   # a tiled screenshot's
+    width, height = (int(v) // t for v, t in zip(window.GetSize(), tiles, strict=True))
     if max(width, height) > limit:
-        raise ValueError(
+        raise RefusedChangeError(
             f"A window of {width}x{height} pixels is larger than this GL draws ({limit} "
             f"a side: GL_MAX_RENDERBUFFER_SIZE / GL_MAX_VIEWPORT_DIMS); past it the image is "
             f"drawn wrong without an error. Use a window of at most {limit} a side.")

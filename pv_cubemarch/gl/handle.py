@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pyvista
 
+from ..core.errors import VolumeDataError
 from ..core.rendering import needs_open_plotter
 from ..core.user_warnings import warn_user
 from ..models.volume import checked_transform
@@ -17,6 +18,10 @@ from .bindings import ShaderBindings
 from .box import cull, numpy_matrix, place_box, place_by_user_matrix
 from .overlay import is_bounds_proxy, place_bounds_proxy
 from .shaders import ShaderRecipe
+
+#: Largest world coordinate drawn: past about 2e16 VTK's clipping range collapses and
+#: GL's float32 camera matrices turn singular (a frame draws nothing, or stops).
+MAX_WORLD_COORDINATE = 1e16
 
 
 class Placement:
@@ -51,7 +56,13 @@ class Placement:
         """
         placement = checked_transform(transform)
         self.check_movable()
+        kept = self.model.transform
         self.model.transform = placement
+        try:
+            self.check_reach()
+        except ValueError:
+            self.model.transform = kept
+            raise
         self.place(placement)
         if not self._following_prop and is_bounds_proxy(self.bounds_proxy):
             place_bounds_proxy(self.bounds_proxy, self.model, self.drawn_frame_bounds())
@@ -64,6 +75,20 @@ class Placement:
         A bounds proxy spans them (``reset_camera`` frames them); None: the whole grid.
         """
         return None
+
+    def check_reach(self) -> None:
+        """Raise ``VolumeDataError`` if what it draws reaches past the coordinates drawn.
+
+        Past :data:`MAX_WORLD_COORDINATE` from the origin nothing is drawn.
+        """
+        bounds = getattr(self.model, "world_bounds", None)
+        reach = float(np.max(np.abs(bounds()))) if callable(bounds) else 0.0
+        if reach > MAX_WORLD_COORDINATE:
+            raise VolumeDataError(
+                f"{self.model.name!r} would reach {reach:.3g} world units from the origin; "
+                f"past about {MAX_WORLD_COORDINATE:g} VTK's clipping range and GL's float32 "
+                "camera matrices break down (nothing drawn): place it nearer, or smaller "
+                "(its spacing, scale or transform).")
 
     def check_movable(self) -> None:
         """Raise ``ValueError`` if this drawing cannot move alone (the default: it can)."""

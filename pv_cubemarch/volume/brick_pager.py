@@ -84,6 +84,10 @@ def coarsest_fits(source, brick: int, gpu_bytes: int, apron: int = 1) -> tuple[i
     return slots
 
 
+#: The largest float32: finite values of a wider source beyond it are drawn at it.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
 class FiniteBricks:
     """A read brick as float32, its NaN and infinite values refused or drawn as 0.
 
@@ -96,7 +100,10 @@ class FiniteBricks:
         self.policy, self.name = policy, name
 
     def __call__(self, key, values: np.ndarray) -> np.ndarray:
-        values = np.asarray(values, dtype=np.float32)
+        values = np.asarray(values)
+        if values.dtype.itemsize > 4:   # finite values past float32's range: saturated
+            values = np.clip(values, -FLOAT32_MAX, FLOAT32_MAX)
+        values = values.astype(np.float32, copy=False)
         bad = ~np.isfinite(values)
         if bad.any():
             if self.policy == "raise":

@@ -16,6 +16,8 @@ from dataclasses import replace
 
 import vtk
 
+from ..core.errors import RefusedChangeError
+from ..core.user_warnings import warn_user
 from .gradient_shading import GradientShading, ShadeMaterial
 
 #: VTK's blend mode of each ``blending=`` (what ``vol.mapper.GetBlendMode()`` reads).
@@ -45,9 +47,8 @@ INSTEAD = {
                              "downsample= with technique='direct'",
     "lookup_table": "add_volume(..., cmap=..., clim=...) (pv_cubemarch draws its own "
                     "transfer table)",
-    "scalar_bar": "add_volume(..., cmap=..., clim=...): the bar's range and colormap "
-                  "(plotter.update_scalar_bar_range, plotter.mapper.lookup_table) are the "
-                  "volume's",
+    "scalar_bar": "add the volume again with add_volume(..., cmap=..., clim=...) to draw "
+                  "other colours",
 }
 
 
@@ -126,11 +127,24 @@ class ReturnedProperty:
         """Follow the volume's scalar bar's mapper (``plotter.mapper``) too.
 
         ``plotter.update_scalar_bar_range`` and edits of its lookup table change the bar,
-        not the volume: refused as the returned mapper's ``scalar_range`` is.
+        not the volume: said once (:meth:`_say_bar_changed`).
         """
         self.bar = mapper
-        self._keep_table(mapper.GetLookupTable())
         self.state = _read(self.volume, self.bar)
+
+    def _say_bar_changed(self) -> None:
+        """Once: the bar's range or colours changed, the volume is drawn as added.
+
+        ``plotter.update_scalar_bar_range``, an edit of ``plotter.mapper.lookup_table``, or
+        PyVista's own bar sharing (a mesh added later with the same scalars' name sets
+        the range of every mapper under that bar): not refused, as the bar may be
+        another prop's too, but said, as the bar no longer tells the volume's colours.
+        """
+        if getattr(self, "_bar_said", False):
+            return
+        self._bar_said = True
+        warn_user(f"{self.binding.model.name!r}: its scalar bar's range or colours changed "
+                  f"after add_volume; the volume is drawn as added ({INSTEAD['scalar_bar']}).")
 
     def _keep_table(self, table) -> None:
         """Keep a copy of ``table`` as drawn, which a refused edit of it is put back to."""
@@ -144,6 +158,9 @@ class ReturnedProperty:
         now = _read(self.volume, self.bar)
         if now == self.state:
             return
+        if now["scalar_bar"] != self.state["scalar_bar"]:
+            self._say_bar_changed()
+            self.state["scalar_bar"] = now["scalar_bar"]
         changed = [key for key in now if now[key] != self.state[key]]
         followed = {"interpolation", "opacity_unit_distance", "blending", "shade"} | (
             set(TERMS) if self.shade is not None or now["shade"] else set()) | (
@@ -153,13 +170,13 @@ class ReturnedProperty:
         if refused:
             key = refused[0]
             self._put_back(now)
-            raise ValueError(
+            raise RefusedChangeError(
                 f"The returned volume's {key} was changed after add_volume; pv_cubemarch "
                 f"does not draw that change (it takes {INSTEAD[key]}): add the volume again "
                 "with it. The property is set back to what is drawn.")
         if now["shade"] and now["blending"] != VTK_BLEND_MODES["composite"]:
             self._put_back(now)
-            raise ValueError("The returned volume was set to shade with blend_mode="
+            raise RefusedChangeError("The returned volume was set to shade with blend_mode="
                              f"{BLEND_NAMES[now['blending']]!r}; shade=True shades composite "
                              "blending only. The property is set back to what is drawn.")
         try:
@@ -188,10 +205,7 @@ class ReturnedProperty:
     def _put_back(self, now: dict) -> None:
         """Set the property back to what is drawn (a transfer function stays as edited)."""
         _write(self.volume, self.state)
-        if now["lookup_table"] != self.state["lookup_table"] or (
-                now["scalar_bar"] != self.state["scalar_bar"]):
-            for table, kept in self._tables:
-                table.DeepCopy(kept)
-            if self.bar is not None:
-                self.bar.SetScalarRange(self.state["scalar_bar"][0])
+        if now["lookup_table"] != self.state["lookup_table"]:
+            table, kept = self._tables[0]   # the returned mapper's own (the bar's: said)
+            table.DeepCopy(kept)
         self.state = _read(self.volume, self.bar)
