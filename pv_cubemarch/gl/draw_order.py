@@ -4,7 +4,8 @@ VTK blends a renderer's translucent props, and draws its volumes, in the order o
 list (without depth peeling), so two volumes one behind the other composite in the order
 they were added: the far one over the near one when the near one came first. Sorting our
 volumes' props farthest first, in the slots they already hold, composites the nearer over
-the farther, as the cube map's overlay does; other props keep their places.
+the farther (the cube map's overlay sorts its volumes so too); other props keep their
+places.
 """
 
 from __future__ import annotations
@@ -12,19 +13,20 @@ from __future__ import annotations
 import numpy as np
 
 
-def sort_far_to_near(renderer, props) -> bool:
+def sort_far_to_near(renderer, props, eye=None) -> bool:
     """Put ``props`` (in ``renderer``'s prop list) farthest first, in the slots they hold.
 
-    Distance: from the camera to each prop's box centre. The list is rewritten in place
-    (``ReplaceItem``: no prop leaves the renderer, so none releases its graphics
-    resources). Returns whether the order changed.
+    Distance: from ``eye`` (by default the renderer's camera) to each prop's box centre.
+    The list is rewritten in place (``ReplaceItem``: no prop leaves the renderer, so none
+    releases its graphics resources). Returns whether the order changed.
     """
     collection = renderer.GetViewProps()
     listed = [collection.GetItemAsObject(i) for i in range(collection.GetNumberOfItems())]
     slots = [i for i, prop in enumerate(listed) if any(prop is p for p in props)]
     if len(slots) < 2:
         return False
-    eye = np.array(renderer.GetActiveCamera().GetPosition(), dtype=np.float64)
+    eye = np.array(renderer.GetActiveCamera().GetPosition() if eye is None else eye,
+                   dtype=np.float64)
     mine = [listed[i] for i in slots]
     ordered = sorted(mine, key=lambda p: -np.linalg.norm(np.array(p.GetCenter()) - eye))
     if all(a is b for a, b in zip(ordered, mine, strict=True)):

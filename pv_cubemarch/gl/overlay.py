@@ -18,6 +18,7 @@ from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLGL2PSHelper
 from ..core.frame_errors import observe
 from ..core.user_warnings import warn_user
 from .box import place_by_user_matrix
+from .draw_order import sort_far_to_near
 from .frame_inputs import PROXY_NAME, frame_inputs
 from .shaders import Replacement, ShaderRecipe
 
@@ -88,17 +89,13 @@ class SceneOverlay:
                                                       ONE_MINUS_SRC_ALPHA)
 
     def _sort_far_to_near(self) -> None:
-        """Draw the overlay's volumes farthest first, so nearer ones composite over them."""
-        actors = list(self.renderer.GetActors())
-        if len(actors) < 2:
-            return
-        eye = np.array(self.main.GetActiveCamera().GetPosition())
-        ordered = sorted(actors, key=lambda a: -np.linalg.norm(np.array(a.GetCenter()) - eye))
-        if ordered != actors:
-            for actor in actors:
-                self.renderer.RemoveActor(actor)
-            for actor in ordered:
-                self.renderer.AddActor(actor)
+        """Draw the overlay's volumes farthest first, so nearer ones composite over them.
+
+        Seen from the main renderer's camera; reordered in place (none leaves the overlay,
+        so none releases its graphics resources).
+        """
+        sort_far_to_near(self.renderer, list(self.renderer.GetActors()),
+                         self.main.GetActiveCamera().GetPosition())
 
     def remove_actor(self, actor) -> None:
         """Stop drawing ``actor`` (if the overlay still exists)."""
