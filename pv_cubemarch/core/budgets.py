@@ -35,3 +35,13 @@ def host_bytes_available() -> int | None:
         return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
     except (ValueError, OSError, AttributeError):
         return None
+
+
+def host_budget(name: str, error: type[Exception]) -> int | None:
+    """The bytes in environment variable ``name``, else 80 % of the memory available now.
+
+    None where neither says (no limit known).
+    """
+    available = host_bytes_available()
+    value = budget_from_env(name, -1 if available is None else int(0.8 * available), error)
+    return None if value < 0 else value

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.budgets import budget_from_env, host_bytes_available
+from ..core.budgets import host_budget
 from ..core.errors import VolumeDataError
 from ..core.parallel import core_pool
 from ..core.progress import progress
@@ -57,11 +57,7 @@ WORLD_BYTES_ENV = "PV_CUBEMARCH_WORLD_BYTES"
 
 def world_bytes_budget() -> int | None:
     """The host bytes a world read from a chunked array may keep (None: no limit known)."""
-    available = host_bytes_available()
-    default = None if available is None else int(0.8 * available)
-    value = budget_from_env(WORLD_BYTES_ENV, -1 if default is None else default,
-                            VolumeDataError)
-    return None if value < 0 else value
+    return host_budget(WORLD_BYTES_ENV, VolumeDataError)
 
 
 #: Sources read on several threads at once: numpy arrays and memory maps, zarr and dask

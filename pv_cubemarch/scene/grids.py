@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pyvista
 
-from ..core.budgets import budget_from_env, host_bytes_available
+from ..core.budgets import host_budget
 from ..core.errors import SceneLoadError, VolumeDataError
 from ..models.channels import make_data_model
 from ..models.field_sources import make_field
@@ -117,13 +117,6 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
 ARRAY_BYTES_ENV = "PV_CUBEMARCH_ARRAY_MAX_BYTES"
 
 
-def _array_budget() -> int:
-    """``PV_CUBEMARCH_ARRAY_MAX_BYTES``, else 80 % of the host memory available now."""
-    available = host_bytes_available()
-    return budget_from_env(ARRAY_BYTES_ENV, int(0.8 * available) if available else 2**62,
-                           SceneLoadError)
-
-
 def _read_array(path, suffix: str, field_name, where: str, shown: str) -> np.ndarray:
     """The array of a ``.npy`` (or the ``field_name`` array of a ``.npz``, else its first).
 
@@ -131,7 +124,7 @@ def _read_array(path, suffix: str, field_name, where: str, shown: str) -> np.nda
     (:data:`ARRAY_BYTES_ENV`), a ``.npy`` shorter than its header says, a ``.npz`` member
     that inflates past the budget.
     """
-    budget = _array_budget()
+    budget = host_budget(ARRAY_BYTES_ENV, SceneLoadError)
     try:
         if suffix == ".npy":
             mapped = np.load(str(path), mmap_mode="r", allow_pickle=False)
@@ -150,7 +143,7 @@ def _read_array(path, suffix: str, field_name, where: str, shown: str) -> np.nda
         raise
     except Exception as exc:
         raise SceneLoadError(f"{where}: could not read {shown!r}: {exc}") from exc
-    if size > budget:
+    if budget is not None and size > budget:
         raise SceneLoadError(
             f"{where}: {shown!r} holds an array of {size:,} bytes, more than the "
             f"{budget:,} it may take ({ARRAY_BYTES_ENV}, by default 80 % of the memory "
