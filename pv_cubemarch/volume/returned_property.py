@@ -111,7 +111,7 @@ class ReturnedProperty:
         self.binding = binding
         self.volume = volume
         self.bar = None
-        self._tables: list = []   # (table, its copy as drawn)
+        self._bar_said = False
         material = shade.material if shade is not None else None
         state = _read(volume)
         state.update(interpolation=interpolation, opacity_unit_distance=opacity_unit_distance,
@@ -120,7 +120,12 @@ class ReturnedProperty:
             state.update({term: float(getattr(material, term)) for term in TERMS})
         _write(volume, state)
         self.shade = shade
-        self._keep_table(getattr(volume.GetMapper(), "lookup_table", None))
+        #: The returned mapper's lookup table and its copy as drawn (a refused edit of it is
+        #: put back to the copy); None where the mapper has none.
+        self._table = getattr(volume.GetMapper(), "lookup_table", None)
+        if self._table is not None:
+            self._kept_table = vtk.vtkLookupTable()
+            self._kept_table.DeepCopy(self._table)
         self.state = _read(volume)
 
     def watch_bar(self, mapper) -> None:
@@ -140,18 +145,11 @@ class ReturnedProperty:
         the range of every mapper under that bar): not refused, as the bar may be
         another prop's too, but said, as the bar no longer tells the volume's colours.
         """
-        if getattr(self, "_bar_said", False):
+        if self._bar_said:
             return
         self._bar_said = True
         warn_user(f"{self.binding.model.name!r}: its scalar bar's range or colours changed "
                   f"after add_volume; the volume is drawn as added ({INSTEAD['scalar_bar']}).")
-
-    def _keep_table(self, table) -> None:
-        """Keep a copy of ``table`` as drawn, which a refused edit of it is put back to."""
-        if table is not None:
-            kept = vtk.vtkLookupTable()
-            kept.DeepCopy(table)
-            self._tables.append((table, kept))
 
     def follow(self) -> None:
         """Draw what the user changed on the property, or refuse it (see the module)."""
@@ -205,7 +203,6 @@ class ReturnedProperty:
     def _put_back(self, now: dict) -> None:
         """Set the property back to what is drawn (a transfer function stays as edited)."""
         _write(self.volume, self.state)
-        if now["lookup_table"] != self.state["lookup_table"]:
-            table, kept = self._tables[0]   # the returned mapper's own (the bar's: said)
-            table.DeepCopy(kept)
+        if now["lookup_table"] != self.state["lookup_table"]:   # the bar's is only said
+            self._table.DeepCopy(self._kept_table)
         self.state = _read(self.volume, self.bar)
