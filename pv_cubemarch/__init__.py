@@ -20,6 +20,7 @@ from .core.errors import (  # noqa: E402
     CubemarchError,
     OffscreenUnavailableError,
     PlotterClosedError,
+    RefusedChangeError,
     RefusedOptionsError,
     SceneChangedError,
     SceneLoadError,
@@ -66,8 +67,8 @@ register_notebook_backends()
 
 __all__ = [
     "Camera", "CubemarchError", "OffscreenUnavailableError", "PlotterClosedError",
-    "RefusedOptionsError", "RenderToTexturePass", "Replacement", "Scene", "SceneChangedError",
-    "SceneLight",
+    "RefusedChangeError", "RefusedOptionsError", "RenderToTexturePass", "Replacement",
+    "Scene", "SceneChangedError", "SceneLight",
     "SceneLoadError", "SceneMesh", "SceneWarning", "ShaderBindings",
     "ShaderCompileError", "ShaderRecipe", "SkippedPrim", "StoreReadError", "Texture",
     "TransferFunction",

@@ -740,10 +740,15 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         attach_frame_budget(binding, drawn_by, plotter.ren_win, given["frame_budget_ms"])
     actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
     actor.SetPickable(bool(given["pickable"]))
+    # what is set on the returned volume is drawn or refused, never ignored
+    binding.returned_property = ReturnedProperty(
+        binding, actor, "composite", None, float(transfer.spec.opacity_unit_distance)
+        if transfer.spec is not None else 1.0, interpolation)
     component.track(binding)
     if given["show_scalar_bar"]:
-        add_scalar_bar(plotter, actor, model, model.name, True, given["scalar_bar_args"],
-                       given["annotations"])
+        binding.returned_property.watch_bar(add_scalar_bar(
+            plotter, actor, model, model.name, True, given["scalar_bar_args"],
+            given["annotations"]))
     _frame(plotter, given["reset_camera"])
     return actor
 

@@ -15,6 +15,7 @@ reference can derive the right colours on its own, from matplotlib, without this
 
 from __future__ import annotations
 
+import reprlib
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -134,6 +135,9 @@ class TransferFunction:
         if isinstance(cmap, pyvista.LookupTable):   # as PyVista: the table's own range and scale
             clim, log_scale = tuple(cmap.scalar_range), bool(cmap.log_scale)
         lo, hi = checked_clim(clim)
+        if log_scale and hi <= 0:
+            raise VolumeDataError(f"log_scale maps colours over the positive part of clim; "
+                                  f"clim={(lo, hi)} has none: give an upper bound above 0.")
         if log_scale and lo <= 0:
             lo = sys.float_info.min
         # in the stored values' units, exact for integer bounds and offsets (uint64 ids
@@ -163,20 +167,54 @@ class TransferFunction:
             alpha = np.asarray(lut.values[:, 3], dtype=np.float64) / 255.0
         else:   # a curve in [0, 1], kept at full precision (not as the table's bytes)
             alpha = _resampled(opacity, n)
-        alpha = np.minimum(alpha, MAX_OPACITY)
-        if n == 1:   # one colour and opacity everywhere: two equal rows
-            rgb, alpha = np.repeat(rgb, 2, axis=0), np.repeat(alpha, 2)
-        rgb, alpha = _refined(rgb, alpha)
-        with np.errstate(over="ignore", divide="ignore"):
-            sigma = -np.log1p(-alpha) / float(opacity_unit_distance)
-        sigma = np.minimum(sigma, MAX_EXTINCTION)
-        table = np.column_stack([rgb, sigma]).astype(np.float32)
         spec = TransferSpec(
             cmap=_spec_cmap(cmap, lut), opacity=_spec_opacity(cmap, opacity, lut),
             clim=shifted, n_colors=n, flip_scalars=bool(flip_scalars),
             log_scale=bool(log_scale), opacity_unit_distance=float(opacity_unit_distance),
             value_offset=value_offset)
-        return cls(table=table, clim=shifted, spec=spec)
+        return cls._from_points(rgb, alpha, spec)
+
+    @classmethod
+    def from_points(cls, rgb, alpha, clim, opacity_unit_distance: float = 1.0,
+                    value_offset: int | float = 0) -> TransferFunction:
+        """A table through colours and opacities at points spread evenly over ``clim``.
+
+        What VTK draws for transfer functions sampled at those points (linear between,
+        clamped outside): how a volume property's functions edited by hand are drawn.
+        ``rgb`` ``(n, 3)`` and ``alpha`` ``(n,)`` in [0, 1]; ``clim`` in data units.
+        """
+        rgb = np.clip(np.asarray(rgb, dtype=np.float64).reshape(-1, 3), 0.0, 1.0)
+        alpha = np.clip(np.asarray(alpha, dtype=np.float64).ravel(), 0.0, 1.0)
+        if not 1 <= len(alpha) <= REFINED_ROWS or len(rgb) != len(alpha) or not (
+                np.isfinite(rgb).all() and np.isfinite(alpha).all()):
+            raise VolumeDataError(f"from_points takes 1 to {REFINED_ROWS} finite colours and "
+                                  f"as many opacities, got {len(rgb)} and {len(alpha)}.")
+        lo, hi = checked_clim(clim)
+        shifted = (shift_value(lo, value_offset), shift_value(hi, value_offset))
+        if shifted[1] <= shifted[0]:
+            shifted = (shifted[0], shifted[0] + 1.0)
+        if not (opacity_unit_distance > 0 and np.isfinite(opacity_unit_distance)):
+            raise VolumeDataError(f"opacity_unit_distance must be a positive length, got "
+                                  f"{opacity_unit_distance}.")
+        spec = TransferSpec(cmap=rgb, opacity=alpha, clim=shifted, n_colors=len(alpha),
+                            flip_scalars=False, log_scale=False,
+                            opacity_unit_distance=float(opacity_unit_distance),
+                            value_offset=value_offset)
+        return cls._from_points(rgb, alpha, spec)
+
+    @classmethod
+    def _from_points(cls, rgb: np.ndarray, alpha: np.ndarray, spec: TransferSpec
+                     ) -> TransferFunction:
+        """The table of ``spec``'s points: opacity capped, rows refined, extinction."""
+        alpha = np.minimum(alpha, MAX_OPACITY)
+        if len(alpha) == 1:   # one colour and opacity everywhere: two equal rows
+            rgb, alpha = np.repeat(rgb, 2, axis=0), np.repeat(alpha, 2)
+        rgb, alpha = _refined(rgb, alpha)
+        with np.errstate(over="ignore", divide="ignore"):
+            sigma = -np.log1p(-alpha) / float(spec.opacity_unit_distance)
+        sigma = np.minimum(sigma, MAX_EXTINCTION)
+        table = np.column_stack([rgb, sigma]).astype(np.float32)
+        return cls(table=table, clim=spec.clim, spec=spec)
 
     def with_unit_distance(self, length: float) -> TransferFunction:
         """The same colours and opacities over another ``opacity_unit_distance``.
@@ -229,6 +267,31 @@ def _refined(rgb: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return rgb, np.interp(fine, coarse, alpha)
 
 
+def transfer_for_lookup_table(lut: pyvista.LookupTable, current: TransferFunction,
+                              value_offset: int | float, same_colors: bool
+                              ) -> TransferFunction:
+    """What PyVista's volume draws for ``lut`` (colours, opacities, range, log scale).
+
+    PyVista's volume property follows its lookup table (``apply_lookup_table``): this is
+    the table ``add_volume(cmap=lut)`` builds, over ``current``'s opacity unit distance.
+    Where only the range or the log scale changed (``same_colors``), ``current``'s own
+    colormap and opacity curve are kept at their full precision, as
+    ``add_volume(clim=...)`` builds them (the lookup table holds opacities as bytes).
+    """
+    spec = current.spec
+    unit = spec.opacity_unit_distance if spec is not None else 1.0
+    if same_colors and spec is not None and not isinstance(spec.cmap, np.ndarray):
+        return TransferFunction.from_colormap(
+            spec.cmap, spec.opacity, clim=tuple(lut.scalar_range), opacity_unit_distance=unit,
+            n_colors=spec.n_colors, flip_scalars=spec.flip_scalars,
+            log_scale=bool(lut.log_scale), value_offset=value_offset)
+    if same_colors and spec is None and not lut.log_scale:   # a table given as is: its rows
+        lo, hi = (shift_value(v, value_offset) for v in checked_clim(lut.scalar_range))
+        return TransferFunction(table=current.table, clim=(lo, hi if hi > lo else lo + 1.0))
+    return TransferFunction.from_colormap(lut, opacity_unit_distance=unit,
+                                          value_offset=value_offset)
+
+
 def checked_clim(clim) -> tuple[float, float]:
     """``clim`` as two finite non-decreasing floats (one number ``c``: ``(-c, c)``).
 
@@ -256,6 +319,9 @@ def pyvista_lookup_table(cmap, opacity, n_colors, flip_scalars) -> pyvista.Looku
     The transfer function and the volume's scalar bar are both made from it.
     """
     if isinstance(cmap, pyvista.LookupTable):
+        if not 1 <= cmap.n_values <= MAX_COLORS:   # one texel a colour: GL's width
+            raise VolumeDataError(f"A lookup table of {cmap.n_values} colours cannot be "
+                                  f"drawn: give one of 1 to {MAX_COLORS} (n_values).")
         lut = pyvista.LookupTable()
         lut.DeepCopy(cmap)
         return lut
@@ -277,16 +343,15 @@ def pyvista_lookup_table(cmap, opacity, n_colors, flip_scalars) -> pyvista.Looku
         cmap_obj = cmap_obj.reversed()
     lut = pyvista.LookupTable()
     lut.apply_cmap(cmap_obj, n)
+    # apply_opacity, as PyVista's add_volume: the table keeps the curve, and a colormap
+    # set on it later (``lut.cmap = ...``) keeps these opacities, as PyVista's does
     if isinstance(opacity, str) or np.ndim(opacity) == 0:
         try:
-            if isinstance(opacity, str):
-                lut.values[:, 3] = pyvista.opacity_transfer_function(opacity, lut.n_values)
-            else:
-                lut.apply_opacity(float(opacity))
+            lut.apply_opacity(opacity if isinstance(opacity, str) else float(opacity))
         except Exception as exc:
             raise VolumeDataError(f"Unknown opacity {opacity!r}: {exc}") from exc
-    else:
-        lut.values[:, 3] = np.round(_resampled(opacity, lut.n_values) * 255.0)
+    else:   # n bytes: PyVista takes n values as they are
+        lut.apply_opacity(np.round(_resampled(opacity, lut.n_values) * 255.0))
     return lut
 
 
@@ -346,6 +411,6 @@ def unknown_cmap(cmap, error: Exception, argument: str = "cmap") -> str:
     names = sorted(matplotlib.colormaps)
     near = difflib.get_close_matches(str(cmap), names, n=4) if isinstance(cmap, str) else []
     hint = f"did you mean {', '.join(map(repr, near))}? " if near else ""
-    return (f"{argument}={cmap!r} is not a colormap ({error}); {hint}give a name from "
+    return (f"{argument}={reprlib.repr(cmap)} is not a colormap ({error}); {hint}give a name from "
             "matplotlib.colormaps (e.g. 'viridis', 'magma', 'coolwarm'), colorcet's, or a list "
             "of colours")

@@ -16,6 +16,7 @@ import numpy as np
 import vtk
 
 from ..core.rendering import needs_open_plotter
+from ..core.user_warnings import warn_user
 from ..gl.bindings import FloatArray, ShaderBindings
 from ..gl.box import place_box
 from ..gl.handle import DrawnBinding
@@ -204,6 +205,24 @@ class VolumeData:
         self.model.values = self.model.colors[..., 3].astype(np.float32)
         self.values[0].set_data(self.model.colors)
 
+    def set_transfer(self, transfer) -> None:
+        """Draw one volume with another transfer function (the table goes up again).
+
+        The empty-space bricks are built again from it where they were built; a volume
+        built with none empty stays unskipped (exact, if slower). Refused for volumes
+        marched jointly and RGBA volumes, whose colours are their members' and data.
+        """
+        if isinstance(self.model, VolumeGroup) or self.model.colors is not None:
+            raise ValueError("Volumes marched jointly and RGBA volumes take their colours "
+                             "from their members and data; add them again to colour "
+                             "them otherwise.")
+        self.model.transfer = transfer
+        self.tables[0].set_data(transfer.table.reshape(1, -1, 4))
+        if self._bricks is not None:
+            self.brick_builds += 1
+            self._bricks.set_data(brick_extinction(self.model.values, transfer,
+                                                   DEFAULT_BRICK_SIZE))
+
     def set_opacity_unit_distance(self, length: float) -> None:
         """Draw one volume with its opacities over another length (the table goes up again).
 
@@ -386,7 +405,7 @@ def bind_sampling(target, data: VolumeData, step_scale: float, stop_opacity: flo
                                tuple(float(n) for n in member.dimensions))
         return "joint_sample", {**march_defines(model, False), **extra}
     target.add_texture("cm_transferTable", data.tables[0])
-    target.set_uniform("cm_clim", model.transfer.clim)
+    target.set_uniform("cm_clim", lambda: model.transfer.clim)   # follows set_transfer
     if sample_data:
         target.add_texture("cm_volume", data.values[0])
     bricks = data.bricks() if skip_empty else None
@@ -418,6 +437,7 @@ class VolumeBinding(DrawnBinding):
         self.blending = "composite"
         self.clip_source = None    # the mapper whose clipping planes cut the volume
         self.returned_property = None   # follows the returned volume's property
+        self._recolour_said = False
 
     @property
     def skips_empty(self) -> bool:
@@ -513,6 +533,27 @@ class VolumeBinding(DrawnBinding):
                     else vtk.VTK_NEAREST_INTERPOLATION)
         if self.light_map is not None:
             self.light_map.invalidate()
+
+    def set_transfer(self, transfer) -> None:
+        """Colour the volume by ``transfer`` from the next frame (how its lookup table is followed).
+
+        ``transfer``: a :class:`~pv_cubemarch.TransferFunction`.
+        The marchers are compiled again only for a table of another size; the light map
+        is marched again. A volume added with ``quality=`` keeps the settings chosen for
+        its first colours (said once: ``actor.cubemarch.recalibrate()`` chooses again).
+        """
+        rows = self.data.model.transfer.n_colors
+        self.data.set_transfer(transfer)
+        if transfer.n_colors != rows:
+            self.set_march_defines({"CM_TABLE_SIZE": transfer.n_colors})
+        if self.light_map is not None:
+            self.light_map.invalidate()
+        if getattr(self, "quality", None) is not None and not self._recolour_said:
+            self._recolour_said = True
+            warn_user(f"{self.model.name!r}: its colours changed after add_volume(quality="
+                      f"{self.quality.target.name!r}), whose settings were chosen for the "
+                      "colours it was added with; call actor.cubemarch.recalibrate() to "
+                      "choose again for these.")
 
     def set_opacity_unit_distance(self, length: float) -> None:
         """Opacities over another world length from the next frame (see VolumeData)."""

@@ -154,6 +154,18 @@ class Streamed(FollowsPager):
         raise ValueError("A streamed volume's transfer function is set when it is added: "
                          "add it again with opacity_unit_distance=.")
 
+    def set_transfer(self, transfer) -> None:
+        """Refused: the pool's empty bricks were found by the colours it was added with."""
+        raise ValueError("a streamed volume's colours are set when it is added (its empty "
+                         "bricks are found by them): add it again with cmap=, clim=, "
+                         "opacity=.")
+
+    def set_shade(self, shading) -> None:
+        """Only unshaded (the brick pool's marcher reads no gradient)."""
+        if shading is not None:
+            raise ValueError("shade=True: a volume streamed from a multiscale source is "
+                             "drawn unshaded.")
+
     def set_blending(self, blending: str) -> None:
         """Only 'composite' (what the brick pool's marcher draws)."""
         if blending != "composite":

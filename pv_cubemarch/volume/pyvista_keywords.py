@@ -179,10 +179,16 @@ def add_scalar_bar(plotter, actor, model, title: str, show: bool | None,
                    args: dict | None, annotations: dict | None):
     """Make the volume ``plotter.mapper`` (for ``add_scalar_bar``) and add its bar if shown.
 
+    The mapper shares the lookup table of ``actor``'s mapper, as PyVista's volume is its
+    bar's mapper: ``plotter.update_scalar_bar_range`` then recolours the volume.
+
     ``show`` ``None`` follows the theme (``pyvista.global_theme.show_scalar_bar``), as
     ``add_volume`` does. Returns that mapper.
     """
     mapper = scalar_bar_mapper(model)
+    drawn = getattr(actor.GetMapper(), "lookup_table", None)
+    if isinstance(drawn, pyvista.LookupTable):   # one table: the bar's edits recolour it
+        mapper.lookup_table = drawn
     if annotations:
         mapper.lookup_table.annotations = dict(annotations)
     if show is None:

@@ -1,23 +1,30 @@
 """The returned volume's property and mapper, as PyVista users set them after ``add_volume``.
 
 The returned ``pyvista.Volume`` starts with what is drawn: ``vol.prop.interpolation_type``,
-``opacity_unit_distance``, ``shade`` and its terms, ``vol.mapper.blend_mode``. At each frame
-a change the marchers can follow is drawn (the interpolation, the opacity unit distance,
-the blend mode, shading on or off, the shading terms; ``'vtk'``'s image sample distance);
-any other, or a pair the marchers do
-not draw together (shade with a projection), is refused with an error that says which
-``add_volume`` keyword draws it, and the property is put back to what is drawn, so no
-frame shows a setting it ignores.
+``opacity_unit_distance``, ``shade`` and its terms, ``vol.mapper.blend_mode``, and the
+lookup table its property follows (``vol.mapper.lookup_table``, the scalar bar's too). At
+each frame a change the marchers can follow is drawn (the interpolation, the opacity unit
+distance, the blend mode, shading on or off, the shading terms; ``'vtk'``'s image sample
+distance; the lookup table's colours, opacities, range and log scale, as PyVista's volume
+property follows its table, however the table was changed: ``vol.mapper.scalar_range``,
+``plotter.update_scalar_bar_range``, ``lut.cmap``, ``vol.prop.apply_lookup_table``);
+any other, or a pair the marchers do not draw together (shade with a projection), is
+refused with an error that says which ``add_volume`` keyword draws it, and the property
+is put back to what is drawn, so no frame shows a setting it ignores.
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+import pyvista
 import vtk
 
-from ..core.errors import RefusedChangeError
+from ..core.errors import RefusedChangeError, VolumeDataError
 from ..core.user_warnings import warn_user
+from ..models.group import VolumeGroup
+from ..models.transfer import REFINED_ROWS, TransferFunction, transfer_for_lookup_table
 from .gradient_shading import GradientShading, ShadeMaterial
 
 #: VTK's blend mode of each ``blending=`` (what ``vol.mapper.GetBlendMode()`` reads).
@@ -35,39 +42,110 @@ TERMS = ("ambient", "diffuse", "specular", "specular_power")
 #: What each refused setting is given as instead.
 INSTEAD = {
     "opacity_unit_distance": "add_volume(..., opacity_unit_distance=...)",
-    "clim": "add_volume(..., clim=...)",
     "independent_components": "one scalar per point (several components are not drawn yet)",
-    "colors": "add_volume(..., cmap=..., clim=...) (pv_cubemarch draws its own transfer table)",
-    "opacities": "add_volume(..., opacity=...) (pv_cubemarch draws its own transfer table)",
     "ambient": "add_volume(..., shade=True, ambient=...)",
     "diffuse": "add_volume(..., shade=True, diffuse=...)",
     "specular": "add_volume(..., shade=True, specular=...)",
     "specular_power": "add_volume(..., shade=True, specular_power=...)",
     "image_sample_distance": "technique='vtk', whose mapper draws at 1/d of the viewport, or "
                              "downsample= with technique='direct'",
-    "lookup_table": "add_volume(..., cmap=..., clim=...) (pv_cubemarch draws its own "
-                    "transfer table)",
-    "scalar_bar": "add the volume again with add_volume(..., cmap=..., clim=...) to draw "
-                  "other colours",
+    "lookup_table": "add_volume(..., cmap=...) (an RGBA volume's colours are its data; "
+                    "volumes marched jointly take their members')",
+    "colors": "vol.prop.apply_lookup_table(lut) or edits of vol.mapper.lookup_table (the "
+              "property's transfer functions follow its lookup table, as PyVista's do)",
+    "opacities": "vol.prop.apply_lookup_table(lut) or edits of vol.mapper.lookup_table "
+                 "(lut.apply_opacity(...))",
+    "scalar_bar": "vol.mapper.lookup_table, which the volume's own bar shows",
 }
 
 
-def _table_state(mapper) -> tuple:
-    """What a mapper's lookup table and range say now (their modified times, the range)."""
-    if mapper is None:
-        return ()
-    table = mapper.GetLookupTable() if hasattr(mapper, "GetLookupTable") else None
-    return (tuple(float(v) for v in mapper.GetScalarRange()),
-            int(table.GetMTime()) if table is not None else 0)
+def _lookup_tables(volume) -> tuple:
+    """The returned mapper's lookup table and the one its property last applied (or None)."""
+    return (getattr(volume.GetMapper(), "lookup_table", None),
+            getattr(volume.GetProperty(), "_lookup_table", None))   # PyVista's VolumeProperty
+
+
+def _table_state(table) -> tuple:
+    """A lookup table's identity and modified time (``()`` for none)."""
+    return () if table is None else (id(table), int(table.GetMTime())
+                                     if hasattr(table, "GetMTime") else 0)
+
+
+def _content(table) -> tuple:
+    """What of a lookup table PyVista's volume draws: colours, opacities, range, scale."""
+    return (np.asarray(table.values).tobytes(), int(table.n_values),
+            tuple(float(v) for v in table.scalar_range), bool(table.log_scale))
+
+
+def _functions(prop) -> tuple:
+    """The property's colour (RGB, or grey) and opacity functions of its first component."""
+    colour = prop.GetGrayTransferFunction() if prop.GetColorChannels() == 1 else \
+        prop.GetRGBTransferFunction()
+    return colour, prop.GetScalarOpacity()
+
+
+def _copied(function):
+    """A deep copy of a VTK transfer function (the kept one is never handed out)."""
+    copy = type(function)()
+    copy.DeepCopy(function)
+    return copy
+
+
+def _sample_count(colour, opacity, lo: float, hi: float) -> int:
+    """Points to sample two functions at over ``[lo, hi]``: every node on one, if they can.
+
+    Nodes spread evenly (``m`` of them, as PyVista's ``to_color_tf`` lays them) fall on
+    ``k (m - 1) + 1`` points; other nodes are sampled at :data:`REFINED_ROWS` points.
+    """
+    nodes = []
+    for function, width in ((colour, 6 if isinstance(colour, vtk.vtkColorTransferFunction)
+                             else 4), (opacity, 4)):
+        node = [0.0] * width
+        for index in range(function.GetSize()):
+            function.GetNodeValue(index, node)
+            nodes.append(node[0])
+    nodes = np.unique(nodes)
+    if 2 <= len(nodes) <= REFINED_ROWS and np.allclose(
+            nodes, np.linspace(lo, hi, len(nodes)), rtol=0, atol=1e-9 * (hi - lo)):
+        return max(1, (REFINED_ROWS - 1) // (len(nodes) - 1)) * (len(nodes) - 1) + 1
+    return REFINED_ROWS
+
+
+def functions_transfer(prop, current, value_offset):
+    """The table of what VTK draws for ``prop``'s transfer functions as they are now.
+
+    Both are sampled at :data:`REFINED_ROWS` points over the span of their nodes
+    (exact at every node of functions whose nodes lie on those points, as PyVista's
+    ``to_color_tf`` makes them), over ``current``'s opacity unit distance.
+    """
+    colour, opacity = _functions(prop)
+    spans = [f.GetRange() for f in (colour, opacity) if f.GetSize() > 0]
+    if spans and not np.isfinite(spans).all():
+        raise ValueError(f"a transfer function has a node at a value that is not finite "
+                         f"(range {spans})")
+    lo, hi = (min(s[0] for s in spans), max(s[1] for s in spans)) if spans else (0.0, 1.0)
+    count = _sample_count(colour, opacity, lo, hi) if hi > lo else 1
+    alpha = np.zeros(count)
+    opacity.GetTable(lo, hi, count, alpha)
+    if isinstance(colour, vtk.vtkPiecewiseFunction):
+        grey = np.zeros(count)
+        colour.GetTable(lo, hi, count, grey)
+        rgb = np.repeat(grey[:, None], 3, axis=1)
+    else:
+        rgb = np.zeros(3 * count)
+        colour.GetTable(lo, hi, count, rgb)
+    spec = current.spec
+    return TransferFunction.from_points(
+        rgb.reshape(-1, 3), alpha, (lo, hi),
+        spec.opacity_unit_distance if spec is not None else 1.0, value_offset)
 
 
 def _read(volume, bar=None) -> dict:
     """What the returned volume's property and mapper (and ``bar``, its bar's) say now."""
     prop = volume.GetProperty()
-    table = getattr(volume.GetMapper(), "lookup_table", None)
     return {
-        "lookup_table": int(table.GetMTime()) if table is not None else 0,
-        "scalar_bar": _table_state(bar),
+        "table": tuple(_table_state(t) for t in _lookup_tables(volume)),
+        "scalar_bar": () if bar is None else _table_state(bar.GetLookupTable()),
         "interpolation": INTERPOLATION_TYPES[prop.GetInterpolationType()],
         "opacity_unit_distance": float(prop.GetScalarOpacityUnitDistance()),
         "shade": bool(prop.GetShade()),
@@ -120,36 +198,47 @@ class ReturnedProperty:
             state.update({term: float(getattr(material, term)) for term in TERMS})
         _write(volume, state)
         self.shade = shade
-        #: The returned mapper's lookup table and its copy as drawn (a refused edit of it is
-        #: put back to the copy); None where the mapper has none.
-        self._table = getattr(volume.GetMapper(), "lookup_table", None)
-        if self._table is not None:
-            self._kept_table = vtk.vtkLookupTable()
-            self._kept_table.DeepCopy(self._table)
+        #: The lookup table drawn (the returned mapper's, which its property applies and
+        #: the volume's bar shows), and a copy of it as drawn (a refused edit is put back
+        #: to the copy); None for a volume with no one colormap (RGBA, joint).
+        self.lut = None
+        table = getattr(volume.GetMapper(), "lookup_table", None)
+        model = binding.model
+        if isinstance(table, pyvista.LookupTable) and not isinstance(model, VolumeGroup) \
+                and getattr(model, "colors", None) is None:
+            self.lut = table
+            if hasattr(volume.GetProperty(), "apply_lookup_table"):   # as PyVista's volume
+                volume.GetProperty().apply_lookup_table(table)
+        self._keep_table()
         self.state = _read(volume)
+
+    def _keep_table(self) -> None:
+        """Copy the lookup table and the property's functions as drawn (for put backs)."""
+        self._kept_table = self._kept_functions = None
+        if self.lut is not None:
+            self._kept_table = pyvista.LookupTable()
+            self._kept_table.DeepCopy(self.lut)
+            self._kept_functions = tuple(_copied(f) for f in _functions(
+                self.volume.GetProperty()))
 
     def watch_bar(self, mapper) -> None:
         """Follow the volume's scalar bar's mapper (``plotter.mapper``) too.
 
-        ``plotter.update_scalar_bar_range`` and edits of its lookup table change the bar,
-        not the volume: said once (:meth:`_say_bar_changed`).
+        It shares the volume's lookup table (``add_scalar_bar`` gives it the returned
+        mapper's), so ``plotter.update_scalar_bar_range`` and PyVista's bar sharing
+        recolour the volume as they recolour PyVista's own; a table put in its place is
+        said once (:meth:`_say_bar_changed`).
         """
         self.bar = mapper
         self.state = _read(self.volume, self.bar)
 
     def _say_bar_changed(self) -> None:
-        """Once: the bar's range or colours changed, the volume is drawn as added.
-
-        ``plotter.update_scalar_bar_range``, an edit of ``plotter.mapper.lookup_table``, or
-        PyVista's own bar sharing (a mesh added later with the same scalars' name sets
-        the range of every mapper under that bar): not refused, as the bar may be
-        another prop's too, but said, as the bar no longer tells the volume's colours.
-        """
+        """Once: the bar's lookup table was replaced; the volume keeps its own."""
         if self._bar_said:
             return
         self._bar_said = True
-        warn_user(f"{self.binding.model.name!r}: its scalar bar's range or colours changed "
-                  f"after add_volume; the volume is drawn as added ({INSTEAD['scalar_bar']}).")
+        warn_user(f"{self.binding.model.name!r}: its scalar bar's lookup table was replaced "
+                  f"after add_volume; the volume keeps its own ({INSTEAD['scalar_bar']}).")
 
     def follow(self) -> None:
         """Draw what the user changed on the property, or refuse it (see the module)."""
@@ -157,26 +246,31 @@ class ReturnedProperty:
         if now == self.state:
             return
         if now["scalar_bar"] != self.state["scalar_bar"]:
-            self._say_bar_changed()
+            if self.bar is not None and self.bar.GetLookupTable() is not self.lut:
+                self._say_bar_changed()
             self.state["scalar_bar"] = now["scalar_bar"]
         changed = [key for key in now if now[key] != self.state[key]]
+        colours = {"table", "colors", "opacities", "clim"}
         followed = {"interpolation", "opacity_unit_distance", "blending", "shade"} | (
             set(TERMS) if self.shade is not None or now["shade"] else set()) | (
             {"image_sample_distance"} if getattr(self.binding, "technique", None) == "vtk"
-            else set())   # 'vtk''s drawing mapper takes it itself (vtk_mapper.py)
+            else set()) | (   # 'vtk''s drawing mapper takes it itself (vtk_mapper.py)
+            colours if self.lut is not None else set())
         refused = [key for key in changed if key not in followed]
         if refused:
-            key = refused[0]
+            key = "lookup_table" if refused[0] == "table" else refused[0]
             self._put_back(now)
             raise RefusedChangeError(
                 f"The returned volume's {key} was changed after add_volume; pv_cubemarch "
-                f"does not draw that change (it takes {INSTEAD[key]}): add the volume again "
-                "with it. The property is set back to what is drawn.")
+                f"does not draw that change (it takes {INSTEAD[key]}). The property is set "
+                "back to what is drawn.")
         if now["shade"] and now["blending"] != VTK_BLEND_MODES["composite"]:
             self._put_back(now)
             raise RefusedChangeError("The returned volume was set to shade with blend_mode="
                              f"{BLEND_NAMES[now['blending']]!r}; shade=True shades composite "
                              "blending only. The property is set back to what is drawn.")
+        if self.lut is not None and colours & set(changed):
+            self._follow_colours(now, changed)
         try:
             if "shade" in changed and not now["shade"]:   # off first: then any mode
                 self.binding.set_shade(None)
@@ -188,21 +282,76 @@ class ReturnedProperty:
                                           ShadeMaterial(**{t: now[t] for t in TERMS}))
                 self.binding.set_shade(shading)
                 self.shade = shading
-        except ValueError:
+            if "interpolation" in changed:
+                self.binding.set_interpolation(now["interpolation"])
+            if "opacity_unit_distance" in changed:
+                self.binding.set_opacity_unit_distance(now["opacity_unit_distance"])
+        except ValueError as error:   # what this volume cannot draw (a streamed one ...)
             self._put_back(now)
-            raise
-        if "interpolation" in changed:
-            self.binding.set_interpolation(now["interpolation"])
-        if "opacity_unit_distance" in changed:
-            self.binding.set_opacity_unit_distance(now["opacity_unit_distance"])
+            raise RefusedChangeError(f"{error} The property is set back to what is "
+                                     "drawn.") from None
         if self.shade is not None and any(term in changed for term in TERMS):
             self.shade.material = replace(self.shade.material,
                                           **{term: now[term] for term in TERMS})
-        self.state = now
+        self.state = _read(self.volume, self.bar)
+
+    def _follow_colours(self, now: dict, changed: list) -> None:
+        """Draw the colours the user means now, as PyVista's volume property draws them.
+
+        A lookup table changed or put in place: the returned mapper's (one put in its
+        place too, where PyVista's own volume would keep drawing the old one), or one the
+        property was given (``vol.prop.apply_lookup_table``). Else the property's
+        transfer functions edited by hand (``vol.prop.GetScalarOpacity().AddPoint``), as
+        VTK draws them. Colours that cannot be drawn (a range of NaN) are refused and all
+        put back.
+        """
+        mapper_table, prop_table = _lookup_tables(self.volume)
+        table = mapper_table if mapper_table is not self.lut else \
+            prop_table if prop_table is not None and prop_table is not self.lut else self.lut
+        moved = table is not self.lut or _content(table) != _content(self._kept_table)
+        if not moved and not {"colors", "opacities"} & set(changed):
+            return   # modified, nothing drawn changed (an annotation, the same range)
+        model = self.binding.model
+        offset = getattr(model, "value_offset", 0)
+        try:
+            if not moved:
+                transfer = functions_transfer(self.volume.GetProperty(), model.transfer,
+                                              offset)
+            elif not isinstance(table, pyvista.LookupTable):
+                raise ValueError(f"it must be a pyvista.LookupTable, got {type(table).__name__}")
+            else:
+                same = np.array_equal(np.asarray(table.values),
+                                      np.asarray(self._kept_table.values))
+                transfer = transfer_for_lookup_table(table, model.transfer, offset, same)
+            self.binding.set_transfer(transfer)
+        except (VolumeDataError, ValueError) as error:
+            self._put_back(now)
+            raise RefusedChangeError(
+                f"The returned volume's colours cannot be drawn as changed: {error} They "
+                "are set back to what is drawn.") from None
+        if moved:
+            self.lut = table
+            mapper, prop = self.volume.GetMapper(), self.volume.GetProperty()
+            mapper.lookup_table = table
+            if hasattr(prop, "apply_lookup_table") and prop_table is not table:
+                prop.apply_lookup_table(table)
+            mapper.scalar_range = tuple(table.scalar_range)   # reads the range drawn
+        self._keep_table()
 
     def _put_back(self, now: dict) -> None:
-        """Set the property back to what is drawn (a transfer function stays as edited)."""
+        """Set the property and lookup table back to what is drawn.
+
+        A transfer function of the property edited by hand stays as edited where no lookup
+        table is drawn (an RGBA volume, volumes marched jointly).
+        """
+        if self.lut is not None:
+            self.lut.DeepCopy(self._kept_table)
+            self.volume.GetMapper().lookup_table = self.lut
+            prop = self.volume.GetProperty()
+            if hasattr(prop, "apply_lookup_table"):
+                prop.apply_lookup_table(self.lut)
+            colour, opacity = (_copied(f) for f in self._kept_functions)
+            prop.SetColor(colour)   # the functions drawn, edited by hand or not
+            prop.SetScalarOpacity(opacity)
         _write(self.volume, self.state)
-        if now["lookup_table"] != self.state["lookup_table"]:   # the bar's is only said
-            self._table.DeepCopy(self._kept_table)
         self.state = _read(self.volume, self.bar)
