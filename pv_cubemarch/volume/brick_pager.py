@@ -156,6 +156,7 @@ class BrickPager:
         #: A value read as "nothing here" (zero extinction), when the transfer function has
         #: one: bricks whose values all map to zero extinction then take no slot, and the
         #: marcher leaves them in one step.
+        self.skip_empty = bool(skip_empty)
         self.empty_value = None if transfer is None or not skip_empty \
             else transparent_value(transfer)
         side = self.brick + 2 * self.apron
@@ -238,6 +239,28 @@ class BrickPager:
         low, high = float(values.min()), float(values.max())
         return bool(np.isfinite(low) and np.isfinite(high)
                     and range_extinction(low, high, self.model.transfer) <= 0.0)
+
+    def recolour(self) -> bool:
+        """The volume's transfer function changed: which bricks draw nothing is found again.
+
+        Bricks in slots hold values, not colours: they stay. Bricks marked as drawing
+        nothing are forgotten (read again from the host cache when wanted; the coarsest
+        level's at once, so the pool keeps no hole), and the view is planned again.
+        Returns whether empty bricks are still told apart (a value of zero extinction).
+        """
+        transfer = getattr(self.model, "transfer", None)
+        self.empty_value = transparent_value(transfer) \
+            if self.skip_empty and transfer is not None else None
+        forgotten = sorted(self.empty | self.unmarked)
+        for key in self.empty:
+            self.table.clear(key)
+        self.empty, self.unmarked = set(), set()
+        pinned = [key for key in forgotten if key in self.pinned]
+        for key, values in zip(pinned, self.read_pinned(pinned), strict=True):
+            self._place(key, values)
+        self.missing = max(self.missing, 1)
+        self._planned_for = None
+        return self.empty_value is not None
 
     def page_blocks(self) -> int:
         """Blocks the page table holds: the slots', the coarsest level's and a reserve.
@@ -584,8 +607,9 @@ def bind_pool(target, pager: BrickPager, world_from_point) -> None:
 
     target.set_uniform("cm_pagedEye", eye)
     target.set_uniform("cm_lodFootprint", pager.footprint)
-    if pager.empty_value is not None:
-        target.set_uniform("cm_pagedEmptyValue", float(pager.empty_value))
+    # read at each draw: a new transfer function finds another (recolour)
+    target.set_uniform("cm_pagedEmptyValue", lambda: float(
+        pager.empty_value if pager.empty_value is not None else 0.0))
 
 
 

@@ -155,10 +155,18 @@ class Streamed(FollowsPager):
                          "add it again with opacity_unit_distance=.")
 
     def set_transfer(self, transfer) -> None:
-        """Refused: the pool's empty bricks were found by the colours it was added with."""
-        raise ValueError("a streamed volume's colours are set when it is added (its empty "
-                         "bricks are found by them): add it again with cmap=, clim=, "
-                         "opacity=.")
+        """Colour the streamed volume by ``transfer`` from the next frame.
+
+        The table goes up again; the bricks marked as drawing nothing are found again
+        (:meth:`BrickPager.recolour`): read again from the host cache, not the store.
+        """
+        rows = self.model.transfer.n_colors
+        self.model.transfer = transfer
+        self.data.tables[0].set_data(transfer.table.reshape(1, -1, 4))
+        skips = self.data.pager.recolour()
+        changes = {"CM_SKIP_EMPTY": skips} | (
+            {"CM_TABLE_SIZE": transfer.n_colors} if transfer.n_colors != rows else {})
+        self.set_march_defines(changes)
 
     def set_shade(self, shading) -> None:
         """Only unshaded (the brick pool's marcher reads no gradient)."""
@@ -236,7 +244,7 @@ def bind_paged_sampling(target, data: PagedData, step_scale: float,
     model, pager = data.model, data.pager
     bind_marching(target, data, step_scale, stop_opacity)
     target.add_texture("cm_transferTable", data.tables[0])
-    target.set_uniform("cm_clim", model.transfer.clim)
+    target.set_uniform("cm_clim", lambda: model.transfer.clim)   # follows set_transfer
     bind_pool(target, pager, model.world_from_point)
     return {**march_defines(model, pager.empty_value is not None), **data.clip.defines,
             "CM_PAGED_LEVELS": len(pager.levels)}
