@@ -24,6 +24,7 @@ from .core.mesh_keywords import refuse_mesh_keywords, shading_for_lighting
 from .core.registry import get_technique
 from .core.rendering import open_window
 from .core.user_warnings import warn_user
+from .gl.look import ReturnedLook
 from .gl.overlay import bounds_proxy
 from .models.array_sources import is_array_source, world_from_array
 from .models.channels import (
@@ -901,6 +902,8 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
             item.PickableOff()
     plotter.add_actor(actor, name=name, reset_camera=False)
     binding.actor = actor
+    if not volume:   # its property reads what is drawn; edits of it drawn or said
+        binding.look = ReturnedLook(binding)
     if getattr(actor, "cubemarch", None) is not binding:
         pyvista.set_new_attribute(actor, "cubemarch", binding)
     return actor

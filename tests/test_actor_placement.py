@@ -162,8 +162,8 @@ def test_a_surface_moves_as_pyvista_s_contour_of_it_moves(change):
 
 @pytest.mark.parametrize("what", ["voxels", "surface", "world", "levels"])
 def test_what_is_not_drawn_of_the_returned_actor_is_said(what):
-    # The returned actor's property opacity and colour (and a surface's mapper clipping
-    # planes) are not drawn: said once each, naming what draws them, instead of nothing
+    # The returned actor's property opacity (and a surface's mapper clipping planes)
+    # are not drawn: said once each, naming what draws them, instead of nothing
     # changing (or the box being cut) in silence (found by a review). A frame without
     # such a change says nothing. The same for the prop a world drawn per chunk or several
     # isosurfaces return.
@@ -186,7 +186,7 @@ def test_what_is_not_drawn_of_the_returned_actor_is_said(what):
         cm.render_image(plotter)
     actor.prop.opacity = 0.5
     hint = "set_label_color" if what in ("voxels", "world") else "add_surface"
-    with pytest.warns(UserWarning, match=f"opacity and colour .* not drawn.*{hint}"):
+    with pytest.warns(UserWarning, match=f"opacity set on .* not drawn.*{hint}"):
         cm.render_image(plotter)
     if what in ("surface", "levels"):
         plane = vtk.vtkPlane()

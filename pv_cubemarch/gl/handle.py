@@ -16,6 +16,7 @@ from ..core.user_warnings import warn_user
 from ..models.volume import checked_transform
 from .bindings import ShaderBindings
 from .box import cull, numpy_matrix, place_box, place_by_user_matrix
+from .look import ReturnedLook
 from .overlay import is_bounds_proxy, place_bounds_proxy
 from .shaders import ShaderRecipe
 
@@ -213,20 +214,22 @@ class DrawnBinding(Placement):
     #: has ``follow_mapper_planes(actor)``, as ``voxels.clipping.ClipPlaneSetting``).
     follows_mapper_planes = False
 
+    def look_bindings(self) -> list:
+        """The shader bindings whose uniforms the returned actor's property feeds."""
+        return [self.bindings]
+
     def say_unfollowed_changes(self) -> None:
         """Once each: PyVista's calls on the returned box actor that are not drawn.
 
-        Its property's opacity and colour, and (where not followed) its mapper's clipping
+        Its property's terms (drawn where the shaders read them, said once otherwise:
+        :mod:`~pv_cubemarch.gl.look`), and (where not followed) its mapper's clipping
         planes: without this, they changed nothing, or cut the box, in silence.
         """
         actor = self.actor
-        prop = actor.GetProperty()
-        look = (prop.GetOpacity(), tuple(prop.GetColor()))
-        said = self.__dict__.setdefault("_unfollowed_said", {"look": look})
-        if look != said["look"] and "look said" not in said:
-            said["look said"] = True
-            warn_user(f"{self.name!r}: the opacity and colour set on the returned actor's "
-                      f"property are not drawn; {self.look_hint}.")
+        if self.__dict__.get("look") is None:   # made when added (api), else at its first frame
+            self.look = ReturnedLook(self)
+        self.look.follow()
+        said = self.__dict__.setdefault("_unfollowed_said", {})
         planes = actor.GetMapper().GetClippingPlanes()
         if (not self.follows_mapper_planes and planes is not None
                 and planes.GetNumberOfItems() and "planes said" not in said):

@@ -68,6 +68,10 @@ class SurfaceLevels(DrawnBinding):
         for actor in self.drawn:   # the returned prop spans them: reset_camera frames it
             actor.UseBoundsOff()
 
+    def look_bindings(self) -> list:
+        """Every level's bindings: a term set on the returned prop shades them all."""
+        return [level.bindings for level in self.levels]
+
     @property
     def surfaces(self) -> list:
         """Each level's binding (what a quality choice or a frame budget sets its steps on)."""

@@ -31,6 +31,7 @@ from ..core.rendering import needs_open_plotter
 from ..gl.box import camera_matrices
 from ..gl.face_depth import FaceDepthPass
 from ..gl.handle import DrawnBinding, Placement
+from ..gl.look import ReturnedLook
 from ..gl.overlay import bounds_proxy
 from ..gl.reduced_group import ReducedGroup
 from ..gl.textures import Texture
@@ -455,6 +456,7 @@ class WorldPasses(DrawnBinding):
         self.world = world
         self.actor = self.bounds_proxy = world.anchor
         self.main_renderer = self.renderer = world.renderer
+        self.look = ReturnedLook(self)   # what is set on the prop from now: drawn or said
 
     def check_movable(self) -> None:
         """As the world."""

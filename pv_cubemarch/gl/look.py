@@ -1,0 +1,97 @@
+"""The returned box actor's property, as PyVista users set it after adding a surface or grid.
+
+The terms our shaders read as uniforms (a surface's colour; the lit shading's ``ambient``,
+and with a highlight ``specular`` and ``specular_power``) start on the returned actor's
+property as drawn and are followed at each frame: ``actor.prop.ambient = 0.4`` is drawn.
+Any other change of the property (its opacity or colour where a palette or a colormap
+colours, the diffuse term, edges, lighting, the interpolation, a representation) is not
+drawn and is said once; a representation other than a surface would cut the box the
+marcher runs on into lines or points, so it is also set back.
+"""
+
+from __future__ import annotations
+
+from ..core.user_warnings import warn_user
+
+#: Property term -> (its VTK setter, the uniform it feeds, the switch it needs).
+FOLLOWED = {
+    "color": ("SetColor", "cm_surfaceColor", None),   # one colour only
+    "ambient": ("SetAmbient", "cm_ambient", None),
+    "specular": ("SetSpecular", "cm_specular", "CM_SPECULAR"),
+    "specular_power": ("SetSpecularPower", "cm_specularPower", "CM_SPECULAR"),
+}
+#: Switches under which the colour comes from elsewhere: each level's own, a colormap.
+COLOURED_BY = ("CM_LEVELS", "CM_COLOR_BY_CURVATURE", "CM_COLOR_VALUES")
+#: Terms never drawn from the property (the options or the palette draw them). The colour
+#: is the diffuse one, as set (VTK's ``GetColor`` mixes in the ambient and specular terms).
+SAID = {"opacity": "GetOpacity", "color": "GetDiffuseColor", "diffuse": "GetDiffuse",
+        "ambient": "GetAmbient", "specular": "GetSpecular",
+        "specular_power": "GetSpecularPower", "show_edges": "GetEdgeVisibility",
+        "lighting": "GetLighting", "interpolation": "GetInterpolation",
+        "line_width": "GetLineWidth"}
+
+
+def _value(prop, getter: str):
+    value = getattr(prop, getter)()
+    return tuple(float(v) for v in value) if isinstance(value, tuple) else float(value)
+
+
+class ReturnedLook:
+    """Follows the returned box actor's property for one binding (see the module)."""
+
+    def __init__(self, binding):
+        self.binding = binding
+        bindings = binding.look_bindings()
+        recipe = binding.recipe if binding.recipe is not None else bindings[0].recipe
+        defines = recipe.defines if recipe is not None else {}
+        uniforms = bindings[0].uniforms if bindings else {}
+        #: The terms drawn from the property: their uniform is bound as a value (not read
+        #: per draw from elsewhere) and the shader reads it.
+        coloured = len(bindings) > 1 or any(defines.get(switch) for switch in COLOURED_BY)
+        self.followed = {name: spec for name, spec in FOLLOWED.items()
+                         if spec[1] in uniforms and not callable(uniforms[spec[1]])
+                         and (spec[2] is None or defines.get(spec[2]))
+                         and not (name == "color" and coloured)}
+        binding.actor.GetMapper().GetLookupTable()   # VTK makes its default one now
+        prop = binding.actor.GetProperty()
+        for name, (setter, uniform, _) in self.followed.items():
+            getattr(prop, setter)(*(uniforms[uniform] if name == "color"
+                                    else (uniforms[uniform],)))
+        self.seen = self._read()
+        self.said = False
+
+    def _read(self) -> dict:
+        prop = self.binding.actor.GetProperty()
+        state = {name: _value(prop, getter) for name, getter in SAID.items()}
+        state["representation"] = int(prop.GetRepresentation())
+        mapper = self.binding.actor.GetMapper()   # a colormap's range and table: not ours
+        table = mapper.GetLookupTable() if hasattr(mapper, "GetLookupTable") else None
+        state["mapper lookup table"] = (tuple(mapper.GetScalarRange()),
+                                        getattr(table, "__this__", None),
+                                        table.GetMTime() if table is not None else 0)
+        return state
+
+    def follow(self) -> None:
+        """Draw the followed terms changed on the property; say the rest once."""
+        now = self._read()
+        if now == self.seen:
+            return
+        changed = [name for name in now if now[name] != self.seen[name]]
+        for name in changed:
+            if name in self.followed:
+                uniform = self.followed[name][1]
+                for bindings in self.binding.look_bindings():
+                    if uniform in bindings.uniforms:
+                        bindings.set_uniform(uniform, now[name])
+        prop = self.binding.actor.GetProperty()
+        if now["representation"] != self.seen["representation"]:
+            prop.SetRepresentationToSurface()   # the box the marcher runs on, whole
+            now["representation"] = int(prop.GetRepresentation())
+        unfollowed = [name for name in changed if name not in self.followed]
+        self.seen = now
+        if unfollowed and not self.said:
+            self.said = True
+            drawn = ", ".join(sorted(self.followed)) or "none of its terms"
+            warn_user(f"{self.binding.name!r}: {', '.join(unfollowed)} set on the returned "
+                      f"actor's property {'is' if len(unfollowed) == 1 else 'are'} not "
+                      f"drawn (drawn from it: {drawn}); {self.binding.look_hint}.")

@@ -1,0 +1,155 @@
+"""What PyVista users set on the property of the actor ``add_surface`` / ``add_voxels`` return.
+
+The terms our shaders read (a surface's colour; the lit shading's ``ambient``,
+``specular``, ``specular_power``) read back as drawn and are drawn when set; the oracle is
+the CPU references given the new terms (they import nothing of the renderer). Terms not
+drawn (opacity, a grid's colour, edges, lighting) are said once; a wireframe or points
+representation, which would cut the marched box into lines, is set back and said.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import pyvista as pv
+from conftest import headlit_plotter
+
+import pv_cubemarch as cm
+from pv_cubemarch.core.rendering import read_pixels, render_frame
+from pv_cubemarch.image_metrics import compare_images
+from pv_cubemarch.reference.surfaces import render_surface
+from pv_cubemarch.reference.voxels import render_voxels
+
+SIZE = (160, 120)
+TERMS = dict(ambient=0.45, specular=0.8, specular_power=12.0)
+
+
+def ball() -> np.ndarray:
+    x, y, z = np.meshgrid(*(np.linspace(-1.0, 1.0, 20),) * 3, indexing="ij")
+    return 0.6 - np.sqrt(x * x + 1.3 * y * y + z * z)
+
+
+def labelled() -> pv.ImageData:
+    rng = np.random.default_rng(4)
+    ids = np.where(rng.random((14, 10, 8)) < 0.35, rng.choice([3, 9], (14, 10, 8)), 0)
+    grid = pv.ImageData(dimensions=(15, 11, 9), spacing=(0.6, 0.8, 1.1), origin=(-30, 5, 2))
+    grid.cell_data["ids"] = ids.astype(np.uint8).ravel(order="F")
+    return grid
+
+
+def _lights(plotter):
+    return [cm.VolumeLight.from_pyvista(light, plotter.camera)
+            for light in plotter.renderer.GetLights()]
+
+
+def test_a_surface_s_colour_and_shading_set_after_adding_are_drawn():
+    """``actor.prop.color``, ``ambient``, ``specular``, ``specular_power`` set after the
+    first frame: the reference's image with those terms; they read back as given at add.
+
+    catches (seen failing): the terms not followed (``ReturnedLook.follow`` leaving the
+    uniforms): 20.2 dB; the colour read with VTK's ``GetColor`` (which mixes in the
+    ambient and specular colours): the colour said as not drawn.
+    """
+    plotter = headlit_plotter(SIZE)
+    actor = cm.add_surface(plotter, ball(), isovalue=0.0, color="tan", shading="blinn", steps=200,
+                           refine_steps=30)
+    plotter.view_isometric()
+    render_frame(plotter)
+    assert actor.prop.color == pv.Color("tan")
+    assert actor.prop.ambient == pytest.approx(0.2) and actor.prop.specular_power == 30.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # each is drawn: nothing said
+        actor.prop.color = "steelblue"
+        for name, value in TERMS.items():
+            setattr(actor.prop, name, value)
+        render_frame(plotter)
+    camera = cm.Camera.from_pyvista(plotter.camera)
+    field = actor.cubemarch.model
+    expected = render_surface(field, camera, SIZE, color=pv.Color("steelblue").float_rgb,
+                              background=plotter.background_color.float_rgb,
+                              near=plotter.camera.clipping_range[0],
+                              lights=_lights(plotter), shading="blinn", **TERMS)
+    assert compare_images(read_pixels(plotter), expected).psnr >= 40.0
+    plotter.close()
+
+
+def test_a_grid_s_shading_set_after_adding_is_drawn():
+    """A labelled grid's ``ambient``, ``specular``, ``specular_power`` set after the first
+    frame: the voxel reference's image with them.
+
+    catches (seen failing): not followed: 29.8 dB; the colour read with VTK's
+    ``GetColor`` (its ambient colour differs: a change of ``ambient`` said as one of the
+    colour).
+    """
+    plotter = headlit_plotter(SIZE)
+    actor = cm.add_voxels(plotter, labelled(), shading="blinn")
+    plotter.view_isometric()
+    render_frame(plotter)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # each is drawn: nothing said
+        for name, value in TERMS.items():
+            setattr(actor.prop, name, value)
+        render_frame(plotter)
+    model = actor.cubemarch.model
+    expected = render_voxels(model.labels, model.world_from_index(), model.palette.rgba,
+                             cm.Camera.from_pyvista(plotter.camera), SIZE,
+                             background=plotter.background_color.float_rgb,
+                             near=plotter.camera.clipping_range[0], lights=_lights(plotter),
+                             shading="blinn", **TERMS)
+    assert compare_images(read_pixels(plotter), expected).psnr >= 40.0
+    plotter.close()
+
+
+@pytest.mark.parametrize(("change", "named"), [
+    (lambda prop: setattr(prop, "opacity", 0.3), "opacity"),
+    (lambda prop: setattr(prop, "show_edges", True), "show_edges"),
+    (lambda prop: setattr(prop, "lighting", True), "lighting"),   # off: the box is ours
+    (lambda prop: setattr(prop, "style", "wireframe"), "representation"),
+])
+def test_terms_not_drawn_are_said_once_and_a_wireframe_set_back(change, named):
+    """Set on a lit surface, these change nothing drawn: said once, naming them and what
+    is drawn from the property; a wireframe is set back to a surface (a wireframe box
+    draws the marcher on its edges only).
+
+    catches (seen failing): nothing said (each ignored in silence before); the
+    representation left as set (the style reads 'Wireframe').
+    """
+    plotter = headlit_plotter(SIZE)
+    actor = cm.add_surface(plotter, ball(), isovalue=0.0, shading="blinn")
+    plotter.view_isometric()
+    first = cm.render_image(plotter)
+    change(actor.prop)
+    with pytest.warns(UserWarning, match=f"{named}.*not drawn.*drawn from it: ambient"):
+        image = cm.render_image(plotter)
+    assert actor.prop.style == "Surface"
+    if named != "representation":   # (PyVista's wireframe also turns the colour black)
+        assert np.array_equal(image, first)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # once
+        actor.prop.diffuse = 0.3
+        cm.render_image(plotter)
+    plotter.close()
+
+
+@pytest.mark.parametrize(("add", "named"), [
+    (lambda plotter: cm.add_voxels(plotter, labelled(), shading="blinn"), "set_label_color"),
+    (lambda plotter: cm.add_surface(plotter, ball(), isovalue=0.0, shading="blinn",
+                                    color_by="curvature"), "add_surface"),
+], ids=["grid", "coloured-surface"])
+def test_a_colour_from_a_palette_or_colormap_is_not_the_property_s(add, named):
+    """A labelled grid (its palette) or a surface coloured by curvature (a colormap):
+    ``prop.color`` is said, naming where colours are set, not drawn.
+
+    catches (seen failing): a colormapped surface's colour taken as followed (no warning;
+    the uniform set, drawing nothing).
+    """
+    plotter = headlit_plotter(SIZE)
+    actor = add(plotter)
+    plotter.view_isometric()
+    first = cm.render_image(plotter)
+    actor.prop.color = "red"
+    with pytest.warns(UserWarning, match=f"color set on.*{named}"):
+        assert np.array_equal(cm.render_image(plotter), first)
+    plotter.close()
