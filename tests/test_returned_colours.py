@@ -20,6 +20,7 @@ import warnings
 import numpy as np
 import pytest
 import pyvista as pv
+import vtk
 from conftest import VOLUME_TECHNIQUES
 
 import pv_cubemarch as cm
@@ -313,4 +314,240 @@ def test_a_streamed_volume_draws_or_refuses_what_is_set_on_it():
         assert np.array_equal(cm.render_image(pl, converge=True), first)
     vol.prop.interpolation_type = "nearest"
     assert psnr(cm.render_image(pl, converge=True), first) < 35.0
+    pl.close()
+
+
+def test_the_user_s_own_table_is_the_volume_s():
+    """``add_volume(cmap=lut)``: ``vol.mapper.lookup_table is lut``, as in PyVista, so the
+    user's later edits of ``lut`` recolour it, its opacity curve kept by ``lut.cmap = ...``
+    (PyVista's image of its own volume edited so, before its first frame); a table shared
+    by two volumes recolours both.
+
+    catches (seen failing; found by a review): the table copied at add (the edit drew
+    nothing: 29.0 dB; a new colormap on the returned copy made the volume opaque).
+    """
+    def table():
+        lut = pv.LookupTable("viridis")
+        lut.apply_opacity("sigmoid")
+        lut.scalar_range = (-1000.0, 0.0)
+        return lut
+
+    shared = table()
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    vol = pl.add_volume(ball(), scalars="hu", cmap=shared, show_scalar_bar=False)
+    vol.prop.interpolation_type = "linear"
+    vol.mapper.SetAutoAdjustSampleDistances(False)
+    vol.mapper.SetSampleDistance(0.1)
+    shared.cmap = "magma"
+    pl.camera_position = POSITION
+    reference = pl.screenshot()
+    pl.close()
+    shared = table()
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    away = np.eye(4)
+    away[0, 3] = 5000.0   # the second out of view: the image is the first's alone
+    vols = [pl.cubemarch.add_volume(ball(), scalars="hu", cmap=shared, technique="direct",
+                                    step_scale=0.1, name=name, transform=matrix)
+            for name, matrix in (("a", np.eye(4)), ("b", away))]
+    pl.camera_position = POSITION
+    before = cm.render_image(pl)
+    tables = [vol.cubemarch.model.transfer.table.copy() for vol in vols]
+    assert all(vol.mapper.lookup_table is shared for vol in vols)
+    shared.cmap = "magma"
+    image = cm.render_image(pl)
+    assert shared.values[0, 3] == 0 and shared.values[128, 3] == 129   # the curve kept
+    assert psnr(before, reference) < 30.0 and psnr(image, reference) >= 45.0
+    for vol, table in zip(vols, tables, strict=True):   # both recoloured
+        assert not np.array_equal(vol.cubemarch.model.transfer.table, table)
+    pl.close()
+
+
+def test_a_table_put_in_place_is_shown_by_the_bar_and_said_of_nothing():
+    """``vol.prop.apply_lookup_table(other)``: drawn, and the volume's bar shows ``other``;
+    no frame after says the bar was replaced (the user replaced the volume's table).
+
+    catches (seen failing; found by a review): the bar kept the old table, and the next
+    frame warned that the bar's table was replaced and the volume kept its own.
+    """
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    vol = pl.cubemarch.add_volume(ball(), technique="direct", show_scalar_bar=True,
+                                  **KEYWORDS)
+    cm.render_image(pl)
+    vol.prop.apply_lookup_table(LUT)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cm.render_image(pl)
+        cm.render_image(pl)
+    assert pl.mapper.lookup_table is LUT
+    assert pl.scalar_bars["hu"].GetLookupTable() is LUT
+    assert vol.cubemarch.model.transfer.spec.data_clim == pytest.approx((-900.0, -100.0))
+    pl.close()
+
+
+def test_a_bar_shared_when_the_volume_is_added_sets_its_range():
+    """A mesh already under the bar title ``hu``: PyVista's bar sharing widens the new
+    volume's range as it is added; drawn so from the first frame, and read back.
+
+    catches (seen failing; found by a review): the table widened but the volume drawn
+    with its own clim until an unrelated edit.
+    """
+    sphere = pv.Sphere(center=(-60.0, 0.0, 0.0))
+    sphere["hu"] = np.linspace(-2000.0, 1000.0, sphere.n_points)
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.add_mesh(sphere, scalars="hu", clim=(-2000.0, 1000.0))
+    vol = pl.cubemarch.add_volume(ball(), technique="direct", show_scalar_bar=True,
+                                  **KEYWORDS)
+    cm.render_image(pl)
+    assert vol.mapper.scalar_range == pytest.approx((-2000.0, 1000.0))
+    assert vol.cubemarch.model.transfer.spec.data_clim == pytest.approx((-2000.0, 1000.0))
+    pl.close()
+
+
+@pytest.mark.parametrize(("refused", "named"), [
+    (lambda prop: prop.SetScalarOpacityUnitDistance(-1.0), "opacity_unit_distance"),
+    (lambda prop: prop.SetIndependentComponents(False), "independent_components"),
+])
+def test_a_refusal_in_the_frame_of_a_colour_change_keeps_what_was_drawn(refused, named):
+    """A new range and a refused setting in one frame: the range is drawn and read back;
+    only the refused setting is put back.
+
+    catches (seen failing; found by reviews): the range drawn but the mapper and bar set
+    back to the old one (they said what was not drawn); a setting refused before the
+    colours were followed (the new range put back with it).
+    """
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    vol = pl.cubemarch.add_volume(ball(), technique="direct", **KEYWORDS)
+    cm.render_image(pl)
+    unit = vol.prop.opacity_unit_distance
+    vol.mapper.scalar_range = (-600.0, -100.0)
+    refused(vol.prop)
+    with pytest.raises(cm.RefusedChangeError, match=named):
+        cm.render_image(pl)
+    assert vol.mapper.scalar_range == pytest.approx((-600.0, -100.0))
+    assert vol.cubemarch.model.transfer.spec.data_clim == pytest.approx((-600.0, -100.0))
+    assert vol.prop.opacity_unit_distance == pytest.approx(unit)
+    assert vol.prop.GetIndependentComponents()
+    pl.close()
+
+
+def test_ids_near_two_to_the_63_keep_their_exact_range_through_a_new_colormap():
+    """uint64 values near 2**63 with an exact clim: a new colormap keeps the range in
+    exact units (one float apart in data units), as ``add_volume(cmap=...)`` draws it.
+
+    catches (seen failing; found by a review): the range rebuilt from the table's floats
+    (both bounds one float: every voxel drawn in the top colour).
+    """
+    base = 2**63
+    x, y, z = np.meshgrid(*(np.arange(12),) * 3, indexing="ij")
+    data = np.uint64(base) + ((x // 3 + y // 3 + z // 3) % 11).astype(np.uint64)
+
+    def add(cmap):
+        pl = pv.Plotter(off_screen=True, window_size=(96, 72))
+        return pl, pl.cubemarch.add_volume(data, cmap=cmap, clim=(base, base + 10),
+                                           opacity="linear", technique="direct")
+    pl, vol = add("viridis")
+    cm.render_image(pl)
+    vol.mapper.lookup_table.cmap = "magma"
+    edited = cm.render_image(pl)
+    assert vol.cubemarch.model.transfer.clim == (0.0, 10.0)
+    pl.close()
+    pl, _ = add("magma")
+    assert np.array_equal(edited, cm.render_image(pl))
+    pl.close()
+
+
+def test_ranges_beyond_float32_are_refused():
+    """A range wider than float32 holds would draw nothing or fail inside the frame: it is
+    refused by name when added and when set after.
+
+    catches (seen failing; found by a review): an IndexError inside every frame
+    (``brick_extinction`` over infinite bounds), and (-2e38, 2e38) drawn black.
+    """
+    with pytest.raises(cm.VolumeDataError, match="float32"):
+        cm.TransferFunction.from_colormap("viridis", clim=(-1e300, 1e300))
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    vol = pl.cubemarch.add_volume(ball(), technique="direct", **KEYWORDS)
+    first = cm.render_image(pl)
+    vol.mapper.scalar_range = (-2e38, 2e38)
+    with pytest.raises(cm.RefusedChangeError, match="float32"):
+        cm.render_image(pl)
+    assert np.array_equal(cm.render_image(pl), first)
+    pl.close()
+
+
+def test_a_table_applied_then_replaced_stays_replaced():
+    """``prop.apply_lookup_table(a)``, then ``mapper.lookup_table = b``, then an edit of
+    ``b``: ``b`` as edited is drawn (``a``, still linked to the property, is not taken
+    again); a table refused once is not tried again at the next colour edit.
+
+    catches (seen failing; found by a review): ``a`` drawn again at ``b``'s edit; every
+    later edit refused with the first refusal's message.
+    """
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    vol = pl.cubemarch.add_volume(ball(), technique="direct", **KEYWORDS)
+    cm.render_image(pl)
+    vol.prop.apply_lookup_table(LUT)
+    cm.render_image(pl)
+    other = jet_table()
+    vol.mapper.lookup_table = other
+    cm.render_image(pl)
+    other.cmap = "magma"
+    cm.render_image(pl)
+    assert vol.mapper.lookup_table is other
+    top = vol.cubemarch.model.transfer.table[-1, :3]
+    assert np.allclose(top, pv.LookupTable("magma").values[-1, :3] / 255.0, atol=1e-3)
+    wide = jet_table()
+    wide.scalar_range = (-1e39, 1e39)
+    vol.prop.apply_lookup_table(wide)
+    with pytest.raises(cm.RefusedChangeError, match="float32"):
+        cm.render_image(pl)
+    other.cmap = "viridis"   # drawn: the refused table is not taken again
+    cm.render_image(pl)
+    top = vol.cubemarch.model.transfer.table[-1, :3]
+    assert np.allclose(top, pv.LookupTable("viridis").values[-1, :3] / 255.0, atol=1e-3)
+    pl.close()
+
+
+def test_a_grey_colour_function_set_by_hand_is_drawn():
+    """``prop.SetColor(piecewise)`` (grey), then its points edited: drawn in grey, as VTK.
+
+    catches (seen failing; found by a review): only the RGB function watched (the
+    colormap kept, nothing said).
+    """
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    vol = pl.cubemarch.add_volume(ball(), technique="direct", **KEYWORDS)
+    cm.render_image(pl)
+    grey = vtk.vtkPiecewiseFunction()
+    grey.AddPoint(-1000.0, 0.1)
+    grey.AddPoint(0.0, 0.9)
+    vol.prop.SetColor(grey)
+    cm.render_image(pl)
+    rows = vol.cubemarch.model.transfer.table[:, :3]
+    assert np.allclose(rows[:, 0], rows[:, 1]) and np.allclose(rows[:, 1], rows[:, 2])
+    assert rows[0, 0] == pytest.approx(0.1, abs=1e-3) and rows[-1, 0] == pytest.approx(0.9)
+    pl.close()
+
+
+def test_a_table_edited_after_a_model_was_made_from_it_is_drawn_as_it_reads():
+    """A volume model made from the user's table, the table edited, then added: the first
+    frame draws the table as it reads (the mapper holds it), not as it was.
+
+    catches (seen failing; found by a review): the mapper held the edited table while the
+    image showed the old one, for good.
+    """
+    lut = pv.LookupTable("viridis")
+    lut.apply_opacity("linear")
+    lut.scalar_range = (-1000.0, 0.0)
+    model = cm.make_volume(ball(), "hu", cmap=lut)
+    lut.cmap = "magma"
+    lut.scalar_range = (-800.0, 0.0)
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    vol = pl.cubemarch.add_volume(model, technique="direct")
+    cm.render_image(pl)
+    assert vol.mapper.lookup_table is lut
+    assert vol.cubemarch.model.transfer.spec.data_clim == pytest.approx((-800.0, 0.0))
+    top = vol.cubemarch.model.transfer.table[-1, :3]
+    assert np.allclose(top, pv.LookupTable("magma").values[-1, :3] / 255.0, atol=1e-3)
     pl.close()

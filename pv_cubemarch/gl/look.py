@@ -22,13 +22,21 @@ FOLLOWED = {
 }
 #: Switches under which the colour comes from elsewhere: each level's own, a colormap.
 COLOURED_BY = ("CM_LEVELS", "CM_COLOR_BY_CURVATURE", "CM_COLOR_VALUES")
-#: Terms never drawn from the property (the options or the palette draw them). The colour
+#: Every term read, by its VTK getter: those not followed are said when set. The colour
 #: is the diffuse one, as set (VTK's ``GetColor`` mixes in the ambient and specular terms).
 SAID = {"opacity": "GetOpacity", "color": "GetDiffuseColor", "diffuse": "GetDiffuse",
         "ambient": "GetAmbient", "specular": "GetSpecular",
         "specular_power": "GetSpecularPower", "show_edges": "GetEdgeVisibility",
         "lighting": "GetLighting", "interpolation": "GetInterpolation",
-        "line_width": "GetLineWidth"}
+        "line_width": "GetLineWidth", "edge_color": "GetEdgeColor",
+        "point_size": "GetPointSize", "metallic": "GetMetallic", "roughness": "GetRoughness",
+        "render_lines_as_tubes": "GetRenderLinesAsTubes"}   # (culling: placement's own)
+#: Where a term not followed is set instead (else the binding's ``look_hint``).
+INSTEAD = {"lighting": "the shading= keyword lights it or not ('unlit')",
+           "interpolation": "the shading= keyword ('flat' or 'blinn')",
+           "ambient": "shading='flat' or 'blinn' reads it",
+           "specular": "shading='blinn' reads it",
+           "specular_power": "shading='blinn' reads it"}
 
 
 def _value(prop, getter: str):
@@ -42,7 +50,8 @@ class ReturnedLook:
     def __init__(self, binding):
         self.binding = binding
         bindings = binding.look_bindings()
-        recipe = binding.recipe if binding.recipe is not None else bindings[0].recipe
+        recipe = binding.recipe if binding.recipe is not None else (
+            bindings[0].recipe if bindings else None)
         defines = recipe.defines if recipe is not None else {}
         uniforms = bindings[0].uniforms if bindings else {}
         #: The terms drawn from the property: their uniform is bound as a value (not read
@@ -57,8 +66,11 @@ class ReturnedLook:
         for name, (setter, uniform, _) in self.followed.items():
             getattr(prop, setter)(*(uniforms[uniform] if name == "color"
                                     else (uniforms[uniform],)))
+        if hasattr(type(prop), "color"):   # PyVista's: a colour set, so its style setter
+            prop.color = prop.GetDiffuseColor()   # (wireframe) keeps it, as on a mesh
         self.seen = self._read()
-        self.said = False
+        self.count = len(bindings)
+        self.said: set = set()
 
     def _read(self) -> dict:
         prop = self.binding.actor.GetProperty()
@@ -74,24 +86,30 @@ class ReturnedLook:
     def follow(self) -> None:
         """Draw the followed terms changed on the property; say the rest once."""
         now = self._read()
-        if now == self.seen:
+        targets = self.binding.look_bindings()
+        if now == self.seen and len(targets) == self.count:
             return
+        # bindings made since (a world's new chunks) take every followed term
         changed = [name for name in now if now[name] != self.seen[name]]
-        for name in changed:
+        for name in (self.followed if len(targets) != self.count else changed):
             if name in self.followed:
                 uniform = self.followed[name][1]
-                for bindings in self.binding.look_bindings():
+                for bindings in targets:
                     if uniform in bindings.uniforms:
                         bindings.set_uniform(uniform, now[name])
+        self.count = len(targets)
         prop = self.binding.actor.GetProperty()
         if now["representation"] != self.seen["representation"]:
             prop.SetRepresentationToSurface()   # the box the marcher runs on, whole
             now["representation"] = int(prop.GetRepresentation())
-        unfollowed = [name for name in changed if name not in self.followed]
+        unfollowed = [name for name in changed
+                      if name not in self.followed and name not in self.said]
         self.seen = now
-        if unfollowed and not self.said:
-            self.said = True
+        if unfollowed:   # once each
+            self.said.update(unfollowed)
             drawn = ", ".join(sorted(self.followed)) or "none of its terms"
-            warn_user(f"{self.binding.name!r}: {', '.join(unfollowed)} set on the returned "
-                      f"actor's property {'is' if len(unfollowed) == 1 else 'are'} not "
-                      f"drawn (drawn from it: {drawn}); {self.binding.look_hint}.")
+            where = "; ".join(sorted({INSTEAD.get(name, self.binding.look_hint)
+                                      for name in unfollowed}))
+            warn_user(f"{self.binding.model.name!r}: {', '.join(unfollowed)} set on the "
+                      f"returned actor's property {'is' if len(unfollowed) == 1 else 'are'} "
+                      f"not drawn (drawn from it: {drawn}); {where}.")

@@ -33,6 +33,8 @@ MAX_OPACITY = 0.998
 #: over any step longer than 1e-28 data units, and sums of four volumes' extinctions and
 #: their products with colours stay finite in float32.
 MAX_EXTINCTION = 1e30
+#: Largest float32: a ``clim`` (its bounds and its width) the GPU can hold.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 #: Most colours of a colormap (``n_colors``).
 MAX_COLORS = 16384
 #: Rows a table is refined to (about): VTK interpolates opacity linearly between the
@@ -80,11 +82,16 @@ class TransferFunction:
         values (the data minus its ``value_offset``).
     spec : TransferSpec, optional
         What the table was built from (``None`` for a table given as is).
+    lookup_table : pyvista.LookupTable, optional
+        The user's table it was built from, kept as given (not a copy).
     """
 
     table: np.ndarray
     clim: tuple[float, float]
     spec: TransferSpec | None = None
+    #: The user's own ``pyvista.LookupTable`` it was built from (``cmap=lut``), not a copy:
+    #: the returned volume's mapper holds it, as PyVista's, so edits of it recolour.
+    lookup_table: object = None
 
     @classmethod
     def from_colormap(
@@ -172,7 +179,10 @@ class TransferFunction:
             clim=shifted, n_colors=n, flip_scalars=bool(flip_scalars),
             log_scale=bool(log_scale), opacity_unit_distance=float(opacity_unit_distance),
             value_offset=value_offset)
-        return cls._from_points(rgb, alpha, spec)
+        made = cls._from_points(rgb, alpha, spec)
+        if isinstance(cmap, pyvista.LookupTable):
+            made = replace(made, lookup_table=cmap)
+        return made
 
     @classmethod
     def from_points(cls, rgb, alpha, clim, opacity_unit_distance: float = 1.0,
@@ -229,7 +239,8 @@ class TransferFunction:
         table[:, 3] = np.minimum(table[:, 3] * (self.spec.opacity_unit_distance / length),
                                  MAX_EXTINCTION)
         return TransferFunction(table=table.astype(np.float32), clim=self.clim,
-                                spec=replace(self.spec, opacity_unit_distance=length))
+                                spec=replace(self.spec, opacity_unit_distance=length),
+                                lookup_table=self.lookup_table)
 
     @property
     def n_colors(self) -> int:
@@ -288,8 +299,13 @@ def transfer_for_lookup_table(lut: pyvista.LookupTable, current: TransferFunctio
     if same_colors and spec is None and not lut.log_scale:   # a table given as is: its rows
         lo, hi = (shift_value(v, value_offset) for v in checked_clim(lut.scalar_range))
         return TransferFunction(table=current.table, clim=(lo, hi if hi > lo else lo + 1.0))
-    return TransferFunction.from_colormap(lut, opacity_unit_distance=unit,
+    made = TransferFunction.from_colormap(lut, opacity_unit_distance=unit,
                                           value_offset=value_offset)
+    if spec is not None and not lut.log_scale and tuple(
+            float(v) for v in lut.scalar_range) == spec.data_clim:
+        # the range as drawn, in exact units (ids near 2**64 are one float apart)
+        made = replace(made, clim=current.clim, spec=replace(made.spec, clim=spec.clim))
+    return made
 
 
 def checked_clim(clim) -> tuple[float, float]:
@@ -310,6 +326,10 @@ def checked_clim(clim) -> tuple[float, float]:
             from None
     if not np.isfinite([lo, hi]).all() or hi < lo:
         raise VolumeDataError(f"clim must be two finite increasing numbers, got {tuple(clim)}.")
+    if hi - lo > FLOAT32_MAX or max(abs(lo), abs(hi)) > FLOAT32_MAX:
+        raise VolumeDataError(f"clim={(lo, hi)} spans more than float32 holds (the GPU draws "
+                              f"in float32: bounds and width within {FLOAT32_MAX:.3g}); "
+                              "give a narrower range.")
     return lo, hi
 
 

@@ -343,7 +343,8 @@ def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear"
                              categories=categories)
     elif offset:
         transfer = TransferFunction(table=transfer.table,
-                                    clim=_shifted_clim(transfer.clim, offset))
+                                    clim=_shifted_clim(transfer.clim, offset),
+                                    lookup_table=transfer.lookup_table)
     matrix = np.eye(4) if transform is None else checked_transform(transform)
     return VolumeModel(grid=grid, values=values, transfer=transfer, transform=matrix, name=name,
                        value_offset=offset, interpolation=interpolation, colors=colors)

@@ -542,10 +542,11 @@ class VolumeBinding(DrawnBinding):
         is marched again. A volume added with ``quality=`` keeps the settings chosen for
         its first colours (said once: ``actor.cubemarch.recalibrate()`` chooses again).
         """
-        rows = self.data.model.transfer.n_colors
+        rows = self.__dict__.get("table_rows", self.data.model.transfer.n_colors)
         self.data.set_transfer(transfer)
-        if transfer.n_colors != rows:
+        if transfer.n_colors != rows:   # the size compiled, kept until a compile succeeds
             self.set_march_defines({"CM_TABLE_SIZE": transfer.n_colors})
+        self.table_rows = transfer.n_colors
         if self.light_map is not None:
             self.light_map.invalidate()
         if getattr(self, "quality", None) is not None and not self._recolour_said:

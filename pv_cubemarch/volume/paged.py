@@ -160,13 +160,14 @@ class Streamed(FollowsPager):
         The table goes up again; the bricks marked as drawing nothing are found again
         (:meth:`BrickPager.recolour`): read again from the host cache, not the store.
         """
-        rows = self.model.transfer.n_colors
+        rows = self.__dict__.get("table_rows", self.model.transfer.n_colors)
         self.model.transfer = transfer
         self.data.tables[0].set_data(transfer.table.reshape(1, -1, 4))
         skips = self.data.pager.recolour()
         changes = {"CM_SKIP_EMPTY": skips} | (
             {"CM_TABLE_SIZE": transfer.n_colors} if transfer.n_colors != rows else {})
         self.set_march_defines(changes)
+        self.table_rows = transfer.n_colors   # the size compiled (see VolumeBinding)
 
     def set_shade(self, shading) -> None:
         """Only unshaded (the brick pool's marcher reads no gradient)."""

@@ -154,6 +154,11 @@ def scalar_bar_mapper(model) -> pyvista.DataSetMapper:
     """
     spec = model.transfer.spec
     mapper = pyvista.DataSetMapper()
+    given = getattr(model.transfer, "lookup_table", None)
+    if isinstance(given, pyvista.LookupTable):   # the user's own (cmap=lut), as PyVista's
+        mapper.lookup_table = given
+        mapper.scalar_range = given.scalar_range
+        return mapper
     if spec is None:   # a table given as is: its rows over its clim
         lut = pyvista.LookupTable()
         table = np.asarray(model.transfer.table, dtype=np.float64)

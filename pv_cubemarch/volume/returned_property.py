@@ -49,8 +49,9 @@ INSTEAD = {
     "specular_power": "add_volume(..., shade=True, specular_power=...)",
     "image_sample_distance": "technique='vtk', whose mapper draws at 1/d of the viewport, or "
                              "downsample= with technique='direct'",
-    "lookup_table": "add_volume(..., cmap=...) (an RGBA volume's colours are its data; "
-                    "volumes marched jointly take their members')",
+    "lookup_table": "add_volume(..., cmap=...) again (an RGBA volume's colours are its "
+                    "data; channels take one colormap each, cmap=[...]; volumes marched "
+                    "jointly their members')",
     "colors": "vol.prop.apply_lookup_table(lut) or edits of vol.mapper.lookup_table (the "
               "property's transfer functions follow its lookup table, as PyVista's do)",
     "opacities": "vol.prop.apply_lookup_table(lut) or edits of vol.mapper.lookup_table "
@@ -75,6 +76,30 @@ def _content(table) -> tuple:
     """What of a lookup table PyVista's volume draws: colours, opacities, range, scale."""
     return (np.asarray(table.values).tobytes(), int(table.n_values),
             tuple(float(v) for v in table.scalar_range), bool(table.log_scale))
+
+
+def apply_table(prop, table) -> None:
+    """Give ``prop`` the transfer functions PyVista's ``apply_lookup_table`` gives it.
+
+    Points at the table's ``n_values`` values over its range, coloured by its own mapping
+    (log scale included), opacities capped at 0.998 (``to_opacity_tf``), built in one
+    pass (``BuildFunctionFromTable``: PyVista adds them one by one, in time growing with
+    the square of their number: seconds for 16384 colours).
+    """
+    n = int(table.n_values)
+    lo, hi = (float(v) for v in table.scalar_range)
+    points = np.linspace(lo, hi, n)
+    rgb = np.array([table.map_value(float(p), opacity=False) for p in points], np.float64)
+    alpha = np.minimum(np.asarray(table.values[:, 3], np.float64) / 255.0, 0.998)
+    colour, opacity = vtk.vtkColorTransferFunction(), vtk.vtkPiecewiseFunction()
+    if n > 1 and hi > lo:
+        colour.BuildFunctionFromTable(lo, hi, n, np.ascontiguousarray(rgb.ravel()))
+        opacity.BuildFunctionFromTable(lo, hi, n, np.ascontiguousarray(alpha), 1)
+    else:
+        colour.AddRGBPoint(lo, *rgb[0])
+        opacity.AddPoint(lo, float(alpha[0]))
+    prop.SetColor(colour)
+    prop.SetScalarOpacity(opacity)
 
 
 def _functions(prop) -> tuple:
@@ -134,6 +159,9 @@ def functions_transfer(prop, current, value_offset):
     else:
         rgb = np.zeros(3 * count)
         colour.GetTable(lo, hi, count, rgb)
+    if not (np.isfinite(rgb).all() and np.isfinite(alpha).all()):
+        raise ValueError("the property's transfer functions give values that are not "
+                         "numbers (a node's colour or opacity is NaN)")
     spec = current.spec
     return TransferFunction.from_points(
         rgb.reshape(-1, 3), alpha, (lo, hi),
@@ -156,7 +184,7 @@ def _read(volume, bar=None) -> dict:
         "blending": int(volume.GetMapper().GetBlendMode()),
         "clim": tuple(getattr(volume.GetMapper(), "scalar_range", None) or ()),
         "independent_components": bool(prop.GetIndependentComponents()),
-        "colors": int(prop.GetRGBTransferFunction().GetMTime()),
+        "colors": (int(prop.GetColorChannels()), int(_functions(prop)[0].GetMTime())),
         "opacities": int(prop.GetScalarOpacity().GetMTime()),
         "image_sample_distance": float(volume.GetMapper().GetImageSampleDistance())
         if hasattr(volume.GetMapper(), "GetImageSampleDistance") else 1.0,
@@ -190,6 +218,9 @@ class ReturnedProperty:
         self.volume = volume
         self.bar = None
         self._bar_said = False
+        # VTK makes a default function when one is asked for (switching grey and RGB):
+        # made now, as VTK's mapper will, so reading it later changes nothing
+        volume.GetProperty().GetRGBTransferFunction()
         material = shade.material if shade is not None else None
         state = _read(volume)
         state.update(interpolation=interpolation, opacity_unit_distance=opacity_unit_distance,
@@ -207,19 +238,46 @@ class ReturnedProperty:
         if isinstance(table, pyvista.LookupTable) and not isinstance(model, VolumeGroup) \
                 and getattr(model, "colors", None) is None:
             self.lut = table
-            if hasattr(volume.GetProperty(), "apply_lookup_table"):   # as PyVista's volume
-                volume.GetProperty().apply_lookup_table(table)
+            apply_table(volume.GetProperty(), table)   # as PyVista's volume property
         self._keep_table()
         self.state = _read(volume)
+        self._follow_edit_before_adding(binding.model.transfer)
 
-    def _keep_table(self) -> None:
-        """Copy the lookup table and the property's functions as drawn (for put backs)."""
+    def _follow_edit_before_adding(self, transfer) -> None:
+        """The user's table edited after a model was made from it: the first frame follows.
+
+        (``TransferFunction.from_colormap(lut)`` keeps ``lut`` itself, as the returned
+        mapper's; what is drawn is what it held then.)
+        """
+        spec = transfer.spec
+        if self.lut is None or transfer.lookup_table is not self.lut or not isinstance(
+                getattr(spec, "cmap", None), np.ndarray):
+            return
+        drawn = pyvista.LookupTable()
+        drawn.values = np.round(np.column_stack([spec.cmap, spec.opacity]) * 255.0)
+        drawn.scalar_range = spec.data_clim
+        drawn.log_scale = spec.log_scale
+        if _content(drawn) != _content(self.lut):
+            self._kept_table = drawn
+            self.state["table"] = ()
+
+    @property
+    def _prop_seen(self) -> tuple:
+        """The property's own table (PyVista's link) as the last frame read it."""
+        return self.state["table"][1] if self.state["table"] else ()
+
+    def _keep_table(self, hand_edited: bool = False) -> None:
+        """Copy the lookup table as drawn (for put backs), and the functions if edited by hand.
+
+        Else the table's own functions are drawn, and put back from it.
+        """
         self._kept_table = self._kept_functions = None
         if self.lut is not None:
             self._kept_table = pyvista.LookupTable()
             self._kept_table.DeepCopy(self.lut)
-            self._kept_functions = tuple(_copied(f) for f in _functions(
-                self.volume.GetProperty()))
+            if hand_edited:
+                self._kept_functions = tuple(_copied(f) for f in _functions(
+                    self.volume.GetProperty()))
 
     def watch_bar(self, mapper) -> None:
         """Follow the volume's scalar bar's mapper (``plotter.mapper``) too.
@@ -230,7 +288,9 @@ class ReturnedProperty:
         said once (:meth:`_say_bar_changed`).
         """
         self.bar = mapper
-        self.state = _read(self.volume, self.bar)
+        # PyVista's bar sharing may have set the table's range as the bar was added (an
+        # earlier prop under the same title): drawn now, as PyVista's volume draws it
+        self.follow()
 
     def _say_bar_changed(self) -> None:
         """Once: the bar's lookup table was replaced; the volume keeps its own."""
@@ -257,35 +317,44 @@ class ReturnedProperty:
             else set()) | (   # 'vtk''s drawing mapper takes it itself (vtk_mapper.py)
             colours if self.lut is not None else set())
         refused = [key for key in changed if key not in followed]
+        if self.lut is not None and colours & set(changed):   # first: kept by a refusal
+            self._follow_colours(now, changed)
         if refused:
-            key = "lookup_table" if refused[0] == "table" else refused[0]
+            key = refused[0]
+            if key in colours:
+                key = "lookup_table"   # no one colormap to edit: add it again
             self._put_back(now)
             raise RefusedChangeError(
                 f"The returned volume's {key} was changed after add_volume; pv_cubemarch "
                 f"does not draw that change (it takes {INSTEAD[key]}). The property is set "
                 "back to what is drawn.")
-        if now["shade"] and now["blending"] != VTK_BLEND_MODES["composite"]:
+        if now["shade"] and now["blending"] not in (VTK_BLEND_MODES["composite"],
+                                                    VTK_BLEND_MODES["isosurface"]):
             self._put_back(now)
             raise RefusedChangeError("The returned volume was set to shade with blend_mode="
                              f"{BLEND_NAMES[now['blending']]!r}; shade=True shades composite "
-                             "blending only. The property is set back to what is drawn.")
-        if self.lut is not None and colours & set(changed):
-            self._follow_colours(now, changed)
-        try:
+                             "blending (and levels) only. The property is set back to what "
+                             "is drawn.")
+        try:   # each change drawn joins the state, so a refusal puts back only the rest
             if "shade" in changed and not now["shade"]:   # off first: then any mode
                 self.binding.set_shade(None)
                 self.shade = None
+                self.state["shade"] = False
             if "blending" in changed:
                 self.binding.set_blending(BLEND_NAMES[now["blending"]])
+                self.state["blending"] = now["blending"]
             if "shade" in changed and now["shade"]:
                 shading = GradientShading(self.binding.main_renderer, self.binding.model,
                                           ShadeMaterial(**{t: now[t] for t in TERMS}))
                 self.binding.set_shade(shading)
                 self.shade = shading
+                self.state.update(shade=True, **{t: now[t] for t in TERMS})
             if "interpolation" in changed:
                 self.binding.set_interpolation(now["interpolation"])
+                self.state["interpolation"] = now["interpolation"]
             if "opacity_unit_distance" in changed:
                 self.binding.set_opacity_unit_distance(now["opacity_unit_distance"])
+                self.state["opacity_unit_distance"] = now["opacity_unit_distance"]
         except ValueError as error:   # what this volume cannot draw (a streamed one ...)
             self._put_back(now)
             raise RefusedChangeError(f"{error} The property is set back to what is "
@@ -306,8 +375,12 @@ class ReturnedProperty:
         put back.
         """
         mapper_table, prop_table = _lookup_tables(self.volume)
+        # the property's table (PyVista's apply_lookup_table link) only when it changed
+        # since the last frame: a table applied once and replaced since stays replaced
+        applied = prop_table is not None and prop_table is not self.lut and \
+            _table_state(prop_table) != self._prop_seen
         table = mapper_table if mapper_table is not self.lut else \
-            prop_table if prop_table is not None and prop_table is not self.lut else self.lut
+            prop_table if applied else self.lut
         moved = table is not self.lut or _content(table) != _content(self._kept_table)
         if not moved and not {"colors", "opacities"} & set(changed):
             return   # modified, nothing drawn changed (an annotation, the same range)
@@ -330,13 +403,29 @@ class ReturnedProperty:
                 f"The returned volume's colours cannot be drawn as changed: {error} They "
                 "are set back to what is drawn.") from None
         if moved:
-            self.lut = table
+            old, self.lut = self.lut, table
             mapper, prop = self.volume.GetMapper(), self.volume.GetProperty()
             mapper.lookup_table = table
-            if hasattr(prop, "apply_lookup_table") and prop_table is not table:
-                prop.apply_lookup_table(table)
+            if prop_table is not table:
+                apply_table(prop, table)
             mapper.scalar_range = tuple(table.scalar_range)   # reads the range drawn
-        self._keep_table()
+            if table is not old:
+                self._move_bar(old, table)
+        self._keep_table(hand_edited=not moved)
+        drawn = _read(self.volume, self.bar)
+        self.state.update({key: drawn[key] for key in
+                           ("table", "colors", "opacities", "clim", "scalar_bar")})
+
+    def _move_bar(self, old, table) -> None:
+        """The volume's bar (its mapper, and the bars drawn from its table) shows ``table``."""
+        if self.bar is not None and self.bar.GetLookupTable() is old:
+            self.bar.lookup_table = table
+        renderer = getattr(self.binding, "main_renderer", None)
+        props = renderer.GetViewProps() if renderer is not None else None
+        for index in range(props.GetNumberOfItems() if props is not None else 0):
+            actor = props.GetItemAsObject(index)
+            if isinstance(actor, vtk.vtkScalarBarActor) and actor.GetLookupTable() is old:
+                actor.SetLookupTable(table)
 
     def _put_back(self, now: dict) -> None:
         """Set the property and lookup table back to what is drawn.
@@ -348,10 +437,11 @@ class ReturnedProperty:
             self.lut.DeepCopy(self._kept_table)
             self.volume.GetMapper().lookup_table = self.lut
             prop = self.volume.GetProperty()
-            if hasattr(prop, "apply_lookup_table"):
-                prop.apply_lookup_table(self.lut)
-            colour, opacity = (_copied(f) for f in self._kept_functions)
-            prop.SetColor(colour)   # the functions drawn, edited by hand or not
-            prop.SetScalarOpacity(opacity)
+            if self._kept_functions is None:
+                apply_table(prop, self.lut)
+            else:   # the functions drawn as edited by hand
+                colour, opacity = (_copied(f) for f in self._kept_functions)
+                prop.SetColor(colour)
+                prop.SetScalarOpacity(opacity)
         _write(self.volume, self.state)
         self.state = _read(self.volume, self.bar)

@@ -458,6 +458,10 @@ class WorldPasses(DrawnBinding):
         self.main_renderer = self.renderer = world.renderer
         self.look = ReturnedLook(self)   # what is set on the prop from now: drawn or said
 
+    def look_bindings(self) -> list:
+        """The chunks' bindings: a term set on the world's prop shades every chunk."""
+        return [chunk.bindings for chunk in self.world.chunks.values()]
+
     def check_movable(self) -> None:
         """As the world."""
         self.world.check_movable()
