@@ -281,13 +281,10 @@ def _refined(rgb: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray
 def transfer_for_lookup_table(lut: pyvista.LookupTable, current: TransferFunction,
                               value_offset: int | float, same_colors: bool
                               ) -> TransferFunction:
-    """What PyVista's volume draws for ``lut`` (colours, opacities, range, log scale).
+    """What PyVista's volume draws for ``lut``, over ``current``'s unit distance.
 
-    PyVista's volume property follows its lookup table (``apply_lookup_table``): this is
-    the table ``add_volume(cmap=lut)`` builds, over ``current``'s opacity unit distance.
-    Where only the range or the log scale changed (``same_colors``), ``current``'s own
-    colormap and opacity curve are kept at their full precision, as
-    ``add_volume(clim=...)`` builds them (the lookup table holds opacities as bytes).
+    Only the range or scale changed (``same_colors``): ``current``'s colormap and opacity
+    curve at full precision, as ``add_volume(clim=...)`` builds them (a table holds bytes).
     """
     spec = current.spec
     unit = spec.opacity_unit_distance if spec is not None else 1.0

@@ -206,22 +206,22 @@ class VolumeData:
         self.values[0].set_data(self.model.colors)
 
     def set_transfer(self, transfer) -> None:
-        """Draw one volume with another transfer function (the table goes up again).
+        """Draw one volume with another transfer function; its empty bricks found again.
 
-        The empty-space bricks are built again from it where they were built; a volume
-        built with none empty stays unskipped (exact, if slower). Refused for volumes
-        marched jointly and RGBA volumes, whose colours are their members' and data.
+        A volume with none empty at add stays unskipped (exact, if slower). Refused for
+        joint and RGBA volumes (their colours are their members' and data).
         """
         if isinstance(self.model, VolumeGroup) or self.model.colors is not None:
             raise ValueError("Volumes marched jointly and RGBA volumes take their colours "
                              "from their members and data; add them again to colour "
                              "them otherwise.")
+        bricks = None if self._bricks is None else brick_extinction(   # before any change
+            self.model.values, transfer, DEFAULT_BRICK_SIZE)
         self.model.transfer = transfer
         self.tables[0].set_data(transfer.table.reshape(1, -1, 4))
-        if self._bricks is not None:
+        if bricks is not None:
             self.brick_builds += 1
-            self._bricks.set_data(brick_extinction(self.model.values, transfer,
-                                                   DEFAULT_BRICK_SIZE))
+            self._bricks.set_data(bricks)
 
     def set_opacity_unit_distance(self, length: float) -> None:
         """Draw one volume with its opacities over another length (the table goes up again).
@@ -535,12 +535,10 @@ class VolumeBinding(DrawnBinding):
             self.light_map.invalidate()
 
     def set_transfer(self, transfer) -> None:
-        """Colour the volume by ``transfer`` from the next frame (how its lookup table is followed).
+        """Colour the volume by ``transfer`` (a TransferFunction) from the next frame.
 
-        ``transfer``: a :class:`~pv_cubemarch.TransferFunction`.
-        The marchers are compiled again only for a table of another size; the light map
-        is marched again. A volume added with ``quality=`` keeps the settings chosen for
-        its first colours (said once: ``actor.cubemarch.recalibrate()`` chooses again).
+        Compiled again only for a table of another size; ``quality=`` says once that its
+        choice was for the first colours.
         """
         rows = self.__dict__.get("table_rows", self.data.model.transfer.n_colors)
         self.data.set_transfer(transfer)

@@ -1,16 +1,9 @@
 """The returned volume's property and mapper, as PyVista users set them after ``add_volume``.
 
-The returned ``pyvista.Volume`` starts with what is drawn: ``vol.prop.interpolation_type``,
-``opacity_unit_distance``, ``shade`` and its terms, ``vol.mapper.blend_mode``, and the
-lookup table its property follows (``vol.mapper.lookup_table``, the scalar bar's too). At
-each frame a change the marchers can follow is drawn (the interpolation, the opacity unit
-distance, the blend mode, shading on or off, the shading terms; ``'vtk'``'s image sample
-distance; the lookup table's colours, opacities, range and log scale, as PyVista's volume
-property follows its table, however the table was changed: ``vol.mapper.scalar_range``,
-``plotter.update_scalar_bar_range``, ``lut.cmap``, ``vol.prop.apply_lookup_table``);
-any other, or a pair the marchers do not draw together (shade with a projection), is
-refused with an error that says which ``add_volume`` keyword draws it, and the property
-is put back to what is drawn, so no frame shows a setting it ignores.
+They read what is drawn. At each frame a change the marchers follow is drawn (the
+interpolation, unit distance, blend mode, shading and its terms, and the colours, as
+PyVista's property follows its lookup table); any other is refused, naming the keyword
+that draws it, and put back, so no frame shows a setting it ignores.
 """
 
 from __future__ import annotations
@@ -365,14 +358,9 @@ class ReturnedProperty:
         self.state = _read(self.volume, self.bar)
 
     def _follow_colours(self, now: dict, changed: list) -> None:
-        """Draw the colours the user means now, as PyVista's volume property draws them.
+        """Draw the colours meant now: a table changed or put in place, else the functions.
 
-        A lookup table changed or put in place: the returned mapper's (one put in its
-        place too, where PyVista's own volume would keep drawing the old one), or one the
-        property was given (``vol.prop.apply_lookup_table``). Else the property's
-        transfer functions edited by hand (``vol.prop.GetScalarOpacity().AddPoint``), as
-        VTK draws them. Colours that cannot be drawn (a range of NaN) are refused and all
-        put back.
+        Colours that cannot be drawn are refused and put back.
         """
         mapper_table, prop_table = _lookup_tables(self.volume)
         # the property's table (PyVista's apply_lookup_table link) only when it changed
