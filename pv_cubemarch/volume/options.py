@@ -292,7 +292,9 @@ class MarchOptions:
         ray in a joint group); beyond that the ray would be cut short, silently too light.
         """
         texels = most_texels(model)
-        refuse_more_steps(f"step_scale={self.step_scale:g}", texels / float(self.step_scale),
+        given = " (the default)" if self.step_scale == STEP_SCALE.default else ""
+        refuse_more_steps(f"step_scale={self.step_scale:g}{given}",
+                          texels / float(self.step_scale),
                           f"step_scale >= {texels / MAX_STEPS:.3g}")
 
 
@@ -325,7 +327,8 @@ class CubeMapOptions:
         samples = int(self.max_samples or default_max_samples(model))
         # The cube map steps (longest axis of the volume's own grid) / samples texels.
         steps = samples * most_texels(model) / max(max(model.dimensions) - 1, 1)
-        refuse_more_steps(f"max_samples={samples:,}", steps,
+        given = "" if self.max_samples else " (the default: two per texel)"
+        refuse_more_steps(f"max_samples={samples:,}{given}", steps,
                           f"max_samples <= {int(samples * MAX_STEPS / steps):,}")
 
 
