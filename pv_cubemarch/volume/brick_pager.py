@@ -243,9 +243,9 @@ class BrickPager:
     def recolour(self) -> bool:
         """The volume's transfer function changed: which bricks draw nothing is found again.
 
-        Bricks in slots hold values, not colours: they stay. Bricks marked as drawing
-        nothing are forgotten (read again from the host cache when wanted; the coarsest
-        level's at once, so the pool keeps no hole), and the view is planned again.
+        Every brick but the coarsest level's is forgotten (read again from the host cache
+        when wanted, so one that now draws nothing gives its slot to one that draws); the
+        coarsest level's marked empty are placed again at once, so the pool keeps no hole.
         Returns whether empty bricks are still told apart (a value of zero extinction).
         """
         transfer = getattr(self.model, "transfer", None)
@@ -255,6 +255,13 @@ class BrickPager:
         for key in self.empty:
             self.table.clear(key)
         self.empty, self.unmarked = set(), set()
+        for slot, key in enumerate(self.key_in):
+            if key is not None and key not in self.pinned:
+                self.table.clear(key)
+                del self.slot_of[key]
+                self.key_in[slot] = None
+                self._free.append(slot)
+        self._victims = iter(())
         pinned = [key for key in forgotten if key in self.pinned]
         for key, values in zip(pinned, self.read_pinned(pinned), strict=True):
             self._place(key, values)
