@@ -7,6 +7,7 @@ is placed in the plotter the same way for every technique.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import inspect
 import warnings
@@ -491,7 +492,10 @@ def add_volume(
         n_colors=n_colors, flip_scalars=flip_scalars, log_scale=log_scale,
         categories=categories).items() if value is not None}
     if isinstance(volume, (VolumeModel, VolumeGroup)):
-        model = volume
+        # a volume's own copy (its arrays shared): what is set on the returned volume
+        # (colours, values, interpolation) leaves the user's model, and its other volumes,
+        # as they were
+        model = copy.copy(volume) if isinstance(volume, VolumeModel) else volume
         if transfer and isinstance(model, VolumeGroup) and not is_channels(model):
             raise ValueError(f"{', '.join(transfer)}: volumes marched jointly keep each "
                              "member's transfer function; give it to make_volume per member.")

@@ -553,6 +553,31 @@ def test_a_table_edited_after_a_model_was_made_from_it_is_drawn_as_it_reads():
     pl.close()
 
 
+def test_a_recolour_leaves_the_user_s_model_and_its_other_volumes_as_they_were():
+    """One model added to two plotters, one volume recoloured: the other draws and reads as
+    before, and the model keeps its colours (another add of it with ``clim=`` works).
+
+    catches (seen failing; found by a review): the recolour written into the user's model
+    (the other plotter changed colours, 21.4 dB, its table still reading the old range;
+    ``add_volume(model, clim=...)`` then failed on the new spec).
+    """
+    model = cm.make_volume(ball(), "hu", cmap="viridis", clim=(-1000.0, 0.0))
+    plotters = [pv.Plotter(off_screen=True, window_size=(96, 72)) for _ in range(2)]
+    vols = [pl.cubemarch.add_volume(model, technique="direct") for pl in plotters]
+    for pl in plotters:
+        pl.camera_position = POSITION
+    other = cm.render_image(plotters[1])
+    vols[0].mapper.lookup_table.cmap = "magma"
+    vols[0].mapper.scalar_range = (-700.0, 300.0)
+    cm.render_image(plotters[0])
+    assert np.array_equal(cm.render_image(plotters[1]), other)
+    assert model.transfer.spec.clim == (-1000.0, 0.0) and model.transfer.spec.cmap == "viridis"
+    again = plotters[1].cubemarch.add_volume(model, clim=(-900.0, 0.0), name="again")
+    assert again.mapper.scalar_range == pytest.approx((-900.0, 0.0))
+    for pl in plotters:
+        pl.close()
+
+
 @pytest.mark.parametrize("technique", ["direct", "cubemap"])
 def test_a_streamed_volume_over_its_budget_frees_bricks_a_recolour_empties(technique):
     """A pool too small for the view, then a range under which most bricks draw nothing:
