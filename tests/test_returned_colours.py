@@ -22,6 +22,7 @@ import pytest
 import pyvista as pv
 import vtk
 from conftest import VOLUME_TECHNIQUES
+from matplotlib.colors import ListedColormap
 
 import pv_cubemarch as cm
 from pv_cubemarch.image_metrics import to_uint8
@@ -610,3 +611,55 @@ def test_a_streamed_volume_over_its_budget_frees_bricks_a_recolour_empties(techn
                                                      (2500.0, 4000.0)))
     assert stats["over_budget"] and stats["empty"] == added_stats["empty"] > 0
     assert np.array_equal(recoloured, added)
+
+
+def test_a_model_made_with_a_table_and_added_with_clim_draws_as_pyvista_draws_it():
+    """``add_volume(model, clim=...)`` of a model made with ``cmap=lut``: PyVista's
+    ``add_volume(grid, cmap=lut, clim=...)`` colours over the table's own range, so does
+    ours, and it says that ``clim`` is not drawn.
+
+    catches (seen failing): the model's colours (held as arrays) refused as "not a
+    colormap" (a VolumeDataError); ``_made_cmap`` not returning the user's table (the
+    colours drawn over ``clim`` without a word).
+    """
+    lut = jet_table()
+    reference, _, _, _ = draw(lambda pl: pyvista_add_with(pl, cmap=lut, clim=(-700.0, 300.0)),
+                              lambda *_: None, first_frame=False)
+    model = cm.make_volume(ball(), "hu", cmap=lut)
+    with pytest.warns(cm.VolumeDataWarning, match=r"clim=\(-700.0, 300.0\) is not drawn"):
+        image, _, vol, _ = draw(lambda pl: pl.cubemarch.add_volume(
+            model, technique="direct", step_scale=0.1, clim=(-700.0, 300.0)), lambda *_: None)
+    assert vol.mapper.lookup_table is lut
+    assert psnr(image, reference) >= 46.0
+
+
+def pyvista_add_with(pl, **keywords):
+    vol = pl.add_volume(ball(), show_scalar_bar=False, **(KEYWORDS | keywords))
+    vol.prop.interpolation_type = "linear"
+    vol.mapper.SetAutoAdjustSampleDistances(False)
+    vol.mapper.SetSampleDistance(0.1)
+    return vol
+
+
+def test_a_drawn_model_with_colours_set_by_hand_is_added_again_over_a_new_range():
+    """The colours set on a property by hand, then the drawn model added again with
+    ``clim=``: the same colours and opacities spread over the new range, as PyVista draws
+    a colormap and an opacity curve that VTK sampled from the same functions (as bytes:
+    PyVista reads a curve of ``n_colors`` values so).
+
+    catches (seen failing): the drawn colours (arrays) refused as "not a colormap" (the
+    array given as is); the new ``clim`` dropped by ``with_transfer``.
+    """
+    _, _, vol, _ = draw(ours_add("direct"), by_hand)
+    image, _, _, _ = draw(lambda pl: pl.cubemarch.add_volume(
+        vol.cubemarch.model, technique="direct", step_scale=0.1, clim=(-700.0, 300.0)),
+        lambda *_: None)
+    _, _, theirs, _ = draw(pyvista_add, by_hand)   # VTK samples its own functions
+    colours = np.zeros(256 * 3)
+    theirs.prop.GetRGBTransferFunction().GetTable(-1000.0, 0.0, 256, colours)
+    alpha = np.array([theirs.prop.GetScalarOpacity().GetValue(v)
+                      for v in np.linspace(-1000.0, 0.0, 256)])
+    reference, _, _, _ = draw(lambda pl: pyvista_add_with(
+        pl, cmap=ListedColormap(colours.reshape(-1, 3)), opacity=np.round(alpha * 255.0),
+        clim=(-700.0, 300.0)), lambda *_: None, first_frame=False)
+    assert psnr(image, reference) >= 46.0

@@ -15,7 +15,7 @@ _LIBRARIES = tuple(str(Path(module.__file__).resolve().parent)
     str(Path(__file__).resolve().parents[1]),)
 
 
-def warn_user(message: str) -> None:
+def warn_user(message: str, category: type[Warning] = UserWarning) -> None:
     """Warn, attributed to the first caller outside this package, PyVista and VTK.
 
     A warning raised in a VTK observer during a frame then points at the line that drew it.
@@ -24,4 +24,4 @@ def warn_user(message: str) -> None:
     while frame is not None and str(Path(frame.f_code.co_filename).resolve()).startswith(
             _LIBRARIES):
         frame, level = frame.f_back, level + 1
-    warnings.warn(message, UserWarning, stacklevel=level)
+    warnings.warn(message, category, stacklevel=level)

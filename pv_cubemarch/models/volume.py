@@ -7,8 +7,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pyvista
+from matplotlib.colors import ListedColormap
 
 from ..core.errors import VolumeDataError, VolumeDataWarning
+from ..core.user_warnings import warn_user
 from .transfer import TransferFunction, shift_value
 
 NAN_POLICIES = ("raise", "zero")
@@ -370,7 +372,8 @@ def with_transfer(model: VolumeModel, **changes) -> VolumeModel:
             f"Volume {model.name!r} carries a transfer table given as is, so "
             f"{', '.join(sorted(changes))} cannot change it: make the volume from its data "
             "with those keywords (make_volume(grid, cmap=..., ...)).")
-    keywords = dict(cmap=spec.cmap, opacity=spec.opacity, clim=_exact_data_clim(spec),
+    keywords = dict(cmap=_made_cmap(model.transfer), opacity=spec.opacity,
+                    clim=_exact_data_clim(spec),
                     opacity_unit_distance=spec.opacity_unit_distance, n_colors=spec.n_colors,
                     flip_scalars=spec.flip_scalars, log_scale=spec.log_scale)
     keywords.update(changes)
@@ -378,9 +381,30 @@ def with_transfer(model: VolumeModel, **changes) -> VolumeModel:
                                              **keywords))
 
 
+def _made_cmap(transfer: TransferFunction):
+    """The colormap a volume was made with, as ``add_volume`` takes it again.
+
+    The user's own lookup table where it was given one (its later edits still followed);
+    colours read from a table or a property's functions as a colormap of those colours.
+    """
+    if transfer.lookup_table is not None:
+        return transfer.lookup_table
+    cmap = transfer.spec.cmap
+    if isinstance(cmap, np.ndarray):
+        return ListedColormap(np.clip(np.asarray(cmap, dtype=np.float64)[:, :3], 0.0, 1.0))
+    return cmap
+
+
 def _transfer(grid, values, offset, *, cmap, opacity, clim, opacity_unit_distance, n_colors,
               flip_scalars, log_scale, categories=False) -> TransferFunction:
     """The table PyVista's keywords make for these values, data-derived defaults included."""
+    if isinstance(cmap, pyvista.LookupTable) and clim is not None and not np.allclose(
+            np.broadcast_to(np.abs(clim) * [-1, 1] if np.ndim(clim) == 0 else clim, 2),
+            cmap.scalar_range, rtol=1e-6, atol=0.0):
+        warn_user(
+            f"clim={clim!r} is not drawn: a pyvista.LookupTable given as cmap colours over "
+            f"its own scalar_range {tuple(cmap.scalar_range)}, as PyVista's add_volume "
+            "draws it; set lut.scalar_range to change it", VolumeDataWarning)
     if clim is None:
         clim = _data_range(values, offset)
         if values.size and float(values.min()) == float(values.max()):
