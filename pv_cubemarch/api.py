@@ -65,7 +65,12 @@ from .surfaces.technique import build_translucent_levels
 from .volume import auto, direct, vtk_mapper  # noqa: F401  (each registers its technique)
 from .volume.binding import VolumeBinding, VolumeData, VolumeSetup
 from .volume.brick_pager import BRICK_POINTS, GPU_BYTES, BrickPager, coarsest_fits
-from .volume.clipping import clip_plane_list, crop_keeps_nothing, set_crop_box
+from .volume.clipping import (
+    checked_crop_box,
+    clip_plane_list,
+    crop_keeps_nothing,
+    set_crop_box,
+)
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
 from .volume.gradient_shading import gradient_shading
 from .volume.light_map import LightMap
@@ -597,7 +602,18 @@ def add_volume(
         binding.returned_property.watch_bar(add_scalar_bar(
             plotter, actor, model, scalars if isinstance(scalars, str) else bar_title
             or model.name, show_scalar_bar, scalar_bar_args, annotations))
-    for plane in clip_plane_list(clip_planes):
+    _cut(actor, model, clip_plane_list(clip_planes), crop_box)
+    if average_range is not None:
+        set_average_range(actor.mapper, average_range, blending)
+    _frame(plotter, reset_camera)
+    if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
+        plotter.render()
+    return actor
+
+
+def _cut(actor, model, planes: list, crop_box) -> None:
+    """The returned volume's mapper given ``add_volume``'s clipping planes and crop box."""
+    for plane in planes:
         actor.mapper.AddClippingPlane(plane)
     if crop_box is not None:
         set_crop_box(actor.mapper, crop_box)
@@ -605,12 +621,6 @@ def add_volume(
             warn_user(f"crop_box={tuple(crop_box)!r} keeps none of {model.name!r} (its box "
                       "lies outside the data, in the data's coordinates, before transform): "
                       "nothing of it is drawn.")
-    if average_range is not None:
-        set_average_range(actor.mapper, average_range, blending)
-    _frame(plotter, reset_camera)
-    if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
-        plotter.render()
-    return actor
 
 
 #: add_volume's keywords a multiscale source takes, and their defaults when left out.
@@ -621,7 +631,8 @@ PAGED_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors"
                   "blending", "skip_empty", "show_scalar_bar", "scalar_bar_args",
                   "annotations", "preference", "light_map_size", "light_map_ambient",
                   "nan_policy", "multi_colors", "face_size", "max_samples", "upscale",
-                  "sample_factor", "occlusion_sharpness", "frame_budget_ms")
+                  "sample_factor", "occlusion_sharpness", "frame_budget_ms", "clip_planes",
+                  "crop_box")
 
 
 def _read_path(data, what: str):
@@ -691,6 +702,9 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
                          "or add a level that fits in memory to calibrate on it.")
     if given["frame_budget_ms"] is not None:   # refused before the source is opened
         check_frame_budget(given["frame_budget_ms"], drawn_by)
+    planes = clip_plane_list(given["clip_planes"])   # checked before the source is opened
+    if given["crop_box"] is not None:
+        checked_crop_box(given["crop_box"])
     if refused:
         raise RefusedOptionsError(
             f"A multiscale source is drawn by the direct marcher or the cube map "
@@ -745,6 +759,7 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         attach_frame_budget(binding, drawn_by, plotter.ren_win, given["frame_budget_ms"])
     actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
     actor.SetPickable(bool(given["pickable"]))
+    _cut(actor, model, planes, given["crop_box"])
     # what is set on the returned volume is drawn or refused, never ignored
     binding.returned_property = ReturnedProperty(
         binding, actor, "composite", None, float(transfer.spec.opacity_unit_distance)

@@ -469,7 +469,8 @@ def test_a_streamed_volumes_setters_say_what_they_cannot_do(pyramid):
     for keywords, match in ((dict(gpu_bytes=0), "gpu_bytes must be an integer"),
                             (dict(brick_size=2.7), "brick_size must be an integer"),
                             (dict(lod_bias=float("nan")), "lod_bias must be a number"),
-                            (dict(crop_box=np.array([0, 1, 0, 1, 0, 1])), "crop_box"),
+                            (dict(crop_box=np.array([0, 1, 0, 1, 0, 0])), "crop_box"),
+                            (dict(clip_planes=(0, 0, 0, 0, 0, 0)), "normal"),
                             (dict(transform=np.eye(4), user_matrix=np.eye(4)), "not both")):
         with pytest.raises(ValueError, match=match):
             cm.add_volume(pl, str(pyramid), **keywords)
@@ -920,3 +921,43 @@ def test_finite_values_past_float32_are_drawn_saturated_not_called_nan():
     image = converged(pl, actor)
     assert (image.max(axis=-1) > 30).mean() > 0.05
     pl.close()
+
+
+@pytest.mark.parametrize("technique", ["direct", "cubemap"])
+def test_clip_planes_and_a_crop_box_given_when_added_cut_a_streamed_volume(pyramid, technique):
+    """``add_volume(source, clip_planes=, crop_box=)`` of a streamed volume: VTK's own
+    volume of the finest level, cut by the same plane on its mapper and cropped by the same
+    box, draws the same.
+
+    Measured (llvmpipe): 47.0 dB both; uncut, VTK's image is 19.8 dB from its cut one.
+    catches (seen failing): both refused by name for a multiscale source; the planes
+    checked but not put on the mapper (21.6 dB), the crop box not set (24.5 dB).
+    """
+    centre = np.array(ORIGIN) + (np.array(field().shape) - 1) * np.array(SCALE) / 2
+    plane = (*centre, 1.0, 0.4, 0.0)   # keeps the side the normal points to
+    box = (ORIGIN[0], centre[0] + 6.0, ORIGIN[1], centre[1] + 4.0, ORIGIN[2], 100.0)
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    actor = cm.add_volume(pl, str(pyramid), technique=technique, brick_size=8,
+                          lod_bias=-30.0, clip_planes=plane, crop_box=box, **KEYWORDS)
+    view(pl)
+    image = converged(pl, actor)
+    pl.close()
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.set_background("black")
+    vol = pl.add_volume(finest_grid(pyramid), show_scalar_bar=False, **KEYWORDS)
+    vol.prop.interpolation_type = "linear"
+    vol.mapper.SetAutoAdjustSampleDistances(False)
+    vol.mapper.SetSampleDistance(0.1)
+    uncut = (view(pl), cm.render_image(pl))[1]
+    cut = vtk.vtkPlane()
+    cut.SetOrigin(*plane[:3])
+    cut.SetNormal(*plane[3:])
+    vol.mapper.AddClippingPlane(cut)
+    vol.mapper.SetCropping(True)
+    vol.mapper.SetCroppingRegionPlanes(*box)
+    vol.mapper.SetCroppingRegionFlagsToSubVolume()
+    reference = cm.render_image(pl)
+    pl.close()
+    assert psnr(uncut, reference) < 25.0   # the cut shows
+    assert psnr(image, reference) >= 40.0

@@ -53,6 +53,14 @@ def clip_plane_list(numbers) -> list:
 
 def set_crop_box(mapper, box) -> None:
     """Crop ``mapper``'s volume to ``box`` (six numbers, the data's coordinates), checked."""
+    values = checked_crop_box(box)
+    mapper.SetCropping(True)
+    mapper.SetCroppingRegionPlanes(*values)
+    mapper.SetCroppingRegionFlagsToSubVolume()
+
+
+def checked_crop_box(box) -> np.ndarray:
+    """``box`` as six finite floats, each min below its max (else a ValueError naming it)."""
     try:
         values = np.asarray(box, dtype=np.float64).ravel()
     except (TypeError, ValueError):
@@ -61,9 +69,7 @@ def set_crop_box(mapper, box) -> None:
         raise ValueError(f"crop_box takes six finite numbers, (xmin, xmax, ymin, ymax, zmin, "
                          f"zmax) in the data's coordinates, each min below its max; got "
                          f"{box!r}.")
-    mapper.SetCropping(True)
-    mapper.SetCroppingRegionPlanes(*values)
-    mapper.SetCroppingRegionFlagsToSubVolume()
+    return values
 
 
 def world_planes(mapper) -> tuple[tuple[tuple[float, ...], tuple[float, ...]], ...]:
