@@ -69,6 +69,7 @@ from .volume.clipping import (
     checked_crop_box,
     clip_plane_list,
     crop_keeps_nothing,
+    plane_numbers,
     set_crop_box,
 )
 from .volume.cubemap import technique as _cubemap  # noqa: F401  (registers 'cubemap')
@@ -1590,6 +1591,7 @@ def add_surface(
     lighting: bool | None = None,
     quality=None,
     frame_budget_ms: float | None = None,
+    clip_planes=None,
     **kwargs,
 ) -> pyvista.Actor:
     """Draw the implicit surface f = 0 of a field, per pixel, from its cells' polynomials.
@@ -1726,6 +1728,12 @@ def add_surface(
         together; a translucent surface is drawn reduced after the scene's opaque props
         and composited over the frame (after its other translucent props, while the view
         moves). Not with ``root='exact'``.
+    clip_planes : sequence of float, optional
+        Planes that cut the surface, six numbers each: a point, then the normal to the
+        side kept (1 to 6 planes, as ``add_volume(clip_planes=)``). Each ray finds its
+        first root where every plane keeps it; the cut is left open, as
+        ``mesh.clip(...)`` leaves a contour. ``actor.cubemarch.set_clip_planes`` moves
+        them, and planes put on the returned actor's mapper (a plane widget's) cut too.
     **kwargs
         Other ``add_mesh`` keywords are refused by name, with what to use instead.
 
@@ -1782,7 +1790,8 @@ def add_surface(
         active_test=active_test,
         active_samples=active_samples, color=color, shading=shading, ambient=ambient,
         specular=specular, specular_power=specular_power, color_by=colouring, cmap=cmap,
-        clim=None if clim is None else tuple(clim), opacity=opacity))
+        clim=None if clim is None else tuple(clim), opacity=opacity,
+        clip_planes=plane_numbers(clip_planes)))
     with warnings.catch_warnings():   # several levels: each out of range is named below
         if levels is not None and len(levels) > 1:
             warnings.filterwarnings("ignore", message="isovalue=.* outside the data range")
@@ -1867,7 +1876,8 @@ def _surface_look(options) -> dict:
     """What a surface's calibration candidates are drawn with besides the rung."""
     return {name: getattr(options, name) for name in (
         "refine_steps", "traversal", "active_test", "active_samples", "color", "shading",
-        "ambient", "specular", "specular_power", "color_by", "cmap", "clim", "opacity")}
+        "ambient", "specular", "specular_power", "color_by", "cmap", "clim", "opacity",
+        "clip_planes")}
 
 
 def _probe_adder(add, technique: bool = True):

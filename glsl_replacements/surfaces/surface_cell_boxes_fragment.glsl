@@ -18,6 +18,12 @@
   vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(-1e-4), vec3(1.0 + 1e-4));
   float cm_start = max(cm_span.x, cm_near);
   cm_span.y = min(cm_span.y, cm_viewDepthOf(1.0));   // nothing past the far plane
+#ifdef CM_CLIP_PLANES
+  vec2 cm_kept = cm_clipInterval(cm_origin + cm_corner, cm_direction,
+                                 vec2(cm_start, cm_span.y));   // planes in the grid's cells
+  cm_start = cm_kept.x;
+  cm_span.y = cm_kept.y;
+#endif
   if (!(cm_span.y > cm_start))
   {
     discard;

@@ -127,8 +127,8 @@ vec3 cm_fieldGradient(vec3 u)
 }
 
 // This fragment's ray in view and cell space, and the span of it inside the domain from
-// where it enters (or the near plane: the camera inside) to where it leaves; false when
-// none of it is.
+// where it enters (or the near plane: the camera inside) to where it leaves, cut to where
+// the clip planes keep it; false when none of it is.
 bool cm_domainRay(out vec3 originView, out vec3 directionView, out vec3 origin,
                   out vec3 direction, out vec2 span)
 {
@@ -136,5 +136,8 @@ bool cm_domainRay(out vec3 originView, out vec3 directionView, out vec3 origin,
   span = cm_slab(origin, direction, vec3(0.0), cm_gridDims);
   span.x = max(span.x, cm_near);
   span.y = min(span.y, cm_viewDepthOf(1.0));   // nothing past the far plane, as VTK clips
+#ifdef CM_CLIP_PLANES
+  span = cm_clipInterval(origin, direction, span);   // the cut left open, as a clipped mesh
+#endif
   return span.y > span.x;
 }

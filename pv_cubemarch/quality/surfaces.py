@@ -147,6 +147,8 @@ class SurfaceCalibration(ProbeCalibration):
                         lookup_table=options.lookup_table())
         if self.levels is not None:
             look.update(levels=self.levels, level_colors=self.level_colors)
+        if options.clip_planes is not None:
+            look.update(clip_planes=options.world_planes)
 
         rows, columns = (np.asarray(v) for v in pixels)
         return self.reference(self.model, camera, size, color=options.rgb,

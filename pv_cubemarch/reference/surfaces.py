@@ -27,7 +27,7 @@ import numpy as np
 from ..core.camera import Camera
 from ..models.lights import VolumeLight
 from ..models.surface import SplineField, active_cells, bernstein_basis
-from .rays import checked_pixels, ray_box_interval
+from .rays import checked_pixels, clip_interval, ray_box_interval
 from .shading import blinn_phong
 
 #: Sample intervals per cell segment in which the first sign change is looked for.
@@ -107,11 +107,13 @@ def _shaped(hits: SurfaceHits, shape: tuple[int, ...]) -> SurfaceHits:
 
 def _trace_levels(field: SplineField, actives: Sequence[np.ndarray], offsets: np.ndarray,
                   level: np.ndarray, origins: np.ndarray, directions: np.ndarray,
-                  camera: Camera, near: float, start: np.ndarray | None) -> SurfaceHits:
+                  camera: Camera, near: float, start: np.ndarray | None,
+                  end: np.ndarray | None = None) -> SurfaceHits:
     """Per flat ray, the first root of ``field - offsets[level]`` in ``actives[level]``.
 
     Rays of several levels are walked together (one pass for them all); a level's
-    Bernstein coefficients are the field's less its offset (they sum to 1).
+    Bernstein coefficients are the field's less its offset (they sum to 1). ``start``,
+    ``end``: where each ray's search begins and stops (world ``t``; clip planes).
     """
     world_from_index = field.world_from_index()
     index_from_world = np.linalg.inv(world_from_index)
@@ -125,6 +127,8 @@ def _trace_levels(field: SplineField, actives: Sequence[np.ndarray], offsets: np
         if start is None else np.maximum(near / np.maximum(directions @ forward, 1e-300),
                                          np.maximum(start, 0))
     enter, leave = ray_box_interval(o, d, np.zeros(3), dims)
+    if end is not None:
+        leave = np.minimum(leave, end)
     t = np.maximum(enter, start)
     n = len(o)
     depth = np.full(n, np.inf)
@@ -182,6 +186,8 @@ def _trace_levels(field: SplineField, actives: Sequence[np.ndarray], offsets: np
         rays, along, t0, span, lo, hi, f_lo = (np.concatenate(parts) for parts in zip(
             *pending, strict=True))
         depth[rays] = _bisect(along, t0, span, lo, hi, f_lo)
+    if end is not None:   # a root bisected past the cut's end (its cell went on beyond it)
+        depth[depth > end] = np.inf
     hit = np.isfinite(depth)
     point = np.full((n, 3), np.nan)
     normal = np.full((n, 3), np.nan)
@@ -363,8 +369,13 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
                    clim: Sequence[float] = (0.0, 1.0), opacity: float = 1.0,
                    levels: Sequence[float] | None = None,
                    level_colors: Sequence[Sequence[float]] | None = None,
-                   pixels: tuple | None = None) -> np.ndarray:
+                   pixels: tuple | None = None,
+                   clip_planes: Sequence | None = None) -> np.ndarray:
     """Render the surface f = 0: each pixel its first root's (lit) colour, both sides lit.
+
+    ``clip_planes``: world ``(origin, normal)`` pairs; only roots where every plane keeps
+    the point (``normal . (x - origin) >= 0``) are drawn, the cut left open (as a clipped
+    mesh).
 
     ``opacity`` below 1: every root along the ray, each covering ``opacity`` of what lies
     behind, composited front to back over ``background`` (up to :data:`MAX_LAYERS`).
@@ -416,9 +427,11 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
     level = np.repeat(np.arange(len(offsets)), m)
     origins, directions = np.tile(origins, (len(offsets), 1)), np.tile(directions,
                                                                         (len(offsets), 1))
+    kept_from, kept_to = clip_interval(origins, directions, np.zeros(len(origins)),
+                                       np.full(len(origins), np.inf), clip_planes)
     if opacity >= 1.0 and levels is None:
         hits = _trace_levels(field, actives, offsets, level, origins, directions, camera,
-                             near, None)
+                             near, kept_from, kept_to)
         flat = image.reshape(-1, 3)
         flat[hits.hit] = shade(hits, colours[0], -directions[hits.hit])
         return image
@@ -430,10 +443,10 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
     layers = MAX_LAYERS if opacity < 1.0 else 1
     shape = image.shape[:2]
     depths, shades = [], []
-    start = np.zeros(len(origins))
+    start = kept_from
     for _ in range(layers):
         hits = _trace_levels(field, actives, offsets, level, origins, directions, camera,
-                             near, start)
+                             near, start, kept_to)
         hit = hits.hit
         if not hit.any():
             break

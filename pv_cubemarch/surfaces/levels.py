@@ -56,6 +56,7 @@ class SurfaceLevels(DrawnBinding):
 
     technique = "surface"
     needs_single_sample = True
+    follows_mapper_planes = True   # the returned prop's mapper planes cut every level
 
     def __init__(self, levels: list, values):
         first = levels[0]
@@ -67,6 +68,16 @@ class SurfaceLevels(DrawnBinding):
         self.renderer = first.renderer
         for actor in self.drawn:   # the returned prop spans them: reset_camera frames it
             actor.UseBoundsOff()
+
+    def set_clip_planes(self, clip_planes) -> None:
+        """Cut every level by planes, or by none (``None``); shown at the next frame."""
+        for level in self.levels:
+            level.set_clip_planes(clip_planes)
+
+    def follow_mapper_planes(self, actor) -> None:
+        """At each frame: the returned prop's mapper's planes cut every level."""
+        for level in self.levels:
+            level.follow_mapper_planes(actor)
 
     def look_bindings(self) -> list:
         """Every level's bindings: a term set on the returned prop shades them all."""

@@ -17,6 +17,7 @@ from ..core.declared import (
     scalar_bar_terms,
 )
 from ..models.surface import ACTIVE_TESTS
+from ..volume.clipping import clip_plane_list
 
 ROOTS = ("march", "exact")
 #: How ``technique='active'`` finds its active cells: one traversal per pixel through their
@@ -42,7 +43,7 @@ ACTIVE = ("active",)
 #: Every option of the surface techniques, declared once (:mod:`pv_cubemarch.core.declared`).
 (TECHNIQUE, STEPS, REFINE_STEPS, ROOT, TRAVERSAL, ACTIVE_TEST, ACTIVE_SAMPLES, COLOR, SHADING,
  AMBIENT, SPECULAR, SPECULAR_POWER, COLOR_BY_OPTION, CMAP, CLIM, OPACITY, QUALITY,
- FRAME_BUDGET_MS) = declare(
+ FRAME_BUDGET_MS, CLIP_PLANES) = declare(
     Option("technique", "surface", str, "active", "active (only the cells the surface can "
            "cross) or full (every cell)", choices=("active", "full"),
            usd="surfaceTechnique", cli="--surface-technique", control=Control("select")),
@@ -95,6 +96,11 @@ ACTIVE = ("active",)
            closed_low=False, optional=True,
            control=Control("select", "frame budget (ms)", choices=(AUTO, 16, 33, 66, 100),
                            help="fewer steps, then pixels, while the view moves")),
+    Option("clip_planes", "surface", tuple, None, "planes that cut the surface, six numbers "
+           "each: a point, then the normal to the side kept (the cut left open, as a "
+           "clipped mesh)", optional=True,
+           without={"knob": "six numbers a plane; set in Python, the CLI or USD "
+                            "(actor.cubemarch.set_clip_planes moves them)"}),
 )
 #: The scalar bar's keywords, as every kind declares them.
 declare(*scalar_bar_terms("surface"))
@@ -145,6 +151,7 @@ class SurfaceOptions:
     cmap: str = CMAP.field()
     clim: tuple[float, float] | None = CLIM.field()
     opacity: float = OPACITY.field()
+    clip_planes: tuple | None = CLIP_PLANES.field()
 
     def check(self) -> None:
         """Raise a clear error for a bad option."""
@@ -169,6 +176,15 @@ class SurfaceOptions:
             pyvista.LookupTable(self.cmap)
         except Exception as error:
             raise ValueError(f"cmap={self.cmap!r} is not a colormap name: {error}") from None
+        CLIP_PLANES.check(self.clip_planes)
+        if self.clip_planes is not None:
+            clip_plane_list(self.clip_planes)   # six finite numbers a plane, normals not 0
+
+    @property
+    def world_planes(self) -> tuple:
+        """The clip planes as ``(origin, normal)`` pairs in world coordinates."""
+        return tuple((tuple(p.GetOrigin()), tuple(p.GetNormal()))
+                     for p in clip_plane_list(self.clip_planes))
 
     def check_model(self, model) -> None:
         """Refuse ``color_by='field'`` on a field without colour values."""

@@ -37,6 +37,7 @@ from ..gl.textures import Texture
 from ..models.surface import SplineField, level_cells
 from ..models.surface_bricks import BLOCK_SIZE, BRICK_SIZE, SurfaceBricks, surface_bricks
 from ..reference.surfaces import render_surface
+from ..voxels.clipping import ClipPlaneSetting, bind_clip_planes, clip_count
 from .options import LOOP_BUDGET, SurfaceOptions
 
 #: The 12 triangles of a unit cell, as corners ``x + 2 y + 4 z``, wound outward.
@@ -77,7 +78,8 @@ def surface_recipe(options: SurfaceOptions, technique: str, levels: int = 1) -> 
     root = ("surface_exact" if exact else "surface_march",) if how != "full" else ()
     cells = ("surface_dense",) if how == "full" else (
         ("surface_traverse",) if how == "index" else ())
-    defines = {"CM_EXACT_ROOT": exact, "CM_COLOR_BY_CURVATURE": options.color_by == "curvature",
+    defines = {"CM_CLIP_PLANES": clip_count(options), "CM_EXACT_ROOT": exact,
+               "CM_COLOR_BY_CURVATURE": options.color_by == "curvature",
                "CM_COLOR_VALUES": options.color_by == "field", "CM_LIGHTING": lit,
                "CM_NORMAL_COLORS": options.shading == "normals",
                "CM_SPECULAR": lit and options.shading == "blinn"}
@@ -94,7 +96,9 @@ def surface_recipe(options: SurfaceOptions, technique: str, levels: int = 1) -> 
         defines["CM_LEVELS"] = levels if levels > 1 else None
     body = ("surface_layers_fragment",) if layers else (FRAGMENT[how], "surface_hit")
     return box_recipe(
-        ("camera_declarations", "slab", "pixel_ray", "surface_declarations", STORAGE[how],
+        ("camera_declarations", "slab", "pixel_ray",
+         *(("clip_planes",) if clip_count(options) else ()), "surface_declarations",
+         STORAGE[how],
          *root, *cells, *(("blinn_phong",) if lit else ()),
          *(("surface_color",) if options.color_by else ()), "surface_shade_hit",
          *(("surface_layer_declarations",) if layers else ())), body, defines=defines,
@@ -137,23 +141,32 @@ def cell_buffer(field: SplineField, cells: np.ndarray, corners: bool,
     return np.hstack(parts).astype(np.float32).ravel()
 
 
-class SurfaceBinding(DrawnBinding):
+class SurfaceBinding(ClipPlaneSetting, DrawnBinding):
     """What ``actor.cubemarch`` holds for a surface: the field, its cells, the textures."""
 
     look_hint = "add_surface(color=..., opacity=...) draws them"
 
     technique = "surface"
     needs_single_sample = True   # a pixel's hit is one ray's, as for voxels
+    follows_mapper_planes = True   # a plane widget's planes cut the rays (ClipPlaneSetting)
 
     def __init__(self, field: SplineField, bindings: ShaderBindings, recipe: ShaderRecipe,
                  options: SurfaceOptions, cells: np.ndarray | None,
-                 bricks: SurfaceBricks | None = None):
+                 bricks: SurfaceBricks | None = None, recipe_args: tuple = ("active", 1)):
         super().__init__(field, bindings, recipe)
         self.options = options
         #: The active cells drawn (``'active'``), or None (``'full'``: every cell).
         self.cells = cells
         #: The bricks of active cells (``traversal='index'``), or None.
         self.bricks = bricks
+        #: ``surface_recipe``'s technique and level count, to remake the shaders.
+        self.recipe_args = recipe_args
+
+    def follow_clip_planes(self, remake: bool) -> None:
+        """Remake the shaders for another number of planes (moved ones: a uniform)."""
+        if remake:
+            self.recipe = surface_recipe(self.options, *self.recipe_args)
+            self.bindings.install(self.recipe, self.drawn[0])
 
     @property
     def blends_in_main_renderer(self) -> bool:
@@ -316,7 +329,10 @@ def _build(plotter, field: SplineField, options: SurfaceOptions, technique: str,
                              lambda: np.linalg.inv(field.world_from_index()[:3, :3]))
     recipe = surface_recipe(options, technique, len(offsets))
     bindings.install(recipe, actor)
-    binding = SurfaceBinding(field, bindings, recipe, options, cells, bricks)
+    binding = SurfaceBinding(field, bindings, recipe, options, cells, bricks,
+                             (technique, len(offsets)))
+    # the planes as the binding holds them now (set_clip_planes and mapper planes move them)
+    bind_clip_planes(bindings, field, lambda: binding.options.world_planes)
     binding.drawn = [actor]
     binding.renderer = renderer
     pyvista.set_new_attribute(actor, "cubemarch", binding)

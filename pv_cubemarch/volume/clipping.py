@@ -51,6 +51,14 @@ def clip_plane_list(numbers) -> list:
     return planes
 
 
+def plane_numbers(numbers) -> tuple[float, ...] | None:
+    """``clip_planes=`` as a flat tuple of floats, checked as :func:`clip_plane_list` does."""
+    if numbers is None:
+        return None
+    clip_plane_list(numbers)
+    return tuple(float(v) for v in np.asarray(numbers, dtype=np.float64).ravel())
+
+
 def set_crop_box(mapper, box) -> None:
     """Crop ``mapper``'s volume to ``box`` (six numbers, the data's coordinates), checked."""
     values = checked_crop_box(box)
