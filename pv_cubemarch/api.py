@@ -912,6 +912,9 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
                 binding.renderer.AddActor(item)
                 if binding.renderer is main:   # not named: the stand-in's removal frees it
                     binding.extra_release.append(lambda item=item: main.RemoveActor(item))
+            if main.HasViewProp(item):   # the returned prop's bounds frame it: PyVista's
+                item.UseBoundsOff()      # set_scale scales this one too before any frame
+                                         # undoes it (keep_placed_by_matrix)
         actor = stand_in_volume(binding.model) if volume else bounds_proxy(
             binding.model, binding.drawn_frame_bounds())
         binding.bounds_proxy = actor

@@ -147,6 +147,21 @@ class Placement:
             self.place(self.model.transform)
 
 
+def keep_placed_by_matrix(actor) -> None:
+    """Undo position, orientation, scale or origin set on a drawing's own actor.
+
+    Such an actor is placed by its matrix alone; PyVista's ``set_scale`` scales every
+    actor of the renderer, unnamed ones too, which moved the box twice (the returned
+    volume's scale is followed as the data's placement).
+    """
+    if (actor.GetScale() != (1.0, 1.0, 1.0) or any(actor.GetPosition())
+            or any(actor.GetOrientation()) or any(actor.GetOrigin())):
+        actor.SetScale(1.0, 1.0, 1.0)
+        actor.SetPosition(0.0, 0.0, 0.0)
+        actor.SetOrientation(0.0, 0.0, 0.0)
+        actor.SetOrigin(0.0, 0.0, 0.0)
+
+
 class DrawnBinding(Placement):
     """The drawn side of a technique's per-actor state."""
 
@@ -200,6 +215,7 @@ class DrawnBinding(Placement):
         for actor in self.drawn:
             if actor is not self.actor:
                 actor.SetVisibility(shown)
+                keep_placed_by_matrix(actor)
         if (self.drawn and self.actor is self.drawn[0] and self.box_in_frame) or (
                 self.actor is self.bounds_proxy and is_bounds_proxy(self.actor)):
             self.follow_prop_placement(self.actor)

@@ -13,6 +13,7 @@ import vtk
 from ..core.frame_errors import observe
 from ..core.registry import Technique, register_technique
 from ..gl.box import camera_matrices, drawn_viewport
+from ..gl.handle import keep_placed_by_matrix
 from ..reference.emission_absorption import render_emission_absorption
 from .binding import VolumeBinding, VolumeData, VolumeSetup, follow_placement
 from .cubemap.lod import cube_corners
@@ -134,6 +135,9 @@ class AutoBinding(VolumeBinding):
 
     def follow_anchor(self) -> None:
         """At each frame: what was set on the returned volume (visibility: :meth:`_choose`)."""
+        for actor in self.drawn:
+            if actor is not self.actor:
+                keep_placed_by_matrix(actor)
         self.follow_returned_volume()
 
     def set_march_defines(self, changes: dict) -> None:
