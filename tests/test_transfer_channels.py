@@ -104,7 +104,7 @@ def test_usd_attributes_reach_the_transfer_function(tmp_path):
     assert (spec.cmap, spec.n_colors, spec.flip_scalars, spec.log_scale) == ("jet", 12, True,
                                                                               True)
     assert spec.data_clim == pytest.approx((10.0, 200.0)) and spec.opacity_unit_distance == 2.5
-    path = write_stage(tmp_path, {"nColors": (types.Int, 1)})
+    path = write_stage(tmp_path, {"nColors": (types.Int, 0)})
     with pytest.warns(cm.SceneWarning, match="nColors"):
         assert cm.load_scene(path).volumes == []
 

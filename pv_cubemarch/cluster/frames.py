@@ -380,7 +380,11 @@ def local_client(client=None, workers: int | None = None):
     if client is not None:
         yield client
         return
-    from distributed import Client, LocalCluster
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError as error:
+        raise ImportError("Rendering on a cluster needs Dask distributed: pip install "
+                          "'pv_cubemarch[cluster]'.") from error
 
     with LocalCluster(n_workers=count, threads_per_worker=1, processes=True,
                       dashboard_address=":0") as cluster, Client(cluster) as started:

@@ -33,6 +33,11 @@ def channel_count(grid, scalars: str | None, independent_components: bool | None
     refused for any other array.
     """
     if not isinstance(grid, pyvista.DataSet):
+        if isinstance(grid, np.ndarray) and independent_components:
+            raise VolumeDataError(
+                "independent_components=True draws each component of a grid's array as a "
+                "channel; a numpy volume is one scalar (x, y, z) or RGBA (x, y, z, 4 uint8): "
+                "give the channels as a pyvista.ImageData point array of 2 to 4 components.")
         if isinstance(grid, np.ndarray) or grid is None:
             return 0
         grid = pyvista.wrap(grid)

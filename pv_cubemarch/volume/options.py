@@ -180,7 +180,7 @@ TECHNIQUE, STEP_SCALE, STOP_OPACITY, SKIP_EMPTY, DOWNSAMPLE, FACE_SIZE, MAX_SAMP
                low=0.0, closed_low=False, optional=True, model=True,
                without={"knob": NO_KNOB_UNITS}),
         Option("n_colors", "volume", int, 256, "colours of the colormap (rows of the "
-               "transfer table)", low=2, high=16384, model=True,
+               "transfer table)", low=1, high=16384, model=True,
                control=Control("select", "colours", choices=(2, 4, 8, 16, 64, 256, 1024))),
         Option("flip_scalars", "volume", bool, False, "reverse the colormap", model=True,
                control=Control("switch", "flip colormap")),

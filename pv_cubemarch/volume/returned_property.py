@@ -35,7 +35,8 @@ TERMS = ("ambient", "diffuse", "specular", "specular_power")
 #: What each refused setting is given as instead.
 INSTEAD = {
     "opacity_unit_distance": "add_volume(..., opacity_unit_distance=...)",
-    "independent_components": "one scalar per point (several components are not drawn yet)",
+    "independent_components": "add_volume(..., independent_components=...) again: a "
+                              "grid's array of 2 to 4 components is drawn as channels",
     "ambient": "add_volume(..., shade=True, ambient=...)",
     "diffuse": "add_volume(..., shade=True, diffuse=...)",
     "specular": "add_volume(..., shade=True, specular=...)",
