@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import warnings
 
 import numpy as np
@@ -280,3 +281,22 @@ def test_a_background_that_is_no_integer_id_is_refused_by_name(plotter_factory,
     for data in (labels, [labels]):
         with pytest.raises(cm.VolumeDataError, match="background=.*integer label id"):
             cm.add_voxels(pl, data, background=background)
+
+
+def test_independent_components_on_a_numpy_volume_is_refused_by_name():
+    # catches (seen failing; found by a docs review): the flag ignored in silence, the
+    # (x, y, z, 4) uint8 array drawn as RGBA
+    pl = pv.Plotter(off_screen=True, window_size=(32, 24))
+    with pytest.raises(cm.VolumeDataError, match="independent_components=True.*ImageData"):
+        cm.add_volume(pl, np.zeros((4, 4, 4, 4), np.uint8), independent_components=True)
+    pl.close()
+
+
+def test_a_cluster_without_distributed_says_which_extra_to_install(monkeypatch):
+    # catches (seen failing; found by a docs review): a bare ModuleNotFoundError
+    from pv_cubemarch.cluster.frames import local_client
+
+    monkeypatch.setitem(sys.modules, "distributed", None)   # import raises ImportError
+    with pytest.raises(ImportError, match=r"pv_cubemarch\[cluster\]"):
+        with local_client(None, 1):
+            pass
