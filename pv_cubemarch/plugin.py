@@ -52,6 +52,7 @@ class CubemarchComponent:
         self._user_oit: dict = {}
         self._bar_mappers: list = []   # (renderer, actor, mapper, keywords): bar and actor
         self._gone: list = []          # (actor's weak reference, renderer, name): released
+        self._said: set = set()        # what _say_what_is_not_drawn said (once each)
         if self._window is not None:
             self._multisampling = MultisamplePolicy(self._window)
             self._observers = [
@@ -80,6 +81,7 @@ class CubemarchComponent:
         """Before a frame: drop removed volumes, follow the returned actors, window settings."""
         self.release_removed()
         self._say_if_added_again()
+        self._say_what_is_not_drawn()
         single_sample = False
         translucent: dict = {}
         volumes: dict = {}   # renderer: the props drawing volumes in it
@@ -135,6 +137,35 @@ class CubemarchComponent:
                 warn_user(f"{name!r} was removed from the plotter, which released what it "
                           "drew, and was added again: it draws nothing. Add the data "
                           "again (add_volume, add_voxels, add_surface) instead.")
+
+    def _say_what_is_not_drawn(self) -> None:
+        """Once each: a returned actor added to another subplot, volumes under shadows.
+
+        Both drew wrong in silence: the actor's drawing lives in its own renderer (it
+        draws nothing in the other), and VTK's shadow pass casts shadows from the props'
+        polygons, which for ours are boxes (volumes vanished or were drawn over the floor).
+        """
+        renderers = list(getattr(self._plotter, "renderers", ()))
+        for item in self._tracked:
+            actor = item.actor
+            for renderer in renderers:
+                key = (id(actor), id(renderer))
+                if (renderer is not item.main_renderer and key not in self._said
+                        and renderer.HasViewProp(actor)):
+                    self._said.add(key)
+                    warn_user(f"{item.name!r} was added to another subplot with add_actor: "
+                              "its drawing belongs to the subplot it was added to and draws "
+                              "nothing there. Add the data again in that subplot (or link "
+                              "the subplots' cameras with link_views).")
+            shadows = getattr(getattr(item.main_renderer, "_render_passes", None),
+                              "_shadow_map_pass", None)
+            if (shadows is not None and isinstance(item, VolumeBinding)
+                    and ("shadows", id(item)) not in self._said):
+                self._said.add(("shadows", id(item)))
+                warn_user(f"{item.name!r}: VTK's shadow pass (enable_shadows()) casts shadows "
+                          "from the props' polygons, and a volume's are its box: it is not "
+                          "drawn right under it. Call plotter.disable_shadows(); "
+                          "add_volume(lights='scene') shades a volume with its own shadows.")
 
     def add_volume(self, volume, scalars=None, **kwargs):
         """Same as :func:`pv_cubemarch.add_volume` on this plotter."""

@@ -6,6 +6,8 @@ independently of the code path under test, never from the GPU compared with itse
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -317,6 +319,38 @@ def test_shadows_say_what_to_do_where_vtk_s_shadow_pass_cannot_compile():
         cm.render_image(plotter)
     plotter.disable_shadows()
     assert cm.render_image(plotter).std() > 1   # drawn once the shadows are off
+    plotter.close()
+
+
+@pytest.mark.parametrize("technique", ["vtk", "direct", "cubemap"])
+def test_a_volume_under_vtk_s_shadow_pass_is_said_once(technique):
+    # catches (seen failing; found by a review): the volume drawn wrong in silence under
+    # enable_shadows() ('vtk': not drawn at all; the cube map over the floor)
+    plotter = cm.offscreen_plotter((80, 60))
+    plotter.cubemarch.add_volume(pv.Wavelet(), technique=technique)
+    plotter.enable_shadows()
+    with pytest.warns(UserWarning, match="shadow pass .*disable_shadows"):
+        cm.render_image(plotter)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # once
+        cm.render_image(plotter)
+    plotter.close()
+
+
+def test_a_returned_actor_added_to_another_subplot_is_said_once():
+    # catches (seen failing; found by a review): nothing drawn in the second subplot, in
+    # silence (the idiom pl.subplot(0, 1); pl.add_actor(actor))
+    plotter = pv.Plotter(off_screen=True, shape=(1, 2), window_size=(120, 60))
+    labels = np.zeros((6, 6, 6), np.uint8)
+    labels[2:4, 2:4, 2:4] = 1
+    actor = cm.add_voxels(plotter, labels)
+    plotter.subplot(0, 1)
+    plotter.add_actor(actor)
+    with pytest.warns(UserWarning, match="another subplot .* Add the data again"):
+        cm.render_image(plotter)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # once
+        cm.render_image(plotter)
     plotter.close()
 
 

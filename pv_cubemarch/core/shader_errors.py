@@ -80,9 +80,11 @@ def raise_for_shader_errors(messages: list[str], snippets: tuple[str, ...]) -> N
         (line for line in log.splitlines() if "error" in line.lower()), "")
     hint = ""
     if "vertexVC" in first_error and "shadowAttenuation" in log:
-        hint = (" VTK's shadow pass (PyVista's enable_shadows()) needs lit actors: it fails "
-                "the same way for an add_mesh(..., lighting=False); call "
-                "plotter.disable_shadows() to draw this scene.")
+        hint = (" VTK's shadow pass (PyVista's enable_shadows()) casts shadows from the "
+                "props' polygons and builds its shader from theirs; pv_cubemarch's voxels and "
+                "surfaces are drawn inside boxes whose polygons are not what they draw, and "
+                "their shader takes no part in it (nor does an add_mesh(..., "
+                "lighting=False)'s); call plotter.disable_shadows() to draw this scene.")
     raise ShaderCompileError(
         f"GLSL compile/link failed in snippet(s) {', '.join(culprits) or '(unknown)'}: "
         f"{first_error.strip()[:300]}.{hint}", log=log, snippets=culprits)
