@@ -144,7 +144,8 @@ def commands_markdown(results: Path) -> str:
         plot = [i for i, w in enumerate(words) if w == "--plot"]
         for i in reversed(plot):
             del words[i:i + 1]
-        words[0] = ".venv/bin/" + words[0]
+        at = next(i for i, w in enumerate(words) if "=" not in w)   # after VAR=value
+        words[at] = ".venv/bin/" + words[at]
         lines.append(" ".join(words) + f" --json docs/bench_results/{path.name}")
     lines += ["bash tools/build_docs.sh", "```"]
     return "\n".join(lines) + "\n"
