@@ -799,7 +799,7 @@ def _same(value, default) -> bool:
 
 
 #: What ``add_voxels`` reads for a multiscale label source (the rest is refused by name).
-PAGED_LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "specular",
+PAGED_LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "diffuse", "specular",
                         "specular_power", "lod_bias", "transform", "name", "background",
                         "gpu_bytes", "host_bytes", "brick_size", "frame_budget_ms",
                         "clip_planes")
@@ -828,7 +828,8 @@ def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
     if given["frame_budget_ms"] is not None:   # refused before anything is read
         check_frame_budget(given["frame_budget_ms"], "voxels")
     options = voxel_options(mode=given["mode"], shading=given["shading"],
-                            ambient=given["ambient"], specular=given["specular"],
+                            ambient=given["ambient"], diffuse=given["diffuse"],
+                            specular=given["specular"],
                             specular_power=given["specular_power"],
                             clip_planes=given["clip_planes"])
     transform = given["transform"]
@@ -1194,6 +1195,7 @@ def add_voxels(
     mode: str = "color",
     shading: str = "blinn",
     ambient: float = 0.2,
+    diffuse: float = 0.8,
     specular: float = 0.3,
     specular_power: float = 30.0,
     ambient_occlusion: bool = False,
@@ -1292,8 +1294,10 @@ def add_voxels(
         ``'blinn'`` (default): the scene's switched-on lights (up to 8; headlights follow
         the camera) on the face each ray entered, Lambert plus a Blinn-Phong highlight;
         ``'flat'``: Lambert only; ``'unlit'``: the palette colour as is.
-    ambient, specular, specular_power : float
-        The share of unlit colour (0-1), the highlight's weight (0-1) and exponent.
+    ambient, diffuse, specular, specular_power : float
+        As VTK lights a mesh (PyVista's ``add_mesh`` keywords): the colour times
+        ``ambient + diffuse * sum(light * max(n.l, 0))`` (each 0-1; PyVista's mesh takes 0
+        and 1), plus the highlight's weight (0-1) times its exponent's power.
     ambient_occlusion : bool
         Darken each face near the drawn voxels around it (per-vertex voxel ambient
         occlusion, interpolated over the face; ``mode='color'``, ``traversal='dda'``, any
@@ -1482,8 +1486,8 @@ def add_voxels(
         check_frame_budget(frame_budget_ms, "voxels")
     options = voxel_options(traversal=traversal, step_scale=step_scale, mip_levels=mip_levels,
                             distance_field=distance_field, mode=mode, shading=shading,
-                            ambient=ambient, specular=specular, specular_power=specular_power,
-                            ambient_occlusion=ambient_occlusion,
+                            ambient=ambient, diffuse=diffuse, specular=specular,
+                            specular_power=specular_power, ambient_occlusion=ambient_occlusion,
                             occlusion_strength=occlusion_strength, proxy=proxy, lod=lod,
                             lod_bias=lod_bias, world_traversal=world_traversal,
                             show_edges=show_edges, edge_color=edge_color,
@@ -1577,6 +1581,7 @@ def add_surface(
     color=None,
     shading: str = "blinn",
     ambient: float = 0.2,
+    diffuse: float = 0.8,
     specular: float = 0.3,
     specular_power: float = 30.0,
     color_by=None,
@@ -1658,11 +1663,13 @@ def add_surface(
         colour through ``cmap`` by default, as PyVista colours a contour by its values).
     shading : str
         ``'blinn'`` (default), ``'flat'`` or ``'unlit'``: the scene's lights (up to 8) on the
-        analytic normal, both sides lit; ``ambient``, ``specular``, ``specular_power`` as
-        for voxels. ``'normals'``: the view-space normal facing the eye as the colour
-        ``0.5 + 0.5 n`` (to check normals).
-    ambient, specular, specular_power : float
-        The share of unlit colour (0-1), the highlight's weight (0-1) and exponent.
+        analytic normal, both sides lit; ``ambient``, ``diffuse``, ``specular``,
+        ``specular_power`` as for voxels. ``'normals'``: the view-space normal facing the
+        eye as the colour ``0.5 + 0.5 n`` (to check normals).
+    ambient, diffuse, specular, specular_power : float
+        As VTK lights a mesh (PyVista's ``add_mesh`` keywords): the colour times
+        ``ambient + diffuse * sum(light * max(n.l, 0))`` (each 0-1; PyVista's mesh takes 0
+        and 1), plus the highlight's weight (0-1) times its exponent's power.
     color_by : str or array_like, optional
         ``'curvature'``: the mean curvature per world unit (positive where the surface
         bends like a ball), computed from the cell polynomial's gradient and Hessian;
@@ -1792,6 +1799,7 @@ def add_surface(
         steps=steps, refine_steps=refine_steps, root=root, traversal=traversal,
         active_test=active_test,
         active_samples=active_samples, color=color, shading=shading, ambient=ambient,
+        diffuse=diffuse,
         specular=specular, specular_power=specular_power, color_by=colouring, cmap=cmap,
         clim=None if clim is None else tuple(clim), opacity=opacity,
         clip_planes=plane_numbers(clip_planes)))
@@ -1879,8 +1887,8 @@ def _surface_look(options) -> dict:
     """What a surface's calibration candidates are drawn with besides the rung."""
     return {name: getattr(options, name) for name in (
         "refine_steps", "traversal", "active_test", "active_samples", "color", "shading",
-        "ambient", "specular", "specular_power", "color_by", "cmap", "clim", "opacity",
-        "clip_planes")}
+        "ambient", "diffuse", "specular", "specular_power", "color_by", "cmap", "clim",
+        "opacity", "clip_planes")}
 
 
 def _probe_adder(add, technique: bool = True):
@@ -1905,7 +1913,7 @@ def _voxel_look(options) -> dict:
 def _voxel_reference_look(options) -> dict:
     """The voxel reference's keywords for the grid's look."""
     look = {name: getattr(options, name) for name in (
-        "shading", "ambient", "specular", "specular_power", "ambient_occlusion",
+        "shading", "ambient", "diffuse", "specular", "specular_power", "ambient_occlusion",
         "occlusion_strength", "show_edges", "edge_mode")}
     look["clip_planes"] = options.world_planes or None
     if options.show_edges:

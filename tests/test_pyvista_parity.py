@@ -732,6 +732,41 @@ def test_voxels_draw_what_threshold_and_add_mesh_draw():
     assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)
 
 
+@pytest.mark.parametrize(("ambient", "diffuse"), [(0.4, 1.0), (0.1, 0.7)])
+@pytest.mark.parametrize("kind", ["surface", "voxels"])
+def test_lit_shading_terms_mean_what_they_mean_on_a_pyvista_mesh(kind, ambient, diffuse):
+    """``ambient`` and ``diffuse`` (PyVista's ``add_mesh`` keywords) on a lit surface and a
+    lit label grid, under PyVista's light kit: its ``contour`` (smooth) and ``threshold``
+    meshes lit by VTK with the same terms (no highlight: VTK tints it by the colour).
+
+    Measured: surface 35.1 / 41.3 dB, voxels 29.4 / 33.7 dB (mean colour within 2.5 levels;
+    the voxels' outlines are rasterised differently). catches (seen failing): the ambient
+    term mixed in, ``colour * (ambient + (1 - ambient) * lights)``, as we lit before
+    (found by a review): the mean colour 18-41 levels off.
+    """
+    if kind == "surface":
+        data = pv.ImageData(dimensions=(40, 40, 40), spacing=(0.5, 0.5, 0.5),
+                            origin=(-10, -10, -10))
+        data["f"] = np.linalg.norm((data.points - data.center) * [1, 1.3, 0.8], axis=1)
+        theirs = data.contour([6.0], scalars="f")
+        ours = dict(isovalue=6.0, scalars="f", color="tan")
+    else:
+        data = wavelet_label_grid(lambda c: 1 + (c[:, 0] > 0))
+        theirs = data.threshold(0.5, scalars="labels")
+        ours = dict(scalars="labels", palette=["black", "tan", "tan"])
+    add = getattr(cm, f"add_{kind}")
+    reference, image = theirs_and_ours(
+        lambda pl: pl.add_mesh(theirs, color="tan", smooth_shading=kind == "surface",
+                               ambient=ambient, diffuse=diffuse, specular=0.0),
+        lambda pl: add(pl, data, shading="flat", ambient=ambient, diffuse=diffuse, **ours),
+        data.bounds)
+    drawn = reference.max(axis=2) > 0
+    mean_off = abs(float(image[drawn].mean()) - float(reference[drawn].mean()))
+    assert mean_off <= 3.0, mean_off
+    assert psnr(image, reference) >= (34.0 if kind == "surface" else 28.0), psnr(image,
+                                                                                 reference)
+
+
 def test_labels_past_16383_draw_what_threshold_and_add_mesh_draw():
     """Labels 20000, 40000 and 65535 (uint16) against ``threshold`` + ``add_mesh``.
 

@@ -23,7 +23,7 @@ from pv_cubemarch.reference.surfaces import render_surface
 from pv_cubemarch.reference.voxels import render_voxels
 
 SIZE = (160, 120)
-TERMS = dict(ambient=0.45, specular=0.8, specular_power=12.0)
+TERMS = dict(ambient=0.45, diffuse=0.6, specular=0.8, specular_power=12.0)
 
 
 def ball() -> np.ndarray:

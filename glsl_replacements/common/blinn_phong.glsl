@@ -1,5 +1,5 @@
-// Lighting of an opaque hit by the scene's lights (gl/lights.py), the CPU references' formula:
-// colour * (ambient + (1 - ambient) * sum light * max(n.l, 0))
+// Lighting of an opaque hit by the scene's lights (gl/lights.py), terms as VTK lights a mesh:
+// colour * (ambient + diffuse * sum light * max(n.l, 0))
 // + specular * sum light * max(n.h, 0)^power (the highlight with CM_SPECULAR). Lights in view
 // space, up to 8: column i of cm_lightVectors0/1 is the direction toward a directional light
 // (w = 0) or a point light's position (w = 1); of cm_lightColors0/1 its colour times
@@ -11,6 +11,7 @@ uniform mat4 cm_lightColors0;
 uniform mat4 cm_lightColors1;
 uniform mat3 cm_normalFromIndex;   // index-space normals to view space (inverse transpose)
 uniform float cm_ambient;
+uniform float cm_diffuse;
 uniform float cm_specular;
 uniform float cm_specularPower;
 
@@ -29,6 +30,5 @@ vec3 cm_shade(vec3 color, vec3 normal, vec3 pointView, vec3 towardEye)
     shine += pow(max(dot(normal, halfway), 0.0), cm_specularPower) * radiance;
 #endif
   }
-  return clamp(color * (cm_ambient + (1.0 - cm_ambient) * diffuse) + cm_specular * shine,
-               0.0, 1.0);
+  return clamp(color * (cm_ambient + cm_diffuse * diffuse) + cm_specular * shine, 0.0, 1.0);
 }

@@ -38,7 +38,7 @@ PARTITION_BLENDING = ("composite", "maximum", "minimum")
 #: others (ambient occlusion and edges, which read neighbours across the cut; approximate
 #: traversals; translucency; clipping; colours by the rank of the ids a slab holds,
 #: ``categories``) are refused.
-LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "specular", "specular_power",
+LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "diffuse", "specular", "specular_power",
                   "cmap", "clim", "n_colors", "flip_scalars", "background", "lighting",
                   "mip_levels")
 #: add_volume keywords a partitioned volume is drawn with: the look and the marching. The
@@ -53,7 +53,8 @@ PARTITION_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_col
 _VOLUME_LOOK = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors",
                 "flip_scalars", "log_scale", "categories", "interpolation", "nan_policy")
 _LABEL_LOOK = ("palette", "cmap", "clim", "n_colors", "flip_scalars", "background")
-_LABEL_OPTIONS = ("mode", "shading", "ambient", "specular", "specular_power", "mip_levels")
+_LABEL_OPTIONS = ("mode", "shading", "ambient", "diffuse", "specular", "specular_power",
+                  "mip_levels")
 
 
 def check_look(keywords: dict, labels: bool) -> None:

@@ -141,11 +141,17 @@ class Option:
         return {bool: "True / False", tuple: "numbers"}.get(self.type, "")
 
 
-def blinn_terms(kind: str) -> tuple[Option, Option, Option]:
-    """``ambient``, ``specular``, ``specular_power`` of a kind's Blinn-Phong shading."""
+def blinn_terms(kind: str) -> tuple[Option, Option, Option, Option]:
+    """``ambient``, ``diffuse``, ``specular``, ``specular_power`` of a kind's shading.
+
+    As VTK lights a mesh: colour * (ambient + diffuse * the lights' sum) + the highlight.
+    """
     return (
-        Option("ambient", kind, float, 0.2, "ambient term of the shading", low=0.0, high=1.0,
-               control=Control("slider", "ambient", 0.0, 1.0, 0.05)),
+        Option("ambient", kind, float, 0.2, "ambient term of the shading (added, as VTK's)",
+               low=0.0, high=1.0, control=Control("slider", "ambient", 0.0, 1.0, 0.05)),
+        Option("diffuse", kind, float, 0.8, "diffuse term: how much of the lights' colour a "
+               "face facing them takes (PyVista's add_mesh: 1)", low=0.0, high=1.0,
+               control=Control("slider", "diffuse", 0.0, 1.0, 0.05)),
         Option("specular", kind, float, 0.3, "highlight weight (blinn)", low=0.0, high=1.0,
                control=Control("slider", "specular", 0.0, 1.0, 0.05)),
         Option("specular_power", kind, float, 30.0, "highlight exponent (blinn)", low=0.0,

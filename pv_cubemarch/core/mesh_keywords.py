@@ -16,7 +16,6 @@ COMMON = {
     "pbr": "shading= picks the lighting ('unlit', 'flat', 'blinn')",
     "metallic": "shading= picks the lighting ('unlit', 'flat', 'blinn')",
     "roughness": "shading= picks the lighting ('unlit', 'flat', 'blinn')",
-    "diffuse": "shading='blinn' lights with ambient, specular and specular_power",
     "nan_color": "empty voxels (0) and the field's outside are not drawn",
     "below_color": "a voxel takes its material's colour",
     "above_color": "a voxel takes its material's colour",

@@ -1,12 +1,12 @@
 """The returned box actor's property, as PyVista users set it after adding a surface or grid.
 
-The terms our shaders read as uniforms (a surface's colour; the lit shading's ``ambient``,
-and with a highlight ``specular`` and ``specular_power``) start on the returned actor's
-property as drawn and are followed at each frame: ``actor.prop.ambient = 0.4`` is drawn.
-Any other change of the property (its opacity or colour where a palette or a colormap
-colours, the diffuse term, edges, lighting, the interpolation, a representation) is not
-drawn and is said once; a representation other than a surface would cut the box the
-marcher runs on into lines or points, so it is also set back.
+The terms our shaders read as uniforms (a surface's colour; the lit shading's ``ambient``
+and ``diffuse``, and with a highlight ``specular`` and ``specular_power``) start on the
+returned actor's property as drawn and are followed at each frame:
+``actor.prop.ambient = 0.4`` is drawn. Any other change of the property (its opacity or
+colour where a palette or a colormap colours, edges, lighting, the interpolation, a
+representation) is not drawn and is said once; a representation other than a surface
+would cut the box the marcher runs on into lines or points, so it is also set back.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from ..core.user_warnings import warn_user
 FOLLOWED = {
     "color": ("SetColor", "cm_surfaceColor", None),   # one colour only
     "ambient": ("SetAmbient", "cm_ambient", None),
+    "diffuse": ("SetDiffuse", "cm_diffuse", None),
     "specular": ("SetSpecular", "cm_specular", "CM_SPECULAR"),
     "specular_power": ("SetSpecularPower", "cm_specularPower", "CM_SPECULAR"),
 }
@@ -35,6 +36,7 @@ SAID = {"opacity": "GetOpacity", "color": "GetDiffuseColor", "diffuse": "GetDiff
 INSTEAD = {"lighting": "the shading= keyword lights it or not ('unlit')",
            "interpolation": "the shading= keyword ('flat' or 'blinn')",
            "ambient": "shading='flat' or 'blinn' reads it",
+           "diffuse": "shading='flat' or 'blinn' reads it",
            "specular": "shading='blinn' reads it",
            "specular_power": "shading='blinn' reads it"}
 

@@ -154,7 +154,8 @@ class SurfaceCalibration(ProbeCalibration):
         return self.reference(self.model, camera, size, color=options.rgb,
                               background=background, near=near, lights=lights,
                               shading=options.shading, ambient=options.ambient,
-                              specular=options.specular, specular_power=options.specular_power,
+                              diffuse=options.diffuse, specular=options.specular,
+                              specular_power=options.specular_power,
                               pixels=(rows, columns), **look)
 
     def start(self, tracks) -> int | None:

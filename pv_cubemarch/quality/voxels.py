@@ -78,7 +78,7 @@ def has_translucent(palette) -> bool:
 
 
 #: The keywords of the layered reference's look.
-LAYERED_LOOK = ("shading", "ambient", "specular", "specular_power", "clip_planes")
+LAYERED_LOOK = ("shading", "ambient", "diffuse", "specular", "specular_power", "clip_planes")
 #: The looks the layered reference (translucent labels) does not draw.
 NOT_LAYERED = ("show_edges", "ambient_occlusion")
 

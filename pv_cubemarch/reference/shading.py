@@ -11,8 +11,11 @@ from ..models.lights import VolumeLight
 
 def blinn_phong(color: np.ndarray, normals: np.ndarray, points: np.ndarray,
                 toward_eye: np.ndarray, lights: Sequence[VolumeLight], shading: str,
-                ambient: float, specular: float, specular_power: float) -> np.ndarray:
-    """``color * (ambient + (1 - ambient) * sum light * max(n.l, 0))`` (+ the highlight).
+                ambient: float, specular: float, specular_power: float, *,
+                diffuse_weight: float) -> np.ndarray:
+    """``color * (ambient + diffuse_weight * sum light * max(n.l, 0))`` (+ the highlight).
+
+    The terms as VTK's lighting of a mesh weighs them (an ambient term added, not mixed).
 
     ``shading``: ``'unlit'`` (``color`` as is), ``'flat'`` (Lambert) or ``'blinn'`` (plus
     ``specular * sum light * max(n.h, 0) ** specular_power``, ``h`` halfway between the
@@ -37,4 +40,4 @@ def blinn_phong(color: np.ndarray, normals: np.ndarray, points: np.ndarray,
             half /= np.maximum(np.linalg.norm(half, axis=1, keepdims=True), 1e-300)
             shine += np.clip(np.sum(normals * half, axis=1), 0, None)[:, None] \
                 ** specular_power * light.radiance
-    return color * (ambient + (1.0 - ambient) * diffuse) + specular * shine
+    return color * (ambient + diffuse_weight * diffuse) + specular * shine

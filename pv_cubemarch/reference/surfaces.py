@@ -363,7 +363,7 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
                    color: Sequence[float] = (1.0, 1.0, 1.0),
                    background: Sequence[float] = (0.0, 0.0, 0.0), near: float = 0.0,
                    lights: Sequence[VolumeLight] = (), shading: str = "unlit",
-                   ambient: float = 0.2, specular: float = 0.3,
+                   ambient: float = 0.2, diffuse: float = 0.8, specular: float = 0.3,
                    specular_power: float = 30.0, color_by: str | None = None,
                    lookup_table: np.ndarray | None = None,
                    clim: Sequence[float] = (0.0, 1.0), opacity: float = 1.0,
@@ -415,7 +415,8 @@ def render_surface(field: SplineField, camera: Camera, size: Sequence[int],
             place = np.clip((values - clim[0]) / (clim[1] - clim[0]), 0.0, 1.0)
             base = table[np.floor(place * (len(table) - 1) + 0.5).astype(int)]
         return np.clip(blinn_phong(base, normals, hits.point[hit], toward_eye, lights,
-                                   shading, ambient, specular, specular_power), 0.0, 1.0)
+                                   shading, ambient, specular, specular_power,
+                                   diffuse_weight=diffuse), 0.0, 1.0)
 
     offsets = np.zeros(1) if levels is None else np.asarray(levels, dtype=np.float64)
     colours = np.asarray([color] * len(offsets) if level_colors is None else level_colors,

@@ -26,7 +26,8 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
                         near: float | None = None, lights: Sequence = (),
                         shading: str = "unlit", ambient: float = 0.2,
                         specular: float = 0.3, specular_power: float = 30.0,
-                        clip_planes: Sequence | None = None) -> np.ndarray:
+                        clip_planes: Sequence | None = None,
+                        diffuse: float = 0.8) -> np.ndarray:
     """``(h, w, 3)`` image of a grid whose materials may be translucent.
 
     Arguments as :func:`~pv_cubemarch.reference.voxels.render_voxels`; a material's palette
@@ -113,7 +114,7 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
             points = origins[ids] + directions[ids] * ts[ids, layer][:, None]
             normals = face_normals(faces[ids, layer], world_from_index, toward_eye)
             rgb = blinn_phong(rgb, normals, points, toward_eye, lights, shading, ambient,
-                              specular, specular_power)
+                              specular, specular_power, diffuse_weight=diffuse)
         a = alpha[material]
         weight = (1.0 - held[ids]) * a
         color[ids] += weight[:, None] * np.clip(rgb, 0.0, 1.0)

@@ -375,6 +375,7 @@ def render_voxels(
     specular: float = 0.3,
     specular_power: float = 30.0,
     ambient_occlusion: bool = False,
+    diffuse: float = 0.8,
     occlusion_strength: float = 0.5,
     show_edges: bool = False,
     edge_color: Sequence[float] = (0.0, 0.0, 0.0),
@@ -398,15 +399,17 @@ def render_voxels(
         Directional and point lights (world coordinates) for ``'flat'`` and ``'blinn'``.
     shading : str
         ``'unlit'``: the palette colour. ``'flat'``: Lambert on the face the ray entered,
-        ``colour * (ambient + (1 - ambient) * sum light * max(n.l, 0))``. ``'blinn'``: that
+        ``colour * (ambient + diffuse * sum light * max(n.l, 0))``. ``'blinn'``: that
         plus ``specular * sum light * max(n.h, 0) ** specular_power``, ``h`` halfway
         between the light and the eye. A ray that starts inside its voxel faces the eye.
     ambient, specular, specular_power : float
-        The shading's share of unlit colour, specular weight and exponent.
+        The shading's ambient term (added, as VTK's), specular weight and exponent.
+    diffuse : float
+        The weight of the lights' sum (VTK's diffuse term).
     ambient_occlusion : bool
         Darken each hit face near the drawn voxels around it by the factor ``ao`` of
         :func:`occlusion_factor`: ``'unlit'`` gives ``colour * ao``, ``'flat'`` and
-        ``'blinn'`` ``colour * ao * (ambient + (1 - ambient) * sum light * max(n.l, 0))``
+        ``'blinn'`` ``colour * ao * (ambient + diffuse * sum light * max(n.l, 0))``
         (plus the unoccluded highlight).
     occlusion_strength : float
         How dark a fully occluded corner gets (0-1): ``ao = 1 - occlusion_strength`` there.
@@ -458,11 +461,11 @@ def render_voxels(
         points = origins[hit] + directions[hit] * hits.depth[hit][:, None]
         normals = face_normals(hits.face[hit], world_from_index, toward_eye)
         color = blinn_phong(color * occlusion[:, None], normals, points, toward_eye, lights,
-                            shading, ambient, specular, specular_power)
+                            shading, ambient, specular, specular_power, diffuse_weight=diffuse)
         if show_edges:   # the highlight alone: the shading of black
             highlight = np.clip(blinn_phong(np.zeros_like(color), normals, points, toward_eye,
                                             lights, shading, ambient, specular,
-                                            specular_power), 0.0, 1.0)
+                                            specular_power, diffuse_weight=diffuse), 0.0, 1.0)
     if show_edges:
         if edge_mode == "labels":
             drawn = np.where(_drawn(labels, palette[:, 3] > 0), labels, 0)

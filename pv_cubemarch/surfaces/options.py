@@ -42,7 +42,7 @@ MAX_REFINE_STEPS = 40
 ACTIVE = ("active",)
 #: Every option of the surface techniques, declared once (:mod:`pv_cubemarch.core.declared`).
 (TECHNIQUE, STEPS, REFINE_STEPS, ROOT, TRAVERSAL, ACTIVE_TEST, ACTIVE_SAMPLES, COLOR, SHADING,
- AMBIENT, SPECULAR, SPECULAR_POWER, COLOR_BY_OPTION, CMAP, CLIM, OPACITY, QUALITY,
+ AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER, COLOR_BY_OPTION, CMAP, CLIM, OPACITY, QUALITY,
  FRAME_BUDGET_MS, CLIP_PLANES) = declare(
     Option("technique", "surface", str, "active", "active (only the cells the surface can "
            "cross) or full (every cell)", choices=("active", "full"),
@@ -145,6 +145,7 @@ class SurfaceOptions:
     color: object = COLOR.field()
     shading: str = SHADING.field()
     ambient: float = AMBIENT.field()
+    diffuse: float = DIFFUSE.field()
     specular: float = SPECULAR.field()
     specular_power: float = SPECULAR_POWER.field()
     color_by: str | None = COLOR_BY_OPTION.field()
@@ -162,7 +163,7 @@ class SurfaceOptions:
             pyvista.Color(self.color)
         except ValueError as error:
             raise ValueError(f"color={self.color!r} is not a colour: {error}") from None
-        for item in (AMBIENT, SPECULAR, SPECULAR_POWER, OPACITY):
+        for item in (AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER, OPACITY):
             item.check(getattr(self, item.name))
         if self.color_by is not None and self.color_by not in COLOR_BY:
             raise ValueError(f"color_by must be None, one of {COLOR_BY} or a field's values, "

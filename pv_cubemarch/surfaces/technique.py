@@ -318,6 +318,7 @@ def _build(plotter, field: SplineField, options: SurfaceOptions, technique: str,
     if options.shading != "unlit":   # the lights, and the normals' map to view space
         bind_scene_lights(bindings, renderer, field.world_from_index)
         bindings.set_uniform("cm_ambient", float(options.ambient))
+        bindings.set_uniform("cm_diffuse", float(options.diffuse))
         bindings.set_uniform("cm_specular", float(options.specular))
         bindings.set_uniform("cm_specularPower", float(options.specular_power))
     if options.color_by:

@@ -44,8 +44,8 @@ PAGED_LABELS_ONLY = dict.fromkeys(
     "of levels) given to add_voxels or to pv-cubemarch render --technique voxels; USD and "
     "the live view's knobs read their grids whole")
 #: Every option of the voxel technique, declared once (:mod:`pv_cubemarch.core.declared`).
-(TRAVERSAL, VOXEL_STEP_SCALE, MIP_LEVELS, DISTANCE_FIELD, MODE, SHADING, AMBIENT, SPECULAR,
- SPECULAR_POWER, AMBIENT_OCCLUSION, OCCLUSION_STRENGTH, PROXY, LOD, LOD_BIAS,
+(TRAVERSAL, VOXEL_STEP_SCALE, MIP_LEVELS, DISTANCE_FIELD, MODE, SHADING, AMBIENT, DIFFUSE,
+ SPECULAR, SPECULAR_POWER, AMBIENT_OCCLUSION, OCCLUSION_STRENGTH, PROXY, LOD, LOD_BIAS,
  WORLD_TRAVERSAL, SHOW_EDGES, EDGE_COLOR, LINE_WIDTH, EDGE_OPACITY, EDGE_MODE,
  CLIP_PLANES, GPU_BYTES, HOST_BYTES, BRICK_SIZE, QUALITY, FRAME_BUDGET_MS) = declare(
     Option("traversal", "voxels", str, "dda", "dda (exact: every voxel a ray crosses) or "
@@ -185,6 +185,7 @@ class VoxelOptions:
     mode: str = MODE.field()
     shading: str = SHADING.field()
     ambient: float = AMBIENT.field()
+    diffuse: float = DIFFUSE.field()
     specular: float = SPECULAR.field()
     specular_power: float = SPECULAR_POWER.field()
     ambient_occlusion: bool = AMBIENT_OCCLUSION.field()
@@ -220,7 +221,8 @@ class VoxelOptions:
         if self.lod and self.mode == "id":
             raise ValueError("mode='id' names the exact voxel of each pixel; lod draws "
                              "coarser cells: leave lod off with mode='id'.")
-        for name in ("shading", "ambient", "specular", "specular_power", "ambient_occlusion",
+        for name in ("shading", "ambient", "diffuse", "specular", "specular_power",
+                     "ambient_occlusion",
                      "occlusion_strength"):
             option("voxels", name).check(getattr(self, name))
         if self.ambient_occlusion and self.mode != "color":

@@ -95,6 +95,7 @@ def bind_lights(bindings: ShaderBindings, renderer, model: VoxelModel,
     """The scene's lights (:func:`~pv_cubemarch.gl.lights.bind_scene_lights`) on a grid."""
     bind_scene_lights(bindings, renderer, model.world_from_index)
     bindings.set_uniform("cm_ambient", float(options.ambient))
+    bindings.set_uniform("cm_diffuse", float(options.diffuse))
     bindings.set_uniform("cm_specular", float(options.specular))
     bindings.set_uniform("cm_specularPower", float(options.specular_power))
 
