@@ -152,3 +152,19 @@ def test_render_to_texture_sampled_in_same_frame(plotter_factory):
     assert np.allclose(image[..., 2], 0.5, atol=1.5 / 255)
     assert rtt.runs == 1
     rtt.release()
+
+
+def test_frame_inputs_made_during_a_draw_never_share_a_frame_serial():
+    # catches (seen failing in full runs: test_3d_float_texture_axis_order drew zeros): a
+    # FrameInputs made during a draw had serial 0 until its next frame, as every such one
+    # had; ProgramUniforms keys by the program's and renderer's addresses and that serial,
+    # so a new program at a freed one's address skipped uniforms the freed one held
+    import pyvista as pv
+
+    from pv_cubemarch.gl.frame_inputs import FrameInputs
+
+    serials = set()
+    for _ in range(3):
+        renderer = pv.Renderer(pv.Plotter(off_screen=True))
+        serials.add(FrameInputs(renderer).serial)
+    assert len(serials) == 3 and 0 not in serials

@@ -130,8 +130,11 @@ class FrameInputs:
         #: The renderer's frames started so far (a tile of a large image is one).
         self.frame = 0
         #: This frame's number among every renderer's frames: never the same twice, in
-        #: any plotter (a new renderer, even at a freed one's address, counts on).
-        self.serial = 0
+        #: any plotter (a new renderer, even at a freed one's address, counts on). Drawn
+        #: at once: made during a draw, the frame under way has a number of its own too
+        #: (0 for all such was shared, and a program and renderer at freed ones' addresses
+        #: found the uniforms a freed program held as set: a texture view drew zeros).
+        self.serial = next(_SERIALS)
         self._per_frame: dict = {}
         # First among the renderer's observers: later ones see this frame's state.
         self._tag = observe(renderer, vtk.vtkCommand.StartEvent, self._on_start, 10.0)
