@@ -788,6 +788,38 @@ def test_labels_past_16383_draw_what_threshold_and_add_mesh_draw():
     assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)
 
 
+def test_an_id_painted_into_a_cmap_grid_is_coloured_as_add_mesh_colours_it():
+    """Labels 3 and 9 coloured by ``cmap`` over ``clim=(0, 14)``, then a sector painted
+    with id 6 (absent when added) by ``set_voxels``: ``threshold`` + ``add_mesh`` of the
+    edited labels with the same ``cmap`` and ``clim``.
+
+    catches (seen failing; found by a review): the rows of ids absent when added left
+    hidden, so the painted voxels drew nothing (and emptied what they overwrote): 22.1 dB.
+    """
+    grid = wavelet_label_grid(lambda c: np.where(c[:, 0] > 0, 3, 9))
+    painted = grid.copy()
+    labels = painted.cell_data["labels"].copy()
+    sector = (painted.cell_centers().points[:, 1] > 2.0) & (labels > 0)
+    labels[sector] = 6
+    painted.cell_data["labels"] = labels
+    dims = np.asarray(grid.dimensions) - 1
+    mask = sector.reshape(dims[::-1]).transpose(2, 1, 0)   # cell data is x fastest
+
+    def ours(pl):
+        actor = pl.cubemarch.add_voxels(grid, "labels", cmap="viridis", clim=(0.0, 14.0),
+                                        shading="unlit")
+        actor.cubemarch.set_voxels(mask, 6)
+        return actor
+
+    reference, image = theirs_and_ours(
+        lambda pl: pl.add_mesh(painted.threshold(0.5, scalars="labels"), scalars="labels",
+                               cmap="viridis", clim=(0.0, 14.0), lighting=False,
+                               show_scalar_bar=False),
+        ours, grid.bounds)
+    off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
+    assert psnr(image, reference) >= 30.0 and off <= 0.03, (psnr(image, reference), off)
+
+
 @pytest.mark.parametrize("style", [{}, dict(clim=(0.0, 14.0)), dict(n_colors=3),
                                    dict(flip_scalars=True), dict(lighting=False)],
                          ids=["range", "clim", "n_colors", "flip", "lighting"])

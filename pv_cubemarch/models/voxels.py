@@ -508,7 +508,10 @@ def range_palette(cmap, labels: np.ndarray, clim=None, n_colors: int = 256,
             lut.apply_cmap(colormap.reversed() if flip_scalars else colormap, count)
         except (ValueError, TypeError) as error:
             raise VolumeDataError(f"cmap={cmap!r}, n_colors={n_colors!r}: {error}") from error
-        _colour_labels(rgba, lut, rows, present, None if clim is None else _checked_clim(clim))
+        span = (float(present[0]), float(present[-1])) if clim is None else _checked_clim(clim)
+        if ids is None or ids.identity:   # every id a row holds: an edit may paint any of
+            rows = present = np.arange(1, len(rgba))   # them, coloured as PyVista would
+        _colour_labels(rgba, lut, rows, present, span)
     return Palette(rgba)
 
 def _colour_labels(rgba: np.ndarray, lut: pyvista.LookupTable, rows: np.ndarray,
