@@ -35,6 +35,29 @@ vec2 cm_clipInterval(vec3 origin, vec3 direction, vec2 range)
   return range;
 }
 
+// The index-space normal of the plane that cuts the ray at t (the nearest crossing), facing
+// back along the ray: a cut face's normal, lit as PyVista lights a clipped mesh's cut.
+vec3 cm_clipNormalAt(vec3 origin, vec3 direction, float t)
+{
+  vec3 normal = vec3(0.0);
+  float nearest = 1e30;
+  for (int i = 0; i < CM_CLIP_PLANES; ++i)
+  {
+    vec4 plane = cm_clipPlane(i);
+    float rate = dot(plane.xyz, direction);
+    if (rate != 0.0)
+    {
+      float off = abs(-dot(plane, vec4(origin, 1.0)) / rate - t);
+      if (off < nearest)
+      {
+        nearest = off;
+        normal = rate > 0.0 ? -plane.xyz : plane.xyz;
+      }
+    }
+  }
+  return normal;
+}
+
 // 1 where the point is kept, 0 where a plane clips it.
 float cm_clipKeeps(vec3 p)
 {

@@ -72,6 +72,12 @@
   {
     discard;
   }
+#if defined(CM_CLIP_PLANES) && defined(CM_LIGHTING)
+  if (cm_face < 0 && cm_inBox.x > cm_box.x && cm_start <= cm_inBox.x)   // on a plane's cut
+  {
+    cm_cutNormal = cm_clipNormalAt(cm_origin, cm_direction, cm_start);
+  }
+#endif
 #ifdef CM_VOXEL_ID
   ivec3 cm_dims3 = ivec3(CM_TRAVERSED_DIMS);
   int cm_id = cm_voxel.x + cm_dims3.x * (cm_voxel.y + cm_dims3.y * cm_voxel.z) + 1;

@@ -102,6 +102,9 @@
   }
   else if (cm_current > 0 && cm_cutStart)   // the cut face of a translucent material
   {
+#if defined(CM_CLIP_PLANES) && defined(CM_LIGHTING)
+    cm_cutNormal = cm_clipNormalAt(cm_origin, cm_direction, cm_start);
+#endif
     cm_addLayer(cm_held, cm_current, -1, cm_originView + cm_directionView * cm_start,
                 cm_towardEye);
     cm_first = cm_start;
@@ -130,6 +133,9 @@
         {
           cm_first = cm_inBox.y;
         }
+#if defined(CM_CLIP_PLANES) && defined(CM_LIGHTING)
+        cm_cutNormal = cm_clipNormalAt(cm_origin, cm_direction, cm_inBox.y);
+#endif
         cm_addLayer(cm_held, cm_current, -1, cm_originView + cm_directionView * cm_inBox.y,
                     cm_towardEye);
       }

@@ -1,9 +1,23 @@
 // Lighting of a voxel hit (CM_LIGHTING; common/blinn_phong.glsl): the entered face's normal.
-// The entered face's view-space normal (a ray that starts inside its voxel: toward the eye).
+#ifdef CM_CLIP_PLANES
+// Where the hit is a clip plane's cut (set by the fragment before shading it, else 0): the
+// plane's index-space normal (cm_clipNormalAt).
+vec3 cm_cutNormal = vec3(0.0);
+#endif
+
+// The entered face's view-space normal; a ray that starts inside its voxel: a cut's plane,
+// else toward the eye.
 vec3 cm_voxelFaceNormal(int face, vec3 towardEye)
 {
   if (face < 0)
   {
+#ifdef CM_CLIP_PLANES
+    if (cm_cutNormal != vec3(0.0))
+    {
+      vec3 normal = normalize(cm_normalFromIndex * cm_cutNormal);
+      return dot(normal, towardEye) < 0.0 ? -normal : normal;
+    }
+#endif
     return towardEye;
   }
   vec3 normalIndex = vec3(0.0);

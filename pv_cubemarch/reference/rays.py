@@ -49,6 +49,26 @@ def clip_interval(origins, directions, t0, t1, planes):
     return t0, t1
 
 
+def cut_normals(origins, directions, depth, planes, normals) -> np.ndarray:
+    """``normals``, but where a ray's point at ``depth`` lies on a clip plane: its normal.
+
+    On a plane, its unit normal facing back along the ray (a clipped mesh's cut, lit as a
+    face of it). ``planes``: world ``(origin, normal)`` pairs; the point on the plane
+    whose crossing is nearest ``depth``, within 1e-6 of it (relative).
+    """
+    out = np.array(normals, dtype=np.float64)
+    nearest = np.full(len(out), np.inf)
+    for origin, normal in planes or ():
+        unit = np.asarray(normal, dtype=np.float64) / np.linalg.norm(normal)
+        rate = directions @ unit
+        with np.errstate(divide="ignore", invalid="ignore"):
+            off = np.abs((np.asarray(origin, np.float64) - origins) @ unit / rate - depth)
+        on = np.isfinite(off) & (off <= 1e-6 * np.maximum(1.0, np.abs(depth))) & (off < nearest)
+        out[on] = np.where(rate[on, None] > 0, -unit, unit)
+        nearest[on] = off[on]
+    return out
+
+
 def trilinear(values: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Sample ``values[i, j, k]`` at continuous indices ``points`` (n, 3), clamped to the grid."""
     dims = np.array(values.shape)

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..core.camera import Camera
-from .rays import clip_interval
+from .rays import clip_interval, cut_normals
 from .shading import blinn_phong
 from .voxels import _check_labels, _index_rays, face_normals
 
@@ -113,6 +113,9 @@ def render_voxel_layers(labels: np.ndarray, world_from_index: np.ndarray,
             toward_eye = -directions[ids]
             points = origins[ids] + directions[ids] * ts[ids, layer][:, None]
             normals = face_normals(faces[ids, layer], world_from_index, toward_eye)
+            cut = faces[ids, layer] < 0   # a clip plane's cut
+            normals[cut] = cut_normals(origins[ids][cut], directions[ids][cut],
+                                       ts[ids, layer][cut], clip_planes, normals[cut])
             rgb = blinn_phong(rgb, normals, points, toward_eye, lights, shading, ambient,
                               specular, specular_power, diffuse_weight=diffuse)
         a = alpha[material]

@@ -55,7 +55,7 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..models.lights import VolumeLight
-from .rays import clip_interval, ray_box_interval
+from .rays import clip_interval, cut_normals, ray_box_interval
 from .shading import blinn_phong
 from .voxel_edges import edge_coverage, label_edge_coverage
 
@@ -460,6 +460,9 @@ def render_voxels(
         toward_eye = -directions[hit]
         points = origins[hit] + directions[hit] * hits.depth[hit][:, None]
         normals = face_normals(hits.face[hit], world_from_index, toward_eye)
+        inside = hits.face[hit] < 0   # starting on a clip plane: its cut
+        normals[inside] = cut_normals(origins[hit][inside], directions[hit][inside],
+                                      hits.depth[hit][inside], clip_planes, normals[inside])
         color = blinn_phong(color * occlusion[:, None], normals, points, toward_eye, lights,
                             shading, ambient, specular, specular_power, diffuse_weight=diffuse)
         if show_edges:   # the highlight alone: the shading of black
