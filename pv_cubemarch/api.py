@@ -500,8 +500,8 @@ def add_volume(
     if isinstance(volume, (VolumeModel, VolumeGroup)):
         # a volume's own copy (its arrays shared): what is set on the returned volume
         # (colours, values, interpolation) leaves the user's model, and its other volumes,
-        # as they were
-        model = copy.copy(volume) if isinstance(volume, VolumeModel) else volume
+        # as they were; a group's members too
+        model = own_copy(volume)
         if transfer and isinstance(model, VolumeGroup) and not is_channels(model):
             raise ValueError(f"{', '.join(transfer)}: volumes marched jointly keep each "
                              "member's transfer function; give it to make_volume per member.")
@@ -634,6 +634,14 @@ PAGED_KEYWORDS = ("cmap", "opacity", "clim", "opacity_unit_distance", "n_colors"
                   "nan_policy", "multi_colors", "face_size", "max_samples", "upscale",
                   "sample_factor", "occlusion_sharpness", "frame_budget_ms", "clip_planes",
                   "crop_box")
+
+
+def own_copy(volume):
+    """A volume's own copy of ``volume`` (arrays shared); a group's with its members'."""
+    made = copy.copy(volume)
+    if isinstance(volume, VolumeGroup):
+        made.members = [copy.copy(member) for member in volume.members]
+    return made
 
 
 def _read_path(data, what: str):
@@ -1114,7 +1122,7 @@ def add_volumes(plotter: pyvista.Plotter, volumes, **options) -> list:
         for start in range(0, len(group), MAX_GROUP_MEMBERS):
             chunk = group[start:start + MAX_GROUP_MEMBERS]
             item = VolumeGroup(chunk) if len(chunk) > 1 else chunk[0]
-            actors.append(add_volume(plotter, item, **joint))
+            actors.append(add_volume(plotter, item, **joint))   # its own copies (own_copy)
     return actors
 
 

@@ -663,3 +663,32 @@ def test_a_drawn_model_with_colours_set_by_hand_is_added_again_over_a_new_range(
         pl, cmap=ListedColormap(colours.reshape(-1, 3)), opacity=np.round(alpha * 255.0),
         clim=(-700.0, 300.0)), lambda *_: None, first_frame=False)
     assert psnr(image, reference) >= 46.0
+
+
+@pytest.mark.parametrize("joined", ["add_volumes", "VolumeGroup"])
+def test_a_group_s_members_are_its_own(joined):
+    """Overlapping models marched jointly, in two plotters: ``set_values(member=)`` on one
+    leaves the user's models, and the other plotter's group, as they were.
+
+    catches (seen failing; found by a review): only a single volume copied, so the edit
+    wrote into the user's model and the other plotter's group read values its textures
+    never got.
+    """
+    shift = np.eye(4)
+    shift[0, 3] = 8.0
+    rng = np.random.default_rng(0)
+    a = cm.make_volume(rng.random((16, 16, 16)).astype(np.float32), name="a")
+    b = cm.make_volume(rng.random((16, 16, 16)).astype(np.float32), name="b",
+                       transform=shift)
+    kept = a.values.copy()
+    plotters = [pv.Plotter(off_screen=True, window_size=(64, 48)) for _ in range(2)]
+    if joined == "add_volumes":
+        actors = [cm.add_volumes(pl, [a, b], technique="direct")[0] for pl in plotters]
+    else:
+        group = cm.VolumeGroup([a, b])
+        actors = [cm.add_volume(pl, group, technique="direct") for pl in plotters]
+    actors[0].cubemarch.set_values(np.zeros((16, 16, 16), np.float32), member="a")
+    assert np.array_equal(a.values, kept)
+    assert np.array_equal(actors[1].cubemarch.model.members[0].values, kept)
+    for pl in plotters:
+        pl.close()

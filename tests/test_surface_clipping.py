@@ -14,6 +14,7 @@ import pytest
 import pyvista as pv
 import vtk
 from conftest import headlit_plotter
+from PIL import Image
 
 import pv_cubemarch as cm
 from pv_cubemarch.core.rendering import read_pixels, render_frame
@@ -148,9 +149,13 @@ def test_several_isosurfaces_are_cut_by_the_returned_prop_s_planes():
         actor.mapper.AddClippingPlane(plane)
         return actor
 
-    image, expected, _, plotter = drawn_and_expected(add, world_planes(PLANES[:6]),
-                                                     levels=[0.0, 0.25])
+    image, expected, actor, plotter = drawn_and_expected(add, world_planes(PLANES[:6]),
+                                                         levels=[0.0, 0.25])
     assert compare_images(image, expected).psnr >= 38.0, compare_images(image, expected)
+    actor.mapper.RemoveAllClippingPlanes()   # set_clip_planes on the returned prop: both
+    actor.cubemarch.set_clip_planes(PLANES[:6])
+    render_frame(plotter)
+    assert compare_images(read_pixels(plotter), expected).psnr >= 38.0
     plotter.close()
 
 
@@ -224,6 +229,11 @@ def test_usd_and_cli_take_a_surface_s_clip_planes(tmp_path):
     assert compare_images(expected, whole).psnr < 30.0
     assert compare_images(image, expected).psnr >= 30.0, compare_images(image, expected)
     pl.close()
-    out = tmp_path / "cut.png"
+    out, staged_out = tmp_path / "cut.png", tmp_path / "staged.png"
+    other = [7.5, 7.5, 6.0, 0.0, 0.0, 1.0]   # the flag's plane: the bottom cap off instead
     assert cli.main(["render", str(path), "--out", str(out), "--size", "96x72",
-                     "--clip-planes", *map(str, plane)]) == 0 and out.exists()
+                     "--clip-planes", *map(str, other)]) == 0
+    assert cli.main(["render", str(path), "--out", str(staged_out), "--size", "96x72"]) == 0
+    flagged, staged = (np.asarray(Image.open(p).convert("RGB"), dtype=int)
+                       for p in (out, staged_out))
+    assert (np.abs(flagged - staged).max(axis=2) > 30).sum() > 100   # the flag drawn

@@ -7,6 +7,8 @@ its own state and ``release()``.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pyvista
 
@@ -233,6 +235,15 @@ class DrawnBinding(Placement):
     def look_bindings(self) -> list:
         """The shader bindings whose uniforms the returned actor's property feeds."""
         return [self.bindings]
+
+    def note_look(self, terms: dict) -> None:
+        """Terms of the returned actor's property now drawn: the options say them too."""
+        options = getattr(self, "options", None)
+        if terms and dataclasses.is_dataclass(options):
+            names = {f.name for f in dataclasses.fields(options)}
+            kept = {k: v for k, v in terms.items() if k in names}
+            if kept:
+                self.options = dataclasses.replace(options, **kept)
 
     def say_unfollowed_changes(self) -> None:
         """Once each: PyVista's calls on the returned box actor that are not drawn.

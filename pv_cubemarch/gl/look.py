@@ -99,6 +99,8 @@ class ReturnedLook:
                 for bindings in targets:
                     if uniform in bindings.uniforms:
                         bindings.set_uniform(uniform, now[name])
+        # the options say the terms drawn (a live view's re-add, a recalibration read them)
+        self.binding.note_look({name: now[name] for name in changed if name in self.followed})
         self.count = len(targets)
         prop = self.binding.actor.GetProperty()
         if now["representation"] != self.seen["representation"]:

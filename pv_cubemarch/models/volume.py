@@ -376,6 +376,8 @@ def with_transfer(model: VolumeModel, **changes) -> VolumeModel:
                     clim=_exact_data_clim(spec),
                     opacity_unit_distance=spec.opacity_unit_distance, n_colors=spec.n_colors,
                     flip_scalars=spec.flip_scalars, log_scale=spec.log_scale)
+    if isinstance(keywords["cmap"], pyvista.LookupTable):   # its own range, unless given one
+        keywords["clim"] = tuple(keywords["cmap"].scalar_range)
     keywords.update(changes)
     return replace(model, transfer=_transfer(model.grid, model.values, model.value_offset,
                                              **keywords))

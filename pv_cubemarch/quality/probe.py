@@ -316,8 +316,12 @@ class ProbeCalibration(ABC):
                 tuple(int(v) for v in plotter.window_size),
                 tuple(float(c) for c in plotter.background_color.float_rgb))
 
+    def follow_binding(self, binding) -> None:  # noqa: B027  (most calibrations keep none)
+        """What was set on the drawing since it was added, before choosing again (none)."""
+
     def recalibrate(self, binding, plotter) -> QualityChoice:
         """Choose again for the plotter's view now, and draw with the new choice."""
+        self.follow_binding(binding)
         camera = Camera.from_pyvista(plotter.renderer.camera)
         view = self.current_view(plotter)
         choice = self._choose(camera, view[1], view[2])

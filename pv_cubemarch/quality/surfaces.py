@@ -11,7 +11,7 @@ normal, not only a wrong silhouette.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -95,6 +95,17 @@ class SurfaceCalibration(ProbeCalibration):
     #: sample sees by chance (3.8 dB off at 4096 of 25,000 pixels): the reference traces
     #: more of them (its rays stop at the first root, so a pixel costs little).
     samples = 16384
+
+    def follow_binding(self, binding) -> None:
+        """The look and clip planes set on the surface since it was added (to recalibrate).
+
+        A colour or range the levels take apart from the options is kept as made.
+        """
+        options = binding.options
+        names = {f.name for f in fields(options)} - (
+            {"color", "clim"} if self.levels is not None else set())
+        self.keep = {**self.keep, **{k: getattr(options, k) for k in self.keep if k in names}}
+        self.options = options
 
     def tracks(self) -> list[list[Rung]]:
         return surface_tracks(self.options, self.model.dimensions, self.target,

@@ -186,8 +186,6 @@ def _trace_levels(field: SplineField, actives: Sequence[np.ndarray], offsets: np
         rays, along, t0, span, lo, hi, f_lo = (np.concatenate(parts) for parts in zip(
             *pending, strict=True))
         depth[rays] = _bisect(along, t0, span, lo, hi, f_lo)
-    if end is not None:   # a root bisected past the cut's end (its cell went on beyond it)
-        depth[depth > end] = np.inf
     hit = np.isfinite(depth)
     point = np.full((n, 3), np.nan)
     normal = np.full((n, 3), np.nan)

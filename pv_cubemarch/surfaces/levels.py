@@ -79,6 +79,11 @@ class SurfaceLevels(DrawnBinding):
         for level in self.levels:
             level.follow_mapper_planes(actor)
 
+    def note_look(self, terms: dict) -> None:
+        """Every level's options say the terms drawn (its colour is its level's own)."""
+        for level in self.levels:
+            level.note_look({k: v for k, v in terms.items() if k != "color"})
+
     def look_bindings(self) -> list:
         """Every level's bindings: a term set on the returned prop shades them all."""
         return [level.bindings for level in self.levels]

@@ -17,6 +17,7 @@ import numpy as np
 from ..gl.bindings import ShaderBindings
 from ..gl.box import box_actor, place_box
 from ..gl.frame_inputs import frame_inputs
+from ..gl.handle import keep_placed_by_matrix
 from ..gl.reduced_draw import ReducedDraw
 from ..gl.shaders import ShaderRecipe, box_recipe
 from ..gl.textures import Texture
@@ -100,6 +101,7 @@ class TranslucentLayers:
         self.reduced: ReducedDraw | None = None
         self.follow_clip_planes(options, binding)
         renderer.AddActor(self.actor)
+        self.actor.UseBoundsOff()   # the grid's returned actor frames it
 
     def reduce_as(self, opaque: ReducedDraw) -> None:
         """Draw the layers at the reduction of the grid's opaque draw (a frame budget's).
@@ -189,9 +191,17 @@ class LayerHost:
         return self.layers is not None
 
     def follow_layers_anchor(self) -> None:
-        """At each frame: the layers follow the returned actor's visibility."""
+        """At each frame: the layers follow the returned actor's visibility.
+
+        They keep no placement of their own (PyVista's ``set_scale`` scales them too).
+        """
         if self.layers is not None:
             self.layers.actor.SetVisibility(self.shown)
+            keep_placed_by_matrix(self.layers.actor)
+
+    def look_bindings(self) -> list:
+        """The grid's bindings and its translucent layers': a term set shades both."""
+        return [self.bindings, *([self.layers.bindings] if self.layers is not None else [])]
 
     def release_layers(self) -> None:
         """Drop the layer actor, if any."""

@@ -460,7 +460,8 @@ class WorldPasses(DrawnBinding):
 
     def look_bindings(self) -> list:
         """The chunks' bindings: a term set on the world's prop shades every chunk."""
-        return [chunk.bindings for chunk in self.world.chunks.values()]
+        return [bindings for chunk in self.world.chunks.values()
+                for bindings in chunk.look_bindings()]
 
     def check_movable(self) -> None:
         """As the world."""
