@@ -1682,7 +1682,9 @@ def add_surface(
         ``'curvature'``: the mean curvature per world unit (positive where the surface
         bends like a ball), computed from the cell polynomial's gradient and Hessian;
         or a second field's samples (an array or ImageData on the same cells as the
-        surface's samples), interpolated as the field is and read at the hit.
+        surface's samples, or the name of an array of the grid given), interpolated as the
+        field is and read at the hit. An array is ``(nx, ny, nz)`` indexed ``[i, j, k]``,
+        or flat in VTK's point order (x fastest), as ``grid.point_data`` holds it.
     cmap : str
         The colormap of ``color_by`` (256 entries).
     clim : sequence of float, optional
@@ -1790,6 +1792,9 @@ def add_surface(
     levels = None if isosurfaces is None else surface_levels(
         isosurfaces, _samples_of(field, scalars))
     chosen = get_technique("surface", technique)
+    if isinstance(color_by, str) and color_by not in ("curvature", "field") and isinstance(
+            field, pyvista.DataSet) and color_by in field.array_names:
+        color_by = field[color_by]   # an array of the grid, by name (as scalars= takes it)
     colouring = color_by if color_by is None or isinstance(color_by, str) else "field"
     if levels is not None and len(levels) > 1 and colouring is not None:
         raise ValueError("color_by colours one surface; several isosurfaces are coloured "

@@ -938,6 +938,31 @@ def test_surface_draws_what_contour_draws():
     assert psnr(image, reference) >= 30.0 and off <= 0.01, (psnr(image, reference), off)
 
 
+@pytest.mark.parametrize("given", ["name", "flat array"])
+def test_a_surface_coloured_by_a_grid_array_draws_what_contour_draws(given):
+    """``color_by`` an array of the grid, by its name or as ``grid["X"]`` (flat, VTK's
+    point order), against ``contour`` coloured by the same array (unlit).
+
+    Measured: 31.5 dB both. catches (seen failing; found by a review): both refused, the
+    message pointing to a C-order reshape that colours wrongly (18.3 dB).
+    """
+    n = 40
+    grid = pv.ImageData(dimensions=(n, n - 6, n - 12), spacing=(0.5, 0.5, 0.5),
+                        origin=(-12, -9, -6))
+    points = grid.points
+    grid.point_data["f"] = np.linalg.norm((points - grid.center) * [1, 1.3, 0.8], axis=1)
+    grid.point_data["X"] = points[:, 0] + 0.5 * points[:, 2]
+    clim = (-8.0, 4.0)
+    color_by = "X" if given == "name" else grid["X"]
+    reference, image = theirs_and_ours(
+        lambda pl: pl.add_mesh(grid.contour([6.0], scalars="f"), scalars="X", cmap="viridis",
+                               clim=clim, lighting=False, show_scalar_bar=False),
+        lambda pl: pl.cubemarch.add_surface(grid, isovalue=6.0, scalars="f", color_by=color_by,
+                                            cmap="viridis", clim=clim, shading="unlit"),
+        grid.bounds)
+    assert psnr(image, reference) >= 29.0, psnr(image, reference)
+
+
 @pytest.mark.parametrize("technique", TECHNIQUES)
 def test_subplots_with_linked_cameras_draw_what_pyvista_draws(technique):
     """Two subplots whose cameras are linked after adding (``link_views``): each panel as

@@ -292,9 +292,15 @@ def color_values(data, surface: SplineField) -> np.ndarray:
     """
     values = image_samples(data, None)[0] if isinstance(data, pyvista.ImageData) else \
         np.asarray(data)
-    if values.shape != tuple(surface.dimensions):
-        raise VolumeDataError(f"color_by values must have one sample per cell of the "
-                              f"surface, {tuple(surface.dimensions)}, got {values.shape}.")
+    shape = tuple(surface.dimensions)
+    if values.ndim == 1 and values.size == np.prod(shape):   # VTK's order, x fastest
+        values = values.reshape(shape, order="F")
+    if values.shape != shape:
+        raise VolumeDataError(
+            f"color_by values must have one sample per cell of the surface: an array of "
+            f"shape {shape} indexed [i, j, k], or {int(np.prod(shape))} values in VTK's "
+            f"point order (x fastest, as grid.point_data holds them), or an array's name; "
+            f"got {values.shape}.")
     values = values.astype(np.float64)
     if not np.isfinite(values).all():
         raise VolumeDataError("color_by values hold NaN or infinite values.")
