@@ -232,6 +232,7 @@ def test_bench_voxels_rows_and_exactness(tmp_path):
     assert len(data["results"]) == len(results) and data["seed_tables"]["64x64"] == seed
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_bench_voxel_world_rows_and_exactness(tmp_path, capsys):
     # Small worlds (3 x 3 chunks of 16^3): every row of every scene exact against the CPU
     # traversal of the whole grid, the empty world drawing and holding nothing.
@@ -360,6 +361,7 @@ def test_bench_surface_layers_rows_and_accuracy(tmp_path, capsys):
     assert json.loads(path.read_text())["rows"] and "depth peeling" in capsys.readouterr().out
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_bench_labels_rows_exactness_and_change_bytes(tmp_path, capsys):
     # Tiny scenes: our rows draw every id exactly, recolouring one id sends one palette
     # entry (16 bytes), never the labels; the PyVista rows run beside them in the same run.

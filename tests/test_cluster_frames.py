@@ -70,6 +70,7 @@ def test_frames_come_back_in_order_equal_to_serial_renders(client):
         assert np.array_equal(image, reference)
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_each_worker_builds_the_scene_once(client):
     # 12 frames on 2 workers: at most one build per worker, not one per frame (a scene
     # the module test above built already is kept). catches (seen failing): the plotter

@@ -86,6 +86,7 @@ def test_bad_grids_are_refused(grid, message):
         cm.sweep_options(build, grid, CAMERA, SIZE)
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_a_reference_made_in_bands_on_the_workers_is_the_whole_one(client):
     # catches (seen failing): the opaque layer not cut to each band's rows; a band's rays
     # one row off; the bands stacked in another order.
