@@ -60,8 +60,8 @@ def _ball():
     return grid
 
 
-def _frames(add, change):
-    """The frame after ``change(actor)``, and the frame before it, on black."""
+def _viewed(add):
+    """A single-sampled plotter on black, what ``add`` returns, seen from the tests' camera."""
     plotter = pv.Plotter(off_screen=True, window_size=SIZE)
     plotter.disable_anti_aliasing()
     plotter.ren_win.SetMultiSamples(0)
@@ -69,6 +69,12 @@ def _frames(add, change):
     actor = add(plotter)
     plotter.camera_position = [(40.0, -30.0, 35.0), (12.0, 5.0, 9.0), (0.0, 0.0, 1.0)]
     plotter.camera.clipping_range = (1.0, 300.0)
+    return plotter, actor
+
+
+def _frames(add, change):
+    """The frame after ``change(actor)``, and the frame before it, on black."""
+    plotter, actor = _viewed(add)
     before = cm.render_image(plotter).astype(int)
     for step in change if isinstance(change, tuple) else (change,):   # a frame after each
         step(actor)
@@ -333,13 +339,7 @@ def test_a_grid_far_from_the_origin_keeps_its_box():
 
 def _scaled(add, scale=(0.5, 1.0, 2.0)):
     """The frame after ``pl.set_scale(*scale)`` (a frame drawn before), on black."""
-    plotter = pv.Plotter(off_screen=True, window_size=SIZE)
-    plotter.disable_anti_aliasing()
-    plotter.ren_win.SetMultiSamples(0)
-    plotter.set_background("black")
-    actor = add(plotter)
-    plotter.camera_position = [(40.0, -30.0, 35.0), (12.0, 5.0, 9.0), (0.0, 0.0, 1.0)]
-    plotter.camera.clipping_range = (1.0, 300.0)
+    plotter, actor = _viewed(add)
     cm.render_image(plotter)
     plotter.set_scale(*scale, reset_camera=False)
     return cm.render_image(plotter).astype(int), actor, plotter
