@@ -22,6 +22,9 @@ from .volume import box_world_bounds, check_spacing, checked_transform, first_po
 
 #: Most materials a grid may hold (uint16 labels).
 MAX_MATERIALS = 65535
+#: How thick the cells of a 2D image's flat axis are drawn, against its other spacings: a
+#: sheet, as PyVista draws the image's cells (a whole spacing was a slab, 18.4 dB off).
+FLAT_CELL_THICKNESS = 1e-3
 
 #: Palette entries per row of the palette texture: 65536 entries in one row would be
 #: wider than GL's 2D limit (16384 on Mesa), which draws nothing without an error.
@@ -408,6 +411,16 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
     grid_from_index = np.eye(4)
     grid_from_index[:3, :3] = direction * spacing
     grid_from_index[:3, 3] = start
+    # a 2D image is flat: a sheet, as PyVista draws its cells, a thousandth of a cell thick
+    # and centred on the image's plane (point data: its cells centred on the points in it)
+    flat = [axis for axis, n in enumerate(data.dimensions) if int(n) == 1]
+    across = [spacing[axis] for axis in range(3) if axis not in flat]
+    for axis in flat:
+        thin = FLAT_CELL_THICKNESS * (min(across) if across else spacing[axis])
+        grid_from_index[:3, axis] = direction[:, axis] * thin
+        grid_from_index[:3, 3] = start + direction[:, axis] * (
+            (spacing[axis] / 2.0 if scalars in data.point_data else 0.0) - thin / 2.0)
+        start = grid_from_index[:3, 3].copy()
     return values, grid_from_index
 
 def make_voxels(data, scalars: str | None = None, *, palette=None, transform=None,
