@@ -92,9 +92,10 @@ def test_lit_joint_group_members_shade_each_other(plotter_factory, pair, techniq
     assert compare_images(image, each_alone).psnr < errors.psnr - 10
     assert actor.cubemarch.light_map.render_pass.runs == 1
     # New data for one member: redrawn and relit, and a bad member name says what to pass.
-    a, b = pair
+    a, b = group.members   # the group's own copies of the user's models
     actor.cubemarch.set_values(np.zeros_like(a.values), member="a")  # a: gone, no shadow
     assert not a.values.any()  # the member model holds the new data
+    assert pair[0].values.any()   # the user's model is left as it was
     relit = cm.render_emission_absorption([VolumeGroup([a, b])], camera, SIZE, near=near,
                                           background=BACKGROUND, lights=lights)
     assert compare_images(cm.render_image(pl), relit).psnr >= 45
