@@ -329,12 +329,7 @@ def test_a_volume_under_vtk_s_shadow_pass_is_said_once(technique):
     plotter = cm.offscreen_plotter((80, 60))
     plotter.cubemarch.add_volume(pv.Wavelet(), technique=technique)
     plotter.enable_shadows()
-    with pytest.warns(UserWarning, match="shadow pass .*disable_shadows"):
-        cm.render_image(plotter)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")   # once
-        cm.render_image(plotter)
-    plotter.close()
+    _said_once(plotter, "shadow pass .*disable_shadows")
 
 
 def test_a_returned_actor_added_to_another_subplot_is_said_once():
@@ -346,7 +341,12 @@ def test_a_returned_actor_added_to_another_subplot_is_said_once():
     actor = cm.add_voxels(plotter, labels)
     plotter.subplot(0, 1)
     plotter.add_actor(actor)
-    with pytest.warns(UserWarning, match="another subplot .* Add the data again"):
+    _said_once(plotter, "another subplot .* Add the data again")
+
+
+def _said_once(plotter, match: str) -> None:
+    """A frame says ``match``, the next says nothing; the plotter is closed."""
+    with pytest.warns(UserWarning, match=match):
         cm.render_image(plotter)
     with warnings.catch_warnings():
         warnings.simplefilter("error")   # once

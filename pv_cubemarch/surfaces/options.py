@@ -17,7 +17,7 @@ from ..core.declared import (
     scalar_bar_terms,
 )
 from ..models.surface import ACTIVE_TESTS
-from ..volume.clipping import clip_plane_list
+from ..volume.clipping import clip_plane_list, plane_pairs
 
 ROOTS = ("march", "exact")
 #: How ``technique='active'`` finds its active cells: one traversal per pixel through their
@@ -184,8 +184,7 @@ class SurfaceOptions:
     @property
     def world_planes(self) -> tuple:
         """The clip planes as ``(origin, normal)`` pairs in world coordinates."""
-        return tuple((tuple(p.GetOrigin()), tuple(p.GetNormal()))
-                     for p in clip_plane_list(self.clip_planes))
+        return plane_pairs(self.clip_planes)
 
     def check_model(self, model) -> None:
         """Refuse ``color_by='field'`` on a field without colour values."""

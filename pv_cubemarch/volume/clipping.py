@@ -51,6 +51,11 @@ def clip_plane_list(numbers) -> list:
     return planes
 
 
+def plane_pairs(numbers) -> tuple:
+    """``clip_planes=`` (six numbers a plane, or None) as world ``(origin, normal)`` pairs."""
+    return tuple((tuple(p.GetOrigin()), tuple(p.GetNormal())) for p in clip_plane_list(numbers))
+
+
 def plane_numbers(numbers) -> tuple[float, ...] | None:
     """``clip_planes=`` as a flat tuple of floats, checked as :func:`clip_plane_list` does."""
     if numbers is None:

@@ -20,7 +20,7 @@ from ..core.declared import (
 )
 from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..core.options import positive_number
-from ..volume.clipping import clip_plane_list
+from ..volume.clipping import clip_plane_list, plane_pairs
 
 TRAVERSALS = ("dda", "fixed")
 MODES = ("color", "id", "face")
@@ -249,8 +249,7 @@ class VoxelOptions:
     @property
     def world_planes(self) -> tuple:
         """The clip planes as ``(origin, normal)`` pairs in world coordinates."""
-        return tuple((tuple(p.GetOrigin()), tuple(p.GetNormal()))
-                     for p in clip_plane_list(self.clip_planes))
+        return plane_pairs(self.clip_planes)
 
     def check_edges(self) -> None:
         """Refuse edge options that no edge would show, or edges on what has no voxel faces."""
