@@ -476,10 +476,7 @@ def add_volume(
     clim, cmap = named["clim"], named["cmap"]
     if isinstance(blending, str):
         blending = blending.lower()   # PyVista takes 'MAXIMUM' too
-    if user_matrix is not None:
-        if transform is not None:
-            raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")
-        transform = user_matrix
+    transform = _one_transform(transform, user_matrix)
     chosen = get_technique("volume", technique)
     given = {key: value for key, value in dict(
         step_scale=step_scale, downsample=downsample, face_size=face_size,
@@ -587,7 +584,6 @@ def add_volume(
     binding.isosurfaces = isosurfaces   # as given (data units, or a count)
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     _say_edits_of(binding, volume)
-    actor.SetPickable(bool(pickable))
     spec = getattr(model.transfer, "spec", None)
     binding.returned_property = ReturnedProperty(
         binding, actor, blending, gradient,
@@ -606,9 +602,7 @@ def add_volume(
     _cut(actor, model, clip_plane_list(clip_planes), crop_box)
     if average_range is not None:
         set_average_range(actor.mapper, average_range, blending)
-    _frame(plotter, reset_camera)
-    if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
-        plotter.render()
+    _shown(plotter, actor, reset_camera, pickable, render)
     return actor
 
 
@@ -690,8 +684,7 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
 
     refused = sorted(key for key, value in given.items()
                      if key not in PAGED_KEYWORDS and not left_out(key, value))
-    if given["user_matrix"] is not None and given["transform"] is not None:
-        raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")
+    _one_transform(given["transform"], given["user_matrix"])
     check_paging(given)
     if given["technique"] not in ("vtk", "direct", "auto", "cubemap"):
         refused.insert(0, f"technique={given['technique']!r}")
@@ -767,7 +760,6 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
     if given["frame_budget_ms"] is not None:   # the step (cube map: upscale) while moving
         attach_frame_budget(binding, drawn_by, plotter.ren_win, given["frame_budget_ms"])
     actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
-    actor.SetPickable(bool(given["pickable"]))
     _cut(actor, model, planes, given["crop_box"])
     # what is set on the returned volume is drawn or refused, never ignored
     binding.returned_property = ReturnedProperty(
@@ -778,7 +770,7 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
         binding.returned_property.watch_bar(add_scalar_bar(
             plotter, actor, model, model.name, True, given["scalar_bar_args"],
             given["annotations"]))
-    _frame(plotter, given["reset_camera"])
+    _shown(plotter, actor, given["reset_camera"], given["pickable"], given["render"])
     return actor
 
 
@@ -810,7 +802,7 @@ def _same(value, default) -> bool:
 PAGED_LABEL_KEYWORDS = ("palette", "mode", "shading", "ambient", "diffuse", "specular",
                         "specular_power", "lod_bias", "transform", "name", "background",
                         "gpu_bytes", "host_bytes", "brick_size", "frame_budget_ms",
-                        "clip_planes")
+                        "clip_planes", "reset_camera", "pickable", "render")
 
 
 def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
@@ -860,14 +852,32 @@ def _add_paged_labels(plotter: pyvista.Plotter, source, given: dict):
         attach_frame_budget(binding, "voxels", plotter.ren_win, given["frame_budget_ms"])
     actor = _place(plotter, binding, given["name"] or _unused_name(plotter, model.name))
     plotter.cubemarch.track(binding)
-    _frame(plotter)
+    _shown(plotter, actor, given["reset_camera"], given["pickable"], given["render"])
     return actor
+
+
+def _shown(plotter: pyvista.Plotter, actor, reset_camera: bool | None, pickable: bool,
+           render: bool) -> None:
+    """PyVista's last steps of an ``add_*``: pickable, the camera framed, a render if shown."""
+    actor.SetPickable(bool(pickable))
+    _frame(plotter, reset_camera)
+    if render and plotter.ren_win is not None and getattr(plotter, "_rendered", False):
+        plotter.render()
+
+
+def _one_transform(transform, user_matrix):
+    """The placement given as ``transform=`` or as PyVista's ``user_matrix=``, not both."""
+    if user_matrix is None:
+        return transform
+    if transform is not None:
+        raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")
+    return user_matrix
 
 
 def _frame(plotter: pyvista.Plotter, reset_camera: bool | None = None) -> None:
     """Frame a new prop: the camera if asked or the user set none, else the clipping range."""
     if reset_camera or (reset_camera is None and not plotter.camera_set):
-        plotter.reset_camera()
+        plotter.renderer.reset_camera(render=False)   # (the plotter's own renders)
     else:
         plotter.renderer.ResetCameraClippingRange()
 
@@ -932,7 +942,7 @@ def _place(plotter: pyvista.Plotter, binding, name: str):
         binding.data.range_source = actor.GetMapper()
         for item in drawn:   # a picker returns the volume the plotter knows, not its parts
             item.PickableOff()
-    plotter.add_actor(actor, name=name, reset_camera=False)
+    plotter.add_actor(actor, name=name, reset_camera=False, render=False)
     binding.actor = actor
     if not volume:   # its property reads what is drawn; edits of it drawn or said
         binding.look = ReturnedLook(binding)
@@ -1028,7 +1038,8 @@ def _why_per_chunk(world: VoxelWorld, options) -> str | None:
     return None if options.world_traversal == "index" else why_not_indexed(world, options)
 
 
-def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str | None):
+def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str | None,
+               reset_camera: bool | None = None):
     """Draw a chunked world by one traversal or a box per chunk; returns its actor."""
     options.check_ids(world.dimensions)
     if _why_per_chunk(world, options) is None:   # 'index' asked for and refused raises
@@ -1055,7 +1066,7 @@ def _add_world(plotter: pyvista.Plotter, world: VoxelWorld, options, name: str |
         if not actor.cubemarch.composites:
             actor.cubemarch.opaque_because = _opaque_because(options)
             actor.cubemarch.say_drawn_opaque()
-    _frame(plotter)
+    _frame(plotter, reset_camera)
     return actor
 
 
@@ -1237,6 +1248,10 @@ def add_voxels(
     brick_size: int | None = None,
     quality=None,
     frame_budget_ms: float | None = None,
+    user_matrix=None,
+    reset_camera: bool | None = None,
+    pickable: bool = True,
+    render: bool = True,
     **kwargs,
 ) -> pyvista.Actor:
     """Add a material grid drawn exactly, voxel by voxel (Amanatides & Woo traversal).
@@ -1355,10 +1370,18 @@ def add_voxels(
         world voxel indices (``mode='id'`` only with ``'index'``). A
         :class:`~pv_cubemarch.models.world.VoxelWorld` (e.g. chunks placed by hand with
         ``VoxelWorld.from_chunks``) is drawn in its own chunks.
-    transform : array_like, optional
-        4x4 affine placement of the grid in the world.
+    transform, user_matrix : array_like, optional
+        4x4 affine placement of the grid in the world (``user_matrix`` is PyVista's name;
+        give one of the two).
     name : str, optional
         The actor's name in the plotter.
+    reset_camera : bool, optional
+        Reset the camera to the scene after adding (by default only while the user has
+        set no camera, as PyVista does).
+    pickable : bool
+        Whether the actor is pickable (VTK's pickers and ``plotter.enable_*_picking``).
+    render : bool
+        Render once it is added, if the plotter is already shown.
     show_scalar_bar : bool
         Add a scalar bar of the materials' colours, one block per material as PyVista's
         ``categories=True`` shows (off by default); ``plotter.add_scalar_bar()`` adds one
@@ -1475,10 +1498,11 @@ def add_voxels(
     open_window(plotter)   # a closed plotter: PlotterClosedError, not a half-added actor
     refuse_mesh_keywords("add_voxels", kwargs, VOXEL_REFUSED)
     _checked_name(name)
+    transform = _one_transform(transform, user_matrix)
     shading = shading_for_lighting(lighting, shading)
     if is_multiscale_labels(grid):
         given = {key: value for key, value in locals().items()
-                 if key not in ("plotter", "grid", "kwargs", "lighting")}
+                 if key not in ("plotter", "grid", "kwargs", "lighting", "user_matrix")}
         return _add_paged_labels(plotter, grid, given)
     grid = _read_path(grid, "add_voxels")
     streaming = [key for key, value in (("gpu_bytes", gpu_bytes), ("host_bytes", host_bytes),
@@ -1540,7 +1564,7 @@ def add_voxels(
         if target is not None:   # refused before anything is drawn
             _check_voxel_quality(model, options)
             check_world_reference(model)
-        actor = _add_world(plotter, model, options, name)
+        actor = _add_world(plotter, model, options, name, reset_camera)
         if target is not None:   # measured with the world drawn as the user's will be
             _measure_voxels(plotter, actor, target, dict(
                 _voxel_look(options),
@@ -1565,11 +1589,12 @@ def add_voxels(
         actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
         _say_edits_of(binding, grid)
         component.track(binding)
-        _frame(plotter)
+        _frame(plotter, reset_camera)
         if target is not None:   # measured with the grid drawn, framed as its actor is
             _measure_voxels(plotter, actor, target, _voxel_look(options), options)
     add_voxel_scalar_bar(plotter, actor, model.palette, scalars or model.name, show_scalar_bar,
                          scalar_bar_args, annotations, model.ids)
+    _shown(plotter, actor, reset_camera, pickable, render)
     return actor
 
 
@@ -1608,6 +1633,10 @@ def add_surface(
     quality=None,
     frame_budget_ms: float | None = None,
     clip_planes=None,
+    user_matrix=None,
+    reset_camera: bool | None = None,
+    pickable: bool = True,
+    render: bool = True,
     **kwargs,
 ) -> pyvista.Actor:
     """Draw the implicit surface f = 0 of a field, per pixel, from its cells' polynomials.
@@ -1694,10 +1723,18 @@ def add_surface(
     cells : int or sequence of int
         A mesh's or point cloud's resolution: cells along its longest side (64), or (a
         mesh) three counts; two more on every side keep the surface inside the domain.
-    transform : array_like, optional
-        4x4 placement of the field in the world.
+    transform, user_matrix : array_like, optional
+        4x4 placement of the field in the world (``user_matrix`` is PyVista's name; give
+        one of the two).
     name : str, optional
         The actor's name in the plotter.
+    reset_camera : bool, optional
+        Reset the camera to the scene after adding (by default only while the user has
+        set no camera, as PyVista does).
+    pickable : bool
+        Whether the actor is pickable (VTK's pickers and ``plotter.enable_*_picking``).
+    render : bool
+        Render once it is added, if the plotter is already shown.
     isosurfaces : int or sequence of float, optional
         Several levels of sampled data (or of any field: offsets of its zero set), as
         ``contour(isosurfaces=...)`` takes them: the values, or a count spread from the
@@ -1775,6 +1812,7 @@ def add_surface(
     open_window(plotter)   # a closed plotter: PlotterClosedError, not a half-added actor
     refuse_mesh_keywords("add_surface", kwargs, SURFACE_REFUSED)
     _checked_name(name)
+    transform = _one_transform(transform, user_matrix)
     shading = shading_for_lighting(lighting, shading)
     try:
         if opacity is None or isinstance(opacity, (bool, str)):
@@ -1892,7 +1930,7 @@ def add_surface(
         raise ValueError("annotations label the scalar bar of what colours the surface "
                          "through cmap; this one has one colour: pass color_by=, or "
                          "several isosurfaces without color=.")
-    _frame(plotter)
+    _shown(plotter, actor, reset_camera, pickable, render)
     return actor
 
 

@@ -19,10 +19,6 @@ COMMON = {
     "nan_color": "empty voxels (0) and the field's outside are not drawn",
     "below_color": "a voxel takes its material's colour",
     "above_color": "a voxel takes its material's colour",
-    "user_matrix": "give transform= (the 4x4 placement; add_volume takes both names)",
-    "reset_camera": "call plotter.reset_camera() after adding",
-    "render": "the plotter draws it at its next render",
-    "pickable": "set it on the returned actor (actor.SetPickable(False))",
     "culling": "the box draws the faces its rays need",
 }
 VOXELS = {

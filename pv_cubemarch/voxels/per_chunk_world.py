@@ -501,7 +501,7 @@ def build_world(plotter, world: VoxelWorld, options: VoxelOptions,
     is tracked: a tracked chunk whose anchor is not in the renderer counts as removed.
     """
     proxy = bounds_proxy(world)
-    plotter.add_actor(proxy, name=name or world.name, reset_camera=False)
+    plotter.add_actor(proxy, name=name or world.name, reset_camera=False, render=False)
     try:
         binding = WorldBinding(plotter, world, options, proxy)
     except BaseException:
