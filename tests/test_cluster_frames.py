@@ -96,6 +96,7 @@ def test_a_worker_killed_mid_batch_costs_only_its_frames(tmp_path):
         assert np.array_equal(image, reference)
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_frames_written_as_pngs_and_a_movie(client, tmp_path):
     from PIL import Image
 

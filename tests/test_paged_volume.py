@@ -90,6 +90,7 @@ def converged(pl, actor, frames: int = 200, seen: list | None = None) -> np.ndar
 @pytest.mark.parametrize("camera", [dict(), dict(parallel=True),
                                     dict(eye=(0.05, 0.1, 0.02), distance=3.0),   # inside
                                     dict(eye=(1.0, 0.0, 0.0))])                  # axis-aligned
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_converged_finest_level_equals_the_in_memory_render(pyramid, camera):
     """Every brick at the finest level (lod_bias far below), a pool of 120 bricks:
     the converged image is the in-memory one; the first frame (coarsest level only) and
@@ -683,6 +684,7 @@ def cut_before(actor, x: float) -> None:
 
 
 @pytest.mark.parametrize("wall", ["solid", "cut away"])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_bricks_behind_where_every_ray_stops_are_not_read(tmp_path, monkeypatch, wall):
     """A dense wall filling the view: once a frame found where the rays stop in it, only
     the wall's bricks are read, and the image stays the in-memory one. Turned around, what

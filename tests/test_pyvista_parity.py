@@ -516,6 +516,7 @@ def interior_levels(grid, count=3):
 
 
 @pytest.mark.parametrize("name, blending", BLENDS, ids=[f"{n}-{b}" for n, b in BLENDS])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_blend_modes_draw_what_pyvista_draws(name, blending):
     """Every ``blending`` mode: every technique and the CPU reference against PyVista's
     (VTK's) own drawing of the same data and mode.

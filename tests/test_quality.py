@@ -138,6 +138,7 @@ def test_footprint_of_a_box_seen_head_on_by_hand():
 
 @pytest.mark.parametrize("technique", ["direct", "vtk", "cubemap"])
 @pytest.mark.parametrize("target", [30.0, 45.0])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_the_chosen_setting_meets_its_target_over_the_whole_frame(ct, technique, target):
     # catches (seen failing): the footprint share left out of the estimate (estimate and
     # whole frame then differ by more than 3 dB), and the rung the search started from

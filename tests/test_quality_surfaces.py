@@ -63,6 +63,7 @@ def _drawn(sheets, **keywords):
 
 
 @pytest.mark.parametrize("target", [30.0, 40.0])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_the_chosen_steps_meet_the_target_and_half_of_them_do_not(sheets, target):
     # catches (seen failing): the reference traced unlit against the lit probe (no rung
     # met 30 dB: 22 dB); the probe framed on the domain without the drawn box's margin
@@ -139,11 +140,10 @@ def _whole_frame_psnr_of(plotter, field, **look) -> float:
     return compare_images(read_pixels(plotter), expected).psnr
 
 
-# translucent cases are long (2-5 s): their own CI step (-m slow)
-@pytest.mark.parametrize("case", ["levels", "levels exact",
-                                  pytest.param("translucent levels", marks=pytest.mark.slow),
-                                  pytest.param("translucent", marks=pytest.mark.slow),
-                                  "curvature", "cut, lit terms"])
+# long (2-5 s a case): their own CI step (-m slow)
+@pytest.mark.parametrize("case", ["levels", "levels exact", "translucent levels",
+                                  "translucent", "curvature", "cut, lit terms"])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_levels_translucency_and_colour_maps_meet_their_target(sheets, case):
     # Levels coloured by viridis over their own range (by hand: its first, middle and last
     # entries), translucent ones composited, a colour map over a given clim: the frame
@@ -250,6 +250,7 @@ def test_add_surface_takes_a_budget_with_the_quality_s_estimates(sheets):
     plotter.close()
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_recalibrating_gives_the_budget_this_view_s_estimates(sheets):
     # catches (seen failing, found by a review): recalibrate() moving the still steps but
     # leaving the budget the old view's estimates (the live view's moving-frame PSNR)

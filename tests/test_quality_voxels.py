@@ -183,6 +183,7 @@ TRANSLUCENT = {1200: ("tomato", 0.4), 7000: "steelblue", 40000: ("gold", 0.6)}
     {"chunk_size": 8, "world_traversal": "per_chunk"},  # a box per chunk, layers per chunk
     {"clip_planes": PLANE},
 ])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_translucent_labels_are_measured_against_the_layered_reference(cells, keywords):
     # The report and the first frame, lit by a headlight, against the layered reference
     # (every translucent face a ray crosses composited in depth order, no code shared with

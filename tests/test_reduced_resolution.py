@@ -37,6 +37,7 @@ def scene_images(blob, downsample, sharpness=None):
 
 
 @pytest.mark.parametrize("downsample, min_psnr", [(2, 44.0), (4, 40.0)])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_reduced_resolution_against_reference(blob, downsample, min_psnr):
     image, reference, _, low = scene_images(blob, downsample)
     assert low == (SIZE[0] // downsample, SIZE[1] // downsample)
@@ -44,6 +45,7 @@ def test_reduced_resolution_against_reference(blob, downsample, min_psnr):
     assert errors.psnr >= min_psnr, errors
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_depth_aware_upsampling_keeps_mesh_edges_clean(blob):
     image, reference, depth, _ = scene_images(blob, 4)
     plain, _, _, _ = scene_images(blob, 4, sharpness=0.0)  # plain bilinear weights

@@ -262,6 +262,7 @@ def pyvista_counts(keywords) -> np.ndarray:
     (lambda vol: setattr(vol.mapper, "scalar_range", (0.0, 4000.0)), dict(clim=(0.0, 4000.0))),
     (lambda vol: setattr(vol.mapper.lookup_table, "cmap", "magma"), dict(cmap="magma")),
 ], ids=["scalar_range", "cmap"])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_a_streamed_volume_s_colours_are_drawn_and_its_empty_bricks_found_again(
         technique, change, given):
     """A volume streamed by bricks, recoloured after adding: PyVista's image of its finest
@@ -580,6 +581,7 @@ def test_a_recolour_leaves_the_user_s_model_and_its_other_volumes_as_they_were()
 
 
 @pytest.mark.parametrize("technique", ["direct", "cubemap"])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_a_streamed_volume_over_its_budget_frees_bricks_a_recolour_empties(technique):
     """A pool too small for the view, then a range under which most bricks draw nothing:
     the bricks emptied give their slots to those that draw, as when added with that range

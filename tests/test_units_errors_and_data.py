@@ -67,6 +67,7 @@ def interior_pixels(mask: np.ndarray) -> np.ndarray:
 # catches: texture units held from each prop's draw until the end of the frame (from about
 # 16 volumes VTK runs out of units; past that, volumes draw wrong: blank or a red square)
 @pytest.mark.parametrize("technique", TECHNIQUES)
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_sixty_four_volumes_in_one_scene_match_reference(plotter_factory, technique):
     size = (96, 96)
     pl = plotter_factory(size)

@@ -130,6 +130,7 @@ def test_composite_channels_match_vtk_independent_components(technique, vtk_inde
 
 
 @pytest.mark.parametrize("technique", ["direct", "cubemap"])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_additive_channels_match_pyvista_channels_summed(technique, pyvista_summed):
     # Break seen failing: one transmittance shared by the channels (26.1 dB).
     grid = microscopy()
