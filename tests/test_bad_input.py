@@ -169,6 +169,46 @@ def test_bad_keywords_name_the_argument_and_the_fix(add, error, message):
     pl.close()
 
 
+def _placed_badly(geometry: dict, labels: bool):
+    values = (_ball() > 0).astype(np.uint8) if labels else _ball()
+    grid = pv.ImageData(dimensions=values.shape)
+    grid.point_data["v"] = values.ravel(order="F")
+    for key, value in geometry.items():
+        if key == "spacing":
+            grid.SetSpacing(*value)
+        else:
+            setattr(grid, key, value)
+    return grid
+
+
+@pytest.mark.parametrize("geometry, message", [
+    (dict(origin=(np.nan, 0.0, 0.0)), r"origin must be three finite numbers, got \(nan"),
+    (dict(origin=(0.0, np.inf, 0.0)), r"origin must be three finite numbers, got \(0.0, inf"),
+    (dict(spacing=(np.inf, 1.0, 1.0)), r"spacing must be three finite, non-zero numbers, "
+                                       r"got \(inf"),
+    (dict(spacing=(1.0, 0.0, 1.0)), r"spacing must be three finite, non-zero numbers"),
+    (dict(direction_matrix=np.zeros((3, 3))), "direction_matrix must be invertible"),
+    (dict(direction_matrix=[[1.0, 0.0, 1.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]),
+     "direction_matrix must be invertible"),
+], ids=["nan origin", "inf origin", "inf spacing", "zero spacing", "zero direction",
+        "flat direction"])
+@pytest.mark.parametrize("kind", ["volume", "voxels", "surface"])
+def test_a_grid_that_cannot_be_placed_is_refused_by_its_name(kind, geometry, message):
+    # Found by a review: a NaN origin drew a volume as nothing, in silence; voxels and
+    # surfaces raised numpy's "matrix must have finite values", an infinite spacing was
+    # blamed on opacity_unit_distance or read as NaN, and a singular direction raised
+    # LinAlgError or "spacing must not be zero".
+    # catches (seen failing): models/volume.check_geometry not called (those messages).
+    pl = pv.Plotter(off_screen=True)
+    grid = _placed_badly(geometry, kind == "voxels")
+    add = {"volume": lambda: cm.add_volume(pl, grid),
+           "voxels": lambda: cm.add_voxels(pl, grid),
+           "surface": lambda: cm.add_surface(pl, grid, isovalue=0.0)}[kind]
+    with pytest.raises(cm.VolumeDataError, match=message):
+        add()
+    pl.close()
+
+
 def test_index_arrays_set_the_voxels_they_name(plotter_factory):
     # numpy's (i's, j's, k's): the voxels they name and no others
     actor = cm.add_voxels(plotter_factory((40, 40)), _labels())

@@ -185,8 +185,29 @@ def check_spacing(spacing, name: str = "spacing") -> None:
         raise VolumeDataError(
             f"{name} must be three finite, non-zero numbers, got "
             f"{tuple(spacing.tolist()) if spacing.ndim == 1 else spacing}: a zero spacing "
-            "puts every point of that axis in one place; give the grid its real spacing "
-            "(e.g. grid.spacing = (1.0, 1.0, 1.0)).")
+            "puts every point of that axis in one place, and an infinite one places none; "
+            "give the grid its real spacing (e.g. grid.spacing = (1.0, 1.0, 1.0)).")
+
+
+def check_geometry(grid) -> None:
+    """Refuse an ImageData that cannot be placed: its spacing, origin or direction.
+
+    A NaN origin drew nothing in silence, and a singular direction failed deep inside as
+    ``LinAlgError``; each is said here by name, with what to do.
+    """
+    check_spacing(grid.spacing, "the grid's spacing")
+    origin = np.asarray(grid.origin, dtype=np.float64)
+    if not np.isfinite(origin).all():
+        raise VolumeDataError(f"the grid's origin must be three finite numbers, got "
+                              f"{tuple(origin.tolist())}; set grid.origin to where its first "
+                              "point lies.")
+    direction = np.asarray(grid.direction_matrix, dtype=np.float64)
+    lengths = np.linalg.norm(direction, axis=0)
+    if not np.isfinite(direction).all() or (lengths == 0).any() or abs(
+            np.linalg.det(direction / np.where(lengths == 0, 1.0, lengths))) < 1e-9:
+        raise VolumeDataError(f"the grid's direction_matrix must be invertible (its columns "
+                              f"the axes' directions), got {direction.tolist()}; set "
+                              "grid.direction_matrix = numpy.eye(3) for an axis-aligned grid.")
 
 
 def image_data(dimensions, spacing, origin) -> pyvista.ImageData:
@@ -202,6 +223,7 @@ def image_data(dimensions, spacing, origin) -> pyvista.ImageData:
 
 def _as_uniform_grid(data) -> pyvista.ImageData:
     if isinstance(data, pyvista.ImageData):
+        check_geometry(data)
         return data
     if isinstance(data, pyvista.RectilinearGrid):
         axes = [np.asarray(a, dtype=np.float64) for a in (data.x, data.y, data.z)]

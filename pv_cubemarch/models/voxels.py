@@ -18,7 +18,13 @@ from ..core.gl_limits import MAX_GRID_BYTES, MAX_TEXTURE_SIZE
 from .label_colors import check_by_id, colors_by_id, hashed_colors, palette_keys
 from .label_ids import IDENTITY_MAX, LabelIds, label_rows, sorted_unique
 from .transfer import unknown_cmap
-from .volume import box_world_bounds, check_spacing, checked_transform, first_point
+from .volume import (
+    box_world_bounds,
+    check_geometry,
+    check_spacing,
+    checked_transform,
+    first_point,
+)
 
 #: Most materials a grid may hold (uint16 labels).
 MAX_MATERIALS = 65535
@@ -394,6 +400,7 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
                                   "point_data.")
         active = data.active_scalars_name   # PyVista's choice, as add_mesh makes it
         scalars = active if active in names else names[0]
+    check_geometry(data)
     direction = np.asarray(data.direction_matrix, dtype=np.float64)
     spacing = np.asarray(data.spacing, dtype=np.float64)
     origin = first_point(data)
