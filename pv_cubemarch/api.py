@@ -451,6 +451,8 @@ def add_volume(
     """
     open_window(plotter)   # a closed plotter: PlotterClosedError, not a half-added actor
     _checked_name(name)
+    if not isinstance(shade, (bool, np.bool_)) and shade not in (0, 1):
+        raise TypeError(f"shade must be True or False, got {shade!r}.")
     paging = dict(lod_bias=lod_bias, gpu_bytes=gpu_bytes, host_bytes=host_bytes,
                   brick_size=brick_size)
     if is_multiscale_input(volume):

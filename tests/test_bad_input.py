@@ -133,6 +133,8 @@ def _ball():
      "opacity is an empty curve"),
     (lambda pl: pl.cubemarch.add_volume(pv.Wavelet(), name=123), TypeError,
      "name must be a string"),
+    (lambda pl: pl.cubemarch.add_volume(pv.Wavelet(), shade="yes"), TypeError,
+     "shade must be True or False, got 'yes'"),
     (lambda pl: pl.cubemarch.add_voxels(_labels(), name=5), TypeError,
      "name must be a string"),
     (lambda pl: pl.cubemarch.add_voxels(_labels(), palette=[]), cm.VolumeDataError,
@@ -152,8 +154,8 @@ def _ball():
     (lambda pl: pl.cubemarch.add_voxels(_labels()).cubemarch.set_voxels(
         (np.array([1, 9]), np.array([1, 1]), np.array([1, 2])), 0), IndexError,
      r"index arrays .* inside the grid's shape \(4, 4, 4\)"),
-], ids=["cells=0", "isovalue=nan", "opacity=[]", "name=123", "voxels name", "palette=[]",
-        "palette colour", "set_material colour", "nan transform", "zero spacing",
+], ids=["cells=0", "isovalue=nan", "opacity=[]", "name=123", "shade='yes'", "voxels name",
+        "palette=[]", "palette colour", "set_material colour", "nan transform", "zero spacing",
         "volume cmap", "voxels cmap", "index arrays"])
 def test_bad_keywords_name_the_argument_and_the_fix(add, error, message):
     # Each was a misleading error or none (issue 25's list): cells=0 drew with 1 cell in
@@ -161,7 +163,8 @@ def test_bad_keywords_name_the_argument_and_the_fix(add, error, message):
     # "zero-size array"; name=123 an AttributeError; palette=[] a broadcast error; a bad
     # colour pyvista's message naming no material; a NaN transform "got shape (4, 4)";
     # zero spacing drew a flat grid in silence; an unknown cmap named no choices; index
-    # arrays in set_voxels gave numpy's "only 0-dimensional arrays can be converted".
+    # arrays in set_voxels gave numpy's "only 0-dimensional arrays can be converted";
+    # shade='yes' was taken as True (PyVista's add_volume raises TypeError).
     # Breaks seen failing: each check removed (the old message returns).
     pl = pv.Plotter(off_screen=True)
     with pytest.raises(error, match=message):

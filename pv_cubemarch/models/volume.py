@@ -429,6 +429,12 @@ def _transfer(grid, values, offset, *, cmap, opacity, clim, opacity_unit_distanc
             f"clim={clim!r} is not drawn: a pyvista.LookupTable given as cmap colours over "
             f"its own scalar_range {tuple(cmap.scalar_range)}, as PyVista's add_volume "
             "draws it; set lut.scalar_range to change it", VolumeDataWarning)
+    if clim is not None and not isinstance(cmap, pyvista.LookupTable) and _no_width(clim):
+        warnings.warn(
+            f"clim={clim!r} has no width: it is drawn one unit wide from its value, a step "
+            "there (PyVista's add_volume draws such a range as one opaque colour over the "
+            "whole box); pass clim=(low, high) around the values to colour",
+            VolumeDataWarning, stacklevel=4)
     if clim is None:
         clim = _data_range(values, offset)
         if values.size and float(values.min()) == float(values.max()):
@@ -447,6 +453,17 @@ def _transfer(grid, values, offset, *, cmap, opacity, clim, opacity_unit_distanc
     return TransferFunction.from_colormap(
         cmap, opacity, clim, opacity_unit_distance, n_colors=n_colors,
         flip_scalars=flip_scalars, log_scale=log_scale, value_offset=offset)
+
+
+def _no_width(clim) -> bool:
+    """Whether a given ``clim`` spans nothing: ``(v, v)`` exactly, or the number 0."""
+    try:
+        if np.ndim(clim) == 0:
+            return float(clim) == 0.0
+        low, high = clim
+        return low == high
+    except (TypeError, ValueError):
+        return False   # refused with its own message after
 
 
 def _exact_data_clim(spec) -> tuple:

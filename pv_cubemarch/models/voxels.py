@@ -351,7 +351,7 @@ def label_values(array, name: str = "labels") -> np.ndarray:
             raise VolumeDataError(f"{name} holds non-integer values (e.g. "
                                   f"{array[array != np.round(array)].flat[0].item()!r}); labels "
                                   "are whole numbers: round or label the data first.")
-        if np.abs(array).max() >= 2**53:
+        if float(np.abs(array).max()) >= 2**53:   # (as a Python float: float16 has no 2**53)
             raise VolumeDataError(f"{name} holds float labels beyond 2^53, where floats skip "
                                   "whole numbers: store the ids as int64 or uint64.")
         return array.astype(np.int64)
