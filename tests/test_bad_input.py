@@ -343,3 +343,14 @@ def test_a_cluster_without_distributed_says_which_extra_to_install(monkeypatch):
     with pytest.raises(ImportError, match=r"pv_cubemarch\[cluster\]"):
         with local_client(None, 1):
             pass
+
+
+def test_float16_labels_are_read_without_a_numpy_warning():
+    # catches (seen failing, found by a review): the 2**53 bound compared in float16,
+    # where it overflows ("overflow encountered in cast").
+    labels = np.zeros((4, 4, 4), np.float16)
+    labels[1:3, 1:3, 1:3] = 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model = cm.make_voxels(labels)
+    assert set(np.unique(model.labels).tolist()) == {0, 2}
