@@ -177,6 +177,23 @@ def test_image_data_samples_are_placed_at_their_cells_and_points():
         make_field(image, 99.0, "p")
 
 
+def test_a_level_outside_the_samples_says_whether_the_spline_can_cross_it():
+    # Found by a review: samples that step sharply (0 to 10) overshoot between them, so a
+    # level just outside their range is crossed and drawn, where the warning said "the
+    # surface is empty" (and contour draws nothing). The field is evaluated here on a
+    # fine lattice: below zero somewhere, so a surface exists.
+    # catches (seen failing): the old warning kept for every level outside the range.
+    steps = np.zeros((8, 8, 8))
+    steps[2:6, 2:6, 2:6] = 10.0
+    with pytest.warns(UserWarning, match="overshoots the samples .* may cross it"):
+        field = make_field(steps, -0.5)
+    lattice = np.stack(np.meshgrid(*[np.linspace(0.0, 8.0, 81)] * 3, indexing="ij"), -1)
+    assert field(lattice.reshape(-1, 3)).min() < 0.0
+    with pytest.warns(UserWarning, match="the surface is empty"):
+        field = make_field(steps, -100.0)
+    assert field(lattice.reshape(-1, 3)).min() > 0.0
+
+
 def test_reference_flags_near_double_roots():
     # A slab 0.006 cell thick (the field peaks at 9e-6 between its two roots, 0.006 apart):
     # the first root is found, and flagged ambiguous (a float32 renderer may lose the

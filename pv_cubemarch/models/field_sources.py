@@ -164,11 +164,19 @@ def _sampled_field(data, isovalue: float | None, scalars: str | None,
     if isovalue is None:
         raise VolumeDataError(f"A sampled field needs isovalue= (its values span "
                               f"[{values.min():g}, {values.max():g}]).")
+    coefficients = interpolating_coefficients(values - float(isovalue))
     if not values.min() <= float(isovalue) <= values.max():
+        # the spline lies within its coefficients' range; between samples that step
+        # sharply it overshoots them, and may cross a level no sample reaches
+        crosses = coefficients.min() <= 0.0 <= coefficients.max()
         warnings.warn(f"isovalue={isovalue:g} is outside the data range [{values.min():g}, "
-                      f"{values.max():g}]: the surface is empty.", stacklevel=4)
-    return SplineField(interpolating_coefficients(values - float(isovalue)), grid_from_index,
-                       name=name)
+                      f"{values.max():g}]: " + (
+                          "PyVista's contour draws nothing there, but the interpolating "
+                          "spline overshoots the samples where they step sharply and may "
+                          "cross it: where it does, that surface is drawn (give an isovalue "
+                          "inside the range, or smoother samples)." if crosses else
+                          "the surface is empty."), stacklevel=4)
+    return SplineField(coefficients, grid_from_index, name=name)
 
 
 def point_cloud_field(points, normals, cells: int = 32, *, offset: float = 0.5,
