@@ -53,6 +53,7 @@ class CubemarchComponent:
         self._bar_mappers: list = []   # (renderer, actor, mapper, keywords): bar and actor
         self._gone: list = []          # (actor's weak reference, renderer, name): released
         self._said: set = set()        # what _say_what_is_not_drawn said (once each)
+        self._props_seen: dict = {}    # renderer: its props' state when copies were looked for
         if self._window is not None:
             self._multisampling = MultisamplePolicy(self._window)
             self._observers = [
@@ -146,6 +147,7 @@ class CubemarchComponent:
         polygons, which for ours are boxes (volumes vanished or were drawn over the floor).
         """
         renderers = list(getattr(self._plotter, "renderers", ()))
+        self._say_copies(renderers)
         for item in self._tracked:
             actor = item.actor
             for renderer in renderers:
@@ -166,6 +168,35 @@ class CubemarchComponent:
                           "from the props' polygons, and a volume's are its box: it is not "
                           "drawn right under it. Call plotter.disable_shadows(); "
                           "add_volume(lights='scene') shades a volume with its own shadows.")
+
+    def _say_copies(self, renderers) -> None:
+        """Once each: a prop sharing a returned actor's mapper (a copy) draws nothing.
+
+        Looked for only when a renderer's props change (a world has a prop per chunk).
+        """
+        mappers = {}
+        for item in self._tracked:
+            actor = getattr(item, "actor", None)
+            if actor is not None and actor.GetMapper() is not None:
+                mappers[id(actor.GetMapper())] = item
+        for renderer in renderers:
+            props = renderer.GetViewProps()
+            key = ("props", id(renderer))
+            if self._props_seen.get(key) == (props.GetMTime(), len(mappers)):
+                continue
+            self._props_seen[key] = (props.GetMTime(), len(mappers))
+            props.InitTraversal()
+            for _ in range(props.GetNumberOfItems()):
+                prop = props.GetNextProp()
+                mapper = prop.GetMapper() if hasattr(prop, "GetMapper") else None
+                item = mappers.get(id(mapper)) if mapper is not None else None
+                if item is not None and prop is not item.actor and (
+                        "copy", id(prop)) not in self._said:
+                    self._said.add(("copy", id(prop)))
+                    warn_user(f"a prop sharing the mapper of {_shown_name(item)!r} (a copy of its "
+                              "actor) draws nothing: the drawing belongs to the actor it "
+                              "was returned as. Add the data again to draw it elsewhere "
+                              "(user_matrix= places it).")
 
     def add_volume(self, volume, scalars=None, **kwargs):
         """Same as :func:`pv_cubemarch.add_volume` on this plotter."""
@@ -232,6 +263,9 @@ class CubemarchComponent:
         """Keep ``item`` (with ``bindings`` and ``release()``) until its actor leaves."""
         self.release_removed()  # an actor of the same name may just have been replaced
         self._tracked.append(item)
+        actor = getattr(item, "actor", None)
+        if actor is not None:   # a copy would draw nothing (its drawing is the actor's)
+            actor.copy = _copy_refused(_shown_name(item))
 
     def untrack(self, item) -> None:
         """Release ``item`` now and stop following it (e.g. a world's replaced chunk)."""
@@ -277,3 +311,18 @@ def _reduced_bytes(item) -> int:
     """Bytes of the reduced-size targets a frame budget drew ``item`` (or its levels) into."""
     parts = getattr(item, "surfaces", [item])
     return sum(part.reduced.nbytes for part in parts if getattr(part, "reduced", None))
+
+
+def _shown_name(item) -> str:
+    """The name the user knows ``item`` by: its actor's in the plotter, else its own."""
+    return getattr(item.actor, "name", None) or getattr(item, "name", "this actor")
+
+
+def _copy_refused(name: str):
+    """A returned actor's ``copy``: refused by name (a copy would draw nothing)."""
+    def copy(deep: bool = True):
+        raise TypeError(f"{name!r} cannot be copied: its drawing belongs to the actor it was "
+                        "returned as, and a copy would draw nothing. Add the data again to "
+                        "draw it elsewhere (user_matrix= places it).")
+    return copy
+
