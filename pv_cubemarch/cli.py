@@ -821,7 +821,7 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                actor = (add_voxels if as_voxels else add_volume)(plotter, source, **keywords)
+                (add_voxels if as_voxels else add_volume)(plotter, source, **keywords)
             except RefusedOptionsError as exc:   # said with the flags that gave them
                 flags = ", ".join(_flag_of(name, kind) for name in exc.names)
                 one = len(exc.names) == 1
@@ -836,15 +836,10 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
                 raise VolumeDataError(f"{args.scene}: a brick could not be read "
                                       f"({type(exc).__name__}: {exc}); the store is damaged "
                                       "or unreadable there.") from exc
-            stats = actor.cubemarch.stats()
     finally:
         plotter.close()
     for warning in caught:
         print(f"pv-cubemarch: note: {warning.message}", file=sys.stderr)
-    if stats.get("over_budget"):   # said, not drawn coarser in silence
-        print("pv-cubemarch: note: the GPU pool (--gpu-bytes) holds too few bricks for this "
-              "view: coarser levels are drawn where it had no room; give it more bytes, or "
-              "a larger --lod-bias.", file=sys.stderr)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(image).save(str(args.out))
     print(f"wrote {args.out} ({args.size[0]}x{args.size[1]})")

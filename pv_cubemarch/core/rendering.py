@@ -167,6 +167,14 @@ def _converge(plotter: pyvista.Plotter, timeout: float, progress_bar: bool | Non
         if not streaming:
             if bar is not None:
                 bar.close()
+            full = [b for b in tracked_bindings(plotter) if b.shown and hasattr(b, "stats")
+                    and b.stats().get("over_budget")]
+            if full:   # said, not drawn coarser in silence
+                warnings.warn("render_image(converge=True): the GPU pool of "
+                              f"{', '.join(repr(b.name) for b in full)} holds too few "
+                              "bricks for this view, so coarser levels are drawn where it "
+                              "had no room; give it more bytes (gpu_bytes=, --gpu-bytes) or a "
+                              "larger lod_bias.", stacklevel=3)
             return
         left = deadline - time.perf_counter()
         if left <= 0:
