@@ -76,6 +76,10 @@ class MultiscaleSource:
     #: The axes besides x, y and z (an OME-Zarr image's time and channel), by name: the
     #: index read, the entries there are, and ``'time'`` or ``'channel'``.
     others: dict = field(default_factory=dict)
+    #: Arrays with no placement of their own (a list, a zarr or dask array): a label's
+    #: finest voxel ``i`` spans ``[i, i + 1]``, as ``add_voxels`` places a numpy array's.
+    #: An OME-Zarr image's metadata places the voxels' centres instead.
+    cell_origin: bool = False
 
     def __post_init__(self):
         check_levels(self.levels)
@@ -196,12 +200,12 @@ def multiscale_source(source, *, time: int = 0, channel: int = 0,
                 raise ValueError(f"Every level needs 3 axes (x, y, z), got {tuple(shape)}.")
             step = base / shape   # each level spans the finest one's extent, cell centred
             levels.append(_array_level(array, step, (step - 1.0) / 2.0))
-        return MultiscaleSource(levels, name or "volume")
+        return MultiscaleSource(levels, name or "volume", cell_origin=True)
     if not all(hasattr(source, a) for a in ("shape", "dtype", "__getitem__")):
         raise TypeError(f"A multiscale source is a zarr array or group, a dask or numpy array, "
                         f"a list of arrays finest first, or an object with shape, dtype and "
                         f"slicing; got {type(source).__name__}.")
-    return MultiscaleSource([_array_level(source)], name or "volume")
+    return MultiscaleSource([_array_level(source)], name or "volume", cell_origin=True)
 
 
 def is_zarr_group(value) -> bool:

@@ -67,14 +67,19 @@ class PagedLabels:
         return self.source.shape
 
     def world_from_point(self) -> np.ndarray:
-        """4x4 from finest-level voxel indices (their centres) to world coordinates."""
-        return np.asarray(self.transform, float) @ self.source.levels[0].physical_from_index()
+        """4x4 from finest-level voxel indices (their centres) to world coordinates.
+
+        A source of bare arrays has its voxel ``i`` centred at ``i + 1/2``, as a numpy
+        array's voxels are placed (``MultiscaleSource.cell_origin``).
+        """
+        placed = np.asarray(self.transform, float) @ self.source.levels[0].physical_from_index()
+        if self.source.cell_origin:
+            placed = placed @ _shifted(0.5)
+        return placed
 
     def world_from_index(self) -> np.ndarray:
         """4x4 from the finest level's index space (voxel ``i`` spans ``[i, i + 1]``)."""
-        shift = np.eye(4)
-        shift[:3, 3] = -0.5
-        return self.world_from_point() @ shift
+        return self.world_from_point() @ _shifted(-0.5)
 
     @property
     def dtype(self) -> np.dtype:
@@ -310,3 +315,11 @@ def build_paged_labels(plotter, model: PagedLabels, options: VoxelOptions,
     follow_pager(plotter, binding, pager)
     pyvista.set_new_attribute(actor, "cubemarch", binding)
     return binding
+
+
+def _shifted(offset: float) -> np.ndarray:
+    """A 4x4 move by ``offset`` along every index axis."""
+    shift = np.eye(4)
+    shift[:3, 3] = offset
+    return shift
+
