@@ -454,3 +454,25 @@ def test_a_streamed_grid_s_moving_frames_draw_fewer_pixels(pyramid):
     assert (np.abs(full.astype(int) - reduced).max(axis=-1) > 0).mean() > 0.02   # reduced
     differs = np.abs(reduced.astype(int) - expected).max(axis=-1) > 0
     assert differs.mean() < 0.005, differs.mean()
+
+
+def test_a_view_wanting_more_bricks_than_a_plan_holds_lists_the_nearest(pyramid, monkeypatch):
+    # Found by a review: a view wanting the finest level of a huge grid everywhere (8192³
+    # at lod_bias=-30, or a level claiming 1e12 voxels) listed every brick (16.7 M) and
+    # ran out of memory inside a frame. A plan holds a bounded number of keys, the
+    # nearest first, and the frame is said to be over budget.
+    # catches (seen failing): _children's cut removed (every brick listed: 929 keys where
+    # the plan holds 119, the slots twice and the bricks known empty).
+    monkeypatch.setattr("pv_cubemarch.volume.brick_pager.PLAN_SLOTS_FACTOR", 2)
+    pl = plotter()
+    actor = cm.add_voxels(pl, pyramid, mode="id", lod_bias=-64, brick_size=4,
+                          gpu_bytes=40 * 4**3 * 4)
+    look(pl, (150.0, -110.0, 130.0))   # the whole grid in view: every brick wanted
+    with pytest.warns(UserWarning, match="holds too few bricks"):
+        image = cm.render_image(pl, converge=True)
+    pager = actor.cubemarch.pager
+    planned = pager.wanted()
+    assert pager.plan_cut and actor.cubemarch.stats()["over_budget"]
+    assert len(planned) <= 2 * pager.capacity + len(pager.empty), len(planned)
+    assert len({key[0] for key in planned}) >= 2 and image.any()   # finer than the coarsest
+    pl.close()

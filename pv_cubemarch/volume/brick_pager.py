@@ -34,6 +34,9 @@ BRICK_POINTS = 32
 EMPTY_BLOCKS = 1024
 #: Most brick bytes uploaded in one frame (the rest waits for the next frames).
 UPLOAD_BYTES_PER_FRAME = 64 * 2**20
+#: A frame plans at most this many times the pool's slots (plus the bricks known empty),
+#: the nearest first: beyond that, bricks could not be resident anyway.
+PLAN_SLOTS_FACTOR = 16
 
 
 def pool_slots(brick: int, gpu_bytes: int, most_bricks: int | None = None,
@@ -203,6 +206,7 @@ class BrickPager:
         self._planned_for = None   # the view the last choice of bricks was made for
         #: Whether the last frame wanted more bricks than the pool holds.
         self.over_budget = False
+        self.plan_cut = False   # whether the last plan left bricks out (see wanted)
         self.uploaded_bytes = 0
         #: Bricks the last plan left out as hidden behind the depth.
         self.hidden_bricks = 0
@@ -417,6 +421,11 @@ class BrickPager:
         coarsest = len(levels) - 1
         keys = sorted(self.pinned)
         self.hidden_bricks = 0
+        self.plan_cut = False
+        # at most this many keys are planned (the pool's slots, many times over, and the
+        # bricks known empty, which take none): a view that wants the finest level of a
+        # huge grid everywhere listed millions of bricks, out of memory within a frame
+        limit = PLAN_SLOTS_FACTOR * self.capacity + len(self.empty)
         candidates = np.array(list(np.ndindex(*self.counts[coarsest])), dtype=np.int64)
         for number in range(coarsest, -1, -1):
             if not len(candidates):
@@ -445,7 +454,8 @@ class BrickPager:
             if number == 0:
                 break
             refine = needed < number
-            candidates = self._children(number, low[refine], high[refine], info)
+            candidates = self._children(number, low[refine], high[refine], info,
+                                        nearest[refine], limit - len(keys))
         return keys
 
     def _hidden(self, low: np.ndarray, high: np.ndarray, clip_from_point) -> np.ndarray:
@@ -475,8 +485,13 @@ class BrickPager:
             pyramid = self.read_depth()
             self.depth = None if pyramid is None else (self._planned_for, pyramid)
 
-    def _children(self, number: int, low: np.ndarray, high: np.ndarray, info) -> np.ndarray:
-        """The bricks of level ``number - 1`` under boxes (finest points) of level ``number``."""
+    def _children(self, number: int, low: np.ndarray, high: np.ndarray, info,
+                  nearest: np.ndarray, room: int) -> np.ndarray:
+        """The bricks of level ``number - 1`` under boxes (finest points) of level ``number``.
+
+        At most about ``room`` of them: the nearest boxes' first (``plan_cut`` says when
+        some were left out).
+        """
         finer = number - 1
         a, b = info[finer, 0, :3].astype(float), info[finer, 1, :3].astype(float)
         counts = np.asarray(self.counts[finer])
@@ -487,6 +502,14 @@ class BrickPager:
                        counts - 1).astype(np.int64)
         if not len(first):
             return np.zeros((0, 3), np.int64)
+        under = np.prod(last - first + 1, axis=1, dtype=np.int64)
+        if int(under.sum()) > room:   # the nearest boxes whose children fit the room
+            order = np.argsort(nearest, kind="stable")
+            taken = order[np.cumsum(under[order]) <= max(room, 0)]
+            self.plan_cut = True
+            first, last = first[taken], last[taken]
+            if not len(first):
+                return np.zeros((0, 3), np.int64)
         span = (last - first).max(axis=0) + 1
         offsets = np.stack(np.meshgrid(*(np.arange(n) for n in span), indexing="ij"),
                            -1).reshape(-1, 3)
@@ -536,7 +559,8 @@ class BrickPager:
         failed = self.cache.failed
         # within the pool's slots (bricks known to be empty, or unreadable, take none)
         taking = np.cumsum([key not in self.empty and key not in failed for key in wanted])
-        self.over_budget = bool(len(wanted)) and int(taking[-1]) > self.capacity
+        self.over_budget = self.plan_cut or (
+            bool(len(wanted)) and int(taking[-1]) > self.capacity)
         wanted = wanted[:int(np.searchsorted(taking, self.capacity, side="right"))]
         keep = set(wanted)
         for key in wanted:
