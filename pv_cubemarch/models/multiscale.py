@@ -220,7 +220,11 @@ def _image_error(group) -> str | None:
     model's, is deep in its text); the image model of the group's version says which field
     is wrong. None where that model reads it.
     """
-    version = "v05" if "ome" in dict(group.attrs) else "v04"
+    attributes = dict(group.attrs)
+    version = "v05" if "ome" in attributes else "v04"
+    scales = _raw_scales(attributes.get("ome", attributes))
+    if scales:   # said as it is (the model blames the levels' order for a negative scale)
+        return scales
     model = needs(f"ome_zarr_models.{version}.image").Image
     try:
         model.from_zarr(group)
@@ -229,6 +233,24 @@ def _image_error(group) -> str | None:
                  for line in str(error).splitlines()
                  if line.strip() and "errors.pydantic.dev" not in line]
         return "; ".join(line for line in lines[:3] if line) or None
+    return None
+
+
+def _raw_scales(attributes: dict) -> str | None:
+    """What is wrong with the first multiscale's scales as written, if one is not positive."""
+    try:
+        datasets = attributes["multiscales"][0]["datasets"]
+        for number, dataset in enumerate(datasets):
+            for transform in dataset.get("coordinateTransformations", ()):
+                scale = transform.get("scale") if transform.get("type") == "scale" else None
+                if scale is not None and not all(
+                        isinstance(v, (int, float)) and np.isfinite(v) and v > 0
+                        for v in scale):
+                    return (f"dataset {number} ({dataset.get('path')!r}) has scale {scale}: "
+                            "every entry must be a positive number (a voxel's size along "
+                            "its axis); mirror an axis with the transform given to add_*")
+    except (KeyError, IndexError, TypeError, AttributeError):
+        return None   # the model says what is missing
     return None
 
 
