@@ -177,8 +177,8 @@ class CubemarchComponent:
         mappers = {}
         for item in self._tracked:
             actor = getattr(item, "actor", None)
-            if actor is not None and actor.GetMapper() is not None:
-                mappers[id(actor.GetMapper())] = item
+            if actor is not None and actor.GetMapper() is not None:   # by VTK's address:
+                mappers[actor.GetMapper().GetAddressAsString("vtkObject")] = item   # not id()
         for renderer in renderers:
             props = renderer.GetViewProps()
             key = ("props", id(renderer))
@@ -189,7 +189,8 @@ class CubemarchComponent:
             for _ in range(props.GetNumberOfItems()):
                 prop = props.GetNextProp()
                 mapper = prop.GetMapper() if hasattr(prop, "GetMapper") else None
-                item = mappers.get(id(mapper)) if mapper is not None else None
+                item = None if mapper is None else mappers.get(
+                    mapper.GetAddressAsString("vtkObject"))
                 if item is not None and prop is not item.actor and (
                         "copy", id(prop)) not in self._said:
                     self._said.add(("copy", id(prop)))

@@ -16,6 +16,11 @@ import numpy as np
 import pyvista
 import vtk
 
+#: The point array of a box's corners' moves outward (see :func:`box_polydata`).
+GROW = "cm_grow"
+#: ``vtkOpenGLVertexBufferObject``'s shift-only method (its enum is not wrapped).
+AUTO_SHIFT = 4
+
 
 def numpy_matrix(matrix) -> np.ndarray:
     """A ``vtkMatrix4x4`` as a numpy array."""
@@ -218,10 +223,16 @@ def box_actor(upper, world_from_index: np.ndarray, margin: float = 0.0,
     ``margin`` grows the drawn box on every side (index units): rasterisation covers a
     pixel whose centre is a hair inside the box's silhouette only when the edge is a
     sub-pixel step away, so a technique that clips its rays to the exact box in the shader
-    draws a slightly larger box and loses no grazing pixel.
+    draws a slightly larger box and loses no grazing pixel. The box's points stay exact
+    (its bounds are the data's); the vertex shader grows it (``box_grow_vertex``).
     """
     mapper = vtk.vtkOpenGLPolyDataMapper()
     mapper.SetInputData(box_polydata(lower, upper, margin))
+    mapper.MapDataArrayToVertexAttribute(GROW, GROW, vtk.vtkDataObject.FIELD_ASSOCIATION_POINTS,
+                                         -1)
+    # its points moved to the origin only (VTK's AUTO_SHIFT), never scaled: the corners'
+    # moves are in the box's own units (a grid at 1e6 keeps its precision by the shift)
+    mapper.SetVBOShiftScaleMethod(AUTO_SHIFT)
     actor = pyvista.Actor()
     actor.SetMapper(mapper)
     actor.ForceTranslucentOn()
@@ -230,10 +241,17 @@ def box_actor(upper, world_from_index: np.ndarray, margin: float = 0.0,
 
 
 def box_polydata(lower, upper, margin: float = 0.0) -> pyvista.PolyData:
-    """The triangles of the box ``[lower, upper]`` grown by ``margin`` on every side."""
-    lo = np.asarray(lower, dtype=np.float64) - float(margin)
-    hi = np.asarray(upper, dtype=np.float64) + float(margin)
-    return pyvista.Box(bounds=(lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])).triangulate()
+    """The triangles of the box ``[lower, upper]``, to be drawn grown by ``margin``.
+
+    Each corner's move outward is its point array ``cm_grow`` (index units, as the
+    points), which the box actor's vertex shader adds: the points, and so the actor's
+    bounds, stay the box's own.
+    """
+    lo, hi = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
+    box = pyvista.Box(bounds=(lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])).triangulate()
+    outward = np.where(np.asarray(box.points) > (lo + hi) / 2.0, 1.0, -1.0)
+    box.point_data[GROW] = outward * float(margin)
+    return box
 
 
 def place_by_user_matrix(prop, matrix: np.ndarray) -> None:

@@ -17,7 +17,7 @@ from ..core.rendering import needs_open_plotter
 from ..core.user_warnings import warn_user
 from ..models.volume import checked_transform
 from .bindings import ShaderBindings
-from .box import cull, numpy_matrix, place_box, place_by_user_matrix
+from .box import GROW, cull, numpy_matrix, place_box, place_by_user_matrix
 from .look import ReturnedLook
 from .overlay import is_bounds_proxy, place_bounds_proxy
 from .shaders import ShaderRecipe
@@ -287,7 +287,10 @@ class DrawnBinding(Placement):
             polydata = pyvista.wrap(polydata).copy()
             # double: a frame far from its origin (1e6) holds no float32 corner a hair out
             polydata.points = np.asarray(polydata.points, np.float64)
+            grow = polydata.point_data.get(GROW)
             polydata = polydata.transform(frame_from_index, inplace=False)
+            if grow is not None:   # the corners' moves outward, in the frame too
+                polydata.point_data[GROW] = np.asarray(grow) @ frame_from_index[:3, :3].T
         self.drawn[0].GetMapper().SetInputData(polydata)
 
     def release(self) -> None:

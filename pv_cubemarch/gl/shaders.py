@@ -205,11 +205,12 @@ def box_recipe(declarations: tuple[str, ...], fragment: str | tuple[str, ...],
                                     keep_tag="after"),
                         Replacement("//VTK::Light::Impl", fragment, keep_tag="before")]
     replacements.append(Replacement("//VTK::Clip::Impl", "box_not_clipped"))
-    if vertex_declarations:
-        replacements.append(Replacement("//VTK::PositionVC::Dec", tuple(vertex_declarations),
-                                        stage="vertex", keep_tag="after"))
-    replacements.append(Replacement("//VTK::PositionVC::Impl", tuple(vertex), stage="vertex",
-                                    keep_tag="before"))
+    # every box is drawn grown by its corners' margin (box.box_polydata), first
+    replacements.append(Replacement("//VTK::PositionVC::Dec",
+                                    ("box_grow_declarations", *vertex_declarations),
+                                    stage="vertex", keep_tag="after"))
+    replacements.append(Replacement("//VTK::PositionVC::Impl", ("box_grow_vertex", *vertex),
+                                    stage="vertex", keep_tag="before"))
     return ShaderRecipe(replacements, defines=dict(defines or {}))
 
 
