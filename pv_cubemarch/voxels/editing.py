@@ -250,7 +250,10 @@ def refresh(binding, box: Box) -> None:
             shell.rebuild()
         else:
             shell.edit(box)
-        after = shell.bounds if shell.enabled else filled_bounds(labels)
+        # the filled voxels' box, as drawn when added: grown by an edit (never shrunk, a
+        # larger box only starts some rays earlier), found anew by a whole one
+        after = filled_bounds(labels) if whole or not shell.enabled else _grown(
+            binding.drawn_bounds, labels, box)
     else:   # no shell fits: the box around the labels
         after = filled_bounds(labels) if whole else _grown(binding.drawn_bounds, labels, box)
         after = bounds_in_cells(after, drawn_level(binding.options), dims)

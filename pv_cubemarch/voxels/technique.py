@@ -468,8 +468,9 @@ def build_voxel_actor(plotter, model: VoxelModel, options: VoxelOptions,
         # its voxels, and a box cut at them would cut its silhouette (seen: 54 pixels).
         lower, upper = bounds_in_cells(filled_bounds(model.labels), drawn_level(options),
                                        model.dimensions)
-    else:
-        lower, upper = shell.bounds
+    else:   # the filled voxels' own box (the shell's bricks reach past it): the returned
+        # actor's bounds are then threshold's mesh's, and no voxel lies outside it
+        lower, upper = filled_bounds(model.labels)
     actor = box_actor(upper, model.world_from_index(), margin=0.01 * max(model.dimensions),
                       lower=lower)
     actor.ForceTranslucentOff()
