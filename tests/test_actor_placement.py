@@ -491,7 +491,9 @@ def test_a_grid_s_returned_bounds_are_threshold_s_mesh_s(how):
     if how == "edited":
         cm.render_image(plotter)
         actor.cubemarch.set_voxels((slice(9, 12), slice(5, 6), slice(6, 9)), 1)
+        labels = labels.copy()   # the added grid left as it was (an edit of it is said)
         labels[9:12, 5:6, 6:9] = 1
+        grid = grid.copy()
         grid.cell_data["m"] = labels.ravel(order="F")
     expected = grid.threshold(0.5, scalars="m").bounds   # (float32 points)
     np.testing.assert_allclose(actor.bounds, expected, rtol=0, atol=1e-5)

@@ -120,6 +120,7 @@ def test_frames_written_as_pngs_and_a_movie(client, tmp_path):
     assert len(frames) == 3 and frames[0].shape[:2] == (SIZE[1], SIZE[0])
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_bad_inputs_are_refused_by_name(client, tmp_path):
     with pytest.raises(ValueError, match=r"cameras\[1\]"):
         cm.render_frames(build, [CAMERAS[0], "above"], SIZE, client=client)
@@ -194,6 +195,7 @@ class StreamedBuild:
         cm.add_volume(plotter, source, lod_bias=-64, brick_size=4, clim=(0.0, 900.0))
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_a_frame_with_unreadable_bricks_is_an_error_not_a_coarse_frame(client, tmp_path):
     # The read error is said once by the pager; a retried frame on the same plotter would
     # converge coarser in silence. Here every try fails and the batch raises; a movie

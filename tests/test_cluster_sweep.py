@@ -134,6 +134,7 @@ def test_bench_tradeoff_computes_its_references_on_the_cluster(client, tmp_path)
 
 
 @pytest.mark.parametrize("reference", ["voxels", "surface"])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_a_per_pixel_record_made_in_bands_is_the_whole_one(client, reference):
     # The voxel traversal's and the surface roots' records (dataclasses of per-pixel
     # images), stacked field by field. catches (seen failing): bands stacked in another

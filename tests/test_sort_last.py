@@ -581,6 +581,7 @@ def test_a_live_view_shows_the_cluster_s_frames_for_its_camera(client):
         display.close()
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_an_ome_zarr_image_is_split_from_its_finest_level(client, tmp_path):
     # The finest level, placed by the image's metadata (scale, translation), read slab by
     # slab; the colour range given (by default: its coarsest level's, as streamed volumes).
