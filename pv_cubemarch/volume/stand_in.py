@@ -4,8 +4,8 @@ The direct marcher, the cube map and ``'auto'`` draw boxes and passes of their o
 plotter knows the volume by this stand-in instead: a real ``pyvista.Volume`` spanning the
 volume's world bounds, whose VTK mapper draws no fragment. PyVista's calls then work as on
 its own volumes: ``pl.add_volume_clip_plane(vol)`` and ``vol.mapper.AddClippingPlane``
-(the marchers read the planes), ``vol.bounds``, ``reset_camera``, ``remove_actor``,
-visibility and picking.
+(the marchers read the planes), ``vol.bounds``, ``reset_camera``, ``remove_actor`` and
+visibility. VTK's pickers do not hit it: it holds no data and draws no fragment.
 """
 
 from __future__ import annotations
