@@ -686,7 +686,7 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
 
     refused = sorted(key for key, value in given.items()
                      if key not in PAGED_KEYWORDS and not left_out(key, value))
-    _one_transform(given["transform"], given["user_matrix"])
+    _one_transform(given["transform"], given["user_matrix"])   # refused before any read
     check_paging(given)
     if given["technique"] not in ("vtk", "direct", "auto", "cubemap"):
         refused.insert(0, f"technique={given['technique']!r}")
@@ -716,7 +716,7 @@ def _add_paged(plotter: pyvista.Plotter, source, given: dict, extra: dict):
             f"{', '.join(refused)} cannot be used with it.", refused,
             "it is drawn by the direct marcher or the cube map reading a brick pool, "
             "composite blending only")
-    transform = given["transform"] if given["user_matrix"] is None else given["user_matrix"]
+    transform = _one_transform(given["transform"], given["user_matrix"])
     if isinstance(source, PagedVolume):   # added again (the live view): as it was, but what
         made = source                     # this call changes
         source = made.source
@@ -873,7 +873,7 @@ def _one_transform(transform, user_matrix):
         return transform
     if transform is not None:
         raise ValueError("give transform= or user_matrix= (PyVista's name), not both.")
-    return user_matrix
+    return checked_transform(user_matrix, "user_matrix")   # (a vtkMatrix4x4 too)
 
 
 def _frame(plotter: pyvista.Plotter, reset_camera: bool | None = None) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import pyvista as pv
+import vtk
 
 import pv_cubemarch as cm
 
@@ -429,6 +430,15 @@ def test_user_matrix_given_when_added_places_it_as_pyvista_s_mesh(kind):
         wrong = (np.abs(mine - theirs).max(axis=-1) > 12).sum()
         assert wrong <= 0.002 * drawn.sum(), (wrong, drawn.sum())
     assert np.allclose(actors[0].user_matrix, PLACED)
+    matrix = vtk.vtkMatrix4x4()   # as add_mesh takes it (found by a review: refused)
+    matrix.DeepCopy(PLACED.ravel().tolist())
+    transform = vtk.vtkTransform()
+    transform.SetMatrix(matrix)
+    for given in (matrix, transform):
+        actor = KEYWORD_ADDERS[kind](pv.Plotter(off_screen=True), user_matrix=given)
+        assert np.allclose(actor.user_matrix, PLACED)
+    with pytest.raises(ValueError, match="user_matrix must be a 4x4 matrix"):
+        KEYWORD_ADDERS[kind](pv.Plotter(off_screen=True), user_matrix=np.eye(3))
     with pytest.raises(ValueError, match="not both"):
         KEYWORD_ADDERS[kind](pv.Plotter(off_screen=True), user_matrix=PLACED, transform=PLACED)
 

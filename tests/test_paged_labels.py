@@ -462,7 +462,9 @@ def test_a_view_wanting_more_bricks_than_a_plan_holds_lists_the_nearest(pyramid,
     # ran out of memory inside a frame. A plan holds a bounded number of keys, the
     # nearest first, and the frame is said to be over budget.
     # catches (seen failing): _children's cut removed (every brick listed: 929 keys where
-    # the plan holds 119, the slots twice and the bricks known empty).
+    # the plan holds 119, the slots twice and the bricks known empty); the cut sorting a
+    # number instead of the boxes' distances (one box refined, the first in index order,
+    # found by a review).
     monkeypatch.setattr("pv_cubemarch.volume.brick_pager.PLAN_SLOTS_FACTOR", 2)
     pl = plotter()
     actor = cm.add_voxels(pl, pyramid, mode="id", lod_bias=-64, brick_size=4,
@@ -475,4 +477,15 @@ def test_a_view_wanting_more_bricks_than_a_plan_holds_lists_the_nearest(pyramid,
     assert pager.plan_cut and actor.cubemarch.stats()["over_budget"]
     assert len(planned) <= 2 * pager.capacity + len(pager.empty), len(planned)
     assert len({key[0] for key in planned}) >= 2 and image.any()   # finer than the coarsest
+    eye = np.asarray(pl.camera.position)
+    world = actor.cubemarch.model.world_from_point()
+
+    def distance(keys):   # from the eye to the finest bricks' centres
+        centres = (np.array([k[1:] for k in keys], float) + 0.5) * 4 - 0.5
+        return np.linalg.norm(centres @ world[:3, :3].T + world[:3, 3] - eye, axis=1)
+
+    finest = [key for key in planned if key[0] == 0]
+    every = list(np.ndindex(*pager.counts[0]))
+    assert len(finest) >= 8   # more than one box's children
+    assert distance(finest).mean() < distance([(0, *k) for k in every]).mean() - 5.0
     pl.close()

@@ -15,9 +15,9 @@ void cm_pixelRay(vec2 ndc, out vec3 originView, out vec3 directionView)
     directionView = vec3((ndc.x + p[2][0]) / p[0][0], (ndc.y + p[2][1]) / p[1][1], -1.0);
   }
   else                  // parallel: the pixel's point on the eye plane, straight ahead
-  {
+  {                     // (slanted by a stereo eye's shear)
     originView = vec3((ndc.x - p[3][0]) / p[0][0], (ndc.y - p[3][1]) / p[1][1], 0.0);
-    directionView = vec3(0.0, 0.0, -1.0);
+    directionView = vec3(p[2][0] / p[0][0], p[2][1] / p[1][1], -1.0);
   }
 }
 

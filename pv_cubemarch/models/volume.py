@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pyvista
+import vtk
 from matplotlib.colors import ListedColormap
 
 from ..core.errors import VolumeDataError, VolumeDataWarning
@@ -506,26 +507,34 @@ def _shifted_clim(clim, offset: int | float) -> tuple[float, float]:
     return shift_value(lo, offset), shift_value(hi, offset)
 
 
-def checked_transform(transform) -> np.ndarray:
-    """``transform`` as a float64 4x4 placement, or a clear error."""
+def checked_transform(transform, name: str = "transform") -> np.ndarray:
+    """``transform`` as a float64 4x4 placement, or a clear error naming ``name``.
+
+    Takes what PyVista's ``user_matrix`` takes: an array, a ``vtkMatrix4x4`` or a
+    ``vtkTransform``.
+    """
+    if hasattr(transform, "GetMatrix"):   # a vtkTransform
+        transform = transform.GetMatrix()
+    if isinstance(transform, vtk.vtkMatrix4x4):
+        transform = [[transform.GetElement(i, j) for j in range(4)] for i in range(4)]
     try:
         matrix = np.asarray(transform, dtype=np.float64)
     except (TypeError, ValueError):
-        raise VolumeDataError(f"transform must be a 4x4 matrix of numbers, got "
+        raise VolumeDataError(f"{name} must be a 4x4 matrix of numbers, got "
                               f"{transform!r}.") from None
     if matrix.shape != (4, 4):
-        raise VolumeDataError(f"transform must be a 4x4 matrix, got shape {matrix.shape}.")
+        raise VolumeDataError(f"{name} must be a 4x4 matrix, got shape {matrix.shape}.")
     if not np.isfinite(matrix).all():
-        raise VolumeDataError(f"transform must be finite; it holds "
+        raise VolumeDataError(f"{name} must be finite; it holds "
                               f"{int((~np.isfinite(matrix)).sum())} NaN or infinite entries.")
     if not np.allclose(matrix[3], (0.0, 0.0, 0.0, 1.0), rtol=0.0, atol=1e-12):
         raise VolumeDataError(
-            f"transform must be affine: its last row must be (0, 0, 0, 1), got "
+            f"{name} must be affine: its last row must be (0, 0, 0, 1), got "
             f"{tuple(float(v) for v in matrix[3])}. A projective matrix cannot place a volume; "
             "pass rotation, scaling and translation only."
         )
     if abs(np.linalg.det(matrix[:3, :3])) < 1e-300:
-        raise VolumeDataError("transform must be invertible (its 3x3 part has determinant 0).")
+        raise VolumeDataError(f"{name} must be invertible (its 3x3 part has determinant 0).")
     matrix = matrix.copy()
     matrix[3] = (0.0, 0.0, 0.0, 1.0)
     return matrix

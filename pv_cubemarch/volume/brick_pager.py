@@ -495,10 +495,10 @@ class BrickPager:
         finer = number - 1
         a, b = info[finer, 0, :3].astype(float), info[finer, 1, :3].astype(float)
         counts = np.asarray(self.counts[finer])
-        nearest = 0.0 if self.apron else 0.5   # no apron: a point reads its nearest cell
-        first = np.clip(np.floor((low * a + b + nearest) / self.brick), 0,
+        half = 0.0 if self.apron else 0.5   # no apron: a point reads its nearest cell
+        first = np.clip(np.floor((low * a + b + half) / self.brick), 0,
                         counts - 1).astype(np.int64)
-        last = np.clip(np.floor((high * a + b + nearest) / self.brick), 0,
+        last = np.clip(np.floor((high * a + b + half) / self.brick), 0,
                        counts - 1).astype(np.int64)
         if not len(first):
             return np.zeros((0, 3), np.int64)
