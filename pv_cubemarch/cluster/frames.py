@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pyvista
 
 from ..core.camera import Camera
 from ..core.errors import CubemarchError
@@ -161,20 +162,30 @@ def worker_builds() -> int:
 
 
 def as_camera(camera, index: int = 0) -> Camera:
-    """A :class:`Camera`, a ``pyvista.Camera`` or a camera position (3 points)."""
-    if isinstance(camera, Camera):
-        return camera
-    if hasattr(camera, "GetPosition"):
-        return Camera.from_pyvista(camera)
+    """A :class:`Camera`, a ``pyvista.Camera`` or a camera position (3 points).
+
+    Refused, naming ``cameras[index]``, when it makes no view (a value not finite, the
+    position on the focal point, view up along the view): such a frame drew black.
+    """
+    if hasattr(camera, "GetPosition") and not isinstance(camera, Camera):
+        camera = Camera.from_pyvista(camera)
+    elif not isinstance(camera, Camera):
+        try:
+            position, focal, up = (tuple(float(v) for v in point) for point in camera)
+            if not all(len(p) == 3 for p in (position, focal, up)):
+                raise ValueError
+        except (TypeError, ValueError):
+            raise ValueError(f"cameras[{index}] must be a pv_cubemarch.Camera, a "
+                             f"pyvista.Camera or a camera position [(x, y, z), focal point, "
+                             f"view up], got {camera!r}.") from None
+        camera = Camera(position, focal, up)
+    if not np.all(np.isfinite([*camera.position, *camera.focal_point, *camera.view_up])):
+        raise ValueError(f"cameras[{index}] holds a value that is not finite: {camera}.")
     try:
-        position, focal, up = (tuple(float(v) for v in point) for point in camera)
-        if not all(len(p) == 3 for p in (position, focal, up)):
-            raise ValueError
-    except (TypeError, ValueError):
-        raise ValueError(f"cameras[{index}] must be a pv_cubemarch.Camera, a pyvista.Camera "
-                         f"or a camera position [(x, y, z), focal point, view up], got "
-                         f"{camera!r}.") from None
-    return Camera(position, focal, up)
+        camera.basis()   # a view direction and view up that make a view
+    except ValueError as error:
+        raise ValueError(f"cameras[{index}]: {error}") from None
+    return camera
 
 
 def orbit(camera, frames: int) -> list[Camera]:
@@ -335,6 +346,9 @@ def render_frames(scene, cameras: Sequence, size: tuple[int, int] = (800, 600), 
     with local_client(client, workers) as client:
         try:
             sink = _FrameSink(out, len(cameras), float(fps))
+            # the workers pickle as this process does: the scene held by one worker is
+            # copied to the others in that format (PyVista's legacy one rounds spacings)
+            client.run(pyvista.set_pickle_format, pyvista.PICKLE_FORMAT)
             # a task, not scattered data: if the worker holding it dies, it is made again
             shared = client.submit(_same, source, pure=False)
             futures = [client.submit(render_one, shared, camera, size, retries=int(retries),

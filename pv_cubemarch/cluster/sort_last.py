@@ -436,7 +436,9 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
     visibility order; the frame equals one plotter's render of the whole volume
     (``add_volume(..., technique='direct')``), also with the camera inside the volume. A
     label grid's slab is drawn voxel by voxel and the client keeps each pixel's nearest
-    hit: the same voxels, ids and colours as ``add_voxels`` of the whole grid.
+    hit: the same voxels and ids as ``add_voxels`` of the whole grid, and its colours
+    (exactly with ``palette=split_grid.hashed_color``; to one level of 255 with its default
+    palette).
 
     Parameters
     ----------
@@ -512,10 +514,6 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
     cameras = [as_camera(c, i) for i, c in enumerate([cameras] if one else cameras)]
     if not cameras:
         raise ValueError("cameras is empty: give a camera, or one per frame.")
-    for index, camera in enumerate(cameras):
-        if not np.all(np.isfinite([*camera.position, *camera.focal_point, *camera.view_up])):
-            raise ValueError(f"cameras[{index}] holds a value that is not finite: {camera}.")
-        camera.basis()   # a view direction and view up that make a view, or a clear error
     if one and out is not None:
         raise ValueError("out= writes a batch of frames; give a list of cameras, or save "
                          "the one image returned.")
