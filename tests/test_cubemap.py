@@ -279,6 +279,7 @@ def test_light_fields_of_a_light_on_a_corner_and_one_far_away(model):
 
 
 @pytest.mark.parametrize("case", ["face", "sheared edge", "one slab node", "flat corner"])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_light_fields_of_a_light_on_the_box_s_surface(case):
     # A point light exactly on a face (off its centre), on an edge of a sheared box, on a
     # node of a one-point-thick grid, and on a corner of a box of spacing 0.1 x 1 x 3 (the
@@ -381,6 +382,7 @@ def test_a_cube_map_seen_from_afar_draws_without_vtk_errors():
     assert not [m for m in messages if "FBO size" in m], messages[:3]
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_light_fields_of_a_ct_in_hounsfield_units():
     # Real units: a CT phantom from -1000 to 1266 HU, spacing 0.8 x 1.0 x 1.3 mm, its
     # origin off zero, the bone/sigmoid look from -200 to 1500 HU; a directional light and

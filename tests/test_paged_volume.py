@@ -338,6 +338,7 @@ def test_the_live_view_retunes_a_streamed_volume(pyramid):
     pl.close()
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_the_live_view_redraws_while_bricks_arrive_and_says_what_streams(pyramid, tmp_path):
     # A served page refines by itself: each step redraws while bricks are missing, and the
     # streaming line says what is resident, missing and read; a streamed label grid is
@@ -398,6 +399,7 @@ def test_a_pool_uploaded_whole_keeps_its_bricks(pyramid, monkeypatch):
     pl.close()
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_a_moved_volume_chooses_levels_as_if_placed_so(pyramid):
     """Placed twice as large at add, or moved so afterwards: the same bricks and image.
 

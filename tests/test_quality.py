@@ -197,6 +197,7 @@ def test_inside_the_volume_and_parallel_views_are_calibrated_on_their_own_camera
         plotter.close()
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_a_choice_is_kept_per_view_and_look_and_a_spoilt_file_is_ignored(ct, tmp_path):
     plotter, actor = _add(ct, technique="direct", quality=40)
     first = actor.cubemarch.quality
@@ -263,7 +264,8 @@ def test_what_calibration_cannot_measure_is_refused_by_name(ct, keywords, words)
     pytest.param("cubemap", {"shade": True}, marks=pytest.mark.slow),
     ("direct", {"blending": "maximum"}),
     ("vtk", {"blending": "average"}),
-    ("direct", {"blending": "isosurface", "isosurfaces": [-300.0, 700.0], "shade": True}),
+    pytest.param("direct", {"blending": "isosurface", "isosurfaces": [-300.0, 700.0],
+                            "shade": True}, marks=pytest.mark.slow),   # 3 s
     pytest.param("direct", {"lights": "light", "light_map_ambient": 0.3}, marks=pytest.mark.slow),
     pytest.param("direct", {"lights": "scene", "light_map_ambient": 0.3}, marks=pytest.mark.slow),
 ])
@@ -386,6 +388,7 @@ def test_a_channel_volume_meets_its_target(ct, mix):
     assert cached == [False, False]
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_volumes_marched_jointly_meet_their_target(ct):
     # Two overlapping volumes in Hounsfield units (one shifted half a box), marched as one
     # medium, against the reference of the two together over the whole frame
@@ -401,6 +404,7 @@ def test_volumes_marched_jointly_meet_their_target(ct):
     plotter.close()
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_auto_calibrates_both_paths_so_either_meets_the_target(ct):
     # 'auto' draws the cube map or the direct marcher per frame: each path is calibrated
     # on its own, and each, forced, meets the target over the whole frame
@@ -523,6 +527,7 @@ def test_the_live_view_knobs_ask_for_quality_and_a_budget_and_say_what_was_drawn
     plotter.close()
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_the_background_and_clip_planes_are_calibrated_with(ct):
     # the review's findings: a white background (PyVista's default theme) and clip planes
     # were left out of the calibration (33 dB and 37 dB drawn for 40 and 45 dB targets)
@@ -598,6 +603,7 @@ def test_an_average_range_is_calibrated_with(ct):
      "measured": [{"setting": {"step_scale": 0.5}, "psnr": True}]},
     "nested",
 ])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_a_cached_entry_that_is_no_rung_is_calibrated_again(ct, entry):
     # catches (seen failing): entries checked for their types only (a 1e300 step raised,
     # downsample=8 was drawn, an empty setting reported); a 400-digit PSNR (OverflowError)
@@ -659,6 +665,7 @@ def test_a_view_changed_after_the_add_is_warned_of_and_recalibrated(ct):
     plotter.close()
 
 
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_a_recalibrated_cube_map_draws_its_new_face(ct):
     # catches (seen failing): the cube map's options left as they were (the old face drawn)
     plotter, actor = _add(ct, technique="cubemap", quality=40)

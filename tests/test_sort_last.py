@@ -100,6 +100,7 @@ CAMERAS = {
 
 @pytest.mark.parametrize("view, step_scale", [(view, 1.0) for view in CAMERAS]
                          + [("outside", 4.0), ("inside", 3.0)])
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
 def test_slabs_composite_to_the_whole_volume_render(client, view, step_scale):
     # catches (seen failing): slabs composited in index order, not from the camera (outside,
     # near plane); which slab owns a sample decided in each slab's own frame (coarse steps:
