@@ -436,9 +436,9 @@ def render_sort_last(volume, cameras, size: tuple[int, int] = (800, 600), *,
     visibility order; the frame equals one plotter's render of the whole volume
     (``add_volume(..., technique='direct')``), also with the camera inside the volume. A
     label grid's slab is drawn voxel by voxel and the client keeps each pixel's nearest
-    hit: the same voxels and ids as ``add_voxels`` of the whole grid, and its colours
-    (exactly with ``palette=split_grid.hashed_color``; to one level of 255 with its default
-    palette).
+    hit: the same voxels and ids as ``add_voxels`` of the whole grid. By default each
+    id's colour is hashed from the id, since no slab knows the whole grid's ids: exactly
+    the colours of ``add_voxels(..., palette=split_grid.hashed_color)``.
 
     Parameters
     ----------
