@@ -53,7 +53,7 @@ class CubemarchComponent:
         self._bar_mappers: list = []   # (renderer, actor, mapper, keywords): bar and actor
         self._gone: list = []          # (actor's weak reference, renderer, name): released
         self._said: set = set()        # what _say_what_is_not_drawn said (once each)
-        self._props_seen: dict = {}    # renderer: its props' state when copies were looked for
+        self._props_seen = None        # the props' state when copies were last looked for
         if self._window is not None:
             self._multisampling = MultisamplePolicy(self._window)
             self._observers = [
@@ -172,8 +172,13 @@ class CubemarchComponent:
     def _say_copies(self, renderers) -> None:
         """Once each: a prop sharing a returned actor's mapper (a copy) draws nothing.
 
-        Looked for only when a renderer's props change (a world has a prop per chunk).
+        Looked for only when a renderer's props or the tracked drawings change (a world
+        has a prop per chunk): the frames between cost one look at each renderer's props.
         """
+        state = (len(self._tracked), *((id(r), r.GetViewProps().GetMTime()) for r in renderers))
+        if state == self._props_seen:
+            return
+        self._props_seen = state
         mappers = {}
         for item in self._tracked:
             actor = getattr(item, "actor", None)
@@ -181,10 +186,6 @@ class CubemarchComponent:
                 mappers[actor.GetMapper().GetAddressAsString("vtkObject")] = item   # not id()
         for renderer in renderers:
             props = renderer.GetViewProps()
-            key = ("props", id(renderer))
-            if self._props_seen.get(key) == (props.GetMTime(), len(mappers)):
-                continue
-            self._props_seen[key] = (props.GetMTime(), len(mappers))
             props.InitTraversal()
             for _ in range(props.GetNumberOfItems()):
                 prop = props.GetNextProp()
