@@ -710,6 +710,20 @@ def wavelet_label_grid(label_of) -> pv.ImageData:
     return grid
 
 
+def labels_against_threshold(grid, colors, bounds, palette=None):
+    """``(reference, image, off)``: PyVista's ``threshold`` + ``add_mesh(categories=True)``
+    of the grid's labels in ``colors``, ours with ``palette`` (by default black, then
+    ``colors``), both unlit, and the share of pixels more than 30 levels apart."""
+    reference, image = theirs_and_ours(
+        lambda pl: pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels",
+                               categories=True, cmap=colors, lighting=False,
+                               show_scalar_bar=False),
+        lambda pl: pl.cubemarch.add_voxels(grid, "labels", shading="unlit", palette=(
+            ["black", *colors] if palette is None else palette)),
+        bounds)
+    return reference, image, (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
+
+
 def test_voxels_draw_what_threshold_and_add_mesh_draw():
     """A label grid on ``pv.Wavelet()``'s extent (-10..10) against PyVista's ``threshold`` +
     ``add_mesh(categories=True)`` of the same cells and colours, both unlit.
@@ -720,15 +734,8 @@ def test_voxels_draw_what_threshold_and_add_mesh_draw():
     (``first_point`` returning ``grid.origin``): the ball drawn 10 units off, 11.2 dB.
     """
     grid = wavelet_label_grid(lambda c: 1 + (c[:, 0] > 0) + (c[:, 1] > 1))
-    colors = ["tomato", "gold", "steelblue"]
-    reference, image = theirs_and_ours(
-        lambda pl: pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels",
-                               categories=True, cmap=colors, lighting=False,
-                               show_scalar_bar=False),
-        lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=["black", *colors],
-                                           shading="unlit"),
-        grid.bounds)
-    off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
+    reference, image, off = labels_against_threshold(grid, ["tomato", "gold", "steelblue"],
+                                                     grid.bounds)
     assert psnr(np.zeros_like(reference), reference) < 20.0
     assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)
 
@@ -780,15 +787,8 @@ def test_a_2d_label_image_is_a_sheet_as_threshold_draws_it():
     centres = image2d.cell_centers().points
     image2d.cell_data["labels"] = np.where(np.hypot(*centres[:, :2].T) < 6.0,
                                            1 + (centres[:, 0] > 0), 0).astype(np.uint8)
-    colors = ["tomato", "steelblue"]
-    reference, image = theirs_and_ours(
-        lambda pl: pl.add_mesh(image2d.threshold(0.5, scalars="labels"), scalars="labels",
-                               categories=True, cmap=colors, lighting=False,
-                               show_scalar_bar=False),
-        lambda pl: pl.cubemarch.add_voxels(image2d, "labels", palette=["black", *colors],
-                                           shading="unlit"),
-        (-10.0, 10.0, -7.5, 7.5, 0.0, 6.0))
-    off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
+    reference, image, off = labels_against_threshold(image2d, ["tomato", "steelblue"],
+                                                     (-10.0, 10.0, -7.5, 7.5, 0.0, 6.0))
     assert psnr(image, reference) >= 31.0 and off <= 0.02, (psnr(image, reference), off)
 
 
@@ -803,13 +803,7 @@ def test_labels_past_16383_draw_what_threshold_and_add_mesh_draw():
     grid.cell_data["labels"] = ids[grid.cell_data["labels"]]
     colors = ["tomato", "gold", "steelblue"]
     palette = dict(zip(ids[1:].tolist(), colors, strict=True))
-    reference, image = theirs_and_ours(
-        lambda pl: pl.add_mesh(grid.threshold(0.5, scalars="labels"), scalars="labels",
-                               categories=True, cmap=colors, lighting=False,
-                               show_scalar_bar=False),
-        lambda pl: pl.cubemarch.add_voxels(grid, "labels", palette=palette, shading="unlit"),
-        grid.bounds)
-    off = (np.abs(image.astype(int) - reference).max(axis=2) > 30).mean()
+    reference, image, off = labels_against_threshold(grid, colors, grid.bounds, palette)
     assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)
 
 
