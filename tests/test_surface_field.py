@@ -175,6 +175,24 @@ def test_image_data_samples_are_placed_at_their_cells_and_points():
     assert np.allclose(cells(image.cell_centers().points), image.cell_data["c"], atol=1e-12)
     with pytest.warns(UserWarning, match="outside the data range"):
         make_field(image, 99.0, "p")
+    # Drawn where PyVista draws the image: point data up to the outermost points (the
+    # samples' hull), cell data to the cells' faces. catches (seen failing): point data's
+    # domain left at its cells' faces, bounds half a spacing out.
+    assert np.allclose(points.world_bounds(), image.bounds)
+    assert np.allclose(cells.world_bounds(), image.bounds) and cells.domain is None
+
+
+def test_a_field_s_domain_is_kept_and_checked(tmp_path):
+    # A saved field keeps the part of its cells it is drawn in; a domain outside the grid,
+    # or empty, is refused by name. catches (seen failing): save dropping the domain.
+    rng = np.random.default_rng(5)
+    field = SplineField(rng.normal(size=(5, 6, 7)), domain=[[0.5, 0.5, 0.5], [2.5, 3.5, 4.5]])
+    field.save(tmp_path / "cut.npz")
+    assert np.array_equal(SplineField.load(tmp_path / "cut.npz").domain, field.domain)
+    for bad in ([[0, 0, 0], [4, 4, 5]], [[1, 1, 1], [1, 2, 2]], [[0, 0, np.nan], [1, 1, 1]],
+                [0.5, 2.5]):
+        with pytest.raises(VolumeDataError, match="domain"):
+            SplineField(field.coefficients, domain=bad)
 
 
 def test_a_level_outside_the_samples_says_whether_the_spline_can_cross_it():

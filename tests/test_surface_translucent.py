@@ -39,13 +39,19 @@ def gyroid(n: int = 20) -> pv.ImageData:
 
 def spline_contour(field: SplineField, per_cell: int = 4) -> pv.PolyData:
     """Marching cubes of ``field`` sampled ``per_cell`` times a cell (the model's own
-    B-spline evaluation, ``on_lattice``), placed in the world."""
+    B-spline evaluation, ``on_lattice``) over the part of its cells drawn (samples at
+    points: up to them), placed in the world."""
     placement = field.world_from_index()
     assert np.allclose(placement[:3, :3], np.diag(np.diag(placement[:3, :3])))
-    values = field.on_lattice(per_cell)
+    lower, upper = (corner * per_cell for corner in field.domain_corners())
+    assert np.allclose(lower, np.round(lower)) and np.allclose(upper, np.round(upper))
+    first, last = np.round(lower).astype(int), np.round(upper).astype(int)
+    values = field.on_lattice(per_cell)[first[0]:last[0] + 1, first[1]:last[1] + 1,
+                                        first[2]:last[2] + 1]
     fine = pv.ImageData(dimensions=values.shape,
                         spacing=tuple(np.diag(placement[:3, :3]) / per_cell),
-                        origin=tuple(placement[:3, 3]))
+                        origin=tuple(placement[:3, :3] @ (first / per_cell)
+                                     + placement[:3, 3]))
     fine.point_data["s"] = values.ravel(order="F")
     return fine.contour([0.0], scalars="s")
 

@@ -6,6 +6,8 @@
 // Where the cells' coefficients come from is the storage's (surface_records.glsl: per-cell
 // records; surface_bricks.glsl: bricks of shared spline coefficients).
 uniform vec3 cm_gridDims;        // cells along x, y, z
+uniform vec3 cm_domainLower;     // the part of cell space drawn (samples at an image's
+uniform vec3 cm_domainUpper;     // points: their hull, half a cell inside the grid)
 uniform float cm_near;           // the near plane's view depth
 uniform float cm_stepLength;     // cell units between samples (the domain's diagonal / M)
 uniform int cm_refineSteps;      // bisections of the first sign change
@@ -133,7 +135,7 @@ bool cm_domainRay(out vec3 originView, out vec3 directionView, out vec3 origin,
                   out vec3 direction, out vec2 span)
 {
   cm_fragmentRay(originView, directionView, origin, direction);
-  span = cm_slab(origin, direction, vec3(0.0), cm_gridDims);
+  span = cm_slab(origin, direction, cm_domainLower, cm_domainUpper);
   span.x = max(span.x, cm_near);
   span.y = min(span.y, cm_viewDepthOf(1.0));   // nothing past the far plane, as VTK clips
 #ifdef CM_CLIP_PLANES

@@ -25,9 +25,9 @@ from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 
 from ..core.errors import VolumeDataError
 from ..core.progress import progress
-from .surface import SplineField, interpolating_coefficients
+from .surface import SplineField, interpolating_coefficients, point_hull
 from .volume import checked_transform
-from .voxels import image_samples
+from .voxels import image_samples, samples_at_points
 
 #: Distances evaluated per batch (one step of the progress bar).
 BATCH = 65536
@@ -148,8 +148,11 @@ def _check_cells(cells) -> None:
 def _sampled_field(data, isovalue: float | None, scalars: str | None,
                    name: str) -> SplineField:
     """Samples (an array or an ImageData's) minus ``isovalue``, interpolated."""
+    domain = None
     if isinstance(data, pyvista.ImageData):
         values, grid_from_index = image_samples(data, scalars)
+        if samples_at_points(data, scalars):   # drawn up to the points, as contour draws
+            domain = point_hull(values.shape)
     else:
         values, grid_from_index = np.asarray(data), np.eye(4)
     if values.ndim != 3 or values.size == 0:
@@ -176,7 +179,7 @@ def _sampled_field(data, isovalue: float | None, scalars: str | None,
                           "cross it: where it does, that surface is drawn (give an isovalue "
                           "inside the range, or smoother samples)." if crosses else
                           "the surface is empty."), stacklevel=4)
-    return SplineField(coefficients, grid_from_index, name=name)
+    return SplineField(coefficients, grid_from_index, name=name, domain=domain)
 
 
 def point_cloud_field(points, normals, cells: int = 32, *, offset: float = 0.5,

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import VolumeDataError
+from .volume import box_world_bounds
 from .voxels import PlacedGrid
 
 #: Per axis, the three coefficients of a cell to its three Bernstein coefficients.
@@ -59,6 +60,11 @@ class SplineField(PlacedGrid):
     #: Coefficients of a second field on the same cells (the same shape), whose value at
     #: the surface colours it (``add_surface(..., color_by=values)``), or None.
     color_values: np.ndarray | None = None
+    #: The part of cell space the surface is drawn in, ``(2, 3)``: lower and upper corners
+    #: (None: every cell). Samples at an image's points are its cells' centres, so their
+    #: hull, where PyVista's contour stops, lies half a cell inside the grid
+    #: (:func:`point_hull`).
+    domain: np.ndarray | None = None
 
     def __post_init__(self):
         c = np.asarray(self.coefficients, dtype=np.float64)
@@ -75,6 +81,31 @@ class SplineField(PlacedGrid):
                 raise VolumeDataError(f"Colour values must be finite coefficients of the "
                                       f"field's shape {c.shape}, got {values.shape}.")
             self.color_values = values
+        if self.domain is not None:
+            box = np.asarray(self.domain, dtype=np.float64)
+            dims = np.asarray(self.dimensions, dtype=np.float64)
+            if (box.shape != (2, 3) or not np.isfinite(box).all() or (box[0] < 0).any()
+                    or (box[1] > dims).any() or not (box[0] < box[1]).all()):
+                raise VolumeDataError(f"A field's domain is its lower and upper corners in "
+                                      f"cell space, within [0, {tuple(int(n) for n in dims)}] "
+                                      f"and lower below upper; got {self.domain!r}.")
+            self.domain = box
+
+    def domain_corners(self) -> tuple[np.ndarray, np.ndarray]:
+        """The lower and upper corners (cell space) of the part of the grid drawn."""
+        if self.domain is None:
+            return np.zeros(3), np.asarray(self.dimensions, dtype=np.float64)
+        return self.domain[0].copy(), self.domain[1].copy()
+
+    def world_bounds(self) -> np.ndarray:
+        """Axis-aligned world bounds ``(xmin, xmax, ...)`` of the domain drawn."""
+        lower, upper = self.domain_corners()
+        return box_world_bounds(self.world_from_index(), upper, lower)
+
+    def frame_bounds(self) -> np.ndarray:
+        """The domain's bounds in the field's own frame, before ``transform``."""
+        lower, upper = self.domain_corners()
+        return box_world_bounds(self.grid_from_index, upper, lower)
 
     @property
     def dimensions(self) -> tuple[int, int, int]:
@@ -204,6 +235,8 @@ class SplineField(PlacedGrid):
     def save(self, path) -> None:
         """Write the field (coefficients, placement, name) to an ``.npz`` file."""
         extra = {} if self.color_values is None else {"color_values": self.color_values}
+        if self.domain is not None:
+            extra["domain"] = self.domain
         np.savez_compressed(Path(path), coefficients=self.coefficients,
                             grid_from_index=self.grid_from_index, transform=self.transform,
                             name=np.array(self.name), **extra)
@@ -218,7 +251,19 @@ class SplineField(PlacedGrid):
                                       f"{sorted(missing)}.")
             return cls(data["coefficients"], np.asarray(data["grid_from_index"]),
                        np.asarray(data["transform"]), str(data["name"]),
-                       data["color_values"] if "color_values" in data.files else None)
+                       data["color_values"] if "color_values" in data.files else None,
+                       data["domain"] if "domain" in data.files else None)
+
+
+def point_hull(dimensions) -> np.ndarray:
+    """``(2, 3)``: the hull of samples at the centres of ``dimensions`` cells.
+
+    Half a cell in from each face; an axis of one sample keeps its whole cell (a flat
+    image's sheet).
+    """
+    dims = np.asarray(dimensions, dtype=np.float64)
+    inset = np.where(dims > 1, 0.5, 0.0)
+    return np.stack([inset, dims - inset])
 
 
 def _spline_along(c: np.ndarray, axis: int, positions: np.ndarray) -> np.ndarray:

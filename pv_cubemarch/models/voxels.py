@@ -393,13 +393,7 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
     Returns ``(values indexed x, y, z, grid_from_index)`` (cell ``(i, j, k)`` spans
     ``[i, i+1]`` per axis of index space).
     """
-    names = list(data.cell_data.keys()) + list(data.point_data.keys())
-    if scalars is None:
-        if not names:
-            raise VolumeDataError("The grid has no arrays; add the values to cell_data or "
-                                  "point_data.")
-        active = data.active_scalars_name   # PyVista's choice, as add_mesh makes it
-        scalars = active if active in names else names[0]
+    scalars = _image_scalars(data, scalars)
     check_geometry(data)
     direction = np.asarray(data.direction_matrix, dtype=np.float64)
     spacing = np.asarray(data.spacing, dtype=np.float64)
@@ -414,7 +408,7 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
         start = origin - direction @ (spacing / 2.0)
     else:
         raise VolumeDataError(f"scalars={scalars!r} is not an array of the grid; it has "
-                              f"{names}.")
+                              f"{list(data.cell_data.keys()) + list(data.point_data.keys())}.")
     grid_from_index = np.eye(4)
     grid_from_index[:3, :3] = direction * spacing
     grid_from_index[:3, 3] = start
@@ -429,6 +423,25 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
             (spacing[axis] / 2.0 if scalars in data.point_data else 0.0) - thin / 2.0)
         start = grid_from_index[:3, 3].copy()
     return values, grid_from_index
+
+
+def _image_scalars(data: pyvista.ImageData, scalars: str | None) -> str:
+    """The name of the array drawn: ``scalars``, else PyVista's active one, else the first."""
+    names = list(data.cell_data.keys()) + list(data.point_data.keys())
+    if scalars is None:
+        if not names:
+            raise VolumeDataError("The grid has no arrays; add the values to cell_data or "
+                                  "point_data.")
+        active = data.active_scalars_name   # PyVista's choice, as add_mesh makes it
+        scalars = active if active in names else names[0]
+    return scalars
+
+
+def samples_at_points(data: pyvista.ImageData, scalars: str | None) -> bool:
+    """Whether :func:`image_samples` reads point data (cells centred on the points)."""
+    name = _image_scalars(data, scalars)
+    return name not in data.cell_data and name in data.point_data
+
 
 def make_voxels(data, scalars: str | None = None, *, palette=None, transform=None,
                 name: str = "voxels", categories: bool = False, cmap=None, clim=None,

@@ -118,13 +118,6 @@ def drawn_box_bounds(model, lower, upper) -> np.ndarray:
                             np.subtract(upper, lower))
 
 
-def margined_bounds(model) -> np.ndarray:
-    """The grid's box as the ray-casting box actors draw it: 1 % of its longest side larger."""
-    dims = np.asarray(model.dimensions, dtype=np.float64)
-    margin = 0.01 * dims.max()
-    return drawn_box_bounds(model, -margin * np.ones(3), dims + margin)
-
-
 def view_key(camera: Camera) -> tuple:
     """The camera's fields rounded to 9 significant digits (a key, not a measurement)."""
     return tuple(float(f"{v:.9g}") for value in (camera.position, camera.focal_point,

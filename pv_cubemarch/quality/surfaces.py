@@ -20,7 +20,7 @@ from ..surfaces.options import LOOP_BUDGET, MAX_STEPS, SurfaceOptions
 from ..surfaces.technique import surface_recipe
 from .interaction import set_still_steps, surface_parts
 from .ladders import Rung
-from .probe import ProbeCalibration, drawn_box_bounds, margined_bounds
+from .probe import ProbeCalibration, drawn_box_bounds
 from .targets import QualityTarget, parse_quality
 
 #: Samples along the domain's diagonal, coarse to fine: each doubling halves the gap a
@@ -114,29 +114,29 @@ class SurfaceCalibration(ProbeCalibration):
     def key_parts(self) -> tuple:
         model = self.model
         return (np.asarray(model.coefficients), np.asarray(model.world_from_index()),
-                sorted((k, repr(v)) for k, v in self.keep.items()))
+                np.asarray(model.domain_corners()), sorted((k, repr(v)) for k, v in self.keep.items()))
 
     def bounds(self) -> np.ndarray:
-        """The drawn box, as ``surfaces.technique`` draws it.
+        """The drawn box's bounds, as ``surfaces.technique`` will draw it (not built yet).
 
-        The active cells' boxes, or their box a hair larger (the domain's for
-        ``technique='full'``). Opaque levels, each drawn apart, are framed by the prop
-        standing for them, which spans every level's box.
+        The active cells' box within the domain (the domain's for ``technique='full'``);
+        its corners exact, as the box actors keep them. Opaque levels, each drawn apart,
+        are framed by the prop standing for them, which spans every level's box.
         """
+        lower, upper = self.model.domain_corners()
         if self.technique != "active":
-            return margined_bounds(self.model)
+            return drawn_box_bounds(self.model, lower, upper)
         apart = self.levels is not None and not self.options.translucent
         groups = [(v,) for v in self.levels] if apart else [self.levels or (0.0,)]
-        margin = 0.0 if self.options.traversal == "cell_boxes" else \
-            0.01 * max(self.model.dimensions)
         boxes = []
         for offsets in groups:
             cells = level_cells(self.model, offsets, self.options.active_test,
                                 self.options.active_samples)
             if len(cells):
-                boxes.append((cells.min(axis=0) - margin, cells.max(axis=0) + 1 + margin))
+                boxes.append((np.maximum(lower, cells.min(axis=0)),
+                              np.minimum(upper, cells.max(axis=0) + 1.0)))
         if not boxes:
-            return margined_bounds(self.model)
+            return drawn_box_bounds(self.model, lower, upper)
         return drawn_box_bounds(self.model, np.min([b[0] for b in boxes], axis=0),
                                 np.max([b[1] for b in boxes], axis=0))
 
@@ -178,6 +178,6 @@ class SurfaceCalibration(ProbeCalibration):
         for part in surface_parts(binding):   # each level's own surface
             if part.options.root != root:   # the root finder is compiled in: recompile
                 part.options = dataclasses.replace(part.options, root=root)
-                part.recompile(surface_recipe(part.options, self.technique))
+                part.recompile(surface_recipe(part.options, *part.recipe_args))
         if "steps" in setting:   # the still steps, at full size
             set_still_steps(binding, float(setting["steps"]))

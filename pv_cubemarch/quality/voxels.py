@@ -22,7 +22,7 @@ from ..models.chunk_pool import world_filled_bounds
 from ..reference.voxel_layers import render_voxel_layers
 from ..voxels.layers import translucent_materials
 from .ladders import Rung
-from .probe import ProbeCalibration, margined_bounds
+from .probe import ProbeCalibration
 from .targets import QualityTarget, parse_quality
 
 #: What quality= chooses for voxels; the settings it rules out.
@@ -131,7 +131,7 @@ class VoxelCalibration(ProbeCalibration):
     def bounds(self) -> np.ndarray:
         if self.bounds_of is not None:
             return np.asarray(self.bounds_of(), dtype=np.float64)
-        return margined_bounds(self.model)
+        return super().bounds()
 
     def shading(self) -> str:
         return self.look.get("shading", "unlit")

@@ -126,7 +126,7 @@ def _trace_levels(field: SplineField, actives: Sequence[np.ndarray], offsets: np
     start = np.maximum(near / np.maximum(directions @ forward, 1e-300), 0.0) \
         if start is None else np.maximum(near / np.maximum(directions @ forward, 1e-300),
                                          np.maximum(start, 0))
-    enter, leave = ray_box_interval(o, d, np.zeros(3), dims)
+    enter, leave = ray_box_interval(o, d, *field.domain_corners())   # the part drawn
     if end is not None:
         leave = np.minimum(leave, end)
     t = np.maximum(enter, start)

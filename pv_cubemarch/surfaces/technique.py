@@ -67,10 +67,13 @@ MAX_LAYERS = 256
 MAX_TRANSLUCENT_LEVELS = 8
 
 
-def surface_recipe(options: SurfaceOptions, technique: str, levels: int = 1) -> ShaderRecipe:
+def surface_recipe(options: SurfaceOptions, technique: str, levels: int = 1,
+                   domain_cut: bool = False) -> ShaderRecipe:
     """The replacements of ``technique`` (``'active'`` or ``'full'``) with ``options``.
 
     ``levels`` above 1: that many translucent level sets of the field in one pass.
+    ``domain_cut``: the field is drawn in part of its cells only (``SplineField.domain``),
+    which cell boxes cut their rays to (the other drawings start from the domain's box).
     """
     lit = options.shading in ("flat", "blinn")
     how = drawing(technique, options)
@@ -83,6 +86,8 @@ def surface_recipe(options: SurfaceOptions, technique: str, levels: int = 1) -> 
                "CM_COLOR_VALUES": options.color_by == "field", "CM_LIGHTING": lit,
                "CM_NORMAL_COLORS": options.shading == "normals",
                "CM_SPECULAR": lit and options.shading == "blinn"}
+    if how == "cell_boxes":
+        defines["CM_DOMAIN_CUT"] = domain_cut
     if how == "index":
         defines["CM_BRICK_SHIFT"] = BRICK_SIZE.bit_length() - 1
         defines["CM_BLOCK_SHIFT"] = BLOCK_SIZE.bit_length() - 1
@@ -116,14 +121,21 @@ def cell_layout(technique: str, options: SurfaceOptions) -> tuple[int, int, int 
     return first, first + 27 + (27 if values is not None else 0), values
 
 
-def cell_boxes(cells: np.ndarray) -> pyvista.PolyData:
-    """The boxes of ``cells`` (``(n, 3)``) as 12 triangles each, in order, corners shared."""
+def cell_boxes(cells: np.ndarray, domain=None) -> pyvista.PolyData:
+    """The boxes of ``cells`` (``(n, 3)``) as 12 triangles each, in order, corners shared.
+
+    ``domain``: ``(lower, upper)`` corners the boxes are cut to (a cell at the grid's face
+    reaches only to the samples' hull), or None.
+    """
     cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
     corners = (cells[:, None, :] + CORNERS[None, :, :]).reshape(-1, 3)
     points, index = np.unique(corners, axis=0, return_inverse=True)
     triangles = index.reshape(-1, 8)[:, CELL_TRIANGLES].reshape(-1, 3)
     faces = np.hstack([np.full((len(triangles), 1), 3), triangles]).ravel()
-    return pyvista.PolyData(points.astype(np.float64), faces=faces)
+    points = points.astype(np.float64)
+    if domain is not None:
+        points = np.clip(points, domain[0], domain[1])
+    return pyvista.PolyData(points, faces=faces)
 
 
 def cell_buffer(field: SplineField, cells: np.ndarray, corners: bool,
@@ -152,14 +164,14 @@ class SurfaceBinding(ClipPlaneSetting, DrawnBinding):
 
     def __init__(self, field: SplineField, bindings: ShaderBindings, recipe: ShaderRecipe,
                  options: SurfaceOptions, cells: np.ndarray | None,
-                 bricks: SurfaceBricks | None = None, recipe_args: tuple = ("active", 1)):
+                 bricks: SurfaceBricks | None = None, recipe_args: tuple = ("active", 1, False)):
         super().__init__(field, bindings, recipe)
         self.options = options
         #: The active cells drawn (``'active'``), or None (``'full'``: every cell).
         self.cells = cells
         #: The bricks of active cells (``traversal='index'``), or None.
         self.bricks = bricks
-        #: ``surface_recipe``'s technique and level count, to remake the shaders.
+        #: ``surface_recipe``'s technique, level count and domain cut, to remake the shaders.
         self.recipe_args = recipe_args
 
     def follow_clip_planes(self, remake: bool) -> None:
@@ -187,7 +199,7 @@ class SurfaceBinding(ClipPlaneSetting, DrawnBinding):
 
 
 def _domain_actor(field: SplineField, cells: np.ndarray | None = None) -> pyvista.Actor:
-    """The back faces of the box holding the active ``cells`` (all: the domain's).
+    """The back faces of the box holding the active ``cells`` (all: the domain's), in the domain.
 
     A hair larger: no grazing pixel lost. Every root lies in an active cell, so a pixel
     whose ray meets the surface lies inside their box; a box no larger draws fewer
@@ -195,9 +207,10 @@ def _domain_actor(field: SplineField, cells: np.ndarray | None = None) -> pyvist
     frames them, not the whole sampled grid).
     """
     dims = np.asarray(field.dimensions, dtype=np.float64)
-    lower, upper = np.zeros(3), dims
+    lower, upper = field.domain_corners()
     if cells is not None and len(cells):
-        lower, upper = np.min(cells, axis=0).astype(np.float64), np.max(cells, axis=0) + 1.0
+        lower = np.maximum(lower, np.min(cells, axis=0))
+        upper = np.minimum(upper, np.max(cells, axis=0) + 1.0)
     return box_actor(upper, field.world_from_index(), margin=0.01 * float(dims.max()),
                      lower=lower)
 
@@ -205,7 +218,8 @@ def _domain_actor(field: SplineField, cells: np.ndarray | None = None) -> pyvist
 def _cell_boxes_actor(field: SplineField, cells: np.ndarray) -> pyvista.Actor:
     """The active cells' boxes as one mesh (12 triangles a cell, in ``cells``' order)."""
     mapper = vtk.vtkOpenGLPolyDataMapper()
-    mapper.SetInputData(cell_boxes(cells) if len(cells) else pyvista.PolyData())
+    domain = None if field.domain is None else field.domain_corners()
+    mapper.SetInputData(cell_boxes(cells, domain) if len(cells) else pyvista.PolyData())
     actor = pyvista.Actor()
     actor.SetMapper(mapper)
     place_box(actor, field.world_from_index())
@@ -304,6 +318,9 @@ def _build(plotter, field: SplineField, options: SurfaceOptions, technique: str,
     _bind_cells(bindings, field, options, how, cells, bricks)
     dims = field.dimensions
     bindings.set_uniform("cm_gridDims", tuple(float(n) for n in dims))
+    lower, upper = field.domain_corners()
+    bindings.set_uniform("cm_domainLower", tuple(float(v) for v in lower))
+    bindings.set_uniform("cm_domainUpper", tuple(float(v) for v in upper))
     bindings.set_uniform("cm_stepLength", options.step_length(dims))
     bindings.set_uniform("cm_refineSteps", int(options.refine_steps))
     bindings.set_uniform("cm_surfaceColor", options.rgb)
@@ -328,10 +345,10 @@ def _build(plotter, field: SplineField, options: SurfaceOptions, technique: str,
         bindings.set_uniform("cm_colorRange", options.color_range(field))
         bindings.set_uniform("cm_indexFromWorld",
                              lambda: np.linalg.inv(field.world_from_index()[:3, :3]))
-    recipe = surface_recipe(options, technique, len(offsets))
+    recipe_args = (technique, len(offsets), field.domain is not None)
+    recipe = surface_recipe(options, *recipe_args)
     bindings.install(recipe, actor)
-    binding = SurfaceBinding(field, bindings, recipe, options, cells, bricks,
-                             (technique, len(offsets)))
+    binding = SurfaceBinding(field, bindings, recipe, options, cells, bricks, recipe_args)
     # the planes as the binding holds them now (set_clip_planes and mapper planes move them)
     bind_clip_planes(bindings, field, lambda: binding.options.world_planes)
     binding.drawn = [actor]
