@@ -114,7 +114,8 @@ class SurfaceCalibration(ProbeCalibration):
     def key_parts(self) -> tuple:
         model = self.model
         return (np.asarray(model.coefficients), np.asarray(model.world_from_index()),
-                np.asarray(model.domain_corners()), sorted((k, repr(v)) for k, v in self.keep.items()))
+                np.asarray(model.domain_corners()),
+                sorted((k, repr(v)) for k, v in self.keep.items()))
 
     def bounds(self) -> np.ndarray:
         """The drawn box's bounds, as ``surfaces.technique`` will draw it (not built yet).
