@@ -179,7 +179,8 @@ def add_volume(
     volume : pyvista.ImageData, MultiBlock, numpy.ndarray, VolumeModel, VolumeGroup, or zarr
         Scalars on a uniform grid (a numpy array is indexed x, y, z with unit spacing), a
         :class:`VolumeModel` that already carries its transfer function and placement, or a
-        :class:`VolumeGroup` of overlapping volumes marched jointly (see :func:`add_volumes`).
+        :class:`VolumeGroup` of overlapping volumes marched jointly (see :func:`add_volumes`;
+        ``technique='vtk'`` cannot march one, so a group is drawn by ``'direct'`` then).
         A multiscale source (an OME-Zarr image group or its path, a zarr or dask array, a
         list of arrays finest first, a :class:`MultiscaleSource`) is never read whole: its
         bricks stream into a GPU pool as the view needs them (``lod_bias``, ``gpu_bytes``,
@@ -528,12 +529,11 @@ def add_volume(
             and hasattr(model, "dimensions"):
         given["face_size"] = fitting_face_size(model.dimensions)   # no finer than the data
         options = chosen.make_options(given)
-    if is_channels(model) and not chosen.groups:
-        chosen = get_technique("volume", "direct")   # VTK's mapper marches one texture
+    if (is_channels(model) or isinstance(model, VolumeGroup)) and not chosen.groups:
+        # VTK's mapper marches one texture: channels and groups are drawn by 'direct', as
+        # the returned actor's technique says
+        chosen = get_technique("volume", "direct")
         options = chosen.make_options({k: v for k, v in given.items() if k != "face_size"})
-    if isinstance(model, VolumeGroup) and not chosen.groups:
-        raise ValueError(f"technique={technique!r} cannot march overlapping volumes jointly; "
-                         "use 'direct', 'cubemap' or 'auto' (pv_cubemarch.add_volumes does).")
     if frame_budget_ms is not None:   # refused before anything is drawn or calibrated
         check_frame_budget(frame_budget_ms, chosen.name)
     check_channels(model, blending, shade, lights)   # before a calibration draws them
