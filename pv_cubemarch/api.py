@@ -1475,8 +1475,9 @@ def add_voxels(
         a function of the id.
 
     A material with an opacity between 0 and 1 is composited front to back, as PyVista
-    draws ``threshold`` + ``add_mesh(opacity=...)`` per label under depth peeling; chunked
-    worlds, ``lod`` and ``mode='id'``/``'face'`` draw it opaque, with a warning.
+    draws ``threshold`` + ``add_mesh(opacity=...)`` per label under depth peeling (chunked
+    worlds too, by either ``world_traversal``); ``lod`` and ``mode='id'``/``'face'`` draw
+    it opaque, with a warning.
 
     Returns
     -------

@@ -1113,11 +1113,18 @@ def test_screenshot_scale_with_subplots_raises_nothing(technique):
 
 
 def test_cell_scalars_array_warns_that_it_is_averaged():
-    """A ``scalars`` array with one value per cell is drawn per point, and says so."""
+    """Scalars with one value per cell are drawn per point, and say so: as an array, by
+    name, or as the grid's active scalars. catches (seen failing; found by a review): a
+    named or active cell array averaged in silence."""
     grid = pv.ImageData(dimensions=(5, 5, 5))
     pl = pv.Plotter(off_screen=True)
     with pytest.warns(UserWarning, match="one value per cell"):
         pl.cubemarch.add_volume(grid, scalars=np.arange(64.0))
+    named = grid.copy()
+    named.cell_data["c"] = np.arange(64.0)
+    for scalars in ("c", None):
+        with pytest.warns(UserWarning, match="'c' has one value per cell"):
+            pl.cubemarch.add_volume(named, scalars=scalars)
     with pytest.raises(TypeError, match="does not take"):
         pl.cubemarch.add_volume(grid, scalars=np.arange(125.0), culling="back")
     for keyword in ("diffuse", "specular", "specular_power"):   # shading terms, shade off

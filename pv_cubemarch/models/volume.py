@@ -131,6 +131,9 @@ def as_image_data(data, scalars: str | None = None, nan_policy: str = "raise"):
         scalars = grid.active_scalars_name if grid.active_scalars_name in names else names[0]
     if scalars not in grid.point_data:
         if scalars in grid.cell_data:
+            warn_user(f"scalars={scalars!r} has one value per cell: it is averaged onto the "
+                      "points and drawn interpolated (PyVista draws such an array cell by "
+                      "cell); pass point values for the exact picture.")
             grid = grid.cell_data_to_point_data(pass_cell_data=False)
         else:
             raise VolumeDataError(

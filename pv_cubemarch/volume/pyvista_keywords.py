@@ -88,11 +88,7 @@ def volume_input(volume, scalars, resolution, preference: str = "point"):
     if not (fits_points or fits_cells):
         raise VolumeDataError(f"scalars has {array.shape[0]} values; the grid has "
                               f"{grid.n_points} points and {grid.n_cells} cells.")
-    on_cells = fits_cells and (not fits_points or preference == "cell")
-    if on_cells:
-        warnings.warn("scalars has one value per cell: it is averaged onto the points and "
-                      "drawn interpolated (PyVista draws such an array cell by cell); pass "
-                      "point values for the exact picture.", stacklevel=3)
+    on_cells = fits_cells and (not fits_points or preference == "cell")   # averaged, said
     (grid.cell_data if on_cells else grid.point_data)["Data"] = array
     return grid, "Data"
 

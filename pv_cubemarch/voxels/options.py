@@ -76,8 +76,9 @@ PAGED_LABELS_ONLY = dict.fromkeys(
            choices=PROXIES, control=Control("select")),
     Option("lod", "voxels", bool, False, "draw coarser occupancy cells far away",
            control=Control("switch", "level of detail")),
-    Option("lod_bias", "voxels", float, 0.0, "levels added to the level of detail (with lod, "
-           "or a multiscale source)",
+    Option("lod_bias", "voxels", float, 0.0, "levels added to the level of detail (with lod; "
+           "the range is lod's: a multiscale source takes any bias, -30 the finest "
+           "everywhere)",
            low=-float(MAX_MIP_LEVELS), high=float(MAX_MIP_LEVELS),
            control=Control("slider", "lod bias", -2.0, 2.0, 0.25)),
     Option("world_traversal", "voxels", str, None, "chunked worlds: one traversal through "
