@@ -211,7 +211,7 @@ def add_volume(
         World length that ``opacity`` refers to; as in PyVista, the grid's diagonal over
         its mean number of points less one by default.
     n_colors : int, optional
-        Colours of the colormap (rows of the transfer table, 2 to 16384; 256 by default).
+        Colours of the colormap (rows of the transfer table, 1 to 16384; 256 by default).
     flip_scalars : bool, optional
         Reverse the colormap (off by default).
     log_scale : bool, optional
@@ -1132,6 +1132,13 @@ def add_volumes(plotter: pyvista.Plotter, volumes, **options) -> list:
         joint = dict(options)
         if joint.get("technique", "vtk") == "vtk":
             joint["technique"] = "direct"
+        if len(group) > MAX_GROUP_MEMBERS:
+            parts = -(-len(group) // MAX_GROUP_MEMBERS)
+            warn_user(f"{len(group)} volumes overlap ({', '.join(v.name for v in group)}); "
+                      f"one joint group marches at most {MAX_GROUP_MEMBERS}, so they are "
+                      f"drawn as {parts} groups in their order, each composited whole over "
+                      "the others: wrong where volumes of different groups overlap. Merge "
+                      "some onto one grid (resample) to march them jointly.")
         for start in range(0, len(group), MAX_GROUP_MEMBERS):
             chunk = group[start:start + MAX_GROUP_MEMBERS]
             item = VolumeGroup(chunk) if len(chunk) > 1 else chunk[0]
