@@ -971,11 +971,16 @@ def _voxel_options(scene, as_voxels: bool, given: dict) -> None:
             if name in voxel_only and name not in surfaces_read:
                 _warn(name, "this scene (it has no voxel grids)")
         return
+    shared = _shared_with_voxels() if scene.surfaces else set()
     for grid in scene.voxels:
         options = scene.voxel_options.setdefault(grid.name, {})
         fixed = given.get("traversal", options.get("traversal")) == "fixed"
         for name, value in given.items():
-            if as_voxels or (name in reads and (name != "step_scale" or fixed)):
+            choices = option("voxels", name).choices if name in shared else None
+            if name in shared and choices and value not in choices:
+                # a surface's value (--shading normals): the grid keeps its own
+                _warn(name, f"voxel grid {grid.name!r} (it takes {', '.join(choices)})")
+            elif as_voxels or (name in reads and (name != "step_scale" or fixed)):
                 options[name] = value
             else:
                 _warn(name, f"voxel grid {grid.name!r}"

@@ -298,6 +298,35 @@ def mixed_scene(tmp_path):
     return path
 
 
+def test_a_surface_s_shading_is_left_out_for_voxel_grids(tmp_path, monkeypatch, capsys):
+    # --shading normals (the surfaces' own) on the shipped mixed scene: its surface draws
+    # normals, its voxel grid keeps its shading, with a warning, as other flags a prim does
+    # not read. catches (seen failing; found by a review): the whole render aborted ("shading
+    # must be one of").
+    import pv_cubemarch.scene.model as scene_model
+
+    seen = {"surface": [], "voxels": []}
+    real_surface, real_voxels = scene_model.add_surface, scene_model.add_voxels
+
+    def spy_surface(plotter, field, *args, **kwargs):
+        seen["surface"].append(kwargs.get("shading"))
+        return real_surface(plotter, field, *args, **kwargs)
+
+    def spy_voxels(plotter, grid, *args, **kwargs):
+        seen["voxels"].append(kwargs.get("shading"))
+        return real_voxels(plotter, grid, *args, **kwargs)
+
+    monkeypatch.setattr(scene_model, "add_surface", spy_surface)
+    monkeypatch.setattr(scene_model, "add_voxels", spy_voxels)
+    scene = SCENE.parent / "mixed_scene.usda"
+    out = tmp_path / "m.png"
+    assert main(["render", str(scene), "-o", str(out), "--size", "40x30", "--shading",
+                 "normals", "--no-progress"]) == 0
+    assert seen["surface"] and set(seen["surface"]) == {"normals"}
+    assert seen["voxels"] and "normals" not in seen["voxels"]
+    assert "--shading does not apply to voxel grid" in capsys.readouterr().err
+
+
 def test_voxel_flags_reach_voxel_grids_and_volume_flags_volumes(tmp_path, monkeypatch, capsys):
     # Without --technique, each flag goes where it applies: --step-scale to the volume (vtk)
     # and to the grid (fixed traversal), voxel flags to the grid only, --face-size to
