@@ -480,7 +480,7 @@ def test_reset_camera_pickable_and_render_mean_what_add_mesh_s_do(kind):
     plotter.close()
 
 
-@pytest.mark.parametrize("how", ["shell", "edited", "rotated"])
+@pytest.mark.parametrize("how", ["shell", "edited", "erased", "rotated"])
 def test_a_grid_s_returned_bounds_are_threshold_s_mesh_s(how):
     # reset_camera, show_bounds and add_bounding_box read the returned actor's bounds:
     # those of PyVista's threshold mesh of the same labels, to rounding. Found by reviews:
@@ -488,7 +488,8 @@ def test_a_grid_s_returned_bounds_are_threshold_s_mesh_s(how):
     # (up to 1.5 voxels more; a framed frame at 23.0 dB against PyVista's).
     # catches (seen failing): the shell's brick box drawn as the box (1.3 past along z
     # here); the margin in the box's points (gl/box.box_polydata); an edit's growth taken
-    # from the shell's bricks (editing.py).
+    # from the shell's bricks (editing.py); "erased": the box kept where edits emptied its
+    # faces (``_shrunk`` not applied), 2 voxels too wide along x and 1 along z.
     grid = _labels()
     labels = grid.cell_data["m"].reshape(np.array(grid.dimensions) - 1, order="F")
     labels[:] = 0
@@ -505,6 +506,22 @@ def test_a_grid_s_returned_bounds_are_threshold_s_mesh_s(how):
         labels[9:12, 5:6, 6:9] = 1
         grid = grid.copy()
         grid.cell_data["m"] = labels.ravel(order="F")
+    if how == "erased":   # the two lowest x planes; the top z plane but a corner, then it
+        cm.render_image(plotter)
+        actor.cubemarch.set_voxels((slice(0, 5), slice(None), slice(None)), 0)
+        top = np.zeros(labels.shape, bool)
+        top[:, :, 6] = True
+        top[8, 10, 6] = False
+        actor.cubemarch.set_voxels(top, 0)
+        kept = np.reshape(actor.bounds, (3, 2))[2, 1]
+        actor.cubemarch.set_voxels((slice(8, 9), slice(10, 11), slice(6, 7)), 0)
+        labels = labels.copy()
+        labels[0:5] = 0
+        labels[:, :, 6] = 0
+        grid = grid.copy()
+        grid.cell_data["m"] = labels.ravel(order="F")
     expected = grid.threshold(0.5, scalars="m").bounds   # (float32 points)
     np.testing.assert_allclose(actor.bounds, expected, rtol=0, atol=1e-5)
+    if how == "erased":   # the corner left kept the top: nothing shrunk past a voxel
+        assert kept > expected[5] + 0.5
     plotter.close()

@@ -250,12 +250,13 @@ def refresh(binding, box: Box) -> None:
             shell.rebuild()
         else:
             shell.edit(box)
-        # the filled voxels' box, as drawn when added: grown by an edit (never shrunk, a
-        # larger box only starts some rays earlier), found anew by a whole one
+        # the filled voxels' box, as drawn when added: grown by an edit, shrunk where it
+        # emptied the box's faces, found anew by a whole one
         after = filled_bounds(labels) if whole or not shell.enabled else _grown(
-            binding.drawn_bounds, labels, box)
+            _shrunk(binding.drawn_bounds, labels, box), labels, box)
     else:   # no shell fits: the box around the labels
-        after = filled_bounds(labels) if whole else _grown(binding.drawn_bounds, labels, box)
+        after = filled_bounds(labels) if whole else _grown(
+            _shrunk(binding.drawn_bounds, labels, box), labels, box)
         after = bounds_in_cells(after, drawn_level(binding.options), dims)
     if tuple(np.concatenate(after)) != before:
         binding.drawn_bounds = after
@@ -264,11 +265,36 @@ def refresh(binding, box: Box) -> None:
         (binding.main_renderer or binding.renderer).ResetCameraClippingRange()
 
 
-def _grown(bounds, labels: np.ndarray, box: Box) -> tuple[np.ndarray, np.ndarray]:
-    """``bounds`` grown to the filled voxels in ``box``.
+def _shrunk(bounds, labels: np.ndarray, box: Box) -> tuple[np.ndarray, np.ndarray]:
+    """``bounds`` moved in past the faces an edit in ``box`` emptied (an erase at a face).
 
-    Never shrunk: a larger box only starts some rays earlier.
+    Only a face the edit reaches is looked at, a plane at a time inward up to the first
+    filled voxel: an edit inside the box costs nothing. No voxel left: both corners 0, as
+    :func:`filled_bounds` says.
     """
+    lower, upper = (np.asarray(b, dtype=np.float64).copy() for b in bounds)
+    if not (upper > lower).all():
+        return lower, upper
+    reaches = [(box[a].start <= lower[a], box[a].stop >= upper[a]) for a in range(3)]
+    for axis in range(3):
+        for side in (0, 1):
+            while reaches[axis][side] and lower[axis] < upper[axis]:
+                plane = int(lower[axis]) if side == 0 else int(upper[axis]) - 1
+                window = [slice(int(a), int(b)) for a, b in zip(lower, upper, strict=True)]
+                window[axis] = slice(plane, plane + 1)
+                if np.any(labels[tuple(window)]):
+                    break
+                if side == 0:
+                    lower[axis] += 1
+                else:
+                    upper[axis] -= 1
+            if not lower[axis] < upper[axis]:
+                return np.zeros(3), np.zeros(3)
+    return lower, upper
+
+
+def _grown(bounds, labels: np.ndarray, box: Box) -> tuple[np.ndarray, np.ndarray]:
+    """``bounds`` grown to the filled voxels in ``box`` (:func:`_shrunk` moves them in)."""
     lower, upper = (np.asarray(b, dtype=np.float64) for b in bounds)
     inside, _ = box_of(labels[box] != 0, labels[box].shape)
     if any(s.stop <= s.start for s in inside):
