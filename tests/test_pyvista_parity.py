@@ -992,6 +992,41 @@ def test_a_surface_cut_by_the_grid_s_faces_stops_at_the_points_as_contour_does(t
     assert np.isclose(bounds[0, 0], cut[0, 0]) and np.allclose(bounds[2], cut[2]), bounds
 
 
+@pytest.mark.parametrize("keywords", [{}, {"traversal": "cell_boxes"}, {"technique": "full"},
+                                      {"opacity": 0.5}])
+def test_axis_parallel_rays_on_the_points_hull_draw_what_contour_draws(keywords):
+    """A parallel view straight down z whose pixel centres fall exactly on the outermost
+    points' x and y planes: the rays on those planes draw the contour's edge there.
+
+    Measured: every drawing covers the contour's 6,561 pixels (81 x 81), none more.
+    catches (seen failing; found by a review): the domain's slab exact (float32 puts a
+    ray on a face an ulp outside): a row and a column lost (161 pixels) in each drawing
+    but the cell boxes; the cell boxes drawn unmargined at the hull (the rasteriser
+    leaves pixels on their edges out): the same 161 lost.
+    """
+    grid = pv.ImageData(dimensions=(11, 11, 9))
+    x, y, z = grid.points.T
+    grid.point_data["f"] = z - 0.3 * y - 0.2 * x   # a sheet crossing every x and y face
+    images = []
+    for add in (lambda pl: pl.add_mesh(grid.contour([2.0], scalars="f"), color="white",
+                                       lighting=False),
+                lambda pl: pl.cubemarch.add_surface(grid, isovalue=2.0, scalars="f",
+                                                    color="white", shading="unlit",
+                                                    **keywords)):
+        pl = pv.Plotter(off_screen=True, window_size=(239, 179))
+        pl.set_background("black")
+        add(pl)
+        pl.camera_position = [(5.0, 5.0, 50.0), (5.0, 5.0, 4.0), (0.0, 1.0, 0.0)]
+        pl.enable_parallel_projection()
+        pl.camera.parallel_scale = 179 / 16.0   # 8 pixels a unit: centres on whole units
+        images.append(cm.render_image(pl).max(axis=2) > 30)
+        pl.close()
+    theirs, mine = images
+    assert theirs.sum() == 81 * 81
+    assert (theirs & ~mine).sum() == 0 and (mine & ~theirs).sum() == 0, (
+        (theirs & ~mine).sum(), (mine & ~theirs).sum())
+
+
 @pytest.mark.parametrize("given", ["name", "flat array"])
 def test_a_surface_coloured_by_a_grid_array_draws_what_contour_draws(given):
     """``color_by`` an array of the grid, by its name or as ``grid["X"]`` (flat, VTK's

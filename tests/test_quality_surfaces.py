@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import pyvista
 from conftest import headlit_plotter, stored_settings
+from scipy.spatial.transform import Rotation
 
 import pv_cubemarch
 from pv_cubemarch.core.camera import Camera
@@ -87,19 +88,34 @@ def test_the_chosen_steps_meet_the_target_and_half_of_them_do_not(sheets, target
     plotter.close()
 
 
+@pytest.mark.parametrize("rotated", [False, True])
 @pytest.mark.parametrize("keywords", [{}, {"traversal": "cell_boxes"}, {"technique": "full"}])
-def test_a_fresh_plotter_s_first_frame_is_the_view_calibrated_for(sheets, keywords):
+def test_a_fresh_plotter_s_first_frame_is_the_view_calibrated_for(sheets, keywords, rotated):
     # The calibration predicts the camera PyVista frames the returned actor with (the
     # theme's isometric view of its bounds): the first frame draws that view, so it does
-    # not warn that the view has changed. catches (seen failing; found by a review): the
+    # not warn that the view has changed. Rotated: a ball on a grid of a turned
+    # direction_matrix under a turning user_matrix (the actor's bounds are the box of its
+    # corners' box in the data's frame). catches (seen failing; found by reviews): the
     # drawn box predicted 1 % of the grid larger than the actor's exact corners and past
-    # the points' hull, the first frame warning "calibrated for the view at add_surface".
+    # the points' hull (unrotated, each way of drawing); the cell boxes' box predicted, not
+    # their corners' (rotated, cell_boxes).
+    grid, more = sheets, {"isovalue": ISOVALUE}
+    if rotated:
+        grid = pyvista.ImageData(dimensions=(10, 9, 8), spacing=(1.0, 1.2, 0.9),
+                                 origin=(2.0, -3.0, 7.0))
+        turn = Rotation.from_euler("xyz", [30, 20, 50], degrees=True).as_matrix()
+        grid.direction_matrix = turn
+        grid.point_data["f"] = np.linalg.norm(grid.points - (3.0, 0.0, 9.0), axis=1)
+        placed = np.eye(4)
+        placed[:3, :3] = Rotation.from_euler("z", 35, degrees=True).as_matrix()
+        placed[:3, 3] = (1.0, 2.0, 3.0)
+        more = {"isovalue": 4.0, "user_matrix": placed}
     plotter = pyvista.Plotter(off_screen=True, window_size=SIZE)
-    actor = pv_cubemarch.add_surface(plotter, sheets, isovalue=ISOVALUE, quality=30,
-                                     **keywords)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
+    actor = pv_cubemarch.add_surface(plotter, grid, quality=30, **keywords, **more)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
         pv_cubemarch.render_image(plotter)
+    assert not [w for w in said if "calibrated for the view" in str(w.message)]
     assert actor.cubemarch.quality.met
     plotter.close()
 

@@ -125,13 +125,25 @@ def test_a_grid_file_is_a_surface_with_isovalue(tmp_path, capsys):
 def test_pv_read_gives_a_surface_as_its_field_at_the_cell_centres(tmp_path):
     # A stage's surface comes back from pv.read as an ImageData placed in the world with
     # the field at each cell centre; interpolated again (isovalue 0) it is the same field
-    # (the interpolation of centre values is one-to-one with mirror ends). catches: the
-    # block left out, values at the corners (a field shifted by half a cell).
+    # (the interpolation of centre values is one-to-one with mirror ends), drawn over the
+    # same part of its cells: a field of point samples up to the points, so the block
+    # holds them as point data. catches: the block left out, values at the corners (a
+    # field shifted by half a cell); (seen failing; found by a review) the block as cell
+    # data, drawn again out to the cells' faces (936 pixels past the stage's surface).
     path = surface_stage(tmp_path)
     field = cm.load_scene(path).surfaces[0]
+    assert field.domain is not None   # the stage's samples are at points
     blocks = pyvista.read(path)
     block = blocks[field.name]
-    assert block.n_cells == np.prod(field.dimensions)
+    assert block.n_points == np.prod(field.dimensions)
     again = cm.make_field(block, 0.0, "field")
     assert np.abs(again.coefficients - field.coefficients).max() < 1e-9
     assert np.allclose(again.world_from_index(), field.world_from_index())
+    assert np.allclose(again.domain, field.domain)
+    assert np.allclose(again.world_bounds(), field.world_bounds())
+    mesh_field = cm.make_field(pyvista.Sphere(), cells=8)   # no domain: cells kept
+    scene = cm.Scene(surfaces=[mesh_field])
+    block = scene.to_multiblock()[mesh_field.name]
+    assert block.n_cells == np.prod(mesh_field.dimensions)
+    assert np.abs(cm.make_field(block, 0.0, "field").coefficients
+                  - mesh_field.coefficients).max() < 1e-9

@@ -18,8 +18,8 @@
   vec2 cm_span = cm_slab(cm_origin, cm_direction, vec3(-1e-4), vec3(1.0 + 1e-4));
 #ifdef CM_DOMAIN_CUT
   // a cell at the grid's face is cut to the domain (the points' hull), as contour stops
-  vec2 cm_inDomain = cm_slab(cm_origin, cm_direction, cm_domainLower - cm_corner,
-                             cm_domainUpper - cm_corner);
+  vec2 cm_inDomain = cm_slab(cm_origin, cm_direction, cm_domainLower - cm_corner - vec3(1e-4),
+                             cm_domainUpper - cm_corner + vec3(1e-4));
   cm_span = vec2(max(cm_span.x, cm_inDomain.x), min(cm_span.y, cm_inDomain.y));
 #endif
   float cm_start = max(cm_span.x, cm_near);

@@ -135,7 +135,9 @@ bool cm_domainRay(out vec3 originView, out vec3 directionView, out vec3 origin,
                   out vec3 direction, out vec2 span)
 {
   cm_fragmentRay(originView, directionView, origin, direction);
-  span = cm_slab(origin, direction, cm_domainLower, cm_domainUpper);
+  // a hair larger, as a cell's slab: a ray exactly on a face (an axis-aligned parallel view)
+  // that float32 puts an ulp outside is kept, as the contour's edge is drawn there
+  span = cm_slab(origin, direction, cm_domainLower - vec3(1e-4), cm_domainUpper + vec3(1e-4));
   span.x = max(span.x, cm_near);
   span.y = min(span.y, cm_viewDepthOf(1.0));   // nothing past the far plane, as VTK clips
 #ifdef CM_CLIP_PLANES

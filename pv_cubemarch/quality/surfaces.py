@@ -16,11 +16,12 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..models.surface import level_cells
+from ..models.volume import box_world_bounds
 from ..surfaces.options import LOOP_BUDGET, MAX_STEPS, SurfaceOptions
 from ..surfaces.technique import surface_recipe
 from .interaction import set_still_steps, surface_parts
 from .ladders import Rung
-from .probe import ProbeCalibration, drawn_box_bounds
+from .probe import ProbeCalibration
 from .targets import QualityTarget, parse_quality
 
 #: Samples along the domain's diagonal, coarse to fine: each doubling halves the gap a
@@ -51,6 +52,24 @@ def check_surface_quality(quality, given: dict, options: SurfaceOptions,
                          "technique='active' finds (root='exact'); technique='full' marches: "
                          "give it a PSNR target, or use technique='active'.")
     return target
+
+
+def _cell_corners_box(grid_from_index: np.ndarray, cells: np.ndarray, lower,
+                      upper) -> np.ndarray:
+    """Bounds, in the field's frame, of every corner of ``cells`` cut to ``[lower, upper]``.
+
+    Per frame axis, the extreme corner of each cell is the one the axis' row points to
+    (no ``(8 n, 3)`` array of corners).
+    """
+    cells = np.asarray(cells, dtype=np.float64)
+    bounds = []
+    for row in np.asarray(grid_from_index, dtype=np.float64)[:3]:
+        ends = []
+        for sign in (-1.0, 1.0):
+            corner = np.clip(cells + (sign * row[:3] > 0), lower, upper)
+            ends.append(corner @ row[:3] + row[3])
+        bounds += [ends[0].min(), ends[1].max()]
+    return np.asarray(bounds)
 
 
 def surface_tracks(options: SurfaceOptions, dimensions, target: QualityTarget,
@@ -118,28 +137,40 @@ class SurfaceCalibration(ProbeCalibration):
                 sorted((k, repr(v)) for k, v in self.keep.items()))
 
     def bounds(self) -> np.ndarray:
-        """The drawn box's bounds, as ``surfaces.technique`` will draw it (not built yet).
+        """The returned prop's bounds, as ``surfaces.technique`` will draw it (not built yet).
 
-        The active cells' box within the domain (the domain's for ``technique='full'``);
-        its corners exact, as the box actors keep them. Opaque levels, each drawn apart,
-        are framed by the prop standing for them, which spans every level's box.
+        The prop holds the drawn corners in the field's own frame under its ``transform``,
+        as a mesh of the data would: the box of those corners in the frame, placed. The
+        corners: the active cells' box cut to the domain (the domain's for
+        ``technique='full'``); with ``traversal='cell_boxes'`` each active cell's, cut.
+        Opaque levels, each drawn apart, are framed by the prop standing for them, which
+        spans every level's box.
         """
-        lower, upper = self.model.domain_corners()
-        if self.technique != "active":
-            return drawn_box_bounds(self.model, lower, upper)
-        apart = self.levels is not None and not self.options.translucent
-        groups = [(v,) for v in self.levels] if apart else [self.levels or (0.0,)]
-        boxes = []
-        for offsets in groups:
-            cells = level_cells(self.model, offsets, self.options.active_test,
-                                self.options.active_samples)
-            if len(cells):
+        model = self.model
+        lower, upper = model.domain_corners()
+        grid = np.asarray(model.grid_from_index, dtype=np.float64)
+        frame = None
+        if self.technique == "active":
+            apart = self.levels is not None and not self.options.translucent
+            groups = [(v,) for v in self.levels] if apart else [self.levels or (0.0,)]
+            boxes = []
+            for offsets in groups:
+                cells = level_cells(model, offsets, self.options.active_test,
+                                    self.options.active_samples)
+                if not len(cells):
+                    continue
+                if self.options.traversal == "cell_boxes" and not apart:
+                    frame = _cell_corners_box(grid, cells, lower, upper)
                 boxes.append((np.maximum(lower, cells.min(axis=0)),
                               np.minimum(upper, cells.max(axis=0) + 1.0)))
-        if not boxes:
-            return drawn_box_bounds(self.model, lower, upper)
-        return drawn_box_bounds(self.model, np.min([b[0] for b in boxes], axis=0),
-                                np.max([b[1] for b in boxes], axis=0))
+            if boxes:
+                lower = np.min([b[0] for b in boxes], axis=0)
+                upper = np.max([b[1] for b in boxes], axis=0)
+        if frame is None:
+            frame = box_world_bounds(grid, upper, lower)
+        frame = np.reshape(frame, (3, 2))
+        return box_world_bounds(np.asarray(model.transform, dtype=np.float64), frame[:, 1],
+                                frame[:, 0])
 
     def shading(self) -> str:
         return self.options.shading

@@ -19,7 +19,7 @@ from ..core.rendering import offscreen_plotter, render_image
 from ..models.channels import channel_grid, is_channels
 from ..models.group import overlap_groups
 from ..models.lights import VolumeLight
-from ..models.surface import SplineField
+from ..models.surface import SplineField, point_hull
 from ..models.volume import VolumeModel
 from ..models.voxels import VoxelModel, count_labels, describe_labels, label_legend
 from ..models.world import VoxelWorld
@@ -129,9 +129,11 @@ class Scene:
         the cell data array ``"labels"`` (one cell per voxel), placed in the world, so
         ``pv_cubemarch.add_voxels(plotter, block)`` draws it where the scene does; a voxel
         world gives one such block per chunk that holds voxels. A surface is an ImageData
-        with its field at each cell's centre in the cell data array ``"field"`` (zero on the
+        with its field at each cell's centre in the array ``"field"`` (zero on the
         surface): ``pv_cubemarch.add_surface(plotter, block, isovalue=0.0)`` interpolates
-        those values again, the same field where it came from samples or a mesh.
+        those values again, the same field where it came from samples or a mesh. Its values
+        are cell data, or point data for a field drawn up to its samples (one made from
+        point data: its ``domain`` is their hull), so that it is drawn there again.
         """
         blocks = pyvista.MultiBlock()
         for m in self.meshes:
@@ -150,7 +152,10 @@ class Scene:
                 chunk = g.chunk_model(key, whole=True)
                 blocks[chunk.name] = _cell_image(chunk, "labels", chunk.labels)
         for f in self.surfaces:
-            blocks[f.name] = _cell_image(f, "field", f.on_lattice(1, centred=True))
+            centred = f.on_lattice(1, centred=True)
+            blocks[f.name] = _point_image(f, "field", centred) if f.domain is not None and \
+                np.allclose(f.domain, point_hull(f.dimensions)) else \
+                _cell_image(f, "field", centred)
         return blocks
 
     def add_to(self, plotter: pyvista.Plotter, camera: str | Camera | None = None,
@@ -296,6 +301,20 @@ def _cell_image(grid, name: str, values: np.ndarray) -> pyvista.ImageData:
                               spacing=tuple(spacing), origin=tuple(matrix[:3, 3]))
     image.direction_matrix = matrix[:3, :3] / spacing
     image.cell_data[name] = np.asarray(values).ravel(order="F")
+    return image
+
+
+def _point_image(grid, name: str, values: np.ndarray) -> pyvista.ImageData:
+    """A placed grid of cells as a world ImageData of a point at each cell's centre.
+
+    ``values`` (x, y, z) are its point data ``name``.
+    """
+    matrix = grid.world_from_index()
+    spacing = np.linalg.norm(matrix[:3, :3], axis=0)
+    image = pyvista.ImageData(dimensions=tuple(grid.dimensions), spacing=tuple(spacing),
+                              origin=tuple(matrix[:3, :3] @ np.full(3, 0.5) + matrix[:3, 3]))
+    image.direction_matrix = matrix[:3, :3] / spacing
+    image.point_data[name] = np.asarray(values).ravel(order="F")
     return image
 
 

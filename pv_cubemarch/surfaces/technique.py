@@ -28,7 +28,7 @@ import vtk
 from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import FloatArray, ShaderBindings
-from ..gl.box import bind_camera, box_actor, place_box
+from ..gl.box import AUTO_SHIFT, GROW, bind_camera, box_actor, place_box
 from ..gl.frame_inputs import frame_inputs
 from ..gl.handle import DrawnBinding
 from ..gl.lights import bind_scene_lights
@@ -47,6 +47,8 @@ CELL_TRIANGLES = np.array([
     [0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6],      # z = 0, z = 1
 ])
 CORNERS = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)])
+#: How far (cells) the corners on the cell boxes' outer faces are drawn out.
+HULL_GROW = 0.01
 
 
 def drawing(technique: str, options: SurfaceOptions) -> str:
@@ -135,7 +137,13 @@ def cell_boxes(cells: np.ndarray, domain=None) -> pyvista.PolyData:
     points = points.astype(np.float64)
     if domain is not None:
         points = np.clip(points, domain[0], domain[1])
-    return pyvista.PolyData(points, faces=faces)
+    boxes = pyvista.PolyData(points, faces=faces)
+    # corners on the hull's faces drawn a hair out (box_grow_vertex): a pixel whose ray runs
+    # exactly on a face is rasterised, and its cell's fragment decides (inner ones stay)
+    lower, upper = (points.min(axis=0), points.max(axis=0)) if len(points) else (0.0, 0.0)
+    boxes.point_data[GROW] = HULL_GROW * ((points >= upper).astype(np.float64)
+                                          - (points <= lower))
+    return boxes
 
 
 def cell_buffer(field: SplineField, cells: np.ndarray, corners: bool,
@@ -220,6 +228,9 @@ def _cell_boxes_actor(field: SplineField, cells: np.ndarray) -> pyvista.Actor:
     mapper = vtk.vtkOpenGLPolyDataMapper()
     domain = None if field.domain is None else field.domain_corners()
     mapper.SetInputData(cell_boxes(cells, domain) if len(cells) else pyvista.PolyData())
+    mapper.MapDataArrayToVertexAttribute(GROW, GROW, vtk.vtkDataObject.FIELD_ASSOCIATION_POINTS,
+                                         -1)
+    mapper.SetVBOShiftScaleMethod(AUTO_SHIFT)   # shifted, never scaled: the moves are in cells
     actor = pyvista.Actor()
     actor.SetMapper(mapper)
     place_box(actor, field.world_from_index())
