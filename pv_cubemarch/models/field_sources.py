@@ -25,6 +25,7 @@ from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 
 from ..core.errors import VolumeDataError
 from ..core.progress import progress
+from .image_files import IMAGE_SUFFIXES, read_image_file
 from .surface import SplineField, interpolating_coefficients, point_hull
 from .volume import checked_transform
 from .voxels import image_samples, samples_at_points
@@ -109,8 +110,9 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     ``VolumeDataError`` for NaN samples, a missing isovalue, an open mesh or a cloud
     without normals.
     """
-    if isinstance(data, (str, Path)):
-        data = pyvista.read(data)
+    if isinstance(data, (str, Path)):   # an image file's header checked first
+        data = read_image_file(data, "make_field", error=VolumeDataError) \
+            if Path(data).suffix.lower() in IMAGE_SUFFIXES else pyvista.read(data)
     _check_cells(cells)
     if isovalue is not None and not (isinstance(isovalue, (int, float, np.number))
                                      and np.isfinite(isovalue)):

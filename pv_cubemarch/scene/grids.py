@@ -17,13 +17,12 @@ from ..core.budgets import host_budget
 from ..core.errors import SceneLoadError, VolumeDataError
 from ..models.channels import make_data_model
 from ..models.field_sources import make_field
+from ..models.image_files import ARRAY_BYTES_ENV, IMAGE_SUFFIXES, read_image_file
 from ..models.voxels import make_voxels
 from .model import Scene
 from .openvdb import VdbFormatError
 from .openvdb.image import INDEX_TO_WORLD, vdb_image
 
-#: Image files PyVista (VTK's readers) reads as an ImageData: VTK's own, NRRD, MetaImage.
-IMAGE_SUFFIXES = (".vti", ".vtk", ".nrrd", ".nhdr", ".mha", ".mhd")
 #: The grid files a USD field may name, and that ``load_scene`` reads as a scene of one grid.
 GRID_SUFFIXES = (*IMAGE_SUFFIXES, ".npy", ".npz", ".vdb")
 
@@ -83,10 +82,7 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
         except VdbFormatError as exc:
             raise SceneLoadError(f"{where}: OpenVDB file {shown!r}: {exc}") from exc
     if suffix in IMAGE_SUFFIXES:
-        try:
-            grid = pyvista.read(str(path))
-        except Exception as exc:
-            raise SceneLoadError(f"{where}: could not read {shown!r}: {exc}") from exc
+        grid = read_image_file(path, where, shown)
         if field_name:
             if field_name not in grid.array_names:   # not another array, in silence
                 raise SceneLoadError(f"{where}: {shown!r} has no array named {field_name!r} "
@@ -112,9 +108,6 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
                          "use .vti, .vtk, .npy or .npz.")
 
 
-#: The bytes one ``.npy``/``.npz`` array may take once read (default: 80 % of what the
-#: system can give now); its header is checked before anything is read.
-ARRAY_BYTES_ENV = "PV_CUBEMARCH_ARRAY_MAX_BYTES"
 
 
 def _read_array(path, suffix: str, field_name, where: str, shown: str) -> np.ndarray:

@@ -1,0 +1,136 @@
+"""Image files (``.vti``, ``.vtk``, NRRD, MetaImage) checked from their headers before a read.
+
+A header of a hundred bytes can declare 10^15 points (VTK then aborts the process
+allocating them) or name a "detached" data file anywhere (``/etc/passwd``, ``/dev/zero``).
+The size is read through the VTK reader's own header pass (``UpdateInformation``), which
+allocates nothing; a detached data file must be a regular file in the header's folder. A
+file VTK cannot read is said so (VTK returns what it read, or nothing, and logs why).
+"""
+
+from __future__ import annotations
+
+import re
+import stat
+import warnings
+from pathlib import Path
+
+import pyvista
+import vtk
+
+from ..core.budgets import host_budget
+from ..core.errors import SceneLoadError
+
+#: The image files checked (what ``pyvista.read`` reads through VTK's image readers).
+IMAGE_SUFFIXES = (".vti", ".vtk", ".nrrd", ".nhdr", ".mha", ".mhd")
+#: The bytes one grid file's values may take once read (default: 80 % of what the system
+#: can give now); its header is checked before anything is read.
+ARRAY_BYTES_ENV = "PV_CUBEMARCH_ARRAY_MAX_BYTES"
+
+#: Header keys naming a detached data file, per suffix (NRRD: ``data file`` /
+#: ``datafile``; MetaImage: ``ElementDataFile``, whose ``LOCAL`` means inline).
+_DATA_FILE_KEYS = {".nrrd": re.compile(r"^\s*data ?file\s*:\s*(.*)$", re.IGNORECASE),
+                   ".nhdr": re.compile(r"^\s*data ?file\s*:\s*(.*)$", re.IGNORECASE),
+                   ".mha": re.compile(r"^\s*ElementDataFile\s*=\s*(.*)$"),
+                   ".mhd": re.compile(r"^\s*ElementDataFile\s*=\s*(.*)$")}
+#: The most header bytes read looking for the data file (headers are a few hundred).
+_HEADER_BYTES = 1 << 16
+
+
+def read_image_file(path, where: str, shown: str | None = None, error=SceneLoadError):
+    """``pyvista.read`` of an image file, once its header is checked (:func:`check_image_file`).
+
+    What VTK could not read raises ``error`` naming the file and VTK's first complaint.
+    """
+    shown = str(path) if shown is None else shown
+    check_image_file(Path(path), where, shown, host_budget(ARRAY_BYTES_ENV, error), error)
+    try:   # VTK's errors as its log has them, or as PyVista's reader warns of them
+        with pyvista.VtkErrorCatcher(send_to_logging=False) as caught, \
+                warnings.catch_warnings(record=True) as warned:
+            warnings.simplefilter("always")
+            grid = pyvista.read(str(path))
+    except Exception as exc:
+        raise error(f"{where}: could not read {shown!r}: {exc}") from exc
+    said = "raised an error while reading"
+    errors = [event.alert for event in caught.events if event.kind == "ERROR"] + [
+        str(w.message).split("\n", 1)[-1].strip().strip('"') for w in warned
+        if said in str(w.message)]
+    for w in warned:   # the others, as they were
+        if said not in str(w.message):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    if errors:
+        raise error(f"{where}: {shown!r} could not be read (VTK: {errors[0]}).")
+    return grid
+
+
+def check_image_file(path: Path, where: str, shown: str, budget: int | None,
+                     error=SceneLoadError) -> None:
+    """Raise ``error`` for an image file that cannot be read safely.
+
+    A detached data file outside the header's folder or not a regular file; a header
+    VTK cannot read; declared dimensions or components that are not positive; declared
+    points whose values would take more than ``budget`` bytes.
+    """
+    _check_data_file(Path(path), where, shown, error)
+    reader = pyvista.get_reader(str(path)).reader
+    reader.SetFileName(str(path))
+    with pyvista.VtkErrorCatcher(send_to_logging=False) as caught:
+        reader.UpdateInformation()
+    errors = [event.alert for event in caught.events if event.kind == "ERROR"]
+    if errors:
+        raise error(f"{where}: {shown!r} could not be read (VTK: {errors[0]}).")
+    info = reader.GetOutputInformation(0)
+    extent = info.Get(vtk.vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT())
+    if extent is None:   # not an image (a legacy .vtk of another dataset): read as it is
+        return
+    counts = [int(extent[2 * a + 1]) - int(extent[2 * a]) + 1 for a in range(3)]
+    scalars = vtk.vtkDataObject.GetActiveFieldInformation(
+        info, vtk.vtkDataObject.FIELD_ASSOCIATION_POINTS, vtk.vtkDataSetAttributes.SCALARS)
+    components, size = 1, 8
+    if scalars is not None:
+        components = int(scalars.Get(vtk.vtkDataObject.FIELD_NUMBER_OF_COMPONENTS()))
+        kind = vtk.vtkDataArray.CreateDataArray(
+            int(scalars.Get(vtk.vtkDataObject.FIELD_ARRAY_TYPE())))
+        size = kind.GetDataTypeSize() if kind is not None else 8
+    if min(counts) < 1 or components < 1:
+        raise error(f"{where}: {shown!r} declares {counts} points and {components} "
+                             "components a point; each must be at least 1 (its header is "
+                             "damaged or hostile).")
+    nbytes = counts[0] * counts[1] * counts[2] * components * size   # Python ints: no wrap
+    if budget is not None and nbytes > budget:
+        raise error(
+            f"{where}: {shown!r} declares {counts[0]} x {counts[1]} x {counts[2]} points "
+            f"({nbytes:,} bytes), more than the {budget:,} a grid file may take "
+            f"({ARRAY_BYTES_ENV}, by default 80 % of the memory available): read "
+            "a smaller grid, or stream it as a zarr store.")
+
+
+def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -> None:
+    """A NRRD or MetaImage header's detached data file: a regular file beside it, or none."""
+    key = _DATA_FILE_KEYS.get(path.suffix.lower())
+    if key is None:
+        return
+    with open(path, "rb") as handle:
+        head = handle.read(_HEADER_BYTES).decode("latin-1")
+    for line in head.splitlines():
+        if path.suffix.lower() in (".nrrd", ".nhdr") and not line.strip():
+            break   # the header's end: the data follow
+        match = key.match(line)
+        if not match:
+            continue
+        name = match.group(1).strip()
+        if name.upper() == "LOCAL":
+            return
+        if name.upper().startswith("LIST") or len(name.split()) > 1 or "%" in name:
+            raise error(f"{where}: {shown!r} splits its data over several files "
+                                 f"({name!r}), which is not read; write it as one file.")
+        folder = path.resolve().parent
+        target = (folder / name).resolve()
+        inside = folder == target.parent or folder in target.parents
+        regular = target.exists() and stat.S_ISREG(target.stat().st_mode)
+        if not (inside and regular):
+            raise error(f"{where}: {shown!r} names the data file {name!r}, which "
+                                 + ("is not a regular file" if inside else
+                                    "lies outside its folder")
+                                 + ": refused (a detached header's data file must be a "
+                                 "file beside it).")
+        return

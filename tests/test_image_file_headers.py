@@ -1,0 +1,131 @@
+"""Hostile image files (NRRD, MetaImage, .vti, legacy .vtk), refused from their headers.
+
+Each file is written here by hand, a header of a few lines. Before the checks, a declared
+size of 10^15 points aborted the process inside VTK (``std::bad_alloc``), a detached data
+file was read wherever it pointed (``/etc/passwd`` drawn as a volume), and a damaged .vti
+was said to have "no scalar arrays". Files that could abort run in a subprocess.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import pv_cubemarch as cm
+from pv_cubemarch.core.errors import SceneLoadError
+
+HUGE = {
+    "huge.nrrd": "NRRD0004\ntype: float\ndimension: 3\nsizes: 100000 100000 100000\n"
+                 "encoding: raw\nendian: little\n\n",
+    "huge.mha": "ObjectType = Image\nNDims = 3\nDimSize = 100000 100000 100000\n"
+                "ElementType = MET_FLOAT\nElementDataFile = LOCAL\n",
+    "huge.vti": '<?xml version="1.0"?>\n<VTKFile type="ImageData" version="0.1">\n'
+                '<ImageData WholeExtent="0 99999 0 99999 0 99999" Origin="0 0 0" '
+                'Spacing="1 1 1"><Piece Extent="0 99999 0 99999 0 99999">'
+                '<PointData Scalars="d"><DataArray type="Float32" Name="d" format="ascii">'
+                "0 0</DataArray></PointData></Piece></ImageData></VTKFile>\n",
+    "huge.vtk": "# vtk DataFile Version 3.0\nh\nASCII\nDATASET STRUCTURED_POINTS\n"
+                "DIMENSIONS 100000 100000 100000\nORIGIN 0 0 0\nSPACING 1 1 1\n"
+                "POINT_DATA 1000000000000000\nSCALARS d float 1\nLOOKUP_TABLE default\n0 0\n",
+}
+
+
+@pytest.mark.parametrize("name", sorted(HUGE))
+def test_a_declared_size_past_the_budget_is_refused_before_reading(tmp_path, name):
+    # catches (seen failing): the header not checked (check_image_file's budget left
+    # out): the process aborted in VTK (exit -6, std::bad_alloc) or ran out of memory.
+    path = tmp_path / name
+    path.write_text(HUGE[name])
+    run = subprocess.run([sys.executable, "-c", "import sys, pv_cubemarch as cm; "
+                          "cm.load_scene(sys.argv[1])", str(path)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 1, (run.returncode, run.stderr[-500:])
+    assert "declares 100000 x 100000 x 100000 points" in run.stderr, run.stderr[-500:]
+
+
+@pytest.mark.parametrize("call", [
+    "cm.add_volume(pv.Plotter(off_screen=True), sys.argv[1])",
+    "cm.add_surface(pv.Plotter(off_screen=True), sys.argv[1], isovalue=0.0)",
+    "cm.make_field(sys.argv[1], 0.0)"])
+def test_a_path_given_to_an_add_is_checked_as_a_scene_s_grid_file(tmp_path, call):
+    # catches (seen failing): a path read by pyvista.read unchecked (api._read_path,
+    # field_sources.make_field): the process aborted (exit -6).
+    path = tmp_path / "huge.mha"
+    path.write_text(HUGE["huge.mha"])
+    run = subprocess.run([sys.executable, "-c", "import sys, pyvista as pv, pv_cubemarch "
+                          f"as cm; {call}", str(path)], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 1, (run.returncode, run.stderr[-500:])
+    assert "VolumeDataError" in run.stderr and "declares 100000 x 100000" in run.stderr
+
+
+def _mha(path, dims, data_file: str) -> None:
+    path.write_text(f"ObjectType = Image\nNDims = 3\nDimSize = {' '.join(map(str, dims))}\n"
+                    f"ElementType = MET_UCHAR\nElementDataFile = {data_file}\n")
+
+
+@pytest.mark.parametrize("target", ["/etc/passwd", "../outside.raw", "/dev/zero",
+                                    "link.raw"])
+def test_a_detached_data_file_outside_the_folder_or_not_a_file_is_refused(tmp_path, target):
+    # catches (seen failing): the data file followed anywhere (check_image_file's
+    # _check_data_file left out): /etc/passwd's bytes drawn as an 8^3 volume, exit 0.
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    (tmp_path / "outside.raw").write_bytes(bytes(512))
+    (folder / "link.raw").symlink_to("/dev/zero")
+    _mha(folder / "v.mhd", (8, 8, 8), target)
+    with pytest.raises(SceneLoadError, match="names the data file .*(outside its folder|not "
+                                             "a regular file)"):
+        cm.load_scene(folder / "v.mhd")
+    nrrd = folder / "v.nhdr"
+    nrrd.write_text(f"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 8 8 8\nencoding: raw\n"
+                    f"data file: {target}\n")
+    with pytest.raises(SceneLoadError, match="names the data file"):
+        cm.load_scene(nrrd)
+
+
+def test_a_detached_data_file_beside_its_header_is_read(tmp_path):
+    # The honest case still works: a header and its raw data side by side, drawn as the
+    # same values written inline.
+    values = np.arange(4 * 5 * 6, dtype=np.uint8).reshape(6, 5, 4)   # z, y, x on disk
+    (tmp_path / "v.raw").write_bytes(values.tobytes())
+    _mha(tmp_path / "v.mhd", (4, 5, 6), "v.raw")
+    grid = cm.load_scene(tmp_path / "v.mhd").volumes[0]
+    assert grid.dimensions == (4, 5, 6)
+    image = pv.read(tmp_path / "v.mhd")
+    assert np.array_equal(np.asarray(image.active_scalars), values.ravel())
+
+
+@pytest.mark.parametrize("body, words", [
+    ("ObjectType = Image\nNDims = 3\nDimSize = -3 4 4\nElementType = MET_UCHAR\n"
+     "ElementDataFile = LOCAL\n", "declares .* points .* at least 1"),
+    ("ObjectType = Image\nNDims = 0\nDimSize = 4\nElementType = MET_UCHAR\n"
+     "ElementDataFile = LOCAL\n", "could not be read \\(VTK: Only understands"),
+])
+def test_a_damaged_metaimage_header_is_named(tmp_path, body, words):
+    # catches (seen failing): a negative size read as extents VTK drew blank; 0 dimensions
+    # drawn as one blank point, exit 0.
+    path = tmp_path / "bad.mha"
+    path.write_text(body)
+    with pytest.raises(SceneLoadError, match=words):
+        cm.load_scene(path)
+
+
+@pytest.mark.parametrize("body", [
+    "not xml at all",
+    '<?xml version="1.0"?>\n<VTKFile type="ImageData" version="0.1"><ImageData '
+    'WholeExtent="0 9 0 9 0 9" Origin="0 0 0" Spacing="1 1 1"><Piece Extent="0 9 0 9 0 9">'
+    '<PointData Scalars="d"><DataArray type="Float32" Name="d" format="ascii">1 2 3'
+    "</DataArray></PointData></Piece></ImageData></VTKFile>\n",
+])
+def test_a_damaged_vti_says_vtk_could_not_read_it(tmp_path, body):
+    # catches (seen failing; found by a review): "The grid has no scalar arrays; add one to
+    # point_data" for a file VTK could not parse, or whose array is too short.
+    path = tmp_path / "bad.vti"
+    path.write_text(body)
+    with pytest.raises(SceneLoadError, match="could not be read \\(VTK: "):
+        cm.load_scene(path)
