@@ -22,18 +22,39 @@ def host_bytes_available() -> int | None:
     """Bytes of host memory the system says it can give now, or None where it cannot say.
 
     Linux's ``MemAvailable`` (free memory and what the page cache would give back), else the
-    free pages ``sysconf`` counts.
+    free pages ``sysconf`` counts; no more than the process's address-space limit leaves
+    (``ulimit -v``, a batch job's cap) beyond what it maps now.
     """
+    available = None
     try:
         with open("/proc/meminfo") as meminfo:
             for line in meminfo:
                 if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
+                    available = int(line.split()[1]) * 1024
+                    break
     except (OSError, ValueError, IndexError):
         pass
+    if available is None:
+        try:
+            available = int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+        except (ValueError, OSError, AttributeError):
+            pass
+    left = _address_space_left()
+    return left if available is None else available if left is None else min(available, left)
+
+
+def _address_space_left() -> int | None:
+    """What the address-space limit leaves the process now (None: no limit, or unknown)."""
     try:
-        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
-    except (ValueError, OSError, AttributeError):
+        import resource
+
+        limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if limit == resource.RLIM_INFINITY:
+            return None
+        with open("/proc/self/statm") as statm:
+            mapped = int(statm.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+        return max(int(limit) - mapped, 0)
+    except (ImportError, OSError, ValueError, IndexError):
         return None
 
 

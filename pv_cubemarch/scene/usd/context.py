@@ -33,6 +33,9 @@ class StageContext:
     materials: dict = field(default_factory=dict)
     #: Things counted over the stage and reported once (say, subdivision meshes).
     counts: dict = field(default_factory=dict)
+    #: The PointInstancers being read, outermost first (a prototype holding one of them
+    #: is a cycle).
+    instancing: list = field(default_factory=list)
 
     def __post_init__(self):
         self.xforms = UsdGeom.XformCache(self.time)

@@ -13,9 +13,15 @@ import numpy as np
 import pyvista
 from pxr import Usd, UsdGeom
 
+from ...core.budgets import host_budget
+from ...models.image_files import ARRAY_BYTES_ENV
 from ..parts import SceneMesh
 from .context import PrimError, StageContext
 from .primvars import cell_arrays, cofactor, reversed_connectivity
+
+#: Bytes a copied point takes with what travels with it (position, normal, texture
+#: coordinates, in float64) and the temporaries of copying it (VTK's arrays, numpy's).
+COPY_BYTES_PER_POINT = 256
 
 
 def read_instancer(ctx: StageContext, prim, read_local: Callable[[object], list | None],
@@ -26,6 +32,19 @@ def read_instancer(ctx: StageContext, prim, read_local: Callable[[object], list 
     not drawn; a nested PointInstancer's in its frame); ``skip_reason(ctx, prim)`` says why
     a prim under a prototype is left out (invisible, guide or render purpose), or ``None``.
     """
+    path = str(prim.GetPath())
+    if path in ctx.instancing:   # USD composes it; reading it would recurse forever
+        raise PrimError(f"its prototypes hold it again ({' -> '.join(ctx.instancing)} -> "
+                        f"{path}): a cycle of PointInstancers is not drawn")
+    ctx.instancing.append(path)
+    try:
+        return _read_instances(ctx, prim, read_local, skip_reason)
+    finally:
+        ctx.instancing.pop()
+
+
+def _read_instances(ctx: StageContext, prim, read_local, skip_reason) -> list[SceneMesh]:
+    """:func:`read_instancer` once it is known not to hold itself."""
     instancer = UsdGeom.PointInstancer(prim)
     prototypes = instancer.GetPrototypesRel().GetTargets()
     if not prototypes:
@@ -52,6 +71,7 @@ def read_instancer(ctx: StageContext, prim, read_local: Callable[[object], list 
         if not chosen.size:
             continue
         for part, relative in _prototype_parts(ctx, root, read_local, skip_reason):
+            _check_copies(ctx, part, len(chosen))
             copy = _copied(part, instances[chosen] @ relative)
             copy.name = f"{prim.GetPath()}[{part.name}]"
             parts.append(copy)
@@ -70,6 +90,8 @@ def _prototype_parts(ctx: StageContext, root, read_local, skip_reason):
         try:
             local = read_local(prim)
         except (PrimError, ValueError, TypeError, IndexError, ArithmeticError) as exc:
+            if ctx.strict:   # the first prim that cannot be read ends the load
+                raise
             ctx.report(str(prim.GetPath()), f"in a prototype: {exc}")
             walk.PruneChildren()
             continue
@@ -88,6 +110,25 @@ def _prototype_parts(ctx: StageContext, root, read_local, skip_reason):
             for part in local:
                 if part.mesh.n_cells:
                     yield part, relative
+
+
+def _check_copies(ctx: StageContext, part: SceneMesh, count: int) -> None:
+    """Raise ``PrimError`` if ``count`` copies of ``part`` would take more than the budget.
+
+    Nested instancers multiply (10 instances of 10 of 10 ...): a 2 KB stage asked for
+    gigabytes before numpy ran out of memory. The stage's copies so far count too.
+    """
+    mesh = part.mesh
+    ids = mesh.GetPolys().GetNumberOfConnectivityIds()
+    nbytes = count * (mesh.n_points * COPY_BYTES_PER_POINT + ids * 8 + mesh.n_cells * 8)
+    budget = host_budget(ARRAY_BYTES_ENV, PrimError)
+    copied = ctx.counts.get("copied bytes", 0) + nbytes
+    ctx.counts["copied bytes"] = copied
+    if budget is not None and copied > budget:
+        raise PrimError(f"{count:,} instances of {part.name} ({mesh.n_points:,} points) would "
+                        f"bring the stage's instanced copies to {copied:,} bytes, more than "
+                        f"the {budget:,} they may take ({ARRAY_BYTES_ENV}, by default 80 % of "
+                        "the memory available): instance fewer, or simpler prototypes")
 
 
 def _copied(part: SceneMesh, matrices: np.ndarray) -> SceneMesh:

@@ -21,6 +21,7 @@ from ..parts import SceneMesh
 from ..voxel_worlds import join_world
 from .context import PrimError, StageContext
 from .instancers import read_instancer
+from .layer_text import check_layer_nesting
 from .lights import LIGHT_KINDS, read_camera, read_light
 from .meshes import read_mesh
 from .primvars import cofactor, with_winding_reversed
@@ -70,6 +71,7 @@ def load_usd(path: str | Path, progress_bar: bool | None = None, as_voxels: bool
     path = Path(path)
     if not path.is_file():
         raise SceneLoadError(f"USD file {str(path)!r} does not exist.")
+    check_layer_nesting(path)
     try:
         stage = Usd.Stage.Open(str(path))
     except Tf.ErrorException as exc:
@@ -148,7 +150,7 @@ def _read_prim(ctx: StageContext, prim) -> bool:
             if type_name == "PointInstancer":
                 return False     # its prototypes are drawn through it only
     except (PrimError, CubemarchError, ValueError, TypeError, IndexError, Tf.ErrorException,
-            ArithmeticError) as exc:
+            ArithmeticError, RuntimeError) as exc:   # RuntimeError: PyVista's and VTK's
         if ctx.strict:
             if isinstance(exc, CubemarchError):
                 raise
