@@ -18,6 +18,7 @@ from .cluster import orbit, render_frames, render_sort_last, sweep_options  # no
 from .core.camera import Camera  # noqa: E402
 from .core.errors import (  # noqa: E402
     CubemarchError,
+    GpuLimitError,
     OffscreenUnavailableError,
     PlotterClosedError,
     RefusedChangeError,
@@ -66,7 +67,8 @@ widget = live_view
 register_notebook_backends()
 
 __all__ = [
-    "Camera", "CubemarchError", "OffscreenUnavailableError", "PlotterClosedError",
+    "Camera", "CubemarchError", "GpuLimitError", "OffscreenUnavailableError",
+    "PlotterClosedError",
     "RefusedChangeError", "RefusedOptionsError", "RenderToTexturePass", "Replacement",
     "Scene", "SceneChangedError", "SceneLight",
     "SceneLoadError", "SceneMesh", "SceneWarning", "ShaderBindings",

@@ -67,6 +67,33 @@ def _size(text: str) -> tuple[int, int]:
     return width, height
 
 
+def _port(text: str) -> int:
+    """A TCP port, 0 (any free one) to 65535."""
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"port must be a whole number, got {text!r}") from None
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"port must be 0 to 65535, got {port}")
+    return port
+
+
+def _image_path(text: str) -> str:
+    """An image file to write: a file name whose extension PIL writes, in a folder that is."""
+    from PIL import Image
+
+    path = Path(text).expanduser()
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is a folder; give an image file in it, "
+                                         "e.g. out.png")
+    if path.suffix.lower() not in Image.registered_extensions():
+        raise argparse.ArgumentTypeError(f"{text!r} has no image extension PIL writes; end "
+                                         "it with .png (or .jpg, .tif)")
+    if not path.parent.is_dir():
+        raise argparse.ArgumentTypeError(f"the folder of {text!r} does not exist")
+    return text
+
+
 def _shape(text: str) -> tuple[int, int, int]:
     """``XxYxZ`` points or voxels of a grid."""
     try:
@@ -209,7 +236,8 @@ def build_parser() -> argparse.ArgumentParser:
                                       "grid file (.vti, .vtk, .npy, .npz) or .zarr source "
                                       "(an OME-Zarr pyramid or zarr array, streamed by "
                                       "bricks; with --technique voxels, labels)")
-    render.add_argument("--out", "-o", required=True, help="output PNG path")
+    render.add_argument("--out", "-o", required=True, type=_image_path,
+                        help="output PNG path")
     render.add_argument("--size", type=_size, default=(800, 600), help="WxH (default 800x600)")
     render.add_argument("--camera", help="name (prim path) of the scene camera to use")
     add_option_flags(render)
@@ -242,7 +270,7 @@ def build_parser() -> argparse.ArgumentParser:
     split.add_argument("--live", action="store_true",
                        help="instead of writing an orbit, serve a live view whose frames the "
                             "cluster draws as the mouse turns the camera (trame)")
-    split.add_argument("--port", type=int, default=8080, help="the live view's port")
+    split.add_argument("--port", type=_port, default=8080, help="the live view's port")
     split.add_argument("--host", default="127.0.0.1",
                        help="address the live view listens on (default: this machine only)")
     split.add_argument("--partitions", type=_partitions,
@@ -284,7 +312,7 @@ def build_parser() -> argparse.ArgumentParser:
                                             "knobs (a trame app on localhost)")
     view.add_argument("scene", nargs="?", help="scene file (default: the shipped "
                                                "datasets/smoke_scene.usda)")
-    view.add_argument("--port", type=int, default=8080, help="port (default 8080)")
+    view.add_argument("--port", type=_port, default=8080, help="port (default 8080)")
     view.add_argument("--host", default="127.0.0.1",
                       help="address to listen on (default 127.0.0.1: this machine only; "
                            "any other address warns: the view is then reachable by anyone "

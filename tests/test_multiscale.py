@@ -219,3 +219,21 @@ def test_levels_that_are_no_pyramid_and_bad_arguments_are_refused(tmp_path):
         cm.build_pyramid(fine.astype(np.float32), tmp_path / "a", method="mode")
     with pytest.raises(ValueError, match="scale must be three finite positive"):
         cm.build_pyramid(fine, tmp_path / "a", scale=(1, 0, 1))
+
+
+@pytest.mark.parametrize("value, dtype", [(2**64 - 1, np.uint64), (1e17, np.float64),
+                                          (3.4028234e38, np.float64)])
+def test_a_constant_store_far_from_zero_is_said_not_a_division_by_zero(tmp_path, value,
+                                                                        dtype):
+    # A streamed volume whose values are all one number so large that one more unit rounds
+    # to it: drawn with the constant's warning, as an in-memory volume is. catches (seen
+    # failing; found by a review): clim (v, v + 1) of no width, a ZeroDivisionError in the
+    # brick skipping (or a clim past float32 at 3.4e38).
+    store = zarr.create_array(str(tmp_path / "c.zarr"), shape=(8, 8, 8), chunks=(4, 4, 4),
+                              dtype=dtype, fill_value=value)
+    store[...] = value
+    pl = cm.offscreen_plotter((80, 60))
+    with pytest.warns(cm.VolumeDataWarning, match="coarsest level is constant"):
+        cm.add_volume(pl, store, technique="direct")
+    cm.render_image(pl)
+    pl.close()

@@ -53,6 +53,10 @@ class StoreReadError(CubemarchError, RuntimeError):
     """A level's points could not be read from its store (what was asked, and why)."""
 
 
+class GpuLimitError(CubemarchError, RuntimeError):
+    """GL refused what the data need (a texture past its limits): nothing would be drawn."""
+
+
 class PlotterClosedError(CubemarchError, RuntimeError):
     """The plotter was closed (``plotter.close()``): it has no window to draw in any more."""
 

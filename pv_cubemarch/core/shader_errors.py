@@ -11,7 +11,7 @@ import re
 
 import vtk
 
-from .errors import ShaderCompileError
+from .errors import GpuLimitError, ShaderCompileError
 from .frame_errors import observe
 
 #: The comment line that opens each snippet in an assembled shader.
@@ -59,7 +59,7 @@ def raise_for_texture_errors(messages: list[str]) -> None:
     if refused is None:
         return
     shape = re.search(r"Invalid texture dimensions \[([^\]]*)\]", refused)
-    raise RuntimeError(
+    raise GpuLimitError(
         f"VTK's volume mapper could not make a 3D texture of "
         f"{'[' + shape.group(1) + ']' if shape else 'this volume'} points: it is past this "
         "GL's GL_MAX_3D_TEXTURE_SIZE (pv-cubemarch info --gl), and the volume would draw "

@@ -9,6 +9,7 @@ import vtk
 from vtkmodules.util.numpy_support import numpy_to_vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLVertexBufferObject, vtkTextureObject
 
+from ..core.errors import GpuLimitError
 from .sub_upload import (
     GL_OUT_OF_MEMORY,
     pending_gl_errors,
@@ -198,7 +199,7 @@ class Texture:
         if errors and GL_OUT_OF_MEMORY not in errors:   # VTK said yes; GL said no
             texture.ReleaseGraphicsResources(window)
             names = ", ".join(_GL_ERRORS.get(code, hex(code)) for code in errors)
-            raise RuntimeError(f"GL refused a {self.kind} texture of shape {shape} ({names}): "
+            raise GpuLimitError(f"GL refused a {self.kind} texture of shape {shape} ({names}): "
                                "it is past this GL's limits (GL_MAX_TEXTURE_SIZE, "
                                "GL_MAX_3D_TEXTURE_SIZE: pv-cubemarch info --gl); draw less "
                                "of it or a coarser copy.")

@@ -97,6 +97,8 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
         if loaded.dtype.kind not in "biuf":
             raise VolumeDataError(f"{where}: {shown!r} has dtype {loaded.dtype}; volumes "
                                   "need real numbers.")
+        if loaded.dtype == np.float16:   # VTK has no half floats; float32 holds them exactly
+            loaded = loaded.astype(np.float32)
         dimensions = tuple(int(n) + 1 for n in loaded.shape) if cells else loaded.shape
         grid = pyvista.ImageData(dimensions=dimensions,
                                  origin=tuple(origin) if origin is not None else (0, 0, 0),
@@ -124,7 +126,8 @@ def _read_array(path, suffix: str, field_name, where: str, shown: str) -> np.nda
             size = mapped.nbytes
         else:
             archive = np.load(str(path), allow_pickle=False)
-            keys = list(archive.keys())
+            # the arrays: members that are .npy files (others, say a readme, are bytes)
+            keys = [n[:-4] for n in archive.zip.namelist() if n.endswith(".npy")]
             if not keys:
                 raise SceneLoadError(f"{where}: {shown!r} holds no arrays.")
             if field_name and str(field_name) not in keys:   # not another array, in silence
@@ -135,16 +138,27 @@ def _read_array(path, suffix: str, field_name, where: str, shown: str) -> np.nda
     except SceneLoadError:
         raise
     except Exception as exc:
-        raise SceneLoadError(f"{where}: could not read {shown!r}: {exc}") from exc
+        raise SceneLoadError(f"{where}: could not read {shown!r}: {_unpickled(exc)}") from exc
     if budget is not None and size > budget:
         raise SceneLoadError(
             f"{where}: {shown!r} holds an array of {size:,} bytes, more than the "
             f"{budget:,} it may take ({ARRAY_BYTES_ENV}, by default 80 % of the memory "
             "available): read a smaller array, or stream it as a zarr store.")
     try:
-        return np.array(mapped) if suffix == ".npy" else archive[key]
+        values = np.array(mapped) if suffix == ".npy" else archive[key]
+        if not isinstance(values, np.ndarray):
+            raise TypeError(f"its member {key!r} is not an array")
+        return values
     except Exception as exc:
-        raise SceneLoadError(f"{where}: could not read {shown!r}: {exc}") from exc
+        raise SceneLoadError(f"{where}: could not read {shown!r}: {_unpickled(exc)}") from exc
+
+
+def _unpickled(error: Exception) -> str:
+    """Numpy's reason, less its advice to unpickle a file it cannot read as an array."""
+    if "allow_pickle" in str(error):
+        return ("it holds pickled Python objects, or its header is damaged; it is not read "
+                "(a pickle can run code): save a plain numeric array with numpy.save")
+    return str(error)
 
 
 def load_grid_scene(path: str | Path, as_voxels: bool = False,

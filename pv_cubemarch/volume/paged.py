@@ -18,7 +18,9 @@ import numpy as np
 import pyvista
 import vtk
 
+from ..core.errors import VolumeDataWarning
 from ..core.frame_errors import observe
+from ..core.user_warnings import warn_user
 from ..gl.bindings import ShaderBindings
 from ..gl.box import bind_camera, box_actor
 from ..gl.textures import Texture
@@ -311,7 +313,14 @@ def paged_transfer(source: MultiscaleSource, cmap, opacity, clim, opacity_unit_d
             (len(source.levels) - 1, 0, 0, 0), coarsest.read(
                 tuple(slice(0, n) for n in coarsest.shape)))
         low, high = float(values.min()), float(values.max())
-        clim = (low, high if high > low else low + 1.0)
+        if not high > low:   # one unit wide, or wider where one unit is below the rounding
+            width = max(1.0, abs(low) * 2.0 ** -20)
+            low, high = (low, low + width) if low + width < 3e38 else (low - width, low)
+            warn_user(f"the coarsest level is constant (every value is {values.max():g}): clim "
+                      "from its range puts every sample at the first entry of the colormap "
+                      "and of the opacity, which draws nothing where that entry is 0; pass "
+                      "clim=(low, high) around the value to draw it", VolumeDataWarning)
+        clim = (low, high)
     if opacity_unit_distance is None:
         finest = source.levels[0]
         diagonal = float(np.linalg.norm((np.asarray(finest.shape) - 1) * finest.scale))
