@@ -15,6 +15,7 @@ from pxr import Tf, Usd, UsdGeom
 
 from ...core.errors import CubemarchError, SceneLoadError
 from ...core.progress import progress
+from ...gl.handle import MAX_WORLD_COORDINATE
 from ..materials import SurfaceMaterial
 from ..model import Scene
 from ..parts import SceneMesh
@@ -146,7 +147,13 @@ def _read_prim(ctx: StageContext, prim) -> bool:
             if parts and not any(part.mesh.n_cells for part in parts):
                 ctx.report(path, f"{type_name} has no faces to draw")
             parts = [part for part in parts if part.mesh.n_cells]
-            ctx.scene.meshes.extend(placed(with_fallback(part), matrix) for part in parts)
+            if parts and not np.isfinite(matrix).all():
+                raise PrimError("its transform holds NaN or infinite values")
+            with np.errstate(over="ignore", invalid="ignore"):
+                parts = [placed(with_fallback(part), matrix) for part in parts]
+            for part in parts:
+                _check_reach(part)
+            ctx.scene.meshes.extend(parts)
             if type_name == "PointInstancer":
                 return False     # its prototypes are drawn through it only
     except (PrimError, CubemarchError, ValueError, TypeError, IndexError, Tf.ErrorException,
@@ -202,6 +209,18 @@ def with_fallback(part: SceneMesh) -> SceneMesh:
         part.material = SurfaceMaterial(name="fallback", diffuse_color=part.color,
                                         opacity=part.opacity)
     return part
+
+
+def _check_reach(part: SceneMesh) -> None:
+    """Raise ``PrimError`` for a mesh placed past what GL draws (it blanked the frame)."""
+    points = np.asarray(part.mesh.points)
+    if not np.isfinite(points).all():
+        raise PrimError("its points or transform make NaN or infinite coordinates")
+    reach = float(np.abs(points).max()) if points.size else 0.0
+    if reach > MAX_WORLD_COORDINATE:
+        raise PrimError(f"it reaches {reach:.3g} world units from the origin; past about "
+                        f"{MAX_WORLD_COORDINATE:g} VTK's clipping range and GL's float32 "
+                        "camera break down and the whole frame is drawn blank")
 
 
 def placed(part: SceneMesh, matrix: np.ndarray) -> SceneMesh:
