@@ -237,3 +237,12 @@ def test_a_constant_store_far_from_zero_is_said_not_a_division_by_zero(tmp_path,
         cm.add_volume(pl, store, technique="direct")
     cm.render_image(pl)
     pl.close()
+
+
+def test_a_store_claiming_two_to_the_forty_points_a_side_is_refused_by_the_budget(tmp_path):
+    # catches (seen failing; found by a review): the bricks' count's int64 product wrapped
+    # to 0, the budget passed, and a read of the whole level was "the store is damaged".
+    store = zarr.create_array(str(tmp_path / "huge.zarr"), shape=(2**40,) * 3,
+                              chunks=(64, 64, 64), dtype=np.uint16, fill_value=0)
+    with pytest.raises(ValueError, match="needs .* bricks of 32³ and gpu_bytes holds"):
+        cm.add_volume(cm.offscreen_plotter((80, 60)), store)

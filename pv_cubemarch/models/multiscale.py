@@ -10,6 +10,7 @@ channel) are read at one index.
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -97,7 +98,7 @@ class MultiscaleSource:
     @property
     def nbytes(self) -> int:
         """Bytes of the finest level (what reading it whole would take)."""
-        return int(np.prod(self.shape, dtype=np.int64)) * self.dtype.itemsize
+        return math.prod(int(n) for n in self.shape) * self.dtype.itemsize   # no int64 wrap
 
 
 def _numbers(values) -> str:

@@ -11,6 +11,7 @@ waits for a read, and the coarsest level, loaded before the first frame, is neve
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -77,8 +78,9 @@ def coarsest_fits(source, brick: int, gpu_bytes: int, apron: int = 1) -> tuple[i
     ``clim`` reads the coarsest level whole).
     """
     counts = [brick_counts(level.shape, brick) for level in source.levels]
-    slots = pool_slots(brick, gpu_bytes, sum(int(np.prod(c)) for c in counts), apron)
-    capacity, pinned = int(np.prod(slots)), int(np.prod(counts[-1]))
+    # products of Python ints: a level claiming 2^40 points a side wraps int64 to 0
+    slots = pool_slots(brick, gpu_bytes, sum(math.prod(c) for c in counts), apron)
+    capacity, pinned = math.prod(slots), math.prod(counts[-1])
     if pinned > capacity:
         raise ValueError(f"The coarsest level ({source.levels[-1].shape} points) needs "
                          f"{pinned} bricks of {brick}³ and gpu_bytes holds {capacity}: give "

@@ -319,7 +319,9 @@ def paged_transfer(source: MultiscaleSource, cmap, opacity, clim, opacity_unit_d
             warn_user(f"the coarsest level is constant (every value is {values.max():g}): clim "
                       "from its range puts every sample at the first entry of the colormap "
                       "and of the opacity, which draws nothing where that entry is 0; pass "
-                      "clim=(low, high) around the value to draw it", VolumeDataWarning)
+                      "clim=(low, high) around the value to draw it (a store whose chunks "
+                      "are absent, or not where its metadata says, reads as its fill value)",
+                      VolumeDataWarning)
         clim = (low, high)
     if opacity_unit_distance is None:
         finest = source.levels[0]
