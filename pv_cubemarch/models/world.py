@@ -5,11 +5,13 @@ Empty chunks are not stored, uniform ones are one label each.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.errors import VolumeDataError
 from ..core.progress import progress
 from .label_ids import LabelIds
 from .voxels import Palette, PlacedGrid, VoxelModel, checked_labels
@@ -17,6 +19,11 @@ from .voxels import Palette, PlacedGrid, VoxelModel, checked_labels
 #: Default chunk edge (the voxel report's): small enough that empty and uniform chunks take much of
 #: a sparse volume, large enough that a hundred chunks cost little more than one grid.
 DEFAULT_CHUNK_SIZE = 128
+
+
+#: The most voxels a world spans (2^42: 16384² x 16384; its tables over the whole world,
+#: one byte per 8³ voxels, then take 8 GB).
+MAX_WORLD_VOXELS = 2 ** 42
 
 
 @dataclass(eq=False)
@@ -41,6 +48,16 @@ class VoxelWorld(PlacedGrid):
     label_type: str = "uint8"
     #: Which label id each row stands for (a compacted grid's; by default rows are ids).
     label_ids: LabelIds | None = None
+
+    def __post_init__(self):
+        # tables over the whole world (its solid bricks, one byte per 8³ voxels) must fit:
+        # a chunk keyed (3000, 3000, 3000) asked numpy for 680 GiB
+        dims = [int(n) for n in self.dimensions]
+        if len(dims) != 3 or min(dims) < 1 or math.prod(dims) > MAX_WORLD_VOXELS:
+            raise VolumeDataError(
+                f"Voxel world {self.name!r} spans {dims} voxels; a world holds at most "
+                f"{MAX_WORLD_VOXELS:.3g} (its chunks' keys reach too far: keys count chunks "
+                f"of {self.chunk_size} voxels from the world's corner).")
 
     @property
     def n_labels(self) -> int:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 from pxr import Tf, Usd, UsdGeom
 
-from ...core.errors import CubemarchError, SceneLoadError
+from ...core.errors import CubemarchError, SceneLoadError, VolumeDataError
 from ...core.progress import progress
 from ...gl.handle import MAX_WORLD_COORDINATE
 from ..materials import SurfaceMaterial
@@ -105,7 +105,7 @@ def load_usd(path: str | Path, progress_bar: bool | None = None, as_voxels: bool
     for name, chunks in ctx.world_chunks.items():
         try:
             world, options = join_world(name, chunks)
-        except SceneLoadError as exc:
+        except (SceneLoadError, VolumeDataError) as exc:
             if strict:
                 raise
             ctx.report(chunks[0].path, str(exc))
