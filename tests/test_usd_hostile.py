@@ -148,3 +148,56 @@ def test_a_voxel_world_keyed_too_far_is_skipped_and_said(tmp_path):
     with pytest.warns(cm.SceneWarning, match="Voxel world 'w' spans .* a world holds at most"):
         scene = cm.load_scene(path)
     assert not scene.voxels
+
+
+@pytest.mark.parametrize("attribute, words", [
+    ("custom float[] cubemarch:origin = [1, 2, 3, 4, 5]",
+     "cubemarch:origin must be a float3 of finite numbers"),
+    ("custom float cubemarch:spacing = 2", "cubemarch:spacing must be a float3 of positive"),
+    ("custom float3 cubemarch:spacing = (1, 0, 1)", "cubemarch:spacing must be a float3 of"),
+])
+def test_a_field_s_placement_of_the_wrong_type_is_named(tmp_path, attribute, words):
+    # catches (seen failing; found by a review): VTK's "no overloads of SetOrigin() take 5
+    # arguments", "'float' object is not iterable" passed on as the reason.
+    np.save(tmp_path / "d.npy", np.ones((4, 4, 4), np.float32))
+    path = tmp_path / "placed.usda"
+    path.write_text(HEAD + 'def Xform "World" {\n  def Volume "V" {\n'
+                    "    rel field:density = </World/V/density>\n"
+                    f'    def "density" {{\n      asset filePath = @./d.npy@\n'
+                    f"      {attribute}\n    }}\n  }}\n}}\n")
+    with pytest.warns(cm.SceneWarning, match=words):
+        assert not cm.load_scene(path).volumes
+
+
+def test_a_texture_that_is_a_device_and_a_chunk_key_that_is_no_whole_number(tmp_path):
+    # A texture naming /dev/zero, and cubemarch:chunk = (0.5, 1e30, nan): each said by what
+    # it is. catches (seen failing; found by a review): "memoryview: a bytes-like object is
+    # required, not 'NoneType'" and "cannot convert float NaN to integer" as the reasons.
+    path = tmp_path / "device.usda"
+    path.write_text(
+        HEAD + 'def Xform "World" {\n  def Mesh "M" (\n'
+        '    prepend apiSchemas = ["MaterialBindingAPI"]\n  ) {\n'
+        "    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n"
+        "    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n"
+        "    rel material:binding = </World/Mat>\n  }\n"
+        '  def Material "Mat" {\n'
+        "    token outputs:surface.connect = </World/Mat/S.outputs:surface>\n"
+        '    def Shader "S" {\n      uniform token info:id = "UsdPreviewSurface"\n'
+        "      color3f inputs:diffuseColor.connect = </World/Mat/T.outputs:rgb>\n"
+        "      token outputs:surface\n    }\n"
+        '    def Shader "T" {\n      uniform token info:id = "UsdUVTexture"\n'
+        "      asset inputs:file = @/dev/zero@\n      color3f outputs:rgb\n    }\n  }\n}\n")
+    with pytest.warns(cm.SceneWarning, match="texture '/dev/zero' of /World/Mat/T is not a "
+                                             "regular file"):
+        assert cm.load_scene(path).meshes   # drawn with its default colour
+    np.save(tmp_path / "labels.npy", np.ones((4, 4, 4), np.uint8))
+    world = tmp_path / "world.usda"
+    world.write_text(HEAD + 'def Xform "World" {\n  def Volume "V" {\n'
+                     "    rel field:density = </World/V/density>\n"
+                     '    custom token cubemarch:technique = "voxels"\n'
+                     '    custom string cubemarch:world = "w"\n'
+                     "    custom float3 cubemarch:chunk = (0.5, 1e30, nan)\n"
+                     '    def "density" {\n      asset filePath = @./labels.npy@\n    }\n'
+                     "  }\n}\n")
+    with pytest.warns(cm.SceneWarning, match="needs cubemarch:chunk, an int3 of whole numbers"):
+        assert not cm.load_scene(world).voxels

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import io
 import os
+import stat
 from functools import lru_cache
 
 import numpy as np
@@ -57,7 +58,10 @@ def _decoded(file: str, data: bytes | None, stamp: int | None, budget: int
     ones as float32 (h, w, 1): never wider than the file. Pillow's decompression-bomb limit
     stays on; an image over ``budget`` bytes (as kept) or over the GL limit is reduced.
     ``stamp`` (the file's modification time) keys the cache, so an edited file is read again.
+    A path to anything but a regular file (a device, a pipe) is refused unread.
     """
+    if data is None and not stat.S_ISREG(os.stat(file).st_mode):
+        raise TextureError(f"{file!r} is not a regular file (a device or a pipe): not read")
     try:
         with Image.open(io.BytesIO(data) if data is not None else file) as image:
             mode = image.mode

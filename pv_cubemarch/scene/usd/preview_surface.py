@@ -163,11 +163,15 @@ def _texture(ctx: StageContext, shader, channels: str) -> TextureInput:
     if not resolved:
         raise PrimError(f"texture {asset.path!r} of {where} was not found")
     texture = TextureInput(file=resolved, channels=channels)
+    if Path(resolved).exists() and not Path(resolved).is_file():
+        raise PrimError(f"texture {asset.path!r} of {where} is not a regular file (a device, "
+                        "a pipe or a folder): not read")
     if not Path(resolved).is_file():   # inside a package (.usdz): read it through Ar
         packaged = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
-        if packaged is None:
+        buffer = None if packaged is None else packaged.GetBuffer()
+        if buffer is None:
             raise PrimError(f"texture {asset.path!r} of {where} could not be opened")
-        texture.data = bytes(memoryview(packaged.GetBuffer()))
+        texture.data = bytes(memoryview(buffer))
     for name, field_name in (("scale", "scale"), ("bias", "bias")):
         value = _constant(_shader_value(ctx, shader, name), name)
         if value is not None:

@@ -142,7 +142,8 @@ def _voxels(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
     world = attr(prim, "cubemarch:world")
     if world is not None:
         key = attr(prim, "cubemarch:chunk")
-        if key is None or len(key) != 3 or min(int(k) for k in key) < 0:
+        if key is None or len(key) != 3 or not all(
+                np.isfinite(float(k)) and float(k).is_integer() and k >= 0 for k in key):
             raise SceneLoadError(f"Volume {name}: cubemarch:world = {str(world)!r} needs "
                                  "cubemarch:chunk, an int3 of whole numbers >= 0 (the "
                                  "chunk's place in the world).")
@@ -316,9 +317,28 @@ def _read_field(ctx: StageContext, field_prim, cells: bool = False,
                              f"(looked relative to {layer_dir}).")
     field_name = attr(field_prim, "fieldName")
     field_index = attr(field_prim, "fieldIndex")
+    origin, spacing = (_three_numbers(field_prim, name, positive) for name, positive in (
+        ("cubemarch:origin", False), ("cubemarch:spacing", True)))
     return read_grid(resolved, where, asset.path, str(field_name) if field_name else None,
-                     attr(field_prim, "cubemarch:origin"), attr(field_prim, "cubemarch:spacing"),
+                     origin, spacing,
                      cells=cells, field_index=None if field_index is None else int(field_index),
                      margin=margin)
 
 
+
+
+def _three_numbers(prim, name: str, positive: bool):
+    """Attribute ``name`` of ``prim`` as three finite numbers (positive ones), or None."""
+    value = attr(prim, name)
+    if value is None:
+        return None
+    try:
+        numbers = [float(v) for v in value]
+    except (TypeError, ValueError):
+        numbers = []
+    if len(numbers) != 3 or not all(np.isfinite(numbers)) or (
+            positive and min(numbers) <= 0):
+        raise SceneLoadError(f"{prim.GetPath()}: {name} must be a float3 of "
+                             f"{'positive' if positive else 'finite'} numbers (x, y, z), got "
+                             f"{value!r}.")
+    return numbers
