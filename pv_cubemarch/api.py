@@ -34,7 +34,7 @@ from .models.channels import (
     with_channel_mix,
     with_channel_transfer,
 )
-from .models.field_sources import color_values, make_field
+from .models.field_sources import color_values, make_field, with_scalars_array
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
 from .models.image_files import IMAGE_SUFFIXES, read_image_file
 from .models.label_ids import check_background_id
@@ -1676,8 +1676,9 @@ def add_surface(
         (32³ in seconds, with a progress bar).
     isovalue : float, optional
         The level of sampled data to draw (required for samples).
-    scalars : str, optional
-        The ImageData array; the first cell (then point) array by default.
+    scalars : str or numpy.ndarray, optional
+        The ImageData array, by name or as values (one per point or per cell, as
+        ``contour(scalars=)`` takes them); the first cell (then point) array by default.
     technique : str
         ``'active'`` (default): only the active cells (the cells the surface can cross).
         ``'full'``: the baseline, every ray marched through the whole domain with every
@@ -1840,6 +1841,7 @@ def add_surface(
                          "Leave smooth_shading out (shading='flat' drops the highlight).")
     if isosurfaces is not None and isovalue is not None:
         raise ValueError("give isovalue= (one level) or isosurfaces= (several), not both.")
+    field, scalars = with_scalars_array(field, scalars)   # an array: as contour takes it
     levels = None if isosurfaces is None else surface_levels(
         isosurfaces, _samples_of(field, scalars))
     chosen = get_technique("surface", technique)

@@ -110,6 +110,7 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     ``VolumeDataError`` for NaN samples, a missing isovalue, an open mesh or a cloud
     without normals.
     """
+    data, scalars = with_scalars_array(data, scalars)
     if isinstance(data, (str, Path)):   # an image file's header checked first
         data = read_image_file(data, "make_field", error=VolumeDataError) \
             if Path(data).suffix.lower() in IMAGE_SUFFIXES else pyvista.read(data)
@@ -135,6 +136,29 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     if transform is not None:
         field.transform = checked_transform(transform)
     return field
+
+
+def with_scalars_array(data, scalars):
+    """``(data, scalars)``, an array of ``scalars`` put on a shallow copy of the grid.
+
+    As PyVista's ``contour(scalars=array)``: one value per point (point data) or per cell
+    (cell data), named ``'Data'``; a name or None passes through.
+    """
+    if scalars is None or isinstance(scalars, str):
+        return data, scalars
+    if not isinstance(data, pyvista.DataSet):
+        raise VolumeDataError("scalars= as an array needs a grid to sit on; pass the array "
+                              "itself as the field.")
+    values = np.asarray(scalars).reshape(-1)
+    grid = data.copy(deep=False)
+    if values.size == grid.n_points:
+        grid.point_data["Data"] = values
+    elif values.size == grid.n_cells:
+        grid.cell_data["Data"] = values
+    else:
+        raise VolumeDataError(f"scalars has {values.size:,} values; the grid has "
+                              f"{grid.n_points:,} points and {grid.n_cells:,} cells.")
+    return grid, "Data"
 
 
 def _check_cells(cells) -> None:
