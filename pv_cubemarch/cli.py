@@ -79,19 +79,19 @@ def _port(text: str) -> int:
 
 
 def _image_path(text: str) -> str:
-    """An image file to write: a file name whose extension PIL writes, in a folder that is."""
+    """An image file to write (its folder made if missing): an extension PIL writes."""
     from PIL import Image
 
     path = Path(text).expanduser()
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text!r} is a folder; give an image file in it, "
                                          "e.g. out.png")
-    if path.suffix.lower() not in Image.registered_extensions():
+    Image.init()
+    writes = {ext for ext, kind in Image.registered_extensions().items() if kind in Image.SAVE}
+    if path.suffix.lower() not in writes:
         raise argparse.ArgumentTypeError(f"{text!r} has no image extension PIL writes; end "
                                          "it with .png (or .jpg, .tif)")
-    if not path.parent.is_dir():
-        raise argparse.ArgumentTypeError(f"the folder of {text!r} does not exist")
-    return text
+    return str(path)
 
 
 def _shape(text: str) -> tuple[int, int, int]:

@@ -407,15 +407,30 @@ def test_cli_time_and_strict(tmp_path, capsys):
 @pytest.mark.parametrize("argv, words", [
     (["render", "SCENE", "--out", "FOLDER"], "is a folder; give an image file"),
     (["render", "SCENE", "--out", "FOLDER/x.nothing"], "no image extension"),
-    (["render", "SCENE", "--out", "FOLDER/missing/x.png"], "does not exist"),
+    (["render", "SCENE", "--out", "FOLDER/x.psd"], "no image extension PIL writes"),
     (["view", "SCENE", "--port", "99999"], "port must be 0 to 65535"),
     (["view", "SCENE", "--port", "-1"], "port must be 0 to 65535"),
 ])
 def test_an_output_or_port_that_cannot_be_used_is_refused_before_rendering(
         tmp_path, capsys, argv, words):
-    # catches (seen failing; found by a review): --out a folder rendered, then failed
-    # ("unknown file extension: "); --port 99999 an OverflowError traceback from bind.
+    # catches (seen failing; found by reviews): --out a folder rendered, then failed
+    # ("unknown file extension: "), as did .psd (PIL reads it, writes none); --port 99999
+    # an OverflowError traceback from bind.
     argv = [str(SCENE) if a == "SCENE" else a.replace("FOLDER", str(tmp_path)) for a in argv]
     with pytest.raises(SystemExit) as stopped:
         main(argv)
     assert stopped.value.code == 2 and words in capsys.readouterr().err
+
+
+def test_an_output_in_a_new_folder_or_under_home_is_written_there(tmp_path, monkeypatch):
+    # The folder is made, as before the check; "~" is the home folder, not a folder named
+    # "~". catches (seen failing; found by a review): a missing folder refused, "~/x.png"
+    # written to ./~/x.png.
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    (tmp_path / "home").mkdir()
+    monkeypatch.chdir(tmp_path)
+    for out in (tmp_path / "new" / "x.png", "~/y.png"):
+        assert main(["render", str(SCENE), "--out", str(out), "--size", "32x24",
+                     "--no-progress"]) == 0
+    assert (tmp_path / "new" / "x.png").is_file() and (tmp_path / "home" / "y.png").is_file()
+    assert not (tmp_path / "~").exists()

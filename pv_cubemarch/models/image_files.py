@@ -26,14 +26,9 @@ IMAGE_SUFFIXES = (".vti", ".vtk", ".nrrd", ".nhdr", ".mha", ".mhd")
 #: can give now); its header is checked before anything is read.
 ARRAY_BYTES_ENV = "PV_CUBEMARCH_ARRAY_MAX_BYTES"
 
-#: Header keys naming a detached data file, per suffix (NRRD: ``data file`` /
-#: ``datafile``; MetaImage: ``ElementDataFile``, whose ``LOCAL`` means inline).
-_DATA_FILE_KEYS = {".nrrd": re.compile(r"^\s*data ?file\s*:\s*(.*)$", re.IGNORECASE),
-                   ".nhdr": re.compile(r"^\s*data ?file\s*:\s*(.*)$", re.IGNORECASE),
-                   ".mha": re.compile(r"^\s*ElementDataFile\s*=\s*(.*)$"),
-                   ".mhd": re.compile(r"^\s*ElementDataFile\s*=\s*(.*)$")}
-#: The most header bytes read looking for the data file (headers are a few hundred).
-_HEADER_BYTES = 1 << 16
+#: The most header bytes read looking for the data file (headers are a few hundred; VTK
+#: reads any length, so a longer one is refused, not half read).
+_HEADER_BYTES = 1 << 20
 
 
 def read_image_file(path, where: str, shown: str | None = None, error=SceneLoadError):
@@ -98,39 +93,69 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
     nbytes = counts[0] * counts[1] * counts[2] * components * size   # Python ints: no wrap
     if budget is not None and nbytes > budget:
         raise error(
-            f"{where}: {shown!r} declares {counts[0]} x {counts[1]} x {counts[2]} points "
-            f"({nbytes:,} bytes), more than the {budget:,} a grid file may take "
-            f"({ARRAY_BYTES_ENV}, by default 80 % of the memory available): read "
-            "a smaller grid, or stream it as a zarr store.")
+            f"{where}: {shown!r} declares {counts[0]} x {counts[1]} x {counts[2]} points of "
+            f"{components:,} component(s) ({nbytes:,} bytes), more than the {budget:,} a "
+            f"grid file may take ({ARRAY_BYTES_ENV}, by default 80 % of the memory "
+            "available): read a smaller grid, or stream it as a zarr store.")
 
 
 def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -> None:
-    """A NRRD or MetaImage header's detached data file: a regular file beside it, or none."""
-    key = _DATA_FILE_KEYS.get(path.suffix.lower())
-    if key is None:
+    """A NRRD or MetaImage header's detached data file: a regular file beside it, or none.
+
+    The header is read as VTK's readers read it: lines end at a newline only (a form feed
+    or a NEL character ends none), NRRD's at its first empty line, MetaImage's at
+    ``ElementDataFile`` (``=`` or ``:``; ``LOCAL``, ``Local`` or ``local`` inline, any
+    other value a file name, spaces included). A header longer than
+    :data:`_HEADER_BYTES` is refused rather than half read.
+    """
+    suffix = path.suffix.lower()
+    nrrd = suffix in (".nrrd", ".nhdr")
+    if suffix not in (".nrrd", ".nhdr", ".mha", ".mhd"):
         return
+    read = 0
     with open(path, "rb") as handle:
-        head = handle.read(_HEADER_BYTES).decode("latin-1")
-    for line in head.splitlines():
-        if path.suffix.lower() in (".nrrd", ".nhdr") and not line.strip():
-            break   # the header's end: the data follow
-        match = key.match(line)
-        if not match:
-            continue
-        name = match.group(1).strip()
-        if name.upper() == "LOCAL":
+        for raw in handle:   # binary lines: split at b"\n" only
+            read += len(raw)
+            if read > _HEADER_BYTES:
+                raise error(f"{where}: {shown!r} has a header longer than {_HEADER_BYTES:,} "
+                            "bytes before its data: refused unread (damaged or hostile).")
+            line = raw.decode("latin-1").rstrip("\r\n")
+            if nrrd and not line:
+                return   # the header's end: the data follow, attached
+            name = _data_file_name(line, nrrd)
+            if name is None:
+                continue
+            if not nrrd and name in ("LOCAL", "Local", "local"):
+                return
+            _check_named_file(path, name, nrrd, where, shown, error)
             return
-        if name.upper().startswith("LIST") or len(name.split()) > 1 or "%" in name:
-            raise error(f"{where}: {shown!r} splits its data over several files "
-                                 f"({name!r}), which is not read; write it as one file.")
+
+
+def _data_file_name(line: str, nrrd: bool) -> str | None:
+    """The data file a header line names, or None (not that key)."""
+    if nrrd:
+        match = re.match(r"^data ?file\s*:=?\s*(.*)$", line, re.IGNORECASE)
+    else:
+        match = re.match(r"^\s*ElementDataFile\s*[=:]\s*(.*)$", line)
+    return None if match is None else match.group(1).strip()
+
+
+def _check_named_file(path: Path, name: str, nrrd: bool, where: str, shown: str,
+                      error) -> None:
+    """Refuse ``name`` unless it is one regular file in ``path``'s folder (or below)."""
+    several = name.upper().startswith("LIST") or "%" in name or (nrrd and len(name.split()) > 1)
+    if several:
+        raise error(f"{where}: {shown!r} splits its data over several files ({name!r}), "
+                    "which is not read; write it as one file.")
+    try:
         folder = path.resolve().parent
         target = (folder / name).resolve()
         inside = folder == target.parent or folder in target.parents
-        regular = target.exists() and stat.S_ISREG(target.stat().st_mode)
-        if not (inside and regular):
-            raise error(f"{where}: {shown!r} names the data file {name!r}, which "
-                                 + ("is not a regular file" if inside else
-                                    "lies outside its folder")
-                                 + ": refused (a detached header's data file must be a "
-                                 "file beside it).")
-        return
+        regular = inside and target.exists() and stat.S_ISREG(target.stat().st_mode)
+    except (OSError, ValueError, RuntimeError) as exc:   # a null byte, a loop, too long
+        raise error(f"{where}: {shown!r} names the data file {name!r}, which cannot be "
+                    f"followed ({type(exc).__name__}: {exc}): refused.") from exc
+    if not (inside and regular):
+        raise error(f"{where}: {shown!r} names the data file {name!r}, which "
+                    + ("is not a regular file" if inside else "lies outside its folder")
+                    + ": refused (a detached header's data file must be a file beside it).")

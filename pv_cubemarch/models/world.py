@@ -11,8 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.budgets import host_budget
 from ..core.errors import VolumeDataError
 from ..core.progress import progress
+from .image_files import ARRAY_BYTES_ENV
 from .label_ids import LabelIds
 from .voxels import Palette, PlacedGrid, VoxelModel, checked_labels
 
@@ -53,11 +55,16 @@ class VoxelWorld(PlacedGrid):
         # tables over the whole world (its solid bricks, one byte per 8³ voxels) must fit:
         # a chunk keyed (3000, 3000, 3000) asked numpy for 680 GiB
         dims = [int(n) for n in self.dimensions]
-        if len(dims) != 3 or min(dims) < 1 or math.prod(dims) > MAX_WORLD_VOXELS:
+        budget = host_budget(ARRAY_BYTES_ENV, VolumeDataError)
+        tables = math.prod(-(-n // 8) for n in dims) if dims else 0
+        if len(dims) != 3 or min(dims) < 1 or math.prod(dims) > MAX_WORLD_VOXELS or (
+                budget is not None and tables > budget):
             raise VolumeDataError(
                 f"Voxel world {self.name!r} spans {dims} voxels; a world holds at most "
-                f"{MAX_WORLD_VOXELS:.3g} (its chunks' keys reach too far: keys count chunks "
-                f"of {self.chunk_size} voxels from the world's corner).")
+                f"{MAX_WORLD_VOXELS:.3g}, and its tables over the whole world (a byte per 8³ "
+                f"voxels, {tables:,} here) must fit the memory budget ({ARRAY_BYTES_ENV}): "
+                "its chunks' keys reach too far (keys count chunks of "
+                f"{self.chunk_size} voxels from the world's corner).")
 
     @property
     def n_labels(self) -> int:

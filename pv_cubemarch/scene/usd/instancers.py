@@ -19,6 +19,11 @@ from ..parts import SceneMesh
 from .context import PrimError, StageContext
 from .primvars import cell_arrays, cofactor, reversed_connectivity
 
+#: Bytes an instance takes before its copies (its index, mask, 4x4 transform, in float64).
+INSTANCE_BYTES = 160
+#: The most prototype reads one stage makes (nested instancers read their prototypes once
+#: per level they are reached by: two prototypes a level, 12 levels, took 45 s).
+MAX_PROTOTYPE_READS = 10_000
 #: Bytes a copied point takes with what travels with it (position, normal, texture
 #: coordinates, in float64) and the temporaries of copying it (VTK's arrays, numpy's).
 COPY_BYTES_PER_POINT = 256
@@ -49,7 +54,18 @@ def _read_instances(ctx: StageContext, prim, read_local, skip_reason) -> list[Sc
     prototypes = instancer.GetPrototypesRel().GetTargets()
     if not prototypes:
         raise PrimError("it has no prototypes")
-    indices = np.asarray(instancer.GetProtoIndicesAttr().Get(ctx.time) or [], dtype=np.int64)
+    declared = instancer.GetProtoIndicesAttr().Get(ctx.time) or []
+    budget = host_budget(ARRAY_BYTES_ENV, PrimError)
+    if budget is not None and len(declared) * INSTANCE_BYTES > budget:   # before copies
+        raise PrimError(f"{len(declared):,} instances' transforms would take "
+                        f"{len(declared) * INSTANCE_BYTES:,} bytes, more than the {budget:,} "
+                        f"they may take ({ARRAY_BYTES_ENV})")
+    reads = ctx.counts.get("prototype reads", 0) + len(prototypes)
+    if reads > MAX_PROTOTYPE_READS:   # nested instancers fanning out: exponential work
+        raise PrimError(f"its prototypes would be read {reads:,} times over the stage (nested "
+                        f"instancers), more than {MAX_PROTOTYPE_READS:,}: flatten the nesting")
+    ctx.counts["prototype reads"] = reads
+    indices = np.asarray(declared, dtype=np.int64)
     if indices.size and (indices.min() < 0 or indices.max() >= len(prototypes)):
         raise PrimError(f"protoIndices go up to {int(indices.max())} but there are "
                         f"{len(prototypes)} prototypes")
@@ -123,12 +139,12 @@ def _check_copies(ctx: StageContext, part: SceneMesh, count: int) -> None:
     nbytes = count * (mesh.n_points * COPY_BYTES_PER_POINT + ids * 8 + mesh.n_cells * 8)
     budget = host_budget(ARRAY_BYTES_ENV, PrimError)
     copied = ctx.counts.get("copied bytes", 0) + nbytes
-    ctx.counts["copied bytes"] = copied
     if budget is not None and copied > budget:
         raise PrimError(f"{count:,} instances of {part.name} ({mesh.n_points:,} points) would "
                         f"bring the stage's instanced copies to {copied:,} bytes, more than "
                         f"the {budget:,} they may take ({ARRAY_BYTES_ENV}, by default 80 % of "
                         "the memory available): instance fewer, or simpler prototypes")
+    ctx.counts["copied bytes"] = copied   # counted once it is made
 
 
 def _copied(part: SceneMesh, matrices: np.ndarray) -> SceneMesh:

@@ -10,6 +10,7 @@ that names a text layer beside it) do.
 from __future__ import annotations
 
 import re
+import zipfile
 from pathlib import Path
 
 from ...core.errors import SceneLoadError
@@ -18,31 +19,79 @@ from ...core.errors import SceneLoadError
 MAX_NESTING = 1000
 #: Strings (triple-quoted first), asset paths and comments, whose braces do not nest, or a
 #: brace.
-_TOKENS = re.compile(rb'"""(?:[^"\\]|\\.|"(?!""))*"""|\'\'\'(?:[^\'\\]|\\.|\'(?!\'\'))*\'\'\''
-                     rb'|"(?:[^"\\\n]|\\.)*"|\'(?:[^\'\\\n]|\\.)*\'|@[^@\n]*@|#[^\n]*|[{}]')
+_TOKENS = re.compile(rb'/\*.*?\*/|//[^\n]*'
+                     rb'|"""(?:[^"\\]|\\.|"(?!""))*"""|\'\'\'(?:[^\'\\]|\\.|\'(?!\'\'))*\'\'\''
+                     rb'|"(?:[^"\\\n]|\\.)*"|\'(?:[^\'\\\n]|\\.)*\'|@[^@\n]*@|#[^\n]*|[{}]',
+                     re.DOTALL)
 
 
 def check_layer_nesting(path: Path, seen: set | None = None) -> None:
     """Raise ``SceneLoadError`` if the text layer ``path``, or one it names, nests too deep.
 
-    A binary layer is left to USD's own reader.
+    A crate (binary) layer is read by Sdf for the layers it names; a ``.usdz`` package's
+    text layers are scanned in place.
     """
     seen = set() if seen is None else seen
-    path = Path(path).resolve()
-    if path in seen or not path.is_file():
+    try:
+        path = Path(path).resolve()
+        if path in seen or not path.is_file():
+            return   # USD says what it cannot open
+    except (OSError, RuntimeError, ValueError):   # a loop of links, a name too long
         return
     seen.add(path)
     with open(path, "rb") as handle:
-        if not handle.read(5) == b"#usda":
-            return   # a crate (binary) layer or a package: USD's own reader bounds it
-        text = b"#usda" + handle.read()
+        head = handle.read(8)
+        if head.startswith(b"#usda"):
+            _scan_text(head + handle.read(), path, path.parent, seen)
+        elif head.startswith(b"PK"):
+            _scan_package(path, seen)
+        elif head.startswith(b"PXR-USDC"):
+            _scan_crate(path, seen)
+
+
+def _scan_package(path: Path, seen: set) -> None:
+    """Each text layer inside a ``.usdz`` (a zip, stored uncompressed)."""
+    try:
+        with zipfile.ZipFile(path) as package:
+            for member in package.infolist():
+                if Path(member.filename).suffix.lower() in (".usda", ".usd"):
+                    with package.open(member) as handle:
+                        text = handle.read()
+                    if text.startswith(b"#usda"):
+                        _scan_text(text, Path(f"{path}[{member.filename}]"), path.parent,
+                                   seen)
+    except (zipfile.BadZipFile, OSError, RuntimeError):
+        return   # USD says what it cannot open
+
+
+def _scan_crate(path: Path, seen: set) -> None:
+    """The layers a crate layer names (Sdf reads a crate's specs without recursion)."""
+    from pxr import Sdf, Tf
+
+    try:
+        layer = Sdf.Layer.FindOrOpen(str(path))
+    except Tf.ErrorException:
+        return
+    if layer is None:
+        return
+    for name in layer.GetCompositionAssetDependencies():
+        _follow(str(name), path.parent, seen)
+
+
+def _follow(name: str, folder: Path, seen: set) -> None:
+    """Check the layer an asset path names, where it is a local file."""
+    name = name.split(":SDF_FORMAT_ARGS:")[0]
+    if Path(name).suffix.lower() in (".usda", ".usd", ".usdc", ".usdz") and "://" not in name:
+        check_layer_nesting(folder / name, seen)
+
+
+def _scan_text(text: bytes, path: Path, folder: Path, seen: set) -> None:
+    """Raise if ``text`` nests blocks too deep; check the layers its assets name."""
     depth = deepest = 0
     for token in _TOKENS.finditer(text):
         mark = token.group()
         if mark.startswith(b"@"):   # an asset: another layer, checked in turn
-            name = mark.strip(b"@").decode("utf-8", "replace")
-            if Path(name).suffix.lower() in (".usda", ".usd") and "://" not in name:
-                check_layer_nesting(path.parent / name, seen)
+            _follow(mark.strip(b"@").decode("utf-8", "replace"), folder, seen)
         elif mark == b"{":
             depth += 1
             if depth > deepest:
