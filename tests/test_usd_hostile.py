@@ -3,6 +3,7 @@ crash, a runaway allocation or a traceback (found by a fuzzing review)."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -13,6 +14,32 @@ import pv_cubemarch as cm
 from pv_cubemarch.core.errors import SceneLoadError
 
 HEAD = '#usda 1.0\n(\n    defaultPrim = "World"\n)\n'
+
+
+#: Loads a stage in a fresh process, printing its meshes' names and its problems' reasons.
+LOAD = ("import sys, warnings, pv_cubemarch as cm; warnings.simplefilter('ignore'); "
+        "s = cm.load_scene(sys.argv[1]); print(sorted(m.name for m in s.meshes)); "
+        "print([k.reason for k in s.skipped if k.problem])")
+
+
+def _load_under_budget(path, budget: str) -> str:
+    """What :data:`LOAD` prints for ``path`` under a memory budget of ``budget`` bytes."""
+    run = subprocess.run([sys.executable, "-c", LOAD, str(path)], capture_output=True,
+                         text=True, timeout=120,
+                         env={**os.environ, "PV_CUBEMARCH_ARRAY_MAX_BYTES": budget})
+    assert run.returncode == 0, run.stderr[-500:]
+    return run.stdout
+
+
+def _world_chunk_stage(path, key: str) -> None:
+    """A stage of one voxel world chunk of ./labels.npy, keyed ``key`` (its USD text)."""
+    path.write_text(HEAD + 'def Xform "World" {\n  def Volume "V" {\n'
+                    "    rel field:density = </World/V/density>\n"
+                    '    custom token cubemarch:technique = "voxels"\n'
+                    '    custom string cubemarch:world = "w"\n'
+                    f"    custom {key}\n"
+                    '    def "density" {\n      asset filePath = @./labels.npy@\n    }\n'
+                    "  }\n}\n")
 
 
 def _nested(levels: int) -> str:
@@ -62,15 +89,8 @@ def test_nested_instancers_past_the_budget_are_said_before_they_are_copied(tmp_p
     path = tmp_path / "bomb.usda"
     path.write_text(HEAD + 'def Xform "World" {\n' + levels
                     + '  def Sphere "L4" {\n    double radius = 0.4\n  }\n}\n')
-    script = ("import sys, warnings, pv_cubemarch as cm; warnings.simplefilter('ignore'); "
-              "s = cm.load_scene(sys.argv[1]); "
-              "print([k.reason for k in s.skipped if 'instanced copies' in k.reason][:1])")
-    run = subprocess.run([sys.executable, "-c", script, str(path)], capture_output=True,
-                         text=True, timeout=120,
-                         env={**__import__("os").environ,
-                              "PV_CUBEMARCH_ARRAY_MAX_BYTES": "2e7"})
-    assert run.returncode == 0, run.stderr[-500:]
-    assert "would bring the stage's instanced copies to" in run.stdout, run.stdout
+    said = _load_under_budget(path, "2e7")
+    assert "would bring the stage's instanced copies to" in said, said
 
 
 def test_a_volume_option_pyvista_refuses_skips_the_volume_with_its_reason(tmp_path):
@@ -138,13 +158,7 @@ def test_a_voxel_world_keyed_too_far_is_skipped_and_said(tmp_path):
     # world's extent (VoxelWorld.__post_init__), or the world's error not caught per world.
     np.save(tmp_path / "labels.npy", np.ones((32, 32, 32), np.uint8))
     path = tmp_path / "world.usda"
-    path.write_text(HEAD + 'def Xform "World" {\n  def Volume "V" {\n'
-                    "    rel field:density = </World/V/density>\n"
-                    '    custom token cubemarch:technique = "voxels"\n'
-                    '    custom string cubemarch:world = "w"\n'
-                    "    custom int3 cubemarch:chunk = (3000, 3000, 3000)\n"
-                    '    def "density" {\n      asset filePath = @./labels.npy@\n    }\n'
-                    "  }\n}\n")
+    _world_chunk_stage(path, "int3 cubemarch:chunk = (3000, 3000, 3000)")
     with pytest.warns(cm.SceneWarning, match="Voxel world 'w' spans .* a world holds at most"):
         scene = cm.load_scene(path)
     assert not scene.voxels
@@ -192,13 +206,7 @@ def test_a_texture_that_is_a_device_and_a_chunk_key_that_is_no_whole_number(tmp_
         assert cm.load_scene(path).meshes   # drawn with its default colour
     np.save(tmp_path / "labels.npy", np.ones((4, 4, 4), np.uint8))
     world = tmp_path / "world.usda"
-    world.write_text(HEAD + 'def Xform "World" {\n  def Volume "V" {\n'
-                     "    rel field:density = </World/V/density>\n"
-                     '    custom token cubemarch:technique = "voxels"\n'
-                     '    custom string cubemarch:world = "w"\n'
-                     "    custom float3 cubemarch:chunk = (0.5, 1e30, nan)\n"
-                     '    def "density" {\n      asset filePath = @./labels.npy@\n    }\n'
-                     "  }\n}\n")
+    _world_chunk_stage(world, "float3 cubemarch:chunk = (0.5, 1e30, nan)")
     with pytest.warns(cm.SceneWarning, match="needs cubemarch:chunk, an int3 of whole numbers"):
         assert not cm.load_scene(world).voxels
 
@@ -241,21 +249,10 @@ def test_instancing_bounds_count_what_is_made_and_come_before_the_transforms(tmp
     path = tmp_path / "two.usda"
     path.write_text(HEAD + 'def Xform "World" {\n' + instancer("A", 400) + instancer("B", 2)
                     + "}\n")
-    script = ("import sys, warnings, pv_cubemarch as cm; warnings.simplefilter('ignore'); "
-              "s = cm.load_scene(sys.argv[1]); print(sorted(m.name for m in s.meshes)); "
-              "print([k.reason for k in s.skipped if k.problem])")
-    run = subprocess.run([sys.executable, "-c", script, str(path)], capture_output=True,
-                         text=True, timeout=120,
-                         env={**__import__("os").environ,
-                              "PV_CUBEMARCH_ARRAY_MAX_BYTES": "2e6"})
-    assert run.returncode == 0, run.stderr[-500:]
-    drawn, said = run.stdout.splitlines()[:2]
-    assert "/World/B" in drawn and "/World/A" not in drawn, run.stdout
-    run = subprocess.run([sys.executable, "-c", script, str(path)], capture_output=True,
-                         text=True, timeout=120,
-                         env={**__import__("os").environ,
-                              "PV_CUBEMARCH_ARRAY_MAX_BYTES": "3e4"})
-    assert "400 instances' transforms would take 64,000 bytes" in run.stdout, run.stdout
+    drawn = _load_under_budget(path, "2e6").splitlines()[0]
+    assert "/World/B" in drawn and "/World/A" not in drawn, drawn
+    said = _load_under_budget(path, "3e4")
+    assert "400 instances' transforms would take 64,000 bytes" in said, said
 
 
 def test_a_voxel_world_whose_tables_exceed_the_memory_budget_is_refused(tmp_path,
