@@ -267,3 +267,27 @@ def test_a_voxel_world_whose_tables_exceed_the_memory_budget_is_refused(tmp_path
         VoxelWorld((1312, 1312, 1312), 32, Palette.make(None, 2))
     monkeypatch.setenv("PV_CUBEMARCH_ARRAY_MAX_BYTES", "1e7")
     assert VoxelWorld((1312, 1312, 1312), 32, Palette.make(None, 2)).dimensions[0] == 1312
+
+
+@pytest.mark.slow   # long: its own CI step (pytest -m slow)
+def test_nested_instancers_fanning_out_stop_at_a_thousand_nested_reads(tmp_path):
+    # Two prototypes a level, each the next level: 12 levels of a 3 KB stage read 8,192
+    # prototypes and took 45 s (found by a review). catches (seen failing): no bound on
+    # nested reads (MAX_NESTED_READS): every level read, 4,096 meshes.
+    depth = 12
+    lines = [HEAD.replace('"World"', '"L0"')]
+    for k in range(depth):
+        kind = "def" if k == 0 else "class"
+        lines.append(f'{kind} Xform "L{k}" {{\n def PointInstancer "I" {{\n'
+                     f"  rel prototypes = [</L{k}/I/P/A>, </L{k}/I/P/B>]\n"
+                     "  int[] protoIndices = [0, 1]\n  point3f[] positions = [(0,0,0), (1,0,0)]\n"
+                     f'  def Scope "P" {{\n   def Xform "A" (references = </L{k + 1}>) {{\n   }}\n'
+                     f'   def Xform "B" (references = </L{k + 1}>) {{\n   }}\n  }}\n }}\n}}')
+    lines.append(f'class Xform "L{depth}" {{\n def Mesh "m" {{\n'
+                 "  point3f[] points = [(0,0,0),(1,0,0),(0,1,0)]\n  int[] faceVertexCounts = [3]\n"
+                 "  int[] faceVertexIndices = [0,1,2]\n }\n}")
+    path = tmp_path / "fan.usda"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.warns(cm.SceneWarning, match="nested instancers would read their prototypes"):
+        scene = cm.load_scene(path)
+    assert sum(m.mesh.n_cells for m in scene.meshes) < 1000

@@ -21,9 +21,10 @@ from .primvars import cell_arrays, cofactor, reversed_connectivity
 
 #: Bytes an instance takes before its copies (its index, mask, 4x4 transform, in float64).
 INSTANCE_BYTES = 160
-#: The most prototype reads one stage makes (nested instancers read their prototypes once
-#: per level they are reached by: two prototypes a level, 12 levels, took 45 s).
-MAX_PROTOTYPE_READS = 10_000
+#: The most prototype reads of instancers nested in other instancers' prototypes one stage
+#: makes (each is read once per copy of its parent: two prototypes a level, 12 levels,
+#: read 8,192 and took 45 s).
+MAX_NESTED_READS = 1_000
 #: Bytes a copied point takes with what travels with it (position, normal, texture
 #: coordinates, in float64) and the temporaries of copying it (VTK's arrays, numpy's).
 COPY_BYTES_PER_POINT = 256
@@ -60,11 +61,12 @@ def _read_instances(ctx: StageContext, prim, read_local, skip_reason) -> list[Sc
         raise PrimError(f"{len(declared):,} instances' transforms would take "
                         f"{len(declared) * INSTANCE_BYTES:,} bytes, more than the {budget:,} "
                         f"they may take ({ARRAY_BYTES_ENV})")
-    reads = ctx.counts.get("prototype reads", 0) + len(prototypes)
-    if reads > MAX_PROTOTYPE_READS:   # nested instancers fanning out: exponential work
-        raise PrimError(f"its prototypes would be read {reads:,} times over the stage (nested "
-                        f"instancers), more than {MAX_PROTOTYPE_READS:,}: flatten the nesting")
-    ctx.counts["prototype reads"] = reads
+    nested = len(ctx.instancing) > 1   # read as another instancer's prototype
+    reads = ctx.counts.get("nested prototype reads", 0) + (len(prototypes) if nested else 0)
+    if reads > MAX_NESTED_READS:   # nested instancers fanning out: exponential work
+        raise PrimError(f"nested instancers would read their prototypes {reads:,} times over "
+                        f"the stage, more than {MAX_NESTED_READS:,}: flatten the nesting")
+    ctx.counts["nested prototype reads"] = reads
     indices = np.asarray(declared, dtype=np.int64)
     if indices.size and (indices.min() < 0 or indices.max() >= len(prototypes)):
         raise PrimError(f"protoIndices go up to {int(indices.max())} but there are "
