@@ -8,6 +8,7 @@ was said to have "no scalar arrays". Files that could abort run in a subprocess.
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -190,3 +191,77 @@ def test_a_metaimage_data_file_named_with_a_space_is_read(tmp_path):
     (tmp_path / "my data.raw").write_bytes(values.tobytes())
     _mha(tmp_path / "v.mhd", (4, 4, 4), "my data.raw")
     assert cm.load_scene(tmp_path / "v.mhd").volumes[0].dimensions == (4, 4, 4)
+
+
+def _xml_vti(path, arrays: str, appended: bytes = b"", compressed: bool = False) -> None:
+    """A 2x2x2 .vti of ``arrays`` (their XML), with raw appended bytes, written by hand."""
+    head = ('<?xml version="1.0"?>\n<VTKFile type="ImageData" version="1.0" '
+            'byte_order="LittleEndian" header_type="UInt64"'
+            + (' compressor="vtkZLibDataCompressor"' if compressed else "") + ">\n"
+            '<ImageData WholeExtent="0 1 0 1 0 1" Origin="0 0 0" Spacing="1 1 1">\n'
+            f'<Piece Extent="0 1 0 1 0 1">\n{arrays}\n</Piece>\n</ImageData>\n')
+    tail = (b'<AppendedData encoding="raw">\n_' + appended + b"\n</AppendedData>\n"
+            if appended else b"") + b"</VTKFile>\n"
+    path.write_bytes(head.encode() + tail)
+
+
+@pytest.mark.parametrize("case", ["2^40 blocks", "a 2^50-byte block", "components",
+                                  "field data"])
+def test_a_vti_declaring_huge_arrays_anywhere_is_refused_before_vtk_reads_it(tmp_path, case):
+    # Found by a review, each aborting the process (std::bad_alloc) past the extent and
+    # active-scalars check: a compressed array's blocks' header claiming 2^40 blocks or a
+    # 2^50-byte block, a non-active array of 10^8 components, field data of 10^9 tuples.
+    # catches (seen failing): check_vtk_xml left out.
+    import struct
+    import zlib
+    packed = zlib.compress(bytes(32))
+    point_array = ('<PointData Scalars="s"><DataArray type="Float32" Name="s" '
+                   'format="appended" offset="0"/></PointData>')
+    if case == "2^40 blocks":
+        _xml_vti(tmp_path / "x.vti", point_array, struct.pack("<QQQQ", 2**40, 32, 32,
+                                                              len(packed)) + packed, True)
+    elif case == "a 2^50-byte block":
+        _xml_vti(tmp_path / "x.vti", point_array, struct.pack("<QQQQ", 1, 2**50, 2**50,
+                                                              len(packed)) + packed, True)
+    elif case == "components":
+        _xml_vti(tmp_path / "x.vti", '<PointData><DataArray type="Float64" Name="big" '
+                 'NumberOfComponents="100000000" format="ascii">1 2 3</DataArray></PointData>')
+    else:
+        _xml_vti(tmp_path / "x.vti", '<PointData Scalars="s"><DataArray type="Float32" '
+                 'Name="s" format="ascii">1 2 3 4 5 6 7 8</DataArray></PointData>')
+        text = (tmp_path / "x.vti").read_text().replace(
+            "<Piece", '<FieldData><DataArray type="Float64" Name="f" '
+            'NumberOfTuples="1000000000" format="ascii">1 2 3</DataArray></FieldData>\n<Piece')
+        (tmp_path / "x.vti").write_text(text)
+    run = subprocess.run([sys.executable, "-c", "import sys, pv_cubemarch as cm; "
+                          "cm.load_scene(sys.argv[1])", str(tmp_path / "x.vti")],
+                         capture_output=True, text=True, timeout=120,
+                         env={**os.environ, "PV_CUBEMARCH_ARRAY_MAX_BYTES": "1e9"})
+    assert run.returncode == 1, (run.returncode, run.stderr[-500:])
+    assert "declares arrays of" in run.stderr, run.stderr[-500:]
+
+
+@pytest.mark.parametrize("mode", ["appended", "binary", "ascii"])
+@pytest.mark.parametrize("compressed", [False, True])
+def test_vti_files_vtk_writes_are_read_within_a_budget_that_holds_them(tmp_path, monkeypatch,
+                                                                      mode, compressed):
+    # Every way VTK writes a .vti (appended raw or base64, inline binary, ascii; zlib or
+    # none; 64-bit headers) is read under a budget just above its arrays' bytes (96,000 +
+    # 576,000). catches (seen failing): a compressed array counted twice (its declared
+    # and inflated sizes added), refused under this budget.
+    import vtk
+    grid = pv.ImageData(dimensions=(20, 30, 40))
+    grid["s"] = np.arange(grid.n_points, dtype=np.float32)
+    grid["v"] = np.zeros((grid.n_points, 3))
+    writer = vtk.vtkXMLImageDataWriter()
+    writer.SetFileName(str(tmp_path / "x.vti"))
+    writer.SetInputData(grid)
+    getattr(writer, f"SetDataModeTo{mode.capitalize()}")()
+    writer.SetHeaderTypeToUInt64()
+    if not compressed:
+        writer.SetCompressorTypeToNone()
+    monkeypatch.setenv("PV_CUBEMARCH_ARRAY_MAX_BYTES", "700000")
+    for encoded in (False, True) if mode == "appended" else (True,):
+        writer.SetEncodeAppendedData(encoded)
+        writer.Write()
+        assert cm.load_scene(tmp_path / "x.vti").volumes[0].dimensions == (20, 30, 40)

@@ -9,6 +9,7 @@ file VTK cannot read is said so (VTK returns what it read, or nothing, and logs 
 
 from __future__ import annotations
 
+import math
 import re
 import stat
 import warnings
@@ -97,6 +98,8 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
             f"{components:,} component(s) ({nbytes:,} bytes), more than the {budget:,} a "
             f"grid file may take ({ARRAY_BYTES_ENV}, by default 80 % of the memory "
             "available): read a smaller grid, or stream it as a zarr store.")
+    if Path(path).suffix.lower() == ".vti":   # every array, and compressed blocks' claims
+        check_vtk_xml(Path(path), where, shown, budget, error)
 
 
 def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -> None:
@@ -159,3 +162,101 @@ def _check_named_file(path: Path, name: str, nrrd: bool, where: str, shown: str,
         raise error(f"{where}: {shown!r} names the data file {name!r}, which "
                     + ("is not a regular file" if inside else "lies outside its folder")
                     + ": refused (a detached header's data file must be a file beside it).")
+
+
+#: Bytes of each VTK XML array type.
+_XML_TYPE_BYTES = {"Int8": 1, "UInt8": 1, "Int16": 2, "UInt16": 2, "Int32": 4, "UInt32": 4,
+                   "Int64": 8, "UInt64": 8, "Float32": 4, "Float64": 8, "Bit": 1, "String": 1}
+
+
+def _xml_attributes(tag: bytes) -> dict[str, str]:
+    """A tag's attributes (``name="value"``) as text."""
+    return {k.decode("latin-1"): v.decode("latin-1")
+            for k, v in re.findall(rb'([A-Za-z_]+)="([^"]*)"', tag)}
+
+
+def check_vtk_xml(path: Path, where: str, shown: str, budget: int | None,
+                  error=SceneLoadError) -> None:
+    """Raise ``error`` where a VTK XML file declares more than ``budget`` bytes of arrays.
+
+    Every array counts (not only the active scalars): its tuples (``NumberOfTuples``, else
+    the piece's points or cells) times its components, and a compressed array what its
+    blocks' header says they inflate to (a 2x2x2 file claiming 2^40 blocks aborted the
+    process inside VTK). Read from the file mapped, not loaded.
+    """
+    if budget is None:
+        return
+    import base64
+    import mmap
+    import struct
+
+    with open(path, "rb") as handle:
+        try:
+            data = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
+        except ValueError:   # empty: VTK says so
+            return
+        with data:
+            root = re.search(rb"<VTKFile\b[^>]*>", data[:1 << 16])
+            if root is None:
+                return
+            file_attributes = _xml_attributes(root.group())
+            word = 8 if file_attributes.get("header_type") == "UInt64" else 4
+            little = file_attributes.get("byte_order", "LittleEndian") != "BigEndian"
+            compressed = "compressor" in file_attributes
+            appended = data.find(b"<AppendedData")
+            xml_end = appended if appended >= 0 else len(data)
+            start = -1
+            raw = True
+            if appended >= 0:
+                tag = re.match(rb"<AppendedData\b[^>]*>", data[appended:appended + 4096])
+                raw = tag is not None and b'encoding="base64"' not in tag.group()
+                start = data.find(b"_", appended) + 1
+            points = cells = 1
+            total = 0
+            for match in re.finditer(rb"<Piece\b[^>]*>|<DataArray\b[^>]*>", data[:xml_end]):
+                attributes = _xml_attributes(match.group())
+                if match.group().startswith(b"<Piece"):
+                    extent = [int(float(v)) for v in attributes.get("Extent", "0 0 0 0 0 0")
+                              .split()[:6]]
+                    sides = [extent[2 * a + 1] - extent[2 * a] + 1 for a in range(3)]
+                    points = math.prod(max(n, 1) for n in sides)
+                    cells = math.prod(max(n - 1, 1) for n in sides)
+                    continue
+                size = _XML_TYPE_BYTES.get(attributes.get("type", ""), 8)
+                components = int(float(attributes.get("NumberOfComponents", "1")))
+                tuples = int(float(attributes.get("NumberOfTuples", max(points, cells))))
+                declared = max(components, 1) * max(tuples, 0) * size
+                if compressed and attributes.get("format") in ("appended", "binary"):
+                    header = _block_header(data, attributes, match.end(), start, raw, word,
+                                           little, base64, struct)
+                    if header is not None:   # what VTK allocates to inflate it, at least
+                        blocks, block, last = header
+                        declared = max(declared, max(blocks - 1, 0) * block + (last or block))
+                total += declared
+                if total > budget:
+                    raise error(
+                        f"{where}: {shown!r} declares arrays of {total:,} bytes or more "
+                        f"(their sizes, or what their compressed blocks' header says they "
+                        f"inflate to), more than the {budget:,} a grid file may take "
+                        f"({ARRAY_BYTES_ENV}): refused before VTK reads it.")
+
+
+def _block_header(data, attributes: dict, after_tag: int, appended_start: int, raw: bool,
+                  word: int, little: bool, base64, struct) -> tuple[int, int, int] | None:
+    """A compressed array's ``(blocks, block size, last block size)``, or None."""
+    fmt = ("<" if little else ">") + ("Q" if word == 8 else "I") * 3
+    if attributes.get("format") == "appended" and appended_start > 0:
+        at = appended_start + int(float(attributes.get("offset", "0")))
+        if raw:
+            head = data[at:at + 3 * word]
+        else:
+            head = base64.b64decode(data[at:at + 4 * -(-3 * word // 3)] + b"==")[:3 * word]
+    else:   # inline binary: the header is base64 at the element's start
+        text = data[after_tag:after_tag + 4 * -(-3 * word // 3) + 64].lstrip()
+        try:
+            head = base64.b64decode(text[:4 * -(-3 * word // 3)] + b"==")[:3 * word]
+        except ValueError:
+            return None
+    if len(head) < 3 * word:
+        return None
+    return struct.unpack(fmt, head)
