@@ -9,9 +9,12 @@ file VTK cannot read is said so (VTK returns what it read, or nothing, and logs 
 
 from __future__ import annotations
 
+import base64
 import math
+import mmap
 import re
 import stat
+import struct
 import warnings
 from pathlib import Path
 
@@ -47,7 +50,7 @@ def read_image_file(path, where: str, shown: str | None = None, error=SceneLoadE
     except Exception as exc:
         raise error(f"{where}: could not read {shown!r}: {exc}") from exc
     said = "raised an error while reading"
-    errors = [event.alert for event in caught.events if event.kind == "ERROR"] + [
+    errors = _vtk_errors(caught) + [
         str(w.message).split("\n", 1)[-1].strip().strip('"') for w in warned
         if said in str(w.message)]
     for w in warned:   # the others, as they were
@@ -56,6 +59,11 @@ def read_image_file(path, where: str, shown: str | None = None, error=SceneLoadE
     if errors:
         raise error(f"{where}: {shown!r} could not be read (VTK: {errors[0]}).")
     return grid
+
+
+def _vtk_errors(caught) -> list[str]:
+    """The errors VTK logged while ``caught`` (a ``pyvista.VtkErrorCatcher``) listened."""
+    return [event.alert for event in caught.events if event.kind == "ERROR"]
 
 
 def check_image_file(path: Path, where: str, shown: str, budget: int | None,
@@ -71,7 +79,7 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
     reader.SetFileName(str(path))
     with pyvista.VtkErrorCatcher(send_to_logging=False) as caught:
         reader.UpdateInformation()
-    errors = [event.alert for event in caught.events if event.kind == "ERROR"]
+    errors = _vtk_errors(caught)
     if errors:
         raise error(f"{where}: {shown!r} could not be read (VTK: {errors[0]}).")
     info = reader.GetOutputInformation(0)
@@ -89,8 +97,8 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
         size = kind.GetDataTypeSize() if kind is not None else 8
     if min(counts) < 1 or components < 1:
         raise error(f"{where}: {shown!r} declares {counts} points and {components} "
-                             "components a point; each must be at least 1 (its header is "
-                             "damaged or hostile).")
+                    "components a point; each must be at least 1 (its header is damaged or "
+                    "hostile).")
     nbytes = counts[0] * counts[1] * counts[2] * components * size   # Python ints: no wrap
     if budget is not None and nbytes > budget:
         raise error(
@@ -186,10 +194,6 @@ def check_vtk_xml(path: Path, where: str, shown: str, budget: int | None,
     """
     if budget is None:
         return
-    import base64
-    import mmap
-    import struct
-
     with open(path, "rb") as handle:
         try:
             data = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
@@ -228,7 +232,7 @@ def check_vtk_xml(path: Path, where: str, shown: str, budget: int | None,
                 declared = max(components, 1) * max(tuples, 0) * size
                 if compressed and attributes.get("format") in ("appended", "binary"):
                     header = _block_header(data, attributes, match.end(), start, raw, word,
-                                           little, base64, struct)
+                                           little)
                     if header is not None:   # what VTK allocates to inflate it, at least
                         blocks, block, last = header
                         declared = max(declared, max(blocks - 1, 0) * block + (last or block))
@@ -242,7 +246,7 @@ def check_vtk_xml(path: Path, where: str, shown: str, budget: int | None,
 
 
 def _block_header(data, attributes: dict, after_tag: int, appended_start: int, raw: bool,
-                  word: int, little: bool, base64, struct) -> tuple[int, int, int] | None:
+                  word: int, little: bool) -> tuple[int, int, int] | None:
     """A compressed array's ``(blocks, block size, last block size)``, or None."""
     fmt = ("<" if little else ">") + ("Q" if word == 8 else "I") * 3
     if attributes.get("format") == "appended" and appended_start > 0:
