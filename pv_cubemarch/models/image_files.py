@@ -23,6 +23,7 @@ import vtk
 
 from ..core.budgets import host_budget
 from ..core.errors import SceneLoadError
+from .legacy_vtk_file import check_legacy_vtk
 
 #: The image files checked (what ``pyvista.read`` reads through VTK's image readers).
 IMAGE_SUFFIXES = (".vti", ".vtk", ".nrrd", ".nhdr", ".mha", ".mhd")
@@ -70,11 +71,13 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
                      error=SceneLoadError) -> None:
     """Raise ``error`` for an image file that cannot be read safely.
 
-    A detached data file outside the header's folder or not a regular file; a header
+    A detached data file outside the header's folder or not a regular file; a legacy
+    ``.vtk`` declaring arrays its bytes cannot hold (:func:`check_legacy_vtk`); a header
     VTK cannot read; declared dimensions or components that are not positive; declared
     points whose values would take more than ``budget`` bytes.
     """
     _check_data_file(Path(path), where, shown, error)
+    legacy = Path(path).suffix.lower() == ".vtk"   # every array the legacy reader allocates
     reader = pyvista.get_reader(str(path)).reader
     reader.SetFileName(str(path))
     with pyvista.VtkErrorCatcher(send_to_logging=False) as caught:
@@ -84,7 +87,9 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
         raise error(f"{where}: {shown!r} could not be read (VTK: {errors[0]}).")
     info = reader.GetOutputInformation(0)
     extent = info.Get(vtk.vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT())
-    if extent is None:   # not an image (a legacy .vtk of another dataset): read as it is
+    if extent is None:   # not an image (a legacy .vtk of another dataset): its arrays only
+        if legacy:
+            check_legacy_vtk(Path(path), where, shown, budget, error)
         return
     counts = [int(extent[2 * a + 1]) - int(extent[2 * a]) + 1 for a in range(3)]
     scalars = vtk.vtkDataObject.GetActiveFieldInformation(
@@ -108,6 +113,8 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
             "available): read a smaller grid, or stream it as a zarr store.")
     if Path(path).suffix.lower() == ".vti":   # every array, and compressed blocks' claims
         check_vtk_xml(Path(path), where, shown, budget, error)
+    if legacy:   # (VTK's header pass above allocates none of them)
+        check_legacy_vtk(Path(path), where, shown, budget, error)
 
 
 def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -> None:
