@@ -30,7 +30,7 @@ _T = rb"([A-Za-z_0-9]+)"
 _S = rb"(\S+)"
 _W = rb"\s+"
 #: The declarations, each a keyword and its tokens (VTK reads tokens, so any whitespace).
-_DECLARATION = re.compile(rb"(?<!\S)(?:" + b"|".join([
+_DECLARATION = re.compile(rb"(?<!\S)(?=[A-Za-z])(?:" + b"|".join([   # (a letter first: 4x)
     rb"(?P<points>POINTS)" + _W + _N + _W + _T,
     rb"(?P<coordinates>[XYZ]_COORDINATES)" + _W + _N + _W + _T,
     rb"(?P<cells>VERTICES|LINES|POLYGONS|TRIANGLE_STRIPS|CELLS)" + _W + _N + _W + _N,
