@@ -46,6 +46,7 @@ from .core.registry import get_technique, specific_option_names, techniques
 from .core.rendering import offscreen_plotter, render_image
 from .models.multiscale import multiscale_source
 from .models.voxels import VoxelModel, count_labels, label_legend
+from .models.zarr_store import checked_local_store
 from .scene.grids import read_grid
 from .scene.io import load_scene
 from .scene.model import camera_for_bounds
@@ -685,7 +686,7 @@ def _render_sort_last(args) -> int:
     if path.is_dir():   # a zarr array: read slab by slab on the workers
         import zarr
 
-        shape = zarr.open_array(str(path), mode="r").shape
+        shape = zarr.open_array(store=checked_local_store(path), mode="r").shape
         spacing = np.asarray(args.spacing or (1.0, 1.0, 1.0), float)
         origin = np.asarray(args.origin or (0.0, 0.0, 0.0), float)
         far = origin + spacing * (np.asarray(shape[:3], float) - 1.0)

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..models.label_colors import hashed_colors
 from ..models.multiscale import is_zarr_group, multiscale_source
+from ..models.zarr_store import open_zarr
 from .partition_march import Partition
 
 
@@ -206,9 +207,7 @@ def _opened(volume):
     if not isinstance(volume, (str, os.PathLike)):
         return volume
     try:
-        import zarr
-
-        return zarr.open(os.fspath(volume), mode="r")
+        return open_zarr(volume, mode="r")
     except Exception as error:
         raise ValueError(f"volume {os.fspath(volume)!r} is not a zarr array or OME-Zarr image "
                          f"({type(error).__name__}: {error}); give a zarr store's path, a "

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.errors import StoreReadError
+from .zarr_store import open_zarr
 
 #: OME-Zarr's names of the spatial axes, in the project's index order.
 SPACE = ("x", "y", "z")
@@ -51,6 +52,9 @@ class Level:
             index[axis] = box[spatial]
         try:
             block = np.asarray(self.array[tuple(index)])
+        except StoreReadError as error:   # a key refused (a link out of the store, ...)
+            raise StoreReadError(f"the points {tuple((s.start, s.stop) for s in box)} were "
+                                 f"not read: {error}") from error
         except Exception as error:   # a codec, a chunk cut short, metadata that lies
             where = getattr(self.array, "store_path", None) or type(self.array).__name__
             raise StoreReadError(
@@ -188,9 +192,8 @@ def multiscale_source(source, *, time: int = 0, channel: int = 0,
     if isinstance(source, MultiscaleSource):
         return source
     if isinstance(source, str) or hasattr(source, "__fspath__"):
-        zarr = needs("zarr")
         try:
-            source = zarr.open(str(source), mode="r")
+            source = open_zarr(source, mode="r")
         except Exception as error:   # metadata that is not JSON, a missing codec, ...
             raise ValueError(f"{source}: not a zarr array or group that can be opened "
                              f"({type(error).__name__}: {error}).") from error

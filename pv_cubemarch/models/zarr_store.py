@@ -1,0 +1,110 @@
+"""A zarr store in a local folder, opened so that each key it reads is a file of the store.
+
+zarr's ``LocalStore`` reads whatever a key's path names: a chunk that is a link to
+``/dev/zero`` read until memory ran out, and one linked to a file elsewhere was decoded
+as data (``/etc/passwd`` drawn as a volume where its size matched a chunk's). Here a key
+must resolve to a regular file inside the store's folder, no larger than the memory
+budget; anything else is refused naming the key. Links inside the folder are followed.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import os
+import stat
+from pathlib import Path
+
+from ..core.budgets import host_budget
+from ..core.errors import StoreReadError
+
+#: The bytes one file of a store may take (default: 80 % of what the system can give now).
+STORE_FILE_ENV = "PV_CUBEMARCH_ARRAY_MAX_BYTES"
+
+
+def open_zarr(path, mode: str = "r"):
+    """``zarr.open`` of ``path``: a local folder through :func:`checked_local_store`.
+
+    A URL (``s3://``, ``https://``, ...) is opened as zarr opens it.
+    """
+    zarr = _zarr()
+    text = os.fspath(path)
+    if "://" in text:
+        return zarr.open(text, mode=mode)
+    return zarr.open(store=checked_local_store(text, read_only=mode == "r"), mode=mode)
+
+
+def checked_local_store(root, read_only: bool = True):
+    """A ``zarr.storage.LocalStore`` of ``root`` whose reads are checked (module docstring)."""
+    return _store_class()(root, read_only=read_only)
+
+
+def _zarr():
+    """zarr, or an ImportError saying how to install it."""
+    try:
+        return importlib.import_module("zarr")
+    except ImportError as error:
+        raise ImportError("zarr is needed to read zarr stores: pip install "
+                          "'pv_cubemarch[zarr]'.") from error
+
+
+@functools.cache
+def _store_class():
+    """The checked store class (made once zarr is imported: it is an optional dependency)."""
+    zarr = _zarr()
+
+    class CheckedLocalStore(zarr.storage.LocalStore):
+        """A ``LocalStore`` whose every read key is a regular file inside its folder."""
+
+        def _check(self, key: str) -> None:
+            """Raise :class:`StoreReadError` unless ``key`` may be read (or is absent)."""
+            path = Path(self.root) / key
+            try:
+                real_root = Path(self.root).resolve()
+                target = path.resolve()
+                if not target.exists():
+                    return   # absent: zarr reads the fill value
+                mode = target.stat()
+            except (OSError, RuntimeError, ValueError) as exc:   # a loop, a null byte
+                raise StoreReadError(f"{self.root}: the key {key!r} cannot be followed "
+                                     f"({type(exc).__name__}: {exc}): refused.") from exc
+            if real_root != target and real_root not in target.parents:
+                raise StoreReadError(
+                    f"{self.root}: the key {key!r} is a link to {str(target)!r}, outside the "
+                    "store's folder: refused (copy the store, or link to files inside it).")
+            if not stat.S_ISREG(mode.st_mode):
+                raise StoreReadError(f"{self.root}: the key {key!r} is not a regular file "
+                                     "(a device, a pipe or a socket): refused.")
+            budget = host_budget(STORE_FILE_ENV, StoreReadError)
+            if budget is not None and mode.st_size > budget:
+                raise StoreReadError(
+                    f"{self.root}: the key {key!r} is a file of {mode.st_size:,} bytes, more "
+                    f"than the {budget:,} a store's file may take ({STORE_FILE_ENV}): refused.")
+
+        def get_sync(self, key, *args, **kwargs):
+            self._check(key)
+            return super().get_sync(key, *args, **kwargs)
+
+        async def get(self, key, *args, **kwargs):
+            self._check(key)
+            return await super().get(key, *args, **kwargs)
+
+        async def get_partial_values(self, prototype, key_ranges):
+            key_ranges = list(key_ranges)
+            for key, _ in key_ranges:
+                self._check(key)
+            return await super().get_partial_values(prototype, key_ranges)
+
+        def with_read_only(self, read_only: bool = False):
+            return type(self)(self.root, read_only=read_only)
+
+    CheckedLocalStore.__module__ = __name__   # pickled by name: found by __getattr__ below
+    CheckedLocalStore.__qualname__ = "CheckedLocalStore"
+    return CheckedLocalStore
+
+
+def __getattr__(name: str):
+    """``CheckedLocalStore``, made on first use (so pickles of its stores load anywhere)."""
+    if name == "CheckedLocalStore":
+        return _store_class()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
