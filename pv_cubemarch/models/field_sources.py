@@ -23,8 +23,9 @@ from scipy.sparse import linalg as sparse_linalg
 from scipy.spatial import cKDTree
 from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 
-from ..core.errors import VolumeDataError
+from ..core.errors import VolumeDataError, VolumeDataWarning
 from ..core.progress import progress
+from ..core.user_warnings import warn_user
 from .image_files import IMAGE_SUFFIXES, read_image_file
 from .surface import SplineField, interpolating_coefficients, point_hull
 from .volume import checked_transform
@@ -205,6 +206,14 @@ def _sampled_field(data, isovalue: float | None, scalars: str | None,
                           "cross it: where it does, that surface is drawn (give an isovalue "
                           "inside the range, or smoother samples)." if crosses else
                           "the surface is empty."), stacklevel=4)
+    flat = [("x", "y", "z")[a] for a in range(3) if values.shape[a] == 1]
+    if domain is not None and flat:   # a sheet of points: its level set is a curve
+        along = " and ".join(flat)
+        warn_user(f"The grid is flat (one point along {along}): its isosurface is a curve, "
+                  "which PyVista's contour draws as lines; a surface, it has no area and "
+                  "add_surface draws nothing of it. Draw the curve with "
+                  "pl.add_mesh(grid.contour([isovalue])), or give the grid two points or "
+                  f"more along {along}.", VolumeDataWarning)
     return SplineField(coefficients, grid_from_index, name=name, domain=domain)
 
 
