@@ -244,6 +244,22 @@ def test_a_flat_grid_says_its_curve_is_not_drawn_as_a_surface(plotter_factory):
     assert cm.render_image(pl).any(axis=-1).sum() > 300
 
 
+def test_steps_are_counted_along_the_diagonal_of_the_domain_drawn(plotter_factory):
+    # `steps` samples along the drawn domain's diagonal (by hand): 3x4x5 points span 2x3x4
+    # cells (point data is drawn to the outermost points); a 3x4x5 array of cell samples
+    # spans its 3x4x5 cells.
+    # catches (seen failing): the step from the grid's cells (3x4x5) for point data too
+    # (SurfaceOptions.step_length reading field.dimensions).
+    grid = pyvista.ImageData(dimensions=(3, 4, 5))
+    grid.point_data["f"] = np.linalg.norm(grid.points - grid.center, axis=1)
+    pl = plotter(plotter_factory)
+    points = cm.add_surface(pl, grid, isovalue=1.0, steps=100)
+    cells = cm.add_surface(pl, np.asarray(grid.point_data["f"]).reshape(5, 4, 3).T,
+                           isovalue=1.0, steps=100)
+    assert points.cubemarch.bindings.uniforms["cm_stepLength"] == pytest.approx(29 ** 0.5 / 100)
+    assert cells.cubemarch.bindings.uniforms["cm_stepLength"] == pytest.approx(50 ** 0.5 / 100)
+
+
 def test_a_field_with_no_zero_draws_nothing_and_bad_input_is_refused(plotter_factory):
     pl = plotter(plotter_factory)
     with pytest.warns(UserWarning, match="no zero"):

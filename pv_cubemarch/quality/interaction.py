@@ -129,7 +129,7 @@ def _set_steps(binding, steps: float) -> None:
     for part in surface_parts(binding):
         part.options = dataclasses.replace(part.options, steps=int(round(steps)))
         part.bindings.set_uniform("cm_stepLength",
-                                  part.options.step_length(part.model.dimensions))
+                                  part.options.step_length(part.model))
 
 
 def set_still_steps(binding, steps: float) -> None:

@@ -229,6 +229,10 @@ class SurfaceOptions:
         cells = int(sum(int(n) for n in dimensions))
         return INDEX_ITERATIONS_PER_CELL * cells + int(self.steps) + int(self.refine_steps)
 
-    def step_length(self, dimensions) -> float:
-        """Cell units between samples: the domain's diagonal over ``steps``."""
-        return float(np.linalg.norm(np.asarray(dimensions, dtype=np.float64))) / self.steps
+    def step_length(self, field) -> float:
+        """Cell units between samples: the diagonal of ``field``'s domain over ``steps``.
+
+        The domain drawn, not the grid: point samples' hull is a cell shorter an axis.
+        """
+        lower, upper = field.domain_corners()
+        return float(np.linalg.norm(np.asarray(upper - lower, dtype=np.float64))) / self.steps

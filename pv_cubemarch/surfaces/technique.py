@@ -332,7 +332,7 @@ def _build(plotter, field: SplineField, options: SurfaceOptions, technique: str,
     lower, upper = field.domain_corners()
     bindings.set_uniform("cm_domainLower", tuple(float(v) for v in lower))
     bindings.set_uniform("cm_domainUpper", tuple(float(v) for v in upper))
-    bindings.set_uniform("cm_stepLength", options.step_length(dims))
+    bindings.set_uniform("cm_stepLength", options.step_length(field))
     bindings.set_uniform("cm_refineSteps", int(options.refine_steps))
     bindings.set_uniform("cm_surfaceColor", options.rgb)
     bindings.set_uniform("cm_near", lambda: renderer.GetActiveCamera().GetClippingRange()[0])
