@@ -18,6 +18,7 @@ import pyvista as pv
 
 import pv_cubemarch as cm
 from pv_cubemarch.core.errors import SceneLoadError
+from pv_cubemarch.models.image_files import read_image_file
 
 HUGE = {
     "huge.nrrd": "NRRD0004\ntype: float\ndimension: 3\nsizes: 100000 100000 100000\n"
@@ -191,6 +192,52 @@ def test_a_metaimage_data_file_named_with_a_space_is_read(tmp_path):
     (tmp_path / "my data.raw").write_bytes(values.tobytes())
     _mha(tmp_path / "v.mhd", (4, 4, 4), "my data.raw")
     assert cm.load_scene(tmp_path / "v.mhd").volumes[0].dimensions == (4, 4, 4)
+
+
+@pytest.mark.parametrize("name", ["my data.raw", "a b c.raw", "listing.raw", "100%.raw"])
+def test_a_nrrd_data_file_named_as_vtk_reads_one_name_is_read(tmp_path, name):
+    # VTK's NRRD reader takes a value of fewer than four words, not starting with the word
+    # LIST, as one file name (spaces, '%' and a leading 'list' included); four words or
+    # more are a pattern of several files, refused as before.
+    # catches (seen failing): any space, '%' or leading LIST (any case) taken for several
+    # files (the rule before), refusing each of these names.
+    values = np.arange(42, dtype=np.uint8)   # (VTK reads a first axis of <= 9 as components)
+    (tmp_path / name).write_bytes(values.tobytes())
+    header = ("NRRD0004\ntype: uchar\ndimension: 3\nsizes: 1 6 7\nencoding: raw\n"
+              f"data file: {name}\n")
+    (tmp_path / "v.nhdr").write_text(header)
+    grid = read_image_file(tmp_path / "v.nhdr", "test")
+    assert grid.dimensions == (6, 7, 1)
+    assert np.array_equal(np.asarray(grid.point_data.active_scalars).ravel(), values)
+    (tmp_path / "w.nhdr").write_text(header.replace(name, "v%03d.raw 1 3 1"))
+    with pytest.raises(SceneLoadError, match="splits its data over several files"):
+        cm.load_scene(tmp_path / "w.nhdr")
+
+
+@pytest.mark.parametrize("dimension, sizes", [(1, "20"), (2, "6 7"), (1, "5")])
+def test_a_nrrd_of_fewer_than_two_image_axes_is_refused_not_crashing(tmp_path, dimension,
+                                                                     sizes):
+    # VTK's NRRD reader takes a first axis of 9 values or fewer as components; an image
+    # left with fewer than two axes then crashed the process (SIGSEGV) in its read, after
+    # a header pass that said nothing. A first axis of one value reads it (by hand).
+    # catches (seen failing): the file dimensionality not checked: exit -11.
+    count = int(np.prod([int(s) for s in sizes.split()]))
+    path = tmp_path / "flat.nrrd"
+    path.write_bytes(f"NRRD0004\ntype: uchar\ndimension: {dimension}\nsizes: {sizes}\n"
+                     "encoding: raw\n\n".encode() + np.arange(count, dtype=np.uint8).tobytes())
+    code = ("import sys\nfrom pv_cubemarch.models.image_files import read_image_file\n"
+            "try:\n    read_image_file(sys.argv[1], 'test')\n"
+            "except Exception as exc:\n    print(type(exc).__name__, exc)\n")
+    run = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 0, (run.returncode, run.stderr[-300:])
+    assert "SceneLoadError" in run.stdout and "fewer than two axes" in run.stdout, run.stdout
+    fixed = ("1 " + sizes + (" 1" if dimension < 2 else "")).split()   # as the message says
+    path.write_bytes(path.read_bytes().replace(
+        f"dimension: {dimension}\nsizes: {sizes}\n".encode(),
+        f"dimension: {len(fixed)}\nsizes: {' '.join(fixed)}\n".encode()))
+    grid = read_image_file(path, "test")
+    assert grid.n_points == count and grid.point_data.active_scalars.ndim == 1
 
 
 def _xml_vti(path, arrays: str, appended: bytes = b"", compressed: bool = False) -> None:

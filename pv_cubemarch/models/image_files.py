@@ -85,6 +85,12 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
     errors = _vtk_errors(caught)
     if errors:
         raise error(f"{where}: {shown!r} could not be read (VTK: {errors[0]}).")
+    if isinstance(reader, vtk.vtkNrrdReader) and reader.GetFileDimensionality() < 2:
+        raise error(
+            f"{where}: {shown!r} has {reader.GetFileDimensionality()} image axes once VTK's "
+            "NRRD reader takes a first axis of 9 values or fewer as components, and VTK "
+            "crashes reading an image of fewer than two axes: refused. Write it with a first "
+            "axis of one value and two axes or more after it (sizes: 1 nx ny ...).")
     info = reader.GetOutputInformation(0)
     extent = info.Get(vtk.vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT())
     if extent is None:   # not an image (a legacy .vtk of another dataset): its arrays only
@@ -161,7 +167,11 @@ def _data_file_name(line: str, nrrd: bool) -> str | None:
 def _check_named_file(path: Path, name: str, nrrd: bool, where: str, shown: str,
                       error) -> None:
     """Refuse ``name`` unless it is one regular file in ``path``'s folder (or below)."""
-    several = name.upper().startswith("LIST") or "%" in name or (nrrd and len(name.split()) > 1)
+    # as VTK's NRRD reader splits it: a first word LIST, or four words or more (a pattern,
+    # its range and step), else the whole value is one name; MetaIO: LIST..., or a pattern
+    words = name.split() or [""]
+    several = (words[0] == "LIST" or len(words) >= 4) if nrrd else (
+        name.startswith("LIST") or "%" in name)
     if several:
         raise error(f"{where}: {shown!r} splits its data over several files ({name!r}), "
                     "which is not read; write it as one file.")
