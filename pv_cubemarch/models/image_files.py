@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import base64
 import math
-import mmap
 import re
 import stat
 import struct
@@ -23,6 +22,7 @@ import vtk
 
 from ..core.budgets import host_budget
 from ..core.errors import SceneLoadError
+from ..core.mapped_files import mapped
 from .legacy_vtk_file import check_legacy_vtk
 
 #: The image files checked (what ``pyvista.read`` reads through VTK's image readers).
@@ -211,55 +211,52 @@ def check_vtk_xml(path: Path, where: str, shown: str, budget: int | None,
     """
     if budget is None:
         return
-    with open(path, "rb") as handle:
-        try:
-            data = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
-        except ValueError:   # empty: VTK says so
+    with mapped(path) as data:
+        if data is None:
+            return   # empty: VTK says so
+        root = re.search(rb"<VTKFile\b[^>]*>", data[:1 << 16])
+        if root is None:
             return
-        with data:
-            root = re.search(rb"<VTKFile\b[^>]*>", data[:1 << 16])
-            if root is None:
-                return
-            file_attributes = _xml_attributes(root.group())
-            word = 8 if file_attributes.get("header_type") == "UInt64" else 4
-            little = file_attributes.get("byte_order", "LittleEndian") != "BigEndian"
-            compressed = "compressor" in file_attributes
-            appended = data.find(b"<AppendedData")
-            xml_end = appended if appended >= 0 else len(data)
-            start = -1
-            raw = True
-            if appended >= 0:
-                tag = re.match(rb"<AppendedData\b[^>]*>", data[appended:appended + 4096])
-                raw = tag is not None and b'encoding="base64"' not in tag.group()
-                start = data.find(b"_", appended) + 1
-            points = cells = 1
-            total = 0
-            for match in re.finditer(rb"<Piece\b[^>]*>|<DataArray\b[^>]*>", data[:xml_end]):
-                attributes = _xml_attributes(match.group())
-                if match.group().startswith(b"<Piece"):
-                    extent = [int(float(v)) for v in attributes.get("Extent", "0 0 0 0 0 0")
-                              .split()[:6]]
-                    sides = [extent[2 * a + 1] - extent[2 * a] + 1 for a in range(3)]
-                    points = math.prod(max(n, 1) for n in sides)
-                    cells = math.prod(max(n - 1, 1) for n in sides)
-                    continue
-                size = _XML_TYPE_BYTES.get(attributes.get("type", ""), 8)
-                components = int(float(attributes.get("NumberOfComponents", "1")))
-                tuples = int(float(attributes.get("NumberOfTuples", max(points, cells))))
-                declared = max(components, 1) * max(tuples, 0) * size
-                if compressed and attributes.get("format") in ("appended", "binary"):
-                    header = _block_header(data, attributes, match.end(), start, raw, word,
-                                           little)
-                    if header is not None:   # what VTK allocates to inflate it, at least
-                        blocks, block, last = header
-                        declared = max(declared, max(blocks - 1, 0) * block + (last or block))
-                total += declared
-                if total > budget:
-                    raise error(
-                        f"{where}: {shown!r} declares arrays of {total:,} bytes or more "
-                        f"(their sizes, or what their compressed blocks' header says they "
-                        f"inflate to), more than the {budget:,} a grid file may take "
-                        f"({ARRAY_BYTES_ENV}): refused before VTK reads it.")
+        file_attributes = _xml_attributes(root.group())
+        word = 8 if file_attributes.get("header_type") == "UInt64" else 4
+        little = file_attributes.get("byte_order", "LittleEndian") != "BigEndian"
+        compressed = "compressor" in file_attributes
+        appended = data.find(b"<AppendedData")
+        xml_end = appended if appended >= 0 else len(data)
+        start = -1
+        raw = True
+        if appended >= 0:
+            tag = re.match(rb"<AppendedData\b[^>]*>", data[appended:appended + 4096])
+            raw = tag is not None and b'encoding="base64"' not in tag.group()
+            start = data.find(b"_", appended) + 1
+        points = cells = 1
+        total = 0
+        for match in re.finditer(rb"<Piece\b[^>]*>|<DataArray\b[^>]*>", data[:xml_end]):
+            attributes = _xml_attributes(match.group())
+            if match.group().startswith(b"<Piece"):
+                extent = [int(float(v)) for v in attributes.get("Extent", "0 0 0 0 0 0")
+                          .split()[:6]]
+                sides = [extent[2 * a + 1] - extent[2 * a] + 1 for a in range(3)]
+                points = math.prod(max(n, 1) for n in sides)
+                cells = math.prod(max(n - 1, 1) for n in sides)
+                continue
+            size = _XML_TYPE_BYTES.get(attributes.get("type", ""), 8)
+            components = int(float(attributes.get("NumberOfComponents", "1")))
+            tuples = int(float(attributes.get("NumberOfTuples", max(points, cells))))
+            declared = max(components, 1) * max(tuples, 0) * size
+            if compressed and attributes.get("format") in ("appended", "binary"):
+                header = _block_header(data, attributes, match.end(), start, raw, word,
+                                       little)
+                if header is not None:   # what VTK allocates to inflate it, at least
+                    blocks, block, last = header
+                    declared = max(declared, max(blocks - 1, 0) * block + (last or block))
+            total += declared
+            if total > budget:
+                raise error(
+                    f"{where}: {shown!r} declares arrays of {total:,} bytes or more "
+                    f"(their sizes, or what their compressed blocks' header says they "
+                    f"inflate to), more than the {budget:,} a grid file may take "
+                    f"({ARRAY_BYTES_ENV}): refused before VTK reads it.")
 
 
 def _block_header(data, attributes: dict, after_tag: int, appended_start: int, raw: bool,

@@ -11,11 +11,11 @@ file the scan jumps over each array's bytes.
 from __future__ import annotations
 
 import math
-import mmap
 import re
 from pathlib import Path
 
 from ..core.errors import SceneLoadError
+from ..core.mapped_files import mapped
 
 #: A legacy array type as VTK's reader matches it (by prefix, ``char`` exactly): its bytes
 #: a value in a binary file (at least) and in memory.
@@ -172,15 +172,12 @@ def check_legacy_vtk(path: Path, where: str, shown: str, budget: int | None,
     A declaration (its values at a byte each in ASCII, at its type's size in binary) longer
     than the rest of the file, a negative count, or more bytes in all than ``budget``.
     """
-    with open(path, "rb") as handle:
-        try:
-            data = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
-        except ValueError:   # empty: VTK says so
-            return
-        with data:
-            head = data[:1024].split(b"\n", 3)   # version, title (free text), format
-            if not head[0].startswith(b"# vtk DataFile") or len(head) < 4:
-                return   # not a legacy file: VTK says so
-            binary = head[2].strip().lower().startswith(b"binary")
-            after_header = sum(len(line) + 1 for line in head[:3])
-            _Scan(data, binary, budget, where, shown, error).run(after_header)
+    with mapped(path) as data:
+        if data is None:
+            return   # empty: VTK says so
+        head = data[:1024].split(b"\n", 3)   # version, title (free text), format
+        if not head[0].startswith(b"# vtk DataFile") or len(head) < 4:
+            return   # not a legacy file: VTK says so
+        binary = head[2].strip().lower().startswith(b"binary")
+        after_header = sum(len(line) + 1 for line in head[:3])
+        _Scan(data, binary, budget, where, shown, error).run(after_header)
