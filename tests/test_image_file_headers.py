@@ -37,6 +37,7 @@ HUGE = {
 
 
 @pytest.mark.parametrize("name", sorted(HUGE))
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_a_declared_size_past_the_budget_is_refused_before_reading(tmp_path, name):
     # catches (seen failing): the header not checked (check_image_file's budget left
     # out): the process aborted in VTK (exit -6, std::bad_alloc) or ran out of memory.
@@ -53,6 +54,7 @@ def test_a_declared_size_past_the_budget_is_refused_before_reading(tmp_path, nam
     "cm.add_volume(pv.Plotter(off_screen=True), sys.argv[1])",
     "cm.add_surface(pv.Plotter(off_screen=True), sys.argv[1], isovalue=0.0)",
     "cm.make_field(sys.argv[1], 0.0)"])
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_a_path_given_to_an_add_is_checked_as_a_scene_s_grid_file(tmp_path, call):
     # catches (seen failing): a path read by pyvista.read unchecked (api._read_path,
     # field_sources.make_field): the process aborted (exit -6).
@@ -215,6 +217,7 @@ def test_a_nrrd_data_file_named_as_vtk_reads_one_name_is_read(tmp_path, name):
 
 
 @pytest.mark.parametrize("dimension, sizes", [(1, "20"), (2, "6 7"), (1, "5")])
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_a_nrrd_of_fewer_than_two_image_axes_is_refused_not_crashing(tmp_path, dimension,
                                                                      sizes):
     # VTK's NRRD reader takes a first axis of 9 values or fewer as components; an image
@@ -254,6 +257,7 @@ def _xml_vti(path, arrays: str, appended: bytes = b"", compressed: bool = False)
 
 @pytest.mark.parametrize("case", ["2^40 blocks", "a 2^50-byte block", "components",
                                   "field data"])
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_a_vti_declaring_huge_arrays_anywhere_is_refused_before_vtk_reads_it(tmp_path, case):
     # Found by a review, each aborting the process (std::bad_alloc) past the extent and
     # active-scalars check: a compressed array's blocks' header claiming 2^40 blocks or a

@@ -138,6 +138,7 @@ def test_the_sum_of_declarations_meets_the_budget(tmp_path):
         check_legacy_vtk(path, "test", "image.vtk", budget=1000)
 
 
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_a_crashing_file_is_refused_through_every_reader(tmp_path):
     # catches (seen failing): check_image_file not calling check_legacy_vtk: the ASCII file
     # below killed the process with SIGSEGV inside VTK's legacy reader.

@@ -811,6 +811,7 @@ def test_a_view_where_no_ray_stops_runs_one_depth_pass():
     ("direct", {"step_scale": 0.5}, {"step_scale": 2.0}),
     pytest.param("cubemap", {"upscale": 1.0}, {"upscale": 2.0},
                  marks=pytest.mark.slow)])   # 3 s
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_a_streamed_volume_keeps_moving_frames_within_the_budget(pyramid, technique, still,
                                                                  moving):
     # frame_budget_ms on a multiscale source: its step (the cube map's upscale) moves as

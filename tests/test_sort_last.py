@@ -119,6 +119,7 @@ def test_slabs_composite_to_the_whole_volume_render(client, view, step_scale):
 
 
 @pytest.mark.parametrize("view", ["outside", "inside", "near plane"])
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_bricks_composite_to_the_whole_volume_render(client, view):
     # 2x2x2 bricks: rays cross cut planes along every axis, the camera inside one brick,
     # a near plane across two cuts; the stop opacity low, so rays stop inside bricks

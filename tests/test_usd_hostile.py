@@ -77,6 +77,7 @@ def test_a_point_instancer_holding_itself_is_said_not_a_recursion_error(tmp_path
         cm.load_scene(path, strict=True)
 
 
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_nested_instancers_past_the_budget_are_said_before_they_are_copied(tmp_path):
     # 4 levels of 10 instances of a sphere: 10^4 copies. Under a budget of 20 MB they are
     # refused by name; the process stays small. catches (seen failing): no budget
@@ -114,6 +115,7 @@ def test_a_volume_option_pyvista_refuses_skips_the_volume_with_its_reason(tmp_pa
     assert not scene.volumes
 
 
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_the_memory_budget_keeps_within_an_address_space_limit():
     # Under `ulimit -v` (a batch job's cap) the memory available is what the limit leaves,
     # not the machine's: the budgets above refuse what the process could not hold.
@@ -235,6 +237,7 @@ def test_nesting_hidden_in_block_comments_a_crate_or_a_package_is_still_refused(
         cm.load_scene(tmp_path / "pkg.usdz")
 
 
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_instancing_bounds_count_what_is_made_and_come_before_the_transforms(tmp_path):
     # A refused instancer's bytes are not counted against the next (found by a review: a
     # 1,600-byte one refused after a 160,000-byte one); an instancer of more instances

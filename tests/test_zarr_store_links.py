@@ -67,6 +67,7 @@ def test_a_link_inside_the_store_and_an_absent_chunk_read_as_they_are(tmp_path):
         assert values.sum() == 5 * 64 + 5 * 64 + 5 * 64   # (1 everywhere else)
 
 
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_a_chunk_that_is_a_device_is_refused_before_it_is_read(tmp_path):
     # catches (seen failing): get/get_sync not checking the key: reading /dev/zero under a
     # 3 GB address-space limit raised MemoryError after filling it (no limit: the machine's).
@@ -99,6 +100,7 @@ def test_a_file_larger_than_the_budget_is_refused(tmp_path, monkeypatch):
     assert open_zarr(store)[:].sum() == 4096
 
 
+@pytest.mark.slow   # long (a fresh process, or seconds of frames): pytest -m slow
 def test_an_opened_store_travels_to_another_process_still_checked(tmp_path):
     # Cluster workers receive the opened array pickled: the checked store must load in a
     # fresh interpreter (found there by name) and still refuse a link out of the store.
