@@ -23,7 +23,7 @@ import vtk
 from ..core.budgets import host_budget
 from ..core.errors import SceneLoadError
 from ..core.mapped_files import mapped
-from .legacy_vtk_file import check_legacy_vtk
+from .sandboxed_read import detached_size, probe_read
 
 #: The image files checked (what ``pyvista.read`` reads through VTK's image readers).
 IMAGE_SUFFIXES = (".vti", ".vtk", ".nrrd", ".nhdr", ".mha", ".mhd")
@@ -72,12 +72,14 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
     """Raise ``error`` for an image file that cannot be read safely.
 
     A detached data file outside the header's folder or not a regular file; a legacy
-    ``.vtk`` declaring arrays its bytes cannot hold (:func:`check_legacy_vtk`); a header
-    VTK cannot read; declared dimensions or components that are not positive; declared
-    points whose values would take more than ``budget`` bytes.
+    ``.vtk`` or NRRD that VTK's reader cannot read within the memory budget, or crashes on
+    (:func:`probe_read`, in a child process); a header VTK cannot read; declared
+    dimensions or components that are not positive; declared points whose values would
+    take more than ``budget`` bytes.
     """
-    _check_data_file(Path(path), where, shown, error)
-    legacy = Path(path).suffix.lower() == ".vtk"   # every array the legacy reader allocates
+    names = _check_data_file(Path(path), where, shown, error)
+    probe_read(Path(path), where, shown, budget, error,
+               sum(detached_size(Path(path).resolve().parent, name) for name in names))
     reader = pyvista.get_reader(str(path)).reader
     reader.SetFileName(str(path))
     with pyvista.VtkErrorCatcher(send_to_logging=False) as caught:
@@ -93,9 +95,7 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
             "axis of one value and two axes or more after it (sizes: 1 nx ny ...).")
     info = reader.GetOutputInformation(0)
     extent = info.Get(vtk.vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT())
-    if extent is None:   # not an image (a legacy .vtk of another dataset): its arrays only
-        if legacy:
-            check_legacy_vtk(Path(path), where, shown, budget, error)
+    if extent is None:   # not an image (a legacy .vtk of another dataset): read as it is
         return
     counts = [int(extent[2 * a + 1]) - int(extent[2 * a]) + 1 for a in range(3)]
     scalars = vtk.vtkDataObject.GetActiveFieldInformation(
@@ -119,12 +119,14 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
             "available): read a smaller grid, or stream it as a zarr store.")
     if Path(path).suffix.lower() == ".vti":   # every array, and compressed blocks' claims
         check_vtk_xml(Path(path), where, shown, budget, error)
-    if legacy:   # (VTK's header pass above allocates none of them)
-        check_legacy_vtk(Path(path), where, shown, budget, error)
 
 
-def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -> None:
+def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -> list[str]:
     """A NRRD or MetaImage header's detached data file: a regular file beside it, or none.
+
+    Returns the names checked. Every line of a NRRD header that could name one is
+    checked (VTK's reader reads each ``data file: `` line; ours matches more spellings),
+    and more than one is refused: VTK reads them all as one image.
 
     The header is read as VTK's readers read it: lines end at a newline only (a form feed
     or a NEL character ends none), NRRD's at its first empty line, MetaImage's at
@@ -135,7 +137,8 @@ def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -
     suffix = path.suffix.lower()
     nrrd = suffix in (".nrrd", ".nhdr")
     if suffix not in (".nrrd", ".nhdr", ".mha", ".mhd"):
-        return
+        return []
+    names: list[str] = []
     read = 0
     with open(path, "rb") as handle:
         for raw in handle:   # binary lines: split at b"\n" only
@@ -145,14 +148,20 @@ def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -
                             "bytes before its data: refused unread (damaged or hostile).")
             line = raw.decode("latin-1").rstrip("\r\n")
             if nrrd and not line:
-                return   # the header's end: the data follow, attached
+                break   # the header's end: the data follow, attached
             name = _data_file_name(line, nrrd)
             if name is None:
                 continue
             if not nrrd and name in ("LOCAL", "Local", "local"):
-                return
+                return names
             _check_named_file(path, name, nrrd, where, shown, error)
-            return
+            names.append(name)
+            if not nrrd:
+                return names   # MetaIO reads no field after it
+            if len(names) > 1:
+                raise error(f"{where}: {shown!r} names {len(names)} data files ({names[0]!r}, "
+                            f"{names[1]!r}), which VTK would read as one image: refused.")
+    return names
 
 
 def _data_file_name(line: str, nrrd: bool) -> str | None:
