@@ -243,6 +243,47 @@ def test_a_nrrd_of_fewer_than_two_image_axes_is_refused_not_crashing(tmp_path, d
     assert grid.n_points == count and grid.point_data.active_scalars.ndim == 1
 
 
+@pytest.mark.parametrize("decoy", ["Data File: inside.raw", "data file:= inside.raw",
+                                   "DATAFILE: inside.raw", "data file: inside.raw"])
+def test_every_line_naming_a_nrrd_data_file_is_checked(tmp_path, decoy):
+    # Found by a review: the first line our (wider) pattern matched was checked and the
+    # rest skipped; VTK ignores such a decoy and reads the `data file: ` line below it,
+    # drawing /etc/passwd's bytes. Two names VTK would read are refused as well.
+    # catches (seen failing): _check_data_file returning after the first name: the bytes of
+    # /etc/passwd were read as voxels.
+    (tmp_path / "inside.raw").write_bytes(bytes(100))
+    path = tmp_path / "v.nhdr"
+    path.write_text("NRRD0004\ntype: uchar\ndimension: 2\nsizes: 10 10\nencoding: raw\n"
+                    f"{decoy}\ndata file: /etc/passwd\n")
+    with pytest.raises(SceneLoadError, match="'/etc/passwd', which lies outside its folder"):
+        read_image_file(path, "test")
+    (tmp_path / "other.raw").write_bytes(bytes(100))
+    path.write_text(path.read_text().replace("/etc/passwd", "other.raw"))
+    if decoy.startswith("data file: "):
+        with pytest.raises(SceneLoadError, match="names 2 data files"):
+            read_image_file(path, "test")
+
+
+@pytest.mark.slow   # long (a fresh process a file): pytest -m slow
+@pytest.mark.parametrize("header", [
+    "dimension: 5\nsizes: 2 10 10 10 2", "dimension: 3\nspacings: 0 1 1",
+    "dimension: abc\nsizes: 10 10 10", "dimension: 3\nsizes: 10 10 99999999999"])
+def test_a_nrrd_that_crashes_vtk_s_reader_is_refused_from_a_test_read(tmp_path, header):
+    # Found by a review: each crashed the process (SIGSEGV or SIGABRT) in VTK's NRRD reader,
+    # some in its header pass. VTK now reads it first in a capped child process.
+    # catches (seen failing): probe_read returning at once: exit -11 or -6.
+    path = tmp_path / "bad.nrrd"
+    path.write_bytes(f"NRRD0004\ntype: uchar\n{header}\nencoding: raw\n\n".encode()
+                     + bytes(4000))
+    code = ("import sys\nfrom pv_cubemarch.models.image_files import read_image_file\n"
+            "try:\n    read_image_file(sys.argv[1], 'test')\n"
+            "except Exception as exc:\n    print(type(exc).__name__, exc)\n")
+    run = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 0 and run.stdout.startswith("SceneLoadError"), \
+        (run.returncode, run.stdout[-300:], run.stderr[-300:])
+
+
 def _xml_vti(path, arrays: str, appended: bytes = b"", compressed: bool = False) -> None:
     """A 2x2x2 .vti of ``arrays`` (their XML), with raw appended bytes, written by hand."""
     head = ('<?xml version="1.0"?>\n<VTKFile type="ImageData" version="1.0" '
