@@ -207,12 +207,13 @@ def _sampled_field(data, isovalue: float | None, scalars: str | None,
                           "inside the range, or smoother samples)." if crosses else
                           "the surface is empty."), stacklevel=4)
     flat = [("x", "y", "z")[a] for a in range(3) if values.shape[a] == 1]
-    if domain is not None and flat:   # a sheet of points: its level set is a curve
+    if domain is not None and flat:   # a sheet, a line or a point: no surface of area
         along = " and ".join(flat)
-        warn_user(f"The grid is flat (one point along {along}): its isosurface is a curve, "
-                  "which PyVista's contour draws as lines; a surface, it has no area and "
-                  "add_surface draws nothing of it. Draw the curve with "
-                  "pl.add_mesh(grid.contour([isovalue])), or give the grid two points or "
+        what = ("a curve, which PyVista's contour draws as lines", "isolated points",
+                "a point at most")[len(flat) - 1]
+        warn_user(f"The grid is flat (one point along {along}): its isosurface is {what}; "
+                  "a surface, it has no area and add_surface draws nothing of it. Draw it "
+                  "with pl.add_mesh(grid.contour([isovalue])), or give the grid two points or "
                   f"more along {along}.", VolumeDataWarning)
     return SplineField(coefficients, grid_from_index, name=name, domain=domain)
 

@@ -17,8 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.budgets import host_budget
 from ..core.errors import StoreReadError
-from .zarr_store import open_zarr
+from .zarr_store import STORE_FILE_ENV, open_zarr
 
 #: OME-Zarr's names of the spatial axes, in the project's index order.
 SPACE = ("x", "y", "z")
@@ -39,6 +40,9 @@ class Level:
     translation: np.ndarray
     axes: tuple[int, int, int] = (0, 1, 2)
     fixed: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        _check_chunk_bytes(self.array)
 
     def read(self, box) -> np.ndarray:
         """The points in ``box`` (three slices of x, y, z, within the level) as ``(x, y, z)``.
@@ -160,6 +164,26 @@ def check_levels(levels: Sequence[Level]) -> None:
                              f"of {_numbers(level.scale)}), level 0 {_numbers(finest)}: a "
                              "level's shape and scale must cover the same box as the finest "
                              "level's; its metadata says otherwise.")
+
+
+def _check_chunk_bytes(array) -> None:
+    """Refuse a zarr array whose one chunk decodes to more than the memory budget.
+
+    zarr decodes a whole chunk to read any point of it: a 33 KB store of one 1024³ chunk
+    took 1.5 GB to read two points. (A chunk whose codec inflates past its own size is not
+    bounded here: zarr decodes it before anything of ours sees it.)
+    """
+    chunks = getattr(array, "chunks", None)
+    if not (isinstance(chunks, tuple) and all(isinstance(n, (int, np.integer)) for n in chunks)):
+        return   # not a zarr array (a dask array's chunks are tuples of sizes)
+    nbytes = math.prod(int(n) for n in chunks) * np.dtype(array.dtype).itemsize
+    budget = host_budget(STORE_FILE_ENV, StoreReadError)
+    if budget is not None and nbytes > budget:
+        raise StoreReadError(
+            f"{getattr(array, 'store_path', 'a zarr array')}: one chunk of {tuple(chunks)} "
+            f"takes {nbytes:,} bytes decoded, more than the {budget:,} a read may take "
+            f"({STORE_FILE_ENV}); zarr decodes a whole chunk to read any point of it. "
+            "Rechunk the store into smaller chunks.")
 
 
 def needs(module: str):

@@ -56,8 +56,12 @@ def _store_class():
     class CheckedLocalStore(zarr.storage.LocalStore):
         """A ``LocalStore`` whose every read key is a regular file inside its folder."""
 
-        def _check(self, key: str) -> None:
-            """Raise :class:`StoreReadError` unless ``key`` may be read (or is absent)."""
+        def _check(self, key: str, byte_range=None) -> None:
+            """Raise :class:`StoreReadError` unless ``key`` may be read (or is absent).
+
+            A read of a range (a shard's index or one of its chunks) is bounded by the
+            range, not by the file's size.
+            """
             path = Path(self.root) / key
             try:
                 real_root = Path(self.root).resolve()
@@ -75,24 +79,28 @@ def _store_class():
             if not stat.S_ISREG(mode.st_mode):
                 raise StoreReadError(f"{self.root}: the key {key!r} is not a regular file "
                                      "(a device, a pipe or a socket): refused.")
-            budget = host_budget(STORE_FILE_ENV, StoreReadError)
+            if _bounded(byte_range):
+                return
+            if not hasattr(self, "_budget"):   # once a store: it reads /proc/meminfo
+                self._budget = host_budget(STORE_FILE_ENV, StoreReadError)
+            budget = self._budget
             if budget is not None and mode.st_size > budget:
                 raise StoreReadError(
                     f"{self.root}: the key {key!r} is a file of {mode.st_size:,} bytes, more "
                     f"than the {budget:,} a store's file may take ({STORE_FILE_ENV}): refused.")
 
-        def get_sync(self, key, *args, **kwargs):
-            self._check(key)
-            return super().get_sync(key, *args, **kwargs)
+        def get_sync(self, key, prototype=None, byte_range=None):
+            self._check(key, byte_range)
+            return super().get_sync(key, prototype=prototype, byte_range=byte_range)
 
-        async def get(self, key, *args, **kwargs):
-            self._check(key)
-            return await super().get(key, *args, **kwargs)
+        async def get(self, key, prototype=None, byte_range=None):
+            self._check(key, byte_range)
+            return await super().get(key, prototype, byte_range)
 
         async def get_partial_values(self, prototype, key_ranges):
             key_ranges = list(key_ranges)
-            for key, _ in key_ranges:
-                self._check(key)
+            for key, byte_range in key_ranges:
+                self._check(key, byte_range)
             return await super().get_partial_values(prototype, key_ranges)
 
         def with_read_only(self, read_only: bool = False):
@@ -101,6 +109,13 @@ def _store_class():
     CheckedLocalStore.__module__ = __name__   # pickled by name: found by __getattr__ below
     CheckedLocalStore.__qualname__ = "CheckedLocalStore"
     return CheckedLocalStore
+
+
+def _bounded(byte_range) -> bool:
+    """Whether a read of ``byte_range`` reads a bounded part (a range, or a file's end)."""
+    if byte_range is None:
+        return False
+    return type(byte_range).__name__ in ("RangeByteRequest", "SuffixByteRequest")
 
 
 def __getattr__(name: str):
