@@ -36,7 +36,7 @@ from .models.channels import (
 )
 from .models.field_sources import color_values, make_field, with_scalars_array
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
-from .models.image_files import IMAGE_SUFFIXES, read_image_file
+from .models.image_files import IMAGE_SUFFIXES, read_data_file, read_image_file
 from .models.label_ids import check_background_id
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
 from .models.multiscale import MultiscaleSource, is_zarr_group, multiscale_source
@@ -654,8 +654,10 @@ def _read_path(data, what: str):
                                 "pyvista.read; a .zarr store is streamed).")
     if path.suffix.lower() in IMAGE_SUFFIXES:   # its header checked first (hostile bytes)
         return read_image_file(path, what, error=VolumeDataError)
-    try:
-        return pyvista.read(str(path))
+    try:   # read first in a capped child (hostile bytes)
+        return read_data_file(path, what, error=VolumeDataError)
+    except VolumeDataError:
+        raise
     except Exception as error:
         raise VolumeDataError(f"{what}: {str(path)!r} could not be read by pyvista.read "
                               f"({error}); give a pyvista dataset or a numpy array, or load "

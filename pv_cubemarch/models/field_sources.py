@@ -26,7 +26,7 @@ from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 from ..core.errors import VolumeDataError, VolumeDataWarning
 from ..core.progress import progress
 from ..core.user_warnings import warn_user
-from .image_files import IMAGE_SUFFIXES, read_image_file
+from .image_files import read_data_file
 from .surface import SplineField, interpolating_coefficients, point_hull
 from .volume import checked_transform
 from .voxels import image_samples, samples_at_points
@@ -113,8 +113,7 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     """
     data, scalars = with_scalars_array(data, scalars)
     if isinstance(data, (str, Path)):   # an image file's header checked first
-        data = read_image_file(data, "make_field", error=VolumeDataError) \
-            if Path(data).suffix.lower() in IMAGE_SUFFIXES else pyvista.read(data)
+        data = read_data_file(data, "make_field", error=VolumeDataError)
     _check_cells(cells)
     if isovalue is not None and not (isinstance(isovalue, (int, float, np.number))
                                      and np.isfinite(isovalue)):

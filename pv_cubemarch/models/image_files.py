@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 import math
+import os
 import re
 import stat
 import struct
@@ -26,7 +27,7 @@ from ..core.mapped_files import mapped
 from .sandboxed_read import detached_size, probe_read
 
 #: The image files checked (what ``pyvista.read`` reads through VTK's image readers).
-IMAGE_SUFFIXES = (".vti", ".vtk", ".nrrd", ".nhdr", ".mha", ".mhd")
+IMAGE_SUFFIXES = (".vti", ".vtk", ".pvtk", ".nrrd", ".nhdr", ".mha", ".mhd")
 #: The bytes one grid file's values may take once read (default: 80 % of what the system
 #: can give now); its header is checked before anything is read.
 ARRAY_BYTES_ENV = "PV_CUBEMARCH_ARRAY_MAX_BYTES"
@@ -60,6 +61,19 @@ def read_image_file(path, where: str, shown: str | None = None, error=SceneLoadE
     if errors:
         raise error(f"{where}: {shown!r} could not be read (VTK: {errors[0]}).")
     return grid
+
+
+def read_data_file(path, where: str, error=SceneLoadError):
+    """``pyvista.read`` of any file, once read in a capped child where its reader is trusting.
+
+    An image file as :func:`read_image_file` reads it; any other (a mesh) once
+    ``pyvista.read`` has read it in a child process (:func:`probe_read`).
+    """
+    if Path(path).suffix.lower() in IMAGE_SUFFIXES:
+        return read_image_file(path, where, error=error)
+    probe_read(Path(path), where, str(path), host_budget(ARRAY_BYTES_ENV, error), error,
+               image=False)
+    return pyvista.read(str(path))
 
 
 def _vtk_errors(caught) -> list[str]:
@@ -146,7 +160,7 @@ def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -
             if read > _HEADER_BYTES:
                 raise error(f"{where}: {shown!r} has a header longer than {_HEADER_BYTES:,} "
                             "bytes before its data: refused unread (damaged or hostile).")
-            line = raw.decode("latin-1").rstrip("\r\n")
+            line = os.fsdecode(raw).rstrip("\r\n")   # a name as the file system spells it
             if nrrd and not line:
                 break   # the header's end: the data follow, attached
             name = _data_file_name(line, nrrd)

@@ -1,20 +1,20 @@
-"""Run as a script (not imported): read one file with a VTK reader under a memory limit.
+"""Run as a script (not imported): read one file as ``pyvista.read`` does, under a memory cap.
 
-``python -I vtk_read_child.py PATH READER LIMIT BUDGET``: imports only ``vtkmodules``,
-caps the process's address space at what it has mapped plus ``LIMIT`` bytes, reads
-``PATH`` with ``READER`` (a class of ``vtkIOLegacy`` or ``vtkIOImage``) and prints
-``{"read": true}``; VTK logs its errors to stderr. It stops after the header pass, printing
-``{"read": false}``, where the caller refuses the file from its header (an image whose
-points' values exceed ``BUDGET`` bytes, -1 for none; a NRRD of fewer than two image axes,
-which VTK crashes on). A crash or an allocation past the limit ends this process, not the
-caller's (:mod:`.sandboxed_read`).
+Run by :mod:`.sandboxed_read` with ``PATH LIMIT BUDGET``: imports PyVista (not this
+package), caps the process's address space at what it has mapped plus ``LIMIT`` bytes
+(within the limit it inherited), reads ``PATH`` with the reader and settings
+``pyvista.read`` uses, and prints ``{"read": true}``; VTK logs its errors to stderr. It
+stops after the header pass, printing ``{"read": false}``, where the caller refuses the
+file from its header (an image whose points' values exceed ``BUDGET`` bytes, -1 for none;
+a NRRD of fewer than two image axes, which VTK crashes on). A crash or an allocation past
+the cap ends this process, not the caller's.
 """
 
 import json
 import resource
 import sys
 
-from vtkmodules import vtkIOImage, vtkIOLegacy
+import pyvista
 from vtkmodules.vtkCommonCore import vtkDataArray
 from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkDataSetAttributes
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
@@ -27,6 +27,15 @@ def _mapped_bytes() -> int:
             if line.startswith("VmSize:"):
                 return int(line.split()[1]) * 1024
     return 0
+
+
+def _cap(limit: int) -> None:
+    """Cap the address space at what is mapped plus ``limit``, within the inherited limit."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    cap = min(_mapped_bytes() + limit, (1 << 62))
+    if hard != resource.RLIM_INFINITY:
+        cap = min(cap, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
 
 
 def _header_refuses(reader, budget: int) -> bool:
@@ -51,18 +60,20 @@ def _header_refuses(reader, budget: int) -> bool:
 
 
 def main() -> None:
-    path, reader_name, limit = sys.argv[1], sys.argv[2], int(sys.argv[3])
-    budget = int(sys.argv[4])
-    module = vtkIOLegacy if hasattr(vtkIOLegacy, reader_name) else vtkIOImage
-    reader = getattr(module, reader_name)()
-    cap = _mapped_bytes() + limit
-    resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
-    reader.SetFileName(path)
-    reader.UpdateInformation()
-    if _header_refuses(reader, budget):
+    path, limit, budget = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+    _cap(limit)
+    try:
+        reader = pyvista.get_reader(path)   # its settings: what pyvista.read reads
+    except ValueError:   # a format pyvista.read gives to meshio
+        pyvista.read(path)
+        print(json.dumps({"read": True}))
+        return
+    vtk_reader = reader.reader
+    vtk_reader.UpdateInformation()
+    if _header_refuses(vtk_reader, budget):
         print(json.dumps({"read": False}))
         return
-    reader.Update()
+    reader.read()
     print(json.dumps({"read": True}))
 
 

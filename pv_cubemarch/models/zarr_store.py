@@ -60,7 +60,8 @@ def _store_class():
             """Raise :class:`StoreReadError` unless ``key`` may be read (or is absent).
 
             A read of a range (a shard's index or one of its chunks) is bounded by the
-            range, not by the file's size.
+            range's length, not by the file's size (the range comes from the shard's own
+            index: one claiming a 1.5 GB chunk is refused all the same).
             """
             path = Path(self.root) / key
             try:
@@ -79,15 +80,15 @@ def _store_class():
             if not stat.S_ISREG(mode.st_mode):
                 raise StoreReadError(f"{self.root}: the key {key!r} is not a regular file "
                                      "(a device, a pipe or a socket): refused.")
-            if _bounded(byte_range):
-                return
             if not hasattr(self, "_budget"):   # once a store: it reads /proc/meminfo
                 self._budget = host_budget(STORE_FILE_ENV, StoreReadError)
             budget = self._budget
-            if budget is not None and mode.st_size > budget:
+            length = _range_length(byte_range, mode.st_size)
+            if budget is not None and length > budget:
                 raise StoreReadError(
-                    f"{self.root}: the key {key!r} is a file of {mode.st_size:,} bytes, more "
-                    f"than the {budget:,} a store's file may take ({STORE_FILE_ENV}): refused.")
+                    f"{self.root}: the key {key!r} would be read as {length:,} bytes (of a file "
+                    f"of {mode.st_size:,}), more than the {budget:,} a store's read may take "
+                    f"({STORE_FILE_ENV}): refused.")
 
         def get_sync(self, key, prototype=None, byte_range=None):
             self._check(key, byte_range)
@@ -111,11 +112,16 @@ def _store_class():
     return CheckedLocalStore
 
 
-def _bounded(byte_range) -> bool:
-    """Whether a read of ``byte_range`` reads a bounded part (a range, or a file's end)."""
-    if byte_range is None:
-        return False
-    return type(byte_range).__name__ in ("RangeByteRequest", "SuffixByteRequest")
+def _range_length(byte_range, size: int) -> int:
+    """The bytes a read of ``byte_range`` (a zarr ``ByteRequest``, or None) of a file reads."""
+    kind = type(byte_range).__name__
+    if kind == "RangeByteRequest":
+        return max(min(int(byte_range.end), size) - int(byte_range.start), 0)
+    if kind == "SuffixByteRequest":
+        return min(int(byte_range.suffix), size)
+    if kind == "OffsetByteRequest":
+        return max(size - int(byte_range.offset), 0)
+    return size
 
 
 def __getattr__(name: str):
