@@ -36,7 +36,7 @@ from .models.channels import (
 )
 from .models.field_sources import color_values, make_field, with_scalars_array
 from .models.group import MAX_GROUP_MEMBERS, VolumeGroup, overlap_groups
-from .models.image_files import IMAGE_SUFFIXES, read_data_file, read_image_file
+from .models.image_files import read_data_file
 from .models.label_ids import check_background_id
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
 from .models.multiscale import MultiscaleSource, is_zarr_group, multiscale_source
@@ -652,9 +652,7 @@ def _read_path(data, what: str):
     if not path.exists():   # a folder may be a DICOM series, which pyvista.read reads
         raise FileNotFoundError(f"{what}: {str(path)!r} does not exist (a path is read with "
                                 "pyvista.read; a .zarr store is streamed).")
-    if path.suffix.lower() in IMAGE_SUFFIXES:   # its header checked first (hostile bytes)
-        return read_image_file(path, what, error=VolumeDataError)
-    try:   # read first in a capped child (hostile bytes)
+    try:   # an image's header checked, or the file read first in a capped child
         return read_data_file(path, what, error=VolumeDataError)
     except VolumeDataError:
         raise

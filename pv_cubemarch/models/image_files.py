@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 import math
+import mmap
 import os
 import re
 import stat
@@ -23,8 +24,7 @@ import vtk
 
 from ..core.budgets import host_budget
 from ..core.errors import SceneLoadError
-from ..core.mapped_files import mapped
-from .sandboxed_read import detached_size, probe_read
+from .sandboxed_read import probe_read
 
 #: The image files checked (what ``pyvista.read`` reads through VTK's image readers).
 IMAGE_SUFFIXES = (".vti", ".vtk", ".pvtk", ".nrrd", ".nhdr", ".mha", ".mhd")
@@ -91,9 +91,8 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
     dimensions or components that are not positive; declared points whose values would
     take more than ``budget`` bytes.
     """
-    names = _check_data_file(Path(path), where, shown, error)
     probe_read(Path(path), where, shown, budget, error,
-               sum(detached_size(Path(path).resolve().parent, name) for name in names))
+               _check_data_file(Path(path), where, shown, error))
     reader = pyvista.get_reader(str(path)).reader
     reader.SetFileName(str(path))
     with pyvista.VtkErrorCatcher(send_to_logging=False) as caught:
@@ -135,10 +134,10 @@ def check_image_file(path: Path, where: str, shown: str, budget: int | None,
         check_vtk_xml(Path(path), where, shown, budget, error)
 
 
-def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -> list[str]:
+def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -> int:
     """A NRRD or MetaImage header's detached data file: a regular file beside it, or none.
 
-    Returns the names checked. Every line of a NRRD header that could name one is
+    Returns its bytes (0 for none). Every line of a NRRD header that could name one is
     checked (VTK's reader reads each ``data file: `` line; ours matches more spellings),
     and more than one is refused: VTK reads them all as one image.
 
@@ -151,8 +150,9 @@ def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -
     suffix = path.suffix.lower()
     nrrd = suffix in (".nrrd", ".nhdr")
     if suffix not in (".nrrd", ".nhdr", ".mha", ".mhd"):
-        return []
+        return 0
     names: list[str] = []
+    detached = 0
     read = 0
     with open(path, "rb") as handle:
         for raw in handle:   # binary lines: split at b"\n" only
@@ -167,15 +167,15 @@ def _check_data_file(path: Path, where: str, shown: str, error=SceneLoadError) -
             if name is None:
                 continue
             if not nrrd and name in ("LOCAL", "Local", "local"):
-                return names
-            _check_named_file(path, name, nrrd, where, shown, error)
+                return 0
+            detached += _check_named_file(path, name, nrrd, where, shown, error)
             names.append(name)
             if not nrrd:
-                return names   # MetaIO reads no field after it
+                return detached   # MetaIO reads no field after it
             if len(names) > 1:
                 raise error(f"{where}: {shown!r} names {len(names)} data files ({names[0]!r}, "
                             f"{names[1]!r}), which VTK would read as one image: refused.")
-    return names
+    return detached
 
 
 def _data_file_name(line: str, nrrd: bool) -> str | None:
@@ -188,8 +188,11 @@ def _data_file_name(line: str, nrrd: bool) -> str | None:
 
 
 def _check_named_file(path: Path, name: str, nrrd: bool, where: str, shown: str,
-                      error) -> None:
-    """Refuse ``name`` unless it is one regular file in ``path``'s folder (or below)."""
+                      error) -> int:
+    """Refuse ``name`` unless it is one regular file in ``path``'s folder (or below).
+
+    Returns its bytes.
+    """
     # as VTK's NRRD reader splits it: a first word LIST, or four words or more (a pattern,
     # its range and step), else the whole value is one name; MetaIO: LIST..., or a pattern
     words = name.split() or [""]
@@ -202,7 +205,8 @@ def _check_named_file(path: Path, name: str, nrrd: bool, where: str, shown: str,
         folder = path.resolve().parent
         target = (folder / name).resolve()
         inside = folder == target.parent or folder in target.parents
-        regular = inside and target.exists() and stat.S_ISREG(target.stat().st_mode)
+        found = target.stat() if inside and target.exists() else None
+        regular = found is not None and stat.S_ISREG(found.st_mode)
     except (OSError, ValueError, RuntimeError) as exc:   # a null byte, a loop, too long
         raise error(f"{where}: {shown!r} names the data file {name!r}, which cannot be "
                     f"followed ({type(exc).__name__}: {exc}): refused.") from exc
@@ -210,6 +214,7 @@ def _check_named_file(path: Path, name: str, nrrd: bool, where: str, shown: str,
         raise error(f"{where}: {shown!r} names the data file {name!r}, which "
                     + ("is not a regular file" if inside else "lies outside its folder")
                     + ": refused (a detached header's data file must be a file beside it).")
+    return found.st_size
 
 
 #: Bytes of each VTK XML array type.
@@ -234,52 +239,55 @@ def check_vtk_xml(path: Path, where: str, shown: str, budget: int | None,
     """
     if budget is None:
         return
-    with mapped(path) as data:
-        if data is None:
-            return   # empty: VTK says so
-        root = re.search(rb"<VTKFile\b[^>]*>", data[:1 << 16])
-        if root is None:
+    with open(path, "rb") as handle:
+        try:
+            data = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
+        except ValueError:   # empty: VTK says so
             return
-        file_attributes = _xml_attributes(root.group())
-        word = 8 if file_attributes.get("header_type") == "UInt64" else 4
-        little = file_attributes.get("byte_order", "LittleEndian") != "BigEndian"
-        compressed = "compressor" in file_attributes
-        appended = data.find(b"<AppendedData")
-        xml_end = appended if appended >= 0 else len(data)
-        start = -1
-        raw = True
-        if appended >= 0:
-            tag = re.match(rb"<AppendedData\b[^>]*>", data[appended:appended + 4096])
-            raw = tag is not None and b'encoding="base64"' not in tag.group()
-            start = data.find(b"_", appended) + 1
-        points = cells = 1
-        total = 0
-        for match in re.finditer(rb"<Piece\b[^>]*>|<DataArray\b[^>]*>", data[:xml_end]):
-            attributes = _xml_attributes(match.group())
-            if match.group().startswith(b"<Piece"):
-                extent = [int(float(v)) for v in attributes.get("Extent", "0 0 0 0 0 0")
-                          .split()[:6]]
-                sides = [extent[2 * a + 1] - extent[2 * a] + 1 for a in range(3)]
-                points = math.prod(max(n, 1) for n in sides)
-                cells = math.prod(max(n - 1, 1) for n in sides)
-                continue
-            size = _XML_TYPE_BYTES.get(attributes.get("type", ""), 8)
-            components = int(float(attributes.get("NumberOfComponents", "1")))
-            tuples = int(float(attributes.get("NumberOfTuples", max(points, cells))))
-            declared = max(components, 1) * max(tuples, 0) * size
-            if compressed and attributes.get("format") in ("appended", "binary"):
-                header = _block_header(data, attributes, match.end(), start, raw, word,
-                                       little)
-                if header is not None:   # what VTK allocates to inflate it, at least
-                    blocks, block, last = header
-                    declared = max(declared, max(blocks - 1, 0) * block + (last or block))
-            total += declared
-            if total > budget:
-                raise error(
-                    f"{where}: {shown!r} declares arrays of {total:,} bytes or more "
-                    f"(their sizes, or what their compressed blocks' header says they "
-                    f"inflate to), more than the {budget:,} a grid file may take "
-                    f"({ARRAY_BYTES_ENV}): refused before VTK reads it.")
+        with data:
+            root = re.search(rb"<VTKFile\b[^>]*>", data[:1 << 16])
+            if root is None:
+                return
+            file_attributes = _xml_attributes(root.group())
+            word = 8 if file_attributes.get("header_type") == "UInt64" else 4
+            little = file_attributes.get("byte_order", "LittleEndian") != "BigEndian"
+            compressed = "compressor" in file_attributes
+            appended = data.find(b"<AppendedData")
+            xml_end = appended if appended >= 0 else len(data)
+            start = -1
+            raw = True
+            if appended >= 0:
+                tag = re.match(rb"<AppendedData\b[^>]*>", data[appended:appended + 4096])
+                raw = tag is not None and b'encoding="base64"' not in tag.group()
+                start = data.find(b"_", appended) + 1
+            points = cells = 1
+            total = 0
+            for match in re.finditer(rb"<Piece\b[^>]*>|<DataArray\b[^>]*>", data[:xml_end]):
+                attributes = _xml_attributes(match.group())
+                if match.group().startswith(b"<Piece"):
+                    extent = [int(float(v)) for v in attributes.get("Extent", "0 0 0 0 0 0")
+                              .split()[:6]]
+                    sides = [extent[2 * a + 1] - extent[2 * a] + 1 for a in range(3)]
+                    points = math.prod(max(n, 1) for n in sides)
+                    cells = math.prod(max(n - 1, 1) for n in sides)
+                    continue
+                size = _XML_TYPE_BYTES.get(attributes.get("type", ""), 8)
+                components = int(float(attributes.get("NumberOfComponents", "1")))
+                tuples = int(float(attributes.get("NumberOfTuples", max(points, cells))))
+                declared = max(components, 1) * max(tuples, 0) * size
+                if compressed and attributes.get("format") in ("appended", "binary"):
+                    header = _block_header(data, attributes, match.end(), start, raw, word,
+                                           little)
+                    if header is not None:   # what VTK allocates to inflate it, at least
+                        blocks, block, last = header
+                        declared = max(declared, max(blocks - 1, 0) * block + (last or block))
+                total += declared
+                if total > budget:
+                    raise error(
+                        f"{where}: {shown!r} declares arrays of {total:,} bytes or more "
+                        f"(their sizes, or what their compressed blocks' header says they "
+                        f"inflate to), more than the {budget:,} a grid file may take "
+                        f"({ARRAY_BYTES_ENV}): refused before VTK reads it.")
 
 
 def _block_header(data, attributes: dict, after_tag: int, appended_start: int, raw: bool,

@@ -19,7 +19,8 @@ import numpy as np
 
 from ..core.budgets import host_budget
 from ..core.errors import StoreReadError
-from .zarr_store import STORE_FILE_ENV, open_zarr
+from .image_files import ARRAY_BYTES_ENV
+from .zarr_store import open_zarr
 
 #: OME-Zarr's names of the spatial axes, in the project's index order.
 SPACE = ("x", "y", "z")
@@ -177,12 +178,12 @@ def _check_chunk_bytes(array) -> None:
     if not (isinstance(chunks, tuple) and all(isinstance(n, (int, np.integer)) for n in chunks)):
         return   # not a zarr array (a dask array's chunks are tuples of sizes)
     nbytes = math.prod(int(n) for n in chunks) * np.dtype(array.dtype).itemsize
-    budget = host_budget(STORE_FILE_ENV, StoreReadError)
+    budget = host_budget(ARRAY_BYTES_ENV, StoreReadError)
     if budget is not None and nbytes > budget:
         raise StoreReadError(
             f"{getattr(array, 'store_path', 'a zarr array')}: one chunk of {tuple(chunks)} "
             f"takes {nbytes:,} bytes decoded, more than the {budget:,} a read may take "
-            f"({STORE_FILE_ENV}); zarr decodes a whole chunk to read any point of it. "
+            f"({ARRAY_BYTES_ENV}); zarr decodes a whole chunk to read any point of it. "
             "Rechunk the store into smaller chunks.")
 
 

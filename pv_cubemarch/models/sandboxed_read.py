@@ -106,13 +106,3 @@ def _vtk_message(line: str) -> str:
     text = line.split("ERR|", 1)[-1]
     text = re.sub(r"^\s*\w+ \(0x[0-9a-fA-F]+\): ", "", text)
     return text.replace("\x1b[0m", "").strip()
-
-
-def detached_size(folder: Path, name: str | None) -> int:
-    """The size of a header's detached data file ``name`` in ``folder`` (0 when none)."""
-    if not name:
-        return 0
-    try:
-        return os.stat(folder / name).st_size
-    except OSError:
-        return 0

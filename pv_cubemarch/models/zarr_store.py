@@ -17,9 +17,7 @@ from pathlib import Path
 
 from ..core.budgets import host_budget
 from ..core.errors import StoreReadError
-
-#: The bytes one file of a store may take (default: 80 % of what the system can give now).
-STORE_FILE_ENV = "PV_CUBEMARCH_ARRAY_MAX_BYTES"
+from .image_files import ARRAY_BYTES_ENV
 
 
 def open_zarr(path, mode: str = "r"):
@@ -65,7 +63,9 @@ def _store_class():
             """
             path = Path(self.root) / key
             try:
-                real_root = Path(self.root).resolve()
+                if not hasattr(self, "_real_root"):   # once a store
+                    self._real_root = Path(self.root).resolve()
+                real_root = self._real_root
                 target = path.resolve()
                 if not target.exists():
                     return   # absent: zarr reads the fill value
@@ -81,14 +81,14 @@ def _store_class():
                 raise StoreReadError(f"{self.root}: the key {key!r} is not a regular file "
                                      "(a device, a pipe or a socket): refused.")
             if not hasattr(self, "_budget"):   # once a store: it reads /proc/meminfo
-                self._budget = host_budget(STORE_FILE_ENV, StoreReadError)
+                self._budget = host_budget(ARRAY_BYTES_ENV, StoreReadError)
             budget = self._budget
             length = _range_length(byte_range, mode.st_size)
             if budget is not None and length > budget:
                 raise StoreReadError(
                     f"{self.root}: the key {key!r} would be read as {length:,} bytes (of a file "
                     f"of {mode.st_size:,}), more than the {budget:,} a store's read may take "
-                    f"({STORE_FILE_ENV}): refused.")
+                    f"({ARRAY_BYTES_ENV}): refused.")
 
         def get_sync(self, key, prototype=None, byte_range=None):
             self._check(key, byte_range)
