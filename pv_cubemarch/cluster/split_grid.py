@@ -18,6 +18,7 @@ import numpy as np
 
 from ..models.label_colors import hashed_colors
 from ..models.multiscale import is_zarr_group, multiscale_source
+from ..models.zarr_codecs import bounded_array
 from ..models.zarr_store import open_zarr
 from .partition_march import Partition
 
@@ -179,7 +180,7 @@ def _volume_parts(volume, scalars, spacing, origin, cells: bool = False):
             return _pyramid_parts(volume, spacing, origin)
         import dask.array as da
 
-        volume = da.from_zarr(volume)
+        volume = da.from_zarr(bounded_array(volume))
     if isinstance(volume, pyvista.ImageData):
         return (*_image_parts(volume, scalars, spacing, origin, cells), None)
     if scalars is not None:

@@ -24,6 +24,7 @@ from .label_ids import (
 )
 from .voxels import Palette
 from .world import VoxelWorld
+from .zarr_codecs import bounded_array
 
 
 def is_array_source(value) -> bool:
@@ -83,6 +84,7 @@ def world_from_array(source, chunk_size: int = 128, background: int = 0, palette
     :func:`thread_safe`): 1, 2 or 4 bytes a voxel by how many there are. ``palette`` as
     :func:`~pv_cubemarch.models.voxels.make_voxels` takes it (by id).
     """
+    source = bounded_array(source)   # a zarr array's compression bombs refused as decoded
     shape, size = tuple(int(n) for n in source.shape), int(chunk_size)
     count = int(np.prod([-(-n // max(size, 1)) for n in shape], dtype=np.float64))
     if count > MAX_WORLD_CHUNKS:   # before the boxes are listed (an absurd header's too)

@@ -20,6 +20,7 @@ import numpy as np
 from ..core.budgets import host_budget
 from ..core.errors import StoreReadError
 from .image_files import ARRAY_BYTES_ENV
+from .zarr_codecs import bounded_array
 from .zarr_store import open_zarr
 
 #: OME-Zarr's names of the spatial axes, in the project's index order.
@@ -44,6 +45,7 @@ class Level:
 
     def __post_init__(self):
         _check_chunk_bytes(self.array)
+        object.__setattr__(self, "array", bounded_array(self.array))   # compression bombs
 
     def read(self, box) -> np.ndarray:
         """The points in ``box`` (three slices of x, y, z, within the level) as ``(x, y, z)``.
@@ -171,8 +173,8 @@ def _check_chunk_bytes(array) -> None:
     """Refuse a zarr array whose one chunk decodes to more than the memory budget.
 
     zarr decodes a whole chunk to read any point of it: a 33 KB store of one 1024³ chunk
-    took 1.5 GB to read two points. (A chunk whose codec inflates past its own size is not
-    bounded here: zarr decodes it before anything of ours sees it.)
+    took 1.5 GB to read two points. (A chunk whose codec inflates past its own size is
+    refused as it is decoded: :mod:`.zarr_codecs`.)
     """
     chunks = getattr(array, "chunks", None)
     if not (isinstance(chunks, tuple) and all(isinstance(n, (int, np.integer)) for n in chunks)):

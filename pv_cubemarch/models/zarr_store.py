@@ -18,18 +18,22 @@ from pathlib import Path
 from ..core.budgets import host_budget
 from ..core.errors import StoreReadError
 from .image_files import ARRAY_BYTES_ENV
+from .zarr_codecs import bounded_array
 
 
 def open_zarr(path, mode: str = "r"):
     """``zarr.open`` of ``path``: a local folder through :func:`checked_local_store`.
 
-    A URL (``s3://``, ``https://``, ...) is opened as zarr opens it.
+    A URL (``s3://``, ``https://``, ...) is opened as zarr opens it. An array opened to be
+    read has its compressors bounded (:func:`~.zarr_codecs.bounded_array`).
     """
     zarr = _zarr()
     text = os.fspath(path)
     if "://" in text:
-        return zarr.open(text, mode=mode)
-    return zarr.open(store=checked_local_store(text, read_only=mode == "r"), mode=mode)
+        opened = zarr.open(text, mode=mode)
+    else:
+        opened = zarr.open(store=checked_local_store(text, read_only=mode == "r"), mode=mode)
+    return bounded_array(opened) if mode == "r" else opened
 
 
 def checked_local_store(root, read_only: bool = True):

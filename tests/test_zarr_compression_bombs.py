@@ -1,0 +1,240 @@
+"""A zarr chunk inflates to no more than the chunk it declares: compression bombs refused.
+
+zarr's codecs decode whatever a chunk's bytes say: a 4 KB bz2 chunk of a 1 KB chunk
+inflated to megabytes (gigabytes where bigger) before zarr saw its size was wrong, and a
+blosc or lz4 header claiming more had it allocated. Each bomb here is checked to be one
+(zarr's own read of it allocates at least ``BOMB`` bytes) before ours is checked to refuse
+it without doing so. Expected values are by hand: the values written, byte counts.
+"""
+
+from __future__ import annotations
+
+import bz2
+import gzip
+import lzma
+import pickle
+import struct
+import tracemalloc
+import zlib
+
+import numpy as np
+import pytest
+
+zarr = pytest.importorskip("zarr")
+numcodecs = pytest.importorskip("numcodecs")
+
+try:   # zarr >= 3.1.3 holds numcodecs' zarr v3 codecs
+    from zarr.codecs import numcodecs as numcodecs_v3
+except ImportError:
+    from numcodecs import zarr3 as numcodecs_v3
+from zarr.codecs import BloscCodec, GzipCodec, ZstdCodec  # noqa: E402
+
+from pv_cubemarch.core.errors import StoreReadError  # noqa: E402
+from pv_cubemarch.models.multiscale import multiscale_source  # noqa: E402
+from pv_cubemarch.models.zarr_codecs import _zstd_content_size  # noqa: E402
+
+#: numcodecs' zarr v3 codecs warn that they are not in the zarr v3 specification.
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
+
+#: What a bomb inflates to (a chunk here holds 8^3 int16 values: 1,024 bytes).
+BOMB = 4 << 20
+SHAPE, CHUNKS = (16, 12, 8), (8, 8, 8)
+#: Values in Hounsfield units, negative and off 0, so a chunk read wrong shows.
+DATA = (np.arange(np.prod(SHAPE)).reshape(SHAPE) % 1500 - 1024).astype(np.int16)
+
+
+def _v3(name):
+    return {"gzip": GzipCodec(), "zstd": ZstdCodec(), "blosc": BloscCodec(),
+            "zlib": numcodecs_v3.Zlib(), "bz2": numcodecs_v3.BZ2(),
+            "lzma": numcodecs_v3.LZMA(), "lz4": numcodecs_v3.LZ4()}[name]
+
+
+def _v2(name):
+    return {"gzip": numcodecs.GZip(), "zlib": numcodecs.Zlib(), "zstd": numcodecs.Zstd(),
+            "blosc": numcodecs.Blosc(), "lz4": numcodecs.LZ4(), "bz2": numcodecs.BZ2(),
+            "lzma": numcodecs.LZMA()}[name]
+
+
+CODECS = ("gzip", "zlib", "bz2", "lzma", "zstd", "blosc", "lz4")
+
+
+def _store(path, name, zarr_format, shards=None):
+    """``DATA`` written by zarr with one compressor; returns the first chunk's file."""
+    codec = _v3(name) if zarr_format == 3 else _v2(name)
+    array = zarr.create_array(str(path), shape=SHAPE, chunks=CHUNKS, shards=shards,
+                              dtype="int16", compressors=codec, zarr_format=zarr_format)
+    array[:] = DATA
+    return path / ("c/0/0/0" if zarr_format == 3 else "0.0.0")
+
+
+def _read(path, shape=SHAPE):
+    """The array's first ``shape`` points as the project reads them (a whole chunk: the
+    first ``CHUNKS``), through ``multiscale_source`` of the path."""
+    level = multiscale_source(str(path)).levels[0]
+    return level.read(tuple(slice(0, n) for n in shape))
+
+
+def _zstd_frame_of_unstated_size(nbytes, value=7, block=1 << 17):
+    """A zstd frame of RLE blocks making ``nbytes`` bytes of ``value``, its size left out."""
+    frame = struct.pack("<I", 0xFD2FB528) + bytes([0x00, (17 - 10) << 3])   # window 128 KiB
+    count = -(-nbytes // block)
+    for i in range(count):
+        size = min(block, nbytes - i * block)
+        frame += struct.pack("<I", (i == count - 1) | (1 << 1) | (size << 3))[:3]
+        frame += bytes([value])
+    return frame
+
+
+def _bomb(name):
+    """A chunk in ``name``'s format that inflates to (or claims) ``BOMB`` bytes."""
+    zeros = bytes(BOMB)
+    if name == "blosc":   # a real 1 KB chunk whose header claims BOMB bytes
+        data = bytearray(numcodecs.Blosc().encode(bytes(1024)))
+        struct.pack_into("<I", data, 4, BOMB)
+        return bytes(data)
+    if name == "lz4":
+        data = bytearray(numcodecs.LZ4().encode(bytes(1024)))
+        struct.pack_into("<i", data, 0, BOMB)
+        return bytes(data)
+    if name == "lzma":   # a small dictionary: the decoder's own memory is not the bomb's
+        return lzma.compress(zeros, filters=[{"id": lzma.FILTER_LZMA2, "dict_size": 1 << 16}])
+    return {"gzip": gzip.compress, "zlib": zlib.compress, "bz2": bz2.compress,
+            "zstd": numcodecs.Zstd().encode}[name](zeros)
+
+
+def _peak(call):
+    """``call()``'s outcome (a value or the exception) and the most bytes it had allocated."""
+    tracemalloc.start()
+    try:
+        outcome = call()
+    except Exception as error:   # the outcome is checked by the caller
+        outcome = error
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return outcome, peak
+
+
+@pytest.mark.parametrize("zarr_format", [2, 3])
+@pytest.mark.parametrize("name", CODECS)
+def test_every_compressor_reads_what_zarr_wrote(tmp_path, name, zarr_format):
+    # The bound refuses nothing zarr writes: every value read back, also once pickled (as
+    # cluster workers and dask's schedulers receive it).
+    _store(tmp_path / "a.zarr", name, zarr_format)
+    np.testing.assert_array_equal(_read(tmp_path / "a.zarr"), DATA)
+    level = pickle.loads(pickle.dumps(multiscale_source(str(tmp_path / "a.zarr")).levels[0]))
+    np.testing.assert_array_equal(level.read((slice(3, 11), slice(2, 12), slice(1, 8))),
+                                  DATA[3:11, 2:12, 1:8])
+
+
+def test_a_sharded_store_reads_what_zarr_wrote(tmp_path):
+    _store(tmp_path / "a.zarr", "gzip", 3, shards=(16, 8, 8))
+    np.testing.assert_array_equal(_read(tmp_path / "a.zarr"), DATA)
+
+
+@pytest.mark.parametrize("zarr_format", [2, 3])
+@pytest.mark.parametrize("name", CODECS)
+def test_a_compression_bomb_is_refused_before_it_inflates(tmp_path, name, zarr_format):
+    # catches (seen failing): Level not bounding its array and open_zarr returning zarr's
+    # array (the bomb inflated: peak 4-8 MB, a ValueError from zarr after the allocation).
+    chunk = _store(tmp_path / "a.zarr", name, zarr_format)
+    chunk.write_bytes(_bomb(name))
+    theirs, their_peak = _peak(lambda: zarr.open_array(str(tmp_path / "a.zarr"), mode="r")[:])
+    assert their_peak >= BOMB, (name, their_peak)   # it is a bomb, for zarr's own read
+    ours, our_peak = _peak(lambda: _read(tmp_path / "a.zarr", CHUNKS))
+    assert isinstance(ours, StoreReadError), ours
+    assert "compression bomb" in str(ours)
+    assert our_peak < BOMB // 4, (name, our_peak)
+
+
+def test_a_shard_s_inner_chunk_is_bounded_too(tmp_path):
+    # catches (seen failing): a shard's inner codecs left unwrapped (the bomb inside read).
+    _store(tmp_path / "a.zarr", "zlib", 3, shards=(8, 8, 8))
+    shard = tmp_path / "a.zarr" / "c" / "0" / "0" / "0"
+    bomb = zlib.compress(bytes(BOMB))
+    index = struct.pack("<QQ", 0, len(bomb))   # one inner chunk, at the shard's start
+    google_crc32c = pytest.importorskip("google_crc32c")
+    shard.write_bytes(bomb + index + struct.pack("<I", google_crc32c.value(index)))
+    theirs, their_peak = _peak(lambda: zarr.open_array(str(tmp_path / "a.zarr"), mode="r")[:])
+    assert their_peak >= BOMB, their_peak
+    ours, our_peak = _peak(lambda: _read(tmp_path / "a.zarr", CHUNKS))
+    assert isinstance(ours, StoreReadError) and "compression bomb" in str(ours), ours
+    assert our_peak < BOMB // 4, our_peak
+
+
+def test_a_stream_may_make_its_chunk_and_not_a_byte_more_than_its_checksums(tmp_path):
+    # catches (seen failing): the ceiling doubled (a chunk of 1,024 + 64 + 1 bytes was
+    # let through to zarr, which said it was damaged, not that it was a bomb).
+    chunk = _store(tmp_path / "a.zarr", "gzip", 2)
+    chunk.write_bytes(gzip.compress(np.full(CHUNKS, 5, "<i2").tobytes()))
+    np.testing.assert_array_equal(_read(tmp_path / "a.zarr")[:8, :8, :8], 5)
+    chunk.write_bytes(gzip.compress(bytes(1024 + 64 + 1)))
+    with pytest.raises(StoreReadError, match="compression bomb"):
+        _read(tmp_path / "a.zarr")
+
+
+def test_a_zstd_frame_that_leaves_out_its_size_must_make_its_chunk_exactly(tmp_path):
+    # catches (seen failing): such a frame handed to numcodecs unchecked (its 4 MB made).
+    chunk = _store(tmp_path / "a.zarr", "zstd", 3)
+    chunk.write_bytes(_zstd_frame_of_unstated_size(1024))   # 0x0707 = 1799 in each value
+    np.testing.assert_array_equal(_read(tmp_path / "a.zarr")[:8, :8, :8], 1799)
+    chunk.write_bytes(_zstd_frame_of_unstated_size(BOMB))
+    theirs, their_peak = _peak(lambda: zarr.open_array(str(tmp_path / "a.zarr"), mode="r")[:])
+    assert their_peak >= BOMB, their_peak
+    ours, our_peak = _peak(lambda: _read(tmp_path / "a.zarr", CHUNKS))
+    assert isinstance(ours, StoreReadError) and "did not make the 1,024 bytes" in str(ours)
+    assert our_peak < BOMB // 4, our_peak
+
+
+def test_an_xz_stream_asking_for_a_huge_dictionary_is_refused(tmp_path):
+    # catches (seen failing): the lzma decoder with no memory limit (zarr's own read
+    # allocated the 128 MiB dictionary the header asked for, to make 1 KB).
+    chunk = _store(tmp_path / "a.zarr", "lzma", 2)
+    chunk.write_bytes(lzma.compress(bytes(1024), filters=[
+        {"id": lzma.FILTER_LZMA2, "dict_size": 128 << 20}]))
+    theirs, their_peak = _peak(lambda: zarr.open_array(str(tmp_path / "a.zarr"), mode="r")[:])
+    assert their_peak >= 128 << 20, their_peak
+    ours, our_peak = _peak(lambda: _read(tmp_path / "a.zarr", CHUNKS))
+    assert isinstance(ours, StoreReadError) and "Memory usage limit" in str(ours), ours
+    assert our_peak < 32 << 20, our_peak
+
+
+@pytest.mark.parametrize("nbytes", [0, 255, 256, 65791, 65792, 1 << 20, (1 << 32) + 5])
+def test_the_zstd_content_size_is_read_from_every_width_of_its_field(nbytes):
+    # The frame header stores the size in 1, 2 (less 256), 4 or 8 bytes by how large it is.
+    # catches (seen failing): the 2-byte field read without its 256 offset (65791 -> 65535).
+    if nbytes > 1 << 30:   # a frame header written by hand: single segment, 8-byte size
+        frame = struct.pack("<IB", 0xFD2FB528, 0xE0) + struct.pack("<Q", nbytes) + bytes(3)
+    else:
+        frame = numcodecs.Zstd().encode(bytes(nbytes))
+    assert _zstd_content_size(memoryview(frame)) == nbytes
+
+
+def _uint16_bomb_store(path):
+    """An 8^3 uint16 label store of one gzip chunk, that chunk a bomb."""
+    array = zarr.create_array(str(path), shape=CHUNKS, chunks=CHUNKS, dtype="uint16",
+                              compressors=GzipCodec())
+    array[:] = 3
+    (path / "c" / "0" / "0" / "0").write_bytes(gzip.compress(bytes(BOMB)))
+    return zarr.open_array(str(path), mode="r")   # opened by the user, unchecked
+
+
+def test_a_label_array_the_user_opened_is_bounded_too(tmp_path):
+    # catches (seen failing): world_from_array reading the user's zarr array as given.
+    from pv_cubemarch.models.array_sources import world_from_array
+
+    array = _uint16_bomb_store(tmp_path / "labels.zarr")
+    outcome, peak = _peak(lambda: world_from_array(array, chunk_size=8, progress_bar=False))
+    assert isinstance(outcome, StoreReadError) and "compression bomb" in str(outcome), outcome
+    assert peak < BOMB // 4, peak
+
+
+def test_a_cluster_slab_of_a_zarr_array_is_bounded_too(tmp_path):
+    # catches (seen failing): split_grid handing zarr's array to dask as given.
+    pytest.importorskip("dask")
+    from pv_cubemarch.cluster.split_grid import _volume_parts
+
+    values = _volume_parts(_uint16_bomb_store(tmp_path / "v.zarr"), None, None, None)[0]
+    _peak(lambda: values[:8, :8, :8].compute(scheduler="sync"))   # dask's imports, once
+    outcome, peak = _peak(lambda: values[:8, :8, :8].compute(scheduler="sync"))
+    assert isinstance(outcome, StoreReadError) and "compression bomb" in str(outcome), outcome
+    assert peak < BOMB // 4, peak
