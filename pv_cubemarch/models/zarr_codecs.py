@@ -11,6 +11,7 @@ exactly the chunk's bytes. Other codecs decode as zarr decodes them.
 
 from __future__ import annotations
 
+import asyncio
 import bz2
 import dataclasses
 import functools
@@ -238,9 +239,9 @@ def _classes() -> dict:
             settings = self.inner.to_dict()
             nbytes = _chunk_bytes(chunk_spec.shape, chunk_spec.dtype)
             if nbytes is not None:
-                made = inflate(FORMATS[settings["name"]], chunk_bytes.as_numpy_array(),
-                               nbytes + SLACK, exact=nbytes,
-                               config=settings.get("configuration"))
+                made = await asyncio.to_thread(   # off zarr's loop, as its codecs decode
+                    inflate, FORMATS[settings["name"]], chunk_bytes.as_numpy_array(),
+                    nbytes + SLACK, exact=nbytes, config=settings.get("configuration"))
                 if made is not None:
                     return chunk_spec.prototype.buffer.from_bytes(made)
             return await self.inner._decode_single(chunk_bytes, chunk_spec)
