@@ -294,3 +294,26 @@ def test_nested_instancers_fanning_out_stop_at_a_thousand_nested_reads(tmp_path)
     with pytest.warns(cm.SceneWarning, match="nested instancers would read their prototypes"):
         scene = cm.load_scene(path)
     assert sum(m.mesh.n_cells for m in scene.meshes) < 1000
+
+
+def test_a_layer_named_by_an_expression_variable_is_checked_as_usd_evaluates_it(tmp_path):
+    # An asset path may be an expression over the layers' expressionVariables; USD opens
+    # the layer it evaluates to. catches (seen failing): expressions not evaluated (the
+    # deep sublayer and the deep reference, named through ${WHICH}, opened by USD).
+    (tmp_path / "deep.usda").write_text(_nested(1100))
+    (tmp_path / "fine.usda").write_text(HEAD + 'def Xform "World" {\n  def Cube "C" {\n  }\n}\n')
+    variables = '    expressionVariables = {\n        string WHICH = "deep"\n    }\n'
+    (tmp_path / "sub.usda").write_text(
+        '#usda 1.0\n(\n' + variables + '    subLayers = [@`"./${WHICH}.usda"`@]\n)\n')
+    with pytest.raises(SceneLoadError, match="deep.usda' nests blocks"):
+        cm.load_scene(tmp_path / "sub.usda")
+    (tmp_path / "ref.usda").write_text(
+        '#usda 1.0\n(\n' + variables + '    defaultPrim = "World"\n)\n'
+        'def Xform "World" (\n'
+        '    references = @`if(eq(${WHICH}, "deep"), "deep.usda", "fine.usda")`@\n)\n{\n}\n')
+    with pytest.raises(SceneLoadError, match="deep.usda' nests blocks"):
+        cm.load_scene(tmp_path / "ref.usda")
+    # the variable set otherwise: the fine layer is read, and its cube drawn
+    (tmp_path / "ref.usda").write_text((tmp_path / "ref.usda").read_text().replace(
+        'string WHICH = "deep"', 'string WHICH = "fine"'))
+    assert [mesh.name for mesh in cm.load_scene(tmp_path / "ref.usda").meshes]

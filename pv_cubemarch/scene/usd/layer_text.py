@@ -4,7 +4,8 @@ USD's text parser recurses per nested block: 20,000 nested prims took 13 s and 1
 open, 100,000 (a 2.3 MB file) crash the process inside ``Usd.Stage.Open``. Real scenes nest
 tens of levels; a layer nesting more than :data:`MAX_NESTING` blocks is refused unopened,
 and so is a stage whose text layers (sublayers, references, payloads: every ``@asset@``
-that names a text layer beside it) do.
+that names a text layer beside it, an expression such as ``@`"./${SHOT}.usda"`@`` as the
+layers' ``expressionVariables`` evaluate it) do.
 """
 
 from __future__ import annotations
@@ -25,31 +26,35 @@ _TOKENS = re.compile(rb'/\*.*?\*/|//[^\n]*'
                      re.DOTALL)
 
 
-def check_layer_nesting(path: Path, seen: set | None = None) -> None:
+def check_layer_nesting(path: Path, seen: set | None = None,
+                        variables: dict | None = None) -> None:
     """Raise ``SceneLoadError`` if the text layer ``path``, or one it names, nests too deep.
 
     A crate (binary) layer is read by Sdf for the layers it names; a ``.usdz`` package's
-    text layers are scanned in place.
+    text layers are scanned in place. ``variables``: the expression variables of the
+    layers that name this one (they override its own).
     """
     seen = set() if seen is None else seen
+    variables = variables or {}
     try:
         path = Path(path).resolve()
-        if path in seen or not path.is_file():
+        key = (path, repr(sorted(variables.items())))   # another context may name others
+        if key in seen or not path.is_file():
             return   # USD says what it cannot open
     except (OSError, RuntimeError, ValueError):   # a loop of links, a name too long
         return
-    seen.add(path)
+    seen.add(key)
     with open(path, "rb") as handle:
         head = handle.read(8)
         if head.startswith(b"#usda"):
-            _scan_text(head + handle.read(), path, path.parent, seen)
+            _scan_text(head + handle.read(), path, path.parent, seen, variables)
         elif head.startswith(b"PK"):
-            _scan_package(path, seen)
+            _scan_package(path, seen, variables)
         elif head.startswith(b"PXR-USDC"):
-            _scan_crate(path, seen)
+            _scan_crate(path, seen, variables)
 
 
-def _scan_package(path: Path, seen: set) -> None:
+def _scan_package(path: Path, seen: set, variables: dict) -> None:
     """Each text layer inside a ``.usdz`` (a zip, stored uncompressed)."""
     try:
         with zipfile.ZipFile(path) as package:
@@ -59,39 +64,53 @@ def _scan_package(path: Path, seen: set) -> None:
                         text = handle.read()
                     if text.startswith(b"#usda"):
                         _scan_text(text, Path(f"{path}[{member.filename}]"), path.parent,
-                                   seen)
+                                   seen, variables)
     except (zipfile.BadZipFile, OSError, RuntimeError):
         return   # USD says what it cannot open
 
 
-def _scan_crate(path: Path, seen: set) -> None:
+def _scan_crate(path: Path, seen: set, variables: dict) -> None:
     """The layers a crate layer names (Sdf reads a crate's specs without recursion)."""
+    layer = _sdf_layer(path)
+    if layer is None:
+        return
+    variables = {**dict(layer.expressionVariables), **variables}
+    for name in layer.GetCompositionAssetDependencies():
+        _follow(str(name), path.parent, seen, variables)
+
+
+def _sdf_layer(path: Path):
+    """``path`` opened by Sdf (safe once its nesting is checked), or ``None``."""
     from pxr import Sdf, Tf
 
     try:
-        layer = Sdf.Layer.FindOrOpen(str(path))
+        return Sdf.Layer.FindOrOpen(str(path))
     except Tf.ErrorException:
-        return
-    if layer is None:
-        return
-    for name in layer.GetCompositionAssetDependencies():
-        _follow(str(name), path.parent, seen)
+        return None
 
 
-def _follow(name: str, folder: Path, seen: set) -> None:
-    """Check the layer an asset path names, where it is a local file."""
+def _follow(name: str, folder: Path, seen: set, variables: dict) -> None:
+    """Check the layer an asset path names (an expression evaluated), where it is a file."""
+    if name.startswith("`"):
+        from pxr import Sdf
+
+        result = Sdf.VariableExpression(name).Evaluate(variables)
+        if result.errors or not isinstance(result.value, str):
+            return   # USD cannot resolve it either, and opens nothing for it
+        name = result.value
     name = name.split(":SDF_FORMAT_ARGS:")[0]
     if Path(name).suffix.lower() in (".usda", ".usd", ".usdc", ".usdz") and "://" not in name:
-        check_layer_nesting(folder / name, seen)
+        check_layer_nesting(folder / name, seen, variables)
 
 
-def _scan_text(text: bytes, path: Path, folder: Path, seen: set) -> None:
-    """Raise if ``text`` nests blocks too deep; check the layers its assets name."""
+def _scan_text(text: bytes, path: Path, folder: Path, seen: set, variables: dict) -> None:
+    """Raise if ``text`` nests blocks too deep; then check the layers its assets name."""
     depth = deepest = 0
+    names = []
     for token in _TOKENS.finditer(text):
         mark = token.group()
-        if mark.startswith(b"@"):   # an asset: another layer, checked in turn
-            _follow(mark.strip(b"@").decode("utf-8", "replace"), folder, seen)
+        if mark.startswith(b"@"):   # an asset: another layer, checked once this one is
+            names.append(mark.strip(b"@").decode("utf-8", "replace"))
         elif mark == b"{":
             depth += 1
             if depth > deepest:
@@ -103,3 +122,9 @@ def _scan_text(text: bytes, path: Path, folder: Path, seen: set) -> None:
                         "would crash or exhaust memory on it.")
         elif mark == b"}":
             depth = max(depth - 1, 0)
+    if any(name.startswith("`") for name in names):   # its own variables: Sdf may read it now
+        layer = _sdf_layer(path)
+        own = dict(layer.expressionVariables) if layer is not None else {}
+        variables = {**own, **variables}
+    for name in names:
+        _follow(name, folder, seen, variables)
