@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
 #: Regression tolerances (8-bit levels / fractions); see the module docstring.
 MAX_MEAN_ERROR = 0.6
@@ -46,6 +45,11 @@ def compare_images(image: np.ndarray, reference: np.ndarray) -> ImageErrors:
     a, b = to_uint8(image), to_uint8(reference)
     if a.shape != b.shape:
         raise ValueError(f"Image shapes differ: {a.shape} vs reference {b.shape}.")
+    from skimage.metrics import (  # here: scikit-image costs import pv_cubemarch 0.3 s
+        peak_signal_noise_ratio,
+        structural_similarity,
+    )
+
     diff = np.abs(a.astype(np.int16) - b.astype(np.int16))
     per_pixel = diff.max(axis=-1)
     psnr = float("inf") if not diff.any() else float(peak_signal_noise_ratio(b, a, data_range=255))

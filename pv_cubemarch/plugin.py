@@ -19,9 +19,9 @@ from .core.scalar_bar import drop_scalar_bar_mapper
 from .core.user_warnings import warn_user
 from .gl.draw_order import sort_far_to_near
 from .gl.frame_inputs import MultisamplePolicy, release_frame_inputs
+from .scene import usd  # its USD modules imported once a stage is read
 from .scene.io import load_scene
 from .scene.openvdb.image import read_vdb
-from .scene.usd import load_usd
 from .volume.binding import VolumeBinding
 
 
@@ -301,7 +301,7 @@ class CubemarchComponent:
 
 def read_usd(path: str, **kwargs) -> pyvista.MultiBlock:
     """``pyvista.read`` handler for .usd/.usda/.usdc/.usdz: the scene's meshes and volumes."""
-    return load_usd(path, progress_bar=kwargs.get("progress_bar")).to_multiblock()
+    return usd.load_usd(path, progress_bar=kwargs.get("progress_bar")).to_multiblock()
 
 
 def read_vdb_file(path: str, **kwargs) -> pyvista.DataSet:

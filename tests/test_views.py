@@ -592,8 +592,8 @@ def test_a_closed_view_leaves_trames_registries():
     view = cm.live_view(SCENE, size=SIZE)
     name = view.server.name
     view.close()
-    assert all(name not in registry for registry in live.SERVER_REGISTRIES)
-    assert len(live.SERVER_REGISTRIES) == 2
+    assert all(name not in registry for registry in live.server_registries())
+    assert len(live.server_registries()) == 2
 
 
 def test_a_scenes_joint_volumes_are_one_item(plotter_factory):

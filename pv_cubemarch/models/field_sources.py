@@ -14,13 +14,11 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pyvista
 import vtk
-from scipy import sparse
-from scipy.sparse import linalg as sparse_linalg
-from scipy.spatial import cKDTree
 from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 
 from ..core.errors import VolumeDataError, VolumeDataWarning
@@ -30,6 +28,9 @@ from .image_files import read_data_file
 from .surface import SplineField, interpolating_coefficients, point_hull
 from .volume import checked_transform
 from .voxels import image_samples, samples_at_points
+
+if TYPE_CHECKING:   # scipy is imported where it is used
+    import scipy.sparse
 
 #: Distances evaluated per batch (one step of the progress bar).
 BATCH = 65536
@@ -263,6 +264,9 @@ def point_cloud_field(points, normals, cells: int = 32, *, offset: float = 0.5,
     data = _basis_rows((samples - start) / size, counts, shape)
     smooth = _second_differences(shape) * (float(smoothness) * np.sqrt(len(samples)
                                                                        / np.prod(shape)))
+    from scipy import sparse  # here: scipy's sparse and spatial cost every import 0.2 s
+    from scipy.sparse import linalg as sparse_linalg
+
     system = (data.T @ data + smooth.T @ smooth).tocsr()
     rhs = data.T @ targets
     guess = _nearest_signed_distance(points, normals, start, size, shape)
@@ -288,8 +292,10 @@ def point_cloud_field(points, normals, cells: int = 32, *, offset: float = 0.5,
     return SplineField(coefficients, grid_from_index, name=name)
 
 
-def _basis_rows(x: np.ndarray, counts, shape) -> sparse.csr_matrix:
+def _basis_rows(x: np.ndarray, counts, shape) -> scipy.sparse.csr_matrix:
     """Per cell-space point, its 27 B-spline basis weights on the coefficients."""
+    from scipy import sparse
+
     cell = np.clip(np.floor(x).astype(np.int64), 0, np.asarray(counts) - 1)
     u = x - cell
     weights = [np.stack([(1 - v) ** 2 / 2, 0.5 + v - v * v, v * v / 2], axis=-1)
@@ -308,8 +314,10 @@ def _basis_rows(x: np.ndarray, counts, shape) -> sparse.csr_matrix:
                              shape=(len(x), int(np.prod(shape))))
 
 
-def _second_differences(shape) -> sparse.csr_matrix:
+def _second_differences(shape) -> scipy.sparse.csr_matrix:
     """Rows ``c[i-1] - 2 c[i] + c[i+1]`` along each axis of a coefficient grid."""
+    from scipy import sparse
+
     blocks = []
     for axis in range(3):
         n = shape[axis]
@@ -324,6 +332,8 @@ def _second_differences(shape) -> sparse.csr_matrix:
 
 def _nearest_signed_distance(points, normals, start, size, shape) -> np.ndarray:
     """Each coefficient's centre's distance along its nearest point's normal, negated."""
+    from scipy.spatial import cKDTree
+
     axes = [start[a] + (np.arange(shape[a]) - 0.5) * size for a in range(3)]
     centres = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     _, nearest = cKDTree(points).query(centres)

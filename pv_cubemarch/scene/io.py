@@ -8,10 +8,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..core.errors import SceneLoadError
+from . import usd
 from .grids import GRID_SUFFIXES, load_grid_scene
 from .meshes import MESH_SUFFIXES, load_mesh_scene
 from .model import Scene
-from .usd import USD_SUFFIXES, load_usd
+from .usd import USD_SUFFIXES
 
 
 def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
@@ -69,8 +70,8 @@ def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
         raise SceneLoadError(f"time applies to USD stages ({', '.join(USD_SUFFIXES)}), not "
                              f"{suffix!r} files, which hold no animation.")
     if suffix in USD_SUFFIXES:
-        return load_usd(path, progress_bar=progress_bar, as_voxels=as_voxels, time=time,
-                        strict=strict)
+        return usd.load_usd(path, progress_bar=progress_bar, as_voxels=as_voxels, time=time,
+                            strict=strict)   # USD's modules are imported here, once read
     if suffix in MESH_SUFFIXES:
         return load_mesh_scene(path)
     if suffix in GRID_SUFFIXES:

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 import pyvista
-import trimesh
 
 from ..core.errors import SceneLoadError
 from .model import Scene, SceneMesh
@@ -16,6 +15,8 @@ MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
 
 def load_mesh_scene(path: str | Path) -> Scene:
     """Load every mesh of ``path`` with its scene-graph transform and base colour."""
+    import trimesh  # here: trimesh costs every import of pv_cubemarch 0.1 s
+
     path = Path(path)
     if not path.is_file():
         raise SceneLoadError(f"Mesh file {str(path)!r} does not exist.")

@@ -10,12 +10,15 @@ trame, trame-vtk and trame-vuetify are the optional ``jupyter`` extra; without t
 from __future__ import annotations
 
 import asyncio
+import functools
+import importlib
 import importlib.util
 import os
 import socket
 import subprocess
 import sys
 import tempfile
+import types
 import webbrowser
 
 import pyvista
@@ -27,16 +30,36 @@ from .guard import guard, warn_if_exposed, with_token
 from .knobs import AUTO, Knob
 from .session import TuningSession
 
-try:
-    from trame.app import get_server
-    from trame.ui.vuetify3 import SinglePageWithDrawerLayout
-    from trame.widgets import html, vuetify3
-    from trame.widgets import vtk as vtk_widgets
-except ImportError:                    # the optional extra is not installed
-    get_server = None
-
 INSTALL = "install the optional extra: pip install 'pv_cubemarch[jupyter]' (trame, trame-vtk, " \
     "trame-vuetify, nest-asyncio2)"
+
+#: The trame modules the pages use (the ``jupyter`` extra).
+TRAME_MODULES = ("trame.app", "trame.ui.vuetify3", "trame.widgets.html",
+                 "trame.widgets.vuetify3", "trame.widgets.vtk")
+
+
+@functools.cache
+def has_trame() -> bool:
+    """Whether the live view's trame modules are installed (found, not imported)."""
+    try:
+        return all(importlib.util.find_spec(name) is not None for name in TRAME_MODULES)
+    except (ImportError, ValueError):   # a parent package that fails to import
+        return False
+
+
+def trame():
+    """The trame pieces the pages use, imported when a page is made.
+
+    ``import pv_cubemarch`` does not pay their 0.15 s. An ImportError says how to install
+    them where they are missing.
+    """
+    if not has_trame():
+        raise ImportError(f"pv_cubemarch's live view needs trame: {INSTALL}.")
+    modules = [importlib.import_module(name) for name in TRAME_MODULES]
+    return types.SimpleNamespace(
+        get_server=modules[0].get_server, SinglePageWithDrawerLayout=(
+            modules[1].SinglePageWithDrawerLayout), html=modules[2], vuetify3=modules[3],
+        vtk_widgets=modules[4])
 
 
 def state_name(kind: str, knob: Knob) -> str:
@@ -66,8 +89,7 @@ def build_app(scene: Scene | str | pyvista.Plotter, size: tuple[int, int] = (800
         ``(server, layout, session)``; only a page holding ``layout.cubemarch_token``
         (in its URL, as ``layout.url`` and the iframe give it) may connect.
     """
-    if get_server is None:
-        raise ImportError(f"pv_cubemarch's live view needs trame: {INSTALL}.")
+    get_server = trame().get_server
     # trame-vtklocal (pulled in by some trame installs) downloads WebAssembly when it
     # starts; an empty local folder keeps it offline.
     if "VTK_WASM_DIR_OVERRIDE" not in os.environ:
@@ -265,7 +287,9 @@ def _typed(knob: Knob, value):
 
 def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size, show_panel: bool):
     """The page: a drawer of knobs by kind and the server-rendered view."""
-    with SinglePageWithDrawerLayout(server, show_drawer=show_panel) as layout:
+    pieces = trame()
+    html, vuetify3, vtk_widgets = pieces.html, pieces.vuetify3, pieces.vtk_widgets
+    with pieces.SinglePageWithDrawerLayout(server, show_drawer=show_panel) as layout:
         layout.title.set_text("pv_cubemarch")
         with layout.drawer:
             for kind in session.kinds():
@@ -294,6 +318,7 @@ def _layout(server, session: TuningSession, plotter: pyvista.Plotter, size, show
 
 def _legend() -> None:
     """The label ids listed, each with a swatch of its colour (faint when hidden)."""
+    html = trame().html
     with html.Div(id="label-legend", classes="mx-2 mb-2 text-caption",
                   style="max-height: 12em; overflow-y: auto;"):
         with html.Div(v_for="entry in label_legend", key=("entry.id",),
@@ -312,6 +337,7 @@ def _control(kind: str, knob: Knob) -> None:
                   density="compact", classes="mx-2", hide_details=True)
     if knob.techniques:
         common["disabled"] = (f"!{list(knob.techniques)!r}.includes({kind}__technique)",)
+    vuetify3 = trame().vuetify3
     if knob.control in ("select", "multiselect"):
         vuetify3.VSelect(items=(repr(list(knob.choices)),), multiple=knob.control ==
                          "multiselect", chips=knob.control == "multiselect", **common)

@@ -22,15 +22,8 @@ from ..cluster.sort_last import SplitRenderer
 from ..core.camera import Camera
 from ..core.frame_errors import observe
 from ..core.rendering import offscreen_plotter, render_frame
-from .app import INSTALL, get_server
+from .app import trame
 from .guard import guard, warn_if_exposed, with_token
-
-try:
-    from trame.ui.vuetify3 import SinglePageWithDrawerLayout
-    from trame.widgets import html
-    from trame.widgets import vtk as vtk_widgets
-except ImportError:                    # the optional extra is not installed
-    SinglePageWithDrawerLayout = None
 
 #: Seconds between looks at the frame in flight.
 POLL_S = 0.05
@@ -124,17 +117,17 @@ def build_cluster_app(display: ClusterDisplay, name: str = "cubemarch-cluster"):
     The page's mouse turns the display's camera; frames from the cluster replace the view
     as they arrive, with the time each took and how many have come.
     """
-    if get_server is None or SinglePageWithDrawerLayout is None:
-        raise ImportError(f"pv_cubemarch's live view needs trame: {INSTALL}.")
+    pieces = trame()
+    html, vtk_widgets = pieces.html, pieces.vtk_widgets
     render_frame(display.plotter)
-    server = get_server(name, client_type="vue3")
+    server = pieces.get_server(name, client_type="vue3")
     state, ctrl = server.state, server.controller
     state.trame__title = "pv_cubemarch: cluster"
     state.cluster_text = "asking the cluster for the first frame"
     split = display.renderer.split
     width, height = display.renderer.size
     token = guard(server)
-    with SinglePageWithDrawerLayout(server) as layout:
+    with pieces.SinglePageWithDrawerLayout(server) as layout:
         layout.title.set_text("pv_cubemarch: a split grid drawn by a Dask cluster")
         with layout.drawer:
             html.Div(f"{len(split.partitions)} slabs on "

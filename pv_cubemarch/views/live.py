@@ -15,15 +15,20 @@ import pyvista
 
 from ..scene.model import Scene
 from .app import INSTALL, build_app, show_session
-
-try:
-    from trame.app.core import AVAILABLE_SERVERS
-    from trame_vtk.modules.vtk import HELPERS_PER_SERVER
-    #: trame's registries of servers by name (the server, the vtk view's helper).
-    SERVER_REGISTRIES = (AVAILABLE_SERVERS, HELPERS_PER_SERVER)
-except ImportError:                     # the optional extra is not installed
-    SERVER_REGISTRIES = ()
 from .session import TuningSession
+
+
+def server_registries() -> tuple:
+    """The registries trame keeps of servers by name (the server, the vtk view's helper).
+
+    Imported once a view is closed (a view has imported trame by then).
+    """
+    try:
+        from trame.app.core import AVAILABLE_SERVERS
+        from trame_vtk.modules.vtk import HELPERS_PER_SERVER
+    except ImportError:                 # the optional extra is not installed
+        return ()
+    return (AVAILABLE_SERVERS, HELPERS_PER_SERVER)
 
 try:
     import nest_asyncio2
@@ -77,7 +82,7 @@ class LiveView:
         """Stop the server and let it go; a view made from a scene also closes its plotter."""
         if self.running:
             _run_now(self.server.stop())
-        for registry in SERVER_REGISTRIES:        # trame keeps every server (and its view)
+        for registry in server_registries():        # trame keeps every server (and its view)
             registry.pop(self.server.name, None)
         if self._owns_plotter:
             self.session.plotter.close()

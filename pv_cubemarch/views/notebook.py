@@ -18,7 +18,7 @@ import warnings
 import pyvista
 from pyvista.jupyter.notebook import show_static_image
 
-from .app import get_server
+from .app import has_trame
 from .live import LiveView, live_view
 
 #: PyVista's backends that our wrappers take over for plotters holding our actors.
@@ -86,7 +86,7 @@ def register_notebook_backends() -> bool:
     registered: PyVista's own fallbacks (a static image) stay, and they draw our
     techniques correctly.
     """
-    if get_server is None:
+    if not has_trame():
         return False
     before = {b.name: b.handler for b in pyvista.registered_jupyter_backends()}
     for name in WRAPPED_BACKENDS:

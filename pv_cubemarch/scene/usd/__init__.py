@@ -41,7 +41,21 @@ a cell centred on each), drawn with :func:`pv_cubemarch.add_surface`; its option
 ``specular``, ``specularPower``) and ``cubemarch:color``, checked when the stage is loaded.
 """
 
-from .attributes import SURFACE_OPTIONS, VOLUME_OPTIONS, VOXEL_OPTIONS
-from .stage import USD_SUFFIXES, load_usd
+import importlib
+
+#: The suffixes read as USD stages.
+USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
+
+#: Names imported on first use, and their modules: USD's own modules take 0.16 s to import,
+#: which ``import pv_cubemarch`` does not pay.
+_LAZY = {"SURFACE_OPTIONS": "attributes", "VOLUME_OPTIONS": "attributes",
+         "VOXEL_OPTIONS": "attributes", "load_usd": "stage"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = ["SURFACE_OPTIONS", "USD_SUFFIXES", "VOLUME_OPTIONS", "VOXEL_OPTIONS", "load_usd"]

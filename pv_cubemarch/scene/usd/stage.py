@@ -29,7 +29,6 @@ from .primvars import cofactor, with_winding_reversed
 from .shapes import PRIMITIVES, is_template, read_curves, read_points, read_primitive
 from .volumes import is_field, read_volume
 
-USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 #: Prim types read for what they hold (children, bindings) rather than drawn themselves.
 CONTAINERS = ("", "Xform", "Scope", "Material", "Shader", "NodeGraph", "GeomSubset",
               "SkelRoot", "OpenVDBAsset", "Field3DAsset", "PluginLight", "LightFilter")
