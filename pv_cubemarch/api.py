@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pyvista
-import vtk
 
+from .core import vtk_classes as vtk
 from .core.errors import RefusedOptionsError, VolumeDataError
 from .core.frame_errors import observe
 from .core.mesh_keywords import SURFACE as SURFACE_REFUSED

@@ -9,10 +9,10 @@ from __future__ import annotations
 import weakref
 
 import pyvista
-import vtk
 from PIL import Image
 
 from .api import add_surface, add_volume, add_voxels
+from .core import vtk_classes as vtk
 from .core.frame_errors import observe
 from .core.rendering import check_window_size, render_frame, render_image
 from .core.scalar_bar import drop_scalar_bar_mapper

@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 import pyvista
-import vtk
 
 from ..api import add_volume
 from ..cluster.offload import Offload
+from ..core import vtk_classes as vtk
 from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.registry import describe_setting, techniques

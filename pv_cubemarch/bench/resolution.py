@@ -19,9 +19,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import vtk
 
 from ..cluster.offload import Offload
+from ..core import vtk_classes as vtk
 from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.rendering import read_pixels

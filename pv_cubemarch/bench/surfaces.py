@@ -24,11 +24,11 @@ from pathlib import Path
 
 import numpy as np
 import pyvista
-import vtk
 from pyvista import examples as pyvista_examples
 
 from ..api import add_surface
 from ..cluster.offload import Offload
+from ..core import vtk_classes as vtk
 from ..core.camera import Camera
 from ..core.progress import progress
 from ..core.rendering import offscreen_plotter, read_depth, read_pixels, render_frame

@@ -7,9 +7,9 @@ import weakref
 
 import numpy as np
 import pyvista
-import vtk
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
+from . import vtk_classes as vtk
 from .errors import PlotterClosedError, RefusedChangeError
 from .frame_errors import collecting_frame_errors, raise_frame_errors
 from .offscreen import configure_offscreen

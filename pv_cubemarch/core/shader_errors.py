@@ -9,8 +9,7 @@ from __future__ import annotations
 import contextlib
 import re
 
-import vtk
-
+from . import vtk_classes as vtk
 from .errors import GpuLimitError, ShaderCompileError
 from .frame_errors import observe
 

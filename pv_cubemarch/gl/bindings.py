@@ -10,9 +10,9 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from .box import render_pass_of
 from .frame_inputs import frame_inputs

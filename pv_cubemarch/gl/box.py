@@ -14,7 +14,8 @@ from contextlib import contextmanager
 
 import numpy as np
 import pyvista
-import vtk
+
+from ..core import vtk_classes as vtk
 
 #: The point array of a box's corners' moves outward (see :func:`box_polydata`).
 GROW = "cm_grow"

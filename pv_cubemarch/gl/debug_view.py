@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from .bindings import ShaderBindings
 from .handle import DrawnBinding
 from .shaders import Replacement, ShaderRecipe

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLFramebufferObject, vtkTextureObject
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from .bindings import TextureUnitLedger
 from .box import props_size

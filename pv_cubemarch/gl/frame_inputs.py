@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import itertools
 
-import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from .box import drawing_framebuffer, drawn_viewport, pass_viewport_now
 

@@ -13,8 +13,8 @@ import weakref
 from collections.abc import Callable
 
 import numpy as np
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from ..models.lights import VolumeLight
 from .bindings import ShaderBindings

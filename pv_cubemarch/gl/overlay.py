@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 import pyvista
-import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLGL2PSHelper
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from ..core.user_warnings import warn_user
 from .box import place_by_user_matrix

@@ -5,7 +5,6 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 
 import numpy as np
-import vtk
 from vtkmodules.vtkRenderingOpenGL2 import (
     vtkOpenGLFramebufferObject,
     vtkOpenGLQuadHelper,
@@ -13,6 +12,7 @@ from vtkmodules.vtkRenderingOpenGL2 import (
     vtkTextureObject,
 )
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from .bindings import TextureUnitLedger, UniformSource, set_uniform
 from .shaders import ShaderRecipe, watch_shader_errors

@@ -24,9 +24,9 @@ one drawn from the overlay would miss the shading. Said once.
 
 from __future__ import annotations
 
-import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLFramebufferObject, vtkTextureObject
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from ..core.user_warnings import warn_user
 from .bindings import ShaderBindings, TextureUnitLedger

@@ -14,8 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import vtk
-
+from ..core import vtk_classes as vtk
 from .box import box_polydata
 from .reduced_draw import ReducedDraw
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-import vtk
 from vtkmodules.util.numpy_support import numpy_to_vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLVertexBufferObject, vtkTextureObject
 
+from ..core import vtk_classes as vtk
 from ..core.errors import GpuLimitError
 from .sub_upload import (
     GL_OUT_OF_MEMORY,

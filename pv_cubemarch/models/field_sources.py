@@ -18,9 +18,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pyvista
-import vtk
 from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 
+from ..core import vtk_classes as vtk
 from ..core.errors import VolumeDataError, VolumeDataWarning
 from ..core.progress import progress
 from ..core.user_warnings import warn_user

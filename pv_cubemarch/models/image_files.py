@@ -20,8 +20,8 @@ import warnings
 from pathlib import Path
 
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..core.budgets import host_budget
 from ..core.errors import SceneLoadError
 from .sandboxed_read import probe_read

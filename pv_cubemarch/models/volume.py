@@ -7,9 +7,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pyvista
-import vtk
 from matplotlib.colors import ListedColormap
 
+from ..core import vtk_classes as vtk
 from ..core.errors import VolumeDataError, VolumeDataWarning
 from ..core.user_warnings import warn_user
 from .transfer import TransferFunction, shift_value

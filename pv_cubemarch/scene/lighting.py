@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from .parts import SceneLight
 from .textures import srgb_to_linear, stored_texels, unit_rgba
 

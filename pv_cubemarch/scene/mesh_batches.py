@@ -15,8 +15,8 @@ from dataclasses import fields
 
 import numpy as np
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from .materials import PrimvarInput
 from .parts import SceneMesh
 

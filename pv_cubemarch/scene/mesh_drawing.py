@@ -12,8 +12,8 @@ from dataclasses import replace
 
 import numpy as np
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..gl.shaders import Replacement, ShaderRecipe
 from .materials import PrimvarInput, SurfaceMaterial, TextureInput
 from .parts import SceneMesh

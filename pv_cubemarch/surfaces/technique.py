@@ -23,8 +23,8 @@ import warnings
 
 import numpy as np
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..core.gl_limits import MAX_TEXTURE_SIZE
 from ..core.registry import Technique, register_technique
 from ..gl.bindings import FloatArray, ShaderBindings

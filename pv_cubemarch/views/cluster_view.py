@@ -15,10 +15,10 @@ import socket
 import time
 
 import numpy as np
-import vtk
 from vtkmodules.util.numpy_support import numpy_to_vtk
 
 from ..cluster.sort_last import SplitRenderer
+from ..core import vtk_classes as vtk
 from ..core.camera import Camera
 from ..core.frame_errors import observe
 from ..core.rendering import offscreen_plotter, render_frame

@@ -8,8 +8,8 @@ once and share the volume's data; the one not chosen is hidden for the frame.
 from __future__ import annotations
 
 import numpy as np
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from ..core.registry import Technique, register_technique
 from ..gl.box import camera_matrices, drawn_viewport

@@ -13,8 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..core.rendering import needs_open_plotter
 from ..core.user_warnings import warn_user
 from ..gl.bindings import FloatArray, ShaderBindings

@@ -12,8 +12,8 @@ when they move.
 from __future__ import annotations
 
 import numpy as np
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..gl.bindings import FloatArray
 
 #: VTK's limit: a mapper takes at most six clipping planes.

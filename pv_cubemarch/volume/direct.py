@@ -11,8 +11,8 @@ upsamples its result. This is the baseline the cube-map technique is measured ag
 from __future__ import annotations
 
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from ..core.registry import Sweep, Technique, register_technique
 from ..gl.bindings import ShaderBindings

@@ -13,9 +13,9 @@ uploaded bricks, with that frame's depth.
 from __future__ import annotations
 
 import numpy as np
-import vtk
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
+from ..core import vtk_classes as vtk
 from ..gl.box import drawn_viewport
 
 

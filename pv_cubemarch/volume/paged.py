@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..core.errors import VolumeDataWarning
 from ..core.frame_errors import observe
 from ..core.user_warnings import warn_user

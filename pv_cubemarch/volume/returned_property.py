@@ -12,8 +12,8 @@ from dataclasses import replace
 
 import numpy as np
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..core.errors import RefusedChangeError, VolumeDataError
 from ..core.user_warnings import warn_user
 from ..models.group import VolumeGroup

@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 import pyvista
-import vtk
 from pyvista.plotting.mapper import GPUVolumeRayCastMapper
 from pyvista.plotting.volume_property import VolumeProperty
 
+from ..core import vtk_classes as vtk
 from ..gl.box import place_by_user_matrix
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..models.group import VolumeGroup

@@ -11,9 +11,9 @@ exponential opacity correction for the real segment length and early ray termina
 from __future__ import annotations
 
 import pyvista
-import vtk
 from vtkmodules.vtkRenderingOpenGL2 import vtkTextureObject
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from ..core.registry import Sweep, Technique, register_technique
 from ..core.user_warnings import warn_user

@@ -24,8 +24,8 @@ from dataclasses import replace
 
 import numpy as np
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..core.frame_errors import observe
 from ..core.rendering import needs_open_plotter
 from ..gl.box import camera_matrices

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 import pyvista
-import vtk
 
+from ..core import vtk_classes as vtk
 from ..gl.bindings import ShaderBindings
 from ..gl.box import camera_matrices, near_plane_reaches, place_box, quads_polydata
 from ..gl.face_depth import FaceDepthPass
