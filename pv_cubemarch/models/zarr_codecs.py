@@ -3,10 +3,13 @@
 zarr's codecs decode whatever a chunk's bytes say: a 1 KB zlib or bz2 chunk inflated to
 gigabytes before zarr saw it was the wrong size, and a blosc, lz4 or zstd header claiming
 2 GB had that much allocated. :func:`bounded_array` opens the same array with each
-compressor wrapped: a stream (gzip, zlib, bz2, lzma) is inflated to at most the chunk's
-bytes, a header that states its size (blosc, lz4, zstd) must state no more before the
-chunk is decoded, and a zstd frame that does not state it is decoded into a buffer of
-exactly the chunk's bytes. Other codecs decode as zarr decodes them.
+compressor wrapped (zarr v2 filters that compress too, and a shard's inner codecs). Where
+the bytes a compressor must make are known (the first one after the chunk's bytes, as
+zarr and numcodecs write them), it is decoded into exactly that many; elsewhere its
+output is bounded by the chunk's bytes and a compressor's worst overhead: a stream
+(gzip, zlib, bz2, lzma) is inflated to at most that, and a header that states its size
+(blosc, lz4, zstd: every frame's) must state no more. Other codecs decode as zarr decodes
+them.
 """
 
 from __future__ import annotations
@@ -25,12 +28,16 @@ import numpy as np
 
 from ..core.errors import StoreReadError
 
-#: Bytes a compressor's output may exceed the chunk by: a checksum codec's few bytes.
-SLACK = 64
+#: A stream's members (gzip, bz2 and xz concatenate them); zarr's writers write one.
+MAX_MEMBERS = 64
 
-#: How many times the chunk's bytes a zarr v2 compressor may make when filters follow it
-#: (an ``astype`` filter may widen a float16 chunk into float64 values).
+#: How many times the chunk's bytes a zarr v2 compressor may make when a filter that may
+#: change the values' size follows it (an ``astype`` may widen float16 into float64).
 FILTER_WIDENING = 8
+
+#: v2 filters that keep the values' bytes (or add a checksum's few).
+SIZE_KEEPING_FILTERS = ("shuffle", "bitround", "crc32", "crc32c", "adler32",
+                        "fletcher32", "jenkins_lookup3")
 
 #: The memory an lzma stream's decoder may take (its dictionary): xz's largest preset needs
 #: 65 MiB; a header may ask for 4 GiB.
@@ -42,55 +49,85 @@ FORMATS = {"gzip": "gzip", "numcodecs.gzip": "gzip", "zlib": "zlib", "numcodecs.
            "zstd": "zstd", "numcodecs.zstd": "zstd", "blosc": "blosc",
            "numcodecs.blosc": "blosc", "lz4": "lz4", "numcodecs.lz4": "lz4"}
 
+_ZSTD_MAGIC = 0xFD2FB528
 
-def inflate(kind: str, data, ceiling: int, *, exact: int | None = None,
-            config: dict | None = None) -> bytes | None:
-    """``data`` of format ``kind`` inflated, refused past ``ceiling`` bytes.
 
-    Returns the bytes for a stream format, ``None`` once a sized header has been checked
-    (its codec then decodes it). ``exact``: the bytes a zstd frame of unstated size must
-    make (``None``: such a frame is refused). ``config``: an lzma codec's settings.
+def ceiling_of(nbytes: int) -> int:
+    """The most a compressor inside a chain may make for a chunk of ``nbytes``.
+
+    The bytes and the worst overhead of compressing incompressible ones (zstd's and bz2's
+    about 1 %, deflate's 5 bytes a block, blosc's 16), with room to spare.
+    """
+    return nbytes + nbytes // 64 + (64 << 10)
+
+
+def inflate(kind: str, data, *, chunk: int, exact: int | None, config: dict | None = None,
+            ceiling: int | None = None) -> bytes | None:
+    """``data`` of format ``kind`` inflated, or refused past what its chunk may make.
+
+    ``chunk``: the chunk's bytes (for messages); ``exact``: the bytes this compressor must
+    make, where known; else ``ceiling`` (default :func:`ceiling_of` ``chunk``) bounds them.
+    Returns the bytes for a stream format and for zstd where ``exact`` is known, ``None``
+    once a sized header has been checked (its codec then decodes it). ``config``: an lzma
+    codec's settings.
     """
     data = memoryview(data).cast("B")
+    bound = exact if exact is not None else (ceiling if ceiling is not None
+                                             else ceiling_of(chunk))
     if kind in ("gzip", "zlib", "bz2", "lzma"):
-        return _stream(kind, bytes(data), ceiling, config or {})
+        return _stream(kind, data, bound, chunk, config or {})
+    if kind == "zstd":
+        return _zstd(data, bound, chunk, exact)
     claimed = _claimed_size(kind, data)
-    if claimed is None and kind == "zstd":
-        if exact is None:
-            raise StoreReadError("a zstd chunk does not say its size, and what it must make "
-                                 "is not known here: refused (a compression bomb cannot be "
-                                 "told from it).")
-        return _zstd_exact(data, exact)
-    if claimed is not None and claimed > ceiling:
-        raise _bomb(kind, f"says it makes {claimed:,} bytes", ceiling)
+    if claimed > bound:
+        raise _bomb(kind, f"says it makes {claimed:,} bytes, more than the {bound:,} a "
+                    f"chunk of {chunk:,} bytes may make")
     return None
 
 
-def _bomb(kind: str, what: str, ceiling: int) -> StoreReadError:
-    return StoreReadError(f"a chunk compressed with {kind} {what}, more than the {ceiling:,} "
-                          "its chunk holds: refused (a compression bomb, or metadata that lies).")
+def _bomb(kind: str, what: str) -> StoreReadError:
+    return StoreReadError(f"a chunk compressed with {kind} {what}: refused (a compression "
+                          "bomb, or metadata that lies).")
 
 
-def _stream(kind: str, data: bytes, ceiling: int, config: dict) -> bytes:
-    """A stream inflated member by member (gzip, bz2, xz concatenate them), to ``ceiling``."""
-    pieces, total = [], 0
-    while True:
+def _damaged(kind: str, what: str) -> StoreReadError:
+    return StoreReadError(f"a chunk compressed with {kind} {what}: the store is damaged "
+                          "there.")
+
+
+def _stream(kind: str, data: memoryview, bound: int, chunk: int, config: dict) -> bytes:
+    """A stream inflated member by member, to ``bound`` bytes, as the codec reads it."""
+    pieces, total, members = [], 0, 0
+    rest = bytes(data)
+    while rest:
+        members += 1
+        if members > MAX_MEMBERS:
+            raise _bomb(kind, f"holds more than {MAX_MEMBERS} streams")
         decoder = _decoder(kind, config)
         try:
-            piece = decoder.decompress(data, ceiling + 1 - total)
-        except lzma.LZMAError as error:   # past the memory limit, or not a stream
-            raise StoreReadError(f"an lzma chunk could not be decoded ({error}): "
-                                 "refused.") from error
+            piece = decoder.decompress(rest, bound + 1 - total)
+        except (zlib.error, OSError, EOFError, lzma.LZMAError) as error:
+            if pieces and kind in ("bz2", "lzma"):   # bz2 and lzma ignore a tail not theirs
+                break
+            if isinstance(error, lzma.LZMAError) and "limit" in str(error):
+                raise StoreReadError(
+                    f"a chunk compressed with lzma asks for a dictionary of more than "
+                    f"{LZMA_MEMORY:,} bytes (xz's largest preset needs 65 MiB): refused (a "
+                    "compression bomb, or metadata that lies).") from error
+            raise _damaged(kind, f"could not be decoded ({error})") from error
         total += len(piece)
         pieces.append(piece)
-        if total > ceiling:
-            raise _bomb(kind, f"inflates past {ceiling:,} bytes", ceiling)
+        if total > bound:
+            raise _bomb(kind, f"inflates past {bound:,} bytes, the most a chunk of {chunk:,} "
+                        "bytes may make")
         if not decoder.eof:
-            raise StoreReadError(f"a chunk compressed with {kind} ends before its stream does: "
-                                 "the store is damaged there.")
-        data = decoder.unused_data
-        if kind == "zlib" or not data.strip(b"\0"):   # zlib reads one stream; padding ends
-            return b"".join(pieces)
+            raise _damaged(kind, "ends before its stream does")
+        rest = decoder.unused_data
+        if kind == "zlib":   # zlib reads one stream
+            break
+        if kind == "gzip":   # gzip skips zeros between and after its members
+            rest = rest.lstrip(b"\0")
+    return b"".join(pieces)
 
 
 def _decoder(kind: str, config: dict):
@@ -110,44 +147,94 @@ def _decoder(kind: str, config: dict):
     return lzma.LZMADecompressor(format=fmt, filters=filters)
 
 
-def _claimed_size(kind: str, data: memoryview) -> int | None:
-    """The decoded size a sized format's header states (``None``: a zstd frame's is unset)."""
+def _claimed_size(kind: str, data: memoryview) -> int:
+    """The decoded size a blosc or lz4 header states."""
     if kind == "blosc":
         if len(data) < 16:
-            raise StoreReadError("a blosc chunk is shorter than its 16-byte header: damaged.")
+            raise _damaged(kind, "is shorter than its 16-byte header")
         return struct.unpack_from("<I", data, 4)[0]
-    if kind == "lz4":
-        if len(data) < 4:
-            raise StoreReadError("an lz4 chunk is shorter than its 4-byte size: damaged.")
-        return struct.unpack_from("<i", data, 0)[0]
-    return _zstd_content_size(data)
+    if len(data) < 4:
+        raise _damaged(kind, "is shorter than its 4-byte size")
+    return struct.unpack_from("<i", data, 0)[0]
 
 
-def _zstd_content_size(data: memoryview) -> int | None:
-    """A zstd frame header's content size, or ``None`` where the frame leaves it out."""
-    if len(data) < 6 or struct.unpack_from("<I", data, 0)[0] != 0xFD2FB528:
-        raise StoreReadError("a zstd chunk does not start with a zstd frame: damaged.")
-    descriptor = data[4]
-    size_flag, single_segment, dict_flag = descriptor >> 6, (descriptor >> 5) & 1, descriptor & 3
-    at = 5 + (0 if single_segment else 1) + (0, 1, 2, 4)[dict_flag]
-    width = (1 if single_segment else 0, 2, 4, 8)[size_flag]
-    if width == 0:
+def _zstd(data: memoryview, bound: int, chunk: int, exact: int | None) -> bytes | None:
+    """A zstd chunk, decoded into exactly ``exact`` bytes where known.
+
+    Whatever its frames say, then; else its frames must each state a size, together within
+    ``bound``.
+    """
+    sizes = zstd_frame_sizes(data)
+    stated = sum(s for s in sizes if s is not None)
+    if stated > bound:
+        raise _bomb("zstd", f"says it makes {stated:,} bytes, more than the {bound:,} a "
+                    f"chunk of {chunk:,} bytes may make")
+    if exact is None:
+        if None in sizes:
+            raise StoreReadError("a zstd chunk does not say its size, and what it must make "
+                                 "is not known here: refused (a compression bomb cannot be "
+                                 "told from it).")
         return None
-    if len(data) < at + width:
-        raise StoreReadError("a zstd chunk is shorter than its frame header: damaged.")
-    value = int.from_bytes(data[at:at + width], "little")
-    return value + 256 if width == 2 else value
-
-
-def _zstd_exact(data: memoryview, exact: int) -> bytes:
-    """A zstd frame of unstated size decoded into exactly ``exact`` bytes, or refused."""
-    out = np.empty(exact, np.uint8)
+    if None not in sizes and stated != exact:
+        raise _damaged("zstd", f"says it makes {stated:,} bytes, not the {exact:,} it must")
+    out = np.zeros(exact, np.uint8)
     try:
         importlib.import_module("numcodecs").Zstd().decode(bytes(data), out=out)
     except (RuntimeError, ValueError) as error:
-        raise StoreReadError(f"a zstd chunk that does not say its size did not make the "
-                             f"{exact:,} bytes of its chunk ({error}): refused.") from error
+        raise _damaged("zstd", f"did not make the {exact:,} bytes it must ({error})") \
+            from error
     return out.tobytes()
+
+
+def zstd_frame_sizes(data: memoryview) -> list:
+    """The content size each zstd frame of ``data`` states (``None`` where left out).
+
+    The frames' blocks are walked to find the next frame; skippable frames are passed over.
+    """
+    sizes, at = [], 0
+    while at < len(data):
+        if len(data) - at < 4:
+            raise _damaged("zstd", f"ends with {len(data) - at} stray bytes")
+        magic = struct.unpack_from("<I", data, at)[0]
+        if magic & 0xFFFFFFF0 == 0x184D2A50:   # a skippable frame: its length, then bytes
+            if len(data) - at < 8:
+                raise _damaged("zstd", "ends inside a skippable frame")
+            at += 8 + struct.unpack_from("<I", data, at + 4)[0]
+            continue
+        if magic != _ZSTD_MAGIC:
+            raise _damaged("zstd", f"holds no zstd frame at byte {at}")
+        size, at = _zstd_frame(data, at)
+        sizes.append(size)
+    if not sizes:
+        raise _damaged("zstd", "holds no zstd frame")
+    return sizes
+
+
+def _zstd_frame(data: memoryview, at: int) -> tuple[int | None, int]:
+    """One frame at ``at``: its stated content size and where the next begins."""
+    if len(data) < at + 6:
+        raise _damaged("zstd", "is shorter than its frame header")
+    descriptor = data[at + 4]
+    size_flag, single = descriptor >> 6, (descriptor >> 5) & 1
+    checksum, dict_flag = (descriptor >> 2) & 1, descriptor & 3
+    start = at + 5 + (0 if single else 1) + (0, 1, 2, 4)[dict_flag]
+    width = (1 if single else 0, 2, 4, 8)[size_flag]
+    if len(data) < start + width:
+        raise _damaged("zstd", "is shorter than its frame header")
+    size = None
+    if width:
+        size = int.from_bytes(data[start:start + width], "little") + (256 if width == 2 else 0)
+    at = start + width
+    while True:   # blocks: a 3-byte header, then their bytes (one for a run)
+        if len(data) < at + 3:
+            raise _damaged("zstd", "ends inside a frame")
+        header = int.from_bytes(data[at:at + 3], "little")
+        kind, length = (header >> 1) & 3, header >> 3
+        if kind == 3:
+            raise _damaged("zstd", "holds a block of a reserved type")
+        at += 3 + (1 if kind == 1 else length)
+        if header & 1:
+            return size, at + 4 * checksum
 
 
 def bounded_array(array):
@@ -159,20 +246,15 @@ def bounded_array(array):
         return array
     metadata = array.metadata
     if getattr(metadata, "zarr_format", None) == 3:
-        codecs = tuple(_bounded_v3(codec) for codec in metadata.codecs)
+        codecs = _bounded_chain(tuple(metadata.codecs))
         if codecs == tuple(metadata.codecs):
             return array
         metadata = dataclasses.replace(metadata, codecs=codecs)
-    elif getattr(metadata, "zarr_format", None) == 2 and metadata.compressor is not None:
-        if isinstance(metadata.compressor, _classes()["BoundedCompressor"]):
+    elif getattr(metadata, "zarr_format", None) == 2:
+        replaced = _bounded_v2(metadata)
+        if replaced is None:
             return array
-        nbytes = _chunk_bytes(metadata.chunks, metadata.dtype)
-        if nbytes is None:
-            return array
-        exact = None if metadata.filters else nbytes
-        ceiling = nbytes * (FILTER_WIDENING if metadata.filters else 1) + SLACK
-        compressor = _classes()["BoundedCompressor"](metadata.compressor, ceiling, exact)
-        metadata = dataclasses.replace(metadata, compressor=compressor)
+        metadata = dataclasses.replace(metadata, **replaced)
     else:
         return array
     old = array.async_array
@@ -180,20 +262,67 @@ def bounded_array(array):
     return zarr.Array(new)
 
 
-def _bounded_v3(codec):
-    """A v3 codec with every compressor in it wrapped (a shard's inner codecs too)."""
-    classes = _classes()
-    name = codec.to_dict().get("name") if hasattr(codec, "to_dict") else None
-    if name == "sharding_indexed":
-        inner = tuple(_bounded_v3(c) for c in codec.codecs)
-        if inner == tuple(codec.codecs):
+def _name(codec) -> str | None:
+    return codec.to_dict().get("name") if hasattr(codec, "to_dict") else None
+
+
+def _bounded_chain(codecs: tuple) -> tuple:
+    """A v3 codec chain with its compressors wrapped.
+
+    The first after bytes of a known size (the chunk's, and any checksums') decodes into
+    exactly what it must make.
+    """
+    wrapper = _classes()["BoundedBytesCodec"]
+    out, extra = [], None   # extra: bytes past the chunk's before this codec, where known
+    for codec in codecs:
+        name = _name(codec)
+        if isinstance(codec, wrapper):
+            out.append(codec)
+            extra = None
+        elif name == "sharding_indexed":
+            inner = _bounded_chain(tuple(codec.codecs))
+            out.append(codec if inner == tuple(codec.codecs) else type(codec)(
+                chunk_shape=codec.chunk_shape, codecs=inner,
+                index_codecs=codec.index_codecs, index_location=codec.index_location))
+            extra = None
+        elif name == "bytes":
+            out.append(codec)
+            extra = 0
+        elif name in FORMATS:
+            out.append(wrapper(codec, extra))
+            extra = None
+        else:
+            out.append(codec)
+            extra = extra + 4 if name == "crc32c" and extra is not None else None
+    return tuple(out)
+
+
+def _bounded_v2(metadata) -> dict | None:
+    """A v2 array's compressor and compressing filters wrapped, as ``replace`` fields."""
+    nbytes = _chunk_bytes(metadata.chunks, metadata.dtype)
+    if nbytes is None:
+        return None
+    compressor_class = _classes()["BoundedCompressor"]
+    filters = list(metadata.filters or ())
+    ids = [getattr(f, "codec_id", None) for f in filters]
+    widening = 1 if all(i in FORMATS or i in SIZE_KEEPING_FILTERS for i in ids) \
+        else FILTER_WIDENING
+    ceiling = ceiling_of(nbytes * widening)
+
+    def wrapped(codec, exact):
+        if codec is None or isinstance(codec, compressor_class) \
+                or getattr(codec, "codec_id", None) not in FORMATS:
             return codec
-        return type(codec)(chunk_shape=codec.chunk_shape, codecs=inner,
-                           index_codecs=codec.index_codecs,
-                           index_location=codec.index_location)
-    if name in FORMATS and not isinstance(codec, classes["BoundedBytesCodec"]):
-        return classes["BoundedBytesCodec"](codec)
-    return codec
+        return compressor_class(codec, nbytes, exact, ceiling)
+
+    # filters[0] is decoded last, into the chunk itself; the compressor first, into the
+    # chunk where no filter follows it
+    new_filters = tuple(wrapped(f, nbytes if i == 0 else None) for i, f in enumerate(filters))
+    compressor = wrapped(metadata.compressor, None if filters else nbytes)
+    same = all(a is b for a, b in zip(new_filters, filters, strict=True))
+    if compressor is metadata.compressor and same:
+        return None
+    return {"compressor": compressor, "filters": new_filters or metadata.filters}
 
 
 def _chunk_bytes(shape, dtype) -> int | None:
@@ -212,16 +341,20 @@ def _classes() -> dict:
 
     @dataclasses.dataclass(frozen=True)
     class BoundedBytesCodec(BytesBytesCodec):
-        """A zarr v3 compressor whose decoding is bounded by the chunk it makes."""
+        """A zarr v3 compressor whose decoding is bounded by the chunk it makes.
+
+        ``extra``: the bytes past the chunk's it must make (checksums'), where known.
+        """
 
         inner: object
+        extra: int | None = None
         is_fixed_size = False
 
         def to_dict(self):
             return self.inner.to_dict()
 
         def evolve_from_array_spec(self, array_spec):
-            return type(self)(self.inner.evolve_from_array_spec(array_spec))
+            return type(self)(self.inner.evolve_from_array_spec(array_spec), self.extra)
 
         def validate(self, **kwargs):
             return self.inner.validate(**kwargs)
@@ -239,20 +372,21 @@ def _classes() -> dict:
             settings = self.inner.to_dict()
             nbytes = _chunk_bytes(chunk_spec.shape, chunk_spec.dtype)
             if nbytes is not None:
+                exact = None if self.extra is None else nbytes + self.extra
                 made = await asyncio.to_thread(   # off zarr's loop, as its codecs decode
                     inflate, FORMATS[settings["name"]], chunk_bytes.as_numpy_array(),
-                    nbytes + SLACK, exact=nbytes, config=settings.get("configuration"))
+                    chunk=nbytes, exact=exact, config=settings.get("configuration"))
                 if made is not None:
                     return chunk_spec.prototype.buffer.from_bytes(made)
             return await self.inner._decode_single(chunk_bytes, chunk_spec)
 
     class BoundedCompressor(Codec):
-        """A zarr v2 (numcodecs) compressor whose decoding is bounded by its chunk."""
+        """A zarr v2 (numcodecs) compressor or filter whose decoding is bounded."""
 
         codec_id = "pv_cubemarch.bounded"
 
-        def __init__(self, inner, ceiling: int, exact: int | None):
-            self.inner, self.ceiling, self.exact = inner, int(ceiling), exact
+        def __init__(self, inner, chunk: int, exact: int | None, ceiling: int):
+            self.inner, self.chunk, self.exact, self.ceiling = inner, chunk, exact, ceiling
 
         def get_config(self):
             return self.inner.get_config()
@@ -261,21 +395,22 @@ def _classes() -> dict:
             return self.inner.encode(buf)
 
         def decode(self, buf, out=None):
-            kind = FORMATS.get(self.inner.codec_id)
-            made = None
-            if kind is not None:
-                made = inflate(kind, buf, self.ceiling, exact=self.exact,
-                               config=self.inner.get_config())
+            made = inflate(FORMATS[self.inner.codec_id], buf, chunk=self.chunk,
+                           exact=self.exact, ceiling=self.ceiling,
+                           config=self.inner.get_config())
             if made is None:
                 return self.inner.decode(buf, out)
             if out is None:
                 return made
-            out_view = np.frombuffer(memoryview(out).cast("B"), np.uint8)
-            out_view[:len(made)] = np.frombuffer(made, np.uint8)
+            view = np.frombuffer(memoryview(out).cast("B"), np.uint8)
+            if view.size != len(made):
+                raise _damaged(self.inner.codec_id, f"made {len(made):,} bytes, not "
+                               f"the {view.size:,} asked for")
+            view[:] = np.frombuffer(made, np.uint8)
             return out
 
         def __repr__(self):
-            return f"BoundedCompressor({self.inner!r}, ceiling={self.ceiling})"
+            return f"BoundedCompressor({self.inner!r}, chunk={self.chunk})"
 
     classes = {"BoundedBytesCodec": BoundedBytesCodec, "BoundedCompressor": BoundedCompressor}
     for name, cls in classes.items():   # pickled by name: found by __getattr__ below
