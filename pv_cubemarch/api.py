@@ -1216,7 +1216,7 @@ def _array_grid(source, chunk_size, background, palette, transform, name, colour
 def add_voxels(
     plotter: pyvista.Plotter,
     grid,
-    scalars: str | None = None,
+    scalars: str | np.ndarray | None = None,
     *,
     palette=None,
     traversal: str = "dda",
@@ -1291,9 +1291,10 @@ def add_voxels(
         source (an OME-Zarr pyramid as a path or zarr group, a list of arrays finest
         first, :func:`~pv_cubemarch.multiscale_source`) is streamed by bricks, never read
         whole: see ``gpu_bytes``.
-    scalars : str, optional
-        The ImageData array of labels; by default its active scalars, else the first cell
-        (then point) array.
+    scalars : str or numpy.ndarray, optional
+        The ImageData array of labels, by name or as values (one per point or per cell, as
+        ``add_mesh(scalars=)`` takes them); by default its active scalars, else the first
+        cell (then point) array.
     palette : str, list, dict, callable, array or Palette, optional
         Colour (and opacity) per label id: by default tab10/tab20 for up to 20 labels in
         0..65535, else a colour hashed from each id (the same in every run, chunk and grid;
@@ -1518,6 +1519,7 @@ def add_voxels(
                  if key not in ("plotter", "grid", "kwargs", "lighting", "user_matrix")}
         return _add_paged_labels(plotter, grid, given)
     grid = _read_path(grid, "add_voxels")
+    grid, scalars = with_scalars_array(grid, scalars)   # an array: as add_mesh takes it
     streaming = [key for key, value in (("gpu_bytes", gpu_bytes), ("host_bytes", host_bytes),
                                         ("brick_size", brick_size)) if value is not None]
     if streaming:

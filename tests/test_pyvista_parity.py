@@ -1203,6 +1203,35 @@ def test_cell_scalars_array_warns_that_it_is_averaged():
     pl.close()
 
 
+def test_active_cell_scalars_are_drawn_beside_point_arrays():
+    """The grid's active scalars are drawn when they are cell data and point arrays exist,
+    as PyVista draws them (found by a review: the first point array was drawn, 17.2 dB from
+    PyVista, under a scalar bar titled with the cell array). catches (seen failing): the
+    active name looked for among the point arrays only (clim from the HU array)."""
+    grid = pv.ImageData(dimensions=(5, 5, 5), origin=(-40.0, 12.0, 3.0))
+    grid.point_data["HU"] = np.arange(125.0) - 1024.0
+    grid.cell_data["density"] = np.arange(64.0) * 0.5
+    grid.set_active_scalars("density", preference="cell")
+    with pytest.warns(UserWarning, match="'density' has one value per cell"):
+        model = cm.make_volume(grid)
+    assert model.transfer.spec.clim == (0.0, 31.5)   # the cell array's range, by hand
+
+
+def test_voxel_labels_given_as_an_array_are_taken_as_add_mesh_takes_them():
+    """``add_voxels(scalars=array)``, one value per cell (or point), as ``add_mesh`` takes
+    it (found by a review: numpy's "truth value of an array is ambiguous" from inside
+    PyVista, naming no keyword). catches (seen failing): the array passed on as a name."""
+    grid = pv.ImageData(dimensions=(9, 9, 9))
+    ids = np.zeros(512, np.uint8)
+    ids[100:300] = 3   # cells 100..299 of 8 x 8 x 8, x fastest: every x and y, z 1..4
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    actor = cm.add_voxels(pl, grid, scalars=ids)
+    np.testing.assert_allclose(actor.GetBounds(), (0, 8, 0, 8, 1, 5))
+    with pytest.raises(cm.VolumeDataError, match="scalars has 7 values"):
+        cm.add_voxels(pl, grid, scalars=np.ones(7, np.uint8))
+    pl.close()
+
+
 def test_equal_clim_is_one_unit_wide_as_a_constant_range():
     """``clim=(v, v)`` (the range of constant data) is taken, one unit wide, not refused.
 

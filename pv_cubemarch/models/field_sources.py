@@ -149,7 +149,7 @@ def with_scalars_array(data, scalars):
         return data, scalars
     if not isinstance(data, pyvista.DataSet):
         raise VolumeDataError("scalars= as an array needs a grid to sit on; pass the array "
-                              "itself as the field.")
+                              "itself in the grid's place.")
     values = np.asarray(scalars).reshape(-1)
     grid = data.copy(deep=False)
     if values.size == grid.n_points:

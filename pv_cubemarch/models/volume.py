@@ -124,11 +124,13 @@ def as_image_data(data, scalars: str | None = None, nan_policy: str = "raise"):
         grid, values = _thicken_flat_axes(grid, values)
         return grid, np.ascontiguousarray(values, dtype=np.float32), "values", offset
     grid = _as_uniform_grid(data)
-    if scalars is None:
+    if scalars is None:   # the active array, point or cell data, as PyVista draws it
         names = list(grid.point_data.keys()) or list(grid.cell_data.keys())
         if not names:
             raise VolumeDataError("The grid has no scalar arrays; add one to point_data.")
-        scalars = grid.active_scalars_name if grid.active_scalars_name in names else names[0]
+        active = grid.active_scalars_name
+        scalars = active if active in grid.point_data or active in grid.cell_data \
+            else names[0]
     if scalars not in grid.point_data:
         if scalars in grid.cell_data:
             warn_user(f"scalars={scalars!r} has one value per cell: it is averaged onto the "
