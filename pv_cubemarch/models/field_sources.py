@@ -195,7 +195,14 @@ def _sampled_field(data, isovalue: float | None, scalars: str | None,
         raise VolumeDataError(f"A sampled field needs isovalue= (its values span "
                               f"[{values.min():g}, {values.max():g}]).")
     coefficients = interpolating_coefficients(values - float(isovalue))
-    if not values.min() <= float(isovalue) <= values.max():
+    if float(isovalue) == values.min():
+        # VTK's contour counts a point at the level as inside: none lies below this one
+        warnings.warn(f"isovalue={isovalue:g} is the data's smallest value: no sample lies "
+                      "below it, so PyVista's contour draws nothing there, and neither does "
+                      "add_surface (the interpolating spline dips below it only where it "
+                      "rings).", stacklevel=4)
+        coefficients = np.ones_like(coefficients)   # no point below 0: the surface is empty
+    elif not values.min() <= float(isovalue) <= values.max():
         # the spline lies within its coefficients' range; between samples that step
         # sharply it overshoots them, and may cross a level no sample reaches
         crosses = coefficients.min() <= 0.0 <= coefficients.max()

@@ -90,9 +90,9 @@ def _bomb(kind: str, what: str) -> StoreReadError:
                           "bomb, or metadata that lies).")
 
 
-def _damaged(kind: str, what: str) -> StoreReadError:
-    return StoreReadError(f"a chunk compressed with {kind} {what}: the store is damaged "
-                          "there.")
+def _damaged(kind: str, what: str) -> ValueError:
+    """Bytes no codec would read: said as zarr's own codecs say it, where the read is."""
+    return ValueError(f"a chunk compressed with {kind} {what}")
 
 
 def _stream(kind: str, data: memoryview, bound: int, chunk: int, config: dict) -> bytes:

@@ -14,6 +14,7 @@ import pyvista
 
 from ..core.options import is_count, level_values, spread_levels
 from ..core.scalar_bar import attach_scalar_bar
+from ..core.user_warnings import warn_user
 from ..gl.handle import DrawnBinding
 from ..models.volume import box_world_bounds
 
@@ -23,14 +24,27 @@ def surface_levels(isosurfaces, samples: np.ndarray | None) -> tuple[float, ...]
 
     A sequence of values, or a count ``n``: ``n`` levels from the samples' smallest to
     largest value, as :meth:`pyvista.DataSetFilters.contour` spreads them (samples only).
+    A level at the samples' smallest value or below is left out where others remain: no
+    sample lies below it, so ``contour`` draws nothing there (given as a value, that is
+    said); one level alone is kept (the field says it is empty).
     """
     if is_count(isosurfaces):
         if samples is None:
             raise ValueError("isosurfaces as a count spreads levels over the samples' range; "
                              "this field has no samples (a mesh, a cloud or coefficients): "
                              "give the levels as values.")
-        return spread_levels(isosurfaces, samples)
-    return tuple(float(v) for v in level_values(isosurfaces))
+        levels = spread_levels(isosurfaces, samples)
+    else:
+        levels = tuple(float(v) for v in level_values(isosurfaces))
+    if samples is None or len(levels) < 2:
+        return levels
+    lowest = float(np.min(samples))
+    kept = tuple(v for v in levels if v > lowest)
+    if not is_count(isosurfaces) and len(kept) < len(levels):
+        warn_user(f"isosurfaces {[v for v in levels if v <= lowest]} lie at or below the "
+                  f"data's smallest value ({lowest:g}): no sample lies below them, so "
+                  "PyVista's contour draws nothing there, and neither does add_surface.")
+    return kept or levels[:1]
 
 
 def level_lookup_table(cmap, levels, clim=None) -> pyvista.LookupTable:
