@@ -41,7 +41,13 @@ from .models.label_ids import check_background_id
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
 from .models.multiscale import MultiscaleSource, is_zarr_group, multiscale_source
 from .models.volume import NAN_POLICIES, VolumeModel, checked_transform, with_transfer
-from .models.voxels import VoxelModel, fits_one_texture, make_voxels
+from .models.voxels import (
+    VoxelModel,
+    fits_one_texture,
+    image_array_name,
+    listed_rows,
+    make_voxels,
+)
 from .models.world import DEFAULT_CHUNK_SIZE, VoxelWorld
 from .quality.interaction import attach_frame_budget, check_frame_budget
 from .quality.surfaces import SurfaceCalibration, check_surface_quality
@@ -639,6 +645,15 @@ def own_copy(volume):
     if isinstance(volume, VolumeGroup):
         made.members = [copy.copy(member) for member in volume.members]
     return made
+
+
+def _bar_title(grid, scalars, default: str) -> str:
+    """A label grid's scalar bar title, as PyVista titles a mesh's: the array's name."""
+    if isinstance(scalars, str):
+        return scalars
+    if isinstance(grid, pyvista.ImageData) and grid.array_names:
+        return image_array_name(grid, None)
+    return default
 
 
 def _read_path(data, what: str):
@@ -1296,8 +1311,8 @@ def add_voxels(
         ``add_mesh(scalars=)`` takes them); by default its active scalars, else the first
         cell (then point) array.
     palette : str, list, dict, callable, array or Palette, optional
-        Colour (and opacity) per label id: by default tab10/tab20 for up to 20 labels in
-        0..65535, else a colour hashed from each id (the same in every run, chunk and grid;
+        Colour (and opacity) per label id: by default tab10/tab20 where the largest id is
+        at most 20, else a colour hashed from each id (the same in every run, chunk and grid;
         neighbouring ids differ); a matplotlib colormap name (its colours in the order of
         the ids), ``{id: colour}`` or ``{id: (colour, opacity)}`` (ids left out are
         hidden), a function of the id returning either; a list of colours (entry ``m`` for
@@ -1607,8 +1622,10 @@ def add_voxels(
         _frame(plotter, reset_camera)
         if target is not None:   # measured with the grid drawn, framed as its actor is
             _measure_voxels(plotter, actor, target, _voxel_look(options), options)
-    add_voxel_scalar_bar(plotter, actor, model.palette, scalars or model.name, show_scalar_bar,
-                         scalar_bar_args, annotations, model.ids)
+    add_voxel_scalar_bar(plotter, actor, model.palette, _bar_title(grid, scalars, model.name),
+                         show_scalar_bar, scalar_bar_args, annotations, model.ids,
+                         listed_rows(model) if model.ids.identity and show_scalar_bar
+                         else None)
     _shown(plotter, actor, reset_camera, pickable, render)
     return actor
 

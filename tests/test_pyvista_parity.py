@@ -1279,6 +1279,50 @@ def test_voxel_labels_given_as_an_array_are_taken_as_add_mesh_takes_them():
     pl.close()
 
 
+def _sparse_label_grid(ids) -> pv.ImageData:
+    """Three labels (a ball, a box, a rod) with ``ids``, on cells placed off 0."""
+    x, y, z = np.mgrid[0:30, 0:24, 0:16]
+    labels = np.zeros(x.shape, np.int32)
+    labels[(x - 10) ** 2 + (y - 12) ** 2 + (z - 8) ** 2 < 36] = ids[0]
+    labels[(x > 18) & (x < 27) & (y > 4) & (y < 20) & (z > 3)] = ids[1]
+    labels[(x - 15) ** 2 + (z - 8) ** 2 < 9] = ids[2]
+    grid = pv.ImageData(dimensions=np.array(labels.shape) + 1, spacing=(0.3, 0.5, 2.0),
+                        origin=(-120.0, 340.0, 1500.0))
+    grid.cell_data["labels"] = labels.ravel(order="F")
+    return grid
+
+
+@pytest.mark.parametrize("ids", [(1000, 2000, 3000), (70000, 80000, 90000)])
+@pytest.mark.parametrize("keywords", [{"cmap": "viridis"}, {"cmap": "tab10", "categories": True},
+                                      {"cmap": "viridis", "clim": (0, 95000)}])
+def test_a_label_grid_s_scalar_bar_is_add_mesh_s(ids, keywords):
+    """Labels coloured through a colormap show its table as ``threshold`` + ``add_mesh``
+    shows it: the array's name, the ids' range (or ``clim``), as many colours. Found by a
+    review: ids 1000-3000 showed a 3000-colour table, 2997 colours black, over 1..3000,
+    ``clim`` ignored, titled 'voxels'. catches (seen failing): the palette's rows shown."""
+    grid = _sparse_label_grid(ids)
+    bars = []
+    for add in (lambda pl: pl.add_mesh(grid.threshold(0.5), show_scalar_bar=True, **keywords),
+                lambda pl: cm.add_voxels(pl, grid, show_scalar_bar=True, **keywords)):
+        pl = pv.Plotter(off_screen=True, window_size=SIZE)
+        add(pl)
+        (title, bar), = pl.scalar_bars.items()
+        table = bar.GetLookupTable()
+        bars.append((title, table.GetRange(), table.GetNumberOfColors()))
+        pl.close()
+    assert bars[1] == bars[0]
+
+
+def test_sparse_ids_in_the_default_palette_show_one_block_each():
+    # catches (seen failing): ids 1000, 2000 and 3000 kept as rows showed 3000 blocks.
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    cm.add_voxels(pl, _sparse_label_grid((1000, 2000, 3000)), show_scalar_bar=True)
+    table = next(iter(pl.scalar_bars.values())).GetLookupTable()
+    assert table.GetNumberOfColors() == 3
+    assert [table.GetAnnotation(k) for k in range(3)] == ["1000", "2000", "3000"]
+    pl.close()
+
+
 def test_equal_clim_is_one_unit_wide_as_a_constant_range():
     """``clim=(v, v)`` (the range of constant data) is taken, one unit wide, not refused.
 

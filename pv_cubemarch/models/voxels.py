@@ -82,12 +82,15 @@ class Palette:
         self._highlighted: np.ndarray | None = None
         self._highlight = np.ones(3, np.float32)
         self._changes: list[np.ndarray] | None = []   # rows changed; None: all of them
+        #: The table that coloured the labels through a colormap (``cmap=``, ``categories``),
+        #: as ``add_mesh`` holds it: the scalar bar shows it. ``None`` for other palettes.
+        self.lookup_table: pyvista.LookupTable | None = None
 
     @classmethod
     def make(cls, palette, n_materials: int, ids: LabelIds | None = None) -> Palette:
         """A palette for labels ``1..n_materials - 1`` from what a user may pass.
 
-        ``palette``: ``None`` (tab10 or tab20 for up to 20 labels kept as rows; beyond them
+        ``palette``: ``None`` (tab10 or tab20 for labels kept as rows up to id 20; beyond
         and for compacted ids, colours hashed from each id,
         :func:`~pv_cubemarch.models.label_colors.hashed_colors`), a
         matplotlib colormap name (its colours in the order of the ids), a list of colours
@@ -393,7 +396,7 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
     Returns ``(values indexed x, y, z, grid_from_index)`` (cell ``(i, j, k)`` spans
     ``[i, i+1]`` per axis of index space).
     """
-    scalars = _image_scalars(data, scalars)
+    scalars = image_array_name(data, scalars)
     check_geometry(data)
     direction = np.asarray(data.direction_matrix, dtype=np.float64)
     spacing = np.asarray(data.spacing, dtype=np.float64)
@@ -425,7 +428,7 @@ def image_samples(data: pyvista.ImageData, scalars: str | None) -> tuple[np.ndar
     return values, grid_from_index
 
 
-def _image_scalars(data: pyvista.ImageData, scalars: str | None) -> str:
+def image_array_name(data: pyvista.ImageData, scalars: str | None) -> str:
     """The name of the array drawn: ``scalars``, else PyVista's active one, else the first."""
     names = list(data.cell_data.keys()) + list(data.point_data.keys())
     if scalars is None:
@@ -439,7 +442,7 @@ def _image_scalars(data: pyvista.ImageData, scalars: str | None) -> str:
 
 def samples_at_points(data: pyvista.ImageData, scalars: str | None) -> bool:
     """Whether :func:`image_samples` reads point data (cells centred on the points)."""
-    name = _image_scalars(data, scalars)
+    name = image_array_name(data, scalars)
     return name not in data.cell_data and name in data.point_data
 
 
@@ -545,7 +548,9 @@ def range_palette(cmap, labels: np.ndarray, clim=None, n_colors: int = 256,
         if ids is None or ids.identity:   # every id a row holds: an edit may paint any of
             rows = present = np.arange(1, len(rgba))   # them, coloured as PyVista would
         _colour_labels(rgba, lut, rows, present, span)
-    return Palette(rgba)
+    palette = Palette(rgba)
+    palette.lookup_table = lut if present.size else None
+    return palette
 
 def _colour_labels(rgba: np.ndarray, lut: pyvista.LookupTable, rows: np.ndarray,
                    present: np.ndarray, clim=None) -> None:
@@ -590,7 +595,9 @@ def category_palette(cmap, labels: np.ndarray, ids: LabelIds | None = None) -> P
         lut = pyvista.LookupTable(list(cmap) if isinstance(cmap, tuple) else (cmap or "tab10"),
                                   n_values=max(int(present.size), 1))
         _colour_labels(rgba, lut, rows, present)
-    return Palette(rgba)
+    palette = Palette(rgba)
+    palette.lookup_table = lut if present.size else None
+    return palette
 
 def fits_one_texture(dimensions: Sequence[int], dtype) -> bool:
     """Whether a grid of ``dimensions`` labels of ``dtype`` is drawn whole, not in chunks."""
@@ -599,7 +606,7 @@ def fits_one_texture(dimensions: Sequence[int], dtype) -> bool:
             and voxels * np.dtype(dtype).itemsize <= MAX_GRID_BYTES)
 
 
-def _listed_rows(model) -> np.ndarray:
+def listed_rows(model) -> np.ndarray:
     """The rows a grid's legend lists: the labels present in a grid kept as rows, else all."""
     if model.ids.identity and hasattr(model, "labels"):
         present = np.unique(model.labels)
@@ -616,7 +623,7 @@ def label_legend(model, limit: int = 10) -> list[dict]:
     ids, palette = model.ids, model.palette
     hidden = palette.hidden
     legend = []
-    for row in _listed_rows(model)[:max(int(limit), 0)]:
+    for row in listed_rows(model)[:max(int(limit), 0)]:
         if row >= palette.n_materials:
             break
         rgb = np.clip(np.round(palette.rgba[row, :3] * 255), 0, 255).astype(int)
@@ -628,7 +635,7 @@ def label_legend(model, limit: int = 10) -> list[dict]:
 
 def count_labels(model) -> int:
     """Label ids other than the background a grid holds (a world kept as rows: its palette's)."""
-    return int(_listed_rows(model).size)
+    return int(listed_rows(model).size)
 
 
 def describe_labels(model) -> str:

@@ -1,4 +1,4 @@
-"""The scalar bar of a material grid: one colour block per material, as PyVista's categories.
+"""The scalar bar of a material grid: a block per material present, or its colormap's table.
 
 ``add_voxels(show_scalar_bar=True, annotations={1: "bone"})`` shows it; either way the
 plotter's ``mapper`` holds its lookup table, so ``plotter.add_scalar_bar()`` afterwards
@@ -30,17 +30,43 @@ def palette_lookup_table(palette) -> pyvista.LookupTable:
 NAMED_IDS = 32
 
 
+def _present_lookup_table(palette, present) -> pyvista.LookupTable:
+    """One block per present id (its row's colour), named by id up to :data:`NAMED_IDS`."""
+    present = np.asarray(present, dtype=np.int64)
+    lut = pyvista.LookupTable()
+    values = np.ones((max(len(present), 1), 4))
+    values[:len(present), :3] = np.asarray(palette.rgba, dtype=np.float64)[present, :3]
+    lut.values = values * 255.0
+    lut.scalar_range = (1.0, float(max(len(present), 2)))
+    if len(present) <= NAMED_IDS:
+        lut.annotations = {float(k): str(int(i)) for k, i in enumerate(present, start=1)}
+    return lut
+
+
 def add_voxel_scalar_bar(plotter, actor, palette, title: str, show: bool, args: dict | None,
-                         annotations: dict | None, ids=None) -> None:
+                         annotations: dict | None, ids=None, present=None) -> None:
     """Make the grid's lookup table ``plotter.mapper``'s and add its bar when ``show``.
 
     ``ids``: the grid's :class:`~pv_cubemarch.models.label_ids.LabelIds`. Compacted ids
     are blocks by row, so the bar names them (up to :data:`NAMED_IDS`) instead of
-    numbering its blocks; ``annotations`` are by id either way.
+    numbering its blocks; ``annotations`` are by id either way. Labels coloured through a
+    colormap (``cmap``, ``categories``) show that colormap's table over its range, as
+    ``add_mesh`` does; ids kept as rows of which ``present`` (ascending) are fewer than
+    the rows show one block each, as compacted ids do (ids 1000, 2000 and 3000 showed 3000
+    blocks, 2997 of them black).
     """
     mapper = pyvista.DataSetMapper()
+    if palette.lookup_table is not None and not annotations:
+        mapper.lookup_table = palette.lookup_table
+        attach_scalar_bar(plotter, actor, mapper, title, show, args)
+        return
     mapper.lookup_table = palette_lookup_table(palette)
     compacted = ids is not None and not ids.identity
+    if (not compacted and present is not None and 0 < len(present) < len(palette.rgba) - 1
+            and not annotations):
+        mapper.lookup_table = _present_lookup_table(palette, present)
+        attach_scalar_bar(plotter, actor, mapper, title, show, args, n_labels=0)
+        return
     if annotations:
         if compacted:
             known = ids.has(list(annotations))
