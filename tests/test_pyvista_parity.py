@@ -26,6 +26,8 @@ A background-only image gives 12.6-18.9 dB, below every floor (checked in the te
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -1016,6 +1018,32 @@ def test_a_level_at_the_data_s_minimum_draws_nothing_as_contour_draws_nothing():
     theirs, mine = reference.max(axis=2) > 30, image.max(axis=2) > 30
     assert theirs.sum() > 4000
     assert (mine != theirs).sum() <= 0.05 * theirs.sum(), ((mine != theirs).sum(), theirs.sum())
+
+
+def test_a_sheet_contour_does_not_draw_is_said_where_the_spline_overshoots():
+    """Near a plateau close to the level, the interpolating spline overshoots samples that
+    step sharply and crosses the level where no sample does: a sheet contour does not draw.
+    That is said (found by a review: CT air at -1000 and tissue at 40 HU, a level of 100).
+    Measured: 4,226 pixels drawn where contour draws 1,399 at 100; at 600, clear of the
+    plateaus, within 5 % of contour and nothing said. catches (seen failing): the warning
+    taken out."""
+    grid = synthetic_ct()
+    covered = {}
+    for level in (100.0, 600.0):
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            reference, image = theirs_and_ours(
+                lambda pl, level=level: pl.add_mesh(grid.contour([level], scalars="HU"),
+                                                    color="white", lighting=False),
+                lambda pl, level=level: pl.cubemarch.add_surface(
+                    grid, isovalue=level, color="white", shading="unlit"), grid.bounds)
+        covered[level] = ((image.max(axis=2) > 30).sum(), (reference.max(axis=2) > 30).sum())
+        overshoot = [w for w in said if "none of whose neighbouring samples" in str(w.message)]
+        assert bool(overshoot) == (level == 100.0), (level, [str(w.message) for w in said])
+    ours, theirs = covered[100.0]
+    assert ours > 2 * theirs, covered   # the sheet the warning is about, against contour
+    ours, theirs = covered[600.0]
+    assert abs(ours - theirs) <= 0.05 * theirs, covered
 
 
 @pytest.mark.parametrize("spacing", [(1.0, 1.0, 2.0), (2.0, 2.5, 3.0)])
