@@ -1624,8 +1624,7 @@ def add_voxels(
             _measure_voxels(plotter, actor, target, _voxel_look(options), options)
     add_voxel_scalar_bar(plotter, actor, model.palette, _bar_title(grid, scalars, model.name),
                          show_scalar_bar, scalar_bar_args, annotations, model.ids,
-                         listed_rows(model) if model.ids.identity and show_scalar_bar
-                         else None)
+                         listed_rows(model) if model.ids.identity else None)
     _shown(plotter, actor, reset_camera, pickable, render)
     return actor
 

@@ -1010,6 +1010,11 @@ def test_a_level_at_the_data_s_minimum_draws_nothing_as_contour_draws_nothing():
             lambda pl: pl.cubemarch.add_surface(grid, isovalue=-1000.0, shading="unlit"),
             grid.bounds)
     assert (image.max(axis=2) > 30).sum() == 0
+    with warnings.catch_warnings(record=True) as said:   # every level below: the first is
+        warnings.simplefilter("always")                   # kept, and said by the field
+        pv.Plotter(off_screen=True).cubemarch.add_surface(grid, isosurfaces=[-1030, -1025])
+    assert not any("left out" in str(w.message) for w in said)
+    assert any("outside the data range" in str(w.message) for w in said)
     levels = grid.contour(4, scalars="HU")
     reference, image = theirs_and_ours(
         lambda pl: pl.add_mesh(levels, color="white", lighting=False),
@@ -1342,13 +1347,44 @@ def test_a_label_grid_s_scalar_bar_is_add_mesh_s(ids, keywords):
 
 
 def test_sparse_ids_in_the_default_palette_show_one_block_each():
-    # catches (seen failing): ids 1000, 2000 and 3000 kept as rows showed 3000 blocks.
+    # With annotations, and on a bar added afterwards, too (found by a review: both showed
+    # 3000 blocks again). catches (seen failing): ids 1000, 2000 and 3000 kept as rows
+    # showed 3000 blocks; the present ids listed only for show_scalar_bar=True.
+    grid = _sparse_label_grid((1000, 2000, 3000))
+    names = {1000: "bone", 3000: "liver"}
+    for keywords, names_shown in (({}, ["1000", "2000", "3000"]),
+                                  ({"annotations": names}, ["bone", "", "liver"])):
+        pl = pv.Plotter(off_screen=True, window_size=SIZE)
+        cm.add_voxels(pl, grid, show_scalar_bar=True, **keywords)
+        table = next(iter(pl.scalar_bars.values())).GetLookupTable()
+        assert table.GetNumberOfColors() == 3
+        assert [table.GetAnnotation(table.GetAnnotatedValueIndex(k))
+                if table.GetAnnotatedValueIndex(k) >= 0 else "" for k in (1, 2, 3)] \
+            == names_shown
+        pl.close()
     pl = pv.Plotter(off_screen=True, window_size=SIZE)
-    cm.add_voxels(pl, _sparse_label_grid((1000, 2000, 3000)), show_scalar_bar=True)
-    table = next(iter(pl.scalar_bars.values())).GetLookupTable()
-    assert table.GetNumberOfColors() == 3
-    assert [table.GetAnnotation(k) for k in range(3)] == ["1000", "2000", "3000"]
+    cm.add_voxels(pl, grid)
+    bar = pl.add_scalar_bar()
+    assert bar.GetLookupTable().GetNumberOfColors() == 3
     pl.close()
+
+
+def test_a_colormapped_label_bar_takes_annotations_by_id_as_add_mesh():
+    # catches (seen failing): annotations sending the bar back to the rows' table (range
+    # 1..3000 where add_mesh's is 1000..3000).
+    grid = _sparse_label_grid((1000, 2000, 3000))
+    tables = []
+    for add in (lambda pl: pl.add_mesh(grid.threshold(0.5), show_scalar_bar=True,
+                                       cmap="viridis", annotations={2000: "x"}),
+                lambda pl: cm.add_voxels(pl, grid, show_scalar_bar=True, cmap="viridis",
+                                         annotations={2000: "x"})):
+        pl = pv.Plotter(off_screen=True, window_size=SIZE)
+        add(pl)
+        table = next(iter(pl.scalar_bars.values())).GetLookupTable()
+        tables.append((table.GetRange(), table.GetNumberOfColors(),
+                       table.GetAnnotation(table.GetAnnotatedValueIndex(2000.0))))
+        pl.close()
+    assert tables[1] == tables[0]
 
 
 def test_equal_clim_is_one_unit_wide_as_a_constant_range():

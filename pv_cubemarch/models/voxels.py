@@ -608,6 +608,12 @@ def fits_one_texture(dimensions: Sequence[int], dtype) -> bool:
 
 def listed_rows(model) -> np.ndarray:
     """The rows a grid's legend lists: the labels present in a grid kept as rows, else all."""
+    if model.ids.identity and hasattr(model, "labels") and model.labels.dtype.itemsize <= 2:
+        labels = model.labels.reshape(-1, model.labels.shape[-1])   # counted by slabs
+        counts = np.zeros(1 << (8 * labels.dtype.itemsize), np.int64)
+        for start in range(0, labels.shape[1], 64):
+            counts += np.bincount(labels[:, start:start + 64].ravel(), minlength=counts.size)
+        return np.flatnonzero(counts[1:]) + 1
     if model.ids.identity and hasattr(model, "labels"):
         present = np.unique(model.labels)
         return present[present > 0].astype(np.int64)

@@ -328,7 +328,7 @@ def _bounded_v2(metadata) -> dict | None:
 def _chunk_bytes(shape, dtype) -> int | None:
     """The bytes of one chunk of ``shape`` (``None`` for values of no fixed size)."""
     native = dtype.to_native_dtype() if hasattr(dtype, "to_native_dtype") else np.dtype(dtype)
-    if native.kind == "O" or native.itemsize == 0:
+    if native.kind in "OT" or native.itemsize == 0:   # objects, numpy's variable strings
         return None
     return math.prod(int(n) for n in shape) * native.itemsize
 

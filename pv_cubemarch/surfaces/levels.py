@@ -26,7 +26,7 @@ def surface_levels(isosurfaces, samples: np.ndarray | None) -> tuple[float, ...]
     largest value, as :meth:`pyvista.DataSetFilters.contour` spreads them (samples only).
     A level at the samples' smallest value or below is left out where others remain: no
     sample lies below it, so ``contour`` draws nothing there (given as a value, that is
-    said); one level alone is kept (the field says it is empty).
+    said); where none remains the first is kept, and the field says what it draws there.
     """
     if is_count(isosurfaces):
         if samples is None:
@@ -40,11 +40,13 @@ def surface_levels(isosurfaces, samples: np.ndarray | None) -> tuple[float, ...]
         return levels
     lowest = float(np.min(samples))
     kept = tuple(v for v in levels if v > lowest)
+    if not np.isfinite(lowest) or not kept:   # NaN samples are refused with the field
+        return levels if not np.isfinite(lowest) else levels[:1]
     if not is_count(isosurfaces) and len(kept) < len(levels):
         warn_user(f"isosurfaces {[v for v in levels if v <= lowest]} lie at or below the "
                   f"data's smallest value ({lowest:g}): no sample lies below them, so "
-                  "PyVista's contour draws nothing there, and neither does add_surface.")
-    return kept or levels[:1]
+                  "PyVista's contour draws nothing there; they are left out.")
+    return kept
 
 
 def level_lookup_table(cmap, levels, clim=None) -> pyvista.LookupTable:

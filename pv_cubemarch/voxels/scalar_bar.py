@@ -30,16 +30,24 @@ def palette_lookup_table(palette) -> pyvista.LookupTable:
 NAMED_IDS = 32
 
 
-def _present_lookup_table(palette, present) -> pyvista.LookupTable:
-    """One block per present id (its row's colour), named by id up to :data:`NAMED_IDS`."""
+def _present_lookup_table(palette, present, annotations=None) -> pyvista.LookupTable:
+    """One block per present id (its row's colour), named by id.
+
+    Up to :data:`NAMED_IDS` ids are named, or ``annotations`` name them (by id; an id not
+    present has no block to name).
+    """
     present = np.asarray(present, dtype=np.int64)
     lut = pyvista.LookupTable()
     values = np.ones((max(len(present), 1), 4))
     values[:len(present), :3] = np.asarray(palette.rgba, dtype=np.float64)[present, :3]
     lut.values = values * 255.0
     lut.scalar_range = (1.0, float(max(len(present), 2)))
-    if len(present) <= NAMED_IDS:
-        lut.annotations = {float(k): str(int(i)) for k, i in enumerate(present, start=1)}
+    block = {int(i): k for k, i in enumerate(present, start=1)}
+    if annotations:
+        lut.annotations = {float(block[int(i)]): str(v) for i, v in annotations.items()
+                           if int(i) in block}
+    elif len(present) <= NAMED_IDS:
+        lut.annotations = {float(k): str(i) for i, k in block.items()}
     return lut
 
 
@@ -56,28 +64,32 @@ def add_voxel_scalar_bar(plotter, actor, palette, title: str, show: bool, args: 
     blocks, 2997 of them black).
     """
     mapper = pyvista.DataSetMapper()
-    if palette.lookup_table is not None and not annotations:
-        mapper.lookup_table = palette.lookup_table
+    compacted = ids is not None and not ids.identity
+    if annotations and not compacted:
+        unknown = [key for key in annotations if not 0 < int(key) < len(palette.rgba)]
+        if unknown:
+            raise ValueError(f"annotations name labels {unknown} the grid has no colour for "
+                             f"(its labels are 1..{len(palette.rgba) - 1}).")
+    if palette.lookup_table is not None:   # by id value, as add_mesh(annotations=) puts them
+        mapper.lookup_table = pyvista.LookupTable()
+        mapper.lookup_table.DeepCopy(palette.lookup_table)   # annotations on this bar's own
+        if annotations:
+            mapper.lookup_table.annotations = {float(k): str(v) for k, v in
+                                               annotations.items()}
         attach_scalar_bar(plotter, actor, mapper, title, show, args)
         return
-    mapper.lookup_table = palette_lookup_table(palette)
-    compacted = ids is not None and not ids.identity
-    if (not compacted and present is not None and 0 < len(present) < len(palette.rgba) - 1
-            and not annotations):
-        mapper.lookup_table = _present_lookup_table(palette, present)
+    if (not compacted and present is not None and 0 < len(present) < len(palette.rgba) - 1):
+        mapper.lookup_table = _present_lookup_table(palette, present, annotations)
         attach_scalar_bar(plotter, actor, mapper, title, show, args, n_labels=0)
         return
+    mapper.lookup_table = palette_lookup_table(palette)
     if annotations:
         if compacted:
             known = ids.has(list(annotations))
             unknown = [key for key, ok in zip(annotations, known, strict=True) if not ok]
-        else:
-            unknown = [key for key in annotations if not 0 < int(key) < len(palette.rgba)]
-        if unknown:
-            held = ("actor.cubemarch.label_ids lists its ids" if compacted
-                    else f"its labels are 1..{len(palette.rgba) - 1}")
-            raise ValueError(f"annotations name labels {unknown} the grid has no colour "
-                             f"for ({held}).")
+            if unknown:
+                raise ValueError(f"annotations name labels {unknown} the grid has no colour "
+                                 "for (actor.cubemarch.label_ids lists its ids).")
         rows = ids.rows_of(list(annotations)) if compacted else list(annotations)
         mapper.lookup_table.annotations = {float(r): str(v) for r, v in
                                            zip(rows, annotations.values(), strict=True)}
