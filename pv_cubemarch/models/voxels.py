@@ -611,8 +611,8 @@ def listed_rows(model) -> np.ndarray:
     if model.ids.identity and hasattr(model, "labels") and model.labels.dtype.itemsize <= 2:
         labels = model.labels.reshape(-1, model.labels.shape[-1])   # counted by slabs
         counts = np.zeros(1 << (8 * labels.dtype.itemsize), np.int64)
-        for start in range(0, labels.shape[1], 64):
-            counts += np.bincount(labels[:, start:start + 64].ravel(), minlength=counts.size)
+        for start in range(0, labels.shape[1], 8):   # a few MB of int64 at a time
+            counts += np.bincount(labels[:, start:start + 8].ravel(), minlength=counts.size)
         return np.flatnonzero(counts[1:]) + 1
     if model.ids.identity and hasattr(model, "labels"):
         present = np.unique(model.labels)
