@@ -27,6 +27,7 @@ from ..core.user_warnings import warn_user
 from .image_files import read_data_file
 from .surface import SplineField, bernstein_basis, interpolating_coefficients, point_hull
 from .volume import checked_transform
+from .voxel_levels import grown_by_one
 from .voxels import image_samples, samples_at_points
 
 if TYPE_CHECKING:   # scipy is imported where it is used
@@ -228,21 +229,6 @@ def _sampled_field(data, isovalue: float | None, scalars: str | None,
     return field
 
 
-def _neighbourhood(values: np.ndarray, pick) -> np.ndarray:
-    """``pick`` (np.minimum or np.maximum) over each sample's 3x3x3 neighbours (ends kept)."""
-    out = values.copy()
-    for axis in range(3):
-        if out.shape[axis] < 2:
-            continue
-        source = out.copy()
-        lower = [slice(None)] * 3
-        upper = [slice(None)] * 3
-        lower[axis], upper[axis] = slice(0, -1), slice(1, None)
-        pick(out[tuple(lower)], source[tuple(upper)], out=out[tuple(lower)])
-        pick(out[tuple(upper)], source[tuple(lower)], out=out[tuple(upper)])
-    return out
-
-
 def _say_overshoot(field: SplineField, values: np.ndarray, isovalue) -> None:
     """Warn where the spline crosses the level in cells none of whose samples do.
 
@@ -251,8 +237,8 @@ def _say_overshoot(field: SplineField, values: np.ndarray, isovalue) -> None:
     PyVista's contour (linear between samples) does not (CT air at -1000 and tissue at 40
     HU, a level of 100: 4,226 pixels drawn where contour draws 1,399).
     """
-    low, high = _neighbourhood(values, np.minimum), _neighbourhood(values, np.maximum)
-    one_sided = np.argwhere((high < 0.0) | (low > 0.0))   # no sample near it crosses
+    # no sample among its 27 neighbours at or above 0, or none at or below
+    one_sided = np.argwhere(~grown_by_one(values >= 0.0) | ~grown_by_one(values <= 0.0))
     if not len(one_sided):
         return
     beta = field.cell_bernstein(one_sided)

@@ -15,9 +15,10 @@ import pyvista
 from ..core.scalar_bar import attach_scalar_bar
 
 
-def palette_lookup_table(palette) -> pyvista.LookupTable:
-    """Materials ``1..n-1`` as ``n-1`` colours over the range ``(1, n-1)``, opaque."""
-    rgba = np.asarray(palette.rgba, dtype=np.float64)[1:]
+def palette_lookup_table(palette, rows=None) -> pyvista.LookupTable:
+    """Materials ``1..n-1`` (or ``rows``) as that many colours over ``(1, count)``, opaque."""
+    rgba = np.asarray(palette.rgba, dtype=np.float64)[1:] if rows is None else \
+        np.asarray(palette.rgba, dtype=np.float64)[np.asarray(rows, dtype=np.int64)]
     lut = pyvista.LookupTable()
     values = np.ones((max(len(rgba), 1), 4))
     values[:len(rgba), :3] = rgba[:, :3]
@@ -36,12 +37,7 @@ def _present_lookup_table(palette, present, annotations=None) -> pyvista.LookupT
     Up to :data:`NAMED_IDS` ids are named, or ``annotations`` name them (by id; an id not
     present has no block to name).
     """
-    present = np.asarray(present, dtype=np.int64)
-    lut = pyvista.LookupTable()
-    values = np.ones((max(len(present), 1), 4))
-    values[:len(present), :3] = np.asarray(palette.rgba, dtype=np.float64)[present, :3]
-    lut.values = values * 255.0
-    lut.scalar_range = (1.0, float(max(len(present), 2)))
+    lut = palette_lookup_table(palette, present)
     block = {int(i): k for k, i in enumerate(present, start=1)}
     if annotations:
         lut.annotations = {float(block[int(i)]): str(v) for i, v in annotations.items()
