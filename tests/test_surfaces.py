@@ -347,6 +347,28 @@ def test_a_closed_mesh_is_drawn_from_its_signed_distance(plotter_factory, tmp_pa
         cm.add_surface(pl, pyvista.Plane(), cells=8)
 
 
+def test_a_gltf_scene_s_meshes_are_one_surface(tmp_path):
+    # glTF reads as a MultiBlock of its meshes (nested): their union's signed distance is
+    # positive inside each, negative between them; a MultiBlock of images is refused by
+    # name. catches (seen failing): the MultiBlock passed on as a mesh (numpy's
+    # "inhomogeneous shape"), only the first block taken (the cube's centre outside).
+    pl = pyvista.Plotter(off_screen=True)
+    pl.add_mesh(pyvista.Sphere(radius=1.0))
+    pl.add_mesh(pyvista.Cube(center=(3.0, 0.0, 0.0)).triangulate())
+    pl.export_gltf(tmp_path / "two.gltf")
+    pl.close()
+    blocks = pyvista.read(tmp_path / "two.gltf")
+    centres = [np.asarray(block.center) for block in blocks.recursive_iterator(skip_none=True)]
+    assert len(centres) == 2
+    field = cm.make_field(str(tmp_path / "two.gltf"), cells=24)
+    inside = field(np.array(centres))
+    between = field(np.array([(centres[0] + centres[1]) / 2]))
+    assert inside.min() > 0.3 and between[0] < -0.3, (inside, between)
+    images = pyvista.MultiBlock([pyvista.ImageData(dimensions=(3, 3, 3))])
+    with pytest.raises(VolumeDataError, match="image"):
+        cm.make_field(images, isovalue=0.0)
+
+
 def slab_field(cells=(8, 8, 8), centre=3.7, half=0.04):
     """A slab 0.08 cell thick across x (positive inside): f = half^2 - (x - centre)^2,
     coefficients by hand (the blossom of x^2 and x per cell, as for the sphere)."""

@@ -131,6 +131,8 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
                                   "first, or pass a closed mesh.")
         field = point_cloud_field(data.points, data.point_data["Normals"], cells,
                                   progress_bar=progress_bar, name=name)
+    elif isinstance(data, pyvista.MultiBlock):   # a glTF or OBJ scene's meshes, as one
+        field = mesh_field(meshes_as_one(data), cells, progress_bar=progress_bar, name=name)
     elif isinstance(data, pyvista.DataSet) and not isinstance(data, pyvista.ImageData):
         field = mesh_field(data, cells, progress_bar=progress_bar, name=name)
     else:
@@ -138,6 +140,25 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     if transform is not None:
         field.transform = checked_transform(transform)
     return field
+
+
+def meshes_as_one(blocks: pyvista.MultiBlock) -> pyvista.PolyData:
+    """The surfaces of a MultiBlock's meshes (nested blocks too) as one mesh.
+
+    A glTF, OBJ or 3DS file reads as a MultiBlock of its meshes; closed meshes stay
+    closed together, so their union's signed distance is theirs. Images are refused.
+    """
+    meshes = [block for block in blocks.recursive_iterator(skip_none=True)
+              if isinstance(block, pyvista.DataSet) and block.n_cells]
+    images = [block for block in meshes if isinstance(block, pyvista.ImageData)]
+    if images:
+        raise VolumeDataError(f"The MultiBlock holds {len(images)} image(s): add_surface "
+                              "draws one grid of samples; add each block on its own.")
+    if not meshes:
+        raise VolumeDataError("The MultiBlock holds no mesh with cells to draw.")
+    surfaces = [mesh if isinstance(mesh, pyvista.PolyData) else mesh.extract_surface()
+                for mesh in meshes]
+    return pyvista.merge(surfaces, merge_points=False)
 
 
 def with_scalars_array(data, scalars):
