@@ -237,6 +237,36 @@ def test_a_cluster_slab_of_a_zarr_array_is_bounded_too(tmp_path):
     assert peak < BOMB // 4, peak
 
 
+@pytest.mark.parametrize("inline", [False, True])
+@pytest.mark.parametrize("entry", ["labels", "volume", "cluster"])
+def test_a_dask_array_over_a_zarr_store_reads_it_bounded(tmp_path, inline, entry):
+    # da.from_zarr keeps the zarr array in a layer of its own, or inlines it into its reads
+    # (inline_array=True); either, under further operations, is read bounded by the
+    # labels' world, a volume's levels and cluster slabs, and the store's good chunks
+    # read as zarr wrote them. catches (seen failing): the dask array taken as given (the
+    # bomb inflated), the inlined array alone left unbounded.
+    da = pytest.importorskip("dask.array")
+    from pv_cubemarch.cluster.split_grid import _volume_parts
+    from pv_cubemarch.models.array_sources import world_from_array
+
+    good = da.from_zarr(_store(tmp_path / "good.zarr", "zlib", 3).parents[3],
+                        inline_array=inline)
+    bomb = da.from_zarr(_uint16_bomb_store(tmp_path / "bomb.zarr"),
+                        inline_array=inline)
+    read = {"labels": lambda array: world_from_array(array[:8, :8, :8] + 0, chunk_size=8,
+                                                     progress_bar=False),
+            "volume": lambda array: multiscale_source(array + 0).levels[0].read(
+                (slice(0, 8),) * 3),
+            "cluster": lambda array: _volume_parts(array + 0, None, None, None)[0][
+                :8, :8, :8].compute(scheduler="sync")}[entry]
+    if entry != "labels":
+        np.testing.assert_array_equal(np.asarray(read(good)), DATA[:8, :8, :8])
+    _peak(lambda: read(bomb))   # dask's and zarr's imports, once
+    outcome, peak = _peak(lambda: read(bomb))
+    assert isinstance(outcome, StoreReadError) and "compression bomb" in str(outcome), outcome
+    assert peak < BOMB // 4, peak
+
+
 def test_a_v2_filter_that_compresses_is_bounded_too(tmp_path):
     # zarr v2 filters run before the compressor and may compress too (found by a review:
     # filters [zlib] and no compressor, a 204 KB chunk file peaking at 459 MB).

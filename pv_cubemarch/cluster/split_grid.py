@@ -197,6 +197,8 @@ def _volume_parts(volume, scalars, spacing, origin, cells: bool = False):
                          f" got dtype {volume.dtype}.")
     if type(volume).__module__.split(".")[0] != "dask":
         volume = np.asarray(volume)
+    else:   # the zarr arrays it reads (da.from_zarr's), their compression bombs refused
+        volume = bounded_array(volume)
     spacing = _triple(spacing, "spacing", (1.0, 1.0, 1.0))
     if not np.all(spacing > 0):
         raise ValueError(f"spacing must be three positive lengths, got {tuple(spacing)}.")

@@ -238,7 +238,13 @@ def _zstd_frame(data: memoryview, at: int) -> tuple[int | None, int]:
 
 
 def bounded_array(array):
-    """``array`` (a zarr array) reopened with its compressors bounded; anything else as is."""
+    """``array`` (a zarr array) reopened with its compressors bounded.
+
+    A dask array has the zarr arrays it reads (``da.from_zarr``'s) so reopened; anything
+    else is returned as is.
+    """
+    if type(array).__module__.split(".")[0] == "dask":
+        return _bounded_dask(array)
     if type(array).__module__.split(".")[0] != "zarr":
         return array
     zarr = importlib.import_module("zarr")
@@ -260,6 +266,50 @@ def bounded_array(array):
     old = array.async_array
     new = type(old)(metadata=metadata, store_path=old.store_path, config=old.config)
     return zarr.Array(new)
+
+
+def _bounded_dask(array):
+    """A dask array whose graph reads its zarr arrays bounded.
+
+    ``from_zarr`` keeps the array in a layer of its own, or inlines it into its reads'
+    layer (``inline_array=True``).
+    """
+    graph = getattr(array, "dask", None)
+    if not hasattr(graph, "layers") or not hasattr(array, "chunks"):
+        return array
+    from dask.array import Array
+    from dask.blockwise import Blockwise
+    from dask.highlevelgraph import HighLevelGraph, MaterializedLayer
+
+    layers, changed = dict(graph.layers), False
+    for name, layer in layers.items():
+        if isinstance(layer, MaterializedLayer):
+            mapping = {key: bounded_array(value) if _is_zarr_array(value) else value
+                       for key, value in layer.mapping.items()}
+            if any(mapping[key] is not layer.mapping[key] for key in mapping):
+                layers[name], changed = MaterializedLayer(mapping, layer.annotations), True
+        elif isinstance(layer, Blockwise) and any(_is_zarr_array(value)
+                                                  for value, _ in layer.indices):
+            layers[name], changed = _copied(layer), True
+            layers[name].indices = tuple((bounded_array(value), index)
+                                         if _is_zarr_array(value) else (value, index)
+                                         for value, index in layer.indices)
+    if not changed:
+        return array
+    bounded = HighLevelGraph(layers, dict(graph.dependencies))
+    return Array(bounded, array.name, array.chunks, meta=array._meta)
+
+
+def _is_zarr_array(value) -> bool:
+    return (type(value).__module__.split(".")[0] == "zarr"
+            and type(value).__name__ == "Array")
+
+
+def _copied(layer):
+    """A shallow copy of a dask graph layer (its attributes, not its tasks)."""
+    copied = object.__new__(type(layer))
+    copied.__dict__.update(layer.__dict__)
+    return copied
 
 
 def _name(codec) -> str | None:
