@@ -45,6 +45,7 @@ from .core.offscreen import gl_info
 from .core.registry import get_technique, specific_option_names, techniques
 from .core.rendering import offscreen_plotter, render_image
 from .models.multiscale import multiscale_source
+from .models.surface import SPLINES
 from .models.voxels import VoxelModel, count_labels, label_legend
 from .models.zarr_store import checked_local_store
 from .scene.grids import read_grid
@@ -247,6 +248,9 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--isovalue", type=float,
                         help="draw a grid file's field as its implicit surface at this level "
                              "(a quadratic B-spline through its samples)")
+    render.add_argument("--spline", choices=SPLINES,
+                        help="with --isovalue: interpolating (through the samples, the "
+                             "default) or approximating (never overshooting them)")
     for flag, axis in (("--channel", "channel"), ("--timepoint", "time")):
         render.add_argument(flag, type=int,
                             help=f"an OME-Zarr source's {axis} index to draw (default 0)")
@@ -753,7 +757,7 @@ def _render(args) -> int:
                              f"{args.scene} is not a .zarr source: leave it out.")
     try:
         scene = _load(args, progress_bar=progress_bar, as_voxels=as_voxels,
-                      isovalue=args.isovalue)
+                      isovalue=args.isovalue, spline=args.spline or "interpolating")
         for entry in (s for s in scene.skipped if s.problem):
             print(f"pv-cubemarch: note: {entry.path}: {entry.reason}", file=sys.stderr)
     except VolumeDataError as exc:
@@ -825,6 +829,7 @@ def _render_streamed(args, as_voxels: bool, progress_bar) -> int:
     what is missing in a note).
     """
     for flag, value in (("--camera", args.camera), ("--isovalue", args.isovalue),
+                        ("--spline", args.spline),
                         ("--chunk-size", args.chunk_size), ("--time", args.time),
                         ("--strict", args.strict or None)):
         if value is not None:

@@ -85,6 +85,39 @@ def test_cli_renders_a_surface_stage(tmp_path, capsys):
     assert "surfaces: 1" in capsys.readouterr().out
 
 
+def test_the_spline_is_taken_from_every_channel(tmp_path, capsys):
+    # load_scene(spline=), `render --spline` and a prim's cubemarch:spline make the
+    # approximating field (its values: test_surface_field's oracle), and refuse a spline
+    # without a level. Samples stepping sharply (0 to 10, a level of 9.5): the
+    # interpolating spline overshoots into a sheet, the approximating one draws the box
+    # alone. catches (seen failing): the spline dropped by load_scene, by the CLI, by the
+    # USD reader (each drew the interpolating field).
+    steps = np.zeros((12, 12, 12))
+    steps[3:9, 3:9, 3:9] = 10.0
+    path = tmp_path / "steps.npy"
+    np.save(path, steps)
+    expected = cm.make_field(steps, 0.5, spline="approximating").coefficients
+    field = cm.load_scene(path, isovalue=0.5, spline="approximating").surfaces[0]
+    assert np.allclose(field.coefficients, expected)
+    with pytest.raises(SceneLoadError, match="give isovalue= too"):
+        cm.load_scene(path, spline="approximating")
+    stage = write_voxel_stage(tmp_path, steps, technique="surface", attrs={
+        "cubemarch:isovalue": ("Float", 0.5),
+        "cubemarch:spline": ("Token", "approximating")}, stage_name="steps.usda")
+    assert np.allclose(cm.load_scene(stage).surfaces[0].coefficients, expected)
+    covered = {}
+    for spline in ("interpolating", "approximating"):
+        out = tmp_path / f"{spline}.png"
+        assert main(["render", str(path), "--isovalue", "9.5", "--spline", spline, "--out",
+                     str(out), "--size", "64x48", "--shading", "unlit"]) == 0
+        covered[spline] = (np.asarray(Image.open(out))[..., :3].min(axis=-1) > 200).sum()
+    assert 0 < covered["approximating"] < 0.8 * covered["interpolating"], covered
+    capsys.readouterr()
+    assert main(["render", str(path), "--spline", "approximating", "--out",
+                 str(tmp_path / "x.png")]) == 2
+    assert "give isovalue= too" in capsys.readouterr().err
+
+
 def test_a_grid_file_is_a_surface_with_isovalue(tmp_path, capsys):
     # The samples minus the isovalue, interpolated: the field equals them at the cell
     # centres (by hand: sample (i, j, k) sits at the centre of cell (i, j, k)). The CLI

@@ -25,7 +25,14 @@ from ..core.errors import VolumeDataError, VolumeDataWarning
 from ..core.progress import progress
 from ..core.user_warnings import warn_user
 from .image_files import read_data_file
-from .surface import SplineField, bernstein_basis, interpolating_coefficients, point_hull
+from .surface import (
+    SPLINES,
+    SplineField,
+    bernstein_basis,
+    interpolating_coefficients,
+    point_hull,
+    spline_coefficients,
+)
 from .volume import checked_transform
 from .voxel_levels import grown_by_one
 from .voxels import image_samples, samples_at_points
@@ -40,7 +47,8 @@ MARGIN_CELLS = 2
 
 
 def mesh_field(mesh: pyvista.DataSet, cells: int | Sequence[int] = 64, *,
-               progress_bar: bool | None = None, name: str = "surface") -> SplineField:
+               progress_bar: bool | None = None, name: str = "surface",
+               spline: str = "interpolating") -> SplineField:
     """The signed-distance field of a closed surface mesh on cubic cells around it.
 
     ``cells``: cells along the mesh's longest side (plus :data:`MARGIN_CELLS` on every
@@ -91,12 +99,13 @@ def mesh_field(mesh: pyvista.DataSet, cells: int | Sequence[int] = 64, *,
         warnings.warn("The mesh's faces are wound inward (its outside came out positive): "
                       "the field is flipped so that it is positive inside.", stacklevel=3)
         samples = -samples
-    return SplineField(interpolating_coefficients(samples), grid_from_index, name=name)
+    return SplineField(spline_coefficients(samples, spline), grid_from_index, name=name)
 
 
 def make_field(data, isovalue: float | None = None, scalars: str | None = None, *,
                cells: int | Sequence[int] = 64, transform=None, name: str = "surface",
-               progress_bar: bool | None = None) -> SplineField:
+               progress_bar: bool | None = None,
+               spline: str = "interpolating") -> SplineField:
     """The field whose zero set is the surface ``data`` describes, positive inside.
 
     ``data``: a :class:`SplineField` (a copy; ``isovalue``, if given, is subtracted: the
@@ -112,7 +121,16 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     the least-squares fit of :func:`point_cloud_field` on ``cells`` cells. Raises
     ``VolumeDataError`` for NaN samples, a missing isovalue, an open mesh or a cloud
     without normals.
+
+    ``spline`` (samples and meshes): ``'interpolating'`` (the field passes through every
+    sample) or ``'approximating'`` (the samples are its coefficients: smoother, never
+    crossing a level where no neighbouring sample does, but not through the samples:
+    see :func:`~pv_cubemarch.models.surface.spline_coefficients`).
     """
+    if spline not in SPLINES:
+        raise VolumeDataError(f"spline must be one of {SPLINES}: 'interpolating' passes "
+                              "through the samples, 'approximating' never overshoots them; "
+                              f"got {spline!r}.")
     data, scalars = with_scalars_array(data, scalars)
     if isinstance(data, (str, Path)):   # an image file's header checked first
         data = read_data_file(data, "make_field", error=VolumeDataError)
@@ -120,6 +138,12 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     if isovalue is not None and not (isinstance(isovalue, (int, float, np.number))
                                      and np.isfinite(isovalue)):
         raise VolumeDataError(f"isovalue must be a finite number, got {isovalue!r}.")
+    fitted = isinstance(data, SplineField) or (isinstance(data, tuple) and len(data) == 2) \
+        or (isinstance(data, pyvista.PolyData) and data.n_faces == 0)
+    if fitted and spline != "interpolating":
+        raise VolumeDataError(f"spline={spline!r} says how samples or a mesh's distances "
+                              "become coefficients; a spline field or a point cloud's fit "
+                              "has its own: leave spline out.")
     if isinstance(data, SplineField):   # a copy: the caller's field stays as it was
         field = replace(data, coefficients=data.coefficients - float(isovalue or 0.0))
     elif isinstance(data, tuple) and len(data) == 2:   # (points, normals)
@@ -132,11 +156,12 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
         field = point_cloud_field(data.points, data.point_data["Normals"], cells,
                                   progress_bar=progress_bar, name=name)
     elif isinstance(data, pyvista.MultiBlock):   # a glTF or OBJ scene's meshes, as one
-        field = mesh_field(meshes_as_one(data), cells, progress_bar=progress_bar, name=name)
+        field = mesh_field(meshes_as_one(data), cells, progress_bar=progress_bar, name=name,
+                           spline=spline)
     elif isinstance(data, pyvista.DataSet) and not isinstance(data, pyvista.ImageData):
-        field = mesh_field(data, cells, progress_bar=progress_bar, name=name)
+        field = mesh_field(data, cells, progress_bar=progress_bar, name=name, spline=spline)
     else:
-        field = _sampled_field(data, isovalue, scalars, name)
+        field = _sampled_field(data, isovalue, scalars, name, spline)
     if transform is not None:
         field.transform = checked_transform(transform)
     return field
@@ -195,8 +220,8 @@ def _check_cells(cells) -> None:
 
 
 def _sampled_field(data, isovalue: float | None, scalars: str | None,
-                   name: str) -> SplineField:
-    """Samples (an array or an ImageData's) minus ``isovalue``, interpolated."""
+                   name: str, spline: str = "interpolating") -> SplineField:
+    """Samples (an array or an ImageData's) minus ``isovalue``, by ``spline``."""
     domain = None
     if isinstance(data, pyvista.ImageData):
         values, grid_from_index = image_samples(data, scalars)
@@ -216,7 +241,7 @@ def _sampled_field(data, isovalue: float | None, scalars: str | None,
     if isovalue is None:
         raise VolumeDataError(f"A sampled field needs isovalue= (its values span "
                               f"[{values.min():g}, {values.max():g}]).")
-    coefficients = interpolating_coefficients(values - float(isovalue))
+    coefficients = spline_coefficients(values - float(isovalue), spline)
     if float(isovalue) == values.min():
         # VTK's contour counts a point at the level as inside: none lies below this one
         warnings.warn(f"isovalue={isovalue:g} is the data's smallest value: no sample lies "
@@ -245,8 +270,8 @@ def _sampled_field(data, isovalue: float | None, scalars: str | None,
                   "with pl.add_mesh(grid.contour([isovalue])), or give the grid two points or "
                   f"more along {along}.", VolumeDataWarning)
     field = SplineField(coefficients, grid_from_index, name=name, domain=domain)
-    if values.min() < float(isovalue) < values.max():
-        _say_overshoot(field, values - float(isovalue), isovalue)
+    if values.min() < float(isovalue) < values.max() and spline == "interpolating":
+        _say_overshoot(field, values - float(isovalue), isovalue)   # the other cannot
     return field
 
 
@@ -271,8 +296,9 @@ def _say_overshoot(field: SplineField, values: np.ndarray, isovalue) -> None:
         warn_user(f"isovalue={isovalue:g}: the interpolating spline crosses it in {crossed:,} "
                   "cells none of whose neighbouring samples does (it overshoots samples that "
                   "step sharply, near a plateau close to the level): a surface is drawn "
-                  "there that PyVista's contour does not draw. An isovalue further from the "
-                  "data's plateaus, or smoother samples, has none.", VolumeDataWarning)
+                  "there that PyVista's contour does not draw. spline='approximating' "
+                  "never overshoots; an isovalue further from the data's plateaus, or "
+                  "smoother samples, has none.", VolumeDataWarning)
 
 
 def point_cloud_field(points, normals, cells: int = 32, *, offset: float = 0.5,

@@ -278,6 +278,30 @@ def _spline_along(c: np.ndarray, axis: int, positions: np.ndarray) -> np.ndarray
                for k, w in enumerate(weights))
 
 
+#: How samples become a spline's coefficients: ``'interpolating'`` (the field passes
+#: through every sample) or ``'approximating'`` (the samples are the coefficients).
+SPLINES = ("interpolating", "approximating")
+
+
+def spline_coefficients(samples: np.ndarray, spline: str = "interpolating") -> np.ndarray:
+    """``samples``' coefficients by ``spline`` (one of :data:`SPLINES`).
+
+    ``'approximating'``: the samples themselves, with the mirror ends of
+    :func:`interpolating_coefficients`. The field at each cell lies within its 27
+    neighbouring samples' range, so it crosses a level only where they do (no overshoot
+    where samples step sharply); at a cell's centre it is the samples blurred by
+    ``(1, 6, 1) / 8`` along each axis.
+    """
+    if spline not in SPLINES:
+        raise ValueError(f"spline must be one of {SPLINES}, got {spline!r}.")
+    if spline == "interpolating":
+        return interpolating_coefficients(samples)
+    c = np.asarray(samples, dtype=np.float64)
+    flat = [n == 1 for n in c.shape]   # one sample: a constant field along that axis
+    c = np.pad(c, [(0, 0) if one else (1, 1) for one in flat], mode="reflect")
+    return np.pad(c, [(1, 1) if one else (0, 0) for one in flat], mode="edge")
+
+
 def interpolating_coefficients(samples: np.ndarray) -> np.ndarray:
     """Coefficients whose field equals ``samples`` at the cell centres (one sample per cell).
 

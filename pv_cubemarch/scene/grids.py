@@ -162,7 +162,7 @@ def _unpickled(error: Exception) -> str:
 
 
 def load_grid_scene(path: str | Path, as_voxels: bool = False,
-                    isovalue: float | None = None) -> Scene:
+                    isovalue: float | None = None, spline: str = "interpolating") -> Scene:
     """A scene of the one grid in a ``.vti``/``.vtk``/``.npy``/``.npz`` file.
 
     Parameters
@@ -175,6 +175,8 @@ def load_grid_scene(path: str | Path, as_voxels: bool = False,
     isovalue : float, optional
         Read it as samples (one per cell, or the point data at the points) whose surface
         at this level is drawn (a spline field), instead of a volume.
+    spline : str, default: 'interpolating'
+        How those samples become the spline, as :func:`~pv_cubemarch.add_surface` takes it.
 
     Returns
     -------
@@ -196,7 +198,7 @@ def load_grid_scene(path: str | Path, as_voxels: bool = False,
             scene.voxels.append(make_voxels(grid, transform=placement(grid), name=path.name))
         elif isovalue is not None:
             scene.surfaces.append(make_field(grid, float(isovalue), transform=placement(grid),
-                                             name=path.name))
+                                             name=path.name, spline=spline))
         else:
             scene.volumes.append(make_data_model(grid, None, None, None, {},
                                                  transform=placement(grid), name=path.name))

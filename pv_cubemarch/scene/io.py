@@ -17,7 +17,7 @@ from .usd import USD_SUFFIXES
 
 def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
                isovalue: float | None = None, time: float | None = None,
-               strict: bool = False) -> Scene:
+               strict: bool = False, spline: str = "interpolating") -> Scene:
     """Load a scene from a USD stage, any mesh/scene file trimesh reads, or a grid file.
 
     Parameters
@@ -36,6 +36,10 @@ def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
         :class:`~pv_cubemarch.models.surface.SplineField`, drawn by
         :func:`~pv_cubemarch.add_surface`). In a USD stage a ``Volume`` prim says so itself
         (``cubemarch:technique = "surface"`` and ``cubemarch:isovalue``).
+    spline : str, default: 'interpolating'
+        With ``isovalue``: how the samples become the surface's spline, as
+        :func:`~pv_cubemarch.add_surface` takes it (``'approximating'`` never overshoots
+        them). In a USD stage, ``cubemarch:spline`` on the prim.
     time : float, optional
         A USD stage only: the time code to read animated values at; by default the stage's
         start time when it is animated.
@@ -63,6 +67,10 @@ def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
             f"isovalue applies to grid files ({', '.join(GRID_SUFFIXES)}), not {suffix!r}: in "
             "a USD stage set cubemarch:technique = \"surface\" and cubemarch:isovalue on the "
             "Volume prims to draw as surfaces.")
+    if spline != "interpolating" and isovalue is None:
+        raise SceneLoadError(f"spline={spline!r} says how a grid file's samples become a "
+                             "surface: give isovalue= too (in a USD stage, cubemarch:spline "
+                             "on the surface's Volume prim).")
     if isovalue is not None and as_voxels:
         raise SceneLoadError("A grid file is loaded as voxels (as_voxels) or as a surface "
                              "(isovalue), not both: leave one out.")
@@ -75,7 +83,7 @@ def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
     if suffix in MESH_SUFFIXES:
         return load_mesh_scene(path)
     if suffix in GRID_SUFFIXES:
-        return load_grid_scene(path, as_voxels=as_voxels, isovalue=isovalue)
+        return load_grid_scene(path, as_voxels=as_voxels, isovalue=isovalue, spline=spline)
     raise SceneLoadError(
         f"Cannot load {str(path)!r}: unknown scene type {suffix!r}. Supported: "
         f"{', '.join(USD_SUFFIXES + MESH_SUFFIXES + GRID_SUFFIXES)}; a .zarr folder (an "

@@ -176,10 +176,12 @@ def _surface(ctx: StageContext, prim, name: str, field_prim, grid) -> None:
         raise SceneLoadError(f"Volume {name}: cubemarch:technique = \"surface\" needs "
                              "cubemarch:isovalue (the level of the field to draw).")
     scalars = _field_array(field_prim, grid)
+    spline = attr(prim, "cubemarch:spline")
     try:
         surface = make_field(grid, float(converted(name, "isovalue", isovalue, float)),
                              scalars, transform=placement(grid, ctx.world_matrix(prim)),
-                             name=name)
+                             name=name, spline="interpolating" if spline is None else
+                             str(converted(name, "spline", spline, str)))
     except VolumeDataError as exc:
         raise VolumeDataError(f"{where}: {exc}") from exc
     ctx.scene.surfaces.append(surface)
