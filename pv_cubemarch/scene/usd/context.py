@@ -36,6 +36,8 @@ class StageContext:
     #: The PointInstancers being read, outermost first (a prototype holding one of them
     #: is a cycle).
     instancing: list = field(default_factory=list)
+    #: Prims below each prototype, nested instances expanded, by prototype path.
+    prototype_prims: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.xforms = UsdGeom.XformCache(self.time)

@@ -89,7 +89,7 @@ def _read_instances(ctx: StageContext, prim, read_local, skip_reason) -> list[Sc
         if not chosen.size:
             continue
         for part, relative in _prototype_parts(ctx, root, read_local, skip_reason):
-            _check_copies(ctx, part, len(chosen))
+            check_copies(ctx, part, len(chosen))
             copy = _copied(part, instances[chosen] @ relative)
             copy.name = f"{prim.GetPath()}[{part.name}]"
             parts.append(copy)
@@ -130,7 +130,7 @@ def _prototype_parts(ctx: StageContext, root, read_local, skip_reason):
                     yield part, relative
 
 
-def _check_copies(ctx: StageContext, part: SceneMesh, count: int) -> None:
+def check_copies(ctx: StageContext, part: SceneMesh, count: int) -> None:
     """Raise ``PrimError`` if ``count`` copies of ``part`` would take more than the budget.
 
     Nested instancers multiply (10 instances of 10 of 10 ...): a 2 KB stage asked for
