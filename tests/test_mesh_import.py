@@ -51,3 +51,45 @@ def test_missing_and_corrupt_mesh_files(tmp_path):
     (tmp_path / "empty.obj").write_text("# nothing\n")
     with pytest.raises(cm.SceneLoadError):
         cm.load_scene(tmp_path / "empty.obj")
+
+
+def _placed_boxes(tmp_path, box, offsets, name="boxes.glb"):
+    """A glTF scene placing ``box`` at each of ``offsets`` (x), one node each."""
+    scene = trimesh.Scene()
+    for i, x in enumerate(offsets):
+        scene.add_geometry(box, node_name=f"n{i}",
+                           transform=trimesh.transformations.translation_matrix((x, 0, 0)))
+    scene.export(tmp_path / name)
+    return tmp_path / name
+
+
+def test_a_scene_graph_placing_too_many_copies_is_refused_before_they_are_made(
+        tmp_path, box, monkeypatch):
+    # glTF nodes each place a copy of a mesh (found by a review: a 660 KB file of 6,000
+    # nodes over one 20,000-triangle mesh made 5.7 GB of copies). The placements are
+    # counted and their bytes weighed against the memory budget before any copy. catches
+    # (seen failing): the check left out (five boxes loaded under either limit).
+    from pv_cubemarch.scene import meshes
+
+    path = _placed_boxes(tmp_path, box, [0, 2, 4, 6, 8])
+    assert len(cm.load_scene(path).meshes) == 5
+    monkeypatch.setattr(meshes, "MAX_PLACED_MESHES", 4)
+    with pytest.raises(cm.SceneLoadError, match="places 5 meshes, more than the 4"):
+        cm.load_scene(path)
+    monkeypatch.undo()
+    monkeypatch.setenv("PV_CUBEMARCH_ARRAY_MAX_BYTES", "2000")
+    with pytest.raises(cm.SceneLoadError, match="its 5 placed meshes would take"):
+        cm.load_scene(path)
+
+
+def test_a_mesh_placed_past_what_gl_draws_is_said_and_the_rest_drawn(tmp_path, box):
+    # A node at 1e17 blanked the whole frame (USD's prims past 1e16 were already said).
+    # catches (seen failing): no reach check for mesh files (both nodes loaded).
+    path = _placed_boxes(tmp_path, box, [0.0, 1e17])
+    with pytest.warns(cm.SceneWarning, match="reaches 1e\\+17 world units"):
+        scene = cm.load_scene(path)
+    assert [m.name for m in scene.meshes] == ["n0"]
+    assert [k.path for k in scene.skipped if k.problem] == ["n1"]
+    with pytest.raises(cm.SceneLoadError, match="no triangle meshes that can be drawn"), \
+            pytest.warns(cm.SceneWarning):
+        cm.load_scene(_placed_boxes(tmp_path, box, [1e17], name="far.glb"))
