@@ -40,7 +40,13 @@ from .models.image_files import read_data_file
 from .models.label_ids import check_background_id
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
 from .models.multiscale import MultiscaleSource, is_zarr_group, multiscale_source
-from .models.volume import NAN_POLICIES, VolumeModel, checked_transform, with_transfer
+from .models.volume import (
+    NAN_POLICIES,
+    VolumeModel,
+    checked_transform,
+    uniform_grid,
+    with_transfer,
+)
 from .models.voxels import (
     VoxelModel,
     fits_one_texture,
@@ -467,7 +473,7 @@ def add_volume(
         given = {key: value for key, value in locals().items()
                  if key not in ("plotter", "volume", "kwargs", "paging")}
         return _add_paged(plotter, volume, given, kwargs)
-    volume = _read_path(volume, "add_volume")
+    volume = _regular_grid(_read_path(volume, "add_volume"), "add_volume")
     unused = [key for key, value in paging.items() if value is not None]
     if unused:
         raise ValueError(f"{', '.join(unused)}: for multiscale sources (an OME-Zarr group, a "
@@ -675,6 +681,25 @@ def _read_path(data, what: str):
         raise VolumeDataError(f"{what}: {str(path)!r} could not be read by pyvista.read "
                               f"({error}); give a pyvista dataset or a numpy array, or load "
                               "a scene file with pv_cubemarch.load_scene.") from error
+
+
+def _regular_grid(data, what: str):
+    """``data`` as a grid of samples: a VTK image wrapped, a RectilinearGrid an ImageData.
+
+    Another PyVista dataset (a mesh, a table) is refused by name: it holds no such grid.
+    """
+    if isinstance(data, vtk.vtkDataObject) and not isinstance(data, pyvista.DataObject):
+        data = pyvista.wrap(data)
+    if isinstance(data, pyvista.RectilinearGrid):
+        return uniform_grid(data)
+    if isinstance(data, pyvista.DataObject) and not isinstance(
+            data, (pyvista.ImageData, pyvista.MultiBlock)):
+        raise VolumeDataError(
+            f"{what}: {type(data).__name__} is not a regular grid of samples (an "
+            "ImageData, a uniform RectilinearGrid or a 3D array). Resample it onto an "
+            "ImageData first (pyvista.ImageData(...).sample(data)), or, for a closed mesh, "
+            "voxelize it (pyvista.voxelize) or draw it with add_surface.")
+    return data
 
 
 def is_multiscale_input(volume) -> bool:
@@ -1533,7 +1558,11 @@ def add_voxels(
         given = {key: value for key, value in locals().items()
                  if key not in ("plotter", "grid", "kwargs", "lighting", "user_matrix")}
         return _add_paged_labels(plotter, grid, given)
-    grid = _read_path(grid, "add_voxels")
+    grid = _regular_grid(_read_path(grid, "add_voxels"), "add_voxels")
+    if isinstance(grid, pyvista.MultiBlock):
+        raise VolumeDataError("add_voxels draws one grid of labels; a MultiBlock holds "
+                              f"{grid.n_blocks}: add each block on its own "
+                              "([add_voxels(plotter, block) for block in blocks]).")
     grid, scalars = with_scalars_array(grid, scalars)   # an array: as add_mesh takes it
     streaming = [key for key, value in (("gpu_bytes", gpu_bytes), ("host_bytes", host_bytes),
                                         ("brick_size", brick_size)) if value is not None]

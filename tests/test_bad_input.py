@@ -37,7 +37,9 @@ def image_with(values):
     (lambda: image_with(np.full(27, np.inf)), "NaN or infinite"),
     (lambda: image_with(np.ones(27) + 1j), "dtype"),
     (lambda: np.ones((4, 4)), "3D"),
-    (lambda: pv.Sphere(), "Cannot render a PolyData"),
+    (lambda: pv.Sphere(), "PolyData is not a regular grid of samples"),
+    (lambda: pv.Table({"a": np.arange(3.0)}), "Table is not a regular grid"),   # was an
+    # AttributeError (found by a review)
     (lambda: pv.ImageData(dimensions=(3, 3, 3)), "no scalar arrays"),
 ])
 def test_bad_volume_input(plotter_factory, make, message):
@@ -49,6 +51,32 @@ def test_bad_volume_input(plotter_factory, make, message):
         cm.add_volume(pl, make())
     assert dict(pl.renderer.actors) == before
     assert np.array_equal(cm.render_image(pl), image_before)
+
+
+def test_labels_come_as_add_volume_takes_a_grid_and_anything_else_is_named(plotter_factory):
+    # Found by a review: a bare vtkImageData, which add_volume takes, and a uniform
+    # RectilinearGrid were refused by add_voxels as "got shape ()", and so were meshes and
+    # MultiBlocks, naming nothing. The VTK image and the RectilinearGrid draw the labels an
+    # ImageData of them draws; the others are refused by name. catches (seen failing):
+    # the VTK object not wrapped ("got shape ()"), the RectilinearGrid not made an image
+    # (refused as a mesh), the MultiBlock's check left out ("got shape (2,)").
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+
+    labels = pv.ImageData(dimensions=(5, 4, 3), spacing=(0.5, 1.0, 1.0))
+    labels.cell_data["l"] = np.arange(labels.n_cells) % 3
+    raw = vtkImageData()
+    raw.DeepCopy(labels)
+    rectilinear = labels.cast_to_rectilinear_grid()
+    expected = cm.add_voxels(plotter_factory(), labels).cubemarch.model
+    for grid in (raw, rectilinear):
+        model = cm.add_voxels(plotter_factory(), grid).cubemarch.model
+        assert np.array_equal(model.labels, expected.labels)
+        assert np.allclose(model.grid_from_index, expected.grid_from_index)
+    for grid, words in ((labels.cast_to_unstructured_grid(), "UnstructuredGrid is not a "
+                         "regular grid"), (pv.Sphere(), "voxelize it"),
+                        (pv.MultiBlock([labels, labels]), "a MultiBlock holds 2")):
+        with pytest.raises(cm.VolumeDataError, match=words):
+            cm.add_voxels(plotter_factory(), grid)
 
 
 def test_wrong_scalars_name_lists_arrays(plotter_factory):

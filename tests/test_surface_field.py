@@ -245,6 +245,38 @@ def test_an_approximating_spline_is_the_samples_blurred_and_never_overshoots():
         make_field(cloud, spline="approximating")
 
 
+def test_a_level_of_data_off_a_regular_grid_is_refused_not_drawn_as_its_box():
+    # Found by a review: add_surface(structured_grid, isovalue=10) drew the signed
+    # distance of the grid's outer faces (its box, 17.5 dB from contour), the isovalue
+    # ignored in silence; so did a closed mesh with an isovalue. A level of data is drawn
+    # from a regular grid only: an ImageData (a raw vtkImageData too), a uniform
+    # RectilinearGrid (the same field as its ImageData's); anything else is refused by
+    # name. catches (seen failing): the check left out (no error), the VTK image not
+    # wrapped ("got shape ()"), the RectilinearGrid taken as a mesh (its box's field).
+    image = pyvista.ImageData(dimensions=(9, 8, 7), spacing=(0.5, 0.5, 1.0), origin=(1, 2, 3))
+    image.point_data["d"] = 3.0 - np.linalg.norm(image.points - image.center, axis=1)
+    expected = make_field(image, 1.0).coefficients
+    for grid in (image.cast_to_structured_grid(), image.cast_to_unstructured_grid(),
+                 pyvista.Sphere()):
+        with pytest.raises(VolumeDataError, match="resample it onto an ImageData first"):
+            make_field(grid, 1.0)
+    raw = pyvista_vtk_image(image)
+    assert np.allclose(make_field(raw, 1.0).coefficients, expected)
+    assert np.allclose(make_field(image.cast_to_rectilinear_grid(), 1.0).coefficients,
+                       expected)
+    with pytest.raises(VolumeDataError, match="holds no grid or mesh"):
+        make_field(pyvista.Table({"a": np.arange(3.0)}), 1.0)
+
+
+def pyvista_vtk_image(image):
+    """``image`` as a bare vtkImageData (not PyVista's wrapper), as VTK filters give one."""
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+
+    raw = vtkImageData()
+    raw.DeepCopy(image)
+    return raw
+
+
 def test_reference_flags_near_double_roots():
     # A slab 0.006 cell thick (the field peaks at 9e-6 between its two roots, 0.006 apart):
     # the first root is found, and flagged ambiguous (a float32 renderer may lose the

@@ -39,6 +39,7 @@ from vtkmodules.vtkFiltersCore import (
     vtkImplicitPolyDataDistance,
     vtkPolyDataTangents,
 )
+from vtkmodules.vtkFiltersGeometry import vtkDataSetSurfaceFilter
 from vtkmodules.vtkIOImage import vtkHDRReader, vtkNrrdReader
 from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
 from vtkmodules.vtkRenderingCore import (
@@ -60,7 +61,8 @@ __all__ = [
     "VTK_CROP_SUBVOLUME", "VTK_FLOAT", "VTK_LINEAR_INTERPOLATION", "VTK_NEAREST_INTERPOLATION",
     "VTK_OBJECT", "VTK_STRING", "VTK_UNSIGNED_CHAR", "VTK_UNSIGNED_SHORT", "vtkActor",
     "vtkAppendPolyData", "vtkAssembly", "vtkCellArray", "vtkColorTransferFunction",
-    "vtkCommand", "vtkDataArray", "vtkDataObject", "vtkDataSetAttributes", "vtkDoubleArray",
+    "vtkCommand", "vtkDataArray", "vtkDataObject", "vtkDataSetAttributes",
+    "vtkDataSetSurfaceFilter", "vtkDoubleArray",
     "vtkFloatArray", "vtkHDRReader", "vtkImageData", "vtkImplicitPolyDataDistance",
     "vtkMatrix3x3", "vtkMatrix4x4", "vtkNrrdReader", "vtkOpenGLGPUVolumeRayCastMapper",
     "vtkOpenGLPolyDataMapper", "vtkOpenGLRenderer", "vtkOutputWindow", "vtkPiecewiseFunction",

@@ -33,7 +33,7 @@ from .surface import (
     point_hull,
     spline_coefficients,
 )
-from .volume import checked_transform
+from .volume import checked_transform, uniform_grid
 from .voxel_levels import grown_by_one
 from .voxels import image_samples, samples_at_points
 
@@ -55,8 +55,7 @@ def mesh_field(mesh: pyvista.DataSet, cells: int | Sequence[int] = 64, *,
     side), or three counts. Raises ``VolumeDataError`` for a mesh with open edges (its
     inside is undefined: fit its points with normals instead), or with no faces.
     """
-    surface = mesh.extract_surface() if not isinstance(mesh, pyvista.PolyData) else mesh
-    surface = surface.triangulate().clean()
+    surface = outer_surface(mesh).triangulate().clean()
     if surface.n_cells == 0:
         raise VolumeDataError("The mesh has no faces: a signed distance needs a closed "
                               "surface.")
@@ -131,9 +130,14 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
         raise VolumeDataError(f"spline must be one of {SPLINES}: 'interpolating' passes "
                               "through the samples, 'approximating' never overshoots them; "
                               f"got {spline!r}.")
+    if isinstance(data, vtk.vtkDataObject) and not isinstance(data, pyvista.DataObject):
+        data = pyvista.wrap(data)   # a VTK object, as PyVista's filters take one
     data, scalars = with_scalars_array(data, scalars)
     if isinstance(data, (str, Path)):   # an image file's header checked first
         data = read_data_file(data, "make_field", error=VolumeDataError)
+    if isinstance(data, pyvista.RectilinearGrid):   # samples, if uniform (else refused)
+        data = uniform_grid(data)
+    _check_data(data, isovalue, scalars)
     _check_cells(cells)
     if isovalue is not None and not (isinstance(isovalue, (int, float, np.number))
                                      and np.isfinite(isovalue)):
@@ -167,6 +171,26 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     return field
 
 
+def _check_data(data, isovalue, scalars) -> None:
+    """Refuse what ``make_field`` cannot draw, or would draw otherwise than asked."""
+    meshes = isinstance(data, pyvista.MultiBlock) or (
+        isinstance(data, pyvista.DataSet) and not isinstance(data, pyvista.ImageData))
+    if meshes and (isovalue is not None or scalars is not None):
+        what = "isovalue=" if isovalue is not None else "scalars="
+        raise VolumeDataError(
+            f"{what} picks a level of samples on a regular grid (an ImageData, a uniform "
+            f"RectilinearGrid or a 3D array); a {type(data).__name__} is drawn as the closed "
+            "surface of its cells or faces, from its signed distance, and its data are not "
+            "read. To draw a level of its data, resample it onto an ImageData first "
+            "(pyvista.ImageData(...).sample(grid)); to draw its surface, leave "
+            f"{what} out.")
+    if isinstance(data, pyvista.DataObject) and not isinstance(
+            data, (pyvista.DataSet, pyvista.MultiBlock)):
+        raise VolumeDataError(f"A {type(data).__name__} holds no grid or mesh to draw a "
+                              "surface of: give samples (an ImageData or a 3D array), a "
+                              "closed mesh, or a point cloud with normals.")
+
+
 def meshes_as_one(blocks: pyvista.MultiBlock) -> pyvista.PolyData:
     """The surfaces of a MultiBlock's meshes (nested blocks too) as one mesh.
 
@@ -181,9 +205,17 @@ def meshes_as_one(blocks: pyvista.MultiBlock) -> pyvista.PolyData:
                               "draws one grid of samples; add each block on its own.")
     if not meshes:
         raise VolumeDataError("The MultiBlock holds no mesh with cells to draw.")
-    surfaces = [mesh if isinstance(mesh, pyvista.PolyData) else mesh.extract_surface()
-                for mesh in meshes]
-    return pyvista.merge(surfaces, merge_points=False)
+    return pyvista.merge([outer_surface(mesh) for mesh in meshes], merge_points=False)
+
+
+def outer_surface(mesh: pyvista.DataSet) -> pyvista.PolyData:
+    """``mesh`` itself if a PolyData, else its outer faces (VTK's dataset surface filter)."""
+    if isinstance(mesh, pyvista.PolyData):
+        return mesh
+    faces = vtk.vtkDataSetSurfaceFilter()
+    faces.SetInputData(mesh)
+    faces.Update()
+    return pyvista.wrap(faces.GetOutput())
 
 
 def with_scalars_array(data, scalars):

@@ -123,7 +123,7 @@ def as_image_data(data, scalars: str | None = None, nan_policy: str = "raise"):
         grid.point_data["values"] = values.ravel(order="F")
         grid, values = _thicken_flat_axes(grid, values)
         return grid, np.ascontiguousarray(values, dtype=np.float32), "values", offset
-    grid = _as_uniform_grid(data)
+    grid = uniform_grid(data)
     if scalars is None:   # the active array, point or cell data, as PyVista draws it
         names = list(grid.point_data.keys()) or list(grid.cell_data.keys())
         if not names:
@@ -227,7 +227,8 @@ def image_data(dimensions, spacing, origin) -> pyvista.ImageData:
     return grid
 
 
-def _as_uniform_grid(data) -> pyvista.ImageData:
+def uniform_grid(data) -> pyvista.ImageData:
+    """``data`` as an ImageData: itself, a uniform RectilinearGrid's, or a VTK image wrapped."""
     if isinstance(data, pyvista.ImageData):
         check_geometry(data)
         return data
@@ -249,7 +250,7 @@ def _as_uniform_grid(data) -> pyvista.ImageData:
     except Exception:
         wrapped = None
     if isinstance(wrapped, (pyvista.ImageData, pyvista.RectilinearGrid)):
-        return _as_uniform_grid(wrapped)
+        return uniform_grid(wrapped)
     raise VolumeDataError(
         f"Cannot render a {type(data).__name__} as a volume: pass a pyvista.ImageData, a uniform "
         "RectilinearGrid or a 3D numpy array (resample other meshes onto an ImageData first)."
