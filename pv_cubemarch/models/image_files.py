@@ -24,6 +24,7 @@ import pyvista
 from ..core import vtk_classes as vtk
 from ..core.budgets import host_budget
 from ..core.errors import SceneLoadError
+from .nrrd_space import nrrd_placement, placed
 from .sandboxed_read import probe_read
 
 #: The image files checked (what ``pyvista.read`` reads through VTK's image readers).
@@ -44,6 +45,8 @@ def read_image_file(path, where: str, shown: str | None = None, error=SceneLoadE
     """
     shown = str(path) if shown is None else shown
     check_image_file(Path(path), where, shown, host_budget(ARRAY_BYTES_ENV, error), error)
+    placement = nrrd_placement(Path(path), where, shown, error) if Path(
+        path).suffix.lower() in (".nrrd", ".nhdr") else None
     try:   # VTK's errors as its log has them, or as PyVista's reader warns of them
         with pyvista.VtkErrorCatcher(send_to_logging=False) as caught, \
                 warnings.catch_warnings(record=True) as warned:
@@ -60,6 +63,8 @@ def read_image_file(path, where: str, shown: str | None = None, error=SceneLoadE
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     if errors:
         raise error(f"{where}: {shown!r} could not be read (VTK: {errors[0]}).")
+    if placement is not None and isinstance(grid, pyvista.ImageData):
+        placed(grid, placement)   # the header's orientation, which VTK's reader drops
     return grid
 
 
