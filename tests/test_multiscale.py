@@ -137,6 +137,43 @@ def test_dask_arrays_and_lists_of_levels_are_sources():
     np.testing.assert_allclose(levels[1].translation, [0.5, 1 / 3, 0.5])
 
 
+def _axes(z_unit, y_unit, x_unit):
+    units = {"z": z_unit, "y": y_unit, "x": x_unit}
+    return [{"name": "t", "type": "time"}, {"name": "c", "type": "channel"},
+            *[{"name": a, "type": "space",
+               **({"unit": units[a]} if units[a] else {})} for a in "zyx"]]
+
+
+def test_space_axes_in_different_units_are_drawn_in_x_s(tmp_path):
+    # Found by a review: z in millimetres beside x and y in micrometres was drawn by the
+    # scale numbers as written (z 1000 times too thin), and an axis named z of type time
+    # was drawn as space. By hand: 2.5 mm is 2500 micrometres. catches (seen failing): the
+    # units ignored (z's scale 2.5), the axis type not checked.
+    scales = [[1, 1, 2.5, 0.5, 0.25], [1, 1, 5.0, 1.0, 0.5]]
+    translations = [[0, 0, 10.0, -3.0, 7.0], [0, 0, 11.25, -2.75, 7.125]]
+    _v04_image(tmp_path / "a.zarr", (1, 1, 5, 6, 7), scales, translations,
+               axes=_axes("millimeter", "micrometer", "micrometer"))
+    fine = multiscale_source(str(tmp_path / "a.zarr")).levels[0]
+    np.testing.assert_array_equal(fine.scale, [0.25, 0.5, 2500.0])
+    np.testing.assert_array_equal(fine.translation, [7.0, -3.0, 10000.0])
+    _v04_image(tmp_path / "b.zarr", (1, 1, 5, 6, 7), scales, translations,
+               axes=_axes("micrometer", "micrometer", "micrometer"))
+    np.testing.assert_array_equal(
+        multiscale_source(str(tmp_path / "b.zarr")).levels[0].scale, [0.25, 0.5, 2.5])
+    _v04_image(tmp_path / "d.zarr", (1, 1, 5, 6, 7), scales, translations,
+               axes=_axes("millimeter", None, "micrometer"))   # y's unit left out
+    with pytest.warns(UserWarning, match="cannot be compared"):
+        np.testing.assert_array_equal(
+            multiscale_source(str(tmp_path / "d.zarr")).levels[0].scale, [0.25, 0.5, 2.5])
+    cm.build_pyramid(np.zeros((8, 8, 8), np.float32), tmp_path / "c.ome.zarr", levels=1,
+                     chunk_size=8, progress_bar=False)
+    meta = json.loads((tmp_path / "c.ome.zarr" / "zarr.json").read_text())
+    meta["attributes"]["ome"]["multiscales"][0]["axes"][0].update(name="z", type="time")
+    (tmp_path / "c.ome.zarr" / "zarr.json").write_text(json.dumps(meta))
+    with pytest.raises(ValueError, match="axis 'z' is of type 'time'"):
+        multiscale_source(str(tmp_path / "c.ome.zarr"))
+
+
 @pytest.mark.parametrize(("change", "message"), [
     (lambda attrs: attrs["multiscales"][0].update(axes=[
         {"name": "t", "type": "time"}, {"name": "c", "type": "channel"},

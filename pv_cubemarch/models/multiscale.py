@@ -20,6 +20,7 @@ import numpy as np
 from ..core.budgets import host_budget
 from ..core.errors import StoreReadError
 from .image_files import ARRAY_BYTES_ENV
+from .ome_units import unit_factors
 from .zarr_codecs import bounded_array
 from .zarr_store import open_zarr
 
@@ -340,6 +341,9 @@ def _ome_source(group, time: int, channel: int, name: str | None) -> MultiscaleS
         raise ValueError(f"The image's axes are {names}: a volume needs space axes x, y and z "
                          f"({', '.join(missing)} missing).")
     axes = tuple(names.index(s) for s in SPACE)
+    units = [None if getattr(axis, "unit", None) is None else str(
+        getattr(axis.unit, "value", axis.unit)) for axis in scales.axes]
+    factors = np.asarray(unit_factors(names, kinds, units, SPACE))   # into x's unit
     fixed, others = {}, {}
     finest = group[scales.datasets[0].path].shape
     for index, (axis_name, kind) in enumerate(zip(names, kinds, strict=True)):
@@ -359,7 +363,8 @@ def _ome_source(group, time: int, channel: int, name: str | None) -> MultiscaleS
         scale, translation = _transforms(dataset.coordinateTransformations, len(names))
         scale, translation = scale * overall[0], translation * overall[0] + overall[1]
         levels.append(Level(array, tuple(int(array.shape[a]) for a in axes),
-                            scale[list(axes)], translation[list(axes)], axes, fixed))
+                            scale[list(axes)] * factors, translation[list(axes)] * factors,
+                            axes, fixed))
     return MultiscaleSource(levels, name or (scales.name or "volume"), others)
 
 
