@@ -438,6 +438,35 @@ def test_the_panel_hides_voxel_materials(plotter_factory):
         view.close()
 
 
+def test_a_client_s_values_off_a_slider_or_past_the_labels_are_refused_in_brief(
+        plotter_factory):
+    # Found by a review: an isovalue shift of 1e308 (off the slider's track, which a
+    # websocket client may send) was taken and emptied the surface; 200,000 unknown label
+    # ids were echoed back to the page in a 1.4 MB message. catches (seen failing): the
+    # range not checked (the shift taken), every unknown id listed.
+    x = np.linspace(-1, 1, 16)
+    field = np.sqrt(np.add.outer(np.add.outer(x**2, x**2), x**2))
+    labels = np.zeros((4, 4, 4), np.uint8)
+    labels[:2], labels[2:] = 1, 2
+    pl = plotter_factory(SIZE)
+    cm.add_surface(pl, field, isovalue=0.6, name="s")
+    cm.add_voxels(pl, labels, name="v")
+    view = cm.live_view(pl)
+    state = view.server.state
+    try:
+        state["surface__isovalue"] = 1e308
+        state.flush()
+        assert "outside the slider's range" in state["message"], state["message"]
+        assert view.session.value("surface", "isovalue") == 0.0
+        state["voxels__materials"] = [str(i) for i in range(20000)]
+        state.flush()
+        assert "19,998 materials (0, 3, 4, 5, 6, ...)" in state["message"]
+        assert len(state["message"]) < 200
+        assert view.session.value("voxels", "materials") == [1, 2]
+    finally:
+        view.close()
+
+
 def test_the_panel_shows_a_legend_of_label_ids_and_their_colours(plotter_factory):
     # catches (seen failing): the legend's state not refreshed when the labels knob hides
     # one (its entry still shown), colours read from palette rows other than the id's, and

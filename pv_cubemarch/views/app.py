@@ -210,6 +210,7 @@ def _bind(server, session: TuningSession, kind: str, knob: Knob) -> None:
             new = _typed(knob, current[variable])
             if new == session.value(kind, knob.name):
                 return                  # the control's start, or set back by show_session
+            _check_range(knob, new)
             session.set(kind, knob.name, new)
         except Exception as exc:    # refused (any error): the scene and the knob as they were
             message = str(exc)
@@ -267,6 +268,13 @@ def _shown(knob: Knob, value):
     if value is None and knob.optional:
         return AUTO
     return value
+
+
+def _check_range(knob: Knob, value) -> None:
+    """Refuse a slider's value off its track (a client may send any number)."""
+    if knob.control == "slider" and not knob.low <= value <= knob.high:
+        raise ValueError(f"{knob.label} = {value:g} is outside the slider's range "
+                         f"[{knob.low:g}, {knob.high:g}]: refused.")
 
 
 def _typed(knob: Knob, value):

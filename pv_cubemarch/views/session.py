@@ -334,8 +334,10 @@ class TuningSession:
         listed = {int(m) for m in self._materials()}
         unknown = shown - listed
         if unknown:
-            raise ValueError(f"materials {sorted(unknown)} are not in the voxel palettes "
-                             f"(listed: {len(listed)} label ids)")
+            named = sorted(unknown)   # a few, not all: the message goes back to the page
+            raise ValueError(f"{len(named):,} materials ({', '.join(map(str, named[:5]))}"
+                             f"{', ...' if len(named) > 5 else ''}) are not in the voxel "
+                             f"palettes (listed: {len(listed)} label ids)")
         before = {int(m) for m in self.value("voxels", "materials")}
         for name, item in self.items.items():
             if item.kind != "voxels":
