@@ -37,9 +37,11 @@ MAX_EXTINCTION = 1e30
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 #: Most colours of a colormap (``n_colors``).
 MAX_COLORS = 16384
-#: Rows a table is refined to (about): VTK interpolates opacity linearly between the
+#: Rows a table is refined to (about): the opacity function is linear between the
 #: colormap's points, while the GPU interpolates the table's extinction; on rows this fine
-#: the two agree (within 1/255 of opacity even for 16 colours of a ``'geom'`` curve).
+#: the two agree (within 1/255 of opacity even for 16 colours of a ``'geom'`` curve). VTK's
+#: own GPU mapper samples the function into a table of 1024 entries or more over the
+#: data's range and reads it half to one entry low (docs/pyvista_parity.md).
 REFINED_ROWS = 4096
 
 
