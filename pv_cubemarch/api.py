@@ -40,6 +40,7 @@ from .models.image_files import read_data_file
 from .models.label_ids import check_background_id
 from .models.lights import DEFAULT_AMBIENT, DEFAULT_LIGHT_MAP_SIZE, light_source
 from .models.multiscale import MultiscaleSource, is_zarr_group, multiscale_source
+from .models.transfer import table_range
 from .models.volume import (
     NAN_POLICIES,
     VolumeModel,
@@ -681,6 +682,19 @@ def _read_path(data, what: str):
         raise VolumeDataError(f"{what}: {str(path)!r} could not be read by pyvista.read "
                               f"({error}); give a pyvista dataset or a numpy array, or load "
                               "a scene file with pv_cubemarch.load_scene.") from error
+
+
+def _table_colours(cmap, clim) -> tuple:
+    """``(cmap, clim)``, a ``pyvista.LookupTable`` made its colours and range.
+
+    As ``add_mesh`` takes one: over its own range whatever ``clim`` says (said).
+    """
+    if not isinstance(cmap, pyvista.LookupTable):
+        return cmap, clim
+    from matplotlib.colors import ListedColormap
+
+    colours = ListedColormap(np.asarray(cmap.values[:, :3], dtype=np.float64) / 255.0)
+    return colours, table_range(cmap, clim, "add_mesh")
 
 
 def _regular_grid(data, what: str):
@@ -1443,10 +1457,11 @@ def add_voxels(
         Keywords of ``plotter.add_scalar_bar`` (title, position, ...).
     annotations : dict, optional
         Material to name (``{1: "bone", 2: "liver"}``), shown on the scalar bar.
-    cmap : str or list, optional
+    cmap : str, list or pyvista.LookupTable, optional
         A colormap over the drawn labels' range, as ``threshold`` + ``add_mesh(cmap=...)``
         colours the cells (``palette=`` instead gives one colour per material number; give
-        one of the two).
+        one of the two); a lookup table colours over its own range, whatever ``clim``
+        says, as ``add_mesh`` draws one.
     categories : bool
         Colour the labels as PyVista's ``threshold`` + ``add_mesh(categories=True,
         cmap=...)`` does: as many colours as distinct labels above 0, over their range
@@ -1776,8 +1791,9 @@ def add_surface(
         surface's samples, or the name of an array of the grid given), interpolated as the
         field is and read at the hit. An array is ``(nx, ny, nz)`` indexed ``[i, j, k]``,
         or flat in VTK's point order (x fastest), as ``grid.point_data`` holds it.
-    cmap : str
-        The colormap of ``color_by`` (256 entries).
+    cmap : str, matplotlib colormap or pyvista.LookupTable
+        The colormap of ``color_by`` (256 entries); a lookup table's colours over its own
+        range, whatever ``clim`` says, as ``add_mesh`` draws one.
     clim : sequence of float, optional
         The values at the colormap's ends: of ``color_by`` (by default the second field's
         range, or plus and minus 4 / the domain's shortest edge for curvature), or of the
@@ -1898,6 +1914,7 @@ def add_surface(
     if isosurfaces is not None and isovalue is not None:
         raise ValueError("give isovalue= (one level) or isosurfaces= (several), not both.")
     field, scalars = with_scalars_array(field, scalars)   # an array: as contour takes it
+    cmap, clim = _table_colours(cmap, clim)
     levels = None if isosurfaces is None else surface_levels(
         isosurfaces, _samples_of(field, scalars))
     chosen = get_technique("surface", technique)

@@ -23,7 +23,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pyvista
 
-from ..core.errors import VolumeDataError
+from ..core.errors import VolumeDataError, VolumeDataWarning
+from ..core.user_warnings import warn_user
 
 #: PyVista's ``to_opacity_tf(max_clip=0.998)``: the most opacity a table row may have.
 MAX_OPACITY = 0.998
@@ -419,6 +420,24 @@ def shift_value(value, offset: int | float) -> float:
     if isinstance(offset, (int, np.integer)) and isinstance(value, (int, np.integer)):
         return float(int(value) - int(offset))
     return float(value) - float(offset)
+
+
+def table_range(cmap, clim, call: str):
+    """The range ``cmap`` colours over: a ``pyvista.LookupTable``'s own, else ``clim``.
+
+    A table's range is drawn whatever ``clim`` says, as PyVista draws it (said when they
+    differ).
+    """
+    if not isinstance(cmap, pyvista.LookupTable):
+        return clim
+    own = tuple(float(v) for v in cmap.scalar_range)
+    if clim is not None and not np.allclose(
+            np.broadcast_to(np.abs(clim) * [-1, 1] if np.ndim(clim) == 0 else clim, 2),
+            own, rtol=1e-6, atol=0.0):
+        warn_user(f"clim={clim!r} is not drawn: a pyvista.LookupTable given as cmap colours "
+                  f"over its own scalar_range {own}, as PyVista's {call} draws it; set "
+                  "lut.scalar_range to change it", VolumeDataWarning)
+    return own
 
 
 def unknown_cmap(cmap, error: Exception, argument: str = "cmap") -> str:

@@ -12,7 +12,7 @@ from matplotlib.colors import ListedColormap
 from ..core import vtk_classes as vtk
 from ..core.errors import VolumeDataError, VolumeDataWarning
 from ..core.user_warnings import warn_user
-from .transfer import TransferFunction, shift_value
+from .transfer import TransferFunction, shift_value, table_range
 
 NAN_POLICIES = ("raise", "zero")
 #: How values are read between grid points (VTK's volume property interpolation types).
@@ -429,13 +429,7 @@ def _made_cmap(transfer: TransferFunction):
 def _transfer(grid, values, offset, *, cmap, opacity, clim, opacity_unit_distance, n_colors,
               flip_scalars, log_scale, categories=False) -> TransferFunction:
     """The table PyVista's keywords make for these values, data-derived defaults included."""
-    if isinstance(cmap, pyvista.LookupTable) and clim is not None and not np.allclose(
-            np.broadcast_to(np.abs(clim) * [-1, 1] if np.ndim(clim) == 0 else clim, 2),
-            cmap.scalar_range, rtol=1e-6, atol=0.0):
-        warn_user(
-            f"clim={clim!r} is not drawn: a pyvista.LookupTable given as cmap colours over "
-            f"its own scalar_range {tuple(cmap.scalar_range)}, as PyVista's add_volume "
-            "draws it; set lut.scalar_range to change it", VolumeDataWarning)
+    table_range(cmap, clim, "add_volume")   # a table's own range: clim said, not drawn
     if clim is not None and not isinstance(cmap, pyvista.LookupTable) and _no_width(clim):
         warnings.warn(
             f"clim={clim!r} has no width: it is drawn one unit wide from its value, a step "

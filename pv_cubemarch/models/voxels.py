@@ -17,7 +17,7 @@ from ..core.errors import VolumeDataError
 from ..core.gl_limits import MAX_GRID_BYTES, MAX_TEXTURE_SIZE
 from .label_colors import check_by_id, colors_by_id, hashed_colors, palette_keys
 from .label_ids import IDENTITY_MAX, LabelIds, label_rows, sorted_unique
-from .transfer import unknown_cmap
+from .transfer import table_range, unknown_cmap
 from .volume import (
     box_world_bounds,
     check_geometry,
@@ -525,11 +525,20 @@ def range_palette(cmap, labels: np.ndarray, clim=None, n_colors: int = 256,
 
     PyVista maps the cells' values through ``n_colors`` colours of ``cmap`` (reversed with
     ``flip_scalars``) over ``clim``, by default their range: the smallest to the largest
-    drawn label id (what ``threshold`` keeps). ``ids``: the id of each row.
+    drawn label id (what ``threshold`` keeps). ``ids``: the id of each row. A
+    ``pyvista.LookupTable`` is used as it is, over its own range whatever ``clim`` says
+    (``n_colors`` and ``flip_scalars`` are its own), as ``add_mesh`` uses one.
     """
     rows, present = _present(labels, ids)
     rgba = _table(labels, ids)
-    if present.size:
+    if present.size and isinstance(cmap, pyvista.LookupTable):
+        lut = pyvista.LookupTable()
+        lut.DeepCopy(cmap)   # the caller's table keeps its range
+        span = table_range(cmap, clim, "add_mesh")
+        if ids is None or ids.identity:
+            rows = present = np.arange(1, len(rgba))
+        _colour_labels(rgba, lut, rows, present, span)
+    elif present.size:
         from pyvista.plotting.colors import get_cmap_safe
 
         try:
