@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import importlib.util
 import inspect
 import warnings
 from pathlib import Path
@@ -27,6 +28,7 @@ from .core.rendering import open_window
 from .core.user_warnings import warn_user
 from .gl.look import ReturnedLook
 from .gl.overlay import bounds_proxy
+from .models.array_files import ARRAY_SUFFIXES, read_array_file
 from .models.array_sources import is_array_source, world_from_array
 from .models.channels import (
     is_channels,
@@ -201,6 +203,8 @@ def add_volume(
         ``host_bytes``, ``brick_size``), drawn by the direct marcher with the transfer
         keywords, ``step_scale``, ``stop_opacity``, ``interpolation`` and a placement;
         ``clim`` defaults to its coarsest level's range.
+        A path is read by ``pyvista.read`` (its header checked first), a ``.npy``/``.npz``
+        as its array, a ``.zarr`` store streamed.
         A MultiBlock adds each block as its own volume (named ``name-index``) and returns
         the list of their actors, as PyVista does.
     scalars : str or numpy.ndarray, optional
@@ -674,6 +678,26 @@ def _read_path(data, what: str):
     if not path.exists():   # a folder may be a DICOM series, which pyvista.read reads
         raise FileNotFoundError(f"{what}: {str(path)!r} does not exist (a path is read with "
                                 "pyvista.read; a .zarr store is streamed).")
+    if path.suffix.lower() in ARRAY_SUFFIXES:   # numpy's: the array, indexed x, y, z
+        return read_array_file(path, path.suffix.lower(), None, what, str(path),
+                               error=VolumeDataError)
+    if path.is_file():   # said by name, not as VTK's empty complaint
+        try:
+            pyvista.get_reader(str(path))
+        except ValueError as error:
+            if "custom reader" in str(error) or importlib.util.find_spec("meshio"):
+                return _read_data(path, what)   # a plugin's (.vdb, .usda) or meshio's
+            zipped = " (a zipped zarr store: unzip it to a .zarr folder)" \
+                if path.suffix.lower() == ".zip" else ""
+            raise VolumeDataError(f"{what}: {str(path)!r}: pyvista.read has no reader for "
+                                  f"{path.suffix or 'files without a suffix'!r}{zipped}; "
+                                  "give a file it reads (.vti, .vtk, .nrrd, .nii, .tif ...), "
+                                  "a .npy/.npz array or a .zarr store.") from None
+    return _read_data(path, what)
+
+
+def _read_data(path: Path, what: str):
+    """``pyvista.read`` of ``path``, checked first (:func:`read_data_file`)."""
     try:   # an image's header checked, or the file read first in a capped child
         return read_data_file(path, what, error=VolumeDataError)
     except VolumeDataError:

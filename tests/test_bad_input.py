@@ -382,3 +382,27 @@ def test_float16_labels_are_read_without_a_numpy_warning():
         warnings.simplefilter("error")
         model = cm.make_voxels(labels)
     assert set(np.unique(model.labels).tolist()) == {0, 2}
+
+
+def test_a_numpy_file_s_path_is_its_array_for_every_add(plotter_factory, tmp_path):
+    # Found by a review: add_volume(pl, "v.npy") said "could not be read (VTK: 'v.npy')"
+    # (pyvista.read reads no .npy), though the CLI renders one. Each add reads the array
+    # as given in memory; a pickle is refused unread. catches (seen failing): the path
+    # handed to pyvista.read (add_volume and add_voxels), or to make_field's (add_surface).
+    values = np.random.default_rng(2).random((6, 5, 4))
+    np.save(tmp_path / "v.npy", values)
+    np.savez(tmp_path / "l.npz", labels=(values > 0.5).astype(np.uint8))
+    volume = cm.add_volume(plotter_factory(), str(tmp_path / "v.npy")).cubemarch.model
+    assert np.allclose(volume.values, cm.add_volume(plotter_factory(), values)
+                       .cubemarch.model.values)
+    labels = cm.add_voxels(plotter_factory(), tmp_path / "l.npz").cubemarch.model.labels
+    assert np.array_equal(labels > 0, values > 0.5)
+    field = cm.add_surface(plotter_factory(), str(tmp_path / "v.npy"), isovalue=0.5)
+    assert np.allclose(field.cubemarch.model.coefficients,
+                       cm.make_field(values, 0.5).coefficients)
+    (tmp_path / "a.zip").write_bytes(b"PK")   # was "could not be read (VTK: 'a.zip')"
+    with pytest.raises(cm.VolumeDataError, match="no reader for '.zip' .a zipped zarr"):
+        cm.add_volume(plotter_factory(), str(tmp_path / "a.zip"))
+    np.save(tmp_path / "p.npy", np.array([{"a": 1}], dtype=object))
+    with pytest.raises(cm.VolumeDataError, match="could not read .*Python objects"):
+        cm.add_volume(plotter_factory(), str(tmp_path / "p.npy"))

@@ -24,6 +24,7 @@ from ..core import vtk_classes as vtk
 from ..core.errors import VolumeDataError, VolumeDataWarning
 from ..core.progress import progress
 from ..core.user_warnings import warn_user
+from .array_files import ARRAY_SUFFIXES, read_array_file
 from .image_files import read_data_file
 from .surface import (
     SPLINES,
@@ -133,7 +134,10 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
     if isinstance(data, vtk.vtkDataObject) and not isinstance(data, pyvista.DataObject):
         data = pyvista.wrap(data)   # a VTK object, as PyVista's filters take one
     data, scalars = with_scalars_array(data, scalars)
-    if isinstance(data, (str, Path)):   # an image file's header checked first
+    if isinstance(data, (str, Path)) and Path(data).suffix.lower() in ARRAY_SUFFIXES:
+        data = read_array_file(Path(data), Path(data).suffix.lower(), None, "make_field",
+                               str(data), error=VolumeDataError)   # samples, x, y, z
+    elif isinstance(data, (str, Path)):   # an image file's header checked first
         data = read_data_file(data, "make_field", error=VolumeDataError)
     if isinstance(data, pyvista.RectilinearGrid):   # samples, if uniform (else refused)
         data = uniform_grid(data)

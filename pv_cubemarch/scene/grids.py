@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pyvista
 
-from ..core.budgets import host_budget
 from ..core.errors import SceneLoadError, VolumeDataError
+from ..models.array_files import read_array_file
 from ..models.channels import make_data_model
 from ..models.field_sources import make_field
-from ..models.image_files import ARRAY_BYTES_ENV, IMAGE_SUFFIXES, read_image_file
+from ..models.image_files import IMAGE_SUFFIXES, read_image_file
 from ..models.voxels import make_voxels
 from .model import Scene
 from .openvdb import VdbFormatError
@@ -90,7 +90,7 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
             grid.set_active_scalars(str(field_name))
         return grid
     if suffix in (".npy", ".npz"):
-        loaded = _read_array(path, suffix, field_name, where, shown)
+        loaded = read_array_file(path, suffix, field_name, where, shown)
         if loaded.ndim != 3:
             raise VolumeDataError(f"{where}: {shown!r} holds an array of shape "
                                   f"{loaded.shape}; a volume needs 3 axes (x, y, z).")
@@ -110,55 +110,6 @@ def read_grid(path: str | Path, where: str, shown: str | None = None,
                          "use .vti, .vtk, .npy or .npz.")
 
 
-
-
-def _read_array(path, suffix: str, field_name, where: str, shown: str) -> np.ndarray:
-    """The array of a ``.npy`` (or the ``field_name`` array of a ``.npz``, else its first).
-
-    Hostile headers are refused before any allocation: an array larger than the budget
-    (:data:`ARRAY_BYTES_ENV`), a ``.npy`` shorter than its header says, a ``.npz`` member
-    that inflates past the budget.
-    """
-    budget = host_budget(ARRAY_BYTES_ENV, SceneLoadError)
-    try:
-        if suffix == ".npy":
-            mapped = np.load(str(path), mmap_mode="r", allow_pickle=False)
-            size = mapped.nbytes
-        else:
-            archive = np.load(str(path), allow_pickle=False)
-            # the arrays: members that are .npy files (others, say a readme, are bytes)
-            keys = [n[:-4] for n in archive.zip.namelist() if n.endswith(".npy")]
-            if not keys:
-                raise SceneLoadError(f"{where}: {shown!r} holds no arrays.")
-            if field_name and str(field_name) not in keys:   # not another array, in silence
-                raise SceneLoadError(f"{where}: {shown!r} has no array named {field_name!r} "
-                                     f"(its arrays: {', '.join(keys)}).")
-            key = str(field_name) if field_name else keys[0]
-            size = archive.zip.getinfo(f"{key}.npy").file_size   # inflated, header included
-    except SceneLoadError:
-        raise
-    except Exception as exc:
-        raise SceneLoadError(f"{where}: could not read {shown!r}: {_unpickled(exc)}") from exc
-    if budget is not None and size > budget:
-        raise SceneLoadError(
-            f"{where}: {shown!r} holds an array of {size:,} bytes, more than the "
-            f"{budget:,} it may take ({ARRAY_BYTES_ENV}, by default 80 % of the memory "
-            "available): read a smaller array, or stream it as a zarr store.")
-    try:
-        values = np.array(mapped) if suffix == ".npy" else archive[key]
-        if not isinstance(values, np.ndarray):
-            raise TypeError(f"its member {key!r} is not an array")
-        return values
-    except Exception as exc:
-        raise SceneLoadError(f"{where}: could not read {shown!r}: {_unpickled(exc)}") from exc
-
-
-def _unpickled(error: Exception) -> str:
-    """Numpy's reason, less its advice to unpickle a file it cannot read as an array."""
-    if "allow_pickle" in str(error):
-        return ("it holds pickled Python objects, or its header is damaged; it is not read "
-                "(a pickle can run code): save a plain numeric array with numpy.save")
-    return str(error)
 
 
 def load_grid_scene(path: str | Path, as_voxels: bool = False,
