@@ -604,6 +604,11 @@ def add_volume(
     binding.isosurfaces = isosurfaces   # as given (data units, or a count)
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
     _say_edits_of(binding, volume)
+    if gradient is None:   # terms given unshaded: the property holds them, as PyVista's
+        for term, value in dict(ambient=ambient, diffuse=diffuse, specular=specular,
+                                specular_power=specular_power).items():
+            if value is not None:
+                setattr(actor.prop, term, float(value))
     spec = getattr(model.transfer, "spec", None)
     binding.returned_property = ReturnedProperty(
         binding, actor, blending, gradient,

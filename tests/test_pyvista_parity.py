@@ -1339,7 +1339,7 @@ def test_cell_scalars_array_warns_that_it_is_averaged():
     with pytest.raises(TypeError, match="does not take"):
         pl.cubemarch.add_volume(grid, scalars=np.arange(125.0), culling="back")
     for keyword in ("diffuse", "specular", "specular_power"):   # shading terms, shade off
-        with pytest.raises(ValueError, match="pass shade=True"):
+        with pytest.warns(UserWarning, match="pass shade=True"):
             pl.cubemarch.add_volume(grid, scalars=np.arange(125.0), **{keyword: 0.5})
     pl.close()
 
@@ -1663,12 +1663,33 @@ def test_positional_lights_shade_as_vtk_shades(name):
         assert value >= least, (name, measured, f"directional {directional:.1f}")
 
 
+def test_shading_terms_without_shade_draw_unshaded_and_are_held_as_pyvista_s():
+    """``add_volume(ambient=0.5)`` without ``shade=True``: PyVista sets the property and
+    draws the volume unshaded (found by a review: ours refused it, so scripts moved from
+    PyVista stopped). Said, drawn as without the term, and read back from the property.
+    catches (seen failing): the refusal kept; the term not put on the property (0.1)."""
+    grid = examples.load_uniform()
+    images = []
+    for terms in ({}, dict(ambient=0.5, specular=0.7)):
+        pl = pv.Plotter(off_screen=True, window_size=(96, 72))
+        said = pytest.warns(UserWarning, match="drawn unshaded, as PyVista draws it") \
+            if terms else warnings.catch_warnings()
+        with said:
+            actor = pl.cubemarch.add_volume(grid, **terms)
+        images.append(cm.render_image(pl))
+        if terms:
+            assert (actor.prop.ambient, actor.prop.specular) == (0.5, 0.7)
+            assert not actor.prop.shade
+        pl.close()
+    assert np.array_equal(images[0], images[1])
+
+
 def test_shading_keywords_refused_clearly():
     """Shading terms without shade=True, shade with lights= or another blend mode."""
     pl = pv.Plotter(off_screen=True)
     grid = examples.load_uniform()
-    with pytest.raises(ValueError, match="pass shade=True"):
-        pl.cubemarch.add_volume(grid, diffuse=0.5)
+    with pytest.raises(ValueError, match="Use one of the two"):
+        pl.cubemarch.add_volume(grid, shade=True, lights="scene")
     with pytest.raises(ValueError, match="Use one of the two"):
         pl.cubemarch.add_volume(grid, shade=True, lights="scene")
     with pytest.raises(ValueError, match="shades composite and isosurface blending"):

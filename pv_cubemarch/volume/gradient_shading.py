@@ -12,6 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.declared import option
+from ..core.errors import VolumeDataWarning
+from ..core.user_warnings import warn_user
 from ..gl.bindings import FloatArray
 from ..gl.lights import is_headlight
 from ..models.lights import light_placement
@@ -149,10 +151,11 @@ def gradient_shading(plotter, model, shade: bool, lights, blending: str,
     """
     given = {name: value for name, value in terms.items() if value is not None}
     if not shade:
-        if given:
-            raise ValueError(f"{', '.join(given)} shade{'s' if len(given) == 1 else ''} "
-                             "the volume with shade=True; pass shade=True, or leave "
-                             f"{'it' if len(given) == 1 else 'them'} out.")
+        if given:   # as PyVista draws them: set, and unused (its property's, shade off)
+            warn_user(f"{', '.join(given)} shade{'s' if len(given) == 1 else ''} the volume "
+                      "with shade=True only; without it the volume is drawn unshaded, as "
+                      "PyVista draws it: pass shade=True, or leave "
+                      f"{'it' if len(given) == 1 else 'them'} out.", VolumeDataWarning)
         return None
     if lights is not None:
         raise ValueError("shade=True lights each sample by the renderer's lights on the "
