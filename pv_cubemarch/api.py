@@ -117,7 +117,7 @@ from .volume.pyvista_keywords import (
     volume_input,
 )
 from .volume.returned_property import ReturnedProperty
-from .volume.stand_in import stand_in_volume
+from .volume.stand_in import PickerData, stand_in_volume
 from .voxels import technique as _voxels  # noqa: F401  (registers 'voxels')
 from .voxels.indexed_world import build_indexed_world, why_not_indexed
 from .voxels.options import VoxelOptions
@@ -614,6 +614,8 @@ def add_volume(
         binding, actor, blending, gradient,
         1.0 if spec is None else float(spec.opacity_unit_distance),
         getattr(model, "interpolation", "linear"))
+    binding.picker_data = PickerData(actor, binding.model, plotter.renderer)   # VTK's pickers
+    binding.extra_release.append(binding.picker_data.release)
     component.track(binding)
     if show_scalar_bar and (isinstance(model, VolumeGroup) or model.colors is not None):
         warnings.warn("show_scalar_bar: an RGBA volume, a channel volume or volumes marched "

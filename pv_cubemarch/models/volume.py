@@ -49,6 +49,8 @@ class VolumeModel:
     value_offset: int | float = 0
     interpolation: str = "linear"
     colors: np.ndarray | None = None
+    #: The point array of ``grid`` whose values are drawn (None: not one of its arrays).
+    scalars: str | None = None
 
     def __post_init__(self):
         check_spacing(self.grid.spacing)
@@ -378,7 +380,8 @@ def make_volume(data, scalars: str | None = None, *, cmap=None, opacity="linear"
                                     lookup_table=transfer.lookup_table)
     matrix = np.eye(4) if transform is None else checked_transform(transform)
     return VolumeModel(grid=grid, values=values, transfer=transfer, transform=matrix, name=name,
-                       value_offset=offset, interpolation=interpolation, colors=colors)
+                       value_offset=offset, interpolation=interpolation, colors=colors,
+                       scalars=scalars)
 
 
 #: ``add_volume``'s transfer keywords (what :func:`with_transfer` changes on a made volume).

@@ -492,6 +492,8 @@ class VolumeBinding(DrawnBinding):
         the one whose data changes.
         """
         self.data.set_values(values, member)
+        if getattr(self, "picker_data", None) is not None:   # VTK's pickers read them
+            self.picker_data.follow(self.model)
         if self.vtk_input is not None:
             self.vtk_input.point_data["scalars"] = vtk_scalars(self.model)
             self.vtk_input.Modified()
