@@ -320,20 +320,33 @@ def _instanced_stage(path, levels: int) -> None:
 def test_native_instances_past_the_limit_are_said_before_they_are_read(tmp_path, monkeypatch):
     # The prims below an instance are counted from its prototype (nested instances
     # expanded) before any is read: two levels (110 prims) are read whole; three (1,110)
-    # under a limit of 500 are said and not read, and the rest of the stage is. catches
-    # (seen failing): the count left out (1,000 meshes read); nested instances counted
-    # again as the walk meets them (the two levels refused under a limit of 150).
-    from pv_cubemarch.scene.usd import stage
+    # under a limit of 500 are said and not read, and the rest of the stage is; so are
+    # three levels under a PointInstancer's prototype (found by a review: read whole);
+    # the meshes read through instances count against the memory budget. catches (seen
+    # failing): the count left out (1,000 meshes read); nested instances counted again as
+    # the walk meets them (the two levels refused under a limit of 150); the prototype's
+    # walk not counted (1,000 read); check_copies not asked for instances (all read).
+    from pv_cubemarch.scene.usd import instancers
 
-    monkeypatch.setattr(stage, "MAX_INSTANCE_PRIMS", 150)
+    monkeypatch.setattr(instancers, "MAX_INSTANCE_PRIMS", 150)
     _instanced_stage(tmp_path / "two.usda", 2)
     assert len(cm.load_scene(tmp_path / "two.usda").meshes) == 100
-    monkeypatch.setattr(stage, "MAX_INSTANCE_PRIMS", 500)
+    monkeypatch.setattr(instancers, "MAX_INSTANCE_PRIMS", 500)
     _instanced_stage(tmp_path / "three.usda", 3)
     with pytest.warns(cm.SceneWarning, match="an instance of 1,110 prims"):
         scene = cm.load_scene(tmp_path / "three.usda")
     assert not scene.meshes
     assert [k.path for k in scene.skipped if k.problem] == ["/World"]
+    text = (tmp_path / "three.usda").read_text().replace(
+        'def Xform "World" (', 'def PointInstancer "World" {\n  point3f[] positions = '
+        '[(0,0,0)]\n  int[] protoIndices = [0]\n  rel prototypes = </World/P>\n'
+        '  def Xform "P" (')
+    (tmp_path / "instanced.usda").write_text(text + "}\n")
+    with pytest.warns(cm.SceneWarning, match="an instance of 1,110 prims"):
+        assert not cm.load_scene(tmp_path / "instanced.usda").meshes
+    monkeypatch.undo()
+    said = _load_under_budget(tmp_path / "two.usda", "2000")
+    assert "would bring the stage's instanced copies to" in said, said
 
 
 def test_a_layer_named_by_an_expression_variable_is_checked_as_usd_evaluates_it(tmp_path):

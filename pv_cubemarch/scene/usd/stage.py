@@ -21,19 +21,13 @@ from ..model import Scene
 from ..parts import SceneMesh
 from ..voxel_worlds import join_world
 from .context import PrimError, StageContext
-from .instancers import check_copies, read_instancer
+from .instancers import check_copies, instance_fits, read_instancer
 from .layer_text import check_layer_nesting
 from .lights import LIGHT_KINDS, read_camera, read_light
 from .meshes import read_mesh
 from .primvars import cofactor, with_winding_reversed
 from .shapes import PRIMITIVES, is_template, read_curves, read_points, read_primitive
 from .volumes import is_field, read_volume
-
-#: The most prims one stage reads through native instances (``instanceable`` references),
-#: nested ones expanded: a 9.5 KB stage of five levels of ten instances each had 100,000
-#: meshes read, and ran out of minutes and memory (USD composes it cheaply; each proxy is
-#: read as a mesh of its own).
-MAX_INSTANCE_PRIMS = 20_000
 
 #: Prim types read for what they hold (children, bindings) rather than drawn themselves.
 CONTAINERS = ("", "Xform", "Scope", "Material", "Shader", "NodeGraph", "GeomSubset",
@@ -106,7 +100,7 @@ def load_usd(path: str | Path, progress_bar: bool | None = None, as_voxels: bool
     next(walk)  # the pseudo-root
     for prim in progress(walk, desc=f"loading {path.name}", enabled=progress_bar):
         if (prim.IsInstance() and not prim.IsInstanceProxy()
-                and not _instance_fits(ctx, prim)) or not _read_prim(ctx, prim):
+                and not instance_fits(ctx, prim)) or not _read_prim(ctx, prim):
             walk.PruneChildren()
     for name, chunks in ctx.world_chunks.items():
         try:
@@ -124,36 +118,6 @@ def load_usd(path: str | Path, progress_bar: bool | None = None, as_voxels: bool
                         "loop) drawn as their control meshes with smooth normals, not refined",
                    warn=False)
     return scene
-
-
-def _instance_fits(ctx: StageContext, prim) -> bool:
-    """Whether the prims below an (outermost) instance fit in :data:`MAX_INSTANCE_PRIMS`.
-
-    Counted from its prototype before any is read; one that does not fit is reported
-    and left out, and the rest of the stage is read.
-    """
-    below = _prims_below(prim.GetPrototype(), ctx.prototype_prims)
-    total = ctx.counts.get("instance prims", 0) + below
-    if total > MAX_INSTANCE_PRIMS:
-        ctx.report(str(prim.GetPath()), f"an instance of {below:,} prims (its nested instances "
-                   f"expanded) would bring the prims read through instances to {total:,}, "
-                   f"more than the {MAX_INSTANCE_PRIMS:,} one stage may: not drawn (a "
-                   "PointInstancer copies its prototypes' meshes far more cheaply)")
-        return False
-    ctx.counts["instance prims"] = total
-    return True
-
-
-def _prims_below(prototype, known: dict) -> int:
-    """The prims a walk through instance proxies visits below ``prototype``."""
-    key = str(prototype.GetPath())
-    if key not in known:
-        known[key] = 0   # USD refuses instancing cycles; this keeps a count finite anyway
-        walk = iter(Usd.PrimRange(prototype, Usd.PrimAllPrimsPredicate))
-        next(walk)   # the prototype itself
-        known[key] = sum(1 + (_prims_below(child.GetPrototype(), known)
-                              if child.IsInstance() else 0) for child in walk)
-    return known[key]
 
 
 def _read_prim(ctx: StageContext, prim) -> bool:
