@@ -478,7 +478,8 @@ def add_volume(
         given = {key: value for key, value in locals().items()
                  if key not in ("plotter", "volume", "kwargs", "paging")}
         return _add_paged(plotter, volume, given, kwargs)
-    volume = _regular_grid(_read_path(volume, "add_volume"), "add_volume")
+    dataset = _read_path(volume, "add_volume")   # the dataset whose edits are said
+    volume = _regular_grid(dataset, "add_volume")
     unused = [key for key, value in paging.items() if value is not None]
     if unused:
         raise ValueError(f"{', '.join(unused)}: for multiscale sources (an OME-Zarr group, a "
@@ -487,7 +488,7 @@ def add_volume(
     if isinstance(volume, pyvista.MultiBlock):
         given = {key: value for key, value in locals().items()
                  if key not in ("plotter", "volume", "kwargs", "multi_colors", "paging",
-                                "unused", *paging)}
+                                "unused", "dataset", *paging)}
         return _add_blocks(plotter, volume, multi_colors, {**given, **kwargs})
     if multi_colors:
         raise ValueError("multi_colors colours the blocks of a MultiBlock; this volume is "
@@ -603,7 +604,7 @@ def add_volume(
     binding.blending = blending
     binding.isosurfaces = isosurfaces   # as given (data units, or a count)
     actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
-    _say_edits_of(binding, volume)
+    _say_edits_of(binding, dataset)
     if gradient is None:   # terms given unshaded: the property holds them, as PyVista's
         for term, value in dict(ambient=ambient, diffuse=diffuse, specular=specular,
                                 specular_power=specular_power).items():
@@ -1604,7 +1605,8 @@ def add_voxels(
         given = {key: value for key, value in locals().items()
                  if key not in ("plotter", "grid", "kwargs", "lighting", "user_matrix")}
         return _add_paged_labels(plotter, grid, given)
-    grid = _regular_grid(_read_path(grid, "add_voxels"), "add_voxels")
+    source = _read_path(grid, "add_voxels")   # the dataset whose edits are said
+    grid = _regular_grid(source, "add_voxels")
     if isinstance(grid, pyvista.MultiBlock):
         raise VolumeDataError("add_voxels draws one grid of labels; a MultiBlock holds "
                               f"{grid.n_blocks}: add each block on its own "
@@ -1692,7 +1694,7 @@ def add_voxels(
             binding.opaque_because = _opaque_because(options)
             binding.say_drawn_opaque()
         actor = _place(plotter, binding, name or _unused_name(plotter, model.name))
-        _say_edits_of(binding, grid)
+        _say_edits_of(binding, source)
         component.track(binding)
         _frame(plotter, reset_camera)
         if target is not None:   # measured with the grid drawn, framed as its actor is

@@ -656,12 +656,15 @@ def test_an_actor_removed_and_added_again_is_said_to_draw_nothing(add):
     plotter.close()
 
 
+@pytest.mark.parametrize("rectilinear", [False, True], ids=["image", "rectilinear"])
 @pytest.mark.parametrize("add", ["voxels", "surface", "volume"])
-def test_a_dataset_modified_after_adding_is_said_to_be_drawn_as_it_was(add):
+def test_a_dataset_modified_after_adding_is_said_to_be_drawn_as_it_was(add, rectilinear):
     # PyVista draws a dataset as it is at each frame; ours draws the copy uploaded when it
     # was added: editing the dataset in place afterwards is said, once, with the call that
     # draws new values (found by a review: it was silent). A frame without edits says
-    # nothing. catches (seen failing): no warning.
+    # nothing; a uniform RectilinearGrid (drawn through an ImageData of it) is watched
+    # itself. catches (seen failing): no warning; the ImageData made of the
+    # RectilinearGrid watched instead of it (a fresh review found it silent).
     plotter = offscreen_plotter((64, 48))
     grid = pv.ImageData(dimensions=(12, 12, 12))
     grid["v"] = np.linalg.norm(grid.points - grid.center, axis=1)
@@ -669,6 +672,9 @@ def test_a_dataset_modified_after_adding_is_said_to_be_drawn_as_it_was(add):
         labels = pv.ImageData(dimensions=(13, 13, 13))
         labels.cell_data["m"] = (np.arange(12 ** 3) % 3).astype(np.uint8)
         grid = labels
+    if rectilinear:
+        grid = grid.cast_to_rectilinear_grid()
+    if add == "voxels":
         cm.add_voxels(plotter, grid, palette=PALETTE)
     elif add == "surface":
         plotter.cubemarch.add_surface(grid, isovalue=4.0, scalars="v")
