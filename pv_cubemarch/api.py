@@ -689,16 +689,18 @@ def _read_path(data, what: str):
     if path.suffix.lower() in ARRAY_SUFFIXES:   # numpy's: the array, indexed x, y, z
         return read_array_file(path, path.suffix.lower(), None, what, str(path),
                                error=VolumeDataError)
+    if path.suffix.lower() == ".zip":   # nothing reads it (meshio neither): said
+        raise VolumeDataError(f"{what}: {str(path)!r}: a .zip is read by no reader here (a "
+                              "zipped zarr store: unzip it to a .zarr folder, which is "
+                              "streamed).")
     if path.is_file():   # said by name, not as VTK's empty complaint
         try:
             pyvista.get_reader(str(path))
         except ValueError as error:
             if "custom reader" in str(error) or importlib.util.find_spec("meshio"):
                 return _read_data(path, what)   # a plugin's (.vdb, .usda) or meshio's
-            zipped = " (a zipped zarr store: unzip it to a .zarr folder)" \
-                if path.suffix.lower() == ".zip" else ""
             raise VolumeDataError(f"{what}: {str(path)!r}: pyvista.read has no reader for "
-                                  f"{path.suffix or 'files without a suffix'!r}{zipped}; "
+                                  f"{path.suffix or 'files without a suffix'!r}; "
                                   "give a file it reads (.vti, .vtk, .nrrd, .nii, .tif ...), "
                                   "a .npy/.npz array or a .zarr store.") from None
     return _read_data(path, what)

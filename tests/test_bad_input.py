@@ -401,8 +401,11 @@ def test_a_numpy_file_s_path_is_its_array_for_every_add(plotter_factory, tmp_pat
     assert np.allclose(field.cubemarch.model.coefficients,
                        cm.make_field(values, 0.5).coefficients)
     (tmp_path / "a.zip").write_bytes(b"PK")   # was "could not be read (VTK: 'a.zip')"
-    with pytest.raises(cm.VolumeDataError, match="no reader for '.zip' .a zipped zarr"):
+    with pytest.raises(cm.VolumeDataError, match="a .zip is read by no reader.*zipped zarr"):
         cm.add_volume(plotter_factory(), str(tmp_path / "a.zip"))
+    (tmp_path / "a.what").write_bytes(b"?")
+    with pytest.raises(cm.VolumeDataError, match="pyvista.read has no reader for '.what'"):
+        cm.add_voxels(plotter_factory(), str(tmp_path / "a.what"))
     np.save(tmp_path / "p.npy", np.array([{"a": 1}], dtype=object))
     with pytest.raises(cm.VolumeDataError, match="could not read .*Python objects"):
         cm.add_volume(plotter_factory(), str(tmp_path / "p.npy"))

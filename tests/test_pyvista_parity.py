@@ -1667,7 +1667,8 @@ def test_shading_terms_without_shade_draw_unshaded_and_are_held_as_pyvista_s():
     """``add_volume(ambient=0.5)`` without ``shade=True``: PyVista sets the property and
     draws the volume unshaded (found by a review: ours refused it, so scripts moved from
     PyVista stopped). Said, drawn as without the term, and read back from the property.
-    catches (seen failing): the refusal kept; the term not put on the property (0.1)."""
+    catches (seen failing): the refusal kept; the term not put on the property (0.1); the
+    terms checked only when shaded (the actor added, then a bare float() error)."""
     grid = examples.load_uniform()
     images = []
     for terms in ({}, dict(ambient=0.5, specular=0.7)):
@@ -1682,6 +1683,12 @@ def test_shading_terms_without_shade_draw_unshaded_and_are_held_as_pyvista_s():
             assert not actor.prop.shade
         pl.close()
     assert np.array_equal(images[0], images[1])
+    pl = pv.Plotter(off_screen=True)   # a bad term is refused before anything is added
+    for bad in ("abc", float("nan")):   # (found by a fresh review: half added, then a
+        with pytest.raises(ValueError, match="ambient must be"):   # bare float() error)
+            pl.cubemarch.add_volume(grid, ambient=bad)
+    assert not pl.actors
+    pl.close()
 
 
 def test_shading_keywords_refused_clearly():

@@ -266,6 +266,10 @@ def test_a_level_of_data_off_a_regular_grid_is_refused_not_drawn_as_its_box():
                        expected)
     with pytest.raises(VolumeDataError, match="holds no grid or mesh"):
         make_field(pyvista.Table({"a": np.arange(3.0)}), 1.0)
+    cloud = pyvista.PolyData(pyvista.Sphere().points)
+    cloud.point_data["Normals"] = pyvista.Sphere().point_normals
+    with pytest.raises(VolumeDataError, match="point cloud is fitted by its points"):
+        make_field(cloud, 1.0)
 
 
 def pyvista_vtk_image(image):

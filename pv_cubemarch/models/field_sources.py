@@ -181,6 +181,10 @@ def _check_data(data, isovalue, scalars) -> None:
         isinstance(data, pyvista.DataSet) and not isinstance(data, pyvista.ImageData))
     if meshes and (isovalue is not None or scalars is not None):
         what = "isovalue=" if isovalue is not None else "scalars="
+        if isinstance(data, pyvista.PolyData) and data.n_faces == 0:
+            raise VolumeDataError(f"{what} picks a level of samples on a regular grid; a "
+                                  "point cloud is fitted by its points and normals, whose "
+                                  f"surface is the fit's zero: leave {what} out.")
         raise VolumeDataError(
             f"{what} picks a level of samples on a regular grid (an ImageData, a uniform "
             f"RectilinearGrid or a 3D array); a {type(data).__name__} is drawn as the closed "

@@ -69,8 +69,9 @@ def load_scene(path, progress_bar: bool | None = None, as_voxels: bool = False,
             "Volume prims to draw as surfaces.")
     if spline != "interpolating" and isovalue is None:
         raise SceneLoadError(f"spline={spline!r} says how a grid file's samples become a "
-                             "surface: give isovalue= too (in a USD stage, cubemarch:spline "
-                             "on the surface's Volume prim).")
+                             "surface: give isovalue= too (--isovalue on the command line; "
+                             "in a USD stage, cubemarch:spline on the surface's Volume "
+                             "prim).")
     if isovalue is not None and as_voxels:
         raise SceneLoadError("A grid file is loaded as voxels (as_voxels) or as a surface "
                              "(isovalue), not both: leave one out.")

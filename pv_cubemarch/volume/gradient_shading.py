@@ -150,6 +150,8 @@ def gradient_shading(plotter, model, shade: bool, lights, blending: str,
     VTK's default).
     """
     given = {name: value for name, value in terms.items() if value is not None}
+    for name, value in given.items():   # checked before anything is built, shaded or not
+        option("volume", name).check(value)
     if not shade:
         if given:   # as PyVista draws them: set, and unused (its property's, shade off)
             warn_user(f"{', '.join(given)} shade{'s' if len(given) == 1 else ''} the volume "
@@ -168,8 +170,6 @@ def gradient_shading(plotter, model, shade: bool, lights, blending: str,
     if isinstance(getattr(model, "members", None), list):
         raise ValueError("shade=True shades one volume; volumes marched jointly are not "
                          "shaded (add them one by one).")
-    for name, value in given.items():
-        option("volume", name).check(value)
     material = ShadeMaterial(**{name: float(given.get(name, option("volume", name).default))
                                 for name in terms})
     shading = GradientShading(plotter.renderer, model, material)
