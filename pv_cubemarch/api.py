@@ -1984,7 +1984,7 @@ def add_surface(
                            cells=cells, transform=transform, spline=spline,
                            name=name or getattr(field, "name", "surface"))
     if colouring == "field" and not isinstance(color_by, str):   # values, not a name
-        model = dataclasses.replace(model, color_values=color_values(color_by, model))
+        model = dataclasses.replace(model, color_values=color_values(color_by, model, spline))
     options.check_model(model)
     if frame_budget_ms is not None:   # refused before anything is drawn or calibrated
         check_frame_budget(frame_budget_ms, chosen.name)

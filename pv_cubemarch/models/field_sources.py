@@ -30,7 +30,6 @@ from .surface import (
     SPLINES,
     SplineField,
     bernstein_basis,
-    interpolating_coefficients,
     point_hull,
     spline_coefficients,
 )
@@ -463,11 +462,11 @@ def _nearest_signed_distance(points, normals, start, size, shape) -> np.ndarray:
     return -np.einsum("ij,ij->i", centres - points[nearest], normals[nearest])
 
 
-def color_values(data, surface: SplineField) -> np.ndarray:
+def color_values(data, surface: SplineField, spline: str = "interpolating") -> np.ndarray:
     """Coefficients of a second field on ``surface``'s cells, from one sample per cell.
 
-    ``data``: an array (or an ImageData's first array) of the surface's cell counts,
-    interpolated at the cell centres as the surface's own samples are.
+    ``data``: an array (or an ImageData's first array) of the surface's cell counts, made a
+    spline as the surface's own samples are (``spline``: :func:`spline_coefficients`).
     """
     values = image_samples(data, None)[0] if isinstance(data, pyvista.ImageData) else \
         np.asarray(data)
@@ -483,4 +482,4 @@ def color_values(data, surface: SplineField) -> np.ndarray:
     values = values.astype(np.float64)
     if not np.isfinite(values).all():
         raise VolumeDataError("color_by values hold NaN or infinite values.")
-    return interpolating_coefficients(values)
+    return spline_coefficients(values, spline)
