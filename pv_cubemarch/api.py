@@ -727,8 +727,10 @@ def _table_colours(cmap, clim) -> tuple:
         return cmap, clim
     from matplotlib.colors import ListedColormap
 
-    colours = ListedColormap(np.asarray(cmap.values[:, :3], dtype=np.float64) / 255.0)
-    return colours, table_range(cmap, clim, "add_mesh")
+    low, high = table_range(cmap, clim, "add_mesh")
+    # its colours at 256 values across its range, through its own mapping (a log scale)
+    mapped = [cmap.map_value(float(v), opacity=False) for v in np.linspace(low, high, 256)]
+    return ListedColormap(np.asarray(mapped, dtype=np.float64)[:, :3]), (low, high)
 
 
 def _regular_grid(data, what: str):

@@ -809,16 +809,18 @@ def test_labels_past_16383_draw_what_threshold_and_add_mesh_draw():
     assert psnr(image, reference) >= 27.0 and off <= 0.03, (psnr(image, reference), off)
 
 
+@pytest.mark.parametrize("log", [False, True], ids=["linear", "log"])
 @pytest.mark.parametrize("clim", [None, (2.0, 30.0)], ids=["its range", "clim"])
-def test_a_lookup_table_as_cmap_colours_labels_and_surfaces_as_add_mesh(clim):
+def test_a_lookup_table_as_cmap_colours_labels_and_surfaces_as_add_mesh(clim, log):
     """``cmap=pyvista.LookupTable`` (``add_volume`` took one; found by a review:
     ``add_voxels`` and ``add_surface(color_by=)`` refused it): labels 3 and 9, and a
     surface coloured by a second field, against ``threshold``/``contour`` +
     ``add_mesh(cmap=table)``, over the table's range or ``clim``; the caller's table keeps
     its range. A ``clim`` is not drawn, as PyVista draws none with a table, and is said.
     catches (seen failing): the table refused by either (not a colormap name), clim
-    drawn (20.5 dB for the labels)."""
-    table = pv.LookupTable("plasma", scalar_range=(0.0, 14.0))
+    drawn (20.5 dB for the labels), a log-scale table's colours spread linearly over the
+    surface (a fresh review found it so)."""
+    table = pv.LookupTable("plasma", scalar_range=(1.0, 14.0), log_scale=log)
     grid = wavelet_label_grid(lambda c: np.where(c[:, 0] > 0, 3, 9))
     said = pytest.warns(UserWarning, match="is not drawn") if clim else \
         warnings.catch_warnings()
@@ -830,10 +832,10 @@ def test_a_lookup_table_as_cmap_colours_labels_and_surfaces_as_add_mesh(clim):
             lambda pl: pl.cubemarch.add_voxels(grid, "labels", cmap=table, clim=clim,
                                                shading="unlit"), grid.bounds)
     assert psnr(image, reference) >= 30.0, psnr(image, reference)
-    assert table.scalar_range == (0.0, 14.0)
+    assert table.scalar_range == (1.0, 14.0)
     ball = pv.ImageData(dimensions=(24, 24, 24), origin=(-11.5, -11.5, -11.5))
     ball.point_data["r"] = np.linalg.norm(ball.points, axis=1)
-    ball.point_data["x"] = ball.points[:, 0] + 7.0   # 0 to 14 across the ball
+    ball.point_data["x"] = ball.points[:, 0] + 8.0   # 1 to 15 across the ball
     contour = ball.contour([8.0], scalars="r")
     said = pytest.warns(UserWarning, match="is not drawn") if clim else \
         warnings.catch_warnings()
