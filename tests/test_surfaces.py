@@ -350,8 +350,11 @@ def test_a_closed_mesh_is_drawn_from_its_signed_distance(plotter_factory, tmp_pa
 def test_a_gltf_scene_s_meshes_are_one_surface(tmp_path):
     # glTF reads as a MultiBlock of its meshes (nested): their union's signed distance is
     # positive inside each, negative between them; a MultiBlock of images is refused by
-    # name. catches (seen failing): the MultiBlock passed on as a mesh (numpy's
-    # "inhomogeneous shape"), only the first block taken (the cube's centre outside).
+    # name; two spheres that overlap are inside throughout their union (a fresh review
+    # found the merged mesh's distance negative inside one near the other's faces).
+    # catches (seen failing): the MultiBlock passed on as a mesh (numpy's "inhomogeneous
+    # shape"), only the first block taken (the cube's centre outside), the overlapping
+    # parts merged (-0.3 inside).
     pl = pyvista.Plotter(off_screen=True)
     pl.add_mesh(pyvista.Sphere(radius=1.0))
     pl.add_mesh(pyvista.Cube(center=(3.0, 0.0, 0.0)).triangulate())
@@ -364,6 +367,12 @@ def test_a_gltf_scene_s_meshes_are_one_surface(tmp_path):
     inside = field(np.array(centres))
     between = field(np.array([(centres[0] + centres[1]) / 2]))
     assert inside.min() > 0.3 and between[0] < -0.3, (inside, between)
+    overlapping = pyvista.MultiBlock([pyvista.Sphere(radius=1.0, theta_resolution=48,
+                                                    phi_resolution=48),
+                                     pyvista.Sphere(radius=1.0, center=(1.0, 0.0, 0.0),
+                                                    theta_resolution=48, phi_resolution=48)])
+    line = np.c_[np.linspace(-0.9, 1.9, 15), np.zeros(15), np.zeros(15)]   # all inside
+    assert cm.make_field(overlapping, cells=32)(line).min() > 0.05
     images = pyvista.MultiBlock([pyvista.ImageData(dimensions=(3, 3, 3))])
     with pytest.raises(VolumeDataError, match="holds 1 image"):
         cm.make_field(images)

@@ -48,12 +48,15 @@ MARGIN_CELLS = 2
 
 def mesh_field(mesh: pyvista.DataSet, cells: int | Sequence[int] = 64, *,
                progress_bar: bool | None = None, name: str = "surface",
-               spline: str = "interpolating") -> SplineField:
+               spline: str = "interpolating", parts: list | None = None) -> SplineField:
     """The signed-distance field of a closed surface mesh on cubic cells around it.
 
     ``cells``: cells along the mesh's longest side (plus :data:`MARGIN_CELLS` on every
     side), or three counts. Raises ``VolumeDataError`` for a mesh with open edges (its
     inside is undefined: fit its points with normals instead), or with no faces.
+    ``parts``: closed meshes that overlap, whose union ``mesh`` is: the field is the
+    largest of theirs (inside any is inside), where ``mesh``'s own would change sign
+    inside one near another's faces.
     """
     surface = outer_surface(mesh).triangulate().clean()
     if surface.n_cells == 0:
@@ -82,23 +85,40 @@ def mesh_field(mesh: pyvista.DataSet, cells: int | Sequence[int] = 64, *,
     start = (bounds[:, 0] + bounds[:, 1]) / 2 - counts * size / 2
     centres = np.stack(np.meshgrid(*[start[a] + (np.arange(counts[a]) + 0.5) * size
                                      for a in range(3)], indexing="ij"), -1).reshape(-1, 3)
+    surfaces = [surface] if parts is None else [outer_surface(p).triangulate().clean()
+                                                for p in parts]
+    batches = -(-len(centres) // BATCH)
+    steps = iter(progress(range(batches * len(surfaces)), desc="signed distance",
+                          total=batches * len(surfaces), enabled=progress_bar))
+    values = np.full(len(centres), -np.inf)
+    for part in surfaces:
+        part_values = _signed_distance(part, centres, steps)
+        if part_values[0] > 0:   # the domain's corner lies outside: the faces point inward
+            warnings.warn("The mesh's faces are wound inward (its outside came out "
+                          "positive): the field is flipped so that it is positive inside.",
+                          stacklevel=3)
+            part_values = -part_values
+        values = np.maximum(values, part_values)
+    for _ in steps:   # the bar to its end
+        pass
+    grid_from_index = np.diag([size, size, size, 1.0])
+    grid_from_index[:3, 3] = start
+    samples = values.reshape(*counts)
+    return SplineField(spline_coefficients(samples, spline), grid_from_index, name=name)
+
+
+def _signed_distance(surface: pyvista.PolyData, centres: np.ndarray, steps) -> np.ndarray:
+    """``surface``'s signed distance at ``centres``, positive inside (a bar step a batch)."""
     distance = vtk.vtkImplicitPolyDataDistance()
     distance.SetInput(surface)
     values = np.empty(len(centres))
-    for begin in progress(range(0, len(centres), BATCH), desc="signed distance",
-                          total=-(-len(centres) // BATCH), enabled=progress_bar):
+    for begin in range(0, len(centres), BATCH):
+        next(steps, None)
         chunk = centres[begin:begin + BATCH]
         out = vtk.vtkDoubleArray()
         distance.FunctionValue(numpy_to_vtk(np.ascontiguousarray(chunk), deep=True), out)
         values[begin:begin + len(chunk)] = -vtk_to_numpy(out)   # VTK: negative inside
-    grid_from_index = np.diag([size, size, size, 1.0])
-    grid_from_index[:3, 3] = start
-    samples = values.reshape(*counts)
-    if samples[0, 0, 0] > 0:   # the domain's corner lies outside: the faces point inward
-        warnings.warn("The mesh's faces are wound inward (its outside came out positive): "
-                      "the field is flipped so that it is positive inside.", stacklevel=3)
-        samples = -samples
-    return SplineField(spline_coefficients(samples, spline), grid_from_index, name=name)
+    return values
 
 
 def make_field(data, isovalue: float | None = None, scalars: str | None = None, *,
@@ -163,8 +183,11 @@ def make_field(data, isovalue: float | None = None, scalars: str | None = None, 
         field = point_cloud_field(data.points, data.point_data["Normals"], cells,
                                   progress_bar=progress_bar, name=name)
     elif isinstance(data, pyvista.MultiBlock):   # a glTF or OBJ scene's meshes, as one
-        field = mesh_field(meshes_as_one(data), cells, progress_bar=progress_bar, name=name,
-                           spline=spline)
+        meshes = meshes_of(data)
+        field = mesh_field(pyvista.merge([outer_surface(m) for m in meshes],
+                                         merge_points=False),
+                           cells, progress_bar=progress_bar, name=name, spline=spline,
+                           parts=meshes if _boxes_overlap(meshes) else None)
     elif isinstance(data, pyvista.DataSet) and not isinstance(data, pyvista.ImageData):
         field = mesh_field(data, cells, progress_bar=progress_bar, name=name, spline=spline)
     else:
@@ -198,11 +221,10 @@ def _check_data(data, isovalue, scalars) -> None:
                               "closed mesh, or a point cloud with normals.")
 
 
-def meshes_as_one(blocks: pyvista.MultiBlock) -> pyvista.PolyData:
-    """The surfaces of a MultiBlock's meshes (nested blocks too) as one mesh.
+def meshes_of(blocks: pyvista.MultiBlock) -> list:
+    """A MultiBlock's meshes with cells (nested blocks too); images are refused.
 
-    A glTF, OBJ or 3DS file reads as a MultiBlock of its meshes; closed meshes stay
-    closed together, so their union's signed distance is theirs. Images are refused.
+    A glTF, OBJ or 3DS file reads as a MultiBlock of its meshes: their union is drawn.
     """
     meshes = [block for block in blocks.recursive_iterator(skip_none=True)
               if isinstance(block, pyvista.DataSet) and block.n_cells]
@@ -212,7 +234,14 @@ def meshes_as_one(blocks: pyvista.MultiBlock) -> pyvista.PolyData:
                               "draws one grid of samples; add each block on its own.")
     if not meshes:
         raise VolumeDataError("The MultiBlock holds no mesh with cells to draw.")
-    return pyvista.merge([outer_surface(mesh) for mesh in meshes], merge_points=False)
+    return meshes
+
+
+def _boxes_overlap(meshes: list) -> bool:
+    """Whether any two of ``meshes``' bounding boxes overlap (their union is not theirs)."""
+    boxes = np.asarray([m.bounds for m in meshes], np.float64).reshape(-1, 3, 2)
+    return any(np.all((boxes[i, :, 0] <= boxes[j, :, 1]) & (boxes[j, :, 0] <= boxes[i, :, 1]))
+               for i in range(len(boxes)) for j in range(i))
 
 
 def outer_surface(mesh: pyvista.DataSet) -> pyvista.PolyData:
