@@ -525,3 +525,33 @@ def test_a_grid_s_returned_bounds_are_threshold_s_mesh_s(how):
     if how == "erased":   # the corner left kept the top: nothing shrunk past a voxel
         assert kept > expected[5] + 0.5
     plotter.close()
+
+
+@pytest.mark.parametrize("what", ["voxels", "volume", "surface", "edit"])
+def test_a_move_or_an_edit_leaves_the_camera_s_clipping_range_as_pyvista_does(what):
+    # A user's clipping range (a near plane cutting the scene) stays when an actor moves or
+    # labels are edited, as PyVista keeps it when a mesh moves (found by a review: ours
+    # reset it, showing the whole box where PyVista shows the cut). catches (seen
+    # failing): the resets after set_transform/position (volumes, voxels, surfaces) and
+    # after an edit that changes the drawn box.
+    labels = np.zeros((20, 20, 20), np.uint8)
+    labels[5:15, 5:15, 5:15] = 1
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    if what in ("voxels", "edit"):
+        actor = cm.add_voxels(pl, labels)
+    elif what == "volume":
+        actor = cm.add_volume(pl, labels.astype(np.float32))
+    else:
+        actor = cm.add_surface(pl, labels.astype(np.float32), isovalue=0.5)
+    pl.camera_position = [(10, 10, 120), (10, 10, 10), (0, 1, 0)]
+    cm.render_image(pl)
+    pl.camera.clipping_range = (100.0, 300.0)
+    if what == "edit":
+        actor.cubemarch.set_voxels(np.s_[5:15, 5:15, 12:15], 0)   # the box shrinks
+    else:
+        actor.position = (1.0, 0.0, 0.0)
+        cm.render_image(pl)
+        actor.cubemarch.set_transform(np.eye(4))
+    cm.render_image(pl)
+    assert pl.camera.clipping_range == (100.0, 300.0)
+    pl.close()

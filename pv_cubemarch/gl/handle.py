@@ -69,8 +69,6 @@ class Placement:
         self.place(placement)
         if not self._following_prop and is_bounds_proxy(self.bounds_proxy):
             place_bounds_proxy(self.bounds_proxy, self.model, self.drawn_frame_bounds())
-        if self.main_renderer is not None:
-            self.main_renderer.ResetCameraClippingRange()
 
     def drawn_frame_bounds(self):
         """The bounds of what is drawn, in the data's own frame, where less than its grid.

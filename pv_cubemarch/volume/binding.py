@@ -671,8 +671,10 @@ class VolumeBinding(DrawnBinding):
 
 
 def follow_placement(binding) -> None:
-    """After a volume moved: its stand-in (unless it is what moved it) and the clipping range."""
+    """After a volume moved: its stand-in (unless it is what moved it).
+
+    The camera's clipping range is left as it is, as PyVista leaves it when a prop moves
+    (the user may have set it; ``reset_camera_clipping_range`` or the mouse resets it).
+    """
     if binding.bounds_proxy is not None and not binding._following_prop:
         place_stand_in(binding.bounds_proxy, binding.model)
-    if binding.main_renderer is not None:
-        binding.main_renderer.ResetCameraClippingRange()

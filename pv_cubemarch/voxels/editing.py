@@ -261,8 +261,7 @@ def refresh(binding, box: Box) -> None:
     if tuple(np.concatenate(after)) != before:
         binding.drawn_bounds = after
         binding.set_box_polydata(box_polydata(*after, 0.01 * max(dims)))
-        # The near and far planes follow the drawn box, as after a move.
-        (binding.main_renderer or binding.renderer).ResetCameraClippingRange()
+        # the camera's clipping range stays as it is, as PyVista's after a mesh's edit
 
 
 def _shrunk(bounds, labels: np.ndarray, box: Box) -> tuple[np.ndarray, np.ndarray]:

@@ -167,9 +167,6 @@ class IndexedWorldBinding(LabelState, WorldEditing, ClipPlaneSetting, LayerHost,
         lower, upper = self.drawn_bounds
         margin = 0.01 * max(self.model.dimensions)
         self.set_box_polydata(box_polydata(lower, upper, margin))
-        renderer = self.main_renderer or self.renderer
-        if renderer is not None and renderer.GetActors().IsItemPresent(self.drawn[0]):
-            renderer.ResetCameraClippingRange()
 
     def set_material(self, material: int, color=None, opacity: float | None = None) -> None:
         """Change a material's colour and/or opacity (0 hides it): the palette and index go up.
