@@ -70,6 +70,9 @@ class ReturnedLook:
                                     else (uniforms[uniform],)))
         if hasattr(type(prop), "color"):   # PyVista's: a colour set, so its style setter
             prop.color = prop.GetDiffuseColor()   # (wireframe) keeps it, as on a mesh
+        shading = getattr(getattr(binding, "options", None), "shading", None)
+        if isinstance(shading, str):   # reads lit as drawn, so turning it off is seen
+            prop.SetLighting(shading not in ("unlit", "normals"))
         self.seen = self._read()
         self.count = len(bindings)
         self.said: set = set()
