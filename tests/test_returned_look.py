@@ -161,3 +161,27 @@ def test_a_colour_from_a_palette_or_colormap_is_not_the_property_s(add, named):
     with pytest.warns(UserWarning, match=f"color set on.*{named}"):
         assert np.array_equal(cm.render_image(plotter), first)
     plotter.close()
+
+
+@pytest.mark.parametrize("change", ["update_scalar_bar_range", "lookup_table.cmap"])
+@pytest.mark.parametrize("add", [
+    lambda plotter: cm.add_voxels(plotter, labelled(), cmap="viridis"),
+    lambda plotter: cm.add_surface(plotter, ball(), isovalue=0.0, color_by="curvature"),
+], ids=["colormapped-grid", "coloured-surface"])
+def test_a_colormap_changed_after_adding_is_said_not_ignored(add, change):
+    """PyVista recolours a mesh when its bar's range or its mapper's table changes; ours
+    draws the colours as added, and says so (found by a review: both were silent, and
+    ``actor.mapper.lookup_table`` was a table nothing read). catches (seen failing): the
+    bar's mapper not watched (update_scalar_bar_range silent), the box's mapper not given
+    the bar's table (its cmap set on a bare vtkLookupTable, silent)."""
+    plotter = headlit_plotter(SIZE)
+    actor = add(plotter)
+    plotter.view_isometric()
+    first = cm.render_image(plotter)
+    with pytest.warns(UserWarning, match="colormap set on.*not drawn.*add it again"):
+        if change == "update_scalar_bar_range":   # (it draws a frame itself)
+            plotter.update_scalar_bar_range((0.0, 50.0))
+        else:
+            actor.mapper.lookup_table.cmap = "plasma"
+        assert np.array_equal(cm.render_image(plotter), first)
+    plotter.close()

@@ -12,6 +12,16 @@ def attach_scalar_bar(plotter, actor, mapper, title: str, show: bool, args: dict
     actor's bar (see :meth:`CubemarchComponent.follow_scalar_bar`).
     """
     plotter.mapper = mapper
+    binding = getattr(actor, "cubemarch", None)
+    if binding is not None:   # its colormap's edits (update_scalar_bar_range) are seen
+        binding.bar_mapper = mapper
+        look = getattr(binding, "look", None)
+        if look is not None:   # actor.mapper.lookup_table: the bar's (the box draws none)
+            box = actor.GetMapper()
+            box.SetLookupTable(mapper.GetLookupTable())
+            box.UseLookupTableScalarRangeOn()   # drawing the box leaves the bar's range
+            box.SetScalarRange(mapper.GetLookupTable().GetRange())
+            look.seen = look.read()
     plotter.cubemarch.follow_scalar_bar(actor, mapper, show=show, args=args)
     if show:
         options = dict(args or {})

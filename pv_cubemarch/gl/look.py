@@ -11,6 +11,9 @@ would cut the box the marcher runs on into lines or points, so it is also set ba
 
 from __future__ import annotations
 
+import numpy as np
+from vtkmodules.util.numpy_support import vtk_to_numpy
+
 from ..core.user_warnings import warn_user
 
 #: Property term -> (its VTK setter, the uniform it feeds, the switch it needs).
@@ -34,6 +37,8 @@ SAID = {"opacity": "GetOpacity", "color": "GetDiffuseColor", "diffuse": "GetDiff
         "render_lines_as_tubes": "GetRenderLinesAsTubes"}   # (culling: placement's own)
 #: Where a term not followed is set instead (else the binding's ``look_hint``).
 INSTEAD = {"lighting": "the shading= keyword lights it or not ('unlit')",
+           "scalar bar's colormap": "its colours are drawn as added: add it again with "
+                                    "cmap= and clim= (labels: set_label_color)",
            "interpolation": "the shading= keyword ('flat' or 'blinn')",
            "ambient": "shading='flat' or 'blinn' reads it",
            "diffuse": "shading='flat' or 'blinn' reads it",
@@ -51,6 +56,7 @@ class ReturnedLook:
 
     def __init__(self, binding):
         self.binding = binding
+        self._tables: dict = {}   # table id: (modified time, content)
         bindings = binding.look_bindings()
         recipe = binding.recipe if binding.recipe is not None else (
             bindings[0].recipe if bindings else None)
@@ -73,24 +79,45 @@ class ReturnedLook:
         shading = getattr(getattr(binding, "options", None), "shading", None)
         if isinstance(shading, str):   # reads lit as drawn, so turning it off is seen
             prop.SetLighting(shading not in ("unlit", "normals"))
-        self.seen = self._read()
+        self.seen = self.read()
         self.count = len(bindings)
         self.said: set = set()
 
-    def _read(self) -> dict:
+    def read(self) -> dict:
+        """What the returned actor's property, mapper and bar say now."""
         prop = self.binding.actor.GetProperty()
         state = {name: _value(prop, getter) for name, getter in SAID.items()}
         state["representation"] = int(prop.GetRepresentation())
         mapper = self.binding.actor.GetMapper()   # a colormap's range and table: not ours
         table = mapper.GetLookupTable() if hasattr(mapper, "GetLookupTable") else None
         state["mapper lookup table"] = (tuple(mapper.GetScalarRange()),
-                                        getattr(table, "__this__", None),
-                                        table.GetMTime() if table is not None else 0)
+                                        getattr(table, "__this__", None), self._content(table))
+        bar = getattr(self.binding, "bar_mapper", None)   # update_scalar_bar_range's
+        if bar is not None:
+            state["scalar bar's colormap"] = (tuple(bar.GetScalarRange()),
+                                              self._content(bar.GetLookupTable()))
         return state
+
+    def _content(self, table) -> tuple:
+        """A table's colours and range, read again only when it was modified.
+
+        A bar's table is modified by every Build, its content not.
+        """
+        if table is None:
+            return ()
+        key, stamp = id(table), int(table.GetMTime())
+        known = self._tables.get(key)
+        if known is None or known[0] != stamp:
+            values = np.asarray(vtk_to_numpy(table.GetTable()))
+            known = (stamp, (values.tobytes(), tuple(table.GetTableRange())))
+            self._tables[key] = known
+        return known[1]
 
     def follow(self) -> None:
         """Draw the followed terms changed on the property; say the rest once."""
-        now = self._read()
+        now = self.read()
+        for name in now.keys() - self.seen.keys():   # a bar made after the actor: as made
+            self.seen[name] = now[name]
         targets = self.binding.look_bindings()
         if now == self.seen and len(targets) == self.count:
             return
