@@ -197,3 +197,14 @@ def test_grids_that_need_another_atlas_layout_or_none(plotter_factory):
     # Over the largest texture: chunked, not refused (nothing filled: no chunk at all).
     world = cm.add_voxels(plotter(plotter_factory), np.zeros((2049, 1, 1), np.uint8)).cubemarch
     assert world.slots == {} and world.model.stored == {} and world.model.uniform == {}
+
+
+def test_an_id_the_grid_was_not_added_with_is_refused_saying_how_to_add_it(plotter_factory):
+    # Labels 1 and 2 coloured by cmap over clim=(0, 10): painting id 7 is refused, saying
+    # to add the grid with every id it will hold (found by a review: the message sent a
+    # cmap user to palette=). catches (seen failing): the old message.
+    labels = np.zeros((8, 8, 8), np.uint8)
+    labels[:4], labels[4:] = 1, 2
+    actor = cm.add_voxels(plotter(plotter_factory), labels, cmap="viridis", clim=(0, 10))
+    with pytest.raises(ValueError, match="tables hold the ids 0..2.*with cmap=, a grid whose"):
+        actor.cubemarch.set_voxels(np.s_[:2], 7)

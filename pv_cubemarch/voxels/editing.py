@@ -62,9 +62,12 @@ def check_material(material, dtype, palette) -> int:
         raise ValueError(f"material must be in 0..{top} for this grid's {np.dtype(dtype)} "
                          f"labels, got {value}.")
     if value >= palette.n_materials:
-        raise ValueError(f"Material {value} has no colour: the palette has "
-                         f"{palette.n_materials} entries: give the grid a larger palette "
-                         "(add_voxels(..., palette=) with more entries) or use a smaller label.")
+        raise ValueError(f"Material {value} has no colour: the grid's tables hold the ids "
+                         f"0..{palette.n_materials - 1} it was added with (their colours "
+                         "from palette= or cmap=). Add it with every id it will hold: with "
+                         "cmap=, a grid whose largest id is at least this one (clim= keeps "
+                         "the colours), or a palette= with more entries; or use a smaller "
+                         "label.")
     return value
 
 
