@@ -161,13 +161,15 @@ class CubemarchComponent:
                               "the subplots' cameras with link_views).")
             shadows = getattr(getattr(item.main_renderer, "_render_passes", None),
                               "_shadow_map_pass", None)
-            if (shadows is not None and isinstance(item, VolumeBinding)
-                    and ("shadows", id(item)) not in self._said):
+            if shadows is not None and ("shadows", id(item)) not in self._said:
                 self._said.add(("shadows", id(item)))
+                volume = isinstance(item, VolumeBinding)
+                what = "a volume's" if volume else "a grid's or a surface's"
                 warn_user(f"{item.name!r}: VTK's shadow pass (enable_shadows()) casts shadows "
-                          "from the props' polygons, and a volume's are its box: it is not "
-                          "drawn right under it. Call plotter.disable_shadows(); "
-                          "add_volume(lights='scene') shades a volume with its own shadows.")
+                          f"from the props' polygons, and {what} are the box it is drawn in: "
+                          "it is not drawn right under it. Call plotter.disable_shadows()"
+                          + ("; add_volume(lights='scene') shades a volume with its own "
+                             "shadows." if volume else "."))
 
     def _say_copies(self, renderers) -> None:
         """Once each: a prop sharing a returned actor's mapper (a copy) draws nothing.

@@ -17,6 +17,7 @@ from pyvista.plotting.mapper import GPUVolumeRayCastMapper
 from pyvista.plotting.volume_property import VolumeProperty
 
 from ..core import vtk_classes as vtk
+from ..core.frame_errors import observe
 from ..gl.box import place_by_user_matrix
 from ..gl.shaders import Replacement, ShaderRecipe
 from ..models.group import VolumeGroup
@@ -102,8 +103,8 @@ class PickerData:
         self.grid = _pickers_grid(model) if self.drawn is not None else None
         self._observers = []
         if self.grid is not None:
-            self._observers = [renderer.AddObserver("StartEvent", self._drawing),
-                               renderer.AddObserver("EndEvent", self._picking)]
+            self._observers = [observe(renderer, vtk.vtkCommand.StartEvent, self._drawing),
+                               observe(renderer, vtk.vtkCommand.EndEvent, self._picking)]
             self._picking()
 
     def _drawing(self, *_) -> None:
