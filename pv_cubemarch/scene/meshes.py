@@ -47,7 +47,7 @@ def load_mesh_scene(path: str | Path) -> Scene:
         mesh = pyvista.PolyData(np.asarray(geometry.vertices, dtype=np.float64), faces=faces)
         if not np.allclose(matrix, np.eye(4)):
             mesh = mesh.transform(np.asarray(matrix, dtype=np.float64), inplace=False)
-        reason = _beyond_reach(mesh)
+        reason = beyond_reach(mesh)
         if reason:   # said, and the rest drawn (it blanked the whole frame)
             scene.skipped.append(SkippedPrim(str(node), reason, problem=True))
             warnings.warn(f"{path.name}: mesh {node}: {reason}", SceneWarning, stacklevel=2)
@@ -77,7 +77,7 @@ def _check_placements(path: Path, geometries: list) -> None:
                              f"({ARRAY_BYTES_ENV}, by default 80 % of the memory available).")
 
 
-def _beyond_reach(mesh: pyvista.PolyData) -> str:
+def beyond_reach(mesh: pyvista.PolyData) -> str:
     """Why ``mesh`` cannot be drawn where it is placed ('' if it can)."""
     points = np.asarray(mesh.points)
     if not np.isfinite(points).all():

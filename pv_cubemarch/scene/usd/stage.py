@@ -15,8 +15,8 @@ from pxr import Tf, Usd, UsdGeom
 
 from ...core.errors import CubemarchError, SceneLoadError, VolumeDataError
 from ...core.progress import progress
-from ...gl.handle import MAX_WORLD_COORDINATE
 from ..materials import SurfaceMaterial
+from ..meshes import beyond_reach
 from ..model import Scene
 from ..parts import SceneMesh
 from ..voxel_worlds import join_world
@@ -215,14 +215,9 @@ def with_fallback(part: SceneMesh) -> SceneMesh:
 
 def _check_reach(part: SceneMesh) -> None:
     """Raise ``PrimError`` for a mesh placed past what GL draws (it blanked the frame)."""
-    points = np.asarray(part.mesh.points)
-    if not np.isfinite(points).all():
-        raise PrimError("its points or transform make NaN or infinite coordinates")
-    reach = float(np.abs(points).max()) if points.size else 0.0
-    if reach > MAX_WORLD_COORDINATE:
-        raise PrimError(f"it reaches {reach:.3g} world units from the origin; past about "
-                        f"{MAX_WORLD_COORDINATE:g} VTK's clipping range and GL's float32 "
-                        "camera break down and the whole frame is drawn blank")
+    reason = beyond_reach(part.mesh)
+    if reason:
+        raise PrimError(reason)
 
 
 def placed(part: SceneMesh, matrix: np.ndarray) -> SceneMesh:
